@@ -1,0 +1,48 @@
+// The synthetic camera pod: renders its camera of the synthetic scene,
+// segments, computes the feather map, compresses and streams PodFrames to
+// the fusion server at a fixed rate, with stage stamps.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "capture_node/synthetic_scene.h"
+#include "protocol/messages.h"
+#include "protocol/socket.h"
+
+namespace holofuse::capture {
+
+struct PodOptions {
+  protocol::Endpoint server;
+  uint32_t pod_id = 0;
+  int pods = 4;
+  uint32_t width = 320, height = 240;
+  double fps = 10.0;
+  uint64_t frames = 0;  // stop after this many frames sent; 0 = until signalled
+  protocol::Codec color_codec = protocol::Codec::kLz4PlanarDelta;
+  SceneOptions scene;
+};
+
+// Everything a pod produces for one frame, before it goes on the wire.
+struct PodCapture {
+  uint64_t frame_id = 0;
+  RenderedView view;   // colour and the true mask
+  Image8 mask;         // the segmented mask (what is sent)
+  Image8 feather;
+  std::vector<protocol::StageStamp> stamps;
+  uint64_t capture_time_ns = 0;
+};
+
+// Renders, segments and feathers one frame, recording stage stamps.
+PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, const Image8& plate,
+                           uint64_t frame_id, uint16_t source);
+
+// Compresses a capture into a PodFrame frame (one buffer), appending the
+// encode stamp.
+std::vector<uint8_t> encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec);
+
+// Runs until stopped (signal, frame count) or the server refuses the
+// version. Returns the process exit code.
+int runPod(const PodOptions& options);
+
+}  // namespace holofuse::capture

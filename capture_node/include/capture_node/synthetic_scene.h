@@ -1,0 +1,63 @@
+// A deterministic animated subject with ground truth: a jointed figure
+// (torso, head, swinging arms close to the body, walking legs) as a signed
+// distance field, textured with high-frequency detail (stripes, a printed
+// text panel, a face, checkered sleeves), seen by cameras with different
+// colour gains in front of a known backdrop. Everything is a function of
+// the frame id and the seed, so tests can ask for the truth of any frame.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/image.h"
+#include "common/mesh.h"
+
+namespace holofuse::capture {
+
+struct SceneOptions {
+  uint64_t seed = 1;
+  double frames_per_second = 10.0;  // scene time = frame id / this
+  double noise_amplitude = 2.0;     // sensor noise, grey levels
+};
+
+struct RenderedView {
+  Image8 color;  // RGB
+  Image8 mask;   // 255 where the subject is, 0 elsewhere (the truth)
+};
+
+class SyntheticScene {
+ public:
+  explicit SyntheticScene(SceneOptions options = {});
+
+  // Signed distance (metres, negative inside) of the subject at scene time t.
+  double signedDistance(const glm::dvec3& p, double t) const;
+  double timeOf(uint64_t frame_id) const { return static_cast<double>(frame_id) / options_.frames_per_second; }
+
+  // The ring of cameras the synthetic pods use.
+  static std::vector<Camera> cameraRig(int count, uint32_t width, uint32_t height);
+  // Per-camera colour gain (white balance differs between pods).
+  glm::dvec3 cameraGain(uint32_t camera_id) const;
+
+  // The true image and mask of a camera at a frame (with sensor noise).
+  RenderedView render(const Camera& camera, uint64_t frame_id) const;
+  // The empty studio as the camera sees it (noise free), for segmentation.
+  Image8 backgroundPlate(const Camera& camera) const;
+  // The true surface at a frame, by marching cubes at the given spacing.
+  Mesh truthMesh(uint64_t frame_id, double spacing = 0.01) const;
+  // Axis-aligned box that holds the subject at any time.
+  static void subjectBounds(glm::dvec3& lo, glm::dvec3& hi);
+
+ private:
+  struct Pose;
+  Pose poseAt(double t) const;
+  double distance(const glm::dvec3& p, const Pose& pose, int* part) const;
+  glm::dvec3 albedo(const glm::dvec3& p, const Pose& pose, int part) const;
+  glm::dvec3 backdrop(const glm::dvec3& ray_dir) const;
+
+  SceneOptions options_;
+};
+
+}  // namespace holofuse::capture

@@ -1,0 +1,49 @@
+// capture_node: one synthetic camera pod. See README.md for the flags.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "capture_node/pod.h"
+#include "common/shutdown.h"
+
+int main(int argc, char** argv) {
+  using namespace holofuse;
+  capture::PodOptions options;
+  std::string server, size = "320x240", codec = "lz4-delta";
+  CLI::App app{"holofuse capture_node: a synthetic camera pod streaming to a fusion server"};
+  app.add_option("--server", server, "fusion server HOST:PORT")->required();
+  app.add_option("--pod-id", options.pod_id, "this pod's camera index (0-based)")->required();
+  app.add_option("--pods", options.pods, "cameras on the ring (1..16)")->check(CLI::Range(1, 16));
+  app.add_option("--size", size, "image size WxH");
+  app.add_option("--fps", options.fps, "frames per second")->check(CLI::Range(0.1, 240.0));
+  app.add_option("--frames", options.frames, "stop after this many frames (0: run until signalled)");
+  app.add_option("--seed", options.scene.seed, "scene seed");
+  app.add_option("--noise", options.scene.noise_amplitude, "sensor noise amplitude, grey levels")
+      ->check(CLI::Range(0.0, 64.0));
+  app.add_option("--codec", codec, "colour codec")->check(CLI::IsMember({"raw", "lz4", "lz4-delta"}));
+  CLI11_PARSE(app, argc, argv);
+
+  unsigned w = 0, h = 0;
+  if (std::sscanf(size.c_str(), "%ux%u", &w, &h) != 2 || w < 16 || h < 16 || w > 4096 || h > 4096) {
+    std::fprintf(stderr, "--size '%s': expected WxH with each side in 16..4096\n%s", size.c_str(),
+                 app.help().c_str());
+    return 2;
+  }
+  if (options.pod_id >= static_cast<uint32_t>(options.pods)) {
+    std::fprintf(stderr, "--pod-id %u: must be below --pods %d\n", options.pod_id, options.pods);
+    return 2;
+  }
+  auto endpoint = protocol::parseEndpoint(server);
+  if (!endpoint.isOk()) {
+    std::fprintf(stderr, "--server: %s\n", endpoint.status().message().c_str());
+    return 2;
+  }
+  options.server = *endpoint;
+  options.width = w;
+  options.height = h;
+  options.scene.frames_per_second = options.fps;
+  options.color_codec = codec == "raw"   ? protocol::Codec::kRaw
+                        : codec == "lz4" ? protocol::Codec::kLz4
+                                         : protocol::Codec::kLz4PlanarDelta;
+  installStopSignals();
+  return capture::runPod(options);
+}

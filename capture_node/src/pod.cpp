@@ -1,0 +1,105 @@
+#include "capture_node/pod.h"
+
+#include <cstdio>
+
+#include "capture_node/segmentation.h"
+#include "common/image_codec.h"
+#include "common/shutdown.h"
+#include "protocol/clock.h"
+#include "protocol/server_link.h"
+
+namespace holofuse::capture {
+
+using protocol::monotonicNs;
+using protocol::Stage;
+
+PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, const Image8& plate,
+                           uint64_t frame_id, uint16_t source) {
+  PodCapture capture;
+  capture.frame_id = frame_id;
+  const uint64_t t0 = monotonicNs();
+  capture.capture_time_ns = t0;
+  capture.view = scene.render(camera, frame_id);
+  const uint64_t t1 = monotonicNs();
+  capture.mask = segmentForeground(capture.view.color, plate);
+  const uint64_t t2 = monotonicNs();
+  capture.feather = featherMap(capture.mask);
+  const uint64_t t3 = monotonicNs();
+  capture.stamps = {{static_cast<uint16_t>(Stage::kPodRender), source, t0, t1},
+                    {static_cast<uint16_t>(Stage::kSegment), source, t1, t2},
+                    {static_cast<uint16_t>(Stage::kFeather), source, t2, t3}};
+  return capture;
+}
+
+std::vector<uint8_t> encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec) {
+  const uint64_t t0 = monotonicNs();
+  std::vector<uint8_t> color_bytes, mask_bytes, feather_bytes;
+  protocol::PodFrame frame;
+  frame.frame_id = capture.frame_id;
+  frame.camera_id = camera_id;
+  frame.capture_time_ns = capture.capture_time_ns;
+  frame.planes.push_back(encodePlane(capture.view.color, protocol::PlaneKind::kColor, color_codec, color_bytes));
+  frame.planes.push_back(encodePlane(capture.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, mask_bytes));
+  frame.planes.push_back(
+      encodePlane(capture.feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4, feather_bytes));
+  capture.stamps.push_back({static_cast<uint16_t>(Stage::kPodEncode), static_cast<uint16_t>(camera_id), t0,
+                            monotonicNs()});
+  frame.stamps = capture.stamps;
+  const size_t hint = color_bytes.size() + mask_bytes.size() + feather_bytes.size() + 512;
+  return protocol::encodeFrame(frame, protocol::nextSequence(), hint);
+}
+
+int runPod(const PodOptions& options) {
+  const SyntheticScene scene(options.scene);
+  const auto cameras = SyntheticScene::cameraRig(options.pods, options.width, options.height);
+  const Camera& camera = cameras.at(options.pod_id);
+  const Image8 plate = scene.backgroundPlate(camera);
+
+  protocol::Hello hello;
+  hello.role = protocol::Role::kPod;
+  hello.id = options.pod_id;
+  hello.nonce = protocol::realtimeNs() ^ (uint64_t{options.pod_id} << 48);
+  hello.name = "pod-" + std::to_string(options.pod_id);
+  protocol::LinkOptions link_options;
+  link_options.log_name = hello.name;
+  protocol::ServerLink link(options.server, hello, link_options);
+
+  const uint64_t period_ns = static_cast<uint64_t>(1e9 / options.fps);
+  uint64_t last_frame_id = 0;
+  uint64_t sent = 0, skipped = 0;
+  std::vector<protocol::Frame> received;
+  while (!stopRequested()) {
+    // Frame ids follow a grid on the wall clock, so pods in separate
+    // processes (or hosts) agree on ids without talking to each other; a
+    // pod that falls behind skips ids rather than drifting.
+    const uint64_t now = protocol::realtimeNs();
+    const uint64_t frame_id = now / period_ns;
+    const uint64_t next_due = (frame_id + 1) * period_ns;
+    if (frame_id <= last_frame_id || !link.ready()) {
+      link.poll(static_cast<int>(std::min<uint64_t>((next_due - now) / 1000000 + 1, 50)), received);
+      received.clear();  // pods expect nothing but handshake and heartbeats
+      if (link.fatalError()) {
+        std::fprintf(stderr, "[%s] giving up: %s\n", hello.name.c_str(), link.fatalError()->toString().c_str());
+        return 2;
+      }
+      if (link.takeConnectedEvent()) link.sendMessage(toCalibration(camera));
+      continue;
+    }
+    if (last_frame_id != 0 && frame_id > last_frame_id + 1) skipped += frame_id - last_frame_id - 1;
+    last_frame_id = frame_id;
+    PodCapture capture = capturePodFrame(scene, camera, plate, frame_id, static_cast<uint16_t>(options.pod_id));
+    auto bytes = encodePodFrame(capture, camera.id, options.color_codec);
+    link.send(std::make_shared<const std::vector<uint8_t>>(std::move(bytes)));
+    link.poll(0, received);
+    received.clear();
+    ++sent;
+    if (options.frames > 0 && sent >= options.frames) break;
+  }
+  link.close(stopRequested() ? "pod stopped by signal" : "pod finished its frames");
+  std::fprintf(stderr, "[%s] sent %llu frames (%llu ids skipped to stay real-time), %.1f MB, %llu dropped by the queue\n",
+               hello.name.c_str(), static_cast<unsigned long long>(sent), static_cast<unsigned long long>(skipped),
+               link.bytesOut() / 1e6, static_cast<unsigned long long>(link.framesDropped()));
+  return 0;
+}
+
+}  // namespace holofuse::capture

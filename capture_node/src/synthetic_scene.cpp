@@ -1,0 +1,298 @@
+#include "capture_node/synthetic_scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "common/marching_cubes.h"
+
+namespace holofuse::capture {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+enum Part { kTorso, kHead, kNeck, kUpperArmL, kForearmL, kUpperArmR, kForearmR, kThighL, kShinL, kThighR, kShinR, kPartCount };
+
+struct Capsule {
+  glm::dvec3 a, b;
+  double radius;
+};
+
+double capsuleDistance(const glm::dvec3& p, const Capsule& c) {
+  const glm::dvec3 pa = p - c.a, ba = c.b - c.a;
+  const double len2 = glm::dot(ba, ba);
+  const double h = len2 > 0 ? std::clamp(glm::dot(pa, ba) / len2, 0.0, 1.0) : 0.0;
+  return glm::length(pa - ba * h) - c.radius;
+}
+
+// Deterministic hash to [0, 1).
+double hash01(uint64_t x) {
+  x ^= x >> 33;
+  x *= 0xff51afd7ed558ccdull;
+  x ^= x >> 33;
+  x *= 0xc4ceb9fe1a85ec53ull;
+  x ^= x >> 33;
+  return static_cast<double>(x >> 11) * (1.0 / 9007199254740992.0);
+}
+
+int64_t cell(double v, double size) { return static_cast<int64_t>(std::floor(v / size)); }
+
+constexpr double kTorsoDepthScale = 1.45;  // the torso is flatter front to back
+const glm::dvec3 kLight = glm::normalize(glm::dvec3(0.3, 0.8, 0.5));
+
+}  // namespace
+
+struct SyntheticScene::Pose {
+  glm::dmat3 body_to_world{1.0};
+  glm::dvec3 body_origin{0.0};
+  std::array<Capsule, kPartCount> parts{};
+  glm::dvec3 toBody(const glm::dvec3& p) const { return glm::transpose(body_to_world) * (p - body_origin); }
+};
+
+SyntheticScene::SyntheticScene(SceneOptions options) : options_(options) {}
+
+SyntheticScene::Pose SyntheticScene::poseAt(double t) const {
+  Pose pose;
+  // A per-seed phase so different seeds give different motion.
+  const double phase = hash01(options_.seed) * 2 * kPi;
+  const double yaw = 0.35 * std::sin(0.4 * t + phase);
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  pose.body_to_world = glm::dmat3(glm::dvec3(c, 0, -s), glm::dvec3(0, 1, 0), glm::dvec3(s, 0, c));
+  pose.body_origin = glm::dvec3(0.08 * std::sin(0.6 * t + phase), 0, 0);
+  auto world = [&](const glm::dvec3& local) { return pose.body_origin + pose.body_to_world * local; };
+
+  pose.parts[kTorso] = {glm::dvec3(0, 0.88, 0), glm::dvec3(0, 1.28, 0), 0.16};
+  pose.parts[kHead] = {glm::dvec3(0, 1.56, 0), glm::dvec3(0, 1.56, 0), 0.115};
+  pose.parts[kNeck] = {glm::dvec3(0, 1.3, 0), glm::dvec3(0, 1.47, 0), 0.055};
+  for (int side = 0; side < 2; ++side) {
+    const double sign = side == 0 ? -1.0 : 1.0;
+    // Arms swing forward and back close to the body: the gap between arm
+    // and torso is a concavity no silhouette can carve.
+    const double swing = 0.55 * std::sin(1.5 * t + side * kPi + phase);
+    const double bend = 0.5 + 0.4 * std::sin(1.5 * t + side * kPi + 0.5 + phase);
+    const double abduct = 0.14;
+    const glm::dvec3 shoulder(sign * 0.235, 1.36, 0);
+    const glm::dvec3 upper(sign * std::sin(abduct), -std::cos(abduct) * std::cos(swing),
+                           std::cos(abduct) * std::sin(swing));
+    const glm::dvec3 lower(sign * std::sin(abduct), -std::cos(abduct) * std::cos(swing + bend),
+                           std::cos(abduct) * std::sin(swing + bend));
+    const glm::dvec3 elbow = shoulder + 0.28 * upper;
+    const glm::dvec3 hand = elbow + 0.26 * lower;
+    pose.parts[side == 0 ? kUpperArmL : kUpperArmR] = {shoulder, elbow, 0.05};
+    pose.parts[side == 0 ? kForearmL : kForearmR] = {elbow, hand, 0.042};
+
+    const double stride = 0.32 * std::sin(1.5 * t + (1 - side) * kPi + phase);
+    const double knee_bend = 0.25 * (1 + std::sin(1.5 * t + (1 - side) * kPi + phase + 1.0));
+    const glm::dvec3 hip(sign * 0.09, 0.86, 0);
+    const glm::dvec3 thigh(0, -std::cos(stride), std::sin(stride));
+    const glm::dvec3 shin(0, -std::cos(stride - knee_bend), std::sin(stride - knee_bend));
+    const glm::dvec3 knee = hip + 0.41 * thigh;
+    const glm::dvec3 foot = knee + 0.41 * shin;
+    pose.parts[side == 0 ? kThighL : kThighR] = {hip, knee, 0.072};
+    pose.parts[side == 0 ? kShinL : kShinR] = {knee, foot, 0.058};
+  }
+  for (auto& part : pose.parts) {
+    if (&part == &pose.parts[kTorso]) continue;  // the torso is evaluated in body space
+    part.a = world(part.a);
+    part.b = world(part.b);
+  }
+  return pose;
+}
+
+double SyntheticScene::distance(const glm::dvec3& p, const Pose& pose, int* part) const {
+  // Torso in body space, flattened front to back; dividing by the largest
+  // scale keeps the value a lower bound of the true distance (safe for
+  // sphere tracing) with the exact sign.
+  glm::dvec3 q = pose.toBody(p);
+  q.z *= kTorsoDepthScale;
+  double best = capsuleDistance(q, pose.parts[kTorso]) / kTorsoDepthScale;
+  int best_part = kTorso;
+  for (int i = 1; i < kPartCount; ++i) {
+    const double d = capsuleDistance(p, pose.parts[i]);
+    if (d < best) {
+      best = d;
+      best_part = i;
+    }
+  }
+  if (part != nullptr) *part = best_part;
+  return best;
+}
+
+double SyntheticScene::signedDistance(const glm::dvec3& p, double t) const {
+  return distance(p, poseAt(t), nullptr);
+}
+
+glm::dvec3 SyntheticScene::albedo(const glm::dvec3& p, const Pose& pose, int part) const {
+  const glm::dvec3 b = pose.toBody(p);
+  const glm::dvec3 skin(0.88, 0.68, 0.55);
+  switch (part) {
+    case kTorso: {
+      // A printed panel of pseudo-text on the chest: 5x7-cell glyphs of
+      // 1.1 cm cells, the finest detail of the scene.
+      if (b.z > 0 && std::abs(b.x) < 0.11 && b.y > 1.02 && b.y < 1.2) {
+        const double cell_size = 0.011;
+        const int64_t cx = cell(b.x + 0.11, cell_size), cy = cell(1.2 - b.y, cell_size);
+        const int64_t gx = cx / 6, gy = cy / 8, ix = cx % 6, iy = cy % 8;
+        if (ix < 5 && iy < 7 && hash01(options_.seed * 7919 + gx * 131 + gy * 977 + ix * 17 + iy) > 0.55) {
+          return glm::dvec3(0.06, 0.06, 0.08);
+        }
+        return glm::dvec3(0.96, 0.95, 0.9);
+      }
+      const bool stripe = (cell(b.y, 0.025) & 1) != 0;
+      return stripe ? glm::dvec3(0.82, 0.14, 0.16) : glm::dvec3(0.95, 0.9, 0.78);
+    }
+    case kHead: {
+      const glm::dvec3 h = b - glm::dvec3(0, 1.56, 0);
+      if (h.y > 0.045 || (h.z < -0.02 && h.y > -0.03)) return glm::dvec3(0.3, 0.18, 0.08);  // hair
+      if (h.z > 0.05) {
+        for (double ex : {-0.04, 0.04}) {
+          if (std::hypot(h.x - ex, h.y - 0.015) < 0.017) return glm::dvec3(0.08, 0.08, 0.12);  // eyes
+        }
+        if (std::abs(h.x) < 0.04 && h.y > -0.06 && h.y < -0.042) return glm::dvec3(0.62, 0.1, 0.12);
+        if (std::abs(h.x) < 0.012 && h.y > -0.03 && h.y < 0.0) return glm::dvec3(0.75, 0.5, 0.42);
+      }
+      return skin;
+    }
+    case kNeck:
+      return skin;
+    default: {
+      // Limbs: a checker in the limb's own frame (along the axis x around
+      // it), so the texture moves with the limb.
+      const Capsule& c = pose.parts[part];
+      const glm::dvec3 axis = glm::normalize(c.b - c.a);
+      const glm::dvec3 side = pose.body_to_world * glm::dvec3(1, 0, 0);
+      glm::dvec3 ref = side - axis * glm::dot(side, axis);
+      ref = glm::length(ref) > 1e-9 ? glm::normalize(ref) : glm::dvec3(0, 0, 1);
+      const glm::dvec3 ref2 = glm::cross(axis, ref);
+      const glm::dvec3 rel = p - c.a;
+      const double along = glm::dot(rel, axis);
+      const double angle = std::atan2(glm::dot(rel, ref2), glm::dot(rel, ref));
+      const int64_t checker = cell(along, 0.03) + cell(angle + kPi, kPi / 6);
+      const bool arm = part <= kForearmR;
+      if (arm) return (checker & 1) ? glm::dvec3(0.95, 0.8, 0.1) : glm::dvec3(0.12, 0.3, 0.8);
+      return (cell(angle + kPi, kPi / 10) & 1) ? glm::dvec3(0.16, 0.24, 0.5) : glm::dvec3(0.3, 0.38, 0.62);
+    }
+  }
+}
+
+glm::dvec3 SyntheticScene::backdrop(const glm::dvec3& d) const {
+  const double around = std::atan2(d.x, d.z);
+  return glm::dvec3(0.2, 0.33, 0.25) + 0.05 * d.y + 0.025 * std::sin(5 * around);
+}
+
+std::vector<Camera> SyntheticScene::cameraRig(int count, uint32_t width, uint32_t height) {
+  return ringCameras(count, 2.6, 1.0, glm::dvec3(0, 0.85, 0), width, height, 48.0);
+}
+
+glm::dvec3 SyntheticScene::cameraGain(uint32_t id) const {
+  const double i = id + 0.37 * static_cast<double>(options_.seed % 7);
+  return glm::dvec3(1 + 0.07 * std::sin(1.3 * i), 1 + 0.05 * std::sin(2.1 * i + 1),
+                    1 + 0.07 * std::sin(0.7 * i + 2));
+}
+
+void SyntheticScene::subjectBounds(glm::dvec3& lo, glm::dvec3& hi) {
+  lo = glm::dvec3(-0.75, -0.08, -0.75);
+  hi = glm::dvec3(0.75, 1.75, 0.75);
+}
+
+Image8 SyntheticScene::backgroundPlate(const Camera& camera) const {
+  Image8 plate(camera.width, camera.height, 3);
+  for (uint32_t y = 0; y < camera.height; ++y) {
+    for (uint32_t x = 0; x < camera.width; ++x) {
+      const glm::dvec3 c = backdrop(camera.rayDirection(x + 0.5, y + 0.5));
+      uint8_t* px = plate.at(x, y);
+      for (int k = 0; k < 3; ++k) px[k] = static_cast<uint8_t>(std::clamp(c[k] * 255.0 + 0.5, 0.0, 255.0));
+    }
+  }
+  return plate;
+}
+
+RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) const {
+  const Pose pose = poseAt(timeOf(frame_id));
+  const glm::dvec3 gain = cameraGain(camera.id);
+  const glm::dvec3 origin = camera.center();
+  const glm::dvec3 bound_center(pose.body_origin.x, 0.85, pose.body_origin.z);
+  const double bound_radius = 1.0;
+  RenderedView view{Image8(camera.width, camera.height, 3), Image8(camera.width, camera.height, 1)};
+  // Only pixels inside the subject's projected bounding rectangle can hit
+  // it: the rest is backdrop without tracing.
+  double rx0 = camera.width, ry0 = camera.height, rx1 = -1, ry1 = -1;
+  for (int i = 0; i < kPartCount; ++i) {
+    Capsule c = pose.parts[i];
+    if (i == kTorso) {
+      c.a = pose.body_origin + pose.body_to_world * c.a;
+      c.b = pose.body_origin + pose.body_to_world * c.b;
+    }
+    for (const glm::dvec3& end : {c.a, c.b}) {
+      const auto pixel = camera.project(end);
+      if (!pixel) {
+        rx0 = ry0 = 0;
+        rx1 = camera.width;
+        ry1 = camera.height;
+        continue;
+      }
+      const double margin = c.radius * std::max(camera.fx, camera.fy) / std::max(pixel->z - c.radius, 1e-3) + 2;
+      rx0 = std::min(rx0, pixel->x - margin);
+      ry0 = std::min(ry0, pixel->y - margin);
+      rx1 = std::max(rx1, pixel->x + margin);
+      ry1 = std::max(ry1, pixel->y + margin);
+    }
+  }
+  for (uint32_t y = 0; y < camera.height; ++y) {
+    for (uint32_t x = 0; x < camera.width; ++x) {
+      const glm::dvec3 dir = camera.rayDirection(x + 0.5, y + 0.5);
+      glm::dvec3 color = backdrop(dir);
+      // Sphere tracing inside the subject's bounding sphere.
+      const glm::dvec3 oc = origin - bound_center;
+      const double b = glm::dot(oc, dir);
+      const double disc = b * b - (glm::dot(oc, oc) - bound_radius * bound_radius);
+      const bool in_rect = x + 0.5 >= rx0 && x + 0.5 <= rx1 && y + 0.5 >= ry0 && y + 0.5 <= ry1;
+      bool hit = false;
+      if (in_rect && disc > 0) {
+        double t = std::max(0.0, -b - std::sqrt(disc));
+        const double t_end = -b + std::sqrt(disc);
+        int part = 0;
+        for (int step = 0; step < 128 && t < t_end; ++step) {
+          const double d = distance(origin + t * dir, pose, &part);
+          if (d < 2e-4) {
+            hit = true;
+            break;
+          }
+          t += d;
+        }
+        if (hit) {
+          const glm::dvec3 p = origin + t * dir;
+          const double e = 5e-4;
+          const glm::dvec3 n = glm::normalize(glm::dvec3(
+              distance(p + glm::dvec3(e, 0, 0), pose, nullptr) - distance(p - glm::dvec3(e, 0, 0), pose, nullptr),
+              distance(p + glm::dvec3(0, e, 0), pose, nullptr) - distance(p - glm::dvec3(0, e, 0), pose, nullptr),
+              distance(p + glm::dvec3(0, 0, e), pose, nullptr) - distance(p - glm::dvec3(0, 0, e), pose, nullptr)));
+          // Lambertian: the colour of a surface point is the same from
+          // every camera up to that camera's gain.
+          color = albedo(p, pose, part) * (0.35 + 0.65 * std::max(0.0, glm::dot(n, kLight))) * gain;
+        }
+      }
+      const uint64_t noise_key = ((options_.seed * 1000003 + frame_id) * 64 + camera.id) * 0x100000000ull +
+                                 static_cast<uint64_t>(y) * camera.width + x;
+      uint8_t* px = view.color.at(x, y);
+      for (int k = 0; k < 3; ++k) {
+        const double noise = options_.noise_amplitude * (2 * hash01(noise_key * 3 + k) - 1);
+        px[k] = static_cast<uint8_t>(std::clamp(color[k] * 255.0 + noise + 0.5, 0.0, 255.0));
+      }
+      *view.mask.at(x, y) = hit ? 255 : 0;
+    }
+  }
+  return view;
+}
+
+Mesh SyntheticScene::truthMesh(uint64_t frame_id, double spacing) const {
+  const Pose pose = poseAt(timeOf(frame_id));
+  glm::dvec3 lo, hi;
+  subjectBounds(lo, hi);
+  const glm::ivec3 n = glm::ivec3(glm::ceil((hi - lo) / spacing)) + 1;
+  const ScalarGrid grid = sampleGrid(lo, spacing, n.x, n.y, n.z,
+                                     [&](const glm::dvec3& p) { return -distance(p, pose, nullptr); });
+  return marchingCubes(grid);
+}
+
+}  // namespace holofuse::capture

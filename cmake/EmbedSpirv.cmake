@@ -1,0 +1,22 @@
+# Turns a SPIR-V file into a C++ header with a uint32_t array.
+# Usage: cmake -DINPUT=a.spv -DOUTPUT=a_spv.h -DNAME=kBlendFrag -P EmbedSpirv.cmake
+file(READ "${INPUT}" bytes HEX)
+string(LENGTH "${bytes}" hex_length)
+math(EXPR word_count "${hex_length} / 8")
+set(words "")
+math(EXPR last "${word_count} - 1")
+foreach(i RANGE 0 ${last})
+  math(EXPR offset "${i} * 8")
+  string(SUBSTRING "${bytes}" ${offset} 8 w)
+  # SPIR-V words are little-endian in the file.
+  string(SUBSTRING "${w}" 0 2 b0)
+  string(SUBSTRING "${w}" 2 2 b1)
+  string(SUBSTRING "${w}" 4 2 b2)
+  string(SUBSTRING "${w}" 6 2 b3)
+  string(APPEND words "0x${b3}${b2}${b1}${b0}u,")
+  math(EXPR col "${i} % 8")
+  if(col EQUAL 7)
+    string(APPEND words "\n")
+  endif()
+endforeach()
+file(WRITE "${OUTPUT}" "// Generated from ${INPUT}; do not edit.\n#pragma once\n#include <cstdint>\ninline constexpr uint32_t ${NAME}[] = {\n${words}};\n")

@@ -1,0 +1,24 @@
+// Image planes to and from their wire form (protocol Plane): raw, LZ4, or
+// LZ4 over planar channels with a horizontal byte delta (PLATFORM.md: the
+// pre-filter raises LZ4's ratio on camera images).
+#pragma once
+
+#include <vector>
+
+#include "common/image.h"
+#include "protocol/messages.h"
+#include "protocol/status.h"
+
+namespace holofuse {
+
+// Encodes image as a plane of the given kind. The plane's data points into
+// storage, which must outlive it. acceleration is LZ4's (1 = default).
+protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, protocol::Codec codec,
+                            std::vector<uint8_t>& storage, int acceleration = 1);
+
+// Decodes a plane from untrusted bytes. Safe on any input: the declared
+// size is capped and checked, LZ4 runs in its safe mode, and any mismatch is
+// an error naming the plane.
+protocol::StatusOr<Image8> decodePlane(const protocol::Plane& plane);
+
+}  // namespace holofuse

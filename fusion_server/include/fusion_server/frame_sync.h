@@ -1,0 +1,57 @@
+// FrameSync groups PodFrames from different pods by frame id. A group goes
+// out when every connected pod has delivered or its deadline passes; a late
+// or dead pod never stalls the loop.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <set>
+#include <vector>
+
+#include "common/image.h"
+#include "protocol/messages.h"
+
+namespace holofuse::fusion {
+
+struct PodImages {
+  uint32_t camera_id = 0;
+  Image8 color, mask, feather;
+  std::vector<protocol::StageStamp> stamps;
+  uint64_t capture_time_ns = 0;
+  uint64_t bytes = 0;  // size of the frame on the wire
+};
+
+struct FrameGroup {
+  uint64_t frame_id = 0;
+  uint64_t first_arrival_ns = 0;
+  uint64_t emitted_ns = 0;
+  std::map<uint32_t, PodImages> pods;  // by camera id
+  bool complete = false;               // every expected pod delivered
+};
+
+class FrameSync {
+ public:
+  FrameSync(uint64_t deadline_ns, size_t max_pending = 8) : deadline_ns_(deadline_ns), max_pending_(max_pending) {}
+
+  // Adds a pod's frame. Returns false (and counts it late) when its group
+  // has already gone out.
+  bool add(uint64_t frame_id, PodImages images, uint64_t now_ns);
+  // Groups ready at now_ns given the pods currently expected, oldest first.
+  std::vector<FrameGroup> takeReady(const std::set<uint32_t>& expected, uint64_t now_ns);
+  // Time until the oldest pending group's deadline (for the poll timeout).
+  std::optional<uint64_t> nextDeadline() const;
+
+  uint64_t lateFrames() const { return late_frames_; }
+  uint64_t overflowedGroups() const { return overflowed_groups_; }
+
+ private:
+  uint64_t deadline_ns_;
+  size_t max_pending_;
+  std::map<uint64_t, FrameGroup> pending_;
+  std::optional<uint64_t> last_emitted_;
+  uint64_t late_frames_ = 0;
+  uint64_t overflowed_groups_ = 0;
+};
+
+}  // namespace holofuse::fusion

@@ -1,0 +1,75 @@
+// The fusion server's I/O loop: one port for pods and clients (the role is
+// in Hello), handshake, calibration relay, frame sync, fusion on a worker
+// thread and fan-out to every client through its own bounded queue. A
+// malformed message closes only the connection that sent it.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "common/camera.h"
+#include "fusion_server/frame_sync.h"
+#include "fusion_server/fusion_worker.h"
+#include "protocol/connection.h"
+#include "protocol/socket.h"
+
+namespace holofuse::fusion {
+
+struct ServerOptions {
+  protocol::Endpoint listen;
+  int pods = 4;
+  double sync_deadline_ms = 150.0;
+  size_t client_queue_frames = 6;  // droppable frames queued per client
+  uint32_t heartbeat_interval_ms = 500;
+  uint32_t idle_timeout_ms = 5000;
+  uint32_t max_payload = protocol::kDefaultMaxPayload;
+  FusionSettings fusion;
+  std::string port_file;  // when set, the bound port is written here (port 0 use)
+};
+
+class FusionServer {
+ public:
+  explicit FusionServer(ServerOptions options);
+  ~FusionServer();
+
+  // Binds the port (or says why not).
+  protocol::Status start();
+  uint16_t port() const { return listener_.localPort(); }
+  // Serves until stopRequested(); says Bye to everyone on the way out.
+  int run();
+
+ private:
+  struct Peer {
+    std::unique_ptr<protocol::Connection> connection;
+    bool greeted = false;
+    protocol::Role role = protocol::Role::kPod;
+    uint32_t id = 0;
+  };
+
+  void acceptAll();
+  // Handles one frame; a non-ok status closes that peer.
+  protocol::Status handle(Peer& peer, const protocol::Frame& frame);
+  protocol::Status handleHello(Peer& peer, const protocol::Frame& frame);
+  protocol::Status handlePodFrame(Peer& peer, const protocol::Frame& frame);
+  void dispatchReadyGroups();
+  void fanOut();
+  void closePeer(size_t index, const protocol::Status& why);
+  std::set<uint32_t> connectedPods() const;
+
+  ServerOptions options_;
+  protocol::Socket listener_;
+  int wake_fd_ = -1;
+  std::vector<Peer> peers_;
+  std::map<uint32_t, Camera> cameras_;
+  std::map<uint32_t, protocol::SharedBytes> calibration_frames_;
+  FrameSync sync_;
+  std::unique_ptr<FusionWorker> worker_;
+  uint32_t next_session_ = 1;
+  uint64_t groups_fused_ = 0;
+};
+
+}  // namespace holofuse::fusion

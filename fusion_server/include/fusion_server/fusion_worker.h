@@ -1,0 +1,69 @@
+// FusionWorker turns a frame group into the frames every client gets
+// (MeshFrame, TextureBundle, Stats) on its own thread, so the I/O loop keeps
+// serving pods and clients while a hull is carved. One group waits at most:
+// a newer group replaces a waiting one (counted as dropped).
+#pragma once
+
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "common/camera.h"
+#include "common/mesh_codec.h"
+#include "fusion_server/frame_sync.h"
+#include "fusion_server/visual_hull.h"
+#include "protocol/connection.h"
+
+namespace holofuse::fusion {
+
+struct FusionSettings {
+  HullOptions hull;
+  DracoOptions draco;
+  protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
+  uint32_t pods_expected = 0;
+};
+
+struct FusedOutput {
+  uint64_t frame_id = 0;
+  protocol::SharedBytes mesh_frame, texture_bundle, stats;
+  size_t triangles = 0;
+};
+
+struct GroupJob {
+  FrameGroup group;
+  std::map<uint32_t, Camera> cameras;
+  uint64_t late_frames = 0;
+  uint64_t dropped_groups = 0;
+};
+
+// The whole fusion of one group, callable without the thread (tests).
+FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings);
+
+class FusionWorker {
+ public:
+  // wake_fd is written (8 bytes, eventfd style) whenever output is ready.
+  FusionWorker(FusionSettings settings, int wake_fd);
+  ~FusionWorker();
+
+  void submit(GroupJob job);
+  std::vector<FusedOutput> takeOutputs();
+  uint64_t replacedJobs() const { return replaced_; }
+
+ private:
+  void run();
+
+  FusionSettings settings_;
+  int wake_fd_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::optional<GroupJob> waiting_;
+  std::vector<FusedOutput> outputs_;
+  bool stop_ = false;
+  uint64_t replaced_ = 0;
+  std::thread thread_;
+};
+
+}  // namespace holofuse::fusion

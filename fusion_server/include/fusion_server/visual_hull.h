@@ -1,0 +1,40 @@
+// Visual hull from silhouettes: the valid region (where every camera's
+// silhouette bounding rectangle back-projects, paper 004), a signed distance
+// sampled on a voxel grid inside it, and marching cubes.
+#pragma once
+
+#include <vector>
+
+#include "common/camera.h"
+#include "common/image.h"
+#include "common/mesh.h"
+
+namespace holofuse::fusion {
+
+struct HullView {
+  Camera camera;
+  Image8 mask;      // 255 foreground
+  Image8 feather;   // distance inside the silhouette, pixels (0 outside)
+};
+
+struct HullOptions {
+  double voxel_size = 0.02;                          // metres: the accuracy knob
+  glm::dvec3 volume_min{-1.0, -0.1, -1.0};           // capture volume
+  glm::dvec3 volume_max{1.0, 1.9, 1.0};
+  double valid_region_step = 0.08;                   // coarse step of the valid-region search
+};
+
+struct HullStats {
+  glm::dvec3 region_min{0.0}, region_max{0.0};
+  size_t grid_points = 0;
+  size_t triangles = 0;
+};
+
+// Signed distance of each pixel to the silhouette border in pixels,
+// positive inside: the feather map inside, the distance transform of the
+// background outside. Sampled bilinearly by the carver.
+std::vector<float> silhouetteSignedDistance(const HullView& view);
+
+Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options, HullStats* stats = nullptr);
+
+}  // namespace holofuse::fusion

@@ -1,0 +1,57 @@
+#include "fusion_server/frame_sync.h"
+
+namespace holofuse::fusion {
+
+bool FrameSync::add(uint64_t frame_id, PodImages images, uint64_t now_ns) {
+  if (last_emitted_ && frame_id <= *last_emitted_) {
+    ++late_frames_;
+    return false;
+  }
+  auto [it, inserted] = pending_.try_emplace(frame_id);
+  if (inserted) {
+    it->second.frame_id = frame_id;
+    it->second.first_arrival_ns = now_ns;
+  }
+  it->second.pods[images.camera_id] = std::move(images);
+  // Bound memory: a flood of new ids pushes the oldest groups out.
+  while (pending_.size() > max_pending_) {
+    pending_.erase(pending_.begin());
+    ++overflowed_groups_;
+  }
+  return true;
+}
+
+std::vector<FrameGroup> FrameSync::takeReady(const std::set<uint32_t>& expected, uint64_t now_ns) {
+  std::vector<FrameGroup> ready;
+  for (auto it = pending_.begin(); it != pending_.end();) {
+    FrameGroup& group = it->second;
+    bool complete = !expected.empty();
+    for (uint32_t id : expected) complete = complete && group.pods.count(id) > 0;
+    const bool expired = now_ns - group.first_arrival_ns >= deadline_ns_;
+    if (!complete && !expired) {
+      ++it;
+      continue;
+    }
+    // Groups go out in frame order: anything older still pending is given
+    // up with this one, so ids never go backwards.
+    group.complete = complete;
+    group.emitted_ns = now_ns;
+    last_emitted_ = group.frame_id;
+    for (auto older = pending_.begin(); older != it;) {
+      ++overflowed_groups_;
+      older = pending_.erase(older);
+    }
+    ready.push_back(std::move(group));
+    it = pending_.erase(it);
+  }
+  return ready;
+}
+
+std::optional<uint64_t> FrameSync::nextDeadline() const {
+  if (pending_.empty()) return std::nullopt;
+  uint64_t earliest = UINT64_MAX;
+  for (const auto& [id, group] : pending_) earliest = std::min(earliest, group.first_arrival_ns + deadline_ns_);
+  return earliest;
+}
+
+}  // namespace holofuse::fusion

@@ -1,0 +1,292 @@
+#include "fusion_server/fusion_server.h"
+
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "common/image_codec.h"
+#include "common/shutdown.h"
+#include "protocol/clock.h"
+#include "protocol/handshake.h"
+
+namespace holofuse::fusion {
+
+using protocol::Frame;
+using protocol::MessageType;
+using protocol::Status;
+using protocol::StatusCode;
+using protocol::monotonicNs;
+
+FusionServer::FusionServer(ServerOptions options)
+    : options_(std::move(options)),
+      sync_(static_cast<uint64_t>(options_.sync_deadline_ms * 1e6)) {
+  options_.fusion.pods_expected = static_cast<uint32_t>(options_.pods);
+}
+
+FusionServer::~FusionServer() {
+  worker_.reset();
+  if (wake_fd_ >= 0) ::close(wake_fd_);
+}
+
+Status FusionServer::start() {
+  auto listener = protocol::listenTcp(options_.listen);
+  if (!listener.isOk()) return listener.status();
+  listener_ = std::move(*listener);
+  wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  worker_ = std::make_unique<FusionWorker>(options_.fusion, wake_fd_);
+  if (!options_.port_file.empty()) {
+    std::ofstream(options_.port_file) << port() << "\n";
+  }
+  std::fprintf(stderr, "[server] listening on %s:%u for %d pods\n", options_.listen.host.c_str(), port(), options_.pods);
+  return Status::ok();
+}
+
+std::set<uint32_t> FusionServer::connectedPods() const {
+  std::set<uint32_t> ids;
+  for (const auto& peer : peers_) {
+    if (peer.greeted && peer.role == protocol::Role::kPod && cameras_.count(peer.id)) ids.insert(peer.id);
+  }
+  return ids;
+}
+
+void FusionServer::acceptAll() {
+  for (;;) {
+    std::string name;
+    protocol::Socket socket = listener_.acceptOne(&name);
+    if (!socket.valid()) return;
+    protocol::ConnectionLimits limits;
+    limits.max_payload = options_.max_payload;
+    limits.max_queued_droppable = options_.client_queue_frames;
+    Peer peer;
+    peer.connection = std::make_unique<protocol::Connection>(std::move(socket), name, limits);
+    peers_.push_back(std::move(peer));
+  }
+}
+
+Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
+  protocol::Hello hello;
+  HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, hello));
+  auto ack = protocol::negotiate(hello);
+  if (!ack.isOk()) {
+    peer.connection->sendMessage(protocol::ErrorMessage{static_cast<uint16_t>(ack.status().code()), ack.status().message()});
+    return ack.status();
+  }
+  if (hello.role == protocol::Role::kPod && hello.id >= static_cast<uint32_t>(options_.pods)) {
+    const Status s(StatusCode::kMalformed, "pod id " + std::to_string(hello.id) + " outside 0.." +
+                                               std::to_string(options_.pods - 1));
+    peer.connection->sendMessage(protocol::ErrorMessage{static_cast<uint16_t>(s.code()), s.message()});
+    return s;
+  }
+  ack->session_id = next_session_++;
+  ack->server_time_ns = monotonicNs();
+  ack->heartbeat_interval_ms = options_.heartbeat_interval_ms;
+  ack->idle_timeout_ms = options_.idle_timeout_ms;
+  peer.greeted = true;
+  peer.role = hello.role;
+  peer.id = hello.id;
+  peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
+                               std::to_string(hello.id) + " (" + peer.connection->peerName() + ")");
+  peer.connection->sendMessage(*ack);
+  std::fprintf(stderr, "[server] %s joined, protocol %u.%u\n", peer.connection->peerName().c_str(), ack->major,
+               ack->minor);
+  if (peer.role == protocol::Role::kClient) {
+    for (const auto& [id, bytes] : calibration_frames_) peer.connection->send(bytes);
+  }
+  return Status::ok();
+}
+
+Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
+  protocol::PodFrame pod;
+  HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, pod));
+  if (pod.camera_id != peer.id) {
+    return Status(StatusCode::kMalformed, "field 'pod_frame.camera_id': " + std::to_string(pod.camera_id) +
+                                              " from the pod that said it is " + std::to_string(peer.id));
+  }
+  auto cam = cameras_.find(pod.camera_id);
+  if (cam == cameras_.end()) {
+    return Status(StatusCode::kUnexpectedMessage, "PodFrame before Calibration");
+  }
+  const uint64_t now = monotonicNs();
+  PodImages images;
+  images.camera_id = pod.camera_id;
+  images.capture_time_ns = pod.capture_time_ns;
+  images.bytes = frame.bytes.size();
+  images.stamps = pod.stamps;
+  uint64_t encode_end = pod.capture_time_ns;
+  for (const auto& s : pod.stamps) {
+    if (s.stage == static_cast<uint16_t>(protocol::Stage::kPodEncode)) encode_end = s.end_ns;
+  }
+  images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend), static_cast<uint16_t>(pod.camera_id),
+                           encode_end, now});
+  for (const auto& plane : pod.planes) {
+    auto image = decodePlane(plane);
+    if (!image.isOk()) return image.status();
+    if (image->width != cam->second.width || image->height != cam->second.height) {
+      return Status(StatusCode::kMalformed, "plane " + std::to_string(static_cast<int>(plane.kind)) + " is " +
+                                                std::to_string(image->width) + "x" + std::to_string(image->height) +
+                                                ", calibration says " + std::to_string(cam->second.width) + "x" +
+                                                std::to_string(cam->second.height));
+    }
+    switch (plane.kind) {
+      case protocol::PlaneKind::kColor: images.color = std::move(*image); break;
+      case protocol::PlaneKind::kMask: images.mask = std::move(*image); break;
+      case protocol::PlaneKind::kFeather: images.feather = std::move(*image); break;
+      case protocol::PlaneKind::kDepth: break;  // not used by the hull yet
+    }
+  }
+  if (images.color.channels != 3 || images.mask.channels != 1 || images.feather.channels != 1) {
+    return Status(StatusCode::kMalformed, "PodFrame needs an RGB colour, a grey mask and a grey feather plane");
+  }
+  sync_.add(pod.frame_id, std::move(images), now);
+  return Status::ok();
+}
+
+Status FusionServer::handle(Peer& peer, const Frame& frame) {
+  const auto type = static_cast<MessageType>(frame.header.type);
+  if (!peer.greeted) {
+    if (type != MessageType::kHello) {
+      return Status(StatusCode::kUnexpectedMessage,
+                    std::string("expected Hello first, got ") + protocol::messageTypeName(frame.header.type));
+    }
+    return handleHello(peer, frame);
+  }
+  switch (type) {
+    case MessageType::kHeartbeat:
+      return Status::ok();
+    case MessageType::kBye: {
+      protocol::Bye bye;
+      (void)protocol::decodeFrame(frame, bye);
+      return Status(StatusCode::kClosed, "said bye: " + bye.reason);
+    }
+    case MessageType::kCalibration: {
+      if (peer.role != protocol::Role::kPod) return Status(StatusCode::kUnexpectedMessage, "Calibration from a client");
+      protocol::Calibration calibration;
+      HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, calibration));
+      if (calibration.camera_id != peer.id) {
+        return Status(StatusCode::kMalformed, "field 'calibration.camera_id': " + std::to_string(calibration.camera_id) +
+                                                  " from pod " + std::to_string(peer.id));
+      }
+      cameras_[calibration.camera_id] = fromCalibration(calibration);
+      auto bytes = std::make_shared<const std::vector<uint8_t>>(frame.bytes);
+      calibration_frames_[calibration.camera_id] = bytes;
+      for (auto& other : peers_) {
+        if (other.greeted && other.role == protocol::Role::kClient) other.connection->send(bytes);
+      }
+      return Status::ok();
+    }
+    case MessageType::kPodFrame:
+      if (peer.role != protocol::Role::kPod) return Status(StatusCode::kUnexpectedMessage, "PodFrame from a client");
+      return handlePodFrame(peer, frame);
+    case MessageType::kHello:
+      return Status(StatusCode::kUnexpectedMessage, "second Hello");
+    default:
+      // Unknown or not-for-the-server types are skipped (forward compatibility).
+      return Status::ok();
+  }
+}
+
+void FusionServer::closePeer(size_t index, const Status& why) {
+  Peer& peer = peers_[index];
+  if (why.code() == StatusCode::kClosed) {
+    std::fprintf(stderr, "[server] %s left (%s)\n", peer.connection->peerName().c_str(), why.message().c_str());
+  } else {
+    std::fprintf(stderr, "[server] closing %s: %s\n", peer.connection->peerName().c_str(), why.toString().c_str());
+    if (why.code() != StatusCode::kIoError && why.code() != StatusCode::kTimeout) {
+      peer.connection->sendMessage(protocol::ErrorMessage{static_cast<uint16_t>(why.code()), why.message()});
+      peer.connection->drain(50);
+    }
+  }
+  peers_.erase(peers_.begin() + static_cast<std::ptrdiff_t>(index));
+}
+
+void FusionServer::dispatchReadyGroups() {
+  for (auto& group : sync_.takeReady(connectedPods(), monotonicNs())) {
+    if (group.pods.empty()) continue;
+    GroupJob job;
+    job.group = std::move(group);
+    job.cameras = cameras_;
+    job.late_frames = sync_.lateFrames();
+    job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();
+    worker_->submit(std::move(job));
+  }
+}
+
+void FusionServer::fanOut() {
+  uint64_t counter = 0;
+  while (::read(wake_fd_, &counter, sizeof(counter)) > 0) {
+  }
+  for (auto& out : worker_->takeOutputs()) {
+    ++groups_fused_;
+    for (auto& peer : peers_) {
+      if (!peer.greeted || peer.role != protocol::Role::kClient) continue;
+      // Bundle and Stats first: the client renders when the mesh arrives.
+      peer.connection->send(out.texture_bundle);
+      peer.connection->send(out.stats);
+      peer.connection->send(out.mesh_frame);
+    }
+  }
+}
+
+int FusionServer::run() {
+  while (!stopRequested()) {
+    std::vector<pollfd> fds;
+    fds.push_back({listener_.fd(), POLLIN, 0});
+    fds.push_back({wake_fd_, POLLIN, 0});
+    for (const auto& peer : peers_) {
+      fds.push_back({peer.connection->fd(), static_cast<short>(POLLIN | (peer.connection->wantsWrite() ? POLLOUT : 0)), 0});
+    }
+    int timeout_ms = 100;
+    if (auto deadline = sync_.nextDeadline()) {
+      const uint64_t now = monotonicNs();
+      timeout_ms = *deadline <= now ? 0 : std::min<int>(timeout_ms, static_cast<int>((*deadline - now) / 1000000) + 1);
+    }
+    ::poll(fds.data(), fds.size(), timeout_ms);
+    if (fds[0].revents & POLLIN) acceptAll();
+    // Peers accepted just now are not in fds; they are polled next turn.
+    const size_t polled = fds.size() - 2;
+    for (size_t i = polled; i-- > 0;) {
+      Peer& peer = peers_[i];
+      const short revents = fds[i + 2].revents;
+      Status status = Status::ok();
+      if (revents & (POLLIN | POLLHUP | POLLERR)) {
+        status = peer.connection->onReadable();
+        while (peer.connection->hasFrame()) {
+          const Status handled = handle(peer, peer.connection->takeFrame());
+          if (!handled.isOk()) {
+            status = handled;
+            break;
+          }
+        }
+      }
+      const uint64_t now = monotonicNs();
+      if (status.isOk() && now - peer.connection->lastReceiveNs() > uint64_t{options_.idle_timeout_ms} * 1000000) {
+        status = Status(StatusCode::kTimeout, "heard nothing for " + std::to_string(options_.idle_timeout_ms) + " ms");
+      }
+      if (status.isOk() && peer.greeted && !peer.connection->wantsWrite() &&
+          now - peer.connection->lastSendNs() > uint64_t{options_.heartbeat_interval_ms} * 1000000) {
+        peer.connection->sendMessage(protocol::Heartbeat{now});
+      }
+      if (!status.isOk()) closePeer(i, status);
+    }
+    dispatchReadyGroups();
+    if (fds[1].revents & POLLIN) fanOut();
+    for (size_t i = peers_.size(); i-- > 0;) {
+      if (!peers_[i].connection->wantsWrite()) continue;
+      const Status s = peers_[i].connection->onWritable();
+      if (!s.isOk()) closePeer(i, s);
+    }
+  }
+  for (auto& peer : peers_) {
+    peer.connection->sendMessage(protocol::Bye{"server shutting down"});
+    peer.connection->drain(100);
+  }
+  std::fprintf(stderr, "[server] stopped after fusing %llu groups (%llu late pod frames, %llu groups dropped)\n",
+               static_cast<unsigned long long>(groups_fused_), static_cast<unsigned long long>(sync_.lateFrames()),
+               static_cast<unsigned long long>(sync_.overflowedGroups() + worker_->replacedJobs()));
+  return 0;
+}
+
+}  // namespace holofuse::fusion

@@ -1,0 +1,147 @@
+#include "fusion_server/fusion_worker.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+
+#include "common/image_codec.h"
+#include "protocol/clock.h"
+
+namespace holofuse::fusion {
+
+using protocol::monotonicNs;
+using protocol::Stage;
+using protocol::kSourceServer;
+
+FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
+  const FrameGroup& group = job.group;
+  FusedOutput out;
+  out.frame_id = group.frame_id;
+  std::vector<protocol::StageStamp> stamps;
+  uint64_t capture_time = UINT64_MAX;
+  uint64_t pod_bytes = 0;
+  uint64_t present = 0;
+  std::vector<HullView> views;
+  for (const auto& [camera_id, pod] : group.pods) {
+    stamps.insert(stamps.end(), pod.stamps.begin(), pod.stamps.end());
+    capture_time = std::min(capture_time, pod.capture_time_ns);
+    pod_bytes += pod.bytes;
+    auto cam = job.cameras.find(camera_id);
+    if (cam == job.cameras.end()) continue;  // no calibration yet: cannot carve with it
+    if (camera_id < 64) present |= uint64_t{1} << camera_id;
+    views.push_back(HullView{cam->second, pod.mask, pod.feather});
+  }
+  stamps.push_back({static_cast<uint16_t>(Stage::kSyncWait), kSourceServer, group.first_arrival_ns, group.emitted_ns});
+
+  const uint64_t t0 = monotonicNs();
+  Mesh mesh = carveVisualHull(views, settings.hull);
+  const uint64_t t1 = monotonicNs();
+  stamps.push_back({static_cast<uint16_t>(Stage::kHull), kSourceServer, t0, t1});
+  auto draco = encodeDraco(mesh, settings.draco);
+  const uint64_t t2 = monotonicNs();
+  stamps.push_back({static_cast<uint16_t>(Stage::kMeshEncode), kSourceServer, t1, t2});
+
+  protocol::TextureBundle bundle;
+  bundle.frame_id = group.frame_id;
+  std::vector<std::vector<uint8_t>> storage;
+  storage.reserve(group.pods.size() * 2);
+  for (const auto& [camera_id, pod] : group.pods) {
+    if (job.cameras.count(camera_id) == 0) continue;
+    protocol::BundleImage image;
+    image.camera_id = camera_id;
+    storage.emplace_back();
+    image.planes.push_back(encodePlane(pod.color, protocol::PlaneKind::kColor, settings.image_codec, storage.back()));
+    storage.emplace_back();
+    image.planes.push_back(encodePlane(pod.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage.back()));
+    bundle.images.push_back(std::move(image));
+  }
+  const uint64_t t3 = monotonicNs();
+  bundle.stamps = {{static_cast<uint16_t>(Stage::kImageEncode), kSourceServer, t2, t3},
+                   {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0}};
+  stamps.push_back({static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0});
+
+  protocol::MeshFrame mesh_frame;
+  mesh_frame.frame_id = group.frame_id;
+  mesh_frame.capture_time_ns = capture_time == UINT64_MAX ? group.first_arrival_ns : capture_time;
+  const Bounds bounds = meshBounds(mesh);
+  for (int k = 0; k < 3; ++k) {
+    mesh_frame.bounds_min[k] = bounds.min[k];
+    mesh_frame.bounds_max[k] = bounds.max[k];
+  }
+  mesh_frame.vertex_count = static_cast<uint32_t>(mesh.vertexCount());
+  mesh_frame.triangle_count = static_cast<uint32_t>(mesh.triangleCount());
+  mesh_frame.stamps = std::move(stamps);
+  if (draco.isOk()) mesh_frame.mesh = *draco;
+
+  protocol::Stats stats;
+  stats.frame_id = group.frame_id;
+  stats.cameras_expected = settings.pods_expected;
+  stats.cameras_present = present;
+  stats.late_frames = job.late_frames;
+  stats.dropped_groups = job.dropped_groups;
+  stats.pod_bytes = pod_bytes;
+  if (!group.complete) {
+    std::string missing;
+    for (uint32_t i = 0; i < settings.pods_expected; ++i) {
+      if (!(present >> i & 1)) missing += (missing.empty() ? "" : ",") + std::to_string(i);
+    }
+    stats.note = "proceeded without camera(s) " + missing + " after the sync deadline";
+  }
+  if (!draco.isOk()) stats.note += (stats.note.empty() ? "" : "; ") + draco.status().message();
+
+  out.texture_bundle = std::make_shared<const std::vector<uint8_t>>(protocol::encodeFrame(bundle, protocol::nextSequence()));
+  out.mesh_frame = std::make_shared<const std::vector<uint8_t>>(protocol::encodeFrame(mesh_frame, protocol::nextSequence()));
+  out.stats = std::make_shared<const std::vector<uint8_t>>(protocol::encodeFrame(stats, protocol::nextSequence()));
+  out.triangles = mesh.triangleCount();
+  return out;
+}
+
+FusionWorker::FusionWorker(FusionSettings settings, int wake_fd)
+    : settings_(std::move(settings)), wake_fd_(wake_fd), thread_([this] { run(); }) {}
+
+FusionWorker::~FusionWorker() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  thread_.join();
+}
+
+void FusionWorker::submit(GroupJob job) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (waiting_) ++replaced_;
+    waiting_ = std::move(job);
+  }
+  cv_.notify_one();
+}
+
+std::vector<FusedOutput> FusionWorker::takeOutputs() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return std::move(outputs_);
+}
+
+void FusionWorker::run() {
+  for (;;) {
+    GroupJob job;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      cv_.wait(lock, [this] { return stop_ || waiting_.has_value(); });
+      if (stop_) return;
+      job = std::move(*waiting_);
+      waiting_.reset();
+    }
+    FusedOutput out = fuseGroup(job, settings_);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      outputs_.push_back(std::move(out));
+    }
+    const uint64_t one = 1;
+    if (::write(wake_fd_, &one, sizeof(one)) < 0) {
+      // The eventfd counter cannot overflow at our rates; nothing to do.
+    }
+  }
+}
+
+}  // namespace holofuse::fusion

@@ -1,0 +1,47 @@
+// fusion_server: syncs pod frames, carves the visual hull, fans out to
+// render clients. See README.md for the flags.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "common/shutdown.h"
+#include "fusion_server/fusion_server.h"
+
+int main(int argc, char** argv) {
+  using namespace holofuse;
+  fusion::ServerOptions options;
+  std::string listen = "127.0.0.1:7300", image_codec = "lz4-delta";
+  CLI::App app{"holofuse fusion_server: visual hull fusion and fan-out"};
+  app.add_option("--listen", listen, "HOST:PORT to listen on (port 0: any free port)");
+  app.add_option("--pods", options.pods, "cameras expected (1..16)")->check(CLI::Range(1, 16));
+  app.add_option("--sync-deadline-ms", options.sync_deadline_ms, "wait this long for a frame's slowest pod")
+      ->check(CLI::Range(1.0, 10000.0));
+  app.add_option("--voxel", options.fusion.hull.voxel_size, "hull voxel size in metres")->check(CLI::Range(0.002, 0.5));
+  app.add_option("--draco-bits", options.fusion.draco.position_bits, "Draco position quantisation bits")
+      ->check(CLI::Range(4, 24));
+  app.add_option("--draco-speed", options.fusion.draco.speed, "Draco speed 0 (small) .. 10 (fast)")->check(CLI::Range(0, 10));
+  app.add_option("--image-codec", image_codec, "codec of the images sent to clients")
+      ->check(CLI::IsMember({"raw", "lz4", "lz4-delta"}));
+  app.add_option("--client-queue", options.client_queue_frames, "frames queued per client before dropping the oldest")
+      ->check(CLI::Range(1, 1024));
+  app.add_option("--idle-timeout-ms", options.idle_timeout_ms, "close a silent peer after this long")
+      ->check(CLI::Range(100, 600000));
+  app.add_option("--port-file", options.port_file, "write the bound port to this file");
+  CLI11_PARSE(app, argc, argv);
+  auto endpoint = protocol::parseEndpoint(listen);
+  if (!endpoint.isOk()) {
+    std::fprintf(stderr, "--listen: %s\n", endpoint.status().message().c_str());
+    return 2;
+  }
+  options.listen = *endpoint;
+  options.fusion.image_codec = image_codec == "raw"   ? protocol::Codec::kRaw
+                               : image_codec == "lz4" ? protocol::Codec::kLz4
+                                                      : protocol::Codec::kLz4PlanarDelta;
+  installStopSignals();
+  fusion::FusionServer server(options);
+  const protocol::Status started = server.start();
+  if (!started.isOk()) {
+    std::fprintf(stderr, "[server] cannot start: %s\n", started.toString().c_str());
+    return 1;
+  }
+  return server.run();
+}

@@ -1,0 +1,140 @@
+#include "fusion_server/visual_hull.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "common/marching_cubes.h"
+
+namespace holofuse::fusion {
+namespace {
+
+struct Rect {
+  int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // inclusive
+  bool empty() const { return x1 < x0; }
+};
+
+Rect foregroundRect(const Image8& mask) {
+  Rect r{static_cast<int>(mask.width), static_cast<int>(mask.height), -1, -1};
+  for (uint32_t y = 0; y < mask.height; ++y) {
+    for (uint32_t x = 0; x < mask.width; ++x) {
+      if (*mask.at(x, y) == 0) continue;
+      r.x0 = std::min<int>(r.x0, x);
+      r.y0 = std::min<int>(r.y0, y);
+      r.x1 = std::max<int>(r.x1, x);
+      r.y1 = std::max<int>(r.y1, y);
+    }
+  }
+  return r;
+}
+
+float sampleBilinear(const std::vector<float>& image, int w, int h, double u, double v) {
+  // Pixel centres sit at .5.
+  const double x = std::clamp(u - 0.5, 0.0, w - 1.0), y = std::clamp(v - 0.5, 0.0, h - 1.0);
+  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+  const int x1 = std::min(x0 + 1, w - 1), y1 = std::min(y0 + 1, h - 1);
+  const double fx = x - x0, fy = y - y0;
+  const double a = image[y0 * w + x0] * (1 - fx) + image[y0 * w + x1] * fx;
+  const double b = image[y1 * w + x0] * (1 - fx) + image[y1 * w + x1] * fx;
+  return static_cast<float>(a * (1 - fy) + b * fy);
+}
+
+}  // namespace
+
+std::vector<float> silhouetteSignedDistance(const HullView& view) {
+  const int w = static_cast<int>(view.mask.width), h = static_cast<int>(view.mask.height);
+  cv::Mat mask(h, w, CV_8UC1, const_cast<uint8_t*>(view.mask.pixels.data()));
+  cv::Mat background = mask == 0;
+  cv::Mat outside;
+  cv::distanceTransform(background, outside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  std::vector<float> sd(static_cast<size_t>(w) * h);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      // The border lies half a pixel from the centres on either side.
+      sd[i] = view.mask.pixels[i] != 0 ? std::max<float>(view.feather.pixels[i], 1.0f) - 0.5f
+                                       : -(outside.at<float>(y, x) - 0.5f);
+    }
+  }
+  return sd;
+}
+
+Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options, HullStats* stats) {
+  if (views.empty()) return {};
+  std::vector<Rect> rects;
+  for (const auto& v : views) {
+    rects.push_back(foregroundRect(v.mask));
+    if (rects.back().empty()) return {};  // an empty silhouette carves everything away
+  }
+  // Valid region: the points of a coarse lattice that fall inside every
+  // camera's silhouette rectangle, grown by one step.
+  glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
+  const double step = options.valid_region_step;
+  for (double z = options.volume_min.z; z <= options.volume_max.z; z += step) {
+    for (double y = options.volume_min.y; y <= options.volume_max.y; y += step) {
+      for (double x = options.volume_min.x; x <= options.volume_max.x; x += step) {
+        const glm::dvec3 p(x, y, z);
+        bool inside_all = true;
+        for (size_t i = 0; i < views.size() && inside_all; ++i) {
+          const auto proj = views[i].camera.project(p);
+          // A lattice point within one step of the rectangle may still carry
+          // surface: test against the rectangle grown by the step's footprint.
+          const double margin = proj ? step * views[i].camera.fx / proj->z : 0;
+          inside_all = proj && proj->x >= rects[i].x0 - margin && proj->x <= rects[i].x1 + 1 + margin &&
+                       proj->y >= rects[i].y0 - margin && proj->y <= rects[i].y1 + 1 + margin;
+        }
+        if (!inside_all) continue;
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+      }
+    }
+  }
+  if (lo.x > hi.x) return {};
+  lo = glm::max(lo - step, options.volume_min);
+  hi = glm::min(hi + step, options.volume_max);
+
+  std::vector<std::vector<float>> distances;
+  for (const auto& v : views) distances.push_back(silhouetteSignedDistance(v));
+
+  const double s = options.voxel_size;
+  const glm::ivec3 n = glm::ivec3(glm::ceil((hi - lo) / s)) + 1;
+  // The hull's signed distance is approximated by the smallest of the
+  // cameras' silhouette distances, each turned from pixels into metres at
+  // the point's depth. The outer layer of the grid is forced outside so the
+  // surface is closed.
+  const ScalarGrid grid = sampleGrid(lo, s, n.x, n.y, n.z, [&](const glm::dvec3& p) {
+    double value = std::numeric_limits<double>::max();
+    for (size_t i = 0; i < views.size(); ++i) {
+      const Camera& cam = views[i].camera;
+      const auto proj = cam.project(p);
+      if (!proj || proj->x < 0 || proj->y < 0 || proj->x >= cam.width || proj->y >= cam.height) return -s;
+      const double px = sampleBilinear(distances[i], static_cast<int>(cam.width), static_cast<int>(cam.height),
+                                       proj->x, proj->y);
+      value = std::min(value, px * proj->z / cam.fx);
+    }
+    return value;
+  });
+  ScalarGrid closed = grid;
+  for (int z = 0; z < n.z; ++z) {
+    for (int y = 0; y < n.y; ++y) {
+      for (int x = 0; x < n.x; ++x) {
+        if (x == 0 || y == 0 || z == 0 || x == n.x - 1 || y == n.y - 1 || z == n.z - 1) {
+          float& v = closed.values[(static_cast<size_t>(z) * n.y + y) * n.x + x];
+          v = std::min(v, static_cast<float>(-0.5 * s));
+        }
+      }
+    }
+  }
+  Mesh mesh = marchingCubes(closed);
+  if (stats != nullptr) {
+    stats->region_min = lo;
+    stats->region_max = hi;
+    stats->grid_points = closed.values.size();
+    stats->triangles = mesh.triangleCount();
+  }
+  return mesh;
+}
+
+}  // namespace holofuse::fusion

@@ -1,0 +1,92 @@
+// Connection: one framed, non-blocking peer. Reads frames straight into
+// their buffers, writes with sendmsg from a bounded queue that drops the
+// oldest droppable frame for a slow peer (never control messages).
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "protocol/frame.h"
+#include "protocol/messages.h"
+#include "protocol/socket.h"
+#include "protocol/status.h"
+
+namespace holofuse::protocol {
+
+using SharedBytes = std::shared_ptr<const std::vector<uint8_t>>;
+
+struct ConnectionLimits {
+  uint32_t max_payload = kDefaultMaxPayload;
+  // Droppable frames allowed in the queue before the oldest is dropped.
+  size_t max_queued_droppable = 4;
+  // Hard cap on queued bytes of any kind; beyond it the peer is too slow to
+  // keep and the connection fails.
+  size_t max_queued_bytes = 512u << 20;
+};
+
+// The sender's running frame count (SPEC.md section 2), shared by every
+// connection of a process so fanned-out frames carry one number.
+uint64_t nextSequence();
+
+class Connection {
+ public:
+  Connection(Socket socket, std::string peer_name, ConnectionLimits limits = {});
+
+  int fd() const { return socket_.fd(); }
+  const std::string& peerName() const { return peer_name_; }
+  void setPeerName(std::string name) { peer_name_ = std::move(name); }
+
+  // Queues an encoded frame. The flags in its header say whether it may be
+  // dropped.
+  void send(SharedBytes frame);
+  template <typename Message>
+  void sendMessage(const Message& m) {
+    send(std::make_shared<const std::vector<uint8_t>>(encodeFrame(m, nextSequence())));
+  }
+
+  bool wantsWrite() const { return !queue_.empty(); }
+  // Writes as much as the socket takes. An error status means the
+  // connection is dead.
+  Status onWritable();
+  // Reads until the socket would block. Complete frames go to the inbox.
+  // An error status (malformed stream, EOF, I/O error) means close it.
+  Status onReadable();
+  // Writes for up to timeout_ms until the queue is empty (used before close).
+  void drain(int timeout_ms);
+
+  bool hasFrame() const { return decoder_.hasFrame(); }
+  Frame takeFrame() { return decoder_.takeFrame(); }
+
+  uint64_t lastReceiveNs() const { return last_receive_ns_; }
+  uint64_t lastSendNs() const { return last_send_ns_; }
+  uint64_t bytesIn() const { return decoder_.bytesConsumed(); }
+  uint64_t bytesOut() const { return bytes_out_; }
+  uint64_t framesDropped() const { return frames_dropped_; }
+  size_t queuedFrames() const { return queue_.size(); }
+
+ private:
+  struct Outgoing {
+    SharedBytes bytes;
+    size_t offset = 0;
+    bool droppable = false;
+  };
+  void dropOldestDroppable();
+  size_t startedDroppable() const;
+
+  Socket socket_;
+  std::string peer_name_;
+  ConnectionLimits limits_;
+  StreamDecoder decoder_;
+  std::deque<Outgoing> queue_;
+  size_t queued_bytes_ = 0;
+  size_t queued_droppable_ = 0;
+  uint64_t bytes_out_ = 0;
+  uint64_t frames_dropped_ = 0;
+  uint64_t last_receive_ns_ = 0;
+  uint64_t last_send_ns_ = 0;
+};
+
+}  // namespace holofuse::protocol

@@ -1,0 +1,126 @@
+// Framing of protocol/SPEC.md section 2: the 28-byte header, building a
+// frame in place, and the incremental stream decoder for untrusted input.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "protocol/status.h"
+
+namespace holofuse::protocol {
+
+constexpr uint8_t kMagic[4] = {'H', 'F', 'U', 'S'};
+constexpr uint8_t kVersionMajor = 1;
+constexpr uint8_t kVersionMinor = 0;
+constexpr size_t kHeaderSize = 28;
+constexpr uint16_t kFlagDroppable = 0x0001;
+constexpr uint16_t kKnownFlags = kFlagDroppable;
+constexpr uint32_t kDefaultMaxPayload = 64u << 20;
+
+enum class MessageType : uint16_t {
+  kHello = 1,
+  kHelloAck = 2,
+  kAuth = 3,
+  kCalibration = 4,
+  kPodFrame = 5,
+  kMeshFrame = 6,
+  kTextureBundle = 7,
+  kHeartbeat = 8,
+  kStats = 9,
+  kBye = 10,
+  kError = 11,
+};
+
+const char* messageTypeName(uint16_t type);
+// Frame data a slow peer may lose (PodFrame, MeshFrame, TextureBundle).
+bool isDroppable(MessageType type);
+
+struct FrameHeader {
+  uint8_t major = kVersionMajor;
+  uint8_t minor = kVersionMinor;
+  uint16_t type = 0;
+  uint16_t flags = 0;
+  uint32_t payload_length = 0;
+  uint64_t sequence = 0;
+  uint32_t crc = 0;
+};
+
+// A whole frame, header included, in one buffer.
+struct Frame {
+  FrameHeader header;
+  std::vector<uint8_t> bytes;
+  std::span<const uint8_t> payload() const {
+    return std::span<const uint8_t>(bytes).subspan(kHeaderSize);
+  }
+};
+
+// Builds one frame in a single buffer: the caller writes the payload straight
+// after the reserved header, then finish() fills in length and CRC. No copy
+// of the payload is made.
+class FrameBuilder {
+ public:
+  FrameBuilder(MessageType type, uint64_t sequence, size_t payload_hint = 0);
+  std::vector<uint8_t>& buffer() { return bytes_; }
+  // Pins the encoded minor (an encoder can speak an older minor).
+  void setMinor(uint8_t minor) { minor_ = minor; }
+  std::vector<uint8_t> finish() &&;
+
+ private:
+  MessageType type_;
+  uint64_t sequence_;
+  uint8_t minor_ = kVersionMinor;
+  std::vector<uint8_t> bytes_;
+};
+
+// Parses a header from exactly kHeaderSize bytes and validates everything
+// that can be validated without the payload (magic, major, reserved bits,
+// length cap). stream_offset is only used in error messages.
+Status parseHeader(std::span<const uint8_t> bytes, uint32_t max_payload, uint64_t stream_offset,
+                   FrameHeader& header);
+
+// Checks a complete frame's CRC.
+Status verifyCrc(const Frame& frame, uint64_t stream_offset);
+
+// Incremental decoder for a byte stream of frames. Feed it bytes in chunks of
+// any size; it never allocates more than the header's length after that
+// length passed the cap. After an error it stays failed. Safe on untrusted
+// input.
+class StreamDecoder {
+ public:
+  explicit StreamDecoder(uint32_t max_payload = kDefaultMaxPayload) : max_payload_(max_payload) {}
+
+  // Where the next bytes from the socket should go (read straight into the
+  // frame's own buffer, so a payload is never copied on receipt).
+  std::span<uint8_t> writableSpan();
+  // Accounts for n bytes written into writableSpan().
+  void commit(size_t n);
+  // Convenience: copies from data through writableSpan/commit until consumed
+  // or failed.
+  void feed(std::span<const uint8_t> data);
+
+  // True when a complete, checked frame can be taken.
+  bool hasFrame() const { return ready_head_ < ready_.size(); }
+  Frame takeFrame();
+
+  const Status& status() const { return status_; }
+  uint64_t bytesConsumed() const { return stream_offset_; }
+
+ private:
+  void onHeaderComplete();
+  void onFrameComplete();
+
+  uint32_t max_payload_;
+  Status status_;
+  uint8_t header_bytes_[kHeaderSize] = {};
+  size_t header_filled_ = 0;
+  bool in_payload_ = false;
+  Frame current_;
+  size_t payload_filled_ = 0;
+  uint64_t stream_offset_ = 0;        // bytes committed so far
+  uint64_t frame_start_offset_ = 0;   // stream offset of current frame
+  std::vector<Frame> ready_;
+  size_t ready_head_ = 0;
+};
+
+}  // namespace holofuse::protocol

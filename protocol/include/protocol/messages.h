@@ -1,0 +1,214 @@
+// The messages of protocol/SPEC.md section 5: plain structs, their payload
+// encoders, and decoders that are safe on untrusted bytes. Bulk data (image
+// planes, Draco bytes) is carried as spans into the frame buffer: decoding
+// copies nothing.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "protocol/frame.h"
+#include "protocol/status.h"
+#include "protocol/wire.h"
+
+namespace holofuse::protocol {
+
+// Stage ids of SPEC.md section 5, in loop order.
+enum class Stage : uint16_t {
+  kPodRender = 1,
+  kSegment = 2,
+  kFeather = 3,
+  kPodEncode = 4,
+  kSend = 5,
+  kSyncWait = 6,
+  kHull = 7,
+  kMeshEncode = 8,
+  kImageEncode = 9,
+  kFanout = 10,
+  kDecode = 11,
+  kUpload = 12,
+  kRender = 13,
+  kWrite = 14,
+};
+constexpr uint16_t kFirstStage = 1;
+constexpr uint16_t kLastStage = 14;
+// Snake-case name of a stage id ("pod_render"), or "stage_<n>" for unknown ids.
+std::string stageName(uint16_t stage);
+
+constexpr uint16_t kSourceServer = 0xFFFF;
+constexpr uint16_t kSourceClient = 0xFFFE;
+constexpr size_t kMaxStamps = 1024;
+constexpr size_t kMaxPlanes = 8;
+constexpr size_t kMaxImages = 64;
+constexpr size_t kMaxDistortion = 8;
+constexpr uint32_t kMaxPlaneBytes = 256u << 20;
+
+struct StageStamp {
+  uint16_t stage = 0;
+  uint16_t source = 0;
+  uint64_t start_ns = 0;
+  uint64_t end_ns = 0;
+  bool operator==(const StageStamp&) const = default;
+};
+
+enum class PlaneKind : uint8_t { kColor = 1, kMask = 2, kFeather = 3, kDepth = 4 };
+enum class Codec : uint8_t { kRaw = 0, kLz4 = 1, kLz4PlanarDelta = 2 };
+enum class PixelFormat : uint8_t { kRgb8 = 1, kGray8 = 2, kR16 = 3 };
+uint32_t bytesPerPixel(PixelFormat format);
+
+struct Plane {
+  PlaneKind kind = PlaneKind::kColor;
+  Codec codec = Codec::kRaw;
+  PixelFormat format = PixelFormat::kRgb8;
+  uint32_t width = 0;
+  uint32_t height = 0;
+  uint32_t raw_size = 0;
+  std::span<const uint8_t> data;
+};
+
+enum class Role : uint8_t { kPod = 1, kClient = 2 };
+
+struct Hello {
+  static constexpr MessageType kType = MessageType::kHello;
+  Role role = Role::kPod;
+  uint32_t id = 0;
+  uint8_t min_major = kVersionMajor, min_minor = 0;
+  uint8_t max_major = kVersionMajor, max_minor = kVersionMinor;
+  uint64_t capabilities = 0;
+  uint64_t nonce = 0;
+  uint64_t send_time_ns = 0;
+  std::string name;
+};
+
+struct HelloAck {
+  static constexpr MessageType kType = MessageType::kHelloAck;
+  uint8_t major = kVersionMajor, minor = kVersionMinor;
+  uint32_t session_id = 0;
+  uint64_t server_time_ns = 0;
+  uint32_t heartbeat_interval_ms = 500;
+  uint32_t idle_timeout_ms = 5000;
+};
+
+struct Calibration {
+  static constexpr MessageType kType = MessageType::kCalibration;
+  uint32_t camera_id = 0;
+  uint32_t width = 0, height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0, skew = 0;
+  std::vector<double> distortion;     // OpenCV order k1 k2 p1 p2 k3 ...
+  std::array<double, 9> rotation{};   // world to camera, row major
+  std::array<double, 3> translation{};
+};
+
+struct PodFrame {
+  static constexpr MessageType kType = MessageType::kPodFrame;
+  uint64_t frame_id = 0;
+  uint32_t camera_id = 0;
+  uint64_t capture_time_ns = 0;
+  uint32_t offset_x = 0, offset_y = 0;
+  std::vector<StageStamp> stamps;
+  std::vector<Plane> planes;
+};
+
+enum class MeshCodec : uint8_t { kDraco = 1 };
+
+struct MeshFrame {
+  static constexpr MessageType kType = MessageType::kMeshFrame;
+  uint64_t frame_id = 0;
+  uint64_t capture_time_ns = 0;
+  std::array<float, 3> bounds_min{}, bounds_max{};
+  uint32_t vertex_count = 0;
+  uint32_t triangle_count = 0;
+  MeshCodec codec = MeshCodec::kDraco;
+  std::vector<StageStamp> stamps;
+  std::span<const uint8_t> mesh;
+};
+
+struct BundleImage {
+  uint32_t camera_id = 0;
+  uint32_t offset_x = 0, offset_y = 0;
+  std::vector<Plane> planes;
+};
+
+struct TextureBundle {
+  static constexpr MessageType kType = MessageType::kTextureBundle;
+  uint64_t frame_id = 0;
+  std::vector<StageStamp> stamps;
+  std::vector<BundleImage> images;
+};
+
+struct Heartbeat {
+  static constexpr MessageType kType = MessageType::kHeartbeat;
+  uint64_t send_time_ns = 0;
+};
+
+struct Stats {
+  static constexpr MessageType kType = MessageType::kStats;
+  uint64_t frame_id = 0;
+  uint32_t cameras_expected = 0;
+  uint64_t cameras_present = 0;
+  uint64_t late_frames = 0;
+  uint64_t dropped_groups = 0;
+  uint64_t pod_bytes = 0;
+  std::string note;
+};
+
+struct Bye {
+  static constexpr MessageType kType = MessageType::kBye;
+  std::string reason;
+};
+
+struct ErrorMessage {
+  static constexpr MessageType kType = MessageType::kError;
+  uint16_t code = 0;
+  std::string message;
+};
+
+// Payload encoders.
+void writePayload(WireWriter& w, const Hello& m);
+void writePayload(WireWriter& w, const HelloAck& m);
+void writePayload(WireWriter& w, const Calibration& m);
+void writePayload(WireWriter& w, const PodFrame& m);
+void writePayload(WireWriter& w, const MeshFrame& m);
+void writePayload(WireWriter& w, const TextureBundle& m);
+void writePayload(WireWriter& w, const Heartbeat& m);
+void writePayload(WireWriter& w, const Stats& m);
+void writePayload(WireWriter& w, const Bye& m);
+void writePayload(WireWriter& w, const ErrorMessage& m);
+
+// Payload decoders: read the fields this build knows, ignore trailing bytes
+// (a newer minor's fields). base_offset positions errors in the stream.
+Status readPayload(std::span<const uint8_t> payload, Hello& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, HelloAck& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, Calibration& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, PodFrame& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, MeshFrame& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, Heartbeat& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, Bye& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, ErrorMessage& m, size_t base_offset = 0);
+
+// A whole frame for message m.
+template <typename Message>
+std::vector<uint8_t> encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0) {
+  FrameBuilder builder(Message::kType, sequence, payload_hint);
+  WireWriter w(builder.buffer());
+  writePayload(w, m);
+  return std::move(builder).finish();
+}
+
+// Decodes a frame's payload as Message after checking its type.
+template <typename Message>
+Status decodeFrame(const Frame& frame, Message& m) {
+  if (frame.header.type != static_cast<uint16_t>(Message::kType)) {
+    return Status(StatusCode::kUnexpectedMessage,
+                  std::string("expected ") + messageTypeName(static_cast<uint16_t>(Message::kType)) +
+                      ", got " + messageTypeName(frame.header.type));
+  }
+  return readPayload(frame.payload(), m, kHeaderSize);
+}
+
+}  // namespace holofuse::protocol

@@ -1,0 +1,83 @@
+// ServerLink: the connecting side of a pod or client. Connects, handshakes,
+// reconnects with capped exponential backoff (saying so), sends heartbeats
+// when idle and gives up on a silent server after the idle timeout.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "protocol/connection.h"
+#include "protocol/messages.h"
+#include "protocol/socket.h"
+
+namespace holofuse::protocol {
+
+struct LinkOptions {
+  int connect_timeout_ms = 1000;
+  int backoff_initial_ms = 100;
+  int backoff_max_ms = 2000;
+  uint32_t heartbeat_interval_ms = 500;
+  uint32_t idle_timeout_ms = 5000;
+  ConnectionLimits limits;
+  std::string log_name = "link";  // prefix of log lines
+};
+
+class ServerLink {
+ public:
+  ServerLink(Endpoint server, Hello hello, LinkOptions options);
+
+  // One turn of I/O: connects when the backoff allows, waits up to
+  // timeout_ms for the socket, reads, writes, heartbeats, checks the idle
+  // timeout. Frames other than handshake and heartbeats go to received.
+  void poll(int timeout_ms, std::vector<Frame>& received);
+
+  // Handshake complete and the connection alive.
+  bool ready() const { return connection_ != nullptr && acked_; }
+  // True once after every completed handshake (to resend what a new
+  // connection needs, such as Calibration).
+  bool takeConnectedEvent();
+  // Set when the server refused us for good (version mismatch): retrying
+  // cannot help.
+  const std::optional<Status>& fatalError() const { return fatal_; }
+
+  void send(SharedBytes frame);
+  template <typename Message>
+  void sendMessage(const Message& m) {
+    send(std::make_shared<const std::vector<uint8_t>>(encodeFrame(m, nextSequence())));
+  }
+  // Sends Bye with the reason and flushes for a short while.
+  void close(const std::string& reason);
+
+  uint64_t connects() const { return connects_; }
+  uint64_t bytesOut() const { return bytes_out_closed_ + (connection_ ? connection_->bytesOut() : 0); }
+  uint64_t bytesIn() const { return bytes_in_closed_ + (connection_ ? connection_->bytesIn() : 0); }
+  uint64_t framesDropped() const {
+    return dropped_closed_ + (connection_ ? connection_->framesDropped() : 0);
+  }
+  size_t queuedFrames() const { return connection_ ? connection_->queuedFrames() : 0; }
+
+ private:
+  void tryConnect();
+  void fail(const Status& why);
+  void handle(Frame frame, std::vector<Frame>& received);
+
+  Endpoint server_;
+  Hello hello_;
+  LinkOptions options_;
+  std::unique_ptr<Connection> connection_;
+  bool acked_ = false;
+  bool connected_event_ = false;
+  std::optional<Status> fatal_;
+  int backoff_ms_ = 0;
+  uint64_t next_attempt_ns_ = 0;
+  uint64_t connects_ = 0;
+  uint64_t attempts_failed_ = 0;
+  uint64_t bytes_out_closed_ = 0, bytes_in_closed_ = 0, dropped_closed_ = 0;
+  uint32_t heartbeat_interval_ms_;
+  uint32_t idle_timeout_ms_;
+};
+
+}  // namespace holofuse::protocol

@@ -1,0 +1,132 @@
+#include "protocol/connection.h"
+
+#include <poll.h>
+
+#include <atomic>
+#include <cstring>
+
+#include "protocol/clock.h"
+
+namespace holofuse::protocol {
+
+uint64_t nextSequence() {
+  static std::atomic<uint64_t> counter{0};
+  return counter.fetch_add(1, std::memory_order_relaxed);
+}
+
+Connection::Connection(Socket socket, std::string peer_name, ConnectionLimits limits)
+    : socket_(std::move(socket)),
+      peer_name_(std::move(peer_name)),
+      limits_(limits),
+      decoder_(limits.max_payload) {
+  last_receive_ns_ = monotonicNs();
+  last_send_ns_ = last_receive_ns_;
+}
+
+void Connection::send(SharedBytes frame) {
+  Outgoing out;
+  out.droppable = frame->size() >= kHeaderSize && ((*frame)[8] & kFlagDroppable) != 0;
+  queued_bytes_ += frame->size();
+  out.bytes = std::move(frame);
+  if (out.droppable) ++queued_droppable_;
+  queue_.push_back(std::move(out));
+  while (queued_droppable_ - startedDroppable() > limits_.max_queued_droppable) {
+    dropOldestDroppable();
+  }
+}
+
+size_t Connection::startedDroppable() const {
+  return (!queue_.empty() && queue_.front().droppable && queue_.front().offset != 0) ? 1 : 0;
+}
+
+void Connection::dropOldestDroppable() {
+  // The head may be half written: it must finish or the stream breaks.
+  for (size_t i = 0; i < queue_.size(); ++i) {
+    auto& out = queue_[i];
+    if (!out.droppable || out.offset != 0) continue;
+    queued_bytes_ -= out.bytes->size();
+    --queued_droppable_;
+    ++frames_dropped_;
+    queue_.erase(queue_.begin() + static_cast<std::ptrdiff_t>(i));
+    return;
+  }
+}
+
+Status Connection::onWritable() {
+  constexpr int kMaxParts = 16;
+  while (!queue_.empty()) {
+    iovec parts[kMaxParts];
+    int count = 0;
+    for (const auto& out : queue_) {
+      if (count == kMaxParts) break;
+      parts[count].iov_base = const_cast<uint8_t*>(out.bytes->data() + out.offset);
+      parts[count].iov_len = out.bytes->size() - out.offset;
+      ++count;
+    }
+    const IoResult r = socket_.writeVector(parts, count);
+    if (r.error != 0) {
+      return Status(StatusCode::kIoError,
+                    "write to " + peer_name_ + " failed: " + std::strerror(r.error));
+    }
+    if (r.would_block) break;
+    bytes_out_ += r.bytes;
+    last_send_ns_ = monotonicNs();
+    size_t left = r.bytes;
+    while (left > 0 && !queue_.empty()) {
+      auto& head = queue_.front();
+      const size_t rest = head.bytes->size() - head.offset;
+      if (left < rest) {
+        head.offset += left;
+        left = 0;
+        break;
+      }
+      left -= rest;
+      queued_bytes_ -= head.bytes->size();
+      if (head.droppable) --queued_droppable_;
+      queue_.pop_front();
+    }
+  }
+  if (queued_bytes_ > limits_.max_queued_bytes) {
+    return Status(StatusCode::kIoError, "peer " + peer_name_ + " is not reading: " +
+                                            std::to_string(queued_bytes_) +
+                                            " bytes of control messages queued");
+  }
+  return Status::ok();
+}
+
+Status Connection::onReadable() {
+  for (;;) {
+    auto into = decoder_.writableSpan();
+    if (!decoder_.status().isOk()) {
+      return Status(decoder_.status().code(),
+                    "from " + peer_name_ + ": " + decoder_.status().message());
+    }
+    const IoResult r = socket_.readSome(into);
+    if (r.error != 0) {
+      return Status(StatusCode::kIoError,
+                    "read from " + peer_name_ + " failed: " + std::strerror(r.error));
+    }
+    if (r.closed) return Status(StatusCode::kClosed, peer_name_ + " closed the connection");
+    if (r.would_block) return Status::ok();
+    last_receive_ns_ = monotonicNs();
+    decoder_.commit(r.bytes);
+    if (!decoder_.status().isOk()) {
+      return Status(decoder_.status().code(),
+                    "from " + peer_name_ + ": " + decoder_.status().message());
+    }
+  }
+}
+
+void Connection::drain(int timeout_ms) {
+  const uint64_t deadline = monotonicNs() + static_cast<uint64_t>(timeout_ms) * 1000000ull;
+  while (wantsWrite()) {
+    if (!onWritable().isOk()) return;
+    if (!wantsWrite()) return;
+    const uint64_t now = monotonicNs();
+    if (now >= deadline) return;
+    pollfd p{fd(), POLLOUT, 0};
+    ::poll(&p, 1, static_cast<int>((deadline - now) / 1000000ull) + 1);
+  }
+}
+
+}  // namespace holofuse::protocol

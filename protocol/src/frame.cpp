@@ -1,0 +1,172 @@
+#include "protocol/frame.h"
+
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include "protocol/crc32c.h"
+#include "protocol/wire.h"
+
+namespace holofuse::protocol {
+
+const char* messageTypeName(uint16_t type) {
+  switch (static_cast<MessageType>(type)) {
+    case MessageType::kHello: return "Hello";
+    case MessageType::kHelloAck: return "HelloAck";
+    case MessageType::kAuth: return "Auth";
+    case MessageType::kCalibration: return "Calibration";
+    case MessageType::kPodFrame: return "PodFrame";
+    case MessageType::kMeshFrame: return "MeshFrame";
+    case MessageType::kTextureBundle: return "TextureBundle";
+    case MessageType::kHeartbeat: return "Heartbeat";
+    case MessageType::kStats: return "Stats";
+    case MessageType::kBye: return "Bye";
+    case MessageType::kError: return "Error";
+  }
+  return "unknown";
+}
+
+bool isDroppable(MessageType type) {
+  return type == MessageType::kPodFrame || type == MessageType::kMeshFrame ||
+         type == MessageType::kTextureBundle;
+}
+
+FrameBuilder::FrameBuilder(MessageType type, uint64_t sequence, size_t payload_hint)
+    : type_(type), sequence_(sequence) {
+  bytes_.reserve(kHeaderSize + payload_hint);
+  bytes_.resize(kHeaderSize);
+}
+
+std::vector<uint8_t> FrameBuilder::finish() && {
+  const uint64_t payload_length = bytes_.size() - kHeaderSize;
+  std::vector<uint8_t> header;
+  header.reserve(kHeaderSize);
+  WireWriter w(header);
+  w.raw(kMagic);
+  w.u8(kVersionMajor);
+  w.u8(minor_);
+  w.u16(static_cast<uint16_t>(type_));
+  w.u16(isDroppable(type_) ? kFlagDroppable : 0);
+  w.u16(0);
+  w.u32(static_cast<uint32_t>(payload_length));
+  w.u64(sequence_);
+  std::memcpy(bytes_.data(), header.data(), kHeaderSize - 4);
+  uint32_t crc = crc32c(0, bytes_.data(), kHeaderSize - 4);
+  crc = crc32c(crc, bytes_.data() + kHeaderSize, payload_length);
+  for (int i = 0; i < 4; ++i) bytes_[kHeaderSize - 4 + i] = static_cast<uint8_t>(crc >> (8 * i));
+  return std::move(bytes_);
+}
+
+Status parseHeader(std::span<const uint8_t> bytes, uint32_t max_payload, uint64_t stream_offset,
+                   FrameHeader& header) {
+  WireReader r(bytes.first(std::min(bytes.size(), kHeaderSize)), stream_offset);
+  auto magic = r.raw("magic", 4);
+  if (r.ok() && !std::equal(magic.begin(), magic.end(), kMagic)) {
+    return Status(StatusCode::kBadMagic, "field 'magic' at offset " + std::to_string(stream_offset) +
+                                             ": expected 'HFUS'");
+  }
+  header.major = r.u8("major");
+  header.minor = r.u8("minor");
+  header.type = r.u16("message_type");
+  header.flags = r.u16("flags");
+  const uint16_t reserved = r.u16("reserved");
+  header.payload_length = r.u32("payload_length");
+  header.sequence = r.u64("sequence");
+  header.crc = r.u32("crc32c");
+  HOLOFUSE_RETURN_IF_ERROR(r.status());
+  const std::string at = " at offset ";
+  if (header.major != kVersionMajor) {
+    return Status(StatusCode::kUnsupportedVersion,
+                  "field 'major'" + at + std::to_string(stream_offset + 4) + ": version " +
+                      std::to_string(header.major) + "." + std::to_string(header.minor) +
+                      ", this build speaks " + std::to_string(kVersionMajor) + ".x");
+  }
+  if ((header.flags & ~kKnownFlags) != 0) {
+    return Status(StatusCode::kReservedNonZero, "field 'flags'" + at +
+                                                    std::to_string(stream_offset + 8) +
+                                                    ": reserved bits set");
+  }
+  if (reserved != 0) {
+    return Status(StatusCode::kReservedNonZero,
+                  "field 'reserved'" + at + std::to_string(stream_offset + 10) + ": must be 0");
+  }
+  if (header.payload_length > max_payload) {
+    return Status(StatusCode::kTooLarge, "field 'payload_length'" + at +
+                                             std::to_string(stream_offset + 12) + ": " +
+                                             std::to_string(header.payload_length) +
+                                             " bytes above cap " + std::to_string(max_payload));
+  }
+  return Status::ok();
+}
+
+Status verifyCrc(const Frame& frame, uint64_t stream_offset) {
+  uint32_t crc = crc32c(0, frame.bytes.data(), kHeaderSize - 4);
+  crc = crc32c(crc, frame.bytes.data() + kHeaderSize, frame.bytes.size() - kHeaderSize);
+  if (crc != frame.header.crc) {
+    return Status(StatusCode::kBadChecksum,
+                  "field 'crc32c' at offset " + std::to_string(stream_offset + 24) + ": " +
+                      messageTypeName(frame.header.type) + " frame, sequence " +
+                      std::to_string(frame.header.sequence) + ", checksum mismatch");
+  }
+  return Status::ok();
+}
+
+std::span<uint8_t> StreamDecoder::writableSpan() {
+  if (!status_.isOk()) return {};
+  if (!in_payload_) return std::span<uint8_t>(header_bytes_ + header_filled_, kHeaderSize - header_filled_);
+  return std::span<uint8_t>(current_.bytes).subspan(kHeaderSize + payload_filled_);
+}
+
+void StreamDecoder::commit(size_t n) {
+  stream_offset_ += n;
+  if (!in_payload_) {
+    header_filled_ += n;
+    if (header_filled_ == kHeaderSize) onHeaderComplete();
+    return;
+  }
+  payload_filled_ += n;
+  if (payload_filled_ == current_.header.payload_length) onFrameComplete();
+}
+
+void StreamDecoder::feed(std::span<const uint8_t> data) {
+  while (!data.empty() && status_.isOk()) {
+    auto dst = writableSpan();
+    const size_t n = std::min(dst.size(), data.size());
+    std::memcpy(dst.data(), data.data(), n);
+    data = data.subspan(n);
+    commit(n);
+  }
+}
+
+void StreamDecoder::onHeaderComplete() {
+  FrameHeader header;
+  status_ = parseHeader(std::span<const uint8_t>(header_bytes_, kHeaderSize), max_payload_,
+                        frame_start_offset_, header);
+  if (!status_.isOk()) return;
+  // The length passed the cap: only now is the buffer sized.
+  current_ = Frame{};
+  current_.header = header;
+  current_.bytes.resize(kHeaderSize + header.payload_length);
+  std::memcpy(current_.bytes.data(), header_bytes_, kHeaderSize);
+  payload_filled_ = 0;
+  in_payload_ = true;
+  if (header.payload_length == 0) onFrameComplete();
+}
+
+void StreamDecoder::onFrameComplete() {
+  status_ = verifyCrc(current_, frame_start_offset_);
+  if (!status_.isOk()) return;
+  if (ready_head_ == ready_.size()) {
+    ready_.clear();
+    ready_head_ = 0;
+  }
+  ready_.push_back(std::move(current_));
+  current_ = Frame{};
+  in_payload_ = false;
+  header_filled_ = 0;
+  frame_start_offset_ = stream_offset_;
+}
+
+Frame StreamDecoder::takeFrame() { return std::move(ready_[ready_head_++]); }
+
+}  // namespace holofuse::protocol

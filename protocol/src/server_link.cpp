@@ -1,0 +1,163 @@
+#include "protocol/server_link.h"
+
+#include <poll.h>
+
+#include <cstdio>
+
+#include "protocol/clock.h"
+#include "protocol/handshake.h"
+
+namespace holofuse::protocol {
+
+ServerLink::ServerLink(Endpoint server, Hello hello, LinkOptions options)
+    : server_(std::move(server)),
+      hello_(std::move(hello)),
+      options_(std::move(options)),
+      heartbeat_interval_ms_(options_.heartbeat_interval_ms),
+      idle_timeout_ms_(options_.idle_timeout_ms) {}
+
+bool ServerLink::takeConnectedEvent() {
+  const bool event = connected_event_;
+  connected_event_ = false;
+  return event;
+}
+
+void ServerLink::tryConnect() {
+  auto socket = connectTcp(server_, options_.connect_timeout_ms);
+  const uint64_t now = monotonicNs();
+  if (!socket.isOk()) {
+    backoff_ms_ = backoff_ms_ == 0 ? options_.backoff_initial_ms
+                                   : std::min(backoff_ms_ * 2, options_.backoff_max_ms);
+    ++attempts_failed_;
+    std::fprintf(stderr, "[%s] cannot reach server %s (%s); retry %llu in %d ms\n",
+                 options_.log_name.c_str(), server_.toString().c_str(),
+                 socket.status().message().c_str(),
+                 static_cast<unsigned long long>(attempts_failed_), backoff_ms_);
+    next_attempt_ns_ = now + static_cast<uint64_t>(backoff_ms_) * 1000000ull;
+    return;
+  }
+  connection_ = std::make_unique<Connection>(std::move(*socket), server_.toString(), options_.limits);
+  acked_ = false;
+  hello_.send_time_ns = now;
+  connection_->sendMessage(hello_);
+}
+
+void ServerLink::fail(const Status& why) {
+  if (connection_ == nullptr) return;
+  std::fprintf(stderr, "[%s] connection to %s lost: %s\n", options_.log_name.c_str(),
+               server_.toString().c_str(), why.toString().c_str());
+  bytes_out_closed_ += connection_->bytesOut();
+  bytes_in_closed_ += connection_->bytesIn();
+  dropped_closed_ += connection_->framesDropped();
+  connection_.reset();
+  acked_ = false;
+  backoff_ms_ = options_.backoff_initial_ms;
+  next_attempt_ns_ = monotonicNs() + static_cast<uint64_t>(backoff_ms_) * 1000000ull;
+}
+
+void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
+  const auto type = static_cast<MessageType>(frame.header.type);
+  if (!acked_) {
+    if (type == MessageType::kError) {
+      ErrorMessage error;
+      const Status decoded = decodeFrame(frame, error);
+      const Status why(static_cast<StatusCode>(error.code),
+                       decoded.isOk() ? "server refused: " + error.message : decoded.message());
+      if (error.code == static_cast<uint16_t>(StatusCode::kUnsupportedVersion)) fatal_ = why;
+      fail(why);
+      return;
+    }
+    HelloAck ack;
+    Status s = decodeFrame(frame, ack);
+    if (s.isOk()) s = checkAck(hello_, ack);
+    if (!s.isOk()) {
+      if (s.code() == StatusCode::kUnsupportedVersion) fatal_ = s;
+      fail(s);
+      return;
+    }
+    acked_ = true;
+    connected_event_ = true;
+    ++connects_;
+    heartbeat_interval_ms_ = ack.heartbeat_interval_ms > 0 ? ack.heartbeat_interval_ms
+                                                           : options_.heartbeat_interval_ms;
+    idle_timeout_ms_ = ack.idle_timeout_ms > 0 ? ack.idle_timeout_ms : options_.idle_timeout_ms;
+    backoff_ms_ = 0;
+    if (attempts_failed_ > 0) {
+      std::fprintf(stderr, "[%s] connected to %s after %llu failed attempts\n",
+                   options_.log_name.c_str(), server_.toString().c_str(),
+                   static_cast<unsigned long long>(attempts_failed_));
+      attempts_failed_ = 0;
+    }
+    return;
+  }
+  switch (type) {
+    case MessageType::kHeartbeat:
+      return;
+    case MessageType::kBye: {
+      Bye bye;
+      (void)decodeFrame(frame, bye);
+      fail(Status(StatusCode::kClosed, "server said bye: " + bye.reason));
+      return;
+    }
+    default:
+      received.push_back(std::move(frame));
+  }
+}
+
+void ServerLink::poll(int timeout_ms, std::vector<Frame>& received) {
+  if (fatal_) return;
+  uint64_t now = monotonicNs();
+  if (connection_ == nullptr) {
+    if (now < next_attempt_ns_) {
+      const int wait_ms = static_cast<int>((next_attempt_ns_ - now) / 1000000ull);
+      ::poll(nullptr, 0, std::min(timeout_ms, wait_ms));
+      return;
+    }
+    tryConnect();
+    if (connection_ == nullptr) return;
+  }
+  pollfd p{connection_->fd(), static_cast<short>(POLLIN | (connection_->wantsWrite() ? POLLOUT : 0)),
+           0};
+  const int rc = ::poll(&p, 1, timeout_ms);
+  if (rc > 0 && (p.revents & (POLLIN | POLLHUP | POLLERR))) {
+    const Status s = connection_->onReadable();
+    while (connection_ != nullptr && connection_->hasFrame()) handle(connection_->takeFrame(), received);
+    if (!s.isOk()) {
+      fail(s);
+      return;
+    }
+  }
+  if (connection_ == nullptr) return;
+  now = monotonicNs();
+  if (acked_ && !connection_->wantsWrite() &&
+      now - connection_->lastSendNs() >= uint64_t{heartbeat_interval_ms_} * 1000000ull) {
+    connection_->sendMessage(Heartbeat{now});
+  }
+  if (connection_->wantsWrite()) {
+    const Status s = connection_->onWritable();
+    if (!s.isOk()) {
+      fail(s);
+      return;
+    }
+  }
+  if (now - connection_->lastReceiveNs() > uint64_t{idle_timeout_ms_} * 1000000ull) {
+    fail(Status(StatusCode::kTimeout, "heard nothing for " + std::to_string(idle_timeout_ms_) + " ms"));
+  }
+}
+
+void ServerLink::send(SharedBytes frame) {
+  if (connection_ != nullptr && acked_) connection_->send(std::move(frame));
+}
+
+void ServerLink::close(const std::string& reason) {
+  if (connection_ == nullptr) return;
+  connection_->sendMessage(Bye{reason});
+  connection_->drain(200);
+  bytes_out_closed_ += connection_->bytesOut();
+  bytes_in_closed_ += connection_->bytesIn();
+  dropped_closed_ += connection_->framesDropped();
+  connection_.reset();
+  acked_ = false;
+}
+
+}  // namespace holofuse::protocol

@@ -1,0 +1,22 @@
+// Blending modes of DESIGN.md section 6. Each mode is one value here, one
+// branch in shaders/blend.frag.glsl and one CPU reference; new modes
+// (holoportation, montage4d, fragment, layered) join the same list.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "shaders/config.h"
+
+namespace holofuse::render {
+
+enum class BlendMode : int {
+  kNormal = HOLOFUSE_MODE_NORMAL,  // max(0, n . d_i)^alpha with a depth-map occlusion test
+};
+
+std::optional<BlendMode> blendModeFromName(const std::string& name);
+std::string blendModeName(BlendMode mode);
+std::vector<std::string> blendModeNames();
+
+}  // namespace holofuse::render

@@ -1,0 +1,30 @@
+// The render client: receives calibration, texture bundles and meshes,
+// renders the user's view with the chosen blending mode, writes PNG frames
+// and, at the end, report.json.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "protocol/socket.h"
+#include "render_client/renderer.h"
+
+namespace holofuse::render {
+
+struct ClientOptions {
+  protocol::Endpoint server;
+  uint32_t client_id = 0;
+  std::string out_dir = "out";
+  uint64_t frames = 0;              // stop after this many rendered frames; 0 = until signalled
+  std::string view = "orbit";       // "orbit" or "pod:N"
+  double orbit_degrees_per_frame = 2.0;
+  uint32_t width = 320, height = 240;
+  std::string device;               // Vulkan device selector (VulkanContext)
+  BlendSettings blend;
+  int exclude_camera = -1;          // leave this camera out of the blend
+  bool write_frames = true;
+};
+
+int runClient(const ClientOptions& options);
+
+}  // namespace holofuse::render

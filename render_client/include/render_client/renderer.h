@@ -1,0 +1,87 @@
+// The render client's Vulkan pipeline: per-camera depth maps (recomputed
+// only when the mesh or the cameras change), then the user's view with the
+// pod images blended onto the mesh, read back as RGBA (alpha: coverage).
+#pragma once
+
+#include <glm/glm.hpp>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/image.h"
+#include "common/mesh.h"
+#include "render_client/blend_mode.h"
+#include "render_client/vulkan_context.h"
+
+namespace holofuse::render {
+
+struct BlendSettings {
+  BlendMode mode = BlendMode::kNormal;
+  float alpha = 2.0f;                         // exponent of the normal weight
+  float depth_tolerance = 0.03f;              // metres behind the depth map still visible
+  glm::vec3 hole_color{0.5f, 0.5f, 0.5f};     // surface that no camera sees
+  std::vector<bool> camera_enabled;           // empty: all cameras take part
+};
+
+struct ViewImages {
+  Camera camera;
+  Image8 color;  // RGB
+  Image8 mask;   // grey, 255 foreground
+};
+
+// Column-major world-to-clip matrix of a pinhole camera for Vulkan: x and y
+// map the image to [-1, 1] (y down, as in the image), w is the camera-space
+// depth and z/w runs from 0 at near to 1 at far.
+glm::mat4 worldToClip(const Camera& camera, double near_plane = 0.05, double far_plane = 100.0);
+
+class Renderer {
+ public:
+  Renderer(VulkanContext& context, uint32_t width, uint32_t height);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  void setMesh(const Mesh& mesh);
+  // All views must share one image size (the pods' calibration). Throws
+  // std::invalid_argument otherwise.
+  void setViews(const std::vector<ViewImages>& views);
+  // Renders the user's view. Depth maps are refreshed first if stale.
+  Image8 render(const Camera& user_camera, const BlendSettings& settings);
+
+  uint32_t width() const { return width_; }
+  uint32_t height() const { return height_; }
+  uint64_t depthMapPasses() const { return depth_map_passes_; }
+
+ private:
+  void createPipelines();
+  void ensureViewResources(uint32_t w, uint32_t h, uint32_t count);
+  void destroyViewResources();
+  void renderDepthMaps(VkCommandBuffer cmd);
+  void drawMesh(VkCommandBuffer cmd);
+
+  VulkanContext& ctx_;
+  uint32_t width_, height_;
+  // Mesh
+  Buffer vertex_buffer_, index_buffer_;
+  uint32_t index_count_ = 0;
+  // Pod views
+  std::vector<Camera> cameras_;
+  Image images_, depth_maps_, depth_scratch_;
+  std::vector<VkFramebuffer> depth_framebuffers_;
+  Buffer staging_;
+  bool depth_maps_stale_ = true;
+  uint64_t depth_map_passes_ = 0;
+  // Output
+  Image color_, depth_;
+  VkFramebuffer output_framebuffer_ = VK_NULL_HANDLE;
+  Buffer readback_, uniforms_;
+  // Pipelines
+  VkRenderPass depth_pass_ = VK_NULL_HANDLE, blend_pass_ = VK_NULL_HANDLE;
+  VkPipelineLayout depth_layout_ = VK_NULL_HANDLE, blend_layout_ = VK_NULL_HANDLE;
+  VkPipeline depth_pipeline_ = VK_NULL_HANDLE, blend_pipeline_ = VK_NULL_HANDLE;
+  VkDescriptorSetLayout set_layout_ = VK_NULL_HANDLE;
+  VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
+  VkDescriptorSet descriptor_set_ = VK_NULL_HANDLE;
+  VkSampler linear_sampler_ = VK_NULL_HANDLE, nearest_sampler_ = VK_NULL_HANDLE;
+};
+
+}  // namespace holofuse::render

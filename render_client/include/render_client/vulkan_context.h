@@ -1,0 +1,97 @@
+// Headless Vulkan: instance, the chosen device, one queue, and the small
+// helpers every pass needs (buffers, images, one-shot submission).
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace holofuse::render {
+
+// Vulkan failures are programmer or platform errors at this level: they
+// throw with the call, the result code and the place.
+#define HOLOFUSE_VK_CHECK(call)                                                              \
+  do {                                                                                       \
+    const VkResult holofuse_vk_result_ = (call);                                             \
+    if (holofuse_vk_result_ != VK_SUCCESS) ::holofuse::render::vkFail(#call, holofuse_vk_result_, __FILE__, __LINE__); \
+  } while (0)
+
+[[noreturn]] void vkFail(const char* call, VkResult result, const char* file, int line);
+
+struct Buffer {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkDeviceSize size = 0;
+  void* mapped = nullptr;  // host-visible buffers stay mapped
+};
+
+struct Image {
+  VkImage image = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkImageView view = VK_NULL_HANDLE;               // all layers
+  std::vector<VkImageView> layer_views;            // one per layer (render targets)
+  VkFormat format = VK_FORMAT_UNDEFINED;
+  uint32_t width = 0, height = 0, layers = 0;
+};
+
+struct DeviceInfo {
+  std::string name;
+  VkPhysicalDeviceType type = VK_PHYSICAL_DEVICE_TYPE_OTHER;
+};
+
+class VulkanContext {
+ public:
+  // device_selector: empty picks a discrete, then integrated GPU, then a CPU
+  // device (lavapipe); a number picks that index; other text picks the
+  // first device whose name contains it.
+  explicit VulkanContext(const std::string& device_selector = "");
+  ~VulkanContext();
+  VulkanContext(const VulkanContext&) = delete;
+  VulkanContext& operator=(const VulkanContext&) = delete;
+
+  static std::vector<DeviceInfo> listDevices();
+
+  VkDevice device() const { return device_; }
+  VkPhysicalDevice physicalDevice() const { return physical_; }
+  VkQueue queue() const { return queue_; }
+  const std::string& deviceName() const { return device_name_; }
+
+  Buffer createBuffer(VkDeviceSize size, VkBufferUsageFlags usage);
+  void destroy(Buffer& buffer);
+  Image createImage(uint32_t width, uint32_t height, uint32_t layers, VkFormat format, VkImageUsageFlags usage,
+                    VkImageAspectFlags aspect, bool per_layer_views);
+  void destroy(Image& image);
+  VkShaderModule createShader(const uint32_t* code, size_t bytes);
+
+  // Records with fn into a fresh command buffer, submits and waits.
+  template <typename Fn>
+  void submitAndWait(Fn&& fn) {
+    VkCommandBuffer cmd = beginOneShot();
+    fn(cmd);
+    endOneShotAndWait(cmd);
+  }
+
+ private:
+  VkCommandBuffer beginOneShot();
+  void endOneShotAndWait(VkCommandBuffer cmd);
+  uint32_t memoryType(uint32_t bits, VkMemoryPropertyFlags flags) const;
+
+  VkInstance instance_ = VK_NULL_HANDLE;
+  VkPhysicalDevice physical_ = VK_NULL_HANDLE;
+  VkDevice device_ = VK_NULL_HANDLE;
+  VkQueue queue_ = VK_NULL_HANDLE;
+  uint32_t queue_family_ = 0;
+  VkCommandPool pool_ = VK_NULL_HANDLE;
+  VkFence fence_ = VK_NULL_HANDLE;
+  std::string device_name_;
+};
+
+// One image layout transition as a pipeline barrier.
+void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect, VkImageLayout from,
+                     VkImageLayout to, VkAccessFlags src_access, VkAccessFlags dst_access,
+                     VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage);
+
+}  // namespace holofuse::render

@@ -1,0 +1,300 @@
+#include "render_client/client.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "common/camera.h"
+#include "common/image_codec.h"
+#include "common/mesh_codec.h"
+#include "common/shutdown.h"
+#include "protocol/clock.h"
+#include "protocol/server_link.h"
+#include "render_client/latency_report.h"
+
+namespace holofuse::render {
+
+using protocol::monotonicNs;
+using protocol::Stage;
+using protocol::kSourceClient;
+
+namespace {
+
+struct PendingBundle {
+  std::vector<ViewImages> views;
+  std::vector<protocol::StageStamp> stamps;
+  uint64_t bytes = 0;
+};
+
+// The user camera: orbiting the subject at the pods' mean distance and
+// height, or sitting exactly at a pod camera.
+std::optional<Camera> userCamera(const ClientOptions& options, const std::map<uint32_t, Camera>& cameras,
+                                 const Bounds& bounds, size_t frame_index) {
+  if (cameras.empty()) return std::nullopt;
+  if (options.view.rfind("pod:", 0) == 0) {
+    const uint32_t id = static_cast<uint32_t>(std::stoul(options.view.substr(4)));
+    auto it = cameras.find(id);
+    if (it == cameras.end()) return std::nullopt;
+    return it->second;
+  }
+  const glm::dvec3 target = 0.5 * (glm::dvec3(bounds.min) + glm::dvec3(bounds.max));
+  double radius = 0, height = 0;
+  for (const auto& [id, cam] : cameras) {
+    const glm::dvec3 c = cam.center();
+    radius += std::hypot(c.x - target.x, c.z - target.z);
+    height += c.y;
+  }
+  radius /= static_cast<double>(cameras.size());
+  height /= static_cast<double>(cameras.size());
+  const double angle = options.orbit_degrees_per_frame * static_cast<double>(frame_index) * std::numbers::pi / 180.0;
+  const glm::dvec3 eye(target.x + radius * std::sin(angle), height, target.z + radius * std::cos(angle));
+  return lookAtCamera(0, eye, target, glm::dvec3(0, 1, 0), options.width, options.height, 48.0);
+}
+
+void writePng(const std::string& path, const Image8& rgba) {
+  cv::Mat mat(static_cast<int>(rgba.height), static_cast<int>(rgba.width), CV_8UC4,
+              const_cast<uint8_t*>(rgba.pixels.data()));
+  cv::Mat bgra;
+  cv::cvtColor(mat, bgra, cv::COLOR_RGBA2BGRA);
+  cv::imwrite(path, bgra, {cv::IMWRITE_PNG_COMPRESSION, 1});
+}
+
+}  // namespace
+
+int runClient(const ClientOptions& options) {
+  namespace fs = std::filesystem;
+  const fs::path out_dir(options.out_dir);
+  std::error_code ec;
+  fs::create_directories(out_dir / "frames", ec);
+  if (ec) {
+    std::fprintf(stderr, "[client] cannot create %s: %s\n", (out_dir / "frames").c_str(), ec.message().c_str());
+    return 1;
+  }
+  std::unique_ptr<VulkanContext> context;
+  std::unique_ptr<Renderer> renderer;
+  try {
+    context = std::make_unique<VulkanContext>(options.device);
+    renderer = std::make_unique<Renderer>(*context, options.width, options.height);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "[client] Vulkan start-up failed: %s\n", e.what());
+    return 1;
+  }
+  std::fprintf(stderr, "[client] rendering on %s, mode %s\n", context->deviceName().c_str(),
+               blendModeName(options.blend.mode).c_str());
+
+  protocol::Hello hello;
+  hello.role = protocol::Role::kClient;
+  hello.id = options.client_id;
+  hello.nonce = protocol::realtimeNs();
+  hello.name = "client-" + std::to_string(options.client_id);
+  protocol::LinkOptions link_options;
+  link_options.log_name = "client";
+  link_options.limits.max_queued_droppable = 16;
+  protocol::ServerLink link(options.server, hello, link_options);
+
+  std::map<uint32_t, Camera> cameras;
+  std::map<uint64_t, PendingBundle> bundles;
+  std::map<uint64_t, protocol::Stats> stats;
+  std::map<uint64_t, uint64_t> frame_bytes;
+  LatencyReport report;
+  const bool tty = isatty(STDOUT_FILENO);
+  uint64_t last_progress_ns = 0;
+  std::vector<protocol::Frame> received;
+
+  auto skip = [&](uint64_t frame_id, const std::string& why) {
+    std::fprintf(stderr, "[client] frame %llu skipped, keeping the previous picture: %s\n",
+                 static_cast<unsigned long long>(frame_id), why.c_str());
+    report.noteSkipped("frame " + std::to_string(frame_id) + ": " + why);
+  };
+
+  while (!stopRequested() && (options.frames == 0 || report.framesRendered() < options.frames)) {
+    link.poll(50, received);
+    if (link.fatalError()) {
+      std::fprintf(stderr, "[client] giving up: %s\n", link.fatalError()->toString().c_str());
+      return 2;
+    }
+    for (auto& frame : received) {
+      const uint64_t receive_ns = monotonicNs();
+      const auto type = static_cast<protocol::MessageType>(frame.header.type);
+      if (type == protocol::MessageType::kCalibration) {
+        protocol::Calibration calibration;
+        const auto s = protocol::decodeFrame(frame, calibration);
+        if (!s.isOk()) {
+          std::fprintf(stderr, "[client] bad Calibration ignored: %s\n", s.toString().c_str());
+          continue;
+        }
+        cameras[calibration.camera_id] = fromCalibration(calibration);
+      } else if (type == protocol::MessageType::kStats) {
+        protocol::Stats st;
+        if (protocol::decodeFrame(frame, st).isOk()) {
+          frame_bytes[st.frame_id] += frame.bytes.size();
+          stats[st.frame_id] = st;
+          while (stats.size() > 64) stats.erase(stats.begin());
+        }
+      } else if (type == protocol::MessageType::kTextureBundle) {
+        protocol::TextureBundle bundle;
+        const uint64_t t0 = monotonicNs();
+        auto s = protocol::decodeFrame(frame, bundle);
+        if (!s.isOk()) {
+          skip(0, "TextureBundle: " + s.toString());
+          continue;
+        }
+        PendingBundle pending;
+        pending.bytes = frame.bytes.size();
+        pending.stamps = bundle.stamps;
+        for (auto& stamp : pending.stamps) {
+          if (stamp.stage == static_cast<uint16_t>(Stage::kFanout) && stamp.end_ns == 0) stamp.end_ns = receive_ns;
+        }
+        std::string error;
+        for (const auto& image : bundle.images) {
+          auto cam = cameras.find(image.camera_id);
+          if (cam == cameras.end()) {
+            error = "camera " + std::to_string(image.camera_id) + " has no calibration";
+            break;
+          }
+          ViewImages view;
+          view.camera = cam->second;
+          for (const auto& plane : image.planes) {
+            auto decoded = decodePlane(plane);
+            if (!decoded.isOk()) {
+              error = "camera " + std::to_string(image.camera_id) + ": " + decoded.status().message();
+              break;
+            }
+            if (plane.kind == protocol::PlaneKind::kColor) view.color = std::move(*decoded);
+            if (plane.kind == protocol::PlaneKind::kMask) view.mask = std::move(*decoded);
+          }
+          if (!error.empty()) break;
+          if (view.color.width != view.camera.width || view.color.height != view.camera.height ||
+              view.mask.width != view.camera.width || view.mask.height != view.camera.height ||
+              view.color.channels != 3 || view.mask.channels != 1) {
+            error = "camera " + std::to_string(image.camera_id) + " images are not " +
+                    std::to_string(view.camera.width) + "x" + std::to_string(view.camera.height) + " RGB + mask";
+            break;
+          }
+          pending.views.push_back(std::move(view));
+        }
+        if (!error.empty()) {
+          skip(bundle.frame_id, error);
+          continue;
+        }
+        pending.stamps.push_back({static_cast<uint16_t>(Stage::kDecode), kSourceClient, t0, monotonicNs()});
+        bundles[bundle.frame_id] = std::move(pending);
+        while (bundles.size() > 4) bundles.erase(bundles.begin());
+      } else if (type == protocol::MessageType::kMeshFrame) {
+        protocol::MeshFrame mesh_frame;
+        const uint64_t t0 = monotonicNs();
+        auto s = protocol::decodeFrame(frame, mesh_frame);
+        if (!s.isOk()) {
+          skip(0, "MeshFrame: " + s.toString());
+          continue;
+        }
+        auto bundle = bundles.find(mesh_frame.frame_id);
+        if (bundle == bundles.end()) {
+          skip(mesh_frame.frame_id, "its texture bundle was dropped on the way");
+          continue;
+        }
+        auto mesh = decodeDraco(mesh_frame.mesh.data(), mesh_frame.mesh.size());
+        if (!mesh.isOk()) {
+          skip(mesh_frame.frame_id, mesh.status().message());
+          bundles.erase(bundle);
+          continue;
+        }
+        const uint64_t t1 = monotonicNs();
+        std::vector<protocol::StageStamp> stamps = mesh_frame.stamps;
+        for (auto& stamp : stamps) {
+          if (stamp.stage == static_cast<uint16_t>(Stage::kFanout) && stamp.end_ns == 0) stamp.end_ns = receive_ns;
+        }
+        // Decode of this frame: the bundle's and the mesh's together.
+        double decode_ms = static_cast<double>(t1 - t0) / 1e6;
+        for (auto& stamp : bundle->second.stamps) {
+          if (stamp.stage == static_cast<uint16_t>(Stage::kDecode)) {
+            decode_ms += static_cast<double>(stamp.end_ns - stamp.start_ns) / 1e6;
+          } else if (stamp.stage == static_cast<uint16_t>(Stage::kImageEncode)) {
+            stamps.push_back(stamp);
+          }
+        }
+        try {
+          renderer->setMesh(*mesh);
+          renderer->setViews(bundle->second.views);
+        } catch (const std::exception& e) {
+          skip(mesh_frame.frame_id, e.what());
+          bundles.erase(bundle);
+          continue;
+        }
+        const uint64_t t2 = monotonicNs();
+        auto user = userCamera(options, cameras, meshBounds(*mesh), report.framesRendered());
+        if (!user) {
+          skip(mesh_frame.frame_id, "view '" + options.view + "' names no calibrated camera");
+          bundles.erase(bundle);
+          continue;
+        }
+        BlendSettings blend = options.blend;
+        if (options.exclude_camera >= 0) {
+          for (const auto& view : bundle->second.views) {
+            blend.camera_enabled.push_back(static_cast<int>(view.camera.id) != options.exclude_camera);
+          }
+        }
+        const Image8 picture = renderer->render(*user, blend);
+        const uint64_t t3 = monotonicNs();
+        FrameRecord record;
+        record.frame_id = mesh_frame.frame_id;
+        char name[64];
+        std::snprintf(name, sizeof(name), "frame_%06zu.png", report.framesRendered());
+        record.file = std::string("frames/") + name;
+        if (options.write_frames) writePng((out_dir / record.file).string(), picture);
+        const uint64_t t4 = monotonicNs();
+        stamps.push_back({static_cast<uint16_t>(Stage::kUpload), kSourceClient, t1, t2});
+        stamps.push_back({static_cast<uint16_t>(Stage::kRender), kSourceClient, t2, t3});
+        stamps.push_back({static_cast<uint16_t>(Stage::kWrite), kSourceClient, t3, t4});
+        report.addStamps(stamps);
+        report.addStage(static_cast<uint16_t>(Stage::kDecode), decode_ms);
+        record.end_to_end_ms = static_cast<double>(t4 - mesh_frame.capture_time_ns) / 1e6;
+        record.client_bytes = frame.bytes.size() + bundle->second.bytes + frame_bytes[mesh_frame.frame_id];
+        auto st = stats.find(mesh_frame.frame_id);
+        if (st != stats.end()) {
+          record.cameras_expected = st->second.cameras_expected;
+          record.cameras_present = static_cast<uint32_t>(__builtin_popcountll(st->second.cameras_present));
+          record.pod_bytes = st->second.pod_bytes;
+          record.note = st->second.note;
+        } else {
+          record.cameras_present = static_cast<uint32_t>(bundle->second.views.size());
+          record.cameras_expected = record.cameras_present;
+        }
+        report.addFrame(record, t4);
+        bundles.erase(bundles.begin(), std::next(bundle));
+      }
+    }
+    received.clear();
+    const uint64_t now = monotonicNs();
+    if (now - last_progress_ns > 1000000000ull && report.framesRendered() > 0) {
+      last_progress_ns = now;
+      const auto& last = report.frames().back();
+      std::printf("%sframes %zu%s | %5.1f fps | end-to-end p50 %6.1f ms p95 %6.1f ms | cameras %u/%u%s",
+                  tty ? "\r" : "", report.framesRendered(),
+                  options.frames ? ("/" + std::to_string(options.frames)).c_str() : "", report.fps(),
+                  report.endToEndPercentile(50), report.endToEndPercentile(95), last.cameras_present,
+                  last.cameras_expected, tty ? "   " : "\n");
+      std::fflush(stdout);
+    }
+  }
+  link.close(stopRequested() ? "client stopped by signal" : "client rendered its frames");
+  std::map<std::string, std::string> settings = {{"mode", blendModeName(options.blend.mode)},
+                                                 {"view", options.view},
+                                                 {"size", std::to_string(options.width) + "x" + std::to_string(options.height)},
+                                                 {"device", context->deviceName()}};
+  const fs::path report_path = out_dir / "report.json";
+  std::ofstream(report_path) << report.toJson(settings);
+  std::printf("%s[client] %zu frames, %.1f fps, end-to-end p50 %.1f ms p95 %.1f ms p99 %.1f ms; report: %s\n",
+              tty ? "\n" : "", report.framesRendered(), report.fps(), report.endToEndPercentile(50),
+              report.endToEndPercentile(95), report.endToEndPercentile(99), report_path.c_str());
+  return 0;
+}
+
+}  // namespace holofuse::render

@@ -1,0 +1,65 @@
+// render_client: headless Vulkan renderer of the fused stream. See
+// README.md for the flags.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "common/shutdown.h"
+#include "render_client/client.h"
+
+int main(int argc, char** argv) {
+  using namespace holofuse;
+  render::ClientOptions options;
+  std::string server, size = "320x240", mode = "normal";
+  bool list_devices = false;
+  CLI::App app{"holofuse render_client: renders the fused stream to PNG frames"};
+  app.add_option("--server", server, "fusion server HOST:PORT");
+  app.add_option("--out", options.out_dir, "output folder (frames/ and report.json)");
+  app.add_option("--frames", options.frames, "stop after this many rendered frames (0: until signalled)");
+  app.add_option("--size", size, "output size WxH");
+  app.add_option("--view", options.view, "user camera: orbit, or pod:N to sit at pod camera N");
+  app.add_option("--orbit-speed", options.orbit_degrees_per_frame, "orbit degrees per rendered frame");
+  app.add_option("--mode", mode, "blending mode")->check(CLI::IsMember(render::blendModeNames()));
+  app.add_option("--alpha", options.blend.alpha, "exponent of the view weights")->check(CLI::Range(0.0, 1000.0));
+  app.add_option("--depth-tolerance", options.blend.depth_tolerance, "occlusion test tolerance, metres")
+      ->check(CLI::Range(0.0, 10.0));
+  app.add_option("--exclude-camera", options.exclude_camera, "leave this pod camera out of the blend");
+  app.add_option("--device", options.device, "Vulkan device: index or part of its name (default: a GPU if any)");
+  app.add_option("--client-id", options.client_id, "this client's id");
+  app.add_flag("--list-devices", list_devices, "print the Vulkan devices and exit");
+  CLI11_PARSE(app, argc, argv);
+  if (list_devices) {
+    try {
+      const auto devices = render::VulkanContext::listDevices();
+      for (size_t i = 0; i < devices.size(); ++i) std::printf("%zu: %s\n", i, devices[i].name.c_str());
+      return 0;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "%s\n", e.what());
+      return 1;
+    }
+  }
+  if (server.empty()) {
+    std::fprintf(stderr, "--server is required\n%s", app.help().c_str());
+    return 2;
+  }
+  unsigned w = 0, h = 0;
+  if (std::sscanf(size.c_str(), "%ux%u", &w, &h) != 2 || w < 16 || h < 16 || w > 8192 || h > 8192) {
+    std::fprintf(stderr, "--size '%s': expected WxH with each side in 16..8192\n", size.c_str());
+    return 2;
+  }
+  if (options.view != "orbit" && (options.view.rfind("pod:", 0) != 0 || options.view.size() < 5 ||
+                                  options.view.find_first_not_of("0123456789", 4) != std::string::npos)) {
+    std::fprintf(stderr, "--view '%s': expected orbit or pod:N\n", options.view.c_str());
+    return 2;
+  }
+  auto endpoint = protocol::parseEndpoint(server);
+  if (!endpoint.isOk()) {
+    std::fprintf(stderr, "--server: %s\n", endpoint.status().message().c_str());
+    return 2;
+  }
+  options.server = *endpoint;
+  options.width = w;
+  options.height = h;
+  options.blend.mode = *render::blendModeFromName(mode);
+  installStopSignals();
+  return render::runClient(options);
+}

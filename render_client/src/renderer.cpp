@@ -1,0 +1,521 @@
+#include "render_client/renderer.h"
+
+#include <array>
+#include <cstddef>
+#include <cstring>
+#include <stdexcept>
+
+#include "shaders/blend_frag_spv.h"
+#include "shaders/blend_vert_spv.h"
+#include "shaders/depth_frag_spv.h"
+#include "shaders/depth_vert_spv.h"
+
+namespace holofuse::render {
+namespace {
+
+// std140 mirror of the Blend uniform block in shaders/blend.frag.glsl.
+struct CameraGpu {
+  glm::mat4 world_to_clip;
+  glm::vec4 center;
+  glm::vec4 size;
+  glm::ivec4 flags;
+};
+struct BlendUniforms {
+  CameraGpu cameras[HOLOFUSE_MAX_CAMERAS];
+  glm::ivec4 counts;
+  glm::vec4 params;
+  glm::vec4 hole_color;
+};
+static_assert(sizeof(CameraGpu) == 112);
+static_assert(offsetof(BlendUniforms, counts) == 112 * HOLOFUSE_MAX_CAMERAS);
+static_assert(offsetof(BlendUniforms, params) == 112 * HOLOFUSE_MAX_CAMERAS + 16);
+static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 48);
+
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr float kFarDepth = 1e9f;  // depth map value where the mesh is absent
+
+VkRenderPass createPass(VkDevice device, VkFormat color_format, VkImageLayout color_final) {
+  std::array<VkAttachmentDescription, 2> attachments{};
+  attachments[0].format = color_format;
+  attachments[0].samples = VK_SAMPLE_COUNT_1_BIT;
+  attachments[0].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  attachments[0].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  attachments[0].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+  attachments[0].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  attachments[0].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  attachments[0].finalLayout = color_final;
+  attachments[1] = attachments[0];
+  attachments[1].format = kDepthFormat;
+  attachments[1].storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  attachments[1].finalLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+  VkAttachmentReference color_ref{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+  VkAttachmentReference depth_ref{1, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
+  VkSubpassDescription subpass{};
+  subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+  subpass.colorAttachmentCount = 1;
+  subpass.pColorAttachments = &color_ref;
+  subpass.pDepthStencilAttachment = &depth_ref;
+  // Make earlier writes (uploads, previous passes) visible, and this pass's
+  // colour visible to later sampling or copies.
+  std::array<VkSubpassDependency, 2> deps{};
+  deps[0].srcSubpass = VK_SUBPASS_EXTERNAL;
+  deps[0].dstSubpass = 0;
+  deps[0].srcStageMask = VK_PIPELINE_STAGE_ALL_COMMANDS_BIT;
+  deps[0].dstStageMask = VK_PIPELINE_STAGE_ALL_GRAPHICS_BIT;
+  deps[0].srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
+  deps[0].dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT;
+  deps[1].srcSubpass = 0;
+  deps[1].dstSubpass = VK_SUBPASS_EXTERNAL;
+  deps[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  deps[1].dstStageMask = VK_PIPELINE_STAGE_ALL_COMMANDS_BIT;
+  deps[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+  deps[1].dstAccessMask = VK_ACCESS_MEMORY_READ_BIT;
+  VkRenderPassCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO;
+  info.attachmentCount = static_cast<uint32_t>(attachments.size());
+  info.pAttachments = attachments.data();
+  info.subpassCount = 1;
+  info.pSubpasses = &subpass;
+  info.dependencyCount = static_cast<uint32_t>(deps.size());
+  info.pDependencies = deps.data();
+  VkRenderPass pass;
+  HOLOFUSE_VK_CHECK(vkCreateRenderPass(device, &info, nullptr, &pass));
+  return pass;
+}
+
+VkFramebuffer createFramebuffer(VkDevice device, VkRenderPass pass, VkImageView color, VkImageView depth, uint32_t w,
+                                uint32_t h) {
+  VkImageView views[2] = {color, depth};
+  VkFramebufferCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
+  info.renderPass = pass;
+  info.attachmentCount = 2;
+  info.pAttachments = views;
+  info.width = w;
+  info.height = h;
+  info.layers = 1;
+  VkFramebuffer fb;
+  HOLOFUSE_VK_CHECK(vkCreateFramebuffer(device, &info, nullptr, &fb));
+  return fb;
+}
+
+VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayout layout, const uint32_t* vs,
+                          size_t vs_bytes, const uint32_t* fs, size_t fs_bytes) {
+  VkShaderModule vert = ctx.createShader(vs, vs_bytes);
+  VkShaderModule frag = ctx.createShader(fs, fs_bytes);
+  std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
+  stages[0].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = vert;
+  stages[0].pName = "main";
+  stages[1] = stages[0];
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = frag;
+  VkVertexInputBindingDescription binding{0, sizeof(float) * 6, VK_VERTEX_INPUT_RATE_VERTEX};
+  std::array<VkVertexInputAttributeDescription, 2> attributes{};
+  attributes[0] = {0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0};
+  attributes[1] = {1, 0, VK_FORMAT_R32G32B32_SFLOAT, sizeof(float) * 3};
+  VkPipelineVertexInputStateCreateInfo input{};
+  input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
+  input.vertexBindingDescriptionCount = 1;
+  input.pVertexBindingDescriptions = &binding;
+  input.vertexAttributeDescriptionCount = static_cast<uint32_t>(attributes.size());
+  input.pVertexAttributeDescriptions = attributes.data();
+  VkPipelineInputAssemblyStateCreateInfo assembly{};
+  assembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
+  assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo viewport{};
+  viewport.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
+  viewport.viewportCount = 1;
+  viewport.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo raster{};
+  raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
+  raster.polygonMode = VK_POLYGON_MODE_FILL;
+  raster.cullMode = VK_CULL_MODE_NONE;  // the hull may be open where it meets the valid region
+  raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  raster.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo multisample{};
+  multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
+  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineDepthStencilStateCreateInfo depth{};
+  depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
+  depth.depthTestEnable = VK_TRUE;
+  depth.depthWriteEnable = VK_TRUE;
+  depth.depthCompareOp = VK_COMPARE_OP_LESS;
+  VkPipelineColorBlendAttachmentState blend_attachment{};
+  blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
+                                    VK_COLOR_COMPONENT_A_BIT;
+  VkPipelineColorBlendStateCreateInfo blend{};
+  blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
+  blend.attachmentCount = 1;
+  blend.pAttachments = &blend_attachment;
+  std::array<VkDynamicState, 2> dynamic_states = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dynamic{};
+  dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
+  dynamic.dynamicStateCount = static_cast<uint32_t>(dynamic_states.size());
+  dynamic.pDynamicStates = dynamic_states.data();
+  VkGraphicsPipelineCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
+  info.stageCount = static_cast<uint32_t>(stages.size());
+  info.pStages = stages.data();
+  info.pVertexInputState = &input;
+  info.pInputAssemblyState = &assembly;
+  info.pViewportState = &viewport;
+  info.pRasterizationState = &raster;
+  info.pMultisampleState = &multisample;
+  info.pDepthStencilState = &depth;
+  info.pColorBlendState = &blend;
+  info.pDynamicState = &dynamic;
+  info.layout = layout;
+  info.renderPass = pass;
+  VkPipeline pipeline;
+  HOLOFUSE_VK_CHECK(vkCreateGraphicsPipelines(ctx.device(), VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
+  vkDestroyShaderModule(ctx.device(), vert, nullptr);
+  vkDestroyShaderModule(ctx.device(), frag, nullptr);
+  return pipeline;
+}
+
+void setViewport(VkCommandBuffer cmd, uint32_t w, uint32_t h) {
+  VkViewport viewport{0.0f, 0.0f, static_cast<float>(w), static_cast<float>(h), 0.0f, 1.0f};
+  VkRect2D scissor{{0, 0}, {w, h}};
+  vkCmdSetViewport(cmd, 0, 1, &viewport);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+}
+
+}  // namespace
+
+glm::mat4 worldToClip(const Camera& c, double n, double f) {
+  const double w = c.width, h = c.height;
+  glm::dmat4 projection(0.0);  // glm: projection[column][row]
+  projection[0][0] = 2 * c.fx / w;
+  projection[1][0] = 2 * c.skew / w;
+  projection[2][0] = 2 * c.cx / w - 1;
+  projection[1][1] = 2 * c.fy / h;
+  projection[2][1] = 2 * c.cy / h - 1;
+  projection[2][2] = f / (f - n);
+  projection[3][2] = -f * n / (f - n);
+  projection[2][3] = 1;
+  glm::dmat4 view(c.rotation);
+  view[3] = glm::dvec4(c.translation, 1.0);
+  return glm::mat4(projection * view);
+}
+
+Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
+    : ctx_(context), width_(width), height_(height) {
+  createPipelines();
+  color_ = ctx_.createImage(width, height, 1, VK_FORMAT_R8G8B8A8_UNORM,
+                            VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                            VK_IMAGE_ASPECT_COLOR_BIT, false);
+  depth_ = ctx_.createImage(width, height, 1, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                            VK_IMAGE_ASPECT_DEPTH_BIT, false);
+  output_framebuffer_ = createFramebuffer(ctx_.device(), blend_pass_, color_.view, depth_.view, width, height);
+  readback_ = ctx_.createBuffer(VkDeviceSize{width} * height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  uniforms_ = ctx_.createBuffer(sizeof(BlendUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+}
+
+Renderer::~Renderer() {
+  VkDevice d = ctx_.device();
+  vkDeviceWaitIdle(d);
+  destroyViewResources();
+  ctx_.destroy(vertex_buffer_);
+  ctx_.destroy(index_buffer_);
+  vkDestroyFramebuffer(d, output_framebuffer_, nullptr);
+  ctx_.destroy(color_);
+  ctx_.destroy(depth_);
+  ctx_.destroy(readback_);
+  ctx_.destroy(uniforms_);
+  vkDestroyPipeline(d, depth_pipeline_, nullptr);
+  vkDestroyPipeline(d, blend_pipeline_, nullptr);
+  vkDestroyPipelineLayout(d, depth_layout_, nullptr);
+  vkDestroyPipelineLayout(d, blend_layout_, nullptr);
+  vkDestroyRenderPass(d, depth_pass_, nullptr);
+  vkDestroyRenderPass(d, blend_pass_, nullptr);
+  vkDestroyDescriptorPool(d, descriptor_pool_, nullptr);
+  vkDestroyDescriptorSetLayout(d, set_layout_, nullptr);
+  vkDestroySampler(d, linear_sampler_, nullptr);
+  vkDestroySampler(d, nearest_sampler_, nullptr);
+}
+
+void Renderer::createPipelines() {
+  VkDevice d = ctx_.device();
+  depth_pass_ = createPass(d, VK_FORMAT_R32_SFLOAT, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  blend_pass_ = createPass(d, VK_FORMAT_R8G8B8A8_UNORM, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+
+  std::array<VkDescriptorSetLayoutBinding, 3> bindings{};
+  bindings[0] = {0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  bindings[1] = {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  bindings[2] = {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  VkDescriptorSetLayoutCreateInfo set_info{};
+  set_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+  set_info.bindingCount = static_cast<uint32_t>(bindings.size());
+  set_info.pBindings = bindings.data();
+  HOLOFUSE_VK_CHECK(vkCreateDescriptorSetLayout(d, &set_info, nullptr, &set_layout_));
+
+  VkPushConstantRange push{VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(glm::mat4)};
+  VkPipelineLayoutCreateInfo layout_info{};
+  layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+  layout_info.pushConstantRangeCount = 1;
+  layout_info.pPushConstantRanges = &push;
+  HOLOFUSE_VK_CHECK(vkCreatePipelineLayout(d, &layout_info, nullptr, &depth_layout_));
+  layout_info.setLayoutCount = 1;
+  layout_info.pSetLayouts = &set_layout_;
+  HOLOFUSE_VK_CHECK(vkCreatePipelineLayout(d, &layout_info, nullptr, &blend_layout_));
+
+  depth_pipeline_ = createPipeline(ctx_, depth_pass_, depth_layout_, k_depth_vert_spv, sizeof(k_depth_vert_spv),
+                                   k_depth_frag_spv, sizeof(k_depth_frag_spv));
+  blend_pipeline_ = createPipeline(ctx_, blend_pass_, blend_layout_, k_blend_vert_spv, sizeof(k_blend_vert_spv),
+                                   k_blend_frag_spv, sizeof(k_blend_frag_spv));
+
+  std::array<VkDescriptorPoolSize, 2> sizes = {VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2}};
+  VkDescriptorPoolCreateInfo pool_info{};
+  pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+  pool_info.maxSets = 1;
+  pool_info.poolSizeCount = static_cast<uint32_t>(sizes.size());
+  pool_info.pPoolSizes = sizes.data();
+  HOLOFUSE_VK_CHECK(vkCreateDescriptorPool(d, &pool_info, nullptr, &descriptor_pool_));
+  VkDescriptorSetAllocateInfo alloc{};
+  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+  alloc.descriptorPool = descriptor_pool_;
+  alloc.descriptorSetCount = 1;
+  alloc.pSetLayouts = &set_layout_;
+  HOLOFUSE_VK_CHECK(vkAllocateDescriptorSets(d, &alloc, &descriptor_set_));
+
+  VkSamplerCreateInfo sampler{};
+  sampler.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+  sampler.magFilter = VK_FILTER_LINEAR;
+  sampler.minFilter = VK_FILTER_LINEAR;
+  sampler.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  sampler.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  sampler.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  sampler.maxLod = 0.0f;
+  HOLOFUSE_VK_CHECK(vkCreateSampler(d, &sampler, nullptr, &linear_sampler_));
+  sampler.magFilter = VK_FILTER_NEAREST;
+  sampler.minFilter = VK_FILTER_NEAREST;
+  HOLOFUSE_VK_CHECK(vkCreateSampler(d, &sampler, nullptr, &nearest_sampler_));
+}
+
+void Renderer::destroyViewResources() {
+  for (VkFramebuffer fb : depth_framebuffers_) vkDestroyFramebuffer(ctx_.device(), fb, nullptr);
+  depth_framebuffers_.clear();
+  ctx_.destroy(images_);
+  ctx_.destroy(depth_maps_);
+  ctx_.destroy(depth_scratch_);
+  ctx_.destroy(staging_);
+}
+
+void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
+  if (images_.image != VK_NULL_HANDLE && images_.width == w && images_.height == h && images_.layers == count) return;
+  vkDeviceWaitIdle(ctx_.device());
+  destroyViewResources();
+  images_ = ctx_.createImage(w, h, count, VK_FORMAT_R8G8B8A8_UNORM,
+                             VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, VK_IMAGE_ASPECT_COLOR_BIT,
+                             false);
+  depth_maps_ = ctx_.createImage(w, h, count, VK_FORMAT_R32_SFLOAT,
+                                 VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT,
+                                 VK_IMAGE_ASPECT_COLOR_BIT, true);
+  depth_scratch_ = ctx_.createImage(w, h, 1, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                                    VK_IMAGE_ASPECT_DEPTH_BIT, false);
+  for (uint32_t i = 0; i < count; ++i) {
+    depth_framebuffers_.push_back(
+        createFramebuffer(ctx_.device(), depth_pass_, depth_maps_.layer_views[i], depth_scratch_.view, w, h));
+  }
+  staging_ = ctx_.createBuffer(VkDeviceSize{w} * h * 4 * count, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+
+  VkDescriptorBufferInfo ubo{uniforms_.buffer, 0, sizeof(BlendUniforms)};
+  VkDescriptorImageInfo image_info{linear_sampler_, images_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo depth_info{nearest_sampler_, depth_maps_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  std::array<VkWriteDescriptorSet, 3> writes{};
+  for (auto& w_ : writes) {
+    w_.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    w_.dstSet = descriptor_set_;
+    w_.descriptorCount = 1;
+  }
+  writes[0].dstBinding = 0;
+  writes[0].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  writes[0].pBufferInfo = &ubo;
+  writes[1].dstBinding = 1;
+  writes[1].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  writes[1].pImageInfo = &image_info;
+  writes[2].dstBinding = 2;
+  writes[2].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  writes[2].pImageInfo = &depth_info;
+  vkUpdateDescriptorSets(ctx_.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
+  // Depth maps start readable so a frame without a mesh still samples a
+  // defined layout.
+  ctx_.submitAndWait([&](VkCommandBuffer cmd) {
+    transitionImage(cmd, depth_maps_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, 0, VK_ACCESS_SHADER_READ_BIT,
+                    VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT);
+  });
+}
+
+void Renderer::setMesh(const Mesh& mesh) {
+  const VkDeviceSize vertex_bytes = std::max<VkDeviceSize>(mesh.positions.size() * 24, 24);
+  const VkDeviceSize index_bytes = std::max<VkDeviceSize>(mesh.indices.size() * 4, 4);
+  if (vertex_buffer_.size < vertex_bytes) {
+    vkDeviceWaitIdle(ctx_.device());
+    ctx_.destroy(vertex_buffer_);
+    vertex_buffer_ = ctx_.createBuffer(vertex_bytes * 3 / 2, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
+  }
+  if (index_buffer_.size < index_bytes) {
+    vkDeviceWaitIdle(ctx_.device());
+    ctx_.destroy(index_buffer_);
+    index_buffer_ = ctx_.createBuffer(index_bytes * 3 / 2, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+  }
+  auto* v = static_cast<float*>(vertex_buffer_.mapped);
+  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+    const glm::vec3 n = i < mesh.normals.size() ? mesh.normals[i] : glm::vec3(0.0f);
+    const float values[6] = {mesh.positions[i].x, mesh.positions[i].y, mesh.positions[i].z, n.x, n.y, n.z};
+    std::memcpy(v + i * 6, values, sizeof(values));
+  }
+  std::memcpy(index_buffer_.mapped, mesh.indices.data(), mesh.indices.size() * 4);
+  index_count_ = static_cast<uint32_t>(mesh.indices.size());
+  depth_maps_stale_ = true;
+}
+
+void Renderer::setViews(const std::vector<ViewImages>& views) {
+  if (views.empty()) {
+    cameras_.clear();
+    return;
+  }
+  if (views.size() > HOLOFUSE_MAX_CAMERAS) throw std::invalid_argument("more than 16 cameras");
+  const uint32_t w = views[0].camera.width, h = views[0].camera.height;
+  for (const auto& view : views) {
+    if (view.camera.width != w || view.camera.height != h || view.color.width != w || view.color.height != h ||
+        view.mask.width != w || view.mask.height != h || view.color.channels != 3 || view.mask.channels != 1) {
+      throw std::invalid_argument("camera " + std::to_string(view.camera.id) + " images do not match " +
+                                  std::to_string(w) + "x" + std::to_string(h));
+    }
+  }
+  ensureViewResources(w, h, static_cast<uint32_t>(views.size()));
+  cameras_.clear();
+  auto* dst = static_cast<uint8_t*>(staging_.mapped);
+  const size_t pixels = static_cast<size_t>(w) * h;
+  for (size_t layer = 0; layer < views.size(); ++layer) {
+    cameras_.push_back(views[layer].camera);
+    const uint8_t* rgb = views[layer].color.pixels.data();
+    const uint8_t* mask = views[layer].mask.pixels.data();
+    uint8_t* out = dst + layer * pixels * 4;
+    for (size_t p = 0; p < pixels; ++p) {
+      out[p * 4 + 0] = rgb[p * 3 + 0];
+      out[p * 4 + 1] = rgb[p * 3 + 1];
+      out[p * 4 + 2] = rgb[p * 3 + 2];
+      out[p * 4 + 3] = mask[p];
+    }
+  }
+  ctx_.submitAndWait([&](VkCommandBuffer cmd) {
+    transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                    VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, static_cast<uint32_t>(views.size())};
+    region.imageExtent = {w, h, 1};
+    vkCmdCopyBufferToImage(cmd, staging_.buffer, images_.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                    VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT);
+  });
+  // Depth maps depend on the camera poses as well as the mesh.
+  depth_maps_stale_ = true;
+}
+
+void Renderer::drawMesh(VkCommandBuffer cmd) {
+  if (index_count_ == 0) return;
+  VkDeviceSize offset = 0;
+  vkCmdBindVertexBuffers(cmd, 0, 1, &vertex_buffer_.buffer, &offset);
+  vkCmdBindIndexBuffer(cmd, index_buffer_.buffer, 0, VK_INDEX_TYPE_UINT32);
+  vkCmdDrawIndexed(cmd, index_count_, 1, 0, 0, 0);
+}
+
+void Renderer::renderDepthMaps(VkCommandBuffer cmd) {
+  std::array<VkClearValue, 2> clears{};
+  clears[0].color = {{kFarDepth, 0, 0, 0}};
+  clears[1].depthStencil = {1.0f, 0};
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    VkRenderPassBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+    begin.renderPass = depth_pass_;
+    begin.framebuffer = depth_framebuffers_[i];
+    begin.renderArea = {{0, 0}, {images_.width, images_.height}};
+    begin.clearValueCount = static_cast<uint32_t>(clears.size());
+    begin.pClearValues = clears.data();
+    vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, depth_pipeline_);
+    setViewport(cmd, images_.width, images_.height);
+    const glm::mat4 m = worldToClip(cameras_[i]);
+    vkCmdPushConstants(cmd, depth_layout_, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(m), &m);
+    drawMesh(cmd);
+    vkCmdEndRenderPass(cmd);
+  }
+  ++depth_map_passes_;
+}
+
+Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings) {
+  BlendUniforms u{};
+  u.counts = glm::ivec4(static_cast<int>(cameras_.size()), static_cast<int>(settings.mode), 0, 0);
+  u.params = glm::vec4(settings.alpha, settings.depth_tolerance, 0, 0);
+  u.hole_color = glm::vec4(settings.hole_color, 1.0f);
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    const Camera& c = cameras_[i];
+    u.cameras[i].world_to_clip = worldToClip(c);
+    u.cameras[i].center = glm::vec4(glm::vec3(c.center()), 1.0f);
+    u.cameras[i].size = glm::vec4(c.width, c.height, 1.0f / c.width, 1.0f / c.height);
+    const bool enabled = settings.camera_enabled.empty() ||
+                         (i < settings.camera_enabled.size() && settings.camera_enabled[i]);
+    u.cameras[i].flags = glm::ivec4(enabled ? 1 : 0, 0, 0, 0);
+  }
+  std::memcpy(uniforms_.mapped, &u, sizeof(u));
+  const bool have_views = !cameras_.empty();
+  ctx_.submitAndWait([&](VkCommandBuffer cmd) {
+    if (have_views && depth_maps_stale_) renderDepthMaps(cmd);
+    std::array<VkClearValue, 2> clears{};
+    clears[0].color = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    clears[1].depthStencil = {1.0f, 0};
+    VkRenderPassBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+    begin.renderPass = blend_pass_;
+    begin.framebuffer = output_framebuffer_;
+    begin.renderArea = {{0, 0}, {width_, height_}};
+    begin.clearValueCount = static_cast<uint32_t>(clears.size());
+    begin.pClearValues = clears.data();
+    vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
+    if (have_views) {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_pipeline_);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_layout_, 0, 1, &descriptor_set_, 0, nullptr);
+      setViewport(cmd, width_, height_);
+      // The output may differ in size from the user camera's calibration:
+      // scale the intrinsics to the output.
+      Camera scaled = user_camera;
+      const double sx = static_cast<double>(width_) / user_camera.width;
+      const double sy = static_cast<double>(height_) / user_camera.height;
+      scaled.fx *= sx;
+      scaled.cx *= sx;
+      scaled.skew *= sx;
+      scaled.fy *= sy;
+      scaled.cy *= sy;
+      scaled.width = width_;
+      scaled.height = height_;
+      const glm::mat4 m = worldToClip(scaled);
+      vkCmdPushConstants(cmd, blend_layout_, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(m), &m);
+      drawMesh(cmd);
+    }
+    vkCmdEndRenderPass(cmd);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {width_, height_, 1};
+    vkCmdCopyImageToBuffer(cmd, color_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback_.buffer, 1, &region);
+    VkMemoryBarrier to_host{};
+    to_host.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    to_host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &to_host, 0, nullptr,
+                         0, nullptr);
+  });
+  if (have_views) depth_maps_stale_ = false;
+  Image8 out(width_, height_, 4);
+  std::memcpy(out.pixels.data(), readback_.mapped, out.pixels.size());
+  return out;
+}
+
+}  // namespace holofuse::render

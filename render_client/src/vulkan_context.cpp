@@ -1,0 +1,286 @@
+#include "render_client/vulkan_context.h"
+
+#include <cstring>
+
+namespace holofuse::render {
+
+void vkFail(const char* call, VkResult result, const char* file, int line) {
+  throw std::runtime_error(std::string("Vulkan call ") + call + " failed with VkResult " +
+                           std::to_string(static_cast<int>(result)) + " at " + file + ":" + std::to_string(line));
+}
+
+namespace {
+
+VkInstance createInstance() {
+  VkApplicationInfo app{};
+  app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+  app.pApplicationName = "holofuse";
+  app.apiVersion = VK_API_VERSION_1_2;
+  VkInstanceCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+  info.pApplicationInfo = &app;
+  VkInstance instance = VK_NULL_HANDLE;
+  HOLOFUSE_VK_CHECK(vkCreateInstance(&info, nullptr, &instance));
+  return instance;
+}
+
+std::vector<VkPhysicalDevice> physicalDevices(VkInstance instance) {
+  uint32_t count = 0;
+  HOLOFUSE_VK_CHECK(vkEnumeratePhysicalDevices(instance, &count, nullptr));
+  std::vector<VkPhysicalDevice> devices(count);
+  HOLOFUSE_VK_CHECK(vkEnumeratePhysicalDevices(instance, &count, devices.data()));
+  return devices;
+}
+
+int typeRank(VkPhysicalDeviceType type) {
+  switch (type) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 0;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 1;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 3;
+    default: return 4;
+  }
+}
+
+}  // namespace
+
+std::vector<DeviceInfo> VulkanContext::listDevices() {
+  VkInstance instance = createInstance();
+  std::vector<DeviceInfo> infos;
+  for (VkPhysicalDevice d : physicalDevices(instance)) {
+    VkPhysicalDeviceProperties props;
+    vkGetPhysicalDeviceProperties(d, &props);
+    infos.push_back({props.deviceName, props.deviceType});
+  }
+  vkDestroyInstance(instance, nullptr);
+  return infos;
+}
+
+VulkanContext::VulkanContext(const std::string& selector) {
+  instance_ = createInstance();
+  const auto devices = physicalDevices(instance_);
+  if (devices.empty()) throw std::runtime_error("no Vulkan device (install mesa-vulkan-drivers for lavapipe)");
+  int best = -1;
+  for (size_t i = 0; i < devices.size(); ++i) {
+    VkPhysicalDeviceProperties props;
+    vkGetPhysicalDeviceProperties(devices[i], &props);
+    bool match;
+    if (selector.empty()) {
+      VkPhysicalDeviceProperties best_props{};
+      if (best >= 0) vkGetPhysicalDeviceProperties(devices[best], &best_props);
+      match = best < 0 || typeRank(props.deviceType) < typeRank(best_props.deviceType);
+    } else if (selector.find_first_not_of("0123456789") == std::string::npos) {
+      match = std::to_string(i) == selector;
+    } else {
+      match = best < 0 && std::string(props.deviceName).find(selector) != std::string::npos;
+    }
+    if (match) best = static_cast<int>(i);
+  }
+  if (best < 0) {
+    std::string names;
+    for (size_t i = 0; i < devices.size(); ++i) {
+      VkPhysicalDeviceProperties props;
+      vkGetPhysicalDeviceProperties(devices[i], &props);
+      names += "\n  " + std::to_string(i) + ": " + props.deviceName;
+    }
+    vkDestroyInstance(instance_, nullptr);
+    throw std::runtime_error("no Vulkan device matches '" + selector + "'; devices:" + names);
+  }
+  physical_ = devices[best];
+  VkPhysicalDeviceProperties props;
+  vkGetPhysicalDeviceProperties(physical_, &props);
+  device_name_ = props.deviceName;
+
+  uint32_t family_count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_, &family_count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(family_count);
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_, &family_count, families.data());
+  queue_family_ = UINT32_MAX;
+  for (uint32_t i = 0; i < family_count; ++i) {
+    if ((families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) && (families[i].queueFlags & VK_QUEUE_COMPUTE_BIT)) {
+      queue_family_ = i;
+      break;
+    }
+  }
+  if (queue_family_ == UINT32_MAX) throw std::runtime_error(device_name_ + " has no graphics+compute queue");
+  const float priority = 1.0f;
+  VkDeviceQueueCreateInfo queue_info{};
+  queue_info.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+  queue_info.queueFamilyIndex = queue_family_;
+  queue_info.queueCount = 1;
+  queue_info.pQueuePriorities = &priority;
+  VkDeviceCreateInfo device_info{};
+  device_info.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  device_info.queueCreateInfoCount = 1;
+  device_info.pQueueCreateInfos = &queue_info;
+  HOLOFUSE_VK_CHECK(vkCreateDevice(physical_, &device_info, nullptr, &device_));
+  vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
+
+  VkCommandPoolCreateInfo pool_info{};
+  pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+  pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT | VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+  pool_info.queueFamilyIndex = queue_family_;
+  HOLOFUSE_VK_CHECK(vkCreateCommandPool(device_, &pool_info, nullptr, &pool_));
+  VkFenceCreateInfo fence_info{};
+  fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+  HOLOFUSE_VK_CHECK(vkCreateFence(device_, &fence_info, nullptr, &fence_));
+}
+
+VulkanContext::~VulkanContext() {
+  if (device_ != VK_NULL_HANDLE) {
+    vkDeviceWaitIdle(device_);
+    vkDestroyFence(device_, fence_, nullptr);
+    vkDestroyCommandPool(device_, pool_, nullptr);
+    vkDestroyDevice(device_, nullptr);
+  }
+  if (instance_ != VK_NULL_HANDLE) vkDestroyInstance(instance_, nullptr);
+}
+
+uint32_t VulkanContext::memoryType(uint32_t bits, VkMemoryPropertyFlags flags) const {
+  VkPhysicalDeviceMemoryProperties props;
+  vkGetPhysicalDeviceMemoryProperties(physical_, &props);
+  for (uint32_t i = 0; i < props.memoryTypeCount; ++i) {
+    if ((bits & (1u << i)) && (props.memoryTypes[i].propertyFlags & flags) == flags) return i;
+  }
+  throw std::runtime_error("no Vulkan memory type with the needed properties");
+}
+
+Buffer VulkanContext::createBuffer(VkDeviceSize size, VkBufferUsageFlags usage) {
+  Buffer b;
+  b.size = size;
+  VkBufferCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+  info.size = size;
+  info.usage = usage;
+  info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  HOLOFUSE_VK_CHECK(vkCreateBuffer(device_, &info, nullptr, &b.buffer));
+  VkMemoryRequirements req;
+  vkGetBufferMemoryRequirements(device_, b.buffer, &req);
+  VkMemoryAllocateInfo alloc{};
+  alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+  alloc.allocationSize = req.size;
+  alloc.memoryTypeIndex =
+      memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+  HOLOFUSE_VK_CHECK(vkAllocateMemory(device_, &alloc, nullptr, &b.memory));
+  HOLOFUSE_VK_CHECK(vkBindBufferMemory(device_, b.buffer, b.memory, 0));
+  HOLOFUSE_VK_CHECK(vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped));
+  return b;
+}
+
+void VulkanContext::destroy(Buffer& b) {
+  if (b.buffer == VK_NULL_HANDLE) return;
+  vkUnmapMemory(device_, b.memory);
+  vkDestroyBuffer(device_, b.buffer, nullptr);
+  vkFreeMemory(device_, b.memory, nullptr);
+  b = Buffer{};
+}
+
+Image VulkanContext::createImage(uint32_t width, uint32_t height, uint32_t layers, VkFormat format,
+                                 VkImageUsageFlags usage, VkImageAspectFlags aspect, bool per_layer_views) {
+  Image img;
+  img.format = format;
+  img.width = width;
+  img.height = height;
+  img.layers = layers;
+  VkImageCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+  info.imageType = VK_IMAGE_TYPE_2D;
+  info.format = format;
+  info.extent = {width, height, 1};
+  info.mipLevels = 1;
+  info.arrayLayers = layers;
+  info.samples = VK_SAMPLE_COUNT_1_BIT;
+  info.tiling = VK_IMAGE_TILING_OPTIMAL;
+  info.usage = usage;
+  info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  HOLOFUSE_VK_CHECK(vkCreateImage(device_, &info, nullptr, &img.image));
+  VkMemoryRequirements req;
+  vkGetImageMemoryRequirements(device_, img.image, &req);
+  VkMemoryAllocateInfo alloc{};
+  alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+  alloc.allocationSize = req.size;
+  alloc.memoryTypeIndex = memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  HOLOFUSE_VK_CHECK(vkAllocateMemory(device_, &alloc, nullptr, &img.memory));
+  HOLOFUSE_VK_CHECK(vkBindImageMemory(device_, img.image, img.memory, 0));
+  auto makeView = [&](VkImageViewType type, uint32_t first, uint32_t count) {
+    VkImageViewCreateInfo v{};
+    v.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
+    v.image = img.image;
+    v.viewType = type;
+    v.format = format;
+    v.subresourceRange = {aspect, 0, 1, first, count};
+    VkImageView view;
+    HOLOFUSE_VK_CHECK(vkCreateImageView(device_, &v, nullptr, &view));
+    return view;
+  };
+  img.view = makeView(layers > 1 || per_layer_views ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D, 0, layers);
+  if (per_layer_views) {
+    for (uint32_t i = 0; i < layers; ++i) img.layer_views.push_back(makeView(VK_IMAGE_VIEW_TYPE_2D, i, 1));
+  }
+  return img;
+}
+
+void VulkanContext::destroy(Image& img) {
+  if (img.image == VK_NULL_HANDLE) return;
+  for (VkImageView v : img.layer_views) vkDestroyImageView(device_, v, nullptr);
+  vkDestroyImageView(device_, img.view, nullptr);
+  vkDestroyImage(device_, img.image, nullptr);
+  vkFreeMemory(device_, img.memory, nullptr);
+  img = Image{};
+}
+
+VkShaderModule VulkanContext::createShader(const uint32_t* code, size_t bytes) {
+  VkShaderModuleCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+  info.codeSize = bytes;
+  info.pCode = code;
+  VkShaderModule module;
+  HOLOFUSE_VK_CHECK(vkCreateShaderModule(device_, &info, nullptr, &module));
+  return module;
+}
+
+VkCommandBuffer VulkanContext::beginOneShot() {
+  VkCommandBufferAllocateInfo alloc{};
+  alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+  alloc.commandPool = pool_;
+  alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  alloc.commandBufferCount = 1;
+  VkCommandBuffer cmd;
+  HOLOFUSE_VK_CHECK(vkAllocateCommandBuffers(device_, &alloc, &cmd));
+  VkCommandBufferBeginInfo begin{};
+  begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+  begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  HOLOFUSE_VK_CHECK(vkBeginCommandBuffer(cmd, &begin));
+  return cmd;
+}
+
+void VulkanContext::endOneShotAndWait(VkCommandBuffer cmd) {
+  HOLOFUSE_VK_CHECK(vkEndCommandBuffer(cmd));
+  VkSubmitInfo submit{};
+  submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+  submit.commandBufferCount = 1;
+  submit.pCommandBuffers = &cmd;
+  HOLOFUSE_VK_CHECK(vkQueueSubmit(queue_, 1, &submit, fence_));
+  HOLOFUSE_VK_CHECK(vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX));
+  HOLOFUSE_VK_CHECK(vkResetFences(device_, 1, &fence_));
+  vkFreeCommandBuffers(device_, pool_, 1, &cmd);
+}
+
+void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect, VkImageLayout from,
+                     VkImageLayout to, VkAccessFlags src_access, VkAccessFlags dst_access,
+                     VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage) {
+  VkImageMemoryBarrier barrier{};
+  barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+  barrier.oldLayout = from;
+  barrier.newLayout = to;
+  barrier.srcAccessMask = src_access;
+  barrier.dstAccessMask = dst_access;
+  barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  barrier.image = image.image;
+  barrier.subresourceRange = {aspect, 0, 1, 0, image.layers};
+  vkCmdPipelineBarrier(cmd, src_stage, dst_stage, 0, 0, nullptr, 0, nullptr, 1, &barrier);
+}
+
+}  // namespace holofuse::render
