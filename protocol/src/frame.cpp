@@ -120,7 +120,17 @@ std::span<uint8_t> StreamDecoder::writableSpan() {
 void StreamDecoder::commit(size_t n) {
   stream_offset_ += n;
   if (!in_payload_) {
+    const size_t before = header_filled_;
     header_filled_ += n;
+    // Judge the magic as soon as it is in, so a stray protocol (an HTTP
+    // probe, say) is refused at once instead of waiting for 28 bytes.
+    for (size_t i = before; i < std::min(header_filled_, sizeof(kMagic)); ++i) {
+      if (header_bytes_[i] != kMagic[i]) {
+        status_ = Status(StatusCode::kBadMagic, "field 'magic' at offset " + std::to_string(frame_start_offset_) +
+                                                    ": expected 'HFUS'");
+        return;
+      }
+    }
     if (header_filled_ == kHeaderSize) onHeaderComplete();
     return;
   }

@@ -1,0 +1,106 @@
+// The synthetic scene, segmentation and feather maps.
+#include <gtest/gtest.h>
+
+#include "capture_node/pod.h"
+#include "capture_node/segmentation.h"
+#include "capture_node/synthetic_scene.h"
+#include "common/image_codec.h"
+
+namespace holofuse::capture {
+namespace {
+
+double maskIoU(const Image8& a, const Image8& b) {
+  size_t inter = 0, uni = 0;
+  for (size_t i = 0; i < a.pixels.size(); ++i) {
+    const bool x = a.pixels[i] != 0, y = b.pixels[i] != 0;
+    inter += x && y;
+    uni += x || y;
+  }
+  return uni ? static_cast<double>(inter) / static_cast<double>(uni) : 1.0;
+}
+
+TEST(SyntheticScene, IsDeterministicAndMoves) {
+  const SyntheticScene scene;
+  const auto cams = SyntheticScene::cameraRig(4, 160, 120);
+  const auto a = scene.render(cams[0], 10), b = scene.render(cams[0], 10), c = scene.render(cams[0], 15);
+  EXPECT_EQ(a.color.pixels, b.color.pixels);
+  EXPECT_NE(a.mask.pixels, c.mask.pixels);
+  size_t fg = 0;
+  for (uint8_t m : a.mask.pixels) fg += m != 0;
+  EXPECT_GT(fg, a.mask.pixels.size() / 20) << "the subject should fill a good part of the view";
+  EXPECT_LT(fg, a.mask.pixels.size() / 2);
+}
+
+TEST(SyntheticScene, CamerasSeeDifferentGainsOfTheSameSurface) {
+  const SyntheticScene scene;
+  EXPECT_NE(scene.cameraGain(0), scene.cameraGain(1));
+}
+
+TEST(SyntheticScene, TruthMeshMatchesTheRenderedSilhouette) {
+  const SyntheticScene scene;
+  const Mesh mesh = scene.truthMesh(7, 0.02);
+  ASSERT_GT(mesh.triangleCount(), 1000u);
+  const auto cam = SyntheticScene::cameraRig(4, 160, 120)[1];
+  const auto view = scene.render(cam, 7);
+  size_t inside = 0;
+  for (const auto& p : mesh.positions) {
+    const auto px = cam.project(glm::dvec3(p));
+    ASSERT_TRUE(px);
+    const int x = static_cast<int>(px->x), y = static_cast<int>(px->y);
+    if (x < 0 || y < 0 || x >= 160 || y >= 120) continue;
+    // A surface vertex lies in the silhouette or within a pixel of it.
+    bool near = false;
+    for (int dy = -1; dy <= 1 && !near; ++dy) {
+      for (int dx = -1; dx <= 1 && !near; ++dx) {
+        const int u = std::clamp(x + dx, 0, 159), v = std::clamp(y + dy, 0, 119);
+        near = *view.mask.at(u, v) != 0;
+      }
+    }
+    inside += near;
+  }
+  EXPECT_GT(static_cast<double>(inside) / mesh.vertexCount(), 0.99);
+}
+
+TEST(Segmentation, RecoversTheTrueMaskFromTheBackgroundPlate) {
+  const SyntheticScene scene;
+  for (int cam_index : {0, 2}) {
+    const auto cam = SyntheticScene::cameraRig(4, 320, 240)[cam_index];
+    const auto view = scene.render(cam, 3);
+    const Image8 mask = segmentForeground(view.color, scene.backgroundPlate(cam));
+    EXPECT_GT(maskIoU(mask, view.mask), 0.97) << "camera " << cam_index;
+  }
+}
+
+TEST(Feather, IsTheDistanceToTheSilhouetteBorder) {
+  Image8 mask(41, 41, 1, 0);
+  for (uint32_t y = 10; y <= 30; ++y) {
+    for (uint32_t x = 10; x <= 30; ++x) *mask.at(x, y) = 255;
+  }
+  const Image8 feather = featherMap(mask);
+  EXPECT_EQ(*feather.at(5, 5), 0);
+  EXPECT_EQ(*feather.at(10, 20), 1);   // border pixel: one pixel from the background
+  EXPECT_EQ(*feather.at(20, 20), 11);  // centre of a 21-pixel square
+}
+
+TEST(Pod, EncodedFrameCarriesStampsAndDecodablePlanes) {
+  const SyntheticScene scene;
+  const auto cam = SyntheticScene::cameraRig(4, 160, 120)[3];
+  PodCapture capture = capturePodFrame(scene, cam, scene.backgroundPlate(cam), 42, 3);
+  const auto bytes = encodePodFrame(capture, 3, protocol::Codec::kLz4PlanarDelta);
+  protocol::StreamDecoder decoder;
+  decoder.feed(bytes);
+  ASSERT_TRUE(decoder.hasFrame());
+  protocol::PodFrame frame;
+  ASSERT_TRUE(protocol::decodeFrame(decoder.takeFrame(), frame).isOk());
+  EXPECT_EQ(frame.frame_id, 42u);
+  ASSERT_EQ(frame.stamps.size(), 4u);
+  for (const auto& s : frame.stamps) EXPECT_LE(s.start_ns, s.end_ns);
+  ASSERT_EQ(frame.planes.size(), 3u);
+  auto color = decodePlane(frame.planes[0]);
+  ASSERT_TRUE(color.isOk());
+  EXPECT_EQ(color->pixels, capture.view.color.pixels);
+  EXPECT_LT(bytes.size(), capture.view.color.pixels.size()) << "LZ4 with the delta filter must compress";
+}
+
+}  // namespace
+}  // namespace holofuse::capture

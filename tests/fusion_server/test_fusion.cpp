@@ -1,0 +1,137 @@
+// Visual hull against the synthetic truth, frame sync deadlines, and one
+// whole fusion of a group.
+#include <gtest/gtest.h>
+
+#include "capture_node/segmentation.h"
+#include "capture_node/synthetic_scene.h"
+#include "common/mesh_codec.h"
+#include "fusion_server/frame_sync.h"
+#include "fusion_server/fusion_worker.h"
+#include "fusion_server/visual_hull.h"
+
+namespace holofuse::fusion {
+namespace {
+
+std::vector<HullView> syntheticViews(int count, uint64_t frame_id, uint32_t w = 240, uint32_t h = 180) {
+  const capture::SyntheticScene scene;
+  std::vector<HullView> views;
+  for (const auto& cam : capture::SyntheticScene::cameraRig(count, w, h)) {
+    const auto view = scene.render(cam, frame_id);
+    views.push_back({cam, view.mask, capture::featherMap(view.mask)});
+  }
+  return views;
+}
+
+TEST(VisualHull, ContainsTheTruthAndReprojectsOntoEverySilhouette) {
+  const auto views = syntheticViews(6, 12);
+  HullOptions options;
+  options.voxel_size = 0.02;
+  HullStats stats;
+  const Mesh hull = carveVisualHull(views, options, &stats);
+  ASSERT_GT(hull.triangleCount(), 1000u);
+  // The valid region is much smaller than the capture volume.
+  const glm::dvec3 region = stats.region_max - stats.region_min;
+  EXPECT_LT(region.x * region.y * region.z, 0.5 * 2.0 * 2.0 * 2.0);
+  // Every true surface point lies inside the hull (the hull is a superset),
+  // up to the voxel size: check through the hull's own silhouettes.
+  for (const auto& v : views) {
+    size_t inside = 0, total = 0;
+    for (const auto& p : hull.positions) {
+      const auto px = v.camera.project(glm::dvec3(p));
+      ASSERT_TRUE(px);
+      const int x = std::clamp(static_cast<int>(px->x), 0, static_cast<int>(v.camera.width) - 1);
+      const int y = std::clamp(static_cast<int>(px->y), 0, static_cast<int>(v.camera.height) - 1);
+      ++total;
+      // Hull vertices lie on the silhouette cone: within 2 px of the mask.
+      bool near = false;
+      for (int dy = -2; dy <= 2 && !near; ++dy) {
+        for (int dx = -2; dx <= 2 && !near; ++dx) {
+          const int u = std::clamp(x + dx, 0, static_cast<int>(v.camera.width) - 1);
+          const int w = std::clamp(y + dy, 0, static_cast<int>(v.camera.height) - 1);
+          near = *v.mask.at(u, w) != 0;
+        }
+      }
+      inside += near;
+    }
+    EXPECT_GT(static_cast<double>(inside) / total, 0.98) << "camera " << v.camera.id;
+  }
+}
+
+TEST(VisualHull, EmptySilhouetteOrNoViewsGiveNoSurface) {
+  auto views = syntheticViews(4, 1, 120, 90);
+  std::fill(views[2].mask.pixels.begin(), views[2].mask.pixels.end(), 0);
+  EXPECT_EQ(carveVisualHull(views, HullOptions{}).triangleCount(), 0u);
+  EXPECT_EQ(carveVisualHull({}, HullOptions{}).triangleCount(), 0u);
+}
+
+TEST(FrameSync, CompleteGroupsGoAtOnceLateOnesAtTheDeadline) {
+  FrameSync sync(100);
+  const std::set<uint32_t> expected = {0, 1, 2};
+  for (uint32_t cam : {0u, 1u, 2u}) sync.add(5, PodImages{cam, {}, {}, {}, {}, 0, 0}, 10);
+  auto ready = sync.takeReady(expected, 11);
+  ASSERT_EQ(ready.size(), 1u);
+  EXPECT_TRUE(ready[0].complete);
+  // Frame 6 misses camera 2: nothing before the deadline, then it goes.
+  sync.add(6, PodImages{0, {}, {}, {}, {}, 0, 0}, 20);
+  sync.add(6, PodImages{1, {}, {}, {}, {}, 0, 0}, 21);
+  EXPECT_TRUE(sync.takeReady(expected, 50).empty());
+  ready = sync.takeReady(expected, 120);
+  ASSERT_EQ(ready.size(), 1u);
+  EXPECT_FALSE(ready[0].complete);
+  EXPECT_EQ(ready[0].pods.size(), 2u);
+  // Camera 2's frame 6 arrives after its group went: counted late.
+  EXPECT_FALSE(sync.add(6, PodImages{2, {}, {}, {}, {}, 0, 0}, 130));
+  EXPECT_EQ(sync.lateFrames(), 1u);
+}
+
+TEST(FrameSync, ADeadPodDoesNotStallWhenItIsNoLongerExpected) {
+  FrameSync sync(1000000);
+  sync.add(9, PodImages{0, {}, {}, {}, {}, 0, 0}, 0);
+  EXPECT_TRUE(sync.takeReady({0, 1}, 1).empty());
+  EXPECT_EQ(sync.takeReady({0}, 2).size(), 1u);  // pod 1 disconnected
+}
+
+TEST(FusionWorker, FusesAGroupIntoDecodableFrames) {
+  const auto views = syntheticViews(4, 3, 160, 120);
+  GroupJob job;
+  job.group.frame_id = 3;
+  job.group.complete = false;
+  const capture::SyntheticScene scene;
+  for (size_t i = 0; i < 3; ++i) {  // camera 3 is missing
+    PodImages pod;
+    pod.camera_id = static_cast<uint32_t>(i);
+    pod.color = scene.render(views[i].camera, 3).color;
+    pod.mask = views[i].mask;
+    pod.feather = views[i].feather;
+    pod.bytes = 1000;
+    job.group.pods[pod.camera_id] = pod;
+    job.cameras[pod.camera_id] = views[i].camera;
+  }
+  FusionSettings settings;
+  settings.pods_expected = 4;
+  const FusedOutput out = fuseGroup(job, settings);
+  auto decode = [](const protocol::SharedBytes& bytes) {
+    protocol::StreamDecoder d;
+    d.feed(*bytes);
+    EXPECT_TRUE(d.hasFrame());
+    return d.takeFrame();
+  };
+  protocol::MeshFrame mesh;
+  const protocol::Frame mesh_bytes = decode(out.mesh_frame);  // the decoded spans point into it
+  ASSERT_TRUE(protocol::decodeFrame(mesh_bytes, mesh).isOk());
+  auto decoded = decodeDraco(mesh.mesh.data(), mesh.mesh.size());
+  ASSERT_TRUE(decoded.isOk());
+  EXPECT_EQ(decoded->triangleCount(), mesh.triangle_count);
+  EXPECT_GT(mesh.triangle_count, 500u);
+  protocol::Stats stats;
+  ASSERT_TRUE(protocol::decodeFrame(decode(out.stats), stats).isOk());
+  EXPECT_EQ(stats.cameras_present, 0x7u);
+  EXPECT_EQ(stats.pod_bytes, 3000u);
+  EXPECT_NE(stats.note.find("3"), std::string::npos) << stats.note;
+  protocol::TextureBundle bundle;
+  ASSERT_TRUE(protocol::decodeFrame(decode(out.texture_bundle), bundle).isOk());
+  EXPECT_EQ(bundle.images.size(), 3u);
+}
+
+}  // namespace
+}  // namespace holofuse::fusion

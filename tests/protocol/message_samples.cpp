@@ -1,0 +1,130 @@
+#include "message_samples.h"
+
+#include <deque>
+
+namespace holofuse::protocol::testing {
+namespace {
+const std::vector<uint8_t>& bytes(size_t n, uint8_t seed) {
+  static std::deque<std::vector<uint8_t>> storage;  // deque: references stay valid
+  std::vector<uint8_t> b(n);
+  for (size_t i = 0; i < n; ++i) b[i] = static_cast<uint8_t>(seed + i * 7);
+  storage.push_back(std::move(b));
+  return storage.back();
+}
+const std::vector<uint8_t>& colorBytes() {
+  static const std::vector<uint8_t>& b = bytes(4 * 3 * 3, 11);
+  return b;
+}
+const std::vector<uint8_t>& maskBytes() {
+  static const std::vector<uint8_t>& b = bytes(4 * 3, 200);
+  return b;
+}
+const std::vector<uint8_t>& meshBytes() {
+  static const std::vector<uint8_t>& b = bytes(37, 3);
+  return b;
+}
+Plane plane(PlaneKind kind, PixelFormat format, const std::vector<uint8_t>& data) {
+  Plane p;
+  p.kind = kind;
+  p.codec = Codec::kRaw;
+  p.format = format;
+  p.width = 4;
+  p.height = 3;
+  p.raw_size = static_cast<uint32_t>(data.size());
+  p.data = data;
+  return p;
+}
+}  // namespace
+
+Hello sampleHello() {
+  Hello m;
+  m.role = Role::kPod;
+  m.id = 3;
+  m.capabilities = 0x5;
+  m.nonce = 0x1122334455667788ull;
+  m.send_time_ns = 123456789;
+  m.name = "pod-3";
+  return m;
+}
+HelloAck sampleHelloAck() {
+  HelloAck m;
+  m.session_id = 42;
+  m.server_time_ns = 987654321;
+  return m;
+}
+Calibration sampleCalibration() {
+  Calibration m;
+  m.camera_id = 2;
+  m.width = 320;
+  m.height = 240;
+  m.fx = 350.5;
+  m.fy = 351.25;
+  m.cx = 160.0;
+  m.cy = 120.5;
+  m.skew = 0.25;
+  m.distortion = {0.1, -0.05, 0.001, 0.002, 0.0};
+  m.rotation = {1, 0, 0, 0, 0, -1, 0, 1, 0};
+  m.translation = {0.1, 0.2, 2.5};
+  return m;
+}
+PodFrame samplePodFrame() {
+  PodFrame m;
+  m.frame_id = 1000;
+  m.camera_id = 2;
+  m.capture_time_ns = 5000000;
+  m.offset_x = 8;
+  m.offset_y = 4;
+  m.stamps = {{1, 2, 100, 200}, {2, 2, 200, 250}};
+  m.planes = {plane(PlaneKind::kColor, PixelFormat::kRgb8, colorBytes()),
+              plane(PlaneKind::kMask, PixelFormat::kGray8, maskBytes())};
+  return m;
+}
+MeshFrame sampleMeshFrame() {
+  MeshFrame m;
+  m.frame_id = 1000;
+  m.capture_time_ns = 5000000;
+  m.bounds_min = {-0.5f, 0.0f, -0.25f};
+  m.bounds_max = {0.5f, 1.75f, 0.25f};
+  m.vertex_count = 8;
+  m.triangle_count = 12;
+  m.stamps = {{7, kSourceServer, 300, 400}};
+  m.mesh = meshBytes();
+  return m;
+}
+TextureBundle sampleTextureBundle() {
+  TextureBundle m;
+  m.frame_id = 1000;
+  m.stamps = {{9, kSourceServer, 400, 450}};
+  BundleImage image;
+  image.camera_id = 2;
+  image.planes = {plane(PlaneKind::kColor, PixelFormat::kRgb8, colorBytes())};
+  m.images = {image, image};
+  m.images[1].camera_id = 3;
+  return m;
+}
+Stats sampleStats() {
+  Stats m;
+  m.frame_id = 1000;
+  m.cameras_expected = 4;
+  m.cameras_present = 0xB;
+  m.late_frames = 2;
+  m.dropped_groups = 1;
+  m.pod_bytes = 65536;
+  m.note = "proceeded without camera(s) 2";
+  return m;
+}
+
+std::vector<Sample> allSamples() {
+  return {{"hello", encodeFrame(sampleHello(), 1)},
+          {"hello_ack", encodeFrame(sampleHelloAck(), 2)},
+          {"calibration", encodeFrame(sampleCalibration(), 3)},
+          {"pod_frame", encodeFrame(samplePodFrame(), 4)},
+          {"mesh_frame", encodeFrame(sampleMeshFrame(), 5)},
+          {"texture_bundle", encodeFrame(sampleTextureBundle(), 6)},
+          {"heartbeat", encodeFrame(Heartbeat{777}, 7)},
+          {"stats", encodeFrame(sampleStats(), 8)},
+          {"bye", encodeFrame(Bye{"done"}, 9)},
+          {"error", encodeFrame(ErrorMessage{3, "version 2.0 not supported"}, 10)}};
+}
+
+}  // namespace holofuse::protocol::testing

@@ -1,0 +1,28 @@
+// One fixed, fully populated sample of every message type, shared by the
+// round-trip tests, the golden vectors, the fuzz seed corpus and the
+// benchmarks.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "protocol/messages.h"
+
+namespace holofuse::protocol::testing {
+
+struct Sample {
+  std::string name;                 // file name stem of its golden vector
+  std::vector<uint8_t> frame;       // the encoded frame
+};
+
+// The planes' bytes live in static storage, so spans stay valid.
+std::vector<Sample> allSamples();
+Hello sampleHello();
+HelloAck sampleHelloAck();
+Calibration sampleCalibration();
+PodFrame samplePodFrame();
+MeshFrame sampleMeshFrame();
+TextureBundle sampleTextureBundle();
+Stats sampleStats();
+
+}  // namespace holofuse::protocol::testing

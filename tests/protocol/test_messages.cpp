@@ -1,0 +1,316 @@
+// Round trips, truncation, caps, checksums, forward compatibility and the
+// golden byte vectors of protocol v1.0.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "message_samples.h"
+#include "protocol/crc32c.h"
+#include "protocol/frame.h"
+#include "protocol/messages.h"
+
+namespace holofuse::protocol {
+namespace {
+
+using testing::allSamples;
+
+Frame decodeOne(const std::vector<uint8_t>& bytes, Status* status = nullptr) {
+  StreamDecoder decoder;
+  decoder.feed(bytes);
+  if (status != nullptr) *status = decoder.status();
+  return decoder.hasFrame() ? decoder.takeFrame() : Frame{};
+}
+
+std::vector<uint8_t> withFixedCrc(std::vector<uint8_t> bytes) {
+  uint32_t crc = crc32c(0, bytes.data(), kHeaderSize - 4);
+  crc = crc32c(crc, bytes.data() + kHeaderSize, bytes.size() - kHeaderSize);
+  for (int i = 0; i < 4; ++i) bytes[kHeaderSize - 4 + i] = static_cast<uint8_t>(crc >> (8 * i));
+  return bytes;
+}
+
+TEST(Crc32c, MatchesTheStandardCheckValue) {
+  const std::string check = "123456789";
+  const auto* data = reinterpret_cast<const uint8_t*>(check.data());
+  EXPECT_EQ(crc32c(0, data, check.size()), 0xE3069283u);
+  EXPECT_EQ(crc32cPortable(0, data, check.size()), 0xE3069283u);
+}
+
+TEST(Crc32c, FastPathEqualsPortableAtEveryLengthAndAlignment) {
+  std::vector<uint8_t> data(300);
+  for (size_t i = 0; i < data.size(); ++i) data[i] = static_cast<uint8_t>(i * 31 + 7);
+  for (size_t offset = 0; offset < 9; ++offset) {
+    for (size_t n = 0; n + offset <= data.size(); n += 13) {
+      ASSERT_EQ(crc32c(0, data.data() + offset, n), crc32cPortable(0, data.data() + offset, n)) << offset << " " << n;
+    }
+  }
+  // Continuing a CRC equals computing it at once.
+  EXPECT_EQ(crc32c(crc32c(0, data.data(), 100), data.data() + 100, 200), crc32c(0, data.data(), 300));
+}
+
+TEST(Messages, EveryTypeRoundTrips) {
+  {
+    Hello m;
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(testing::sampleHello(), 1)), m).isOk());
+    EXPECT_EQ(m.id, 3u);
+    EXPECT_EQ(m.nonce, 0x1122334455667788ull);
+    EXPECT_EQ(m.name, "pod-3");
+    EXPECT_EQ(m.capabilities, 5u);
+  }
+  {
+    HelloAck m;
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(testing::sampleHelloAck(), 1)), m).isOk());
+    EXPECT_EQ(m.session_id, 42u);
+    EXPECT_EQ(m.server_time_ns, 987654321u);
+  }
+  {
+    Calibration m;
+    const Calibration in = testing::sampleCalibration();
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(in, 1)), m).isOk());
+    EXPECT_EQ(m.fx, in.fx);
+    EXPECT_EQ(m.skew, in.skew);
+    EXPECT_EQ(m.distortion, in.distortion);
+    EXPECT_EQ(m.rotation, in.rotation);
+    EXPECT_EQ(m.translation, in.translation);
+  }
+  {
+    const auto bytes = encodeFrame(testing::samplePodFrame(), 1);
+    const Frame frame = decodeOne(bytes);
+    PodFrame m;
+    ASSERT_TRUE(decodeFrame(frame, m).isOk());
+    const PodFrame in = testing::samplePodFrame();
+    EXPECT_EQ(m.frame_id, in.frame_id);
+    EXPECT_EQ(m.offset_x, 8u);
+    EXPECT_EQ(m.stamps, in.stamps);
+    ASSERT_EQ(m.planes.size(), 2u);
+    EXPECT_TRUE(std::equal(m.planes[0].data.begin(), m.planes[0].data.end(), in.planes[0].data.begin(),
+                           in.planes[0].data.end()));
+    EXPECT_EQ(m.planes[1].format, PixelFormat::kGray8);
+  }
+  {
+    MeshFrame m;
+    const MeshFrame in = testing::sampleMeshFrame();
+    const Frame frame = decodeOne(encodeFrame(in, 1));
+    ASSERT_TRUE(decodeFrame(frame, m).isOk());
+    EXPECT_EQ(m.bounds_max, in.bounds_max);
+    EXPECT_EQ(m.triangle_count, 12u);
+    EXPECT_TRUE(std::equal(m.mesh.begin(), m.mesh.end(), in.mesh.begin(), in.mesh.end()));
+  }
+  {
+    TextureBundle m;
+    const Frame frame = decodeOne(encodeFrame(testing::sampleTextureBundle(), 1));
+    ASSERT_TRUE(decodeFrame(frame, m).isOk());
+    ASSERT_EQ(m.images.size(), 2u);
+    EXPECT_EQ(m.images[1].camera_id, 3u);
+  }
+  {
+    Stats m;
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(testing::sampleStats(), 1)), m).isOk());
+    EXPECT_EQ(m.cameras_present, 0xBu);
+    EXPECT_EQ(m.note, "proceeded without camera(s) 2");
+  }
+  {
+    Heartbeat h;
+    Bye b;
+    ErrorMessage e;
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(Heartbeat{777}, 1)), h).isOk());
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(Bye{"done"}, 1)), b).isOk());
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(ErrorMessage{3, "x"}, 1)), e).isOk());
+    EXPECT_EQ(h.send_time_ns, 777u);
+    EXPECT_EQ(b.reason, "done");
+    EXPECT_EQ(e.code, 3u);
+  }
+}
+
+TEST(Messages, DecodingTheWrongTypeIsAnError) {
+  Hello m;
+  const Status s = decodeFrame(decodeOne(encodeFrame(Bye{"x"}, 1)), m);
+  EXPECT_EQ(s.code(), StatusCode::kUnexpectedMessage);
+}
+
+// Every strict prefix of every valid frame leaves the stream decoder waiting
+// (no frame, no crash), and every strict prefix of every payload fails to
+// decode with kTruncated naming a field.
+TEST(Messages, EveryTruncationFailsCleanly) {
+  for (const auto& sample : allSamples()) {
+    for (size_t n = 0; n < sample.frame.size(); ++n) {
+      StreamDecoder decoder;
+      decoder.feed(std::span<const uint8_t>(sample.frame.data(), n));
+      EXPECT_FALSE(decoder.hasFrame()) << sample.name << " prefix " << n;
+      EXPECT_TRUE(decoder.status().isOk()) << sample.name << " prefix " << n;
+    }
+    const Frame frame = decodeOne(sample.frame);
+    const auto payload = frame.payload();
+    for (size_t n = 0; n < payload.size(); ++n) {
+      Frame cut = frame;
+      cut.bytes.resize(kHeaderSize + n);
+      Status s;
+      switch (static_cast<MessageType>(frame.header.type)) {
+        case MessageType::kHello: { Hello m; s = decodeFrame(cut, m); break; }
+        case MessageType::kHelloAck: { HelloAck m; s = decodeFrame(cut, m); break; }
+        case MessageType::kCalibration: { Calibration m; s = decodeFrame(cut, m); break; }
+        case MessageType::kPodFrame: { PodFrame m; s = decodeFrame(cut, m); break; }
+        case MessageType::kMeshFrame: { MeshFrame m; s = decodeFrame(cut, m); break; }
+        case MessageType::kTextureBundle: { TextureBundle m; s = decodeFrame(cut, m); break; }
+        case MessageType::kHeartbeat: { Heartbeat m; s = decodeFrame(cut, m); break; }
+        case MessageType::kStats: { Stats m; s = decodeFrame(cut, m); break; }
+        case MessageType::kBye: { Bye m; s = decodeFrame(cut, m); break; }
+        case MessageType::kError: { ErrorMessage m; s = decodeFrame(cut, m); break; }
+        default: FAIL();
+      }
+      ASSERT_FALSE(s.isOk()) << sample.name << " payload prefix " << n;
+      EXPECT_NE(s.message().find("field '"), std::string::npos) << s.message();
+    }
+  }
+}
+
+TEST(Framing, WrongMagicIsRejectedWithItsOffset) {
+  auto bytes = encodeFrame(Heartbeat{1}, 0);
+  bytes[0] = 'X';
+  Status s;
+  decodeOne(bytes, &s);
+  EXPECT_EQ(s.code(), StatusCode::kBadMagic);
+  EXPECT_NE(s.message().find("offset 0"), std::string::npos);
+}
+
+TEST(Framing, NewerMajorIsRefused) {
+  auto bytes = encodeFrame(Heartbeat{1}, 0);
+  bytes[4] = kVersionMajor + 1;
+  Status s;
+  decodeOne(withFixedCrc(bytes), &s);
+  EXPECT_EQ(s.code(), StatusCode::kUnsupportedVersion);
+  EXPECT_NE(s.message().find("major"), std::string::npos);
+}
+
+TEST(Framing, AHeaderClaimingFourGigabytesIsRejectedBeforeAllocation) {
+  auto bytes = encodeFrame(Heartbeat{1}, 0);
+  for (int i = 0; i < 4; ++i) bytes[12 + i] = 0xFF;
+  bytes.resize(kHeaderSize);  // nothing follows: a decoder that allocated would wait
+  Status s;
+  decodeOne(bytes, &s);
+  EXPECT_EQ(s.code(), StatusCode::kTooLarge);
+  EXPECT_NE(s.message().find("payload_length"), std::string::npos);
+  EXPECT_NE(s.message().find("4294967295"), std::string::npos);
+}
+
+TEST(Framing, ReservedBitsMustBeZero) {
+  auto bytes = encodeFrame(Heartbeat{1}, 0);
+  bytes[10] = 1;
+  Status s;
+  decodeOne(withFixedCrc(bytes), &s);
+  EXPECT_EQ(s.code(), StatusCode::kReservedNonZero);
+  bytes = encodeFrame(Heartbeat{1}, 0);
+  bytes[9] = 0x80;
+  decodeOne(withFixedCrc(bytes), &s);
+  EXPECT_EQ(s.code(), StatusCode::kReservedNonZero);
+}
+
+TEST(Framing, CorruptedPayloadOrChecksumFailsTheCrc) {
+  for (size_t at : {size_t{kHeaderSize}, size_t{kHeaderSize + 5}, size_t{24}}) {
+    auto bytes = encodeFrame(testing::sampleStats(), 0);
+    bytes[at] ^= 0x01;
+    Status s;
+    decodeOne(bytes, &s);
+    EXPECT_EQ(s.code(), StatusCode::kBadChecksum) << at;
+  }
+}
+
+TEST(Framing, UnknownMessageTypeIsDeliveredForSkippingAndTheStreamGoesOn) {
+  FrameBuilder builder(static_cast<MessageType>(999), 0);
+  builder.buffer().insert(builder.buffer().end(), {1, 2, 3});
+  auto unknown = std::move(builder).finish();
+  auto bye = encodeFrame(Bye{"after"}, 1);
+  StreamDecoder decoder;
+  decoder.feed(unknown);
+  decoder.feed(bye);
+  ASSERT_TRUE(decoder.status().isOk());
+  ASSERT_TRUE(decoder.hasFrame());
+  EXPECT_EQ(decoder.takeFrame().header.type, 999);
+  ASSERT_TRUE(decoder.hasFrame());
+  Bye m;
+  ASSERT_TRUE(decodeFrame(decoder.takeFrame(), m).isOk());
+  EXPECT_EQ(m.reason, "after");
+  EXPECT_STREQ(messageTypeName(999), "unknown");
+}
+
+TEST(Framing, UnknownTrailingFieldsOfAKnownTypeAreSkipped) {
+  // A future minor appends fields: a 1.0 reader reads what it knows.
+  FrameBuilder builder(MessageType::kStats, 0);
+  WireWriter w(builder.buffer());
+  writePayload(w, testing::sampleStats());
+  w.u64(0xDEADBEEF);
+  w.str("a field from minor 1");
+  builder.setMinor(1);
+  const auto bytes = std::move(builder).finish();
+  Stats m;
+  ASSERT_TRUE(decodeFrame(decodeOne(bytes), m).isOk());
+  EXPECT_EQ(m.pod_bytes, 65536u);
+  EXPECT_EQ(m.note, "proceeded without camera(s) 2");
+}
+
+TEST(Framing, ByteByByteFeedingGivesTheSameFrames) {
+  std::vector<uint8_t> stream;
+  for (const auto& s : allSamples()) stream.insert(stream.end(), s.frame.begin(), s.frame.end());
+  StreamDecoder decoder;
+  size_t frames = 0;
+  for (uint8_t b : stream) {
+    decoder.feed(std::span<const uint8_t>(&b, 1));
+    while (decoder.hasFrame()) {
+      decoder.takeFrame();
+      ++frames;
+    }
+  }
+  EXPECT_TRUE(decoder.status().isOk());
+  EXPECT_EQ(frames, allSamples().size());
+  EXPECT_EQ(decoder.bytesConsumed(), stream.size());
+}
+
+TEST(Messages, HostileCountsAndSizesAreRejected) {
+  // A plane whose raw size disagrees with width x height.
+  PodFrame pod = testing::samplePodFrame();
+  pod.planes[0].raw_size = 1;
+  PodFrame out;
+  EXPECT_EQ(decodeFrame(decodeOne(encodeFrame(pod, 0)), out).code(), StatusCode::kMalformed);
+  // A stamp count far above what the payload holds.
+  FrameBuilder builder(MessageType::kMeshFrame, 0);
+  WireWriter w(builder.buffer());
+  w.u64(1);
+  w.u64(1);
+  for (int i = 0; i < 6; ++i) w.f32(0);
+  w.u32(0);
+  w.u32(0);
+  w.u8(1);
+  w.u16(1000);  // 1000 stamps claimed, none present
+  MeshFrame mesh;
+  const Status s = decodeFrame(decodeOne(std::move(builder).finish()), mesh);
+  EXPECT_EQ(s.code(), StatusCode::kTruncated);
+  EXPECT_NE(s.message().find("stamps"), std::string::npos);
+  // A calibration with a non-finite focal length.
+  Calibration c = testing::sampleCalibration();
+  c.fx = std::numeric_limits<double>::quiet_NaN();
+  Calibration cout;
+  EXPECT_EQ(decodeFrame(decodeOne(encodeFrame(c, 0)), cout).code(), StatusCode::kMalformed);
+}
+
+// Golden vectors lock the wire format: the bytes of each sample must equal
+// the file for its version. HOLOFUSE_REGENERATE_GOLDEN=1 writes missing or
+// changed files (never deletes old versions).
+TEST(Golden, EveryTypeMatchesItsV1_0Vector) {
+  const std::filesystem::path dir = HOLOFUSE_GOLDEN_DIR;
+  const bool regenerate = std::getenv("HOLOFUSE_REGENERATE_GOLDEN") != nullptr;
+  for (const auto& sample : allSamples()) {
+    const auto path = dir / (sample.name + ".v1.0.bin");
+    if (regenerate) {
+      std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(sample.frame.data()),
+                                                  static_cast<std::streamsize>(sample.frame.size()));
+    }
+    std::ifstream in(path, std::ios::binary);
+    ASSERT_TRUE(in) << "missing golden vector " << path;
+    const std::vector<uint8_t> golden((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(golden, sample.frame) << "wire format of " << sample.name << " changed";
+  }
+}
+
+}  // namespace
+}  // namespace holofuse::protocol

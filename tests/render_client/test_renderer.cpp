@@ -1,0 +1,122 @@
+// The Vulkan renderer (lavapipe in CI) against the synthetic truth: from a
+// pod camera's own pose the blend must reproduce that camera's true image.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "capture_node/synthetic_scene.h"
+#include "render_client/latency_report.h"
+#include "render_client/renderer.h"
+
+namespace holofuse::render {
+namespace {
+
+struct Fixture {
+  capture::SyntheticScene scene;
+  std::vector<Camera> cameras = capture::SyntheticScene::cameraRig(4, 200, 150);
+  std::vector<ViewImages> views;
+  std::vector<capture::RenderedView> truth;
+  Mesh mesh;
+  explicit Fixture(uint64_t frame) {
+    mesh = scene.truthMesh(frame, 0.012);
+    for (const auto& cam : cameras) {
+      truth.push_back(scene.render(cam, frame));
+      views.push_back({cam, truth.back().color, truth.back().mask});
+    }
+  }
+};
+
+VulkanContext& context() {
+  static VulkanContext ctx;
+  return ctx;
+}
+
+TEST(Renderer, PodViewReproducesTheTrueImageInsideTheSilhouette) {
+  Fixture f(4);
+  Renderer renderer(context(), 200, 150);
+  renderer.setMesh(f.mesh);
+  renderer.setViews(f.views);
+  const Image8 out = renderer.render(f.cameras[1], BlendSettings{});
+  size_t inter = 0, uni = 0, n = 0;
+  double squared = 0;
+  for (uint32_t y = 0; y < 150; ++y) {
+    for (uint32_t x = 0; x < 200; ++x) {
+      const bool covered = out.at(x, y)[3] != 0, truth = *f.truth[1].mask.at(x, y) != 0;
+      inter += covered && truth;
+      uni += covered || truth;
+      if (!covered || !truth) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double d = static_cast<double>(out.at(x, y)[c]) - f.truth[1].color.at(x, y)[c];
+        squared += d * d;
+      }
+      n += 3;
+    }
+  }
+  const double iou = static_cast<double>(inter) / static_cast<double>(uni);
+  const double psnr = 10 * std::log10(255.0 * 255.0 / (squared / static_cast<double>(n)));
+  EXPECT_GT(iou, 0.95);
+  EXPECT_GT(psnr, 24.0) << "blend of the true images from a pod's pose";
+}
+
+TEST(Renderer, OcclusionTestKeepsHiddenCamerasOut) {
+  // Camera 2 sits opposite camera 0: with the occlusion test it cannot paint
+  // camera 0's side, so leaving it out changes almost nothing.
+  Fixture f(9);
+  Renderer renderer(context(), 200, 150);
+  renderer.setMesh(f.mesh);
+  renderer.setViews(f.views);
+  BlendSettings all;
+  BlendSettings without_opposite;
+  without_opposite.camera_enabled = {true, true, false, true};
+  const Image8 a = renderer.render(f.cameras[0], all);
+  const Image8 b = renderer.render(f.cameras[0], without_opposite);
+  size_t differ = 0, covered = 0;
+  for (size_t i = 0; i < a.pixels.size(); i += 4) {
+    if (a.pixels[i + 3] == 0) continue;
+    ++covered;
+    differ += std::abs(a.pixels[i] - b.pixels[i]) > 8;
+  }
+  EXPECT_LT(static_cast<double>(differ) / static_cast<double>(covered), 0.02);
+  EXPECT_EQ(renderer.depthMapPasses(), 1u) << "depth maps are per mesh, not per view";
+}
+
+TEST(Renderer, SurfaceNoCameraSeesGetsTheHoleColour) {
+  Fixture f(2);
+  Renderer renderer(context(), 120, 90);
+  renderer.setMesh(f.mesh);
+  renderer.setViews(f.views);
+  BlendSettings none;
+  none.camera_enabled = {false, false, false, false};
+  none.hole_color = {1.0f, 0.0f, 1.0f};
+  const Image8 out = renderer.render(f.cameras[0], none);
+  size_t covered = 0;
+  for (size_t i = 0; i < out.pixels.size(); i += 4) {
+    if (out.pixels[i + 3] == 0) continue;
+    ++covered;
+    EXPECT_EQ(out.pixels[i], 255);
+    EXPECT_EQ(out.pixels[i + 1], 0);
+  }
+  EXPECT_GT(covered, 500u);
+}
+
+TEST(Renderer, EmptyMeshGivesAnEmptyPictureAndMismatchedViewsAreRefused) {
+  Fixture f(1);
+  Renderer renderer(context(), 64, 48);
+  renderer.setMesh(Mesh{});
+  renderer.setViews(f.views);
+  const Image8 out = renderer.render(f.cameras[0], BlendSettings{});
+  for (size_t i = 3; i < out.pixels.size(); i += 4) ASSERT_EQ(out.pixels[i], 0);
+  auto bad = f.views;
+  bad[1].color = Image8(10, 10, 3);
+  EXPECT_THROW(renderer.setViews(bad), std::invalid_argument);
+}
+
+TEST(LatencyReport, PercentilesInterpolate) {
+  EXPECT_DOUBLE_EQ(percentile({1, 2, 3, 4, 5}, 50), 3);
+  EXPECT_DOUBLE_EQ(percentile({10, 20}, 50), 15);
+  EXPECT_DOUBLE_EQ(percentile({}, 95), 0);
+  EXPECT_DOUBLE_EQ(percentile({7}, 99), 7);
+}
+
+}  // namespace
+}  // namespace holofuse::render
