@@ -44,10 +44,13 @@ Status FusionServer::start() {
   return Status::ok();
 }
 
-std::set<uint32_t> FusionServer::connectedPods() const {
+std::set<uint32_t> FusionServer::expectedPods() const {
+  // Every configured pod is waited for (up to the sync deadline) until it
+  // has been seen to leave: a pod still starting up gets the deadline, a
+  // pod that left stalls nothing.
   std::set<uint32_t> ids;
-  for (const auto& peer : peers_) {
-    if (peer.greeted && peer.role == protocol::Role::kPod && cameras_.count(peer.id)) ids.insert(peer.id);
+  for (uint32_t id = 0; id < static_cast<uint32_t>(options_.pods); ++id) {
+    if (departed_pods_.count(id) == 0) ids.insert(id);
   }
   return ids;
 }
@@ -85,6 +88,7 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
   ack->heartbeat_interval_ms = options_.heartbeat_interval_ms;
   ack->idle_timeout_ms = options_.idle_timeout_ms;
   peer.greeted = true;
+  if (hello.role == protocol::Role::kPod) departed_pods_.erase(hello.id);
   peer.role = hello.role;
   peer.id = hello.id;
   peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
@@ -190,6 +194,7 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
 
 void FusionServer::closePeer(size_t index, const Status& why) {
   Peer& peer = peers_[index];
+  if (peer.greeted && peer.role == protocol::Role::kPod) departed_pods_.insert(peer.id);
   if (why.code() == StatusCode::kClosed) {
     std::fprintf(stderr, "[server] %s left (%s)\n", peer.connection->peerName().c_str(), why.message().c_str());
   } else {
@@ -203,7 +208,7 @@ void FusionServer::closePeer(size_t index, const Status& why) {
 }
 
 void FusionServer::dispatchReadyGroups() {
-  for (auto& group : sync_.takeReady(connectedPods(), monotonicNs())) {
+  for (auto& group : sync_.takeReady(expectedPods(), monotonicNs())) {
     if (group.pods.empty()) continue;
     GroupJob job;
     job.group = std::move(group);

@@ -58,13 +58,14 @@ class FusionServer {
   void dispatchReadyGroups();
   void fanOut();
   void closePeer(size_t index, const protocol::Status& why);
-  std::set<uint32_t> connectedPods() const;
+  std::set<uint32_t> expectedPods() const;
 
   ServerOptions options_;
   protocol::Socket listener_;
   int wake_fd_ = -1;
   std::vector<Peer> peers_;
   std::map<uint32_t, Camera> cameras_;
+  std::set<uint32_t> departed_pods_;  // pods that joined and then left
   std::map<uint32_t, protocol::SharedBytes> calibration_frames_;
   FrameSync sync_;
   std::unique_ptr<FusionWorker> worker_;
