@@ -45,6 +45,15 @@ TEST(Crc32c, FastPathEqualsPortableAtEveryLengthAndAlignment) {
       ASSERT_EQ(crc32c(0, data.data() + offset, n), crc32cPortable(0, data.data() + offset, n)) << offset << " " << n;
     }
   }
+  // Long inputs take the three-stream path: every length around its block
+  // boundaries, at odd alignments, must still agree.
+  std::vector<uint8_t> big(20000);
+  for (size_t i = 0; i < big.size(); ++i) big[i] = static_cast<uint8_t>((i * 2654435761u) >> 13);
+  for (size_t n : {6143u, 6144u, 6145u, 12287u, 12288u, 18432u, 12345u, 19990u}) {
+    for (size_t offset : {0u, 3u}) {
+      ASSERT_EQ(crc32c(0, big.data() + offset, n), crc32cPortable(0, big.data() + offset, n)) << n;
+    }
+  }
   // Continuing a CRC equals computing it at once.
   EXPECT_EQ(crc32c(crc32c(0, data.data(), 100), data.data() + 100, 200), crc32c(0, data.data(), 300));
 }
