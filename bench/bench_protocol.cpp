@@ -15,7 +15,7 @@ namespace {
 using namespace holofuse;
 
 struct Input {
-  std::vector<uint8_t> frame;              // an encoded PodFrame
+  protocol::Bytes frame;                   // an encoded PodFrame
   protocol::PodFrame message;              // its decoded form (views into frame)
 };
 

@@ -39,7 +39,7 @@ Result run(int pods, const protocol::PodFrame& message, int frames_per_pod) {
         protocol::PodFrame f = message;
         f.frame_id = static_cast<uint64_t>(i);
         f.capture_time_ns = protocol::monotonicNs();
-        c.send(std::make_shared<const std::vector<uint8_t>>(protocol::encodeFrame(f, protocol::nextSequence())));
+        c.send(std::make_shared<const protocol::Bytes>(protocol::encodeFrame(f, protocol::nextSequence())));
         while (c.wantsWrite()) {
           (void)c.onWritable();
           if (c.wantsWrite()) {

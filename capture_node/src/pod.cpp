@@ -31,7 +31,7 @@ PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, co
   return capture;
 }
 
-std::vector<uint8_t> encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec) {
+protocol::Bytes encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec) {
   const uint64_t t0 = monotonicNs();
   std::vector<uint8_t> color_bytes, mask_bytes, feather_bytes;
   protocol::PodFrame frame;
@@ -89,7 +89,7 @@ int runPod(const PodOptions& options) {
     last_frame_id = frame_id;
     PodCapture capture = capturePodFrame(scene, camera, plate, frame_id, static_cast<uint16_t>(options.pod_id));
     auto bytes = encodePodFrame(capture, camera.id, options.color_codec);
-    link.send(std::make_shared<const std::vector<uint8_t>>(std::move(bytes)));
+    link.send(std::make_shared<const protocol::Bytes>(std::move(bytes)));
     link.poll(0, received);
     received.clear();
     ++sent;

@@ -89,9 +89,9 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   }
   if (!draco.isOk()) stats.note += (stats.note.empty() ? "" : "; ") + draco.status().message();
 
-  out.texture_bundle = std::make_shared<const std::vector<uint8_t>>(protocol::encodeFrame(bundle, protocol::nextSequence()));
-  out.mesh_frame = std::make_shared<const std::vector<uint8_t>>(protocol::encodeFrame(mesh_frame, protocol::nextSequence()));
-  out.stats = std::make_shared<const std::vector<uint8_t>>(protocol::encodeFrame(stats, protocol::nextSequence()));
+  out.texture_bundle = std::make_shared<const protocol::Bytes>(protocol::encodeFrame(bundle, protocol::nextSequence()));
+  out.mesh_frame = std::make_shared<const protocol::Bytes>(protocol::encodeFrame(mesh_frame, protocol::nextSequence()));
+  out.stats = std::make_shared<const protocol::Bytes>(protocol::encodeFrame(stats, protocol::nextSequence()));
   out.triangles = mesh.triangleCount();
   return out;
 }

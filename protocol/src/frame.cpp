@@ -31,29 +31,42 @@ bool isDroppable(MessageType type) {
          type == MessageType::kTextureBundle;
 }
 
+namespace {
+
+// Header bytes 0..23 (everything but the CRC).
+void writeHeaderPrefix(WireWriter& w, MessageType type, uint8_t minor, uint32_t payload_length,
+                       uint64_t sequence) {
+  w.raw(kMagic);
+  w.u8(kVersionMajor);
+  w.u8(minor);
+  w.u16(static_cast<uint16_t>(type));
+  w.u16(isDroppable(type) ? kFlagDroppable : 0);
+  w.u16(0);
+  w.u32(payload_length);
+  w.u64(sequence);
+}
+
+void storeCrc(Bytes& bytes, uint32_t crc) {
+  for (int i = 0; i < 4; ++i) bytes[kHeaderSize - 4 + i] = static_cast<uint8_t>(crc >> (8 * i));
+}
+
+}  // namespace
+
 FrameBuilder::FrameBuilder(MessageType type, uint64_t sequence, size_t payload_hint)
     : type_(type), sequence_(sequence) {
   bytes_.reserve(kHeaderSize + payload_hint);
   bytes_.resize(kHeaderSize);
 }
 
-std::vector<uint8_t> FrameBuilder::finish() && {
-  const uint64_t payload_length = bytes_.size() - kHeaderSize;
-  std::vector<uint8_t> header;
-  header.reserve(kHeaderSize);
+Bytes FrameBuilder::finish() && {
+  const auto payload_length = static_cast<uint32_t>(bytes_.size() - kHeaderSize);
+  Bytes header;
   WireWriter w(header);
-  w.raw(kMagic);
-  w.u8(kVersionMajor);
-  w.u8(minor_);
-  w.u16(static_cast<uint16_t>(type_));
-  w.u16(isDroppable(type_) ? kFlagDroppable : 0);
-  w.u16(0);
-  w.u32(static_cast<uint32_t>(payload_length));
-  w.u64(sequence_);
+  writeHeaderPrefix(w, type_, minor_, payload_length, sequence_);
   std::memcpy(bytes_.data(), header.data(), kHeaderSize - 4);
   uint32_t crc = crc32c(0, bytes_.data(), kHeaderSize - 4);
   crc = crc32c(crc, bytes_.data() + kHeaderSize, payload_length);
-  for (int i = 0; i < 4; ++i) bytes_[kHeaderSize - 4 + i] = static_cast<uint8_t>(crc >> (8 * i));
+  storeCrc(bytes_, crc);
   return std::move(bytes_);
 }
 

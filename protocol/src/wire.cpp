@@ -11,7 +11,7 @@ void WireWriter::f64(double v) { u64(std::bit_cast<uint64_t>(v)); }
 void WireWriter::str(std::string_view s) {
   if (s.size() > kMaxString) s = s.substr(0, kMaxString);
   u16(static_cast<uint16_t>(s.size()));
-  out_.insert(out_.end(), s.begin(), s.end());
+  raw(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(s.data()), s.size()));
 }
 
 void WireWriter::bytes32(std::span<const uint8_t> data) {

@@ -12,7 +12,7 @@ namespace holofuse::protocol::testing {
 
 struct Sample {
   std::string name;                 // file name stem of its golden vector
-  std::vector<uint8_t> frame;       // the encoded frame
+  Bytes frame;                      // the encoded frame
 };
 
 // The planes' bytes live in static storage, so spans stay valid.

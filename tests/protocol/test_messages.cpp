@@ -16,14 +16,14 @@ namespace {
 
 using testing::allSamples;
 
-Frame decodeOne(const std::vector<uint8_t>& bytes, Status* status = nullptr) {
+Frame decodeOne(std::span<const uint8_t> bytes, Status* status = nullptr) {
   StreamDecoder decoder;
   decoder.feed(bytes);
   if (status != nullptr) *status = decoder.status();
   return decoder.hasFrame() ? decoder.takeFrame() : Frame{};
 }
 
-std::vector<uint8_t> withFixedCrc(std::vector<uint8_t> bytes) {
+Bytes withFixedCrc(Bytes bytes) {
   uint32_t crc = crc32c(0, bytes.data(), kHeaderSize - 4);
   crc = crc32c(crc, bytes.data() + kHeaderSize, bytes.size() - kHeaderSize);
   for (int i = 0; i < 4; ++i) bytes[kHeaderSize - 4 + i] = static_cast<uint8_t>(crc >> (8 * i));
@@ -259,7 +259,7 @@ TEST(Framing, UnknownTrailingFieldsOfAKnownTypeAreSkipped) {
 }
 
 TEST(Framing, ByteByByteFeedingGivesTheSameFrames) {
-  std::vector<uint8_t> stream;
+  Bytes stream;
   for (const auto& s : allSamples()) stream.insert(stream.end(), s.frame.begin(), s.frame.end());
   StreamDecoder decoder;
   size_t frames = 0;
@@ -316,7 +316,7 @@ TEST(Golden, EveryTypeMatchesItsV1_0Vector) {
     }
     std::ifstream in(path, std::ios::binary);
     ASSERT_TRUE(in) << "missing golden vector " << path;
-    const std::vector<uint8_t> golden((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const Bytes golden((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     EXPECT_EQ(golden, sample.frame) << "wire format of " << sample.name << " changed";
   }
 }

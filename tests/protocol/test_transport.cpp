@@ -13,7 +13,7 @@
 namespace holofuse::protocol {
 namespace {
 
-std::vector<uint8_t> bigPodFrame(uint64_t id, size_t bytes) {
+Bytes bigPodFrame(uint64_t id, size_t bytes) {
   static std::deque<std::vector<uint8_t>> storage;
   storage.emplace_back(bytes);
   for (size_t i = 0; i < bytes; ++i) storage.back()[i] = static_cast<uint8_t>(i * 13 + id);
@@ -56,7 +56,7 @@ TEST(Transport, LargeFramesSurvivePartialWritesAndReads) {
   limits.max_queued_droppable = 100;
   Connection a(std::move(pair->first), "a", limits), b(std::move(pair->second), "b", limits);
   for (uint64_t id = 1; id <= 5; ++id) {
-    a.send(std::make_shared<const std::vector<uint8_t>>(bigPodFrame(id, 200000)));
+    a.send(std::make_shared<const protocol::Bytes>(bigPodFrame(id, 200000)));
   }
   const auto got = pump(a, b);
   ASSERT_EQ(got.size(), 5u);
@@ -77,7 +77,7 @@ TEST(Transport, SlowPeerLosesTheOldestFramesButNeverControlMessages) {
   // Nothing is written while the peer "is slow": queue everything first.
   a.sendMessage(Calibration{});  // default calibration does not decode (size 0) but is never dropped
   for (uint64_t id = 1; id <= 6; ++id) {
-    a.send(std::make_shared<const std::vector<uint8_t>>(bigPodFrame(id, 1000)));
+    a.send(std::make_shared<const protocol::Bytes>(bigPodFrame(id, 1000)));
     a.sendMessage(Heartbeat{id});
   }
   EXPECT_EQ(a.framesDropped(), 4u);

@@ -39,7 +39,7 @@ PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, co
 
 // Compresses a capture into a PodFrame frame (one buffer), appending the
 // encode stamp.
-std::vector<uint8_t> encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec);
+protocol::Bytes encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec);
 
 // Runs until stopped (signal, frame count) or the server refuses the
 // version. Returns the process exit code.

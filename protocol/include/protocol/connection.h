@@ -16,8 +16,6 @@
 
 namespace holofuse::protocol {
 
-using SharedBytes = std::shared_ptr<const std::vector<uint8_t>>;
-
 struct ConnectionLimits {
   uint32_t max_payload = kDefaultMaxPayload;
   // Droppable frames allowed in the queue before the oldest is dropped.
@@ -44,7 +42,7 @@ class Connection {
   void send(SharedBytes frame);
   template <typename Message>
   void sendMessage(const Message& m) {
-    send(std::make_shared<const std::vector<uint8_t>>(encodeFrame(m, nextSequence())));
+    send(std::make_shared<const Bytes>(encodeFrame(m, nextSequence())));
   }
 
   bool wantsWrite() const { return !queue_.empty(); }

@@ -6,6 +6,7 @@
 #include <span>
 #include <vector>
 
+#include "protocol/bytes.h"
 #include "protocol/status.h"
 
 namespace holofuse::protocol {
@@ -49,28 +50,27 @@ struct FrameHeader {
 // A whole frame, header included, in one buffer.
 struct Frame {
   FrameHeader header;
-  std::vector<uint8_t> bytes;
+  Bytes bytes;
   std::span<const uint8_t> payload() const {
     return std::span<const uint8_t>(bytes).subspan(kHeaderSize);
   }
 };
 
 // Builds one frame in a single buffer: the caller writes the payload straight
-// after the reserved header, then finish() fills in length and CRC. No copy
-// of the payload is made.
+// after the reserved header, then finish() fills in length and CRC.
 class FrameBuilder {
  public:
   FrameBuilder(MessageType type, uint64_t sequence, size_t payload_hint = 0);
-  std::vector<uint8_t>& buffer() { return bytes_; }
+  Bytes& buffer() { return bytes_; }
   // Pins the encoded minor (an encoder can speak an older minor).
   void setMinor(uint8_t minor) { minor_ = minor; }
-  std::vector<uint8_t> finish() &&;
+  Bytes finish() &&;
 
  private:
   MessageType type_;
   uint64_t sequence_;
   uint8_t minor_ = kVersionMinor;
-  std::vector<uint8_t> bytes_;
+  Bytes bytes_;
 };
 
 // Parses a header from exactly kHeaderSize bytes and validates everything

@@ -191,9 +191,10 @@ Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offse
 Status readPayload(std::span<const uint8_t> payload, Bye& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, ErrorMessage& m, size_t base_offset = 0);
 
-// A whole frame for message m.
+// A whole frame for message m: one copy of the payload into the frame
+// buffer (reserved up front from payload_hint), then one CRC pass.
 template <typename Message>
-std::vector<uint8_t> encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0) {
+Bytes encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0) {
   FrameBuilder builder(Message::kType, sequence, payload_hint);
   WireWriter w(builder.buffer());
   writePayload(w, m);

@@ -46,7 +46,7 @@ class ServerLink {
   void send(SharedBytes frame);
   template <typename Message>
   void sendMessage(const Message& m) {
-    send(std::make_shared<const std::vector<uint8_t>>(encodeFrame(m, nextSequence())));
+    send(std::make_shared<const Bytes>(encodeFrame(m, nextSequence())));
   }
   // Sends Bye with the reason and flushes for a short while.
   void close(const std::string& reason);

@@ -3,18 +3,20 @@
 #pragma once
 
 #include <cstdint>
+#include <cstring>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "protocol/bytes.h"
 #include "protocol/status.h"
 
 namespace holofuse::protocol {
 
 class WireWriter {
  public:
-  explicit WireWriter(std::vector<uint8_t>& out) : out_(out) {}
+  explicit WireWriter(Bytes& out) : out_(out) {}
 
   void u8(uint8_t v) { out_.push_back(v); }
   void u16(uint16_t v) { putLe(v, 2); }
@@ -26,16 +28,23 @@ class WireWriter {
   void str(std::string_view s);
   // bytes32: u32 length + bytes.
   void bytes32(std::span<const uint8_t> data);
-  void raw(std::span<const uint8_t> data) { out_.insert(out_.end(), data.begin(), data.end()); }
+  // Grows without zero fill (Bytes) and copies once: insert() would copy
+  // byte by byte through the allocator.
+  void raw(std::span<const uint8_t> data) {
+    if (data.empty()) return;
+    const size_t at = out_.size();
+    out_.resize(at + data.size());
+    std::memcpy(out_.data() + at, data.data(), data.size());
+  }
 
   size_t size() const { return out_.size(); }
-  std::vector<uint8_t>& buffer() { return out_; }
+  Bytes& buffer() { return out_; }
 
  private:
   void putLe(uint64_t v, int n) {
     for (int i = 0; i < n; ++i) out_.push_back(static_cast<uint8_t>(v >> (8 * i)));
   }
-  std::vector<uint8_t>& out_;
+  Bytes& out_;
 };
 
 // Reads fields from untrusted bytes. Every read names its field; the first
