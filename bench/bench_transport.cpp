@@ -27,6 +27,7 @@ Result run(int pods, const protocol::PodFrame& message, int frames_per_pod) {
   std::vector<std::unique_ptr<protocol::Connection>> receivers;
   std::vector<std::thread> senders;
   const uint64_t start = protocol::monotonicNs();
+  const auto planes_owner = std::make_shared<int>(0);  // the planes live in main for the whole run
   for (int p = 0; p < pods; ++p) {
     senders.emplace_back([&] {
       auto socket = protocol::connectTcp({"127.0.0.1", port}, 1000);
@@ -39,7 +40,7 @@ Result run(int pods, const protocol::PodFrame& message, int frames_per_pod) {
         protocol::PodFrame f = message;
         f.frame_id = static_cast<uint64_t>(i);
         f.capture_time_ns = protocol::monotonicNs();
-        c.send(std::make_shared<const protocol::Bytes>(protocol::encodeFrame(f, protocol::nextSequence())));
+        c.send(std::make_shared<const protocol::OutgoingFrame>(protocol::encodeOutgoing(f, protocol::nextSequence(), planes_owner)));
         while (c.wantsWrite()) {
           (void)c.onWritable();
           if (c.wantsWrite()) {
@@ -96,7 +97,7 @@ int main() {
   const capture::SyntheticScene scene;
   const auto cam = capture::SyntheticScene::cameraRig(4, 320, 240)[0];
   capture::PodCapture capture = capture::capturePodFrame(scene, cam, scene.backgroundPlate(cam), 10, 0);
-  const auto frame = capture::encodePodFrame(capture, 0, protocol::Codec::kLz4PlanarDelta);
+  const auto frame = capture::encodePodFrame(capture, 0, protocol::Codec::kLz4PlanarDelta).flatten();
   protocol::StreamDecoder decoder;
   decoder.feed(frame);
   const protocol::Frame decoded = decoder.takeFrame();

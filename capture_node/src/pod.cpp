@@ -1,5 +1,6 @@
 #include "capture_node/pod.h"
 
+#include <array>
 #include <cstdio>
 
 #include "capture_node/segmentation.h"
@@ -31,9 +32,11 @@ PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, co
   return capture;
 }
 
-protocol::Bytes encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec) {
+protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec) {
   const uint64_t t0 = monotonicNs();
-  std::vector<uint8_t> color_bytes, mask_bytes, feather_bytes;
+  // The compressed planes live as long as the frame that borrows them.
+  auto storage = std::make_shared<std::array<std::vector<uint8_t>, 3>>();
+  auto& [color_bytes, mask_bytes, feather_bytes] = *storage;
   protocol::PodFrame frame;
   frame.frame_id = capture.frame_id;
   frame.camera_id = camera_id;
@@ -45,8 +48,7 @@ protocol::Bytes encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol
   capture.stamps.push_back({static_cast<uint16_t>(Stage::kPodEncode), static_cast<uint16_t>(camera_id), t0,
                             monotonicNs()});
   frame.stamps = capture.stamps;
-  const size_t hint = color_bytes.size() + mask_bytes.size() + feather_bytes.size() + 512;
-  return protocol::encodeFrame(frame, protocol::nextSequence(), hint);
+  return protocol::encodeOutgoing(frame, protocol::nextSequence(), storage);
 }
 
 int runPod(const PodOptions& options) {
@@ -88,8 +90,7 @@ int runPod(const PodOptions& options) {
     if (last_frame_id != 0 && frame_id > last_frame_id + 1) skipped += frame_id - last_frame_id - 1;
     last_frame_id = frame_id;
     PodCapture capture = capturePodFrame(scene, camera, plate, frame_id, static_cast<uint16_t>(options.pod_id));
-    auto bytes = encodePodFrame(capture, camera.id, options.color_codec);
-    link.send(std::make_shared<const protocol::Bytes>(std::move(bytes)));
+    link.send(std::make_shared<const protocol::OutgoingFrame>(encodePodFrame(capture, camera.id, options.color_codec)));
     link.poll(0, received);
     received.clear();
     ++sent;

@@ -174,7 +174,7 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
                                                   " from pod " + std::to_string(peer.id));
       }
       cameras_[calibration.camera_id] = fromCalibration(calibration);
-      auto bytes = std::make_shared<const protocol::Bytes>(frame.bytes);
+      auto bytes = std::make_shared<const protocol::OutgoingFrame>(frame.bytes);
       calibration_frames_[calibration.camera_id] = bytes;
       for (auto& other : peers_) {
         if (other.greeted && other.role == protocol::Role::kClient) other.connection->send(bytes);

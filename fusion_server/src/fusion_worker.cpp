@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <deque>
 
 #include "common/image_codec.h"
 #include "protocol/clock.h"
@@ -43,16 +44,17 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
 
   protocol::TextureBundle bundle;
   bundle.frame_id = group.frame_id;
-  std::vector<std::vector<uint8_t>> storage;
-  storage.reserve(group.pods.size() * 2);
+  // The compressed images and the Draco bytes are borrowed by the frames
+  // (fanned out to every client without a copy) and live as long as they do.
+  auto storage = std::make_shared<std::deque<std::vector<uint8_t>>>();
   for (const auto& [camera_id, pod] : group.pods) {
     if (job.cameras.count(camera_id) == 0) continue;
     protocol::BundleImage image;
     image.camera_id = camera_id;
-    storage.emplace_back();
-    image.planes.push_back(encodePlane(pod.color, protocol::PlaneKind::kColor, settings.image_codec, storage.back()));
-    storage.emplace_back();
-    image.planes.push_back(encodePlane(pod.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage.back()));
+    storage->emplace_back();
+    image.planes.push_back(encodePlane(pod.color, protocol::PlaneKind::kColor, settings.image_codec, storage->back()));
+    storage->emplace_back();
+    image.planes.push_back(encodePlane(pod.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage->back()));
     bundle.images.push_back(std::move(image));
   }
   const uint64_t t3 = monotonicNs();
@@ -71,7 +73,6 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   mesh_frame.vertex_count = static_cast<uint32_t>(mesh.vertexCount());
   mesh_frame.triangle_count = static_cast<uint32_t>(mesh.triangleCount());
   mesh_frame.stamps = std::move(stamps);
-  if (draco.isOk()) mesh_frame.mesh = *draco;
 
   protocol::Stats stats;
   stats.frame_id = group.frame_id;
@@ -89,9 +90,14 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   }
   if (!draco.isOk()) stats.note += (stats.note.empty() ? "" : "; ") + draco.status().message();
 
-  out.texture_bundle = std::make_shared<const protocol::Bytes>(protocol::encodeFrame(bundle, protocol::nextSequence()));
-  out.mesh_frame = std::make_shared<const protocol::Bytes>(protocol::encodeFrame(mesh_frame, protocol::nextSequence()));
-  out.stats = std::make_shared<const protocol::Bytes>(protocol::encodeFrame(stats, protocol::nextSequence()));
+  auto share = [](protocol::OutgoingFrame frame) {
+    return std::make_shared<const protocol::OutgoingFrame>(std::move(frame));
+  };
+  out.texture_bundle = share(protocol::encodeOutgoing(bundle, protocol::nextSequence(), storage));
+  auto draco_bytes = draco.isOk() ? std::make_shared<const std::vector<uint8_t>>(std::move(*draco)) : nullptr;
+  if (draco_bytes) mesh_frame.mesh = *draco_bytes;
+  out.mesh_frame = share(protocol::encodeOutgoing(mesh_frame, protocol::nextSequence(), draco_bytes));
+  out.stats = share(protocol::encodeOutgoing(stats, protocol::nextSequence()));
   out.triangles = mesh.triangleCount();
   return out;
 }

@@ -23,11 +23,11 @@ Connection::Connection(Socket socket, std::string peer_name, ConnectionLimits li
   last_send_ns_ = last_receive_ns_;
 }
 
-void Connection::send(SharedBytes frame) {
+void Connection::send(SharedFrame frame) {
   Outgoing out;
-  out.droppable = frame->size() >= kHeaderSize && ((*frame)[8] & kFlagDroppable) != 0;
+  out.droppable = frame->droppable();
   queued_bytes_ += frame->size();
-  out.bytes = std::move(frame);
+  out.frame = std::move(frame);
   if (out.droppable) ++queued_droppable_;
   queue_.push_back(std::move(out));
   while (queued_droppable_ - startedDroppable() > limits_.max_queued_droppable) {
@@ -44,7 +44,7 @@ void Connection::dropOldestDroppable() {
   for (size_t i = 0; i < queue_.size(); ++i) {
     auto& out = queue_[i];
     if (!out.droppable || out.offset != 0) continue;
-    queued_bytes_ -= out.bytes->size();
+    queued_bytes_ -= out.frame->size();
     --queued_droppable_;
     ++frames_dropped_;
     queue_.erase(queue_.begin() + static_cast<std::ptrdiff_t>(i));
@@ -53,15 +53,26 @@ void Connection::dropOldestDroppable() {
 }
 
 Status Connection::onWritable() {
-  constexpr int kMaxParts = 16;
+  constexpr int kMaxParts = 32;
   while (!queue_.empty()) {
+    // Gather the unsent parts of the queued frames: borrowed bulk ranges go
+    // out in place.
     iovec parts[kMaxParts];
     int count = 0;
     for (const auto& out : queue_) {
+      size_t skip = out.offset;
+      for (const auto& part : out.frame->parts()) {
+        if (count == kMaxParts) break;
+        if (skip >= part.size()) {
+          skip -= part.size();
+          continue;
+        }
+        parts[count].iov_base = const_cast<uint8_t*>(part.data() + skip);
+        parts[count].iov_len = part.size() - skip;
+        skip = 0;
+        ++count;
+      }
       if (count == kMaxParts) break;
-      parts[count].iov_base = const_cast<uint8_t*>(out.bytes->data() + out.offset);
-      parts[count].iov_len = out.bytes->size() - out.offset;
-      ++count;
     }
     const IoResult r = socket_.writeVector(parts, count);
     if (r.error != 0) {
@@ -74,14 +85,14 @@ Status Connection::onWritable() {
     size_t left = r.bytes;
     while (left > 0 && !queue_.empty()) {
       auto& head = queue_.front();
-      const size_t rest = head.bytes->size() - head.offset;
+      const size_t rest = head.frame->size() - head.offset;
       if (left < rest) {
         head.offset += left;
         left = 0;
         break;
       }
       left -= rest;
-      queued_bytes_ -= head.bytes->size();
+      queued_bytes_ -= head.frame->size();
       if (head.droppable) --queued_droppable_;
       queue_.pop_front();
     }

@@ -33,41 +33,103 @@ bool isDroppable(MessageType type) {
 
 namespace {
 
-// Header bytes 0..23 (everything but the CRC).
-void writeHeaderPrefix(WireWriter& w, MessageType type, uint8_t minor, uint32_t payload_length,
-                       uint64_t sequence) {
-  w.raw(kMagic);
-  w.u8(kVersionMajor);
-  w.u8(minor);
-  w.u16(static_cast<uint16_t>(type));
-  w.u16(isDroppable(type) ? kFlagDroppable : 0);
-  w.u16(0);
-  w.u32(payload_length);
-  w.u64(sequence);
-}
-
-void storeCrc(Bytes& bytes, uint32_t crc) {
-  for (int i = 0; i < 4; ++i) bytes[kHeaderSize - 4 + i] = static_cast<uint8_t>(crc >> (8 * i));
+void storeCrc(uint8_t* header, uint32_t crc) {
+  for (int i = 0; i < 4; ++i) header[kHeaderSize - 4 + i] = static_cast<uint8_t>(crc >> (8 * i));
 }
 
 }  // namespace
 
+OutgoingFrame::OutgoingFrame(Bytes contiguous) : own_(std::move(contiguous)) {
+  size_ = own_.size();
+  parts_.push_back(std::span<const uint8_t>(own_));
+}
+
+bool OutgoingFrame::droppable() const {
+  return !parts_.empty() && parts_[0].size() >= kHeaderSize && (parts_[0][8] & kFlagDroppable) != 0;
+}
+
+Bytes OutgoingFrame::flatten() const {
+  Bytes out;
+  out.reserve(size_);
+  for (const auto& part : parts_) {
+    const size_t at = out.size();
+    out.resize(at + part.size());
+    std::memcpy(out.data() + at, part.data(), part.size());
+  }
+  return out;
+}
+
 FrameBuilder::FrameBuilder(MessageType type, uint64_t sequence, size_t payload_hint)
-    : type_(type), sequence_(sequence) {
+    : type_(type), sequence_(sequence), writer_(bytes_, this) {
   bytes_.reserve(kHeaderSize + payload_hint);
   bytes_.resize(kHeaderSize);
 }
 
-Bytes FrameBuilder::finish() && {
-  const auto payload_length = static_cast<uint32_t>(bytes_.size() - kHeaderSize);
+void FrameBuilder::borrowBulk(std::shared_ptr<const void> keep_alive) { keep_alive_ = std::move(keep_alive); }
+
+void FrameBuilder::borrow(std::span<const uint8_t> data) {
+  if (keep_alive_ == nullptr) {
+    writer_.raw(data);
+    return;
+  }
+  borrowed_.emplace_back(bytes_.size(), data);
+}
+
+// Writes header bytes 0..23 to out and returns the CRC over them.
+uint32_t FrameBuilder::writeHeader(uint8_t* out, uint32_t payload_length) {
   Bytes header;
   WireWriter w(header);
-  writeHeaderPrefix(w, type_, minor_, payload_length, sequence_);
-  std::memcpy(bytes_.data(), header.data(), kHeaderSize - 4);
-  uint32_t crc = crc32c(0, bytes_.data(), kHeaderSize - 4);
+  w.raw(kMagic);
+  w.u8(kVersionMajor);
+  w.u8(minor_);
+  w.u16(static_cast<uint16_t>(type_));
+  w.u16(isDroppable(type_) ? kFlagDroppable : 0);
+  w.u16(0);
+  w.u32(payload_length);
+  w.u64(sequence_);
+  std::memcpy(out, header.data(), kHeaderSize - 4);
+  return crc32c(0, out, kHeaderSize - 4);
+}
+
+Bytes FrameBuilder::finish() && {
+  if (!borrowed_.empty()) return std::move(*this).finishParts().flatten();
+  const auto payload_length = static_cast<uint32_t>(bytes_.size() - kHeaderSize);
+  uint32_t crc = writeHeader(bytes_.data(), payload_length);
   crc = crc32c(crc, bytes_.data() + kHeaderSize, payload_length);
-  storeCrc(bytes_, crc);
+  storeCrc(bytes_.data(), crc);
   return std::move(bytes_);
+}
+
+OutgoingFrame FrameBuilder::finishParts() && {
+  size_t borrowed_bytes = 0;
+  for (const auto& [at, data] : borrowed_) borrowed_bytes += data.size();
+  const auto payload_length = static_cast<uint32_t>(bytes_.size() - kHeaderSize + borrowed_bytes);
+  // The own buffer is complete: spans into it stay valid from here on.
+  OutgoingFrame frame;
+  frame.own_ = std::move(bytes_);
+  frame.keep_alive_ = std::move(keep_alive_);
+  uint32_t crc = writeHeader(frame.own_.data(), payload_length);
+  const uint8_t* own = frame.own_.data();
+  size_t own_at = 0;
+  auto ownPart = [&](size_t end) {
+    if (end > own_at) frame.parts_.emplace_back(own + own_at, end - own_at);
+    own_at = end;
+  };
+  for (const auto& [at, data] : borrowed_) {
+    ownPart(at);
+    frame.parts_.push_back(data);
+  }
+  ownPart(frame.own_.size());
+  // One CRC pass over everything after the CRC field, in wire order.
+  size_t skip = kHeaderSize;
+  for (const auto& part : frame.parts_) {
+    const size_t drop = std::min(skip, part.size());
+    skip -= drop;
+    crc = crc32c(crc, part.data() + drop, part.size() - drop);
+  }
+  storeCrc(frame.own_.data(), crc);
+  frame.size_ = kHeaderSize + payload_length;
+  return frame;
 }
 
 Status parseHeader(std::span<const uint8_t> bytes, uint32_t max_payload, uint64_t stream_offset,

@@ -145,7 +145,7 @@ void ServerLink::poll(int timeout_ms, std::vector<Frame>& received) {
   }
 }
 
-void ServerLink::send(SharedBytes frame) {
+void ServerLink::send(SharedFrame frame) {
   if (connection_ != nullptr && acked_) connection_->send(std::move(frame));
 }
 

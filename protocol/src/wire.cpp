@@ -16,7 +16,11 @@ void WireWriter::str(std::string_view s) {
 
 void WireWriter::bytes32(std::span<const uint8_t> data) {
   u32(static_cast<uint32_t>(data.size()));
-  raw(data);
+  if (borrow_ != nullptr && data.size() >= kBorrowMinBytes) {
+    borrow_->borrow(data);
+  } else {
+    raw(data);
+  }
 }
 
 bool WireReader::need(const char* field, size_t n) {

@@ -86,12 +86,16 @@ TEST(Pod, EncodedFrameCarriesStampsAndDecodablePlanes) {
   const SyntheticScene scene;
   const auto cam = SyntheticScene::cameraRig(4, 160, 120)[3];
   PodCapture capture = capturePodFrame(scene, cam, scene.backgroundPlate(cam), 42, 3);
-  const auto bytes = encodePodFrame(capture, 3, protocol::Codec::kLz4PlanarDelta);
+  const auto outgoing = encodePodFrame(capture, 3, protocol::Codec::kLz4PlanarDelta);
+  // The planes are borrowed, not copied: the frame is several parts.
+  EXPECT_GT(outgoing.parts().size(), 1u);
+  const auto bytes = outgoing.flatten();
   protocol::StreamDecoder decoder;
   decoder.feed(bytes);
   ASSERT_TRUE(decoder.hasFrame());
+  const protocol::Frame wire = decoder.takeFrame();  // the decoded planes point into it
   protocol::PodFrame frame;
-  ASSERT_TRUE(protocol::decodeFrame(decoder.takeFrame(), frame).isOk());
+  ASSERT_TRUE(protocol::decodeFrame(wire, frame).isOk());
   EXPECT_EQ(frame.frame_id, 42u);
   ASSERT_EQ(frame.stamps.size(), 4u);
   for (const auto& s : frame.stamps) EXPECT_LE(s.start_ns, s.end_ns);

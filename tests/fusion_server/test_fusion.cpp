@@ -110,9 +110,9 @@ TEST(FusionWorker, FusesAGroupIntoDecodableFrames) {
   FusionSettings settings;
   settings.pods_expected = 4;
   const FusedOutput out = fuseGroup(job, settings);
-  auto decode = [](const protocol::SharedBytes& bytes) {
+  auto decode = [](const protocol::SharedFrame& frame) {
     protocol::StreamDecoder d;
-    d.feed(*bytes);
+    d.feed(frame->flatten());
     EXPECT_TRUE(d.hasFrame());
     return d.takeFrame();
   };

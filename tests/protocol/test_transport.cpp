@@ -56,7 +56,7 @@ TEST(Transport, LargeFramesSurvivePartialWritesAndReads) {
   limits.max_queued_droppable = 100;
   Connection a(std::move(pair->first), "a", limits), b(std::move(pair->second), "b", limits);
   for (uint64_t id = 1; id <= 5; ++id) {
-    a.send(std::make_shared<const protocol::Bytes>(bigPodFrame(id, 200000)));
+    a.send(std::make_shared<const OutgoingFrame>(bigPodFrame(id, 200000)));
   }
   const auto got = pump(a, b);
   ASSERT_EQ(got.size(), 5u);
@@ -77,7 +77,7 @@ TEST(Transport, SlowPeerLosesTheOldestFramesButNeverControlMessages) {
   // Nothing is written while the peer "is slow": queue everything first.
   a.sendMessage(Calibration{});  // default calibration does not decode (size 0) but is never dropped
   for (uint64_t id = 1; id <= 6; ++id) {
-    a.send(std::make_shared<const protocol::Bytes>(bigPodFrame(id, 1000)));
+    a.send(std::make_shared<const OutgoingFrame>(bigPodFrame(id, 1000)));
     a.sendMessage(Heartbeat{id});
   }
   EXPECT_EQ(a.framesDropped(), 4u);

@@ -37,9 +37,9 @@ struct PodCapture {
 PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, const Image8& plate,
                            uint64_t frame_id, uint16_t source);
 
-// Compresses a capture into a PodFrame frame (one buffer), appending the
-// encode stamp.
-protocol::Bytes encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec);
+// Compresses a capture into a PodFrame ready to send (the compressed planes
+// are borrowed by the frame, not copied), appending the encode stamp.
+protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec);
 
 // Runs until stopped (signal, frame count) or the server refuses the
 // version. Returns the process exit code.

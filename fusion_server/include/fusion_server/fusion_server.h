@@ -66,7 +66,7 @@ class FusionServer {
   std::vector<Peer> peers_;
   std::map<uint32_t, Camera> cameras_;
   std::set<uint32_t> departed_pods_;  // pods that joined and then left
-  std::map<uint32_t, protocol::SharedBytes> calibration_frames_;
+  std::map<uint32_t, protocol::SharedFrame> calibration_frames_;
   FrameSync sync_;
   std::unique_ptr<FusionWorker> worker_;
   uint32_t next_session_ = 1;

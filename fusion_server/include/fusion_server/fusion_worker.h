@@ -28,7 +28,7 @@ struct FusionSettings {
 
 struct FusedOutput {
   uint64_t frame_id = 0;
-  protocol::SharedBytes mesh_frame, texture_bundle, stats;
+  protocol::SharedFrame mesh_frame, texture_bundle, stats;
   size_t triangles = 0;
 };
 

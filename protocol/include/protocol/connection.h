@@ -39,10 +39,10 @@ class Connection {
 
   // Queues an encoded frame. The flags in its header say whether it may be
   // dropped.
-  void send(SharedBytes frame);
+  void send(SharedFrame frame);
   template <typename Message>
   void sendMessage(const Message& m) {
-    send(std::make_shared<const Bytes>(encodeFrame(m, nextSequence())));
+    send(std::make_shared<const OutgoingFrame>(encodeOutgoing(m, nextSequence())));
   }
 
   bool wantsWrite() const { return !queue_.empty(); }
@@ -67,8 +67,8 @@ class Connection {
 
  private:
   struct Outgoing {
-    SharedBytes bytes;
-    size_t offset = 0;
+    SharedFrame frame;
+    size_t offset = 0;  // bytes of the frame already written
     bool droppable = false;
   };
   void dropOldestDroppable();

@@ -3,11 +3,13 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
 #include "protocol/bytes.h"
 #include "protocol/status.h"
+#include "protocol/wire.h"
 
 namespace holofuse::protocol {
 
@@ -56,21 +58,60 @@ struct Frame {
   }
 };
 
-// Builds one frame in a single buffer: the caller writes the payload straight
-// after the reserved header, then finish() fills in length and CRC.
-class FrameBuilder {
+// An encoded frame ready to send: byte ranges that go out back to back, in
+// order. Some lie in the frame's own buffer (header, small fields); others
+// are borrowed bulk ranges (image planes, Draco bytes) sent in place by
+// sendmsg and never copied; keep_alive owns them until the frame is gone.
+class OutgoingFrame {
+ public:
+  OutgoingFrame() = default;
+  explicit OutgoingFrame(Bytes contiguous);  // a whole frame in one buffer
+
+  const std::vector<std::span<const uint8_t>>& parts() const { return parts_; }
+  size_t size() const { return size_; }
+  bool droppable() const;
+  // One contiguous copy (tests, recording).
+  Bytes flatten() const;
+
+ private:
+  friend class FrameBuilder;
+  Bytes own_;
+  std::vector<std::span<const uint8_t>> parts_;
+  std::shared_ptr<const void> keep_alive_;
+  size_t size_ = 0;
+};
+
+using SharedFrame = std::shared_ptr<const OutgoingFrame>;
+
+// Builds one frame: the caller writes the payload through writer(), then
+// finish() fills in length and CRC. With borrowing on, bulk ranges written
+// with bytes32 are referenced instead of copied, and finishParts() returns
+// the frame as parts (one CRC pass over everything, no copy of the bulk).
+class FrameBuilder : private BorrowSink {
  public:
   FrameBuilder(MessageType type, uint64_t sequence, size_t payload_hint = 0);
   Bytes& buffer() { return bytes_; }
+  WireWriter& writer() { return writer_; }
   // Pins the encoded minor (an encoder can speak an older minor).
   void setMinor(uint8_t minor) { minor_ = minor; }
+  // From now on bytes32 ranges of kBorrowMinBytes or more are borrowed;
+  // keep_alive must own them.
+  void borrowBulk(std::shared_ptr<const void> keep_alive);
   Bytes finish() &&;
+  OutgoingFrame finishParts() &&;
 
  private:
+  void borrow(std::span<const uint8_t> data) override;
+  uint32_t writeHeader(uint8_t* out, uint32_t payload_length);
+
   MessageType type_;
   uint64_t sequence_;
   uint8_t minor_ = kVersionMinor;
   Bytes bytes_;
+  WireWriter writer_;
+  // Borrowed ranges and the own-buffer offset each one follows.
+  std::vector<std::pair<size_t, std::span<const uint8_t>>> borrowed_;
+  std::shared_ptr<const void> keep_alive_;
 };
 
 // Parses a header from exactly kHeaderSize bytes and validates everything

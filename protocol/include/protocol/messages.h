@@ -196,9 +196,18 @@ Status readPayload(std::span<const uint8_t> payload, ErrorMessage& m, size_t bas
 template <typename Message>
 Bytes encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0) {
   FrameBuilder builder(Message::kType, sequence, payload_hint);
-  WireWriter w(builder.buffer());
-  writePayload(w, m);
+  writePayload(builder.writer(), m);
   return std::move(builder).finish();
+}
+
+// The same frame for sending: bulk ranges (planes, Draco bytes) are
+// borrowed, not copied, when keep_alive owns them; one CRC pass remains.
+template <typename Message>
+OutgoingFrame encodeOutgoing(const Message& m, uint64_t sequence, std::shared_ptr<const void> keep_alive = nullptr) {
+  FrameBuilder builder(Message::kType, sequence, 256);
+  builder.borrowBulk(std::move(keep_alive));
+  writePayload(builder.writer(), m);
+  return std::move(builder).finishParts();
 }
 
 // Decodes a frame's payload as Message after checking its type.

@@ -43,10 +43,10 @@ class ServerLink {
   // cannot help.
   const std::optional<Status>& fatalError() const { return fatal_; }
 
-  void send(SharedBytes frame);
+  void send(SharedFrame frame);
   template <typename Message>
   void sendMessage(const Message& m) {
-    send(std::make_shared<const Bytes>(encodeFrame(m, nextSequence())));
+    send(std::make_shared<const OutgoingFrame>(encodeOutgoing(m, nextSequence())));
   }
   // Sends Bye with the reason and flushes for a short while.
   void close(const std::string& reason);

@@ -14,11 +14,18 @@
 
 namespace holofuse::protocol {
 
+// Receives bulk ranges a WireWriter does not copy (see OutgoingFrame).
+class BorrowSink {
+ public:
+  virtual ~BorrowSink() = default;
+  virtual void borrow(std::span<const uint8_t> data) = 0;
+};
+
 class WireWriter {
  public:
-  explicit WireWriter(Bytes& out) : out_(out) {}
+  explicit WireWriter(Bytes& out, BorrowSink* borrow = nullptr) : out_(out), borrow_(borrow) {}
 
-  void u8(uint8_t v) { out_.push_back(v); }
+  void u8(uint8_t v) { putLe(v, 1); }
   void u16(uint16_t v) { putLe(v, 2); }
   void u32(uint32_t v) { putLe(v, 4); }
   void u64(uint64_t v) { putLe(v, 8); }
@@ -26,26 +33,26 @@ class WireWriter {
   void f64(double v);
   // str: u16 length + bytes. Longer strings are cut at kMaxString.
   void str(std::string_view s);
-  // bytes32: u32 length + bytes.
+  // bytes32: u32 length + bytes. With a BorrowSink, large ranges are
+  // handed to it instead of copied.
   void bytes32(std::span<const uint8_t> data);
-  // Grows without zero fill (Bytes) and copies once: insert() would copy
-  // byte by byte through the allocator.
-  void raw(std::span<const uint8_t> data) {
-    if (data.empty()) return;
-    const size_t at = out_.size();
-    out_.resize(at + data.size());
-    std::memcpy(out_.data() + at, data.data(), data.size());
-  }
+  void raw(std::span<const uint8_t> data) { out_.insert(out_.end(), data.begin(), data.end()); }
 
   size_t size() const { return out_.size(); }
   Bytes& buffer() { return out_; }
 
  private:
   void putLe(uint64_t v, int n) {
-    for (int i = 0; i < n; ++i) out_.push_back(static_cast<uint8_t>(v >> (8 * i)));
+    uint8_t bytes[8];
+    for (int i = 0; i < n; ++i) bytes[i] = static_cast<uint8_t>(v >> (8 * i));
+    raw(std::span<const uint8_t>(bytes, static_cast<size_t>(n)));
   }
   Bytes& out_;
+  BorrowSink* borrow_;
 };
+
+// Bulk ranges at least this large are borrowed rather than copied.
+constexpr size_t kBorrowMinBytes = 4096;
 
 // Reads fields from untrusted bytes. Every read names its field; the first
 // failure is remembered with the field and its offset and every later read
