@@ -13,6 +13,8 @@
 #include <thread>
 
 #include "capture_node/synthetic_scene.h"
+#include "protocol/frame.h"
+#include "protocol/socket.h"
 
 namespace {
 
@@ -154,6 +156,117 @@ TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
   std::ifstream log(out / "server.log");
   const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("pod 3"), std::string::npos) << "the server names the pod it lost";
+}
+
+std::string readFile(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+uint16_t freePort() {
+  auto listener = holofuse::protocol::listenTcp({"127.0.0.1", 0});
+  return listener.isOk() ? listener->localPort() : 0;  // closed again on return
+}
+
+std::string startServer(const fs::path& out, int pods, pid_t* pid) {
+  const fs::path port_file = out / "port";
+  *pid = spawn({kBin + "/fusion_server", "--listen", "127.0.0.1:0", "--pods", std::to_string(pods), "--port-file",
+                port_file.string()},
+               out / "server.log");
+  std::string port;
+  for (int i = 0; i < 100 && port.empty(); ++i) {
+    std::ifstream in(port_file);
+    std::getline(in, port);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return "127.0.0.1:" + port;
+}
+
+TEST(Loop, APodWithoutServerRetriesWithBackoffAndJoinsWhenItAppears) {
+  const fs::path out = freshDir("backoff");
+  const uint16_t port = freePort();
+  ASSERT_NE(port, 0);
+  const std::string endpoint = "127.0.0.1:" + std::to_string(port);
+  const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods", "1", "--size",
+                           "64x48", "--fps", "5"},
+                          out / "pod.log");
+  std::this_thread::sleep_for(std::chrono::milliseconds(1200));
+  const pid_t server = spawn({kBin + "/fusion_server", "--listen", endpoint, "--pods", "1"}, out / "server.log");
+  bool joined = false;
+  for (int i = 0; i < 100 && !joined; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    joined = readFile(out / "pod.log").find("connected to") != std::string::npos;
+  }
+  kill(pod, SIGTERM);
+  EXPECT_EQ(waitExit(pod, 10), 0);
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  const std::string log = readFile(out / "pod.log");
+  EXPECT_TRUE(joined) << log;
+  // Backoff doubles from 100 ms.
+  EXPECT_NE(log.find("retry 1 in 100 ms"), std::string::npos) << log;
+  EXPECT_NE(log.find("retry 2 in 200 ms"), std::string::npos) << log;
+  EXPECT_NE(log.find("retry 3 in 400 ms"), std::string::npos) << log;
+  EXPECT_NE(readFile(out / "server.log").find("said bye"), std::string::npos) << "SIGTERM closes with Bye";
+}
+
+TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
+  const fs::path out = freshDir("hostile");
+  pid_t server = 0;
+  const std::string endpoint = startServer(out, 1, &server);
+  const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods", "1", "--size",
+                           "96x72", "--fps", "5"},
+                          out / "pod.log");
+  const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out", out.string(), "--frames", "8",
+                              "--size", "96x72"},
+                             out / "client.log");
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  auto parsed = holofuse::protocol::parseEndpoint(endpoint);
+  ASSERT_TRUE(parsed.isOk());
+  // One peer speaks HTTP, another announces a 4 GiB frame.
+  auto garbage = holofuse::protocol::connectTcp(*parsed, 1000);
+  ASSERT_TRUE(garbage.isOk());
+  const std::string http = "GET / HTTP/1.1\r\n\r\n";
+  iovec part{const_cast<char*>(http.data()), http.size()};
+  garbage->writeVector(&part, 1);
+  auto huge = holofuse::protocol::connectTcp(*parsed, 1000);
+  ASSERT_TRUE(huge.isOk());
+  uint8_t header[holofuse::protocol::kHeaderSize] = {'H', 'F', 'U', 'S', 1, 0, 5, 0, 1, 0, 0, 0, 0xFF, 0xFF, 0xFF, 0xFF};
+  iovec hpart{header, sizeof(header)};
+  huge->writeVector(&hpart, 1);
+  ASSERT_EQ(waitExit(client, 120), 0) << readFile(out / "client.log");
+  kill(pod, SIGTERM);
+  waitExit(pod, 10);
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  EXPECT_EQ(readJson(out / "report.json")["frames_rendered"], 8);
+  const std::string log = readFile(out / "server.log");
+  EXPECT_NE(log.find("field 'magic' at offset 0"), std::string::npos) << log;
+  EXPECT_NE(log.find("field 'payload_length' at offset 12"), std::string::npos) << log;
+}
+
+TEST(Loop, ASilentPeerIsClosedAfterTheIdleTimeout) {
+  const fs::path out = freshDir("idle");
+  const uint16_t port = freePort();
+  const std::string endpoint = "127.0.0.1:" + std::to_string(port);
+  const pid_t server = spawn({kBin + "/fusion_server", "--listen", endpoint, "--pods", "1", "--idle-timeout-ms", "800"},
+                             out / "server.log");
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  auto silent = holofuse::protocol::connectTcp(*holofuse::protocol::parseEndpoint(endpoint), 1000);
+  ASSERT_TRUE(silent.isOk());
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  // The server closed its end: reading gives end of stream.
+  uint8_t byte;
+  holofuse::protocol::IoResult r;
+  for (int i = 0; i < 20; ++i) {
+    r = silent->readSome(std::span<uint8_t>(&byte, 1));
+    if (!r.would_block) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  EXPECT_TRUE(r.closed) << "the silent peer was not closed";
+  EXPECT_NE(readFile(out / "server.log").find("heard nothing for 800 ms"), std::string::npos);
 }
 
 TEST(Loop, WrongFlagsPrintUsageAndFail) {

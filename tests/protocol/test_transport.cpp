@@ -68,6 +68,47 @@ TEST(Transport, LargeFramesSurvivePartialWritesAndReads) {
   }
 }
 
+TEST(Transport, BorrowedPartsGoOutInPlaceAndByteIdenticalThroughPartialWrites) {
+  // Planes large enough to be borrowed, sent through tiny socket buffers so
+  // every write ends somewhere inside a part.
+  auto owner = std::make_shared<std::vector<uint8_t>>(3 * kBorrowMinBytes + 17);
+  for (size_t i = 0; i < owner->size(); ++i) (*owner)[i] = static_cast<uint8_t>(i * 29 + 5);
+  PodFrame f;
+  f.frame_id = 77;
+  for (int k = 0; k < 2; ++k) {
+    Plane p;
+    p.kind = k == 0 ? PlaneKind::kColor : PlaneKind::kFeather;
+    p.format = PixelFormat::kGray8;
+    p.width = static_cast<uint32_t>(owner->size());
+    p.height = 1;
+    p.raw_size = p.width;
+    p.data = *owner;
+    f.planes.push_back(p);
+  }
+  const OutgoingFrame outgoing = encodeOutgoing(f, 5, owner);
+  EXPECT_GE(outgoing.parts().size(), 4u) << "own, plane, own, plane, own";
+  EXPECT_EQ(outgoing.flatten(), encodeFrame(f, 5)) << "borrowing must not change the bytes on the wire";
+
+  auto pair = socketPair();
+  ASSERT_TRUE(pair.isOk());
+  setBufferSizes(pair->first, 1024, 1024);
+  setBufferSizes(pair->second, 1024, 1024);
+  ConnectionLimits limits;
+  limits.max_queued_droppable = 100;
+  Connection a(std::move(pair->first), "a", limits), b(std::move(pair->second), "b", limits);
+  auto shared = std::make_shared<const OutgoingFrame>(encodeOutgoing(f, 5, owner));
+  for (int i = 0; i < 3; ++i) a.send(shared);
+  a.sendMessage(Heartbeat{9});
+  const auto got = pump(a, b);
+  ASSERT_EQ(got.size(), 4u);
+  for (int i = 0; i < 3; ++i) {
+    PodFrame back;
+    ASSERT_TRUE(decodeFrame(got[i], back).isOk());
+    ASSERT_EQ(back.planes.size(), 2u);
+    EXPECT_TRUE(std::equal(back.planes[1].data.begin(), back.planes[1].data.end(), owner->begin(), owner->end()));
+  }
+}
+
 TEST(Transport, SlowPeerLosesTheOldestFramesButNeverControlMessages) {
   auto pair = socketPair();
   ASSERT_TRUE(pair.isOk());
