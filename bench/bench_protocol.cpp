@@ -3,7 +3,10 @@
 // copies). Input: a real pod frame of the synthetic scene at the demo size.
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
 #include <cstring>
+#include <map>
+#include <string>
 
 #include "capture_node/pod.h"
 #include "protocol/crc32c.h"
@@ -116,4 +119,35 @@ BENCHMARK(BM_FeedAndDecodePodFrame);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// Prints each benchmark's throughput as a share of memcpy's in this run:
+// the machine is noisy, ratios are what to compare (target: >= 50%).
+class RatioReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    ConsoleReporter::ReportRuns(runs);
+    for (const auto& run : runs) {
+      auto it = run.counters.find("bytes_per_second");
+      if (it != run.counters.end()) throughput_[run.benchmark_name()] = it->second.value;
+    }
+  }
+  void printRatios() const {
+    auto base = throughput_.find("BM_Memcpy");
+    if (base == throughput_.end() || base->second <= 0) return;
+    std::printf("\nthroughput relative to memcpy in this run (target for encode and decode: >= 50%%)\n");
+    for (const auto& [name, value] : throughput_) {
+      if (name != "BM_Memcpy") std::printf("  %-28s %5.1f%%\n", name.c_str(), 100.0 * value / base->second);
+    }
+  }
+
+ private:
+  std::map<std::string, double> throughput_;
+};
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  RatioReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  reporter.printRatios();
+  benchmark::Shutdown();
+  return 0;
+}

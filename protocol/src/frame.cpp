@@ -78,6 +78,7 @@ void FrameBuilder::borrow(std::span<const uint8_t> data) {
 // Writes header bytes 0..23 to out and returns the CRC over them.
 uint32_t FrameBuilder::writeHeader(uint8_t* out, uint32_t payload_length) {
   Bytes header;
+  header.reserve(kHeaderSize);
   WireWriter w(header);
   w.raw(kMagic);
   w.u8(kVersionMajor);

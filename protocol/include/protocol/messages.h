@@ -204,7 +204,9 @@ Bytes encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0) 
 // borrowed, not copied, when keep_alive owns them; one CRC pass remains.
 template <typename Message>
 OutgoingFrame encodeOutgoing(const Message& m, uint64_t sequence, std::shared_ptr<const void> keep_alive = nullptr) {
-  FrameBuilder builder(Message::kType, sequence, 256);
+  // Room for every field and the small planes that are copied, so the own
+  // buffer never grows while it is written.
+  FrameBuilder builder(Message::kType, sequence, 4 * kBorrowMinBytes);
   builder.borrowBulk(std::move(keep_alive));
   writePayload(builder.writer(), m);
   return std::move(builder).finishParts();
