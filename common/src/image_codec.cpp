@@ -91,6 +91,10 @@ protocol::StatusOr<Image8> decodePlane(const protocol::Plane& plane) {
   if (plane.format == PixelFormat::kRgb8) channels = 3;
   if (plane.format == PixelFormat::kGray8) channels = 1;
   if (channels == 0) return Status(StatusCode::kMalformed, which + ": unsupported pixel format");
+  if (plane.width == 0 || plane.height == 0 || plane.width > protocol::kMaxImageSide ||
+      plane.height > protocol::kMaxImageSide) {
+    return Status(StatusCode::kMalformed, which + ": size outside 1.." + std::to_string(protocol::kMaxImageSide));
+  }
   const uint64_t expected = static_cast<uint64_t>(plane.width) * plane.height * channels;
   if (expected != plane.raw_size || expected > protocol::kMaxPlaneBytes || expected == 0) {
     return Status(StatusCode::kMalformed, which + ": raw size " + std::to_string(plane.raw_size) +

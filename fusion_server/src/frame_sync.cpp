@@ -2,10 +2,19 @@
 
 namespace holofuse::fusion {
 
-bool FrameSync::add(uint64_t frame_id, PodImages images, uint64_t now_ns) {
-  if (last_emitted_ && frame_id <= *last_emitted_) {
-    ++late_frames_;
-    return false;
+FrameSync::Added FrameSync::add(uint64_t frame_id, PodImages images, uint64_t now_ns) {
+  if (last_emitted_) {
+    if (frame_id > *last_emitted_ && frame_id - *last_emitted_ > kMaxIdJump) return Added::kImplausible;
+    if (frame_id < *last_emitted_ && *last_emitted_ - frame_id > kMaxIdJump) {
+      // Every pod's clock went back (or the first ids seen were bogus):
+      // start over rather than calling every frame late forever.
+      last_emitted_.reset();
+      pending_.clear();
+      ++clock_resets_;
+    } else if (frame_id <= *last_emitted_) {
+      ++late_frames_;
+      return Added::kLate;
+    }
   }
   auto [it, inserted] = pending_.try_emplace(frame_id);
   if (inserted) {
@@ -18,7 +27,7 @@ bool FrameSync::add(uint64_t frame_id, PodImages images, uint64_t now_ns) {
     pending_.erase(pending_.begin());
     ++overflowed_groups_;
   }
-  return true;
+  return Added::kAccepted;
 }
 
 std::vector<FrameGroup> FrameSync::takeReady(const std::set<uint32_t>& expected, uint64_t now_ns) {

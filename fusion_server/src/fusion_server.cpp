@@ -83,6 +83,18 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
     peer.connection->sendMessage(protocol::ErrorMessage{static_cast<uint16_t>(s.code()), s.message()});
     return s;
   }
+  if (hello.role == protocol::Role::kPod) {
+    // A pod that reconnects may still have a half-open old connection: the
+    // new one replaces it.
+    for (size_t i = 0; i < peers_.size(); ++i) {
+      Peer& other = peers_[i];
+      if (&other != &peer && other.greeted && other.role == protocol::Role::kPod && other.id == hello.id) {
+        std::fprintf(stderr, "[server] pod %u connected again; dropping its old connection %s\n", hello.id,
+                     other.connection->peerName().c_str());
+        other.replaced = true;
+      }
+    }
+  }
   ack->session_id = next_session_++;
   ack->server_time_ns = monotonicNs();
   ack->heartbeat_interval_ms = options_.heartbeat_interval_ms;
@@ -125,15 +137,17 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   }
   images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend), static_cast<uint16_t>(pod.camera_id),
                            encode_end, now});
+  images.camera = cam->second;  // the calibration these images belong to
   for (const auto& plane : pod.planes) {
-    auto image = decodePlane(plane);
-    if (!image.isOk()) return image.status();
-    if (image->width != cam->second.width || image->height != cam->second.height) {
+    // Checked against the calibration before anything is decompressed.
+    if (plane.width != cam->second.width || plane.height != cam->second.height) {
       return Status(StatusCode::kMalformed, "plane " + std::to_string(static_cast<int>(plane.kind)) + " is " +
-                                                std::to_string(image->width) + "x" + std::to_string(image->height) +
+                                                std::to_string(plane.width) + "x" + std::to_string(plane.height) +
                                                 ", calibration says " + std::to_string(cam->second.width) + "x" +
                                                 std::to_string(cam->second.height));
     }
+    auto image = decodePlane(plane);
+    if (!image.isOk()) return image.status();
     switch (plane.kind) {
       case protocol::PlaneKind::kColor: images.color = std::move(*image); break;
       case protocol::PlaneKind::kMask: images.mask = std::move(*image); break;
@@ -144,7 +158,10 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   if (images.color.channels != 3 || images.mask.channels != 1 || images.feather.channels != 1) {
     return Status(StatusCode::kMalformed, "PodFrame needs an RGB colour, a grey mask and a grey feather plane");
   }
-  sync_.add(pod.frame_id, std::move(images), now);
+  if (sync_.add(pod.frame_id, std::move(images), now) == FrameSync::Added::kImplausible) {
+    return Status(StatusCode::kMalformed, "field 'pod_frame.frame_id': " + std::to_string(pod.frame_id) +
+                                              " is implausibly far ahead of the frames being fused");
+  }
   return Status::ok();
 }
 
@@ -194,7 +211,7 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
 
 void FusionServer::closePeer(size_t index, const Status& why) {
   Peer& peer = peers_[index];
-  if (peer.greeted && peer.role == protocol::Role::kPod) departed_pods_.insert(peer.id);
+  if (peer.greeted && peer.role == protocol::Role::kPod && !peer.replaced) departed_pods_.insert(peer.id);
   if (why.code() == StatusCode::kClosed) {
     std::fprintf(stderr, "[server] %s left (%s)\n", peer.connection->peerName().c_str(), why.message().c_str());
   } else {
@@ -212,7 +229,6 @@ void FusionServer::dispatchReadyGroups() {
     if (group.pods.empty()) continue;
     GroupJob job;
     job.group = std::move(group);
-    job.cameras = cameras_;
     job.late_frames = sync_.lateFrames();
     job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();
     worker_->submit(std::move(job));
@@ -273,6 +289,9 @@ int FusionServer::run() {
       if (status.isOk() && peer.greeted && !peer.connection->wantsWrite() &&
           now - peer.connection->lastSendNs() > uint64_t{options_.heartbeat_interval_ms} * 1000000) {
         peer.connection->sendMessage(protocol::Heartbeat{now});
+      }
+      if (status.isOk() && peer.replaced) {
+        status = Status(StatusCode::kClosed, "replaced by a newer connection of the same pod");
       }
       if (!status.isOk()) closePeer(i, status);
     }

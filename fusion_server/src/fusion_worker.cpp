@@ -27,10 +27,10 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
     stamps.insert(stamps.end(), pod.stamps.begin(), pod.stamps.end());
     capture_time = std::min(capture_time, pod.capture_time_ns);
     pod_bytes += pod.bytes;
-    auto cam = job.cameras.find(camera_id);
-    if (cam == job.cameras.end()) continue;  // no calibration yet: cannot carve with it
+    // The calibration stored with the images: a newer one may have other
+    // sizes.
     if (camera_id < 64) present |= uint64_t{1} << camera_id;
-    views.push_back(HullView{cam->second, pod.mask, pod.feather});
+    views.push_back(HullView{pod.camera, pod.mask, pod.feather});
   }
   stamps.push_back({static_cast<uint16_t>(Stage::kSyncWait), kSourceServer, group.first_arrival_ns, group.emitted_ns});
 
@@ -48,7 +48,6 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   // (fanned out to every client without a copy) and live as long as they do.
   auto storage = std::make_shared<std::deque<std::vector<uint8_t>>>();
   for (const auto& [camera_id, pod] : group.pods) {
-    if (job.cameras.count(camera_id) == 0) continue;
     protocol::BundleImage image;
     image.camera_id = camera_id;
     storage->emplace_back();
@@ -83,7 +82,7 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   stats.pod_bytes = pod_bytes;
   if (!group.complete) {
     std::string missing;
-    for (uint32_t i = 0; i < settings.pods_expected; ++i) {
+    for (uint32_t i = 0; i < std::min<uint32_t>(settings.pods_expected, 64); ++i) {
       if (!(present >> i & 1)) missing += (missing.empty() ? "" : ",") + std::to_string(i);
     }
     stats.note = "proceeded without camera(s) " + missing + " after the sync deadline";

@@ -65,6 +65,10 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   if (views.empty()) return {};
   std::vector<Rect> rects;
   for (const auto& v : views) {
+    if (v.mask.width != v.camera.width || v.mask.height != v.camera.height || v.feather.width != v.mask.width ||
+        v.feather.height != v.mask.height) {
+      return {};  // images that do not match their calibration cannot be carved with
+    }
     rects.push_back(foregroundRect(v.mask));
     if (rects.back().empty()) return {};  // an empty silhouette carves everything away
   }
@@ -109,7 +113,8 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
     for (size_t i = 0; i < views.size(); ++i) {
       const Camera& cam = views[i].camera;
       const auto proj = cam.project(p);
-      if (!proj || proj->x < 0 || proj->y < 0 || proj->x >= cam.width || proj->y >= cam.height) return -s;
+      // Written so that NaN (a hostile calibration) counts as outside.
+      if (!proj || !(proj->x >= 0 && proj->y >= 0 && proj->x < cam.width && proj->y < cam.height)) return -s;
       const double px = sampleBilinear(distances[i], static_cast<int>(cam.width), static_cast<int>(cam.height),
                                        proj->x, proj->y);
       value = std::min(value, px * proj->z / cam.fx);

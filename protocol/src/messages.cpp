@@ -83,6 +83,13 @@ void readPlanes(WireReader& r, std::vector<Plane>& planes) {
     p.kind = static_cast<PlaneKind>(kind);
     p.codec = static_cast<Codec>(codec);
     p.format = static_cast<PixelFormat>(format);
+    // Bound the sides before multiplying: width * height * 3 must not wrap.
+    if (p.width == 0 || p.height == 0 || p.width > kMaxImageSide || p.height > kMaxImageSide) {
+      r.failValue("plane.width", StatusCode::kMalformed,
+                  std::to_string(p.width) + "x" + std::to_string(p.height) + " outside 1.." +
+                      std::to_string(kMaxImageSide));
+      return;
+    }
     const uint64_t expected =
         static_cast<uint64_t>(p.width) * p.height * bytesPerPixel(p.format);
     if (expected != p.raw_size || p.raw_size > kMaxPlaneBytes) {

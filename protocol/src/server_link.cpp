@@ -49,9 +49,13 @@ void ServerLink::fail(const Status& why) {
   bytes_out_closed_ += connection_->bytesOut();
   bytes_in_closed_ += connection_->bytesIn();
   dropped_closed_ += connection_->framesDropped();
+  // A server that accepts the connection but refuses or stalls the
+  // handshake is retried with growing backoff too; only a connection that
+  // worked starts again from the initial delay.
+  backoff_ms_ = acked_ ? options_.backoff_initial_ms
+                       : std::min(std::max(backoff_ms_ * 2, options_.backoff_initial_ms), options_.backoff_max_ms);
   connection_.reset();
   acked_ = false;
-  backoff_ms_ = options_.backoff_initial_ms;
   next_attempt_ns_ = monotonicNs() + static_cast<uint64_t>(backoff_ms_) * 1000000ull;
 }
 

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -101,8 +102,12 @@ int runClient(const ClientOptions& options) {
 
   std::map<uint32_t, Camera> cameras;
   std::map<uint64_t, PendingBundle> bundles;
-  std::map<uint64_t, protocol::Stats> stats;
-  std::map<uint64_t, uint64_t> frame_bytes;
+  struct FrameStats {
+    protocol::Stats stats;
+    uint64_t bytes = 0;  // the Stats frame's own size
+  };
+  std::map<uint64_t, FrameStats> stats;
+  std::set<uint64_t> failed_bundles;  // ids already reported as skipped
   LatencyReport report;
   const bool tty = isatty(STDOUT_FILENO);
   uint64_t last_progress_ns = 0;
@@ -134,8 +139,8 @@ int runClient(const ClientOptions& options) {
       } else if (type == protocol::MessageType::kStats) {
         protocol::Stats st;
         if (protocol::decodeFrame(frame, st).isOk()) {
-          frame_bytes[st.frame_id] += frame.bytes.size();
-          stats[st.frame_id] = st;
+          const uint64_t id = st.frame_id;
+          stats[id] = FrameStats{std::move(st), frame.bytes.size()};
           while (stats.size() > 64) stats.erase(stats.begin());
         }
       } else if (type == protocol::MessageType::kTextureBundle) {
@@ -182,6 +187,8 @@ int runClient(const ClientOptions& options) {
         }
         if (!error.empty()) {
           skip(bundle.frame_id, error);
+          failed_bundles.insert(bundle.frame_id);
+          while (failed_bundles.size() > 64) failed_bundles.erase(failed_bundles.begin());
           continue;
         }
         pending.stamps.push_back({static_cast<uint16_t>(Stage::kDecode), kSourceClient, t0, monotonicNs()});
@@ -197,7 +204,9 @@ int runClient(const ClientOptions& options) {
         }
         auto bundle = bundles.find(mesh_frame.frame_id);
         if (bundle == bundles.end()) {
-          skip(mesh_frame.frame_id, "its texture bundle was dropped on the way");
+          if (failed_bundles.count(mesh_frame.frame_id) == 0) {
+            skip(mesh_frame.frame_id, "its texture bundle was dropped on the way");
+          }
           continue;
         }
         auto mesh = decodeDraco(mesh_frame.mesh.data(), mesh_frame.mesh.size());
@@ -256,13 +265,15 @@ int runClient(const ClientOptions& options) {
         report.addStamps(stamps);
         report.addStage(static_cast<uint16_t>(Stage::kDecode), decode_ms);
         record.end_to_end_ms = static_cast<double>(t4 - mesh_frame.capture_time_ns) / 1e6;
-        record.client_bytes = frame.bytes.size() + bundle->second.bytes + frame_bytes[mesh_frame.frame_id];
+        record.client_bytes = frame.bytes.size() + bundle->second.bytes;
         auto st = stats.find(mesh_frame.frame_id);
         if (st != stats.end()) {
-          record.cameras_expected = st->second.cameras_expected;
-          record.cameras_present = static_cast<uint32_t>(__builtin_popcountll(st->second.cameras_present));
-          record.pod_bytes = st->second.pod_bytes;
-          record.note = st->second.note;
+          record.client_bytes += st->second.bytes;
+          record.cameras_expected = st->second.stats.cameras_expected;
+          record.cameras_present = static_cast<uint32_t>(__builtin_popcountll(st->second.stats.cameras_present));
+          record.pod_bytes = st->second.stats.pod_bytes;
+          record.note = st->second.stats.note;
+          stats.erase(stats.begin(), std::next(st));
         } else {
           record.cameras_present = static_cast<uint32_t>(bundle->second.views.size());
           record.cameras_expected = record.cameras_present;

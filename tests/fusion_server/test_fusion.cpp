@@ -2,6 +2,8 @@
 // whole fusion of a group.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"
 #include "common/mesh_codec.h"
@@ -64,29 +66,61 @@ TEST(VisualHull, EmptySilhouetteOrNoViewsGiveNoSurface) {
   EXPECT_EQ(carveVisualHull({}, HullOptions{}).triangleCount(), 0u);
 }
 
+PodImages imagesOf(uint32_t camera_id) {
+  PodImages images;
+  images.camera_id = camera_id;
+  return images;
+}
+
+TEST(VisualHull, HostileCalibrationOrMismatchedImagesCarveNothingAndNeverReadOutside) {
+  auto views = syntheticViews(3, 2, 80, 60);
+  auto mismatched = views;
+  mismatched[1].camera.width = 160;  // calibration changed after the images were taken
+  EXPECT_EQ(carveVisualHull(mismatched, HullOptions{}).triangleCount(), 0u);
+  auto hostile = views;
+  hostile[0].camera.fx = 1e300;
+  hostile[0].camera.skew = -1e300;  // projections overflow to inf and NaN
+  const Mesh mesh = carveVisualHull(hostile, HullOptions{});
+  for (const auto& p : mesh.positions) ASSERT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
+}
+
 TEST(FrameSync, CompleteGroupsGoAtOnceLateOnesAtTheDeadline) {
   FrameSync sync(100);
   const std::set<uint32_t> expected = {0, 1, 2};
-  for (uint32_t cam : {0u, 1u, 2u}) sync.add(5, PodImages{cam, {}, {}, {}, {}, 0, 0}, 10);
+  for (uint32_t cam : {0u, 1u, 2u}) sync.add(5, imagesOf(cam), 10);
   auto ready = sync.takeReady(expected, 11);
   ASSERT_EQ(ready.size(), 1u);
   EXPECT_TRUE(ready[0].complete);
   // Frame 6 misses camera 2: nothing before the deadline, then it goes.
-  sync.add(6, PodImages{0, {}, {}, {}, {}, 0, 0}, 20);
-  sync.add(6, PodImages{1, {}, {}, {}, {}, 0, 0}, 21);
+  sync.add(6, imagesOf(0), 20);
+  sync.add(6, imagesOf(1), 21);
   EXPECT_TRUE(sync.takeReady(expected, 50).empty());
   ready = sync.takeReady(expected, 120);
   ASSERT_EQ(ready.size(), 1u);
   EXPECT_FALSE(ready[0].complete);
   EXPECT_EQ(ready[0].pods.size(), 2u);
   // Camera 2's frame 6 arrives after its group went: counted late.
-  EXPECT_FALSE(sync.add(6, PodImages{2, {}, {}, {}, {}, 0, 0}, 130));
+  EXPECT_EQ(sync.add(6, imagesOf(2), 130), FrameSync::Added::kLate);
   EXPECT_EQ(sync.lateFrames(), 1u);
+}
+
+TEST(FrameSync, ABogusFrameIdCannotMakeEveryoneLate) {
+  FrameSync sync(10);
+  // The first id seen is bogus (far in the future) and goes out alone.
+  sync.add(uint64_t{1} << 62, imagesOf(0), 0);
+  ASSERT_EQ(sync.takeReady({0, 1}, 100).size(), 1u);
+  // Real ids are far behind it: the sync starts over instead of calling
+  // them late, and a second bogus id is refused.
+  EXPECT_EQ(sync.add(500, imagesOf(1), 101), FrameSync::Added::kAccepted);
+  EXPECT_EQ(sync.clockResets(), 1u);
+  EXPECT_EQ(sync.takeReady({0, 1}, 200).size(), 1u);
+  EXPECT_EQ(sync.add(uint64_t{1} << 62, imagesOf(0), 201), FrameSync::Added::kImplausible);
+  EXPECT_EQ(sync.add(501, imagesOf(0), 202), FrameSync::Added::kAccepted);
 }
 
 TEST(FrameSync, ADeadPodDoesNotStallWhenItIsNoLongerExpected) {
   FrameSync sync(1000000);
-  sync.add(9, PodImages{0, {}, {}, {}, {}, 0, 0}, 0);
+  sync.add(9, imagesOf(0), 0);
   EXPECT_TRUE(sync.takeReady({0, 1}, 1).empty());
   EXPECT_EQ(sync.takeReady({0}, 2).size(), 1u);  // pod 1 disconnected
 }
@@ -103,9 +137,9 @@ TEST(FusionWorker, FusesAGroupIntoDecodableFrames) {
     pod.color = scene.render(views[i].camera, 3).color;
     pod.mask = views[i].mask;
     pod.feather = views[i].feather;
+    pod.camera = views[i].camera;
     pod.bytes = 1000;
     job.group.pods[pod.camera_id] = pod;
-    job.cameras[pod.camera_id] = views[i].camera;
   }
   FusionSettings settings;
   settings.pods_expected = 4;

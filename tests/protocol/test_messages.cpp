@@ -295,6 +295,15 @@ TEST(Messages, HostileCountsAndSizesAreRejected) {
   const Status s = decodeFrame(decodeOne(std::move(builder).finish()), mesh);
   EXPECT_EQ(s.code(), StatusCode::kTruncated);
   EXPECT_NE(s.message().find("stamps"), std::string::npos);
+  // Sides so large that width * height * 3 wraps around 2^64 to a small
+  // raw size: refused before any multiplication.
+  PodFrame wrap = testing::samplePodFrame();
+  wrap.planes[0].width = 4294903839u;
+  wrap.planes[0].height = 1431676918u;
+  wrap.planes[0].raw_size = 268112990u;
+  const Status wrapped = decodeFrame(decodeOne(encodeFrame(wrap, 0)), out);
+  EXPECT_EQ(wrapped.code(), StatusCode::kMalformed);
+  EXPECT_NE(wrapped.message().find("outside 1..16384"), std::string::npos) << wrapped.message();
   // A calibration with a non-finite focal length.
   Calibration c = testing::sampleCalibration();
   c.fx = std::numeric_limits<double>::quiet_NaN();

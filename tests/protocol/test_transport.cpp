@@ -22,8 +22,8 @@ Bytes bigPodFrame(uint64_t id, size_t bytes) {
   Plane p;
   p.kind = PlaneKind::kColor;
   p.format = PixelFormat::kGray8;
-  p.width = static_cast<uint32_t>(bytes);
-  p.height = 1;
+  p.width = 1000;  // callers pass multiples of 1000
+  p.height = static_cast<uint32_t>(bytes / 1000);
   p.raw_size = static_cast<uint32_t>(bytes);
   p.data = storage.back();
   f.planes.push_back(p);
@@ -71,7 +71,7 @@ TEST(Transport, LargeFramesSurvivePartialWritesAndReads) {
 TEST(Transport, BorrowedPartsGoOutInPlaceAndByteIdenticalThroughPartialWrites) {
   // Planes large enough to be borrowed, sent through tiny socket buffers so
   // every write ends somewhere inside a part.
-  auto owner = std::make_shared<std::vector<uint8_t>>(3 * kBorrowMinBytes + 17);
+  auto owner = std::make_shared<std::vector<uint8_t>>(3 * kBorrowMinBytes + 16);  // 4 rows of 3076
   for (size_t i = 0; i < owner->size(); ++i) (*owner)[i] = static_cast<uint8_t>(i * 29 + 5);
   PodFrame f;
   f.frame_id = 77;
@@ -79,9 +79,9 @@ TEST(Transport, BorrowedPartsGoOutInPlaceAndByteIdenticalThroughPartialWrites) {
     Plane p;
     p.kind = k == 0 ? PlaneKind::kColor : PlaneKind::kFeather;
     p.format = PixelFormat::kGray8;
-    p.width = static_cast<uint32_t>(owner->size());
-    p.height = 1;
-    p.raw_size = p.width;
+    p.width = static_cast<uint32_t>(owner->size() / 4);
+    p.height = 4;
+    p.raw_size = static_cast<uint32_t>(owner->size());
     p.data = *owner;
     f.planes.push_back(p);
   }
@@ -103,7 +103,8 @@ TEST(Transport, BorrowedPartsGoOutInPlaceAndByteIdenticalThroughPartialWrites) {
   ASSERT_EQ(got.size(), 4u);
   for (int i = 0; i < 3; ++i) {
     PodFrame back;
-    ASSERT_TRUE(decodeFrame(got[i], back).isOk());
+    const Status decoded = decodeFrame(got[i], back);
+    ASSERT_TRUE(decoded.isOk()) << decoded.toString();
     ASSERT_EQ(back.planes.size(), 2u);
     EXPECT_TRUE(std::equal(back.planes[1].data.begin(), back.planes[1].data.end(), owner->begin(), owner->end()));
   }

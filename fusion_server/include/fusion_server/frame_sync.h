@@ -9,6 +9,7 @@
 #include <set>
 #include <vector>
 
+#include "common/camera.h"
 #include "common/image.h"
 #include "protocol/messages.h"
 
@@ -20,6 +21,7 @@ struct PodImages {
   std::vector<protocol::StageStamp> stamps;
   uint64_t capture_time_ns = 0;
   uint64_t bytes = 0;  // size of the frame on the wire
+  Camera camera;       // the calibration in force when the frame arrived
 };
 
 struct FrameGroup {
@@ -34,9 +36,15 @@ class FrameSync {
  public:
   FrameSync(uint64_t deadline_ns, size_t max_pending = 8) : deadline_ns_(deadline_ns), max_pending_(max_pending) {}
 
-  // Adds a pod's frame. Returns false (and counts it late) when its group
-  // has already gone out.
-  bool add(uint64_t frame_id, PodImages images, uint64_t now_ns);
+  enum class Added { kAccepted, kLate, kImplausible };
+  // Frame ids further than this from the last fused one are not a late or
+  // early frame but a different clock: far ahead is refused (one pod must
+  // not push everyone else into lateness), far behind starts over.
+  static constexpr uint64_t kMaxIdJump = 100000;
+
+  // Adds a pod's frame. kLate (counted) when its group has already gone
+  // out; kImplausible when its id is far ahead of what is being fused.
+  Added add(uint64_t frame_id, PodImages images, uint64_t now_ns);
   // Groups ready at now_ns given the pods currently expected, oldest first.
   std::vector<FrameGroup> takeReady(const std::set<uint32_t>& expected, uint64_t now_ns);
   // Time until the oldest pending group's deadline (for the poll timeout).
@@ -44,6 +52,7 @@ class FrameSync {
 
   uint64_t lateFrames() const { return late_frames_; }
   uint64_t overflowedGroups() const { return overflowed_groups_; }
+  uint64_t clockResets() const { return clock_resets_; }
 
  private:
   uint64_t deadline_ns_;
@@ -52,6 +61,7 @@ class FrameSync {
   std::optional<uint64_t> last_emitted_;
   uint64_t late_frames_ = 0;
   uint64_t overflowed_groups_ = 0;
+  uint64_t clock_resets_ = 0;
 };
 
 }  // namespace holofuse::fusion

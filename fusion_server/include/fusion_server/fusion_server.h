@@ -48,6 +48,7 @@ class FusionServer {
     bool greeted = false;
     protocol::Role role = protocol::Role::kPod;
     uint32_t id = 0;
+    bool replaced = false;  // a newer connection of the same pod took over
   };
 
   void acceptAll();

@@ -34,7 +34,6 @@ struct FusedOutput {
 
 struct GroupJob {
   FrameGroup group;
-  std::map<uint32_t, Camera> cameras;
   uint64_t late_frames = 0;
   uint64_t dropped_groups = 0;
 };

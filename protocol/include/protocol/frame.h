@@ -66,6 +66,11 @@ class OutgoingFrame {
  public:
   OutgoingFrame() = default;
   explicit OutgoingFrame(Bytes contiguous);  // a whole frame in one buffer
+  // Parts point into own_: a copy would point into the original.
+  OutgoingFrame(const OutgoingFrame&) = delete;
+  OutgoingFrame& operator=(const OutgoingFrame&) = delete;
+  OutgoingFrame(OutgoingFrame&&) = default;
+  OutgoingFrame& operator=(OutgoingFrame&&) = default;
 
   const std::vector<std::span<const uint8_t>>& parts() const { return parts_; }
   size_t size() const { return size_; }

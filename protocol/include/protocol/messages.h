@@ -45,6 +45,7 @@ constexpr size_t kMaxPlanes = 8;
 constexpr size_t kMaxImages = 64;
 constexpr size_t kMaxDistortion = 8;
 constexpr uint32_t kMaxPlaneBytes = 256u << 20;
+constexpr uint32_t kMaxImageSide = 16384;  // width and height of any plane
 
 struct StageStamp {
   uint16_t stage = 0;

@@ -1,0 +1,39 @@
+// CPU reference (double precision) of texture-field stages 1 and 2 of
+// DESIGN.md section 6 (paper 000 section 4.2): the depth map of the mesh
+// seen from a pod camera, and its depth discontinuities dilated by eps
+// pixels. Slow and plain on purpose: the Vulkan passes are tested against it.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/mesh.h"
+
+namespace holofuse::render::reference {
+
+constexpr double kNoDepth = std::numeric_limits<double>::infinity();
+
+struct DepthMap {
+  uint32_t width = 0, height = 0;
+  std::vector<double> depth;  // camera-space z per pixel, kNoDepth where no surface
+  double at(uint32_t x, uint32_t y) const { return depth[static_cast<size_t>(y) * width + x]; }
+};
+
+// Z-buffer of the mesh sampled at pixel centres, perspective-correct.
+// Triangles with a vertex behind the near plane are skipped; degenerate
+// triangles draw nothing.
+DepthMap rasterizeDepth(const Mesh& mesh, const Camera& camera, double near_plane = 0.05);
+
+struct DiscontinuityOptions {
+  int dilation_px = 4;           // eps of the paper
+  double relative_jump = 0.03;   // a neighbour this much farther (relative) is a discontinuity
+};
+
+// 1 where a pixel lies within dilation_px (Euclidean) of a depth
+// discontinuity: a surface pixel whose 4-neighbour is empty or differs in
+// depth by more than relative_jump times the nearer depth.
+std::vector<uint8_t> dilatedDiscontinuities(const DepthMap& map, const DiscontinuityOptions& options = {});
+
+}  // namespace holofuse::render::reference
