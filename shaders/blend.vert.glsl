@@ -1,6 +1,9 @@
 #version 450
-// The user's view of the fused mesh; world position and normal go on to the
-// blend.
+#extension GL_GOOGLE_include_directive : require
+#include "config.h"
+// The user's view of the fused mesh; world position, normal and the
+// per-vertex texture-field weights (16 cameras as 4 vec4) go on to the
+// blend, interpolated over the triangle (paper 000 eq. 1).
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
 
@@ -8,11 +11,25 @@ layout(push_constant) uniform Push {
   mat4 world_to_clip;
 } push;
 
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_WEIGHTS) readonly buffer Weights { float weights[]; };
+layout(set = 0, binding = HOLOFUSE_BINDING_CAMERAS) uniform BlendMode {
+  layout(offset = 1792) ivec4 counts;  // after 16 cameras of 112 bytes
+} blend_mode;
+
 layout(location = 0) out vec3 out_position;
 layout(location = 1) out vec3 out_normal;
+layout(location = 2) out vec4 out_weights[4];
 
 void main() {
   gl_Position = push.world_to_clip * vec4(in_position, 1.0);
   out_position = in_position;
   out_normal = in_normal;
+  for (int k = 0; k < 4; ++k) out_weights[k] = vec4(0.0);
+  if (blend_mode.counts.y == HOLOFUSE_MODE_HOLOPORTATION) {
+    uint base = uint(gl_VertexIndex) * HOLOFUSE_MAX_CAMERAS;
+    for (int k = 0; k < 4; ++k) {
+      out_weights[k] = vec4(weights[base + 4 * k], weights[base + 4 * k + 1], weights[base + 4 * k + 2],
+                            weights[base + 4 * k + 3]);
+    }
+  }
 }

@@ -5,5 +5,33 @@
 #define HOLOFUSE_MAX_CAMERAS 16
 // Blending modes (render_client/include/render_client/blend_mode.h).
 #define HOLOFUSE_MODE_NORMAL 0
+#define HOLOFUSE_MODE_HOLOPORTATION 1
+
+// Workgroup sizes: per-pixel passes run 16x16, per-vertex passes 64 wide.
+#define HOLOFUSE_PIXEL_GROUP 16
+#define HOLOFUSE_VERTEX_GROUP 64
+
+// Depth-map value where no surface was drawn.
+#define HOLOFUSE_NO_DEPTH 1.0e9
+
+// Why a vertex is or is not seen by a camera (render::reference::Sight).
+#define HOLOFUSE_SIGHT_VISIBLE 0
+#define HOLOFUSE_SIGHT_BEHIND 1
+#define HOLOFUSE_SIGHT_OUTSIDE_IMAGE 2
+#define HOLOFUSE_SIGHT_BACKGROUND 3
+#define HOLOFUSE_SIGHT_OCCLUDED 4
+#define HOLOFUSE_SIGHT_DISCONTINUITY 5
+
+// Descriptor bindings of the one set shared by the blend and compute passes.
+#define HOLOFUSE_BINDING_CAMERAS 0
+#define HOLOFUSE_BINDING_DEPTHS 1
+#define HOLOFUSE_BINDING_IMAGES 2
+#define HOLOFUSE_BINDING_VERTICES 3
+#define HOLOFUSE_BINDING_EDGES 4
+#define HOLOFUSE_BINDING_DILATED 5
+#define HOLOFUSE_BINDING_SIGHTS 6
+#define HOLOFUSE_BINDING_TRUSTED 7
+#define HOLOFUSE_BINDING_WEIGHTS 8
+#define HOLOFUSE_BINDING_ROWS 9
 
 #endif

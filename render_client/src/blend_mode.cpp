@@ -4,16 +4,18 @@ namespace holofuse::render {
 
 std::optional<BlendMode> blendModeFromName(const std::string& name) {
   if (name == "normal") return BlendMode::kNormal;
+  if (name == "holoportation") return BlendMode::kHoloportation;
   return std::nullopt;
 }
 
 std::string blendModeName(BlendMode mode) {
   switch (mode) {
     case BlendMode::kNormal: return "normal";
+    case BlendMode::kHoloportation: return "holoportation";
   }
   return "unknown";
 }
 
-std::vector<std::string> blendModeNames() { return {"normal"}; }
+std::vector<std::string> blendModeNames() { return {"normal", "holoportation"}; }
 
 }  // namespace holofuse::render

@@ -111,6 +111,7 @@ int runClient(const ClientOptions& options) {
   LatencyReport report;
   const bool tty = isatty(STDOUT_FILENO);
   uint64_t last_progress_ns = 0;
+  uint64_t frames_superseded = 0;  // meshes skipped because a newer one was already there
   std::vector<protocol::Frame> received;
 
   auto skip = [&](uint64_t frame_id, const std::string& why) {
@@ -125,8 +126,20 @@ int runClient(const ClientOptions& options) {
       std::fprintf(stderr, "[client] giving up: %s\n", link.fatalError()->toString().c_str());
       return 2;
     }
-    for (auto& frame : received) {
+    // When frames arrive faster than this client renders, only the newest
+    // mesh of a batch is rendered: older ones would only add latency.
+    size_t newest_mesh = received.size();
+    for (size_t k = 0; k < received.size(); ++k) {
+      if (received[k].header.type == static_cast<uint16_t>(protocol::MessageType::kMeshFrame)) newest_mesh = k;
+    }
+    for (size_t k = 0; k < received.size(); ++k) {
+      auto& frame = received[k];
+      if (options.frames != 0 && report.framesRendered() >= options.frames) break;
       const uint64_t receive_ns = monotonicNs();
+      if (frame.header.type == static_cast<uint16_t>(protocol::MessageType::kMeshFrame) && k != newest_mesh) {
+        ++frames_superseded;
+        continue;
+      }
       const auto type = static_cast<protocol::MessageType>(frame.header.type);
       if (type == protocol::MessageType::kCalibration) {
         protocol::Calibration calibration;
@@ -296,6 +309,7 @@ int runClient(const ClientOptions& options) {
     }
   }
   link.close(stopRequested() ? "client stopped by signal" : "client rendered its frames");
+  report.setSuperseded(frames_superseded);
   std::map<std::string, std::string> settings = {{"mode", blendModeName(options.blend.mode)},
                                                  {"view", options.view},
                                                  {"size", std::to_string(options.width) + "x" + std::to_string(options.height)},

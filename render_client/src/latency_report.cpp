@@ -70,6 +70,7 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   j["bytes_per_frame"] = {{"pod_link", pod_bytes / n}, {"client_link", client_bytes / n}};
   j["frames_with_missing_cameras"] = incomplete;
   j["frames_skipped"] = skipped_;
+  j["frames_superseded"] = superseded_;
   j["settings"] = settings;
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
   for (const auto& f : frames_) {

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cstring>
 #include <stdexcept>
+#include <type_traits>
 
 #include "shaders/blend_frag_spv.h"
 #include "shaders/blend_vert_spv.h"
@@ -32,6 +33,8 @@ static_assert(offsetof(BlendUniforms, params) == 112 * HOLOFUSE_MAX_CAMERAS + 16
 static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 48);
 
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr VkBufferUsageFlags kVertexUsage = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+constexpr uint32_t kImageMipLevels = 4;  // the vote searches at most this many
 constexpr float kFarDepth = 1e9f;  // depth map value where the mesh is absent
 
 VkRenderPass createPass(VkDevice device, VkFormat color_format, VkImageLayout color_final) {
@@ -211,6 +214,13 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   output_framebuffer_ = createFramebuffer(ctx_.device(), blend_pass_, color_.view, depth_.view, width, height);
   readback_ = ctx_.createBuffer(VkDeviceSize{width} * height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   uniforms_ = ctx_.createBuffer(sizeof(BlendUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+  // Every binding of the shared set must hold a buffer before the first
+  // descriptor write: start small, grow with the mesh.
+  vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
+  index_buffer_ = ctx_.createBuffer(4, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_}) {
+    *b = ctx_.createBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  }
 }
 
 Renderer::~Renderer() {
@@ -224,6 +234,8 @@ Renderer::~Renderer() {
   ctx_.destroy(depth_);
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
+  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_}) ctx_.destroy(*b);
+  field_passes_pipelines_.reset();
   vkDestroyPipeline(d, depth_pipeline_, nullptr);
   vkDestroyPipeline(d, blend_pipeline_, nullptr);
   vkDestroyPipelineLayout(d, depth_layout_, nullptr);
@@ -241,33 +253,41 @@ void Renderer::createPipelines() {
   depth_pass_ = createPass(d, VK_FORMAT_R32_SFLOAT, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   blend_pass_ = createPass(d, VK_FORMAT_R8G8B8A8_UNORM, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
 
-  std::array<VkDescriptorSetLayoutBinding, 3> bindings{};
-  bindings[0] = {0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
-  bindings[1] = {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
-  bindings[2] = {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  // One set for the blend and every compute pass (bindings in config.h).
+  std::array<VkDescriptorSetLayoutBinding, 10> bindings{};
+  for (uint32_t b = 0; b < bindings.size(); ++b) {
+    bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr};
+  }
+  bindings[HOLOFUSE_BINDING_CAMERAS].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  bindings[HOLOFUSE_BINDING_DEPTHS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  bindings[HOLOFUSE_BINDING_IMAGES].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   VkDescriptorSetLayoutCreateInfo set_info{};
   set_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
   set_info.bindingCount = static_cast<uint32_t>(bindings.size());
   set_info.pBindings = bindings.data();
   HOLOFUSE_VK_CHECK(vkCreateDescriptorSetLayout(d, &set_info, nullptr, &set_layout_));
 
-  VkPushConstantRange push{VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(glm::mat4)};
+  std::array<VkPushConstantRange, 2> push = {VkPushConstantRange{VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(glm::mat4)},
+                                             VkPushConstantRange{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(ComputePush)}};
   VkPipelineLayoutCreateInfo layout_info{};
   layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
   layout_info.pushConstantRangeCount = 1;
-  layout_info.pPushConstantRanges = &push;
+  layout_info.pPushConstantRanges = push.data();
   HOLOFUSE_VK_CHECK(vkCreatePipelineLayout(d, &layout_info, nullptr, &depth_layout_));
   layout_info.setLayoutCount = 1;
   layout_info.pSetLayouts = &set_layout_;
+  layout_info.pushConstantRangeCount = static_cast<uint32_t>(push.size());
   HOLOFUSE_VK_CHECK(vkCreatePipelineLayout(d, &layout_info, nullptr, &blend_layout_));
+  field_passes_pipelines_ = std::make_unique<TextureFieldPasses>(ctx_, blend_layout_);
 
   depth_pipeline_ = createPipeline(ctx_, depth_pass_, depth_layout_, k_depth_vert_spv, sizeof(k_depth_vert_spv),
                                    k_depth_frag_spv, sizeof(k_depth_frag_spv));
   blend_pipeline_ = createPipeline(ctx_, blend_pass_, blend_layout_, k_blend_vert_spv, sizeof(k_blend_vert_spv),
                                    k_blend_frag_spv, sizeof(k_blend_frag_spv));
 
-  std::array<VkDescriptorPoolSize, 2> sizes = {VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2}};
+  std::array<VkDescriptorPoolSize, 3> sizes = {VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
+                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 7}};
   VkDescriptorPoolCreateInfo pool_info{};
   pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
   pool_info.maxSets = 1;
@@ -288,7 +308,8 @@ void Renderer::createPipelines() {
   sampler.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
   sampler.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
   sampler.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-  sampler.maxLod = 0.0f;
+  sampler.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;  // levels are picked explicitly (textureLod)
+  sampler.maxLod = VK_LOD_CLAMP_NONE;
   HOLOFUSE_VK_CHECK(vkCreateSampler(d, &sampler, nullptr, &linear_sampler_));
   sampler.magFilter = VK_FILTER_NEAREST;
   sampler.minFilter = VK_FILTER_NEAREST;
@@ -308,9 +329,13 @@ void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
   if (images_.image != VK_NULL_HANDLE && images_.width == w && images_.height == h && images_.layers == count) return;
   vkDeviceWaitIdle(ctx_.device());
   destroyViewResources();
+  // Mips for the majority vote's coarse-to-fine search.
+  uint32_t levels = 1;
+  while (levels < kImageMipLevels && (std::min(w, h) >> levels) > 0) ++levels;
   images_ = ctx_.createImage(w, h, count, VK_FORMAT_R8G8B8A8_UNORM,
-                             VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, VK_IMAGE_ASPECT_COLOR_BIT,
-                             false);
+                             VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
+                                 VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                             VK_IMAGE_ASPECT_COLOR_BIT, false, levels);
   depth_maps_ = ctx_.createImage(w, h, count, VK_FORMAT_R32_SFLOAT,
                                  VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT,
                                  VK_IMAGE_ASPECT_COLOR_BIT, true);
@@ -321,26 +346,7 @@ void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
         createFramebuffer(ctx_.device(), depth_pass_, depth_maps_.layer_views[i], depth_scratch_.view, w, h));
   }
   staging_ = ctx_.createBuffer(VkDeviceSize{w} * h * 4 * count, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
-
-  VkDescriptorBufferInfo ubo{uniforms_.buffer, 0, sizeof(BlendUniforms)};
-  VkDescriptorImageInfo image_info{linear_sampler_, images_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  VkDescriptorImageInfo depth_info{nearest_sampler_, depth_maps_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  std::array<VkWriteDescriptorSet, 3> writes{};
-  for (auto& w_ : writes) {
-    w_.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    w_.dstSet = descriptor_set_;
-    w_.descriptorCount = 1;
-  }
-  writes[0].dstBinding = 0;
-  writes[0].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-  writes[0].pBufferInfo = &ubo;
-  writes[1].dstBinding = 1;
-  writes[1].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-  writes[1].pImageInfo = &image_info;
-  writes[2].dstBinding = 2;
-  writes[2].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-  writes[2].pImageInfo = &depth_info;
-  vkUpdateDescriptorSets(ctx_.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
+  writeDescriptors();
   // Depth maps start readable so a frame without a mesh still samples a
   // defined layout.
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
@@ -356,7 +362,8 @@ void Renderer::setMesh(const Mesh& mesh) {
   if (vertex_buffer_.size < vertex_bytes) {
     vkDeviceWaitIdle(ctx_.device());
     ctx_.destroy(vertex_buffer_);
-    vertex_buffer_ = ctx_.createBuffer(vertex_bytes * 3 / 2, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
+    vertex_buffer_ = ctx_.createBuffer(vertex_bytes * 3 / 2, kVertexUsage);
+    if (images_.image != VK_NULL_HANDLE) writeDescriptors();
   }
   if (index_buffer_.size < index_bytes) {
     vkDeviceWaitIdle(ctx_.device());
@@ -371,7 +378,9 @@ void Renderer::setMesh(const Mesh& mesh) {
   }
   std::memcpy(index_buffer_.mapped, mesh.indices.data(), mesh.indices.size() * 4);
   index_count_ = static_cast<uint32_t>(mesh.indices.size());
+  vertex_count_ = static_cast<uint32_t>(mesh.positions.size());
   depth_maps_stale_ = true;
+  fields_stale_ = true;
 }
 
 void Renderer::setViews(const std::vector<ViewImages>& views) {
@@ -412,12 +421,98 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, static_cast<uint32_t>(views.size())};
     region.imageExtent = {w, h, 1};
     vkCmdCopyBufferToImage(cmd, staging_.buffer, images_.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-    transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
-                    VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT);
+    generateMips(cmd);
   });
   // Depth maps depend on the camera poses as well as the mesh.
   depth_maps_stale_ = true;
+  fields_stale_ = true;
+}
+
+void Renderer::generateMips(VkCommandBuffer cmd) {
+  // Each level is the 2x2 box average of the one below: a linear blit of
+  // exactly half the size samples the middle of every 2x2 block.
+  int32_t w = static_cast<int32_t>(images_.width), h = static_cast<int32_t>(images_.height);
+  for (uint32_t level = 1; level < images_.mip_levels; ++level) {
+    transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                    VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
+                    VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, level - 1, 1);
+    VkImageBlit blit{};
+    blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level - 1, 0, images_.layers};
+    blit.srcOffsets[1] = {w, h, 1};
+    w = std::max(1, w / 2);
+    h = std::max(1, h / 2);
+    blit.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level, 0, images_.layers};
+    blit.dstOffsets[1] = {w, h, 1};
+    vkCmdBlitImage(cmd, images_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, images_.image,
+                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &blit, VK_FILTER_LINEAR);
+    transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_READ_BIT, VK_ACCESS_SHADER_READ_BIT,
+                    VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, level - 1, 1);
+  }
+  transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                  VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, images_.mip_levels - 1, 1);
+}
+
+void Renderer::ensureFieldBuffers() {
+  const VkDeviceSize pixels = VkDeviceSize{images_.width} * images_.height * images_.layers * 4;
+  const VkDeviceSize per_vertex = VkDeviceSize{std::max(vertex_count_, 1u)} * std::max(images_.layers, 1u) * 4;
+  const VkDeviceSize weights = VkDeviceSize{std::max(vertex_count_, 1u)} * HOLOFUSE_MAX_CAMERAS * 4;
+  bool changed = false;
+  for (auto [buffer, size] : {std::pair{&edges_, pixels}, {&dilated_, pixels}, {&rows_, pixels}, {&sights_, per_vertex},
+                              {&trusted_, per_vertex}, {&weights_, weights}}) {
+    if (buffer->size >= size) continue;
+    ctx_.destroy(*buffer);
+    *buffer = ctx_.createBuffer(size * 3 / 2, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    changed = true;
+  }
+  if (changed) writeDescriptors();
+}
+
+void Renderer::writeDescriptors() {
+  vkDeviceWaitIdle(ctx_.device());
+  VkDescriptorBufferInfo ubo{uniforms_.buffer, 0, sizeof(BlendUniforms)};
+  VkDescriptorImageInfo image_info{linear_sampler_, images_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo depth_info{nearest_sampler_, depth_maps_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  std::array<VkDescriptorBufferInfo, 7> storage = {
+      VkDescriptorBufferInfo{vertex_buffer_.buffer, 0, VK_WHOLE_SIZE}, {edges_.buffer, 0, VK_WHOLE_SIZE},
+      {dilated_.buffer, 0, VK_WHOLE_SIZE}, {sights_.buffer, 0, VK_WHOLE_SIZE}, {trusted_.buffer, 0, VK_WHOLE_SIZE},
+      {weights_.buffer, 0, VK_WHOLE_SIZE}, {rows_.buffer, 0, VK_WHOLE_SIZE}};
+  std::array<VkWriteDescriptorSet, 10> writes{};
+  for (uint32_t b = 0; b < writes.size(); ++b) {
+    writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    writes[b].dstSet = descriptor_set_;
+    writes[b].dstBinding = b;
+    writes[b].descriptorCount = 1;
+    if (b >= HOLOFUSE_BINDING_VERTICES) {
+      writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      writes[b].pBufferInfo = &storage[b - HOLOFUSE_BINDING_VERTICES];
+    }
+  }
+  writes[HOLOFUSE_BINDING_CAMERAS].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  writes[HOLOFUSE_BINDING_CAMERAS].pBufferInfo = &ubo;
+  writes[HOLOFUSE_BINDING_DEPTHS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  writes[HOLOFUSE_BINDING_DEPTHS].pImageInfo = &depth_info;
+  writes[HOLOFUSE_BINDING_IMAGES].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  writes[HOLOFUSE_BINDING_IMAGES].pImageInfo = &image_info;
+  vkUpdateDescriptorSets(ctx_.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
+}
+
+FieldSnapshot Renderer::readFields() const {
+  FieldSnapshot s;
+  s.vertex_count = vertex_count_;
+  s.camera_count = static_cast<uint32_t>(cameras_.size());
+  const size_t per_vertex = size_t{s.vertex_count} * s.camera_count;
+  auto copy = [](const Buffer& b, auto& out, size_t n) {
+    using T = typename std::remove_reference_t<decltype(out)>::value_type;
+    out.resize(n);
+    if (n * sizeof(T) <= b.size) std::memcpy(out.data(), b.mapped, n * sizeof(T));
+  };
+  copy(sights_, s.sights, per_vertex);
+  copy(trusted_, s.trusted, per_vertex);
+  copy(dilated_, s.dilated, size_t{images_.width} * images_.height * images_.layers);
+  copy(weights_, s.weights, size_t{s.vertex_count} * HOLOFUSE_MAX_CAMERAS);
+  return s;
 }
 
 void Renderer::drawMesh(VkCommandBuffer cmd) {
@@ -467,8 +562,22 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   }
   std::memcpy(uniforms_.mapped, &u, sizeof(u));
   const bool have_views = !cameras_.empty();
+  const bool want_fields = have_views && settings.mode == BlendMode::kHoloportation;
+  FieldParameters parameters = settings.fields;
+  parameters.alpha = settings.alpha;
+  const bool settings_changed = settings.camera_enabled != field_cameras_ ||
+                                std::memcmp(&parameters, &field_parameters_, sizeof(parameters)) != 0;
+  const bool run_fields = want_fields && (fields_stale_ || depth_maps_stale_ || settings_changed);
+  if (run_fields) ensureFieldBuffers();
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
+    if (run_fields) field_passes_pipelines_->beginTiming(cmd);
     if (have_views && depth_maps_stale_) renderDepthMaps(cmd);
+    if (run_fields) {
+      field_passes_pipelines_->depthMapsDone(cmd);
+      field_passes_pipelines_->record(cmd, descriptor_set_, vertex_count_, static_cast<uint32_t>(cameras_.size()),
+                                      images_.width, images_.height, parameters);
+      ++field_passes_;
+    }
     std::array<VkClearValue, 2> clears{};
     clears[0].color = {{0.0f, 0.0f, 0.0f, 0.0f}};
     clears[1].depthStencil = {1.0f, 0};
@@ -513,6 +622,11 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
                          0, nullptr);
   });
   if (have_views) depth_maps_stale_ = false;
+  if (run_fields) {
+    fields_stale_ = false;
+    field_cameras_ = settings.camera_enabled;
+    field_parameters_ = parameters;
+  }
   Image8 out(width_, height_, 4);
   std::memcpy(out.pixels.data(), readback_.mapped, out.pixels.size());
   return out;

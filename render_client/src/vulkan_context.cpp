@@ -176,18 +176,20 @@ void VulkanContext::destroy(Buffer& b) {
 }
 
 Image VulkanContext::createImage(uint32_t width, uint32_t height, uint32_t layers, VkFormat format,
-                                 VkImageUsageFlags usage, VkImageAspectFlags aspect, bool per_layer_views) {
+                                 VkImageUsageFlags usage, VkImageAspectFlags aspect, bool per_layer_views,
+                                 uint32_t mip_levels) {
   Image img;
   img.format = format;
   img.width = width;
   img.height = height;
   img.layers = layers;
+  img.mip_levels = mip_levels;
   VkImageCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
   info.imageType = VK_IMAGE_TYPE_2D;
   info.format = format;
   info.extent = {width, height, 1};
-  info.mipLevels = 1;
+  info.mipLevels = mip_levels;
   info.arrayLayers = layers;
   info.samples = VK_SAMPLE_COUNT_1_BIT;
   info.tiling = VK_IMAGE_TILING_OPTIMAL;
@@ -209,7 +211,7 @@ Image VulkanContext::createImage(uint32_t width, uint32_t height, uint32_t layer
     v.image = img.image;
     v.viewType = type;
     v.format = format;
-    v.subresourceRange = {aspect, 0, 1, first, count};
+    v.subresourceRange = {aspect, 0, per_layer_views ? 1 : mip_levels, first, count};
     VkImageView view;
     HOLOFUSE_VK_CHECK(vkCreateImageView(device_, &v, nullptr, &view));
     return view;
@@ -269,7 +271,8 @@ void VulkanContext::endOneShotAndWait(VkCommandBuffer cmd) {
 
 void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect, VkImageLayout from,
                      VkImageLayout to, VkAccessFlags src_access, VkAccessFlags dst_access,
-                     VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage) {
+                     VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage, uint32_t first_level,
+                     uint32_t level_count) {
   VkImageMemoryBarrier barrier{};
   barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
   barrier.oldLayout = from;
@@ -279,7 +282,7 @@ void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags
   barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
   barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
   barrier.image = image.image;
-  barrier.subresourceRange = {aspect, 0, 1, 0, image.layers};
+  barrier.subresourceRange = {aspect, first_level, level_count, 0, image.layers};
   vkCmdPipelineBarrier(cmd, src_stage, dst_stage, 0, 0, nullptr, 0, nullptr, 1, &barrier);
 }
 

@@ -120,7 +120,9 @@ TEST(ReferenceVisibility, FrontFacingVerticesAreSeenBackFacingNever) {
     if (facing < -0.05) {
       EXPECT_NE(sights[0][v], Sight::kVisible) << v;
     }
-    if (facing > 0.5) {
+    // Away from the silhouette's dilated band (eps = 4 px on a sphere about
+    // 60 px across, square window).
+    if (facing > 0.65) {
       ++front;
       front_seen += sights[0][v] == Sight::kVisible;
     }
@@ -180,7 +182,7 @@ TEST(ReferenceSeams, LieAlongTheSilhouetteAndNameTheirRule) {
     ++count;
     const uint32_t v = mesh.indices[3 * t];
     const double facing = glm::dot(glm::dvec3(mesh.normals[v]), glm::normalize(c - glm::dvec3(mesh.positions[v])));
-    EXPECT_LT(std::abs(facing), 0.6) << "seam triangle far from the silhouette";
+    EXPECT_LT(std::abs(facing), 0.7) << "seam triangle far from the silhouette";
   }
   EXPECT_GT(count, 10u);
   EXPECT_LT(count, mesh.triangleCount() / 5);

@@ -13,6 +13,9 @@ namespace holofuse::render {
 
 enum class BlendMode : int {
   kNormal = HOLOFUSE_MODE_NORMAL,  // max(0, n . d_i)^alpha with a depth-map occlusion test
+  // The Holoportation baseline (paper 000 eq. 2): per-vertex fields with
+  // dilated depth discontinuities and multi-level majority voting.
+  kHoloportation = HOLOFUSE_MODE_HOLOPORTATION,
 };
 
 std::optional<BlendMode> blendModeFromName(const std::string& name);

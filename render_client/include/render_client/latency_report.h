@@ -32,6 +32,8 @@ class LatencyReport {
   void addStage(uint16_t stage, double ms);
   void addFrame(const FrameRecord& record, uint64_t written_ns);
   void noteSkipped(const std::string& why) { skipped_.push_back(why); }
+  // Meshes not rendered because a newer one had already arrived.
+  void setSuperseded(uint64_t count) { superseded_ = count; }
 
   size_t framesRendered() const { return frames_.size(); }
   double fps() const;
@@ -45,6 +47,7 @@ class LatencyReport {
   std::vector<FrameRecord> frames_;
   std::vector<uint64_t> written_ns_;
   std::vector<std::string> skipped_;
+  uint64_t superseded_ = 0;
 };
 
 }  // namespace holofuse::render

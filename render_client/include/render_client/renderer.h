@@ -4,12 +4,14 @@
 #pragma once
 
 #include <glm/glm.hpp>
+#include <memory>
 #include <vector>
 
 #include "common/camera.h"
 #include "common/image.h"
 #include "common/mesh.h"
 #include "render_client/blend_mode.h"
+#include "render_client/texture_field_passes.h"
 #include "render_client/vulkan_context.h"
 
 namespace holofuse::render {
@@ -20,6 +22,16 @@ struct BlendSettings {
   float depth_tolerance = 0.03f;              // metres behind the depth map still visible
   glm::vec3 hole_color{0.5f, 0.5f, 0.5f};     // surface that no camera sees
   std::vector<bool> camera_enabled;           // empty: all cameras take part
+  FieldParameters fields;                     // texture-field passes (holoportation mode)
+};
+
+// What the texture-field passes computed, read back for tests, indexed
+// [camera * vertex_count + vertex] (weights: [vertex * 16 + camera]).
+struct FieldSnapshot {
+  uint32_t vertex_count = 0, camera_count = 0;
+  std::vector<uint32_t> sights, trusted;
+  std::vector<uint32_t> dilated;  // [camera][y][x] of the pod images
+  std::vector<float> weights;
 };
 
 struct ViewImages {
@@ -50,12 +62,21 @@ class Renderer {
   uint32_t width() const { return width_; }
   uint32_t height() const { return height_; }
   uint64_t depthMapPasses() const { return depth_map_passes_; }
+  uint64_t fieldPasses() const { return field_passes_; }
+  // GPU milliseconds of the texture-field passes of the last mesh
+  // (TextureFieldPasses::stageNames() order); empty before the first.
+  std::vector<double> fieldTimesMs() const { return field_passes_pipelines_->lastTimesMs(); }
+  // The texture fields of the last render in a field mode.
+  FieldSnapshot readFields() const;
 
  private:
   void createPipelines();
   void ensureViewResources(uint32_t w, uint32_t h, uint32_t count);
   void destroyViewResources();
   void renderDepthMaps(VkCommandBuffer cmd);
+  void ensureFieldBuffers();
+  void writeDescriptors();
+  void generateMips(VkCommandBuffer cmd);
   void drawMesh(VkCommandBuffer cmd);
 
   VulkanContext& ctx_;
@@ -69,7 +90,17 @@ class Renderer {
   std::vector<VkFramebuffer> depth_framebuffers_;
   Buffer staging_;
   bool depth_maps_stale_ = true;
+  bool fields_stale_ = true;
   uint64_t depth_map_passes_ = 0;
+  uint64_t field_passes_ = 0;
+  uint32_t vertex_count_ = 0;
+  // The settings the fields were last computed with: they are recomputed
+  // when a new mesh or new images arrive or these change.
+  std::vector<bool> field_cameras_;
+  FieldParameters field_parameters_;
+  // Texture-field buffers (config.h bindings 4 to 8).
+  Buffer edges_, dilated_, sights_, trusted_, weights_, rows_;
+  std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
   // Output
   Image color_, depth_;
   VkFramebuffer output_framebuffer_ = VK_NULL_HANDLE;

@@ -34,7 +34,7 @@ struct Image {
   VkImageView view = VK_NULL_HANDLE;               // all layers
   std::vector<VkImageView> layer_views;            // one per layer (render targets)
   VkFormat format = VK_FORMAT_UNDEFINED;
-  uint32_t width = 0, height = 0, layers = 0;
+  uint32_t width = 0, height = 0, layers = 0, mip_levels = 1;
 };
 
 struct DeviceInfo {
@@ -62,7 +62,7 @@ class VulkanContext {
   Buffer createBuffer(VkDeviceSize size, VkBufferUsageFlags usage);
   void destroy(Buffer& buffer);
   Image createImage(uint32_t width, uint32_t height, uint32_t layers, VkFormat format, VkImageUsageFlags usage,
-                    VkImageAspectFlags aspect, bool per_layer_views);
+                    VkImageAspectFlags aspect, bool per_layer_views, uint32_t mip_levels = 1);
   void destroy(Image& image);
   VkShaderModule createShader(const uint32_t* code, size_t bytes);
 
@@ -89,9 +89,11 @@ class VulkanContext {
   std::string device_name_;
 };
 
-// One image layout transition as a pipeline barrier.
+// One image layout transition (all layers, mip levels first_level onwards,
+// count levels) as a pipeline barrier.
 void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect, VkImageLayout from,
                      VkImageLayout to, VkAccessFlags src_access, VkAccessFlags dst_access,
-                     VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage);
+                     VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage, uint32_t first_level = 0,
+                     uint32_t level_count = VK_REMAINING_MIP_LEVELS);
 
 }  // namespace holofuse::render

@@ -73,7 +73,7 @@ std::vector<uint8_t> dilatedDiscontinuities(const DepthMap& map, const Discontin
       for (int dy = -r; dy <= r; ++dy) {
         for (int dx = -r; dx <= r; ++dx) {
           const int u = x + dx, v = y + dy;
-          if (u < 0 || v < 0 || u >= w || v >= h || dx * dx + dy * dy > r * r) continue;
+          if (u < 0 || v < 0 || u >= w || v >= h) continue;
           dilated[static_cast<size_t>(v) * w + u] = 1;
         }
       }

@@ -6,18 +6,24 @@
 namespace holofuse::render::reference {
 namespace {
 
-using LabImage = std::vector<glm::dvec3>;
+// The pyramid holds 8-bit RGB values as doubles, each level the 2x2 box
+// average of the one below (what GPU mip generation of a UNORM image does);
+// samples are converted to Lab after bilinear filtering.
+using RgbImage = std::vector<glm::dvec3>;
 
-struct LabPyramid {
-  std::vector<LabImage> levels;
+struct Pyramid {
+  std::vector<RgbImage> levels;
   std::vector<uint32_t> widths, heights;
 };
 
-LabPyramid buildPyramid(const Image8& color, int levels) {
-  LabPyramid pyramid;
-  LabImage base(static_cast<size_t>(color.width) * color.height);
+Pyramid buildPyramid(const Image8& color, int levels) {
+  Pyramid pyramid;
+  RgbImage base(static_cast<size_t>(color.width) * color.height);
   for (uint32_t y = 0; y < color.height; ++y) {
-    for (uint32_t x = 0; x < color.width; ++x) base[static_cast<size_t>(y) * color.width + x] = srgbToLab(color.at(x, y));
+    for (uint32_t x = 0; x < color.width; ++x) {
+      const uint8_t* px = color.at(x, y);
+      base[static_cast<size_t>(y) * color.width + x] = glm::dvec3(px[0], px[1], px[2]);
+    }
   }
   pyramid.levels.push_back(std::move(base));
   pyramid.widths.push_back(color.width);
@@ -25,20 +31,18 @@ LabPyramid buildPyramid(const Image8& color, int levels) {
   for (int l = 1; l < levels; ++l) {
     const uint32_t pw = pyramid.widths.back(), ph = pyramid.heights.back();
     const uint32_t w = std::max(1u, pw / 2), h = std::max(1u, ph / 2);
-    LabImage next(static_cast<size_t>(w) * h);
-    const LabImage& prev = pyramid.levels.back();
+    RgbImage next(static_cast<size_t>(w) * h);
+    const RgbImage& prev = pyramid.levels.back();
     for (uint32_t y = 0; y < h; ++y) {
       for (uint32_t x = 0; x < w; ++x) {
         glm::dvec3 sum(0.0);
-        int n = 0;
         for (uint32_t dy = 0; dy < 2; ++dy) {
           for (uint32_t dx = 0; dx < 2; ++dx) {
             const uint32_t u = std::min(2 * x + dx, pw - 1), v = std::min(2 * y + dy, ph - 1);
             sum += prev[static_cast<size_t>(v) * pw + u];
-            ++n;
           }
         }
-        next[static_cast<size_t>(y) * w + x] = sum / static_cast<double>(n);
+        next[static_cast<size_t>(y) * w + x] = sum / 4.0;
       }
     }
     pyramid.levels.push_back(std::move(next));
@@ -48,8 +52,11 @@ LabPyramid buildPyramid(const Image8& color, int levels) {
   return pyramid;
 }
 
-// Bilinear sample at full-resolution pixel coordinates (u, v) on level l.
-glm::dvec3 sampleLevel(const LabPyramid& p, int l, double u, double v) {
+glm::dvec3 labOf(const glm::dvec3& rgb);
+
+// Lab of the bilinear sample at full-resolution pixel coordinates (u, v)
+// on level l.
+glm::dvec3 sampleLevel(const Pyramid& p, int l, double u, double v) {
   const double scale = std::ldexp(1.0, -l);
   const double x = std::clamp(u * scale - 0.5, 0.0, p.widths[l] - 1.0);
   const double y = std::clamp(v * scale - 0.5, 0.0, p.heights[l] - 1.0);
@@ -60,16 +67,14 @@ glm::dvec3 sampleLevel(const LabPyramid& p, int l, double u, double v) {
   const uint32_t w = p.widths[l];
   const glm::dvec3 a = img[y0 * w + x0] * (1 - fx) + img[y0 * w + x1] * fx;
   const glm::dvec3 b = img[y1 * w + x0] * (1 - fx) + img[y1 * w + x1] * fx;
-  return a * (1 - fy) + b * fy;
+  return labOf(a * (1 - fy) + b * fy);
 }
 
 double linearize(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 double labF(double t) { return t > 216.0 / 24389.0 ? std::cbrt(t) : (24389.0 / 27.0 * t + 16.0) / 116.0; }
 
-}  // namespace
-
-glm::dvec3 srgbToLab(const uint8_t* rgb) {
-  const double r = linearize(rgb[0] / 255.0), g = linearize(rgb[1] / 255.0), b = linearize(rgb[2] / 255.0);
+glm::dvec3 labOf(const glm::dvec3& rgb) {
+  const double r = linearize(rgb.x / 255.0), g = linearize(rgb.y / 255.0), b = linearize(rgb.z / 255.0);
   // sRGB (D65) to XYZ, normalised by the D65 white.
   const double x = (0.4124564 * r + 0.3575761 * g + 0.1804375 * b) / 0.95047;
   const double y = (0.2126729 * r + 0.7151522 * g + 0.0721750 * b) / 1.0;
@@ -77,6 +82,10 @@ glm::dvec3 srgbToLab(const uint8_t* rgb) {
   const double fx = labF(x), fy = labF(y), fz = labF(z);
   return glm::dvec3(116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)) / 100.0;
 }
+
+}  // namespace
+
+glm::dvec3 srgbToLab(const uint8_t* rgb) { return labOf(glm::dvec3(rgb[0], rgb[1], rgb[2])); }
 
 std::vector<std::vector<Sight>> vertexSights(const Mesh& mesh, const std::vector<PodView>& views,
                                              const VisibilityOptions& options) {
@@ -117,7 +126,7 @@ std::vector<std::vector<uint8_t>> majorityVote(const Mesh& mesh, const std::vect
                                                const VoteOptions& options) {
   const size_t n = views.size();
   const int levels = std::max(1, options.levels);
-  std::vector<LabPyramid> pyramids;
+  std::vector<Pyramid> pyramids;
   for (const auto& view : views) pyramids.push_back(buildPyramid(view.color, levels));
   std::vector<std::vector<uint8_t>> trusted(n, std::vector<uint8_t>(mesh.vertexCount(), 0));
   std::vector<glm::dvec3> pixel(n);

@@ -31,8 +31,8 @@ struct DiscontinuityOptions {
   double relative_jump = 0.03;   // a neighbour this much farther (relative) is a discontinuity
 };
 
-// 1 where a pixel lies within dilation_px (Euclidean) of a depth
-// discontinuity: a surface pixel whose 4-neighbour is empty or differs in
+// 1 where a pixel lies within dilation_px of a depth discontinuity in
+// both x and y (the square window of radius eps, separable on the GPU): a surface pixel whose 4-neighbour is empty or differs in
 // depth by more than relative_jump times the nearer depth.
 std::vector<uint8_t> dilatedDiscontinuities(const DepthMap& map, const DiscontinuityOptions& options = {});
 

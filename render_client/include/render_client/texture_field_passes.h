@@ -1,0 +1,82 @@
+// The texture-field compute passes of DESIGN.md section 6 on Vulkan, one
+// pipeline per stage (shaders/<stage>.comp.glsl): depth discontinuities,
+// their dilation, per-vertex visibility, majority voting and the
+// Holoportation field. Each has a CPU reference in render/reference/ that
+// the tests compare it with.
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "render_client/vulkan_context.h"
+
+namespace holofuse::render {
+
+struct FieldParameters {
+  float relative_jump = 0.03f;           // discontinuity: relative depth step
+  int dilation_px = 4;                   // discontinuity: eps (paper 000: 4)
+  float relative_depth_tolerance = 0.015f;
+  float vote_delta = 0.15f;              // paper 000: delta = 0.15
+  int vote_levels = 3;
+  float alpha = 2.0f;
+};
+
+// Mirror of the Push block in shaders/compute_common.glsl.
+struct ComputePush {
+  uint32_t vertex_count;
+  uint32_t camera;
+  uint32_t width;
+  uint32_t height;
+  float relative_jump;
+  int32_t dilation;
+  float depth_tolerance;
+  float vote_delta;
+  int32_t vote_levels;
+  float alpha;
+  uint32_t camera_count;
+  uint32_t pad;
+};
+static_assert(sizeof(ComputePush) == 48);
+
+class TextureFieldPasses {
+ public:
+  // layout: the shared pipeline layout (the one descriptor set of
+  // config.h's bindings, push constants for compute at offset 0).
+  TextureFieldPasses(VulkanContext& context, VkPipelineLayout layout);
+  ~TextureFieldPasses();
+  TextureFieldPasses(const TextureFieldPasses&) = delete;
+  TextureFieldPasses& operator=(const TextureFieldPasses&) = delete;
+
+  // Starts the GPU clock of a frame: call before the depth maps are drawn,
+  // then depthMapsDone() after them, then record().
+  void beginTiming(VkCommandBuffer cmd);
+  void depthMapsDone(VkCommandBuffer cmd);
+  // Records stages 2 to 4 and the Holoportation field for the bound set,
+  // with a barrier between dependent dispatches and one at the end that
+  // makes the weights visible to the vertex shader.
+  void record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count, uint32_t camera_count,
+              uint32_t width, uint32_t height, const FieldParameters& parameters);
+
+  // GPU milliseconds of each pass in the last recorded run (after the
+  // submission finished), in pass order, named as in stageNames().
+  std::vector<double> lastTimesMs() const;
+  static const std::vector<std::string>& stageNames();
+
+ private:
+  VkPipeline create(const uint32_t* code, size_t bytes);
+  void stamp(VkCommandBuffer cmd, uint32_t index);
+
+  VulkanContext& ctx_;
+  VkPipelineLayout layout_;
+  VkPipeline discontinuity_ = VK_NULL_HANDLE, dilate_ = VK_NULL_HANDLE, dilate_columns_ = VK_NULL_HANDLE,
+             visibility_ = VK_NULL_HANDLE,
+             vote_ = VK_NULL_HANDLE, field_ = VK_NULL_HANDLE;
+  VkQueryPool queries_ = VK_NULL_HANDLE;
+  double timestamp_period_ns_ = 1.0;
+  bool recorded_ = false;
+};
+
+}  // namespace holofuse::render

@@ -1,0 +1,149 @@
+#include "render_client/texture_field_passes.h"
+
+#include "shaders/config.h"
+#include "shaders/dilate_columns_comp_spv.h"
+#include "shaders/dilate_comp_spv.h"
+#include "shaders/discontinuity_comp_spv.h"
+#include "shaders/holoportation_field_comp_spv.h"
+#include "shaders/visibility_comp_spv.h"
+#include "shaders/vote_comp_spv.h"
+
+namespace holofuse::render {
+namespace {
+
+void computeBarrier(VkCommandBuffer cmd, VkPipelineStageFlags dst_stage, VkAccessFlags dst_access) {
+  // Later passes, the vertex shader and host readback (tests) all read.
+  VkMemoryBarrier barrier{};
+  barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+  barrier.dstAccessMask = dst_access;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, dst_stage, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+}
+
+uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size; }
+constexpr uint32_t kStamps = 7;  // around the depth maps and the five passes
+
+}  // namespace
+
+TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout layout)
+    : ctx_(context), layout_(layout) {
+  discontinuity_ = create(k_discontinuity_comp_spv, sizeof(k_discontinuity_comp_spv));
+  dilate_ = create(k_dilate_comp_spv, sizeof(k_dilate_comp_spv));
+  dilate_columns_ = create(k_dilate_columns_comp_spv, sizeof(k_dilate_columns_comp_spv));
+  visibility_ = create(k_visibility_comp_spv, sizeof(k_visibility_comp_spv));
+  vote_ = create(k_vote_comp_spv, sizeof(k_vote_comp_spv));
+  field_ = create(k_holoportation_field_comp_spv, sizeof(k_holoportation_field_comp_spv));
+  VkQueryPoolCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
+  info.queryType = VK_QUERY_TYPE_TIMESTAMP;
+  info.queryCount = kStamps;
+  HOLOFUSE_VK_CHECK(vkCreateQueryPool(ctx_.device(), &info, nullptr, &queries_));
+  VkPhysicalDeviceProperties props;
+  vkGetPhysicalDeviceProperties(ctx_.physicalDevice(), &props);
+  timestamp_period_ns_ = props.limits.timestampPeriod;
+}
+
+const std::vector<std::string>& TextureFieldPasses::stageNames() {
+  static const std::vector<std::string> kNames = {"depth_maps", "discontinuities", "dilation",
+                                                  "visibility", "voting", "field"};
+  return kNames;
+}
+
+void TextureFieldPasses::beginTiming(VkCommandBuffer cmd) {
+  vkCmdResetQueryPool(cmd, queries_, 0, kStamps);
+  stamp(cmd, 0);
+}
+
+void TextureFieldPasses::depthMapsDone(VkCommandBuffer cmd) { stamp(cmd, 1); }
+
+void TextureFieldPasses::stamp(VkCommandBuffer cmd, uint32_t index) {
+  vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, index);
+}
+
+std::vector<double> TextureFieldPasses::lastTimesMs() const {
+  if (!recorded_) return {};
+  uint64_t ticks[kStamps] = {};
+  if (vkGetQueryPoolResults(ctx_.device(), queries_, 0, kStamps, sizeof(ticks), ticks, sizeof(uint64_t),
+                            VK_QUERY_RESULT_64_BIT) != VK_SUCCESS) {
+    return {};
+  }
+  std::vector<double> ms;
+  for (uint32_t k = 1; k < kStamps; ++k) {
+    ms.push_back(static_cast<double>(ticks[k] - ticks[k - 1]) * timestamp_period_ns_ / 1e6);
+  }
+  return ms;
+}
+
+TextureFieldPasses::~TextureFieldPasses() {
+  for (VkPipeline p : {discontinuity_, dilate_, dilate_columns_, visibility_, vote_, field_}) {
+    vkDestroyPipeline(ctx_.device(), p, nullptr);
+  }
+  vkDestroyQueryPool(ctx_.device(), queries_, nullptr);
+}
+
+VkPipeline TextureFieldPasses::create(const uint32_t* code, size_t bytes) {
+  VkShaderModule module = ctx_.createShader(code, bytes);
+  VkComputePipelineCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+  info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  info.stage.module = module;
+  info.stage.pName = "main";
+  info.layout = layout_;
+  VkPipeline pipeline;
+  HOLOFUSE_VK_CHECK(vkCreateComputePipelines(ctx_.device(), VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
+  vkDestroyShaderModule(ctx_.device(), module, nullptr);
+  return pipeline;
+}
+
+void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
+                                uint32_t camera_count, uint32_t width, uint32_t height,
+                                const FieldParameters& parameters) {
+  ComputePush push{};
+  push.vertex_count = vertex_count;
+  push.width = width;
+  push.height = height;
+  push.relative_jump = parameters.relative_jump;
+  push.dilation = parameters.dilation_px;
+  push.depth_tolerance = parameters.relative_depth_tolerance;
+  push.vote_delta = parameters.vote_delta;
+  push.vote_levels = parameters.vote_levels;
+  push.alpha = parameters.alpha;
+  push.camera_count = camera_count;
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
+  // One dispatch covers every camera (z) so each stage costs one barrier.
+  auto dispatchPerCamera = [&](VkPipeline pipeline) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+    push.camera = 0;
+    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+    if (camera_count > 0) {
+      vkCmdDispatch(cmd, groups(width, HOLOFUSE_PIXEL_GROUP), groups(height, HOLOFUSE_PIXEL_GROUP), camera_count);
+    }
+    computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+  };
+  auto dispatchPerVertex = [&](VkPipeline pipeline, VkPipelineStageFlags next_stage) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+    push.camera = 0;
+    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+    if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
+    computeBarrier(cmd, next_stage, VK_ACCESS_SHADER_READ_BIT);
+  };
+  dispatchPerCamera(discontinuity_);
+  stamp(cmd, 2);
+  dispatchPerCamera(dilate_);
+  dispatchPerCamera(dilate_columns_);
+  stamp(cmd, 3);
+  dispatchPerVertex(visibility_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+  stamp(cmd, 4);
+  dispatchPerVertex(vote_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+  stamp(cmd, 5);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, field_);
+  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+  if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
+  computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
+  stamp(cmd, 6);
+  recorded_ = true;
+}
+
+}  // namespace holofuse::render

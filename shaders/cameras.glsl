@@ -1,0 +1,18 @@
+// The pod cameras and blend parameters (C++ mirror: BlendUniforms in
+// render_client/src/renderer.cpp, with static_asserts on the layout).
+struct CameraGpu {
+  mat4 world_to_clip;  // w of the result is the camera-space depth
+  vec4 center;         // xyz: camera centre in world space
+  vec4 size;           // width, height, 1/width, 1/height
+  ivec4 flags;         // x: 1 if the camera takes part
+};
+
+layout(set = 0, binding = HOLOFUSE_BINDING_CAMERAS) uniform Blend {
+  CameraGpu cameras[HOLOFUSE_MAX_CAMERAS];
+  ivec4 counts;        // x: camera count, y: mode
+  vec4 params;         // x: alpha, y: depth tolerance (metres)
+  vec4 hole_color;     // for surface no camera sees
+} blend;
+
+layout(set = 0, binding = HOLOFUSE_BINDING_DEPTHS) uniform sampler2DArray depths;  // linear depth
+layout(set = 0, binding = HOLOFUSE_BINDING_IMAGES) uniform sampler2DArray images;  // rgb + mask in a, with mips

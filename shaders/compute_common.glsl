@@ -1,0 +1,36 @@
+// Push constants of every texture-field compute pass (C++ mirror:
+// ComputePush in render_client/src/texture_field_passes.cpp).
+layout(push_constant) uniform Push {
+  uint vertex_count;
+  uint camera;
+  uint width;
+  uint height;
+  float relative_jump;      // discontinuity: relative depth step
+  int dilation;             // discontinuity: eps in pixels
+  float depth_tolerance;    // visibility: relative depth tolerance
+  float vote_delta;         // voting: Lab distance (scaled by 1/100)
+  int vote_levels;          // voting: mip levels searched
+  float alpha;              // field exponent
+  uint camera_count;
+  uint pad;
+} push;
+
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_VERTICES) readonly buffer Vertices { float vertex_data[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_EDGES) buffer Edges { uint edges[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_DILATED) buffer Dilated { uint dilated[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_SIGHTS) buffer Sights { uint sights[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_TRUSTED) buffer Trusted { uint trusted[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_WEIGHTS) buffer Weights { float weights[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_ROWS) buffer Rows { uint rows[]; };  // dilation scratch
+
+vec3 vertexPosition(uint v) { return vec3(vertex_data[6 * v], vertex_data[6 * v + 1], vertex_data[6 * v + 2]); }
+vec3 vertexNormal(uint v) { return vec3(vertex_data[6 * v + 3], vertex_data[6 * v + 4], vertex_data[6 * v + 5]); }
+
+// Pixel coordinates (x right, y down, centres at .5) and depth of p in
+// camera i; depth <= 0 means behind the camera.
+vec3 projectToCamera(uint i, vec3 p) {
+  vec4 clip = blend.cameras[i].world_to_clip * vec4(p, 1.0);
+  if (clip.w <= 1e-9) return vec3(-1.0, -1.0, 0.0);
+  vec2 ndc = clip.xy / clip.w;
+  return vec3((ndc * 0.5 + 0.5) * blend.cameras[i].size.xy, clip.w);
+}

@@ -1,0 +1,169 @@
+// The Vulkan texture-field passes (lavapipe in CI) against their CPU
+// reference, on three scenes with different camera counts.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "capture_node/synthetic_scene.h"
+#include "common/marching_cubes.h"
+#include "render_client/reference/texture_fields.h"
+#include "render_client/reference/visibility.h"
+#include "render_client/renderer.h"
+
+namespace holofuse::render {
+namespace {
+
+VulkanContext& context() {
+  static VulkanContext ctx;
+  return ctx;
+}
+
+struct Scene {
+  std::string name;
+  Mesh mesh;
+  std::vector<reference::PodView> views;
+};
+
+Scene syntheticScene(int cameras, uint32_t w, uint32_t h, uint64_t frame) {
+  const capture::SyntheticScene scene;
+  Scene s{"synthetic " + std::to_string(cameras) + " cameras", scene.truthMesh(frame, 0.015), {}};
+  for (const auto& cam : capture::SyntheticScene::cameraRig(cameras, w, h)) {
+    const auto truth = scene.render(cam, frame);
+    s.views.push_back({cam, truth.color, truth.mask});
+  }
+  return s;
+}
+
+// A sphere seen by 8 cameras, one of which sees a "ghost" (other colours).
+Scene ghostSphere() {
+  Scene s{"sphere with a ghost view", {}, {}};
+  s.mesh = marchingCubes(sampleGrid(glm::dvec3(-0.6), 0.03, 41, 41, 41,
+                                    [](const glm::dvec3& p) { return 0.5 - glm::length(p); }));
+  for (int i = 0; i < 8; ++i) {
+    const double a = 2 * M_PI * i / 8;
+    reference::PodView view;
+    view.camera = lookAtCamera(static_cast<uint32_t>(i), {3 * std::sin(a), 0.3, 3 * std::cos(a)}, glm::dvec3(0.0),
+                               {0, 1, 0}, 128, 96, 40.0);
+    const auto depth = reference::rasterizeDepth(s.mesh, view.camera);
+    view.color = Image8(128, 96, 3, 0);
+    view.mask = Image8(128, 96, 1, 0);
+    for (size_t p = 0; p < depth.depth.size(); ++p) {
+      if (depth.depth[p] == reference::kNoDepth) continue;
+      view.mask.pixels[p] = 255;
+      const uint32_t x = static_cast<uint32_t>(p % 128), y = static_cast<uint32_t>(p / 128);
+      const glm::dvec3 dir = view.camera.rayDirection(x + 0.5, y + 0.5);
+      const glm::dvec3 hit = view.camera.center() + dir * (depth.depth[p] / glm::dot(dir, view.camera.forward()));
+      const bool ghost = i == 3;
+      view.color.pixels[3 * p + 0] = ghost ? 30 : static_cast<uint8_t>(128 + 120 * hit.y);
+      view.color.pixels[3 * p + 1] = ghost ? 220 : static_cast<uint8_t>(128 + 120 * hit.x);
+      view.color.pixels[3 * p + 2] = ghost ? 40 : static_cast<uint8_t>(128 + 120 * hit.z);
+    }
+    s.views.push_back(std::move(view));
+  }
+  return s;
+}
+
+class FieldPasses : public ::testing::TestWithParam<int> {};
+
+TEST_P(FieldPasses, MatchTheCpuReference) {
+  const Scene scene = GetParam() == 0   ? syntheticScene(4, 160, 120, 4)
+                      : GetParam() == 1 ? syntheticScene(7, 128, 96, 11)
+                                        : ghostSphere();
+  SCOPED_TRACE(scene.name);
+  const size_t n = scene.views.size(), vertices = scene.mesh.vertexCount();
+  // CPU reference.
+  const auto sights = reference::vertexSights(scene.mesh, scene.views);
+  const auto trusted = reference::majorityVote(scene.mesh, scene.views, sights);
+  const auto visible = reference::finalVisibility(sights, trusted);
+  std::vector<Camera> cameras;
+  for (const auto& v : scene.views) cameras.push_back(v.camera);
+  const auto field = reference::holoportationField(scene.mesh, cameras, visible, 2.0);
+  const reference::Field ones(n, std::vector<double>(vertices, 1.0));
+  const auto weights = reference::normalizeFields(field, ones, field);
+  // Vulkan.
+  Renderer renderer(context(), 96, 72);
+  renderer.setMesh(scene.mesh);
+  std::vector<ViewImages> views;
+  for (const auto& v : scene.views) views.push_back({v.camera, v.color, v.mask});
+  renderer.setViews(views);
+  BlendSettings settings;
+  settings.mode = BlendMode::kHoloportation;
+  renderer.render(scene.views[0].camera, settings);
+  const FieldSnapshot gpu = renderer.readFields();
+  ASSERT_EQ(gpu.vertex_count, vertices);
+
+  // Stage 2: dilated discontinuities, per pixel.
+  size_t pixel_agree = 0, pixels = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const auto cpu = reference::dilatedDiscontinuities(reference::rasterizeDepth(scene.mesh, cameras[i]));
+    for (size_t p = 0; p < cpu.size(); ++p, ++pixels) pixel_agree += (cpu[p] != 0) == (gpu.dilated[i * cpu.size() + p] != 0);
+  }
+  EXPECT_GT(static_cast<double>(pixel_agree) / pixels, 0.99);
+  // Stage 3: visibility reasons, per camera and vertex. Rasterisation rules
+  // differ at triangle edges, so a few vertices on silhouettes may differ.
+  size_t sight_agree = 0, trust_agree = 0, trust_both = 0;
+  double weight_error = 0;
+  size_t weighted = 0;
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t v = 0; v < vertices; ++v) {
+      const uint32_t g = gpu.sights[i * vertices + v];
+      sight_agree += g == static_cast<uint32_t>(sights[i][v]);
+      if (g == 0 && sights[i][v] == reference::Sight::kVisible) {
+        ++trust_both;
+        trust_agree += (gpu.trusted[i * vertices + v] != 0) == (trusted[i][v] != 0);
+      }
+    }
+  }
+  for (size_t v = 0; v < vertices; ++v) {
+    if (weights.hole[v]) continue;
+    for (size_t i = 0; i < n; ++i) {
+      const float w = gpu.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+      ASSERT_TRUE(std::isfinite(w) && w >= 0.0f && w <= 1.0f);
+      weight_error += std::abs(w - weights.weight[i][v]);
+      ++weighted;
+    }
+  }
+  const double sight_share = static_cast<double>(sight_agree) / (n * vertices);
+  const double trust_share = static_cast<double>(trust_agree) / std::max<size_t>(trust_both, 1);
+  const double mean_weight_error = weight_error / std::max<size_t>(weighted, 1);
+  RecordProperty("sight_agreement", std::to_string(sight_share));
+  RecordProperty("vote_agreement", std::to_string(trust_share));
+  RecordProperty("mean_weight_error", std::to_string(mean_weight_error));
+  EXPECT_GT(sight_share, 0.98);
+  EXPECT_GT(trust_share, 0.97);
+  EXPECT_LT(mean_weight_error, 0.02);
+}
+
+INSTANTIATE_TEST_SUITE_P(ThreeScenes, FieldPasses, ::testing::Values(0, 1, 2));
+
+TEST(HoloportationMode, ReproducesThePodImageAndComputesFieldsOncePerMesh) {
+  const Scene scene = syntheticScene(4, 200, 150, 6);
+  Renderer renderer(context(), 200, 150);
+  renderer.setMesh(scene.mesh);
+  std::vector<ViewImages> views;
+  for (const auto& v : scene.views) views.push_back({v.camera, v.color, v.mask});
+  renderer.setViews(views);
+  BlendSettings settings;
+  settings.mode = BlendMode::kHoloportation;
+  const Image8 out = renderer.render(scene.views[1].camera, settings);
+  renderer.render(scene.views[2].camera, settings);  // a second view of the same mesh
+  EXPECT_EQ(renderer.fieldPasses(), 1u);
+  double squared = 0;
+  size_t n = 0;
+  for (uint32_t y = 0; y < 150; ++y) {
+    for (uint32_t x = 0; x < 200; ++x) {
+      if (out.at(x, y)[3] == 0 || *scene.views[1].mask.at(x, y) == 0) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double d = static_cast<double>(out.at(x, y)[c]) - scene.views[1].color.at(x, y)[c];
+        squared += d * d;
+      }
+      n += 3;
+    }
+  }
+  const double psnr = 10 * std::log10(255.0 * 255.0 / (squared / static_cast<double>(n)));
+  RecordProperty("psnr_db", std::to_string(psnr));
+  EXPECT_GT(psnr, 24.0);
+}
+
+}  // namespace
+}  // namespace holofuse::render
