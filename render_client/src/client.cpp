@@ -263,8 +263,14 @@ int runClient(const ClientOptions& options) {
             blend.camera_enabled.push_back(static_cast<int>(view.camera.id) != options.exclude_camera);
           }
         }
+        const uint64_t field_runs = renderer->fieldPasses();
         const Image8 picture = renderer->render(*user, blend);
         const uint64_t t3 = monotonicNs();
+        if (renderer->fieldPasses() != field_runs) {
+          const auto times = renderer->fieldTimesMs();
+          const auto& names = TextureFieldPasses::stageNames();
+          for (size_t s = 0; s < times.size() && s < names.size(); ++s) report.addGpuPass(names[s], times[s]);
+        }
         FrameRecord record;
         record.frame_id = mesh_frame.frame_id;
         char name[64];

@@ -59,6 +59,12 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
     }
   }
   j["latency_ms"]["stages"] = stages;
+  // Texture-field passes on the GPU, once per new mesh (paper 000 Table 3).
+  nlohmann::ordered_json gpu = nlohmann::ordered_json::object();
+  for (const auto& [name, v] : gpu_ms_) {
+    gpu[name] = {{"p50", percentile(v, 50)}, {"p95", percentile(v, 95)}, {"samples", v.size()}};
+  }
+  j["latency_ms"]["gpu_passes"] = gpu;
   double pod_bytes = 0, client_bytes = 0;
   size_t incomplete = 0;
   for (const auto& f : frames_) {

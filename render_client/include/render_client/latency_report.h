@@ -30,6 +30,8 @@ class LatencyReport {
  public:
   void addStamps(const std::vector<protocol::StageStamp>& stamps);
   void addStage(uint16_t stage, double ms);
+  // GPU time of a texture-field pass (timestamp queries), by pass name.
+  void addGpuPass(const std::string& name, double ms) { gpu_ms_[name].push_back(ms); }
   void addFrame(const FrameRecord& record, uint64_t written_ns);
   void noteSkipped(const std::string& why) { skipped_.push_back(why); }
   // Meshes not rendered because a newer one had already arrived.
@@ -44,6 +46,7 @@ class LatencyReport {
 
  private:
   std::map<uint16_t, std::vector<double>> stage_ms_;
+  std::map<std::string, std::vector<double>> gpu_ms_;
   std::vector<FrameRecord> frames_;
   std::vector<uint64_t> written_ns_;
   std::vector<std::string> skipped_;
