@@ -133,8 +133,21 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < pod_pids.size(); ++i) stop(pod_pids[i], "capture_node");
   stop(server, "fusion_server");
   const bool ok = client_done ? (WIFEXITED(client_status) && WEXITSTATUS(client_status) == 0) : true;
-  if (!ok) std::fprintf(stderr, "[loop] render_client failed; see %s/logs/client.log\n", out.c_str());
-  std::printf("[loop] all processes stopped; frames in %s/frames, report in %s/report.json, logs in %s/logs\n",
-              out.c_str(), out.c_str(), out.c_str());
+  if (!ok) {
+    // Say why right here: the end of the client's log.
+    std::fprintf(stderr, "[loop] render_client failed; the end of %s/logs/client.log:\n", out.c_str());
+    std::ifstream log(fs::path(out) / "logs" / "client.log");
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(log, line);) lines.push_back(line);
+    for (size_t i = lines.size() > 15 ? lines.size() - 15 : 0; i < lines.size(); ++i) {
+      std::fprintf(stderr, "  %s\n", lines[i].c_str());
+    }
+  }
+  if (ok) {
+    std::printf("[loop] all processes stopped; frames in %s/frames, report in %s/report.json, logs in %s/logs\n",
+                out.c_str(), out.c_str(), out.c_str());
+  } else {
+    std::printf("[loop] all processes stopped; logs in %s/logs\n", out.c_str());
+  }
   return ok ? 0 : 1;
 }
