@@ -1,7 +1,9 @@
 // Push constants of every texture-field compute pass (C++ mirror:
-// ComputePush in render_client/src/texture_field_passes.cpp).
+// ComputePush in render_client/include/render_client/texture_field_passes.h).
+// They sit after the vertex stage's matrix: ranges of different stages must
+// not overlap in one pipeline layout.
 layout(push_constant) uniform Push {
-  uint vertex_count;
+  layout(offset = HOLOFUSE_COMPUTE_PUSH_OFFSET) uint vertex_count;
   uint camera;
   uint width;
   uint height;
@@ -12,7 +14,7 @@ layout(push_constant) uniform Push {
   int vote_levels;          // voting: mip levels searched
   float alpha;              // field exponent
   uint camera_count;
-  uint pad;
+  uint triangle_count;
 } push;
 
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_VERTICES) readonly buffer Vertices { float vertex_data[]; };
@@ -22,6 +24,9 @@ layout(std430, set = 0, binding = HOLOFUSE_BINDING_SIGHTS) buffer Sights { uint 
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_TRUSTED) buffer Trusted { uint trusted[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WEIGHTS) buffer Weights { float weights[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_ROWS) buffer Rows { uint rows[]; };  // dilation scratch
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_INDICES) readonly buffer Indices { uint indices[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_SEAMS) buffer Seams { uint seams[]; };  // [camera][triangle]
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_VISIBLE_COUNTS) buffer VisibleCounts { uint visible_counts[]; };
 
 vec3 vertexPosition(uint v) { return vec3(vertex_data[6 * v], vertex_data[6 * v + 1], vertex_data[6 * v + 2]); }
 vec3 vertexNormal(uint v) { return vec3(vertex_data[6 * v + 3], vertex_data[6 * v + 4], vertex_data[6 * v + 5]); }

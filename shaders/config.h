@@ -7,6 +7,9 @@
 #define HOLOFUSE_MODE_NORMAL 0
 #define HOLOFUSE_MODE_HOLOPORTATION 1
 
+// Push constants: the vertex stage's matrix, then the compute passes' block.
+#define HOLOFUSE_COMPUTE_PUSH_OFFSET 64
+
 // Workgroup sizes: per-pixel passes run 16x16, per-vertex passes 64 wide.
 #define HOLOFUSE_PIXEL_GROUP 16
 #define HOLOFUSE_VERTEX_GROUP 64
@@ -33,5 +36,14 @@
 #define HOLOFUSE_BINDING_TRUSTED 7
 #define HOLOFUSE_BINDING_WEIGHTS 8
 #define HOLOFUSE_BINDING_ROWS 9
+#define HOLOFUSE_BINDING_INDICES 10
+#define HOLOFUSE_BINDING_SEAMS 11
+#define HOLOFUSE_BINDING_VISIBLE_COUNTS 12
+#define HOLOFUSE_BINDING_COUNT 13
+
+// Seam rules (render::reference::SeamRule).
+#define HOLOFUSE_SEAM_OCCLUSION 1u
+#define HOLOFUSE_SEAM_VOTE 2u
+#define HOLOFUSE_SEAM_FIELD_OF_VIEW 4u
 
 #endif

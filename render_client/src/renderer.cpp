@@ -34,6 +34,7 @@ static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 48);
 
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 constexpr VkBufferUsageFlags kVertexUsage = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+constexpr VkBufferUsageFlags kIndexUsage = VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
 constexpr uint32_t kImageMipLevels = 4;  // the vote searches at most this many
 constexpr float kFarDepth = 1e9f;  // depth map value where the mesh is absent
 
@@ -217,10 +218,12 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   // Every binding of the shared set must hold a buffer before the first
   // descriptor write: start small, grow with the mesh.
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
-  index_buffer_ = ctx_.createBuffer(4, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
-  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_}) {
+  index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
+  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_}) {
     *b = ctx_.createBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   }
+  visible_counts_ = ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
+                                      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
 }
 
 Renderer::~Renderer() {
@@ -234,7 +237,7 @@ Renderer::~Renderer() {
   ctx_.destroy(depth_);
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
-  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_}) ctx_.destroy(*b);
+  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &visible_counts_}) ctx_.destroy(*b);
   field_passes_pipelines_.reset();
   vkDestroyPipeline(d, depth_pipeline_, nullptr);
   vkDestroyPipeline(d, blend_pipeline_, nullptr);
@@ -254,7 +257,7 @@ void Renderer::createPipelines() {
   blend_pass_ = createPass(d, VK_FORMAT_R8G8B8A8_UNORM, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
 
   // One set for the blend and every compute pass (bindings in config.h).
-  std::array<VkDescriptorSetLayoutBinding, 10> bindings{};
+  std::array<VkDescriptorSetLayoutBinding, HOLOFUSE_BINDING_COUNT> bindings{};
   for (uint32_t b = 0; b < bindings.size(); ++b) {
     bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr};
   }
@@ -268,7 +271,7 @@ void Renderer::createPipelines() {
   HOLOFUSE_VK_CHECK(vkCreateDescriptorSetLayout(d, &set_info, nullptr, &set_layout_));
 
   std::array<VkPushConstantRange, 2> push = {VkPushConstantRange{VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(glm::mat4)},
-                                             VkPushConstantRange{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(ComputePush)}};
+                                             VkPushConstantRange{VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(ComputePush)}};
   VkPipelineLayoutCreateInfo layout_info{};
   layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
   layout_info.pushConstantRangeCount = 1;
@@ -287,7 +290,7 @@ void Renderer::createPipelines() {
 
   std::array<VkDescriptorPoolSize, 3> sizes = {VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
                                                VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
-                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 7}};
+                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, HOLOFUSE_BINDING_COUNT - 3}};
   VkDescriptorPoolCreateInfo pool_info{};
   pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
   pool_info.maxSets = 1;
@@ -368,7 +371,8 @@ void Renderer::setMesh(const Mesh& mesh) {
   if (index_buffer_.size < index_bytes) {
     vkDeviceWaitIdle(ctx_.device());
     ctx_.destroy(index_buffer_);
-    index_buffer_ = ctx_.createBuffer(index_bytes * 3 / 2, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+    index_buffer_ = ctx_.createBuffer(index_bytes * 3 / 2, kIndexUsage);
+    if (images_.image != VK_NULL_HANDLE) writeDescriptors();
   }
   auto* v = static_cast<float*>(vertex_buffer_.mapped);
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
@@ -379,6 +383,7 @@ void Renderer::setMesh(const Mesh& mesh) {
   std::memcpy(index_buffer_.mapped, mesh.indices.data(), mesh.indices.size() * 4);
   index_count_ = static_cast<uint32_t>(mesh.indices.size());
   vertex_count_ = static_cast<uint32_t>(mesh.positions.size());
+  triangle_count_ = static_cast<uint32_t>(mesh.indices.size() / 3);
   depth_maps_stale_ = true;
   fields_stale_ = true;
 }
@@ -458,9 +463,10 @@ void Renderer::ensureFieldBuffers() {
   const VkDeviceSize pixels = VkDeviceSize{images_.width} * images_.height * images_.layers * 4;
   const VkDeviceSize per_vertex = VkDeviceSize{std::max(vertex_count_, 1u)} * std::max(images_.layers, 1u) * 4;
   const VkDeviceSize weights = VkDeviceSize{std::max(vertex_count_, 1u)} * HOLOFUSE_MAX_CAMERAS * 4;
+  const VkDeviceSize per_triangle = VkDeviceSize{std::max(triangle_count_, 1u)} * std::max(images_.layers, 1u) * 4;
   bool changed = false;
   for (auto [buffer, size] : {std::pair{&edges_, pixels}, {&dilated_, pixels}, {&rows_, pixels}, {&sights_, per_vertex},
-                              {&trusted_, per_vertex}, {&weights_, weights}}) {
+                              {&trusted_, per_vertex}, {&weights_, weights}, {&seams_, per_triangle}}) {
     if (buffer->size >= size) continue;
     ctx_.destroy(*buffer);
     *buffer = ctx_.createBuffer(size * 3 / 2, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
@@ -474,11 +480,13 @@ void Renderer::writeDescriptors() {
   VkDescriptorBufferInfo ubo{uniforms_.buffer, 0, sizeof(BlendUniforms)};
   VkDescriptorImageInfo image_info{linear_sampler_, images_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   VkDescriptorImageInfo depth_info{nearest_sampler_, depth_maps_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  std::array<VkDescriptorBufferInfo, 7> storage = {
+  // Storage buffers in binding order from HOLOFUSE_BINDING_VERTICES on.
+  std::array<VkDescriptorBufferInfo, HOLOFUSE_BINDING_COUNT - 3> storage = {
       VkDescriptorBufferInfo{vertex_buffer_.buffer, 0, VK_WHOLE_SIZE}, {edges_.buffer, 0, VK_WHOLE_SIZE},
       {dilated_.buffer, 0, VK_WHOLE_SIZE}, {sights_.buffer, 0, VK_WHOLE_SIZE}, {trusted_.buffer, 0, VK_WHOLE_SIZE},
-      {weights_.buffer, 0, VK_WHOLE_SIZE}, {rows_.buffer, 0, VK_WHOLE_SIZE}};
-  std::array<VkWriteDescriptorSet, 10> writes{};
+      {weights_.buffer, 0, VK_WHOLE_SIZE}, {rows_.buffer, 0, VK_WHOLE_SIZE}, {index_buffer_.buffer, 0, VK_WHOLE_SIZE},
+      {seams_.buffer, 0, VK_WHOLE_SIZE}, {visible_counts_.buffer, 0, VK_WHOLE_SIZE}};
+  std::array<VkWriteDescriptorSet, HOLOFUSE_BINDING_COUNT> writes{};
   for (uint32_t b = 0; b < writes.size(); ++b) {
     writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
     writes[b].dstSet = descriptor_set_;
@@ -512,6 +520,9 @@ FieldSnapshot Renderer::readFields() const {
   copy(trusted_, s.trusted, per_vertex);
   copy(dilated_, s.dilated, size_t{images_.width} * images_.height * images_.layers);
   copy(weights_, s.weights, size_t{s.vertex_count} * HOLOFUSE_MAX_CAMERAS);
+  s.triangle_count = triangle_count_;
+  copy(seams_, s.seams, size_t{triangle_count_} * s.camera_count);
+  copy(visible_counts_, s.visible_counts, s.camera_count);
   return s;
 }
 
@@ -574,8 +585,9 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     if (have_views && depth_maps_stale_) renderDepthMaps(cmd);
     if (run_fields) {
       field_passes_pipelines_->depthMapsDone(cmd);
-      field_passes_pipelines_->record(cmd, descriptor_set_, vertex_count_, static_cast<uint32_t>(cameras_.size()),
-                                      images_.width, images_.height, parameters);
+      field_passes_pipelines_->record(cmd, descriptor_set_, vertex_count_, triangle_count_,
+                                      static_cast<uint32_t>(cameras_.size()), images_.width, images_.height, parameters,
+                                      visible_counts_.buffer);
       ++field_passes_;
     }
     std::array<VkClearValue, 2> clears{};

@@ -4,7 +4,9 @@
 #include "shaders/dilate_columns_comp_spv.h"
 #include "shaders/dilate_comp_spv.h"
 #include "shaders/discontinuity_comp_spv.h"
+#include "shaders/global_visibility_comp_spv.h"
 #include "shaders/holoportation_field_comp_spv.h"
+#include "shaders/seams_comp_spv.h"
 #include "shaders/visibility_comp_spv.h"
 #include "shaders/vote_comp_spv.h"
 
@@ -21,7 +23,7 @@ void computeBarrier(VkCommandBuffer cmd, VkPipelineStageFlags dst_stage, VkAcces
 }
 
 uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size; }
-constexpr uint32_t kStamps = 7;  // around the depth maps and the five passes
+constexpr uint32_t kStamps = 8;  // around the depth maps and the six timed passes
 
 }  // namespace
 
@@ -32,6 +34,8 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
   dilate_columns_ = create(k_dilate_columns_comp_spv, sizeof(k_dilate_columns_comp_spv));
   visibility_ = create(k_visibility_comp_spv, sizeof(k_visibility_comp_spv));
   vote_ = create(k_vote_comp_spv, sizeof(k_vote_comp_spv));
+  seams_ = create(k_seams_comp_spv, sizeof(k_seams_comp_spv));
+  global_visibility_ = create(k_global_visibility_comp_spv, sizeof(k_global_visibility_comp_spv));
   field_ = create(k_holoportation_field_comp_spv, sizeof(k_holoportation_field_comp_spv));
   VkQueryPoolCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
@@ -44,8 +48,8 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
 }
 
 const std::vector<std::string>& TextureFieldPasses::stageNames() {
-  static const std::vector<std::string> kNames = {"depth_maps", "discontinuities", "dilation",
-                                                  "visibility", "voting", "field"};
+  static const std::vector<std::string> kNames = {"depth_maps", "discontinuities", "dilation", "visibility",
+                                                  "voting", "seams_and_global_visibility", "field"};
   return kNames;
 }
 
@@ -75,7 +79,7 @@ std::vector<double> TextureFieldPasses::lastTimesMs() const {
 }
 
 TextureFieldPasses::~TextureFieldPasses() {
-  for (VkPipeline p : {discontinuity_, dilate_, dilate_columns_, visibility_, vote_, field_}) {
+  for (VkPipeline p : {discontinuity_, dilate_, dilate_columns_, visibility_, vote_, seams_, global_visibility_, field_}) {
     vkDestroyPipeline(ctx_.device(), p, nullptr);
   }
   vkDestroyQueryPool(ctx_.device(), queries_, nullptr);
@@ -97,8 +101,8 @@ VkPipeline TextureFieldPasses::create(const uint32_t* code, size_t bytes) {
 }
 
 void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
-                                uint32_t camera_count, uint32_t width, uint32_t height,
-                                const FieldParameters& parameters) {
+                                uint32_t triangle_count, uint32_t camera_count, uint32_t width, uint32_t height,
+                                const FieldParameters& parameters, VkBuffer visible_counts) {
   ComputePush push{};
   push.vertex_count = vertex_count;
   push.width = width;
@@ -110,39 +114,51 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   push.vote_levels = parameters.vote_levels;
   push.alpha = parameters.alpha;
   push.camera_count = camera_count;
+  push.triangle_count = triangle_count;
+  vkCmdFillBuffer(cmd, visible_counts, 0, VK_WHOLE_SIZE, 0);
+  VkMemoryBarrier cleared{};
+  cleared.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  cleared.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+  cleared.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &cleared, 0,
+                       nullptr, 0, nullptr);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
   // One dispatch covers every camera (z) so each stage costs one barrier.
   auto dispatchPerCamera = [&](VkPipeline pipeline) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
     push.camera = 0;
-    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
     if (camera_count > 0) {
       vkCmdDispatch(cmd, groups(width, HOLOFUSE_PIXEL_GROUP), groups(height, HOLOFUSE_PIXEL_GROUP), camera_count);
     }
     computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
   };
-  auto dispatchPerVertex = [&](VkPipeline pipeline, VkPipelineStageFlags next_stage) {
+  auto dispatchLinear = [&](VkPipeline pipeline, uint32_t items, bool barrier) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
     push.camera = 0;
-    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-    if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
-    computeBarrier(cmd, next_stage, VK_ACCESS_SHADER_READ_BIT);
+    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+    if (items > 0) vkCmdDispatch(cmd, groups(items, HOLOFUSE_VERTEX_GROUP), 1, 1);
+    if (barrier) computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
   };
   dispatchPerCamera(discontinuity_);
   stamp(cmd, 2);
   dispatchPerCamera(dilate_);
   dispatchPerCamera(dilate_columns_);
   stamp(cmd, 3);
-  dispatchPerVertex(visibility_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+  dispatchLinear(visibility_, vertex_count, true);
   stamp(cmd, 4);
-  dispatchPerVertex(vote_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+  dispatchLinear(vote_, vertex_count, true);
   stamp(cmd, 5);
+  // Seams and visibility counts read the same inputs: no barrier between.
+  dispatchLinear(seams_, triangle_count, false);
+  dispatchLinear(global_visibility_, vertex_count, true);
+  stamp(cmd, 6);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, field_);
-  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
   if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
   computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
-  stamp(cmd, 6);
+  stamp(cmd, 7);
   recorded_ = true;
 }
 

@@ -2,6 +2,7 @@
 // reference, on three scenes with different camera counts.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "capture_node/synthetic_scene.h"
@@ -123,6 +124,23 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
       ++weighted;
     }
   }
+  // Stage 5: seam rules per camera and triangle.
+  const auto seams = reference::seamTriangles(scene.mesh, sights, trusted);
+  const size_t triangles = scene.mesh.triangleCount();
+  ASSERT_EQ(gpu.triangle_count, triangles);
+  size_t seam_agree = 0, cpu_seams = 0;
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t t = 0; t < triangles; ++t) {
+      seam_agree += gpu.seams[i * triangles + t] == seams[i][t];
+      cpu_seams += seams[i][t] != 0;
+    }
+  }
+  EXPECT_GT(cpu_seams, 0u);
+  EXPECT_GT(static_cast<double>(seam_agree) / (n * triangles), 0.99);
+  // Stage 7: the global visibility score from the GPU counts.
+  const auto g = reference::globalVisibility(visible);
+  const double best = *std::max_element(gpu.visible_counts.begin(), gpu.visible_counts.end());
+  for (size_t i = 0; i < n; ++i) EXPECT_NEAR(best > 0 ? gpu.visible_counts[i] / best : 0.0, g[i], 0.01) << i;
   const double sight_share = static_cast<double>(sight_agree) / (n * vertices);
   const double trust_share = static_cast<double>(trust_agree) / std::max<size_t>(trust_both, 1);
   const double mean_weight_error = weight_error / std::max<size_t>(weighted, 1);

@@ -31,6 +31,9 @@ struct FieldSnapshot {
   uint32_t vertex_count = 0, camera_count = 0;
   std::vector<uint32_t> sights, trusted;
   std::vector<uint32_t> dilated;  // [camera][y][x] of the pod images
+  uint32_t triangle_count = 0;
+  std::vector<uint32_t> seams;           // [camera * triangle_count + triangle]: SeamRule bits
+  std::vector<uint32_t> visible_counts;  // per camera: vertices seen and trusted
   std::vector<float> weights;
 };
 
@@ -99,7 +102,8 @@ class Renderer {
   std::vector<bool> field_cameras_;
   FieldParameters field_parameters_;
   // Texture-field buffers (config.h bindings 4 to 8).
-  Buffer edges_, dilated_, sights_, trusted_, weights_, rows_;
+  Buffer edges_, dilated_, sights_, trusted_, weights_, rows_, seams_, visible_counts_;
+  uint32_t triangle_count_ = 0;
   std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
   // Output
   Image color_, depth_;

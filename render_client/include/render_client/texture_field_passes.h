@@ -37,7 +37,7 @@ struct ComputePush {
   int32_t vote_levels;
   float alpha;
   uint32_t camera_count;
-  uint32_t pad;
+  uint32_t triangle_count;
 };
 static_assert(sizeof(ComputePush) == 48);
 
@@ -57,8 +57,10 @@ class TextureFieldPasses {
   // Records stages 2 to 4 and the Holoportation field for the bound set,
   // with a barrier between dependent dispatches and one at the end that
   // makes the weights visible to the vertex shader.
-  void record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count, uint32_t camera_count,
-              uint32_t width, uint32_t height, const FieldParameters& parameters);
+  // visible_counts is cleared here before stage 7 adds to it.
+  void record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count, uint32_t triangle_count,
+              uint32_t camera_count, uint32_t width, uint32_t height, const FieldParameters& parameters,
+              VkBuffer visible_counts);
 
   // GPU milliseconds of each pass in the last recorded run (after the
   // submission finished), in pass order, named as in stageNames().
@@ -72,7 +74,7 @@ class TextureFieldPasses {
   VulkanContext& ctx_;
   VkPipelineLayout layout_;
   VkPipeline discontinuity_ = VK_NULL_HANDLE, dilate_ = VK_NULL_HANDLE, dilate_columns_ = VK_NULL_HANDLE,
-             visibility_ = VK_NULL_HANDLE,
+             visibility_ = VK_NULL_HANDLE, seams_ = VK_NULL_HANDLE, global_visibility_ = VK_NULL_HANDLE,
              vote_ = VK_NULL_HANDLE, field_ = VK_NULL_HANDLE;
   VkQueryPool queries_ = VK_NULL_HANDLE;
   double timestamp_period_ns_ = 1.0;
