@@ -1,0 +1,151 @@
+#include "render_client/reference/geodesics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <queue>
+
+namespace holofuse::render::reference {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+double edgeLength(const Mesh& mesh, uint32_t a, uint32_t b) {
+  return glm::length(glm::dvec3(mesh.positions[a]) - glm::dvec3(mesh.positions[b]));
+}
+
+// Triangle rings from the sources: a triangle touching a source is ring 1,
+// its neighbours through a shared vertex ring 2, ... A vertex's ring is the
+// smallest ring of its triangles (0 for a source).
+std::vector<int> vertexRings(const Mesh& mesh, const std::vector<uint8_t>& is_source, int max_rings) {
+  const size_t n = mesh.vertexCount();
+  std::vector<std::vector<uint32_t>> triangles_of(n);
+  for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
+    for (int k = 0; k < 3; ++k) triangles_of[mesh.indices[3 * t + k]].push_back(t);
+  }
+  std::vector<int> ring(n, std::numeric_limits<int>::max());
+  std::vector<int> triangle_ring(mesh.triangleCount(), std::numeric_limits<int>::max());
+  std::queue<uint32_t> frontier;
+  for (uint32_t v = 0; v < n; ++v) {
+    if (is_source[v]) {
+      ring[v] = 0;
+      frontier.push(v);
+    }
+  }
+  while (!frontier.empty()) {
+    const uint32_t v = frontier.front();
+    frontier.pop();
+    if (ring[v] >= max_rings) continue;
+    for (uint32_t t : triangles_of[v]) {
+      if (triangle_ring[t] <= ring[v] + 1) continue;
+      triangle_ring[t] = ring[v] + 1;
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t w = mesh.indices[3 * t + k];
+        if (ring[w] > triangle_ring[t]) {
+          ring[w] = triangle_ring[t];
+          frontier.push(w);
+        }
+      }
+    }
+  }
+  return ring;
+}
+
+}  // namespace
+
+double unfoldedDistance(double ab, double ac, double bc, double da, double db) {
+  double best = std::min(da + ac, db + bc);  // infinite when both are
+  if (!std::isfinite(da) || !std::isfinite(db) || !(ab > 0)) return best;
+  // a at the origin, b at (ab, 0), c above the x axis.
+  const double cx = (ac * ac - bc * bc + ab * ab) / (2 * ab);
+  const double cy = std::sqrt(std::max(ac * ac - cx * cx, 0.0));
+  // The virtual source below the axis, da from a and db from b.
+  const double sx = (da * da - db * db + ab * ab) / (2 * ab);
+  const double s2 = da * da - sx * sx;
+  if (!(s2 >= 0) || !(cy > 0)) return best;  // no such point, or a flat triangle
+  const double sy = -std::sqrt(s2);
+  // Where the straight line from s to c crosses the edge's line.
+  const double t = -sy / (cy - sy);
+  const double x = sx + t * (cx - sx);
+  if (x >= 0 && x <= ab) best = std::min(best, std::hypot(cx - sx, cy - sy));
+  return best;
+}
+
+std::vector<double> approximateGeodesic(const Mesh& mesh, const std::vector<uint8_t>& is_source,
+                                        const GeodesicOptions& options) {
+  const size_t n = mesh.vertexCount();
+  const std::vector<int> ring = vertexRings(mesh, is_source, options.max_rings);
+  std::vector<double> distance(n, kInf);
+  for (size_t v = 0; v < n; ++v) {
+    if (is_source[v]) distance[v] = 0.0;
+  }
+  std::vector<double> next = distance;
+  for (int pass = 0; pass < options.iterations; ++pass) {
+    // Jacobi: every update reads `distance` and writes `next`.
+    for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
+      const uint32_t v[3] = {mesh.indices[3 * t], mesh.indices[3 * t + 1], mesh.indices[3 * t + 2]};
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t c = v[k], a = v[(k + 1) % 3], b = v[(k + 2) % 3];
+        if (ring[c] > options.max_rings) continue;
+        const double d = unfoldedDistance(edgeLength(mesh, a, b), edgeLength(mesh, a, c), edgeLength(mesh, b, c),
+                                          distance[a], distance[b]);
+        if (d < next[c]) next[c] = d;
+      }
+    }
+    distance = next;
+  }
+  return distance;
+}
+
+std::vector<double> edgeGraphDistance(const Mesh& mesh, const std::vector<uint8_t>& is_source) {
+  const size_t n = mesh.vertexCount();
+  std::vector<std::vector<std::pair<uint32_t, double>>> edges(n);
+  for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = mesh.indices[3 * t + k], b = mesh.indices[3 * t + (k + 1) % 3];
+      const double l = edgeLength(mesh, a, b);
+      edges[a].emplace_back(b, l);
+      edges[b].emplace_back(a, l);
+    }
+  }
+  std::vector<double> distance(n, kInf);
+  using Item = std::pair<double, uint32_t>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  for (uint32_t v = 0; v < n; ++v) {
+    if (is_source[v]) {
+      distance[v] = 0;
+      queue.emplace(0.0, v);
+    }
+  }
+  while (!queue.empty()) {
+    const auto [d, v] = queue.top();
+    queue.pop();
+    if (d > distance[v]) continue;
+    for (const auto& [w, l] : edges[v]) {
+      if (d + l < distance[w]) {
+        distance[w] = d + l;
+        queue.emplace(distance[w], w);
+      }
+    }
+  }
+  return distance;
+}
+
+std::vector<double> normalizedGeodesic(const Mesh& mesh, const std::vector<double>& distance, int max_rings,
+                                       double max_distance) {
+  if (!(max_distance > 0)) {
+    double total = 0;
+    for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
+      for (int k = 0; k < 3; ++k) total += edgeLength(mesh, mesh.indices[3 * t + k], mesh.indices[3 * t + (k + 1) % 3]);
+    }
+    const double mean_edge = mesh.triangleCount() ? total / (3.0 * mesh.triangleCount()) : 0.0;
+    max_distance = std::max(1, max_rings) * mean_edge;
+  }
+  std::vector<double> gamma(distance.size(), 1.0);
+  for (size_t v = 0; v < distance.size(); ++v) {
+    if (std::isfinite(distance[v]) && max_distance > 0) gamma[v] = std::clamp(distance[v] / max_distance, 0.0, 1.0);
+  }
+  return gamma;
+}
+
+}  // namespace holofuse::render::reference
