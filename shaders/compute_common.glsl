@@ -15,6 +15,8 @@ layout(push_constant) uniform Push {
   float alpha;              // field exponent
   uint camera_count;
   uint triangle_count;
+  uint parity;              // geodesics: which half of the ping-pong buffers is read
+  int max_rings;            // geodesics: k
 } push;
 
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_VERTICES) readonly buffer Vertices { float vertex_data[]; };
@@ -27,6 +29,11 @@ layout(std430, set = 0, binding = HOLOFUSE_BINDING_ROWS) buffer Rows { uint rows
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_INDICES) readonly buffer Indices { uint indices[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_SEAMS) buffer Seams { uint seams[]; };  // [camera][triangle]
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_VISIBLE_COUNTS) buffer VisibleCounts { uint visible_counts[]; };
+// adjacency[v] .. adjacency[v + 1] index the triangle list that follows
+// the vertex_count + 1 offsets.
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_ADJACENCY) readonly buffer Adjacency { uint adjacency[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_RINGS) buffer Rings { uint rings[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_DISTANCES) buffer Distances { float distances[]; };
 
 vec3 vertexPosition(uint v) { return vec3(vertex_data[6 * v], vertex_data[6 * v + 1], vertex_data[6 * v + 2]); }
 vec3 vertexNormal(uint v) { return vec3(vertex_data[6 * v + 3], vertex_data[6 * v + 4], vertex_data[6 * v + 5]); }

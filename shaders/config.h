@@ -39,7 +39,14 @@
 #define HOLOFUSE_BINDING_INDICES 10
 #define HOLOFUSE_BINDING_SEAMS 11
 #define HOLOFUSE_BINDING_VISIBLE_COUNTS 12
-#define HOLOFUSE_BINDING_COUNT 13
+#define HOLOFUSE_BINDING_ADJACENCY 13   // CSR: per vertex the triangles around it
+#define HOLOFUSE_BINDING_RINGS 14       // [2][camera][vertex] ping-pong
+#define HOLOFUSE_BINDING_DISTANCES 15   // [2][camera][vertex] ping-pong
+#define HOLOFUSE_BINDING_COUNT 16
+
+// Geodesics: rings beyond the bound, distance not reached.
+#define HOLOFUSE_NO_RING 0x7fffffffu
+#define HOLOFUSE_FAR 3.0e38
 
 // Seam rules (render::reference::SeamRule).
 #define HOLOFUSE_SEAM_OCCLUSION 1u

@@ -219,7 +219,8 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   // descriptor write: start small, grow with the mesh.
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
-  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_}) {
+  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &adjacency_, &rings_,
+                    &distances_}) {
     *b = ctx_.createBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   }
   visible_counts_ = ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
@@ -237,7 +238,8 @@ Renderer::~Renderer() {
   ctx_.destroy(depth_);
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
-  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &visible_counts_}) ctx_.destroy(*b);
+  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &visible_counts_, &adjacency_,
+                    &rings_, &distances_}) ctx_.destroy(*b);
   field_passes_pipelines_.reset();
   vkDestroyPipeline(d, depth_pipeline_, nullptr);
   vkDestroyPipeline(d, blend_pipeline_, nullptr);
@@ -384,6 +386,15 @@ void Renderer::setMesh(const Mesh& mesh) {
   index_count_ = static_cast<uint32_t>(mesh.indices.size());
   vertex_count_ = static_cast<uint32_t>(mesh.positions.size());
   triangle_count_ = static_cast<uint32_t>(mesh.indices.size() / 3);
+  // Vertex -> triangles in CSR form: vertex_count + 1 offsets, then the
+  // triangle ids, for the passes that gather over a vertex's triangles.
+  adjacency_data_.assign(vertex_count_ + 1 + mesh.indices.size(), 0);
+  for (uint32_t index : mesh.indices) ++adjacency_data_[index + 1];
+  for (uint32_t v = 0; v < vertex_count_; ++v) adjacency_data_[v + 1] += adjacency_data_[v];
+  std::vector<uint32_t> fill(adjacency_data_.begin(), adjacency_data_.begin() + vertex_count_);
+  for (uint32_t t = 0; t < triangle_count_; ++t) {
+    for (int k = 0; k < 3; ++k) adjacency_data_[vertex_count_ + 1 + fill[mesh.indices[3 * t + k]]++] = t;
+  }
   depth_maps_stale_ = true;
   fields_stale_ = true;
 }
@@ -466,13 +477,16 @@ void Renderer::ensureFieldBuffers() {
   const VkDeviceSize per_triangle = VkDeviceSize{std::max(triangle_count_, 1u)} * std::max(images_.layers, 1u) * 4;
   bool changed = false;
   for (auto [buffer, size] : {std::pair{&edges_, pixels}, {&dilated_, pixels}, {&rows_, pixels}, {&sights_, per_vertex},
-                              {&trusted_, per_vertex}, {&weights_, weights}, {&seams_, per_triangle}}) {
+                              {&trusted_, per_vertex}, {&weights_, weights}, {&seams_, per_triangle},
+                              {&rings_, 2 * per_vertex}, {&distances_, 2 * per_vertex},
+                              {&adjacency_, VkDeviceSize{adjacency_data_.size() * 4 + 4}}}) {
     if (buffer->size >= size) continue;
     ctx_.destroy(*buffer);
     *buffer = ctx_.createBuffer(size * 3 / 2, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     changed = true;
   }
   if (changed) writeDescriptors();
+  std::memcpy(adjacency_.mapped, adjacency_data_.data(), adjacency_data_.size() * 4);
 }
 
 void Renderer::writeDescriptors() {
@@ -485,7 +499,8 @@ void Renderer::writeDescriptors() {
       VkDescriptorBufferInfo{vertex_buffer_.buffer, 0, VK_WHOLE_SIZE}, {edges_.buffer, 0, VK_WHOLE_SIZE},
       {dilated_.buffer, 0, VK_WHOLE_SIZE}, {sights_.buffer, 0, VK_WHOLE_SIZE}, {trusted_.buffer, 0, VK_WHOLE_SIZE},
       {weights_.buffer, 0, VK_WHOLE_SIZE}, {rows_.buffer, 0, VK_WHOLE_SIZE}, {index_buffer_.buffer, 0, VK_WHOLE_SIZE},
-      {seams_.buffer, 0, VK_WHOLE_SIZE}, {visible_counts_.buffer, 0, VK_WHOLE_SIZE}};
+      {seams_.buffer, 0, VK_WHOLE_SIZE}, {visible_counts_.buffer, 0, VK_WHOLE_SIZE},
+      {adjacency_.buffer, 0, VK_WHOLE_SIZE}, {rings_.buffer, 0, VK_WHOLE_SIZE}, {distances_.buffer, 0, VK_WHOLE_SIZE}};
   std::array<VkWriteDescriptorSet, HOLOFUSE_BINDING_COUNT> writes{};
   for (uint32_t b = 0; b < writes.size(); ++b) {
     writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -523,6 +538,10 @@ FieldSnapshot Renderer::readFields() const {
   s.triangle_count = triangle_count_;
   copy(seams_, s.seams, size_t{triangle_count_} * s.camera_count);
   copy(visible_counts_, s.visible_counts, s.camera_count);
+  std::vector<float> both;
+  copy(distances_, both, 2 * per_vertex);
+  const size_t half = TextureFieldPasses::finalDistanceHalf(field_parameters_);
+  if (both.size() == 2 * per_vertex) s.distances.assign(both.begin() + half * per_vertex, both.begin() + (half + 1) * per_vertex);
   return s;
 }
 

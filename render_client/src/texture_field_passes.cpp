@@ -1,9 +1,14 @@
 #include "render_client/texture_field_passes.h"
 
+#include <algorithm>
+
 #include "shaders/config.h"
 #include "shaders/dilate_columns_comp_spv.h"
 #include "shaders/dilate_comp_spv.h"
 #include "shaders/discontinuity_comp_spv.h"
+#include "shaders/geodesic_distance_comp_spv.h"
+#include "shaders/geodesic_rings_comp_spv.h"
+#include "shaders/geodesic_seed_comp_spv.h"
 #include "shaders/global_visibility_comp_spv.h"
 #include "shaders/holoportation_field_comp_spv.h"
 #include "shaders/seams_comp_spv.h"
@@ -23,7 +28,7 @@ void computeBarrier(VkCommandBuffer cmd, VkPipelineStageFlags dst_stage, VkAcces
 }
 
 uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size; }
-constexpr uint32_t kStamps = 8;  // around the depth maps and the six timed passes
+constexpr uint32_t kStamps = 9;  // around the depth maps and the seven timed passes
 
 }  // namespace
 
@@ -36,6 +41,9 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
   vote_ = create(k_vote_comp_spv, sizeof(k_vote_comp_spv));
   seams_ = create(k_seams_comp_spv, sizeof(k_seams_comp_spv));
   global_visibility_ = create(k_global_visibility_comp_spv, sizeof(k_global_visibility_comp_spv));
+  geodesic_seed_ = create(k_geodesic_seed_comp_spv, sizeof(k_geodesic_seed_comp_spv));
+  geodesic_rings_ = create(k_geodesic_rings_comp_spv, sizeof(k_geodesic_rings_comp_spv));
+  geodesic_distance_ = create(k_geodesic_distance_comp_spv, sizeof(k_geodesic_distance_comp_spv));
   field_ = create(k_holoportation_field_comp_spv, sizeof(k_holoportation_field_comp_spv));
   VkQueryPoolCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
@@ -49,8 +57,15 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
 
 const std::vector<std::string>& TextureFieldPasses::stageNames() {
   static const std::vector<std::string> kNames = {"depth_maps", "discontinuities", "dilation", "visibility",
-                                                  "voting", "seams_and_global_visibility", "field"};
+                                                  "voting", "seams_and_global_visibility", "geodesics", "field"};
   return kNames;
+}
+
+uint32_t TextureFieldPasses::ringPasses(const FieldParameters& p) {
+  // k + 1 passes settle every ring up to k; an even count leaves the result
+  // in half 0, where the distance passes read it.
+  const uint32_t passes = static_cast<uint32_t>(std::max(p.geodesic_rings, 0)) + 1;
+  return passes + (passes % 2);
 }
 
 void TextureFieldPasses::beginTiming(VkCommandBuffer cmd) {
@@ -79,7 +94,8 @@ std::vector<double> TextureFieldPasses::lastTimesMs() const {
 }
 
 TextureFieldPasses::~TextureFieldPasses() {
-  for (VkPipeline p : {discontinuity_, dilate_, dilate_columns_, visibility_, vote_, seams_, global_visibility_, field_}) {
+  for (VkPipeline p : {discontinuity_, dilate_, dilate_columns_, visibility_, vote_, seams_, global_visibility_,
+                       geodesic_seed_, geodesic_rings_, geodesic_distance_, field_}) {
     vkDestroyPipeline(ctx_.device(), p, nullptr);
   }
   vkDestroyQueryPool(ctx_.device(), queries_, nullptr);
@@ -153,12 +169,32 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   dispatchLinear(seams_, triangle_count, false);
   dispatchLinear(global_visibility_, vertex_count, true);
   stamp(cmd, 6);
+  if (parameters.geodesics) {
+    // Stage 6: seed from the seams, k (+1, even) ring passes, K distance
+    // passes, each a Jacobi pass over all cameras (y) and vertices (x).
+    push.max_rings = parameters.geodesic_rings;
+    auto perVertexAndCamera = [&](VkPipeline pipeline, uint32_t parity) {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+      push.parity = parity;
+      vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+      if (vertex_count > 0 && camera_count > 0) {
+        vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), camera_count, 1);
+      }
+      computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+    };
+    perVertexAndCamera(geodesic_seed_, 0);
+    for (uint32_t pass = 0; pass < ringPasses(parameters); ++pass) perVertexAndCamera(geodesic_rings_, pass % 2);
+    for (int pass = 0; pass < parameters.geodesic_iterations; ++pass) {
+      perVertexAndCamera(geodesic_distance_, static_cast<uint32_t>(pass) % 2);
+    }
+  }
+  stamp(cmd, 7);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, field_);
   vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
   if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
   computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
-  stamp(cmd, 7);
+  stamp(cmd, 8);
   recorded_ = true;
 }
 

@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "capture_node/synthetic_scene.h"
 #include "common/marching_cubes.h"
+#include "render_client/reference/geodesics.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
@@ -89,6 +91,7 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   renderer.setViews(views);
   BlendSettings settings;
   settings.mode = BlendMode::kHoloportation;
+  settings.fields.geodesics = true;
   renderer.render(scene.views[0].camera, settings);
   const FieldSnapshot gpu = renderer.readFields();
   ASSERT_EQ(gpu.vertex_count, vertices);
@@ -141,6 +144,33 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   const auto g = reference::globalVisibility(visible);
   const double best = *std::max_element(gpu.visible_counts.begin(), gpu.visible_counts.end());
   for (size_t i = 0; i < n; ++i) EXPECT_NEAR(best > 0 ? gpu.visible_counts[i] / best : 0.0, g[i], 0.01) << i;
+  // Stage 6: geodesic distance from each camera's seam vertices, against
+  // the reference run from the GPU's own seams (so both start alike).
+  ASSERT_EQ(gpu.distances.size(), n * vertices);
+  size_t reach_agree = 0, compared = 0;
+  double distance_error = 0;
+  for (size_t i = 0; i < n; ++i) {
+    std::vector<uint8_t> source(vertices, 0);
+    for (size_t t = 0; t < triangles; ++t) {
+      if (gpu.seams[i * triangles + t] == 0) continue;
+      for (int k = 0; k < 3; ++k) source[scene.mesh.indices[3 * t + k]] = 1;
+    }
+    const auto cpu = reference::approximateGeodesic(scene.mesh, source);
+    for (size_t v = 0; v < vertices; ++v) {
+      const float g = gpu.distances[i * vertices + v];
+      const bool gpu_reached = g < 1e37f, cpu_reached = std::isfinite(cpu[v]);
+      reach_agree += gpu_reached == cpu_reached;
+      if (gpu_reached && cpu_reached && cpu[v] > 1e-6) {
+        distance_error += std::abs(g - cpu[v]) / cpu[v];
+        ++compared;
+      }
+    }
+  }
+  ASSERT_GT(compared, 0u);
+  RecordProperty("geodesic_reach_agreement", std::to_string(static_cast<double>(reach_agree) / (n * vertices)));
+  RecordProperty("geodesic_mean_relative_difference", std::to_string(distance_error / compared));
+  EXPECT_EQ(reach_agree, n * vertices) << "the same rings are reached";
+  EXPECT_LT(distance_error / compared, 1e-4) << "float against double, same updates";
   const double sight_share = static_cast<double>(sight_agree) / (n * vertices);
   const double trust_share = static_cast<double>(trust_agree) / std::max<size_t>(trust_both, 1);
   const double mean_weight_error = weight_error / std::max<size_t>(weighted, 1);
@@ -181,6 +211,35 @@ TEST(HoloportationMode, ReproducesThePodImageAndComputesFieldsOncePerMesh) {
   const double psnr = 10 * std::log10(255.0 * 255.0 / (squared / static_cast<double>(n)));
   RecordProperty("psnr_db", std::to_string(psnr));
   EXPECT_GT(psnr, 24.0);
+}
+
+}  // namespace
+}  // namespace holofuse::render
+
+namespace holofuse::render {
+namespace {
+
+TEST(FieldPassesDeterminism, TheSameInputGivesTheSameBits) {
+  const Scene scene = syntheticScene(5, 128, 96, 8);
+  std::vector<ViewImages> views;
+  for (const auto& v : scene.views) views.push_back({v.camera, v.color, v.mask});
+  BlendSettings settings;
+  settings.mode = BlendMode::kHoloportation;
+  settings.fields.geodesics = true;
+  std::vector<FieldSnapshot> runs;
+  for (int run = 0; run < 2; ++run) {
+    Renderer renderer(context(), 64, 48);
+    renderer.setMesh(scene.mesh);
+    renderer.setViews(views);
+    renderer.render(scene.views[0].camera, settings);
+    runs.push_back(renderer.readFields());
+  }
+  EXPECT_EQ(runs[0].sights, runs[1].sights);
+  EXPECT_EQ(runs[0].trusted, runs[1].trusted);
+  EXPECT_EQ(runs[0].seams, runs[1].seams);
+  EXPECT_EQ(runs[0].visible_counts, runs[1].visible_counts);
+  EXPECT_EQ(0, std::memcmp(runs[0].distances.data(), runs[1].distances.data(), runs[0].distances.size() * 4));
+  EXPECT_EQ(0, std::memcmp(runs[0].weights.data(), runs[1].weights.data(), runs[0].weights.size() * 4));
 }
 
 }  // namespace

@@ -34,6 +34,7 @@ struct FieldSnapshot {
   uint32_t triangle_count = 0;
   std::vector<uint32_t> seams;           // [camera * triangle_count + triangle]: SeamRule bits
   std::vector<uint32_t> visible_counts;  // per camera: vertices seen and trusted
+  std::vector<float> distances;          // [camera * vertex_count + vertex]: geodesic distance (3e38: unreached)
   std::vector<float> weights;
 };
 
@@ -101,8 +102,10 @@ class Renderer {
   // when a new mesh or new images arrive or these change.
   std::vector<bool> field_cameras_;
   FieldParameters field_parameters_;
+  std::vector<uint32_t> adjacency_data_;  // CSR of the current mesh (config.h binding ADJACENCY)
   // Texture-field buffers (config.h bindings 4 to 8).
-  Buffer edges_, dilated_, sights_, trusted_, weights_, rows_, seams_, visible_counts_;
+  Buffer edges_, dilated_, sights_, trusted_, weights_, rows_, seams_, visible_counts_, adjacency_, rings_,
+      distances_;
   uint32_t triangle_count_ = 0;
   std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
   // Output

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "render_client/vulkan_context.h"
+#include "shaders/config.h"
 
 namespace holofuse::render {
 
@@ -22,6 +23,11 @@ struct FieldParameters {
   float vote_delta = 0.15f;              // paper 000: delta = 0.15
   int vote_levels = 3;
   float alpha = 2.0f;
+  // Geodesic distance from each camera's seams (stage 6): run only when a
+  // mode needs it (montage4d); the Holoportation baseline does not pay for it.
+  bool geodesics = false;
+  int geodesic_rings = 15;       // k
+  int geodesic_iterations = 20;  // K
 };
 
 // Mirror of the Push block in shaders/compute_common.glsl.
@@ -38,8 +44,11 @@ struct ComputePush {
   float alpha;
   uint32_t camera_count;
   uint32_t triangle_count;
+  uint32_t parity;
+  int32_t max_rings;
 };
-static_assert(sizeof(ComputePush) == 48);
+static_assert(sizeof(ComputePush) == 56);
+static_assert(HOLOFUSE_COMPUTE_PUSH_OFFSET + sizeof(ComputePush) <= 128, "lavapipe allows 128 bytes");
 
 class TextureFieldPasses {
  public:
@@ -66,6 +75,9 @@ class TextureFieldPasses {
   // submission finished), in pass order, named as in stageNames().
   std::vector<double> lastTimesMs() const;
   static const std::vector<std::string>& stageNames();
+  // Which half of the ping-pong buffers holds the final rings / distances.
+  static uint32_t ringPasses(const FieldParameters& p);
+  static uint32_t finalDistanceHalf(const FieldParameters& p) { return static_cast<uint32_t>(p.geodesic_iterations) % 2; }
 
  private:
   VkPipeline create(const uint32_t* code, size_t bytes);
@@ -75,6 +87,7 @@ class TextureFieldPasses {
   VkPipelineLayout layout_;
   VkPipeline discontinuity_ = VK_NULL_HANDLE, dilate_ = VK_NULL_HANDLE, dilate_columns_ = VK_NULL_HANDLE,
              visibility_ = VK_NULL_HANDLE, seams_ = VK_NULL_HANDLE, global_visibility_ = VK_NULL_HANDLE,
+             geodesic_seed_ = VK_NULL_HANDLE, geodesic_rings_ = VK_NULL_HANDLE, geodesic_distance_ = VK_NULL_HANDLE,
              vote_ = VK_NULL_HANDLE, field_ = VK_NULL_HANDLE;
   VkQueryPool queries_ = VK_NULL_HANDLE;
   double timestamp_period_ns_ = 1.0;

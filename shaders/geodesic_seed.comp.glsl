@@ -1,0 +1,23 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "config.h"
+#include "cameras.glsl"
+#include "compute_common.glsl"
+// Stage 6, start (paper 000 section 4.4): the sources of camera i's
+// distance field are the vertices of its seam triangles (ring 0, distance
+// 0); everything else starts unreached. Gathered per vertex from its
+// triangles, so no two invocations write the same word.
+layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
+
+void main() {
+  uint v = gl_GlobalInvocationID.x;
+  uint camera = gl_GlobalInvocationID.y;
+  if (v >= push.vertex_count || camera >= push.camera_count) return;
+  bool source = false;
+  for (uint k = adjacency[v]; k < adjacency[v + 1u] && !source; ++k) {
+    source = seams[camera * push.triangle_count + adjacency[push.vertex_count + 1u + k]] != 0u;
+  }
+  uint index = camera * push.vertex_count + v;
+  rings[index] = source ? 0u : HOLOFUSE_NO_RING;
+  distances[index] = source ? 0.0 : HOLOFUSE_FAR;
+}
