@@ -46,3 +46,8 @@ vec3 projectToCamera(uint i, vec3 p) {
   vec2 ndc = clip.xy / clip.w;
   return vec3((ndc * 0.5 + 0.5) * blend.cameras[i].size.xy, clip.w);
 }
+
+// Offsets of the half a ping-pong pass reads and the half it writes, in the
+// [2][camera][vertex] geodesic buffers.
+uint readHalf() { return push.parity * push.camera_count * push.vertex_count; }
+uint writeHalf() { return (1u - push.parity) * push.camera_count * push.vertex_count; }

@@ -32,9 +32,8 @@ void main() {
   uint v = gl_GlobalInvocationID.x;
   uint camera = gl_GlobalInvocationID.y;
   if (v >= push.vertex_count || camera >= push.camera_count) return;
-  uint plane = push.camera_count * push.vertex_count;
   uint base = camera * push.vertex_count;
-  uint in_offset = push.parity * plane, out_offset = (1u - push.parity) * plane;
+  uint in_offset = readHalf(), out_offset = writeHalf();
   float best = distances[in_offset + base + v];
   // Rings are final by now and live in half 0.
   if (rings[base + v] <= uint(push.max_rings)) {

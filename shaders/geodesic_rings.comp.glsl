@@ -14,9 +14,8 @@ void main() {
   uint v = gl_GlobalInvocationID.x;
   uint camera = gl_GlobalInvocationID.y;
   if (v >= push.vertex_count || camera >= push.camera_count) return;
-  uint plane = push.camera_count * push.vertex_count;
   uint base = camera * push.vertex_count;
-  uint in_offset = push.parity * plane, out_offset = (1u - push.parity) * plane;
+  uint in_offset = readHalf(), out_offset = writeHalf();
   uint best = rings[in_offset + base + v];
   for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
     uint t = adjacency[push.vertex_count + 1u + k];
