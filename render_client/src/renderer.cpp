@@ -2,7 +2,9 @@
 
 #include <array>
 #include <cstddef>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <type_traits>
 
@@ -204,6 +206,22 @@ glm::mat4 worldToClip(const Camera& c, double n, double f) {
   return glm::mat4(projection * view);
 }
 
+std::pair<double, double> depthRange(const Camera& camera, const glm::dvec3& lo, const glm::dvec3& hi) {
+  double z_min = std::numeric_limits<double>::max(), z_max = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    const glm::dvec3 p((corner & 1) ? hi.x : lo.x, (corner & 2) ? hi.y : lo.y, (corner & 4) ? hi.z : lo.z);
+    const double z = camera.toCamera(p).z;
+    if (!std::isfinite(z)) continue;
+    z_min = std::min(z_min, z);
+    z_max = std::max(z_max, z);
+  }
+  if (!(z_max > 0)) return {0.05, 100.0};  // the box is behind the camera: nothing to keep
+  // A camera inside the box sees from just in front of its centre.
+  const double far_plane = 2.0 * z_max;
+  const double near_plane = std::max(z_min > 0 ? 0.5 * z_min : 1e-4 * z_max, 1e-6 * far_plane);
+  return {near_plane, far_plane};
+}
+
 Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
     : ctx_(context), width_(width), height_(height) {
   createPipelines();
@@ -384,6 +402,9 @@ void Renderer::setMesh(const Mesh& mesh) {
   }
   std::memcpy(index_buffer_.mapped, mesh.indices.data(), mesh.indices.size() * 4);
   index_count_ = static_cast<uint32_t>(mesh.indices.size());
+  const Bounds bounds = meshBounds(mesh);
+  bounds_min_ = glm::dvec3(bounds.min);
+  bounds_max_ = glm::dvec3(bounds.max);
   vertex_count_ = static_cast<uint32_t>(mesh.positions.size());
   triangle_count_ = static_cast<uint32_t>(mesh.indices.size() / 3);
   // Vertex -> triangles in CSR form: vertex_count + 1 offsets, then the
@@ -545,6 +566,11 @@ FieldSnapshot Renderer::readFields() const {
   return s;
 }
 
+glm::mat4 Renderer::clipFor(const Camera& camera) const {
+  const auto [near_plane, far_plane] = depthRange(camera, bounds_min_, bounds_max_);
+  return worldToClip(camera, near_plane, far_plane);
+}
+
 void Renderer::drawMesh(VkCommandBuffer cmd) {
   if (index_count_ == 0) return;
   VkDeviceSize offset = 0;
@@ -568,7 +594,7 @@ void Renderer::renderDepthMaps(VkCommandBuffer cmd) {
     vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, depth_pipeline_);
     setViewport(cmd, images_.width, images_.height);
-    const glm::mat4 m = worldToClip(cameras_[i]);
+    const glm::mat4 m = clipFor(cameras_[i]);
     vkCmdPushConstants(cmd, depth_layout_, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(m), &m);
     drawMesh(cmd);
     vkCmdEndRenderPass(cmd);
@@ -583,7 +609,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   u.hole_color = glm::vec4(settings.hole_color, 1.0f);
   for (size_t i = 0; i < cameras_.size(); ++i) {
     const Camera& c = cameras_[i];
-    u.cameras[i].world_to_clip = worldToClip(c);
+    u.cameras[i].world_to_clip = clipFor(c);
     u.cameras[i].center = glm::vec4(glm::vec3(c.center()), 1.0f);
     u.cameras[i].size = glm::vec4(c.width, c.height, 1.0f / c.width, 1.0f / c.height);
     const bool enabled = settings.camera_enabled.empty() ||
@@ -636,7 +662,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
       scaled.cy *= sy;
       scaled.width = width_;
       scaled.height = height_;
-      const glm::mat4 m = worldToClip(scaled);
+      const glm::mat4 m = clipFor(scaled);
       vkCmdPushConstants(cmd, blend_layout_, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(m), &m);
       drawMesh(cmd);
     }

@@ -49,6 +49,10 @@ struct ViewImages {
 // depth and z/w runs from 0 at near to 1 at far.
 glm::mat4 worldToClip(const Camera& camera, double near_plane = 0.05, double far_plane = 100.0);
 
+// Near and far planes that hold the box [lo, hi] as seen by camera, so any
+// scene scale (millimetres to kilometres) keeps its depth precision.
+std::pair<double, double> depthRange(const Camera& camera, const glm::dvec3& lo, const glm::dvec3& hi);
+
 class Renderer {
  public:
   Renderer(VulkanContext& context, uint32_t width, uint32_t height);
@@ -82,12 +86,14 @@ class Renderer {
   void writeDescriptors();
   void generateMips(VkCommandBuffer cmd);
   void drawMesh(VkCommandBuffer cmd);
+  glm::mat4 clipFor(const Camera& camera) const;
 
   VulkanContext& ctx_;
   uint32_t width_, height_;
   // Mesh
   Buffer vertex_buffer_, index_buffer_;
   uint32_t index_count_ = 0;
+  glm::dvec3 bounds_min_{-1.0}, bounds_max_{1.0};  // of the current mesh
   // Pod views
   std::vector<Camera> cameras_;
   Image images_, depth_maps_, depth_scratch_;

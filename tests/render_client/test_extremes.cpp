@@ -1,0 +1,148 @@
+// Numerical extremes through the Vulkan texture-field path: whatever the
+// scale, geometry, cameras or parameters, every weight is finite and in
+// [0, 1] and every covered pixel is a blend of the images or the hole
+// colour.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/marching_cubes.h"
+#include "render_client/reference/depth_map.h"
+#include "render_client/renderer.h"
+
+namespace holofuse::render {
+namespace {
+
+VulkanContext& context() {
+  static VulkanContext ctx;
+  return ctx;
+}
+
+Mesh sphere(double scale) {
+  Mesh mesh = marchingCubes(sampleGrid(glm::dvec3(-0.6 * scale), 0.06 * scale, 21, 21, 21,
+                                       [&](const glm::dvec3& p) { return 0.5 * scale - glm::length(p); }));
+  return mesh;
+}
+
+// A ring of cameras around the origin at 3 x scale, with plain images: the
+// subject white on black and its mask from the reference depth map.
+std::vector<ViewImages> ring(const Mesh& mesh, int count, double scale, bool empty_masks = false) {
+  std::vector<ViewImages> views;
+  for (int i = 0; i < count; ++i) {
+    const double a = 2 * M_PI * i / count;
+    ViewImages v;
+    v.camera = lookAtCamera(static_cast<uint32_t>(i), glm::dvec3(3 * std::sin(a), 0.4, 3 * std::cos(a)) * scale,
+                            glm::dvec3(0.0), {0, 1, 0}, 64, 48, 40.0);
+    const auto depth = reference::rasterizeDepth(mesh, v.camera, 1e-6 * scale);
+    v.color = Image8(64, 48, 3, 0);
+    v.mask = Image8(64, 48, 1, 0);
+    for (size_t p = 0; p < depth.depth.size(); ++p) {
+      if (depth.depth[p] == reference::kNoDepth || empty_masks) continue;
+      v.mask.pixels[p] = 255;
+      v.color.pixels[3 * p] = v.color.pixels[3 * p + 1] = v.color.pixels[3 * p + 2] = 200;
+    }
+    views.push_back(std::move(v));
+  }
+  return views;
+}
+
+struct Outcome {
+  size_t covered = 0;
+  size_t hole = 0;
+};
+
+Outcome renderAndCheck(const Mesh& mesh, const std::vector<ViewImages>& views, const Camera& user, float alpha) {
+  Renderer renderer(context(), 64, 48);
+  renderer.setMesh(mesh);
+  renderer.setViews(views);
+  BlendSettings settings;
+  settings.mode = BlendMode::kHoloportation;
+  settings.alpha = alpha;
+  settings.fields.geodesics = true;
+  settings.hole_color = {1.0f, 0.0f, 1.0f};
+  const Image8 out = renderer.render(user, settings);
+  const FieldSnapshot fields = renderer.readFields();
+  for (uint32_t v = 0; v < fields.vertex_count; ++v) {
+    float sum = 0;
+    for (uint32_t i = 0; i < fields.camera_count; ++i) {
+      const float w = fields.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+      EXPECT_TRUE(std::isfinite(w) && w >= 0.0f && w <= 1.0f) << "vertex " << v << " camera " << i << ": " << w;
+      sum += w;
+    }
+    EXPECT_TRUE(sum == 0.0f || std::abs(sum - 1.0f) < 1e-4f) << sum;
+  }
+  for (float d : fields.distances) EXPECT_TRUE(std::isfinite(d) && d >= 0.0f);
+  Outcome outcome;
+  for (size_t p = 0; p < out.pixels.size(); p += 4) {
+    if (out.pixels[p + 3] == 0) continue;
+    ++outcome.covered;
+    const bool hole = out.pixels[p] == 255 && out.pixels[p + 1] == 0 && out.pixels[p + 2] == 255;
+    outcome.hole += hole;
+    // Otherwise a blend of white-ish images: grey levels only.
+    if (!hole) {
+      EXPECT_NEAR(out.pixels[p], out.pixels[p + 1], 2);
+    }
+  }
+  return outcome;
+}
+
+TEST(Extremes, SceneScaleFromMillimetresToKilometres) {
+  std::vector<size_t> covered;
+  for (double scale : {1e-3, 1.0, 1e4}) {
+    const Mesh mesh = sphere(scale);
+    const auto views = ring(mesh, 6, scale);
+    const Outcome o = renderAndCheck(mesh, views, views[0].camera, 2.0f);
+    covered.push_back(o.covered);
+    EXPECT_LT(o.hole, o.covered / 10) << scale;
+  }
+  EXPECT_NEAR(static_cast<double>(covered[0]), static_cast<double>(covered[1]), covered[1] * 0.02);
+  EXPECT_NEAR(static_cast<double>(covered[2]), static_cast<double>(covered[1]), covered[1] * 0.02);
+}
+
+TEST(Extremes, DegenerateSliversDuplicatesAndBadNormals) {
+  Mesh mesh = sphere(1.0);
+  const uint32_t n = static_cast<uint32_t>(mesh.positions.size());
+  // Duplicate vertices, a zero-area triangle, a sliver, a NaN normal.
+  mesh.positions.push_back(mesh.positions[0]);
+  mesh.positions.push_back(mesh.positions[0]);
+  mesh.positions.push_back(mesh.positions[1] + glm::vec3(1e-7f, 0, 0));
+  mesh.normals.push_back(glm::vec3(0.0f));
+  mesh.normals.push_back(glm::vec3(std::nanf("")));
+  mesh.normals.push_back(mesh.normals[1]);
+  for (uint32_t i : {0u, n, n + 1, 1u, n + 2, 2u}) mesh.indices.push_back(i);
+  mesh.normals[5] = glm::vec3(0.0f);
+  const auto views = ring(mesh, 4, 1.0);
+  renderAndCheck(mesh, views, views[1].camera, 2.0f);
+}
+
+TEST(Extremes, CameraAtAVertexBehindTheSubjectAndGrazing) {
+  const Mesh mesh = sphere(1.0);
+  auto views = ring(mesh, 4, 1.0);
+  // A pod camera sitting exactly on a vertex, looking out, and one grazing
+  // the surface.
+  views[2].camera = lookAtCamera(2, glm::dvec3(mesh.positions[0]), glm::dvec3(mesh.positions[0]) * 2.0, {0, 1, 0},
+                                 64, 48, 40.0);
+  views[3].camera = lookAtCamera(3, {0.5, 0.0, 3.0}, {0.5, 0.0, -3.0}, {0, 1, 0}, 64, 48, 40.0);
+  const Outcome o = renderAndCheck(mesh, views, views[0].camera, 2.0f);
+  EXPECT_GT(o.covered, 100u);
+  // The user at a vertex too.
+  renderAndCheck(mesh, views, views[2].camera, 2.0f);
+}
+
+TEST(Extremes, AlphaAndCameraCountExtremesAndEmptyMasks) {
+  const Mesh mesh = sphere(1.0);
+  for (float alpha : {0.01f, 200.0f}) {
+    const auto views = ring(mesh, 4, 1.0);
+    EXPECT_GT(renderAndCheck(mesh, views, views[0].camera, alpha).covered, 100u) << alpha;
+  }
+  for (int count : {1, 16}) {
+    const auto views = ring(mesh, count, 1.0);
+    EXPECT_GT(renderAndCheck(mesh, views, views[0].camera, 2.0f).covered, 100u) << count;
+  }
+  const auto empty = ring(mesh, 4, 1.0, true);
+  const Outcome o = renderAndCheck(mesh, empty, empty[0].camera, 2.0f);
+  EXPECT_EQ(o.hole, o.covered) << "with every mask empty, every covered pixel is the hole colour";
+}
+
+}  // namespace
+}  // namespace holofuse::render
