@@ -33,6 +33,18 @@ protocol::StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const Dra
   if (mesh.normals.size() == mesh.positions.size()) {
     addFloat3Attribute(dm, draco::GeometryAttribute::NORMAL, mesh.normals);
   }
+  if (mesh.vertex_keys.size() == mesh.positions.size()) {
+    // Vertex identity: two 32-bit halves of the key, integers (Draco keeps
+    // them exactly; quantisation applies to float attributes only).
+    draco::GeometryAttribute attribute;
+    attribute.Init(draco::GeometryAttribute::GENERIC, nullptr, 2, draco::DT_UINT32, false, sizeof(uint32_t) * 2, 0);
+    const int id = dm.AddAttribute(attribute, true, static_cast<uint32_t>(mesh.positions.size()));
+    for (size_t i = 0; i < mesh.vertex_keys.size(); ++i) {
+      const uint32_t halves[2] = {static_cast<uint32_t>(mesh.vertex_keys[i]),
+                                  static_cast<uint32_t>(mesh.vertex_keys[i] >> 32)};
+      dm.attribute(id)->SetAttributeValue(draco::AttributeValueIndex(static_cast<uint32_t>(i)), halves);
+    }
+  }
   for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
     dm.AddFace({draco::PointIndex(mesh.indices[t]), draco::PointIndex(mesh.indices[t + 1]),
                 draco::PointIndex(mesh.indices[t + 2])});
@@ -84,6 +96,15 @@ protocol::StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size) {
                                                   std::to_string(index) + " out of range");
       }
       mesh.indices.push_back(index);
+    }
+  }
+  const draco::PointAttribute* keys = dm->GetNamedAttribute(draco::GeometryAttribute::GENERIC);
+  if (keys != nullptr && keys->num_components() == 2 && keys->data_type() == draco::DT_UINT32) {
+    mesh.vertex_keys.resize(n);
+    for (uint32_t i = 0; i < n; ++i) {
+      uint32_t halves[2] = {0, 0};
+      keys->ConvertValue<uint32_t, 2>(keys->mapped_index(draco::PointIndex(i)), halves);
+      mesh.vertex_keys[i] = (uint64_t{halves[1]} << 32) | halves[0];
     }
   }
   if (normals != nullptr && normals->num_components() == 3) {

@@ -98,11 +98,16 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   if (lo.x > hi.x) return {};
   lo = glm::max(lo - step, options.volume_min);
   hi = glm::min(hi + step, options.volume_max);
+  // Snap the region onto the capture volume's voxel lattice, so a grid edge
+  // has the same key in every frame however the region moves (the temporal
+  // texture field follows vertices by these keys).
+  const double s = options.voxel_size;
+  const glm::ivec3 first = glm::ivec3(glm::floor((lo - options.volume_min) / s));
+  lo = options.volume_min + s * glm::dvec3(first);
 
   std::vector<std::vector<float>> distances;
   for (const auto& v : views) distances.push_back(silhouetteSignedDistance(v));
 
-  const double s = options.voxel_size;
   const glm::ivec3 n = glm::ivec3(glm::ceil((hi - lo) / s)) + 1;
   // The hull's signed distance is approximated by the smallest of the
   // cameras' silhouette distances, each turned from pixels into metres at
@@ -133,6 +138,15 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
     }
   }
   Mesh mesh = marchingCubes(closed);
+  // Local edge keys to keys on the capture volume's lattice.
+  // The stride depends on the capture volume only (never on this frame's
+  // region): first + n - 1 stays below ceil(extent / s) + 3 on every axis.
+  const glm::ivec3 lattice = glm::ivec3(glm::ceil((options.volume_max - options.volume_min) / s)) + 3;
+  for (uint64_t& key : mesh.vertex_keys) {
+    const uint64_t axis = key % 3, point = key / 3;
+    const uint64_t x = point % n.x + first.x, y = (point / n.x) % n.y + first.y, z = point / (uint64_t(n.x) * n.y) + first.z;
+    key = ((z * lattice.y + y) * lattice.x + x) * 3 + axis;
+  }
   if (stats != nullptr) {
     stats->region_min = lo;
     stats->region_max = hi;

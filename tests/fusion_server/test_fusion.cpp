@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
+#include <set>
 
 #include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"
@@ -165,6 +167,52 @@ TEST(FusionWorker, FusesAGroupIntoDecodableFrames) {
   protocol::TextureBundle bundle;
   ASSERT_TRUE(protocol::decodeFrame(decode(out.texture_bundle), bundle).isOk());
   EXPECT_EQ(bundle.images.size(), 3u);
+}
+
+}  // namespace
+}  // namespace holofuse::fusion
+
+namespace holofuse::fusion {
+namespace {
+
+TEST(VisualHull, VertexKeysNameTheSameLatticeEdgeInEveryFrame) {
+  // Two frames of the moving subject: the valid region differs, but a
+  // vertex with a given key sits on the same world edge in both.
+  HullOptions options;
+  options.voxel_size = 0.03;
+  const Mesh a = carveVisualHull(syntheticViews(4, 20, 120, 90), options);
+  const Mesh b = carveVisualHull(syntheticViews(4, 24, 120, 90), options);
+  ASSERT_EQ(a.vertex_keys.size(), a.vertexCount());
+  std::map<uint64_t, glm::vec3> where;
+  for (size_t v = 0; v < a.vertexCount(); ++v) where[a.vertex_keys[v]] = a.positions[v];
+  size_t shared = 0;
+  for (size_t v = 0; v < b.vertexCount(); ++v) {
+    auto it = where.find(b.vertex_keys[v]);
+    if (it == where.end()) continue;
+    ++shared;
+    // Same edge: the two positions differ by less than one voxel edge.
+    EXPECT_LT(glm::length(it->second - b.positions[v]), options.voxel_size * 1.01);
+  }
+  EXPECT_GT(shared, b.vertexCount() / 3) << "a slowly moving subject keeps many of its edges";
+  std::set<uint64_t> unique(a.vertex_keys.begin(), a.vertex_keys.end());
+  EXPECT_EQ(unique.size(), a.vertexCount());
+}
+
+TEST(MeshCodecKeys, VertexKeysSurviveDracoExactly) {
+  const Mesh hull = carveVisualHull(syntheticViews(4, 3, 120, 90), HullOptions{});
+  auto bytes = encodeDraco(hull);
+  ASSERT_TRUE(bytes.isOk());
+  auto back = decodeDraco(bytes->data(), bytes->size());
+  ASSERT_TRUE(back.isOk());
+  ASSERT_EQ(back->vertex_keys.size(), back->vertexCount());
+  // Draco reorders vertices: compare as sets, and each key's position.
+  std::map<uint64_t, glm::vec3> original;
+  for (size_t v = 0; v < hull.vertexCount(); ++v) original[hull.vertex_keys[v]] = hull.positions[v];
+  for (size_t v = 0; v < back->vertexCount(); ++v) {
+    auto it = original.find(back->vertex_keys[v]);
+    ASSERT_NE(it, original.end());
+    EXPECT_LT(glm::length(it->second - back->positions[v]), 2e-3f);  // 11-bit quantisation
+  }
 }
 
 }  // namespace

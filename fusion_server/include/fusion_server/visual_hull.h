@@ -35,6 +35,9 @@ struct HullStats {
 // background outside. Sampled bilinearly by the carver.
 std::vector<float> silhouetteSignedDistance(const HullView& view);
 
+// The mesh's vertex_keys name the grid edge each vertex sits on, on the
+// lattice of the capture volume: the same edge has the same key in every
+// frame.
 Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options, HullStats* stats = nullptr);
 
 }  // namespace holofuse::fusion
