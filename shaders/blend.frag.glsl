@@ -6,9 +6,9 @@
 //   colour = sum_i w_i * M_i(project_i(p)) / sum_i w_i
 // mode normal: w_i = V_i * max(0, n . d_i)^alpha computed here, with V_i the
 //   per-fragment test (inside image and mask, not behind the depth map);
-// mode holoportation: w_i are the per-vertex texture fields of eq. 2
-//   (visibility with dilated discontinuities and majority voting, computed
-//   by the compute passes) interpolated over the triangle.
+// modes holoportation and montage4d: w_i are the per-vertex texture fields
+//   (eq. 2, or eqs. 4 and 5 normalised) computed by the compute passes and
+//   interpolated over the triangle.
 // Where the fields give no weight the normal-weighted blend fills in; a
 // fragment no camera contributes to gets the hole colour: never a division
 // by zero.
@@ -69,7 +69,7 @@ void main() {
   vec3 n = len > 1e-12 ? in_normal / len : vec3(0.0);
   float total = 0.0;
   vec4 color = vec4(0.0);
-  if (blend.counts.y == HOLOFUSE_MODE_HOLOPORTATION) color = blendFields(total);
+  if (blend.counts.y != HOLOFUSE_MODE_NORMAL) color = blendFields(total);
   // Where no field weight reaches the fragment (every camera culled by the
   // dilated discontinuities or the vote), the normal-weighted blend fills
   // in (DESIGN.md section 6, step 10).

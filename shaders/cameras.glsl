@@ -12,6 +12,8 @@ layout(set = 0, binding = HOLOFUSE_BINDING_CAMERAS) uniform Blend {
   ivec4 counts;        // x: camera count, y: mode
   vec4 params;         // x: alpha, y: depth tolerance (metres)
   vec4 hole_color;     // for surface no camera sees
+  vec4 user_eye;       // xyz: the user's eye (montage4d, eq. 4)
+  vec4 temporal;       // x: lambda of this frame (eq. 5), y: half of the temporal buffer holding the previous field
 } blend;
 
 layout(set = 0, binding = HOLOFUSE_BINDING_DEPTHS) uniform sampler2DArray depths;  // linear depth

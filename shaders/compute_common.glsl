@@ -4,7 +4,7 @@
 // not overlap in one pipeline layout.
 layout(push_constant) uniform Push {
   layout(offset = HOLOFUSE_COMPUTE_PUSH_OFFSET) uint vertex_count;
-  uint camera;
+  uint reserved;
   uint width;
   uint height;
   float relative_jump;      // discontinuity: relative depth step
@@ -17,6 +17,8 @@ layout(push_constant) uniform Push {
   uint triangle_count;
   uint parity;              // geodesics: which half of the ping-pong buffers is read
   int max_rings;            // geodesics: k
+  float geodesic_scale;     // the distance that maps to gamma = 1
+  uint temporal_stride;     // floats in one half of the temporal buffer
 } push;
 
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_VERTICES) readonly buffer Vertices { float vertex_data[]; };
@@ -34,6 +36,8 @@ layout(std430, set = 0, binding = HOLOFUSE_BINDING_VISIBLE_COUNTS) buffer Visibl
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_ADJACENCY) readonly buffer Adjacency { uint adjacency[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_RINGS) buffer Rings { uint rings[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DISTANCES) buffer Distances { float distances[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_TEMPORAL) buffer Temporal { float temporal[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_CARRY) readonly buffer Carry { int carry[]; };
 
 vec3 vertexPosition(uint v) { return vec3(vertex_data[6 * v], vertex_data[6 * v + 1], vertex_data[6 * v + 2]); }
 vec3 vertexNormal(uint v) { return vec3(vertex_data[6 * v + 3], vertex_data[6 * v + 4], vertex_data[6 * v + 5]); }

@@ -6,6 +6,7 @@
 // Blending modes (render_client/include/render_client/blend_mode.h).
 #define HOLOFUSE_MODE_NORMAL 0
 #define HOLOFUSE_MODE_HOLOPORTATION 1
+#define HOLOFUSE_MODE_MONTAGE4D 2
 
 // Push constants: the vertex stage's matrix, then the compute passes' block.
 #define HOLOFUSE_COMPUTE_PUSH_OFFSET 64
@@ -42,7 +43,9 @@
 #define HOLOFUSE_BINDING_ADJACENCY 13   // CSR: per vertex the triangles around it
 #define HOLOFUSE_BINDING_RINGS 14       // [2][camera][vertex] ping-pong
 #define HOLOFUSE_BINDING_DISTANCES 15   // [2][camera][vertex] ping-pong
-#define HOLOFUSE_BINDING_COUNT 16
+#define HOLOFUSE_BINDING_TEMPORAL 16    // [2][vertex][16]: previous and current temporal field
+#define HOLOFUSE_BINDING_CARRY 17       // per vertex: its vertex in the previous mesh, -1 for none
+#define HOLOFUSE_BINDING_COUNT 18
 
 // Geodesics: rings beyond the bound, distance not reached.
 #define HOLOFUSE_NO_RING 0x7fffffffu

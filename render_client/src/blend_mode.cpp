@@ -5,6 +5,7 @@ namespace holofuse::render {
 std::optional<BlendMode> blendModeFromName(const std::string& name) {
   if (name == "normal") return BlendMode::kNormal;
   if (name == "holoportation") return BlendMode::kHoloportation;
+  if (name == "montage4d") return BlendMode::kMontage4D;
   return std::nullopt;
 }
 
@@ -12,10 +13,11 @@ std::string blendModeName(BlendMode mode) {
   switch (mode) {
     case BlendMode::kNormal: return "normal";
     case BlendMode::kHoloportation: return "holoportation";
+    case BlendMode::kMontage4D: return "montage4d";
   }
   return "unknown";
 }
 
-std::vector<std::string> blendModeNames() { return {"normal", "holoportation"}; }
+std::vector<std::string> blendModeNames() { return {"normal", "holoportation", "montage4d"}; }
 
 }  // namespace holofuse::render

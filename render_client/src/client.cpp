@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -112,6 +113,7 @@ int runClient(const ClientOptions& options) {
   const bool tty = isatty(STDOUT_FILENO);
   uint64_t last_progress_ns = 0;
   uint64_t frames_superseded = 0;  // meshes skipped because a newer one was already there
+  uint64_t last_render_ns = 0;      // for the temporal field's real frame interval
   std::vector<protocol::Frame> received;
 
   auto skip = [&](uint64_t frame_id, const std::string& why) {
@@ -258,6 +260,12 @@ int runClient(const ClientOptions& options) {
           continue;
         }
         BlendSettings blend = options.blend;
+        // Eq. 5's lambda is rescaled by the real interval between rendered
+        // frames (clamped: a stall must not make the field jump).
+        const uint64_t now_ns = monotonicNs();
+        blend.frame_interval_s =
+            last_render_ns == 0 ? 1.0 / 30.0 : std::clamp(static_cast<double>(now_ns - last_render_ns) / 1e9, 1e-3, 0.5);
+        last_render_ns = now_ns;
         if (options.exclude_camera >= 0) {
           for (const auto& view : bundle->second.views) {
             blend.camera_enabled.push_back(static_cast<int>(view.camera.id) != options.exclude_camera);

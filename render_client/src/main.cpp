@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   app.add_option("--orbit-speed", options.orbit_degrees_per_frame, "orbit degrees per rendered frame");
   app.add_option("--mode", mode, "blending mode")->check(CLI::IsMember(render::blendModeNames()));
   app.add_option("--alpha", options.blend.alpha, "exponent of the view weights")->check(CLI::Range(0.0, 1000.0));
+  app.add_option("--lambda", options.blend.lambda, "montage4d: temporal rate per frame at 30 fps (eq. 5)")
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--depth-tolerance", options.blend.depth_tolerance, "occlusion test tolerance, metres")
       ->check(CLI::Range(0.0, 10.0));
   app.add_option("--exclude-camera", options.exclude_camera, "leave this pod camera out of the blend");

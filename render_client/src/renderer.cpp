@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "render_client/reference/texture_fields.h"
+#include "render_client/temporal_carry.h"
 #include "shaders/blend_frag_spv.h"
 #include "shaders/blend_vert_spv.h"
 #include "shaders/depth_frag_spv.h"
@@ -28,11 +30,13 @@ struct BlendUniforms {
   glm::ivec4 counts;
   glm::vec4 params;
   glm::vec4 hole_color;
+  glm::vec4 user_eye;
+  glm::vec4 temporal;  // x: lambda of this frame, y: half holding the previous field
 };
 static_assert(sizeof(CameraGpu) == 112);
 static_assert(offsetof(BlendUniforms, counts) == 112 * HOLOFUSE_MAX_CAMERAS);
 static_assert(offsetof(BlendUniforms, params) == 112 * HOLOFUSE_MAX_CAMERAS + 16);
-static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 48);
+static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 80);
 
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 constexpr VkBufferUsageFlags kVertexUsage = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
@@ -238,7 +242,7 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
   for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &adjacency_, &rings_,
-                    &distances_}) {
+                    &distances_, &temporal_, &carry_}) {
     *b = ctx_.createBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   }
   visible_counts_ = ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
@@ -257,7 +261,7 @@ Renderer::~Renderer() {
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
   for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &visible_counts_, &adjacency_,
-                    &rings_, &distances_}) ctx_.destroy(*b);
+                    &rings_, &distances_, &temporal_, &carry_}) ctx_.destroy(*b);
   field_passes_pipelines_.reset();
   vkDestroyPipeline(d, depth_pipeline_, nullptr);
   vkDestroyPipeline(d, blend_pipeline_, nullptr);
@@ -407,6 +411,19 @@ void Renderer::setMesh(const Mesh& mesh) {
   bounds_max_ = glm::dvec3(bounds.max);
   vertex_count_ = static_cast<uint32_t>(mesh.positions.size());
   triangle_count_ = static_cast<uint32_t>(mesh.indices.size() / 3);
+  // Montage4D carries its temporal field from the previous surface.
+  previous_surface_ = std::move(current_surface_);
+  current_surface_ = Mesh{};
+  current_surface_.positions = mesh.positions;
+  current_surface_.vertex_keys = mesh.vertex_keys;
+  carry_pending_ = true;
+  double edge_sum = 0;
+  for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    for (int k = 0; k < 3; ++k) {
+      edge_sum += glm::length(mesh.positions[mesh.indices[t + k]] - mesh.positions[mesh.indices[t + (k + 1) % 3]]);
+    }
+  }
+  mean_edge_ = mesh.indices.empty() ? 0.0 : edge_sum / static_cast<double>(mesh.indices.size());
   // Vertex -> triangles in CSR form: vertex_count + 1 offsets, then the
   // triangle ids, for the passes that gather over a vertex's triangles.
   adjacency_data_.assign(vertex_count_ + 1 + mesh.indices.size(), 0);
@@ -521,7 +538,8 @@ void Renderer::writeDescriptors() {
       {dilated_.buffer, 0, VK_WHOLE_SIZE}, {sights_.buffer, 0, VK_WHOLE_SIZE}, {trusted_.buffer, 0, VK_WHOLE_SIZE},
       {weights_.buffer, 0, VK_WHOLE_SIZE}, {rows_.buffer, 0, VK_WHOLE_SIZE}, {index_buffer_.buffer, 0, VK_WHOLE_SIZE},
       {seams_.buffer, 0, VK_WHOLE_SIZE}, {visible_counts_.buffer, 0, VK_WHOLE_SIZE},
-      {adjacency_.buffer, 0, VK_WHOLE_SIZE}, {rings_.buffer, 0, VK_WHOLE_SIZE}, {distances_.buffer, 0, VK_WHOLE_SIZE}};
+      {adjacency_.buffer, 0, VK_WHOLE_SIZE}, {rings_.buffer, 0, VK_WHOLE_SIZE}, {distances_.buffer, 0, VK_WHOLE_SIZE},
+      {temporal_.buffer, 0, VK_WHOLE_SIZE}, {carry_.buffer, 0, VK_WHOLE_SIZE}};
   std::array<VkWriteDescriptorSet, HOLOFUSE_BINDING_COUNT> writes{};
   for (uint32_t b = 0; b < writes.size(); ++b) {
     writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -557,6 +575,7 @@ FieldSnapshot Renderer::readFields() const {
   copy(dilated_, s.dilated, size_t{images_.width} * images_.height * images_.layers);
   copy(weights_, s.weights, size_t{s.vertex_count} * HOLOFUSE_MAX_CAMERAS);
   s.triangle_count = triangle_count_;
+  s.geodesic_scale = static_cast<float>(geodesicScale(field_parameters_));
   copy(seams_, s.seams, size_t{triangle_count_} * s.camera_count);
   copy(visible_counts_, s.visible_counts, s.camera_count);
   std::vector<float> both;
@@ -564,6 +583,47 @@ FieldSnapshot Renderer::readFields() const {
   const size_t half = TextureFieldPasses::finalDistanceHalf(field_parameters_);
   if (both.size() == 2 * per_vertex) s.distances.assign(both.begin() + half * per_vertex, both.begin() + (half + 1) * per_vertex);
   return s;
+}
+
+void Renderer::prepareTemporal() {
+  // Room for this mesh and the previous one in each half; growing keeps the
+  // previous half's contents.
+  const uint32_t needed =
+      std::max<uint32_t>(1, std::max<uint32_t>(vertex_count_, static_cast<uint32_t>(previous_surface_.vertexCount()))) *
+      HOLOFUSE_MAX_CAMERAS;
+  if (needed > temporal_stride_) {
+    const uint32_t stride = needed * 3 / 2;
+    Buffer grown = ctx_.createBuffer(VkDeviceSize{stride} * 2 * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    if (temporal_stride_ > 0) {
+      std::memcpy(static_cast<float*>(grown.mapped) + temporal_half_ * stride,
+                  static_cast<const float*>(temporal_.mapped) + temporal_half_ * temporal_stride_, temporal_stride_ * 4);
+    }
+    vkDeviceWaitIdle(ctx_.device());
+    ctx_.destroy(temporal_);
+    temporal_ = grown;
+    temporal_stride_ = stride;
+    writeDescriptors();
+  }
+  if (carry_.size < VkDeviceSize{std::max(vertex_count_, 1u)} * 4) {
+    vkDeviceWaitIdle(ctx_.device());
+    ctx_.destroy(carry_);
+    carry_ = ctx_.createBuffer(VkDeviceSize{std::max(vertex_count_, 1u)} * 4 * 3 / 2, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    writeDescriptors();
+    carry_is_identity_ = false;
+    carry_pending_ = true;
+  }
+  auto* carry = static_cast<int32_t*>(carry_.mapped);
+  if (carry_pending_) {
+    // A new mesh: follow vertices by key, else by the nearest previous
+    // vertex within two mean edges, else start fresh.
+    const CarryMap map = carryAcross(previous_surface_, current_surface_, 2.0 * mean_edge_);
+    std::memcpy(carry, map.previous.data(), map.previous.size() * 4);
+    carry_pending_ = false;
+    carry_is_identity_ = false;
+  } else if (!carry_is_identity_) {
+    for (uint32_t v = 0; v < vertex_count_; ++v) carry[v] = static_cast<int32_t>(v);
+    carry_is_identity_ = true;
+  }
 }
 
 glm::mat4 Renderer::clipFor(const Camera& camera) const {
@@ -618,11 +678,19 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   }
   std::memcpy(uniforms_.mapped, &u, sizeof(u));
   const bool have_views = !cameras_.empty();
-  const bool want_fields = have_views && settings.mode == BlendMode::kHoloportation;
+  const bool montage = have_views && settings.mode == BlendMode::kMontage4D;
+  const bool want_fields = have_views && (settings.mode == BlendMode::kHoloportation || montage);
   FieldParameters parameters = settings.fields;
   parameters.alpha = settings.alpha;
-  const bool settings_changed = settings.camera_enabled != field_cameras_ ||
-                                std::memcmp(&parameters, &field_parameters_, sizeof(parameters)) != 0;
+  if (montage) parameters.geodesics = true;
+  if (montage) {
+    prepareTemporal();
+    u.user_eye = glm::vec4(glm::vec3(user_camera.center()), 1.0f);
+    u.temporal = glm::vec4(static_cast<float>(reference::temporalLambda(settings.lambda, settings.frame_interval_s)),
+                           static_cast<float>(temporal_half_), 0.0f, 0.0f);
+    std::memcpy(uniforms_.mapped, &u, sizeof(u));
+  }
+  const bool settings_changed = settings.camera_enabled != field_cameras_ || !(parameters == field_parameters_);
   const bool run_fields = want_fields && (fields_stale_ || depth_maps_stale_ || settings_changed);
   if (run_fields) ensureFieldBuffers();
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
@@ -634,6 +702,11 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
                                       static_cast<uint32_t>(cameras_.size()), images_.width, images_.height, parameters,
                                       visible_counts_.buffer);
       ++field_passes_;
+    }
+    if (montage) {
+      field_passes_pipelines_->recordMontage(cmd, descriptor_set_, vertex_count_, static_cast<uint32_t>(cameras_.size()),
+                                             parameters, static_cast<float>(geodesicScale(parameters)),
+                                             temporal_stride_);
     }
     std::array<VkClearValue, 2> clears{};
     clears[0].color = {{0.0f, 0.0f, 0.0f, 0.0f}};
@@ -679,6 +752,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
                          0, nullptr);
   });
   if (have_views) depth_maps_stale_ = false;
+  if (montage) temporal_half_ ^= 1u;  // this frame's field is the next one's previous
   if (run_fields) {
     fields_stale_ = false;
     field_cameras_ = settings.camera_enabled;

@@ -11,6 +11,7 @@
 #include "shaders/geodesic_seed_comp_spv.h"
 #include "shaders/global_visibility_comp_spv.h"
 #include "shaders/holoportation_field_comp_spv.h"
+#include "shaders/montage_field_comp_spv.h"
 #include "shaders/seams_comp_spv.h"
 #include "shaders/visibility_comp_spv.h"
 #include "shaders/vote_comp_spv.h"
@@ -44,6 +45,7 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
   geodesic_seed_ = create(k_geodesic_seed_comp_spv, sizeof(k_geodesic_seed_comp_spv));
   geodesic_rings_ = create(k_geodesic_rings_comp_spv, sizeof(k_geodesic_rings_comp_spv));
   geodesic_distance_ = create(k_geodesic_distance_comp_spv, sizeof(k_geodesic_distance_comp_spv));
+  montage_ = create(k_montage_field_comp_spv, sizeof(k_montage_field_comp_spv));
   field_ = create(k_holoportation_field_comp_spv, sizeof(k_holoportation_field_comp_spv));
   VkQueryPoolCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
@@ -59,6 +61,24 @@ const std::vector<std::string>& TextureFieldPasses::stageNames() {
   static const std::vector<std::string> kNames = {"depth_maps", "discontinuities", "dilation", "visibility",
                                                   "voting", "seams_and_global_visibility", "geodesics", "field"};
   return kNames;
+}
+
+void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
+                                       uint32_t camera_count, const FieldParameters& parameters, float geodesic_scale,
+                                       uint32_t temporal_stride) {
+  ComputePush push{};
+  push.vertex_count = vertex_count;
+  push.camera_count = camera_count;
+  push.parity = finalDistanceHalf(parameters);  // the half holding the final distances
+  push.max_rings = parameters.geodesic_rings;
+  push.geodesic_scale = geodesic_scale;
+  push.temporal_stride = temporal_stride;
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, montage_);
+  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+  if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
+  computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
 }
 
 uint32_t TextureFieldPasses::ringPasses(const FieldParameters& p) {
@@ -95,7 +115,7 @@ std::vector<double> TextureFieldPasses::lastTimesMs() const {
 
 TextureFieldPasses::~TextureFieldPasses() {
   for (VkPipeline p : {discontinuity_, dilate_, dilate_columns_, visibility_, vote_, seams_, global_visibility_,
-                       geodesic_seed_, geodesic_rings_, geodesic_distance_, field_}) {
+                       geodesic_seed_, geodesic_rings_, geodesic_distance_, montage_, field_}) {
     vkDestroyPipeline(ctx_.device(), p, nullptr);
   }
   vkDestroyQueryPool(ctx_.device(), queries_, nullptr);
@@ -142,8 +162,7 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   // One dispatch covers every camera (z) so each stage costs one barrier.
   auto dispatchPerCamera = [&](VkPipeline pipeline) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-    push.camera = 0;
-    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+        vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
     if (camera_count > 0) {
       vkCmdDispatch(cmd, groups(width, HOLOFUSE_PIXEL_GROUP), groups(height, HOLOFUSE_PIXEL_GROUP), camera_count);
     }
@@ -151,8 +170,7 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   };
   auto dispatchLinear = [&](VkPipeline pipeline, uint32_t items, bool barrier) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-    push.camera = 0;
-    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+        vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
     if (items > 0) vkCmdDispatch(cmd, groups(items, HOLOFUSE_VERTEX_GROUP), 1, 1);
     if (barrier) computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
   };

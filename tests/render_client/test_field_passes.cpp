@@ -244,3 +244,98 @@ TEST(FieldPassesDeterminism, TheSameInputGivesTheSameBits) {
 
 }  // namespace
 }  // namespace holofuse::render
+
+namespace holofuse::render {
+namespace {
+
+TEST(Montage4DMode, FieldsMatchTheReferenceAndAViewpointJumpFadesIn) {
+  const Scene scene = syntheticScene(5, 160, 120, 9);
+  std::vector<ViewImages> views;
+  std::vector<Camera> cameras;
+  for (const auto& v : scene.views) {
+    views.push_back({v.camera, v.color, v.mask});
+    cameras.push_back(v.camera);
+  }
+  Renderer renderer(context(), 96, 72);
+  renderer.setMesh(scene.mesh);
+  renderer.setViews(views);
+  BlendSettings settings;
+  settings.mode = BlendMode::kMontage4D;
+  // At these small images a 4-pixel band would leave most vertices to one
+  // camera, whose normalised weight is 1 from any view: keep the views
+  // overlapping so the view dependence shows.
+  settings.fields.dilation_px = 1;
+  settings.lambda = 0.05;
+  settings.frame_interval_s = 1.0 / 30.0;
+  const size_t n = cameras.size(), vertices = scene.mesh.vertexCount();
+
+  // The reference, fed the GPU's own per-mesh stages so this checks stages 8
+  // to 10 (the earlier ones are compared above).
+  reference::Field temporal;
+  auto expected = [&](const FieldSnapshot& gpu, const glm::dvec3& eye, bool first) {
+    std::vector<std::vector<uint8_t>> visible(n, std::vector<uint8_t>(vertices));
+    reference::Field gamma(n, std::vector<double>(vertices));
+    std::vector<double> g(n);
+    const double best = *std::max_element(gpu.visible_counts.begin(), gpu.visible_counts.end());
+    for (size_t i = 0; i < n; ++i) {
+      g[i] = best > 0 ? gpu.visible_counts[i] / best : 0.0;
+      for (size_t v = 0; v < vertices; ++v) {
+        visible[i][v] = gpu.sights[i * vertices + v] == 0 && gpu.trusted[i * vertices + v] != 0;
+        const float d = gpu.distances[i * vertices + v];
+        gamma[i][v] = d >= 1e37f ? 1.0 : std::min(1.0, static_cast<double>(d) / gpu.geodesic_scale);
+      }
+    }
+    const auto target = reference::montageTargetField(scene.mesh, cameras, visible, g, gamma, eye, settings.alpha);
+    if (first) {
+      temporal = target;  // every vertex is new: it starts from its target
+    } else {
+      reference::temporalUpdate(temporal, target, reference::temporalLambda(0.05, 1.0 / 30.0));
+    }
+    return reference::normalizeFields(temporal, gamma,
+                                      reference::holoportationField(scene.mesh, cameras, visible, settings.alpha));
+  };
+  auto meanError = [&](const FieldSnapshot& gpu, const reference::BlendWeights& cpu) {
+    double error = 0;
+    for (size_t v = 0; v < vertices; ++v) {
+      for (size_t i = 0; i < n; ++i) error += std::abs(gpu.weights[v * HOLOFUSE_MAX_CAMERAS + i] - cpu.weight[i][v]);
+    }
+    return error / static_cast<double>(n * vertices);
+  };
+  renderer.render(cameras[0], settings);
+  const FieldSnapshot first = renderer.readFields();
+  const auto cpu_first = expected(first, cameras[0].center(), true);
+  EXPECT_LT(meanError(first, cpu_first), 1e-4);
+  // A 144-degree viewpoint jump (camera 0 to camera 2 of five).
+  renderer.render(cameras[2], settings);
+  const FieldSnapshot second = renderer.readFields();
+  const auto cpu_second = expected(second, cameras[2].center(), false);
+  const double error = meanError(second, cpu_second);
+  RecordProperty("montage_weight_error", std::to_string(error));
+  EXPECT_LT(error, 1e-4);
+  // It fades in: one frame after the jump the weights are still close to
+  // the old view's (lambda 0.05), far from where the jump's target lies.
+  double moved = 0, total_change = 0;
+  reference::Field snap_target;
+  {
+    reference::Field saved = temporal;
+    temporal.clear();
+    const auto snapped = expected(second, cameras[2].center(), true);
+    for (size_t v = 0; v < vertices; ++v) {
+      // Where the old view already had a field (the surface it showed); a
+      // vertex with no field yet (facing away from the old eye) takes the
+      // normal-weighted fallback until its field builds up.
+      if (cpu_first.fallback[v] || cpu_first.hole[v] || cpu_second.fallback[v]) continue;
+      for (size_t i = 0; i < n; ++i) {
+        moved += std::abs(second.weights[v * HOLOFUSE_MAX_CAMERAS + i] - first.weights[v * HOLOFUSE_MAX_CAMERAS + i]);
+        total_change += std::abs(snapped.weight[i][v] - first.weights[v * HOLOFUSE_MAX_CAMERAS + i]);
+      }
+    }
+    temporal = saved;
+  }
+  ASSERT_GT(total_change, 0.0);
+  RecordProperty("fraction_moved_after_one_frame", std::to_string(moved / total_change));
+  EXPECT_LT(moved / total_change, 0.2) << "the jump must fade in, not snap";
+}
+
+}  // namespace
+}  // namespace holofuse::render

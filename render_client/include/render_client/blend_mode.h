@@ -16,6 +16,9 @@ enum class BlendMode : int {
   // The Holoportation baseline (paper 000 eq. 2): per-vertex fields with
   // dilated depth discontinuities and multi-level majority voting.
   kHoloportation = HOLOFUSE_MODE_HOLOPORTATION,
+  // Montage4D (paper 000 eqs. 4 and 5): view-dependent target fields
+  // diffused away from seams by geodesic distance, smoothed in time.
+  kMontage4D = HOLOFUSE_MODE_MONTAGE4D,
 };
 
 std::optional<BlendMode> blendModeFromName(const std::string& name);

@@ -22,7 +22,9 @@ struct BlendSettings {
   float depth_tolerance = 0.03f;              // metres behind the depth map still visible
   glm::vec3 hole_color{0.5f, 0.5f, 0.5f};     // surface that no camera sees
   std::vector<bool> camera_enabled;           // empty: all cameras take part
-  FieldParameters fields;                     // texture-field passes (holoportation mode)
+  FieldParameters fields;                     // texture-field passes (holoportation, montage4d)
+  double lambda = 0.05;                       // montage4d: temporal rate at 30 fps (eq. 5)
+  double frame_interval_s = 1.0 / 30.0;       // montage4d: real time since the previous rendered frame
 };
 
 // What the texture-field passes computed, read back for tests, indexed
@@ -35,6 +37,7 @@ struct FieldSnapshot {
   std::vector<uint32_t> seams;           // [camera * triangle_count + triangle]: SeamRule bits
   std::vector<uint32_t> visible_counts;  // per camera: vertices seen and trusted
   std::vector<float> distances;          // [camera * vertex_count + vertex]: geodesic distance (3e38: unreached)
+  float geodesic_scale = 0;              // distance that maps to gamma = 1
   std::vector<float> weights;
 };
 
@@ -109,6 +112,19 @@ class Renderer {
   std::vector<bool> field_cameras_;
   FieldParameters field_parameters_;
   std::vector<uint32_t> adjacency_data_;  // CSR of the current mesh (config.h binding ADJACENCY)
+  // Montage4D's temporal field: two halves (previous, current) of
+  // temporal_stride_ floats, swapped every frame, and the map from this
+  // mesh's vertices to the previous mesh's.
+  Buffer temporal_, carry_;
+  uint32_t temporal_stride_ = 0;
+  uint32_t temporal_half_ = 0;  // the half holding the previous frame's field
+  Mesh previous_surface_, current_surface_;  // positions and keys only
+  bool carry_pending_ = false;
+  bool carry_is_identity_ = false;
+  double mean_edge_ = 0;
+  void prepareTemporal();
+  // gamma = 1 at k mean edges from a seam.
+  double geodesicScale(const FieldParameters& p) const { return std::max(1, p.geodesic_rings) * mean_edge_; }
   // Texture-field buffers (config.h bindings 4 to 8).
   Buffer edges_, dilated_, sights_, trusted_, weights_, rows_, seams_, visible_counts_, adjacency_, rings_,
       distances_;

@@ -28,12 +28,13 @@ struct FieldParameters {
   bool geodesics = false;
   int geodesic_rings = 15;       // k
   int geodesic_iterations = 20;  // K
+  bool operator==(const FieldParameters&) const = default;
 };
 
 // Mirror of the Push block in shaders/compute_common.glsl.
 struct ComputePush {
   uint32_t vertex_count;
-  uint32_t camera;
+  uint32_t reserved;
   uint32_t width;
   uint32_t height;
   float relative_jump;
@@ -46,8 +47,10 @@ struct ComputePush {
   uint32_t triangle_count;
   uint32_t parity;
   int32_t max_rings;
+  float geodesic_scale;
+  uint32_t temporal_stride;
 };
-static_assert(sizeof(ComputePush) == 56);
+static_assert(sizeof(ComputePush) == 64);
 static_assert(HOLOFUSE_COMPUTE_PUSH_OFFSET + sizeof(ComputePush) <= 128, "lavapipe allows 128 bytes");
 
 class TextureFieldPasses {
@@ -71,6 +74,11 @@ class TextureFieldPasses {
               uint32_t camera_count, uint32_t width, uint32_t height, const FieldParameters& parameters,
               VkBuffer visible_counts);
 
+  // Stages 8 to 10 of Montage4D for one rendered view (per frame, after the
+  // per-mesh passes): target, temporal and normalised fields.
+  void recordMontage(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count, uint32_t camera_count,
+                     const FieldParameters& parameters, float geodesic_scale, uint32_t temporal_stride);
+
   // GPU milliseconds of each pass in the last recorded run (after the
   // submission finished), in pass order, named as in stageNames().
   std::vector<double> lastTimesMs() const;
@@ -88,6 +96,7 @@ class TextureFieldPasses {
   VkPipeline discontinuity_ = VK_NULL_HANDLE, dilate_ = VK_NULL_HANDLE, dilate_columns_ = VK_NULL_HANDLE,
              visibility_ = VK_NULL_HANDLE, seams_ = VK_NULL_HANDLE, global_visibility_ = VK_NULL_HANDLE,
              geodesic_seed_ = VK_NULL_HANDLE, geodesic_rings_ = VK_NULL_HANDLE, geodesic_distance_ = VK_NULL_HANDLE,
+             montage_ = VK_NULL_HANDLE,
              vote_ = VK_NULL_HANDLE, field_ = VK_NULL_HANDLE;
   VkQueryPool queries_ = VK_NULL_HANDLE;
   double timestamp_period_ns_ = 1.0;
