@@ -225,8 +225,8 @@ int runClient(const ClientOptions& options) {
           continue;
         }
         auto mesh = decodeDraco(mesh_frame.mesh.data(), mesh_frame.mesh.size());
-        if (!mesh.isOk()) {
-          skip(mesh_frame.frame_id, mesh.status().message());
+        if (!mesh.isOk() || mesh->triangleCount() == 0) {
+          skip(mesh_frame.frame_id, mesh.isOk() ? "mesh with no triangles" : mesh.status().message());
           bundles.erase(bundle);
           continue;
         }
