@@ -3,8 +3,9 @@
 #include "config.h"
 #include "cameras.glsl"
 #include "compute_common.glsl"
-// Stage 6, distance: one Jacobi pass (of K = 20) of the surface distance
-// from camera i's seams. For each triangle (a, b, c) around vertex c the
+// Stage 6: one Jacobi pass (of K = 20) of the triangle-ring count and the
+// surface distance from camera i's seams; vertices more than k rings away
+// stay unreached. For each triangle (a, b, c) around vertex c the
 // triangle is unfolded into the plane: a at the origin, b on the x axis,
 // c above it, and the virtual source s below it at distances d_a and d_b
 // from a and b. When the straight line s -> c crosses edge ab the distance
@@ -34,9 +35,21 @@ void main() {
   if (v >= push.vertex_count || camera >= push.camera_count) return;
   uint base = camera * push.vertex_count;
   uint in_offset = readHalf(), out_offset = writeHalf();
+  // The triangle ring count advances in the same pass: a distance can only
+  // become finite one ring per pass too, so gating by the ring reached so
+  // far gives the same result as counting the rings to the end first.
+  uint ring = rings[in_offset + base + v];
+  for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
+    uint t = adjacency[push.vertex_count + 1u + k];
+    for (uint j = 0u; j < 3u; ++j) {
+      uint w = indices[3u * t + j];
+      uint r = rings[in_offset + base + w];
+      if (w != v && r < uint(push.max_rings)) ring = min(ring, r + 1u);
+    }
+  }
+  rings[out_offset + base + v] = ring;
   float best = distances[in_offset + base + v];
-  // Rings are final by now and live in half 0.
-  if (rings[base + v] <= uint(push.max_rings)) {
+  if (ring <= uint(push.max_rings)) {
     vec3 pc = vertexPosition(v);
     for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
       uint t = adjacency[push.vertex_count + 1u + k];

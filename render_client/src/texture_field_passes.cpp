@@ -7,7 +7,6 @@
 #include "shaders/dilate_comp_spv.h"
 #include "shaders/discontinuity_comp_spv.h"
 #include "shaders/geodesic_distance_comp_spv.h"
-#include "shaders/geodesic_rings_comp_spv.h"
 #include "shaders/geodesic_seed_comp_spv.h"
 #include "shaders/global_visibility_comp_spv.h"
 #include "shaders/holoportation_field_comp_spv.h"
@@ -43,7 +42,6 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
   seams_ = create(k_seams_comp_spv, sizeof(k_seams_comp_spv));
   global_visibility_ = create(k_global_visibility_comp_spv, sizeof(k_global_visibility_comp_spv));
   geodesic_seed_ = create(k_geodesic_seed_comp_spv, sizeof(k_geodesic_seed_comp_spv));
-  geodesic_rings_ = create(k_geodesic_rings_comp_spv, sizeof(k_geodesic_rings_comp_spv));
   geodesic_distance_ = create(k_geodesic_distance_comp_spv, sizeof(k_geodesic_distance_comp_spv));
   montage_ = create(k_montage_field_comp_spv, sizeof(k_montage_field_comp_spv));
   field_ = create(k_holoportation_field_comp_spv, sizeof(k_holoportation_field_comp_spv));
@@ -81,13 +79,6 @@ void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set,
                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
 }
 
-uint32_t TextureFieldPasses::ringPasses(const FieldParameters& p) {
-  // k + 1 passes settle every ring up to k; an even count leaves the result
-  // in half 0, where the distance passes read it.
-  const uint32_t passes = static_cast<uint32_t>(std::max(p.geodesic_rings, 0)) + 1;
-  return passes + (passes % 2);
-}
-
 void TextureFieldPasses::beginTiming(VkCommandBuffer cmd) {
   vkCmdResetQueryPool(cmd, queries_, 0, kStamps);
   stamp(cmd, 0);
@@ -115,7 +106,7 @@ std::vector<double> TextureFieldPasses::lastTimesMs() const {
 
 TextureFieldPasses::~TextureFieldPasses() {
   for (VkPipeline p : {discontinuity_, dilate_, dilate_columns_, visibility_, vote_, seams_, global_visibility_,
-                       geodesic_seed_, geodesic_rings_, geodesic_distance_, montage_, field_}) {
+                       geodesic_seed_, geodesic_distance_, montage_, field_}) {
     vkDestroyPipeline(ctx_.device(), p, nullptr);
   }
   vkDestroyQueryPool(ctx_.device(), queries_, nullptr);
@@ -188,8 +179,8 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   dispatchLinear(global_visibility_, vertex_count, true);
   stamp(cmd, 6);
   if (parameters.geodesics) {
-    // Stage 6: seed from the seams, k (+1, even) ring passes, K distance
-    // passes, each a Jacobi pass over all cameras (y) and vertices (x).
+    // Stage 6: seed from the seams, then K Jacobi passes of rings and
+    // distances together over all cameras (y) and vertices (x).
     push.max_rings = parameters.geodesic_rings;
     auto perVertexAndCamera = [&](VkPipeline pipeline, uint32_t parity) {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
@@ -201,7 +192,6 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
       computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
     };
     perVertexAndCamera(geodesic_seed_, 0);
-    for (uint32_t pass = 0; pass < ringPasses(parameters); ++pass) perVertexAndCamera(geodesic_rings_, pass % 2);
     for (int pass = 0; pass < parameters.geodesic_iterations; ++pass) {
       perVertexAndCamera(geodesic_distance_, static_cast<uint32_t>(pass) % 2);
     }

@@ -83,8 +83,7 @@ class TextureFieldPasses {
   // submission finished), in pass order, named as in stageNames().
   std::vector<double> lastTimesMs() const;
   static const std::vector<std::string>& stageNames();
-  // Which half of the ping-pong buffers holds the final rings / distances.
-  static uint32_t ringPasses(const FieldParameters& p);
+  // Which half of the ping-pong buffers holds the final distances.
   static uint32_t finalDistanceHalf(const FieldParameters& p) { return static_cast<uint32_t>(p.geodesic_iterations) % 2; }
 
  private:
@@ -95,7 +94,7 @@ class TextureFieldPasses {
   VkPipelineLayout layout_;
   VkPipeline discontinuity_ = VK_NULL_HANDLE, dilate_ = VK_NULL_HANDLE, dilate_columns_ = VK_NULL_HANDLE,
              visibility_ = VK_NULL_HANDLE, seams_ = VK_NULL_HANDLE, global_visibility_ = VK_NULL_HANDLE,
-             geodesic_seed_ = VK_NULL_HANDLE, geodesic_rings_ = VK_NULL_HANDLE, geodesic_distance_ = VK_NULL_HANDLE,
+             geodesic_seed_ = VK_NULL_HANDLE, geodesic_distance_ = VK_NULL_HANDLE,
              montage_ = VK_NULL_HANDLE,
              vote_ = VK_NULL_HANDLE, field_ = VK_NULL_HANDLE;
   VkQueryPool queries_ = VK_NULL_HANDLE;
