@@ -676,20 +676,19 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
                          (i < settings.camera_enabled.size() && settings.camera_enabled[i]);
     u.cameras[i].flags = glm::ivec4(enabled ? 1 : 0, 0, 0, 0);
   }
-  std::memcpy(uniforms_.mapped, &u, sizeof(u));
   const bool have_views = !cameras_.empty();
   const bool montage = have_views && settings.mode == BlendMode::kMontage4D;
   const bool want_fields = have_views && (settings.mode == BlendMode::kHoloportation || montage);
   FieldParameters parameters = settings.fields;
   parameters.alpha = settings.alpha;
-  if (montage) parameters.geodesics = true;
   if (montage) {
+    parameters.geodesics = true;
     prepareTemporal();
     u.user_eye = glm::vec4(glm::vec3(user_camera.center()), 1.0f);
     u.temporal = glm::vec4(static_cast<float>(reference::temporalLambda(settings.lambda, settings.frame_interval_s)),
                            static_cast<float>(temporal_half_), 0.0f, 0.0f);
-    std::memcpy(uniforms_.mapped, &u, sizeof(u));
   }
+  std::memcpy(uniforms_.mapped, &u, sizeof(u));
   const bool settings_changed = settings.camera_enabled != field_cameras_ || !(parameters == field_parameters_);
   const bool run_fields = want_fields && (fields_stale_ || depth_maps_stale_ || settings_changed);
   if (run_fields) ensureFieldBuffers();

@@ -59,6 +59,30 @@ nlohmann::json readJson(const fs::path& p) {
   return nlohmann::json::parse(in);
 }
 
+std::string readFile(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+uint16_t freePort() {
+  auto listener = holofuse::protocol::listenTcp({"127.0.0.1", 0});
+  return listener.isOk() ? listener->localPort() : 0;  // closed again on return
+}
+
+std::string startServer(const fs::path& out, int pods, pid_t* pid) {
+  const fs::path port_file = out / "port";
+  *pid = spawn({kBin + "/fusion_server", "--listen", "127.0.0.1:0", "--pods", std::to_string(pods), "--port-file",
+                port_file.string()},
+               out / "server.log");
+  std::string port;
+  for (int i = 0; i < 100 && port.empty(); ++i) {
+    std::ifstream in(port_file);
+    std::getline(in, port);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return port.empty() ? std::string() : "127.0.0.1:" + port;
+}
+
 TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   const fs::path out = freshDir("loop");
   const double fps = 4.0;
@@ -116,18 +140,9 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
 
 TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
   const fs::path out = freshDir("kill");
-  const fs::path port_file = out / "port";
-  const pid_t server = spawn({kBin + "/fusion_server", "--listen", "127.0.0.1:0", "--pods", "4", "--port-file",
-                              port_file.string()},
-                             out / "server.log");
-  std::string port;
-  for (int i = 0; i < 100 && port.empty(); ++i) {
-    std::ifstream in(port_file);
-    std::getline(in, port);
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  ASSERT_FALSE(port.empty());
-  const std::string endpoint = "127.0.0.1:" + port;
+  pid_t server = 0;
+  const std::string endpoint = startServer(out, 4, &server);
+  ASSERT_FALSE(endpoint.empty()) << "the server did not report its port";
   std::vector<pid_t> pods;
   for (int i = 0; i < 4; ++i) {
     pods.push_back(spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(i), "--pods", "4",
@@ -156,30 +171,6 @@ TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
   std::ifstream log(out / "server.log");
   const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("pod 3"), std::string::npos) << "the server names the pod it lost";
-}
-
-std::string readFile(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
-uint16_t freePort() {
-  auto listener = holofuse::protocol::listenTcp({"127.0.0.1", 0});
-  return listener.isOk() ? listener->localPort() : 0;  // closed again on return
-}
-
-std::string startServer(const fs::path& out, int pods, pid_t* pid) {
-  const fs::path port_file = out / "port";
-  *pid = spawn({kBin + "/fusion_server", "--listen", "127.0.0.1:0", "--pods", std::to_string(pods), "--port-file",
-                port_file.string()},
-               out / "server.log");
-  std::string port;
-  for (int i = 0; i < 100 && port.empty(); ++i) {
-    std::ifstream in(port_file);
-    std::getline(in, port);
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  return "127.0.0.1:" + port;
 }
 
 TEST(Loop, APodWithoutServerRetriesWithBackoffAndJoinsWhenItAppears) {
@@ -214,6 +205,7 @@ TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
   const fs::path out = freshDir("hostile");
   pid_t server = 0;
   const std::string endpoint = startServer(out, 1, &server);
+  ASSERT_TRUE(holofuse::protocol::parseEndpoint(endpoint).isOk()) << "the server did not report its port";
   const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods", "1", "--size",
                            "96x72", "--fps", "5"},
                           out / "pod.log");

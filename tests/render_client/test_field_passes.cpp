@@ -37,6 +37,12 @@ Scene syntheticScene(int cameras, uint32_t w, uint32_t h, uint64_t frame) {
   return s;
 }
 
+std::vector<ViewImages> viewImages(const Scene& scene) {
+  std::vector<ViewImages> views;
+  for (const auto& v : scene.views) views.push_back({v.camera, v.color, v.mask});
+  return views;
+}
+
 // A sphere seen by 8 cameras, one of which sees a "ghost" (other colours).
 Scene ghostSphere() {
   Scene s{"sphere with a ghost view", {}, {}};
@@ -86,9 +92,7 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   // Vulkan.
   Renderer renderer(context(), 96, 72);
   renderer.setMesh(scene.mesh);
-  std::vector<ViewImages> views;
-  for (const auto& v : scene.views) views.push_back({v.camera, v.color, v.mask});
-  renderer.setViews(views);
+  renderer.setViews(viewImages(scene));
   BlendSettings settings;
   settings.mode = BlendMode::kHoloportation;
   settings.fields.geodesics = true;
@@ -188,9 +192,7 @@ TEST(HoloportationMode, ReproducesThePodImageAndComputesFieldsOncePerMesh) {
   const Scene scene = syntheticScene(4, 200, 150, 6);
   Renderer renderer(context(), 200, 150);
   renderer.setMesh(scene.mesh);
-  std::vector<ViewImages> views;
-  for (const auto& v : scene.views) views.push_back({v.camera, v.color, v.mask});
-  renderer.setViews(views);
+  renderer.setViews(viewImages(scene));
   BlendSettings settings;
   settings.mode = BlendMode::kHoloportation;
   const Image8 out = renderer.render(scene.views[1].camera, settings);
@@ -213,16 +215,10 @@ TEST(HoloportationMode, ReproducesThePodImageAndComputesFieldsOncePerMesh) {
   EXPECT_GT(psnr, 24.0);
 }
 
-}  // namespace
-}  // namespace holofuse::render
-
-namespace holofuse::render {
-namespace {
 
 TEST(FieldPassesDeterminism, TheSameInputGivesTheSameBits) {
   const Scene scene = syntheticScene(5, 128, 96, 8);
-  std::vector<ViewImages> views;
-  for (const auto& v : scene.views) views.push_back({v.camera, v.color, v.mask});
+  const std::vector<ViewImages> views = viewImages(scene);
   BlendSettings settings;
   settings.mode = BlendMode::kHoloportation;
   settings.fields.geodesics = true;
@@ -242,20 +238,12 @@ TEST(FieldPassesDeterminism, TheSameInputGivesTheSameBits) {
   EXPECT_EQ(0, std::memcmp(runs[0].weights.data(), runs[1].weights.data(), runs[0].weights.size() * 4));
 }
 
-}  // namespace
-}  // namespace holofuse::render
-
-namespace holofuse::render {
-namespace {
 
 TEST(Montage4DMode, FieldsMatchTheReferenceAndAViewpointJumpFadesIn) {
   const Scene scene = syntheticScene(5, 160, 120, 9);
-  std::vector<ViewImages> views;
+  const std::vector<ViewImages> views = viewImages(scene);
   std::vector<Camera> cameras;
-  for (const auto& v : scene.views) {
-    views.push_back({v.camera, v.color, v.mask});
-    cameras.push_back(v.camera);
-  }
+  for (const auto& v : scene.views) cameras.push_back(v.camera);
   Renderer renderer(context(), 96, 72);
   renderer.setMesh(scene.mesh);
   renderer.setViews(views);
