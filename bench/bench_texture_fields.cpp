@@ -5,6 +5,7 @@
 // their CPU reference for the same work. Prints ratios; the machine is noisy.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <string>
@@ -95,15 +96,21 @@ int main(int argc, char** argv) {
   const auto c2 = Clock::now();
   const auto seams = render::reference::seamTriangles(mesh, sights, trusted);
   std::vector<uint8_t> source(mesh.vertexCount(), 0);
+  size_t sources = 0, reached = 0;
   const auto c3 = Clock::now();
   for (size_t i = 0; i < views.size(); ++i) {
     std::fill(source.begin(), source.end(), 0);
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
       if (seams[i][t]) for (int k = 0; k < 3; ++k) source[mesh.indices[3 * t + k]] = 1;
     }
-    render::reference::approximateGeodesic(mesh, source);
+    const auto distance = render::reference::approximateGeodesic(mesh, source);
+    sources += static_cast<size_t>(std::count(source.begin(), source.end(), 1));
+    reached += static_cast<size_t>(std::count_if(distance.begin(), distance.end(), [](double d) { return std::isfinite(d); }));
   }
   const auto c4 = Clock::now();
+  const double pairs = static_cast<double>(mesh.vertexCount() * views.size());
+  std::printf("\nseam vertices: %.1f%% of (vertex, camera) pairs; within k rings of a seam: %.1f%%\n",
+              100.0 * static_cast<double>(sources) / pairs, 100.0 * static_cast<double>(reached) / pairs);
   auto& m4 = passes["montage4d"];
   std::printf("\nCPU reference (one thread, double) against Vulkan, %zu vertices:\n", vertices);
   std::printf("  depth maps + discontinuities + visibility: CPU %.1f ms, Vulkan %.1f ms\n", ms(c0, c1),

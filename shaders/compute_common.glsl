@@ -4,7 +4,7 @@
 // not overlap in one pipeline layout.
 layout(push_constant) uniform Push {
   layout(offset = HOLOFUSE_COMPUTE_PUSH_OFFSET) uint vertex_count;
-  uint reserved;
+  uint worklist_slot;       // geodesics: which worklist a pass reads
   uint width;
   uint height;
   float relative_jump;      // discontinuity: relative depth step
@@ -38,6 +38,21 @@ layout(std430, set = 0, binding = HOLOFUSE_BINDING_RINGS) buffer Rings { uint ri
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DISTANCES) buffer Distances { float distances[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_TEMPORAL) buffer Temporal { float temporal[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_CARRY) readonly buffer Carry { int carry[]; };
+// Vertex c's view of one triangle (a, b, c) around it, unfolded into the
+// plane once per mesh: a at the origin, b at (ab, 0), c at (cx, cy), cy >= 0.
+struct Fan {
+  uint a;
+  uint b;
+  float ab;
+  float cx;
+  float cy;
+  float ac;
+  float bc;
+  float unused;
+};
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_FANS) readonly buffer Fans { Fan fans[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST) buffer Worklist { uint worklist[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST_COUNTS) buffer WorklistCounts { uint worklist_counts[]; };
 
 vec3 vertexPosition(uint v) { return vec3(vertex_data[6 * v], vertex_data[6 * v + 1], vertex_data[6 * v + 2]); }
 vec3 vertexNormal(uint v) { return vec3(vertex_data[6 * v + 3], vertex_data[6 * v + 4], vertex_data[6 * v + 5]); }
@@ -55,3 +70,30 @@ vec3 projectToCamera(uint i, vec3 p) {
 // [2][camera][vertex] geodesic buffers.
 uint readHalf() { return push.parity * push.camera_count * push.vertex_count; }
 uint writeHalf() { return (1u - push.parity) * push.camera_count * push.vertex_count; }
+
+// Geodesic worklists: adds (camera, vertex) entry to the list of a slot
+// once (its mark dedupes), and keeps that slot's indirect dispatch size
+// equal to ceil(length / HOLOFUSE_VERTEX_GROUP). The list's order depends
+// on scheduling, its contents do not, and each entry's result depends only
+// on the half it reads: the same input gives the same bits.
+void enqueueGeodesic(uint slot, uint entry) {
+  uint entries = push.camera_count * push.vertex_count;
+  uint mark = (HOLOFUSE_WORKLIST_SLOTS + slot) * entries + entry;
+  // Most entries are queued already by another neighbour: a plain read
+  // skips them without an atomic; the exchange decides the races.
+  if (worklist[mark] != 0u || atomicExchange(worklist[mark], 1u) != 0u) return;
+  uint at = atomicAdd(worklist_counts[4u * slot + 3u], 1u);
+  if (at % HOLOFUSE_VERTEX_GROUP == 0u) atomicAdd(worklist_counts[4u * slot], 1u);
+  worklist[slot * entries + at] = entry;
+}
+
+// An entry whose distance or ring changed, with its neighbours: exactly the
+// entries whose next Jacobi update can differ from their present value.
+void enqueueNeighbourhood(uint slot, uint camera, uint v) {
+  uint base = camera * push.vertex_count;
+  enqueueGeodesic(slot, base + v);
+  for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
+    enqueueGeodesic(slot, base + fans[k].a);
+    enqueueGeodesic(slot, base + fans[k].b);
+  }
+}

@@ -45,7 +45,14 @@
 #define HOLOFUSE_BINDING_DISTANCES 15   // [2][camera][vertex] ping-pong
 #define HOLOFUSE_BINDING_TEMPORAL 16    // [2][vertex][16]: previous and current temporal field
 #define HOLOFUSE_BINDING_CARRY 17       // per vertex: its vertex in the previous mesh, -1 for none
-#define HOLOFUSE_BINDING_COUNT 18
+#define HOLOFUSE_BINDING_FANS 18        // per (vertex, triangle) in ADJACENCY order: the triangle unfolded
+#define HOLOFUSE_BINDING_WORKLIST 19    // geodesics: [slot][camera * vertex] lists, then [slot][...] marks
+#define HOLOFUSE_BINDING_WORKLIST_COUNTS 20  // per slot: dispatch groups x, y, z, then the list length
+#define HOLOFUSE_BINDING_COUNT 21
+
+// Geodesic worklists rotate through three slots: the one a pass reads, the
+// one it appends to, and the one it clears for the pass after.
+#define HOLOFUSE_WORKLIST_SLOTS 3u
 
 // Geodesics: rings beyond the bound, distance not reached.
 #define HOLOFUSE_NO_RING 0x7fffffffu

@@ -5,8 +5,10 @@
 #include "compute_common.glsl"
 // Stage 6, start (paper 000 section 4.4): the sources of camera i's
 // distance field are the vertices of its seam triangles (ring 0, distance
-// 0); everything else starts unreached. Gathered per vertex from its
-// triangles, so no two invocations write the same word.
+// 0); everything else starts unreached, in both ping-pong halves. Gathered
+// per vertex from its triangles, so no two invocations write the same
+// word. The first worklist holds the sources and their neighbours: the
+// only entries the first pass can change.
 layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
 
 void main() {
@@ -18,6 +20,8 @@ void main() {
     source = seams[camera * push.triangle_count + adjacency[push.vertex_count + 1u + k]] != 0u;
   }
   uint index = camera * push.vertex_count + v;
-  rings[index] = source ? 0u : HOLOFUSE_NO_RING;
-  distances[index] = source ? 0.0 : HOLOFUSE_FAR;
+  uint half_size = push.camera_count * push.vertex_count;
+  rings[index] = rings[half_size + index] = source ? 0u : HOLOFUSE_NO_RING;
+  distances[index] = distances[half_size + index] = source ? 0.0 : HOLOFUSE_FAR;
+  if (source) enqueueNeighbourhood(0u, camera, v);
 }

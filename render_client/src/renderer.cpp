@@ -39,6 +39,8 @@ static_assert(offsetof(BlendUniforms, params) == 112 * HOLOFUSE_MAX_CAMERAS + 16
 static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 80);
 
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+// Geodesic worklists are cleared by transfer commands every mesh.
+constexpr VkBufferUsageFlags kWorklistUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
 constexpr VkBufferUsageFlags kVertexUsage = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
 constexpr VkBufferUsageFlags kIndexUsage = VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
 constexpr uint32_t kImageMipLevels = 4;  // the vote searches at most this many
@@ -242,9 +244,11 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
   for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &adjacency_, &rings_,
-                    &distances_, &temporal_, &carry_}) {
+                    &distances_, &temporal_, &carry_, &fans_}) {
     *b = ctx_.createBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   }
+  worklist_ = ctx_.createBuffer(16, kWorklistUsage);
+  worklist_counts_ = ctx_.createBuffer(64, kWorklistUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   visible_counts_ = ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
                                       VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
 }
@@ -261,7 +265,9 @@ Renderer::~Renderer() {
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
   for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &visible_counts_, &adjacency_,
-                    &rings_, &distances_, &temporal_, &carry_}) ctx_.destroy(*b);
+                    &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_}) {
+    ctx_.destroy(*b);
+  }
   field_passes_pipelines_.reset();
   vkDestroyPipeline(d, depth_pipeline_, nullptr);
   vkDestroyPipeline(d, blend_pipeline_, nullptr);
@@ -433,6 +439,7 @@ void Renderer::setMesh(const Mesh& mesh) {
   for (uint32_t t = 0; t < triangle_count_; ++t) {
     for (int k = 0; k < 3; ++k) adjacency_data_[vertex_count_ + 1 + fill[mesh.indices[3 * t + k]]++] = t;
   }
+  fan_data_ = geodesicFans(mesh, adjacency_data_);
   depth_maps_stale_ = true;
   fields_stale_ = true;
 }
@@ -517,14 +524,17 @@ void Renderer::ensureFieldBuffers() {
   for (auto [buffer, size] : {std::pair{&edges_, pixels}, {&dilated_, pixels}, {&rows_, pixels}, {&sights_, per_vertex},
                               {&trusted_, per_vertex}, {&weights_, weights}, {&seams_, per_triangle},
                               {&rings_, 2 * per_vertex}, {&distances_, 2 * per_vertex},
-                              {&adjacency_, VkDeviceSize{adjacency_data_.size() * 4 + 4}}}) {
+                              {&adjacency_, VkDeviceSize{adjacency_data_.size() * 4 + 4}},
+                              {&fans_, VkDeviceSize{fan_data_.size() * sizeof(GeodesicFan) + 32}},
+                              {&worklist_, 2 * HOLOFUSE_WORKLIST_SLOTS * per_vertex}}) {
     if (buffer->size >= size) continue;
     ctx_.destroy(*buffer);
-    *buffer = ctx_.createBuffer(size * 3 / 2, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    *buffer = ctx_.createBuffer(size * 3 / 2, buffer == &worklist_ ? kWorklistUsage : VkBufferUsageFlags{VK_BUFFER_USAGE_STORAGE_BUFFER_BIT});
     changed = true;
   }
   if (changed) writeDescriptors();
   std::memcpy(adjacency_.mapped, adjacency_data_.data(), adjacency_data_.size() * 4);
+  std::memcpy(fans_.mapped, fan_data_.data(), fan_data_.size() * sizeof(GeodesicFan));
 }
 
 void Renderer::writeDescriptors() {
@@ -539,7 +549,8 @@ void Renderer::writeDescriptors() {
       {weights_.buffer, 0, VK_WHOLE_SIZE}, {rows_.buffer, 0, VK_WHOLE_SIZE}, {index_buffer_.buffer, 0, VK_WHOLE_SIZE},
       {seams_.buffer, 0, VK_WHOLE_SIZE}, {visible_counts_.buffer, 0, VK_WHOLE_SIZE},
       {adjacency_.buffer, 0, VK_WHOLE_SIZE}, {rings_.buffer, 0, VK_WHOLE_SIZE}, {distances_.buffer, 0, VK_WHOLE_SIZE},
-      {temporal_.buffer, 0, VK_WHOLE_SIZE}, {carry_.buffer, 0, VK_WHOLE_SIZE}};
+      {temporal_.buffer, 0, VK_WHOLE_SIZE}, {carry_.buffer, 0, VK_WHOLE_SIZE}, {fans_.buffer, 0, VK_WHOLE_SIZE},
+      {worklist_.buffer, 0, VK_WHOLE_SIZE}, {worklist_counts_.buffer, 0, VK_WHOLE_SIZE}};
   std::array<VkWriteDescriptorSet, HOLOFUSE_BINDING_COUNT> writes{};
   for (uint32_t b = 0; b < writes.size(); ++b) {
     writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -699,7 +710,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
       field_passes_pipelines_->depthMapsDone(cmd);
       field_passes_pipelines_->record(cmd, descriptor_set_, vertex_count_, triangle_count_,
                                       static_cast<uint32_t>(cameras_.size()), images_.width, images_.height, parameters,
-                                      visible_counts_.buffer);
+                                      {visible_counts_.buffer, worklist_.buffer, worklist_counts_.buffer});
       ++field_passes_;
     }
     if (montage) {
@@ -750,6 +761,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &to_host, 0, nullptr,
                          0, nullptr);
   });
+  if (run_fields && montage) { auto* c = static_cast<uint32_t*>(worklist_counts_.mapped); fprintf(stderr, "processed %u changed %u of %u\n", c[12], c[13], vertex_count_ * 4); c[12] = c[13] = 0; }
   if (have_views) depth_maps_stale_ = false;
   if (montage) temporal_half_ ^= 1u;  // this frame's field is the next one's previous
   if (run_fields) {

@@ -1,6 +1,7 @@
 #include "render_client/texture_field_passes.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "shaders/config.h"
 #include "shaders/dilate_columns_comp_spv.h"
@@ -31,6 +32,31 @@ uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size; }
 constexpr uint32_t kStamps = 9;  // around the depth maps and the seven timed passes
 
 }  // namespace
+
+std::vector<GeodesicFan> geodesicFans(const Mesh& mesh, const std::vector<uint32_t>& adjacency) {
+  const size_t vertex_count = mesh.vertexCount();
+  std::vector<GeodesicFan> fans(adjacency.size() - vertex_count - 1);
+  for (uint32_t c = 0; c < vertex_count; ++c) {
+    for (uint32_t k = adjacency[c]; k < adjacency[c + 1]; ++k) {
+      const uint32_t t = adjacency[vertex_count + 1 + k];
+      const uint32_t i0 = mesh.indices[3 * t], i1 = mesh.indices[3 * t + 1], i2 = mesh.indices[3 * t + 2];
+      GeodesicFan& f = fans[k];
+      f.a = i0 == c ? i1 : (i1 == c ? i2 : i0);
+      f.b = i0 == c ? i2 : (i1 == c ? i0 : i1);
+      const glm::dvec3 pa(mesh.positions[f.a]), pb(mesh.positions[f.b]), pc(mesh.positions[c]);
+      const double ab = glm::length(pa - pb), ac = glm::length(pa - pc), bc = glm::length(pb - pc);
+      // The same construction as render::reference::unfoldedDistance.
+      const double cx = ab > 0 ? (ac * ac - bc * bc + ab * ab) / (2 * ab) : 0.0;
+      f.ab = static_cast<float>(ab);
+      f.ac = static_cast<float>(ac);
+      f.bc = static_cast<float>(bc);
+      f.cx = static_cast<float>(cx);
+      f.cy = static_cast<float>(std::sqrt(std::max(ac * ac - cx * cx, 0.0)));
+      f.unused = 0.0f;
+    }
+  }
+  return fans;
+}
 
 TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout layout)
     : ctx_(context), layout_(layout) {
@@ -129,7 +155,7 @@ VkPipeline TextureFieldPasses::create(const uint32_t* code, size_t bytes) {
 
 void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
                                 uint32_t triangle_count, uint32_t camera_count, uint32_t width, uint32_t height,
-                                const FieldParameters& parameters, VkBuffer visible_counts) {
+                                const FieldParameters& parameters, const ResetBuffers& reset) {
   ComputePush push{};
   push.vertex_count = vertex_count;
   push.width = width;
@@ -142,7 +168,13 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   push.alpha = parameters.alpha;
   push.camera_count = camera_count;
   push.triangle_count = triangle_count;
-  vkCmdFillBuffer(cmd, visible_counts, 0, VK_WHOLE_SIZE, 0);
+  vkCmdFillBuffer(cmd, reset.visible_counts, 0, VK_WHOLE_SIZE, 0);
+  if (parameters.geodesics) {
+    // Empty lists (dispatch sizes 0 x 1 x 1) and clear marks.
+    const uint32_t empty[4 * HOLOFUSE_WORKLIST_SLOTS] = {0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 1, 0};
+    vkCmdUpdateBuffer(cmd, reset.worklist_counts, 0, sizeof(empty), empty);
+    vkCmdFillBuffer(cmd, reset.worklist, 0, VK_WHOLE_SIZE, 0);
+  }
   VkMemoryBarrier cleared{};
   cleared.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
   cleared.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
@@ -189,11 +221,20 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
       if (vertex_count > 0 && camera_count > 0) {
         vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), camera_count, 1);
       }
-      computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+      computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+                     VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
     };
     perVertexAndCamera(geodesic_seed_, 0);
+    // Each pass runs only the entries its predecessor queued: the dispatch
+    // size comes from the GPU (indirect), no round trip to the host.
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, geodesic_distance_);
     for (int pass = 0; pass < parameters.geodesic_iterations; ++pass) {
-      perVertexAndCamera(geodesic_distance_, static_cast<uint32_t>(pass) % 2);
+      push.parity = static_cast<uint32_t>(pass) % 2;
+      push.worklist_slot = static_cast<uint32_t>(pass) % HOLOFUSE_WORKLIST_SLOTS;
+      vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+      vkCmdDispatchIndirect(cmd, reset.worklist_counts, VkDeviceSize{16} * push.worklist_slot);
+      computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+                     VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
     }
   }
   stamp(cmd, 7);

@@ -112,6 +112,7 @@ class Renderer {
   std::vector<bool> field_cameras_;
   FieldParameters field_parameters_;
   std::vector<uint32_t> adjacency_data_;  // CSR of the current mesh (config.h binding ADJACENCY)
+  std::vector<GeodesicFan> fan_data_;     // in the same order (binding FANS)
   // Montage4D's temporal field: two halves (previous, current) of
   // temporal_stride_ floats, swapped every frame, and the map from this
   // mesh's vertices to the previous mesh's.
@@ -127,7 +128,7 @@ class Renderer {
   double geodesicScale(const FieldParameters& p) const { return std::max(1, p.geodesic_rings) * mean_edge_; }
   // Texture-field buffers (config.h bindings 4 to 8).
   Buffer edges_, dilated_, sights_, trusted_, weights_, rows_, seams_, visible_counts_, adjacency_, rings_,
-      distances_;
+      distances_, fans_, worklist_, worklist_counts_;
   uint32_t triangle_count_ = 0;
   std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
   // Output

@@ -11,10 +11,27 @@
 #include <string>
 #include <vector>
 
+#include "common/mesh.h"
 #include "render_client/vulkan_context.h"
 #include "shaders/config.h"
 
 namespace holofuse::render {
+
+// C++ mirror of the GLSL Fan (compute_common.glsl): vertex c's view of one
+// triangle (a, b, c) around it, unfolded into the plane (a at the origin,
+// b at (ab, 0), c at (cx, cy) with cy >= 0). The geodesic passes read it
+// instead of refetching three positions and redoing the same square roots
+// in each of K passes for every camera.
+struct GeodesicFan {
+  uint32_t a, b;
+  float ab, cx, cy, ac, bc, unused;
+};
+static_assert(sizeof(GeodesicFan) == 32);
+
+// One fan per entry of the vertex -> triangle adjacency (CSR: vertex_count
+// + 1 offsets, then triangle ids), in the same order. a and b follow c in
+// the triangle's winding.
+std::vector<GeodesicFan> geodesicFans(const Mesh& mesh, const std::vector<uint32_t>& adjacency);
 
 struct FieldParameters {
   float relative_jump = 0.03f;           // discontinuity: relative depth step
@@ -34,7 +51,7 @@ struct FieldParameters {
 // Mirror of the Push block in shaders/compute_common.glsl.
 struct ComputePush {
   uint32_t vertex_count;
-  uint32_t reserved;
+  uint32_t worklist_slot;
   uint32_t width;
   uint32_t height;
   float relative_jump;
@@ -69,10 +86,15 @@ class TextureFieldPasses {
   // Records stages 2 to 4 and the Holoportation field for the bound set,
   // with a barrier between dependent dispatches and one at the end that
   // makes the weights visible to the vertex shader.
-  // visible_counts is cleared here before stage 7 adds to it.
+  // Buffers the passes reset themselves before use (transfer commands).
+  struct ResetBuffers {
+    VkBuffer visible_counts;   // cleared before stage 7 adds to it
+    VkBuffer worklist;         // geodesic worklists and marks, cleared
+    VkBuffer worklist_counts;  // indirect dispatch sizes, set to empty lists
+  };
   void record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count, uint32_t triangle_count,
               uint32_t camera_count, uint32_t width, uint32_t height, const FieldParameters& parameters,
-              VkBuffer visible_counts);
+              const ResetBuffers& reset);
 
   // Stages 8 to 10 of Montage4D for one rendered view (per frame, after the
   // per-mesh passes): target, temporal and normalised fields.
