@@ -24,6 +24,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--depth-tolerance", options.blend.depth_tolerance, "occlusion test tolerance, metres")
       ->check(CLI::Range(0.0, 10.0));
+  app.add_option("--dilation", options.blend.fields.dilation_px,
+                 "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, scaled)")
+      ->check(CLI::Range(-1, 64));
   app.add_option("--exclude-camera", options.exclude_camera, "leave this pod camera out of the blend");
   app.add_option("--device", options.device, "Vulkan device: index or part of its name (default: a GPU if any)");
   app.add_option("--client-id", options.client_id, "this client's id");

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "render_client/reference/depth_map.h"
 #include "shaders/config.h"
 #include "shaders/dilate_columns_comp_spv.h"
 #include "shaders/dilate_comp_spv.h"
@@ -161,7 +162,7 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   push.width = width;
   push.height = height;
   push.relative_jump = parameters.relative_jump;
-  push.dilation = parameters.dilation_px;
+  push.dilation = parameters.dilation_px < 0 ? reference::scaledDilationPx(static_cast<int>(width)) : parameters.dilation_px;
   push.depth_tolerance = parameters.relative_depth_tolerance;
   push.vote_delta = parameters.vote_delta;
   push.vote_levels = parameters.vote_levels;

@@ -82,6 +82,24 @@ TEST(ReferenceDepth, DiscontinuitiesAreDilatedByEpsPixels) {
   EXPECT_EQ(thin[static_cast<size_t>(ey) * 200 + ex + 3], 0);
 }
 
+TEST(ReferenceDepth, DefaultEpsKeepsThePapersBandWidthRelativeToTheImage) {
+  // Paper 000: eps = 4 px on 2048-pixel-wide textures.
+  EXPECT_EQ(scaledDilationPx(2048), 4);
+  EXPECT_EQ(scaledDilationPx(1280), 2);
+  EXPECT_EQ(scaledDilationPx(640), 1);
+  EXPECT_EQ(scaledDilationPx(320), 0);
+  EXPECT_EQ(scaledDilationPx(1), 0);
+  // The default option resolves it from the map's width.
+  Mesh mesh;
+  addQuad(mesh, 2.0, -1.0);
+  addQuad(mesh, 0.2, 0.5);
+  const Camera cam = cameraAt({0, 0, 3}, 0, 640, 640);
+  const DepthMap map = rasterizeDepth(mesh, cam);
+  DiscontinuityOptions one;
+  one.dilation_px = 1;
+  EXPECT_EQ(dilatedDiscontinuities(map), dilatedDiscontinuities(map, one));
+}
+
 std::vector<PodView> sphereViews(const Mesh& mesh, int count) {
   std::vector<PodView> views;
   for (int i = 0; i < count; ++i) {

@@ -35,7 +35,8 @@ std::vector<GeodesicFan> geodesicFans(const Mesh& mesh, const std::vector<uint32
 
 struct FieldParameters {
   float relative_jump = 0.03f;           // discontinuity: relative depth step
-  int dilation_px = 4;                   // discontinuity: eps (paper 000: 4)
+  int dilation_px = -1;                  // discontinuity: eps; -1: paper 000's 4 px at 2048 wide, scaled
+                                         // (reference::scaledDilationPx)
   float relative_depth_tolerance = 0.015f;
   float vote_delta = 0.15f;              // paper 000: delta = 0.15
   int vote_levels = 3;

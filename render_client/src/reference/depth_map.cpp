@@ -65,7 +65,7 @@ std::vector<uint8_t> dilatedDiscontinuities(const DepthMap& map, const Discontin
       }
     }
   }
-  const int r = std::max(0, options.dilation_px);
+  const int r = options.dilation_px == kDilationScaledToWidth ? scaledDilationPx(w) : std::max(0, options.dilation_px);
   std::vector<uint8_t> dilated(edge.size(), 0);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
@@ -80,6 +80,10 @@ std::vector<uint8_t> dilatedDiscontinuities(const DepthMap& map, const Discontin
     }
   }
   return dilated;
+}
+
+int scaledDilationPx(int image_width) {
+  return std::max(0, static_cast<int>(std::lround(5.0 * image_width / 2048.0)) - 1);
 }
 
 }  // namespace holofuse::render::reference

@@ -26,8 +26,17 @@ struct DepthMap {
 // triangles draw nothing.
 DepthMap rasterizeDepth(const Mesh& mesh, const Camera& camera, double near_plane = 0.05);
 
+// Paper 000 (section 4.2) dilates by eps = 4 px on 2048-pixel-wide
+// textures. Applied literally to a 320-pixel image that band is six times
+// wider on the subject, and thin limbs lose every camera. The default keeps
+// the band's width relative to the image: the edge pixel plus eps on each
+// side spans 5 / 2048 of the width, so eps = round(5 w / 2048) - 1, at
+// least 0 (4 at 2048, 2 at 1280, 1 at 640, 0 at 320).
+constexpr int kDilationScaledToWidth = -1;
+int scaledDilationPx(int image_width);
+
 struct DiscontinuityOptions {
-  int dilation_px = 4;           // eps of the paper
+  int dilation_px = kDilationScaledToWidth;  // eps in pixels, or scaled from the paper's
   double relative_jump = 0.03;   // a neighbour this much farther (relative) is a discontinuity
 };
 
