@@ -48,7 +48,8 @@
 #define HOLOFUSE_BINDING_FANS 18        // per (vertex, triangle) in ADJACENCY order: the triangle unfolded
 #define HOLOFUSE_BINDING_WORKLIST 19    // geodesics: [slot][camera * vertex] lists, then [slot][...] marks
 #define HOLOFUSE_BINDING_WORKLIST_COUNTS 20  // per slot: dispatch groups x, y, z, then the list length
-#define HOLOFUSE_BINDING_COUNT 21
+#define HOLOFUSE_BINDING_NEAREST_SEAM 21  // [2][camera][vertex] ping-pong: the source vertex a distance comes from
+#define HOLOFUSE_BINDING_COUNT 22
 
 // Geodesic worklists rotate through three slots: the one a pass reads, the
 // one it appends to, and the one it clears for the pass after.
@@ -57,6 +58,7 @@
 // Geodesics: rings beyond the bound, distance not reached.
 #define HOLOFUSE_NO_RING 0x7fffffffu
 #define HOLOFUSE_FAR 3.0e38
+#define HOLOFUSE_NO_SOURCE 0xffffffffu
 
 // Seam rules (render::reference::SeamRule).
 #define HOLOFUSE_SEAM_OCCLUSION 1u

@@ -10,7 +10,11 @@
 // virtual source s lies below the axis at distances d_a and d_b from a and
 // b. When the straight line s -> c crosses edge ab the distance is |c - s|
 // (a surface distance through the triangle), else the way round through a
-// or b. Reads half push.parity, writes the other: deterministic.
+// or b. The virtual source stands for a real one only when a and b measure
+// from the same seam vertex: otherwise only the ways round are offered
+// (render::reference::approximateGeodesic says why). The smallest distance
+// wins, ties to the smaller source index. Reads half push.parity, writes
+// the other: deterministic.
 //
 // Only the entries of this pass's worklist run: an entry none of whose
 // neighbours (nor itself) changed in the previous pass would recompute the
@@ -56,18 +60,35 @@ void main() {
   // far gives the same result as counting the rings to the end first.
   uint old_ring = rings[in_offset + v];
   float old_distance = distances[in_offset + v];
+  uint old_source = nearest_seam[in_offset + v];
   uint ring = old_ring;
   float candidate = old_distance;
+  uint candidate_source = old_source;
   for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
     Fan f = fans[k];
     uint ra = rings[in_offset + f.a], rb = rings[in_offset + f.b];
     if (f.a != v && ra < uint(push.max_rings)) ring = min(ring, ra + 1u);
     if (f.b != v && rb < uint(push.max_rings)) ring = min(ring, rb + 1u);
-    candidate = min(candidate, unfolded(f, distances[in_offset + f.a], distances[in_offset + f.b]));
+    float da = distances[in_offset + f.a], db = distances[in_offset + f.b];
+    uint sa = nearest_seam[in_offset + f.a], sb = nearest_seam[in_offset + f.b];
+    float d = sa == sb ? unfolded(f, da, db) : da + f.ac;
+    if (d < candidate || (d == candidate && sa < candidate_source)) {
+      candidate = d;
+      candidate_source = sa;
+    }
+    d = sa == sb ? d : db + f.bc;
+    if (d < candidate || (d == candidate && sb < candidate_source)) {
+      candidate = d;
+      candidate_source = sb;
+    }
   }
-  float best = ring <= uint(push.max_rings) ? candidate : old_distance;
+  bool reached = ring <= uint(push.max_rings);
+  float best = reached ? candidate : old_distance;
+  uint source = reached ? candidate_source : old_source;
   rings[out_offset + v] = ring;
   distances[out_offset + v] = best;
-  if (ring != old_ring || best != old_distance) atomicAdd(worklist_counts[13], 1u);
-  if (ring != old_ring || best != old_distance) enqueueNeighbourhood((slot + 1u) % HOLOFUSE_WORKLIST_SLOTS, camera, v);
+  nearest_seam[out_offset + v] = source;
+  if (ring != old_ring || best != old_distance || source != old_source) {
+    enqueueNeighbourhood((slot + 1u) % HOLOFUSE_WORKLIST_SLOTS, camera, v);
+  }
 }

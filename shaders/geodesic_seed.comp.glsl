@@ -23,5 +23,6 @@ void main() {
   uint half_size = push.camera_count * push.vertex_count;
   rings[index] = rings[half_size + index] = source ? 0u : HOLOFUSE_NO_RING;
   distances[index] = distances[half_size + index] = source ? 0.0 : HOLOFUSE_FAR;
+  nearest_seam[index] = nearest_seam[half_size + index] = source ? v : HOLOFUSE_NO_SOURCE;
   if (source) enqueueNeighbourhood(0u, camera, v);
 }

@@ -244,7 +244,7 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
   for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &adjacency_, &rings_,
-                    &distances_, &temporal_, &carry_, &fans_}) {
+                    &distances_, &temporal_, &carry_, &fans_, &nearest_seam_}) {
     *b = ctx_.createBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   }
   worklist_ = ctx_.createBuffer(16, kWorklistUsage);
@@ -265,7 +265,8 @@ Renderer::~Renderer() {
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
   for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &visible_counts_, &adjacency_,
-                    &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_}) {
+                    &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_,
+                    &nearest_seam_}) {
     ctx_.destroy(*b);
   }
   field_passes_pipelines_.reset();
@@ -526,7 +527,8 @@ void Renderer::ensureFieldBuffers() {
                               {&rings_, 2 * per_vertex}, {&distances_, 2 * per_vertex},
                               {&adjacency_, VkDeviceSize{adjacency_data_.size() * 4 + 4}},
                               {&fans_, VkDeviceSize{fan_data_.size() * sizeof(GeodesicFan) + 32}},
-                              {&worklist_, 2 * HOLOFUSE_WORKLIST_SLOTS * per_vertex}}) {
+                              {&worklist_, 2 * HOLOFUSE_WORKLIST_SLOTS * per_vertex},
+                              {&nearest_seam_, 2 * per_vertex}}) {
     if (buffer->size >= size) continue;
     ctx_.destroy(*buffer);
     *buffer = ctx_.createBuffer(size * 3 / 2, buffer == &worklist_ ? kWorklistUsage : VkBufferUsageFlags{VK_BUFFER_USAGE_STORAGE_BUFFER_BIT});
@@ -550,7 +552,8 @@ void Renderer::writeDescriptors() {
       {seams_.buffer, 0, VK_WHOLE_SIZE}, {visible_counts_.buffer, 0, VK_WHOLE_SIZE},
       {adjacency_.buffer, 0, VK_WHOLE_SIZE}, {rings_.buffer, 0, VK_WHOLE_SIZE}, {distances_.buffer, 0, VK_WHOLE_SIZE},
       {temporal_.buffer, 0, VK_WHOLE_SIZE}, {carry_.buffer, 0, VK_WHOLE_SIZE}, {fans_.buffer, 0, VK_WHOLE_SIZE},
-      {worklist_.buffer, 0, VK_WHOLE_SIZE}, {worklist_counts_.buffer, 0, VK_WHOLE_SIZE}};
+      {worklist_.buffer, 0, VK_WHOLE_SIZE}, {worklist_counts_.buffer, 0, VK_WHOLE_SIZE},
+      {nearest_seam_.buffer, 0, VK_WHOLE_SIZE}};
   std::array<VkWriteDescriptorSet, HOLOFUSE_BINDING_COUNT> writes{};
   for (uint32_t b = 0; b < writes.size(); ++b) {
     writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;

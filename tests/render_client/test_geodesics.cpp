@@ -1,11 +1,16 @@
 // The approximate geodesic distance (triangle unfolding, bounded Jacobi
 // passes) against distances known exactly: Euclidean on a plane,
-// great-circle on a sphere; and against edge-graph relaxation.
+// great-circle on a sphere, the exact polyhedral distance on a bumpy closed
+// surface; and against edge-graph relaxation. The exact method is checked
+// first where the answer is known in closed form (plane, cube).
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
+#include <tuple>
 
 #include "common/marching_cubes.h"
+#include "render_client/reference/exact_geodesics.h"
 #include "render_client/reference/geodesics.h"
 
 namespace holofuse::render::reference {
@@ -147,6 +152,167 @@ TEST(Geodesics, RingsBoundTheReachAndNormalisationMapsToOne) {
   for (double g : gamma) ASSERT_TRUE(g >= 0.0 && g <= 1.0);
   // Deterministic: the same input gives the same bits.
   EXPECT_EQ(approximateGeodesic(mesh, source, options), d);
+}
+
+// The surface of the cube [-1, 1]^3, each face an m x m grid (m even, so
+// face centres are vertices), welded along the edges.
+Mesh cube(int m) {
+  Mesh mesh;
+  std::map<std::tuple<long, long, long>, uint32_t> index_of;
+  auto vertex = [&](const glm::dvec3& p) {
+    const auto key = std::make_tuple(std::lround(p.x * 1e6), std::lround(p.y * 1e6), std::lround(p.z * 1e6));
+    const auto [it, added] = index_of.emplace(key, static_cast<uint32_t>(mesh.positions.size()));
+    if (added) mesh.positions.emplace_back(p);
+    return it->second;
+  };
+  for (int axis = 0; axis < 3; ++axis) {
+    for (double side : {-1.0, 1.0}) {
+      for (int j = 0; j < m; ++j) {
+        for (int i = 0; i < m; ++i) {
+          auto at = [&](int u, int v) {
+            glm::dvec3 p;
+            p[axis] = side;
+            p[(axis + 1) % 3] = -1.0 + 2.0 * u / m;
+            p[(axis + 2) % 3] = -1.0 + 2.0 * v / m;
+            return vertex(p);
+          };
+          const uint32_t a = at(i, j), b = at(i + 1, j), c = at(i, j + 1), d = at(i + 1, j + 1);
+          for (uint32_t k : {a, b, d, a, d, c}) mesh.indices.push_back(k);
+        }
+      }
+    }
+  }
+  computeVertexNormals(mesh);
+  return mesh;
+}
+
+std::vector<double> chordLengths(const Mesh& mesh, uint32_t from) {
+  std::vector<double> d(mesh.vertexCount());
+  for (size_t v = 0; v < d.size(); ++v) d[v] = glm::length(glm::dvec3(mesh.positions[v]) - glm::dvec3(mesh.positions[from]));
+  return d;
+}
+
+TEST(ExactGeodesics, PlaneIsEuclidean) {
+  const int n = 31;
+  const double h = 0.1;
+  const Mesh mesh = plane(n, h);
+  std::vector<uint8_t> source(mesh.vertexCount(), 0);
+  const uint32_t centre = (n / 2) * n + n / 2;
+  source[centre] = 1;
+  const auto exact = exactGeodesic(mesh, source, 1.2);
+  const auto euclid = chordLengths(mesh, centre);
+  size_t checked = 0;
+  for (size_t v = 0; v < exact.size(); ++v) {
+    if (euclid[v] > 1.2) {
+      EXPECT_TRUE(std::isinf(exact[v])) << "beyond the bound";
+      continue;
+    }
+    ASSERT_NEAR(exact[v], euclid[v], 1e-9) << "vertex " << v;
+    ++checked;
+  }
+  EXPECT_GT(checked, 400u);
+}
+
+TEST(ExactGeodesics, CubeFollowsTheUnfoldingAcrossEdges) {
+  // Source at the centre of the face z = 1. A point (1, y, z) on the face
+  // x = 1 lies, unfolded across their common edge, at (2 - z, y): no other
+  // way round is shorter for |y| <= 1.
+  const Mesh mesh = cube(16);
+  std::vector<uint8_t> source(mesh.vertexCount(), 0);
+  uint32_t top = 0;
+  for (uint32_t v = 0; v < mesh.vertexCount(); ++v) {
+    if (glm::length(glm::dvec3(mesh.positions[v]) - glm::dvec3(0, 0, 1)) < 1e-9) top = v;
+  }
+  source[top] = 1;
+  const auto bend = bendVertices(mesh);
+  EXPECT_EQ(std::count(bend.begin(), bend.end(), 1), 0)
+      << "a cube has no saddles: corners have 3 pi / 2";
+  const auto exact = exactGeodesic(mesh, source, 10.0);
+  size_t checked = 0;
+  for (size_t v = 0; v < exact.size(); ++v) {
+    const glm::dvec3 p(mesh.positions[v]);
+    if (std::abs(p.x - 1.0) > 1e-9) continue;
+    ASSERT_NEAR(exact[v], std::hypot(2.0 - p.z, p.y), 1e-9) << "at " << p.x << " " << p.y << " " << p.z;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 17u * 17u);
+}
+
+// r = 1 + bumps: a closed surface with saddles, where shortest paths bend
+// at vertices and no formula gives the distance.
+Mesh bumpySphere() {
+  return marchingCubes(sampleGrid(glm::dvec3(-1.4), 0.08, 36, 36, 36, [](const glm::dvec3& p) {
+    return 1.0 + 0.12 * std::sin(5 * p.x) * std::sin(5 * p.y) * std::sin(5 * p.z) - glm::length(p);
+  }));
+}
+
+TEST(ExactGeodesics, BumpySurfaceLiesBetweenChordAndEdgeGraph) {
+  const Mesh mesh = bumpySphere();
+  const auto bend = bendVertices(mesh);
+  EXPECT_GT(std::count(bend.begin(), bend.end(), 1), 100) << "the bumps make saddles";
+  std::vector<uint8_t> source(mesh.vertexCount(), 0);
+  source[0] = 1;
+  const auto exact = exactGeodesic(mesh, source, 1.5);
+  const auto graph = edgeGraphDistance(mesh, source);
+  const auto chord = chordLengths(mesh, 0);
+  size_t checked = 0;
+  for (size_t v = 0; v < exact.size(); ++v) {
+    if (!std::isfinite(exact[v])) continue;
+    // Any path along edges is a surface path; no surface path beats the chord.
+    ASSERT_LE(exact[v], graph[v] * (1 + 1e-12)) << v;
+    ASSERT_GE(exact[v], chord[v] * (1 - 1e-12)) << v;
+    ++checked;
+  }
+  EXPECT_GT(checked, 300u);
+}
+
+TEST(Geodesics, BumpySurfaceErrorAgainstExactFallsWithK) {
+  // Seam-like sources: the vertices along a band around the surface, as the
+  // seams of a camera are. Errors are measured within the bounded radius
+  // (k = 15 mean edges) and away from the sources' first ring.
+  const Mesh mesh = bumpySphere();
+  std::vector<uint8_t> source(mesh.vertexCount(), 0);
+  for (size_t v = 0; v < mesh.vertexCount(); ++v) source[v] = std::abs(mesh.positions[v].z - 0.3f) < 0.03f;
+  ASSERT_GT(std::count(source.begin(), source.end(), 1), 20);
+  double edge_sum = 0;
+  for (size_t t = 0; t < mesh.indices.size(); t += 3) {
+    for (int k = 0; k < 3; ++k) {
+      edge_sum += glm::length(mesh.positions[mesh.indices[t + k]] - mesh.positions[mesh.indices[t + (k + 1) % 3]]);
+    }
+  }
+  const double mean_edge = edge_sum / static_cast<double>(mesh.indices.size());
+  const double radius = 15 * mean_edge;
+  const auto exact = exactGeodesic(mesh, source, radius);
+  const Errors graph = relativeErrors(edgeGraphDistance(mesh, source), exact, mean_edge, radius);
+  RecordProperty("bumpy_mean_edge", std::to_string(mean_edge));
+  RecordProperty("bumpy_edge_graph_mean_error", std::to_string(graph.mean));
+  double previous_coverage = 0.0;
+  for (int passes : {5, 10, 15, 20, 30}) {
+    GeodesicOptions options;
+    options.iterations = passes;
+    const auto d = approximateGeodesic(mesh, source, options);
+    const Errors e = relativeErrors(d, exact, mean_edge, radius);
+    size_t inside = 0, reached = 0;
+    for (size_t v = 0; v < exact.size(); ++v) {
+      if (!(exact[v] <= radius)) continue;
+      ++inside;
+      reached += std::isfinite(d[v]);
+    }
+    const double coverage = static_cast<double>(reached) / static_cast<double>(inside);
+    const std::string key = "bumpy_K" + std::to_string(passes);
+    RecordProperty(key + "_mean_error", std::to_string(e.mean));
+    RecordProperty(key + "_worst_error", std::to_string(e.worst));
+    RecordProperty(key + "_coverage", std::to_string(coverage));
+    std::printf("K = %2d: mean relative error %.3f%%, worst %.2f%%, reached %zu of %zu vertices within the radius\n",
+                passes, 100 * e.mean, 100 * e.worst, reached, inside);
+    EXPECT_GE(coverage, previous_coverage) << "more passes reach at least as far, K = " << passes;
+    previous_coverage = coverage;
+    if (passes >= 15) {
+      EXPECT_LT(e.mean, 0.02) << "K = " << passes;
+      EXPECT_LT(e.mean, graph.mean) << "unfolding must beat the edge graph";
+    }
+  }
+  std::printf("edge graph: mean relative error %.2f%%\n", 100 * graph.mean);
 }
 
 }  // namespace

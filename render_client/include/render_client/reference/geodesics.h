@@ -3,8 +3,11 @@
 // Jacobi iterations. Each update unfolds a triangle into the plane and
 // measures the straight line from the virtual source (the point at the two
 // known distances from the opposite edge's ends) to the vertex, so a
-// distance is a surface distance, not a path along edges. The same update
-// runs on the GPU; this is its double-precision reference.
+// distance is a surface distance, not a path along edges. Each vertex keeps
+// the source its distance comes from, and the unfolding is used only when
+// both ends measure from the same source (else the way round through an
+// end). The same update runs on the GPU; this is its double-precision
+// reference. render::reference::exactGeodesic is the yardstick.
 #pragma once
 
 #include <cstdint>
