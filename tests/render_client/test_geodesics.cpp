@@ -33,6 +33,25 @@ Mesh plane(int n, double h) {
   return mesh;
 }
 
+std::vector<double> chordLengths(const Mesh& mesh, uint32_t from) {
+  std::vector<double> d(mesh.vertexCount());
+  for (size_t v = 0; v < d.size(); ++v) d[v] = glm::length(glm::dvec3(mesh.positions[v]) - glm::dvec3(mesh.positions[from]));
+  return d;
+}
+
+// The plane with its middle vertex as the only source.
+struct CentredPlane {
+  Mesh mesh;
+  std::vector<uint8_t> source;
+  uint32_t centre;
+};
+CentredPlane centredPlane(int n, double h) {
+  CentredPlane p{plane(n, h), {}, static_cast<uint32_t>((n / 2) * n + n / 2)};
+  p.source.assign(p.mesh.vertexCount(), 0);
+  p.source[p.centre] = 1;
+  return p;
+}
+
 struct Errors {
   double mean = 0, worst = 0;
   size_t count = 0;
@@ -68,16 +87,9 @@ TEST(Geodesics, UnfoldingIsExactForAStraightLineThroughATriangle) {
 }
 
 TEST(Geodesics, PlaneMatchesEuclideanWithinTwoPercentAndBeatsTheEdgeGraph) {
-  const int n = 41;
   const double h = 0.1;
-  const Mesh mesh = plane(n, h);
-  std::vector<uint8_t> source(mesh.vertexCount(), 0);
-  const uint32_t centre = (n / 2) * n + n / 2;
-  source[centre] = 1;
-  std::vector<double> exact(mesh.vertexCount());
-  for (size_t v = 0; v < exact.size(); ++v) {
-    exact[v] = glm::length(glm::dvec3(mesh.positions[v]) - glm::dvec3(mesh.positions[centre]));
-  }
+  const auto [mesh, source, centre] = centredPlane(41, h);
+  const std::vector<double> exact = chordLengths(mesh, centre);
   const double radius = 15 * h;  // k = 15 rings reach at most this far
   const Errors graph = relativeErrors(edgeGraphDistance(mesh, source), exact, 0.0, radius);
   // Fewer passes reach less far: K is the reach, the error stays small.
@@ -186,19 +198,9 @@ Mesh cube(int m) {
   return mesh;
 }
 
-std::vector<double> chordLengths(const Mesh& mesh, uint32_t from) {
-  std::vector<double> d(mesh.vertexCount());
-  for (size_t v = 0; v < d.size(); ++v) d[v] = glm::length(glm::dvec3(mesh.positions[v]) - glm::dvec3(mesh.positions[from]));
-  return d;
-}
 
 TEST(ExactGeodesics, PlaneIsEuclidean) {
-  const int n = 31;
-  const double h = 0.1;
-  const Mesh mesh = plane(n, h);
-  std::vector<uint8_t> source(mesh.vertexCount(), 0);
-  const uint32_t centre = (n / 2) * n + n / 2;
-  source[centre] = 1;
+  const auto [mesh, source, centre] = centredPlane(31, 0.1);
   const auto exact = exactGeodesic(mesh, source, 1.2);
   const auto euclid = chordLengths(mesh, centre);
   size_t checked = 0;
