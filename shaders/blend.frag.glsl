@@ -17,6 +17,8 @@ layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
 layout(location = 2) in vec4 in_weights[4];
 layout(location = 0) out vec4 out_color;
+// The depth maps of the compute passes (depth_raster.comp.glsl).
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_DEPTHS) readonly buffer DepthMaps { uint depth_bits[]; };
 
 // Normal-weighted blend with the per-fragment occlusion test (mode normal,
 // and the fallback of the field modes).
@@ -30,7 +32,8 @@ vec4 blendNormal(vec3 n, inout float total) {
     if (clip.w <= 1e-6) continue;
     vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) continue;
-    float stored = textureLod(depths, vec3(uv, float(i)), 0.0).r;
+    ivec2 pixel = clamp(ivec2(uv * cam.size.xy), ivec2(0), ivec2(cam.size.xy) - 1);
+    float stored = uintBitsToFloat(depth_bits[(i * int(cam.size.y) + pixel.y) * int(cam.size.x) + pixel.x]);
     if (clip.w > stored + blend.params.y) continue;  // occluded from camera i
     vec4 texel = textureLod(images, vec3(uv, float(i)), 0.0);
     if (texel.a < 0.5) continue;                     // outside camera i's silhouette

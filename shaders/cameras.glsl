@@ -16,5 +16,4 @@ layout(set = 0, binding = HOLOFUSE_BINDING_CAMERAS) uniform Blend {
   vec4 temporal;       // x: lambda of this frame (eq. 5), y: half of the temporal buffer holding the previous field
 } blend;
 
-layout(set = 0, binding = HOLOFUSE_BINDING_DEPTHS) uniform sampler2DArray depths;  // linear depth
 layout(set = 0, binding = HOLOFUSE_BINDING_IMAGES) uniform sampler2DArray images;  // rgb + mask in a, with mips

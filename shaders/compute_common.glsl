@@ -22,6 +22,8 @@ layout(push_constant) uniform Push {
 } push;
 
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_VERTICES) readonly buffer Vertices { float vertex_data[]; };
+// [camera][y][x]: the bits of the camera-space depth (a float), HOLOFUSE_NO_DEPTH where no surface.
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_DEPTHS) buffer DepthMaps { uint depth_bits[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_EDGES) buffer Edges { uint edges[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DILATED) buffer Dilated { uint dilated[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_SIGHTS) buffer Sights { uint sights[]; };
@@ -54,6 +56,10 @@ layout(std430, set = 0, binding = HOLOFUSE_BINDING_FANS) readonly buffer Fans { 
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST) buffer Worklist { uint worklist[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST_COUNTS) buffer WorklistCounts { uint worklist_counts[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_NEAREST_SEAM) buffer NearestSeam { uint nearest_seam[]; };
+
+float storedDepth(uint camera, ivec2 pixel) {
+  return uintBitsToFloat(depth_bits[(camera * push.height + uint(pixel.y)) * push.width + uint(pixel.x)]);
+}
 
 vec3 vertexPosition(uint v) { return vec3(vertex_data[6 * v], vertex_data[6 * v + 1], vertex_data[6 * v + 2]); }
 vec3 vertexNormal(uint v) { return vec3(vertex_data[6 * v + 3], vertex_data[6 * v + 4], vertex_data[6 * v + 5]); }

@@ -23,7 +23,7 @@ void main() {
     } else {
       ivec2 pixel = ivec2(q.xy);
       float mask = texelFetch(images, ivec3(pixel, int(i)), 0).a;
-      float stored = texelFetch(depths, ivec3(pixel, int(i)), 0).r;
+      float stored = storedDepth(i, pixel);
       uint w = uint(size.x), h = uint(size.y);
       if (mask <= 0.0) {
         sight = HOLOFUSE_SIGHT_BACKGROUND;

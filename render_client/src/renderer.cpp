@@ -12,8 +12,6 @@
 #include "render_client/temporal_carry.h"
 #include "shaders/blend_frag_spv.h"
 #include "shaders/blend_vert_spv.h"
-#include "shaders/depth_frag_spv.h"
-#include "shaders/depth_vert_spv.h"
 
 namespace holofuse::render {
 namespace {
@@ -44,7 +42,6 @@ constexpr VkBufferUsageFlags kWorklistUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT
 constexpr VkBufferUsageFlags kVertexUsage = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
 constexpr VkBufferUsageFlags kIndexUsage = VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
 constexpr uint32_t kImageMipLevels = 4;  // the vote searches at most this many
-constexpr float kFarDepth = 1e9f;  // depth map value where the mesh is absent
 
 VkRenderPass createPass(VkDevice device, VkFormat color_format, VkImageLayout color_final) {
   std::array<VkAttachmentDescription, 2> attachments{};
@@ -270,21 +267,16 @@ Renderer::~Renderer() {
     ctx_.destroy(*b);
   }
   field_passes_pipelines_.reset();
-  vkDestroyPipeline(d, depth_pipeline_, nullptr);
   vkDestroyPipeline(d, blend_pipeline_, nullptr);
-  vkDestroyPipelineLayout(d, depth_layout_, nullptr);
   vkDestroyPipelineLayout(d, blend_layout_, nullptr);
-  vkDestroyRenderPass(d, depth_pass_, nullptr);
   vkDestroyRenderPass(d, blend_pass_, nullptr);
   vkDestroyDescriptorPool(d, descriptor_pool_, nullptr);
   vkDestroyDescriptorSetLayout(d, set_layout_, nullptr);
   vkDestroySampler(d, linear_sampler_, nullptr);
-  vkDestroySampler(d, nearest_sampler_, nullptr);
 }
 
 void Renderer::createPipelines() {
   VkDevice d = ctx_.device();
-  depth_pass_ = createPass(d, VK_FORMAT_R32_SFLOAT, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   blend_pass_ = createPass(d, VK_FORMAT_R8G8B8A8_UNORM, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
 
   // One set for the blend and every compute pass (bindings in config.h).
@@ -293,7 +285,6 @@ void Renderer::createPipelines() {
     bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr};
   }
   bindings[HOLOFUSE_BINDING_CAMERAS].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-  bindings[HOLOFUSE_BINDING_DEPTHS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   bindings[HOLOFUSE_BINDING_IMAGES].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   VkDescriptorSetLayoutCreateInfo set_info{};
   set_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
@@ -305,23 +296,19 @@ void Renderer::createPipelines() {
                                              VkPushConstantRange{VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(ComputePush)}};
   VkPipelineLayoutCreateInfo layout_info{};
   layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
-  layout_info.pushConstantRangeCount = 1;
   layout_info.pPushConstantRanges = push.data();
-  HOLOFUSE_VK_CHECK(vkCreatePipelineLayout(d, &layout_info, nullptr, &depth_layout_));
   layout_info.setLayoutCount = 1;
   layout_info.pSetLayouts = &set_layout_;
   layout_info.pushConstantRangeCount = static_cast<uint32_t>(push.size());
   HOLOFUSE_VK_CHECK(vkCreatePipelineLayout(d, &layout_info, nullptr, &blend_layout_));
   field_passes_pipelines_ = std::make_unique<TextureFieldPasses>(ctx_, blend_layout_);
 
-  depth_pipeline_ = createPipeline(ctx_, depth_pass_, depth_layout_, k_depth_vert_spv, sizeof(k_depth_vert_spv),
-                                   k_depth_frag_spv, sizeof(k_depth_frag_spv));
   blend_pipeline_ = createPipeline(ctx_, blend_pass_, blend_layout_, k_blend_vert_spv, sizeof(k_blend_vert_spv),
                                    k_blend_frag_spv, sizeof(k_blend_frag_spv));
 
   std::array<VkDescriptorPoolSize, 3> sizes = {VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
-                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, HOLOFUSE_BINDING_COUNT - 3}};
+                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1},
+                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, HOLOFUSE_BINDING_COUNT - 2}};
   VkDescriptorPoolCreateInfo pool_info{};
   pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
   pool_info.maxSets = 1;
@@ -345,17 +332,11 @@ void Renderer::createPipelines() {
   sampler.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;  // levels are picked explicitly (textureLod)
   sampler.maxLod = VK_LOD_CLAMP_NONE;
   HOLOFUSE_VK_CHECK(vkCreateSampler(d, &sampler, nullptr, &linear_sampler_));
-  sampler.magFilter = VK_FILTER_NEAREST;
-  sampler.minFilter = VK_FILTER_NEAREST;
-  HOLOFUSE_VK_CHECK(vkCreateSampler(d, &sampler, nullptr, &nearest_sampler_));
 }
 
 void Renderer::destroyViewResources() {
-  for (VkFramebuffer fb : depth_framebuffers_) vkDestroyFramebuffer(ctx_.device(), fb, nullptr);
-  depth_framebuffers_.clear();
   ctx_.destroy(images_);
   ctx_.destroy(depth_maps_);
-  ctx_.destroy(depth_scratch_);
   ctx_.destroy(staging_);
 }
 
@@ -369,24 +350,14 @@ void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
   images_ = ctx_.createImage(w, h, count, VK_FORMAT_R8G8B8A8_UNORM,
                              VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
                                  VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                             VK_IMAGE_ASPECT_COLOR_BIT, false, levels);
-  depth_maps_ = ctx_.createImage(w, h, count, VK_FORMAT_R32_SFLOAT,
-                                 VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT,
-                                 VK_IMAGE_ASPECT_COLOR_BIT, true);
-  depth_scratch_ = ctx_.createImage(w, h, 1, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                                    VK_IMAGE_ASPECT_DEPTH_BIT, false);
-  for (uint32_t i = 0; i < count; ++i) {
-    depth_framebuffers_.push_back(
-        createFramebuffer(ctx_.device(), depth_pass_, depth_maps_.layer_views[i], depth_scratch_.view, w, h));
-  }
+                             VK_IMAGE_ASPECT_COLOR_BIT, true, levels);
+  depth_maps_ = ctx_.createBuffer(VkDeviceSize{w} * h * count * 4,
+                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   staging_ = ctx_.createBuffer(VkDeviceSize{w} * h * 4 * count, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
   writeDescriptors();
-  // Depth maps start readable so a frame without a mesh still samples a
-  // defined layout.
+  // A frame drawn before any mesh reads maps of "no surface".
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
-    transitionImage(cmd, depth_maps_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, 0, VK_ACCESS_SHADER_READ_BIT,
-                    VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT);
+    field_passes_pipelines_->recordDepthMaps(cmd, descriptor_set_, 0, count, w, h, depth_maps_.buffer);
   });
 }
 
@@ -543,7 +514,6 @@ void Renderer::writeDescriptors() {
   vkDeviceWaitIdle(ctx_.device());
   VkDescriptorBufferInfo ubo{uniforms_.buffer, 0, sizeof(BlendUniforms)};
   VkDescriptorImageInfo image_info{linear_sampler_, images_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  VkDescriptorImageInfo depth_info{nearest_sampler_, depth_maps_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   // Storage buffers in binding order from HOLOFUSE_BINDING_VERTICES on.
   std::array<VkDescriptorBufferInfo, HOLOFUSE_BINDING_COUNT - 3> storage = {
       VkDescriptorBufferInfo{vertex_buffer_.buffer, 0, VK_WHOLE_SIZE}, {edges_.buffer, 0, VK_WHOLE_SIZE},
@@ -567,8 +537,9 @@ void Renderer::writeDescriptors() {
   }
   writes[HOLOFUSE_BINDING_CAMERAS].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
   writes[HOLOFUSE_BINDING_CAMERAS].pBufferInfo = &ubo;
-  writes[HOLOFUSE_BINDING_DEPTHS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-  writes[HOLOFUSE_BINDING_DEPTHS].pImageInfo = &depth_info;
+  VkDescriptorBufferInfo depth_maps{depth_maps_.buffer, 0, VK_WHOLE_SIZE};
+  writes[HOLOFUSE_BINDING_DEPTHS].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  writes[HOLOFUSE_BINDING_DEPTHS].pBufferInfo = &depth_maps;
   writes[HOLOFUSE_BINDING_IMAGES].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   writes[HOLOFUSE_BINDING_IMAGES].pImageInfo = &image_info;
   vkUpdateDescriptorSets(ctx_.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
@@ -654,25 +625,8 @@ void Renderer::drawMesh(VkCommandBuffer cmd) {
 }
 
 void Renderer::renderDepthMaps(VkCommandBuffer cmd) {
-  std::array<VkClearValue, 2> clears{};
-  clears[0].color = {{kFarDepth, 0, 0, 0}};
-  clears[1].depthStencil = {1.0f, 0};
-  for (size_t i = 0; i < cameras_.size(); ++i) {
-    VkRenderPassBeginInfo begin{};
-    begin.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
-    begin.renderPass = depth_pass_;
-    begin.framebuffer = depth_framebuffers_[i];
-    begin.renderArea = {{0, 0}, {images_.width, images_.height}};
-    begin.clearValueCount = static_cast<uint32_t>(clears.size());
-    begin.pClearValues = clears.data();
-    vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, depth_pipeline_);
-    setViewport(cmd, images_.width, images_.height);
-    const glm::mat4 m = clipFor(cameras_[i]);
-    vkCmdPushConstants(cmd, depth_layout_, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(m), &m);
-    drawMesh(cmd);
-    vkCmdEndRenderPass(cmd);
-  }
+  field_passes_pipelines_->recordDepthMaps(cmd, descriptor_set_, triangle_count_, static_cast<uint32_t>(cameras_.size()),
+                                           images_.width, images_.height, depth_maps_.buffer);
   ++depth_map_passes_;
 }
 

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "render_client/reference/depth_map.h"
 #include "shaders/config.h"
+#include "shaders/depth_raster_comp_spv.h"
 #include "shaders/dilate_columns_comp_spv.h"
 #include "shaders/dilate_comp_spv.h"
 #include "shaders/discontinuity_comp_spv.h"
@@ -61,6 +63,7 @@ std::vector<GeodesicFan> geodesicFans(const Mesh& mesh, const std::vector<uint32
 
 TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout layout)
     : ctx_(context), layout_(layout) {
+  depth_raster_ = create(k_depth_raster_comp_spv, sizeof(k_depth_raster_comp_spv));
   discontinuity_ = create(k_discontinuity_comp_spv, sizeof(k_discontinuity_comp_spv));
   dilate_ = create(k_dilate_comp_spv, sizeof(k_dilate_comp_spv));
   dilate_columns_ = create(k_dilate_columns_comp_spv, sizeof(k_dilate_columns_comp_spv));
@@ -113,6 +116,34 @@ void TextureFieldPasses::beginTiming(VkCommandBuffer cmd) {
 
 void TextureFieldPasses::depthMapsDone(VkCommandBuffer cmd) { stamp(cmd, 1); }
 
+void TextureFieldPasses::recordDepthMaps(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t triangle_count,
+                                         uint32_t camera_count, uint32_t width, uint32_t height, VkBuffer depth_maps) {
+  const float far_depth = HOLOFUSE_NO_DEPTH;
+  uint32_t far_bits;
+  std::memcpy(&far_bits, &far_depth, 4);
+  vkCmdFillBuffer(cmd, depth_maps, 0, VK_WHOLE_SIZE, far_bits);
+  VkMemoryBarrier cleared{};
+  cleared.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  cleared.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+  cleared.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &cleared, 0,
+                       nullptr, 0, nullptr);
+  ComputePush push{};
+  push.width = width;
+  push.height = height;
+  push.camera_count = camera_count;
+  push.triangle_count = triangle_count;
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, depth_raster_);
+  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+  if (triangle_count > 0 && camera_count > 0) {
+    vkCmdDispatch(cmd, groups(triangle_count, HOLOFUSE_VERTEX_GROUP), camera_count, 1);
+  }
+  // The compute passes and the blend's fragment shader read the maps.
+  computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+                 VK_ACCESS_SHADER_READ_BIT);
+}
+
 void TextureFieldPasses::stamp(VkCommandBuffer cmd, uint32_t index) {
   vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, index);
 }
@@ -132,7 +163,7 @@ std::vector<double> TextureFieldPasses::lastTimesMs() const {
 }
 
 TextureFieldPasses::~TextureFieldPasses() {
-  for (VkPipeline p : {discontinuity_, dilate_, dilate_columns_, visibility_, vote_, seams_, global_visibility_,
+  for (VkPipeline p : {depth_raster_, discontinuity_, dilate_, dilate_columns_, visibility_, vote_, seams_, global_visibility_,
                        geodesic_seed_, geodesic_distance_, montage_, field_}) {
     vkDestroyPipeline(ctx_.device(), p, nullptr);
   }
@@ -200,8 +231,10 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   };
   dispatchPerCamera(discontinuity_);
   stamp(cmd, 2);
-  dispatchPerCamera(dilate_);
-  dispatchPerCamera(dilate_columns_);
+  if (push.dilation > 0) {  // with eps = 0 the discontinuity pass wrote the dilated map itself
+    dispatchPerCamera(dilate_);
+    dispatchPerCamera(dilate_columns_);
+  }
   stamp(cmd, 3);
   dispatchLinear(visibility_, vertex_count, true);
   stamp(cmd, 4);

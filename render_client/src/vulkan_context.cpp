@@ -176,7 +176,7 @@ void VulkanContext::destroy(Buffer& b) {
 }
 
 Image VulkanContext::createImage(uint32_t width, uint32_t height, uint32_t layers, VkFormat format,
-                                 VkImageUsageFlags usage, VkImageAspectFlags aspect, bool per_layer_views,
+                                 VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array_view,
                                  uint32_t mip_levels) {
   Image img;
   img.format = format;
@@ -211,21 +211,17 @@ Image VulkanContext::createImage(uint32_t width, uint32_t height, uint32_t layer
     v.image = img.image;
     v.viewType = type;
     v.format = format;
-    v.subresourceRange = {aspect, 0, per_layer_views ? 1 : mip_levels, first, count};
+    v.subresourceRange = {aspect, 0, mip_levels, first, count};
     VkImageView view;
     HOLOFUSE_VK_CHECK(vkCreateImageView(device_, &v, nullptr, &view));
     return view;
   };
-  img.view = makeView(layers > 1 || per_layer_views ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D, 0, layers);
-  if (per_layer_views) {
-    for (uint32_t i = 0; i < layers; ++i) img.layer_views.push_back(makeView(VK_IMAGE_VIEW_TYPE_2D, i, 1));
-  }
+  img.view = makeView(array_view ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D, 0, layers);
   return img;
 }
 
 void VulkanContext::destroy(Image& img) {
   if (img.image == VK_NULL_HANDLE) return;
-  for (VkImageView v : img.layer_views) vkDestroyImageView(device_, v, nullptr);
   vkDestroyImageView(device_, img.view, nullptr);
   vkDestroyImage(device_, img.image, nullptr);
   vkFreeMemory(device_, img.memory, nullptr);

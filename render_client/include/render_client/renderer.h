@@ -99,8 +99,8 @@ class Renderer {
   glm::dvec3 bounds_min_{-1.0}, bounds_max_{1.0};  // of the current mesh
   // Pod views
   std::vector<Camera> cameras_;
-  Image images_, depth_maps_, depth_scratch_;
-  std::vector<VkFramebuffer> depth_framebuffers_;
+  Image images_;
+  Buffer depth_maps_;  // [camera][y][x] camera-space depth (config.h binding DEPTHS)
   Buffer staging_;
   bool depth_maps_stale_ = true;
   bool fields_stale_ = true;
@@ -136,13 +136,13 @@ class Renderer {
   VkFramebuffer output_framebuffer_ = VK_NULL_HANDLE;
   Buffer readback_, uniforms_;
   // Pipelines
-  VkRenderPass depth_pass_ = VK_NULL_HANDLE, blend_pass_ = VK_NULL_HANDLE;
-  VkPipelineLayout depth_layout_ = VK_NULL_HANDLE, blend_layout_ = VK_NULL_HANDLE;
-  VkPipeline depth_pipeline_ = VK_NULL_HANDLE, blend_pipeline_ = VK_NULL_HANDLE;
+  VkRenderPass blend_pass_ = VK_NULL_HANDLE;
+  VkPipelineLayout blend_layout_ = VK_NULL_HANDLE;
+  VkPipeline blend_pipeline_ = VK_NULL_HANDLE;
   VkDescriptorSetLayout set_layout_ = VK_NULL_HANDLE;
   VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
   VkDescriptorSet descriptor_set_ = VK_NULL_HANDLE;
-  VkSampler linear_sampler_ = VK_NULL_HANDLE, nearest_sampler_ = VK_NULL_HANDLE;
+  VkSampler linear_sampler_ = VK_NULL_HANDLE;
 };
 
 }  // namespace holofuse::render

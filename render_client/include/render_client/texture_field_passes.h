@@ -84,6 +84,11 @@ class TextureFieldPasses {
   // then depthMapsDone() after them, then record().
   void beginTiming(VkCommandBuffer cmd);
   void depthMapsDone(VkCommandBuffer cmd);
+  // Stage 1: clears depth_maps ([camera][y][x] float bits) to
+  // HOLOFUSE_NO_DEPTH and rasterises every triangle into every camera's
+  // map; a barrier makes them readable to compute and fragment shaders.
+  void recordDepthMaps(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t triangle_count, uint32_t camera_count,
+                       uint32_t width, uint32_t height, VkBuffer depth_maps);
   // Records stages 2 to 4 and the Holoportation field for the bound set,
   // with a barrier between dependent dispatches and one at the end that
   // makes the weights visible to the vertex shader.
@@ -115,7 +120,7 @@ class TextureFieldPasses {
 
   VulkanContext& ctx_;
   VkPipelineLayout layout_;
-  VkPipeline discontinuity_ = VK_NULL_HANDLE, dilate_ = VK_NULL_HANDLE, dilate_columns_ = VK_NULL_HANDLE,
+  VkPipeline depth_raster_ = VK_NULL_HANDLE, discontinuity_ = VK_NULL_HANDLE, dilate_ = VK_NULL_HANDLE, dilate_columns_ = VK_NULL_HANDLE,
              visibility_ = VK_NULL_HANDLE, seams_ = VK_NULL_HANDLE, global_visibility_ = VK_NULL_HANDLE,
              geodesic_seed_ = VK_NULL_HANDLE, geodesic_distance_ = VK_NULL_HANDLE,
              montage_ = VK_NULL_HANDLE,

@@ -31,8 +31,7 @@ struct Buffer {
 struct Image {
   VkImage image = VK_NULL_HANDLE;
   VkDeviceMemory memory = VK_NULL_HANDLE;
-  VkImageView view = VK_NULL_HANDLE;               // all layers
-  std::vector<VkImageView> layer_views;            // one per layer (render targets)
+  VkImageView view = VK_NULL_HANDLE;  // all layers and levels (2D_ARRAY when asked for, else 2D)
   VkFormat format = VK_FORMAT_UNDEFINED;
   uint32_t width = 0, height = 0, layers = 0, mip_levels = 1;
 };
@@ -62,7 +61,7 @@ class VulkanContext {
   Buffer createBuffer(VkDeviceSize size, VkBufferUsageFlags usage);
   void destroy(Buffer& buffer);
   Image createImage(uint32_t width, uint32_t height, uint32_t layers, VkFormat format, VkImageUsageFlags usage,
-                    VkImageAspectFlags aspect, bool per_layer_views, uint32_t mip_levels = 1);
+                    VkImageAspectFlags aspect, bool array_view, uint32_t mip_levels = 1);
   void destroy(Image& image);
   VkShaderModule createShader(const uint32_t* code, size_t bytes);
 
