@@ -31,6 +31,16 @@ void computeBarrier(VkCommandBuffer cmd, VkPipelineStageFlags dst_stage, VkAcces
   vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, dst_stage, 0, 1, &barrier, 0, nullptr, 0, nullptr);
 }
 
+// Buffers cleared or filled by transfer commands, then used by compute.
+void clearedBarrier(VkCommandBuffer cmd) {
+  VkMemoryBarrier cleared{};
+  cleared.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  cleared.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+  cleared.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &cleared, 0,
+                       nullptr, 0, nullptr);
+}
+
 uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size; }
 constexpr uint32_t kStamps = 9;  // around the depth maps and the seven timed passes
 
@@ -122,12 +132,7 @@ void TextureFieldPasses::recordDepthMaps(VkCommandBuffer cmd, VkDescriptorSet se
   uint32_t far_bits;
   std::memcpy(&far_bits, &far_depth, 4);
   vkCmdFillBuffer(cmd, depth_maps, 0, VK_WHOLE_SIZE, far_bits);
-  VkMemoryBarrier cleared{};
-  cleared.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-  cleared.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-  cleared.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &cleared, 0,
-                       nullptr, 0, nullptr);
+  clearedBarrier(cmd);
   ComputePush push{};
   push.width = width;
   push.height = height;
@@ -207,12 +212,7 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
     vkCmdUpdateBuffer(cmd, reset.worklist_counts, 0, sizeof(empty), empty);
     vkCmdFillBuffer(cmd, reset.worklist, 0, VK_WHOLE_SIZE, 0);
   }
-  VkMemoryBarrier cleared{};
-  cleared.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-  cleared.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-  cleared.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &cleared, 0,
-                       nullptr, 0, nullptr);
+  clearedBarrier(cmd);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
   // One dispatch covers every camera (z) so each stage costs one barrier.
   auto dispatchPerCamera = [&](VkPipeline pipeline) {
