@@ -48,7 +48,6 @@ void main() {
   }
   uint i = gl_GlobalInvocationID.x;
   if (i >= worklist_counts[4u * slot + 3u]) return;
-  atomicAdd(worklist_counts[12], 1u);
   uint entry = worklist[slot * entries + i];
   worklist[(HOLOFUSE_WORKLIST_SLOTS + slot) * entries + entry] = 0u;  // clean for its next use
   uint camera = entry / push.vertex_count;

@@ -245,7 +245,7 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
     *b = ctx_.createBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   }
   worklist_ = ctx_.createBuffer(16, kWorklistUsage);
-  worklist_counts_ = ctx_.createBuffer(64, kWorklistUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+  worklist_counts_ = ctx_.createBuffer(16 * HOLOFUSE_WORKLIST_SLOTS, kWorklistUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   visible_counts_ = ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
                                       VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
 }
@@ -718,7 +718,6 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &to_host, 0, nullptr,
                          0, nullptr);
   });
-  if (run_fields && montage) { auto* c = static_cast<uint32_t*>(worklist_counts_.mapped); fprintf(stderr, "processed %u changed %u of %u\n", c[12], c[13], vertex_count_ * 4); c[12] = c[13] = 0; }
   if (have_views) depth_maps_stale_ = false;
   if (montage) temporal_half_ ^= 1u;  // this frame's field is the next one's previous
   if (run_fields) {
