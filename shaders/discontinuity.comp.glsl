@@ -9,26 +9,29 @@
 // nearer depth.
 layout(local_size_x = HOLOFUSE_PIXEL_GROUP, local_size_y = HOLOFUSE_PIXEL_GROUP) in;
 
+// Neighbour q breaks the surface at depth d: empty, outside the image
+// counts as continuous, or a relative jump.
+bool breaks(uint camera, float d, ivec2 q) {
+  if (q.x < 0 || q.y < 0 || q.x >= int(push.width) || q.y >= int(push.height)) return false;
+  float e = storedDepth(camera, q);
+  return e >= HOLOFUSE_NO_DEPTH * 0.5 || abs(e - d) > push.relative_jump * min(d, e);
+}
+
 void main() {
   ivec2 p = ivec2(gl_GlobalInvocationID.xy);
   uint camera = gl_GlobalInvocationID.z;  // all cameras in one dispatch
   if (p.x >= int(push.width) || p.y >= int(push.height) || camera >= push.camera_count) return;
   float d = storedDepth(camera, p);
-  uint edge = 0u;
-  if (d < HOLOFUSE_NO_DEPTH * 0.5) {
-    ivec2 offsets[4] = ivec2[](ivec2(-1, 0), ivec2(1, 0), ivec2(0, -1), ivec2(0, 1));
-    for (int k = 0; k < 4; ++k) {
-      ivec2 q = p + offsets[k];
-      if (q.x < 0 || q.y < 0 || q.x >= int(push.width) || q.y >= int(push.height)) continue;
-      float e = storedDepth(camera, q);
-      if (e >= HOLOFUSE_NO_DEPTH * 0.5 || abs(e - d) > push.relative_jump * min(d, e)) edge = 1u;
-    }
-  }
+  // Written out rather than looped over an offset table: a CPU Vulkan
+  // device turns an indexed local array into scattered memory traffic.
+  bool edge = d < HOLOFUSE_NO_DEPTH * 0.5 &&
+              (breaks(camera, d, p + ivec2(-1, 0)) || breaks(camera, d, p + ivec2(1, 0)) ||
+               breaks(camera, d, p + ivec2(0, -1)) || breaks(camera, d, p + ivec2(0, 1)));
   uint index = (camera * push.height + uint(p.y)) * push.width + uint(p.x);
   // With eps = 0 the edges are the dilated map: the dilation passes are skipped.
   if (push.dilation > 0) {
-    edges[index] = edge;
+    edges[index] = edge ? 1u : 0u;
   } else {
-    dilated[index] = edge;
+    dilated[index] = edge ? 1u : 0u;
   }
 }
