@@ -1,0 +1,64 @@
+// Image quality the way the papers measure it (DESIGN.md section 7), for a
+// rendered view against the true image of the same camera, inside that
+// camera's foreground mask.
+//
+// Conventions, so anyone can recompute the numbers from the saved PNGs:
+// - RMSE and PSNR: over every channel of every pixel inside the mask, peak
+//   255. RMSE is reported in percent of 255. Identical images give PSNR
+//   kPsnrCap (JSON has no infinity).
+// - SSIM (Wang, Bovik, Sheikh and Simoncelli 2004): on luminance
+//   Y = 0.299 R + 0.587 G + 0.114 B (not rounded), Gaussian window 11x11
+//   with sigma 1.5 (weights normalised), K1 = 0.01, K2 = 0.03, L = 255,
+//   population (not sample) statistics. The map covers the windows that
+//   lie wholly inside the image (Wang's "valid" filtering); its mean is
+//   taken over the windows whose centre is inside the mask. Outside the
+//   mask both images are set to black first, so the backdrop never counts.
+// - Temporal flicker: mean absolute frame-to-frame change of the signed
+//   error image (rendered - true), grey levels, over pixels inside both
+//   frames' masks: a method that is wrong the same way every frame does not
+//   flicker.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "common/image.h"
+
+namespace holofuse::eval {
+
+constexpr double kPsnrCap = 100.0;  // dB, for identical images
+
+struct ImageQuality {
+  double rmse_percent = 0;  // of 255
+  double psnr_db = 0;
+  double ssim = 0;
+  size_t pixels = 0;  // inside the mask
+};
+
+// rendered: RGB or RGBA (alpha ignored); truth: RGB; mask: one channel,
+// non-zero counts. All the same size (std::invalid_argument otherwise).
+ImageQuality compareInMask(const Image8& rendered, const Image8& truth, const Image8& mask);
+
+double psnrFromMse(double mse, double peak = 255.0);
+
+// Luminance of an RGB(A) image, row major.
+std::vector<double> luminance(const Image8& image);
+
+// SSIM map of two greyscale images (w x h, row major) over the windows
+// wholly inside the image: (w - 10) x (h - 10) values, the window centred on
+// pixel (x + 5, y + 5) at index y * (w - 10) + x. Empty when an image is
+// smaller than the window.
+std::vector<double> ssimMap(const std::vector<double>& a, const std::vector<double>& b, int width, int height);
+// Mean of the map: the usual single SSIM value of two images.
+double meanSsim(const std::vector<double>& a, const std::vector<double>& b, int width, int height);
+
+// Signed error image (rendered - truth) per channel, for flicker.
+struct ErrorImage {
+  Image8 mask;
+  std::vector<float> error;  // width * height * 3
+};
+ErrorImage errorImage(const Image8& rendered, const Image8& truth, const Image8& mask);
+// Mean |e1 - e0| over pixels inside both masks and channels; 0 when none.
+double flicker(const ErrorImage& previous, const ErrorImage& current);
+
+}  // namespace holofuse::eval

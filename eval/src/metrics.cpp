@@ -1,0 +1,166 @@
+#include "eval/metrics.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace holofuse::eval {
+namespace {
+
+constexpr int kRadius = 5;  // 11 x 11 window
+constexpr double kSigma = 1.5;
+constexpr double kK1 = 0.01, kK2 = 0.03, kPeak = 255.0;
+
+std::array<double, 2 * kRadius + 1> gaussianWeights() {
+  std::array<double, 2 * kRadius + 1> w{};
+  double sum = 0;
+  for (int i = -kRadius; i <= kRadius; ++i) sum += w[i + kRadius] = std::exp(-(i * i) / (2 * kSigma * kSigma));
+  for (double& v : w) v /= sum;
+  return w;
+}
+
+// Separable weighted sums over the windows wholly inside the image.
+std::vector<double> filterValid(const std::vector<double>& image, int width, int height) {
+  static const auto w = gaussianWeights();
+  const int out_w = width - 2 * kRadius, out_h = height - 2 * kRadius;
+  std::vector<double> rows(static_cast<size_t>(out_w) * height);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < out_w; ++x) {
+      double s = 0;
+      for (int k = 0; k <= 2 * kRadius; ++k) s += w[k] * image[static_cast<size_t>(y) * width + x + k];
+      rows[static_cast<size_t>(y) * out_w + x] = s;
+    }
+  }
+  std::vector<double> out(static_cast<size_t>(out_w) * out_h);
+  for (int y = 0; y < out_h; ++y) {
+    for (int x = 0; x < out_w; ++x) {
+      double s = 0;
+      for (int k = 0; k <= 2 * kRadius; ++k) s += w[k] * rows[static_cast<size_t>(y + k) * out_w + x];
+      out[static_cast<size_t>(y) * out_w + x] = s;
+    }
+  }
+  return out;
+}
+
+void requireSameSize(const Image8& a, const Image8& b, const char* what) {
+  if (a.width != b.width || a.height != b.height) {
+    throw std::invalid_argument(std::string(what) + ": " + std::to_string(a.width) + "x" + std::to_string(a.height) +
+                                " against " + std::to_string(b.width) + "x" + std::to_string(b.height));
+  }
+}
+
+void requireInputs(const Image8& rendered, const Image8& truth, const Image8& mask) {
+  requireSameSize(rendered, truth, "rendered and true image differ in size");
+  requireSameSize(truth, mask, "true image and mask differ in size");
+  if (rendered.channels < 3 || truth.channels < 3 || mask.channels != 1) {
+    throw std::invalid_argument("expected RGB(A) images and a one-channel mask");
+  }
+}
+
+}  // namespace
+
+double psnrFromMse(double mse, double peak) {
+  if (!(mse > 0)) return kPsnrCap;
+  return std::min(kPsnrCap, 10.0 * std::log10(peak * peak / mse));
+}
+
+std::vector<double> luminance(const Image8& image) {
+  std::vector<double> y(static_cast<size_t>(image.width) * image.height);
+  for (size_t p = 0; p < y.size(); ++p) {
+    const uint8_t* px = image.pixels.data() + p * image.channels;
+    y[p] = image.channels >= 3 ? 0.299 * px[0] + 0.587 * px[1] + 0.114 * px[2] : px[0];
+  }
+  return y;
+}
+
+std::vector<double> ssimMap(const std::vector<double>& a, const std::vector<double>& b, int width, int height) {
+  if (width <= 2 * kRadius || height <= 2 * kRadius) return {};
+  const size_t n = static_cast<size_t>(width) * height;
+  std::vector<double> aa(n), bb(n), ab(n);
+  for (size_t i = 0; i < n; ++i) {
+    aa[i] = a[i] * a[i];
+    bb[i] = b[i] * b[i];
+    ab[i] = a[i] * b[i];
+  }
+  const auto mu_a = filterValid(a, width, height), mu_b = filterValid(b, width, height);
+  const auto e_aa = filterValid(aa, width, height), e_bb = filterValid(bb, width, height),
+             e_ab = filterValid(ab, width, height);
+  const double c1 = (kK1 * kPeak) * (kK1 * kPeak), c2 = (kK2 * kPeak) * (kK2 * kPeak);
+  std::vector<double> map(mu_a.size());
+  for (size_t i = 0; i < map.size(); ++i) {
+    const double var_a = e_aa[i] - mu_a[i] * mu_a[i], var_b = e_bb[i] - mu_b[i] * mu_b[i];
+    const double cov = e_ab[i] - mu_a[i] * mu_b[i];
+    map[i] = ((2 * mu_a[i] * mu_b[i] + c1) * (2 * cov + c2)) /
+             ((mu_a[i] * mu_a[i] + mu_b[i] * mu_b[i] + c1) * (var_a + var_b + c2));
+  }
+  return map;
+}
+
+double meanSsim(const std::vector<double>& a, const std::vector<double>& b, int width, int height) {
+  const auto map = ssimMap(a, b, width, height);
+  double sum = 0;
+  for (double v : map) sum += v;
+  return map.empty() ? 0.0 : sum / static_cast<double>(map.size());
+}
+
+ImageQuality compareInMask(const Image8& rendered, const Image8& truth, const Image8& mask) {
+  requireInputs(rendered, truth, mask);
+  const int w = static_cast<int>(truth.width), h = static_cast<int>(truth.height);
+  ImageQuality q;
+  double squared = 0;
+  std::vector<double> ya = luminance(rendered), yb = luminance(truth);
+  for (size_t p = 0; p < mask.pixels.size(); ++p) {
+    if (mask.pixels[p] == 0) {
+      ya[p] = yb[p] = 0.0;
+      continue;
+    }
+    ++q.pixels;
+    for (int c = 0; c < 3; ++c) {
+      const double d = double(rendered.pixels[p * rendered.channels + c]) - double(truth.pixels[p * truth.channels + c]);
+      squared += d * d;
+    }
+  }
+  const double mse = q.pixels ? squared / (3.0 * static_cast<double>(q.pixels)) : 0.0;
+  q.rmse_percent = 100.0 * std::sqrt(mse) / 255.0;
+  q.psnr_db = psnrFromMse(mse);
+  const auto map = ssimMap(ya, yb, w, h);
+  double sum = 0;
+  size_t count = 0;
+  for (int y = 0; y + 2 * kRadius < h; ++y) {
+    for (int x = 0; x + 2 * kRadius < w; ++x) {
+      if (mask.pixels[static_cast<size_t>(y + kRadius) * w + x + kRadius] == 0) continue;
+      sum += map[static_cast<size_t>(y) * (w - 2 * kRadius) + x];
+      ++count;
+    }
+  }
+  q.ssim = count ? sum / static_cast<double>(count) : 0.0;
+  return q;
+}
+
+ErrorImage errorImage(const Image8& rendered, const Image8& truth, const Image8& mask) {
+  requireInputs(rendered, truth, mask);
+  ErrorImage e{mask, std::vector<float>(mask.pixels.size() * 3, 0.0f)};
+  for (size_t p = 0; p < mask.pixels.size(); ++p) {
+    for (int c = 0; c < 3; ++c) {
+      e.error[p * 3 + c] =
+          static_cast<float>(int(rendered.pixels[p * rendered.channels + c]) - int(truth.pixels[p * truth.channels + c]));
+    }
+  }
+  return e;
+}
+
+double flicker(const ErrorImage& previous, const ErrorImage& current) {
+  if (previous.error.size() != current.error.size()) return 0.0;
+  double sum = 0;
+  size_t count = 0;
+  for (size_t p = 0; p < current.mask.pixels.size(); ++p) {
+    if (current.mask.pixels[p] == 0 || previous.mask.pixels[p] == 0) continue;
+    for (int c = 0; c < 3; ++c) sum += std::abs(current.error[p * 3 + c] - previous.error[p * 3 + c]);
+    count += 3;
+  }
+  return count ? sum / static_cast<double>(count) : 0.0;
+}
+
+}  // namespace holofuse::eval

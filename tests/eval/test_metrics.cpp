@@ -1,0 +1,147 @@
+// Quality metrics against values computed by an independent implementation
+// (scikit-image, tests/eval/reference_metrics.py) on images both sides
+// build from the same integer formulas, plus the properties the masked
+// evaluation relies on.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "eval/metrics.h"
+
+namespace holofuse::eval {
+namespace {
+
+constexpr int kW = 64, kH = 48;
+
+using Grey = std::vector<int>;
+
+Grey base() {
+  Grey a(kW * kH);
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) a[y * kW + x] = (x * 7 + y * 13 + ((x * y) % 17) * 5) % 256;
+  }
+  return a;
+}
+
+Grey noisy(const Grey& a) {
+  int64_t state = 12345;
+  Grey b = a;
+  for (int i = 0; i < kW * kH; ++i) {
+    state = (state * 1103515245 + 12345) % (int64_t{1} << 31);
+    b[i] = std::clamp(a[i] + static_cast<int>((state >> 16) % 41) - 20, 0, 255);
+  }
+  return b;
+}
+
+Grey blurred(const Grey& a) {
+  Grey b = a;
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) {
+      int s = 0;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) s += a[std::clamp(y + dy, 0, kH - 1) * kW + std::clamp(x + dx, 0, kW - 1)];
+      }
+      b[y * kW + x] = s / 9;
+    }
+  }
+  return b;
+}
+
+Grey shifted(const Grey& a) {
+  Grey b = a;
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 1; x < kW; ++x) b[y * kW + x] = a[y * kW + x - 1];
+  }
+  return b;
+}
+
+Grey rescaled(const Grey& a) {
+  Grey b = a;
+  for (int& v : b) v = (v * 4 + 100) / 5;
+  return b;
+}
+
+Image8 rgb(const Grey& g) {
+  Image8 image(kW, kH, 3);
+  for (size_t i = 0; i < g.size(); ++i) {
+    for (int c = 0; c < 3; ++c) image.pixels[i * 3 + c] = static_cast<uint8_t>(g[i]);
+  }
+  return image;
+}
+
+struct Reference {
+  const char* name;
+  Grey (*make)(const Grey&);
+  double ssim, psnr;
+};
+
+TEST(Metrics, MatchScikitImageOnFourDistortions) {
+  // /usr/bin/python3 tests/eval/reference_metrics.py (scikit-image 0.19.3,
+  // gaussian_weights, sigma 1.5, population covariance, data_range 255).
+  const Reference references[] = {{"noisy", noisy, 0.9668327595, 26.8974668366},
+                                  {"blurred", blurred, 0.4739344466, 13.6778094884},
+                                  {"shifted", shifted, 0.2534724830, 10.1495011386},
+                                  {"rescaled", rescaled, 0.9733803951, 24.0555336231}};
+  const Grey a = base();
+  const Image8 everywhere(kW, kH, 1, 255);
+  for (const auto& r : references) {
+    const ImageQuality q = compareInMask(rgb(r.make(a)), rgb(a), everywhere);
+    EXPECT_NEAR(q.ssim, r.ssim, 1e-8) << r.name;
+    EXPECT_NEAR(q.psnr_db, r.psnr, 1e-8) << r.name;
+    EXPECT_NEAR(q.rmse_percent, 100.0 * std::sqrt(255.0 * 255.0 / std::pow(10.0, r.psnr / 10.0)) / 255.0, 1e-8);
+    EXPECT_EQ(q.pixels, size_t{kW * kH});
+  }
+}
+
+TEST(Metrics, ConstantImagesFollowTheLuminanceTermAlone) {
+  // No variance: SSIM = (2 mu_a mu_b + C1) / (mu_a^2 + mu_b^2 + C1).
+  const double c1 = (0.01 * 255) * (0.01 * 255);
+  const std::vector<double> a(kW * kH, 100.0), b(kW * kH, 110.0);
+  EXPECT_NEAR(meanSsim(a, b, kW, kH), (2 * 100.0 * 110 + c1) / (100.0 * 100 + 110.0 * 110 + c1), 1e-12);
+  EXPECT_DOUBLE_EQ(meanSsim(a, a, kW, kH), 1.0);
+  EXPECT_DOUBLE_EQ(psnrFromMse(0.0), kPsnrCap) << "identical images: capped, never infinite";
+  EXPECT_NEAR(psnrFromMse(100.0), 10 * std::log10(255.0 * 255.0 / 100.0), 1e-12);
+}
+
+TEST(Metrics, OnlyTheMaskCounts) {
+  const Grey a = base();
+  Image8 mask(kW, kH, 1, 0);
+  for (int y = 10; y < 38; ++y) {
+    for (int x = 12; x < 50; ++x) *mask.at(x, y) = 255;
+  }
+  Image8 rendered = rgb(noisy(a)), changed_outside = rendered;
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) {
+      if (*mask.at(x, y) == 0) changed_outside.at(x, y)[1] = static_cast<uint8_t>(255 - changed_outside.at(x, y)[1]);
+    }
+  }
+  const ImageQuality q = compareInMask(rendered, rgb(a), mask);
+  const ImageQuality same = compareInMask(changed_outside, rgb(a), mask);
+  EXPECT_EQ(q.pixels, size_t{28 * 38});
+  EXPECT_DOUBLE_EQ(q.psnr_db, same.psnr_db);
+  EXPECT_DOUBLE_EQ(q.ssim, same.ssim);
+  EXPECT_LT(q.ssim, 1.0);
+  const ImageQuality perfect = compareInMask(rgb(a), rgb(a), mask);
+  EXPECT_DOUBLE_EQ(perfect.ssim, 1.0);
+  EXPECT_DOUBLE_EQ(perfect.rmse_percent, 0.0);
+  EXPECT_THROW(compareInMask(Image8(kW, kH - 1, 3), rgb(a), mask), std::invalid_argument);
+}
+
+TEST(Metrics, FlickerIsTheChangeOfTheErrorNotTheError) {
+  const Grey a = base();
+  const Image8 truth = rgb(a), mask(kW, kH, 1, 255);
+  Grey brighter = a;
+  for (int& v : brighter) v = std::min(255, v + 10);
+  // Wrong by the same amount twice: no flicker.
+  const auto e0 = errorImage(rgb(brighter), truth, mask), e1 = errorImage(rgb(brighter), truth, mask);
+  EXPECT_DOUBLE_EQ(flicker(e0, e1), 0.0);
+  // Right, then wrong: the mean change of the error.
+  const auto right = errorImage(truth, truth, mask);
+  double expected = 0;
+  for (size_t i = 0; i < a.size(); ++i) expected += brighter[i] - a[i];
+  EXPECT_NEAR(flicker(right, e1), expected / static_cast<double>(a.size()), 1e-9);
+}
+
+}  // namespace
+}  // namespace holofuse::eval
