@@ -15,6 +15,8 @@
 #include <thread>
 #include <vector>
 
+#include "capture_node/scene_library.h"
+
 namespace {
 
 volatile sig_atomic_t g_interrupted = 0;
@@ -66,7 +68,7 @@ void stop(pid_t pid, const char* what) {
 int main(int argc, char** argv) {
   int pods = 4, frames = 40, port = 0;
   double fps = 5.0;
-  std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit";
+  std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit", scene = "clean";
   CLI::App app{"holofuse loop: pods -> fusion server -> render client on localhost"};
   app.add_option("--pods", pods, "camera pods (1..16)")->check(CLI::Range(1, 16));
   app.add_option("--frames", frames, "frames the client renders before everything stops")->check(CLI::Range(1, 1000000));
@@ -76,8 +78,15 @@ int main(int argc, char** argv) {
   app.add_option("--port", port, "server port (0: any free port)")->check(CLI::Range(0, 65535));
   app.add_option("--mode", mode, "blending mode of the client");
   app.add_option("--view", view, "client view: orbit or pod:N");
+  app.add_option("--scene", scene, "named synthetic scene (its camera count unless --pods): " + holofuse::capture::sceneNames());
   app.add_option("--bin-dir", bin_dir, "folder of the executables (default: next to this one)");
   CLI11_PARSE(app, argc, argv);
+  const holofuse::capture::ScenePreset* preset = holofuse::capture::findScene(scene);
+  if (preset == nullptr) {
+    std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene.c_str(), holofuse::capture::sceneNames().c_str());
+    return 2;
+  }
+  if (app.count("--scene") && !app.count("--pods")) pods = preset->cameras;
   namespace fs = std::filesystem;
   if (bin_dir.empty()) bin_dir = fs::canonical("/proc/self/exe").parent_path().string();
   fs::create_directories(fs::path(out) / "logs");
@@ -109,13 +118,13 @@ int main(int argc, char** argv) {
     return 1;
   }
   const std::string endpoint = "127.0.0.1:" + bound;
-  std::printf("[loop] server on %s, %d pods at %s, %.1f fps; writing %s\n", endpoint.c_str(), pods, size.c_str(), fps,
-              out.c_str());
+  std::printf("[loop] server on %s, scene %s, %d pods at %s, %.1f fps; writing %s\n", endpoint.c_str(), scene.c_str(),
+              pods, size.c_str(), fps, out.c_str());
   std::fflush(stdout);
   std::vector<pid_t> pod_pids;
   for (int i = 0; i < pods; ++i) {
     pod_pids.push_back(spawn({bin_dir + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(i), "--pods",
-                              std::to_string(pods), "--size", size, "--fps", std::to_string(fps)},
+                              std::to_string(pods), "--size", size, "--fps", std::to_string(fps), "--scene", scene},
                              (fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log")).string()));
   }
   const pid_t client = spawn({bin_dir + "/render_client", "--server", endpoint, "--out", out, "--frames",

@@ -3,12 +3,13 @@
 #include <cstdio>
 
 #include "capture_node/pod.h"
+#include "capture_node/scene_library.h"
 #include "common/shutdown.h"
 
 int main(int argc, char** argv) {
   using namespace holofuse;
   capture::PodOptions options;
-  std::string server, size = "320x240", codec = "lz4-delta";
+  std::string server, size = "320x240", codec = "lz4-delta", scene_name = "clean";
   CLI::App app{"holofuse capture_node: a synthetic camera pod streaming to a fusion server"};
   app.add_option("--server", server, "fusion server HOST:PORT")->required();
   app.add_option("--pod-id", options.pod_id, "this pod's camera index (0-based)")->required();
@@ -16,11 +17,23 @@ int main(int argc, char** argv) {
   app.add_option("--size", size, "image size WxH");
   app.add_option("--fps", options.fps, "frames per second")->check(CLI::Range(0.1, 240.0));
   app.add_option("--frames", options.frames, "stop after this many frames (0: run until signalled)");
+  app.add_option("--scene", scene_name, "named synthetic scene: " + capture::sceneNames());
   app.add_option("--seed", options.scene.seed, "scene seed");
   app.add_option("--noise", options.scene.noise_amplitude, "sensor noise amplitude, grey levels")
       ->check(CLI::Range(0.0, 64.0));
   app.add_option("--codec", codec, "colour codec")->check(CLI::IsMember({"raw", "lz4", "lz4-delta"}));
   CLI11_PARSE(app, argc, argv);
+  const capture::ScenePreset* preset = capture::findScene(scene_name);
+  if (preset == nullptr) {
+    std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene_name.c_str(), capture::sceneNames().c_str());
+    return 2;
+  }
+  const capture::SceneOptions given = options.scene;
+  options.scene = preset->scene;
+  if (app.count("--seed")) options.scene.seed = given.seed;
+  if (app.count("--noise")) options.scene.noise_amplitude = given.noise_amplitude;
+  options.calibration_error_degrees = preset->calibration_error_degrees;
+  options.calibration_error_metres = preset->calibration_error_metres;
 
   unsigned w = 0, h = 0;
   if (std::sscanf(size.c_str(), "%ux%u", &w, &h) != 2 || w < 16 || h < 16 || w > 4096 || h > 4096) {

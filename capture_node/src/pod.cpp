@@ -3,6 +3,7 @@
 #include <array>
 #include <cstdio>
 
+#include "capture_node/scene_library.h"
 #include "capture_node/segmentation.h"
 #include "common/image_codec.h"
 #include "common/shutdown.h"
@@ -56,6 +57,8 @@ int runPod(const PodOptions& options) {
   const auto cameras = SyntheticScene::cameraRig(options.pods, options.width, options.height);
   const Camera& camera = cameras.at(options.pod_id);
   const Image8 plate = scene.backgroundPlate(camera);
+  const Camera reported = reportedCalibration(camera, options.calibration_error_degrees,
+                                              options.calibration_error_metres, options.scene.seed);
 
   protocol::Hello hello;
   hello.role = protocol::Role::kPod;
@@ -84,7 +87,7 @@ int runPod(const PodOptions& options) {
         std::fprintf(stderr, "[%s] giving up: %s\n", hello.name.c_str(), link.fatalError()->toString().c_str());
         return 2;
       }
-      if (link.takeConnectedEvent()) link.sendMessage(toCalibration(camera));
+      if (link.takeConnectedEvent()) link.sendMessage(toCalibration(reported));
       continue;
     }
     if (last_frame_id != 0 && frame_id > last_frame_id + 1) skipped += frame_id - last_frame_id - 1;

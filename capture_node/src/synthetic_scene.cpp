@@ -186,8 +186,9 @@ std::vector<Camera> SyntheticScene::cameraRig(int count, uint32_t width, uint32_
 
 glm::dvec3 SyntheticScene::cameraGain(uint32_t id) const {
   const double i = id + 0.37 * static_cast<double>(options_.seed % 7);
-  return glm::dvec3(1 + 0.07 * std::sin(1.3 * i), 1 + 0.05 * std::sin(2.1 * i + 1),
-                    1 + 0.07 * std::sin(0.7 * i + 2));
+  const double k = options_.gain_spread;
+  return glm::dvec3(1 + k * 0.07 * std::sin(1.3 * i), 1 + k * 0.05 * std::sin(2.1 * i + 1),
+                    1 + k * 0.07 * std::sin(0.7 * i + 2));
 }
 
 void SyntheticScene::subjectBounds(glm::dvec3& lo, glm::dvec3& hi) {
@@ -270,6 +271,12 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
           // Lambertian: the colour of a surface point is the same from
           // every camera up to that camera's gain.
           color = albedo(p, pose, part) * (0.35 + 0.65 * std::max(0.0, glm::dot(n, kLight))) * gain;
+          if (options_.specular > 0) {
+            // Blinn-Phong: where it shines depends on the camera, so views
+            // disagree about those pixels (what the vote has to catch).
+            const glm::dvec3 half = glm::normalize(kLight - dir);
+            color += options_.specular * std::pow(std::max(0.0, glm::dot(n, half)), 40.0) * gain;
+          }
         }
       }
       const uint64_t noise_key = ((options_.seed * 1000003 + frame_id) * 64 + camera.id) * 0x100000000ull +

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "capture_node/pod.h"
+#include "capture_node/scene_library.h"
 #include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"
 #include "common/image_codec.h"
@@ -104,6 +105,63 @@ TEST(Pod, EncodedFrameCarriesStampsAndDecodablePlanes) {
   ASSERT_TRUE(color.isOk());
   EXPECT_EQ(color->pixels, capture.view.color.pixels);
   EXPECT_LT(bytes.size(), capture.view.color.pixels.size()) << "LZ4 with the delta filter must compress";
+}
+
+}  // namespace
+}  // namespace holofuse::capture
+
+namespace holofuse::capture {
+namespace {
+
+TEST(SceneLibrary, NamesEveryScenarioAndRefusesUnknownOnes) {
+  for (const char* name : {"clean", "calibration-error", "colour-imbalance", "fast-motion", "viewpoint-jump",
+                           "few-cameras", "many-cameras"}) {
+    ASSERT_NE(findScene(name), nullptr) << name;
+    EXPECT_NE(sceneNames().find(name), std::string::npos);
+  }
+  EXPECT_EQ(findScene("cleanish"), nullptr);
+  EXPECT_EQ(findScene("few-cameras")->cameras, 4);
+  EXPECT_EQ(findScene("many-cameras")->cameras, 16);
+  EXPECT_EQ(findScene("viewpoint-jump")->view_jump_degrees, 90.0);
+}
+
+TEST(SceneLibrary, ReportedCalibrationIsOffByExactlyTheStatedError) {
+  const auto rig = SyntheticScene::cameraRig(8, 160, 120);
+  for (const Camera& truth : rig) {
+    const Camera reported = reportedCalibration(truth, 0.6, 0.008, 1);
+    EXPECT_NEAR(glm::length(reported.center() - truth.center()), 0.008, 1e-9);
+    // The angle of the relative rotation: trace = 1 + 2 cos(angle).
+    const glm::dmat3 relative = reported.rotation * glm::transpose(truth.rotation);
+    const double trace = relative[0][0] + relative[1][1] + relative[2][2];
+    EXPECT_NEAR(glm::degrees(std::acos(std::clamp((trace - 1) / 2, -1.0, 1.0))), 0.6, 1e-6);
+    EXPECT_EQ(reportedCalibration(truth, 0.0, 0.0, 1).rotation, truth.rotation);
+  }
+  // Deterministic, and different per camera.
+  EXPECT_EQ(reportedCalibration(rig[2], 0.6, 0.008, 1).translation, reportedCalibration(rig[2], 0.6, 0.008, 1).translation);
+  EXPECT_NE(reportedCalibration(rig[2], 0.6, 0.008, 1).center() - rig[2].center(),
+            reportedCalibration(rig[3], 0.6, 0.008, 1).center() - rig[3].center());
+}
+
+TEST(SceneLibrary, ImbalanceAndSpecularChangeWhatCamerasSeeAndSpeedMovesTheClock) {
+  const ScenePreset& clean = *findScene("clean");
+  const ScenePreset& imbalance = *findScene("colour-imbalance");
+  const SyntheticScene a(clean.scene), b(imbalance.scene);
+  const glm::dvec3 deviation_a = a.cameraGain(3) - glm::dvec3(1.0), deviation_b = b.cameraGain(3) - glm::dvec3(1.0);
+  EXPECT_NEAR(glm::length(deviation_b), 3.0 * glm::length(deviation_a), 1e-12);
+  // The highlight brightens some of the subject, never darkens it.
+  const Camera cam = SyntheticScene::cameraRig(8, 160, 120)[0];
+  SceneOptions shiny = clean.scene, matte = clean.scene;
+  shiny.specular = 0.45;
+  shiny.noise_amplitude = matte.noise_amplitude = 0.0;
+  const auto lit = SyntheticScene(shiny).render(cam, 5), flat = SyntheticScene(matte).render(cam, 5);
+  int brighter = 0;
+  for (size_t i = 0; i < lit.color.pixels.size(); ++i) {
+    ASSERT_GE(lit.color.pixels[i], flat.color.pixels[i]);
+    brighter += lit.color.pixels[i] > flat.color.pixels[i] + 20;
+  }
+  EXPECT_GT(brighter, 20);
+  const SyntheticScene fast(findScene("fast-motion")->scene);
+  EXPECT_DOUBLE_EQ(fast.timeOf(10), 4.0 * a.timeOf(10));
 }
 
 }  // namespace

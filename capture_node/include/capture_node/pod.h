@@ -21,6 +21,9 @@ struct PodOptions {
   uint64_t frames = 0;  // stop after this many frames sent; 0 = until signalled
   protocol::Codec color_codec = protocol::Codec::kLz4PlanarDelta;
   SceneOptions scene;
+  // The calibration the pod reports is off by this much (scene presets).
+  double calibration_error_degrees = 0.0;
+  double calibration_error_metres = 0.0;
 };
 
 // Everything a pod produces for one frame, before it goes on the wire.

@@ -21,6 +21,9 @@ struct SceneOptions {
   uint64_t seed = 1;
   double frames_per_second = 10.0;  // scene time = frame id / this
   double noise_amplitude = 2.0;     // sensor noise, grey levels
+  double gain_spread = 1.0;         // scales how far each camera's colour gain is from 1
+  double specular = 0.0;            // strength of a white specular highlight (view dependent)
+  double motion_speed = 1.0;        // scales the animation's clock
 };
 
 struct RenderedView {
@@ -34,7 +37,10 @@ class SyntheticScene {
 
   // Signed distance (metres, negative inside) of the subject at scene time t.
   double signedDistance(const glm::dvec3& p, double t) const;
-  double timeOf(uint64_t frame_id) const { return static_cast<double>(frame_id) / options_.frames_per_second; }
+  double timeOf(uint64_t frame_id) const {
+    return options_.motion_speed * static_cast<double>(frame_id) / options_.frames_per_second;
+  }
+  const SceneOptions& options() const { return options_; }
 
   // The ring of cameras the synthetic pods use.
   static std::vector<Camera> cameraRig(int count, uint32_t width, uint32_t height);

@@ -1,0 +1,95 @@
+#include "capture_node/scene_library.h"
+
+#include <cmath>
+#include <glm/gtc/matrix_transform.hpp>
+
+namespace holofuse::capture {
+namespace {
+
+std::vector<ScenePreset> makeLibrary() {
+  std::vector<ScenePreset> scenes;
+  auto add = [&](const char* name, const char* stresses) -> ScenePreset& {
+    ScenePreset preset;
+    preset.name = name;
+    preset.stresses = stresses;
+    return scenes.emplace_back(preset);
+  };
+  add("clean", "nothing: eight cameras, mild gains, slow motion (the baseline)");
+  {
+    ScenePreset& s = add("calibration-error", "pods report poses off by 0.6 degrees and 8 mm");
+    s.calibration_error_degrees = 0.6;
+    s.calibration_error_metres = 0.008;
+  }
+  {
+    ScenePreset& s = add("colour-imbalance", "white balance and gain three times as uneven, and a specular highlight");
+    s.scene.gain_spread = 3.0;
+    s.scene.specular = 0.45;
+  }
+  {
+    ScenePreset& s = add("fast-motion", "the subject moves four times as fast");
+    s.scene.motion_speed = 4.0;
+  }
+  {
+    ScenePreset& s = add("viewpoint-jump", "the user's view jumps 90 degrees halfway through");
+    s.view_jump_degrees = 90.0;
+  }
+  {
+    ScenePreset& s = add("few-cameras", "four cameras: wide gaps between views");
+    s.cameras = 4;
+  }
+  {
+    ScenePreset& s = add("many-cameras", "sixteen cameras: many overlapping views to blend");
+    s.cameras = 16;
+  }
+  return scenes;
+}
+
+double hashUnit(uint64_t x) {
+  x ^= x >> 33;
+  x *= 0xff51afd7ed558ccdull;
+  x ^= x >> 33;
+  x *= 0xc4ceb9fe1a85ec53ull;
+  x ^= x >> 33;
+  return static_cast<double>(x >> 11) * (1.0 / 9007199254740992.0);
+}
+
+glm::dvec3 unitVector(uint64_t key) {
+  const double z = 2 * hashUnit(key) - 1, a = 2 * M_PI * hashUnit(key + 1);
+  const double r = std::sqrt(std::max(0.0, 1 - z * z));
+  return {r * std::cos(a), r * std::sin(a), z};
+}
+
+}  // namespace
+
+const std::vector<ScenePreset>& sceneLibrary() {
+  static const std::vector<ScenePreset> library = makeLibrary();
+  return library;
+}
+
+const ScenePreset* findScene(const std::string& name) {
+  for (const auto& preset : sceneLibrary()) {
+    if (preset.name == name) return &preset;
+  }
+  return nullptr;
+}
+
+std::string sceneNames() {
+  std::string names;
+  for (const auto& preset : sceneLibrary()) names += (names.empty() ? "" : ", ") + preset.name;
+  return names;
+}
+
+Camera reportedCalibration(const Camera& truth, double degrees, double metres, uint64_t seed) {
+  if (degrees == 0.0 && metres == 0.0) return truth;
+  const uint64_t key = (seed * 7919 + truth.id) * 4;
+  const glm::dmat3 turn(glm::rotate(glm::dmat4(1.0), glm::radians(degrees), unitVector(key)));
+  Camera reported = truth;
+  // x_camera = R x_world + t: turning the camera by `turn` about its own
+  // centre, then moving the centre.
+  const glm::dvec3 centre = truth.center() + metres * unitVector(key + 2);
+  reported.rotation = turn * truth.rotation;
+  reported.translation = -reported.rotation * centre;
+  return reported;
+}
+
+}  // namespace holofuse::capture
