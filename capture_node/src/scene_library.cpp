@@ -44,17 +44,8 @@ std::vector<ScenePreset> makeLibrary() {
   return scenes;
 }
 
-double hashUnit(uint64_t x) {
-  x ^= x >> 33;
-  x *= 0xff51afd7ed558ccdull;
-  x ^= x >> 33;
-  x *= 0xc4ceb9fe1a85ec53ull;
-  x ^= x >> 33;
-  return static_cast<double>(x >> 11) * (1.0 / 9007199254740992.0);
-}
-
 glm::dvec3 unitVector(uint64_t key) {
-  const double z = 2 * hashUnit(key) - 1, a = 2 * M_PI * hashUnit(key + 1);
+  const double z = 2 * hashToUnitInterval(key) - 1, a = 2 * M_PI * hashToUnitInterval(key + 1);
   const double r = std::sqrt(std::max(0.0, 1 - z * z));
   return {r * std::cos(a), r * std::sin(a), z};
 }

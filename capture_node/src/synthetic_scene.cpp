@@ -25,15 +25,6 @@ double capsuleDistance(const glm::dvec3& p, const Capsule& c) {
   return glm::length(pa - ba * h) - c.radius;
 }
 
-// Deterministic hash to [0, 1).
-double hash01(uint64_t x) {
-  x ^= x >> 33;
-  x *= 0xff51afd7ed558ccdull;
-  x ^= x >> 33;
-  x *= 0xc4ceb9fe1a85ec53ull;
-  x ^= x >> 33;
-  return static_cast<double>(x >> 11) * (1.0 / 9007199254740992.0);
-}
 
 int64_t cell(double v, double size) { return static_cast<int64_t>(std::floor(v / size)); }
 
@@ -41,6 +32,15 @@ constexpr double kTorsoDepthScale = 1.45;  // the torso is flatter front to back
 const glm::dvec3 kLight = glm::normalize(glm::dvec3(0.3, 0.8, 0.5));
 
 }  // namespace
+
+double hashToUnitInterval(uint64_t x) {
+  x ^= x >> 33;
+  x *= 0xff51afd7ed558ccdull;
+  x ^= x >> 33;
+  x *= 0xc4ceb9fe1a85ec53ull;
+  x ^= x >> 33;
+  return static_cast<double>(x >> 11) * (1.0 / 9007199254740992.0);
+}
 
 struct SyntheticScene::Pose {
   glm::dmat3 body_to_world{1.0};
@@ -54,7 +54,7 @@ SyntheticScene::SyntheticScene(SceneOptions options) : options_(options) {}
 SyntheticScene::Pose SyntheticScene::poseAt(double t) const {
   Pose pose;
   // A per-seed phase so different seeds give different motion.
-  const double phase = hash01(options_.seed) * 2 * kPi;
+  const double phase = hashToUnitInterval(options_.seed) * 2 * kPi;
   const double yaw = 0.35 * std::sin(0.4 * t + phase);
   const double c = std::cos(yaw), s = std::sin(yaw);
   pose.body_to_world = glm::dmat3(glm::dvec3(c, 0, -s), glm::dvec3(0, 1, 0), glm::dvec3(s, 0, c));
@@ -133,7 +133,7 @@ glm::dvec3 SyntheticScene::albedo(const glm::dvec3& p, const Pose& pose, int par
         const double cell_size = 0.011;
         const int64_t cx = cell(b.x + 0.11, cell_size), cy = cell(1.2 - b.y, cell_size);
         const int64_t gx = cx / 6, gy = cy / 8, ix = cx % 6, iy = cy % 8;
-        if (ix < 5 && iy < 7 && hash01(options_.seed * 7919 + gx * 131 + gy * 977 + ix * 17 + iy) > 0.55) {
+        if (ix < 5 && iy < 7 && hashToUnitInterval(options_.seed * 7919 + gx * 131 + gy * 977 + ix * 17 + iy) > 0.55) {
           return glm::dvec3(0.06, 0.06, 0.08);
         }
         return glm::dvec3(0.96, 0.95, 0.9);
@@ -283,7 +283,7 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
                                  static_cast<uint64_t>(y) * camera.width + x;
       uint8_t* px = view.color.at(x, y);
       for (int k = 0; k < 3; ++k) {
-        const double noise = options_.noise_amplitude * (2 * hash01(noise_key * 3 + k) - 1);
+        const double noise = options_.noise_amplitude * (2 * hashToUnitInterval(noise_key * 3 + k) - 1);
         px[k] = static_cast<uint8_t>(std::clamp(color[k] * 255.0 + noise + 0.5, 0.0, 255.0));
       }
       *view.mask.at(x, y) = hit ? 255 : 0;

@@ -26,6 +26,9 @@ struct SceneOptions {
   double motion_speed = 1.0;        // scales the animation's clock
 };
 
+// Deterministic hash of x to [0, 1): the scene's only source of "randomness".
+double hashToUnitInterval(uint64_t x);
+
 struct RenderedView {
   Image8 color;  // RGB
   Image8 mask;   // 255 where the subject is, 0 elsewhere (the truth)
