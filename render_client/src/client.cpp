@@ -10,11 +10,10 @@
 #include <map>
 #include <set>
 #include <numbers>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "common/camera.h"
 #include "common/image_codec.h"
+#include "common/image_io.h"
 #include "common/mesh_codec.h"
 #include "common/shutdown.h"
 #include "protocol/clock.h"
@@ -60,13 +59,6 @@ std::optional<Camera> userCamera(const ClientOptions& options, const std::map<ui
   return lookAtCamera(0, eye, target, glm::dvec3(0, 1, 0), options.width, options.height, 48.0);
 }
 
-void writePng(const std::string& path, const Image8& rgba) {
-  cv::Mat mat(static_cast<int>(rgba.height), static_cast<int>(rgba.width), CV_8UC4,
-              const_cast<uint8_t*>(rgba.pixels.data()));
-  cv::Mat bgra;
-  cv::cvtColor(mat, bgra, cv::COLOR_RGBA2BGRA);
-  cv::imwrite(path, bgra, {cv::IMWRITE_PNG_COMPRESSION, 1});
-}
 
 }  // namespace
 
@@ -284,7 +276,10 @@ int runClient(const ClientOptions& options) {
         char name[64];
         std::snprintf(name, sizeof(name), "frame_%06zu.png", report.framesRendered());
         record.file = std::string("frames/") + name;
-        if (options.write_frames) writePng((out_dir / record.file).string(), picture);
+        if (options.write_frames) {
+          const protocol::Status written = writePng((out_dir / record.file).string(), picture);
+          if (!written.isOk()) std::fprintf(stderr, "[client] %s\n", written.message().c_str());
+        }
         const uint64_t t4 = monotonicNs();
         stamps.push_back({static_cast<uint16_t>(Stage::kUpload), kSourceClient, t1, t2});
         stamps.push_back({static_cast<uint16_t>(Stage::kRender), kSourceClient, t2, t3});

@@ -1,0 +1,28 @@
+#include "common/image_io.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace holofuse {
+
+protocol::Status writePng(const std::string& path, const Image8& image) {
+  if (image.empty() || (image.channels != 1 && image.channels != 3 && image.channels != 4)) {
+    return {protocol::StatusCode::kMalformed, path + ": cannot write an image with " +
+                                                  std::to_string(image.channels) + " channels"};
+  }
+  const cv::Mat mat(static_cast<int>(image.height), static_cast<int>(image.width), CV_8UC(image.channels),
+                    const_cast<uint8_t*>(image.pixels.data()));
+  cv::Mat ordered = mat;  // OpenCV stores blue first
+  if (image.channels == 3) cv::cvtColor(mat, ordered, cv::COLOR_RGB2BGR);
+  if (image.channels == 4) cv::cvtColor(mat, ordered, cv::COLOR_RGBA2BGRA);
+  bool written = false;
+  try {
+    written = cv::imwrite(path, ordered, {cv::IMWRITE_PNG_COMPRESSION, 1});
+  } catch (const cv::Exception& e) {
+    return {protocol::StatusCode::kIoError, path + ": " + e.what()};
+  }
+  if (!written) return {protocol::StatusCode::kIoError, path + ": could not be written"};
+  return protocol::Status::ok();
+}
+
+}  // namespace holofuse

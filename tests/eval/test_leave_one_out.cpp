@@ -1,0 +1,109 @@
+// The leave-one-camera-out runner end to end on a tiny configuration (real
+// pods' capture code, hull, Draco, lavapipe), its reports, its bad input,
+// and the verdict rule.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "eval/leave_one_out.h"
+
+namespace holofuse::eval {
+namespace {
+
+namespace fs = std::filesystem;
+
+EvalOptions tiny() {
+  EvalOptions options;
+  options.frames = 2;
+  options.width = 160;
+  options.height = 120;
+  options.held_out_cameras = 1;
+  return options;
+}
+
+TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
+  EvalOptions options = tiny();
+  options.scenes = {"few-cameras"};
+  options.save_images = true;
+  options.out_dir = (fs::temp_directory_path() / "holofuse_eval_test").string();
+  fs::remove_all(options.out_dir);
+  const auto results = runLeaveOneOut(options);
+  ASSERT_EQ(results.size(), 1u);
+  const SceneResult& scene = results[0];
+  EXPECT_EQ(scene.cameras, 4);
+  EXPECT_GT(scene.triangles, 1000);
+  ASSERT_EQ(scene.modes.size(), 3u);
+  for (const auto& [mode, m] : scene.modes) {
+    EXPECT_EQ(m.images, 2u) << mode;
+    // A coarse hull from four 160x120 silhouettes: far from perfect, far
+    // from noise.
+    EXPECT_GT(m.psnr_db, 8.0) << mode;
+    EXPECT_LT(m.psnr_db, 40.0) << mode;
+    EXPECT_GT(m.ssim, 0.05) << mode;
+    EXPECT_LT(m.ssim, 1.0) << mode;
+    EXPECT_NEAR(m.rmse_percent, 100.0 * std::sqrt(std::pow(10.0, -m.psnr_db / 10.0)), 0.35 * m.rmse_percent)
+        << "RMSE and PSNR describe the same errors (means of each differ a little)";
+    EXPECT_TRUE(std::isfinite(m.flicker));
+    EXPECT_GT(m.ms_per_new_mesh, 0.0);
+  }
+  EXPECT_FALSE(scene.modes.at("montage4d").gpu_passes_ms.empty());
+  writeQualityReports(options, results, options.out_dir);
+  std::ifstream json_file(fs::path(options.out_dir) / "quality.json");
+  const auto json = nlohmann::json::parse(json_file);
+  EXPECT_DOUBLE_EQ(json["scenes"]["few-cameras"]["modes"]["montage4d"]["psnr_db"].get<double>(),
+                   scene.modes.at("montage4d").psnr_db);
+  EXPECT_TRUE(json["scenes"]["few-cameras"].contains("montage4d_against_holoportation"));
+  std::ifstream md(fs::path(options.out_dir) / "quality.md");
+  const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("| few-cameras |"), std::string::npos);
+  for (const char* kind : {"rendered", "true", "mask"}) {
+    EXPECT_TRUE(fs::exists(fs::path(options.out_dir) / "images" / "few-cameras" / "montage4d" /
+                           (std::string("frame30_camera0_") + kind + ".png")))
+        << kind;
+  }
+  fs::remove_all(options.out_dir);
+}
+
+TEST(LeaveOneOut, AViewpointJumpComparesOnlyTheFramesAtTheHeldOutPose) {
+  EvalOptions options = tiny();
+  options.scenes = {"viewpoint-jump"};
+  options.frames = 4;
+  options.modes = {render::BlendMode::kNormal};
+  const auto results = runLeaveOneOut(options);
+  EXPECT_EQ(results.at(0).modes.at("normal").images, 2u) << "two frames before the jump, two after";
+}
+
+TEST(LeaveOneOut, UnknownScenesListTheValidOnes) {
+  EvalOptions options = tiny();
+  options.scenes = {"sunny-beach"};
+  try {
+    runLeaveOneOut(options);
+    FAIL() << "an unknown scene must be refused";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("sunny-beach"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("calibration-error"), std::string::npos);
+  }
+}
+
+TEST(LeaveOneOut, VerdictNeedsHalfADecibelHigherSsimAndLessFlickerAfterAJump) {
+  SceneResult scene;
+  scene.name = "viewpoint-jump";
+  scene.view_jump_degrees = 90;
+  scene.modes["holoportation"] = {10.0, 30.0, 0.90, 4.0, 10, 0, {}};
+  scene.modes["montage4d"] = {9.0, 30.6, 0.91, 3.0, 10, 0, {}};
+  EXPECT_TRUE(montageVerdict(scene).met);
+  scene.modes["montage4d"].flicker = 5.0;
+  EXPECT_FALSE(montageVerdict(scene).met);
+  EXPECT_NE(montageVerdict(scene).why.find("flicker"), std::string::npos);
+  scene.view_jump_degrees = 0;  // no jump: flicker is not part of the target
+  EXPECT_TRUE(montageVerdict(scene).met);
+  scene.modes["montage4d"].psnr_db = 30.4;
+  EXPECT_FALSE(montageVerdict(scene).met);
+  EXPECT_NEAR(montageVerdict(scene).psnr_gain_db, 0.4, 1e-12);
+}
+
+}  // namespace
+}  // namespace holofuse::eval
