@@ -79,6 +79,8 @@ int main(int argc, char** argv) {
   app.add_option("--mode", mode, "blending mode of the client");
   app.add_option("--view", view, "client view: orbit or pod:N");
   app.add_option("--scene", scene, "named synthetic scene (its camera count unless --pods): " + holofuse::capture::sceneNames());
+  std::string budget;
+  app.add_option("--budget", budget, "JSON of per-stage ms budgets for the client's report (flags violations)");
   app.add_option("--bin-dir", bin_dir, "folder of the executables (default: next to this one)");
   CLI11_PARSE(app, argc, argv);
   const holofuse::capture::ScenePreset* preset = holofuse::capture::findScene(scene);
@@ -127,8 +129,13 @@ int main(int argc, char** argv) {
                               std::to_string(pods), "--size", size, "--fps", std::to_string(fps), "--scene", scene},
                              (fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log")).string()));
   }
-  const pid_t client = spawn({bin_dir + "/render_client", "--server", endpoint, "--out", out, "--frames",
-                              std::to_string(frames), "--size", size, "--mode", mode, "--view", view},
+  std::vector<std::string> client_args = {bin_dir + "/render_client", "--server", endpoint, "--out", out, "--frames",
+                                         std::to_string(frames), "--size", size, "--mode", mode, "--view", view};
+  if (!budget.empty()) {
+    client_args.push_back("--budget");
+    client_args.push_back(budget);
+  }
+  const pid_t client = spawn(client_args,
                              (fs::path(out) / "logs" / "client.log").string());
   int client_status = 0;
   bool client_done = false;

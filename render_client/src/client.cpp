@@ -324,7 +324,8 @@ int runClient(const ClientOptions& options) {
                                                  {"size", std::to_string(options.width) + "x" + std::to_string(options.height)},
                                                  {"device", context->deviceName()}};
   const fs::path report_path = out_dir / "report.json";
-  std::ofstream(report_path) << report.toJson(settings);
+  std::ofstream(report_path) << report.toJson(settings, options.budget);
+  std::ofstream(out_dir / "report.html") << report.toHtml(settings, options.budget);
   std::printf("%s[client] %zu frames, %.1f fps, end-to-end p50 %.1f ms p95 %.1f ms p99 %.1f ms; report: %s\n",
               tty ? "\n" : "", report.framesRendered(), report.fps(), report.endToEndPercentile(50),
               report.endToEndPercentile(95), report.endToEndPercentile(99), report_path.c_str());

@@ -1,7 +1,13 @@
 #include "render_client/latency_report.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <set>
 #include <nlohmann/json.hpp>
+
+#include "common/html_report.h"
 
 namespace holofuse::render {
 
@@ -14,10 +20,81 @@ double percentile(std::vector<double> values, double p) {
   return values[lo] + (rank - static_cast<double>(lo)) * (values[hi] - values[lo]);
 }
 
+double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_received) {
+  std::sort(sent_and_received.begin(), sent_and_received.end());
+  double jitter = 0;
+  for (size_t k = 1; k < sent_and_received.size(); ++k) {
+    const auto& [s_i, r_i] = sent_and_received[k - 1];
+    const auto& [s_j, r_j] = sent_and_received[k];
+    const double d = (r_j - r_i) - (s_j - s_i);
+    jitter += (std::abs(d) - jitter) / 16.0;
+  }
+  return jitter;
+}
+
+protocol::StatusOr<Budget> loadBudget(const std::string& path) {
+  using protocol::Status;
+  using protocol::StatusCode;
+  std::ifstream in(path);
+  if (!in) return Status(StatusCode::kIoError, path + ": cannot be read");
+  std::set<std::string> names = {"end_to_end"};
+  std::string valid = "end_to_end";
+  for (uint16_t stage = protocol::kFirstStage; stage <= protocol::kLastStage; ++stage) {
+    names.insert(protocol::stageName(stage));
+    valid += ", " + protocol::stageName(stage);
+  }
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    return Status(StatusCode::kMalformed, path + ": not JSON (" + e.what() + ")");
+  }
+  if (!j.is_object()) return Status(StatusCode::kMalformed, path + ": expected an object of stage -> ms");
+  Budget budget;
+  for (const auto& [name, value] : j.items()) {
+    if (names.count(name) == 0) {
+      return Status(StatusCode::kMalformed, path + ": unknown stage '" + name + "'; valid: " + valid);
+    }
+    if (!value.is_number() || !(value.get<double>() > 0)) {
+      return Status(StatusCode::kMalformed, path + ": budget of '" + name + "' must be a positive number of ms");
+    }
+    budget[name] = value.get<double>();
+  }
+  return budget;
+}
+
 void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
   for (const auto& s : stamps) {
     if (s.end_ns >= s.start_ns && s.end_ns != 0) addStage(s.stage, static_cast<double>(s.end_ns - s.start_ns) / 1e6);
+    // The server stamps each PodFrame's send stage from the pod's encode
+    // end (its send time) to its arrival: the transit RFC 3550 watches.
+    if (s.stage == static_cast<uint16_t>(protocol::Stage::kSend) && s.end_ns != 0 && s.source < 64) {
+      transit_ms_[s.source].emplace_back(static_cast<double>(s.start_ns) / 1e6, static_cast<double>(s.end_ns) / 1e6);
+    }
   }
+}
+
+std::map<uint16_t, double> LatencyReport::podJitterMs() const {
+  std::map<uint16_t, double> jitter;
+  for (const auto& [pod, pairs] : transit_ms_) jitter[pod] = interarrivalJitter(pairs);
+  return jitter;
+}
+
+double LatencyReport::stagePercentile(const std::string& name, double p) const {
+  if (name == "end_to_end") return endToEndPercentile(p);
+  for (const auto& [stage, v] : stage_ms_) {
+    if (protocol::stageName(stage) == name) return percentile(v, p);
+  }
+  return 0.0;
+}
+
+std::vector<LatencyReport::Violation> LatencyReport::violations(const Budget& budget) const {
+  std::vector<Violation> over;
+  for (const auto& [name, ms] : budget) {
+    const double p95 = stagePercentile(name, 95);
+    if (p95 > ms) over.push_back({name, p95, ms});
+  }
+  return over;
 }
 
 void LatencyReport::addStage(uint16_t stage, double ms) { stage_ms_[stage].push_back(ms); }
@@ -39,7 +116,7 @@ double LatencyReport::endToEndPercentile(double p) const {
   return percentile(e2e, p);
 }
 
-std::string LatencyReport::toJson(const std::map<std::string, std::string>& settings) const {
+std::string LatencyReport::toJson(const std::map<std::string, std::string>& settings, const Budget& budget) const {
   nlohmann::ordered_json j;
   j["frames_rendered"] = frames_.size();
   j["fps"] = fps();
@@ -75,6 +152,15 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   const double n = std::max<double>(1.0, static_cast<double>(frames_.size()));
   j["bytes_per_frame"] = {{"pod_link", pod_bytes / n}, {"client_link", client_bytes / n}};
   j["frames_with_missing_cameras"] = incomplete;
+  nlohmann::ordered_json jitter = nlohmann::ordered_json::object();
+  for (const auto& [pod, ms] : podJitterMs()) jitter["pod_" + std::to_string(pod)] = ms;
+  j["jitter_ms"] = jitter;
+  if (!budget.empty()) {
+    j["budget_ms"] = budget;
+    nlohmann::ordered_json over = nlohmann::ordered_json::array();
+    for (const auto& v : violations(budget)) over.push_back({{"stage", v.stage}, {"p95", v.p95}, {"budget", v.budget}});
+    j["budget_violations"] = over;
+  }
   j["frames_skipped"] = skipped_;
   j["frames_superseded"] = superseded_;
   j["settings"] = settings;
@@ -91,6 +177,78 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   }
   j["frames"] = frames;
   return j.dump(2) + "\n";
+}
+
+}  // namespace holofuse::render
+
+namespace holofuse::render {
+
+std::string LatencyReport::toHtml(const std::map<std::string, std::string>& settings, const Budget& budget) const {
+  auto format = [](double v, const char* unit) {
+    char buffer[48];
+    std::snprintf(buffer, sizeof(buffer), "%.1f%s", v, unit);
+    return std::string(buffer);
+  };
+  std::string body;
+  std::vector<std::vector<std::string>> summary = {
+      {"frames rendered", std::to_string(frames_.size())},
+      {"frames per second", format(fps(), "")},
+      {"end-to-end p50 / p95 / p99",
+       format(endToEndPercentile(50), " ms") + " / " + format(endToEndPercentile(95), " ms") + " / " +
+           format(endToEndPercentile(99), " ms")},
+      {"meshes superseded (a newer one was waiting)", std::to_string(superseded_)},
+      {"frames skipped (bad input)", std::to_string(skipped_.size())}};
+  for (const auto& [key, value] : settings) summary.push_back({key, value});
+  body += html::table({"", "value"}, summary);
+  // The latency budget: the pipeline stages stacked, at p50 and at p95.
+  std::vector<std::string> stages;
+  html::StackRow p50{"p50", {}}, p95{"p95", {}};
+  for (uint16_t stage = protocol::kFirstStage; stage <= protocol::kLastStage; ++stage) {
+    const auto it = stage_ms_.find(stage);
+    if (it == stage_ms_.end()) continue;
+    stages.push_back(protocol::stageName(stage));
+    p50.segments.push_back(percentile(it->second, 50));
+    p95.segments.push_back(percentile(it->second, 95));
+  }
+  body += html::stackedBars("Latency budget per stage", stages, {p50, p95}, "ms");
+  if (!gpu_ms_.empty()) {
+    std::vector<std::string> passes;
+    html::StackRow gpu50{"p50", {}}, gpu95{"p95", {}};
+    for (const auto& [name, v] : gpu_ms_) {
+      passes.push_back(name);
+      gpu50.segments.push_back(percentile(v, 50));
+      gpu95.segments.push_back(percentile(v, 95));
+    }
+    body += html::stackedBars("Texture-field passes per new mesh (GPU timestamps)", passes, {gpu50, gpu95}, "ms");
+  }
+  double pod_bytes = 0, client_bytes = 0;
+  for (const auto& f : frames_) {
+    pod_bytes += static_cast<double>(f.pod_bytes);
+    client_bytes += static_cast<double>(f.client_bytes);
+  }
+  const double n = std::max<double>(1.0, static_cast<double>(frames_.size()));
+  body += html::barChart("Bytes per frame by link", {"pods -> server", "server -> client"},
+                         {{"KB per frame", {pod_bytes / n / 1000.0, client_bytes / n / 1000.0}}}, "KB");
+  const auto jitter = podJitterMs();
+  if (!jitter.empty()) {
+    std::vector<std::string> pods;
+    html::Series series{"RFC 3550 jitter", {}};
+    for (const auto& [pod, ms] : jitter) {
+      pods.push_back("pod " + std::to_string(pod));
+      series.values.push_back(ms);
+    }
+    body += html::barChart("Arrival jitter per pod", pods, {series}, "ms");
+  }
+  if (!budget.empty()) {
+    std::vector<std::vector<std::string>> rows;
+    for (const auto& [name, ms] : budget) {
+      const double p95_ms = stagePercentile(name, 95);
+      rows.push_back({(p95_ms > ms ? "!" : "") + name, format(ms, " ms"), format(stagePercentile(name, 50), " ms"),
+                      format(p95_ms, " ms"), p95_ms > ms ? "OVER" : "within"});
+    }
+    body += "<h2>Budget</h2>\n" + html::table({"stage", "budget", "p50", "p95", "p95 against budget"}, rows);
+  }
+  return html::page("holofuse live loop report", body);
 }
 
 }  // namespace holofuse::render

@@ -31,6 +31,8 @@ int main(int argc, char** argv) {
   app.add_option("--device", options.device, "Vulkan device: index or part of its name (default: a GPU if any)");
   app.add_option("--client-id", options.client_id, "this client's id");
   app.add_flag("--list-devices", list_devices, "print the Vulkan devices and exit");
+  std::string budget_file;
+  app.add_option("--budget", budget_file, "JSON of per-stage ms budgets (stage names of report.json, end_to_end)");
   CLI11_PARSE(app, argc, argv);
   if (list_devices) {
     try {
@@ -50,6 +52,14 @@ int main(int argc, char** argv) {
   if (std::sscanf(size.c_str(), "%ux%u", &w, &h) != 2 || w < 16 || h < 16 || w > 8192 || h > 8192) {
     std::fprintf(stderr, "--size '%s': expected WxH with each side in 16..8192\n", size.c_str());
     return 2;
+  }
+  if (!budget_file.empty()) {
+    auto budget = render::loadBudget(budget_file);
+    if (!budget.isOk()) {
+      std::fprintf(stderr, "--budget: %s\n", budget.status().message().c_str());
+      return 2;
+    }
+    options.budget = *budget;
   }
   if (options.view != "orbit" && (options.view.rfind("pod:", 0) != 0 || options.view.size() < 5 ||
                                   options.view.find_first_not_of("0123456789", 4) != std::string::npos)) {

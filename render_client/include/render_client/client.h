@@ -7,6 +7,7 @@
 #include <string>
 
 #include "protocol/socket.h"
+#include "render_client/latency_report.h"
 #include "render_client/renderer.h"
 
 namespace holofuse::render {
@@ -23,6 +24,7 @@ struct ClientOptions {
   BlendSettings blend;
   int exclude_camera = -1;          // leave this camera out of the blend
   bool write_frames = true;
+  Budget budget;                    // per-stage ms; violations are flagged in the reports
 };
 
 int runClient(const ClientOptions& options);

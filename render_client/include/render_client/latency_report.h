@@ -6,9 +6,11 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "protocol/messages.h"
+#include "protocol/status.h"
 
 namespace holofuse::render {
 
@@ -26,6 +28,18 @@ struct FrameRecord {
 // p in [0, 100]; linear interpolation between order statistics. 0 for none.
 double percentile(std::vector<double> values, double p);
 
+// Interarrival jitter of RFC 3550 (section 6.4.1): over packets in send
+// order, J += (|D| - J) / 16 with D = (R_j - R_i) - (S_j - S_i), the change
+// in transit time; in the unit of the times given.
+double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_received);
+
+// Per-stage budgets in ms (stage names of report.json, and "end_to_end"),
+// read from a JSON object {"hull": 40, "end_to_end": 300, ...}. A p95 over
+// its budget is a violation. Unknown names and non-numbers are refused with
+// the valid names listed.
+using Budget = std::map<std::string, double>;
+protocol::StatusOr<Budget> loadBudget(const std::string& path);
+
 class LatencyReport {
  public:
   void addStamps(const std::vector<protocol::StageStamp>& stamps);
@@ -41,11 +55,23 @@ class LatencyReport {
   double fps() const;
   double endToEndPercentile(double p) const;
   const std::vector<FrameRecord>& frames() const { return frames_; }
-  // The report as JSON text.
-  std::string toJson(const std::map<std::string, std::string>& settings) const;
+  // Per pod, its RFC 3550 jitter of PodFrame arrival at the server, ms.
+  std::map<uint16_t, double> podJitterMs() const;
+  // The report as JSON text, and as a self-contained HTML page (latency
+  // budget as stacked bars, GPU passes, bytes per link, per-pod jitter,
+  // budget violations flagged).
+  std::string toJson(const std::map<std::string, std::string>& settings, const Budget& budget = {}) const;
+  std::string toHtml(const std::map<std::string, std::string>& settings, const Budget& budget = {}) const;
 
  private:
+  struct Violation {
+    std::string stage;
+    double p95, budget;
+  };
+  std::vector<Violation> violations(const Budget& budget) const;
+  double stagePercentile(const std::string& name, double p) const;
   std::map<uint16_t, std::vector<double>> stage_ms_;
+  std::map<uint16_t, std::vector<std::pair<double, double>>> transit_ms_;  // per pod: sent, received
   std::map<std::string, std::vector<double>> gpu_ms_;
   std::vector<FrameRecord> frames_;
   std::vector<uint64_t> written_ns_;

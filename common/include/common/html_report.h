@@ -1,0 +1,41 @@
+// Self-contained HTML pages with inline SVG charts for the reports people
+// read (demo, eval, sweep): no scripts or styles from elsewhere, so a page
+// opens from disk anywhere. Each page carries a small check that, once the
+// browser has laid the charts out, counts those whose bars have a real size
+// and writes the count to <body data-charts-rendered="N"> (the tests read it
+// back from headless Chromium).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace holofuse::html {
+
+std::string escape(const std::string& text);
+
+struct Series {
+  std::string name;
+  std::vector<double> values;  // one per category
+};
+
+// Grouped vertical bars: a group per category, a bar per series, values
+// printed on the bars.
+std::string barChart(const std::string& title, const std::vector<std::string>& categories,
+                     const std::vector<Series>& series, const std::string& unit);
+
+struct StackRow {
+  std::string label;
+  std::vector<double> segments;  // one per stage, in the stages' order
+};
+// Horizontal stacked bars (the latency budget): a row per label, a segment
+// per stage, with a legend.
+std::string stackedBars(const std::string& title, const std::vector<std::string>& stages,
+                        const std::vector<StackRow>& rows, const std::string& unit);
+
+// A table; cells are escaped. Rows whose first cell starts with "!" are
+// flagged (shown red, the "!" dropped).
+std::string table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows);
+
+std::string page(const std::string& title, const std::string& body);
+
+}  // namespace holofuse::html

@@ -1,0 +1,162 @@
+#include "common/html_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace holofuse::html {
+namespace {
+
+const char* const kPalette[] = {"#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#76b7b2", "#edc948",
+                                "#b07aa1", "#ff9da7", "#9c755f", "#bab0ac", "#1b9e77", "#d95f02",
+                                "#7570b3", "#e7298a", "#66a61e", "#e6ab02"};
+
+std::string colour(size_t i) { return kPalette[i % (sizeof(kPalette) / sizeof(kPalette[0]))]; }
+
+std::string number(double v) {
+  char buffer[32];
+  const double a = std::abs(v);
+  std::snprintf(buffer, sizeof(buffer), a >= 100 ? "%.0f" : a >= 10 ? "%.1f" : a >= 1 ? "%.2f" : "%.3f", v);
+  return buffer;
+}
+
+double finiteOrZero(double v) { return std::isfinite(v) ? v : 0.0; }
+
+}  // namespace
+
+std::string escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string barChart(const std::string& title, const std::vector<std::string>& categories,
+                     const std::vector<Series>& series, const std::string& unit) {
+  size_t longest_label = 0;
+  for (const auto& c : categories) longest_label = std::max(longest_label, c.size());
+  const double group_width = std::max(28.0 * static_cast<double>(std::max<size_t>(series.size(), 1)) + 24.0,
+                                      7.0 * static_cast<double>(longest_label) + 12.0);
+  // Wide enough for the groups, the legend and the title.
+  const double width = std::max({70 + group_width * static_cast<double>(std::max<size_t>(categories.size(), 1)) + 20,
+                                 80 + 130.0 * static_cast<double>(series.size()),
+                                 40 + 8.0 * static_cast<double>(title.size() + unit.size())});
+  const double height = 300, top = 40, bottom = 60, plot = height - top - bottom;
+  double top_value = 0;
+  for (const auto& s : series) {
+    for (double v : s.values) top_value = std::max(top_value, finiteOrZero(v));
+  }
+  if (!(top_value > 0)) top_value = 1;
+  std::string svg = "<figure><svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" + number(width) +
+                    "\" height=\"" + number(height) + "\" role=\"img\" aria-label=\"" + escape(title) + "\">";
+  svg += "<text x=\"10\" y=\"20\" class=\"title\">" + escape(title) + " (" + escape(unit) + ")</text>";
+  svg += "<line x1=\"60\" y1=\"" + number(top + plot) + "\" x2=\"" + number(width - 10) + "\" y2=\"" +
+         number(top + plot) + "\" class=\"axis\"/>";
+  for (size_t c = 0; c < categories.size(); ++c) {
+    const double gx = 70 + group_width * static_cast<double>(c);
+    for (size_t s = 0; s < series.size(); ++s) {
+      const double v = c < series[s].values.size() ? finiteOrZero(series[s].values[c]) : 0.0;
+      const double h = std::max(0.0, v) / top_value * plot;
+      const double x = gx + 28.0 * static_cast<double>(s);
+      svg += "<rect class=\"bar\" x=\"" + number(x) + "\" y=\"" + number(top + plot - h) + "\" width=\"24\" height=\"" +
+             number(std::max(h, 0.5)) + "\" fill=\"" + colour(s) + "\"><title>" + escape(series[s].name) + ", " +
+             escape(categories[c]) + ": " + number(v) + " " + escape(unit) + "</title></rect>";
+      svg += "<text class=\"value\" x=\"" + number(x + 12) + "\" y=\"" + number(top + plot - h - 3) + "\">" +
+             number(v) + "</text>";
+    }
+    svg += "<text class=\"category\" x=\"" + number(gx + group_width / 2 - 12) + "\" y=\"" +
+           number(top + plot + 16) + "\">" + escape(categories[c]) + "</text>";
+  }
+  for (size_t s = 0; s < series.size(); ++s) {
+    const double lx = 70 + 130.0 * static_cast<double>(s);
+    svg += "<rect x=\"" + number(lx) + "\" y=\"" + number(height - 22) + "\" width=\"12\" height=\"12\" fill=\"" +
+           colour(s) + "\"/><text x=\"" + number(lx + 16) + "\" y=\"" + number(height - 12) + "\">" +
+           escape(series[s].name) + "</text>";
+  }
+  return svg + "</svg></figure>\n";
+}
+
+std::string stackedBars(const std::string& title, const std::vector<std::string>& stages,
+                        const std::vector<StackRow>& rows, const std::string& unit) {
+  const double width = 860, row_height = 34, left = 120, right = 80;
+  const double legend_rows = std::ceil(static_cast<double>(stages.size()) / 5.0);
+  const double height = 40 + row_height * static_cast<double>(rows.size()) + 22 * legend_rows + 20;
+  double longest = 0;
+  for (const auto& row : rows) {
+    double total = 0;
+    for (double v : row.segments) total += std::max(0.0, finiteOrZero(v));
+    longest = std::max(longest, total);
+  }
+  if (!(longest > 0)) longest = 1;
+  const double scale = (width - left - right) / longest;
+  std::string svg = "<figure><svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" + number(width) +
+                    "\" height=\"" + number(height) + "\" role=\"img\" aria-label=\"" + escape(title) + "\">";
+  svg += "<text x=\"10\" y=\"20\" class=\"title\">" + escape(title) + " (" + escape(unit) + ")</text>";
+  for (size_t r = 0; r < rows.size(); ++r) {
+    const double y = 34 + row_height * static_cast<double>(r);
+    svg += "<text x=\"10\" y=\"" + number(y + 18) + "\">" + escape(rows[r].label) + "</text>";
+    double x = left, total = 0;
+    for (size_t s = 0; s < rows[r].segments.size() && s < stages.size(); ++s) {
+      const double v = std::max(0.0, finiteOrZero(rows[r].segments[s]));
+      total += v;
+      const double w = v * scale;
+      if (w <= 0) continue;
+      svg += "<rect class=\"bar\" x=\"" + number(x) + "\" y=\"" + number(y) + "\" width=\"" + number(w) +
+             "\" height=\"24\" fill=\"" + colour(s) + "\"><title>" + escape(stages[s]) + ": " + number(v) + " " +
+             escape(unit) + "</title></rect>";
+      x += w;
+    }
+    svg += "<text x=\"" + number(x + 6) + "\" y=\"" + number(y + 17) + "\">" + number(total) + " " + escape(unit) +
+           "</text>";
+  }
+  for (size_t s = 0; s < stages.size(); ++s) {
+    const double lx = 10 + 170.0 * static_cast<double>(s % 5);
+    const double ly = 40 + row_height * static_cast<double>(rows.size()) + 22 * static_cast<double>(s / 5);
+    svg += "<rect x=\"" + number(lx) + "\" y=\"" + number(ly) + "\" width=\"12\" height=\"12\" fill=\"" + colour(s) +
+           "\"/><text x=\"" + number(lx + 16) + "\" y=\"" + number(ly + 10) + "\">" + escape(stages[s]) + "</text>";
+  }
+  return svg + "</svg></figure>\n";
+}
+
+std::string table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows) {
+  std::string out = "<table><thead><tr>";
+  for (const auto& h : header) out += "<th>" + escape(h) + "</th>";
+  out += "</tr></thead><tbody>";
+  for (const auto& row : rows) {
+    const bool flagged = !row.empty() && !row[0].empty() && row[0][0] == '!';
+    out += flagged ? "<tr class=\"flagged\">" : "<tr>";
+    for (size_t c = 0; c < row.size(); ++c) out += "<td>" + escape(c == 0 && flagged ? row[c].substr(1) : row[c]) + "</td>";
+    out += "</tr>";
+  }
+  return out + "</tbody></table>\n";
+}
+
+std::string page(const std::string& title, const std::string& body) {
+  return "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" + escape(title) +
+         "</title>\n<style>body{font-family:sans-serif;margin:24px;color:#222}table{border-collapse:collapse;margin:12px 0}"
+         "td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}th{background:#f4f4f4}"
+         "td:first-child,th:first-child{text-align:left}tr.flagged td{background:#fde0dc;color:#a40000}"
+         "svg text{font-size:12px}svg .title{font-size:14px;font-weight:bold}svg .value{font-size:10px;"
+         "text-anchor:middle}svg .category{text-anchor:middle}svg .axis{stroke:#888}figure{margin:16px 0}</style>"
+         "</head>\n<body data-charts-rendered=\"0\">\n<h1>" +
+         escape(title) + "</h1>\n" + body +
+         "<script>\n// Counts the charts the browser actually laid out with visible bars.\n"
+         "window.addEventListener('load', function () {\n"
+         "  var rendered = 0;\n"
+         "  document.querySelectorAll('svg.chart').forEach(function (svg) {\n"
+         "    var bars = svg.querySelectorAll('rect.bar'), drawn = 0;\n"
+         "    bars.forEach(function (bar) { var box = bar.getBBox(); if (box.width > 0 && box.height > 0) drawn++; });\n"
+         "    if (bars.length > 0 && drawn === bars.length && svg.getBoundingClientRect().width > 0) rendered++;\n"
+         "  });\n"
+         "  document.body.setAttribute('data-charts-rendered', String(rendered));\n"
+         "});\n</script>\n</body></html>\n";
+}
+
+}  // namespace holofuse::html

@@ -1,0 +1,143 @@
+// The HTML reports open in a real browser: headless Chromium (Debian's
+// chromium) loads each page, its own check counts the charts whose bars
+// were laid out with a size, and the test reads that count back from the
+// DOM. Also the numbers behind the loop report: RFC 3550 jitter and budgets.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <regex>
+
+#include "common/html_report.h"
+#include "eval/leave_one_out.h"
+#include "render_client/latency_report.h"
+
+namespace holofuse {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string chromium() {
+  for (const char* candidate : {"/usr/bin/chromium", "/usr/bin/chromium-browser"}) {
+    if (fs::exists(candidate)) return candidate;
+  }
+  return "";
+}
+
+// The charts the browser rendered, or -1 when the page did not load.
+int chartsRendered(const fs::path& page) {
+  const std::string command = chromium() + " --headless --no-sandbox --disable-gpu --dump-dom 'file://" +
+                              fs::absolute(page).string() + "' 2>/dev/null";
+  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
+  if (!pipe) return -1;
+  std::string dom;
+  std::array<char, 4096> buffer{};
+  while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe.get())) dom.append(buffer.data(), n);
+  std::smatch match;
+  if (!std::regex_search(dom, match, std::regex("data-charts-rendered=\"([0-9]+)\""))) return -1;
+  return std::stoi(match[1]);
+}
+
+fs::path scratch(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("holofuse_html_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+TEST(HtmlReports, ChartsRenderInChromiumAndAnEmptyChartDoesNotCount) {
+  if (chromium().empty()) GTEST_SKIP() << "chromium is not installed (./holofuse deps installs it)";
+  const fs::path dir = scratch("charts");
+  const std::string body =
+      html::barChart("PSNR", {"clean", "few-cameras"}, {{"normal", {17.0, 11.2}}, {"montage4d", {17.3, 11.4}}}, "dB") +
+      html::stackedBars("Latency", {"hull", "render"}, {{"p50", {30, 40}}, {"p95", {50, 80}}}, "ms") +
+      html::barChart("Nothing", {}, {}, "ms");  // no bars: must not count as rendered
+  std::ofstream(dir / "page.html") << html::page("test", body);
+  EXPECT_EQ(chartsRendered(dir / "page.html"), 2);
+  fs::remove_all(dir);
+}
+
+TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
+  if (chromium().empty()) GTEST_SKIP() << "chromium is not installed (./holofuse deps installs it)";
+  render::LatencyReport report;
+  for (uint64_t f = 0; f < 10; ++f) {
+    const uint64_t t = f * 100'000'000;
+    report.addStamps({{static_cast<uint16_t>(protocol::Stage::kHull), protocol::kSourceServer, t, t + 40'000'000},
+                      {static_cast<uint16_t>(protocol::Stage::kSend), 0, t, t + 2'000'000 + (f % 2) * 1'000'000},
+                      {static_cast<uint16_t>(protocol::Stage::kSend), 1, t, t + 3'000'000}});
+    report.addGpuPass("geodesics", 60.0);
+    render::FrameRecord record;
+    record.frame_id = f;
+    record.end_to_end_ms = 200;
+    record.pod_bytes = 600'000;
+    record.client_bytes = 650'000;
+    report.addFrame(record, t);
+  }
+  const render::Budget budget = {{"hull", 30.0}, {"end_to_end", 500.0}};
+  const fs::path dir = scratch("loop");
+  std::ofstream(dir / "report.html") << report.toHtml({{"mode", "montage4d"}}, budget);
+  // Latency stages, GPU passes, bytes per link, jitter.
+  EXPECT_EQ(chartsRendered(dir / "report.html"), 4);
+  std::ifstream in(dir / "report.html");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("<tr class=\"flagged\"><td>hull</td>"), std::string::npos) << "hull p95 40 ms > 30 ms budget";
+  EXPECT_EQ(text.find("<tr class=\"flagged\"><td>end_to_end</td>"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(HtmlReports, QualityPageChartsEveryMetric) {
+  if (chromium().empty()) GTEST_SKIP() << "chromium is not installed (./holofuse deps installs it)";
+  eval::SceneResult scene;
+  scene.name = "colour-imbalance";
+  scene.cameras = 8;
+  scene.modes["holoportation"] = {15.2, 16.7, 0.59, 19.2, 16, 80, {}};
+  scene.modes["montage4d"] = {15.0, 16.9, 0.60, 18.0, 16, 120, {}};
+  eval::EvalOptions options;
+  options.modes = {render::BlendMode::kHoloportation, render::BlendMode::kMontage4D};
+  const fs::path dir = scratch("quality");
+  eval::writeQualityReports(options, {scene}, dir.string());
+  EXPECT_EQ(chartsRendered(dir / "quality.html"), 4) << "PSNR, SSIM, flicker, time";
+  std::ifstream in(dir / "quality.html");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("MISSED: PSNR gain below 0.5 dB"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(LoopReport, JitterFollowsRfc3550) {
+  // Constant transit: no jitter, whatever the send times.
+  EXPECT_DOUBLE_EQ(render::interarrivalJitter({{0, 5}, {10, 15}, {25, 30}, {31, 36}}), 0.0);
+  // Transit alternating 2 and 3 ms: |D| = 1 each step, J -> 1 as 1 - (15/16)^n.
+  std::vector<std::pair<double, double>> alternating;
+  for (int k = 0; k < 200; ++k) alternating.emplace_back(k * 100.0, k * 100.0 + 2 + k % 2);
+  EXPECT_NEAR(render::interarrivalJitter(alternating), 1.0 - std::pow(15.0 / 16.0, 199), 1e-9);
+  // Order of arrival in the list does not matter: packets are taken in send order.
+  std::vector<std::pair<double, double>> shuffled = {{20, 23}, {0, 2}, {10, 12}};
+  EXPECT_NEAR(render::interarrivalJitter(shuffled), (1.0 - 0.0) / 16.0, 1e-12);
+}
+
+TEST(LoopReport, BudgetFilesAreCheckedAndNamed) {
+  const fs::path dir = scratch("budget");
+  std::ofstream(dir / "good.json") << R"({"hull": 40, "end_to_end": 300})";
+  std::ofstream(dir / "unknown.json") << R"({"hul": 40})";
+  std::ofstream(dir / "negative.json") << R"({"hull": -1})";
+  std::ofstream(dir / "broken.json") << R"({"hull": )";
+  auto good = render::loadBudget((dir / "good.json").string());
+  ASSERT_TRUE(good.isOk());
+  EXPECT_DOUBLE_EQ(good->at("end_to_end"), 300.0);
+  const auto unknown = render::loadBudget((dir / "unknown.json").string());
+  ASSERT_FALSE(unknown.isOk());
+  EXPECT_NE(unknown.status().message().find("unknown stage 'hul'"), std::string::npos);
+  EXPECT_NE(unknown.status().message().find("sync_wait"), std::string::npos) << "lists the valid names";
+  EXPECT_FALSE(render::loadBudget((dir / "negative.json").string()).isOk());
+  const auto broken = render::loadBudget((dir / "broken.json").string());
+  ASSERT_FALSE(broken.isOk());
+  EXPECT_NE(broken.status().message().find("broken.json"), std::string::npos);
+  EXPECT_FALSE(render::loadBudget((dir / "missing.json").string()).isOk());
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace holofuse
