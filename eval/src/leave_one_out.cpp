@@ -44,7 +44,8 @@ struct FrameData {
 };
 
 FrameData prepareFrame(const capture::SyntheticScene& scene, const std::vector<Camera>& truth,
-                       const std::vector<Camera>& reported, const std::vector<Image8>& plates, uint64_t frame_id) {
+                       const std::vector<Camera>& reported, const std::vector<Image8>& plates, uint64_t frame_id,
+                       bool true_geometry) {
   FrameData frame;
   frame.frame_id = frame_id;
   std::vector<fusion::HullView> hull_views;
@@ -56,7 +57,9 @@ FrameData prepareFrame(const capture::SyntheticScene& scene, const std::vector<C
     frame.true_masks.push_back(std::move(capture.view.mask));
   }
   const auto t0 = Clock::now();
-  const Mesh hull = fusion::carveVisualHull(hull_views, fusion::HullOptions{});
+  // The true surface at the hull's voxel size, when asked for.
+  const Mesh hull = true_geometry ? scene.truthMesh(frame_id, fusion::HullOptions{}.voxel_size)
+                                  : fusion::carveVisualHull(hull_views, fusion::HullOptions{});
   frame.hull_ms = msSince(t0);
   // Through Draco as on the wire: quantisation is part of what the client sees.
   auto bytes = encodeDraco(hull);
@@ -96,6 +99,9 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     presets.push_back(preset);
   }
   if (options.frames < 1) throw std::invalid_argument("--frames must be at least 1");
+  if (options.geometry != "hull" && options.geometry != "truth") {
+    throw std::invalid_argument("geometry '" + options.geometry + "': expected hull or truth");
+  }
   render::VulkanContext context(options.device);
   std::vector<SceneResult> results;
   for (const capture::ScenePreset* preset : presets) {
@@ -119,7 +125,8 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     std::vector<double> hull_ms;
     double triangles = 0;
     for (int f = 0; f < options.frames; ++f) {
-      frames.push_back(prepareFrame(scene, truth, reported, plates, options.first_frame + static_cast<uint64_t>(f)));
+      frames.push_back(prepareFrame(scene, truth, reported, plates, options.first_frame + static_cast<uint64_t>(f),
+                                    options.geometry == "truth"));
       hull_ms.push_back(frames.back().hull_ms);
       triangles += static_cast<double>(frames.back().mesh.triangleCount());
     }
@@ -225,6 +232,7 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   json["settings"] = {{"frames", options.frames},         {"first_frame", options.first_frame},
                       {"size", std::to_string(options.width) + "x" + std::to_string(options.height)},
                       {"scene_fps", options.fps},         {"held_out_cameras", options.held_out_cameras},
+                      {"geometry", options.geometry},
                       {"metrics", "RMSE and PSNR over RGB inside the true mask; SSIM on luminance (Wang 2004, "
                                   "11x11 Gaussian sigma 1.5, K1 0.01, K2 0.03), mean over windows centred in the mask; "
                                   "flicker: mean |change of the error image| between frames, grey levels"}};
@@ -253,7 +261,7 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   for (auto mode : options.modes) modes.push_back(render::blendModeName(mode));
   std::ofstream md(fs::path(out_dir) / "quality.md");
   md << "# Leave-one-camera-out quality\n\n"
-     << options.frames << " frames per scene from frame " << options.first_frame << ", " << options.width << "x"
+     << "Geometry: " << (options.geometry == "truth" ? "the true surface" : "the visual hull") << ". " << options.frames << " frames per scene from frame " << options.first_frame << ", " << options.width << "x"
      << options.height << "; each camera rendered from its reported pose without its own image, compared with its "
         "true image inside its true mask.\n\n| Scene |";
   for (const auto& mode : modes) md << " " << mode << " RMSE | PSNR | SSIM | flicker | fps |";

@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 16));
   app.add_option("--out", options.out_dir, "output folder (quality.json, quality.md, images/)")->required();
   app.add_flag("--save-images", options.save_images, "write rendered, true and mask PNGs of every comparison");
+  app.add_option("--geometry", options.geometry, "hull (the server's visual hull) or truth (the true surface)")
+      ->check(CLI::IsMember({"hull", "truth"}));
   app.add_option("--device", options.device, "Vulkan device: index or part of its name");
   CLI11_PARSE(app, argc, argv);
   unsigned w = 0, h = 0;

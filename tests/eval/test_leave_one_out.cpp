@@ -76,6 +76,19 @@ TEST(LeaveOneOut, AViewpointJumpComparesOnlyTheFramesAtTheHeldOutPose) {
   EXPECT_EQ(results.at(0).modes.at("normal").images, 2u) << "two frames before the jump, two after";
 }
 
+TEST(LeaveOneOut, TheTrueSurfaceScoresAboveTheHullSoGeometryErrorsShow) {
+  EvalOptions options = tiny();
+  options.scenes = {"few-cameras"};
+  options.frames = 1;
+  options.modes = {render::BlendMode::kNormal};
+  const double hull = runLeaveOneOut(options).at(0).modes.at("normal").psnr_db;
+  options.geometry = "truth";
+  const double truth = runLeaveOneOut(options).at(0).modes.at("normal").psnr_db;
+  EXPECT_GT(truth, hull + 1.0) << "hull " << hull << " dB, true surface " << truth << " dB";
+  options.geometry = "mesh-of-dreams";
+  EXPECT_THROW(runLeaveOneOut(options), std::invalid_argument);
+}
+
 TEST(LeaveOneOut, UnknownScenesListTheValidOnes) {
   EvalOptions options = tiny();
   options.scenes = {"sunny-beach"};

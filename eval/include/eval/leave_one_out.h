@@ -34,6 +34,9 @@ struct EvalOptions {
   std::string out_dir;         // where save_images writes
   bool save_images = false;    // rendered, true image and mask per image compared
   std::string device;          // Vulkan device selector ("" picks a GPU if any)
+  // "hull": the fusion server's visual hull (what the loop sees); "truth":
+  // the scene's true surface, to tell blending errors from geometry errors.
+  std::string geometry = "hull";
 };
 
 struct ModeResult {
