@@ -125,6 +125,69 @@ std::string stackedBars(const std::string& title, const std::vector<std::string>
   return svg + "</svg></figure>\n";
 }
 
+std::string scatterChart(const std::string& title, const std::string& x_label, const std::string& y_label,
+                         const std::vector<Point>& points) {
+  const double width = 620, height = 380, left = 70, right = 30, top = 40, bottom = 50;
+  double x0 = 0, x1 = 1, y0 = 0, y1 = 1;
+  bool first = true;
+  for (const auto& p : points) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+    if (first) {
+      x0 = x1 = p.x;
+      y0 = y1 = p.y;
+      first = false;
+    }
+    x0 = std::min(x0, p.x);
+    x1 = std::max(x1, p.x);
+    y0 = std::min(y0, p.y);
+    y1 = std::max(y1, p.y);
+  }
+  const double padx = std::max((x1 - x0) * 0.08, 1e-9 + std::abs(x1) * 0.05);
+  const double pady = std::max((y1 - y0) * 0.08, 1e-9 + std::abs(y1) * 0.05);
+  x0 -= padx;
+  x1 += padx;
+  y0 -= pady;
+  y1 += pady;
+  auto sx = [&](double x) { return left + (x - x0) / (x1 - x0) * (width - left - right); };
+  auto sy = [&](double y) { return height - bottom - (y - y0) / (y1 - y0) * (height - top - bottom); };
+  std::string svg = "<figure><svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" + number(width) +
+                    "\" height=\"" + number(height) + "\" role=\"img\" aria-label=\"" + escape(title) + "\">";
+  svg += "<text x=\"10\" y=\"20\" class=\"title\">" + escape(title) + "</text>";
+  svg += "<line class=\"axis\" x1=\"" + number(left) + "\" y1=\"" + number(height - bottom) + "\" x2=\"" +
+         number(width - right) + "\" y2=\"" + number(height - bottom) + "\"/>";
+  svg += "<line class=\"axis\" x1=\"" + number(left) + "\" y1=\"" + number(top) + "\" x2=\"" + number(left) +
+         "\" y2=\"" + number(height - bottom) + "\"/>";
+  for (int t = 0; t <= 4; ++t) {
+    const double xv = x0 + (x1 - x0) * t / 4, yv = y0 + (y1 - y0) * t / 4;
+    svg += "<text class=\"category\" x=\"" + number(sx(xv)) + "\" y=\"" + number(height - bottom + 16) + "\">" +
+           number(xv) + "</text>";
+    svg += "<text x=\"" + number(left - 6) + "\" y=\"" + number(sy(yv) + 4) +
+           "\" style=\"text-anchor:end\">" + number(yv) + "</text>";
+  }
+  svg += "<text class=\"category\" x=\"" + number((left + width - right) / 2) + "\" y=\"" + number(height - 10) +
+         "\">" + escape(x_label) + "</text>";
+  svg += "<text x=\"14\" y=\"" + number(top - 8) + "\">" + escape(y_label) + "</text>";
+  std::vector<const Point*> front;
+  for (const auto& p : points) {
+    if (p.highlighted && std::isfinite(p.x) && std::isfinite(p.y)) front.push_back(&p);
+  }
+  std::sort(front.begin(), front.end(), [](const Point* a, const Point* b) { return a->x < b->x; });
+  if (front.size() > 1) {
+    std::string path = "<polyline fill=\"none\" stroke=\"#59a14f\" stroke-width=\"1.5\" points=\"";
+    for (const Point* p : front) path += number(sx(p->x)) + "," + number(sy(p->y)) + " ";
+    svg += path + "\"/>";
+  }
+  for (const auto& p : points) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+    svg += "<circle class=\"bar\" cx=\"" + number(sx(p.x)) + "\" cy=\"" + number(sy(p.y)) + "\" r=\"5\" fill=\"" +
+           std::string(p.highlighted ? "#59a14f" : "#ffffff") + "\" stroke=\"" +
+           std::string(p.marked ? "#e15759" : "#4e79a7") + "\" stroke-width=\"" + (p.marked ? "3" : "1.5") +
+           "\"><title>" + escape(p.label) + ": " + number(p.x) + ", " + number(p.y) + "</title></circle>";
+    svg += "<text x=\"" + number(sx(p.x) + 7) + "\" y=\"" + number(sy(p.y) - 6) + "\">" + escape(p.label) + "</text>";
+  }
+  return svg + "</svg></figure>\n";
+}
+
 std::string table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows) {
   std::string out = "<table><thead><tr>";
   for (const auto& h : header) out += "<th>" + escape(h) + "</th>";
@@ -151,7 +214,7 @@ std::string page(const std::string& title, const std::string& body) {
          "window.addEventListener('load', function () {\n"
          "  var rendered = 0;\n"
          "  document.querySelectorAll('svg.chart').forEach(function (svg) {\n"
-         "    var bars = svg.querySelectorAll('rect.bar'), drawn = 0;\n"
+         "    var bars = svg.querySelectorAll('.bar'), drawn = 0;\n"
          "    bars.forEach(function (bar) { var box = bar.getBBox(); if (box.width > 0 && box.height > 0) drawn++; });\n"
          "    if (bars.length > 0 && drawn === bars.length && svg.getBoundingClientRect().width > 0) rendered++;\n"
          "  });\n"

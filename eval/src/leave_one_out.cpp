@@ -11,9 +11,11 @@
 
 #include "capture_node/pod.h"
 #include "common/html_report.h"
+#include "common/image_codec.h"
 #include "common/image_io.h"
 #include "common/mesh_codec.h"
 #include "eval/metrics.h"
+#include "result_json.h"
 #include "fusion_server/visual_hull.h"
 #include "render_client/renderer.h"
 #include "render_client/texture_field_passes.h"
@@ -41,11 +43,12 @@ struct FrameData {
   std::vector<render::ViewImages> views;  // reported calibration, colour, segmented mask
   std::vector<Image8> true_masks;         // per camera
   double hull_ms = 0;
+  size_t bytes = 0;                       // what the server sends a client for this frame
 };
 
-FrameData prepareFrame(const capture::SyntheticScene& scene, const std::vector<Camera>& truth,
-                       const std::vector<Camera>& reported, const std::vector<Image8>& plates, uint64_t frame_id,
-                       bool true_geometry) {
+FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene& scene,
+                       const std::vector<Camera>& truth, const std::vector<Camera>& reported,
+                       const std::vector<Image8>& plates, uint64_t frame_id) {
   FrameData frame;
   frame.frame_id = frame_id;
   std::vector<fusion::HullView> hull_views;
@@ -53,19 +56,27 @@ FrameData prepareFrame(const capture::SyntheticScene& scene, const std::vector<C
     capture::PodCapture capture =
         capture::capturePodFrame(scene, truth[i], plates[i], frame_id, static_cast<uint16_t>(i));
     hull_views.push_back({reported[i], capture.mask, capture.feather});
+    std::vector<uint8_t> storage;
+    frame.bytes += encodePlane(capture.view.color, protocol::PlaneKind::kColor, options.image_codec, storage,
+                               options.lz4_acceleration).data.size();
+    frame.bytes += encodePlane(capture.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage,
+                               options.lz4_acceleration).data.size();
     frame.views.push_back({reported[i], std::move(capture.view.color), std::move(capture.mask)});
     frame.true_masks.push_back(std::move(capture.view.mask));
   }
   const auto t0 = Clock::now();
   // The true surface at the hull's voxel size, when asked for.
-  const Mesh hull = true_geometry ? scene.truthMesh(frame_id, fusion::HullOptions{}.voxel_size)
-                                  : fusion::carveVisualHull(hull_views, fusion::HullOptions{});
+  fusion::HullOptions hull_options;
+  hull_options.voxel_size = options.voxel_size;
+  const Mesh hull = options.geometry == "truth" ? scene.truthMesh(frame_id, options.voxel_size)
+                                                : fusion::carveVisualHull(hull_views, hull_options);
   frame.hull_ms = msSince(t0);
   // Through Draco as on the wire: quantisation is part of what the client sees.
-  auto bytes = encodeDraco(hull);
+  auto bytes = encodeDraco(hull, options.draco);
   if (!bytes.isOk()) throw std::runtime_error("Draco encoding failed: " + bytes.status().message());
   auto decoded = decodeDraco(bytes->data(), bytes->size());
   if (!decoded.isOk()) throw std::runtime_error("Draco decoding failed: " + decoded.status().message());
+  frame.bytes += bytes->size();
   frame.mesh = std::move(*decoded);
   return frame;
 }
@@ -108,7 +119,8 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     capture::SceneOptions scene_options = preset->scene;
     scene_options.frames_per_second = options.fps;
     const capture::SyntheticScene scene(scene_options);
-    const std::vector<Camera> truth = capture::SyntheticScene::cameraRig(preset->cameras, options.width, options.height);
+    const int camera_count = options.cameras > 0 ? options.cameras : preset->cameras;
+    const std::vector<Camera> truth = capture::SyntheticScene::cameraRig(camera_count, options.width, options.height);
     std::vector<Camera> reported;
     std::vector<Image8> plates;
     for (const Camera& camera : truth) {
@@ -119,21 +131,22 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     SceneResult result;
     result.name = preset->name;
     result.stresses = preset->stresses;
-    result.cameras = preset->cameras;
+    result.cameras = camera_count;
     result.view_jump_degrees = preset->view_jump_degrees;
     std::vector<FrameData> frames;
     std::vector<double> hull_ms;
     double triangles = 0;
     for (int f = 0; f < options.frames; ++f) {
-      frames.push_back(prepareFrame(scene, truth, reported, plates, options.first_frame + static_cast<uint64_t>(f),
-                                    options.geometry == "truth"));
+      frames.push_back(prepareFrame(options, scene, truth, reported, plates,
+                                    options.first_frame + static_cast<uint64_t>(f)));
       hull_ms.push_back(frames.back().hull_ms);
+      result.bytes_per_frame += static_cast<double>(frames.back().bytes) / options.frames;
       triangles += static_cast<double>(frames.back().mesh.triangleCount());
     }
     result.hull_ms = median(hull_ms);
     result.triangles = triangles / options.frames;
     // A jump of this many cameras along the ring is the preset's angle.
-    const int jump = static_cast<int>(std::lround(preset->view_jump_degrees / 360.0 * preset->cameras));
+    const int jump = static_cast<int>(std::lround(preset->view_jump_degrees / 360.0 * camera_count));
     const int jump_frame = jump != 0 ? options.frames / 2 : 0;
     for (render::BlendMode mode : options.modes) {
       const std::string mode_name = render::blendModeName(mode);
@@ -143,11 +156,14 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
       double flicker_sum = 0;
       size_t flicker_pairs = 0;
       const auto mode_start = Clock::now();
-      for (int held : heldOutCameras(preset->cameras, options.held_out_cameras)) {
+      for (int held : heldOutCameras(camera_count, options.held_out_cameras)) {
         render::Renderer renderer(context, options.width, options.height);
         render::BlendSettings settings;
         settings.mode = mode;
         settings.frame_interval_s = 1.0 / options.fps;
+        settings.alpha = options.alpha;
+        settings.lambda = options.lambda;
+        settings.fields = options.fields;
         std::optional<ErrorImage> previous;
         for (int f = 0; f < options.frames; ++f) {
           const FrameData& frame = frames[static_cast<size_t>(f)];
@@ -158,7 +174,7 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
           others.erase(others.begin() + held);
           renderer.setViews(others);
           const bool before_jump = f < jump_frame;
-          const int view = before_jump ? (held + jump) % preset->cameras : held;
+          const int view = before_jump ? (held + jump) % camera_count : held;
           const auto t0 = Clock::now();
           const Image8 picture = renderer.render(reported[static_cast<size_t>(view)], settings);
           mesh_ms.push_back(msSince(t0));
@@ -188,7 +204,7 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
         }
         if (progress) {
           progress(preset->name + " / " + mode_name + ": held out camera " + std::to_string(held) + " of " +
-                   std::to_string(preset->cameras) + ", " + std::to_string(options.frames) + " frames, " +
+                   std::to_string(camera_count) + ", " + std::to_string(options.frames) + " frames, " +
                    std::to_string(static_cast<int>(msSince(mode_start) / 1000)) + " s so far");
         }
       }
@@ -204,6 +220,45 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     results.push_back(std::move(result));
   }
   return results;
+}
+
+nlohmann::json sceneResultJson(const SceneResult& scene) {
+  nlohmann::json s;
+  s["stresses"] = scene.stresses;
+  s["cameras"] = scene.cameras;
+  s["view_jump_degrees"] = scene.view_jump_degrees;
+  s["hull_ms"] = scene.hull_ms;
+  s["triangles"] = scene.triangles;
+  s["bytes_per_frame"] = scene.bytes_per_frame;
+  for (const auto& [mode, m] : scene.modes) {
+    s["modes"][mode] = {{"rmse_percent", m.rmse_percent}, {"psnr_db", m.psnr_db},
+                        {"ssim", m.ssim},                 {"flicker", m.flicker},
+                        {"images", m.images},             {"ms_per_new_mesh", m.ms_per_new_mesh},
+                        {"gpu_passes_ms", m.gpu_passes_ms}};
+  }
+  return s;
+}
+
+SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s) {
+  SceneResult scene;
+  scene.name = name;
+  scene.stresses = s.at("stresses").get<std::string>();
+  scene.cameras = s.at("cameras").get<int>();
+  scene.view_jump_degrees = s.value("view_jump_degrees", 0.0);
+  scene.hull_ms = s.at("hull_ms").get<double>();
+  scene.triangles = s.at("triangles").get<double>();
+  scene.bytes_per_frame = s.at("bytes_per_frame").get<double>();
+  for (const auto& [mode, m] : s.at("modes").items()) {
+    ModeResult& r = scene.modes[mode];
+    r.rmse_percent = m.at("rmse_percent").get<double>();
+    r.psnr_db = m.at("psnr_db").get<double>();
+    r.ssim = m.at("ssim").get<double>();
+    r.flicker = m.at("flicker").get<double>();
+    r.images = m.at("images").get<size_t>();
+    r.ms_per_new_mesh = m.at("ms_per_new_mesh").get<double>();
+    r.gpu_passes_ms = m.at("gpu_passes_ms").get<std::map<std::string, double>>();
+  }
+  return scene;
 }
 
 Verdict montageVerdict(const SceneResult& scene) {
@@ -238,16 +293,7 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
                                   "flicker: mean |change of the error image| between frames, grey levels"}};
   for (const auto& scene : results) {
     nlohmann::json& s = json["scenes"][scene.name];
-    s["stresses"] = scene.stresses;
-    s["cameras"] = scene.cameras;
-    s["hull_ms"] = scene.hull_ms;
-    s["triangles"] = scene.triangles;
-    for (const auto& [mode, m] : scene.modes) {
-      s["modes"][mode] = {{"rmse_percent", m.rmse_percent}, {"psnr_db", m.psnr_db},
-                          {"ssim", m.ssim},                 {"flicker", m.flicker},
-                          {"images", m.images},             {"ms_per_new_mesh", m.ms_per_new_mesh},
-                          {"gpu_passes_ms", m.gpu_passes_ms}};
-    }
+    s = sceneResultJson(scene);
     const Verdict v = montageVerdict(scene);
     s["montage4d_against_holoportation"] = {{"psnr_gain_db", v.psnr_gain_db}, {"ssim_gain", v.ssim_gain},
                                             {"flicker_ratio", v.flicker_ratio}, {"target_met", v.met},

@@ -32,6 +32,16 @@ struct StackRow {
 std::string stackedBars(const std::string& title, const std::vector<std::string>& stages,
                         const std::vector<StackRow>& rows, const std::string& unit);
 
+struct Point {
+  std::string label;
+  double x = 0, y = 0;
+  bool highlighted = false;  // drawn filled and joined (the Pareto front)
+  bool marked = false;       // drawn with a ring (the default setting)
+};
+// Scatter plot of labelled points; highlighted points are joined in x order.
+std::string scatterChart(const std::string& title, const std::string& x_label, const std::string& y_label,
+                         const std::vector<Point>& points);
+
 // A table; cells are escaped. Rows whose first cell starts with "!" are
 // flagged (shown red, the "!" dropped).
 std::string table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows);

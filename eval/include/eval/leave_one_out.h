@@ -18,7 +18,10 @@
 #include <vector>
 
 #include "capture_node/scene_library.h"
+#include "common/mesh_codec.h"
+#include "protocol/messages.h"
 #include "render_client/blend_mode.h"
+#include "render_client/texture_field_passes.h"
 
 namespace holofuse::eval {
 
@@ -37,6 +40,15 @@ struct EvalOptions {
   // "hull": the fusion server's visual hull (what the loop sees); "truth":
   // the scene's true surface, to tell blending errors from geometry errors.
   std::string geometry = "hull";
+  // The knobs a sweep turns; the defaults are the live loop's.
+  double voxel_size = 0.02;                  // hull accuracy, metres
+  DracoOptions draco;                        // position bits etc.
+  protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
+  int lz4_acceleration = 1;
+  int cameras = 0;                           // 0: the scene's own count
+  render::FieldParameters fields;            // eps, k, K
+  float alpha = 2.0f;
+  double lambda = 0.05;
 };
 
 struct ModeResult {
@@ -53,6 +65,7 @@ struct SceneResult {
   double hull_ms = 0;          // median
   double triangles = 0;        // mean
   double view_jump_degrees = 0;
+  double bytes_per_frame = 0;  // mean, server to client: Draco mesh plus every camera's compressed images
   std::map<std::string, ModeResult> modes;  // by blendModeName
 };
 

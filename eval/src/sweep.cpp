@@ -1,0 +1,309 @@
+#include "eval/sweep.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+#include "common/html_report.h"
+#include "result_json.h"
+
+namespace holofuse::eval {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Parses a number in [lo, hi]; "" or an error naming the value.
+std::string parseNumber(const std::string& text, double lo, double hi, double& out) {
+  size_t used = 0;
+  try {
+    out = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty() || !(out >= lo && out <= hi)) {
+    char range[96];
+    std::snprintf(range, sizeof(range), "a number in [%g, %g]", lo, hi);
+    return "'" + text + "' is not " + range;
+  }
+  return "";
+}
+
+std::string formatNumber(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%g", v);
+  return buffer;
+}
+
+Knob numberKnob(const std::string& name, const std::string& meaning, double lo, double hi, bool integer,
+                std::function<void(EvalOptions&, double)> set, std::function<double(const EvalOptions&)> get) {
+  Knob knob;
+  knob.name = name;
+  knob.meaning = meaning;
+  knob.apply = [=](EvalOptions& options, const std::string& text) {
+    double v = 0;
+    std::string error = parseNumber(text, lo, hi, v);
+    if (error.empty() && integer && v != std::floor(v)) error = "'" + text + "' is not a whole number";
+    if (error.empty()) set(options, v);
+    return error;
+  };
+  knob.current = [=](const EvalOptions& options) { return formatNumber(get(options)); };
+  return knob;
+}
+
+std::vector<Knob> makeKnobs() {
+  std::vector<Knob> knobs;
+  knobs.push_back(numberKnob("voxel", "hull voxel size, metres (the accuracy knob)", 0.004, 0.1, false,
+                             [](EvalOptions& o, double v) { o.voxel_size = v; },
+                             [](const EvalOptions& o) { return o.voxel_size; }));
+  knobs.push_back(numberKnob("k", "geodesic reach in triangle rings", 1, 64, true,
+                             [](EvalOptions& o, double v) { o.fields.geodesic_rings = static_cast<int>(v); },
+                             [](const EvalOptions& o) { return double(o.fields.geodesic_rings); }));
+  knobs.push_back(numberKnob("K", "geodesic Jacobi passes", 1, 200, true,
+                             [](EvalOptions& o, double v) { o.fields.geodesic_iterations = static_cast<int>(v); },
+                             [](const EvalOptions& o) { return double(o.fields.geodesic_iterations); }));
+  knobs.push_back(numberKnob("alpha", "exponent of the view weights", 0, 100, false,
+                             [](EvalOptions& o, double v) { o.alpha = static_cast<float>(v); },
+                             [](const EvalOptions& o) { return double(o.alpha); }));
+  knobs.push_back(numberKnob("lambda", "temporal rate per frame at 30 fps (eq. 5)", 0, 1, false,
+                             [](EvalOptions& o, double v) { o.lambda = v; },
+                             [](const EvalOptions& o) { return o.lambda; }));
+  knobs.push_back(numberKnob("cameras", "pods on the ring", 2, 16, true,
+                             [](EvalOptions& o, double v) { o.cameras = static_cast<int>(v); },
+                             [](const EvalOptions& o) { return double(o.cameras); }));
+  knobs.push_back(numberKnob("dilation", "eps: discontinuity dilation in pixels (-1: scaled from the paper's)", -1, 16,
+                             true, [](EvalOptions& o, double v) { o.fields.dilation_px = static_cast<int>(v); },
+                             [](const EvalOptions& o) { return double(o.fields.dilation_px); }));
+  knobs.push_back(numberKnob("draco-bits", "Draco position quantisation bits", 6, 24, true,
+                             [](EvalOptions& o, double v) { o.draco.position_bits = static_cast<int>(v); },
+                             [](const EvalOptions& o) { return double(o.draco.position_bits); }));
+  knobs.push_back(numberKnob("lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", 1, 65537,
+                             true, [](EvalOptions& o, double v) { o.lz4_acceleration = static_cast<int>(v); },
+                             [](const EvalOptions& o) { return double(o.lz4_acceleration); }));
+  Knob codec;
+  codec.name = "image-codec";
+  codec.meaning = "colour planes: raw, lz4, or lz4-delta (planar with a left-neighbour delta pre-filter)";
+  codec.apply = [](EvalOptions& o, const std::string& v) -> std::string {
+    if (v == "raw") o.image_codec = protocol::Codec::kRaw;
+    else if (v == "lz4") o.image_codec = protocol::Codec::kLz4;
+    else if (v == "lz4-delta") o.image_codec = protocol::Codec::kLz4PlanarDelta;
+    else return "'" + v + "' is not one of raw, lz4, lz4-delta";
+    return "";
+  };
+  codec.current = [](const EvalOptions& o) -> std::string {
+    return o.image_codec == protocol::Codec::kRaw ? "raw" : o.image_codec == protocol::Codec::kLz4 ? "lz4" : "lz4-delta";
+  };
+  knobs.push_back(codec);
+  Knob size;
+  size.name = "size";
+  size.meaning = "camera and output image size WxH";
+  size.apply = [](EvalOptions& o, const std::string& v) -> std::string {
+    unsigned w = 0, h = 0;
+    char tail = 0;
+    if (std::sscanf(v.c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w < 32 || h < 32 || w > 4096 || h > 4096) {
+      return "'" + v + "' is not WxH with each side in 32..4096";
+    }
+    o.width = w;
+    o.height = h;
+    return "";
+  };
+  size.current = [](const EvalOptions& o) { return std::to_string(o.width) + "x" + std::to_string(o.height); };
+  knobs.push_back(size);
+  return knobs;
+}
+
+fs::path pointPath(const std::string& out_dir, const std::string& knob, const std::string& value) {
+  return fs::path(out_dir) / "points" / (knob + "=" + value + ".json");
+}
+
+}  // namespace
+
+const std::vector<Knob>& sweepKnobs() {
+  static const std::vector<Knob> knobs = makeKnobs();
+  return knobs;
+}
+
+const Knob* findKnob(const std::string& name) {
+  for (const auto& knob : sweepKnobs()) {
+    if (knob.name == name) return &knob;
+  }
+  return nullptr;
+}
+
+std::string knobNames() {
+  std::string names;
+  for (const auto& knob : sweepKnobs()) names += (names.empty() ? "" : ", ") + knob.name;
+  return names;
+}
+
+std::string primaryMode(const EvalOptions& options) {
+  return options.modes.empty() ? "montage4d" : render::blendModeName(options.modes.back());
+}
+
+double pipelineMs(const SceneResult& result, const std::string& mode) {
+  const auto it = result.modes.find(mode);
+  return result.hull_ms + (it == result.modes.end() ? 0.0 : it->second.ms_per_new_mesh);
+}
+
+std::vector<size_t> paretoFront(const std::vector<std::pair<double, double>>& points) {
+  std::vector<size_t> front;
+  for (size_t i = 0; i < points.size(); ++i) {
+    bool dominated = false;
+    for (size_t j = 0; j < points.size() && !dominated; ++j) {
+      dominated = j != i && points[j].first >= points[i].first && points[j].second <= points[i].second &&
+                  (points[j].first > points[i].first || points[j].second < points[i].second);
+    }
+    if (!dominated) front.push_back(i);
+  }
+  return front;
+}
+
+std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::function<void(const std::string&)>& progress) {
+  if (options.knobs.empty()) throw std::invalid_argument("no --knob given; knobs: " + knobNames());
+  if (options.base.scenes.size() != 1) throw std::invalid_argument("a sweep runs on exactly one scene");
+  // Every knob and value is checked before the first (long) point runs.
+  for (const auto& [name, values] : options.knobs) {
+    const Knob* knob = findKnob(name);
+    if (knob == nullptr) throw std::invalid_argument("unknown knob '" + name + "'; knobs: " + knobNames());
+    if (values.empty()) throw std::invalid_argument("knob '" + name + "' has no values");
+    for (const auto& value : values) {
+      EvalOptions probe = options.base;
+      const std::string error = knob->apply(probe, value);
+      if (!error.empty()) throw std::invalid_argument("knob " + name + ": " + error);
+    }
+  }
+  fs::create_directories(fs::path(options.out_dir) / "points");
+  std::vector<SweepPoint> points;
+  size_t done = 0, total = 0;
+  for (const auto& [name, values] : options.knobs) total += values.size();
+  for (const auto& [name, values] : options.knobs) {
+    const Knob& knob = *findKnob(name);
+    for (const auto& value : values) {
+      SweepPoint point;
+      point.knob = name;
+      point.value = value;
+      EvalOptions run = options.base;
+      (void)knob.apply(run, value);
+      point.is_default = knob.current(run) == knob.current(options.base);
+      const fs::path path = pointPath(options.out_dir, name, value);
+      if (fs::exists(path)) {
+        std::ifstream in(path);
+        const auto json = nlohmann::json::parse(in);
+        point.result = sceneResultFromJson(json.at("scene").get<std::string>(), json.at("result"));
+        point.resumed = true;
+      } else {
+        point.result = runLeaveOneOut(run).at(0);
+        const fs::path partial = path.string() + ".partial";
+        std::ofstream(partial) << nlohmann::json{{"knob", name},
+                                                 {"value", value},
+                                                 {"scene", point.result.name},
+                                                 {"result", sceneResultJson(point.result)}}
+                                      .dump(2);
+        fs::rename(partial, path);  // a point is on disk whole or not at all
+      }
+      ++done;
+      if (progress) {
+        const auto& m = point.result.modes.at(primaryMode(options.base));
+        char line[200];
+        std::snprintf(line, sizeof(line), "[%zu/%zu] %s=%s%s: PSNR %.2f dB, SSIM %.4f, client %.0f ms, %.0f KB/frame",
+                      done, total, name.c_str(), value.c_str(), point.resumed ? " (already on disk)" : "", m.psnr_db,
+                      m.ssim, m.ms_per_new_mesh, point.result.bytes_per_frame / 1000.0);
+        progress(line);
+      }
+      points.push_back(std::move(point));
+    }
+  }
+  return points;
+}
+
+void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint>& points) {
+  const std::string mode = primaryMode(options.base);
+  nlohmann::json json;
+  json["scene"] = options.base.scenes.at(0);
+  json["quality_mode"] = mode;
+  json["pipeline_ms"] = "hull ms + client ms per new mesh (the per-frame work the knobs move)";
+  std::string md = "# Sweep\n\nScene `" + options.base.scenes.at(0) + "`, quality of `" + mode +
+                   "` (leave-one-camera-out), one knob at a time around the defaults. Front: on the Pareto front of "
+                   "PSNR against client ms. Pipeline ms: hull plus client ms per new mesh.\n\n";
+  std::string body;
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& [name, values] : options.knobs) {
+    std::vector<const SweepPoint*> mine;
+    for (const auto& p : points) {
+      if (p.knob == name) mine.push_back(&p);
+    }
+    auto quality = [&](const SweepPoint* p) { return p->result.modes.at(mode).psnr_db; };
+    std::vector<std::pair<double, double>> by_client, by_pipeline, by_bytes;
+    for (const SweepPoint* p : mine) {
+      by_client.emplace_back(quality(p), p->result.modes.at(mode).ms_per_new_mesh);
+      by_pipeline.emplace_back(quality(p), pipelineMs(p->result, mode));
+      by_bytes.emplace_back(quality(p), p->result.bytes_per_frame);
+    }
+    const auto front = paretoFront(by_client);
+    auto onFront = [&](size_t i) { return std::find(front.begin(), front.end(), i) != front.end(); };
+    // Where the default stands: on the front, or dominated by which point.
+    std::string verdict = "the default is not among the values swept";
+    for (size_t i = 0; i < mine.size(); ++i) {
+      if (!mine[i]->is_default) continue;
+      verdict = "the default (" + name + "=" + mine[i]->value + ") is on the Pareto front";
+      for (size_t j = 0; j < mine.size(); ++j) {
+        if (j != i && by_client[j].first >= by_client[i].first && by_client[j].second <= by_client[i].second &&
+            (by_client[j].first > by_client[i].first || by_client[j].second < by_client[i].second)) {
+          verdict = "the default (" + name + "=" + mine[i]->value + ") is dominated by " + name + "=" + mine[j]->value;
+          break;
+        }
+      }
+    }
+    nlohmann::json& k = json["knobs"][name];
+    k["default_verdict"] = verdict;
+    md += "## " + name + "\n\n| value | PSNR dB | SSIM | client ms | pipeline ms | KB/frame | front |\n"
+          "|---|---:|---:|---:|---:|---:|---|\n";
+    for (size_t i = 0; i < mine.size(); ++i) {
+      const SweepPoint& p = *mine[i];
+      const ModeResult& m = p.result.modes.at(mode);
+      k["points"].push_back({{"value", p.value},
+                             {"is_default", p.is_default},
+                             {"psnr_db", m.psnr_db},
+                             {"ssim", m.ssim},
+                             {"client_ms", m.ms_per_new_mesh},
+                             {"pipeline_ms", pipelineMs(p.result, mode)},
+                             {"bytes_per_frame", p.result.bytes_per_frame},
+                             {"on_front", onFront(i)},
+                             {"result", sceneResultJson(p.result)}});
+      char cells[5][32];
+      std::snprintf(cells[0], sizeof(cells[0]), "%.2f", m.psnr_db);
+      std::snprintf(cells[1], sizeof(cells[1]), "%.4f", m.ssim);
+      std::snprintf(cells[2], sizeof(cells[2]), "%.1f", m.ms_per_new_mesh);
+      std::snprintf(cells[3], sizeof(cells[3]), "%.1f", pipelineMs(p.result, mode));
+      std::snprintf(cells[4], sizeof(cells[4]), "%.0f", p.result.bytes_per_frame / 1000.0);
+      const std::string value = p.value + (p.is_default ? " (default)" : "");
+      md += "| " + value + " | " + cells[0] + " | " + cells[1] + " | " + cells[2] + " | " + cells[3] +
+            " | " + cells[4] + " | " + (onFront(i) ? "yes" : "") + " |\n";
+      rows.push_back({name, value, cells[0], cells[1], cells[2], cells[3], cells[4], onFront(i) ? "yes" : ""});
+    }
+    md += "\n" + verdict + ".\n\n";
+    auto plot = [&](const std::vector<std::pair<double, double>>& xy, const std::string& title, const std::string& x) {
+      const auto f = paretoFront(xy);
+      std::vector<html::Point> marks;
+      for (size_t i = 0; i < mine.size(); ++i) {
+        marks.push_back({name + "=" + mine[i]->value, xy[i].second, xy[i].first,
+                         std::find(f.begin(), f.end(), i) != f.end(), mine[i]->is_default});
+      }
+      return html::scatterChart(title, x, "PSNR dB", marks);
+    };
+    body += "<h2>" + html::escape(name) + "</h2>\n<p>" + html::escape(findKnob(name)->meaning) + ". " +
+            html::escape(verdict) + ". Filled: Pareto front; red ring: the default.</p>\n";
+    body += plot(by_client, "PSNR against client ms (" + name + ")", "client ms per new mesh");
+    body += plot(by_pipeline, "PSNR against pipeline ms (" + name + ")", "hull + client ms");
+    body += plot(by_bytes, "PSNR against bytes per frame (" + name + ")", "bytes per frame, server to client");
+  }
+  body += "<h2>All points</h2>\n" +
+          html::table({"knob", "value", "PSNR dB", "SSIM", "client ms", "pipeline ms", "KB/frame", "front"}, rows);
+  std::ofstream(fs::path(options.out_dir) / "sweep.json") << json.dump(2) << "\n";
+  std::ofstream(fs::path(options.out_dir) / "sweep.md") << md;
+  std::ofstream(fs::path(options.out_dir) / "sweep.html")
+      << html::page("holofuse sweep: " + options.base.scenes.at(0) + ", quality of " + mode, body);
+}
+
+}  // namespace holofuse::eval

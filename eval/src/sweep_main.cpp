@@ -1,0 +1,74 @@
+// holofuse_sweep: the speed/accuracy trade, one knob at a time. See
+// README.md, section "Sweep".
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <exception>
+
+#include "eval/sweep.h"
+
+int main(int argc, char** argv) {
+  using namespace holofuse;
+  eval::SweepOptions options;
+  options.base.frames = 4;
+  options.base.held_out_cameras = 2;
+  options.base.modes = {render::BlendMode::kHoloportation, render::BlendMode::kMontage4D};
+  std::vector<std::string> knob_texts, modes;
+  std::string scene = "clean";
+  CLI::App app{"holofuse sweep: quality against time and bytes, one knob at a time around the defaults"};
+  app.add_option("--knob", knob_texts, "NAME=v1,v2,... (repeatable); knobs: " + eval::knobNames())->required();
+  app.add_option("--scene", scene, "scene: " + capture::sceneNames());
+  app.add_option("--modes", modes, "modes measured; the last is the one whose quality is plotted")
+      ->delimiter(',')
+      ->check(CLI::IsMember(render::blendModeNames()));
+  app.add_option("--frames", options.base.frames, "frames per point")->check(CLI::Range(1, 1000));
+  app.add_option("--held-out", options.base.held_out_cameras, "held-out cameras per point (0: all)")
+      ->check(CLI::Range(0, 16));
+  app.add_option("--out", options.out_dir, "output folder (points/, sweep.json, sweep.md, sweep.html)")->required();
+  app.add_option("--device", options.base.device, "Vulkan device: index or part of its name");
+  CLI11_PARSE(app, argc, argv);
+  options.base.scenes = {scene};
+  if (capture::findScene(scene) == nullptr) {
+    std::fprintf(stderr, "--scene: unknown scene '%s'; valid scenes: %s\n", scene.c_str(), capture::sceneNames().c_str());
+    return 2;
+  }
+  if (!modes.empty()) {
+    options.base.modes.clear();
+    for (const auto& name : modes) {
+      for (auto mode : {render::BlendMode::kNormal, render::BlendMode::kHoloportation, render::BlendMode::kMontage4D}) {
+        if (render::blendModeName(mode) == name) options.base.modes.push_back(mode);
+      }
+    }
+  }
+  for (const auto& text : knob_texts) {
+    const size_t eq = text.find('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == text.size()) {
+      std::fprintf(stderr, "--knob '%s': expected NAME=v1,v2,...; knobs: %s\n", text.c_str(), eval::knobNames().c_str());
+      return 2;
+    }
+    std::vector<std::string> values;
+    size_t start = eq + 1;
+    while (start <= text.size()) {
+      const size_t comma = text.find(',', start);
+      values.push_back(text.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+    options.knobs.emplace_back(text.substr(0, eq), values);
+  }
+  try {
+    const auto points = eval::runSweep(options, [](const std::string& line) {
+      std::printf("[sweep] %s\n", line.c_str());
+      std::fflush(stdout);
+    });
+    eval::writeSweepReports(options, points);
+    std::printf("[sweep] %zu points; wrote %s/sweep.json, sweep.md and sweep.html\n", points.size(),
+                options.out_dir.c_str());
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "[sweep] %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "[sweep] %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,103 @@
+// The sweep: bad knobs refused before any work, points written whole and
+// resumed after an interruption, the Pareto front and the default's place.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "eval/sweep.h"
+
+namespace holofuse::eval {
+namespace {
+
+namespace fs = std::filesystem;
+
+SweepOptions tinySweep(const std::string& dir) {
+  SweepOptions options;
+  options.base.scenes = {"few-cameras"};
+  options.base.frames = 1;
+  options.base.width = 96;
+  options.base.height = 72;
+  options.base.held_out_cameras = 1;
+  options.base.modes = {render::BlendMode::kNormal};
+  options.out_dir = dir;
+  return options;
+}
+
+TEST(Sweep, ParetoFrontKeepsWhatNothingBeatsOnBoth) {
+  // (quality, cost): b beats a on both; c is better quality at more cost.
+  const auto front = paretoFront({{10.0, 5.0}, {11.0, 4.0}, {12.0, 9.0}, {12.0, 9.5}});
+  EXPECT_EQ(front, (std::vector<size_t>{1, 2}));
+  EXPECT_EQ(paretoFront({{1.0, 1.0}, {1.0, 1.0}}), (std::vector<size_t>{0, 1})) << "equal points both stay";
+}
+
+TEST(Sweep, BadKnobsAndValuesAreRefusedBeforeAnyWork) {
+  const fs::path dir = fs::temp_directory_path() / "holofuse_sweep_bad";
+  fs::remove_all(dir);
+  SweepOptions options = tinySweep(dir.string());
+  options.knobs = {{"alpha", {"1", "2"}}, {"brightness", {"3"}}};
+  try {
+    runSweep(options);
+    FAIL() << "unknown knob accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("brightness"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("draco-bits"), std::string::npos) << "lists the knobs";
+  }
+  options.knobs = {{"alpha", {"1"}}, {"size", {"320x"}}};
+  try {
+    runSweep(options);
+    FAIL() << "bad value accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("size: '320x'"), std::string::npos);
+  }
+  EXPECT_FALSE(fs::exists(dir / "points")) << "nothing ran, nothing written";
+}
+
+TEST(Sweep, AnInterruptedSweepKeepsFinishedPointsAndResumes) {
+  const fs::path dir = fs::temp_directory_path() / "holofuse_sweep_resume";
+  fs::remove_all(dir);
+  SweepOptions options = tinySweep(dir.string());
+  options.knobs = {{"alpha", {"1", "2", "8"}}};
+  const auto first = runSweep(options);
+  ASSERT_EQ(first.size(), 3u);
+  for (const auto& p : first) EXPECT_FALSE(p.resumed);
+  EXPECT_TRUE(first[1].is_default) << "alpha 2 is the default";
+  // As if killed while the last point ran: its file never appeared, a
+  // partial one did.
+  fs::remove(dir / "points" / "alpha=8.json");
+  std::ofstream(dir / "points" / "alpha=8.json.partial") << "{\"knob\": \"alp";
+  const auto second = runSweep(options);
+  ASSERT_EQ(second.size(), 3u);
+  EXPECT_TRUE(second[0].resumed);
+  EXPECT_TRUE(second[1].resumed);
+  EXPECT_FALSE(second[2].resumed);
+  EXPECT_DOUBLE_EQ(second[0].result.modes.at("normal").psnr_db, first[0].result.modes.at("normal").psnr_db);
+  EXPECT_DOUBLE_EQ(second[0].result.bytes_per_frame, first[0].result.bytes_per_frame);
+  writeSweepReports(options, second);
+  std::ifstream in(dir / "sweep.json");
+  const auto json = nlohmann::json::parse(in);
+  EXPECT_EQ(json["knobs"]["alpha"]["points"].size(), 3u);
+  const std::string verdict = json["knobs"]["alpha"]["default_verdict"].get<std::string>();
+  EXPECT_NE(verdict.find("the default (alpha=2)"), std::string::npos) << verdict;
+  EXPECT_TRUE(fs::exists(dir / "sweep.html"));
+  EXPECT_TRUE(fs::exists(dir / "sweep.md"));
+  fs::remove_all(dir);
+}
+
+TEST(Sweep, KnobsChangeWhatTheyName) {
+  EvalOptions options;
+  EXPECT_EQ(findKnob("voxel")->apply(options, "0.03"), "");
+  EXPECT_DOUBLE_EQ(options.voxel_size, 0.03);
+  EXPECT_EQ(findKnob("K")->apply(options, "12"), "");
+  EXPECT_EQ(options.fields.geodesic_iterations, 12);
+  EXPECT_NE(findKnob("K")->apply(options, "12.5"), "") << "passes are whole";
+  EXPECT_EQ(findKnob("image-codec")->apply(options, "raw"), "");
+  EXPECT_EQ(options.image_codec, protocol::Codec::kRaw);
+  EXPECT_EQ(findKnob("size")->apply(options, "640x480"), "");
+  EXPECT_EQ(findKnob("size")->current(options), "640x480");
+  EXPECT_EQ(findKnob("nonsense"), nullptr);
+}
+
+}  // namespace
+}  // namespace holofuse::eval
