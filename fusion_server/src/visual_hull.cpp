@@ -41,6 +41,127 @@ float sampleBilinear(const std::vector<float>& image, int w, int h, double u, do
   return static_cast<float>(a * (1 - fy) + b * fy);
 }
 
+enum class CellClass { kInside, kOutside, kBoundary };
+
+// Where the cube [p0, p1] lies against every silhouette, conservatively.
+// Its image lies within the convex hull of its projected corners, so no
+// point of it projects farther from the projected centre than the farthest
+// corner (r pixels). The silhouette distance is 1-Lipschitz, and its
+// bilinear interpolant is both sqrt(2)-Lipschitz and within sqrt(2) / 2 of
+// it (the farthest a point is from a pixel centre), so a centre deeper
+// inside (or outside) than min(sqrt(2) r, r + sqrt(2)) settles the cube. Points off the image count
+// as outside, as in the carve, so "inside" also needs the footprint inside
+// the image. Tests (test_fusion) hold the result to the dense grid's,
+// vertex for vertex.
+CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1, const std::vector<HullView>& views,
+                       const std::vector<std::vector<float>>& distances) {
+  const glm::dvec3 centre = 0.5 * (p0 + p1);
+  bool inside_all = true;
+  for (size_t i = 0; i < views.size(); ++i) {
+    const Camera& cam = views[i].camera;
+    const auto c = cam.project(centre);
+    if (!c || !std::isfinite(c->x) || !std::isfinite(c->y)) return CellClass::kBoundary;
+    double reach = 0;
+    for (int k = 0; k < 8; ++k) {
+      const glm::dvec3 corner((k & 1) ? p1.x : p0.x, (k & 2) ? p1.y : p0.y, (k & 4) ? p1.z : p0.z);
+      const auto q = cam.project(corner);
+      if (!q || !std::isfinite(q->x) || !std::isfinite(q->y)) return CellClass::kBoundary;  // crosses the camera plane
+      reach = std::max(reach, std::hypot(q->x - c->x, q->y - c->y));
+    }
+    const double radius = std::min(std::sqrt(2.0) * reach, reach + std::sqrt(2.0)) + 1e-3;
+    const double off = std::max({-c->x, -c->y, c->x - cam.width, c->y - cam.height});
+    if (off > reach) return CellClass::kOutside;  // wholly off the image
+    if (off > -reach) {
+      inside_all = false;  // straddles the image border
+      continue;
+    }
+    const double px = sampleBilinear(distances[i], static_cast<int>(cam.width), static_cast<int>(cam.height), c->x,
+                                     c->y);
+    if (px < -radius) return CellClass::kOutside;
+    if (px <= radius) inside_all = false;
+  }
+  return inside_all ? CellClass::kInside : CellClass::kBoundary;
+}
+
+// The fine grid of `n` points from `lo`, filled coarse to fine. Settled
+// cells give their points a placeholder of one voxel inside or outside
+// (unless a boundary voxel already evaluated them exactly); boundary voxels
+// evaluate their eight corners.
+template <typename Distance>
+ScalarGrid sampleHierarchically(const glm::dvec3& lo, double s, const glm::ivec3& n, int levels,
+                                const std::vector<HullView>& views, const std::vector<std::vector<float>>& distances,
+                                Distance&& signedDistance, HullStats& stats) {
+  ScalarGrid grid;
+  grid.nx = n.x;
+  grid.ny = n.y;
+  grid.nz = n.z;
+  grid.origin = lo;
+  grid.spacing = s;
+  grid.values.assign(static_cast<size_t>(n.x) * n.y * n.z, 0.0f);
+  std::vector<uint8_t> exact(grid.values.size(), 0);
+  auto index = [&](int x, int y, int z) { return (static_cast<size_t>(z) * n.y + y) * n.x + x; };
+  auto settle = [&](const glm::ivec3& a, const glm::ivec3& b, float value) {
+    for (int z = a.z; z <= b.z; ++z) {
+      for (int y = a.y; y <= b.y; ++y) {
+        for (int x = a.x; x <= b.x; ++x) {
+          const size_t i = index(x, y, z);
+          if (!exact[i]) grid.values[i] = value;
+        }
+      }
+    }
+  };
+  // Cells are voxel ranges [a, a + size] clipped to the grid.
+  struct Cell {
+    glm::ivec3 a;
+    int size;
+  };
+  std::vector<Cell> stack;
+  const int top = 1 << levels;
+  for (int z = 0; z < n.z - 1; z += top) {
+    for (int y = 0; y < n.y - 1; y += top) {
+      for (int x = 0; x < n.x - 1; x += top) stack.push_back({{x, y, z}, top});
+    }
+  }
+  while (!stack.empty()) {
+    const Cell cell = stack.back();
+    stack.pop_back();
+    const glm::ivec3 b = glm::min(cell.a + cell.size, n - 1);
+    if (cell.size == 1) {
+      for (int z = cell.a.z; z <= b.z; ++z) {
+        for (int y = cell.a.y; y <= b.y; ++y) {
+          for (int x = cell.a.x; x <= b.x; ++x) {
+            const size_t i = index(x, y, z);
+            if (exact[i]) continue;
+            grid.values[i] = static_cast<float>(signedDistance(grid.point(x, y, z)));
+            exact[i] = 1;
+            ++stats.points_sampled;
+          }
+        }
+      }
+      continue;
+    }
+    const glm::dvec3 p0 = grid.point(cell.a.x, cell.a.y, cell.a.z), p1 = grid.point(b.x, b.y, b.z);
+    ++stats.cells_classified;
+    const CellClass c = classifyCell(p0, p1, views, distances);
+    if (c == CellClass::kInside) {
+      settle(cell.a, b, static_cast<float>(s));
+    } else if (c == CellClass::kOutside) {
+      settle(cell.a, b, static_cast<float>(-s));
+    } else {
+      const int half = cell.size / 2;
+      for (int dz = 0; dz < 2; ++dz) {
+        for (int dy = 0; dy < 2; ++dy) {
+          for (int dx = 0; dx < 2; ++dx) {
+            const glm::ivec3 a = cell.a + half * glm::ivec3(dx, dy, dz);
+            if (a.x < n.x - 1 && a.y < n.y - 1 && a.z < n.z - 1) stack.push_back({a, half});
+          }
+        }
+      }
+    }
+  }
+  return grid;
+}
+
 }  // namespace
 
 std::vector<float> silhouetteSignedDistance(const HullView& view) {
@@ -113,7 +234,7 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   // cameras' silhouette distances, each turned from pixels into metres at
   // the point's depth. The outer layer of the grid is forced outside so the
   // surface is closed.
-  const ScalarGrid grid = sampleGrid(lo, s, n.x, n.y, n.z, [&](const glm::dvec3& p) {
+  auto signedDistance = [&](const glm::dvec3& p) {
     double value = std::numeric_limits<double>::max();
     for (size_t i = 0; i < views.size(); ++i) {
       const Camera& cam = views[i].camera;
@@ -125,7 +246,15 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
       value = std::min(value, px * proj->z / cam.fx);
     }
     return value;
-  });
+  };
+  HullStats local;
+  ScalarGrid grid;
+  if (options.hierarchy_levels <= 0) {
+    grid = sampleGrid(lo, s, n.x, n.y, n.z, signedDistance);
+    local.points_sampled = grid.values.size();
+  } else {
+    grid = sampleHierarchically(lo, s, n, options.hierarchy_levels, views, distances, signedDistance, local);
+  }
   ScalarGrid closed = grid;
   for (int z = 0; z < n.z; ++z) {
     for (int y = 0; y < n.y; ++y) {
@@ -148,6 +277,7 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
     key = ((z * lattice.y + y) * lattice.x + x) * 3 + axis;
   }
   if (stats != nullptr) {
+    *stats = local;
     stats->region_min = lo;
     stats->region_max = hi;
     stats->grid_points = closed.values.size();

@@ -1,6 +1,12 @@
 // Visual hull from silhouettes: the valid region (where every camera's
 // silhouette bounding rectangle back-projects, paper 004), a signed distance
-// sampled on a voxel grid inside it, and marching cubes.
+// sampled on a voxel grid inside it, and marching cubes. The grid is
+// visited coarse to fine: a cell whose projected footprint lies wholly
+// inside every silhouette, or wholly outside one, is settled without
+// sampling its points; only cells the surface may cross are refined down to
+// voxels, whose corners get the exact signed distance. Every voxel the
+// surface crosses is such a cell, so marching cubes places the same vertices
+// as on the dense grid.
 #pragma once
 
 #include <vector>
@@ -22,11 +28,18 @@ struct HullOptions {
   glm::dvec3 volume_min{-1.0, -0.1, -1.0};           // capture volume
   glm::dvec3 volume_max{1.0, 1.9, 1.0};
   double valid_region_step = 0.08;                   // coarse step of the valid-region search
+  // Coarse-to-fine: cells of 2^levels voxels are classified inside, outside
+  // or boundary against every silhouette and only boundary cells are split;
+  // 0 samples every grid point (the dense reference).
+  int hierarchy_levels = 4;
 };
 
 struct HullStats {
   glm::dvec3 region_min{0.0}, region_max{0.0};
-  size_t grid_points = 0;
+  size_t grid_points = 0;       // of the fine grid over the valid region
+  size_t cells_classified = 0;  // coarse and intermediate cells tested against the silhouettes
+  size_t points_sampled = 0;    // fine grid points whose signed distance was evaluated
+  size_t cells_visited() const { return cells_classified + points_sampled; }
   size_t triangles = 0;
 };
 
