@@ -14,6 +14,7 @@
 #include "common/image_codec.h"
 #include "common/image_io.h"
 #include "common/mesh_codec.h"
+#include "eval/geometry_metrics.h"
 #include "eval/metrics.h"
 #include "result_json.h"
 #include "fusion_server/visual_hull.h"
@@ -44,6 +45,7 @@ struct FrameData {
   std::vector<Image8> true_masks;         // per camera
   double hull_ms = 0;
   size_t bytes = 0;                       // what the server sends a client for this frame
+  fusion::HullStats hull_stats;
 };
 
 FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene& scene,
@@ -69,7 +71,7 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
   fusion::HullOptions hull_options;
   hull_options.voxel_size = options.voxel_size;
   const Mesh hull = options.geometry == "truth" ? scene.truthMesh(frame_id, options.voxel_size)
-                                                : fusion::carveVisualHull(hull_views, hull_options);
+                                                : fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
   frame.hull_ms = msSince(t0);
   // Through Draco as on the wire: quantisation is part of what the client sees.
   auto bytes = encodeDraco(hull, options.draco);
@@ -141,9 +143,18 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
                                     options.first_frame + static_cast<uint64_t>(f)));
       hull_ms.push_back(frames.back().hull_ms);
       result.bytes_per_frame += static_cast<double>(frames.back().bytes) / options.frames;
+      result.cells_visited += static_cast<double>(frames.back().hull_stats.cells_visited()) / options.frames;
+      result.dense_grid_points += static_cast<double>(frames.back().hull_stats.grid_points) / options.frames;
       triangles += static_cast<double>(frames.back().mesh.triangleCount());
     }
     result.hull_ms = median(hull_ms);
+    {
+      const Mesh truth_surface = scene.truthMesh(options.first_frame, 0.01);
+      result.chamfer_mm = 1000.0 * chamferDistance(frames[0].mesh, truth_surface);
+      for (size_t i = 0; i < truth.size(); ++i) {
+        result.silhouette_iou.push_back(silhouetteIoU(frames[0].mesh, truth[i], frames[0].true_masks[i]));
+      }
+    }
     result.triangles = triangles / options.frames;
     // A jump of this many cameras along the ring is the preset's angle.
     const int jump = static_cast<int>(std::lround(preset->view_jump_degrees / 360.0 * camera_count));
@@ -230,6 +241,10 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
   s["hull_ms"] = scene.hull_ms;
   s["triangles"] = scene.triangles;
   s["bytes_per_frame"] = scene.bytes_per_frame;
+  s["hull"] = {{"chamfer_mm", scene.chamfer_mm},
+               {"silhouette_iou", scene.silhouette_iou},
+               {"cells_visited", scene.cells_visited},
+               {"dense_grid_points", scene.dense_grid_points}};
   for (const auto& [mode, m] : scene.modes) {
     s["modes"][mode] = {{"rmse_percent", m.rmse_percent}, {"psnr_db", m.psnr_db},
                         {"ssim", m.ssim},                 {"flicker", m.flicker},
@@ -248,6 +263,13 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
   scene.hull_ms = s.at("hull_ms").get<double>();
   scene.triangles = s.at("triangles").get<double>();
   scene.bytes_per_frame = s.at("bytes_per_frame").get<double>();
+  if (s.contains("hull")) {
+    const auto& hull = s.at("hull");
+    scene.chamfer_mm = hull.value("chamfer_mm", 0.0);
+    scene.silhouette_iou = hull.value("silhouette_iou", std::vector<double>{});
+    scene.cells_visited = hull.value("cells_visited", 0.0);
+    scene.dense_grid_points = hull.value("dense_grid_points", 0.0);
+  }
   for (const auto& [mode, m] : s.at("modes").items()) {
     ModeResult& r = scene.modes[mode];
     r.rmse_percent = m.at("rmse_percent").get<double>();
@@ -331,6 +353,22 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     md << "\n";
   }
   md << "\nfps: one render after a new mesh (field passes included), this machine's Vulkan device.\n\n"
+     << "## Geometry\n\nThe surface the client received against the truth (first frame; Chamfer between vertex "
+        "sets, truth by marching cubes at 1 cm; IoU of its silhouette in each true mask).\n\n"
+        "| Scene | triangles | hull ms | cells visited | dense grid points | Chamfer mm | IoU mean | IoU worst |\n"
+        "|---|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const auto& scene : results) {
+    double mean_iou = 0, worst_iou = 1;
+    for (double v : scene.silhouette_iou) {
+      mean_iou += v / static_cast<double>(scene.silhouette_iou.size());
+      worst_iou = std::min(worst_iou, v);
+    }
+    std::snprintf(cell, sizeof(cell), "| %s | %.0f | %.1f | %.0f | %.0f | %.1f | %.3f | %.3f |\n", scene.name.c_str(),
+                  scene.triangles, scene.hull_ms, scene.cells_visited, scene.dense_grid_points, scene.chamfer_mm,
+                  mean_iou, worst_iou);
+    md << cell;
+  }
+  md << "\n"
      << "## montage4d against holoportation\n\nTarget on every scene but clean: at least +0.5 dB PSNR, higher SSIM, "
         "and less flicker after a viewpoint jump.\n\n| Scene | PSNR gain | SSIM gain | flicker ratio | verdict |\n"
         "|---|---:|---:|---:|---|\n";

@@ -50,6 +50,13 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
     EXPECT_GT(m.ms_per_new_mesh, 0.0);
   }
   EXPECT_FALSE(scene.modes.at("montage4d").gpu_passes_ms.empty());
+  // The hull against the truth: a superset a few voxels thick, covering
+  // each true silhouette.
+  EXPECT_GT(scene.chamfer_mm, 2.0);
+  EXPECT_LT(scene.chamfer_mm, 60.0);
+  ASSERT_EQ(scene.silhouette_iou.size(), 4u);
+  for (double iou : scene.silhouette_iou) EXPECT_GT(iou, 0.6);
+  EXPECT_LT(scene.cells_visited, scene.dense_grid_points) << "the hierarchical hull samples less than the dense grid";
   writeQualityReports(options, results, options.out_dir);
   std::ifstream json_file(fs::path(options.out_dir) / "quality.json");
   const auto json = nlohmann::json::parse(json_file);

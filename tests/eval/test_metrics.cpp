@@ -145,3 +145,26 @@ TEST(Metrics, FlickerIsTheChangeOfTheErrorNotTheError) {
 
 }  // namespace
 }  // namespace holofuse::eval
+
+#include "eval/geometry_metrics.h"
+
+namespace holofuse::eval {
+namespace {
+
+Mesh pointsAt(std::initializer_list<glm::vec3> points) {
+  Mesh mesh;
+  mesh.positions = points;
+  return mesh;
+}
+
+TEST(GeometryMetrics, ChamferIsTheMeanOfBothNearestDistanceMeans) {
+  const Mesh a = pointsAt({{0, 0, 0}, {1, 0, 0}});
+  const Mesh b = pointsAt({{0, 0.1f, 0}, {1, 0, 0}, {5, 0, 0}});
+  // a -> b: 0.1 and 0 (mean 0.05); b -> a: 0.1, 0, 4 (mean 1.3666).
+  EXPECT_NEAR(chamferDistance(a, b), 0.5 * (0.05 + (0.1 + 0 + 4) / 3.0), 1e-6);
+  EXPECT_DOUBLE_EQ(chamferDistance(a, a), 0.0);
+  EXPECT_TRUE(std::isinf(chamferDistance(a, Mesh{})));
+}
+
+}  // namespace
+}  // namespace holofuse::eval

@@ -66,6 +66,12 @@ struct SceneResult {
   double triangles = 0;        // mean
   double view_jump_degrees = 0;
   double bytes_per_frame = 0;  // mean, server to client: Draco mesh plus every camera's compressed images
+  // The geometry against the truth, on the first frame (hull as decoded by
+  // the client; truth by marching cubes at 1 cm).
+  double chamfer_mm = 0;
+  std::vector<double> silhouette_iou;  // per camera
+  double cells_visited = 0;            // mean per frame (eval/visual_hull.h's count)
+  double dense_grid_points = 0;        // what the dense grid would have sampled
   std::map<std::string, ModeResult> modes;  // by blendModeName
 };
 
