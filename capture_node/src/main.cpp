@@ -21,6 +21,9 @@ int main(int argc, char** argv) {
   app.add_option("--seed", options.scene.seed, "scene seed");
   app.add_option("--noise", options.scene.noise_amplitude, "sensor noise amplitude, grey levels")
       ->check(CLI::Range(0.0, 64.0));
+  app.add_option("--crop-margin", options.crop_margin,
+                 "send only the foreground's rectangle grown by this many pixels (-1: whole images)")
+      ->check(CLI::Range(-1, 4096));
   app.add_option("--codec", codec, "colour codec")->check(CLI::IsMember({"raw", "lz4", "lz4-delta"}));
   CLI11_PARSE(app, argc, argv);
   const capture::ScenePreset* preset = capture::findScene(scene_name);

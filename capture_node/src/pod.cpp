@@ -33,7 +33,8 @@ PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, co
   return capture;
 }
 
-protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec) {
+protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec,
+                                       int crop_margin) {
   const uint64_t t0 = monotonicNs();
   // The compressed planes live as long as the frame that borrows them.
   auto storage = std::make_shared<std::array<std::vector<uint8_t>, 3>>();
@@ -42,10 +43,26 @@ protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, 
   frame.frame_id = capture.frame_id;
   frame.camera_id = camera_id;
   frame.capture_time_ns = capture.capture_time_ns;
-  frame.planes.push_back(encodePlane(capture.view.color, protocol::PlaneKind::kColor, color_codec, color_bytes));
-  frame.planes.push_back(encodePlane(capture.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, mask_bytes));
-  frame.planes.push_back(
-      encodePlane(capture.feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4, feather_bytes));
+  const Image8* color = &capture.view.color;
+  const Image8* mask = &capture.mask;
+  const Image8* feather = &capture.feather;
+  Image8 cropped[3];
+  if (crop_margin >= 0) {
+    // No foreground: one background pixel says so.
+    PixelRect rect = foregroundRect(capture.mask, static_cast<uint32_t>(crop_margin));
+    if (rect.empty()) rect = {0, 0, 1, 1};
+    cropped[0] = cropImage(capture.view.color, rect);
+    cropped[1] = cropImage(capture.mask, rect);
+    cropped[2] = cropImage(capture.feather, rect);
+    color = &cropped[0];
+    mask = &cropped[1];
+    feather = &cropped[2];
+    frame.offset_x = rect.x;
+    frame.offset_y = rect.y;
+  }
+  frame.planes.push_back(encodePlane(*color, protocol::PlaneKind::kColor, color_codec, color_bytes));
+  frame.planes.push_back(encodePlane(*mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, mask_bytes));
+  frame.planes.push_back(encodePlane(*feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4, feather_bytes));
   capture.stamps.push_back({static_cast<uint16_t>(Stage::kPodEncode), static_cast<uint16_t>(camera_id), t0,
                             monotonicNs()});
   frame.stamps = capture.stamps;
@@ -93,7 +110,8 @@ int runPod(const PodOptions& options) {
     if (last_frame_id != 0 && frame_id > last_frame_id + 1) skipped += frame_id - last_frame_id - 1;
     last_frame_id = frame_id;
     PodCapture capture = capturePodFrame(scene, camera, plate, frame_id, static_cast<uint16_t>(options.pod_id));
-    link.send(std::make_shared<const protocol::OutgoingFrame>(encodePodFrame(capture, camera.id, options.color_codec)));
+    link.send(std::make_shared<const protocol::OutgoingFrame>(
+        encodePodFrame(capture, camera.id, options.color_codec, options.crop_margin)));
     link.poll(0, received);
     received.clear();
     ++sent;

@@ -139,11 +139,15 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
                            encode_end, now});
   images.camera = cam->second;  // the calibration these images belong to
   for (const auto& plane : pod.planes) {
-    // Checked against the calibration before anything is decompressed.
-    if (plane.width != cam->second.width || plane.height != cam->second.height) {
+    // Checked against the calibration before anything is decompressed: the
+    // planes are the image, or a rectangle of it at the frame's offset.
+    if (!cropFits(pod.offset_x, pod.offset_y, plane.width, plane.height, cam->second.width, cam->second.height) ||
+        (pod.planes.front().width != plane.width || pod.planes.front().height != plane.height)) {
       return Status(StatusCode::kMalformed, "plane " + std::to_string(static_cast<int>(plane.kind)) + " is " +
                                                 std::to_string(plane.width) + "x" + std::to_string(plane.height) +
-                                                ", calibration says " + std::to_string(cam->second.width) + "x" +
+                                                " at (" + std::to_string(pod.offset_x) + ", " +
+                                                std::to_string(pod.offset_y) + "), calibration says " +
+                                                std::to_string(cam->second.width) + "x" +
                                                 std::to_string(cam->second.height));
     }
     auto image = decodePlane(plane);
@@ -158,6 +162,8 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   if (images.color.channels != 3 || images.mask.channels != 1 || images.feather.channels != 1) {
     return Status(StatusCode::kMalformed, "PodFrame needs an RGB colour, a grey mask and a grey feather plane");
   }
+  images.offset_x = pod.offset_x;
+  images.offset_y = pod.offset_y;
   if (sync_.add(pod.frame_id, std::move(images), now) == FrameSync::Added::kImplausible) {
     return Status(StatusCode::kMalformed, "field 'pod_frame.frame_id': " + std::to_string(pod.frame_id) +
                                               " is implausibly far ahead of the frames being fused");

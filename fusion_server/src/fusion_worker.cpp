@@ -30,7 +30,14 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
     // The calibration stored with the images: a newer one may have other
     // sizes.
     if (camera_id < 64) present |= uint64_t{1} << camera_id;
-    views.push_back(HullView{pod.camera, pod.mask, pod.feather});
+    // The hull samples whole silhouettes: a rectangle goes back into its frame.
+    const bool whole = pod.offset_x == 0 && pod.offset_y == 0 && pod.mask.width == pod.camera.width &&
+                       pod.mask.height == pod.camera.height;
+    views.push_back(whole ? HullView{pod.camera, pod.mask, pod.feather}
+                          : HullView{pod.camera,
+                                     placeInFrame(pod.mask, pod.offset_x, pod.offset_y, pod.camera.width, pod.camera.height),
+                                     placeInFrame(pod.feather, pod.offset_x, pod.offset_y, pod.camera.width,
+                                                  pod.camera.height)});
   }
   stamps.push_back({static_cast<uint16_t>(Stage::kSyncWait), kSourceServer, group.first_arrival_ns, group.emitted_ns});
 
@@ -50,6 +57,8 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   for (const auto& [camera_id, pod] : group.pods) {
     protocol::BundleImage image;
     image.camera_id = camera_id;
+    image.offset_x = pod.offset_x;  // clients get the rectangle too
+    image.offset_y = pod.offset_y;
     storage->emplace_back();
     image.planes.push_back(encodePlane(pod.color, protocol::PlaneKind::kColor, settings.image_codec, storage->back()));
     storage->emplace_back();

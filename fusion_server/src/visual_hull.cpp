@@ -16,18 +16,12 @@ struct Rect {
   bool empty() const { return x1 < x0; }
 };
 
-Rect foregroundRect(const Image8& mask) {
-  Rect r{static_cast<int>(mask.width), static_cast<int>(mask.height), -1, -1};
-  for (uint32_t y = 0; y < mask.height; ++y) {
-    for (uint32_t x = 0; x < mask.width; ++x) {
-      if (*mask.at(x, y) == 0) continue;
-      r.x0 = std::min<int>(r.x0, x);
-      r.y0 = std::min<int>(r.y0, y);
-      r.x1 = std::max<int>(r.x1, x);
-      r.y1 = std::max<int>(r.y1, y);
-    }
-  }
-  return r;
+// The silhouette's bounding rectangle (common/image.h), inclusive bounds.
+Rect silhouetteRect(const Image8& mask) {
+  const PixelRect r = foregroundRect(mask);
+  if (r.empty()) return {};
+  return {static_cast<int>(r.x), static_cast<int>(r.y), static_cast<int>(r.x + r.width - 1),
+          static_cast<int>(r.y + r.height - 1)};
 }
 
 float sampleBilinear(const std::vector<float>& image, int w, int h, double u, double v) {
@@ -190,7 +184,7 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
         v.feather.height != v.mask.height) {
       return {};  // images that do not match their calibration cannot be carved with
     }
-    rects.push_back(foregroundRect(v.mask));
+    rects.push_back(silhouetteRect(v.mask));
     if (rects.back().empty()) return {};  // an empty silhouette carves everything away
   }
   // Valid region: the points of a coarse lattice that fall inside every

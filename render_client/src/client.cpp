@@ -183,6 +183,16 @@ int runClient(const ClientOptions& options) {
             if (plane.kind == protocol::PlaneKind::kMask) view.mask = std::move(*decoded);
           }
           if (!error.empty()) break;
+          // A rectangle of the image (the pods send their foreground's):
+          // back into a whole frame, background black with mask 0.
+          const bool whole = image.offset_x == 0 && image.offset_y == 0 && view.color.width == view.camera.width &&
+                             view.color.height == view.camera.height;
+          if (!whole && view.color.width == view.mask.width && view.color.height == view.mask.height &&
+              cropFits(image.offset_x, image.offset_y, view.color.width, view.color.height, view.camera.width,
+                       view.camera.height)) {
+            view.color = placeInFrame(view.color, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
+            view.mask = placeInFrame(view.mask, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
+          }
           if (view.color.width != view.camera.width || view.color.height != view.camera.height ||
               view.mask.width != view.camera.width || view.mask.height != view.camera.height ||
               view.color.channels != 3 || view.mask.channels != 1) {

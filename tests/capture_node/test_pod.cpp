@@ -113,6 +113,33 @@ TEST(Pod, EncodedFrameCarriesStampsAndDecodablePlanes) {
 namespace holofuse::capture {
 namespace {
 
+TEST(Pod, SendsOnlyTheForegroundRectangleWithItsOffset) {
+  const SyntheticScene scene;
+  const Camera cam = SyntheticScene::cameraRig(4, 160, 120)[1];
+  PodCapture capture = capturePodFrame(scene, cam, scene.backgroundPlate(cam), 7, 1);
+  const PixelRect rect = foregroundRect(capture.mask, 8);
+  ASSERT_FALSE(rect.empty());
+  const auto bytes = encodePodFrame(capture, 1, protocol::Codec::kLz4PlanarDelta, 8).flatten();
+  protocol::StreamDecoder decoder;
+  decoder.feed(bytes);
+  ASSERT_TRUE(decoder.hasFrame());
+  const protocol::Frame wire = decoder.takeFrame();
+  protocol::PodFrame pod;
+  ASSERT_TRUE(protocol::decodeFrame(wire, pod).isOk());
+  EXPECT_EQ(pod.offset_x, rect.x);
+  EXPECT_EQ(pod.offset_y, rect.y);
+  for (const auto& plane : pod.planes) {
+    EXPECT_EQ(plane.width, rect.width);
+    EXPECT_EQ(plane.height, rect.height);
+  }
+  auto color = decodePlane(pod.planes[0]);
+  ASSERT_TRUE(color.isOk());
+  EXPECT_EQ(color->pixels, cropImage(capture.view.color, rect).pixels);
+  // Smaller on the wire than the whole frame.
+  const auto whole = encodePodFrame(capture, 1, protocol::Codec::kLz4PlanarDelta).flatten();
+  EXPECT_LT(bytes.size(), whole.size());
+}
+
 TEST(SceneLibrary, NamesEveryScenarioAndRefusesUnknownOnes) {
   for (const char* name : {"clean", "calibration-error", "colour-imbalance", "fast-motion", "viewpoint-jump",
                            "few-cameras", "many-cameras"}) {

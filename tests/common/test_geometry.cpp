@@ -136,3 +136,39 @@ TEST(MeshCodec, DracoRoundTripIsWithinQuantisation) {
 
 }  // namespace
 }  // namespace holofuse
+
+namespace holofuse {
+namespace {
+
+TEST(ImageRects, ForegroundRectCropAndPlaceRoundTrip) {
+  Image8 mask(40, 30, 1, 0);
+  for (uint32_t y = 10; y < 14; ++y) {
+    for (uint32_t x = 20; x < 25; ++x) *mask.at(x, y) = 255;
+  }
+  const PixelRect tight = foregroundRect(mask);
+  EXPECT_EQ(tight.x, 20u);
+  EXPECT_EQ(tight.y, 10u);
+  EXPECT_EQ(tight.width, 5u);
+  EXPECT_EQ(tight.height, 4u);
+  const PixelRect grown = foregroundRect(mask, 30);  // clipped to the image
+  EXPECT_EQ(grown.x, 0u);
+  EXPECT_EQ(grown.width, 40u);
+  EXPECT_EQ(grown.height, 30u);
+  EXPECT_TRUE(foregroundRect(Image8(8, 8, 1, 0)).empty());
+  Image8 colour(40, 30, 3);
+  for (size_t i = 0; i < colour.pixels.size(); ++i) colour.pixels[i] = static_cast<uint8_t>(i * 7);
+  const PixelRect r = foregroundRect(mask, 2);
+  const Image8 back = placeInFrame(cropImage(colour, r), r.x, r.y, 40, 30);
+  for (uint32_t y = 0; y < 30; ++y) {
+    for (uint32_t x = 0; x < 40; ++x) {
+      const bool in = x >= r.x && x < r.x + r.width && y >= r.y && y < r.y + r.height;
+      for (int c = 0; c < 3; ++c) ASSERT_EQ(back.at(x, y)[c], in ? colour.at(x, y)[c] : 0) << x << "," << y;
+    }
+  }
+  EXPECT_THROW(cropImage(colour, {38, 0, 5, 5}), std::invalid_argument);
+  EXPECT_FALSE(cropFits(0xFFFFFFF0u, 0, 96, 72, 96, 72)) << "no 32-bit wrap-around";
+  EXPECT_TRUE(cropFits(16, 8, 80, 64, 96, 72));
+}
+
+}  // namespace
+}  // namespace holofuse

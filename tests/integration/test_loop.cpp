@@ -13,6 +13,9 @@
 #include <thread>
 
 #include "capture_node/synthetic_scene.h"
+#include "common/camera.h"
+#include "common/image_codec.h"
+#include "protocol/messages.h"
 #include "protocol/frame.h"
 #include "protocol/socket.h"
 
@@ -204,7 +207,9 @@ TEST(Loop, APodWithoutServerRetriesWithBackoffAndJoinsWhenItAppears) {
 TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
   const fs::path out = freshDir("hostile");
   pid_t server = 0;
-  const std::string endpoint = startServer(out, 1, &server);
+  // Two pods expected: the second slot is the crooked peer's (the real pod
+  // goes on alone past the sync deadline).
+  const std::string endpoint = startServer(out, 2, &server);
   ASSERT_TRUE(holofuse::protocol::parseEndpoint(endpoint).isOk()) << "the server did not report its port";
   const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods", "1", "--size",
                            "96x72", "--fps", "5"},
@@ -226,6 +231,32 @@ TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
   uint8_t header[holofuse::protocol::kHeaderSize] = {'H', 'F', 'U', 'S', 1, 0, 5, 0, 1, 0, 0, 0, 0xFF, 0xFF, 0xFF, 0xFF};
   iovec hpart{header, sizeof(header)};
   huge->writeVector(&hpart, 1);
+  // A third claims to be pod 1 and sends a rectangle whose offset would
+  // wrap a 32-bit sum: refused before anything is decompressed.
+  auto crooked = holofuse::protocol::connectTcp(*parsed, 1000);
+  ASSERT_TRUE(crooked.isOk());
+  {
+    holofuse::protocol::Hello hello;
+    hello.role = holofuse::protocol::Role::kPod;
+    hello.id = 1;
+    hello.name = "crooked";
+    holofuse::Camera camera = holofuse::capture::SyntheticScene::cameraRig(1, 96, 72)[0];
+    camera.id = 1;
+    holofuse::protocol::PodFrame frame;
+    frame.frame_id = 1;
+    frame.camera_id = 1;
+    frame.offset_x = 0xFFFFFFF0u;
+    holofuse::Image8 tiny(96, 72, 3);
+    std::vector<uint8_t> storage;
+    frame.planes.push_back(holofuse::encodePlane(tiny, holofuse::protocol::PlaneKind::kColor,
+                                                 holofuse::protocol::Codec::kRaw, storage));
+    for (const auto& bytes : {holofuse::protocol::encodeFrame(hello, 1),
+                              holofuse::protocol::encodeFrame(holofuse::toCalibration(camera), 2),
+                              holofuse::protocol::encodeFrame(frame, 3)}) {
+      iovec piece{const_cast<uint8_t*>(bytes.data()), bytes.size()};
+      crooked->writeVector(&piece, 1);
+    }
+  }
   ASSERT_EQ(waitExit(client, 120), 0) << readFile(out / "client.log");
   kill(pod, SIGTERM);
   waitExit(pod, 10);
@@ -235,6 +266,7 @@ TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
   const std::string log = readFile(out / "server.log");
   EXPECT_NE(log.find("field 'magic' at offset 0"), std::string::npos) << log;
   EXPECT_NE(log.find("field 'payload_length' at offset 12"), std::string::npos) << log;
+  EXPECT_NE(log.find("is 96x72 at (4294967280, 0), calibration says 96x72"), std::string::npos) << log;
 }
 
 TEST(Loop, ASilentPeerIsClosedAfterTheIdleTimeout) {

@@ -24,6 +24,7 @@ struct PodOptions {
   // The calibration the pod reports is off by this much (scene presets).
   double calibration_error_degrees = 0.0;
   double calibration_error_metres = 0.0;
+  int crop_margin = 8;  // pixels around the foreground's rectangle; kFullFrame sends whole images
 };
 
 // Everything a pod produces for one frame, before it goes on the wire.
@@ -41,8 +42,13 @@ PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, co
                            uint64_t frame_id, uint16_t source);
 
 // Compresses a capture into a PodFrame ready to send (the compressed planes
-// are borrowed by the frame, not copied), appending the encode stamp.
-protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec);
+// are borrowed by the frame, not copied), appending the encode stamp. With
+// crop_margin >= 0 only the foreground's bounding rectangle grown by that
+// many pixels is sent, with its offset (paper 004: model only what the
+// scene requires); kFullFrame sends every pixel.
+constexpr int kFullFrame = -1;
+protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec,
+                                       int crop_margin = kFullFrame);
 
 // Runs until stopped (signal, frame count) or the server refuses the
 // version. Returns the process exit code.

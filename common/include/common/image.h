@@ -22,3 +22,31 @@ struct Image8 {
 };
 
 }  // namespace holofuse
+
+namespace holofuse {
+
+// A pixel rectangle: x, y of its top-left pixel, then its size.
+struct PixelRect {
+  uint32_t x = 0, y = 0, width = 0, height = 0;
+  bool empty() const { return width == 0 || height == 0; }
+};
+
+// The smallest rectangle holding every non-zero pixel of a one-channel
+// mask, grown by margin on every side and clipped to the image; empty when
+// the mask has no foreground.
+PixelRect foregroundRect(const Image8& mask, uint32_t margin = 0);
+
+// The pixels of image inside rect (which must lie inside the image).
+Image8 cropImage(const Image8& image, const PixelRect& rect);
+
+// A width x height image, zero everywhere but for `crop` placed with its
+// top-left pixel at (x, y) (the crop must fit).
+Image8 placeInFrame(const Image8& crop, uint32_t x, uint32_t y, uint32_t width, uint32_t height);
+
+// Whether a w x h crop at (x, y) lies inside a width x height frame,
+// without overflow for any 32-bit input.
+inline bool cropFits(uint64_t x, uint64_t y, uint64_t w, uint64_t h, uint64_t width, uint64_t height) {
+  return x + w <= width && y + h <= height;
+}
+
+}  // namespace holofuse

@@ -17,7 +17,8 @@ namespace holofuse::fusion {
 
 struct PodImages {
   uint32_t camera_id = 0;
-  Image8 color, mask, feather;
+  Image8 color, mask, feather;        // the whole image, or the rectangle the pod sent
+  uint32_t offset_x = 0, offset_y = 0;  // where that rectangle sits in the camera's image
   std::vector<protocol::StageStamp> stamps;
   uint64_t capture_time_ns = 0;
   uint64_t bytes = 0;  // size of the frame on the wire
