@@ -96,11 +96,15 @@ void enqueueGeodesic(uint slot, uint entry) {
 
 // An entry whose distance or ring changed, with its neighbours: exactly the
 // entries whose next Jacobi update can differ from their present value.
-void enqueueNeighbourhood(uint slot, uint camera, uint v) {
+// Seam vertices (ring 0) never change: during the distance passes, whose
+// read half nobody writes, they are left out.
+void enqueueNeighbourhood(uint slot, uint camera, uint v, bool skip_sources) {
   uint base = camera * push.vertex_count;
-  enqueueGeodesic(slot, base + v);
+  uint read = readHalf() + base;
+  if (!skip_sources || rings[read + v] != 0u) enqueueGeodesic(slot, base + v);
   for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
-    enqueueGeodesic(slot, base + fans[k].a);
-    enqueueGeodesic(slot, base + fans[k].b);
+    uint a = fans[k].a, b = fans[k].b;
+    if (!skip_sources || rings[read + a] != 0u) enqueueGeodesic(slot, base + a);
+    if (!skip_sources || rings[read + b] != 0u) enqueueGeodesic(slot, base + b);
   }
 }

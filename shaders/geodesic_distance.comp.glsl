@@ -58,6 +58,7 @@ void main() {
   // become finite one ring per pass too, so gating by the ring reached so
   // far gives the same result as counting the rings to the end first.
   uint old_ring = rings[in_offset + v];
+  if (old_ring == 0u) return;  // a seam vertex is its own nearest seam vertex, at 0, in both halves
   float old_distance = distances[in_offset + v];
   uint old_source = nearest_seam[in_offset + v];
   uint ring = old_ring;
@@ -88,6 +89,6 @@ void main() {
   distances[out_offset + v] = best;
   nearest_seam[out_offset + v] = source;
   if (ring != old_ring || best != old_distance || source != old_source) {
-    enqueueNeighbourhood((slot + 1u) % HOLOFUSE_WORKLIST_SLOTS, camera, v);
+    enqueueNeighbourhood((slot + 1u) % HOLOFUSE_WORKLIST_SLOTS, camera, v, true);
   }
 }

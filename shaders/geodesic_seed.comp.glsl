@@ -24,5 +24,5 @@ void main() {
   rings[index] = rings[half_size + index] = source ? 0u : HOLOFUSE_NO_RING;
   distances[index] = distances[half_size + index] = source ? 0.0 : HOLOFUSE_FAR;
   nearest_seam[index] = nearest_seam[half_size + index] = source ? v : HOLOFUSE_NO_SOURCE;
-  if (source) enqueueNeighbourhood(0u, camera, v);
+  if (source) enqueueNeighbourhood(0u, camera, v, false);  // both halves are being written: no reads
 }

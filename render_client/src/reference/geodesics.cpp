@@ -102,7 +102,8 @@ std::vector<double> approximateGeodesic(const Mesh& mesh, const std::vector<uint
       const uint32_t v[3] = {mesh.indices[3 * t], mesh.indices[3 * t + 1], mesh.indices[3 * t + 2]};
       for (int k = 0; k < 3; ++k) {
         const uint32_t c = v[k], a = v[(k + 1) % 3], b = v[(k + 2) % 3];
-        if (ring[c] > options.max_rings) continue;
+        // A seam vertex is its own nearest seam vertex, at distance 0.
+        if (ring[c] > options.max_rings || is_source[c]) continue;
         auto offer = [&](double d, uint32_t from) {
           if (d < next[c] || (d == next[c] && from < next_source[c])) {
             next[c] = d;
