@@ -80,7 +80,7 @@ uint writeHalf() { return (1u - push.parity) * push.camera_count * push.vertex_c
 
 // Geodesic worklists: adds (camera, vertex) entry to the list of a slot
 // once (its mark dedupes), and keeps that slot's indirect dispatch size
-// equal to ceil(length / HOLOFUSE_VERTEX_GROUP). The list's order depends
+// equal to max(1, ceil(length / HOLOFUSE_VERTEX_GROUP)). The list's order depends
 // on scheduling, its contents do not, and each entry's result depends only
 // on the half it reads: the same input gives the same bits.
 void enqueueGeodesic(uint slot, uint entry) {
@@ -90,7 +90,8 @@ void enqueueGeodesic(uint slot, uint entry) {
   // skips them without an atomic; the exchange decides the races.
   if (worklist[mark] != 0u || atomicExchange(worklist[mark], 1u) != 0u) return;
   uint at = atomicAdd(worklist_counts[4u * slot + 3u], 1u);
-  if (at % HOLOFUSE_VERTEX_GROUP == 0u) atomicAdd(worklist_counts[4u * slot], 1u);
+  // The first group is always there (see the reset): count the others.
+  if (at % HOLOFUSE_VERTEX_GROUP == 0u && at != 0u) atomicAdd(worklist_counts[4u * slot], 1u);
   worklist[slot * entries + at] = entry;
 }
 

@@ -43,7 +43,7 @@ void main() {
     // Nobody reads or appends to the third slot in this pass; the next
     // pass appends to it.
     uint spare = (slot + 2u) % HOLOFUSE_WORKLIST_SLOTS;
-    worklist_counts[4u * spare] = 0u;
+    worklist_counts[4u * spare] = 1u;  // one group at least, so the reset below always runs
     worklist_counts[4u * spare + 3u] = 0u;
   }
   uint i = gl_GlobalInvocationID.x;

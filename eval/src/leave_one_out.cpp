@@ -185,7 +185,7 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
           others.erase(others.begin() + held);
           renderer.setViews(others);
           const bool before_jump = f < jump_frame;
-          const int view = before_jump ? (held + jump) % camera_count : held;
+          const int view = before_jump ? ((held + jump) % camera_count + camera_count) % camera_count : held;
           const auto t0 = Clock::now();
           const Image8 picture = renderer.render(reported[static_cast<size_t>(view)], settings);
           mesh_ms.push_back(msSince(t0));

@@ -146,7 +146,16 @@ void FusionWorker::run() {
       job = std::move(*waiting_);
       waiting_.reset();
     }
-    FusedOutput out = fuseGroup(job, settings_);
+    FusedOutput out;
+    try {
+      out = fuseGroup(job, settings_);
+    } catch (const std::exception& e) {
+      // One group that cannot be fused (memory for a hostile calibration's
+      // image size, say) costs that frame, not the server.
+      std::fprintf(stderr, "[server] frame %llu not fused: %s\n",
+                   static_cast<unsigned long long>(job.group.frame_id), e.what());
+      continue;
+    }
     {
       std::lock_guard<std::mutex> lock(mutex_);
       outputs_.push_back(std::move(out));

@@ -53,6 +53,9 @@ CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1, const std::ve
   bool inside_all = true;
   for (size_t i = 0; i < views.size(); ++i) {
     const Camera& cam = views[i].camera;
+    // Lens distortion bends straight edges: the corner bound holds for a
+    // pinhole only, so such cameras settle nothing.
+    if (!cam.distortion.empty()) return CellClass::kBoundary;
     const auto c = cam.project(centre);
     if (!c || !std::isfinite(c->x) || !std::isfinite(c->y)) return CellClass::kBoundary;
     double reach = 0;
@@ -65,8 +68,8 @@ CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1, const std::ve
     const double radius = std::min(std::sqrt(2.0) * reach, reach + std::sqrt(2.0)) + 1e-3;
     const double off = std::max({-c->x, -c->y, c->x - cam.width, c->y - cam.height});
     if (off > reach) return CellClass::kOutside;  // wholly off the image
-    if (off > -reach) {
-      inside_all = false;  // straddles the image border
+    if (off > -reach - 1e-3) {
+      inside_all = false;  // straddles the image border (or touches it)
       continue;
     }
     const double px = sampleBilinear(distances[i], static_cast<int>(cam.width), static_cast<int>(cam.height), c->x,
@@ -136,7 +139,13 @@ ScalarGrid sampleHierarchically(const glm::dvec3& lo, double s, const glm::ivec3
     }
     const glm::dvec3 p0 = grid.point(cell.a.x, cell.a.y, cell.a.z), p1 = grid.point(b.x, b.y, b.z);
     ++stats.cells_classified;
-    const CellClass c = classifyCell(p0, p1, views, distances);
+    CellClass c = classifyCell(p0, p1, views, distances);
+    // The grid's outer layer is forced outside afterwards: an inside cell on
+    // it must be refined, or its points keep a placeholder next to the
+    // forced border.
+    const bool on_border = cell.a.x == 0 || cell.a.y == 0 || cell.a.z == 0 || b.x == n.x - 1 || b.y == n.y - 1 ||
+                           b.z == n.z - 1;
+    if (c == CellClass::kInside && on_border) c = CellClass::kBoundary;
     if (c == CellClass::kInside) {
       settle(cell.a, b, static_cast<float>(s));
     } else if (c == CellClass::kOutside) {

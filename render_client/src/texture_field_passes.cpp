@@ -207,8 +207,10 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   push.triangle_count = triangle_count;
   vkCmdFillBuffer(cmd, reset.visible_counts, 0, VK_WHOLE_SIZE, 0);
   if (parameters.geodesics) {
-    // Empty lists (dispatch sizes 0 x 1 x 1) and clear marks.
-    const uint32_t empty[4 * HOLOFUSE_WORKLIST_SLOTS] = {0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 1, 0};
+    // Empty lists and clear marks.
+    // Every pass runs at least one group, even for an empty list: its
+    // first invocation resets the spare slot for the pass after.
+    const uint32_t empty[4 * HOLOFUSE_WORKLIST_SLOTS] = {1, 1, 1, 0, 1, 1, 1, 0, 1, 1, 1, 0};
     vkCmdUpdateBuffer(cmd, reset.worklist_counts, 0, sizeof(empty), empty);
     vkCmdFillBuffer(cmd, reset.worklist, 0, VK_WHOLE_SIZE, 0);
   }
