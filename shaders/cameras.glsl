@@ -4,7 +4,7 @@ struct CameraGpu {
   mat4 world_to_clip;  // w of the result is the camera-space depth
   vec4 center;         // xyz: camera centre in world space
   vec4 size;           // width, height, 1/width, 1/height
-  ivec4 flags;         // x: 1 if the camera takes part
+  ivec4 flags;         // x: 1 if the camera takes part; y: 1 if its mask is empty (nothing to rasterise)
 };
 
 layout(set = 0, binding = HOLOFUSE_BINDING_CAMERAS) uniform Blend {

@@ -20,6 +20,7 @@ void main() {
   uint t = gl_GlobalInvocationID.x;
   uint camera = gl_GlobalInvocationID.y;
   if (t >= push.triangle_count || camera >= push.camera_count) return;
+  if (blend.cameras[camera].flags.y != 0) return;  // sees none of the subject: its map stays empty
   vec3 q[3];
   for (uint k = 0u; k < 3u; ++k) {
     vec4 clip = blend.cameras[camera].world_to_clip * vec4(vertexPosition(indices[3u * t + k]), 1.0);

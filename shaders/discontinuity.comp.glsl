@@ -21,7 +21,8 @@ void main() {
   ivec2 p = ivec2(gl_GlobalInvocationID.xy);
   uint camera = gl_GlobalInvocationID.z;  // all cameras in one dispatch
   if (p.x >= int(push.width) || p.y >= int(push.height) || camera >= push.camera_count) return;
-  float d = storedDepth(camera, p);
+  // A camera that sees none of the subject has an empty map: no edges.
+  float d = blend.cameras[camera].flags.y != 0 ? HOLOFUSE_NO_DEPTH : storedDepth(camera, p);
   // Written out rather than looped over an offset table: a CPU Vulkan
   // device turns an indexed local array into scattered memory traffic.
   bool edge = d < HOLOFUSE_NO_DEPTH * 0.5 &&

@@ -249,6 +249,7 @@ int runClient(const ClientOptions& options) {
         try {
           renderer->setMesh(*mesh);
           renderer->setViews(bundle->second.views);
+          report.addViewsWithoutSubject(renderer->camerasWithoutSubject());
         } catch (const std::exception& e) {
           skip(mesh_frame.frame_id, e.what());
           bundles.erase(bundle);

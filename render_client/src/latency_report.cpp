@@ -163,6 +163,7 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   }
   j["frames_skipped"] = skipped_;
   j["frames_superseded"] = superseded_;
+  j["camera_views_without_subject"] = views_without_subject_;
   j["settings"] = settings;
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
   for (const auto& f : frames_) {

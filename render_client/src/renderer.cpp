@@ -432,6 +432,7 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
   }
   ensureViewResources(w, h, static_cast<uint32_t>(views.size()));
   cameras_.clear();
+  subject_seen_.clear();
   auto* dst = static_cast<uint8_t*>(staging_.mapped);
   const size_t pixels = static_cast<size_t>(w) * h;
   for (size_t layer = 0; layer < views.size(); ++layer) {
@@ -439,12 +440,15 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
     const uint8_t* rgb = views[layer].color.pixels.data();
     const uint8_t* mask = views[layer].mask.pixels.data();
     uint8_t* out = dst + layer * pixels * 4;
+    bool seen = false;
     for (size_t p = 0; p < pixels; ++p) {
       out[p * 4 + 0] = rgb[p * 3 + 0];
       out[p * 4 + 1] = rgb[p * 3 + 1];
       out[p * 4 + 2] = rgb[p * 3 + 2];
       out[p * 4 + 3] = mask[p];
+      seen = seen || mask[p] != 0;
     }
+    subject_seen_.push_back(seen);
   }
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
     transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
@@ -642,7 +646,11 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     u.cameras[i].size = glm::vec4(c.width, c.height, 1.0f / c.width, 1.0f / c.height);
     const bool enabled = settings.camera_enabled.empty() ||
                          (i < settings.camera_enabled.size() && settings.camera_enabled[i]);
-    u.cameras[i].flags = glm::ivec4(enabled ? 1 : 0, 0, 0, 0);
+    // y: the camera sees none of the subject (an empty mask). Its depth map
+    // and discontinuities are skipped: with an empty mask every vertex is
+    // on its background whatever they hold.
+    const bool empty = i < subject_seen_.size() && !subject_seen_[i];
+    u.cameras[i].flags = glm::ivec4(enabled ? 1 : 0, empty ? 1 : 0, 0, 0);
   }
   const bool have_views = !cameras_.empty();
   const bool montage = have_views && settings.mode == BlendMode::kMontage4D;

@@ -50,6 +50,9 @@ class LatencyReport {
   void noteSkipped(const std::string& why) { skipped_.push_back(why); }
   // Meshes not rendered because a newer one had already arrived.
   void setSuperseded(uint64_t count) { superseded_ = count; }
+  // Camera views of rendered meshes that held none of the subject (their
+  // depth maps and discontinuities were skipped).
+  void addViewsWithoutSubject(size_t count) { views_without_subject_ += count; }
 
   size_t framesRendered() const { return frames_.size(); }
   double fps() const;
@@ -77,6 +80,7 @@ class LatencyReport {
   std::vector<uint64_t> written_ns_;
   std::vector<std::string> skipped_;
   uint64_t superseded_ = 0;
+  uint64_t views_without_subject_ = 0;
 };
 
 }  // namespace holofuse::render

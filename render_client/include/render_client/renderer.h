@@ -3,6 +3,7 @@
 // pod images blended onto the mesh, read back as RGBA (alpha: coverage).
 #pragma once
 
+#include <algorithm>
 #include <glm/glm.hpp>
 #include <memory>
 #include <vector>
@@ -73,6 +74,11 @@ class Renderer {
   uint32_t width() const { return width_; }
   uint32_t height() const { return height_; }
   uint64_t depthMapPasses() const { return depth_map_passes_; }
+  // Cameras of the current views whose mask holds none of the subject:
+  // their depth maps and discontinuities are skipped.
+  size_t camerasWithoutSubject() const {
+    return static_cast<size_t>(std::count(subject_seen_.begin(), subject_seen_.end(), false));
+  }
   uint64_t fieldPasses() const { return field_passes_; }
   // GPU milliseconds of the texture-field passes of the last mesh
   // (TextureFieldPasses::stageNames() order); empty before the first.
@@ -99,6 +105,7 @@ class Renderer {
   glm::dvec3 bounds_min_{-1.0}, bounds_max_{1.0};  // of the current mesh
   // Pod views
   std::vector<Camera> cameras_;
+  std::vector<bool> subject_seen_;  // per camera: its mask has foreground
   Image images_;
   Buffer depth_maps_;  // [camera][y][x] camera-space depth (config.h binding DEPTHS)
   Buffer staging_;
