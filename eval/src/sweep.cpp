@@ -186,7 +186,9 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::functio
       EvalOptions run = options.base;
       (void)knob.apply(run, value);
       point.is_default = knob.current(run) == knob.current(options.base);
-      const fs::path path = pointPath(options.out_dir, name, value);
+      // Every knob's default value is the same run: done once, shared.
+      const fs::path path = point.is_default ? fs::path(options.out_dir) / "points" / "default.json"
+                                             : pointPath(options.out_dir, name, value);
       if (fs::exists(path)) {
         std::ifstream in(path);
         const auto json = nlohmann::json::parse(in);

@@ -34,9 +34,7 @@ int main(int argc, char** argv) {
   if (!modes.empty()) {
     options.base.modes.clear();
     for (const auto& name : modes) {
-      for (auto mode : {render::BlendMode::kNormal, render::BlendMode::kHoloportation, render::BlendMode::kMontage4D}) {
-        if (render::blendModeName(mode) == name) options.base.modes.push_back(mode);
-      }
+      if (auto mode = render::blendModeFromName(name)) options.base.modes.push_back(*mode);  // names checked by CLI11
     }
   }
   for (const auto& text : knob_texts) {

@@ -58,11 +58,14 @@ TEST(Sweep, AnInterruptedSweepKeepsFinishedPointsAndResumes) {
   const fs::path dir = fs::temp_directory_path() / "holofuse_sweep_resume";
   fs::remove_all(dir);
   SweepOptions options = tinySweep(dir.string());
-  options.knobs = {{"alpha", {"1", "2", "8"}}};
+  options.knobs = {{"alpha", {"1", "2", "8"}}, {"K", {"20"}}};
   const auto first = runSweep(options);
-  ASSERT_EQ(first.size(), 3u);
-  for (const auto& p : first) EXPECT_FALSE(p.resumed);
+  ASSERT_EQ(first.size(), 4u);
+  for (size_t i = 0; i < 3; ++i) EXPECT_FALSE(first[i].resumed);
   EXPECT_TRUE(first[1].is_default) << "alpha 2 is the default";
+  EXPECT_TRUE(first[3].is_default && first[3].resumed) << "K = 20 is the same run as alpha = 2: not run twice";
+  EXPECT_DOUBLE_EQ(first[3].result.modes.at("normal").psnr_db, first[1].result.modes.at("normal").psnr_db);
+  options.knobs.pop_back();
   // As if killed while the last point ran: its file never appeared, a
   // partial one did.
   fs::remove(dir / "points" / "alpha=8.json");

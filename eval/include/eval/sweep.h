@@ -7,6 +7,8 @@
 // Interrupting a sweep loses at most the point in progress: each finished
 // point is written to <out>/points/<knob>=<value>.json (atomically, by
 // rename) and a rerun with the same --out skips the points already there.
+// Every knob's default value is the same run: it is done once and kept in
+// points/default.json.
 #pragma once
 
 #include <functional>
