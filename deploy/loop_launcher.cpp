@@ -15,6 +15,8 @@
 #include <thread>
 #include <vector>
 
+#include "capture_node/dataset.h"
+#include "capture_node/replay_pod.h"
 #include "capture_node/scene_library.h"
 
 namespace {
@@ -82,13 +84,59 @@ int main(int argc, char** argv) {
   std::string budget;
   app.add_option("--budget", budget, "JSON of per-stage ms budgets for the client's report (flags violations)");
   app.add_option("--bin-dir", bin_dir, "folder of the executables (default: next to this one)");
+  std::string record, replay, speed = "1";
+  bool record_fused = false, loop = false;
+  app.add_option("--record", record, "record what the pods send into this folder (a dataset for --replay)");
+  app.add_flag("--record-fused", record_fused, "with --record: also record the server's fused meshes and images");
+  app.add_option("--replay", replay, "replay this dataset folder through the same network path instead of synthetic pods");
+  app.add_option("--speed", speed, "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
+  app.add_flag("--loop", loop, "with --replay: start over at the end (until --frames or Ctrl-C)");
   CLI11_PARSE(app, argc, argv);
+  double speed_factor = 1.0;
+  if (!holofuse::capture::parseReplaySpeed(speed, speed_factor)) {
+    std::fprintf(stderr, "--speed '%s': expected a factor in (0, 1000] or max\n", speed.c_str());
+    return 2;
+  }
+  if (record_fused && record.empty()) {
+    std::fprintf(stderr, "--record-fused needs --record DIR\n");
+    return 2;
+  }
+  if (!replay.empty()) {
+    // The dataset decides the cameras and the image size.
+    auto dataset = holofuse::capture::Dataset::open(replay);
+    if (!dataset.isOk()) {
+      std::fprintf(stderr, "--replay: %s\n", dataset.status().message().c_str());
+      return 2;
+    }
+    if (dataset->cameras().empty()) {
+      std::fprintf(stderr, "--replay: %s holds no camera\n", replay.c_str());
+      return 2;
+    }
+    pods = static_cast<int>(dataset->cameras().size());
+    uint32_t expected_id = 0;
+    for (const auto& [id, camera] : dataset->cameras()) {
+      if (id != expected_id++ || !camera.calibration) {
+        std::fprintf(stderr, "--replay: %s: cameras must be numbered 0..%d, each with a calibration (camera %u)\n",
+                     replay.c_str(), pods - 1, id);
+        return 2;
+      }
+    }
+    auto calibration_frame = dataset->readFrame(*dataset->cameras().begin()->second.calibration);
+    holofuse::protocol::Calibration calibration;
+    if (!calibration_frame.isOk() || !holofuse::protocol::decodeFrame(*calibration_frame, calibration).isOk()) {
+      std::fprintf(stderr, "--replay: %s: camera 0's calibration does not decode\n", replay.c_str());
+      return 2;
+    }
+    if (!app.count("--size")) size = std::to_string(calibration.width) + "x" + std::to_string(calibration.height);
+    if (!app.count("--frames") && !loop) frames = 1000000;  // until the replay ends
+  }
   const holofuse::capture::ScenePreset* preset = holofuse::capture::findScene(scene);
   if (preset == nullptr) {
     std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene.c_str(), holofuse::capture::sceneNames().c_str());
     return 2;
   }
-  if (app.count("--scene") && !app.count("--pods")) pods = preset->cameras;
+  if (app.count("--scene") && !app.count("--pods") && replay.empty()) pods = preset->cameras;
+  const std::string source = replay.empty() ? "scene " + scene : "replay of " + replay + " at speed " + speed;
   namespace fs = std::filesystem;
   if (bin_dir.empty()) bin_dir = fs::canonical("/proc/self/exe").parent_path().string();
   fs::create_directories(fs::path(out) / "logs");
@@ -100,9 +148,18 @@ int main(int argc, char** argv) {
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
 
-  const pid_t server = spawn({bin_dir + "/fusion_server", "--listen", "127.0.0.1:" + std::to_string(port), "--pods",
-                              std::to_string(pods), "--port-file", port_file},
-                             (fs::path(out) / "logs" / "server.log").string());
+  std::vector<std::string> server_args = {bin_dir + "/fusion_server", "--listen", "127.0.0.1:" + std::to_string(port),
+                                         "--pods", std::to_string(pods), "--port-file", port_file};
+  if (!record.empty()) {
+    server_args.insert(server_args.end(), {"--record", record});
+    if (record_fused) server_args.push_back("--record-fused");
+  }
+  if (!replay.empty()) {
+    if (speed_factor == 0.0) server_args.push_back("--lossless");
+    if (!loop) server_args.push_back("--exit-when-pods-done");
+    server_args.insert(server_args.end(), {"--wait-for-clients", "1"});
+  }
+  const pid_t server = spawn(server_args, (fs::path(out) / "logs" / "server.log").string());
   std::string bound;
   for (int i = 0; i < 250 && bound.empty(); ++i) {
     std::ifstream in(port_file);
@@ -120,14 +177,20 @@ int main(int argc, char** argv) {
     return 1;
   }
   const std::string endpoint = "127.0.0.1:" + bound;
-  std::printf("[loop] server on %s, scene %s, %d pods at %s, %.1f fps; writing %s\n", endpoint.c_str(), scene.c_str(),
+  std::printf("[loop] server on %s, %s, %d pods at %s, %.1f fps; writing %s\n", endpoint.c_str(), source.c_str(),
               pods, size.c_str(), fps, out.c_str());
   std::fflush(stdout);
   std::vector<pid_t> pod_pids;
   for (int i = 0; i < pods; ++i) {
-    pod_pids.push_back(spawn({bin_dir + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(i), "--pods",
-                              std::to_string(pods), "--size", size, "--fps", std::to_string(fps), "--scene", scene},
-                             (fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log")).string()));
+    std::vector<std::string> pod_args = {bin_dir + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(i)};
+    if (replay.empty()) {
+      pod_args.insert(pod_args.end(), {"--pods", std::to_string(pods), "--size", size, "--fps", std::to_string(fps),
+                                       "--scene", scene});
+    } else {
+      pod_args.insert(pod_args.end(), {"--replay", replay, "--speed", speed});
+      if (loop) pod_args.push_back("--loop");
+    }
+    pod_pids.push_back(spawn(pod_args, (fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log")).string()));
   }
   std::vector<std::string> client_args = {bin_dir + "/render_client", "--server", endpoint, "--out", out, "--frames",
                                          std::to_string(frames), "--size", size, "--mode", mode, "--view", view};
@@ -137,17 +200,24 @@ int main(int argc, char** argv) {
   }
   const pid_t client = spawn(client_args,
                              (fs::path(out) / "logs" / "client.log").string());
-  int client_status = 0;
-  bool client_done = false;
-  while (!g_interrupted && !client_done) {
+  int client_status = 0, server_status = 0;
+  bool client_done = false, server_done = false;
+  while (!g_interrupted && !client_done && !server_done) {
     client_done = waitFor(client, 100, &client_status);
+    // A replay ends when the server has fused and delivered everything.
+    if (!client_done && !replay.empty() && !loop) server_done = waitpid(server, &server_status, WNOHANG) == server;
   }
-  if (!client_done) {
+  if (server_done) {
+    std::printf("\n[loop] the replay is over: stopping the client (it writes its report)\n");
+    stop(client, "render_client");
+    client_done = true;
+    client_status = 0;
+  } else if (!client_done) {
     std::printf("\n[loop] interrupted: stopping the client (it writes its report)\n");
     stop(client, "render_client");
   }
   for (size_t i = 0; i < pod_pids.size(); ++i) stop(pod_pids[i], "capture_node");
-  stop(server, "fusion_server");
+  if (!server_done) stop(server, "fusion_server");
   const bool ok = client_done ? (WIFEXITED(client_status) && WEXITSTATUS(client_status) == 0) : true;
   if (!ok) {
     // Say why right here: the end of the client's log.

@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "capture_node/pod.h"
+#include "capture_node/replay_pod.h"
 #include "capture_node/scene_library.h"
 #include "common/shutdown.h"
 
@@ -25,7 +26,30 @@ int main(int argc, char** argv) {
                  "send only the foreground's rectangle grown by this many pixels (-1: whole images)")
       ->check(CLI::Range(-1, 4096));
   app.add_option("--codec", codec, "colour codec")->check(CLI::IsMember({"raw", "lz4", "lz4-delta"}));
+  std::string replay, speed = "1";
+  bool loop = false;
+  app.add_option("--replay", replay, "replay camera --pod-id of this dataset folder instead of a synthetic scene");
+  app.add_option("--speed", speed, "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
+  app.add_flag("--loop", loop, "with --replay: start over at the end");
   CLI11_PARSE(app, argc, argv);
+  auto endpoint = protocol::parseEndpoint(server);
+  if (!endpoint.isOk()) {
+    std::fprintf(stderr, "--server: %s\n", endpoint.status().message().c_str());
+    return 2;
+  }
+  if (!replay.empty()) {
+    capture::ReplayOptions replay_options;
+    replay_options.dataset = replay;
+    replay_options.pod_id = options.pod_id;
+    replay_options.loop = loop;
+    if (!capture::parseReplaySpeed(speed, replay_options.speed)) {
+      std::fprintf(stderr, "--speed '%s': expected a factor in (0, 1000] or max\n", speed.c_str());
+      return 2;
+    }
+    replay_options.server = *endpoint;
+    installStopSignals();
+    return capture::runReplayPod(replay_options);
+  }
   const capture::ScenePreset* preset = capture::findScene(scene_name);
   if (preset == nullptr) {
     std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene_name.c_str(), capture::sceneNames().c_str());
@@ -46,11 +70,6 @@ int main(int argc, char** argv) {
   }
   if (options.pod_id >= static_cast<uint32_t>(options.pods)) {
     std::fprintf(stderr, "--pod-id %u: must be below --pods %d\n", options.pod_id, options.pods);
-    return 2;
-  }
-  auto endpoint = protocol::parseEndpoint(server);
-  if (!endpoint.isOk()) {
-    std::fprintf(stderr, "--server: %s\n", endpoint.status().message().c_str());
     return 2;
   }
   options.server = *endpoint;

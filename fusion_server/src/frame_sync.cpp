@@ -36,7 +36,10 @@ std::vector<FrameGroup> FrameSync::takeReady(const std::set<uint32_t>& expected,
     FrameGroup& group = it->second;
     bool complete = !expected.empty();
     for (uint32_t id : expected) complete = complete && group.pods.count(id) > 0;
-    const bool expired = now_ns - group.first_arrival_ns >= deadline_ns_;
+    // Lossless groups wait for their pods; once every pod has left,
+    // what they sent goes out as it is.
+    const bool expired = deadline_ns_ == kNoDeadline ? expected.empty()
+                                                      : now_ns - group.first_arrival_ns >= deadline_ns_;
     if (!complete && !expired) {
       ++it;
       continue;
@@ -56,8 +59,14 @@ std::vector<FrameGroup> FrameSync::takeReady(const std::set<uint32_t>& expected,
   return ready;
 }
 
+size_t FrameSync::pendingWith(uint32_t camera_id) const {
+  size_t n = 0;
+  for (const auto& [id, group] : pending_) n += group.pods.count(camera_id);
+  return n;
+}
+
 std::optional<uint64_t> FrameSync::nextDeadline() const {
-  if (pending_.empty()) return std::nullopt;
+  if (pending_.empty() || deadline_ns_ == kNoDeadline) return std::nullopt;
   uint64_t earliest = UINT64_MAX;
   for (const auto& [id, group] : pending_) earliest = std::min(earliest, group.first_arrival_ns + deadline_ns_);
   return earliest;

@@ -22,7 +22,7 @@ using protocol::monotonicNs;
 
 FusionServer::FusionServer(ServerOptions options)
     : options_(std::move(options)),
-      sync_(static_cast<uint64_t>(options_.sync_deadline_ms * 1e6)) {
+      sync_(options_.lossless ? FrameSync::lossless() : FrameSync(static_cast<uint64_t>(options_.sync_deadline_ms * 1e6))) {
   options_.fusion.pods_expected = static_cast<uint32_t>(options_.pods);
 }
 
@@ -36,7 +36,12 @@ Status FusionServer::start() {
   if (!listener.isOk()) return listener.status();
   listener_ = std::move(*listener);
   wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-  worker_ = std::make_unique<FusionWorker>(options_.fusion, wake_fd_);
+  if (!options_.record_dir.empty()) {
+    auto recorder = Recorder::open(options_.record_dir, options_.record_fused);
+    if (!recorder.isOk()) return recorder.status();
+    recorder_ = std::move(*recorder);
+  }
+  worker_ = std::make_unique<FusionWorker>(options_.fusion, wake_fd_, options_.lossless);
   if (!options_.port_file.empty()) {
     std::ofstream(options_.port_file) << port() << "\n";
   }
@@ -100,7 +105,10 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
   ack->heartbeat_interval_ms = options_.heartbeat_interval_ms;
   ack->idle_timeout_ms = options_.idle_timeout_ms;
   peer.greeted = true;
-  if (hello.role == protocol::Role::kPod) departed_pods_.erase(hello.id);
+  if (hello.role == protocol::Role::kPod) {
+    departed_pods_.erase(hello.id);
+    any_pod_joined_ = true;
+  }
   peer.role = hello.role;
   peer.id = hello.id;
   peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
@@ -168,6 +176,7 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
     return Status(StatusCode::kMalformed, "field 'pod_frame.frame_id': " + std::to_string(pod.frame_id) +
                                               " is implausibly far ahead of the frames being fused");
   }
+  if (recorder_) recorder_->recordPodMessage(protocol::RecordKind::kPodFrame, pod.camera_id, pod.frame_id, frame);
   return Status::ok();
 }
 
@@ -197,6 +206,7 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
                                                   " from pod " + std::to_string(peer.id));
       }
       cameras_[calibration.camera_id] = fromCalibration(calibration);
+      if (recorder_) recorder_->recordPodMessage(protocol::RecordKind::kCalibration, calibration.camera_id, 0, frame);
       auto bytes = std::make_shared<const protocol::OutgoingFrame>(frame.bytes);
       calibration_frames_[calibration.camera_id] = bytes;
       for (auto& other : peers_) {
@@ -247,6 +257,7 @@ void FusionServer::fanOut() {
   }
   for (auto& out : worker_->takeOutputs()) {
     ++groups_fused_;
+    if (recorder_) recorder_->recordFused(out);
     for (auto& peer : peers_) {
       if (!peer.greeted || peer.role != protocol::Role::kClient) continue;
       // Bundle and Stats first: the client renders when the mesh arrives.
@@ -257,13 +268,47 @@ void FusionServer::fanOut() {
   }
 }
 
+bool FusionServer::readable(const Peer& peer) {
+  if (!peer.greeted || peer.role != protocol::Role::kPod) return true;
+  if (options_.wait_for_clients > 0) {
+    int clients = 0;
+    for (const auto& other : peers_) clients += other.greeted && other.role == protocol::Role::kClient;
+    if (clients < options_.wait_for_clients) return false;
+  }
+  if (!options_.lossless) return true;
+  // Frames wait in the pod's socket, and the pod's sends block, until
+  // fusion has caught up: nothing is dropped and memory stays bounded.
+  constexpr size_t kMaxQueuedGroups = 2, kMaxPendingPerPod = 4;
+  return worker_->queuedJobs() < kMaxQueuedGroups && sync_.pendingWith(peer.id) < kMaxPendingPerPod;
+}
+
+bool FusionServer::podsDone() {
+  if (!any_pod_joined_ || sync_.pendingGroups() > 0 || worker_->queuedJobs() > 0) return false;
+  for (const auto& peer : peers_) {
+    if (!peer.greeted) continue;
+    if (peer.role == protocol::Role::kPod || peer.connection->wantsWrite()) return false;
+  }
+  return true;
+}
+
 int FusionServer::run() {
   while (!stopRequested()) {
+    if (options_.exit_when_pods_done && podsDone()) {
+      fanOut();
+      if (podsDone()) {
+        std::fprintf(stderr, "[server] every pod has left and its frames are fused and delivered: stopping\n");
+        break;
+      }
+    }
     std::vector<pollfd> fds;
     fds.push_back({listener_.fd(), POLLIN, 0});
     fds.push_back({wake_fd_, POLLIN, 0});
+    std::vector<bool> reading;
     for (const auto& peer : peers_) {
-      fds.push_back({peer.connection->fd(), static_cast<short>(POLLIN | (peer.connection->wantsWrite() ? POLLOUT : 0)), 0});
+      reading.push_back(readable(peer));
+      fds.push_back({peer.connection->fd(),
+                     static_cast<short>((reading.back() ? POLLIN : 0) | (peer.connection->wantsWrite() ? POLLOUT : 0)),
+                     0});
     }
     int timeout_ms = 100;
     if (auto deadline = sync_.nextDeadline()) {
@@ -289,7 +334,9 @@ int FusionServer::run() {
         }
       }
       const uint64_t now = monotonicNs();
-      if (status.isOk() && now - peer.connection->lastReceiveNs() > uint64_t{options_.idle_timeout_ms} * 1000000) {
+      // A pod held back by backpressure is silent because we do not read it.
+      if (status.isOk() && reading[i] &&
+          now - peer.connection->lastReceiveNs() > uint64_t{options_.idle_timeout_ms} * 1000000) {
         status = Status(StatusCode::kTimeout, "heard nothing for " + std::to_string(options_.idle_timeout_ms) + " ms");
       }
       if (status.isOk() && peer.greeted && !peer.connection->wantsWrite() &&
@@ -303,6 +350,7 @@ int FusionServer::run() {
     }
     dispatchReadyGroups();
     if (fds[1].revents & POLLIN) fanOut();
+    if (recorder_) recorder_->maybeReportProgress(monotonicNs());
     for (size_t i = peers_.size(); i-- > 0;) {
       if (!peers_[i].connection->wantsWrite()) continue;
       const Status s = peers_[i].connection->onWritable();
@@ -313,6 +361,7 @@ int FusionServer::run() {
     peer.connection->sendMessage(protocol::Bye{"server shutting down"});
     peer.connection->drain(100);
   }
+  if (recorder_) recorder_->close();
   std::fprintf(stderr, "[server] stopped after fusing %llu groups (%llu late pod frames, %llu groups dropped)\n",
                static_cast<unsigned long long>(groups_fused_), static_cast<unsigned long long>(sync_.lateFrames()),
                static_cast<unsigned long long>(sync_.overflowedGroups() + worker_->replacedJobs()));

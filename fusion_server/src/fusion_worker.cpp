@@ -94,7 +94,9 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
     for (uint32_t i = 0; i < std::min<uint32_t>(settings.pods_expected, 64); ++i) {
       if (!(present >> i & 1)) missing += (missing.empty() ? "" : ",") + std::to_string(i);
     }
-    stats.note = "proceeded without camera(s) " + missing + " after the sync deadline";
+    // A group that went out because its pods left (end of a replay) may
+    // still hold every camera.
+    if (!missing.empty()) stats.note = "proceeded without camera(s) " + missing + " after the sync deadline";
   }
   if (!draco.isOk()) stats.note += (stats.note.empty() ? "" : "; ") + draco.status().message();
 
@@ -110,8 +112,13 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   return out;
 }
 
-FusionWorker::FusionWorker(FusionSettings settings, int wake_fd)
-    : settings_(std::move(settings)), wake_fd_(wake_fd), thread_([this] { run(); }) {}
+FusionWorker::FusionWorker(FusionSettings settings, int wake_fd, bool lossless)
+    : settings_(std::move(settings)), wake_fd_(wake_fd), lossless_(lossless), thread_([this] { run(); }) {}
+
+size_t FusionWorker::queuedJobs() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return waiting_.size() + (busy_ ? 1 : 0);
+}
 
 FusionWorker::~FusionWorker() {
   {
@@ -125,8 +132,11 @@ FusionWorker::~FusionWorker() {
 void FusionWorker::submit(GroupJob job) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (waiting_) ++replaced_;
-    waiting_ = std::move(job);
+    if (!lossless_ && !waiting_.empty()) {
+      ++replaced_;
+      waiting_.clear();
+    }
+    waiting_.push_back(std::move(job));
   }
   cv_.notify_one();
 }
@@ -141,10 +151,11 @@ void FusionWorker::run() {
     GroupJob job;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      cv_.wait(lock, [this] { return stop_ || waiting_.has_value(); });
+      cv_.wait(lock, [this] { return stop_ || !waiting_.empty(); });
       if (stop_) return;
-      job = std::move(*waiting_);
-      waiting_.reset();
+      job = std::move(waiting_.front());
+      waiting_.pop_front();
+      busy_ = true;
     }
     FusedOutput out;
     try {
@@ -154,11 +165,14 @@ void FusionWorker::run() {
       // image size, say) costs that frame, not the server.
       std::fprintf(stderr, "[server] frame %llu not fused: %s\n",
                    static_cast<unsigned long long>(job.group.frame_id), e.what());
+      std::lock_guard<std::mutex> lock(mutex_);
+      busy_ = false;
       continue;
     }
     {
       std::lock_guard<std::mutex> lock(mutex_);
       outputs_.push_back(std::move(out));
+      busy_ = false;
     }
     const uint64_t one = 1;
     if (::write(wake_fd_, &one, sizeof(one)) < 0) {

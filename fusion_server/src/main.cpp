@@ -26,7 +26,21 @@ int main(int argc, char** argv) {
   app.add_option("--idle-timeout-ms", options.idle_timeout_ms, "close a silent peer after this long")
       ->check(CLI::Range(100, 600000));
   app.add_option("--port-file", options.port_file, "write the bound port to this file");
+  app.add_option("--record", options.record_dir,
+                 "record what the pods send (calibration and every frame, as received) into this folder");
+  app.add_flag("--record-fused", options.record_fused, "with --record: also record the fused meshes and images");
+  app.add_flag("--lossless", options.lossless,
+               "fuse every frame of every pod: no sync deadline, no dropped group; pods ahead are not read");
+  app.add_option("--wait-for-clients", options.wait_for_clients,
+                 "read nothing from pods until this many render clients have joined (replays)")
+      ->check(CLI::Range(0, 64));
+  app.add_flag("--exit-when-pods-done", options.exit_when_pods_done,
+               "stop once every pod has left and its frames are fused and delivered (end of a replay)");
   CLI11_PARSE(app, argc, argv);
+  if (options.record_fused && options.record_dir.empty()) {
+    std::fprintf(stderr, "--record-fused needs --record DIR\n");
+    return 2;
+  }
   auto endpoint = protocol::parseEndpoint(listen);
   if (!endpoint.isOk()) {
     std::fprintf(stderr, "--listen: %s\n", endpoint.status().message().c_str());

@@ -114,7 +114,7 @@ std::string stageName(uint16_t stage) {
   static const char* const kNames[] = {"pod_render", "segment",      "feather",  "pod_encode",
                                        "send",       "sync_wait",    "hull",     "mesh_encode",
                                        "image_encode", "fanout",     "decode",   "upload",
-                                       "render",     "write"};
+                                       "render",     "write",        "replay_read"};
   if (stage >= kFirstStage && stage <= kLastStage) return kNames[stage - kFirstStage];
   return "stage_" + std::to_string(stage);
 }

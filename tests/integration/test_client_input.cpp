@@ -20,6 +20,7 @@
 #include "protocol/clock.h"
 #include "protocol/connection.h"
 #include "protocol/messages.h"
+#include "process_harness.h"
 
 namespace {
 
@@ -37,10 +38,7 @@ protocol::Frame receive(protocol::Connection& c) {
   return {};
 }
 
-std::string readFile(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
+using holofuse::test::readFile;
 
 // Sends everything queued, then waits until the client's log mentions what
 // (the client renders only the newest mesh of a batch, so bad frames are

@@ -18,53 +18,20 @@
 #include "protocol/messages.h"
 #include "protocol/frame.h"
 #include "protocol/socket.h"
+#include "process_harness.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 const std::string kBin = HOLOFUSE_BIN_DIR;
-
-pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
-  const pid_t pid = fork();
-  if (pid != 0) return pid;
-  std::FILE* f = std::fopen(log.c_str(), "w");
-  if (f != nullptr) {
-    dup2(fileno(f), STDOUT_FILENO);
-    dup2(fileno(f), STDERR_FILENO);
-  }
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  execv(argv[0], argv.data());
-  _exit(127);
-}
-
-int waitExit(pid_t pid, int timeout_s) {
-  int status = 0;
-  for (int i = 0; i < timeout_s * 20; ++i) {
-    if (waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  kill(pid, SIGKILL);
-  waitpid(pid, &status, 0);
-  return -1;
-}
-
-fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("holofuse_" + name + "_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+using holofuse::test::freshDir;
+using holofuse::test::readFile;
+using holofuse::test::spawn;
+using holofuse::test::waitExit;
 
 nlohmann::json readJson(const fs::path& p) {
   std::ifstream in(p);
   return nlohmann::json::parse(in);
-}
-
-std::string readFile(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
 uint16_t freePort() {
@@ -73,17 +40,7 @@ uint16_t freePort() {
 }
 
 std::string startServer(const fs::path& out, int pods, pid_t* pid) {
-  const fs::path port_file = out / "port";
-  *pid = spawn({kBin + "/fusion_server", "--listen", "127.0.0.1:0", "--pods", std::to_string(pods), "--port-file",
-                port_file.string()},
-               out / "server.log");
-  std::string port;
-  for (int i = 0; i < 100 && port.empty(); ++i) {
-    std::ifstream in(port_file);
-    std::getline(in, port);
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  return port.empty() ? std::string() : "127.0.0.1:" + port;
+  return holofuse::test::startServer(kBin, out, pods, pid);
 }
 
 TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {

@@ -37,6 +37,11 @@ class FrameSync {
  public:
   FrameSync(uint64_t deadline_ns, size_t max_pending = 8) : deadline_ns_(deadline_ns), max_pending_(max_pending) {}
 
+  // Lossless (replay as fast as the server accepts): a group waits for
+  // every expected pod however long it takes, and the caller bounds what
+  // is pending by not reading pods that are ahead (pendingWith).
+  static FrameSync lossless() { return FrameSync(kNoDeadline, kLosslessMaxPending); }
+
   enum class Added { kAccepted, kLate, kImplausible };
   // Frame ids further than this from the last fused one are not a late or
   // early frame but a different clock: far ahead is refused (one pod must
@@ -51,11 +56,17 @@ class FrameSync {
   // Time until the oldest pending group's deadline (for the poll timeout).
   std::optional<uint64_t> nextDeadline() const;
 
+  size_t pendingGroups() const { return pending_.size(); }
+  // Pending groups that already hold a frame of this camera.
+  size_t pendingWith(uint32_t camera_id) const;
+
   uint64_t lateFrames() const { return late_frames_; }
   uint64_t overflowedGroups() const { return overflowed_groups_; }
   uint64_t clockResets() const { return clock_resets_; }
 
  private:
+  static constexpr uint64_t kNoDeadline = UINT64_MAX;
+  static constexpr size_t kLosslessMaxPending = 4096;
   uint64_t deadline_ns_;
   size_t max_pending_;
   std::map<uint64_t, FrameGroup> pending_;

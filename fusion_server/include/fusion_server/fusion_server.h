@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "common/camera.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
+#include "fusion_server/recorder.h"
 #include "protocol/connection.h"
 #include "protocol/socket.h"
 
@@ -29,6 +31,18 @@ struct ServerOptions {
   uint32_t max_payload = protocol::kDefaultMaxPayload;
   FusionSettings fusion;
   std::string port_file;  // when set, the bound port is written here (port 0 use)
+  std::string record_dir;  // when set, what the pods send is recorded here
+  bool record_fused = false;  // with record_dir: the fused output too
+  // Replay as fast as the server accepts: every group waits for all its
+  // pods, no group is dropped, and pods that are ahead are not read
+  // (backpressure through TCP) until fusion catches up.
+  bool lossless = false;
+  // Stop (saying Bye) once every pod that joined has left and everything
+  // they sent is fused and delivered: the end of a replay.
+  bool exit_when_pods_done = false;
+  // Pods are not read until this many clients have joined, so a replay's
+  // first frames reach the client too.
+  int wait_for_clients = 0;
 };
 
 class FusionServer {
@@ -60,6 +74,9 @@ class FusionServer {
   void fanOut();
   void closePeer(size_t index, const protocol::Status& why);
   std::set<uint32_t> expectedPods() const;
+  // Lossless mode: false while this pod is ahead of fusion (not read).
+  bool readable(const Peer& peer);
+  bool podsDone();
 
   ServerOptions options_;
   protocol::Socket listener_;
@@ -72,6 +89,8 @@ class FusionServer {
   std::unique_ptr<FusionWorker> worker_;
   uint32_t next_session_ = 1;
   uint64_t groups_fused_ = 0;
+  std::optional<Recorder> recorder_;
+  bool any_pod_joined_ = false;
 };
 
 }  // namespace holofuse::fusion

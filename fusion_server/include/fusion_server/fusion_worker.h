@@ -44,12 +44,16 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings);
 class FusionWorker {
  public:
   // wake_fd is written (8 bytes, eventfd style) whenever output is ready.
-  FusionWorker(FusionSettings settings, int wake_fd);
+  // lossless: groups queue instead of replacing the waiting one (the
+  // caller applies backpressure with queuedJobs()).
+  FusionWorker(FusionSettings settings, int wake_fd, bool lossless = false);
   ~FusionWorker();
 
   void submit(GroupJob job);
   std::vector<FusedOutput> takeOutputs();
   uint64_t replacedJobs() const { return replaced_; }
+  // Groups submitted and not yet fused (waiting or in progress).
+  size_t queuedJobs();
 
  private:
   void run();
@@ -58,7 +62,9 @@ class FusionWorker {
   int wake_fd_;
   std::mutex mutex_;
   std::condition_variable cv_;
-  std::optional<GroupJob> waiting_;
+  bool lossless_;
+  std::deque<GroupJob> waiting_;
+  bool busy_ = false;
   std::vector<FusedOutput> outputs_;
   bool stop_ = false;
   uint64_t replaced_ = 0;

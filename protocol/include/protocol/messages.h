@@ -32,9 +32,10 @@ enum class Stage : uint16_t {
   kUpload = 12,
   kRender = 13,
   kWrite = 14,
+  kReplayRead = 15,  // a replay pod reads and checks a recorded frame (in place of 1-4)
 };
 constexpr uint16_t kFirstStage = 1;
-constexpr uint16_t kLastStage = 14;
+constexpr uint16_t kLastStage = 15;
 // Snake-case name of a stage id ("pod_render"), or "stage_<n>" for unknown ids.
 std::string stageName(uint16_t stage);
 

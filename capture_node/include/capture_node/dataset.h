@@ -1,0 +1,72 @@
+// A holofuse dataset: a folder whose pods.hfr holds what pods sent
+// (Calibration and PodFrames, as protocol frames) and, optionally,
+// fused.hfr the server's output (protocol/SPEC.md section 7). Recordings
+// and imported captures share this layout, so both replay the same way.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/image.h"
+#include "protocol/frame.h"
+#include "protocol/messages.h"
+#include "protocol/record_file.h"
+
+namespace holofuse::capture {
+
+constexpr const char* kDatasetPodsFile = "pods.hfr";
+constexpr const char* kDatasetFusedFile = "fused.hfr";
+
+// One camera's records in a dataset.
+struct DatasetCamera {
+  uint32_t id = 0;
+  std::optional<protocol::RecordInfo> calibration;  // the first one recorded
+  std::vector<protocol::RecordInfo> frames;         // PodFrames in recorded order
+  uint64_t frame_bytes = 0;
+};
+
+class Dataset {
+ public:
+  // Opens DIR/pods.hfr (or a .hfr file named directly), refusing a newer
+  // format by version and a folder without a recording by name.
+  static protocol::StatusOr<Dataset> open(const std::string& path);
+
+  const protocol::RecordReader& records() const { return reader_; }
+  const std::map<uint32_t, DatasetCamera>& cameras() const { return cameras_; }
+  // Over every camera: the first and last PodFrame ids and receive times.
+  uint64_t firstFrameId() const { return first_id_; }
+  uint64_t lastFrameId() const { return last_id_; }
+  uint64_t firstTimeNs() const { return first_time_; }
+  uint64_t lastTimeNs() const { return last_time_; }
+  // Distinct frame ids over every camera.
+  size_t frameIds() const { return frame_ids_; }
+
+  // Reads a record and parses it as a whole, checked protocol frame.
+  protocol::StatusOr<protocol::Frame> readFrame(const protocol::RecordInfo& record) const;
+
+ private:
+  protocol::RecordReader reader_;
+  std::map<uint32_t, DatasetCamera> cameras_;
+  uint64_t first_id_ = 0, last_id_ = 0, first_time_ = 0, last_time_ = 0;
+  size_t frame_ids_ = 0;
+};
+
+// A recorded PodFrame's images, decompressed and placed back into the
+// camera's whole image (a pod may send only its foreground's rectangle).
+struct PodImagesFull {
+  uint64_t frame_id = 0;
+  Image8 color, mask, feather;
+  std::vector<protocol::Codec> codecs;  // per plane, in the frame's order
+};
+// Checks the planes against the camera before decompressing anything.
+protocol::StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame, const Camera& camera);
+
+// Parses bytes holding exactly one protocol frame (header checked, CRC
+// checked); what names the source in errors.
+protocol::StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes, const std::string& what);
+
+}  // namespace holofuse::capture

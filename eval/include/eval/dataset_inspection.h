@@ -1,0 +1,50 @@
+// What `./holofuse dataset verify` and `dataset info` say about a dataset
+// folder: whether every record checks (and which bytes at the end a crash
+// left incomplete), and what is in it, with a contact sheet a person can
+// look at: every camera's image, its mask, and the visual hull carved from
+// all of them projected back (silhouette IoU per camera).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "protocol/status.h"
+
+namespace holofuse::eval {
+
+enum class VerifyVerdict {
+  kClean = 0,            // every record checks and the index is in place
+  kCorrupt = 1,          // a record's bytes are damaged
+  kIncompleteTail = 3,   // every whole record checks; the end holds an incomplete one
+};
+
+struct VerifyReport {
+  VerifyVerdict verdict = VerifyVerdict::kClean;
+  std::string text;  // for people, one finding per line
+};
+
+// Checks DIR/pods.hfr and, when present, DIR/fused.hfr. A folder that is
+// not a dataset, or a newer format, is an error status.
+protocol::StatusOr<VerifyReport> verifyDataset(const std::string& dir);
+
+struct CameraSummary {
+  uint32_t id = 0;
+  uint32_t width = 0, height = 0;
+  size_t frames = 0;
+  double megabytes = 0;
+  std::string codecs;         // of the planes, "colour lz4-delta, mask lz4, ..."
+  double silhouette_iou = 0;  // the hull carved from every camera, against this camera's mask
+};
+
+struct DatasetSummary {
+  std::string text;  // for people
+  std::vector<CameraSummary> cameras;
+  uint64_t inspected_frame_id = 0;  // the frame the sheet and the IoU come from
+};
+
+// Summarises a dataset and writes the contact sheet PNG (every camera, its
+// mask dimmed outside, the hull's silhouette outlined) to sheet_png.
+protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::string& sheet_png,
+                                                   double voxel_size = 0.02);
+
+}  // namespace holofuse::eval

@@ -1,0 +1,81 @@
+#include "fusion_server/recorder.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <system_error>
+
+#include "protocol/clock.h"
+
+namespace holofuse::fusion {
+
+using protocol::RecordKind;
+using protocol::Status;
+using protocol::StatusCode;
+
+protocol::StatusOr<Recorder> Recorder::open(const std::string& dir, bool record_fused) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  fs::create_directories(dir, error);
+  if (error) return Status(StatusCode::kIoError, dir + ": cannot create the recording folder (" + error.message() + ")");
+  Recorder recorder;
+  recorder.dir_ = dir;
+  const uint64_t created = protocol::realtimeNs();
+  auto pods = protocol::RecordWriter::create((fs::path(dir) / kPodsRecordFile).string(), created);
+  if (!pods.isOk()) return pods.status();
+  recorder.pods_ = std::move(*pods);
+  if (record_fused) {
+    auto fused = protocol::RecordWriter::create((fs::path(dir) / kFusedRecordFile).string(), created);
+    if (!fused.isOk()) return fused.status();
+    recorder.fused_ = std::move(*fused);
+  }
+  recorder.start_ns_ = protocol::monotonicNs();
+  recorder.last_report_ns_ = recorder.start_ns_;
+  std::fprintf(stderr, "[server] recording pods%s into %s\n", record_fused ? " and fused output" : "", dir.c_str());
+  return recorder;
+}
+
+template <typename Payload>
+void Recorder::append(protocol::RecordWriter& writer, RecordKind kind, uint32_t stream, uint64_t frame_id,
+                      const Payload& payload) {
+  if (writer.failure()) return;  // already reported
+  const Status s = writer.append(kind, stream, frame_id, protocol::monotonicNs() - start_ns_, payload);
+  if (!s.isOk()) std::fprintf(stderr, "[server] recording failed, the server goes on: %s\n", s.message().c_str());
+}
+
+void Recorder::recordPodMessage(RecordKind kind, uint32_t camera_id, uint64_t frame_id, const protocol::Frame& frame) {
+  // The frame as received, header and CRC included.
+  append(pods_, kind, camera_id, frame_id, std::span<const uint8_t>(frame.bytes));
+  if (kind == RecordKind::kPodFrame) ++pod_frames_;
+}
+
+void Recorder::recordFused(const FusedOutput& output) {
+  if (!fused_) return;
+  append(*fused_, RecordKind::kMeshFrame, protocol::kServerStream, output.frame_id, *output.mesh_frame);
+  append(*fused_, RecordKind::kTextureBundle, protocol::kServerStream, output.frame_id, *output.texture_bundle);
+  append(*fused_, RecordKind::kStats, protocol::kServerStream, output.frame_id, *output.stats);
+}
+
+void Recorder::maybeReportProgress(uint64_t now_ns, uint64_t interval_ns) {
+  if (now_ns - last_report_ns_ < interval_ns) return;
+  last_report_ns_ = now_ns;
+  const double seconds = static_cast<double>(now_ns - start_ns_) / 1e9;
+  const double mb = static_cast<double>(pods_.bytes() + (fused_ ? fused_->bytes() : 0)) / 1e6;
+  std::fprintf(stderr, "[server] recording: %llu pod frames, %.1f MB, %.2f MB/s over %.0f s\n",
+               static_cast<unsigned long long>(pod_frames_), mb, seconds > 0 ? mb / seconds : 0.0, seconds);
+}
+
+void Recorder::close() {
+  for (protocol::RecordWriter* w : {&pods_, fused_ ? &*fused_ : nullptr}) {
+    if (w == nullptr || !w->isOpen()) continue;
+    const uint64_t records = w->records();
+    const Status s = w->close();
+    if (s.isOk()) {
+      std::fprintf(stderr, "[server] recorded %llu records, %.1f MB, in %s\n", static_cast<unsigned long long>(records),
+                   static_cast<double>(w->bytes()) / 1e6, w->path().c_str());
+    } else {
+      std::fprintf(stderr, "[server] closing %s: %s\n", w->path().c_str(), s.message().c_str());
+    }
+  }
+}
+
+}  // namespace holofuse::fusion

@@ -1,0 +1,273 @@
+// Datasets through the network path, with real processes on loopback: a
+// live loop records what its pods send, `holofuse_dataset verify` checks
+// it, replays through server and client fuse the same meshes bit for bit,
+// a recorder killed with SIGKILL keeps every whole record, and bad input
+// is named.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "capture_node/dataset.h"
+#include "process_harness.h"
+#include "protocol/messages.h"
+#include "protocol/record_file.h"
+
+namespace holofuse {
+namespace {
+
+namespace fs = std::filesystem;
+using test::freshDir;
+using test::readFile;
+using test::spawn;
+using test::waitExit;
+const std::string kBin = HOLOFUSE_BIN_DIR;
+
+// frame id -> the Draco bytes of the fused mesh, from a fused.hfr.
+std::map<uint64_t, protocol::Bytes> fusedMeshes(const fs::path& file) {
+  std::map<uint64_t, protocol::Bytes> meshes;
+  auto reader = protocol::RecordReader::open(file.string());
+  EXPECT_TRUE(reader.isOk()) << reader.status().toString();
+  if (!reader.isOk()) return meshes;
+  for (const auto& r : reader->records()) {
+    if (r.kind != static_cast<uint16_t>(protocol::RecordKind::kMeshFrame)) continue;
+    auto bytes = reader->read(r);
+    EXPECT_TRUE(bytes.isOk());
+    auto frame = capture::parseWholeFrame(*bytes, file.string());
+    EXPECT_TRUE(frame.isOk()) << frame.status().toString();
+    protocol::MeshFrame mesh;
+    EXPECT_TRUE(protocol::decodeFrame(*frame, mesh).isOk());
+    EXPECT_EQ(mesh.frame_id, r.frame_id);
+    meshes[r.frame_id] = protocol::Bytes(mesh.mesh.begin(), mesh.mesh.end());
+  }
+  return meshes;
+}
+
+// camera -> every PodFrame's planes (kind and compressed bytes) in order.
+std::map<uint32_t, std::vector<protocol::Bytes>> recordedPlanes(const fs::path& dir) {
+  std::map<uint32_t, std::vector<protocol::Bytes>> planes;
+  auto dataset = capture::Dataset::open(dir.string());
+  EXPECT_TRUE(dataset.isOk()) << dataset.status().toString();
+  if (!dataset.isOk()) return planes;
+  for (const auto& [id, camera] : dataset->cameras()) {
+    for (const auto& r : camera.frames) {
+      auto frame = dataset->readFrame(r);
+      EXPECT_TRUE(frame.isOk()) << frame.status().toString();
+      protocol::PodFrame pod;
+      EXPECT_TRUE(protocol::decodeFrame(*frame, pod).isOk());
+      protocol::Bytes all;
+      for (const auto& plane : pod.planes) {
+        all.push_back(static_cast<uint8_t>(plane.kind));
+        all.insert(all.end(), plane.data.begin(), plane.data.end());
+      }
+      planes[id].push_back(std::move(all));
+    }
+  }
+  return planes;
+}
+
+nlohmann::json readJson(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+class DatasetLoop : public ::testing::Test {
+ protected:
+  // One short live recording shared by the tests of this suite.
+  static void SetUpTestSuite() {
+    root_ = freshDir("dataset_loop");
+    recording_ = root_ / "recording";
+    const pid_t loop = spawn({kBin + "/holofuse_loop", "--pods", "2", "--frames", "5", "--fps", "4", "--size",
+                              "160x120", "--out", (root_ / "live").string(), "--record", recording_.string()},
+                             root_ / "live.log");
+    live_exit_ = waitExit(loop, 240);
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+
+  // Replays the recording as fast as the server accepts, recording what
+  // the replay pods sent and the fused output into out/record.
+  static int replay(const fs::path& out) {
+    const pid_t loop = spawn({kBin + "/holofuse_loop", "--replay", recording_.string(), "--speed", "max", "--out",
+                              out.string(), "--record", (out / "record").string(), "--record-fused"},
+                             out.string() + ".log");
+    return waitExit(loop, 240);
+  }
+
+  static inline fs::path root_, recording_;
+  static inline int live_exit_ = -1;
+};
+
+TEST_F(DatasetLoop, TheLiveLoopRecordsWholeCheckedProtocolFrames) {
+  ASSERT_EQ(live_exit_, 0) << readFile(root_ / "live.log");
+  const pid_t verify = spawn({kBin + "/holofuse_dataset", "verify", recording_.string()}, root_ / "verify.log");
+  ASSERT_EQ(waitExit(verify, 60), 0) << readFile(root_ / "verify.log");
+  const std::string text = readFile(root_ / "verify.log");
+  EXPECT_NE(text.find("index: in place"), std::string::npos) << text;
+  EXPECT_NE(text.find("every record's CRC32C matches"), std::string::npos) << text;
+  EXPECT_NE(text.find("verdict: OK"), std::string::npos) << text;
+
+  auto dataset = capture::Dataset::open(recording_.string());
+  ASSERT_TRUE(dataset.isOk()) << dataset.status().toString();
+  ASSERT_EQ(dataset->cameras().size(), 2u);
+  for (const auto& [id, camera] : dataset->cameras()) {
+    ASSERT_TRUE(camera.calibration.has_value()) << "camera " << id;
+    EXPECT_GE(camera.frames.size(), 3u) << "camera " << id;
+    // Byte for byte as received: every record is a whole frame whose own
+    // CRC32C still checks, from the pod it is filed under.
+    for (const auto& r : camera.frames) {
+      auto frame = dataset->readFrame(r);
+      ASSERT_TRUE(frame.isOk()) << frame.status().toString();
+      protocol::PodFrame pod;
+      ASSERT_TRUE(protocol::decodeFrame(*frame, pod).isOk());
+      EXPECT_EQ(pod.camera_id, id);
+      EXPECT_EQ(pod.frame_id, r.frame_id);
+    }
+  }
+}
+
+TEST_F(DatasetLoop, ReplayFusesTheSameMeshesBitForBitAndSendsTheRecordedImages) {
+  ASSERT_EQ(live_exit_, 0) << readFile(root_ / "live.log");
+  const fs::path first = root_ / "replay1", second = root_ / "replay2";
+  ASSERT_EQ(replay(first), 0) << readFile(first.string() + ".log");
+  ASSERT_EQ(replay(second), 0) << readFile(second.string() + ".log");
+
+  auto dataset = capture::Dataset::open(recording_.string());
+  ASSERT_TRUE(dataset.isOk());
+  const auto a = fusedMeshes(first / "record" / "fused.hfr");
+  const auto b = fusedMeshes(second / "record" / "fused.hfr");
+  // Every recorded frame id is fused (nothing dropped at max speed), and
+  // the two replays agree bit for bit.
+  EXPECT_EQ(a.size(), dataset->frameIds());
+  ASSERT_EQ(a.size(), b.size());
+  for (const auto& [id, bytes] : a) {
+    ASSERT_EQ(b.count(id), 1u) << "frame " << id;
+    EXPECT_GT(bytes.size(), 100u) << "frame " << id;
+    EXPECT_TRUE(bytes == b.at(id)) << "frame " << id << " differs between the replays";
+  }
+  // What the replay pods sent is what the live pods sent: the same planes,
+  // byte for byte, in the same order.
+  EXPECT_EQ(recordedPlanes(first / "record"), recordedPlanes(recording_));
+
+  // The same client and report as the live loop, with the replay's stage.
+  const auto report = readJson(first / "report.json");
+  EXPECT_GT(report["frames_rendered"].get<int>(), 0);
+  ASSERT_TRUE(report["latency_ms"]["stages"].contains("replay_read"));
+  EXPECT_GT(report["latency_ms"]["stages"]["replay_read"]["samples"].get<int>(), 0);
+}
+
+// SIGKILL the recording server while pods stream: every record written
+// whole reads back, verify says what (if anything) at the end is
+// incomplete, and the dataset still replays.
+TEST(DatasetRecorder, AKilledRecorderKeepsEveryWholeRecordAndStillReplays) {
+  const fs::path out = freshDir("dataset_killed");
+  const fs::path recording = out / "recording";
+  pid_t server = 0;
+  const std::string endpoint = test::startServer(kBin, out, 2, &server, {"--record", recording.string()});
+  ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
+  std::vector<pid_t> pods;
+  for (int i = 0; i < 2; ++i) {
+    pods.push_back(spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(i), "--pods", "2",
+                          "--size", "160x120", "--fps", "8"},
+                         out / ("pod" + std::to_string(i) + ".log")));
+  }
+  const fs::path file = recording / "pods.hfr";
+  for (int i = 0; i < 600 && (!fs::exists(file) || fs::file_size(file) < 300000); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(fs::exists(file) && fs::file_size(file) >= 300000) << readFile(out / "server.log");
+  kill(server, SIGKILL);
+  EXPECT_EQ(waitExit(server, 10), 128 + SIGKILL);
+  for (pid_t pod : pods) {
+    kill(pod, SIGTERM);
+    waitExit(pod, 10);
+  }
+
+  const pid_t verify = spawn({kBin + "/holofuse_dataset", "verify", recording.string()}, out / "verify.log");
+  const int verdict = waitExit(verify, 60);
+  const std::string text = readFile(out / "verify.log");
+  ASSERT_TRUE(verdict == 0 || verdict == 3) << text;
+  EXPECT_NE(text.find("no index at the end (the recording was not closed cleanly); rebuilt by scanning"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("every record's CRC32C matches"), std::string::npos) << text;
+  auto reader = protocol::RecordReader::open(file.string());
+  ASSERT_TRUE(reader.isOk());
+  EXPECT_GE(reader->records().size(), 4u);
+  EXPECT_TRUE(reader->verifyAll().isOk());
+  if (verdict == 3) {
+    // The bytes named are exactly those after the last whole record.
+    const std::string bytes = "bytes " + std::to_string(reader->scan().good_end) + ".." +
+                              std::to_string(fs::file_size(file));
+    EXPECT_NE(text.find("incomplete tail: " + bytes), std::string::npos) << text;
+  } else {
+    EXPECT_EQ(reader->scan().good_end, fs::file_size(file));
+  }
+
+  const pid_t loop = spawn({kBin + "/holofuse_loop", "--replay", recording.string(), "--speed", "max", "--out",
+                            (out / "replay").string()},
+                           out / "replay.log");
+  ASSERT_EQ(waitExit(loop, 240), 0) << readFile(out / "replay.log");
+  EXPECT_GT(readJson(out / "replay" / "report.json")["frames_rendered"].get<int>(), 0);
+  fs::remove_all(out);
+}
+
+TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
+  const fs::path out = freshDir("dataset_bad");
+  // A folder that holds no recording.
+  pid_t p = spawn({kBin + "/holofuse_loop", "--replay", out.string(), "--out", (out / "o").string()}, out / "a.log");
+  EXPECT_EQ(waitExit(p, 30), 2);
+  EXPECT_NE(readFile(out / "a.log").find("not a holofuse dataset (no pods.hfr in it)"), std::string::npos)
+      << readFile(out / "a.log");
+
+  // A recording with one camera, asked for another.
+  const fs::path dir = out / "one";
+  fs::create_directories(dir);
+  {
+    auto writer = protocol::RecordWriter::create((dir / "pods.hfr").string(), 0);
+    ASSERT_TRUE(writer.isOk());
+    protocol::Calibration calibration;
+    calibration.camera_id = 0;
+    calibration.width = 64;
+    calibration.height = 48;
+    calibration.fx = calibration.fy = 50;
+    calibration.rotation = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    const protocol::Bytes bytes = protocol::encodeOutgoing(calibration, 1).flatten();
+    ASSERT_TRUE(writer->append(protocol::RecordKind::kCalibration, 0, 0, 0, bytes).isOk());
+    ASSERT_TRUE(writer->close().isOk());
+  }
+  p = spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "7", "--replay", dir.string()},
+            out / "b.log");
+  EXPECT_EQ(waitExit(p, 30), 2);
+  EXPECT_NE(readFile(out / "b.log").find("has no calibration for camera 7 (cameras with records: 0)"),
+            std::string::npos)
+      << readFile(out / "b.log");
+  p = spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "0", "--replay", dir.string(), "--speed",
+             "fast"},
+            out / "c.log");
+  EXPECT_EQ(waitExit(p, 30), 2);
+  EXPECT_NE(readFile(out / "c.log").find("--speed 'fast': expected a factor"), std::string::npos)
+      << readFile(out / "c.log");
+
+  // A damaged byte: verify names the record and its offset, exit 1.
+  std::string bytes = readFile(dir / "pods.hfr");
+  const size_t damaged = protocol::kRecordFileHeaderSize + protocol::kRecordHeaderSize + 5;
+  bytes[damaged] = static_cast<char>(bytes[damaged] ^ 0x10);
+  std::ofstream(dir / "pods.hfr", std::ios::binary | std::ios::trunc) << bytes;
+  p = spawn({kBin + "/holofuse_dataset", "verify", dir.string()}, out / "d.log");
+  EXPECT_EQ(waitExit(p, 30), 1);
+  EXPECT_NE(readFile(out / "d.log").find("CORRUPT: " + (dir / "pods.hfr").string() +
+                                         ": the calibration record at byte 32: payload CRC32C mismatch"),
+            std::string::npos)
+      << readFile(out / "d.log");
+  fs::remove_all(out);
+}
+
+}  // namespace
+}  // namespace holofuse
