@@ -85,6 +85,7 @@ int main(int argc, char** argv) {
   app.add_option("--budget", budget, "JSON of per-stage ms budgets for the client's report (flags violations)");
   app.add_option("--bin-dir", bin_dir, "folder of the executables (default: next to this one)");
   std::string record, replay, speed = "1";
+  std::vector<std::string> dataset_server_args;
   bool record_fused = false, loop = false;
   app.add_option("--record", record, "record what the pods send into this folder (a dataset for --replay)");
   app.add_flag("--record-fused", record_fused, "with --record: also record the server's fused meshes and images");
@@ -128,6 +129,16 @@ int main(int argc, char** argv) {
       return 2;
     }
     if (!app.count("--size")) size = std::to_string(calibration.width) + "x" + std::to_string(calibration.height);
+    if (const auto& metadata = dataset->metadata()) {
+      // Carve where the dataset says its subject is, at its resolution.
+      char volume[256];
+      std::snprintf(volume, sizeof(volume), "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g", metadata->volume_min.x,
+                    metadata->volume_min.y, metadata->volume_min.z, metadata->volume_max.x, metadata->volume_max.y,
+                    metadata->volume_max.z);
+      if (metadata->voxel_size > 0) dataset_server_args = {"--volume", volume, "--voxel", std::to_string(metadata->voxel_size)};
+    }
+    // A still (one frame of a static scene) repeats so the client can orbit it.
+    if (dataset->frameIds() == 1) loop = true;
     if (!app.count("--frames") && !loop) frames = 1000000;  // until the replay ends
   }
   const holofuse::capture::ScenePreset* preset = holofuse::capture::findScene(scene);
@@ -155,6 +166,7 @@ int main(int argc, char** argv) {
     if (record_fused) server_args.push_back("--record-fused");
   }
   if (!replay.empty()) {
+    server_args.insert(server_args.end(), dataset_server_args.begin(), dataset_server_args.end());
     if (speed_factor == 0.0) server_args.push_back("--lossless");
     if (!loop) server_args.push_back("--exit-when-pods-done");
     server_args.insert(server_args.end(), {"--wait-for-clients", "1"});

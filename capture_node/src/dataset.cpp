@@ -89,6 +89,13 @@ protocol::StatusOr<Dataset> Dataset::open(const std::string& path) {
       dataset.first_time_ = std::min(dataset.first_time_, r.time_ns);
       dataset.last_time_ = std::max(dataset.last_time_, r.time_ns);
     }
+    if (r.kind == static_cast<uint16_t>(RecordKind::kDatasetInfo) && !dataset.metadata_) {
+      auto bytes = dataset.reader_.read(r);
+      if (!bytes.isOk()) return bytes.status();
+      auto metadata = decodeDatasetMetadata(*bytes, file + ": the dataset_info record at byte " + std::to_string(r.offset));
+      if (!metadata.isOk()) return metadata.status();
+      dataset.metadata_ = std::move(*metadata);
+    }
     // Other kinds (a newer minor's) are skipped.
   }
   dataset.frame_ids_ = ids.size();

@@ -129,6 +129,16 @@ Image8 meshSilhouette(const Mesh& mesh, const Camera& camera) {
 
 }  // namespace
 
+fusion::HullOptions hullOptionsFor(const capture::Dataset& dataset, double fallback_voxel) {
+  fusion::HullOptions options;
+  options.voxel_size = fallback_voxel;
+  if (const auto& m = dataset.metadata(); m && m->voxel_size > 0) {
+    fusion::setCaptureVolume(options, m->volume_min, m->volume_max);
+    options.voxel_size = m->voxel_size;
+  }
+  return options;
+}
+
 protocol::StatusOr<VerifyReport> verifyDataset(const std::string& dir) {
   namespace fs = std::filesystem;
   VerifyReport report;
@@ -214,11 +224,16 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
     images.push_back(std::move(*decoded));
     summary.cameras.push_back(c);
   }
-  fusion::HullOptions hull_options;
-  hull_options.voxel_size = voxel_size;
+  fusion::HullOptions hull_options = hullOptionsFor(*dataset, fusion::HullOptions{}.voxel_size);
+  if (voxel_size > 0) hull_options.voxel_size = voxel_size;
+  voxel_size = hull_options.voxel_size;
   const Mesh hull = fusion::carveVisualHull(views, hull_options);
+  char voxel_text[32];
+  std::snprintf(voxel_text, sizeof(voxel_text), "%.2f mm", voxel_size * 1000);
   t += "frame " + std::to_string(frame_id) + ": visual hull of " + std::to_string(hull.triangleCount()) +
-       " triangles at " + std::to_string(static_cast<int>(voxel_size * 1000)) + " mm voxels\n";
+       " triangles at " + voxel_text + " voxels";
+  if (const auto& m = dataset->metadata()) t += " (" + m->source + ")";
+  t += "\n";
   t += "camera  size        frames   data       silhouette IoU  codecs\n";
   std::vector<cv::Mat> tiles;
   for (size_t i = 0; i < views.size(); ++i) {

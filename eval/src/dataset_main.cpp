@@ -1,11 +1,34 @@
 // holofuse_dataset: checks and describes datasets (recordings and imports).
 //   holofuse_dataset verify DIR     exit 0 clean, 3 incomplete tail, 1 corrupt, 2 unusable
 //   holofuse_dataset info DIR [--sheet PNG] [--voxel M]
+//   holofuse_dataset import SRC --format holofuse|colmap|nerf --out DIR [segmentation flags]
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
 
+#include "capture_node/dataset_import.h"
 #include "eval/dataset_inspection.h"
+
+namespace {
+
+// One line, redrawn in place on a terminal, every 10% otherwise.
+void printProgress(const holofuse::capture::ImportProgress& p) {
+  static size_t last_decile = 0;
+  const bool tty = isatty(STDERR_FILENO) != 0;
+  const size_t decile = p.total ? 10 * p.done / p.total : 10;
+  if (!tty && decile == last_decile && p.done != p.total) return;
+  last_decile = decile;
+  const double rate = p.seconds > 0 ? static_cast<double>(p.done) / p.seconds : 0.0;
+  const double eta = rate > 0 ? static_cast<double>(p.total - p.done) / rate : 0.0;
+  const int filled = p.total ? static_cast<int>(20 * p.done / p.total) : 20;
+  std::fprintf(stderr, "%s[import] |%.*s%*s| %zu/%zu images, %.1f MB, %.1f images/s, ETA %.0f s%s",
+               tty ? "\r" : "", filled, "####################", 20 - filled, "", p.done, p.total, p.megabytes, rate,
+               eta, tty && p.done != p.total ? "" : "\n");
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace holofuse;
@@ -18,8 +41,49 @@ int main(int argc, char** argv) {
   auto* info = app.add_subcommand("info", "cameras, frames, sizes, codecs, silhouette IoU and a contact sheet");
   info->add_option("dir", dir, "dataset folder")->required();
   info->add_option("--sheet", sheet, "contact sheet PNG (default DIR/contact_sheet.png)");
-  info->add_option("--voxel", voxel, "hull voxel size in metres")->check(CLI::Range(0.002, 0.5));
+  info->add_option("--voxel", voxel, "hull voxel size in metres (default: the dataset's)")->check(CLI::Range(0.0001, 0.5));
+  auto* import = app.add_subcommand("import", "convert a real multi-view capture into a dataset that replays");
+  std::string source, format, out;
+  capture::ImportOptions import_options;
+  double threshold = -1, import_voxel = -1;
+  import->add_option("source", source, "capture folder")->required();
+  import->add_option("--format", format, std::string("capture format: ") + capture::captureFormatNames())->required();
+  import->add_option("--out", out, "dataset folder to create (must not exist or be empty)")->required();
+  import->add_option("--threshold", threshold, "segment by brightness above this (0..1) where masks are missing; "
+                                               "default Otsu's threshold")
+      ->check(CLI::Range(0.0, 1.0));
+  import->add_flag("--dark-subject", import_options.dark_subject, "the subject is darker than the background");
+  import->add_option("--close-px", import_options.close_px, "closing radius after thresholding")->check(CLI::Range(0, 100));
+  import->add_option("--voxel", import_voxel, "hull voxel size for replays (default: volume / 96)")
+      ->check(CLI::Range(0.0001, 0.5));
   CLI11_PARSE(app, argc, argv);
+  if (import->parsed()) {
+    const auto chosen = capture::captureFormatFromName(format);
+    if (!chosen) {
+      std::fprintf(stderr, "--format '%s': unknown; valid formats: %s\n", format.c_str(), capture::captureFormatNames());
+      return 2;
+    }
+    if (threshold >= 0) import_options.threshold = threshold;
+    if (import_voxel > 0) import_options.voxel_size = import_voxel;
+    auto description = capture::readCapture(source, *chosen);
+    if (!description.isOk()) {
+      std::fprintf(stderr, "dataset import: %s\n", description.status().message().c_str());
+      return 2;
+    }
+    std::fprintf(stderr, "[import] %s: %zu cameras, %zu frame(s)\n", description->source.c_str(),
+                 description->cameras.size(), description->frames.size());
+    auto summary = capture::importCapture(*description, out, import_options, printProgress);
+    if (!summary.isOk()) {
+      std::fprintf(stderr, "dataset import: %s (nothing was written to %s)\n", summary.status().message().c_str(),
+                   out.c_str());
+      return 2;
+    }
+    std::printf("imported %zu camera(s) x %zu frame(s) into %s (%.1f MB): masks %zu from the source, %zu segmented; "
+                "capture volume %s\n",
+                summary->cameras, summary->frames, out.c_str(), summary->megabytes, summary->masks_given,
+                summary->masks_segmented, summary->volume.c_str());
+    return 0;
+  }
   if (verify->parsed()) {
     auto report = eval::verifyDataset(dir);
     if (!report.isOk()) {
@@ -30,7 +94,7 @@ int main(int argc, char** argv) {
     return static_cast<int>(report->verdict);
   }
   if (sheet.empty()) sheet = (std::filesystem::path(dir) / "contact_sheet.png").string();
-  auto summary = eval::describeDataset(dir, sheet, voxel);
+  auto summary = eval::describeDataset(dir, sheet, info->count("--voxel") ? voxel : 0.0);
   if (!summary.isOk()) {
     std::fprintf(stderr, "dataset info: %s\n", summary.status().message().c_str());
     return 2;

@@ -9,11 +9,13 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "capture_node/dataset.h"
 #include "capture_node/pod.h"
 #include "common/html_report.h"
 #include "common/image_codec.h"
 #include "common/image_io.h"
 #include "common/mesh_codec.h"
+#include "eval/dataset_inspection.h"
 #include "eval/geometry_metrics.h"
 #include "eval/metrics.h"
 #include "result_json.h"
@@ -96,12 +98,179 @@ void saveImage(const fs::path& path, const Image8& image) {
   if (!written.isOk()) throw std::runtime_error(written.message());
 }
 
+
+// A scene to evaluate, from the synthetic library or from a dataset: the
+// poses to render from, and every frame as the client would receive it.
+struct SceneInput {
+  std::vector<Camera> reported;
+  std::vector<FrameData> frames;
+};
+
+// Every mode, every held-out camera, every frame of one scene.
+void evaluateModes(const EvalOptions& options, render::VulkanContext& context, const SceneInput& input,
+                   SceneResult& result, const std::function<void(const std::string&)>& progress) {
+  const int camera_count = static_cast<int>(input.reported.size());
+  const int frame_count = static_cast<int>(input.frames.size());
+  // A jump of this many cameras along the ring is the preset's angle.
+  const int jump = static_cast<int>(std::lround(result.view_jump_degrees / 360.0 * camera_count));
+  const int jump_frame = jump != 0 ? frame_count / 2 : 0;
+  for (render::BlendMode mode : options.modes) {
+    const std::string mode_name = render::blendModeName(mode);
+    ModeResult& m = result.modes[mode_name];
+    std::vector<double> mesh_ms;
+    std::map<std::string, std::vector<double>> passes;
+    double flicker_sum = 0;
+    size_t flicker_pairs = 0;
+    const auto mode_start = Clock::now();
+    for (int held : heldOutCameras(camera_count, options.held_out_cameras)) {
+      // Rendered at the held-out camera's own size, to compare pixel for pixel.
+      const Camera& pose = input.reported[static_cast<size_t>(held)];
+      render::Renderer renderer(context, pose.width, pose.height);
+      render::BlendSettings settings;
+      settings.mode = mode;
+      settings.frame_interval_s = 1.0 / options.fps;
+      settings.alpha = options.alpha;
+      settings.lambda = options.lambda;
+      settings.fields = options.fields;
+      std::optional<ErrorImage> previous;
+      for (int f = 0; f < frame_count; ++f) {
+        const FrameData& frame = input.frames[static_cast<size_t>(f)];
+        renderer.setMesh(frame.mesh);
+        // The held-out image takes no part at all: not in the blend, the
+        // vote, the seams or the global visibility.
+        std::vector<render::ViewImages> others = frame.views;
+        others.erase(others.begin() + held);
+        renderer.setViews(others);
+        const bool before_jump = f < jump_frame;
+        const int view = before_jump ? ((held + jump) % camera_count + camera_count) % camera_count : held;
+        const auto t0 = Clock::now();
+        const Image8 picture = renderer.render(input.reported[static_cast<size_t>(view)], settings);
+        mesh_ms.push_back(msSince(t0));
+        const auto times = renderer.fieldTimesMs();
+        for (size_t s = 0; s < times.size(); ++s) passes[render::TextureFieldPasses::stageNames()[s]].push_back(times[s]);
+        if (before_jump) continue;  // not at the held-out pose yet: nothing to compare with
+        const Image8& truth_color = frame.views[static_cast<size_t>(held)].color;
+        const Image8& truth_mask = frame.true_masks[static_cast<size_t>(held)];
+        const ImageQuality q = compareInMask(picture, truth_color, truth_mask);
+        m.rmse_percent += q.rmse_percent;
+        m.psnr_db += q.psnr_db;
+        m.ssim += q.ssim;
+        ++m.images;
+        ErrorImage error = errorImage(picture, truth_color, truth_mask);
+        if (previous) {
+          flicker_sum += flicker(*previous, error);
+          ++flicker_pairs;
+        }
+        previous = std::move(error);
+        if (options.save_images) {
+          const fs::path dir = fs::path(options.out_dir) / "images" / result.name / mode_name;
+          const std::string stem = "frame" + std::to_string(frame.frame_id) + "_camera" + std::to_string(held);
+          saveImage(dir / (stem + "_rendered.png"), picture);
+          saveImage(dir / (stem + "_true.png"), truth_color);
+          saveImage(dir / (stem + "_mask.png"), truth_mask);
+        }
+      }
+      if (progress) {
+        progress(result.name + " / " + mode_name + ": held out camera " + std::to_string(held) + " of " +
+                 std::to_string(camera_count) + ", " + std::to_string(frame_count) + " frames, " +
+                 std::to_string(static_cast<int>(msSince(mode_start) / 1000)) + " s so far");
+      }
+    }
+    if (m.images > 0) {
+      m.rmse_percent /= static_cast<double>(m.images);
+      m.psnr_db /= static_cast<double>(m.images);
+      m.ssim /= static_cast<double>(m.images);
+    }
+    m.flicker = flicker_pairs ? flicker_sum / static_cast<double>(flicker_pairs) : 0.0;
+    m.ms_per_new_mesh = median(mesh_ms);
+    for (const auto& [pass, values] : passes) m.gpu_passes_ms[pass] = median(values);
+  }
+}
+
+// Frame statistics shared by both sources.
+void summariseFrames(const SceneInput& input, SceneResult& result) {
+  std::vector<double> hull_ms;
+  const double n = static_cast<double>(input.frames.size());
+  for (const auto& frame : input.frames) {
+    hull_ms.push_back(frame.hull_ms);
+    result.bytes_per_frame += static_cast<double>(frame.bytes) / n;
+    result.cells_visited += static_cast<double>(frame.hull_stats.cells_visited()) / n;
+    result.dense_grid_points += static_cast<double>(frame.hull_stats.grid_points) / n;
+    result.triangles += static_cast<double>(frame.mesh.triangleCount()) / n;
+  }
+  result.hull_ms = median(hull_ms);
+}
+
+// A dataset (recorded or imported): its cameras' images and masks, the
+// hull carved in its capture volume at its voxel size (options.voxel_size
+// when the dataset names none), through Draco. Its masks are the truth the
+// images are compared inside; there is no true surface.
+SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, SceneResult& result) {
+  auto dataset = capture::Dataset::open(dir);
+  if (!dataset.isOk()) throw std::invalid_argument(dataset.status().message());
+  SceneInput input;
+  std::vector<Camera> cameras;
+  for (const auto& [id, cam] : dataset->cameras()) {
+    if (!cam.calibration) throw std::invalid_argument(dir + ": camera " + std::to_string(id) + " has no calibration");
+    auto frame = dataset->readFrame(*cam.calibration);
+    if (!frame.isOk()) throw std::invalid_argument(frame.status().message());
+    protocol::Calibration calibration;
+    const protocol::Status decoded = protocol::decodeFrame(*frame, calibration);
+    if (!decoded.isOk()) throw std::invalid_argument(dir + ": " + decoded.message());
+    cameras.push_back(fromCalibration(calibration));
+  }
+  if (cameras.size() < 2) throw std::invalid_argument(dir + ": leave-one-camera-out needs at least 2 cameras");
+  input.reported = cameras;
+  const fusion::HullOptions hull_options = hullOptionsFor(*dataset, options.voxel_size);
+  // The frame ids every camera holds, in order.
+  std::map<uint64_t, std::vector<protocol::RecordInfo>> by_id;
+  for (const auto& [id, cam] : dataset->cameras()) {
+    for (const auto& r : cam.frames) by_id[r.frame_id].push_back(r);
+  }
+  for (const auto& [frame_id, records] : by_id) {
+    if (records.size() != cameras.size()) continue;
+    if (static_cast<int>(input.frames.size()) >= options.frames) break;
+    FrameData frame;
+    frame.frame_id = frame_id;
+    std::vector<fusion::HullView> hull_views;
+    for (size_t c = 0; c < records.size(); ++c) {
+      auto bytes = dataset->readFrame(records[c]);
+      if (!bytes.isOk()) throw std::invalid_argument(bytes.status().message());
+      auto images = capture::decodePodImages(*bytes, cameras[c]);
+      if (!images.isOk()) throw std::invalid_argument(dir + ": " + images.status().message());
+      frame.bytes += records[c].payload_length;
+      hull_views.push_back({cameras[c], images->mask, images->feather});
+      frame.views.push_back({cameras[c], images->color, images->mask});
+      frame.true_masks.push_back(std::move(images->mask));
+    }
+    const auto t0 = Clock::now();
+    const Mesh hull = fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
+    frame.hull_ms = msSince(t0);
+    auto draco = encodeDraco(hull, options.draco);
+    if (!draco.isOk()) throw std::runtime_error("Draco encoding failed: " + draco.status().message());
+    auto decoded = decodeDraco(draco->data(), draco->size());
+    if (!decoded.isOk()) throw std::runtime_error("Draco decoding failed: " + decoded.status().message());
+    frame.mesh = std::move(*decoded);
+    input.frames.push_back(std::move(frame));
+  }
+  if (input.frames.empty()) throw std::invalid_argument(dir + ": no frame id is held by every camera");
+  result.name = "dataset:" + fs::path(dir).lexically_normal().filename().string();
+  if (result.name == "dataset:") result.name = "dataset:" + fs::path(dir).lexically_normal().parent_path().filename().string();
+  result.stresses = dataset->metadata() ? dataset->metadata()->source : "a recording";
+  result.cameras = static_cast<int>(cameras.size());
+  result.chamfer_mm = -1;  // no true surface
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    result.silhouette_iou.push_back(silhouetteIoU(input.frames[0].mesh, cameras[i], input.frames[0].true_masks[i]));
+  }
+  return input;
+}
+
 }  // namespace
 
 std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
                                         const std::function<void(const std::string&)>& progress) {
   std::vector<const capture::ScenePreset*> presets;
-  if (options.scenes.empty()) {
+  if (options.scenes.empty() && options.datasets.empty()) {
     for (const auto& preset : capture::sceneLibrary()) presets.push_back(&preset);
   }
   for (const auto& name : options.scenes) {
@@ -115,19 +284,29 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
   if (options.geometry != "hull" && options.geometry != "truth") {
     throw std::invalid_argument("geometry '" + options.geometry + "': expected hull or truth");
   }
+  if (options.geometry == "truth" && !options.datasets.empty()) {
+    throw std::invalid_argument("--geometry truth needs a synthetic scene: a dataset has no true surface");
+  }
   render::VulkanContext context(options.device);
   std::vector<SceneResult> results;
+  for (const auto& dir : options.datasets) {
+    SceneResult result;
+    const SceneInput input = loadDatasetScene(options, dir, result);
+    summariseFrames(input, result);
+    evaluateModes(options, context, input, result, progress);
+    results.push_back(std::move(result));
+  }
   for (const capture::ScenePreset* preset : presets) {
     capture::SceneOptions scene_options = preset->scene;
     scene_options.frames_per_second = options.fps;
     const capture::SyntheticScene scene(scene_options);
     const int camera_count = options.cameras > 0 ? options.cameras : preset->cameras;
     const std::vector<Camera> truth = capture::SyntheticScene::cameraRig(camera_count, options.width, options.height);
-    std::vector<Camera> reported;
+    SceneInput input;
     std::vector<Image8> plates;
     for (const Camera& camera : truth) {
-      reported.push_back(capture::reportedCalibration(camera, preset->calibration_error_degrees,
-                                                      preset->calibration_error_metres, scene_options.seed));
+      input.reported.push_back(capture::reportedCalibration(camera, preset->calibration_error_degrees,
+                                                            preset->calibration_error_metres, scene_options.seed));
       plates.push_back(scene.backgroundPlate(camera));
     }
     SceneResult result;
@@ -135,99 +314,19 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     result.stresses = preset->stresses;
     result.cameras = camera_count;
     result.view_jump_degrees = preset->view_jump_degrees;
-    std::vector<FrameData> frames;
-    std::vector<double> hull_ms;
-    double triangles = 0;
     for (int f = 0; f < options.frames; ++f) {
-      frames.push_back(prepareFrame(options, scene, truth, reported, plates,
-                                    options.first_frame + static_cast<uint64_t>(f)));
-      hull_ms.push_back(frames.back().hull_ms);
-      result.bytes_per_frame += static_cast<double>(frames.back().bytes) / options.frames;
-      result.cells_visited += static_cast<double>(frames.back().hull_stats.cells_visited()) / options.frames;
-      result.dense_grid_points += static_cast<double>(frames.back().hull_stats.grid_points) / options.frames;
-      triangles += static_cast<double>(frames.back().mesh.triangleCount());
+      input.frames.push_back(prepareFrame(options, scene, truth, input.reported, plates,
+                                          options.first_frame + static_cast<uint64_t>(f)));
     }
-    result.hull_ms = median(hull_ms);
+    summariseFrames(input, result);
     {
       const Mesh truth_surface = scene.truthMesh(options.first_frame, 0.01);
-      result.chamfer_mm = 1000.0 * chamferDistance(frames[0].mesh, truth_surface);
+      result.chamfer_mm = 1000.0 * chamferDistance(input.frames[0].mesh, truth_surface);
       for (size_t i = 0; i < truth.size(); ++i) {
-        result.silhouette_iou.push_back(silhouetteIoU(frames[0].mesh, truth[i], frames[0].true_masks[i]));
+        result.silhouette_iou.push_back(silhouetteIoU(input.frames[0].mesh, truth[i], input.frames[0].true_masks[i]));
       }
     }
-    result.triangles = triangles / options.frames;
-    // A jump of this many cameras along the ring is the preset's angle.
-    const int jump = static_cast<int>(std::lround(preset->view_jump_degrees / 360.0 * camera_count));
-    const int jump_frame = jump != 0 ? options.frames / 2 : 0;
-    for (render::BlendMode mode : options.modes) {
-      const std::string mode_name = render::blendModeName(mode);
-      ModeResult& m = result.modes[mode_name];
-      std::vector<double> mesh_ms;
-      std::map<std::string, std::vector<double>> passes;
-      double flicker_sum = 0;
-      size_t flicker_pairs = 0;
-      const auto mode_start = Clock::now();
-      for (int held : heldOutCameras(camera_count, options.held_out_cameras)) {
-        render::Renderer renderer(context, options.width, options.height);
-        render::BlendSettings settings;
-        settings.mode = mode;
-        settings.frame_interval_s = 1.0 / options.fps;
-        settings.alpha = options.alpha;
-        settings.lambda = options.lambda;
-        settings.fields = options.fields;
-        std::optional<ErrorImage> previous;
-        for (int f = 0; f < options.frames; ++f) {
-          const FrameData& frame = frames[static_cast<size_t>(f)];
-          renderer.setMesh(frame.mesh);
-          // The held-out image takes no part at all: not in the blend, the
-          // vote, the seams or the global visibility.
-          std::vector<render::ViewImages> others = frame.views;
-          others.erase(others.begin() + held);
-          renderer.setViews(others);
-          const bool before_jump = f < jump_frame;
-          const int view = before_jump ? ((held + jump) % camera_count + camera_count) % camera_count : held;
-          const auto t0 = Clock::now();
-          const Image8 picture = renderer.render(reported[static_cast<size_t>(view)], settings);
-          mesh_ms.push_back(msSince(t0));
-          const auto times = renderer.fieldTimesMs();
-          for (size_t s = 0; s < times.size(); ++s) passes[render::TextureFieldPasses::stageNames()[s]].push_back(times[s]);
-          if (before_jump) continue;  // not at the held-out pose yet: nothing to compare with
-          const Image8& truth_color = frame.views[static_cast<size_t>(held)].color;
-          const Image8& truth_mask = frame.true_masks[static_cast<size_t>(held)];
-          const ImageQuality q = compareInMask(picture, truth_color, truth_mask);
-          m.rmse_percent += q.rmse_percent;
-          m.psnr_db += q.psnr_db;
-          m.ssim += q.ssim;
-          ++m.images;
-          ErrorImage error = errorImage(picture, truth_color, truth_mask);
-          if (previous) {
-            flicker_sum += flicker(*previous, error);
-            ++flicker_pairs;
-          }
-          previous = std::move(error);
-          if (options.save_images) {
-            const fs::path dir = fs::path(options.out_dir) / "images" / preset->name / mode_name;
-            const std::string stem = "frame" + std::to_string(frame.frame_id) + "_camera" + std::to_string(held);
-            saveImage(dir / (stem + "_rendered.png"), picture);
-            saveImage(dir / (stem + "_true.png"), truth_color);
-            saveImage(dir / (stem + "_mask.png"), truth_mask);
-          }
-        }
-        if (progress) {
-          progress(preset->name + " / " + mode_name + ": held out camera " + std::to_string(held) + " of " +
-                   std::to_string(camera_count) + ", " + std::to_string(options.frames) + " frames, " +
-                   std::to_string(static_cast<int>(msSince(mode_start) / 1000)) + " s so far");
-        }
-      }
-      if (m.images > 0) {
-        m.rmse_percent /= static_cast<double>(m.images);
-        m.psnr_db /= static_cast<double>(m.images);
-        m.ssim /= static_cast<double>(m.images);
-      }
-      m.flicker = flicker_pairs ? flicker_sum / static_cast<double>(flicker_pairs) : 0.0;
-      m.ms_per_new_mesh = median(mesh_ms);
-      for (const auto& [pass, values] : passes) m.gpu_passes_ms[pass] = median(values);
-    }
+    evaluateModes(options, context, input, result, progress);
     results.push_back(std::move(result));
   }
   return results;
@@ -241,7 +340,7 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
   s["hull_ms"] = scene.hull_ms;
   s["triangles"] = scene.triangles;
   s["bytes_per_frame"] = scene.bytes_per_frame;
-  s["hull"] = {{"chamfer_mm", scene.chamfer_mm},
+  s["hull"] = {{"chamfer_mm", scene.chamfer_mm >= 0 ? nlohmann::json(scene.chamfer_mm) : nlohmann::json()},
                {"silhouette_iou", scene.silhouette_iou},
                {"cells_visited", scene.cells_visited},
                {"dense_grid_points", scene.dense_grid_points}};
@@ -265,7 +364,7 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
   scene.bytes_per_frame = s.at("bytes_per_frame").get<double>();
   if (s.contains("hull")) {
     const auto& hull = s.at("hull");
-    scene.chamfer_mm = hull.value("chamfer_mm", 0.0);
+    scene.chamfer_mm = hull.contains("chamfer_mm") && hull["chamfer_mm"].is_number() ? hull["chamfer_mm"].get<double>() : -1.0;
     scene.silhouette_iou = hull.value("silhouette_iou", std::vector<double>{});
     scene.cells_visited = hull.value("cells_visited", 0.0);
     scene.dense_grid_points = hull.value("dense_grid_points", 0.0);
@@ -363,9 +462,11 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       mean_iou += v / static_cast<double>(scene.silhouette_iou.size());
       worst_iou = std::min(worst_iou, v);
     }
-    std::snprintf(cell, sizeof(cell), "| %s | %.0f | %.1f | %.0f | %.0f | %.1f | %.3f | %.3f |\n", scene.name.c_str(),
-                  scene.triangles, scene.hull_ms, scene.cells_visited, scene.dense_grid_points, scene.chamfer_mm,
-                  mean_iou, worst_iou);
+    char chamfer[32] = "n/a (no true surface)";
+    if (scene.chamfer_mm >= 0) std::snprintf(chamfer, sizeof(chamfer), "%.1f", scene.chamfer_mm);
+    std::snprintf(cell, sizeof(cell), "| %s | %.0f | %.1f | %.0f | %.0f | %s | %.3f | %.3f |\n", scene.name.c_str(),
+                  scene.triangles, scene.hull_ms, scene.cells_visited, scene.dense_grid_points, chamfer, mean_iou,
+                  worst_iou);
     md << cell;
   }
   md << "\n"

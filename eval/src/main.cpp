@@ -17,6 +17,8 @@ int main(int argc, char** argv) {
   app.add_option("--modes", modes, "blending modes (default: all): normal, holoportation, montage4d")
       ->delimiter(',')
       ->check(CLI::IsMember(render::blendModeNames()));
+  app.add_option("--dataset", options.datasets, "dataset folder(s), recorded or imported, evaluated like scenes")
+      ->delimiter(',');
   app.add_option("--frames", options.frames, "frames per scene")->check(CLI::Range(1, 10000));
   app.add_option("--first-frame", options.first_frame, "first frame id (scene time = id / 10 s)");
   app.add_option("--size", size, "camera and output size WxH");

@@ -15,7 +15,9 @@ int main(int argc, char** argv) {
   app.add_option("--pods", options.pods, "cameras expected (1..16)")->check(CLI::Range(1, 16));
   app.add_option("--sync-deadline-ms", options.sync_deadline_ms, "wait this long for a frame's slowest pod")
       ->check(CLI::Range(1.0, 10000.0));
-  app.add_option("--voxel", options.fusion.hull.voxel_size, "hull voxel size in metres")->check(CLI::Range(0.002, 0.5));
+  app.add_option("--voxel", options.fusion.hull.voxel_size, "hull voxel size in metres")->check(CLI::Range(0.0001, 0.5));
+  std::string volume;
+  app.add_option("--volume", volume, "capture volume min and max corners x0,y0,z0,x1,y1,z1 in metres (a dataset's)");
   app.add_option("--draco-bits", options.fusion.draco.position_bits, "Draco position quantisation bits")
       ->check(CLI::Range(4, 24));
   app.add_option("--draco-speed", options.fusion.draco.speed, "Draco speed 0 (small) .. 10 (fast)")->check(CLI::Range(0, 10));
@@ -37,6 +39,16 @@ int main(int argc, char** argv) {
   app.add_flag("--exit-when-pods-done", options.exit_when_pods_done,
                "stop once every pod has left and its frames are fused and delivered (end of a replay)");
   CLI11_PARSE(app, argc, argv);
+  if (!volume.empty()) {
+    double v[6];
+    char tail = 0;
+    if (std::sscanf(volume.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &tail) != 6 ||
+        !(v[0] < v[3] && v[1] < v[4] && v[2] < v[5])) {
+      std::fprintf(stderr, "--volume '%s': expected x0,y0,z0,x1,y1,z1 with each min below its max\n", volume.c_str());
+      return 2;
+    }
+    fusion::setCaptureVolume(options.fusion.hull, glm::dvec3(v[0], v[1], v[2]), glm::dvec3(v[3], v[4], v[5]));
+  }
   if (options.record_fused && options.record_dir.empty()) {
     std::fprintf(stderr, "--record-fused needs --record DIR\n");
     return 2;

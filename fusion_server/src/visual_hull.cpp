@@ -167,6 +167,12 @@ ScalarGrid sampleHierarchically(const glm::dvec3& lo, double s, const glm::ivec3
 
 }  // namespace
 
+void setCaptureVolume(HullOptions& options, const glm::dvec3& volume_min, const glm::dvec3& volume_max) {
+  options.volume_min = volume_min;
+  options.volume_max = volume_max;
+  options.valid_region_step = std::min(options.valid_region_step, glm::length(volume_max - volume_min) / 40);
+}
+
 std::vector<float> silhouetteSignedDistance(const HullView& view) {
   const int w = static_cast<int>(view.mask.width), h = static_cast<int>(view.mask.height);
   cv::Mat mask(h, w, CV_8UC1, const_cast<uint8_t*>(view.mask.pixels.data()));

@@ -77,6 +77,7 @@ const char* recordKindName(uint16_t kind) {
     case RecordKind::kMeshFrame: return "mesh_frame";
     case RecordKind::kTextureBundle: return "texture_bundle";
     case RecordKind::kStats: return "stats";
+    case RecordKind::kDatasetInfo: return "dataset_info";
     case RecordKind::kIndex: return "index";
   }
   return "unknown";

@@ -34,8 +34,43 @@ struct PendingBundle {
   uint64_t bytes = 0;
 };
 
-// The user camera: orbiting the subject at the pods' mean distance and
-// height, or sitting exactly at a pod camera.
+// The axis the pods stand around: the normal of the plane through their
+// centres (any order: every pair's cross product is parallel to it), with
+// the sign most pods' own up direction agrees with; the pods' mean up
+// direction when they do not span a plane (one or two pods, a line).
+glm::dvec3 ringAxis(const std::map<uint32_t, Camera>& cameras) {
+  glm::dvec3 mean(0.0), up_sum(0.0);
+  for (const auto& [id, cam] : cameras) {
+    mean += cam.center();
+    up_sum += -(glm::transpose(cam.rotation) * glm::dvec3(0, 1, 0));  // image up in the world
+  }
+  mean /= static_cast<double>(cameras.size());
+  glm::dvec3 axis(0.0), reference(0.0);
+  double scale = 0;
+  for (auto a = cameras.begin(); a != cameras.end(); ++a) {
+    scale = std::max(scale, glm::length(a->second.center() - mean));
+    for (auto b = std::next(a); b != cameras.end(); ++b) {
+      glm::dvec3 n = glm::cross(a->second.center() - mean, b->second.center() - mean);
+      if (glm::length(reference) == 0 && glm::length(n) > 0) reference = n;
+      axis += glm::dot(n, reference) < 0 ? -n : n;
+    }
+  }
+  if (!(glm::length(axis) > 1e-9 * scale * scale)) {
+    return glm::length(up_sum) > 1e-9 ? glm::normalize(up_sum) : glm::dvec3(0, 1, 0);
+  }
+  axis = glm::normalize(axis);
+  // Pods may be rotated 180 degrees in their image plane; the majority
+  // decides which way is up.
+  int agree = 0;
+  for (const auto& [id, cam] : cameras) {
+    agree += glm::dot(axis, -(glm::transpose(cam.rotation) * glm::dvec3(0, 1, 0))) >= 0 ? 1 : -1;
+  }
+  return agree >= 0 ? axis : -axis;
+}
+
+// The user camera: orbiting the subject around the pods' ring axis at
+// their mean distance and height, with their mean field of view, or sitting
+// exactly at a pod camera.
 std::optional<Camera> userCamera(const ClientOptions& options, const std::map<uint32_t, Camera>& cameras,
                                  const Bounds& bounds, size_t frame_index) {
   if (cameras.empty()) return std::nullopt;
@@ -46,17 +81,26 @@ std::optional<Camera> userCamera(const ClientOptions& options, const std::map<ui
     return it->second;
   }
   const glm::dvec3 target = 0.5 * (glm::dvec3(bounds.min) + glm::dvec3(bounds.max));
-  double radius = 0, height = 0;
+  const glm::dvec3 up = ringAxis(cameras);
+  // In-plane basis: the world's z (else x) projected onto the ring plane.
+  glm::dvec3 e1 = glm::dvec3(0, 0, 1) - up * up.z;
+  if (glm::length(e1) < 0.1) e1 = glm::dvec3(1, 0, 0) - up * up.x;
+  e1 = glm::normalize(e1);
+  const glm::dvec3 e2 = glm::cross(up, e1);
+  double radius = 0, height = 0, fov_x = 0;
   for (const auto& [id, cam] : cameras) {
-    const glm::dvec3 c = cam.center();
-    radius += std::hypot(c.x - target.x, c.z - target.z);
-    height += c.y;
+    const glm::dvec3 offset = cam.center() - target;
+    height += glm::dot(offset, up);
+    radius += glm::length(offset - up * glm::dot(offset, up));
+    fov_x += 2.0 * std::atan(0.5 * cam.width / cam.fx) * 180.0 / std::numbers::pi;
   }
-  radius /= static_cast<double>(cameras.size());
-  height /= static_cast<double>(cameras.size());
+  const double n = static_cast<double>(cameras.size());
+  radius /= n;
+  height /= n;
+  fov_x /= n;
   const double angle = options.orbit_degrees_per_frame * static_cast<double>(frame_index) * std::numbers::pi / 180.0;
-  const glm::dvec3 eye(target.x + radius * std::sin(angle), height, target.z + radius * std::cos(angle));
-  return lookAtCamera(0, eye, target, glm::dvec3(0, 1, 0), options.width, options.height, 48.0);
+  const glm::dvec3 eye = target + up * height + radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
+  return lookAtCamera(0, eye, target, up, options.width, options.height, fov_x);
 }
 
 

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -266,6 +267,73 @@ TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
                                          ": the calibration record at byte 32: payload CRC32C mismatch"),
             std::string::npos)
       << readFile(out / "d.log");
+  fs::remove_all(out);
+}
+
+// The small real capture the team develops against (not in the
+// repository: skipped when absent).
+TEST(RealCapture, TheMiddleburyTempleImportsReplaysAndEvaluates) {
+  const char* env = std::getenv("HOLOFUSE_DATASETS");
+  const fs::path src = fs::path(env != nullptr ? env : HOLOFUSE_SHARED_DATASETS) / "middlebury-temple-colmap";
+  if (!fs::exists(src / "sparse" / "cameras.txt")) {
+    GTEST_SKIP() << "no real capture at " << src << " (../shared/datasets is not part of the repository)";
+  }
+  const fs::path out = freshDir("temple");
+  const fs::path dataset_dir = out / "temple";
+  pid_t p = spawn({kBin + "/holofuse_dataset", "import", src.string(), "--format", "colmap", "--out",
+                   dataset_dir.string()},
+                  out / "import.log");
+  ASSERT_EQ(waitExit(p, 120), 0) << readFile(out / "import.log");
+  EXPECT_NE(readFile(out / "import.log").find("imported 16 camera(s) x 1 frame(s)"), std::string::npos)
+      << readFile(out / "import.log");
+  auto dataset = capture::Dataset::open(dataset_dir.string());
+  ASSERT_TRUE(dataset.isOk());
+  ASSERT_TRUE(dataset->metadata().has_value());
+  // The capture volume holds the benchmark's tight bounding box (its
+  // ORIGINAL_README), and is not much larger.
+  const glm::dvec3 tight_min(-0.073568, 0.021728, -0.012445), tight_max(0.028855, 0.181892, 0.062736);
+  const auto& m = *dataset->metadata();
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_LE(m.volume_min[k], tight_min[k]) << "axis " << k;
+    EXPECT_GE(m.volume_max[k], tight_max[k]) << "axis " << k;
+    EXPECT_LT(m.volume_max[k] - m.volume_min[k], 1.5 * (tight_max[k] - tight_min[k])) << "axis " << k;
+  }
+
+  // The hull from the segmented masks projects back onto each mask.
+  p = spawn({kBin + "/holofuse_dataset", "info", dataset_dir.string()}, out / "info.log");
+  ASSERT_EQ(waitExit(p, 120), 0) << readFile(out / "info.log");
+  std::istringstream info(readFile(out / "info.log"));
+  int rows = 0;
+  for (std::string line; std::getline(info, line);) {
+    std::istringstream fields(line);
+    std::string id, size, frames, mb, unit;
+    double iou = 0;
+    if (!(fields >> id >> size >> frames >> mb >> unit >> iou) || unit != "MB") continue;
+    ++rows;
+    EXPECT_GE(iou, 0.9) << line;
+  }
+  EXPECT_EQ(rows, 16) << readFile(out / "info.log");
+  EXPECT_TRUE(fs::exists(dataset_dir / "contact_sheet.png"));
+
+  // A still replays as a loop the client orbits.
+  p = spawn({kBin + "/holofuse_loop", "--replay", dataset_dir.string(), "--frames", "3", "--out",
+             (out / "replay").string()},
+            out / "replay.log");
+  ASSERT_EQ(waitExit(p, 240), 0) << readFile(out / "replay.log");
+  EXPECT_EQ(readJson(out / "replay" / "report.json")["frames_rendered"].get<int>(), 3);
+
+  // Leave-one-camera-out on the real images.
+  p = spawn({kBin + "/holofuse_eval", "--dataset", dataset_dir.string(), "--held-out", "2", "--modes",
+             "normal,montage4d", "--out", (out / "eval").string()},
+            out / "eval.log");
+  ASSERT_EQ(waitExit(p, 240), 0) << readFile(out / "eval.log");
+  const auto quality = readJson(out / "eval" / "quality.json");
+  const auto& scene = quality["scenes"]["dataset:temple"];
+  for (const char* mode : {"normal", "montage4d"}) {
+    EXPECT_GT(scene["modes"][mode]["psnr_db"].get<double>(), 12.0) << mode;  // measured 14.5-15.3 dB
+    EXPECT_GT(scene["modes"][mode]["images"].get<int>(), 0) << mode;
+  }
+  EXPECT_TRUE(scene["hull"]["chamfer_mm"].is_null());
   fs::remove_all(out);
 }
 

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/camera.h"
+#include "common/dataset_metadata.h"
 #include "common/image.h"
 #include "protocol/frame.h"
 #include "protocol/messages.h"
@@ -44,6 +45,8 @@ class Dataset {
   uint64_t lastTimeNs() const { return last_time_; }
   // Distinct frame ids over every camera.
   size_t frameIds() const { return frame_ids_; }
+  // The dataset's own description (imports and newer recordings).
+  const std::optional<DatasetMetadata>& metadata() const { return metadata_; }
 
   // Reads a record and parses it as a whole, checked protocol frame.
   protocol::StatusOr<protocol::Frame> readFrame(const protocol::RecordInfo& record) const;
@@ -53,6 +56,7 @@ class Dataset {
   std::map<uint32_t, DatasetCamera> cameras_;
   uint64_t first_id_ = 0, last_id_ = 0, first_time_ = 0, last_time_ = 0;
   size_t frame_ids_ = 0;
+  std::optional<DatasetMetadata> metadata_;
 };
 
 // A recorded PodFrame's images, decompressed and placed back into the

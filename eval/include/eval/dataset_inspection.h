@@ -8,9 +8,15 @@
 #include <string>
 #include <vector>
 
+#include "capture_node/dataset.h"
+#include "fusion_server/visual_hull.h"
 #include "protocol/status.h"
 
 namespace holofuse::eval {
+
+// The hull settings a dataset asks for (its capture volume and voxel
+// size), else the defaults with fallback_voxel.
+fusion::HullOptions hullOptionsFor(const capture::Dataset& dataset, double fallback_voxel);
 
 enum class VerifyVerdict {
   kClean = 0,            // every record checks and the index is in place
@@ -43,8 +49,10 @@ struct DatasetSummary {
 };
 
 // Summarises a dataset and writes the contact sheet PNG (every camera, its
-// mask dimmed outside, the hull's silhouette outlined) to sheet_png.
+// mask dimmed outside, the hull's silhouette outlined) to sheet_png. The
+// hull is carved in the dataset's capture volume at its voxel size (or at
+// voxel_size when positive).
 protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::string& sheet_png,
-                                                   double voxel_size = 0.02);
+                                                   double voxel_size = 0.0);
 
 }  // namespace holofuse::eval

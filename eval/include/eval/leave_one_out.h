@@ -26,7 +26,10 @@
 namespace holofuse::eval {
 
 struct EvalOptions {
-  std::vector<std::string> scenes;  // empty: the whole library
+  std::vector<std::string> scenes;  // empty: the whole library (unless datasets are given)
+  // Dataset folders (recorded or imported), evaluated like scenes: their
+  // masks are the truth the images are compared inside.
+  std::vector<std::string> datasets;
   std::vector<render::BlendMode> modes = {render::BlendMode::kNormal, render::BlendMode::kHoloportation,
                                           render::BlendMode::kMontage4D};
   int frames = 8;
@@ -68,7 +71,7 @@ struct SceneResult {
   double bytes_per_frame = 0;  // mean, server to client: Draco mesh plus every camera's compressed images
   // The geometry against the truth, on the first frame (hull as decoded by
   // the client; truth by marching cubes at 1 cm).
-  double chamfer_mm = 0;
+  double chamfer_mm = 0;  // negative: no true surface (datasets)
   std::vector<double> silhouette_iou;  // per camera
   double cells_visited = 0;            // mean per frame (eval/visual_hull.h's count)
   double dense_grid_points = 0;        // what the dense grid would have sampled

@@ -34,6 +34,10 @@ struct HullOptions {
   int hierarchy_levels = 4;
 };
 
+// Sets the capture volume and scales the valid-region search to it (40
+// steps across its diagonal at most).
+void setCaptureVolume(HullOptions& options, const glm::dvec3& volume_min, const glm::dvec3& volume_max);
+
 struct HullStats {
   glm::dvec3 region_min{0.0}, region_max{0.0};
   size_t grid_points = 0;       // of the fine grid over the valid region

@@ -17,7 +17,7 @@ namespace holofuse::protocol {
 class OutgoingFrame;
 
 constexpr uint16_t kRecordFormatMajor = 1;
-constexpr uint16_t kRecordFormatMinor = 0;
+constexpr uint16_t kRecordFormatMinor = 1;
 constexpr size_t kRecordFileHeaderSize = 32;
 constexpr size_t kRecordHeaderSize = 40;
 constexpr size_t kRecordTailSize = 16;
@@ -30,6 +30,7 @@ enum class RecordKind : uint16_t {
   kMeshFrame = 3,
   kTextureBundle = 4,
   kStats = 5,
+  kDatasetInfo = 6,  // JSON: common/dataset_metadata.h
   kIndex = 15,
 };
 const char* recordKindName(uint16_t kind);

@@ -1,0 +1,55 @@
+// Turns a real capture (CaptureDescription) into a holofuse dataset that
+// replays like any recording: per camera a Calibration, per frame a
+// PodFrame made the way a pod makes one (mask, feather map, foreground
+// rectangle, LZ4), plus the dataset's metadata (capture volume, voxel size,
+// camera names). Images are read (PNG, JPEG; grey, RGB or RGBA; 8 or 16
+// bit) and undistorted to the pinhole model; masks are the source's, or
+// segmented when missing. Everything is read and checked before a byte is
+// written, and the dataset appears under its name only when complete.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "capture_node/capture_formats.h"
+#include "common/image.h"
+#include "protocol/status.h"
+
+namespace holofuse::capture {
+
+struct ImportOptions {
+  // Segmentation when a camera has no mask: background subtraction against
+  // its plate when there is one, else a threshold on brightness (the
+  // largest of R, G, B over 255): `threshold` in (0, 1), or Otsu's when
+  // unset; dark_subject flips it for a dark subject on a light background.
+  std::optional<double> threshold;
+  bool dark_subject = false;
+  int close_px = 5;   // morphological closing radius after thresholding
+  std::optional<double> voxel_size;  // default: the capture volume's longest side / 96
+  int crop_margin = 8;  // as pods send: the foreground rectangle grown by this
+};
+
+struct ImportProgress {
+  size_t done = 0, total = 0;  // images
+  double megabytes = 0;
+  double seconds = 0;
+};
+
+struct ImportSummary {
+  size_t cameras = 0, frames = 0;
+  double megabytes = 0;
+  size_t masks_given = 0, masks_segmented = 0;
+  std::string volume;  // "min (x, y, z) max (x, y, z), voxel v"
+};
+
+// Brightness threshold segmentation with clean-up (open 1 px, close
+// close_px, largest connected component, holes filled): 255 foreground.
+Image8 segmentByBrightness(const Image8& color, const ImportOptions& options);
+
+// Writes the dataset into out_dir (which must not exist or be empty).
+protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& capture, const std::string& out_dir,
+                                                const ImportOptions& options,
+                                                const std::function<void(const ImportProgress&)>& progress = {});
+
+}  // namespace holofuse::capture

@@ -1,0 +1,423 @@
+#include "capture_node/dataset_import.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "capture_node/dataset.h"
+#include "capture_node/pod.h"
+#include "capture_node/segmentation.h"
+#include "common/dataset_metadata.h"
+#include "protocol/connection.h"
+#include "protocol/messages.h"
+#include "protocol/record_file.h"
+
+namespace holofuse::capture {
+
+using protocol::Status;
+using protocol::StatusCode;
+namespace fs = std::filesystem;
+
+namespace {
+
+cv::Mat wrap(Image8& image) {
+  return cv::Mat(static_cast<int>(image.height), static_cast<int>(image.width),
+                 CV_8UC(static_cast<int>(image.channels)), image.pixels.data());
+}
+
+Image8 fromMat(const cv::Mat& m) {
+  Image8 out(static_cast<uint32_t>(m.cols), static_cast<uint32_t>(m.rows), static_cast<uint32_t>(m.channels()));
+  cv::Mat target = wrap(out);
+  m.copyTo(target);
+  return out;
+}
+
+// An image file as 8-bit RGB, and its alpha as a mask when it has one.
+struct LoadedImage {
+  Image8 color;
+  std::optional<Image8> alpha_mask;
+};
+
+protocol::StatusOr<cv::Mat> readAny(const std::string& file, const Camera& camera, const char* what) {
+  if (!fs::exists(file)) return Status(StatusCode::kIoError, file + ": " + what + " file is missing");
+  cv::Mat m = cv::imread(file, cv::IMREAD_UNCHANGED);
+  if (m.empty()) return Status(StatusCode::kMalformed, file + ": cannot decode the " + what + " (corrupt, or not a PNG or JPEG)");
+  if (m.cols != static_cast<int>(camera.width) || m.rows != static_cast<int>(camera.height)) {
+    return Status(StatusCode::kMalformed, file + ": the " + std::string(what) + " is " + std::to_string(m.cols) + "x" +
+                                              std::to_string(m.rows) + ", the calibration of camera " +
+                                              std::to_string(camera.id) + " says " + std::to_string(camera.width) +
+                                              "x" + std::to_string(camera.height));
+  }
+  if (m.depth() == CV_16U) m.convertTo(m, CV_8U, 1.0 / 257.0);
+  if (m.depth() != CV_8U) return Status(StatusCode::kMalformed, file + ": only 8- and 16-bit images are supported");
+  return m;
+}
+
+protocol::StatusOr<LoadedImage> readColor(const std::string& file, const Camera& camera) {
+  auto m = readAny(file, camera, "image");
+  if (!m.isOk()) return m.status();
+  LoadedImage out;
+  cv::Mat rgb;
+  switch (m->channels()) {
+    case 1: cv::cvtColor(*m, rgb, cv::COLOR_GRAY2RGB); break;
+    case 3: cv::cvtColor(*m, rgb, cv::COLOR_BGR2RGB); break;
+    case 4: {
+      // RGBA (NeRF's synthetic sets): alpha is the mask, colour over black.
+      std::vector<cv::Mat> channels;
+      cv::split(*m, channels);
+      cv::Mat alpha = channels[3];
+      cv::cvtColor(*m, rgb, cv::COLOR_BGRA2RGB);
+      cv::Mat alpha3;
+      cv::cvtColor(alpha, alpha3, cv::COLOR_GRAY2RGB);
+      cv::multiply(rgb, alpha3, rgb, 1.0 / 255.0);
+      cv::Mat mask;
+      cv::threshold(alpha, mask, 127, 255, cv::THRESH_BINARY);
+      out.alpha_mask = fromMat(mask);
+      break;
+    }
+    default: return Status(StatusCode::kMalformed, file + ": " + std::to_string(m->channels()) + " channels");
+  }
+  out.color = fromMat(rgb);
+  return out;
+}
+
+// A mask file: 8-bit grey or RGB(A), zero meaning background (COLMAP's
+// convention), non-zero in any colour channel meaning the subject.
+protocol::StatusOr<Image8> readMask(const std::string& file, const Camera& camera) {
+  auto m = readAny(file, camera, "mask");
+  if (!m.isOk()) return m.status();
+  cv::Mat grey;
+  if (m->channels() == 1) {
+    grey = *m;
+  } else {
+    std::vector<cv::Mat> channels;
+    cv::split(*m, channels);
+    grey = channels[0] | channels[1] | channels[2];  // alpha is not a colour
+  }
+  cv::Mat mask;
+  cv::threshold(grey, mask, 0, 255, cv::THRESH_BINARY);
+  return fromMat(mask);
+}
+
+// Pinhole remap: for each pixel of the undistorted image (same K, skew
+// included), where Camera::project's distortion model puts it in the
+// source. Colour bilinear, masks nearest.
+struct Undistortion {
+  cv::Mat map_x, map_y;
+  static std::optional<Undistortion> of(const Camera& c) {
+    bool any = false;
+    for (double k : c.distortion) any = any || k != 0.0;
+    if (!any) return std::nullopt;
+    Camera pinhole = c;
+    pinhole.distortion.clear();
+    Undistortion u;
+    u.map_x.create(static_cast<int>(c.height), static_cast<int>(c.width), CV_32FC1);
+    u.map_y.create(static_cast<int>(c.height), static_cast<int>(c.width), CV_32FC1);
+    // A point on the ray through each destination pixel centre, projected
+    // with the distortion: the source position.
+    for (uint32_t y = 0; y < c.height; ++y) {
+      for (uint32_t x = 0; x < c.width; ++x) {
+        const glm::dvec3 world = pinhole.center() + pinhole.rayDirection(x + 0.5, y + 0.5);
+        const auto p = c.project(world);
+        u.map_x.at<float>(static_cast<int>(y), static_cast<int>(x)) = p ? static_cast<float>(p->x - 0.5) : -1.0f;
+        u.map_y.at<float>(static_cast<int>(y), static_cast<int>(x)) = p ? static_cast<float>(p->y - 0.5) : -1.0f;
+      }
+    }
+    return u;
+  }
+  Image8 apply(Image8 image, int interpolation) const {
+    cv::Mat out;
+    cv::remap(wrap(image), out, map_x, map_y, interpolation, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+    return fromMat(out);
+  }
+};
+
+// Everything about one image of one camera, ready to encode.
+struct PreparedView {
+  Image8 color, mask;
+  bool mask_given = false;
+};
+
+// A box around the subject: points of a coarse grid inside the region every
+// camera sees that project inside every camera's (dilated) mask.
+struct Box {
+  glm::dvec3 min{0.0}, max{0.0};
+};
+
+protocol::StatusOr<Box> estimateCaptureVolume(const std::vector<Camera>& cameras, const std::vector<Image8>& masks) {
+  // The point nearest to every optical axis (least squares).
+  glm::dmat3 a(0.0);
+  glm::dvec3 b(0.0);
+  for (const auto& c : cameras) {
+    const glm::dvec3 d = c.forward(), o = c.center();
+    const glm::dmat3 p = glm::dmat3(1.0) - glm::outerProduct(d, d);
+    a += p;
+    b += p * o;
+  }
+  if (std::abs(glm::determinant(a)) < 1e-12) {
+    return Status(StatusCode::kMalformed, "the cameras' optical axes are parallel: cannot place the capture volume");
+  }
+  const glm::dvec3 centre = glm::inverse(a) * b;
+  // The sphere every camera sees: its radius at the centre's distance.
+  double radius = 1e300;
+  for (const auto& c : cameras) {
+    const double distance = glm::length(c.center() - centre);
+    radius = std::min(radius, distance * std::min(c.width / (2.0 * c.fx), c.height / (2.0 * c.fy)));
+  }
+  radius *= 1.5;  // the subject may reach past what all cameras see at once
+  std::vector<cv::Mat> dilated;
+  for (const auto& m : masks) {
+    Image8 copy = m;
+    cv::Mat d;
+    cv::dilate(wrap(copy), d, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(9, 9)));
+    dilated.push_back(d);
+  }
+  constexpr int kSteps = 96;
+  const double step = 2 * radius / kSteps;
+  Box box{glm::dvec3(1e300), glm::dvec3(-1e300)};
+  size_t inside = 0;
+  for (int i = 0; i <= kSteps; ++i) {
+    for (int j = 0; j <= kSteps; ++j) {
+      for (int k = 0; k <= kSteps; ++k) {
+        const glm::dvec3 p = centre - glm::dvec3(radius) + step * glm::dvec3(i, j, k);
+        bool all = true;
+        for (size_t c = 0; c < cameras.size() && all; ++c) {
+          const auto q = cameras[c].project(p);
+          all = q && q->x >= 0 && q->y >= 0 && q->x < cameras[c].width && q->y < cameras[c].height &&
+                dilated[c].at<uint8_t>(static_cast<int>(q->y), static_cast<int>(q->x)) != 0;
+        }
+        if (!all) continue;
+        ++inside;
+        box.min = glm::min(box.min, p);
+        box.max = glm::max(box.max, p);
+      }
+    }
+  }
+  if (inside == 0) {
+    return Status(StatusCode::kMalformed,
+                  "no point near the cameras' common focus projects into every camera's mask: the masks or the "
+                  "calibration do not agree");
+  }
+  // Two grid steps of margin: the hull's surface lies inside.
+  box.min -= glm::dvec3(2 * step);
+  box.max += glm::dvec3(2 * step);
+  return box;
+}
+
+std::string formatVec(const glm::dvec3& v) {
+  char text[96];
+  std::snprintf(text, sizeof(text), "(%.4f, %.4f, %.4f)", v.x, v.y, v.z);
+  return text;
+}
+
+}  // namespace
+
+Image8 segmentByBrightness(const Image8& color, const ImportOptions& options) {
+  Image8 copy = color;
+  std::vector<cv::Mat> channels;
+  cv::split(wrap(copy), channels);
+  cv::Mat brightness = cv::max(cv::max(channels[0], channels[1]), channels[2]);
+  cv::Mat mask;
+  const int type = options.dark_subject ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY;
+  if (options.threshold) {
+    cv::threshold(brightness, mask, *options.threshold * 255.0, 255, type);
+  } else {
+    cv::threshold(brightness, mask, 0, 255, type | cv::THRESH_OTSU);
+  }
+  cv::morphologyEx(mask, mask, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(3, 3)));
+  if (options.close_px > 0) {
+    const int k = 2 * options.close_px + 1;
+    cv::morphologyEx(mask, mask, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k)));
+  }
+  // The subject is the largest connected component, holes filled.
+  cv::Mat labels, stats, centroids;
+  const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8);
+  int best = 0, best_area = 0;
+  for (int l = 1; l < count; ++l) {
+    if (stats.at<int>(l, cv::CC_STAT_AREA) > best_area) {
+      best_area = stats.at<int>(l, cv::CC_STAT_AREA);
+      best = l;
+    }
+  }
+  cv::Mat subject = best > 0 ? (labels == best) : cv::Mat::zeros(mask.size(), CV_8UC1);
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(subject.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+  cv::Mat filled = cv::Mat::zeros(mask.size(), CV_8UC1);
+  cv::drawContours(filled, contours, -1, cv::Scalar(255), cv::FILLED);
+  return fromMat(filled);
+}
+
+protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& capture, const std::string& out_dir,
+                                                const ImportOptions& options,
+                                                const std::function<void(const ImportProgress&)>& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  if (capture.cameras.empty() || capture.frames.empty()) {
+    return Status(StatusCode::kMalformed, capture.source + ": no camera or no frame to import");
+  }
+  if (capture.cameras.size() > 16) {
+    return Status(StatusCode::kTooLarge, capture.source + ": " + std::to_string(capture.cameras.size()) +
+                                             " cameras; the loop serves at most 16");
+  }
+  if (fs::exists(out_dir) && !(fs::is_directory(out_dir) && fs::is_empty(out_dir))) {
+    return Status(StatusCode::kIoError, out_dir + ": exists and is not empty; choose a new folder");
+  }
+  // Every file named must exist before any work (the images are checked
+  // when read; a missing one later still leaves no dataset behind).
+  for (size_t f = 0; f < capture.frames.size(); ++f) {
+    const CaptureFrame& frame = capture.frames[f];
+    if (frame.images.size() != capture.cameras.size()) {
+      return Status(StatusCode::kMalformed, capture.source + ": frame " + std::to_string(f) + " has " +
+                                                std::to_string(frame.images.size()) + " images for " +
+                                                std::to_string(capture.cameras.size()) + " cameras");
+    }
+    for (size_t c = 0; c < frame.images.size(); ++c) {
+      if (!fs::exists(frame.images[c])) {
+        return Status(StatusCode::kIoError, frame.images[c] + ": image of camera \"" + capture.cameras[c].name +
+                                                "\" in frame " + std::to_string(f) + " is missing");
+      }
+      if (frame.masks[c] && !fs::exists(*frame.masks[c])) {
+        return Status(StatusCode::kIoError, *frame.masks[c] + ": mask file is missing");
+      }
+    }
+  }
+  std::vector<Camera> cameras;
+  std::vector<std::optional<Undistortion>> undistort;
+  std::vector<std::optional<Image8>> plates;
+  for (const auto& c : capture.cameras) {
+    undistort.push_back(Undistortion::of(c.camera));
+    Camera pinhole = c.camera;
+    pinhole.distortion.clear();
+    cameras.push_back(pinhole);
+    if (c.background) {
+      auto plate = readColor(*c.background, c.camera);
+      if (!plate.isOk()) return plate.status();
+      plates.push_back(undistort.back() ? undistort.back()->apply(plate->color, cv::INTER_LINEAR) : plate->color);
+    } else {
+      plates.push_back(std::nullopt);
+    }
+  }
+
+  ImportSummary summary;
+  summary.cameras = cameras.size();
+  summary.frames = capture.frames.size();
+  ImportProgress status;
+  status.total = capture.cameras.size() * capture.frames.size();
+  auto prepare = [&](size_t f, size_t c) -> protocol::StatusOr<PreparedView> {
+    const CaptureFrame& frame = capture.frames[f];
+    auto color = readColor(frame.images[c], capture.cameras[c].camera);
+    if (!color.isOk()) return color.status();
+    PreparedView view;
+    std::optional<Image8> mask;
+    if (frame.masks[c]) {
+      auto read = readMask(*frame.masks[c], capture.cameras[c].camera);
+      if (!read.isOk()) return read.status();
+      mask = std::move(*read);
+    } else if (color->alpha_mask) {
+      mask = std::move(color->alpha_mask);
+    }
+    view.mask_given = mask.has_value();
+    view.color = undistort[c] ? undistort[c]->apply(std::move(color->color), cv::INTER_LINEAR) : std::move(color->color);
+    if (mask) {
+      view.mask = undistort[c] ? undistort[c]->apply(std::move(*mask), cv::INTER_NEAREST) : std::move(*mask);
+    } else if (plates[c]) {
+      view.mask = segmentForeground(view.color, *plates[c]);
+    } else {
+      view.mask = segmentByBrightness(view.color, options);
+    }
+    return view;
+  };
+
+  // The first frame decides the capture volume, written before any frame.
+  std::vector<PreparedView> first;
+  std::vector<Image8> first_masks;
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    auto view = prepare(0, c);
+    if (!view.isOk()) return view.status();
+    first_masks.push_back(view->mask);
+    first.push_back(std::move(*view));
+  }
+  auto box = estimateCaptureVolume(cameras, first_masks);
+  if (!box.isOk()) return Status(box.status().code(), capture.source + ": " + box.status().message());
+  const glm::dvec3 extent = box->max - box->min;
+  DatasetMetadata metadata;
+  metadata.source = capture.source;
+  metadata.volume_min = box->min;
+  metadata.volume_max = box->max;
+  metadata.voxel_size = options.voxel_size.value_or(std::max({extent.x, extent.y, extent.z}) / 96.0);
+  metadata.still = capture.frames.size() == 1;
+  for (const auto& c : capture.cameras) metadata.camera_names.push_back(c.name);
+  char segmentation[160];
+  std::snprintf(segmentation, sizeof(segmentation),
+                "masks from the source; otherwise background plates, else brightness %s%s, close %d px, largest "
+                "component",
+                options.threshold ? ("> " + std::to_string(*options.threshold)).c_str() : "by Otsu",
+                options.dark_subject ? " (dark subject)" : "", options.close_px);
+  metadata.segmentation = segmentation;
+  summary.volume = "min " + formatVec(box->min) + " max " + formatVec(box->max) + ", voxel " +
+                   std::to_string(metadata.voxel_size);
+
+  // Written under a temporary name, renamed when whole.
+  const std::string partial = out_dir + ".partial-" + std::to_string(::getpid());
+  fs::remove_all(partial);
+  std::error_code error;
+  fs::create_directories(partial, error);
+  if (error) return Status(StatusCode::kIoError, partial + ": cannot create (" + error.message() + ")");
+  auto fail = [&](const Status& s) -> Status {
+    fs::remove_all(partial);
+    return s;
+  };
+  auto writer = protocol::RecordWriter::create((fs::path(partial) / kDatasetPodsFile).string(),
+                                               static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                                   std::chrono::system_clock::now().time_since_epoch())
+                                                                         .count()));
+  if (!writer.isOk()) return fail(writer.status());
+  Status s = writer->append(protocol::RecordKind::kDatasetInfo, protocol::kServerStream, 0, 0,
+                            encodeDatasetMetadata(metadata));
+  if (!s.isOk()) return fail(s);
+  for (const auto& camera : cameras) {
+    const protocol::OutgoingFrame calibration = protocol::encodeOutgoing(toCalibration(camera), protocol::nextSequence());
+    s = writer->append(protocol::RecordKind::kCalibration, camera.id, 0, 0, calibration);
+    if (!s.isOk()) return fail(s);
+  }
+  const uint64_t interval_ns = static_cast<uint64_t>(1e9 / capture.fps);
+  for (size_t f = 0; f < capture.frames.size(); ++f) {
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      PreparedView view;
+      if (f == 0) {
+        view = std::move(first[c]);
+      } else {
+        auto prepared = prepare(f, c);
+        if (!prepared.isOk()) return fail(prepared.status());
+        view = std::move(*prepared);
+      }
+      (view.mask_given ? summary.masks_given : summary.masks_segmented) += 1;
+      PodCapture pod;
+      pod.frame_id = f + 1;
+      pod.view.color = std::move(view.color);
+      pod.mask = std::move(view.mask);
+      pod.feather = featherMap(pod.mask);
+      const protocol::OutgoingFrame frame =
+          encodePodFrame(pod, cameras[c].id, protocol::Codec::kLz4PlanarDelta, options.crop_margin);
+      s = writer->append(protocol::RecordKind::kPodFrame, cameras[c].id, f + 1, f * interval_ns, frame);
+      if (!s.isOk()) return fail(s);
+      ++status.done;
+      status.megabytes = static_cast<double>(writer->bytes()) / 1e6;
+      status.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (progress) progress(status);
+    }
+  }
+  s = writer->close();
+  if (!s.isOk()) return fail(s);
+  summary.megabytes = status.megabytes;
+  if (fs::exists(out_dir)) fs::remove(out_dir);  // empty, checked above
+  fs::rename(partial, out_dir, error);
+  if (error) return fail(Status(StatusCode::kIoError, out_dir + ": cannot move the finished dataset there (" +
+                                                          error.message() + ")"));
+  return summary;
+}
+
+}  // namespace holofuse::capture
