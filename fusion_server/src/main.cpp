@@ -1,6 +1,7 @@
 // fusion_server: syncs pod frames, carves the visual hull, fans out to
 // render clients. See README.md for the flags.
 #include <CLI/CLI.hpp>
+#include <csignal>
 #include <cstdio>
 
 #include "common/shutdown.h"
@@ -63,6 +64,9 @@ int main(int argc, char** argv) {
                                : image_codec == "lz4" ? protocol::Codec::kLz4
                                                       : protocol::Codec::kLz4PlanarDelta;
   installStopSignals();
+  // A recording that reaches a file size limit gets EFBIG from write() and
+  // is reported like a full disk, instead of the signal ending the server.
+  signal(SIGXFSZ, SIG_IGN);
   fusion::FusionServer server(options);
   const protocol::Status started = server.start();
   if (!started.isOk()) {

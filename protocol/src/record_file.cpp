@@ -447,6 +447,10 @@ StatusOr<Bytes> RecordReader::read(const RecordInfo& record) const {
       info.frame_id != record.frame_id) {
     return Status(StatusCode::kMalformed, path_ + ": the record" + at(record.offset) + " differs from its index entry");
   }
+  // Checked before allocating: a header may lie about its length.
+  if (info.end() > scan_.file_size) {
+    return Status(StatusCode::kTruncated, path_ + ": the record" + at(record.offset) + " runs past the end of the file");
+  }
   Bytes payload(info.payload_length);
   auto got = readAt(fd_, info.offset + kRecordHeaderSize, payload.data(), payload.size(), path_);
   if (!got.isOk()) return got.status();

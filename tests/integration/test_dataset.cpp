@@ -156,6 +156,16 @@ TEST_F(DatasetLoop, ReplayFusesTheSameMeshesBitForBitAndSendsTheRecordedImages) 
   // byte for byte, in the same order.
   EXPECT_EQ(recordedPlanes(first / "record"), recordedPlanes(recording_));
 
+  // A looping replay keeps going past the recording's end with new ids.
+  const fs::path looped = root_ / "looped";
+  const pid_t loop = spawn({kBin + "/holofuse_loop", "--replay", recording_.string(), "--speed", "4", "--loop",
+                            "--frames", std::to_string(2 * a.size() + 2), "--out", looped.string()},
+                           looped.string() + ".log");
+  ASSERT_EQ(waitExit(loop, 240), 0) << readFile(looped.string() + ".log");
+  const auto looped_report = readJson(looped / "report.json");
+  EXPECT_EQ(looped_report["frames_rendered"].get<size_t>(), 2 * a.size() + 2);
+  EXPECT_GT(looped_report["frames"].back()["frame_id"].get<uint64_t>(), dataset->lastFrameId());
+
   // The same client and report as the live loop, with the replay's stage.
   const auto report = readJson(first / "report.json");
   EXPECT_GT(report["frames_rendered"].get<int>(), 0);
@@ -216,6 +226,58 @@ TEST(DatasetRecorder, AKilledRecorderKeepsEveryWholeRecordAndStillReplays) {
                            out / "replay.log");
   ASSERT_EQ(waitExit(loop, 240), 0) << readFile(out / "replay.log");
   EXPECT_GT(readJson(out / "replay" / "report.json")["frames_rendered"].get<int>(), 0);
+  fs::remove_all(out);
+}
+
+// The recording runs out of space (a file size limit fails writes the way
+// a full disk does): the server says so, keeps what it wrote, and goes on
+// serving its client.
+TEST(DatasetRecorder, ARecordingThatRunsOutOfSpaceIsReportedAndServingGoesOn) {
+  const fs::path out = freshDir("dataset_full");
+  const fs::path recording = out / "recording";
+  // 600 KB: a few frames of two pods, then every write fails.
+  const pid_t server = spawn({"/bin/bash", "-c",
+                              "ulimit -f 600 && exec " + kBin + "/fusion_server --listen 127.0.0.1:0 --pods 2 "
+                                  "--port-file " + (out / "port").string() + " --record " + recording.string()},
+                             out / "server.log");
+  std::string port;
+  for (int i = 0; i < 100 && port.empty(); ++i) {
+    std::ifstream in(out / "port");
+    std::getline(in, port);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_FALSE(port.empty()) << readFile(out / "server.log");
+  const std::string endpoint = "127.0.0.1:" + port;
+  std::vector<pid_t> pods;
+  for (int i = 0; i < 2; ++i) {
+    pods.push_back(spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(i), "--pods", "2",
+                          "--size", "160x120", "--fps", "8"},
+                         out / ("pod" + std::to_string(i) + ".log")));
+  }
+  // A client that asks for more frames than fit in the recording.
+  const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out", (out / "client").string(),
+                              "--frames", "24", "--size", "160x120"},
+                             out / "client.log");
+  EXPECT_EQ(waitExit(client, 240), 0) << readFile(out / "client.log");
+  for (pid_t pod : pods) {
+    kill(pod, SIGTERM);
+    waitExit(pod, 10);
+  }
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 20), 0) << readFile(out / "server.log");
+  const std::string log = readFile(out / "server.log");
+  EXPECT_NE(log.find("recording failed, the server goes on: " + (recording / "pods.hfr").string() + ": writing pod_frame"),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("file size limit reached"), std::string::npos) << log;
+  EXPECT_EQ(readJson(out / "client" / "report.json")["frames_rendered"].get<int>(), 24);
+  // What was written before the failure is whole and checks.
+  auto reader = protocol::RecordReader::open((recording / "pods.hfr").string());
+  ASSERT_TRUE(reader.isOk()) << reader.status().toString();
+  EXPECT_GE(reader->records().size(), 3u);
+  EXPECT_LE(fs::file_size(recording / "pods.hfr"), 600u * 1024u);
+  EXPECT_FALSE(reader->scan().tail_problem.has_value()) << *reader->scan().tail_problem;
+  EXPECT_TRUE(reader->verifyAll().isOk());
   fs::remove_all(out);
 }
 
