@@ -14,6 +14,7 @@
 #include "capture_node/synthetic_scene.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/reference/geodesics.h"
+#include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
 
@@ -149,6 +150,46 @@ int main(int argc, char** argv) {
               100.0 * static_cast<double>(rule_triangles[0]) / triangle_pairs,
               100.0 * static_cast<double>(rule_triangles[1]) / triangle_pairs,
               100.0 * static_cast<double>(rule_triangles[2]) / triangle_pairs);
+  {
+    // How often montage4d's field is used at all: where the geodesic
+    // fields sum below 1 the normal-weighted (holoportation) field is
+    // (paper 000 section 4.5). Seen from between pods 0 and 1.
+    namespace ref = render::reference;
+    const auto sights = ref::vertexSights(mesh, views);
+    const auto trusted = ref::majorityVote(mesh, views, sights);
+    const auto seams = ref::seamTriangles(mesh, sights, trusted);
+    const auto visible = ref::finalVisibility(sights, trusted);
+    double edge_sum = 0;
+    for (size_t t = 0; t < mesh.indices.size(); t += 3) {
+      for (size_t k = 0; k < 3; ++k) {
+        edge_sum += glm::length(mesh.positions[mesh.indices[t + k]] - mesh.positions[mesh.indices[t + (k + 1) % 3]]);
+      }
+    }
+    const double scale = render::FieldParameters{}.geodesic_rings * edge_sum / static_cast<double>(mesh.indices.size());
+    ref::Field gamma(views.size(), std::vector<double>(mesh.vertexCount(), 1.0));
+    for (size_t i = 0; i < views.size(); ++i) {
+      std::vector<uint8_t> source(mesh.vertexCount(), 0);
+      for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+        if (seams[i][t]) for (int k = 0; k < 3; ++k) source[mesh.indices[3 * t + k]] = 1;
+      }
+      const auto distance = ref::approximateGeodesic(mesh, source);
+      for (size_t v = 0; v < mesh.vertexCount(); ++v) {
+        if (std::isfinite(distance[v])) gamma[i][v] = std::clamp(distance[v] / scale, 0.0, 1.0);
+      }
+    }
+    const glm::dvec3 eye = 0.5 * (cameras[0].center() + cameras[1].center());
+    const auto target = ref::montageTargetField(mesh, cameras, visible, ref::globalVisibility(visible), gamma, eye, 2.0);
+    const auto blend = ref::normalizeFields(target, gamma, ref::holoportationField(mesh, cameras, visible, 2.0));
+    size_t seen = 0, fallback = 0;
+    for (size_t v = 0; v < mesh.vertexCount(); ++v) {
+      if (blend.hole[v]) continue;
+      ++seen;
+      fallback += blend.fallback[v];
+    }
+    std::printf("montage4d falls back to normal weighting (geodesic fields sum below 1) at %.1f%% of the %zu vertices "
+                "some pod sees (normalising distance k x mean edge = %.0f mm)\n",
+                seen ? 100.0 * static_cast<double>(fallback) / static_cast<double>(seen) : 0.0, seen, 1000 * scale);
+  }
   auto& m4 = passes["montage4d"];
   std::map<std::string, double> gpu = {{"depth_maps", median(m4["depth_maps"])},
                                        {"discontinuities+dilation", median(m4["discontinuities"]) + median(m4["dilation"])},

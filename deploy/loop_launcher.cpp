@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
     }
     // A still (one frame of a static scene) repeats so the client can orbit it.
     if (dataset->frameIds() == 1) loop = true;
-    if (!app.count("--frames") && !loop) frames = 1000000;  // until the replay ends
+    if (!app.count("--frames") && !loop) frames = 0;  // the client renders until the replay ends
   }
   const holofuse::capture::ScenePreset* preset = holofuse::capture::findScene(scene);
   if (preset == nullptr) {
