@@ -16,6 +16,7 @@ FrameSync::Added FrameSync::add(uint64_t frame_id, PodImages images, uint64_t no
       return Added::kLate;
     }
   }
+  last_id_from_[images.camera_id] = frame_id;
   auto [it, inserted] = pending_.try_emplace(frame_id);
   if (inserted) {
     it->second.frame_id = frame_id;
@@ -36,10 +37,19 @@ std::vector<FrameGroup> FrameSync::takeReady(const std::set<uint32_t>& expected,
     FrameGroup& group = it->second;
     bool complete = !expected.empty();
     for (uint32_t id : expected) complete = complete && group.pods.count(id) > 0;
-    // Lossless groups wait for their pods; once every pod has left,
-    // what they sent goes out as it is.
-    const bool expired = deadline_ns_ == kNoDeadline ? expected.empty()
-                                                      : now_ns - group.first_arrival_ns >= deadline_ns_;
+    // Lossless groups wait for their pods; once every pod has left, or
+    // every missing pod has moved past this id, what they sent goes out.
+    bool expired = false;
+    if (deadline_ns_ == kNoDeadline) {
+      expired = true;
+      for (uint32_t id : expected) {
+        if (group.pods.count(id)) continue;
+        const auto last = last_id_from_.find(id);
+        expired = expired && last != last_id_from_.end() && last->second > group.frame_id;
+      }
+    } else {
+      expired = now_ns - group.first_arrival_ns >= deadline_ns_;
+    }
     if (!complete && !expired) {
       ++it;
       continue;

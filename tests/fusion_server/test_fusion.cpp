@@ -147,6 +147,31 @@ TEST(FrameSync, CompleteGroupsGoAtOnceLateOnesAtTheDeadline) {
   EXPECT_EQ(sync.lateFrames(), 1u);
 }
 
+// Lossless (replays at full speed): no deadline, but a pod that skipped an
+// id (it sent a later one) does not stall the group that lacks it.
+TEST(FrameSync, LosslessGroupsWaitForTheirPodsButNotForSkippedIds) {
+  FrameSync sync = FrameSync::lossless();
+  const std::set<uint32_t> expected = {0, 1};
+  for (uint64_t id : {1, 2, 4}) sync.add(id, imagesOf(0), 0);
+  for (uint64_t id : {1, 2, 3}) sync.add(id, imagesOf(1), 0);
+  // Hours later nothing has expired by time: 1 and 2 are complete; 3 lacks
+  // pod 0, which has sent 4 since, so it goes too; 4 waits for pod 1.
+  auto ready = sync.takeReady(expected, uint64_t{1} << 60);
+  ASSERT_EQ(ready.size(), 3u);
+  EXPECT_TRUE(ready[0].complete && ready[1].complete);
+  EXPECT_EQ(ready[2].frame_id, 3u);
+  EXPECT_FALSE(ready[2].complete);
+  EXPECT_EQ(ready[2].pods.count(1), 1u);
+  EXPECT_EQ(sync.pendingWith(0), 1u);
+  EXPECT_TRUE(sync.takeReady(expected, uint64_t{1} << 61).empty());
+  EXPECT_FALSE(sync.nextDeadline().has_value());
+  sync.add(4, imagesOf(1), 0);
+  ready = sync.takeReady(expected, 0);
+  ASSERT_EQ(ready.size(), 1u);
+  EXPECT_TRUE(ready[0].complete);
+  EXPECT_EQ(sync.overflowedGroups(), 0u);
+}
+
 TEST(FrameSync, ABogusFrameIdCannotMakeEveryoneLate) {
   FrameSync sync(10);
   // The first id seen is bogus (far in the future) and goes out alone.

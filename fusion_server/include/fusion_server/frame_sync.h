@@ -39,7 +39,9 @@ class FrameSync {
 
   // Lossless (replay as fast as the server accepts): a group waits for
   // every expected pod however long it takes, and the caller bounds what
-  // is pending by not reading pods that are ahead (pendingWith).
+  // is pending by not reading pods that are ahead (pendingWith). A group
+  // goes out without a pod once that pod has sent a later frame: a pod's
+  // ids only grow, so it skipped this one (waiting would stall everyone).
   static FrameSync lossless() { return FrameSync(kNoDeadline, kLosslessMaxPending); }
 
   enum class Added { kAccepted, kLate, kImplausible };
@@ -71,6 +73,7 @@ class FrameSync {
   size_t max_pending_;
   std::map<uint64_t, FrameGroup> pending_;
   std::optional<uint64_t> last_emitted_;
+  std::map<uint32_t, uint64_t> last_id_from_;  // per camera: the id of its latest frame
   uint64_t late_frames_ = 0;
   uint64_t overflowed_groups_ = 0;
   uint64_t clock_resets_ = 0;
