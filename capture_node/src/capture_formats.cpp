@@ -88,6 +88,13 @@ Status checkCamera(const Camera& c, const std::string& where) {
   return Status::ok();
 }
 
+// An image side from an untrusted number: out-of-range values become 0 or
+// 16385 (refused by checkCamera) instead of an undefined conversion.
+uint32_t imageSide(double value) {
+  if (!(value >= 0)) return 0;
+  return static_cast<uint32_t>(std::min(value, 16385.0));
+}
+
 glm::dmat3 rowMajor(const std::vector<double>& m) {
   glm::dmat3 r;
   for (int row = 0; row < 3; ++row) {
@@ -193,8 +200,8 @@ protocol::StatusOr<CaptureDescription> readHolofuseCapture(const std::string& fo
     auto width = number(c, "width", at), height = number(c, "height", at);
     if (!width.isOk()) return width.status();
     if (!height.isOk()) return height.status();
-    cam.camera.width = static_cast<uint32_t>(std::max(0.0, *width));
-    cam.camera.height = static_cast<uint32_t>(std::max(0.0, *height));
+    cam.camera.width = imageSide(*width);
+    cam.camera.height = imageSide(*height);
     if (!c.contains("K")) return malformed(at, "missing \"K\"");
     auto k = numbers(c["K"], 9, at + ".K");
     if (!k.isOk()) return k.status();
@@ -362,8 +369,8 @@ protocol::StatusOr<CaptureDescription> readColmapCapture(const std::string& fold
     if (!parseDouble(w[2], width) || !parseDouble(w[3], height) || width < 1 || height < 1) {
       return malformed(at, "WIDTH and HEIGHT must be positive numbers");
     }
-    c.width = static_cast<uint32_t>(width);
-    c.height = static_cast<uint32_t>(height);
+    c.width = imageSide(width);
+    c.height = imageSide(height);
     std::vector<double> params;
     for (size_t i = 4; i < w.size(); ++i) {
       double v = 0;
@@ -452,8 +459,8 @@ protocol::StatusOr<CaptureDescription> readNerfCapture(const std::string& folder
     Camera c;
     const auto w = value("w"), h = value("h");
     if (!w || !h) return malformed(at, "needs the image size \"w\" and \"h\" (here or at the top level)");
-    c.width = static_cast<uint32_t>(std::max(0.0, *w));
-    c.height = static_cast<uint32_t>(std::max(0.0, *h));
+    c.width = imageSide(*w);
+    c.height = imageSide(*h);
     const auto fl_x = value("fl_x"), angle_x = value("camera_angle_x");
     if (fl_x) {
       c.fx = *fl_x;

@@ -251,10 +251,17 @@ Image8 segmentByBrightness(const Image8& color, const ImportOptions& options) {
   return fromMat(filled);
 }
 
-protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& capture, const std::string& out_dir,
+protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& capture, const std::string& out_folder,
                                                 const ImportOptions& options,
                                                 const std::function<void(const ImportProgress&)>& progress) {
   const auto start = std::chrono::steady_clock::now();
+  // "out/" and "out" are the same folder; the temporary one sits beside it.
+  fs::path normal = fs::path(out_folder).lexically_normal();
+  if (normal.filename().empty()) normal = normal.parent_path();
+  const std::string out_dir = normal.string();
+  if (out_dir.empty() || out_dir == "." || out_dir == "/") {
+    return Status(StatusCode::kIoError, out_folder + ": not a folder to create a dataset in");
+  }
   if (capture.cameras.empty() || capture.frames.empty()) {
     return Status(StatusCode::kMalformed, capture.source + ": no camera or no frame to import");
   }

@@ -115,7 +115,10 @@ Image8 meshSilhouette(const Mesh& mesh, const Camera& camera) {
     for (int k = 0; k < 3 && ok; ++k) {
       const auto p = camera.project(glm::dvec3(mesh.positions[mesh.indices[t + static_cast<size_t>(k)]]));
       ok = p.has_value() && std::isfinite(p->x) && std::isfinite(p->y) && std::abs(p->x) < 1e6 && std::abs(p->y) < 1e6;
-      if (ok) pts[k] = cv::Point(static_cast<int>(std::lround(p->x * 16)), static_cast<int>(std::lround(p->y * 16)));
+      // Camera pixel centres sit at +0.5, OpenCV's at integers; 4 bits of subpixel.
+      if (ok) {
+        pts[k] = cv::Point(static_cast<int>(std::lround((p->x - 0.5) * 16)), static_cast<int>(std::lround((p->y - 0.5) * 16)));
+      }
     }
     if (ok) cv::fillConvexPoly(mask, pts, 3, cv::Scalar(255), cv::LINE_8, 4);
   }
