@@ -65,6 +65,16 @@ void stop(pid_t pid, const char* what) {
   }
 }
 
+// The last lines of a child's log, where a failure is explained.
+void printLogTail(const std::filesystem::path& path) {
+  std::ifstream log(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(log, line);) lines.push_back(line);
+  for (size_t i = lines.size() > 15 ? lines.size() - 15 : 0; i < lines.size(); ++i) {
+    std::fprintf(stderr, "  %s\n", lines[i].c_str());
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -115,18 +125,22 @@ int main(int argc, char** argv) {
     }
     pods = static_cast<int>(dataset->cameras().size());
     uint32_t expected_id = 0;
+    holofuse::protocol::Calibration calibration;  // camera 0's: the output size
     for (const auto& [id, camera] : dataset->cameras()) {
       if (id != expected_id++ || !camera.calibration) {
         std::fprintf(stderr, "--replay: %s: cameras must be numbered 0..%d, each with a calibration (camera %u)\n",
                      replay.c_str(), pods - 1, id);
         return 2;
       }
-    }
-    auto calibration_frame = dataset->readFrame(*dataset->cameras().begin()->second.calibration);
-    holofuse::protocol::Calibration calibration;
-    if (!calibration_frame.isOk() || !holofuse::protocol::decodeFrame(*calibration_frame, calibration).isOk()) {
-      std::fprintf(stderr, "--replay: %s: camera 0's calibration does not decode\n", replay.c_str());
-      return 2;
+      // Checked here, so that no replay pod fails after the others started.
+      auto frame = dataset->readFrame(*camera.calibration);
+      holofuse::protocol::Calibration decoded;
+      const auto s = frame.isOk() ? holofuse::protocol::decodeFrame(*frame, decoded) : frame.status();
+      if (!s.isOk()) {
+        std::fprintf(stderr, "--replay: %s: camera %u's calibration: %s\n", replay.c_str(), id, s.message().c_str());
+        return 2;
+      }
+      if (id == 0) calibration = decoded;
     }
     if (!app.count("--size")) size = std::to_string(calibration.width) + "x" + std::to_string(calibration.height);
     if (const auto& metadata = dataset->metadata()) {
@@ -135,7 +149,9 @@ int main(int argc, char** argv) {
       std::snprintf(volume, sizeof(volume), "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g", metadata->volume_min.x,
                     metadata->volume_min.y, metadata->volume_min.z, metadata->volume_max.x, metadata->volume_max.y,
                     metadata->volume_max.z);
-      if (metadata->voxel_size > 0) dataset_server_args = {"--volume", volume, "--voxel", std::to_string(metadata->voxel_size)};
+      char voxel[32];
+      std::snprintf(voxel, sizeof(voxel), "%.9g", metadata->voxel_size);
+      if (metadata->voxel_size > 0) dataset_server_args = {"--volume", volume, "--voxel", voxel};
     }
     // A still (one frame of a static scene) repeats so the client can orbit it.
     if (dataset->frameIds() == 1) loop = true;
@@ -210,36 +226,57 @@ int main(int argc, char** argv) {
     client_args.push_back("--budget");
     client_args.push_back(budget);
   }
+  const bool replay_ends = !replay.empty() && !loop;
+  if (replay_ends) client_args.push_back("--exit-when-server-leaves");
   const pid_t client = spawn(client_args,
                              (fs::path(out) / "logs" / "client.log").string());
   int client_status = 0, server_status = 0;
-  bool client_done = false, server_done = false;
-  while (!g_interrupted && !client_done && !server_done) {
+  bool client_done = false, server_done = false, failed = false;
+  std::vector<bool> pod_done(pod_pids.size(), false);
+  uint64_t waited_after_server_ms = 0;
+  while (!g_interrupted && !client_done && !failed) {
     client_done = waitFor(client, 100, &client_status);
-    // A replay ends when the server has fused and delivered everything.
-    if (!client_done && !replay.empty() && !loop) server_done = waitpid(server, &server_status, WNOHANG) == server;
+    if (client_done) break;
+    // A pod that fails (a replay pod that cannot read its dataset) would
+    // leave the others waiting for it: stop everything and say why.
+    for (size_t i = 0; i < pod_pids.size() && !failed; ++i) {
+      int status = 0;
+      if (pod_done[i] || waitpid(pod_pids[i], &status, WNOHANG) != pod_pids[i]) continue;
+      pod_done[i] = true;
+      if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        std::fprintf(stderr, "\n[loop] capture_node %zu failed; the end of %s/logs/pod%zu.log:\n", i, out.c_str(), i);
+        printLogTail(fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log"));
+        failed = true;
+      }
+    }
+    if (!server_done && waitpid(server, &server_status, WNOHANG) == server) {
+      server_done = true;
+      if (!replay_ends || !WIFEXITED(server_status) || WEXITSTATUS(server_status) != 0) {
+        std::fprintf(stderr, "\n[loop] fusion_server stopped; the end of %s/logs/server.log:\n", out.c_str());
+        printLogTail(fs::path(out) / "logs" / "server.log");
+        failed = true;
+      }
+    }
+    // A replay ends when the server has fused and delivered everything and
+    // said goodbye; the client then finishes on its own.
+    if (server_done && !failed && (waited_after_server_ms += 100) > 60000) {
+      std::fprintf(stderr, "\n[loop] the client did not finish within 60 s of the end of the replay\n");
+      failed = true;
+    }
   }
-  if (server_done) {
-    std::printf("\n[loop] the replay is over: stopping the client (it writes its report)\n");
-    stop(client, "render_client");
-    client_done = true;
-    client_status = 0;
-  } else if (!client_done) {
-    std::printf("\n[loop] interrupted: stopping the client (it writes its report)\n");
+  if (!client_done) {
+    std::printf("\n[loop] %s: stopping the client (it writes its report)\n", failed ? "failed" : "interrupted");
     stop(client, "render_client");
   }
-  for (size_t i = 0; i < pod_pids.size(); ++i) stop(pod_pids[i], "capture_node");
+  for (size_t i = 0; i < pod_pids.size(); ++i) {
+    if (!pod_done[i]) stop(pod_pids[i], "capture_node");
+  }
   if (!server_done) stop(server, "fusion_server");
-  const bool ok = client_done ? (WIFEXITED(client_status) && WEXITSTATUS(client_status) == 0) : true;
-  if (!ok) {
+  const bool ok = !failed && (client_done ? (WIFEXITED(client_status) && WEXITSTATUS(client_status) == 0) : true);
+  if (!ok && !failed) {
     // Say why right here: the end of the client's log.
     std::fprintf(stderr, "[loop] render_client failed; the end of %s/logs/client.log:\n", out.c_str());
-    std::ifstream log(fs::path(out) / "logs" / "client.log");
-    std::vector<std::string> lines;
-    for (std::string line; std::getline(log, line);) lines.push_back(line);
-    for (size_t i = lines.size() > 15 ? lines.size() - 15 : 0; i < lines.size(); ++i) {
-      std::fprintf(stderr, "  %s\n", lines[i].c_str());
-    }
+    printLogTail(fs::path(out) / "logs" / "client.log");
   }
   if (ok) {
     std::printf("[loop] all processes stopped; frames in %s/frames, report in %s/report.json, logs in %s/logs\n",

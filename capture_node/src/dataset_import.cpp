@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -354,7 +355,10 @@ protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& captur
   metadata.source = capture.source;
   metadata.volume_min = box->min;
   metadata.volume_max = box->max;
-  metadata.voxel_size = options.voxel_size.value_or(std::max({extent.x, extent.y, extent.z}) / 96.0);
+  // Within what the server accepts (--voxel 0.0001..0.5 m): captures in
+  // other units (COLMAP's are arbitrary) still carve.
+  metadata.voxel_size = std::clamp(options.voxel_size.value_or(std::max({extent.x, extent.y, extent.z}) / 96.0),
+                                   0.0001, 0.5);
   metadata.still = capture.frames.size() == 1;
   for (const auto& c : capture.cameras) metadata.camera_names.push_back(c.name);
   char segmentation[160];

@@ -155,11 +155,13 @@ int runReplayPod(const ReplayOptions& options) {
                      rate > 0 ? static_cast<double>(total - done) / rate : 0.0);
       }
     }
-    if (!options.loop) break;
+    if (!options.loop || total == 0) break;  // nothing to loop over
   }
-  // Everything handed to the socket before saying goodbye.
+  if (total == 0) std::fprintf(stderr, "[%s] camera %u has a calibration but no frames\n", name.c_str(), options.pod_id);
+  // Everything handed to the socket, then an orderly close that waits for
+  // the server to read it all (it may be holding this pod back).
   while (!stopRequested() && link.ready() && link.queuedFrames() > 0) pump(20);
-  link.close(stopRequested() ? "replay stopped by signal" : "replay finished");
+  link.close(stopRequested() ? "replay stopped by signal" : "replay finished", stopRequested() ? 500 : 120000);
   std::fprintf(stderr, "[%s] sent %llu frames, %.1f MB\n", name.c_str(), static_cast<unsigned long long>(sent),
                static_cast<double>(bytes) / 1e6);
   return 0;

@@ -10,6 +10,7 @@ FrameSync::Added FrameSync::add(uint64_t frame_id, PodImages images, uint64_t no
       // start over rather than calling every frame late forever.
       last_emitted_.reset();
       pending_.clear();
+      last_id_from_.clear();
       ++clock_resets_;
     } else if (frame_id <= *last_emitted_) {
       ++late_frames_;

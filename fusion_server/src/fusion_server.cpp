@@ -105,10 +105,7 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
   ack->heartbeat_interval_ms = options_.heartbeat_interval_ms;
   ack->idle_timeout_ms = options_.idle_timeout_ms;
   peer.greeted = true;
-  if (hello.role == protocol::Role::kPod) {
-    departed_pods_.erase(hello.id);
-    any_pod_joined_ = true;
-  }
+  if (hello.role == protocol::Role::kPod) departed_pods_.erase(hello.id);
   peer.role = hello.role;
   peer.id = hello.id;
   peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
@@ -172,11 +169,16 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   }
   images.offset_x = pod.offset_x;
   images.offset_y = pod.offset_y;
-  if (sync_.add(pod.frame_id, std::move(images), now) == FrameSync::Added::kImplausible) {
+  const FrameSync::Added added = sync_.add(pod.frame_id, std::move(images), now);
+  if (added == FrameSync::Added::kImplausible) {
     return Status(StatusCode::kMalformed, "field 'pod_frame.frame_id': " + std::to_string(pod.frame_id) +
                                               " is implausibly far ahead of the frames being fused");
   }
-  if (recorder_) recorder_->recordPodMessage(protocol::RecordKind::kPodFrame, pod.camera_id, pod.frame_id, frame);
+  // What the fusion takes, as it arrived (a late frame is not fused, so a
+  // replay must not fuse it either).
+  if (added == FrameSync::Added::kAccepted && recorder_) {
+    recorder_->recordPodMessage(protocol::RecordKind::kPodFrame, pod.camera_id, pod.frame_id, frame);
+  }
   return Status::ok();
 }
 
@@ -270,10 +272,11 @@ void FusionServer::fanOut() {
 
 bool FusionServer::readable(const Peer& peer) {
   if (!peer.greeted || peer.role != protocol::Role::kPod) return true;
-  if (options_.wait_for_clients > 0) {
+  if (!clients_arrived_) {
     int clients = 0;
     for (const auto& other : peers_) clients += other.greeted && other.role == protocol::Role::kClient;
     if (clients < options_.wait_for_clients) return false;
+    clients_arrived_ = true;  // from now on pods are read whoever comes and goes
   }
   if (!options_.lossless) return true;
   // Frames wait in the pod's socket, and the pod's sends block, until
@@ -283,7 +286,9 @@ bool FusionServer::readable(const Peer& peer) {
 }
 
 bool FusionServer::podsDone() {
-  if (!any_pod_joined_ || sync_.pendingGroups() > 0 || worker_->queuedJobs() > 0) return false;
+  // Every configured pod joined and left (not just the first ones).
+  if (departed_pods_.size() < static_cast<size_t>(options_.pods)) return false;
+  if (sync_.pendingGroups() > 0 || worker_->queuedJobs() > 0) return false;
   for (const auto& peer : peers_) {
     if (!peer.greeted) continue;
     if (peer.role == protocol::Role::kPod || peer.connection->wantsWrite()) return false;
@@ -292,11 +297,13 @@ bool FusionServer::podsDone() {
 }
 
 int FusionServer::run() {
+  std::string bye_reason = "server shutting down";
   while (!stopRequested()) {
     if (options_.exit_when_pods_done && podsDone()) {
       fanOut();
       if (podsDone()) {
         std::fprintf(stderr, "[server] every pod has left and its frames are fused and delivered: stopping\n");
+        bye_reason = "every pod has left and its frames are delivered";
         break;
       }
     }
@@ -358,8 +365,8 @@ int FusionServer::run() {
     }
   }
   for (auto& peer : peers_) {
-    peer.connection->sendMessage(protocol::Bye{"server shutting down"});
-    peer.connection->drain(100);
+    peer.connection->sendMessage(protocol::Bye{bye_reason});
+    peer.connection->closeGracefully(options_.exit_when_pods_done ? 5000 : 100);
   }
   if (recorder_) recorder_->close();
   std::fprintf(stderr, "[server] stopped after fusing %llu groups (%llu late pod frames, %llu groups dropped)\n",

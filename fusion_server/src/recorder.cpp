@@ -25,7 +25,12 @@ protocol::StatusOr<Recorder> Recorder::open(const std::string& dir, bool record_
   recorder.pods_ = std::move(*pods);
   if (record_fused) {
     auto fused = protocol::RecordWriter::create((fs::path(dir) / kFusedRecordFile).string(), created);
-    if (!fused.isOk()) return fused.status();
+    if (!fused.isOk()) {
+      // Leave no empty pods.hfr behind to block the next attempt.
+      (void)recorder.pods_.close();
+      fs::remove(fs::path(dir) / kPodsRecordFile, error);
+      return fused.status();
+    }
     recorder.fused_ = std::move(*fused);
   }
   recorder.start_ns_ = protocol::monotonicNs();

@@ -140,4 +140,21 @@ void Connection::drain(int timeout_ms) {
   }
 }
 
+void Connection::closeGracefully(int timeout_ms) {
+  const uint64_t deadline = monotonicNs() + static_cast<uint64_t>(timeout_ms) * 1000000ull;
+  drain(timeout_ms);
+  if (wantsWrite()) return;  // the peer is not reading: give up
+  socket_.shutdownWrite();
+  uint8_t scratch[4096];
+  for (;;) {
+    const IoResult r = socket_.readSome(scratch);
+    if (r.closed || r.error != 0) return;
+    if (!r.would_block) continue;
+    const uint64_t now = monotonicNs();
+    if (now >= deadline) return;
+    pollfd p{fd(), POLLIN, 0};
+    ::poll(&p, 1, static_cast<int>((deadline - now) / 1000000ull) + 1);
+  }
+}
+
 }  // namespace holofuse::protocol

@@ -116,7 +116,13 @@ StatusOr<RecordWriter> RecordWriter::create(const std::string& path, uint64_t cr
   writer.path_ = path;
   const Bytes header = encodeFileHeader(created_unix_ns);
   const std::span<const uint8_t> parts[] = {header};
-  HOLOFUSE_RETURN_IF_ERROR(writer.writeAll(parts, header.size(), "the file header"));
+  const Status written = writer.writeAll(parts, header.size(), "the file header");
+  if (!written.isOk()) {
+    // Nothing worth keeping: remove it so a retry is not refused.
+    ::close(std::exchange(writer.fd_, -1));
+    ::unlink(path.c_str());
+    return written;
+  }
   return writer;
 }
 

@@ -81,6 +81,7 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
     }
     acked_ = true;
     connected_event_ = true;
+    server_said_bye_ = false;
     ++connects_;
     heartbeat_interval_ms_ = ack.heartbeat_interval_ms > 0 ? ack.heartbeat_interval_ms
                                                            : options_.heartbeat_interval_ms;
@@ -100,6 +101,7 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
     case MessageType::kBye: {
       Bye bye;
       (void)decodeFrame(frame, bye);
+      server_said_bye_ = true;
       fail(Status(StatusCode::kClosed, "server said bye: " + bye.reason));
       return;
     }
@@ -153,10 +155,10 @@ void ServerLink::send(SharedFrame frame) {
   if (connection_ != nullptr && acked_) connection_->send(std::move(frame));
 }
 
-void ServerLink::close(const std::string& reason) {
+void ServerLink::close(const std::string& reason, int timeout_ms) {
   if (connection_ == nullptr) return;
   connection_->sendMessage(Bye{reason});
-  connection_->drain(200);
+  connection_->closeGracefully(timeout_ms);
   bytes_out_closed_ += connection_->bytesOut();
   bytes_in_closed_ += connection_->bytesIn();
   dropped_closed_ += connection_->framesDropped();

@@ -85,6 +85,10 @@ void Socket::close() {
   fd_ = -1;
 }
 
+void Socket::shutdownWrite() {
+  if (fd_ >= 0) ::shutdown(fd_, SHUT_WR);
+}
+
 IoResult Socket::readSome(std::span<uint8_t> into) {
   IoResult r;
   for (;;) {

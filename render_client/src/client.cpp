@@ -371,6 +371,12 @@ int runClient(const ClientOptions& options) {
                   last.cameras_expected, tty ? "   " : "\n");
       std::fflush(stdout);
     }
+    // Bye follows everything the server sent on the stream: all of it has
+    // been rendered by now.
+    if (options.exit_when_server_leaves && link.serverSaidBye()) {
+      std::printf("%s[client] the server said goodbye: the replay is over\n", tty ? "\n" : "");
+      break;
+    }
   }
   link.close(stopRequested() ? "client stopped by signal" : "client rendered its frames");
   report.setSuperseded(frames_superseded);

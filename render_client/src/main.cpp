@@ -15,6 +15,8 @@ int main(int argc, char** argv) {
   app.add_option("--server", server, "fusion server HOST:PORT");
   app.add_option("--out", options.out_dir, "output folder (frames/ and report.json)");
   app.add_option("--frames", options.frames, "stop after this many rendered frames (0: until signalled)");
+  app.add_flag("--exit-when-server-leaves", options.exit_when_server_leaves,
+               "finish when the server says goodbye (the end of a replay)");
   app.add_option("--size", size, "output size WxH");
   app.add_option("--view", options.view, "user camera: orbit, or pod:N to sit at pod camera N");
   app.add_option("--orbit-speed", options.orbit_degrees_per_frame, "orbit degrees per rendered frame");

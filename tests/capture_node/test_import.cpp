@@ -153,11 +153,19 @@ class ImportTest : public ::testing::Test {
       ASSERT_TRUE(images.isOk()) << images.status().toString();
       EXPECT_GE(maskIoU(images->mask, views_[source_of[id]].mask), min_iou) << "camera " << id;
     }
-    // The capture volume holds the subject.
-    glm::dvec3 lo, hi;
-    SyntheticScene::subjectBounds(lo, hi);
-    EXPECT_LT(dataset->metadata()->volume_min.y, 0.2);
-    EXPECT_GT(dataset->metadata()->volume_max.y, 1.5);
+    // The capture volume holds the subject's true surface, and not much more.
+    const Mesh truth = scene_.truthMesh(30, 0.02);
+    const glm::dvec3 lo = dataset->metadata()->volume_min, hi = dataset->metadata()->volume_max;
+    glm::dvec3 subject_lo(1e9), subject_hi(-1e9);
+    for (const auto& p : truth.positions) {
+      subject_lo = glm::min(subject_lo, glm::dvec3(p));
+      subject_hi = glm::max(subject_hi, glm::dvec3(p));
+    }
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_LE(lo[k], subject_lo[k]) << "axis " << k;
+      EXPECT_GE(hi[k], subject_hi[k]) << "axis " << k;
+      EXPECT_LT(hi[k] - lo[k], 2.0 * (subject_hi[k] - subject_lo[k]) + 0.3) << "axis " << k;
+    }
   }
 
   fs::path root_;
@@ -400,6 +408,28 @@ TEST_F(ImportTest, BadInputIsNamedAndLeavesNoDataset) {
   importFails(CaptureFormat::kColmap, (src / "sparse" / "images.txt").string() + ":1: CAMERA_ID 9 is not in");
   std::ofstream(src / "sparse" / "cameras.txt") << "1 FISHEYE_X 160 120 100 100 80 60\n";
   importFails(CaptureFormat::kColmap, (src / "sparse" / "cameras.txt").string() + ":1: camera model FISHEYE_X is not supported");
+  // A corrupt image in a later frame: found after writing has begun, and
+  // still nothing is left behind.
+  j = holofuseJson(".png", false);
+  j["frames"].push_back(j["frames"][0]);
+  j["frames"][1]["images"]["cam10"] = "images/broken.png";
+  std::ofstream(src / "capture.json") << j.dump();
+  fs::rename(src / "images" / "moved.png", src / "images" / "cam11.png");
+  std::ofstream(src / "images" / "broken.png") << "not an image either";
+  importFails(CaptureFormat::kHolofuse, (src / "images" / "broken.png").string() + ": cannot decode the image");
+  // A trailing slash names the same folder; the dataset lands there whole.
+  {
+    auto capture = readCapture(src.string(), CaptureFormat::kHolofuse);
+    ASSERT_TRUE(capture.isOk());
+    capture->frames.pop_back();
+    auto summary = importCapture(*capture, out.string() + "/", {});
+    ASSERT_TRUE(summary.isOk()) << summary.status().toString();
+    EXPECT_TRUE(fs::exists(out / "pods.hfr"));
+    for (const auto& entry : fs::directory_iterator(out)) {
+      EXPECT_EQ(entry.path().filename().string().find("partial"), std::string::npos) << entry.path();
+    }
+    fs::remove_all(out);
+  }
   // An output folder that holds something already.
   fs::create_directories(out);
   std::ofstream(out / "keep.txt") << "mine";

@@ -199,6 +199,45 @@ TEST_F(RecordFileTest, RandomCorruptionIsAlwaysAStatusNeverACrash) {
   EXPECT_GT(refused, 0u);
 }
 
+// A header whose CRC checks but whose length is huge (a hostile file):
+// nothing is allocated for it, the scan stops there and names it.
+TEST_F(RecordFileTest, ALyingLengthIsRefusedBeforeAllocating) {
+  const std::string file = path("a.hfr");
+  writeRecords(file, 4);
+  Bytes bytes = readFile(file);
+  auto reader = RecordReader::open(file);
+  ASSERT_TRUE(reader.isOk());
+  const RecordInfo victim = reader->records()[1];
+  const uint32_t huge = kMaxRecordPayload;  // 1 GiB: allowed by the cap, far beyond the file
+  const size_t h = victim.offset;
+  for (int i = 0; i < 4; ++i) bytes[h + 12 + static_cast<size_t>(i)] = static_cast<uint8_t>(huge >> (8 * i));
+  const uint32_t crc = crc32c(0, bytes.data() + h, kRecordHeaderSize - 4);
+  for (int i = 0; i < 4; ++i) bytes[h + 36 + static_cast<size_t>(i)] = static_cast<uint8_t>(crc >> (8 * i));
+  writeFile(file, bytes);
+  // With the index: the record no longer matches its entry.
+  auto indexed = RecordReader::open(file);
+  ASSERT_TRUE(indexed.isOk());
+  auto payload = indexed->read(indexed->records()[1]);
+  ASSERT_FALSE(payload.isOk());
+  EXPECT_NE(payload.status().message().find("differs from its index entry"), std::string::npos);
+  // A caller's own record description that believes the header.
+  RecordInfo believed = victim;
+  believed.payload_length = huge;
+  payload = indexed->read(believed);
+  ASSERT_FALSE(payload.isOk());
+  EXPECT_EQ(payload.status().code(), StatusCode::kTruncated);
+  EXPECT_NE(payload.status().message().find("runs past the end of the file"), std::string::npos);
+  // Without the tail the scan stops at the liar.
+  bytes.resize(bytes.size() - 1);
+  writeFile(file, bytes);
+  auto scanned = RecordReader::open(file);
+  ASSERT_TRUE(scanned.isOk());
+  EXPECT_EQ(scanned->records().size(), 1u);
+  ASSERT_TRUE(scanned->scan().tail_problem.has_value());
+  EXPECT_NE(scanned->scan().tail_problem->find("of its 1073741824 payload bytes are present"), std::string::npos)
+      << *scanned->scan().tail_problem;
+}
+
 TEST_F(RecordFileTest, ANewerFormatIsRefusedByName) {
   const std::string file = path("a.hfr");
   writeRecords(file, 1);

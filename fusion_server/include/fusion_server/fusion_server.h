@@ -90,7 +90,7 @@ class FusionServer {
   uint32_t next_session_ = 1;
   uint64_t groups_fused_ = 0;
   std::optional<Recorder> recorder_;
-  bool any_pod_joined_ = false;
+  bool clients_arrived_ = false;  // wait_for_clients reached once
 };
 
 }  // namespace holofuse::fusion

@@ -54,6 +54,10 @@ class Connection {
   Status onReadable();
   // Writes for up to timeout_ms until the queue is empty (used before close).
   void drain(int timeout_ms);
+  // An orderly close within timeout_ms: drain, send FIN, then read (and
+  // drop) until the peer closes too. Closing with unread bytes would send
+  // a reset, and a reset discards whatever the kernel had not yet sent.
+  void closeGracefully(int timeout_ms);
 
   bool hasFrame() const { return decoder_.hasFrame(); }
   Frame takeFrame() { return decoder_.takeFrame(); }

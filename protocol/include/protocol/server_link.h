@@ -42,14 +42,18 @@ class ServerLink {
   // Set when the server refused us for good (version mismatch): retrying
   // cannot help.
   const std::optional<Status>& fatalError() const { return fatal_; }
+  // The server closed with Bye (it shut down), as opposed to a lost
+  // connection; stays set until the next handshake.
+  bool serverSaidBye() const { return server_said_bye_; }
 
   void send(SharedFrame frame);
   template <typename Message>
   void sendMessage(const Message& m) {
     send(std::make_shared<const OutgoingFrame>(encodeOutgoing(m, nextSequence())));
   }
-  // Sends Bye with the reason and flushes for a short while.
-  void close(const std::string& reason);
+  // Sends Bye with the reason and closes in order, waiting up to
+  // timeout_ms for everything queued to leave and the server to close.
+  void close(const std::string& reason, int timeout_ms = 500);
 
   uint64_t connects() const { return connects_; }
   uint64_t bytesOut() const { return bytes_out_closed_ + (connection_ ? connection_->bytesOut() : 0); }
@@ -70,6 +74,7 @@ class ServerLink {
   std::unique_ptr<Connection> connection_;
   bool acked_ = false;
   bool connected_event_ = false;
+  bool server_said_bye_ = false;
   std::optional<Status> fatal_;
   int backoff_ms_ = 0;
   uint64_t next_attempt_ns_ = 0;

@@ -41,6 +41,8 @@ class Socket {
   int fd() const { return fd_; }
   bool valid() const { return fd_ >= 0; }
   void close();
+  // Sends FIN after everything written so far; reading goes on.
+  void shutdownWrite();
 
   // Retries on EINTR; EAGAIN becomes would_block.
   IoResult readSome(std::span<uint8_t> into);

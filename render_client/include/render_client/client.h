@@ -16,6 +16,9 @@ struct ClientOptions {
   protocol::Endpoint server;
   uint32_t client_id = 0;
   std::string out_dir = "out";
+  // Finish (report written, exit 0) when the server says Bye: the end of a
+  // replay, after every frame it sent has been read.
+  bool exit_when_server_leaves = false;
   uint64_t frames = 0;              // stop after this many rendered frames; 0 = until signalled
   std::string view = "orbit";       // "orbit" or "pod:N"
   double orbit_degrees_per_frame = 2.0;
