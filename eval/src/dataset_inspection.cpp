@@ -177,15 +177,16 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
        std::to_string(scan.format_minor) + ", recorded " + utcTime(scan.created_unix_ns) + "\n";
   if (scan.tail_problem) t += "note: " + *scan.tail_problem + "\n";
 
-  // The frame to look at: the first id every camera has.
-  std::map<uint64_t, size_t> cameras_per_id;
+  // The frame to look at: the first id every camera has (a camera that
+  // repeats an id counts once).
+  std::map<uint64_t, std::set<uint32_t>> cameras_per_id;
   for (const auto& [id, cam] : dataset->cameras()) {
-    for (const auto& r : cam.frames) ++cameras_per_id[r.frame_id];
+    for (const auto& r : cam.frames) cameras_per_id[r.frame_id].insert(id);
   }
   uint64_t frame_id = 0;
   bool found = false;
-  for (const auto& [id, n] : cameras_per_id) {
-    if (n == dataset->cameras().size()) {
+  for (const auto& [id, holders] : cameras_per_id) {
+    if (holders.size() == dataset->cameras().size()) {
       frame_id = id;
       found = true;
       break;
@@ -211,6 +212,9 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
     c.height = camera.height;
     const auto record = std::find_if(cam.frames.begin(), cam.frames.end(),
                                      [&](const protocol::RecordInfo& r) { return r.frame_id == frame_id; });
+    if (record == cam.frames.end()) {
+      return Status(StatusCode::kMalformed, dir + ": camera " + std::to_string(id) + " lacks frame " + std::to_string(frame_id));
+    }
     auto frame = dataset->readFrame(*record);
     if (!frame.isOk()) return frame.status();
     auto decoded = capture::decodePodImages(*frame, camera);

@@ -222,14 +222,17 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
   if (cameras.size() < 2) throw std::invalid_argument(dir + ": leave-one-camera-out needs at least 2 cameras");
   input.reported = cameras;
   const fusion::HullOptions hull_options = hullOptionsFor(*dataset, options.voxel_size);
-  // The frame ids every camera holds, in order.
-  std::map<uint64_t, std::vector<protocol::RecordInfo>> by_id;
+  // The frame ids every camera holds, in order; each camera's record in
+  // camera order (the first, should a camera repeat an id).
+  std::map<uint64_t, std::map<uint32_t, protocol::RecordInfo>> by_id;
   for (const auto& [id, cam] : dataset->cameras()) {
-    for (const auto& r : cam.frames) by_id[r.frame_id].push_back(r);
+    for (const auto& r : cam.frames) by_id[r.frame_id].try_emplace(id, r);
   }
-  for (const auto& [frame_id, records] : by_id) {
-    if (records.size() != cameras.size()) continue;
+  for (const auto& [frame_id, by_camera] : by_id) {
+    if (by_camera.size() != cameras.size()) continue;
     if (static_cast<int>(input.frames.size()) >= options.frames) break;
+    std::vector<protocol::RecordInfo> records;
+    for (const auto& [id, r] : by_camera) records.push_back(r);
     FrameData frame;
     frame.frame_id = frame_id;
     std::vector<fusion::HullView> hull_views;
