@@ -133,14 +133,12 @@ int main(int argc, char** argv) {
         return 2;
       }
       // Checked here, so that no replay pod fails after the others started.
-      auto frame = dataset->readFrame(*camera.calibration);
-      holofuse::protocol::Calibration decoded;
-      const auto s = frame.isOk() ? holofuse::protocol::decodeFrame(*frame, decoded) : frame.status();
-      if (!s.isOk()) {
-        std::fprintf(stderr, "--replay: %s: camera %u's calibration: %s\n", replay.c_str(), id, s.message().c_str());
+      auto decoded = dataset->readCalibration(id);
+      if (!decoded.isOk()) {
+        std::fprintf(stderr, "--replay: %s\n", decoded.status().message().c_str());
         return 2;
       }
-      if (id == 0) calibration = decoded;
+      if (id == 0) calibration = *decoded;
     }
     if (!app.count("--size")) size = std::to_string(calibration.width) + "x" + std::to_string(calibration.height);
     if (const auto& metadata = dataset->metadata()) {

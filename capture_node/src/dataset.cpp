@@ -102,6 +102,28 @@ protocol::StatusOr<Dataset> Dataset::open(const std::string& path) {
   return dataset;
 }
 
+protocol::StatusOr<protocol::Calibration> Dataset::readCalibration(uint32_t camera_id) const {
+  const auto it = cameras_.find(camera_id);
+  if (it == cameras_.end() || !it->second.calibration) {
+    std::string have;
+    for (const auto& [id, cam] : cameras_) {
+      if (cam.calibration) have += (have.empty() ? "" : ", ") + std::to_string(id);
+    }
+    return Status(StatusCode::kMalformed, reader_.path() + " has no calibration for camera " +
+                                              std::to_string(camera_id) + " (cameras with one: " +
+                                              (have.empty() ? std::string("none") : have) + ")");
+  }
+  auto frame = readFrame(*it->second.calibration);
+  if (!frame.isOk()) return frame.status();
+  protocol::Calibration calibration;
+  const Status decoded = protocol::decodeFrame(*frame, calibration);
+  if (!decoded.isOk()) {
+    return Status(decoded.code(), reader_.path() + ": camera " + std::to_string(camera_id) +
+                                      "'s calibration: " + decoded.message());
+  }
+  return calibration;
+}
+
 protocol::StatusOr<protocol::Frame> Dataset::readFrame(const protocol::RecordInfo& record) const {
   auto bytes = reader_.read(record);
   if (!bytes.isOk()) return bytes.status();

@@ -13,6 +13,7 @@
 #include "capture_node/pod.h"
 #include "capture_node/segmentation.h"
 #include "common/dataset_metadata.h"
+#include "opencv_image.h"
 #include "protocol/connection.h"
 #include "protocol/messages.h"
 #include "protocol/record_file.h"
@@ -24,18 +25,6 @@ using protocol::StatusCode;
 namespace fs = std::filesystem;
 
 namespace {
-
-cv::Mat wrap(Image8& image) {
-  return cv::Mat(static_cast<int>(image.height), static_cast<int>(image.width),
-                 CV_8UC(static_cast<int>(image.channels)), image.pixels.data());
-}
-
-Image8 fromMat(const cv::Mat& m) {
-  Image8 out(static_cast<uint32_t>(m.cols), static_cast<uint32_t>(m.rows), static_cast<uint32_t>(m.channels()));
-  cv::Mat target = wrap(out);
-  m.copyTo(target);
-  return out;
-}
 
 // An image file as 8-bit RGB, and its alpha as a mask when it has one.
 struct LoadedImage {
@@ -130,9 +119,9 @@ struct Undistortion {
     }
     return u;
   }
-  Image8 apply(Image8 image, int interpolation) const {
+  Image8 apply(const Image8& image, int interpolation) const {
     cv::Mat out;
-    cv::remap(wrap(image), out, map_x, map_y, interpolation, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+    cv::remap(wrapForReading(image), out, map_x, map_y, interpolation, cv::BORDER_CONSTANT, cv::Scalar::all(0));
     return fromMat(out);
   }
 };
@@ -172,9 +161,8 @@ protocol::StatusOr<Box> estimateCaptureVolume(const std::vector<Camera>& cameras
   radius *= 1.5;  // the subject may reach past what all cameras see at once
   std::vector<cv::Mat> dilated;
   for (const auto& m : masks) {
-    Image8 copy = m;
     cv::Mat d;
-    cv::dilate(wrap(copy), d, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(9, 9)));
+    cv::dilate(wrapForReading(m), d, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(9, 9)));
     dilated.push_back(d);
   }
   constexpr int kSteps = 96;
@@ -218,9 +206,8 @@ std::string formatVec(const glm::dvec3& v) {
 }  // namespace
 
 Image8 segmentByBrightness(const Image8& color, const ImportOptions& options) {
-  Image8 copy = color;
   std::vector<cv::Mat> channels;
-  cv::split(wrap(copy), channels);
+  cv::split(wrapForReading(color), channels);
   cv::Mat brightness = cv::max(cv::max(channels[0], channels[1]), channels[2]);
   cv::Mat mask;
   const int type = options.dark_subject ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY;

@@ -66,25 +66,13 @@ int runReplayPod(const ReplayOptions& options) {
     std::fprintf(stderr, "[%s] note: %s; replaying the whole records before it\n", name.c_str(),
                  dataset->records().scan().tail_problem->c_str());
   }
-  const auto camera_it = dataset->cameras().find(options.pod_id);
-  if (camera_it == dataset->cameras().end() || !camera_it->second.calibration) {
-    std::string have;
-    for (const auto& [id, cam] : dataset->cameras()) have += (have.empty() ? "" : ", ") + std::to_string(id);
-    std::fprintf(stderr, "[%s] %s has no calibration for camera %u (cameras with records: %s)\n", name.c_str(),
-                 options.dataset.c_str(), options.pod_id, have.empty() ? "none" : have.c_str());
-    return 2;
-  }
-  const DatasetCamera& camera = camera_it->second;
-  auto calibration = dataset->readFrame(*camera.calibration);
+  auto calibration = dataset->readCalibration(options.pod_id);
   if (!calibration.isOk()) {
     std::fprintf(stderr, "[%s] %s\n", name.c_str(), calibration.status().message().c_str());
     return 2;
   }
-  protocol::Calibration calibration_message;
-  if (const auto s = protocol::decodeFrame(*calibration, calibration_message); !s.isOk()) {
-    std::fprintf(stderr, "[%s] the recorded calibration: %s\n", name.c_str(), s.toString().c_str());
-    return 2;
-  }
+  const protocol::Calibration calibration_message = *calibration;
+  const DatasetCamera& camera = dataset->cameras().at(options.pod_id);
 
   protocol::Hello hello;
   hello.role = protocol::Role::kPod;

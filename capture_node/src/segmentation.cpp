@@ -2,18 +2,14 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "opencv_image.h"
+
 namespace holofuse::capture {
-namespace {
-cv::Mat wrap(const Image8& image) {
-  return cv::Mat(static_cast<int>(image.height), static_cast<int>(image.width),
-                 CV_8UC(static_cast<int>(image.channels)), const_cast<uint8_t*>(image.pixels.data()));
-}
-}  // namespace
 
 Image8 segmentForeground(const Image8& frame, const Image8& plate, const SegmentationOptions& options) {
   Image8 mask(frame.width, frame.height, 1);
   cv::Mat diff;
-  cv::absdiff(wrap(frame), wrap(plate), diff);
+  cv::absdiff(wrapForReading(frame), wrapForReading(plate), diff);
   cv::Mat total;
   cv::transform(diff, total, cv::Matx13f(1, 1, 1));
   cv::Mat out = wrap(mask);
@@ -31,7 +27,7 @@ Image8 segmentForeground(const Image8& frame, const Image8& plate, const Segment
 Image8 featherMap(const Image8& mask) {
   Image8 feather(mask.width, mask.height, 1);
   cv::Mat distance;
-  cv::distanceTransform(wrap(mask), distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  cv::distanceTransform(wrapForReading(mask), distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   distance.convertTo(wrap(feather), CV_8U);  // saturates at 255
   return feather;
 }

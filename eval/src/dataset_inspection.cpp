@@ -202,12 +202,9 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
     c.id = id;
     c.frames = cam.frames.size();
     c.megabytes = static_cast<double>(cam.frame_bytes) / 1e6;
-    if (!cam.calibration) return Status(StatusCode::kMalformed, dir + ": camera " + std::to_string(id) + " has no calibration");
-    auto calibration_frame = dataset->readFrame(*cam.calibration);
-    if (!calibration_frame.isOk()) return calibration_frame.status();
-    protocol::Calibration calibration;
-    HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(*calibration_frame, calibration));
-    const Camera camera = fromCalibration(calibration);
+    auto calibration = dataset->readCalibration(id);
+    if (!calibration.isOk()) return calibration.status();
+    const Camera camera = fromCalibration(*calibration);
     c.width = camera.width;
     c.height = camera.height;
     const auto record = std::find_if(cam.frames.begin(), cam.frames.end(),

@@ -211,13 +211,9 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
   SceneInput input;
   std::vector<Camera> cameras;
   for (const auto& [id, cam] : dataset->cameras()) {
-    if (!cam.calibration) throw std::invalid_argument(dir + ": camera " + std::to_string(id) + " has no calibration");
-    auto frame = dataset->readFrame(*cam.calibration);
-    if (!frame.isOk()) throw std::invalid_argument(frame.status().message());
-    protocol::Calibration calibration;
-    const protocol::Status decoded = protocol::decodeFrame(*frame, calibration);
-    if (!decoded.isOk()) throw std::invalid_argument(dir + ": " + decoded.message());
-    cameras.push_back(fromCalibration(calibration));
+    auto calibration = dataset->readCalibration(id);
+    if (!calibration.isOk()) throw std::invalid_argument(calibration.status().message());
+    cameras.push_back(fromCalibration(*calibration));
   }
   if (cameras.size() < 2) throw std::invalid_argument(dir + ": leave-one-camera-out needs at least 2 cameras");
   input.reported = cameras;

@@ -308,7 +308,7 @@ TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
   p = spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "7", "--replay", dir.string()},
             out / "b.log");
   EXPECT_EQ(waitExit(p, 30), 2);
-  EXPECT_NE(readFile(out / "b.log").find("has no calibration for camera 7 (cameras with records: 0)"),
+  EXPECT_NE(readFile(out / "b.log").find("has no calibration for camera 7 (cameras with one: 0)"),
             std::string::npos)
       << readFile(out / "b.log");
   p = spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "0", "--replay", dir.string(), "--speed",

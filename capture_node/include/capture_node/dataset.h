@@ -48,6 +48,9 @@ class Dataset {
   // The dataset's own description (imports and newer recordings).
   const std::optional<DatasetMetadata>& metadata() const { return metadata_; }
 
+  // A camera's first recorded calibration, decoded; errors name the camera.
+  protocol::StatusOr<protocol::Calibration> readCalibration(uint32_t camera_id) const;
+
   // Reads a record and parses it as a whole, checked protocol frame.
   protocol::StatusOr<protocol::Frame> readFrame(const protocol::RecordInfo& record) const;
 
