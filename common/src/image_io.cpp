@@ -12,7 +12,10 @@ protocol::Status writePng(const std::string& path, const Image8& image) {
   }
   const cv::Mat mat(static_cast<int>(image.height), static_cast<int>(image.width), CV_8UC(image.channels),
                     const_cast<uint8_t*>(image.pixels.data()));
-  cv::Mat ordered = mat;  // OpenCV stores blue first
+  // OpenCV stores blue first. The reordered copy gets its own storage: an
+  // output Mat that shares the caller's pixels would be swapped in place.
+  cv::Mat ordered;
+  if (image.channels == 1) ordered = mat;
   if (image.channels == 3) cv::cvtColor(mat, ordered, cv::COLOR_RGB2BGR);
   if (image.channels == 4) cv::cvtColor(mat, ordered, cv::COLOR_RGBA2BGRA);
   bool written = false;
