@@ -165,14 +165,21 @@ int main(int argc, char** argv) {
         edge_sum += glm::length(mesh.positions[mesh.indices[t + k]] - mesh.positions[mesh.indices[t + (k + 1) % 3]]);
       }
     }
-    const double scale = render::FieldParameters{}.geodesic_rings * edge_sum / static_cast<double>(mesh.indices.size());
+    const render::FieldParameters defaults;
+    const double scale = defaults.geodesic_radius > 0
+                             ? defaults.geodesic_radius
+                             : defaults.geodesic_rings * edge_sum / static_cast<double>(mesh.indices.size());
+    ref::GeodesicOptions bounded;
+    bounded.max_rings = defaults.geodesic_rings;
+    bounded.iterations = defaults.geodesic_iterations;
+    bounded.max_distance = defaults.geodesic_radius;
     ref::Field gamma(views.size(), std::vector<double>(mesh.vertexCount(), 1.0));
     for (size_t i = 0; i < views.size(); ++i) {
       std::vector<uint8_t> source(mesh.vertexCount(), 0);
       for (size_t t = 0; t < mesh.triangleCount(); ++t) {
         if (seams[i][t]) for (int k = 0; k < 3; ++k) source[mesh.indices[3 * t + k]] = 1;
       }
-      const auto distance = ref::approximateGeodesic(mesh, source);
+      const auto distance = ref::approximateGeodesic(mesh, source, bounded);
       for (size_t v = 0; v < mesh.vertexCount(); ++v) {
         if (std::isfinite(distance[v])) gamma[i][v] = std::clamp(distance[v] / scale, 0.0, 1.0);
       }
@@ -187,7 +194,7 @@ int main(int argc, char** argv) {
       fallback += blend.fallback[v];
     }
     std::printf("montage4d falls back to normal weighting (geodesic fields sum below 1) at %.1f%% of the %zu vertices "
-                "some pod sees (normalising distance k x mean edge = %.0f mm)\n",
+                "some pod sees (normalising distance, the geodesic radius: %.0f mm)\n",
                 seen ? 100.0 * static_cast<double>(fallback) / static_cast<double>(seen) : 0.0, seen, 1000 * scale);
   }
   auto& m4 = passes["montage4d"];

@@ -17,7 +17,7 @@ layout(push_constant) uniform Push {
   uint triangle_count;
   uint parity;              // geodesics: which half of the ping-pong buffers is read
   int max_rings;            // geodesics: k
-  float geodesic_scale;     // the distance that maps to gamma = 1
+  float geodesic_scale;     // montage: the distance that maps to gamma = 1; geodesics: the reach
   uint temporal_stride;     // floats in one half of the temporal buffer
 } push;
 

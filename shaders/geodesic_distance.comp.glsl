@@ -4,7 +4,8 @@
 #include "cameras.glsl"
 #include "compute_common.glsl"
 // Stage 6: one Jacobi pass (of K = 20) of the triangle-ring count and the
-// surface distance from camera i's seams; vertices more than k rings away
+// surface distance from camera i's seams; vertices more than k rings or
+// push.geodesic_scale (the geodesic radius: gamma is 1 from there on) away
 // stay unreached. For each triangle (a, b, c) around vertex c, unfolded
 // into the plane (a at the origin, b on the x axis, c above it), the
 // virtual source s lies below the axis at distances d_a and d_b from a and
@@ -67,17 +68,20 @@ void main() {
   for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
     Fan f = fans[k];
     uint ra = rings[in_offset + f.a], rb = rings[in_offset + f.b];
-    if (f.a != v && ra < uint(push.max_rings)) ring = min(ring, ra + 1u);
-    if (f.b != v && rb < uint(push.max_rings)) ring = min(ring, rb + 1u);
     float da = distances[in_offset + f.a], db = distances[in_offset + f.b];
+    // Rings spread only through reached vertices: past the radius nothing
+    // changes, so nothing there is put on a worklist.
+    if (f.a != v && ra < uint(push.max_rings) && da < HOLOFUSE_FAR) ring = min(ring, ra + 1u);
+    if (f.b != v && rb < uint(push.max_rings) && db < HOLOFUSE_FAR) ring = min(ring, rb + 1u);
     uint sa = nearest_seam[in_offset + f.a], sb = nearest_seam[in_offset + f.b];
+    float reach = push.geodesic_scale;
     float d = sa == sb ? unfolded(f, da, db) : da + f.ac;
-    if (d < candidate || (d == candidate && sa < candidate_source)) {
+    if (d <= reach && (d < candidate || (d == candidate && sa < candidate_source))) {
       candidate = d;
       candidate_source = sa;
     }
     d = sa == sb ? d : db + f.bc;
-    if (d < candidate || (d == candidate && sb < candidate_source)) {
+    if (d <= reach && (d < candidate || (d == candidate && sb < candidate_source))) {
       candidate = d;
       candidate_source = sb;
     }

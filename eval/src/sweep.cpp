@@ -60,6 +60,9 @@ std::vector<Knob> makeKnobs() {
   knobs.push_back(numberKnob("k", "geodesic reach in triangle rings", 1, 64, true,
                              [](EvalOptions& o, double v) { o.fields.geodesic_rings = static_cast<int>(v); },
                              [](const EvalOptions& o) { return double(o.fields.geodesic_rings); }));
+  knobs.push_back(numberKnob("radius", "geodesic radius, metres: gamma reaches 1 there (0: k mean edges)", 0, 10,
+                             false, [](EvalOptions& o, double v) { o.fields.geodesic_radius = static_cast<float>(v); },
+                             [](const EvalOptions& o) { return double(o.fields.geodesic_radius); }));
   knobs.push_back(numberKnob("K", "geodesic Jacobi passes", 1, 200, true,
                              [](EvalOptions& o, double v) { o.fields.geodesic_iterations = static_cast<int>(v); },
                              [](const EvalOptions& o) { return double(o.fields.geodesic_iterations); }));

@@ -29,6 +29,9 @@ int main(int argc, char** argv) {
   app.add_option("--dilation", options.blend.fields.dilation_px,
                  "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, scaled)")
       ->check(CLI::Range(-1, 64));
+  app.add_option("--geodesic-radius", options.blend.fields.geodesic_radius,
+                 "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)")
+      ->check(CLI::Range(0.0, 1000.0));
   app.add_option("--exclude-camera", options.exclude_camera, "leave this pod camera out of the blend");
   app.add_option("--device", options.device, "Vulkan device: index or part of its name (default: a GPU if any)");
   app.add_option("--client-id", options.client_id, "this client's id");

@@ -250,6 +250,7 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
     // Stage 6: seed from the seams, then K Jacobi passes of rings and
     // distances together over all cameras (y) and vertices (x).
     push.max_rings = parameters.geodesic_rings;
+    push.geodesic_scale = parameters.geodesic_radius > 0 ? parameters.geodesic_radius : HOLOFUSE_FAR;
     auto perVertexAndCamera = [&](VkPipeline pipeline, uint32_t parity) {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
       push.parity = parity;

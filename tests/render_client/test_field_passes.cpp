@@ -102,6 +102,15 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   BlendSettings settings;
   settings.mode = BlendMode::kHoloportation;
   settings.fields.geodesics = true;
+  // Six mean edges: short of the k rings, so the radius is what bounds.
+  double edge_sum = 0;
+  for (size_t t = 0; t < scene.mesh.indices.size(); t += 3) {
+    for (size_t k = 0; k < 3; ++k) {
+      edge_sum += glm::length(scene.mesh.positions[scene.mesh.indices[t + k]] -
+                              scene.mesh.positions[scene.mesh.indices[t + (k + 1) % 3]]);
+    }
+  }
+  settings.fields.geodesic_radius = static_cast<float>(6 * edge_sum / static_cast<double>(scene.mesh.indices.size()));
   renderer.render(scene.views[0].camera, settings);
   const FieldSnapshot gpu = renderer.readFields();
   ASSERT_EQ(gpu.vertex_count, vertices);
@@ -158,19 +167,30 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   // Stage 6: geodesic distance from each camera's seam vertices, against
   // the reference run from the GPU's own seams (so both start alike).
   ASSERT_EQ(gpu.distances.size(), n * vertices);
-  size_t reach_agree = 0, compared = 0;
+  size_t reach_agree = 0, compared = 0, bounded = 0;
   double distance_error = 0;
+
   for (size_t i = 0; i < n; ++i) {
     std::vector<uint8_t> source(vertices, 0);
     for (size_t t = 0; t < triangles; ++t) {
       if (gpu.seams[i * triangles + t] == 0) continue;
       for (int k = 0; k < 3; ++k) source[scene.mesh.indices[3 * t + k]] = 1;
     }
-    const auto cpu = reference::approximateGeodesic(scene.mesh, source);
+    reference::GeodesicOptions options;
+    options.max_rings = settings.fields.geodesic_rings;
+    options.iterations = settings.fields.geodesic_iterations;
+    options.max_distance = settings.fields.geodesic_radius;
+    const auto cpu = reference::approximateGeodesic(scene.mesh, source, options);
     for (size_t v = 0; v < vertices; ++v) {
       const float g = gpu.distances[i * vertices + v];
       const bool gpu_reached = g < 1e37f, cpu_reached = std::isfinite(cpu[v]);
-      reach_agree += gpu_reached == cpu_reached;
+      // Float and double may fall either side of the radius, and a vertex
+      // just inside it lends its neighbours unfoldings a little shorter
+      // than itself; there gamma is within 3% of 1 either way.
+      const double reached_distance = gpu_reached ? g : cpu[v];
+      const bool at_the_bound = reached_distance >= options.max_distance * 0.97;
+      reach_agree += gpu_reached == cpu_reached || at_the_bound;
+      bounded += cpu_reached && cpu[v] > 0.5 * options.max_distance;
       if (gpu_reached && cpu_reached && cpu[v] > 1e-6) {
         distance_error += std::abs(g - cpu[v]) / cpu[v];
         ++compared;
@@ -181,6 +201,7 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   RecordProperty("geodesic_reach_agreement", std::to_string(static_cast<double>(reach_agree) / (n * vertices)));
   RecordProperty("geodesic_mean_relative_difference", std::to_string(distance_error / compared));
   EXPECT_EQ(reach_agree, n * vertices) << "the same rings are reached";
+  EXPECT_GT(bounded, 0u) << "some distances come near the radius";
   EXPECT_LT(distance_error / compared, 1e-4) << "float against double, same updates";
   const double sight_share = static_cast<double>(sight_agree) / (n * vertices);
   const double trust_share = static_cast<double>(trust_agree) / std::max<size_t>(trust_both, 1);

@@ -166,6 +166,38 @@ TEST(Geodesics, RingsBoundTheReachAndNormalisationMapsToOne) {
   EXPECT_EQ(approximateGeodesic(mesh, source, options), d);
 }
 
+// The geodesic radius: what lies within it keeps its unbounded distance,
+// what lies beyond stays unreached (gamma 1, as at the radius itself).
+TEST(Geodesics, RadiusBoundsTheReachWithoutChangingWhatItReaches) {
+  const Mesh mesh = plane(31, 0.1);
+  std::vector<uint8_t> source(mesh.vertexCount(), 0);
+  for (uint32_t x = 0; x < 31; ++x) source[x] = 1;  // one side: distance is the height above it
+  GeodesicOptions unbounded;
+  unbounded.max_rings = 40;
+  unbounded.iterations = 40;
+  GeodesicOptions bounded = unbounded;
+  bounded.max_distance = 0.75;
+  const auto full = approximateGeodesic(mesh, source, unbounded);
+  const auto cut = approximateGeodesic(mesh, source, bounded);
+  size_t inside = 0, outside = 0;
+  for (size_t v = 0; v < mesh.vertexCount(); ++v) {
+    ASSERT_TRUE(std::isfinite(full[v]));
+    if (full[v] <= bounded.max_distance) {
+      EXPECT_DOUBLE_EQ(cut[v], full[v]) << v;
+      ++inside;
+    } else {
+      EXPECT_TRUE(std::isinf(cut[v])) << v << " at " << full[v];
+      ++outside;
+    }
+  }
+  EXPECT_GT(inside, 200u);
+  EXPECT_GT(outside, 200u);
+  const auto gamma = normalizedGeodesic(mesh, cut, bounded.max_rings, bounded.max_distance);
+  for (size_t v = 0; v < mesh.vertexCount(); ++v) {
+    EXPECT_NEAR(gamma[v], std::min(1.0, full[v] / bounded.max_distance), 1e-12);
+  }
+}
+
 // The surface of the cube [-1, 1]^3, each face an m x m grid (m even, so
 // face centres are vertices), welded along the edges.
 Mesh cube(int m) {

@@ -132,7 +132,9 @@ class Renderer {
   double mean_edge_ = 0;
   void prepareTemporal();
   // gamma = 1 at k mean edges from a seam.
-  double geodesicScale(const FieldParameters& p) const { return std::max(1, p.geodesic_rings) * mean_edge_; }
+  double geodesicScale(const FieldParameters& p) const {
+    return p.geodesic_radius > 0 ? p.geodesic_radius : std::max(1, p.geodesic_rings) * mean_edge_;
+  }
   // Texture-field buffers (config.h bindings 4 to 8).
   Buffer edges_, dilated_, sights_, trusted_, weights_, rows_, seams_, visible_counts_, adjacency_, rings_,
       distances_, fans_, worklist_, worklist_counts_, nearest_seam_;

@@ -46,6 +46,12 @@ struct FieldParameters {
   bool geodesics = false;
   int geodesic_rings = 15;       // k
   int geodesic_iterations = 20;  // K
+  // Metres from a seam at which gamma reaches 1, and beyond which no
+  // distance is computed (0: k mean edge lengths, distance unbounded).
+  // Paper 000's k = 15 triangles on its ~4 mm-edge captures is about 6 cm;
+  // a fixed length keeps that reach on coarser meshes, where 15 rings would
+  // span a whole limb and the fields would sum below 1 almost everywhere.
+  float geodesic_radius = 0.06f;
   bool operator==(const FieldParameters&) const = default;
 };
 

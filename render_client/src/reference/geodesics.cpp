@@ -14,43 +14,6 @@ double edgeLength(const Mesh& mesh, uint32_t a, uint32_t b) {
   return glm::length(glm::dvec3(mesh.positions[a]) - glm::dvec3(mesh.positions[b]));
 }
 
-// Triangle rings from the sources: a triangle touching a source is ring 1,
-// its neighbours through a shared vertex ring 2, ... A vertex's ring is the
-// smallest ring of its triangles (0 for a source).
-std::vector<int> vertexRings(const Mesh& mesh, const std::vector<uint8_t>& is_source, int max_rings) {
-  const size_t n = mesh.vertexCount();
-  std::vector<std::vector<uint32_t>> triangles_of(n);
-  for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
-    for (int k = 0; k < 3; ++k) triangles_of[mesh.indices[3 * t + k]].push_back(t);
-  }
-  std::vector<int> ring(n, std::numeric_limits<int>::max());
-  std::vector<int> triangle_ring(mesh.triangleCount(), std::numeric_limits<int>::max());
-  std::queue<uint32_t> frontier;
-  for (uint32_t v = 0; v < n; ++v) {
-    if (is_source[v]) {
-      ring[v] = 0;
-      frontier.push(v);
-    }
-  }
-  while (!frontier.empty()) {
-    const uint32_t v = frontier.front();
-    frontier.pop();
-    if (ring[v] >= max_rings) continue;
-    for (uint32_t t : triangles_of[v]) {
-      if (triangle_ring[t] <= ring[v] + 1) continue;
-      triangle_ring[t] = ring[v] + 1;
-      for (int k = 0; k < 3; ++k) {
-        const uint32_t w = mesh.indices[3 * t + k];
-        if (ring[w] > triangle_ring[t]) {
-          ring[w] = triangle_ring[t];
-          frontier.push(w);
-        }
-      }
-    }
-  }
-  return ring;
-}
-
 }  // namespace
 
 double unfoldedDistance(double ab, double ac, double bc, double da, double db) {
@@ -74,7 +37,17 @@ double unfoldedDistance(double ab, double ac, double bc, double da, double db) {
 std::vector<double> approximateGeodesic(const Mesh& mesh, const std::vector<uint8_t>& is_source,
                                         const GeodesicOptions& options) {
   const size_t n = mesh.vertexCount();
-  const std::vector<int> ring = vertexRings(mesh, is_source, options.max_rings);
+  // Triangle rings from the sources: a vertex of a triangle touching a
+  // source is ring 1, and so on. Rings spread only through reached
+  // vertices (within k rings and the radius), one per pass like the
+  // distances, so nothing past the radius is visited; without a radius
+  // these are the plain triangle rings.
+  constexpr int kNoRing = std::numeric_limits<int>::max();
+  std::vector<int> ring(n, kNoRing);
+  for (size_t v = 0; v < n; ++v) {
+    if (is_source[v]) ring[v] = 0;
+  }
+  std::vector<int> next_ring = ring;
   std::vector<double> distance(n, kInf);
   for (size_t v = 0; v < n; ++v) {
     if (is_source[v]) distance[v] = 0.0;
@@ -95,16 +68,28 @@ std::vector<double> approximateGeodesic(const Mesh& mesh, const std::vector<uint
   std::vector<double> next = distance;
   std::vector<uint32_t> next_source = source_of;
   for (int pass = 0; pass < options.iterations; ++pass) {
-    // Jacobi: every update reads `distance` and `source_of`, writes `next`.
-    // The smallest distance wins, ties go to the smaller source index, so
-    // the order of the updates does not matter.
+    // Jacobi: every update reads `ring`, `distance` and `source_of`, writes
+    // `next_ring`, `next` and `next_source`. The smallest distance wins,
+    // ties go to the smaller source index, so the order of the updates
+    // does not matter.
+    for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
+      const uint32_t v[3] = {mesh.indices[3 * t], mesh.indices[3 * t + 1], mesh.indices[3 * t + 2]};
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t c = v[k];
+        for (int j = 1; j < 3; ++j) {
+          const uint32_t w = v[(k + j) % 3];
+          if (ring[w] < options.max_rings && std::isfinite(distance[w])) next_ring[c] = std::min(next_ring[c], ring[w] + 1);
+        }
+      }
+    }
     for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
       const uint32_t v[3] = {mesh.indices[3 * t], mesh.indices[3 * t + 1], mesh.indices[3 * t + 2]};
       for (int k = 0; k < 3; ++k) {
         const uint32_t c = v[k], a = v[(k + 1) % 3], b = v[(k + 2) % 3];
         // A seam vertex is its own nearest seam vertex, at distance 0.
-        if (ring[c] > options.max_rings || is_source[c]) continue;
+        if (next_ring[c] > options.max_rings || is_source[c]) continue;
         auto offer = [&](double d, uint32_t from) {
+          if (options.max_distance > 0 && !(d <= options.max_distance)) return;
           if (d < next[c] || (d == next[c] && from < next_source[c])) {
             next[c] = d;
             next_source[c] = from;
@@ -119,6 +104,7 @@ std::vector<double> approximateGeodesic(const Mesh& mesh, const std::vector<uint
         }
       }
     }
+    ring = next_ring;
     distance = next;
     source_of = next_source;
   }

@@ -20,6 +20,9 @@ namespace holofuse::render::reference {
 struct GeodesicOptions {
   int max_rings = 15;   // k: vertices more triangle rings away than this stay unreached
   int iterations = 20;  // K: Jacobi passes
+  // Distances beyond this stay unreached (0: no bound): gamma of eq. 4 is 1
+  // from the normalising distance on, so nothing past it needs computing.
+  double max_distance = 0.0;
 };
 
 // Per-vertex distance from the sources; +infinity where not reached.
