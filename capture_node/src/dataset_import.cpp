@@ -319,7 +319,10 @@ protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& captur
     if (mask) {
       view.mask = undistort[c] ? undistort[c]->apply(std::move(*mask), cv::INTER_NEAREST) : std::move(*mask);
     } else if (plates[c]) {
-      view.mask = segmentForeground(view.color, *plates[c]);
+      // Real sensors and JPEG blocks are noisier than the synthetic pods.
+      SegmentationOptions plate_options;
+      plate_options.threshold = 36;
+      view.mask = segmentForeground(view.color, *plates[c], plate_options);
     } else {
       view.mask = segmentByBrightness(view.color, options);
     }

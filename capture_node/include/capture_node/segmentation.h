@@ -7,7 +7,12 @@
 namespace holofuse::capture {
 
 struct SegmentationOptions {
-  int threshold = 36;        // sum of absolute channel differences to count as foreground
+  // Sum of absolute channel differences to count as foreground. The
+  // synthetic pods' sensor noise (+-2 per channel) sums to at most 6, while
+  // the shaded back of the subject differs from the dark backdrop by as
+  // little as 24: at 36, stripes of the back were cut out of the mask and
+  // carved tunnels through the hull that the opposite camera saw through.
+  int threshold = 15;
   int cleanup_radius = 1;    // morphological open then close, square of 2r+1
 };
 
