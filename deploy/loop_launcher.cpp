@@ -97,6 +97,10 @@ int main(int argc, char** argv) {
   std::string record, replay, speed = "1";
   std::vector<std::string> dataset_server_args;
   bool record_fused = false, loop = false;
+  double hull_error_mm = 0;
+  app.add_option("--hull-error-mm", hull_error_mm,
+                 "the server's hull follows this silhouette error in mm frame by frame (finer voxels on a miss)")
+      ->check(CLI::Range(0.0, 1000.0));
   app.add_option("--record", record, "record what the pods send into this folder (a dataset for --replay)");
   app.add_flag("--record-fused", record_fused, "with --record: also record the server's fused meshes and images");
   app.add_option("--replay", replay, "replay this dataset folder through the same network path instead of synthetic pods");
@@ -175,6 +179,11 @@ int main(int argc, char** argv) {
 
   std::vector<std::string> server_args = {bin_dir + "/fusion_server", "--listen", "127.0.0.1:" + std::to_string(port),
                                          "--pods", std::to_string(pods), "--port-file", port_file};
+  if (hull_error_mm > 0) {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%.9g", hull_error_mm);
+    server_args.insert(server_args.end(), {"--hull-error-mm", text});
+  }
   if (!record.empty()) {
     server_args.insert(server_args.end(), {"--record", record});
     if (record_fused) server_args.push_back("--record-fused");

@@ -19,6 +19,7 @@
 #include "eval/geometry_metrics.h"
 #include "eval/metrics.h"
 #include "result_json.h"
+#include "fusion_server/hull_error.h"
 #include "fusion_server/visual_hull.h"
 #include "render_client/renderer.h"
 #include "render_client/texture_field_passes.h"
@@ -187,6 +188,14 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
   }
 }
 
+// The first frame's hull against the masks the server carved from.
+double silhouetteErrorMm(const FrameData& frame) {
+  std::vector<fusion::HullView> views;
+  for (const auto& view : frame.views) views.push_back({view.camera, view.mask, {}});
+  const fusion::SilhouetteError error = fusion::silhouetteError(frame.mesh, views);
+  return error.valid ? 1000.0 * error.mean_m : -1.0;
+}
+
 // Frame statistics shared by both sources.
 void summariseFrames(const SceneInput& input, SceneResult& result) {
   std::vector<double> hull_ms;
@@ -217,7 +226,7 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
   }
   if (cameras.size() < 2) throw std::invalid_argument(dir + ": leave-one-camera-out needs at least 2 cameras");
   input.reported = cameras;
-  const fusion::HullOptions hull_options = hullOptionsFor(*dataset, options.voxel_size);
+  fusion::HullOptions hull_options = hullOptionsFor(*dataset, options.voxel_size);
   // The frame ids every camera holds, in order; each camera's record in
   // camera order (the first, should a camera repeat an id).
   std::map<uint64_t, std::map<uint32_t, protocol::RecordInfo>> by_id;
@@ -243,7 +252,16 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
       frame.true_masks.push_back(std::move(images->mask));
     }
     const auto t0 = Clock::now();
-    const Mesh hull = fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
+    Mesh hull;
+    if (options.hull_error_target > 0 && input.frames.empty()) {
+      // The error target picks the voxel on the first frame; the rest follow it.
+      fusion::HullForTarget found = fusion::carveToErrorTarget(hull_views, hull_options, options.hull_error_target,
+                                                               &frame.hull_stats);
+      hull = std::move(found.mesh);
+      hull_options.voxel_size = found.voxel_size;
+    } else {
+      hull = fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
+    }
     frame.hull_ms = msSince(t0);
     auto draco = encodeDraco(hull, options.draco);
     if (!draco.isOk()) throw std::runtime_error("Draco encoding failed: " + draco.status().message());
@@ -258,6 +276,7 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
   result.stresses = dataset->metadata() ? dataset->metadata()->source : "a recording";
   result.cameras = static_cast<int>(cameras.size());
   result.chamfer_mm = -1;  // no true surface
+  result.voxel_mm = 1000.0 * hull_options.voxel_size;
   for (size_t i = 0; i < cameras.size(); ++i) {
     result.silhouette_iou.push_back(silhouetteIoU(input.frames[0].mesh, cameras[i], input.frames[0].true_masks[i]));
   }
@@ -292,6 +311,7 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     SceneResult result;
     const SceneInput input = loadDatasetScene(options, dir, result);
     summariseFrames(input, result);
+    result.silhouette_error_mm = silhouetteErrorMm(input.frames[0]);
     evaluateModes(options, context, input, result, progress);
     results.push_back(std::move(result));
   }
@@ -308,16 +328,31 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
                                                             preset->calibration_error_metres, scene_options.seed));
       plates.push_back(scene.backgroundPlate(camera));
     }
+    EvalOptions scene_eval = options;
+    if (options.hull_error_target > 0 && options.geometry == "hull") {
+      // The error target picks the voxel on the first frame; the rest follow it.
+      std::vector<fusion::HullView> views;
+      for (size_t i = 0; i < truth.size(); ++i) {
+        capture::PodCapture capture =
+            capture::capturePodFrame(scene, truth[i], plates[i], options.first_frame, static_cast<uint16_t>(i));
+        views.push_back({input.reported[i], capture.mask, capture.feather});
+      }
+      fusion::HullOptions hull_options;
+      hull_options.voxel_size = options.voxel_size;
+      scene_eval.voxel_size = fusion::carveToErrorTarget(views, hull_options, options.hull_error_target).voxel_size;
+    }
     SceneResult result;
     result.name = preset->name;
+    result.voxel_mm = 1000.0 * scene_eval.voxel_size;
     result.stresses = preset->stresses;
     result.cameras = camera_count;
     result.view_jump_degrees = preset->view_jump_degrees;
     for (int f = 0; f < options.frames; ++f) {
-      input.frames.push_back(prepareFrame(options, scene, truth, input.reported, plates,
+      input.frames.push_back(prepareFrame(scene_eval, scene, truth, input.reported, plates,
                                           options.first_frame + static_cast<uint64_t>(f)));
     }
     summariseFrames(input, result);
+    result.silhouette_error_mm = silhouetteErrorMm(input.frames[0]);
     {
       const Mesh truth_surface = scene.truthMesh(options.first_frame, 0.01);
       result.chamfer_mm = 1000.0 * chamferDistance(input.frames[0].mesh, truth_surface);
@@ -342,6 +377,9 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
   s["hull"] = {{"chamfer_mm", scene.chamfer_mm >= 0 ? nlohmann::json(scene.chamfer_mm) : nlohmann::json()},
                {"silhouette_iou", scene.silhouette_iou},
                {"cells_visited", scene.cells_visited},
+               {"voxel_mm", scene.voxel_mm},
+               {"silhouette_error_mm", scene.silhouette_error_mm >= 0 ? nlohmann::json(scene.silhouette_error_mm)
+                                                                      : nlohmann::json()},
                {"dense_grid_points", scene.dense_grid_points}};
   for (const auto& [mode, m] : scene.modes) {
     s["modes"][mode] = {{"rmse_percent", m.rmse_percent}, {"psnr_db", m.psnr_db},
@@ -366,6 +404,10 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
     scene.chamfer_mm = hull.contains("chamfer_mm") && hull["chamfer_mm"].is_number() ? hull["chamfer_mm"].get<double>() : -1.0;
     scene.silhouette_iou = hull.value("silhouette_iou", std::vector<double>{});
     scene.cells_visited = hull.value("cells_visited", 0.0);
+    scene.voxel_mm = hull.value("voxel_mm", 0.0);
+    scene.silhouette_error_mm = hull.contains("silhouette_error_mm") && hull["silhouette_error_mm"].is_number()
+                                    ? hull["silhouette_error_mm"].get<double>()
+                                    : -1.0;
     scene.dense_grid_points = hull.value("dense_grid_points", 0.0);
   }
   for (const auto& [mode, m] : s.at("modes").items()) {
@@ -434,7 +476,7 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   md << "\n|---|";
   for (size_t i = 0; i < modes.size(); ++i) md << "---:|---:|---:|---:|---:|";
   md << "\n";
-  char cell[160];
+  char cell[256];
   for (const auto& scene : results) {
     md << "| " << scene.name << " |";
     for (const auto& mode : modes) {
@@ -452,9 +494,11 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   }
   md << "\nfps: one render after a new mesh (field passes included), this machine's Vulkan device.\n\n"
      << "## Geometry\n\nThe surface the client received against the truth (first frame; Chamfer between vertex "
-        "sets, truth by marching cubes at 1 cm; IoU of its silhouette in each true mask).\n\n"
-        "| Scene | triangles | hull ms | cells visited | dense grid points | Chamfer mm | IoU mean | IoU worst |\n"
-        "|---|---:|---:|---:|---:|---:|---:|---:|\n";
+        "sets, truth by marching cubes at 1 cm; IoU of its silhouette in each true mask; silhouette error: mean distance "
+        "between its outline and each segmented mask's, what the voxel controls and `--hull-error-mm` targets).\n\n"
+        "| Scene | voxel mm | triangles | hull ms | cells visited | dense grid points | Chamfer mm | silhouette error mm "
+        "| IoU mean | IoU worst |\n"
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& scene : results) {
     double mean_iou = 0, worst_iou = 1;
     for (double v : scene.silhouette_iou) {
@@ -463,9 +507,11 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     }
     char chamfer[32] = "n/a (no true surface)";
     if (scene.chamfer_mm >= 0) std::snprintf(chamfer, sizeof(chamfer), "%.1f", scene.chamfer_mm);
-    std::snprintf(cell, sizeof(cell), "| %s | %.0f | %.1f | %.0f | %.0f | %s | %.3f | %.3f |\n", scene.name.c_str(),
-                  scene.triangles, scene.hull_ms, scene.cells_visited, scene.dense_grid_points, chamfer, mean_iou,
-                  worst_iou);
+    char silhouette[32] = "n/a";
+    if (scene.silhouette_error_mm >= 0) std::snprintf(silhouette, sizeof(silhouette), "%.2f", scene.silhouette_error_mm);
+    std::snprintf(cell, sizeof(cell), "| %s | %.1f | %.0f | %.1f | %.0f | %.0f | %s | %s | %.3f | %.3f |\n",
+                  scene.name.c_str(), scene.voxel_mm, scene.triangles, scene.hull_ms, scene.cells_visited,
+                  scene.dense_grid_points, chamfer, silhouette, mean_iou, worst_iou);
     md << cell;
   }
   md << "\n"

@@ -26,10 +26,15 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 16));
   app.add_option("--out", options.out_dir, "output folder (quality.json, quality.md, images/)")->required();
   app.add_flag("--save-images", options.save_images, "write rendered, true and mask PNGs of every comparison");
+  double hull_error_mm = 0;
+  app.add_option("--hull-error-mm", hull_error_mm,
+                 "hull error target: the coarsest voxel (from 20 mm down) whose silhouette error meets it")
+      ->check(CLI::Range(0.0, 1000.0));
   app.add_option("--geometry", options.geometry, "hull (the server's visual hull) or truth (the true surface)")
       ->check(CLI::IsMember({"hull", "truth"}));
   app.add_option("--device", options.device, "Vulkan device: index or part of its name");
   CLI11_PARSE(app, argc, argv);
+  options.hull_error_target = hull_error_mm / 1000.0;
   unsigned w = 0, h = 0;
   if (std::sscanf(size.c_str(), "%ux%u", &w, &h) != 2 || w < 32 || h < 32 || w > 4096 || h > 4096) {
     std::fprintf(stderr, "--size '%s': expected WxH with each side in 32..4096\n", size.c_str());

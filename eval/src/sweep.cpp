@@ -57,6 +57,9 @@ std::vector<Knob> makeKnobs() {
   knobs.push_back(numberKnob("voxel", "hull voxel size, metres (the accuracy knob)", 0.004, 0.1, false,
                              [](EvalOptions& o, double v) { o.voxel_size = v; },
                              [](const EvalOptions& o) { return o.voxel_size; }));
+  knobs.push_back(numberKnob("hull-error-mm", "hull error target: silhouette error in mm (0: the voxel is fixed)", 0,
+                             100, false, [](EvalOptions& o, double v) { o.hull_error_target = v / 1000.0; },
+                             [](const EvalOptions& o) { return 1000.0 * o.hull_error_target; }));
   knobs.push_back(numberKnob("k", "geodesic reach in triangle rings", 1, 64, true,
                              [](EvalOptions& o, double v) { o.fields.geodesic_rings = static_cast<int>(v); },
                              [](const EvalOptions& o) { return double(o.fields.geodesic_rings); }));

@@ -43,6 +43,8 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
 
   const uint64_t t0 = monotonicNs();
   Mesh mesh = carveVisualHull(views, settings.hull);
+  out.voxel_size = settings.hull.voxel_size;
+  if (settings.hull_error_target > 0) out.silhouette_error = silhouetteError(mesh, views);
   const uint64_t t1 = monotonicNs();
   stamps.push_back({static_cast<uint16_t>(Stage::kHull), kSourceServer, t0, t1});
   auto draco = encodeDraco(mesh, settings.draco);
@@ -113,7 +115,12 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
 }
 
 FusionWorker::FusionWorker(FusionSettings settings, int wake_fd, bool lossless)
-    : settings_(std::move(settings)), wake_fd_(wake_fd), lossless_(lossless), thread_([this] { run(); }) {}
+    : settings_(std::move(settings)), wake_fd_(wake_fd), lossless_(lossless) {
+  if (settings_.hull_error_target > 0) {
+    voxel_.emplace(settings_.hull_error_target, settings_.hull.voxel_size, settings_.hull.voxel_size);
+  }
+  thread_ = std::thread([this] { run(); });
+}
 
 size_t FusionWorker::queuedJobs() {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -159,7 +166,14 @@ void FusionWorker::run() {
     }
     FusedOutput out;
     try {
-      out = fuseGroup(job, settings_);
+      FusionSettings settings = settings_;
+      if (voxel_) settings.hull.voxel_size = voxel_->voxel();
+      out = fuseGroup(job, settings);
+      if (voxel_ && voxel_->observe(out.silhouette_error)) {
+        std::fprintf(stderr, "[server] hull voxel %.1f -> %.1f mm: silhouette error %.2f mm against the target of %.2f mm\n",
+                     1000 * settings.hull.voxel_size, 1000 * voxel_->voxel(), 1000 * out.silhouette_error.mean_m,
+                     1000 * settings_.hull_error_target);
+      }
     } catch (const std::exception& e) {
       // One group that cannot be fused (memory for a hostile calibration's
       // image size, say) costs that frame, not the server.

@@ -17,6 +17,11 @@ int main(int argc, char** argv) {
   app.add_option("--sync-deadline-ms", options.sync_deadline_ms, "wait this long for a frame's slowest pod")
       ->check(CLI::Range(1.0, 10000.0));
   app.add_option("--voxel", options.fusion.hull.voxel_size, "hull voxel size in metres")->check(CLI::Range(0.0001, 0.5));
+  double hull_error_mm = 0;
+  app.add_option("--hull-error-mm", hull_error_mm,
+                 "hull error target in mm of silhouette error: the voxel follows it frame by frame, never coarser "
+                 "than --voxel")
+      ->check(CLI::Range(0.0, 1000.0));
   std::string volume;
   app.add_option("--volume", volume, "capture volume min and max corners x0,y0,z0,x1,y1,z1 in metres (a dataset's)");
   app.add_option("--draco-bits", options.fusion.draco.position_bits, "Draco position quantisation bits")
@@ -40,6 +45,7 @@ int main(int argc, char** argv) {
   app.add_flag("--exit-when-pods-done", options.exit_when_pods_done,
                "stop once every pod has left and its frames are fused and delivered (end of a replay)");
   CLI11_PARSE(app, argc, argv);
+  options.fusion.hull_error_target = hull_error_mm / 1000.0;
   if (!volume.empty()) {
     double v[6];
     char tail = 0;

@@ -1,6 +1,10 @@
 // Visual hull against the synthetic truth, frame sync deadlines, and one
 // whole fusion of a group.
 #include <gtest/gtest.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <thread>
 
 #include <chrono>
 #include <cmath>
@@ -12,6 +16,7 @@
 #include "common/mesh_codec.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
+#include "fusion_server/hull_error.h"
 #include "fusion_server/visual_hull.h"
 
 namespace holofuse::fusion {
@@ -60,6 +65,73 @@ TEST(VisualHull, ContainsTheTruthAndReprojectsOntoEverySilhouette) {
     }
     EXPECT_GT(static_cast<double>(inside) / total, 0.98) << "camera " << v.camera.id;
   }
+}
+
+// The error target: the silhouette error is what the voxel controls, it
+// shrinks with the voxel, and the search returns the coarsest hull that
+// meets a target.
+TEST(HullErrorTarget, SilhouetteErrorFallsWithTheVoxelAndTheSearchMeetsTheTarget) {
+  const auto views = syntheticViews(6, 12);
+  HullOptions options;
+  std::vector<double> errors;
+  for (double voxel : {0.04, 0.02, 0.01}) {
+    options.voxel_size = voxel;
+    const SilhouetteError error = silhouetteError(carveVisualHull(views, options), views);
+    ASSERT_TRUE(error.valid);
+    EXPECT_GE(error.worst_m, error.mean_m);
+    RecordProperty("silhouette_error_mm_at_voxel_" + std::to_string(static_cast<int>(voxel * 1000)) + "mm",
+                   std::to_string(1000 * error.mean_m));
+    errors.push_back(error.mean_m);
+  }
+  EXPECT_GT(errors[0], errors[1]);
+  EXPECT_GT(errors[1], errors[2]);
+  // A mesh shifted sideways by 5 cm is off by about that much.
+  Mesh shifted = carveVisualHull(views, options);
+  for (auto& p : shifted.positions) p.x += 0.05f;
+  EXPECT_GT(silhouetteError(shifted, views).mean_m, 0.02);
+
+  // The coarsest voxel on the search's ladder that meets 1.5 mm.
+  options.voxel_size = 0.04;
+  const double target = 0.0015;
+  const HullForTarget found = carveToErrorTarget(views, options, target);
+  ASSERT_TRUE(found.met);
+  EXPECT_LE(found.error.mean_m, target);
+  EXPECT_LT(found.voxel_size, 0.04);
+  EXPECT_GT(found.carves, 1);
+  EXPECT_GT(found.mesh.triangleCount(), 1000u);
+  options.voxel_size = found.voxel_size / kVoxelStep;
+  EXPECT_GT(silhouetteError(carveVisualHull(views, options), views).mean_m, target) << "one step coarser misses";
+}
+
+TEST(HullErrorTarget, TheControllerRefinesOnAMissAndCoarsensOnlyWellBelowTheTarget) {
+  VoxelController controller(0.002, 0.02, 0.05);
+  SilhouetteError error;
+  error.valid = true;
+  error.mean_m = 0.003;  // missed: finer
+  EXPECT_TRUE(controller.observe(error));
+  EXPECT_NEAR(controller.voxel(), 0.02 * kVoxelStep, 1e-12);
+  error.mean_m = 0.0015;  // met, not by far: stay
+  EXPECT_FALSE(controller.observe(error));
+  error.mean_m = 0.0005;  // far below: coarser, up to the coarsest, once the miss at 20 mm is old
+  for (int i = 0; i < VoxelController::kMissMemory + 20; ++i) controller.observe(error);
+  EXPECT_NEAR(controller.voxel(), 0.05, 1e-12);
+  error.mean_m = 1.0;  // never finer than the finest
+  for (int i = 0; i < 40; ++i) controller.observe(error);
+  EXPECT_NEAR(controller.voxel(), kFinestVoxel, 1e-12);
+  error.valid = false;  // nothing measured: no change
+  EXPECT_FALSE(controller.observe(error));
+  // A voxel that missed is not tried again soon, however well a finer one does.
+  VoxelController remembers(0.002, 0.02, 0.05);
+  error.valid = true;
+  error.mean_m = 0.003;
+  remembers.observe(error);  // 20 mm missed
+  error.mean_m = 0.0005;
+  EXPECT_FALSE(remembers.observe(error));
+  EXPECT_NEAR(remembers.voxel(), 0.02 * kVoxelStep, 1e-12);
+  for (int i = 0; i < VoxelController::kMissMemory - 1; ++i) remembers.observe(error);
+  EXPECT_NEAR(remembers.voxel(), 0.02 * kVoxelStep, 1e-12);
+  for (int i = 0; i < 2; ++i) remembers.observe(error);
+  EXPECT_GT(remembers.voxel(), 0.02) << "forgotten after a while";
 }
 
 TEST(VisualHull, CoarseToFineGivesTheDenseMeshWithAFifthOfTheWork) {
@@ -233,6 +305,62 @@ TEST(FusionWorker, FusesAGroupIntoDecodableFrames) {
   protocol::TextureBundle bundle;
   ASSERT_TRUE(protocol::decodeFrame(decode(out.texture_bundle), bundle).isOk());
   EXPECT_EQ(bundle.images.size(), 3u);
+}
+
+// Under an error target the worker carves each group once, at a voxel that
+// follows the measured silhouette error: finer after each miss.
+TEST(FusionWorker, AnErrorTargetRefinesTheVoxelUntilTheSilhouettesAgree) {
+  const auto views = syntheticViews(4, 3, 160, 120);
+  GroupJob job;
+  job.group.frame_id = 3;
+  for (size_t i = 0; i < views.size(); ++i) {
+    PodImages pod;
+    pod.camera_id = static_cast<uint32_t>(i);
+    pod.color = Image8(160, 120, 3, 0);
+    pod.mask = views[i].mask;
+    pod.feather = views[i].feather;
+    pod.camera = views[i].camera;
+    job.group.pods[pod.camera_id] = pod;
+  }
+  FusionSettings settings;
+  settings.pods_expected = 4;
+  settings.hull.voxel_size = 0.05;
+  settings.hull_error_target = 0.0025;
+  const int wake = ::eventfd(0, EFD_NONBLOCK);
+  ASSERT_GE(wake, 0);
+  std::vector<FusedOutput> outputs;
+  {
+    FusionWorker worker(settings, wake, /*lossless=*/true);
+    for (int frame = 0; frame < 6; ++frame) {
+      job.group.frame_id = 3 + static_cast<uint64_t>(frame);
+      worker.submit(job);
+    }
+    for (int waited = 0; outputs.size() < 6 && waited < 600; ++waited) {
+      for (auto& out : worker.takeOutputs()) outputs.push_back(std::move(out));
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+  }
+  ::close(wake);
+  ASSERT_EQ(outputs.size(), 6u);
+  EXPECT_DOUBLE_EQ(outputs[0].voxel_size, 0.05);
+  ASSERT_TRUE(outputs[0].silhouette_error.valid);
+  EXPECT_GT(outputs[0].silhouette_error.mean_m, settings.hull_error_target) << "the start misses";
+  bool met = false;
+  for (size_t k = 1; k < outputs.size(); ++k) {
+    ASSERT_TRUE(outputs[k].silhouette_error.valid);
+    const bool missed = outputs[k - 1].silhouette_error.mean_m > settings.hull_error_target;
+    if (missed) {
+      EXPECT_NEAR(outputs[k].voxel_size, outputs[k - 1].voxel_size * kVoxelStep, 1e-12) << k;
+    } else {
+      EXPECT_LE(outputs[k].voxel_size, 0.05) << "never coarser than the start";
+    }
+    // The same group again: once met, it stays met (no swinging back).
+    if (met) {
+      EXPECT_LE(outputs[k].silhouette_error.mean_m, settings.hull_error_target) << k;
+    }
+    met = met || outputs[k].silhouette_error.mean_m <= settings.hull_error_target;
+  }
+  EXPECT_TRUE(met) << "met within six frames";
 }
 
 }  // namespace

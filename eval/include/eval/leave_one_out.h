@@ -45,6 +45,10 @@ struct EvalOptions {
   std::string geometry = "hull";
   // The knobs a sweep turns; the defaults are the live loop's.
   double voxel_size = 0.02;                  // hull accuracy, metres
+  // Silhouette error, metres (fusion::silhouetteError): when set, each
+  // scene's voxel is the coarsest from voxel_size down that meets it on the
+  // first frame (fusion::carveToErrorTarget).
+  double hull_error_target = 0;
   DracoOptions draco;                        // position bits etc.
   protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
   int lz4_acceleration = 1;
@@ -74,6 +78,8 @@ struct SceneResult {
   double chamfer_mm = 0;  // negative: no true surface (datasets)
   std::vector<double> silhouette_iou;  // per camera
   double cells_visited = 0;            // mean per frame (eval/visual_hull.h's count)
+  double voxel_mm = 0;                 // the hull's voxel
+  double silhouette_error_mm = -1;     // first frame, against the segmented masks; negative: not measured
   double dense_grid_points = 0;        // what the dense grid would have sampled
   std::map<std::string, ModeResult> modes;  // by blendModeName
 };

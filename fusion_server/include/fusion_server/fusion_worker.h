@@ -14,6 +14,7 @@
 #include "common/camera.h"
 #include "common/mesh_codec.h"
 #include "fusion_server/frame_sync.h"
+#include "fusion_server/hull_error.h"
 #include "fusion_server/visual_hull.h"
 #include "protocol/connection.h"
 
@@ -21,6 +22,10 @@ namespace holofuse::fusion {
 
 struct FusionSettings {
   HullOptions hull;
+  // Metres of silhouette error (fusion::silhouetteError) the hull's voxel
+  // follows from frame to frame, starting from hull.voxel_size and never
+  // coarser; 0: the voxel is fixed.
+  double hull_error_target = 0;
   DracoOptions draco;
   protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
   uint32_t pods_expected = 0;
@@ -30,6 +35,8 @@ struct FusedOutput {
   uint64_t frame_id = 0;
   protocol::SharedFrame mesh_frame, texture_bundle, stats;
   size_t triangles = 0;
+  double voxel_size = 0;
+  SilhouetteError silhouette_error;  // measured only under an error target
 };
 
 struct GroupJob {
@@ -59,6 +66,7 @@ class FusionWorker {
   void run();
 
   FusionSettings settings_;
+  std::optional<VoxelController> voxel_;  // under an error target
   int wake_fd_;
   std::mutex mutex_;
   std::condition_variable cv_;

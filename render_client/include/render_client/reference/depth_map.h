@@ -9,22 +9,15 @@
 #include <vector>
 
 #include "common/camera.h"
+#include "common/depth_raster.h"
 #include "common/mesh.h"
 
 namespace holofuse::render::reference {
 
-constexpr double kNoDepth = std::numeric_limits<double>::infinity();
-
-struct DepthMap {
-  uint32_t width = 0, height = 0;
-  std::vector<double> depth;  // camera-space z per pixel, kNoDepth where no surface
-  double at(uint32_t x, uint32_t y) const { return depth[static_cast<size_t>(y) * width + x]; }
-};
-
-// Z-buffer of the mesh sampled at pixel centres, perspective-correct.
-// Triangles with a vertex behind the near plane are skipped; degenerate
-// triangles draw nothing.
-DepthMap rasterizeDepth(const Mesh& mesh, const Camera& camera, double near_plane = 0.05);
+// Stage 1's reference is the plain z-buffer shared with the fusion server.
+using holofuse::DepthMap;
+using holofuse::kNoDepth;
+using holofuse::rasterizeDepth;
 
 // Paper 000 (section 4.2) dilates by eps = 4 px on 2048-pixel-wide
 // textures. Applied literally to a 320-pixel image that band is six times
