@@ -180,8 +180,19 @@ glm::dvec3 SyntheticScene::backdrop(const glm::dvec3& d) const {
   return glm::dvec3(0.2, 0.33, 0.25) + 0.05 * d.y + 0.025 * std::sin(5 * around);
 }
 
+namespace {
+constexpr double kRingRadius = 2.6, kRingHeight = 1.0, kRingFovDegrees = 48.0;
+const glm::dvec3 kRingTarget(0, 0.85, 0);
+}  // namespace
+
 std::vector<Camera> SyntheticScene::cameraRig(int count, uint32_t width, uint32_t height) {
-  return ringCameras(count, 2.6, 1.0, glm::dvec3(0, 0.85, 0), width, height, 48.0);
+  return ringCameras(count, kRingRadius, kRingHeight, kRingTarget, width, height, kRingFovDegrees);
+}
+
+Camera SyntheticScene::ringPose(double degrees, uint32_t id, uint32_t width, uint32_t height) {
+  const double a = degrees * std::numbers::pi / 180.0;
+  const glm::dvec3 eye(kRingRadius * std::sin(a), kRingHeight, kRingRadius * std::cos(a));
+  return lookAtCamera(id, eye, kRingTarget, glm::dvec3(0, 1, 0), width, height, kRingFovDegrees);
 }
 
 glm::dvec3 SyntheticScene::cameraGain(uint32_t id) const {

@@ -30,11 +30,22 @@ int main(int argc, char** argv) {
   app.add_option("--hull-error-mm", hull_error_mm,
                  "hull error target: the coarsest voxel (from 20 mm down) whose silhouette error meets it")
       ->check(CLI::Range(0.0, 1000.0));
+  app.add_option("--novel-views", options.novel_view_degrees,
+                 "synthetic scenes: also render this many degrees around the ring from the chosen cameras' poses, "
+                 "every camera blended, against the scene's true image there (one row per offset)")
+      ->delimiter(',');
   app.add_option("--geometry", options.geometry, "hull (the server's visual hull) or truth (the true surface)")
       ->check(CLI::IsMember({"hull", "truth"}));
   app.add_option("--device", options.device, "Vulkan device: index or part of its name");
   CLI11_PARSE(app, argc, argv);
   options.hull_error_target = hull_error_mm / 1000.0;
+  for (double degrees : options.novel_view_degrees) {
+    if (!(degrees != 0 && std::abs(degrees) < 360)) {
+      std::fprintf(stderr, "holofuse eval: --novel-views %g: an offset must be nonzero and within (-360, 360) degrees "
+                           "(0 is the camera's own pose: leave-one-out covers it)\n", degrees);
+      return 2;
+    }
+  }
   unsigned w = 0, h = 0;
   if (std::sscanf(size.c_str(), "%ux%u", &w, &h) != 2 || w < 32 || h < 32 || w > 4096 || h > 4096) {
     std::fprintf(stderr, "--size '%s': expected WxH with each side in 32..4096\n", size.c_str());

@@ -82,6 +82,19 @@ TEST(Segmentation, RecoversTheTrueMaskFromTheBackgroundPlate) {
   }
 }
 
+TEST(SyntheticScene, RingPosesAtThePodsAnglesAreThePods) {
+  const auto rig = SyntheticScene::cameraRig(6, 160, 120);
+  for (size_t i = 0; i < rig.size(); ++i) {
+    const Camera pose = SyntheticScene::ringPose(60.0 * static_cast<double>(i), 99, 160, 120);
+    EXPECT_NEAR(glm::length(pose.center() - rig[i].center()), 0.0, 1e-12) << i;
+    EXPECT_NEAR(glm::dot(pose.forward(), rig[i].forward()), 1.0, 1e-12) << i;
+    EXPECT_EQ(pose.id, 99u);
+  }
+  // Between pods 0 and 1: as far from both.
+  const Camera between = SyntheticScene::ringPose(30.0, 0, 160, 120);
+  EXPECT_NEAR(glm::length(between.center() - rig[0].center()), glm::length(between.center() - rig[1].center()), 1e-12);
+}
+
 TEST(Feather, IsTheDistanceToTheSilhouetteBorder) {
   Image8 mask(41, 41, 1, 0);
   for (uint32_t y = 10; y <= 30; ++y) {

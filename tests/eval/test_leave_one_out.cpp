@@ -96,6 +96,30 @@ TEST(LeaveOneOut, TheTrueSurfaceScoresAboveTheHullSoGeometryErrorsShow) {
   EXPECT_THROW(runLeaveOneOut(options), std::invalid_argument);
 }
 
+// Novel views: every pod blended, the truth rendered by the scene at the
+// new pose. Beside a pod the picture is far better than where leave-one-out
+// puts the user (no pod of four sees the held-out camera's front), and
+// better than halfway between two pods.
+TEST(LeaveOneOut, NovelViewsBesideAPodScoreAboveViewsBetweenPods) {
+  EvalOptions options = tiny();
+  options.scenes = {"few-cameras"};
+  options.frames = 1;
+  options.modes = {render::BlendMode::kNormal};
+  options.novel_view_degrees = {5, 45};
+  const auto results = runLeaveOneOut(options);
+  ASSERT_EQ(results.size(), 3u);
+  EXPECT_EQ(results[0].name, "few-cameras");
+  EXPECT_EQ(results[1].name, "few-cameras +5 deg");
+  EXPECT_EQ(results[2].name, "few-cameras +45 deg");
+  EXPECT_DOUBLE_EQ(results[1].novel_view_degrees, 5.0);
+  for (const auto& row : results) EXPECT_EQ(row.modes.at("normal").images, 1u) << row.name;
+  const double held_out = results[0].modes.at("normal").psnr_db, beside = results[1].modes.at("normal").psnr_db,
+               between = results[2].modes.at("normal").psnr_db;
+  EXPECT_GT(beside, held_out + 3.0) << held_out << " / " << beside;
+  EXPECT_GT(beside, between) << beside << " / " << between;
+  EXPECT_FALSE(montageVerdict(results[1]).met) << "needs both modes";
+}
+
 TEST(LeaveOneOut, UnknownScenesListTheValidOnes) {
   EvalOptions options = tiny();
   options.scenes = {"sunny-beach"};

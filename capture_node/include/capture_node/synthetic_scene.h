@@ -47,6 +47,9 @@ class SyntheticScene {
 
   // The ring of cameras the synthetic pods use.
   static std::vector<Camera> cameraRig(int count, uint32_t width, uint32_t height);
+  // A camera on the rig's ring at `degrees` around the vertical axis (pod i
+  // of n sits at 360 i / n): novel views with a true image.
+  static Camera ringPose(double degrees, uint32_t id, uint32_t width, uint32_t height);
   // Per-camera colour gain (white balance differs between pods).
   glm::dvec3 cameraGain(uint32_t camera_id) const;
 

@@ -37,6 +37,11 @@ struct EvalOptions {
   uint32_t width = 320, height = 240;
   double fps = 10.0;           // the scene clock: frame ids per second
   int held_out_cameras = 0;    // 0: every camera; else this many, evenly spread
+  // Synthetic scenes only: besides leave-one-out, render at these offsets
+  // (degrees around the ring) from the chosen cameras' poses with every
+  // camera blended, against the scene's true image at that pose; one result
+  // row per offset. Where a user sits near a pod, not between two.
+  std::vector<double> novel_view_degrees;
   std::string out_dir;         // where save_images writes
   bool save_images = false;    // rendered, true image and mask per image compared
   std::string device;          // Vulkan device selector ("" picks a GPU if any)
@@ -68,6 +73,7 @@ struct ModeResult {
 
 struct SceneResult {
   std::string name, stresses;
+  double novel_view_degrees = 0;  // 0: leave-one-camera-out; else the offset of a novel-view row
   int cameras = 0;
   double hull_ms = 0;          // median
   double triangles = 0;        // mean
