@@ -10,7 +10,9 @@
 //            geodesic distance to camera i's seams over the normalising
 //            distance, g_i camera i's visible count over the largest);
 //   temporal F_i = (1 - lambda) F_i(previous, carried to this vertex) + lambda T_i
-//            (a vertex new to this mesh starts from T_i);
+//            where camera i sees the vertex now, else 0: occlusion is not
+//            smoothed, a carried weight would sample the occluder (a vertex
+//            new to this mesh starts from T_i);
 //   weights  F_i / sum F where sum_i gamma_i >= 1, else the normalised
 //            normal-weighted field V_i max(0, n . d_i)^alpha (step 10).
 // The current field is stored for the next frame. No NaN or Inf: every
@@ -61,7 +63,7 @@ void main() {
     }
     float previous = from >= 0 ? temporal[previous_half + uint(from) * HOLOFUSE_MAX_CAMERAS + i] : target;
     if (isnan(previous) || isinf(previous)) previous = target;
-    field[i] = (1.0 - lambda) * previous + lambda * target;
+    field[i] = seen ? (1.0 - lambda) * previous + lambda * target : 0.0;
     field_sum += field[i];
     normal_sum += normal[i];
   }

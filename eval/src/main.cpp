@@ -30,6 +30,8 @@ int main(int argc, char** argv) {
   app.add_option("--hull-error-mm", hull_error_mm,
                  "hull error target: the coarsest voxel (from 20 mm down) whose silhouette error meets it")
       ->check(CLI::Range(0.0, 1000.0));
+  app.add_option("--lambda", options.lambda, "montage4d: temporal rate per frame at 30 fps (eq. 5)")
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--novel-views", options.novel_view_degrees,
                  "synthetic scenes: also render this many degrees around the ring from the chosen cameras' poses, "
                  "every camera blended, against the scene's true image there (one row per offset)")

@@ -305,7 +305,7 @@ TEST(Montage4DMode, FieldsMatchTheReferenceAndAViewpointJumpFadesIn) {
     if (first) {
       temporal = target;  // every vertex is new: it starts from its target
     } else {
-      reference::temporalUpdate(temporal, target, reference::temporalLambda(0.05, 1.0 / 30.0));
+      reference::temporalUpdate(temporal, target, reference::temporalLambda(0.05, 1.0 / 30.0), visible);
     }
     return reference::normalizeFields(temporal, gamma,
                                       reference::holoportationField(scene.mesh, cameras, visible, settings.alpha));
@@ -351,6 +351,24 @@ TEST(Montage4DMode, FieldsMatchTheReferenceAndAViewpointJumpFadesIn) {
   ASSERT_GT(total_change, 0.0);
   RecordProperty("fraction_moved_after_one_frame", std::to_string(moved / total_change));
   EXPECT_LT(moved / total_change, 0.2) << "the jump must fade in, not snap";
+
+  // Camera 1 stops seeing the subject (its mask empties): it leaves the
+  // blend in that very frame, where a fading weight would sample whatever
+  // now hides the surface from it.
+  std::vector<ViewImages> blind = views;
+  std::fill(blind[1].mask.pixels.begin(), blind[1].mask.pixels.end(), 0);
+  renderer.setViews(blind);
+  renderer.render(cameras[2], settings);
+  const FieldSnapshot third = renderer.readFields();
+  size_t weighted_before = 0;
+  double camera1_after = 0;
+  for (size_t v = 0; v < vertices; ++v) {
+    weighted_before += second.weights[v * HOLOFUSE_MAX_CAMERAS + 1] > 0;
+    camera1_after += third.weights[v * HOLOFUSE_MAX_CAMERAS + 1];
+  }
+  EXPECT_GT(weighted_before, 100u);
+  EXPECT_EQ(camera1_after, 0.0);
+  EXPECT_LT(meanError(third, expected(third, cameras[2].center(), false)), 1e-4);
 }
 
 }  // namespace

@@ -54,6 +54,25 @@ TEST(TemporalCarry, MovedSurfaceFallsBackToTheNearestVertexAndNewSurfaceStartsFr
   EXPECT_DOUBLE_EQ(carried[0][0], 0.75) << "new surface takes the target, it does not fade in from zero";
 }
 
+// Occlusion is not smoothed: a camera that stops seeing a vertex leaves its
+// field in the same frame (its carried weight would sample the occluder),
+// and fades in from nothing when it sees the vertex again.
+TEST(TemporalField, ACameraThatNoLongerSeesAVertexLeavesAtOnceAndFadesBackIn) {
+  reference::Field temporal = {{0.6}, {0.4}};
+  const reference::Field target = {{0.6}, {0.0}};
+  const double lambda = reference::temporalLambda(0.05, 1.0 / 30.0);
+  reference::temporalUpdate(temporal, target, lambda, {{1}, {0}});
+  EXPECT_DOUBLE_EQ(temporal[1][0], 0.0) << "camera 1 is occluded now";
+  EXPECT_NEAR(temporal[0][0], 0.6, 1e-12);
+  const reference::Field back = {{0.6}, {0.4}};
+  reference::temporalUpdate(temporal, back, lambda, {{1}, {1}});
+  EXPECT_NEAR(temporal[1][0], 0.05 * 0.4, 1e-12) << "fades back in, no snap";
+  // Without visibility every camera is smoothed (eq. 5 as written).
+  reference::Field plain = {{0.6}, {0.4}};
+  reference::temporalUpdate(plain, target, lambda);
+  EXPECT_NEAR(plain[1][0], 0.95 * 0.4, 1e-12);
+}
+
 TEST(TemporalField, AViewpointJumpFadesInAtTheSameSpeedAtAnyFrameRate) {
   // After a jump the target switches from camera 0 to camera 1. With
   // lambda 0.05 at 30 fps the weight of camera 1 after one frame is 5%, and

@@ -61,11 +61,13 @@ double temporalLambda(double lambda_reference, double dt_seconds, double referen
   return std::clamp(1.0 - std::pow(1.0 - lambda, frames), 0.0, 1.0);
 }
 
-void temporalUpdate(Field& temporal, const Field& target, double lambda) {
+void temporalUpdate(Field& temporal, const Field& target, double lambda,
+                    const std::vector<std::vector<uint8_t>>& visible) {
   const double l = std::clamp(std::isfinite(lambda) ? lambda : 0.0, 0.0, 1.0);
   for (size_t i = 0; i < temporal.size(); ++i) {
     for (size_t v = 0; v < temporal[i].size(); ++v) {
-      temporal[i][v] = (1.0 - l) * temporal[i][v] + l * target[i][v];
+      const bool seen = visible.empty() || visible[i][v];
+      temporal[i][v] = seen ? (1.0 - l) * temporal[i][v] + l * target[i][v] : 0.0;
     }
   }
 }
