@@ -99,13 +99,21 @@ void enqueueGeodesic(uint slot, uint entry) {
 // entries whose next Jacobi update can differ from their present value.
 // Seam vertices (ring 0) never change: during the distance passes, whose
 // read half nobody writes, they are left out.
+// Only vertices the camera sees are queued: the distance diffuses from its
+// seams towards the triangles it sees (paper 000 section 4.4).
 void enqueueNeighbourhood(uint slot, uint camera, uint v, bool skip_sources) {
   uint base = camera * push.vertex_count;
   uint read = readHalf() + base;
-  if (!skip_sources || rings[read + v] != 0u) enqueueGeodesic(slot, base + v);
+  if ((!skip_sources || rings[read + v] != 0u) && sights[base + v] == HOLOFUSE_SIGHT_VISIBLE) {
+    enqueueGeodesic(slot, base + v);
+  }
   for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
     uint a = fans[k].a, b = fans[k].b;
-    if (!skip_sources || rings[read + a] != 0u) enqueueGeodesic(slot, base + a);
-    if (!skip_sources || rings[read + b] != 0u) enqueueGeodesic(slot, base + b);
+    if ((!skip_sources || rings[read + a] != 0u) && sights[base + a] == HOLOFUSE_SIGHT_VISIBLE) {
+      enqueueGeodesic(slot, base + a);
+    }
+    if ((!skip_sources || rings[read + b] != 0u) && sights[base + b] == HOLOFUSE_SIGHT_VISIBLE) {
+      enqueueGeodesic(slot, base + b);
+    }
   }
 }

@@ -13,7 +13,9 @@
 //            where camera i sees the vertex now, else 0: occlusion is not
 //            smoothed, a carried weight would sample the occluder (a vertex
 //            new to this mesh starts from T_i);
-//   weights  F_i / sum F where sum_i gamma_i >= 1, else the normalised
+//   weights  F_i / sum F where sum_i gamma_i >= 1 (gamma_i is 1 where
+//            camera i does not see the vertex: its distances reach only
+//            what it sees), else the normalised
 //            normal-weighted field V_i max(0, n . d_i)^alpha (step 10).
 // The current field is stored for the next frame. No NaN or Inf: every
 // division and power is guarded. CPU reference: render::reference::

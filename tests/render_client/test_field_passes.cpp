@@ -180,6 +180,8 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
     options.max_rings = settings.fields.geodesic_rings;
     options.iterations = settings.fields.geodesic_iterations;
     options.max_distance = settings.fields.geodesic_radius;
+    options.region.resize(vertices);
+    for (size_t v = 0; v < vertices; ++v) options.region[v] = gpu.sights[i * vertices + v] == 0;  // seen
     const auto cpu = reference::approximateGeodesic(scene.mesh, source, options);
     for (size_t v = 0; v < vertices; ++v) {
       const float g = gpu.distances[i * vertices + v];

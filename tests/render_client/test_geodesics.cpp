@@ -166,6 +166,32 @@ TEST(Geodesics, RingsBoundTheReachAndNormalisationMapsToOne) {
   EXPECT_EQ(approximateGeodesic(mesh, source, options), d);
 }
 
+// The distance diffuses only into the region a camera sees: outside it
+// nothing is reached (sources keep 0), inside a path that stays in the
+// region is measured as before.
+TEST(Geodesics, RegionKeepsTheDistanceToWhatTheCameraSees) {
+  const Mesh mesh = plane(31, 0.1);
+  std::vector<uint8_t> source(mesh.vertexCount(), 0);
+  for (uint32_t x = 0; x < 31; ++x) source[x] = 1;  // the row y = 0
+  GeodesicOptions everywhere;
+  everywhere.max_rings = 40;
+  everywhere.iterations = 40;
+  GeodesicOptions left = everywhere;
+  left.region.assign(mesh.vertexCount(), 0);
+  for (uint32_t v = 0; v < mesh.vertexCount(); ++v) left.region[v] = (v % 31) < 15;  // x < 1.5
+  const auto full = approximateGeodesic(mesh, source, everywhere);
+  const auto part = approximateGeodesic(mesh, source, left);
+  for (uint32_t v = 0; v < mesh.vertexCount(); ++v) {
+    if (source[v]) {
+      EXPECT_EQ(part[v], 0.0);
+    } else if (left.region[v]) {
+      EXPECT_NEAR(part[v], full[v], 1e-9) << v;  // straight down to the row: inside the region
+    } else {
+      EXPECT_TRUE(std::isinf(part[v])) << v;
+    }
+  }
+}
+
 // The geodesic radius: what lies within it keeps its unbounded distance,
 // what lies beyond stays unreached (gamma 1, as at the radius itself).
 TEST(Geodesics, RadiusBoundsTheReachWithoutChangingWhatItReaches) {

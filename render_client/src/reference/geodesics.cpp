@@ -76,6 +76,7 @@ std::vector<double> approximateGeodesic(const Mesh& mesh, const std::vector<uint
       const uint32_t v[3] = {mesh.indices[3 * t], mesh.indices[3 * t + 1], mesh.indices[3 * t + 2]};
       for (int k = 0; k < 3; ++k) {
         const uint32_t c = v[k];
+        if (!options.region.empty() && !options.region[c]) continue;  // never updated, as on the GPU
         for (int j = 1; j < 3; ++j) {
           const uint32_t w = v[(k + j) % 3];
           if (ring[w] < options.max_rings && std::isfinite(distance[w])) next_ring[c] = std::min(next_ring[c], ring[w] + 1);
@@ -88,6 +89,7 @@ std::vector<double> approximateGeodesic(const Mesh& mesh, const std::vector<uint
         const uint32_t c = v[k], a = v[(k + 1) % 3], b = v[(k + 2) % 3];
         // A seam vertex is its own nearest seam vertex, at distance 0.
         if (next_ring[c] > options.max_rings || is_source[c]) continue;
+        if (!options.region.empty() && !options.region[c]) continue;
         auto offer = [&](double d, uint32_t from) {
           if (options.max_distance > 0 && !(d <= options.max_distance)) return;
           if (d < next[c] || (d == next[c] && from < next_source[c])) {

@@ -23,6 +23,10 @@ struct GeodesicOptions {
   // Distances beyond this stay unreached (0: no bound): gamma of eq. 4 is 1
   // from the normalising distance on, so nothing past it needs computing.
   double max_distance = 0.0;
+  // Only these vertices receive a distance (empty: all): paper 000 section
+  // 4.4 diffuses from a camera's seams towards the triangles it sees, so
+  // the renderer passes the vertices the camera sees. Sources always have 0.
+  std::vector<uint8_t> region;
 };
 
 // Per-vertex distance from the sources; +infinity where not reached.

@@ -54,7 +54,8 @@ struct BlendWeights {
 // Step 10: normalise the temporal field per vertex; where the geodesic
 // fields sum below 1 (highly occluded regions) use the normalised
 // normal-weighted field instead; where that is zero too, the vertex is a
-// hole.
+// hole. A camera's distances reach only the vertices it sees: elsewhere its
+// gamma is 1, as far from its seams.
 BlendWeights normalizeFields(const Field& temporal, const Field& geodesic, const Field& normal_weighted);
 
 }  // namespace holofuse::render::reference
