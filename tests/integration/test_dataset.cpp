@@ -392,7 +392,7 @@ TEST(RealCapture, TheMiddleburyTempleImportsReplaysAndEvaluates) {
   const auto quality = readJson(out / "eval" / "quality.json");
   const auto& scene = quality["scenes"]["dataset:temple"];
   for (const char* mode : {"normal", "montage4d"}) {
-    EXPECT_GT(scene["modes"][mode]["psnr_db"].get<double>(), 12.0) << mode;  // measured 14.5-15.3 dB
+    EXPECT_GT(scene["modes"][mode]["psnr_db"].get<double>(), 12.0) << mode;  // measured 14.4-15.3 dB
     EXPECT_GT(scene["modes"][mode]["images"].get<int>(), 0) << mode;
   }
   EXPECT_TRUE(scene["hull"]["chamfer_mm"].is_null());
