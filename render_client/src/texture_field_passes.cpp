@@ -215,6 +215,14 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
     vkCmdFillBuffer(cmd, reset.worklist, 0, VK_WHOLE_SIZE, 0);
   }
   clearedBarrier(cmd);
+  // A stop for measurement: the stamps of the skipped stages read zero.
+  auto stopsAfter = [&](int stage) {
+    if (parameters.last_stage != stage) return false;
+    for (uint32_t index = static_cast<uint32_t>(stage) + 2; index <= 8; ++index) stamp(cmd, index);
+    recorded_ = true;
+    return true;
+  };
+  if (stopsAfter(0)) return;
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
   // One dispatch covers every camera (z) so each stage costs one barrier.
   auto dispatchPerCamera = [&](VkPipeline pipeline) {
@@ -233,19 +241,24 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   };
   dispatchPerCamera(discontinuity_);
   stamp(cmd, 2);
+  if (stopsAfter(1)) return;
   if (push.dilation > 0) {  // with eps = 0 the discontinuity pass wrote the dilated map itself
     dispatchPerCamera(dilate_);
     dispatchPerCamera(dilate_columns_);
   }
   stamp(cmd, 3);
+  if (stopsAfter(2)) return;
   dispatchLinear(visibility_, vertex_count, true);
   stamp(cmd, 4);
+  if (stopsAfter(3)) return;
   dispatchLinear(vote_, vertex_count, true);
   stamp(cmd, 5);
+  if (stopsAfter(4)) return;
   // Seams and visibility counts read the same inputs: no barrier between.
   dispatchLinear(seams_, triangle_count, false);
   dispatchLinear(global_visibility_, vertex_count, true);
   stamp(cmd, 6);
+  if (stopsAfter(5)) return;
   if (parameters.geodesics) {
     // Stage 6: seed from the seams, then K Jacobi passes of rings and
     // distances together over all cameras (y) and vertices (x).
@@ -275,6 +288,7 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
     }
   }
   stamp(cmd, 7);
+  if (stopsAfter(6)) return;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, field_);
   vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
   if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);

@@ -52,6 +52,11 @@ struct FieldParameters {
   // a fixed length keeps that reach on coarser meshes, where 15 rings would
   // span a whole limb and the fields would sum below 1 almost everywhere.
   float geodesic_radius = 0.06f;
+  // Measurement only (bench_texture_fields): record the per-mesh passes up
+  // to this stage of stageNames() and skip the rest (-1: all). Wall clock
+  // differences between stops give each stage's cost where a CPU device's
+  // timestamps cannot (it rasterises lazily).
+  int last_stage = -1;
   bool operator==(const FieldParameters&) const = default;
 };
 
