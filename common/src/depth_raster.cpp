@@ -5,11 +5,12 @@
 
 namespace holofuse {
 
-DepthMap rasterizeDepth(const Mesh& mesh, const Camera& camera, double near_plane) {
+DepthMap rasterizeDepth(const Mesh& mesh, const Camera& camera, double near_plane, std::vector<int32_t>* triangle_of) {
   DepthMap map;
   map.width = camera.width;
   map.height = camera.height;
   map.depth.assign(static_cast<size_t>(camera.width) * camera.height, kNoDepth);
+  if (triangle_of) triangle_of->assign(map.depth.size(), -1);
   for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
     glm::dvec3 p[3];
     bool usable = true;
@@ -38,8 +39,12 @@ DepthMap rasterizeDepth(const Mesh& mesh, const Camera& camera, double near_plan
         if (b0 < 0 || b1 < 0 || b2 < 0) continue;
         // 1/z is linear in the image: perspective-correct depth.
         const double z = 1.0 / (b0 / p[0].z + b1 / p[1].z + b2 / p[2].z);
-        double& stored = map.depth[static_cast<size_t>(y) * camera.width + x];
-        stored = std::min(stored, z);
+        const size_t pixel = static_cast<size_t>(y) * camera.width + x;
+        double& stored = map.depth[pixel];
+        if (z < stored) {
+          stored = z;
+          if (triangle_of) (*triangle_of)[pixel] = static_cast<int32_t>(t / 3);
+        }
       }
     }
   }

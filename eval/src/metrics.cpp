@@ -163,4 +163,38 @@ double flicker(const ErrorImage& previous, const ErrorImage& current) {
   return count ? sum / static_cast<double>(count) : 0.0;
 }
 
+double seamVisibility(const Image8& rendered, const Image8& truth, const Image8& mask, const Image8& seams) {
+  if (rendered.width != truth.width || rendered.height != truth.height || mask.width != truth.width ||
+      mask.height != truth.height || seams.width != truth.width || seams.height != truth.height) {
+    throw std::invalid_argument("seamVisibility: images of different sizes");
+  }
+  const int w = static_cast<int>(truth.width), h = static_cast<int>(truth.height);
+  const std::vector<double> r = luminance(rendered), t = luminance(truth);
+  auto inside = [&](int x, int y) { return x >= 0 && y >= 0 && x < w && y < h && *mask.at(x, y) != 0; };
+  auto error = [&](int x, int y) { return r[static_cast<size_t>(y) * w + x] - t[static_cast<size_t>(y) * w + x]; };
+  double sum = 0;
+  size_t count = 0;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (*seams.at(x, y) == 0 || !inside(x, y)) continue;
+      double energy = 0;
+      bool any = false;
+      if (inside(x - 1, y) && inside(x + 1, y)) {
+        const double g = 0.5 * (error(x + 1, y) - error(x - 1, y));
+        energy += g * g;
+        any = true;
+      }
+      if (inside(x, y - 1) && inside(x, y + 1)) {
+        const double g = 0.5 * (error(x, y + 1) - error(x, y - 1));
+        energy += g * g;
+        any = true;
+      }
+      if (!any) continue;
+      sum += energy;
+      ++count;
+    }
+  }
+  return count ? std::sqrt(sum / static_cast<double>(count)) : 0.0;
+}
+
 }  // namespace holofuse::eval

@@ -143,6 +143,37 @@ TEST(Metrics, FlickerIsTheChangeOfTheErrorNotTheError) {
   EXPECT_NEAR(flicker(right, e1), expected / static_cast<double>(a.size()), 1e-9);
 }
 
+// A blend that switches cameras across a seam leaves a step in the error
+// there; a colour offset everywhere, or a step away from the seams, does
+// not count.
+TEST(Metrics, SeamVisibilityIsTheErrorsStepAlongTheSeams) {
+  Image8 truth(32, 16, 3), mask(32, 16, 1, 255), seams(32, 16, 1, 0);
+  for (uint32_t y = 0; y < 16; ++y) {
+    for (uint32_t x = 0; x < 32; ++x) {
+      for (int c = 0; c < 3; ++c) truth.at(x, y)[c] = static_cast<uint8_t>(60 + 4 * x + y);
+      if (x >= 14 && x <= 17) *seams.at(x, y) = 255;  // a seam band down the middle
+    }
+  }
+  auto shifted = [&](int from_x, int by) {
+    Image8 out = truth;
+    for (uint32_t y = 0; y < 16; ++y) {
+      for (uint32_t x = static_cast<uint32_t>(from_x); x < 32; ++x) {
+        for (int c = 0; c < 3; ++c) out.at(x, y)[c] = static_cast<uint8_t>(out.at(x, y)[c] + by);
+      }
+    }
+    return out;
+  };
+  EXPECT_DOUBLE_EQ(seamVisibility(truth, truth, mask, seams), 0.0);
+  EXPECT_NEAR(seamVisibility(shifted(0, 20), truth, mask, seams), 0.0, 1e-9) << "an offset everywhere";
+  EXPECT_NEAR(seamVisibility(shifted(26, 20), truth, mask, seams), 0.0, 1e-9) << "a step away from the seams";
+  // A step of 20 between x = 15 and 16: central differences of 10 at those
+  // two columns of the four in the band, nothing vertically.
+  EXPECT_NEAR(seamVisibility(shifted(16, 20), truth, mask, seams), std::sqrt(2 * 100.0 / 4), 1e-9);
+  // Outside the mask nothing counts.
+  EXPECT_DOUBLE_EQ(seamVisibility(shifted(16, 20), truth, Image8(32, 16, 1, 0), seams), 0.0);
+  EXPECT_THROW(seamVisibility(truth, truth, mask, Image8(8, 8, 1, 0)), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace holofuse::eval
 

@@ -22,7 +22,9 @@ struct DepthMap {
 
 // Z-buffer of the mesh sampled at pixel centres, perspective-correct.
 // Triangles with a vertex behind the near plane are skipped; degenerate
-// triangles draw nothing.
-DepthMap rasterizeDepth(const Mesh& mesh, const Camera& camera, double near_plane = 0.05);
+// triangles draw nothing. triangle_of, when given, receives per pixel the
+// index of the triangle that won the depth test (-1 where none).
+DepthMap rasterizeDepth(const Mesh& mesh, const Camera& camera, double near_plane = 0.05,
+                        std::vector<int32_t>* triangle_of = nullptr);
 
 }  // namespace holofuse

@@ -17,6 +17,12 @@
 //   error image (rendered - true), grey levels, over pixels inside both
 //   frames' masks: a method that is wrong the same way every frame does not
 //   flicker.
+// - Seam visibility: RMS over the seam pixels (given, inside the mask) of
+//   the gradient of the luminance error image (rendered - true), central
+//   differences, grey levels per pixel. A blend that switches cameras
+//   across a seam leaves a step in the error there; an error that is the
+//   same on both sides (a colour offset) leaves none, and the truth's own
+//   edges cancel.
 #pragma once
 
 #include <cstddef>
@@ -60,5 +66,10 @@ struct ErrorImage {
 ErrorImage errorImage(const Image8& rendered, const Image8& truth, const Image8& mask);
 // Mean |e1 - e0| over pixels inside both masks and channels; 0 when none.
 double flicker(const ErrorImage& previous, const ErrorImage& current);
+
+// seams: one channel, non-zero where a seam triangle covers the pixel. The
+// gradient is taken where both neighbours on an axis are inside the mask;
+// 0 when no seam pixel is.
+double seamVisibility(const Image8& rendered, const Image8& truth, const Image8& mask, const Image8& seams);
 
 }  // namespace holofuse::eval
