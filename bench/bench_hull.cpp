@@ -11,21 +11,14 @@
 #include <cstdlib>
 #include <vector>
 
+#include "bench_timing.h"
 #include "capture_node/pod.h"
 #include "capture_node/synthetic_scene.h"
 #include "fusion_server/visual_hull.h"
 
 using namespace holofuse;
-using Clock = std::chrono::steady_clock;
-
-namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
-
-}  // namespace
+using bench::Clock;
+using bench::median;
 
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::max(2, std::atoi(argv[1])) : 4;
@@ -62,7 +55,7 @@ int main(int argc, char** argv) {
           fusion::HullStats stats;
           const auto t0 = Clock::now();
           meshes[hierarchical] = fusion::carveVisualHull(views, o, &stats);
-          const double elapsed = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+          const double elapsed = bench::ms(t0, Clock::now());
           if (repeat == 0) continue;
           ms[hierarchical].push_back(elapsed);
           sampled[hierarchical] += static_cast<double>(stats.cells_visited()) / frames;

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_timing.h"
 #include "capture_node/synthetic_scene.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/reference/geodesics.h"
@@ -19,18 +20,9 @@
 #include "render_client/renderer.h"
 
 using namespace holofuse;
-using Clock = std::chrono::steady_clock;
-
-namespace {
-
-double ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
-
-}  // namespace
+using bench::Clock;
+using bench::median;
+using bench::ms;
 
 int main(int argc, char** argv) {
   const int meshes = argc > 1 ? std::max(2, std::atoi(argv[1])) : 4;
