@@ -159,6 +159,7 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
     const auto mode_start = Clock::now();
     const bool novel = !input.novel_poses.empty();
     double seam_sum = 0;
+    size_t seam_images = 0;
     const std::vector<int> evaluated =
         novel ? std::vector<int>{} : heldOutCameras(camera_count, options.held_out_cameras);
     std::vector<int> sequences = evaluated;
@@ -199,7 +200,11 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         const ImageQuality q = compareInMask(picture, truth_color, truth_mask);
         const auto key = std::make_pair(held, f);
         if (!seam_cache.count(key)) seam_cache[key] = seamPixels(frame.mesh, pose, others);
-        seam_sum += seamVisibility(picture, truth_color, truth_mask, seam_cache[key]);
+        const double seams = seamVisibility(picture, truth_color, truth_mask, seam_cache[key]);
+        if (seams >= 0) {
+          seam_sum += seams;
+          ++seam_images;
+        }
         m.rmse_percent += q.rmse_percent;
         m.psnr_db += q.psnr_db;
         m.ssim += q.ssim;
@@ -228,7 +233,7 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
       }
     }
     if (m.images > 0) {
-      m.seam_visibility = seam_sum / static_cast<double>(m.images);
+      m.seam_visibility = seam_images ? seam_sum / static_cast<double>(seam_images) : -1.0;
       m.rmse_percent /= static_cast<double>(m.images);
       m.psnr_db /= static_cast<double>(m.images);
       m.ssim /= static_cast<double>(m.images);
@@ -458,7 +463,8 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
   for (const auto& [mode, m] : scene.modes) {
     s["modes"][mode] = {{"rmse_percent", m.rmse_percent}, {"psnr_db", m.psnr_db},
                         {"ssim", m.ssim},                 {"flicker", m.flicker},
-                        {"seam_visibility", m.seam_visibility},
+                        {"seam_visibility", m.seam_visibility >= 0 ? nlohmann::json(m.seam_visibility)
+                                                                   : nlohmann::json()},
                         {"images", m.images},             {"ms_per_new_mesh", m.ms_per_new_mesh},
                         {"gpu_passes_ms", m.gpu_passes_ms}};
   }
@@ -492,7 +498,9 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
     r.psnr_db = m.at("psnr_db").get<double>();
     r.ssim = m.at("ssim").get<double>();
     r.flicker = m.at("flicker").get<double>();
-    r.seam_visibility = m.value("seam_visibility", 0.0);
+    r.seam_visibility = m.contains("seam_visibility") && m["seam_visibility"].is_number()
+                            ? m["seam_visibility"].get<double>()
+                            : -1.0;
     r.images = m.at("images").get<size_t>();
     r.ms_per_new_mesh = m.at("ms_per_new_mesh").get<double>();
     r.gpu_passes_ms = m.at("gpu_passes_ms").get<std::map<std::string, double>>();
@@ -565,8 +573,10 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
         continue;
       }
       const ModeResult& m = it->second;
-      std::snprintf(cell, sizeof(cell), " %.2f%% | %.2f dB | %.4f | %.2f | %.2f | %.1f |", m.rmse_percent, m.psnr_db,
-                    m.ssim, m.flicker, m.seam_visibility, m.ms_per_new_mesh > 0 ? 1000.0 / m.ms_per_new_mesh : 0.0);
+      char seams[16] = "n/a";
+      if (m.seam_visibility >= 0) std::snprintf(seams, sizeof(seams), "%.2f", m.seam_visibility);
+      std::snprintf(cell, sizeof(cell), " %.2f%% | %.2f dB | %.4f | %.2f | %s | %.1f |", m.rmse_percent, m.psnr_db,
+                    m.ssim, m.flicker, seams, m.ms_per_new_mesh > 0 ? 1000.0 / m.ms_per_new_mesh : 0.0);
       md << cell;
     }
     md << "\n";
@@ -628,7 +638,8 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       html::Series s{mode, {}};
       for (const auto& scene : results) {
         const auto it = scene.modes.find(mode);
-        s.values.push_back(it == scene.modes.end() ? 0.0 : it->second.*field);
+        // Negative means not measured (seam visibility with no seam in view).
+        s.values.push_back(it == scene.modes.end() ? 0.0 : std::max(0.0, it->second.*field));
       }
       series.push_back(std::move(s));
     }
@@ -645,7 +656,11 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       std::snprintf(v[1], sizeof(v[1]), "%.2f dB", m.psnr_db);
       std::snprintf(v[2], sizeof(v[2]), "%.4f", m.ssim);
       std::snprintf(v[3], sizeof(v[3]), "%.2f", m.flicker);
-      std::snprintf(v[4], sizeof(v[4]), "%.2f", m.seam_visibility);
+      if (m.seam_visibility >= 0) {
+        std::snprintf(v[4], sizeof(v[4]), "%.2f", m.seam_visibility);
+      } else {
+        std::snprintf(v[4], sizeof(v[4]), "n/a");
+      }
       std::snprintf(v[5], sizeof(v[5]), "%.1f", m.ms_per_new_mesh);
       rows.push_back({scene.name, mode, v[0], v[1], v[2], v[3], v[4], v[5], std::to_string(m.images)});
     }

@@ -194,7 +194,7 @@ double seamVisibility(const Image8& rendered, const Image8& truth, const Image8&
       ++count;
     }
   }
-  return count ? std::sqrt(sum / static_cast<double>(count)) : 0.0;
+  return count ? std::sqrt(sum / static_cast<double>(count)) : -1.0;
 }
 
 }  // namespace holofuse::eval

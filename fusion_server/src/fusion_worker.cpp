@@ -44,7 +44,6 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   const uint64_t t0 = monotonicNs();
   Mesh mesh = carveVisualHull(views, settings.hull);
   out.voxel_size = settings.hull.voxel_size;
-  if (settings.hull_error_target > 0) out.silhouette_error = silhouetteError(mesh, views);
   const uint64_t t1 = monotonicNs();
   stamps.push_back({static_cast<uint16_t>(Stage::kHull), kSourceServer, t0, t1});
   auto draco = encodeDraco(mesh, settings.draco);
@@ -111,6 +110,9 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   out.mesh_frame = share(protocol::encodeOutgoing(mesh_frame, protocol::nextSequence(), draco_bytes));
   out.stats = share(protocol::encodeOutgoing(stats, protocol::nextSequence()));
   out.triangles = mesh.triangleCount();
+  // Measured after the frame is on its way (not part of the hull's time):
+  // it only steers the next frame's voxel.
+  if (settings.hull_error_target > 0) out.silhouette_error = silhouetteError(mesh, views);
   return out;
 }
 
@@ -170,9 +172,10 @@ void FusionWorker::run() {
       if (voxel_) settings.hull.voxel_size = voxel_->voxel();
       out = fuseGroup(job, settings);
       if (voxel_ && voxel_->observe(out.silhouette_error)) {
-        std::fprintf(stderr, "[server] hull voxel %.1f -> %.1f mm: silhouette error %.2f mm against the target of %.2f mm\n",
+        std::fprintf(stderr, "[server] hull voxel %.1f -> %.1f mm: silhouette error %.2f mm against the target of %.2f mm%s\n",
                      1000 * settings.hull.voxel_size, 1000 * voxel_->voxel(), 1000 * out.silhouette_error.mean_m,
-                     1000 * settings_.hull_error_target);
+                     1000 * settings_.hull_error_target,
+                     voxel_->unreachable() ? " (out of reach: a finer voxel did not help, the silhouettes disagree)" : "");
       }
     } catch (const std::exception& e) {
       // One group that cannot be fused (memory for a hostile calibration's

@@ -89,37 +89,63 @@ SilhouetteError silhouetteError(const Mesh& mesh, const std::vector<HullView>& v
 HullForTarget carveToErrorTarget(const std::vector<HullView>& views, const HullOptions& options, double target_m,
                                  HullStats* stats) {
   HullForTarget best;
+  HullStats best_stats;
   HullOptions tried = options;
+  int carves = 0;
   for (;;) {
     HullStats tried_stats;
     Mesh mesh = carveVisualHull(views, tried, &tried_stats);
     const SilhouetteError error = silhouetteError(mesh, views);
-    ++best.carves;
+    ++carves;
+    if (carves > 1 && error.valid && best.error.valid &&
+        error.mean_m > (1 - kUsefulImprovement) * best.error.mean_m) {
+      break;  // finer stopped helping: keep the coarser hull
+    }
     best.mesh = std::move(mesh);
     best.voxel_size = tried.voxel_size;
     best.error = error;
-    if (stats) *stats = tried_stats;
+    best_stats = tried_stats;
     best.met = error.valid && error.mean_m <= target_m;
-    if (best.met || !error.valid || tried.voxel_size <= kFinestVoxel * 1.0001) return best;
+    if (best.met || !error.valid || tried.voxel_size <= kFinestVoxel * 1.0001) break;
     tried.voxel_size = std::max(kFinestVoxel, tried.voxel_size * kVoxelStep);
   }
+  best.carves = carves;
+  if (stats) *stats = best_stats;
+  return best;
 }
 
 VoxelController::VoxelController(double target_m, double start_voxel, double coarsest_voxel)
-    : target_m_(target_m), voxel_(std::clamp(start_voxel, kFinestVoxel, std::max(coarsest_voxel, kFinestVoxel))),
-      coarsest_(std::max(coarsest_voxel, kFinestVoxel)) {}
+    : target_m_(target_m),
+      voxel_(start_voxel),
+      coarsest_(std::max(coarsest_voxel, start_voxel)),
+      finest_(std::min(kFinestVoxel, start_voxel)) {}
 
 bool VoxelController::observe(const SilhouetteError& error) {
   if (!error.valid || !(target_m_ > 0)) return false;
   const double before = voxel_;
   if (++since_miss_ > kMissMemory) missed_voxel_ = 0;  // the subject may have changed: try coarser again
+  if (floor_voxel_ > 0 && ++since_floor_ > kMissMemory) floor_voxel_ = 0;
   if (error.mean_m > target_m_) {
     missed_voxel_ = missed_voxel_ > 0 ? std::min(missed_voxel_, voxel_) : voxel_;
     since_miss_ = 0;
-    voxel_ = std::max(kFinestVoxel, voxel_ * kVoxelStep);
+    if (refined_from_ > 0 && error.mean_m > (1 - kUsefulImprovement) * refined_from_error_) {
+      // The last refinement did not help: the silhouettes disagree by more
+      // than the target. Back to the coarser voxel, and stay there.
+      floor_voxel_ = refined_from_;
+      since_floor_ = 0;
+      voxel_ = refined_from_;
+      refined_from_ = 0;
+    } else if (floor_voxel_ == 0) {
+      refined_from_ = voxel_;
+      refined_from_error_ = error.mean_m;
+      voxel_ = std::max(finest_, voxel_ * kVoxelStep);
+    }
   } else if (error.mean_m < 0.5 * target_m_) {
     const double coarser = std::min(coarsest_, voxel_ / kVoxelStep);
     if (missed_voxel_ == 0 || coarser < missed_voxel_ * 0.999) voxel_ = coarser;
+    refined_from_ = 0;
+  } else {
+    refined_from_ = 0;
   }
   return voxel_ != before;
 }

@@ -31,8 +31,9 @@ TEST(WritePng, LeavesTheImageAndWritesItsChannelsInOrder) {
     Image8 image = original;
     const std::string path = (dir / ("image" + std::to_string(channels) + ".png")).string();
     ASSERT_TRUE(writePng(path, image).isOk());
+    EXPECT_EQ(image.pixels, original.pixels) << channels << " channels, after one write";
     ASSERT_TRUE(writePng(path, image).isOk());
-    EXPECT_EQ(image.pixels, original.pixels) << channels << " channels";
+    EXPECT_EQ(image.pixels, original.pixels) << channels << " channels, after two";
     const cv::Mat read = cv::imread(path, cv::IMREAD_UNCHANGED);
     ASSERT_EQ(read.channels(), static_cast<int>(channels));
     ASSERT_EQ(read.cols, 7);

@@ -48,8 +48,8 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
         << "RMSE and PSNR describe the same errors (means of each differ a little)";
     EXPECT_TRUE(std::isfinite(m.flicker));
     // No pod of the other three looks within 60 degrees of the held-out
-    // one: no seam pixels to measure.
-    EXPECT_EQ(m.seam_visibility, 0.0) << mode;
+    // one: no seam pixels to measure (n/a, not a perfect 0).
+    EXPECT_LT(m.seam_visibility, 0.0) << mode;
     EXPECT_GT(m.ms_per_new_mesh, 0.0);
   }
   EXPECT_FALSE(scene.modes.at("montage4d").gpu_passes_ms.empty());

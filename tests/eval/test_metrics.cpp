@@ -169,8 +169,9 @@ TEST(Metrics, SeamVisibilityIsTheErrorsStepAlongTheSeams) {
   // A step of 20 between x = 15 and 16: central differences of 10 at those
   // two columns of the four in the band, nothing vertically.
   EXPECT_NEAR(seamVisibility(shifted(16, 20), truth, mask, seams), std::sqrt(2 * 100.0 / 4), 1e-9);
-  // Outside the mask nothing counts.
-  EXPECT_DOUBLE_EQ(seamVisibility(shifted(16, 20), truth, Image8(32, 16, 1, 0), seams), 0.0);
+  // Outside the mask nothing counts: nothing to measure.
+  EXPECT_LT(seamVisibility(shifted(16, 20), truth, Image8(32, 16, 1, 0), seams), 0.0);
+  EXPECT_LT(seamVisibility(truth, truth, mask, Image8(32, 16, 1, 0)), 0.0) << "no seam pixels";
   EXPECT_THROW(seamVisibility(truth, truth, mask, Image8(8, 8, 1, 0)), std::invalid_argument);
 }
 

@@ -101,6 +101,18 @@ TEST(HullErrorTarget, SilhouetteErrorFallsWithTheVoxelAndTheSearchMeetsTheTarget
   EXPECT_GT(found.mesh.triangleCount(), 1000u);
   options.voxel_size = found.voxel_size / kVoxelStep;
   EXPECT_GT(silhouetteError(carveVisualHull(views, options), views).mean_m, target) << "one step coarser misses";
+
+  // A camera whose calibration is 6 px off: no voxel brings the outlines
+  // together, and the search stops where refining stopped helping instead
+  // of carving down to the finest voxel.
+  auto miscalibrated = views;
+  miscalibrated[0].camera.cx += 6;
+  options.voxel_size = 0.04;
+  const HullForTarget stuck = carveToErrorTarget(miscalibrated, options, 0.0005);
+  EXPECT_FALSE(stuck.met);
+  EXPECT_GT(stuck.voxel_size, 2 * kFinestVoxel);
+  EXPECT_GT(stuck.error.mean_m, 0.0005);
+  EXPECT_LT(stuck.carves, 9) << "0.04 to 0.004 m takes 9 steps";
 }
 
 TEST(HullErrorTarget, TheControllerRefinesOnAMissAndCoarsensOnlyWellBelowTheTarget) {
@@ -115,9 +127,13 @@ TEST(HullErrorTarget, TheControllerRefinesOnAMissAndCoarsensOnlyWellBelowTheTarg
   error.mean_m = 0.0005;  // far below: coarser, up to the coarsest, once the miss at 20 mm is old
   for (int i = 0; i < VoxelController::kMissMemory + 20; ++i) controller.observe(error);
   EXPECT_NEAR(controller.voxel(), 0.05, 1e-12);
-  error.mean_m = 1.0;  // never finer than the finest
-  for (int i = 0; i < 40; ++i) controller.observe(error);
+  error.mean_m = 1.0;  // never finer than the finest, while each step helps (20% better)
+  for (int i = 0; i < 12; ++i) {
+    controller.observe(error);
+    error.mean_m *= 0.8;
+  }
   EXPECT_NEAR(controller.voxel(), kFinestVoxel, 1e-12);
+  EXPECT_FALSE(controller.unreachable());
   error.valid = false;  // nothing measured: no change
   EXPECT_FALSE(controller.observe(error));
   // A voxel that missed is not tried again soon, however well a finer one does.
@@ -132,6 +148,20 @@ TEST(HullErrorTarget, TheControllerRefinesOnAMissAndCoarsensOnlyWellBelowTheTarg
   EXPECT_NEAR(remembers.voxel(), 0.02 * kVoxelStep, 1e-12);
   for (int i = 0; i < 2; ++i) remembers.observe(error);
   EXPECT_GT(remembers.voxel(), 0.02) << "forgotten after a while";
+  // A finer voxel that does not help (the silhouettes disagree): back to the
+  // coarser one, and it stays there however often the target is missed.
+  VoxelController floor(0.002, 0.02, 0.02);
+  error.mean_m = 0.011;
+  floor.observe(error);  // missed at 20 mm: try 15
+  EXPECT_NEAR(floor.voxel(), 0.015, 1e-12);
+  error.mean_m = 0.0105;  // barely better
+  EXPECT_TRUE(floor.observe(error));
+  EXPECT_NEAR(floor.voxel(), 0.02, 1e-12);
+  EXPECT_TRUE(floor.unreachable());
+  for (int i = 0; i < 50; ++i) floor.observe(error);
+  EXPECT_NEAR(floor.voxel(), 0.02, 1e-12);
+  // A start finer than kFinestVoxel is kept.
+  EXPECT_NEAR(VoxelController(0.001, 0.002, 0.002).voxel(), 0.002, 1e-12);
 }
 
 TEST(VisualHull, CoarseToFineGivesTheDenseMeshWithAFifthOfTheWork) {

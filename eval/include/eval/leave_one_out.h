@@ -66,7 +66,7 @@ struct EvalOptions {
 struct ModeResult {
   double rmse_percent = 0, psnr_db = 0, ssim = 0;  // means over the images compared
   double flicker = 0;              // mean frame-to-frame change of the error image, grey levels
-  double seam_visibility = 0;      // mean of eval::seamVisibility, grey levels per pixel
+  double seam_visibility = -1;     // mean of eval::seamVisibility over images with seams in view; -1: none
   size_t images = 0;
   double ms_per_new_mesh = 0;      // median wall time of a render that follows a new mesh
   std::map<std::string, double> gpu_passes_ms;  // medians of the field passes' timestamps

@@ -69,7 +69,7 @@ double flicker(const ErrorImage& previous, const ErrorImage& current);
 
 // seams: one channel, non-zero where a seam triangle covers the pixel. The
 // gradient is taken where both neighbours on an axis are inside the mask;
-// 0 when no seam pixel is.
+// negative (nothing to measure) when no seam pixel is.
 double seamVisibility(const Image8& rendered, const Image8& truth, const Image8& mask, const Image8& seams);
 
 }  // namespace holofuse::eval

@@ -33,13 +33,19 @@ struct HullForTarget {
   Mesh mesh;
   double voxel_size = 0;
   SilhouetteError error;
-  bool met = false;  // false: even the finest voxel tried is off by more (the silhouettes disagree)
+  bool met = false;  // false: the silhouettes disagree by more than the target (see below)
   int carves = 0;
 };
 
+// A finer voxel that lowers the error by less than this fraction means the
+// rest is the silhouettes' own disagreement (calibration, segmentation):
+// refining further only costs time.
+constexpr double kUsefulImprovement = 0.1;
+
 // Carves at options.voxel_size, then at voxels kVoxelStep finer each time,
-// until the silhouette error is within target_m or the voxel reaches
-// kFinestVoxel: the coarsest hull that meets the target.
+// until the silhouette error is within target_m: the coarsest hull that
+// meets the target. It stops unmet at kFinestVoxel, or where a finer voxel
+// stopped helping (and returns the coarser hull).
 HullForTarget carveToErrorTarget(const std::vector<HullView>& views, const HullOptions& options, double target_m,
                                  HullStats* stats = nullptr);
 
@@ -54,12 +60,18 @@ class VoxelController {
   double voxel() const { return voxel_; }
   // Returns true when the voxel changed.
   bool observe(const SilhouetteError& error);
+  // True after a finer voxel stopped helping: the target is out of reach
+  // and the voxel stays at the coarser one for kMissMemory frames.
+  bool unreachable() const { return floor_voxel_ > 0; }
   static constexpr int kMissMemory = 300;
 
  private:
-  double target_m_, voxel_, coarsest_;
+  double target_m_, voxel_, coarsest_, finest_;
   double missed_voxel_ = 0;  // the finest voxel that missed lately; 0: none
   int since_miss_ = 0;
+  double refined_from_ = 0, refined_from_error_ = 0;  // the last refinement after a miss
+  double floor_voxel_ = 0;                           // where refining stopped helping; 0: none
+  int since_floor_ = 0;
 };
 
 }  // namespace holofuse::fusion
