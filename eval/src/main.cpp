@@ -1,6 +1,7 @@
 // holofuse_eval: leave-one-camera-out quality of every blending mode on the
 // named synthetic scenes. See README.md, section "Evaluate".
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <exception>
@@ -41,7 +42,12 @@ int main(int argc, char** argv) {
   app.add_option("--device", options.device, "Vulkan device: index or part of its name");
   CLI11_PARSE(app, argc, argv);
   options.hull_error_target = hull_error_mm / 1000.0;
-  for (double degrees : options.novel_view_degrees) {
+  for (size_t k = 0; k < options.novel_view_degrees.size(); ++k) {
+    const double degrees = options.novel_view_degrees[k];
+    if (std::count(options.novel_view_degrees.begin(), options.novel_view_degrees.begin() + k, degrees) > 0) {
+      std::fprintf(stderr, "holofuse eval: --novel-views %g is given twice\n", degrees);
+      return 2;
+    }
     if (!(degrees != 0 && std::abs(degrees) < 360)) {
       std::fprintf(stderr, "holofuse eval: --novel-views %g: an offset must be nonzero and within (-360, 360) degrees "
                            "(0 is the camera's own pose: leave-one-out covers it)\n", degrees);
