@@ -163,15 +163,8 @@ int main(int argc, char** argv) {
     const auto trusted = ref::majorityVote(mesh, views, sights);
     const auto seams = ref::seamTriangles(mesh, sights, trusted);
     const auto visible = ref::finalVisibility(sights, trusted);
-    double edge_sum = 0;
-    for (size_t t = 0; t < mesh.indices.size(); t += 3) {
-      for (size_t k = 0; k < 3; ++k) {
-        edge_sum += glm::length(mesh.positions[mesh.indices[t + k]] - mesh.positions[mesh.indices[t + (k + 1) % 3]]);
-      }
-    }
-    const double scale = defaults.geodesic_radius > 0
-                             ? defaults.geodesic_radius
-                             : defaults.geodesic_rings * edge_sum / static_cast<double>(mesh.indices.size());
+    const double scale = defaults.geodesic_radius > 0 ? defaults.geodesic_radius
+                                                      : defaults.geodesic_rings * meanEdgeLength(mesh);
     ref::Field gamma(views.size(), std::vector<double>(mesh.vertexCount(), 1.0));
     for (size_t i = 0; i < views.size(); ++i) {
       std::vector<uint8_t> source(mesh.vertexCount(), 0);

@@ -35,4 +35,16 @@ Bounds meshBounds(const Mesh& mesh) {
   return b;
 }
 
+double meanEdgeLength(const Mesh& mesh) {
+  double sum = 0;
+  for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    for (size_t k = 0; k < 3; ++k) {
+      sum += glm::length(glm::dvec3(mesh.positions[mesh.indices[t + k]]) -
+                         glm::dvec3(mesh.positions[mesh.indices[t + (k + 1) % 3]]));
+    }
+  }
+  const size_t edges = mesh.indices.size() / 3 * 3;
+  return edges ? sum / static_cast<double>(edges) : 0.0;
+}
+
 }  // namespace holofuse

@@ -395,13 +395,7 @@ void Renderer::setMesh(const Mesh& mesh) {
   current_surface_.positions = mesh.positions;
   current_surface_.vertex_keys = mesh.vertex_keys;
   carry_pending_ = true;
-  double edge_sum = 0;
-  for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
-    for (int k = 0; k < 3; ++k) {
-      edge_sum += glm::length(mesh.positions[mesh.indices[t + k]] - mesh.positions[mesh.indices[t + (k + 1) % 3]]);
-    }
-  }
-  mean_edge_ = mesh.indices.empty() ? 0.0 : edge_sum / static_cast<double>(mesh.indices.size());
+  mean_edge_ = meanEdgeLength(mesh);
   // Vertex -> triangles in CSR form: vertex_count + 1 offsets, then the
   // triangle ids, for the passes that gather over a vertex's triangles.
   adjacency_data_.assign(vertex_count_ + 1 + mesh.indices.size(), 0);

@@ -116,6 +116,16 @@ TEST(ImageCodec, CorruptOrLyingPlanesAreErrorsNamingThePlane) {
   EXPECT_FALSE(decodePlane(plane).isOk());
 }
 
+// One right triangle with legs 3 and 4 (edges 3, 4, 5) and one with legs 1
+// and 1 (1, 1, sqrt 2): six edges in all.
+TEST(Mesh, MeanEdgeLengthCountsEveryTrianglesEdges) {
+  Mesh mesh;
+  mesh.positions = {{0, 0, 0}, {3, 0, 0}, {0, 4, 0}, {10, 0, 0}, {11, 0, 0}, {10, 1, 0}};
+  mesh.indices = {0, 1, 2, 3, 4, 5};
+  EXPECT_NEAR(meanEdgeLength(mesh), (3 + 4 + 5 + 1 + 1 + std::sqrt(2.0)) / 6, 1e-6);
+  EXPECT_EQ(meanEdgeLength(Mesh{}), 0.0);
+}
+
 TEST(MeshCodec, DracoRoundTripIsWithinQuantisation) {
   const auto grid = sampleGrid({-0.5, -0.5, -0.5}, 0.05, 21, 21, 21,
                                [](const glm::dvec3& p) { return 0.4 - glm::length(p); });

@@ -103,14 +103,7 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   settings.mode = BlendMode::kHoloportation;
   settings.fields.geodesics = true;
   // Six mean edges: short of the k rings, so the radius is what bounds.
-  double edge_sum = 0;
-  for (size_t t = 0; t < scene.mesh.indices.size(); t += 3) {
-    for (size_t k = 0; k < 3; ++k) {
-      edge_sum += glm::length(scene.mesh.positions[scene.mesh.indices[t + k]] -
-                              scene.mesh.positions[scene.mesh.indices[t + (k + 1) % 3]]);
-    }
-  }
-  settings.fields.geodesic_radius = static_cast<float>(6 * edge_sum / static_cast<double>(scene.mesh.indices.size()));
+  settings.fields.geodesic_radius = static_cast<float>(6 * meanEdgeLength(scene.mesh));
   renderer.render(scene.views[0].camera, settings);
   const FieldSnapshot gpu = renderer.readFields();
   ASSERT_EQ(gpu.vertex_count, vertices);

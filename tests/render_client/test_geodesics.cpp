@@ -334,13 +334,7 @@ TEST(Geodesics, BumpySurfaceErrorAgainstExactFallsWithK) {
   std::vector<uint8_t> source(mesh.vertexCount(), 0);
   for (size_t v = 0; v < mesh.vertexCount(); ++v) source[v] = std::abs(mesh.positions[v].z - 0.3f) < 0.03f;
   ASSERT_GT(std::count(source.begin(), source.end(), 1), 20);
-  double edge_sum = 0;
-  for (size_t t = 0; t < mesh.indices.size(); t += 3) {
-    for (int k = 0; k < 3; ++k) {
-      edge_sum += glm::length(mesh.positions[mesh.indices[t + k]] - mesh.positions[mesh.indices[t + (k + 1) % 3]]);
-    }
-  }
-  const double mean_edge = edge_sum / static_cast<double>(mesh.indices.size());
+  const double mean_edge = meanEdgeLength(mesh);
   const double radius = 15 * mean_edge;
   const auto exact = exactGeodesic(mesh, source, radius);
   const Errors graph = relativeErrors(edgeGraphDistance(mesh, source), exact, mean_edge, radius);

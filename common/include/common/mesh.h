@@ -27,4 +27,8 @@ struct Bounds {
 };
 Bounds meshBounds(const Mesh& mesh);
 
+// Mean length of the triangles' edges (an edge shared by two triangles
+// counts twice), in double precision; 0 without triangles.
+double meanEdgeLength(const Mesh& mesh);
+
 }  // namespace holofuse

@@ -149,14 +149,7 @@ std::vector<double> edgeGraphDistance(const Mesh& mesh, const std::vector<uint8_
 
 std::vector<double> normalizedGeodesic(const Mesh& mesh, const std::vector<double>& distance, int max_rings,
                                        double max_distance) {
-  if (!(max_distance > 0)) {
-    double total = 0;
-    for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
-      for (int k = 0; k < 3; ++k) total += edgeLength(mesh, mesh.indices[3 * t + k], mesh.indices[3 * t + (k + 1) % 3]);
-    }
-    const double mean_edge = mesh.triangleCount() ? total / (3.0 * mesh.triangleCount()) : 0.0;
-    max_distance = std::max(1, max_rings) * mean_edge;
-  }
+  if (!(max_distance > 0)) max_distance = std::max(1, max_rings) * meanEdgeLength(mesh);
   std::vector<double> gamma(distance.size(), 1.0);
   for (size_t v = 0; v < distance.size(); ++v) {
     if (std::isfinite(distance[v]) && max_distance > 0) gamma[v] = std::clamp(distance[v] / max_distance, 0.0, 1.0);
