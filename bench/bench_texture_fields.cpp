@@ -179,15 +179,34 @@ int main(int argc, char** argv) {
     const glm::dvec3 eye = 0.5 * (cameras[0].center() + cameras[1].center());
     const auto target = ref::montageTargetField(mesh, cameras, visible, ref::globalVisibility(visible), gamma, eye, 2.0);
     const auto blend = ref::normalizeFields(target, gamma, ref::holoportationField(mesh, cameras, visible, 2.0));
-    size_t seen = 0, fallback = 0;
+    // Counted over the vertices facing the eye, which are what a picture
+    // from there shows: behind the subject every pod's view weight is 0
+    // and the field is empty by design.
+    size_t facing = 0, fallback = 0, no_field = 0;
+    size_t seen_by[4] = {0, 0, 0, 0};  // 1, 2, 3, 4 or more pods
     for (size_t v = 0; v < mesh.vertexCount(); ++v) {
-      if (blend.hole[v]) continue;
-      ++seen;
-      fallback += blend.fallback[v];
+      const glm::dvec3 p(mesh.positions[v]);
+      if (blend.hole[v] || !(glm::dot(glm::dvec3(mesh.normals[v]), eye - p) > 0)) continue;
+      ++facing;
+      double gamma_sum = 0;
+      size_t pods = 0;
+      for (size_t i = 0; i < views.size(); ++i) {
+        gamma_sum += gamma[i][v];
+        pods += visible[i][v] != 0;
+      }
+      if (pods > 0) ++seen_by[std::min<size_t>(pods, 4) - 1];
+      if (blend.fallback[v]) ++(gamma_sum >= 1.0 ? no_field : fallback);
     }
-    std::printf("montage4d falls back to normal weighting (geodesic fields sum below 1) at %.1f%% of the %zu vertices "
-                "some pod sees (normalising distance, the geodesic radius: %.0f mm)\n",
-                seen ? 100.0 * static_cast<double>(fallback) / static_cast<double>(seen) : 0.0, seen, 1000 * scale);
+    const double n = std::max<double>(1.0, static_cast<double>(facing));
+    std::printf("of the %zu seen vertices facing a view between pods 0 and 1: seen by 1 pod %.1f%%, 2 pods %.1f%%, "
+                "3 %.1f%%, 4 %.1f%% (only where two or more see a vertex can the modes' weights differ)\n",
+                facing, 100.0 * static_cast<double>(seen_by[0]) / n, 100.0 * static_cast<double>(seen_by[1]) / n,
+                100.0 * static_cast<double>(seen_by[2]) / n, 100.0 * static_cast<double>(seen_by[3]) / n);
+    std::printf("montage4d falls back to normal weighting there at %.1f%%: %.1f%% where the geodesic fields sum "
+                "below 1 (normalising distance, the geodesic radius: %.0f mm), %.1f%% where every seeing pod's "
+                "target is 0 (the vertex is on its seams)\n",
+                100.0 * static_cast<double>(fallback + no_field) / n, 100.0 * static_cast<double>(fallback) / n,
+                1000 * scale, 100.0 * static_cast<double>(no_field) / n);
   }
   auto& m4 = passes["montage4d"];
   // Each Vulkan stage by wall clock: montage4d renders of the same new mesh

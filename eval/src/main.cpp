@@ -31,12 +31,17 @@ int main(int argc, char** argv) {
   app.add_option("--hull-error-mm", hull_error_mm,
                  "hull error target: the coarsest voxel (from 20 mm down) whose silhouette error meets it")
       ->check(CLI::Range(0.0, 1000.0));
+  app.add_option("--alpha", options.alpha, "exponent of the view (montage4d) and normal (holoportation) weights")
+      ->check(CLI::Range(0.0, 100.0));
   app.add_option("--lambda", options.lambda, "montage4d: temporal rate per frame at 30 fps (eq. 5)")
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--novel-views", options.novel_view_degrees,
                  "synthetic scenes: also render this many degrees around the ring from the chosen cameras' poses, "
                  "every camera blended, against the scene's true image there (one row per offset)")
       ->delimiter(',');
+  app.add_flag("--camera-kept", options.camera_kept,
+               "also score each chosen camera's own pose with its image kept in the blend (one more row per "
+               "scene; paper 000's Table 2 numbers need it; outside the target's protocol)");
   app.add_option("--geometry", options.geometry, "hull (the server's visual hull) or truth (the true surface)")
       ->check(CLI::IsMember({"hull", "truth"}));
   app.add_option("--device", options.device, "Vulkan device: index or part of its name");

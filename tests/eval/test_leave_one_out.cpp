@@ -127,6 +127,35 @@ TEST(LeaveOneOut, NovelViewsBesideAPodScoreAboveViewsBetweenPods) {
   EXPECT_FALSE(montageVerdict(results[1]).met) << "needs both modes";
 }
 
+// With the held-out camera's image kept in the blend, montage4d's view
+// weight gives that image the most weight at its own pose: far better than
+// leave-one-out, which must do without it. The row says so in its JSON.
+TEST(LeaveOneOut, KeepingTheCameraInTheBlendAddsARowThatScoresAboveLeaveOneOut) {
+  EvalOptions options = tiny();
+  options.scenes = {"few-cameras"};
+  options.frames = 1;
+  options.modes = {render::BlendMode::kHoloportation, render::BlendMode::kMontage4D};
+  options.camera_kept = true;
+  const auto results = runLeaveOneOut(options);
+  ASSERT_EQ(results.size(), 2u);
+  EXPECT_FALSE(results[0].camera_kept);
+  EXPECT_EQ(results[1].name, "few-cameras (camera kept)");
+  EXPECT_TRUE(results[1].camera_kept);
+  const double left_out = results[0].modes.at("montage4d").psnr_db, kept = results[1].modes.at("montage4d").psnr_db;
+  EXPECT_GT(kept, left_out + 3.0) << left_out << " / " << kept;
+  const fs::path out = fs::temp_directory_path() / "holofuse_eval_kept_test";
+  writeQualityReports(options, results, out.string());
+  std::ifstream json_file(out / "quality.json");
+  const auto json = nlohmann::json::parse(json_file);
+  EXPECT_TRUE(json["scenes"]["few-cameras (camera kept)"].value("camera_kept", false));
+  EXPECT_FALSE(json["scenes"]["few-cameras"].value("camera_kept", false));
+  std::ifstream md(out / "quality.md");
+  const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("| few-cameras (camera kept) |"), std::string::npos);
+  EXPECT_NE(text.find("outside the target's protocol"), std::string::npos);
+  fs::remove_all(out);
+}
+
 TEST(LeaveOneOut, UnknownScenesListTheValidOnes) {
   EvalOptions options = tiny();
   options.scenes = {"sunny-beach"};

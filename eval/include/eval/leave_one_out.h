@@ -42,6 +42,12 @@ struct EvalOptions {
   // camera blended, against the scene's true image at that pose; one result
   // row per offset. Where a user sits near a pod, not between two.
   std::vector<double> novel_view_degrees;
+  // Besides leave-one-out, score each chosen camera's own pose with its
+  // image kept in the blend, vote and seams: one more row per scene. Paper
+  // 000's Table 2 numbers (38-40 dB) are only within reach this way, since
+  // a view-dependent field then gives the camera's own image most of the
+  // weight. Outside the target's protocol.
+  bool camera_kept = false;
   std::string out_dir;         // where save_images writes
   bool save_images = false;    // rendered, true image and mask per image compared
   std::string device;          // Vulkan device selector ("" picks a GPU if any)
@@ -75,6 +81,7 @@ struct ModeResult {
 struct SceneResult {
   std::string name, stresses;
   double novel_view_degrees = 0;  // 0: leave-one-camera-out; else the offset of a novel-view row
+  bool camera_kept = false;       // the held-out camera's image stayed in the blend (EvalOptions::camera_kept)
   int cameras = 0;
   double hull_ms = 0;          // median
   double triangles = 0;        // mean
