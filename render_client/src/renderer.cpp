@@ -22,6 +22,7 @@ struct CameraGpu {
   glm::vec4 center;
   glm::vec4 size;
   glm::ivec4 flags;
+  glm::ivec4 region;
 };
 struct BlendUniforms {
   CameraGpu cameras[HOLOFUSE_MAX_CAMERAS];
@@ -31,10 +32,10 @@ struct BlendUniforms {
   glm::vec4 user_eye;
   glm::vec4 temporal;  // x: lambda of this frame, y: half holding the previous field
 };
-static_assert(sizeof(CameraGpu) == 112);
-static_assert(offsetof(BlendUniforms, counts) == 112 * HOLOFUSE_MAX_CAMERAS);
-static_assert(offsetof(BlendUniforms, params) == 112 * HOLOFUSE_MAX_CAMERAS + 16);
-static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 80);
+static_assert(sizeof(CameraGpu) == 128);
+static_assert(offsetof(BlendUniforms, counts) == 128 * HOLOFUSE_MAX_CAMERAS);
+static_assert(offsetof(BlendUniforms, params) == 128 * HOLOFUSE_MAX_CAMERAS + 16);
+static_assert(sizeof(BlendUniforms) == 128 * HOLOFUSE_MAX_CAMERAS + 80);
 
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 // Geodesic worklists are cleared by transfer commands every mesh.
@@ -223,6 +224,32 @@ std::pair<double, double> depthRange(const Camera& camera, const glm::dvec3& lo,
   const double far_plane = 2.0 * z_max;
   const double near_plane = std::max(z_min > 0 ? 0.5 * z_min : 1e-4 * z_max, 1e-6 * far_plane);
   return {near_plane, far_plane};
+}
+
+// The pixels of a width x height image that the box [lo, hi] can cover
+// through clip (as the shaders project: pixel centres at .5), with a pixel
+// of margin for rounding: x0, y0, x1, y1 with x1 and y1 exclusive. The
+// whole image where a corner is behind the camera or not finite.
+glm::ivec4 boxRegion(const glm::mat4& clip, const glm::dvec3& lo, const glm::dvec3& hi, uint32_t width,
+                     uint32_t height) {
+  const glm::ivec4 whole(0, 0, static_cast<int>(width), static_cast<int>(height));
+  double x_min = std::numeric_limits<double>::max(), y_min = x_min, x_max = -x_min, y_max = -x_min;
+  for (int corner = 0; corner < 8; ++corner) {
+    const glm::dvec4 p((corner & 1) ? hi.x : lo.x, (corner & 2) ? hi.y : lo.y, (corner & 4) ? hi.z : lo.z, 1.0);
+    const glm::dvec4 c = glm::dmat4(clip) * p;
+    if (!(c.w > 1e-9)) return whole;
+    const double x = (c.x / c.w * 0.5 + 0.5) * width, y = (c.y / c.w * 0.5 + 0.5) * height;
+    if (!std::isfinite(x) || !std::isfinite(y)) return whole;
+    x_min = std::min(x_min, x);
+    x_max = std::max(x_max, x);
+    y_min = std::min(y_min, y);
+    y_max = std::max(y_max, y);
+  }
+  auto clampTo = [](double v, uint32_t size) {
+    return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(size)));
+  };
+  return glm::ivec4(clampTo(std::floor(x_min - 0.5) - 1, width), clampTo(std::floor(y_min - 0.5) - 1, height),
+                    clampTo(std::ceil(x_max - 0.5) + 2, width), clampTo(std::ceil(y_max - 0.5) + 2, height));
 }
 
 Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
@@ -633,6 +660,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   u.counts = glm::ivec4(static_cast<int>(cameras_.size()), static_cast<int>(settings.mode), 0, 0);
   u.params = glm::vec4(settings.alpha, settings.depth_tolerance, 0, 0);
   u.hole_color = glm::vec4(settings.hole_color, 1.0f);
+  glm::uvec2 region_extent(0);  // the largest camera region
   for (size_t i = 0; i < cameras_.size(); ++i) {
     const Camera& c = cameras_[i];
     u.cameras[i].world_to_clip = clipFor(c);
@@ -645,6 +673,11 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     // on its background whatever they hold.
     const bool empty = i < subject_seen_.size() && !subject_seen_[i];
     u.cameras[i].flags = glm::ivec4(enabled ? 1 : 0, empty ? 1 : 0, 0, 0);
+    u.cameras[i].region = empty ? glm::ivec4(0)
+                                : boxRegion(u.cameras[i].world_to_clip, bounds_min_, bounds_max_, images_.width,
+                                            images_.height);
+    region_extent.x = std::max(region_extent.x, static_cast<uint32_t>(u.cameras[i].region.z - u.cameras[i].region.x));
+    region_extent.y = std::max(region_extent.y, static_cast<uint32_t>(u.cameras[i].region.w - u.cameras[i].region.y));
   }
   const bool have_views = !cameras_.empty();
   const bool montage = have_views && settings.mode == BlendMode::kMontage4D;
@@ -668,8 +701,10 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     if (run_fields) {
       field_passes_pipelines_->depthMapsDone(cmd);
       field_passes_pipelines_->record(cmd, descriptor_set_, vertex_count_, triangle_count_,
-                                      static_cast<uint32_t>(cameras_.size()), images_.width, images_.height, parameters,
-                                      {visible_counts_.buffer, worklist_.buffer, worklist_counts_.buffer});
+                                      static_cast<uint32_t>(cameras_.size()), images_.width, images_.height,
+                                      region_extent, parameters,
+                                      {visible_counts_.buffer, worklist_.buffer, worklist_counts_.buffer,
+                                       edges_.buffer, dilated_.buffer});
       ++field_passes_;
     }
     if (montage) {

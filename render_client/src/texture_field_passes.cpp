@@ -192,7 +192,8 @@ VkPipeline TextureFieldPasses::create(const uint32_t* code, size_t bytes) {
 
 void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
                                 uint32_t triangle_count, uint32_t camera_count, uint32_t width, uint32_t height,
-                                const FieldParameters& parameters, const ResetBuffers& reset) {
+                                glm::uvec2 region_extent, const FieldParameters& parameters,
+                                const ResetBuffers& reset) {
   ComputePush push{};
   push.vertex_count = vertex_count;
   push.width = width;
@@ -206,6 +207,10 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   push.camera_count = camera_count;
   push.triangle_count = triangle_count;
   vkCmdFillBuffer(cmd, reset.visible_counts, 0, VK_WHOLE_SIZE, 0);
+  // Outside its camera's region no pixel has a depth, so none is an edge:
+  // zero there, written by nobody.
+  vkCmdFillBuffer(cmd, reset.edges, 0, VK_WHOLE_SIZE, 0);
+  vkCmdFillBuffer(cmd, reset.dilated, 0, VK_WHOLE_SIZE, 0);
   if (parameters.geodesics) {
     // Empty lists and clear marks.
     // Every pass runs at least one group, even for an empty list: its
@@ -225,38 +230,49 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   if (stopsAfter(0)) return;
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
   // One dispatch covers every camera (z) so each stage costs one barrier.
-  auto dispatchPerCamera = [&](VkPipeline pipeline) {
+  // grid: pixels per camera; pixels_per_invocation along x (the
+  // discontinuity pass does runs).
+  auto dispatchPerCamera = [&](VkPipeline pipeline, glm::uvec2 grid, uint32_t pixels_per_invocation = 1) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-        vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
-    if (camera_count > 0) {
-      vkCmdDispatch(cmd, groups(width, HOLOFUSE_PIXEL_GROUP), groups(height, HOLOFUSE_PIXEL_GROUP), camera_count);
+    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+    if (camera_count > 0 && grid.x > 0 && grid.y > 0) {
+      vkCmdDispatch(cmd, groups(groups(grid.x, pixels_per_invocation), HOLOFUSE_PIXEL_GROUP),
+                    groups(grid.y, HOLOFUSE_PIXEL_GROUP), camera_count);
     }
     computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
   };
   auto dispatchLinear = [&](VkPipeline pipeline, uint32_t items, bool barrier) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-        vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
     if (items > 0) vkCmdDispatch(cmd, groups(items, HOLOFUSE_VERTEX_GROUP), 1, 1);
     if (barrier) computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
   };
-  dispatchPerCamera(discontinuity_);
+  // How many times stage s is recorded (FieldParameters::repeated_stage).
+  auto repeats = [&](int stage) { return parameters.repeated_stage == stage ? std::max(1, parameters.stage_repeats) : 1; };
+  for (int r = 0; r < repeats(1); ++r) dispatchPerCamera(discontinuity_, region_extent, HOLOFUSE_DISCONTINUITY_RUN);
   stamp(cmd, 2);
   if (stopsAfter(1)) return;
   if (push.dilation > 0) {  // with eps = 0 the discontinuity pass wrote the dilated map itself
-    dispatchPerCamera(dilate_);
-    dispatchPerCamera(dilate_columns_);
+    for (int r = 0; r < repeats(2); ++r) {
+      dispatchPerCamera(dilate_, {width, height});
+      dispatchPerCamera(dilate_columns_, {width, height});
+    }
   }
   stamp(cmd, 3);
   if (stopsAfter(2)) return;
-  dispatchLinear(visibility_, vertex_count, true);
+  for (int r = 0; r < repeats(3); ++r) dispatchLinear(visibility_, vertex_count, true);
   stamp(cmd, 4);
   if (stopsAfter(3)) return;
-  dispatchLinear(vote_, vertex_count, true);
+  for (int r = 0; r < repeats(4); ++r) dispatchLinear(vote_, vertex_count, true);
   stamp(cmd, 5);
   if (stopsAfter(4)) return;
-  // Seams and visibility counts read the same inputs: no barrier between.
-  dispatchLinear(seams_, triangle_count, false);
-  dispatchLinear(global_visibility_, vertex_count, true);
+  for (int r = 0; r < repeats(5); ++r) {
+    // Seams and visibility counts read the same inputs: no barrier between.
+    // (Counting inside the seams or vote pass measured no faster on
+    // lavapipe: the work is the gathers, not the extra dispatch.)
+    dispatchLinear(seams_, triangle_count, false);
+    dispatchLinear(global_visibility_, vertex_count, true);
+  }
   stamp(cmd, 6);
   if (stopsAfter(5)) return;
   if (parameters.geodesics) {
@@ -291,9 +307,11 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   if (stopsAfter(6)) return;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, field_);
   vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
-  if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
-  computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
-                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
+  for (int r = 0; r < repeats(7); ++r) {
+    if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
+    computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
+  }
   stamp(cmd, 8);
   recorded_ = true;
 }

@@ -57,6 +57,13 @@ struct FieldParameters {
   // differences between stops give each stage's cost where a CPU device's
   // timestamps cannot (it rasterises lazily).
   int last_stage = -1;
+  // Measurement only: record the dispatches of stage repeated_stage (1 to
+  // 5 or 7 of stageNames()) stage_repeats times over. Stages that cost a
+  // fraction of a millisecond drown in a shared machine's noise once; the
+  // extra time of many repeats, divided by their number, does not. The
+  // global visibility counts come out multiplied: timing runs only.
+  int repeated_stage = -1;
+  int stage_repeats = 1;
   bool operator==(const FieldParameters&) const = default;
 };
 
@@ -108,10 +115,13 @@ class TextureFieldPasses {
     VkBuffer visible_counts;   // cleared before stage 7 adds to it
     VkBuffer worklist;         // geodesic worklists and marks, cleared
     VkBuffer worklist_counts;  // indirect dispatch sizes, set to empty lists
+    VkBuffer edges, dilated;   // discontinuity flags: zero outside the regions the pass writes
   };
+  // region_extent: the largest camera region (CameraGpu::region in
+  // shaders/cameras.glsl), the discontinuity pass's grid per camera.
   void record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count, uint32_t triangle_count,
-              uint32_t camera_count, uint32_t width, uint32_t height, const FieldParameters& parameters,
-              const ResetBuffers& reset);
+              uint32_t camera_count, uint32_t width, uint32_t height, glm::uvec2 region_extent,
+              const FieldParameters& parameters, const ResetBuffers& reset);
 
   // Stages 8 to 10 of Montage4D for one rendered view (per frame, after the
   // per-mesh passes): target, temporal and normalised fields.
