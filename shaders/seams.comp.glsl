@@ -15,10 +15,13 @@ layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
 void main() {
   uint t = gl_GlobalInvocationID.x;
   if (t >= push.triangle_count) return;
+  // The corners once for every camera: the compiler may not move a load
+  // past the store to seams[] (the buffers might alias).
+  uvec3 corners = uvec3(indices[3u * t], indices[3u * t + 1u], indices[3u * t + 2u]);
   for (uint i = 0u; i < push.camera_count; ++i) {
     uint in_view = 0u, occluded = 0u, seen = 0u, seen_trusted = 0u;
     for (uint k = 0u; k < 3u; ++k) {
-      uint index = i * push.vertex_count + indices[3u * t + k];
+      uint index = i * push.vertex_count + corners[k];
       uint s = sights[index];
       bool hidden = s == HOLOFUSE_SIGHT_OCCLUDED || s == HOLOFUSE_SIGHT_DISCONTINUITY;
       in_view += (s == HOLOFUSE_SIGHT_VISIBLE || hidden) ? 1u : 0u;
