@@ -27,7 +27,8 @@ vec4 blendNormal(vec3 n, inout float total) {
   total = 0.0;
   for (int i = 0; i < blend.counts.x; ++i) {
     CameraGpu cam = blend.cameras[i];
-    if (cam.flags.x == 0) continue;
+    // Left out, or its mask is empty: it would sample only background.
+    if (cam.flags.x == 0 || cam.flags.y != 0) continue;
     vec4 clip = cam.world_to_clip * vec4(in_position, 1.0);
     if (clip.w <= 1e-6) continue;
     vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
