@@ -1,6 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "config.h"
+#include "cameras.glsl"
 // The user's view of the fused mesh; world position, normal and the
 // per-vertex texture-field weights (16 cameras as 4 vec4) go on to the
 // blend, interpolated over the triangle (paper 000 eq. 1).
@@ -12,9 +13,6 @@ layout(push_constant) uniform Push {
 } push;
 
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WEIGHTS) readonly buffer Weights { float weights[]; };
-layout(set = 0, binding = HOLOFUSE_BINDING_CAMERAS) uniform BlendMode {
-  layout(offset = 1792) ivec4 counts;  // after 16 cameras of 112 bytes
-} blend_mode;
 
 layout(location = 0) out vec3 out_position;
 layout(location = 1) out vec3 out_normal;
@@ -25,7 +23,7 @@ void main() {
   out_position = in_position;
   out_normal = in_normal;
   for (int k = 0; k < 4; ++k) out_weights[k] = vec4(0.0);
-  if (blend_mode.counts.y != HOLOFUSE_MODE_NORMAL) {
+  if (blend.counts.y != HOLOFUSE_MODE_NORMAL) {
     uint base = uint(gl_VertexIndex) * HOLOFUSE_MAX_CAMERAS;
     for (int k = 0; k < 4; ++k) {
       out_weights[k] = vec4(weights[base + 4 * k], weights[base + 4 * k + 1], weights[base + 4 * k + 2],
