@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <numeric>
 #include <random>
 
@@ -52,6 +53,43 @@ TEST(TemporalCarry, MovedSurfaceFallsBackToTheNearestVertexAndNewSurfaceStartsFr
   const std::vector<std::vector<double>> target(1, std::vector<double>(far.vertexCount(), 0.75));
   const auto carried = carryField(previous, fresh, target);
   EXPECT_DOUBLE_EQ(carried[0][0], 0.75) << "new surface takes the target, it does not fade in from zero";
+}
+
+// The grid search finds what comparing every pair finds: the nearest
+// previous vertex within the distance (ties to the lower index), also for
+// points outside the previous surface's box, never a vertex with a NaN
+// position.
+TEST(TemporalCarry, NearestMatchesTheExhaustiveSearch) {
+  std::mt19937 random(11);
+  std::uniform_real_distribution<float> coordinate(-0.3f, 0.3f);
+  Mesh previous, next;
+  for (int v = 0; v < 800; ++v) previous.positions.emplace_back(coordinate(random), coordinate(random), coordinate(random));
+  previous.positions[5] = glm::vec3(std::numeric_limits<float>::quiet_NaN());
+  for (int v = 0; v < 400; ++v) {
+    next.positions.emplace_back(1.3f * coordinate(random), 1.3f * coordinate(random), 1.3f * coordinate(random));
+  }
+  next.positions.push_back(previous.positions[7]);  // at distance 0
+  const double max_distance = 0.04;
+  const CarryMap map = carryAcross(previous, next, max_distance);
+  size_t found = 0;
+  for (size_t v = 0; v < next.vertexCount(); ++v) {
+    int32_t best = -1;
+    double best_d2 = max_distance * max_distance;
+    for (size_t w = 0; w < previous.vertexCount(); ++w) {
+      const glm::dvec3 d = glm::dvec3(previous.positions[w]) - glm::dvec3(next.positions[v]);
+      const double d2 = glm::dot(d, d);
+      if (d2 < best_d2) {
+        best_d2 = d2;
+        best = static_cast<int32_t>(w);
+      }
+    }
+    EXPECT_EQ(map.previous[v], best) << "vertex " << v;
+    found += best >= 0;
+  }
+  EXPECT_EQ(map.previous.back(), 7);
+  EXPECT_GT(found, 50u);
+  EXPECT_LT(found, next.vertexCount() - 50) << "some lie farther than the distance from every previous vertex";
+  EXPECT_EQ(map.by_nearest, found);
 }
 
 // Occlusion is not smoothed: a camera that stops seeing a vertex leaves its
