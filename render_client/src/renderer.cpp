@@ -451,32 +451,42 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
                                   std::to_string(w) + "x" + std::to_string(h));
     }
   }
-  ensureViewResources(w, h, static_cast<uint32_t>(views.size()));
-  cameras_.clear();
   subject_seen_.clear();
+  view_cameras_.clear();
+  for (const auto& view : views) {
+    view_cameras_.push_back(view.camera);
+    subject_seen_.push_back(std::any_of(view.mask.pixels.begin(), view.mask.pixels.end(), [](uint8_t m) { return m != 0; }));
+  }
+  const bool any_seen = std::find(subject_seen_.begin(), subject_seen_.end(), true) != subject_seen_.end();
+  std::vector<uint32_t> active;
+  for (uint32_t i = 0; i < views.size(); ++i) {
+    if (subject_seen_[i] || !any_seen) active.push_back(i);
+  }
+  remapTemporal(active);
+  active_ = std::move(active);
+  ensureViewResources(w, h, static_cast<uint32_t>(active_.size()));
+  cameras_.clear();
   auto* dst = static_cast<uint8_t*>(staging_.mapped);
   const size_t pixels = static_cast<size_t>(w) * h;
-  for (size_t layer = 0; layer < views.size(); ++layer) {
-    cameras_.push_back(views[layer].camera);
-    const uint8_t* rgb = views[layer].color.pixels.data();
-    const uint8_t* mask = views[layer].mask.pixels.data();
+  for (size_t layer = 0; layer < active_.size(); ++layer) {
+    const ViewImages& view = views[active_[layer]];
+    cameras_.push_back(view.camera);
+    const uint8_t* rgb = view.color.pixels.data();
+    const uint8_t* mask = view.mask.pixels.data();
     uint8_t* out = dst + layer * pixels * 4;
-    bool seen = false;
     for (size_t p = 0; p < pixels; ++p) {
       out[p * 4 + 0] = rgb[p * 3 + 0];
       out[p * 4 + 1] = rgb[p * 3 + 1];
       out[p * 4 + 2] = rgb[p * 3 + 2];
       out[p * 4 + 3] = mask[p];
-      seen = seen || mask[p] != 0;
     }
-    subject_seen_.push_back(seen);
   }
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
     transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
                     VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
     VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, static_cast<uint32_t>(views.size())};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, static_cast<uint32_t>(active_.size())};
     region.imageExtent = {w, h, 1};
     vkCmdCopyBufferToImage(cmd, staging_.buffer, images_.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
     generateMips(cmd);
@@ -571,6 +581,73 @@ void Renderer::writeDescriptors() {
 }
 
 FieldSnapshot Renderer::readFields() const {
+  FieldSnapshot s = readActiveFields();
+  if (active_.size() == subject_seen_.size()) return s;
+  // Back to the views' indexing: a camera left out for its empty mask sees
+  // every vertex on its background (or behind it, or outside its image),
+  // trusts none, has no seams, no distances, no weight.
+  const size_t views = subject_seen_.size(), vertices = s.vertex_count, triangles = s.triangle_count;
+  const size_t pixels = size_t{images_.width} * images_.height;
+  FieldSnapshot out = s;
+  out.camera_count = static_cast<uint32_t>(views);
+  out.sights.assign(views * vertices, 0);
+  out.trusted.assign(views * vertices, 0);
+  out.dilated.assign(views * pixels, 0);
+  out.seams.assign(views * triangles, 0);
+  out.visible_counts.assign(views, 0);
+  out.distances.assign(s.distances.empty() ? 0 : views * vertices, HOLOFUSE_FAR);
+  out.weights.assign(s.weights.size(), 0.0f);
+  std::vector<bool> left_out(views, true);
+  for (size_t j = 0; j < active_.size(); ++j) {
+    const size_t i = active_[j];
+    left_out[i] = false;
+    std::copy_n(s.sights.begin() + j * vertices, vertices, out.sights.begin() + i * vertices);
+    std::copy_n(s.trusted.begin() + j * vertices, vertices, out.trusted.begin() + i * vertices);
+    if (s.dilated.size() >= (j + 1) * pixels) std::copy_n(s.dilated.begin() + j * pixels, pixels, out.dilated.begin() + i * pixels);
+    std::copy_n(s.seams.begin() + j * triangles, triangles, out.seams.begin() + i * triangles);
+    out.visible_counts[i] = s.visible_counts[j];
+    if (!s.distances.empty()) std::copy_n(s.distances.begin() + j * vertices, vertices, out.distances.begin() + i * vertices);
+    for (size_t v = 0; v < vertices && !s.weights.empty(); ++v) {
+      out.weights[v * HOLOFUSE_MAX_CAMERAS + i] = s.weights[v * HOLOFUSE_MAX_CAMERAS + j];
+    }
+  }
+  const auto* positions = static_cast<const float*>(vertex_buffer_.mapped);
+  for (size_t i = 0; i < views; ++i) {
+    if (!left_out[i]) continue;
+    for (size_t v = 0; v < vertices; ++v) {
+      const glm::dvec3 p(positions[6 * v], positions[6 * v + 1], positions[6 * v + 2]);
+      const auto pixel = view_cameras_[i].project(p);
+      const bool inside = pixel && pixel->x >= 0 && pixel->y >= 0 && pixel->x < view_cameras_[i].width &&
+                          pixel->y < view_cameras_[i].height;
+      out.sights[i * vertices + v] = !pixel ? HOLOFUSE_SIGHT_BEHIND : inside ? HOLOFUSE_SIGHT_BACKGROUND : HOLOFUSE_SIGHT_OUTSIDE_IMAGE;
+    }
+  }
+  return out;
+}
+
+void Renderer::remapTemporal(const std::vector<uint32_t>& active) {
+  if (temporal_stride_ == 0 || active == active_) return;
+  // The latest field (the half a render reads as the previous one) follows
+  // each camera to its new slot; a camera that joins starts from 0, as one
+  // that comes back into view does (eq. 5 gated by visibility).
+  auto* field = static_cast<float*>(temporal_.mapped) + size_t{temporal_half_} * temporal_stride_;
+  std::vector<int> old_slot(subject_seen_.size() + HOLOFUSE_MAX_CAMERAS, -1);
+  for (size_t k = 0; k < active_.size(); ++k) {
+    if (active_[k] < old_slot.size()) old_slot[active_[k]] = static_cast<int>(k);
+  }
+  float slots[HOLOFUSE_MAX_CAMERAS];
+  for (size_t v = 0; v < temporal_stride_ / HOLOFUSE_MAX_CAMERAS; ++v) {
+    float* vertex = field + v * HOLOFUSE_MAX_CAMERAS;
+    std::copy_n(vertex, HOLOFUSE_MAX_CAMERAS, slots);
+    std::fill_n(vertex, HOLOFUSE_MAX_CAMERAS, 0.0f);
+    for (size_t j = 0; j < active.size(); ++j) {
+      const int k = active[j] < old_slot.size() ? old_slot[active[j]] : -1;
+      if (k >= 0) vertex[j] = slots[k];
+    }
+  }
+}
+
+FieldSnapshot Renderer::readActiveFields() const {
   FieldSnapshot s;
   s.vertex_count = vertex_count_;
   s.camera_count = static_cast<uint32_t>(cameras_.size());
@@ -666,12 +743,13 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     u.cameras[i].world_to_clip = clipFor(c);
     u.cameras[i].center = glm::vec4(glm::vec3(c.center()), 1.0f);
     u.cameras[i].size = glm::vec4(c.width, c.height, 1.0f / c.width, 1.0f / c.height);
+    const uint32_t view = active_[i];  // camera_enabled is by the views' index
     const bool enabled = settings.camera_enabled.empty() ||
-                         (i < settings.camera_enabled.size() && settings.camera_enabled[i]);
-    // y: the camera sees none of the subject (an empty mask). Its depth map
-    // and discontinuities are skipped: with an empty mask every vertex is
-    // on its background whatever they hold.
-    const bool empty = i < subject_seen_.size() && !subject_seen_[i];
+                         (view < settings.camera_enabled.size() && settings.camera_enabled[view]);
+    // y: the camera sees none of the subject (an empty mask; only when no
+    // camera does, else it is not among cameras_). Its depth map and
+    // discontinuities are skipped: every vertex is on its background.
+    const bool empty = view < subject_seen_.size() && !subject_seen_[view];
     u.cameras[i].flags = glm::ivec4(enabled ? 1 : 0, empty ? 1 : 0, 0, 0);
     u.cameras[i].region = empty ? glm::ivec4(0)
                                 : boxRegion(u.cameras[i].world_to_clip, bounds_min_, bounds_max_, images_.width,

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <memory>
 
 #include "capture_node/synthetic_scene.h"
 #include "common/marching_cubes.h"
@@ -338,20 +339,98 @@ TEST(FieldPassesDeterminism, TheSameInputGivesTheSameBits) {
 }
 
 
+// A 96x72 renderer holding the scene's mesh and these views.
+std::unique_ptr<Renderer> rendererHolding(const Scene& scene, const std::vector<ViewImages>& views) {
+  auto renderer = std::make_unique<Renderer>(context(), 96, 72);
+  renderer->setMesh(scene.mesh);
+  renderer->setViews(views);
+  return renderer;
+}
+
+// montage4d with a 1-pixel discontinuity band: at these small images a
+// 4-pixel band would leave most vertices to one camera, whose normalised
+// weight is 1 from any view; overlapping views let the view dependence show.
+BlendSettings overlappingMontage() {
+  BlendSettings settings;
+  settings.mode = BlendMode::kMontage4D;
+  settings.fields.dilation_px = 1;
+  return settings;
+}
+
+// A camera whose mask empties is left out of the GPU arrays, so the
+// others move to new slots: the temporal field must follow each camera, not
+// the slot. With lambda 0 the field is frozen (eq. 5), so every other
+// camera's weight is its old one renormalised without the camera that
+// left; one that comes back starts from 0 and, frozen, stays there.
+TEST(Montage4DMode, TheTemporalFieldFollowsEachCameraWhenAnotherLeavesTheArrays) {
+  const Scene scene = syntheticScene(4, 160, 120, 9);
+  std::vector<ViewImages> views = viewImages(scene);
+  const auto held = rendererHolding(scene, views);
+  Renderer& renderer = *held;
+  BlendSettings settings = overlappingMontage();
+  // gamma 1 off the seams themselves: the fields sum to 1 or more nearly
+  // everywhere, so the field, not the normal-weighted fallback, is drawn.
+  settings.fields.geodesic_radius = 1e-6f;
+  settings.lambda = 0.0;
+  // Halfway between cameras 1 and 2 (the ring's poses are 90 degrees
+  // apart): both have a positive view weight on what they both see.
+  const Camera eye = capture::SyntheticScene::ringPose(135.0, 99, 96, 72);
+  renderer.render(eye, settings);
+  const FieldSnapshot before = renderer.readFields();
+  std::vector<ViewImages> without = views;
+  std::fill(without[1].mask.pixels.begin(), without[1].mask.pixels.end(), 0);
+  renderer.setViews(without);
+  EXPECT_EQ(renderer.camerasWithoutSubject(), 1u);
+  renderer.render(eye, settings);
+  const FieldSnapshot after = renderer.readFields();
+  ASSERT_EQ(after.camera_count, 4u);
+  const size_t vertices = scene.mesh.vertexCount();
+  size_t compared = 0, kept = 0;
+  for (size_t v = 0; v < vertices; ++v) {
+    EXPECT_EQ(after.weights[v * HOLOFUSE_MAX_CAMERAS + 1], 0.0f);
+    EXPECT_EQ(after.sights[1 * vertices + v] == 0, false) << "a camera with an empty mask sees nothing";
+    double others = 0;
+    for (size_t i : {0, 2, 3}) others += before.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+    // Only where camera 1 took part and another camera still does.
+    if (!(before.weights[v * HOLOFUSE_MAX_CAMERAS + 1] > 0.05f) || !(others > 0.05)) continue;
+    ++compared;
+    bool same = true;
+    for (size_t i : {0, 2, 3}) {
+      const double expected = before.weights[v * HOLOFUSE_MAX_CAMERAS + i] / others;
+      same = same && std::abs(after.weights[v * HOLOFUSE_MAX_CAMERAS + i] - expected) < 1e-4;
+    }
+    kept += same;
+  }
+  ASSERT_GT(compared, 20u);
+  // The rest switch to the normal-weighted fallback: camera 1's gamma left
+  // the sum with it (step 10).
+  EXPECT_GT(static_cast<double>(kept) / compared, 0.8) << kept << " of " << compared;
+  renderer.setViews(views);  // camera 1 sees the subject again
+  renderer.render(eye, settings);
+  const FieldSnapshot back = renderer.readFields();
+  size_t seen_again = 0, still_zero = 0;
+  for (size_t v = 0; v < vertices; ++v) {
+    // Where camera 1 sees the vertex again and others carry a field there
+    // (a vertex only camera 1 sees falls back to the normal weighting).
+    if (back.sights[1 * vertices + v] != 0 || back.trusted[1 * vertices + v] == 0) continue;
+    double others = 0;
+    for (size_t i : {0, 2, 3}) others += after.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+    if (!(others > 0.99)) continue;
+    ++seen_again;
+    still_zero += back.weights[v * HOLOFUSE_MAX_CAMERAS + 1] == 0.0f;
+  }
+  ASSERT_GT(seen_again, 20u);
+  EXPECT_GT(static_cast<double>(still_zero) / seen_again, 0.5) << still_zero << " of " << seen_again;
+}
+
 TEST(Montage4DMode, FieldsMatchTheReferenceAndAViewpointJumpFadesIn) {
   const Scene scene = syntheticScene(5, 160, 120, 9);
   const std::vector<ViewImages> views = viewImages(scene);
   std::vector<Camera> cameras;
   for (const auto& v : scene.views) cameras.push_back(v.camera);
-  Renderer renderer(context(), 96, 72);
-  renderer.setMesh(scene.mesh);
-  renderer.setViews(views);
-  BlendSettings settings;
-  settings.mode = BlendMode::kMontage4D;
-  // At these small images a 4-pixel band would leave most vertices to one
-  // camera, whose normalised weight is 1 from any view: keep the views
-  // overlapping so the view dependence shows.
-  settings.fields.dilation_px = 1;
+  const auto held = rendererHolding(scene, views);
+  Renderer& renderer = *held;
+  BlendSettings settings = overlappingMontage();
   settings.lambda = 0.05;
   settings.frame_interval_s = 1.0 / 30.0;
   const size_t n = cameras.size(), vertices = scene.mesh.vertexCount();

@@ -75,7 +75,7 @@ class Renderer {
   uint32_t height() const { return height_; }
   uint64_t depthMapPasses() const { return depth_map_passes_; }
   // Cameras of the current views whose mask holds none of the subject:
-  // their depth maps and discontinuities are skipped.
+  // they are left out of every GPU array (unless no camera sees it).
   size_t camerasWithoutSubject() const {
     return static_cast<size_t>(std::count(subject_seen_.begin(), subject_seen_.end(), false));
   }
@@ -97,6 +97,11 @@ class Renderer {
   void drawMesh(VkCommandBuffer cmd);
   glm::mat4 clipFor(const Camera& camera) const;
 
+  // The fields of cameras_ as the passes left them (readFields expands
+  // them to the views' indexing).
+  FieldSnapshot readActiveFields() const;
+  // Moves the latest temporal field's slots from active_ to active.
+  void remapTemporal(const std::vector<uint32_t>& active);
   VulkanContext& ctx_;
   uint32_t width_, height_;
   // Mesh
@@ -104,8 +109,15 @@ class Renderer {
   uint32_t index_count_ = 0;
   glm::dvec3 bounds_min_{-1.0}, bounds_max_{1.0};  // of the current mesh
   // Pod views
+  // The cameras that take part: those whose mask has foreground (all of
+  // them when none has). A camera that sees none of the subject has every
+  // vertex on its background, so it is left out of every array: no layer,
+  // depth map, vote, seams or field (issue 4: skip what the scene does not
+  // need). active_[j] is the views' index of cameras_[j].
   std::vector<Camera> cameras_;
-  std::vector<bool> subject_seen_;  // per camera: its mask has foreground
+  std::vector<uint32_t> active_;
+  std::vector<Camera> view_cameras_;  // every view given to setViews
+  std::vector<bool> subject_seen_;  // per view given to setViews: its mask has foreground
   Image images_;
   Buffer depth_maps_;  // [camera][y][x] camera-space depth (config.h binding DEPTHS)
   Buffer staging_;
