@@ -81,6 +81,9 @@ std::vector<Knob> makeKnobs() {
   knobs.push_back(numberKnob("dilation", "eps: discontinuity dilation in pixels (-1: scaled from the paper's)", -1, 16,
                              true, [](EvalOptions& o, double v) { o.fields.dilation_px = static_cast<int>(v); },
                              [](const EvalOptions& o) { return double(o.fields.dilation_px); }));
+  knobs.push_back(numberKnob("delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3)", 0, 10,
+                             false, [](EvalOptions& o, double v) { o.fields.vote_delta = static_cast<float>(v); },
+                             [](const EvalOptions& o) { return double(o.fields.vote_delta); }));
   knobs.push_back(numberKnob("draco-bits", "Draco position quantisation bits", 6, 24, true,
                              [](EvalOptions& o, double v) { o.draco.position_bits = static_cast<int>(v); },
                              [](const EvalOptions& o) { return double(o.draco.position_bits); }));
