@@ -46,7 +46,9 @@ void main() {
   float lambda = clamp(blend.temporal.x, 0.0, 1.0);
   float field[HOLOFUSE_MAX_CAMERAS];
   float normal[HOLOFUSE_MAX_CAMERAS];
-  float field_sum = 0.0, normal_sum = 0.0, gamma_sum = 0.0;
+  // Cameras left out of the arrays for an empty mask see no vertex: gamma 1
+  // each (blend.counts.z of them).
+  float field_sum = 0.0, normal_sum = 0.0, gamma_sum = float(max(blend.counts.z, 0));
   for (uint i = 0u; i < HOLOFUSE_MAX_CAMERAS; ++i) {
     field[i] = 0.0;
     normal[i] = 0.0;

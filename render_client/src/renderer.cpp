@@ -252,6 +252,13 @@ glm::ivec4 boxRegion(const glm::mat4& clip, const glm::dvec3& lo, const glm::dve
                     clampTo(std::ceil(x_max - 0.5) + 2, width), clampTo(std::ceil(y_max - 0.5) + 2, height));
 }
 
+// Storage buffers the field passes clear with vkCmdFillBuffer (worklists,
+// discontinuity flags) also need to be transfer destinations.
+VkBufferUsageFlags Renderer::usageOf(const Buffer& buffer) const {
+  const bool filled = &buffer == &worklist_ || &buffer == &edges_ || &buffer == &dilated_;
+  return filled ? kWorklistUsage : VkBufferUsageFlags{VK_BUFFER_USAGE_STORAGE_BUFFER_BIT};
+}
+
 Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
     : ctx_(context), width_(width), height_(height) {
   createPipelines();
@@ -269,7 +276,7 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
   for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &adjacency_, &rings_,
                     &distances_, &temporal_, &carry_, &fans_, &nearest_seam_}) {
-    *b = ctx_.createBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    *b = ctx_.createBuffer(16, usageOf(*b));
   }
   worklist_ = ctx_.createBuffer(16, kWorklistUsage);
   worklist_counts_ = ctx_.createBuffer(16 * HOLOFUSE_WORKLIST_SLOTS, kWorklistUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
@@ -440,6 +447,9 @@ void Renderer::setMesh(const Mesh& mesh) {
 void Renderer::setViews(const std::vector<ViewImages>& views) {
   if (views.empty()) {
     cameras_.clear();
+    active_.clear();
+    subject_seen_.clear();
+    view_cameras_.clear();
     return;
   }
   if (views.size() > HOLOFUSE_MAX_CAMERAS) throw std::invalid_argument("more than 16 cameras");
@@ -462,7 +472,9 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
   for (uint32_t i = 0; i < views.size(); ++i) {
     if (subject_seen_[i] || !any_seen) active.push_back(i);
   }
-  remapTemporal(active);
+  std::vector<uint32_t> ids;
+  for (uint32_t i : active) ids.push_back(views[i].camera.id);
+  remapTemporal(ids);
   active_ = std::move(active);
   ensureViewResources(w, h, static_cast<uint32_t>(active_.size()));
   cameras_.clear();
@@ -537,7 +549,7 @@ void Renderer::ensureFieldBuffers() {
                               {&nearest_seam_, 2 * per_vertex}}) {
     if (buffer->size >= size) continue;
     ctx_.destroy(*buffer);
-    *buffer = ctx_.createBuffer(size * 3 / 2, buffer == &worklist_ ? kWorklistUsage : VkBufferUsageFlags{VK_BUFFER_USAGE_STORAGE_BUFFER_BIT});
+    *buffer = ctx_.createBuffer(size * 3 / 2, usageOf(*buffer));
     changed = true;
   }
   if (changed) writeDescriptors();
@@ -625,24 +637,30 @@ FieldSnapshot Renderer::readFields() const {
   return out;
 }
 
-void Renderer::remapTemporal(const std::vector<uint32_t>& active) {
-  if (temporal_stride_ == 0 || active == active_) return;
-  // The latest field (the half a render reads as the previous one) follows
-  // each camera to its new slot; a camera that joins starts from 0, as one
-  // that comes back into view does (eq. 5 gated by visibility).
-  auto* field = static_cast<float*>(temporal_.mapped) + size_t{temporal_half_} * temporal_stride_;
-  std::vector<int> old_slot(subject_seen_.size() + HOLOFUSE_MAX_CAMERAS, -1);
-  for (size_t k = 0; k < active_.size(); ++k) {
-    if (active_[k] < old_slot.size()) old_slot[active_[k]] = static_cast<int>(k);
+void Renderer::remapTemporal(const std::vector<uint32_t>& camera_ids) {
+  // The slots' cameras until now: cameras_ still holds them.
+  std::vector<int> old_slot(camera_ids.size(), -1);
+  bool same = camera_ids.size() == cameras_.size();
+  for (size_t j = 0; j < camera_ids.size(); ++j) {
+    for (size_t k = 0; k < cameras_.size(); ++k) {
+      if (cameras_[k].id == camera_ids[j]) old_slot[j] = static_cast<int>(k);
+    }
+    same = same && old_slot[j] == static_cast<int>(j);
   }
+  if (temporal_stride_ == 0 || same) return;
+  // The latest field (the half a render reads as the previous one) follows
+  // each camera, by its id, to its new slot: a camera that left the arrays
+  // or a pod missing from a bundle moves the others. A camera that joins
+  // starts from 0, as one that comes back into view does (eq. 5 gated by
+  // visibility).
+  auto* field = static_cast<float*>(temporal_.mapped) + size_t{temporal_half_} * temporal_stride_;
   float slots[HOLOFUSE_MAX_CAMERAS];
   for (size_t v = 0; v < temporal_stride_ / HOLOFUSE_MAX_CAMERAS; ++v) {
     float* vertex = field + v * HOLOFUSE_MAX_CAMERAS;
     std::copy_n(vertex, HOLOFUSE_MAX_CAMERAS, slots);
     std::fill_n(vertex, HOLOFUSE_MAX_CAMERAS, 0.0f);
-    for (size_t j = 0; j < active.size(); ++j) {
-      const int k = active[j] < old_slot.size() ? old_slot[active[j]] : -1;
-      if (k >= 0) vertex[j] = slots[k];
+    for (size_t j = 0; j < camera_ids.size(); ++j) {
+      if (old_slot[j] >= 0) vertex[j] = slots[old_slot[j]];
     }
   }
 }
@@ -734,7 +752,10 @@ void Renderer::renderDepthMaps(VkCommandBuffer cmd) {
 
 Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings) {
   BlendUniforms u{};
-  u.counts = glm::ivec4(static_cast<int>(cameras_.size()), static_cast<int>(settings.mode), 0, 0);
+  // z: cameras left out of the arrays for their empty masks; each adds its
+  // gamma of 1 (it sees no vertex) to montage4d's sum, as in the reference.
+  u.counts = glm::ivec4(static_cast<int>(cameras_.size()), static_cast<int>(settings.mode),
+                        static_cast<int>(subject_seen_.size() - active_.size()), 0);
   u.params = glm::vec4(settings.alpha, settings.depth_tolerance, 0, 0);
   u.hole_color = glm::vec4(settings.hole_color, 1.0f);
   glm::uvec2 region_extent(0);  // the largest camera region

@@ -1,5 +1,6 @@
 #include "render_client/temporal_carry.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <unordered_map>

@@ -82,8 +82,8 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   if (GetParam() == 1) {
     // One pod sees none of the subject: the GPU skips its depth map and
     // discontinuities, the reference does not; the results must agree.
-    std::fill(scene.views[6].mask.pixels.begin(), scene.views[6].mask.pixels.end(), 0);
-    scene.name += ", camera 6 seeing none of the subject";
+    std::fill(scene.views[3].mask.pixels.begin(), scene.views[3].mask.pixels.end(), 0);
+    scene.name += ", camera 3 seeing none of the subject";
   }
   SCOPED_TRACE(scene.name);
   const size_t n = scene.views.size(), vertices = scene.mesh.vertexCount();
@@ -122,7 +122,7 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
       pixel_agree += same;
       // (A camera seeing none of the subject has no edges on the GPU by
       // design: every vertex is on its background whatever they hold.)
-      const bool skipped = GetParam() == 1 && i == 6;
+      const bool skipped = GetParam() == 1 && i == 3;
       if (!skipped && (cpu[p] != 0 || gpu.dilated[i * cpu.size() + p] != 0)) {
         ++flagged;
         flagged_agree += same;
@@ -402,9 +402,9 @@ TEST(Montage4DMode, TheTemporalFieldFollowsEachCameraWhenAnotherLeavesTheArrays)
     kept += same;
   }
   ASSERT_GT(compared, 20u);
-  // The rest switch to the normal-weighted fallback: camera 1's gamma left
-  // the sum with it (step 10).
-  EXPECT_GT(static_cast<double>(kept) / compared, 0.8) << kept << " of " << compared;
+  // Camera 1, out of the arrays, still adds its gamma of 1 to the sum (it
+  // sees no vertex), so no vertex switches to the fallback of step 10.
+  EXPECT_GT(static_cast<double>(kept) / compared, 0.999) << kept << " of " << compared;
   renderer.setViews(views);  // camera 1 sees the subject again
   renderer.render(eye, settings);
   const FieldSnapshot back = renderer.readFields();
@@ -420,7 +420,45 @@ TEST(Montage4DMode, TheTemporalFieldFollowsEachCameraWhenAnotherLeavesTheArrays)
     still_zero += back.weights[v * HOLOFUSE_MAX_CAMERAS + 1] == 0.0f;
   }
   ASSERT_GT(seen_again, 20u);
-  EXPECT_GT(static_cast<double>(still_zero) / seen_again, 0.5) << still_zero << " of " << seen_again;
+  // Measured 73%, 0% without the remapping; the rest fall back to the
+  // normal weighting (the fields there sum below 1 or to 0).
+  EXPECT_GT(static_cast<double>(still_zero) / seen_again, 0.6) << still_zero << " of " << seen_again;
+}
+
+// A pod missing from a bundle shifts the views after it: the temporal
+// field follows the cameras by id, not by position in the list.
+TEST(Montage4DMode, TheTemporalFieldFollowsCameraIdsWhenAPodIsMissing) {
+  const Scene scene = syntheticScene(4, 160, 120, 9);
+  const std::vector<ViewImages> views = viewImages(scene);
+  const auto held = rendererHolding(scene, views);
+  Renderer& renderer = *held;
+  BlendSettings settings = overlappingMontage();
+  settings.fields.geodesic_radius = 1e-6f;
+  settings.lambda = 0.0;  // frozen: the weights stay what they were
+  const Camera eye = capture::SyntheticScene::ringPose(135.0, 99, 96, 72);
+  renderer.render(eye, settings);
+  const FieldSnapshot before = renderer.readFields();
+  const std::vector<ViewImages> missing_first(views.begin() + 1, views.end());  // cameras 1, 2, 3
+  renderer.setViews(missing_first);
+  renderer.render(eye, settings);
+  const FieldSnapshot after = renderer.readFields();
+  ASSERT_EQ(after.camera_count, 3u);
+  size_t compared = 0, kept = 0;
+  for (size_t v = 0; v < scene.mesh.vertexCount(); ++v) {
+    double others = 0;
+    for (size_t i : {1, 2, 3}) others += before.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+    // Where cameras 1 to 3 share a vertex and camera 0 had no part.
+    if (!(others > 0.999) || before.weights[v * HOLOFUSE_MAX_CAMERAS + 2] < 0.05f) continue;
+    ++compared;
+    bool same = true;
+    for (size_t i : {1, 2, 3}) {
+      same = same && std::abs(after.weights[v * HOLOFUSE_MAX_CAMERAS + i - 1] -
+                              before.weights[v * HOLOFUSE_MAX_CAMERAS + i]) < 1e-4;
+    }
+    kept += same;
+  }
+  ASSERT_GT(compared, 20u);
+  EXPECT_GT(static_cast<double>(kept) / compared, 0.999) << kept << " of " << compared;
 }
 
 TEST(Montage4DMode, FieldsMatchTheReferenceAndAViewpointJumpFadesIn) {

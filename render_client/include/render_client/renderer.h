@@ -100,8 +100,10 @@ class Renderer {
   // The fields of cameras_ as the passes left them (readFields expands
   // them to the views' indexing).
   FieldSnapshot readActiveFields() const;
-  // Moves the latest temporal field's slots from active_ to active.
-  void remapTemporal(const std::vector<uint32_t>& active);
+  // Moves the latest temporal field's slots from cameras_ to the cameras
+  // with these ids, in this order.
+  void remapTemporal(const std::vector<uint32_t>& camera_ids);
+  VkBufferUsageFlags usageOf(const Buffer& buffer) const;
   VulkanContext& ctx_;
   uint32_t width_, height_;
   // Mesh
