@@ -31,20 +31,19 @@ void main() {
   const int run = HOLOFUSE_DISCONTINUITY_RUN;
   uint camera = gl_GlobalInvocationID.z;  // all cameras in one dispatch
   if (camera >= push.camera_count) return;
-  // Only the camera's region can hold depth (CameraGpu::region); the
-  // flags are cleared everywhere before this pass.
+  // Only the camera's region can hold depth (CameraGpu::region; empty for
+  // a camera that sees none of the subject); the flags are cleared
+  // everywhere before this pass.
   ivec4 region = blend.cameras[camera].region;
   ivec2 start = region.xy + ivec2(int(gl_GlobalInvocationID.x) * run, int(gl_GlobalInvocationID.y));
   if (start.x >= region.z || start.y >= region.w) return;
-  // A camera that sees none of the subject has an empty map: no edges.
-  bool empty_camera = blend.cameras[camera].flags.y != 0;
   float row[HOLOFUSE_DISCONTINUITY_RUN + 2];  // x = start.x - 1 .. start.x + run
   for (int k = 0; k < run + 2; ++k) row[k] = depthAt(camera, start + ivec2(k - 1, 0));
   uint line = (camera * push.height + uint(start.y)) * push.width;
   for (int k = 0; k < run; ++k) {
     ivec2 p = start + ivec2(k, 0);
     if (p.x >= region.z) break;
-    float d = empty_camera ? HOLOFUSE_NO_DEPTH : row[k + 1];
+    float d = row[k + 1];
     // Written out rather than looped over an offset table: a CPU Vulkan
     // device turns an indexed local array into scattered memory traffic.
     bool edge = d < HOLOFUSE_NO_DEPTH * 0.5 &&
