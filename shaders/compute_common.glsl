@@ -4,7 +4,7 @@
 // not overlap in one pipeline layout.
 layout(push_constant) uniform Push {
   layout(offset = HOLOFUSE_COMPUTE_PUSH_OFFSET) uint vertex_count;
-  uint worklist_slot;       // geodesics: which worklist a pass reads
+  uint worklist_pass;       // geodesics: the Jacobi pass, whose worklist it reads
   uint width;
   uint height;
   float relative_jump;      // discontinuity: relative depth step
@@ -78,42 +78,71 @@ vec3 projectToCamera(uint i, vec3 p) {
 uint readHalf() { return push.parity * push.camera_count * push.vertex_count; }
 uint writeHalf() { return (1u - push.parity) * push.camera_count * push.vertex_count; }
 
-// Geodesic worklists: adds (camera, vertex) entry to the list of a slot
-// once (its mark dedupes), and keeps that slot's indirect dispatch size
-// equal to max(1, ceil(length / HOLOFUSE_VERTEX_GROUP)). The list's order depends
-// on scheduling, its contents do not, and each entry's result depends only
-// on the half it reads: the same input gives the same bits.
-void enqueueGeodesic(uint slot, uint entry) {
+// Geodesic worklists: adds (camera, vertex) entry to the list of Jacobi
+// pass `pass` once (its mark dedupes), and keeps that pass's indirect
+// dispatch size equal to ceil(length / HOLOFUSE_VERTEX_GROUP): an empty
+// list dispatches no group at all. Each pass has its own counts, all
+// cleared per mesh; the lists and marks rotate through
+// HOLOFUSE_WORKLIST_SLOTS slots of storage. The mark keeps
+// the highest level asked for: HOLOFUSE_QUEUED_COPY (the entry only
+// copies its new value into the other ping-pong half) or
+// HOLOFUSE_QUEUED_UPDATE (a neighbour changed: recompute). The list's
+// order depends on scheduling, its contents and levels do not, and each
+// entry's result depends only on the half it reads: the same input gives
+// the same bits.
+void enqueueGeodesic(uint pass, uint entry, uint level) {
   uint entries = push.camera_count * push.vertex_count;
+  uint slot = pass % HOLOFUSE_WORKLIST_SLOTS;
   uint mark = (HOLOFUSE_WORKLIST_SLOTS + slot) * entries + entry;
   // Most entries are queued already by another neighbour: a plain read
-  // skips them without an atomic; the exchange decides the races.
-  if (worklist[mark] != 0u || atomicExchange(worklist[mark], 1u) != 0u) return;
-  uint at = atomicAdd(worklist_counts[4u * slot + 3u], 1u);
-  // The first group is always there (see the reset): count the others.
-  if (at % HOLOFUSE_VERTEX_GROUP == 0u && at != 0u) atomicAdd(worklist_counts[4u * slot], 1u);
+  // skips them without an atomic; the atomic decides the races.
+  if (worklist[mark] >= level || atomicMax(worklist[mark], level) != 0u) return;
+  uint at = atomicAdd(worklist_counts[4u * pass + 3u], 1u);
+  if (at % HOLOFUSE_VERTEX_GROUP == 0u) atomicAdd(worklist_counts[4u * pass], 1u);
   worklist[slot * entries + at] = entry;
 }
 
-// An entry whose distance or ring changed, with its neighbours: exactly the
-// entries whose next Jacobi update can differ from their present value.
-// Seam vertices (ring 0) never change: during the distance passes, whose
-// read half nobody writes, they are left out.
 // Only vertices the camera sees are queued: the distance diffuses from its
 // seams towards the triangles it sees (paper 000 section 4.4).
-void enqueueNeighbourhood(uint slot, uint camera, uint v, bool skip_sources) {
+bool queueable(uint base, uint u) { return sights[base + u] == HOLOFUSE_SIGHT_VISIBLE; }
+
+// Whether neighbour u, at surface distance `length` from a vertex now at
+// (ring, distance), can take a smaller ring or distance (or an equal
+// distance from another seam vertex) from it in the next pass. Every way
+// to u through that vertex's triangles is at least distance - length long
+// (the triangle inequality in the unfolded plane); the margin covers the
+// single-precision unfolding, whose virtual source is off by up to
+// sqrt(float epsilon) of its distance where it nearly touches the edge.
+// u's values come from the half this pass reads; u's own update this pass
+// only lowers them, and then u queues itself.
+bool mayLower(uint ring, float distance, float length, uint u_ring, float u_distance) {
+  if (ring < uint(push.max_rings) && distance < HOLOFUSE_FAR && ring + 1u < u_ring) return true;
+  if (!(distance < HOLOFUSE_FAR)) return false;
+  return u_distance >= HOLOFUSE_FAR || distance - length - 1e-3 * (distance + length) < u_distance;
+}
+
+// Entry (camera, v) changed to (ring, distance) in this pass. Its next
+// Jacobi update could differ from its present value only where a
+// neighbour changed; the entries that need a pass next are:
+// - v itself, to copy its new value into the other ping-pong half (a
+//   neighbour that queues it for an update overrides the copy);
+// - the neighbours mayLower says v can improve. Seam vertices (ring 0)
+//   never change and are left out.
+// Together these are every entry whose full Jacobi update can differ from
+// the value it holds in both halves, so the result is the same bits as
+// updating every vertex in every pass.
+void enqueueChanged(uint pass, uint camera, uint v, uint ring, float distance) {
   uint base = camera * push.vertex_count;
   uint read = readHalf() + base;
-  if ((!skip_sources || rings[read + v] != 0u) && sights[base + v] == HOLOFUSE_SIGHT_VISIBLE) {
-    enqueueGeodesic(slot, base + v);
-  }
+  enqueueGeodesic(pass, base + v, HOLOFUSE_QUEUED_COPY);
   for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
-    uint a = fans[k].a, b = fans[k].b;
-    if ((!skip_sources || rings[read + a] != 0u) && sights[base + a] == HOLOFUSE_SIGHT_VISIBLE) {
-      enqueueGeodesic(slot, base + a);
+    Fan f = fans[k];
+    uint ra = rings[read + f.a], rb = rings[read + f.b];
+    if (f.a != v && ra != 0u && queueable(base, f.a) && mayLower(ring, distance, f.ac, ra, distances[read + f.a])) {
+      enqueueGeodesic(pass, base + f.a, HOLOFUSE_QUEUED_UPDATE);
     }
-    if ((!skip_sources || rings[read + b] != 0u) && sights[base + b] == HOLOFUSE_SIGHT_VISIBLE) {
-      enqueueGeodesic(slot, base + b);
+    if (f.b != v && rb != 0u && queueable(base, f.b) && mayLower(ring, distance, f.bc, rb, distances[read + f.b])) {
+      enqueueGeodesic(pass, base + f.b, HOLOFUSE_QUEUED_UPDATE);
     }
   }
 }

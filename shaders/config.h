@@ -56,6 +56,9 @@
 // Geodesic worklists rotate through three slots: the one a pass reads, the
 // one it appends to, and the one it clears for the pass after.
 #define HOLOFUSE_WORKLIST_SLOTS 3u
+// Levels of a queued geodesic entry (its mark): copy its value across, or recompute it.
+#define HOLOFUSE_QUEUED_COPY 1u
+#define HOLOFUSE_QUEUED_UPDATE 2u
 
 // Geodesics: rings beyond the bound, distance not reached.
 #define HOLOFUSE_NO_RING 0x7fffffffu

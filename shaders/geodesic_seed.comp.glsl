@@ -7,8 +7,8 @@
 // distance field are the vertices of its seam triangles (ring 0, distance
 // 0); everything else starts unreached, in both ping-pong halves. Gathered
 // per vertex from its triangles, so no two invocations write the same
-// word. The first worklist holds the sources and their neighbours: the
-// only entries the first pass can change.
+// word. The first Jacobi pass runs densely over the entries the camera
+// sees (geodesic_distance.comp.glsl), so nothing is queued here.
 layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
 
 void main() {
@@ -24,5 +24,4 @@ void main() {
   rings[index] = rings[half_size + index] = source ? 0u : HOLOFUSE_NO_RING;
   distances[index] = distances[half_size + index] = source ? 0.0 : HOLOFUSE_FAR;
   nearest_seam[index] = nearest_seam[half_size + index] = source ? v : HOLOFUSE_NO_SOURCE;
-  if (source) enqueueNeighbourhood(0u, camera, v, false);  // both halves are being written: no reads
 }

@@ -255,6 +255,7 @@ glm::ivec4 boxRegion(const glm::mat4& clip, const glm::dvec3& lo, const glm::dve
 // Storage buffers the field passes clear with vkCmdFillBuffer (worklists,
 // discontinuity flags) also need to be transfer destinations.
 VkBufferUsageFlags Renderer::usageOf(const Buffer& buffer) const {
+  if (&buffer == &worklist_counts_) return kWorklistUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT;
   const bool filled = &buffer == &worklist_ || &buffer == &edges_ || &buffer == &dilated_;
   return filled ? kWorklistUsage : VkBufferUsageFlags{VK_BUFFER_USAGE_STORAGE_BUFFER_BIT};
 }
@@ -279,7 +280,7 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
     *b = ctx_.createBuffer(16, usageOf(*b));
   }
   worklist_ = ctx_.createBuffer(16, kWorklistUsage);
-  worklist_counts_ = ctx_.createBuffer(16 * HOLOFUSE_WORKLIST_SLOTS, kWorklistUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+  worklist_counts_ = ctx_.createBuffer(16, usageOf(worklist_counts_));
   visible_counts_ = ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
                                       VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
 }
@@ -534,7 +535,7 @@ void Renderer::generateMips(VkCommandBuffer cmd) {
                   VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, images_.mip_levels - 1, 1);
 }
 
-void Renderer::ensureFieldBuffers() {
+void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
   const VkDeviceSize pixels = VkDeviceSize{images_.width} * images_.height * images_.layers * 4;
   const VkDeviceSize per_vertex = VkDeviceSize{std::max(vertex_count_, 1u)} * std::max(images_.layers, 1u) * 4;
   const VkDeviceSize weights = VkDeviceSize{std::max(vertex_count_, 1u)} * HOLOFUSE_MAX_CAMERAS * 4;
@@ -546,7 +547,8 @@ void Renderer::ensureFieldBuffers() {
                               {&adjacency_, VkDeviceSize{adjacency_data_.size() * 4 + 4}},
                               {&fans_, VkDeviceSize{fan_data_.size() * sizeof(GeodesicFan) + 32}},
                               {&worklist_, 2 * HOLOFUSE_WORKLIST_SLOTS * per_vertex},
-                              {&nearest_seam_, 2 * per_vertex}}) {
+                              {&nearest_seam_, 2 * per_vertex},
+                              {&worklist_counts_, VkDeviceSize{16} * worklistPasses(parameters)}}) {
     if (buffer->size >= size) continue;
     ctx_.destroy(*buffer);
     *buffer = ctx_.createBuffer(size * 3 / 2, usageOf(*buffer));
@@ -793,7 +795,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   std::memcpy(uniforms_.mapped, &u, sizeof(u));
   const bool settings_changed = settings.camera_enabled != field_cameras_ || !(parameters == field_parameters_);
   const bool run_fields = want_fields && (fields_stale_ || depth_maps_stale_ || settings_changed);
-  if (run_fields) ensureFieldBuffers();
+  if (run_fields) ensureFieldBuffers(parameters);
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
     if (run_fields) field_passes_pipelines_->beginTiming(cmd);
     if (have_views && depth_maps_stale_) renderDepthMaps(cmd);

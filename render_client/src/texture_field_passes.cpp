@@ -211,14 +211,16 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   // zero there, written by nobody.
   vkCmdFillBuffer(cmd, reset.edges, 0, VK_WHOLE_SIZE, 0);
   vkCmdFillBuffer(cmd, reset.dilated, 0, VK_WHOLE_SIZE, 0);
-  if (parameters.geodesics) {
-    // Empty lists and clear marks.
-    // Every pass runs at least one group, even for an empty list: its
-    // first invocation resets the spare slot for the pass after.
-    const uint32_t empty[4 * HOLOFUSE_WORKLIST_SLOTS] = {1, 1, 1, 0, 1, 1, 1, 0, 1, 1, 1, 0};
-    vkCmdUpdateBuffer(cmd, reset.worklist_counts, 0, sizeof(empty), empty);
+  // Empty lists and clear marks. A pass whose list is empty dispatches no
+  // group: once the distances settle, the remaining of the K passes cost
+  // only their barriers.
+  auto clearWorklists = [&] {
+    std::vector<uint32_t> empty(4 * worklistPasses(parameters), 1);  // x, y, z groups, length
+    for (size_t k = 0; k < empty.size(); k += 4) empty[k] = empty[k + 3] = 0;
+    vkCmdUpdateBuffer(cmd, reset.worklist_counts, 0, empty.size() * 4, empty.data());
     vkCmdFillBuffer(cmd, reset.worklist, 0, VK_WHOLE_SIZE, 0);
-  }
+  };
+  if (parameters.geodesics) clearWorklists();
   clearedBarrier(cmd);
   // A stop for measurement: the stamps of the skipped stages read zero.
   auto stopsAfter = [&](int stage) {
@@ -290,17 +292,30 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
       computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
     };
-    perVertexAndCamera(geodesic_seed_, 0);
-    // Each pass runs only the entries its predecessor queued: the dispatch
-    // size comes from the GPU (indirect), no round trip to the host.
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, geodesic_distance_);
-    for (int pass = 0; pass < parameters.geodesic_iterations; ++pass) {
-      push.parity = static_cast<uint32_t>(pass) % 2;
-      push.worklist_slot = static_cast<uint32_t>(pass) % HOLOFUSE_WORKLIST_SLOTS;
-      vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
-      vkCmdDispatchIndirect(cmd, reset.worklist_counts, VkDeviceSize{16} * push.worklist_slot);
-      computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
-                     VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
+    for (int r = 0; r < repeats(6); ++r) {
+      if (r > 0) {  // a repeat for measurement starts from clean lists, as a new mesh does
+        computeBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+        clearWorklists();
+        clearedBarrier(cmd);
+      }
+      perVertexAndCamera(geodesic_seed_, 0);
+      // The first pass runs over every entry; each later one only the
+      // entries its predecessor queued, the dispatch size coming from the
+      // GPU (indirect, no round trip to the host; zero groups once the
+      // distances settle).
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, geodesic_distance_);
+      for (int pass = 0; pass < parameters.geodesic_iterations; ++pass) {
+        push.parity = static_cast<uint32_t>(pass) % 2;
+        push.worklist_pass = static_cast<uint32_t>(pass);
+        vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+        if (pass == 0) {  // every entry (see the shader)
+          vkCmdDispatch(cmd, groups(vertex_count * camera_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
+        } else {
+          vkCmdDispatchIndirect(cmd, reset.worklist_counts, VkDeviceSize{16} * push.worklist_pass);
+        }
+        computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
+      }
     }
   }
   stamp(cmd, 7);

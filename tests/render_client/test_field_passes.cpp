@@ -177,7 +177,7 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   // the reference run from the GPU's own seams (so both start alike).
   ASSERT_EQ(gpu.distances.size(), n * vertices);
   size_t reach_agree = 0, compared = 0, bounded = 0;
-  double distance_error = 0;
+  double distance_error = 0, worst_distance_error = 0;
 
   for (size_t i = 0; i < n; ++i) {
     std::vector<uint8_t> source(vertices, 0);
@@ -204,6 +204,7 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
       bounded += cpu_reached && cpu[v] > 0.5 * options.max_distance;
       if (gpu_reached && cpu_reached && cpu[v] > 1e-6) {
         distance_error += std::abs(g - cpu[v]) / cpu[v];
+        worst_distance_error = std::max(worst_distance_error, std::abs(g - cpu[v]) / cpu[v]);
         ++compared;
       }
     }
@@ -214,6 +215,10 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   EXPECT_EQ(reach_agree, n * vertices) << "the same rings are reached";
   EXPECT_GT(bounded, 0u) << "some distances come near the radius";
   EXPECT_LT(distance_error / compared, 1e-4) << "float against double, same updates";
+  // Every entry, not only on average: the GPU updates only the entries its
+  // worklists hold, and one left out would stand far from the reference.
+  RecordProperty("geodesic_worst_relative_difference", std::to_string(worst_distance_error));
+  EXPECT_LT(worst_distance_error, 1e-3) << "float against double, same updates";
   const double sight_share = static_cast<double>(sight_agree) / (n * vertices);
   const double trust_share = static_cast<double>(trust_agree) / std::max<size_t>(trust_both, 1);
   const double mean_weight_error = weight_error / std::max<size_t>(weighted, 1);

@@ -91,7 +91,7 @@ class Renderer {
   void ensureViewResources(uint32_t w, uint32_t h, uint32_t count);
   void destroyViewResources();
   void renderDepthMaps(VkCommandBuffer cmd);
-  void ensureFieldBuffers();
+  void ensureFieldBuffers(const FieldParameters& parameters);
   void writeDescriptors();
   void generateMips(VkCommandBuffer cmd);
   void drawMesh(VkCommandBuffer cmd);

@@ -7,6 +7,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -70,7 +71,7 @@ struct FieldParameters {
 // Mirror of the Push block in shaders/compute_common.glsl.
 struct ComputePush {
   uint32_t vertex_count;
-  uint32_t worklist_slot;
+  uint32_t worklist_pass;
   uint32_t width;
   uint32_t height;
   float relative_jump;
@@ -88,6 +89,12 @@ struct ComputePush {
 };
 static_assert(sizeof(ComputePush) == 64);
 static_assert(HOLOFUSE_COMPUTE_PUSH_OFFSET + sizeof(ComputePush) <= 128, "lavapipe allows 128 bytes");
+
+// Geodesic worklists with their own counts (dispatch size and length):
+// the seed's list and one per Jacobi pass, K + 1 in all.
+inline uint32_t worklistPasses(const FieldParameters& parameters) {
+  return static_cast<uint32_t>(std::max(parameters.geodesic_iterations, 0)) + 1;
+}
 
 class TextureFieldPasses {
  public:
