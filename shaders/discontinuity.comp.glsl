@@ -49,12 +49,15 @@ void main() {
     bool edge = d < HOLOFUSE_NO_DEPTH * 0.5 &&
                 (breaks(d, row[k]) || breaks(d, row[k + 2]) || breaks(d, depthAt(camera, p + ivec2(0, -1))) ||
                  breaks(d, depthAt(camera, p + ivec2(0, 1))));
+    // Both maps were cleared before this pass: only edges are written
+    // (a CPU device pays for every scattered store). With eps = 0 the
+    // edges are the dilated map: the dilation passes are skipped.
+    if (!edge) continue;
     uint index = line + uint(p.x);
-    // With eps = 0 the edges are the dilated map: the dilation passes are skipped.
     if (push.dilation > 0) {
-      edges[index] = edge ? 1u : 0u;
+      edges[index] = 1u;
     } else {
-      dilated[index] = edge ? 1u : 0u;
+      dilated[index] = 1u;
     }
   }
 }
