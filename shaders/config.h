@@ -14,7 +14,7 @@
 // Workgroup sizes: per-pixel passes run 16x16, per-vertex passes 64 wide.
 #define HOLOFUSE_PIXEL_GROUP 16
 // Pixels along a row per invocation of the discontinuity pass.
-#define HOLOFUSE_DISCONTINUITY_RUN 4
+#define HOLOFUSE_DISCONTINUITY_RUN 8
 #define HOLOFUSE_VERTEX_GROUP 64
 
 // Depth-map value where no surface was drawn.
