@@ -36,8 +36,10 @@ void clearedBarrier(VkCommandBuffer cmd) {
   VkMemoryBarrier cleared{};
   cleared.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
   cleared.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-  cleared.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &cleared, 0,
+  // The geodesic counts are also indirect dispatch arguments.
+  cleared.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT, 0, 1, &cleared, 0,
                        nullptr, 0, nullptr);
 }
 
@@ -217,7 +219,11 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   auto clearWorklists = [&] {
     std::vector<uint32_t> empty(4 * worklistPasses(parameters), 1);  // x, y, z groups, length
     for (size_t k = 0; k < empty.size(); k += 4) empty[k] = empty[k + 3] = 0;
-    vkCmdUpdateBuffer(cmd, reset.worklist_counts, 0, empty.size() * 4, empty.data());
+    constexpr size_t kMaxUpdateWords = 65536 / 4;  // vkCmdUpdateBuffer's limit
+    for (size_t at = 0; at < empty.size(); at += kMaxUpdateWords) {
+      const size_t words = std::min(kMaxUpdateWords, empty.size() - at);
+      vkCmdUpdateBuffer(cmd, reset.worklist_counts, at * 4, words * 4, empty.data() + at);
+    }
     vkCmdFillBuffer(cmd, reset.worklist, 0, VK_WHOLE_SIZE, 0);
   };
   if (parameters.geodesics) clearWorklists();
@@ -308,8 +314,10 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
         push.parity = static_cast<uint32_t>(pass) % 2;
         push.worklist_pass = static_cast<uint32_t>(pass);
         vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
-        if (pass == 0) {  // every entry (see the shader)
-          vkCmdDispatch(cmd, groups(vertex_count * camera_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
+        if (pass == 0) {  // every entry (see the shader): vertices along x, cameras along y
+          if (vertex_count > 0 && camera_count > 0) {
+            vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), camera_count, 1);
+          }
         } else {
           vkCmdDispatchIndirect(cmd, reset.worklist_counts, VkDeviceSize{16} * push.worklist_pass);
         }

@@ -90,8 +90,9 @@ struct ComputePush {
 static_assert(sizeof(ComputePush) == 64);
 static_assert(HOLOFUSE_COMPUTE_PUSH_OFFSET + sizeof(ComputePush) <= 128, "lavapipe allows 128 bytes");
 
-// Geodesic worklists with their own counts (dispatch size and length):
-// the seed's list and one per Jacobi pass, K + 1 in all.
+// Geodesic worklist counts (dispatch size and length): count p belongs to
+// the list Jacobi pass p reads, which pass p - 1 appends to (the first
+// pass runs densely and reads none); the last pass appends to count K.
 inline uint32_t worklistPasses(const FieldParameters& parameters) {
   return static_cast<uint32_t>(std::max(parameters.geodesic_iterations, 0)) + 1;
 }
