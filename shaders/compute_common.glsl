@@ -36,7 +36,11 @@ layout(std430, set = 0, binding = HOLOFUSE_BINDING_VISIBLE_COUNTS) buffer Visibl
 // adjacency[v] .. adjacency[v + 1] index the triangle list that follows
 // the vertex_count + 1 offsets.
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_ADJACENCY) readonly buffer Adjacency { uint adjacency[]; };
+// Ring count << HOLOFUSE_RING_SHIFT | nearest seam vertex (config.h).
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_RINGS) buffer Rings { uint rings[]; };
+uint ringOf(uint packed) { return packed >> HOLOFUSE_RING_SHIFT; }
+uint sourceOf(uint packed) { return packed & HOLOFUSE_NO_SOURCE; }
+uint packRing(uint ring, uint source) { return (ring << HOLOFUSE_RING_SHIFT) | source; }
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DISTANCES) buffer Distances { float distances[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_TEMPORAL) buffer Temporal { float temporal[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_CARRY) readonly buffer Carry { int carry[]; };
@@ -55,7 +59,6 @@ struct Fan {
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_FANS) readonly buffer Fans { Fan fans[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST) buffer Worklist { uint worklist[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST_COUNTS) buffer WorklistCounts { uint worklist_counts[]; };
-layout(std430, set = 0, binding = HOLOFUSE_BINDING_NEAREST_SEAM) buffer NearestSeam { uint nearest_seam[]; };
 
 float storedDepth(uint camera, ivec2 pixel) {
   return uintBitsToFloat(depth_bits[(camera * push.height + uint(pixel.y)) * push.width + uint(pixel.x)]);
@@ -137,7 +140,7 @@ void enqueueChanged(uint pass, uint camera, uint v, uint ring, float distance) {
   enqueueGeodesic(pass, base + v, HOLOFUSE_QUEUED_COPY);
   for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
     Fan f = fans[k];
-    uint ra = rings[read + f.a], rb = rings[read + f.b];
+    uint ra = ringOf(rings[read + f.a]), rb = ringOf(rings[read + f.b]);
     if (f.a != v && ra != 0u && queueable(base, f.a) && mayLower(ring, distance, f.ac, ra, distances[read + f.a])) {
       enqueueGeodesic(pass, base + f.a, HOLOFUSE_QUEUED_UPDATE);
     }

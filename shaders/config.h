@@ -43,15 +43,14 @@
 #define HOLOFUSE_BINDING_SEAMS 11
 #define HOLOFUSE_BINDING_VISIBLE_COUNTS 12
 #define HOLOFUSE_BINDING_ADJACENCY 13   // CSR: per vertex the triangles around it
-#define HOLOFUSE_BINDING_RINGS 14       // [2][camera][vertex] ping-pong
+#define HOLOFUSE_BINDING_RINGS 14       // [2][camera][vertex] ping-pong: ring count and nearest seam vertex, packed
 #define HOLOFUSE_BINDING_DISTANCES 15   // [2][camera][vertex] ping-pong
 #define HOLOFUSE_BINDING_TEMPORAL 16    // [2][vertex][16]: previous and current temporal field
 #define HOLOFUSE_BINDING_CARRY 17       // per vertex: its vertex in the previous mesh, -1 for none
 #define HOLOFUSE_BINDING_FANS 18        // per (vertex, triangle) in ADJACENCY order: the triangle unfolded
 #define HOLOFUSE_BINDING_WORKLIST 19    // geodesics: [slot][camera * vertex] lists, then [slot][...] marks
 #define HOLOFUSE_BINDING_WORKLIST_COUNTS 20  // per slot: dispatch groups x, y, z, then the list length
-#define HOLOFUSE_BINDING_NEAREST_SEAM 21  // [2][camera][vertex] ping-pong: the source vertex a distance comes from
-#define HOLOFUSE_BINDING_COUNT 22
+#define HOLOFUSE_BINDING_COUNT 21
 
 // Geodesic worklists rotate through three slots: the one a pass reads, the
 // one it appends to, and the one it clears for the pass after.
@@ -61,9 +60,15 @@
 #define HOLOFUSE_QUEUED_UPDATE 2u
 
 // Geodesics: rings beyond the bound, distance not reached.
-#define HOLOFUSE_NO_RING 0x7fffffffu
+#define HOLOFUSE_NO_RING 0x7fu
 #define HOLOFUSE_FAR 3.0e38
-#define HOLOFUSE_NO_SOURCE 0xffffffffu
+#define HOLOFUSE_NO_SOURCE 0x1ffffffu
+// A geodesic entry's ring (7 bits, up to HOLOFUSE_NO_RING) and nearest
+// seam vertex (25 bits) share one word: one gather per neighbour instead
+// of two. Rings stop at k <= 64; meshes for the field passes stay under
+// 2^25 - 1 vertices (Renderer::setMesh checks).
+#define HOLOFUSE_RING_SHIFT 25u
+#define HOLOFUSE_MAX_FIELD_VERTICES 0x1ffffffu
 
 // Seam rules (render::reference::SeamRule).
 #define HOLOFUSE_SEAM_OCCLUSION 1u

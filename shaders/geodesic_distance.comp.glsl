@@ -64,28 +64,29 @@ void main() {
   if (level == HOLOFUSE_QUEUED_COPY) {  // changed last pass, no neighbour since: the halves only need to agree
     rings[out_offset + v] = rings[in_offset + v];
     distances[out_offset + v] = distances[in_offset + v];
-    nearest_seam[out_offset + v] = nearest_seam[in_offset + v];
     return;
   }
   // The triangle ring count advances in the same pass: a distance can only
   // become finite one ring per pass too, so gating by the ring reached so
   // far gives the same result as counting the rings to the end first.
-  uint old_ring = rings[in_offset + v];
+  uint old_packed = rings[in_offset + v];
+  uint old_ring = ringOf(old_packed);
   if (old_ring == 0u) return;  // a seam vertex is its own nearest seam vertex, at 0, in both halves
   float old_distance = distances[in_offset + v];
-  uint old_source = nearest_seam[in_offset + v];
+  uint old_source = sourceOf(old_packed);
   uint ring = old_ring;
   float candidate = old_distance;
   uint candidate_source = old_source;
   for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
     Fan f = fans[k];
-    uint ra = rings[in_offset + f.a], rb = rings[in_offset + f.b];
+    uint pa = rings[in_offset + f.a], pb = rings[in_offset + f.b];
+    uint ra = ringOf(pa), rb = ringOf(pb);
     float da = distances[in_offset + f.a], db = distances[in_offset + f.b];
     // Rings spread only through reached vertices: past the radius nothing
     // changes, so nothing there is put on a worklist.
     if (f.a != v && ra < uint(push.max_rings) && da < HOLOFUSE_FAR) ring = min(ring, ra + 1u);
     if (f.b != v && rb < uint(push.max_rings) && db < HOLOFUSE_FAR) ring = min(ring, rb + 1u);
-    uint sa = nearest_seam[in_offset + f.a], sb = nearest_seam[in_offset + f.b];
+    uint sa = sourceOf(pa), sb = sourceOf(pb);
     float reach = push.geodesic_scale;
     float d = sa == sb ? unfolded(f, da, db) : da + f.ac;
     if (d <= reach && (d < candidate || (d == candidate && sa < candidate_source))) {
@@ -101,10 +102,10 @@ void main() {
   bool reached = ring <= uint(push.max_rings);
   float best = reached ? candidate : old_distance;
   uint source = reached ? candidate_source : old_source;
-  rings[out_offset + v] = ring;
+  uint packed = packRing(ring, source);
+  rings[out_offset + v] = packed;
   distances[out_offset + v] = best;
-  nearest_seam[out_offset + v] = source;
-  if (ring != old_ring || best != old_distance || source != old_source) {
+  if (packed != old_packed || best != old_distance) {
     enqueueChanged(pass + 1u, camera, v, ring, best);
   }
 }

@@ -21,7 +21,6 @@ void main() {
   }
   uint index = camera * push.vertex_count + v;
   uint half_size = push.camera_count * push.vertex_count;
-  rings[index] = rings[half_size + index] = source ? 0u : HOLOFUSE_NO_RING;
+  rings[index] = rings[half_size + index] = source ? packRing(0u, v) : packRing(HOLOFUSE_NO_RING, HOLOFUSE_NO_SOURCE);
   distances[index] = distances[half_size + index] = source ? 0.0 : HOLOFUSE_FAR;
-  nearest_seam[index] = nearest_seam[half_size + index] = source ? v : HOLOFUSE_NO_SOURCE;
 }

@@ -276,7 +276,7 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
   for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &adjacency_, &rings_,
-                    &distances_, &temporal_, &carry_, &fans_, &nearest_seam_}) {
+                    &distances_, &temporal_, &carry_, &fans_}) {
     *b = ctx_.createBuffer(16, usageOf(*b));
   }
   worklist_ = ctx_.createBuffer(16, kWorklistUsage);
@@ -297,8 +297,7 @@ Renderer::~Renderer() {
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
   for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &visible_counts_, &adjacency_,
-                    &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_,
-                    &nearest_seam_}) {
+                    &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_}) {
     ctx_.destroy(*b);
   }
   field_passes_pipelines_.reset();
@@ -547,7 +546,6 @@ void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
                               {&adjacency_, VkDeviceSize{adjacency_data_.size() * 4 + 4}},
                               {&fans_, VkDeviceSize{fan_data_.size() * sizeof(GeodesicFan) + 32}},
                               {&worklist_, 2 * HOLOFUSE_WORKLIST_SLOTS * per_vertex},
-                              {&nearest_seam_, 2 * per_vertex},
                               {&worklist_counts_, VkDeviceSize{16} * worklistPasses(parameters)}}) {
     if (buffer->size >= size) continue;
     ctx_.destroy(*buffer);
@@ -571,8 +569,7 @@ void Renderer::writeDescriptors() {
       {seams_.buffer, 0, VK_WHOLE_SIZE}, {visible_counts_.buffer, 0, VK_WHOLE_SIZE},
       {adjacency_.buffer, 0, VK_WHOLE_SIZE}, {rings_.buffer, 0, VK_WHOLE_SIZE}, {distances_.buffer, 0, VK_WHOLE_SIZE},
       {temporal_.buffer, 0, VK_WHOLE_SIZE}, {carry_.buffer, 0, VK_WHOLE_SIZE}, {fans_.buffer, 0, VK_WHOLE_SIZE},
-      {worklist_.buffer, 0, VK_WHOLE_SIZE}, {worklist_counts_.buffer, 0, VK_WHOLE_SIZE},
-      {nearest_seam_.buffer, 0, VK_WHOLE_SIZE}};
+      {worklist_.buffer, 0, VK_WHOLE_SIZE}, {worklist_counts_.buffer, 0, VK_WHOLE_SIZE}};
   std::array<VkWriteDescriptorSet, HOLOFUSE_BINDING_COUNT> writes{};
   for (uint32_t b = 0; b < writes.size(); ++b) {
     writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -786,6 +783,16 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   FieldParameters parameters = settings.fields;
   parameters.alpha = settings.alpha;
   if (montage) {
+    // The geodesic passes pack an entry's ring and nearest seam vertex in
+    // one word (shaders/config.h).
+    if (parameters.geodesic_rings < 0 || parameters.geodesic_rings > kMaxGeodesicRings) {
+      throw std::invalid_argument("geodesic rings k = " + std::to_string(parameters.geodesic_rings) +
+                                  " is outside 0.." + std::to_string(kMaxGeodesicRings));
+    }
+    if (vertex_count_ > HOLOFUSE_MAX_FIELD_VERTICES) {
+      throw std::invalid_argument("a mesh of " + std::to_string(vertex_count_) + " vertices is over montage4d's " +
+                                  std::to_string(HOLOFUSE_MAX_FIELD_VERTICES));
+    }
     parameters.geodesics = true;
     prepareTemporal();
     u.user_eye = glm::vec4(glm::vec3(user_camera.center()), 1.0f);

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "common/marching_cubes.h"
 #include "render_client/reference/depth_map.h"
@@ -142,6 +144,31 @@ TEST(Extremes, AlphaAndCameraCountExtremesAndEmptyMasks) {
   const auto empty = ring(mesh, 4, 1.0, true);
   const Outcome o = renderAndCheck(mesh, empty, empty[0].camera, 2.0f);
   EXPECT_EQ(o.hole, o.covered) << "with every mask empty, every covered pixel is the hole colour";
+}
+
+// The geodesic passes keep an entry's ring in 7 bits: k up to 64 renders,
+// beyond it the renderer refuses by name rather than wrapping rings.
+TEST(Extremes, GeodesicRingsBeyondTheirBoundAreRefusedByName) {
+  const Mesh mesh = sphere(1.0);
+  const auto views = ring(mesh, 4, 1.0);
+  Renderer renderer(context(), 64, 48);
+  renderer.setMesh(mesh);
+  renderer.setViews(views);
+  BlendSettings settings;
+  settings.mode = BlendMode::kMontage4D;
+  settings.fields.geodesic_rings = kMaxGeodesicRings;
+  settings.fields.geodesic_radius = 0;  // k mean edges: the ring bound decides the reach
+  const Image8 out = renderer.render(views[0].camera, settings);
+  size_t covered = 0;
+  for (size_t p = 3; p < out.pixels.size(); p += 4) covered += out.pixels[p] != 0;
+  EXPECT_GT(covered, 100u);
+  settings.fields.geodesic_rings = kMaxGeodesicRings + 1;
+  try {
+    renderer.render(views[0].camera, settings);
+    FAIL() << "k beyond the bound rendered";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("geodesic rings k = 65"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

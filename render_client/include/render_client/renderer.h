@@ -151,7 +151,7 @@ class Renderer {
   }
   // Texture-field buffers (config.h bindings 4 to 8).
   Buffer edges_, dilated_, sights_, trusted_, weights_, rows_, seams_, visible_counts_, adjacency_, rings_,
-      distances_, fans_, worklist_, worklist_counts_, nearest_seam_;
+      distances_, fans_, worklist_, worklist_counts_;
   uint32_t triangle_count_ = 0;
   std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
   // Output
