@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <numbers>
 
 #include "common/camera.h"
@@ -319,7 +320,14 @@ int runClient(const ClientOptions& options) {
           }
         }
         const uint64_t field_runs = renderer->fieldPasses();
-        const Image8 picture = renderer->render(*user, blend);
+        Image8 picture;
+        try {
+          picture = renderer->render(*user, blend);
+        } catch (const std::invalid_argument& e) {  // a mesh or setting this mode cannot take: skip the frame
+          skip(mesh_frame.frame_id, e.what());
+          bundles.erase(bundle);
+          continue;
+        }
         const uint64_t t3 = monotonicNs();
         if (renderer->fieldPasses() != field_runs) {
           const auto times = renderer->fieldTimesMs();
