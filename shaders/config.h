@@ -49,11 +49,12 @@
 #define HOLOFUSE_BINDING_CARRY 17       // per vertex: its vertex in the previous mesh, -1 for none
 #define HOLOFUSE_BINDING_FANS 18        // per (vertex, triangle) in ADJACENCY order: the triangle unfolded
 #define HOLOFUSE_BINDING_WORKLIST 19    // geodesics: [slot][camera * vertex] lists, then [slot][...] marks
-#define HOLOFUSE_BINDING_WORKLIST_COUNTS 20  // per slot: dispatch groups x, y, z, then the list length
+#define HOLOFUSE_BINDING_WORKLIST_COUNTS 20  // per Jacobi pass: dispatch groups x, y, z, then the list length
 #define HOLOFUSE_BINDING_COUNT 21
 
-// Geodesic worklists rotate through three slots: the one a pass reads, the
-// one it appends to, and the one it clears for the pass after.
+// Geodesic worklists and their marks rotate through three slots of storage:
+// the one a pass reads (clearing each mark as it goes), the one it appends
+// to, and the one the pass before read.
 #define HOLOFUSE_WORKLIST_SLOTS 3u
 // Levels of a queued geodesic entry (its mark): copy its value across, or recompute it.
 #define HOLOFUSE_QUEUED_COPY 1u
@@ -66,7 +67,7 @@
 // A geodesic entry's ring (7 bits, up to HOLOFUSE_NO_RING) and nearest
 // seam vertex (25 bits) share one word: one gather per neighbour instead
 // of two. Rings stop at k <= 64; meshes for the field passes stay under
-// 2^25 - 1 vertices (Renderer::setMesh checks).
+// 2^25 - 1 vertices (Renderer::render refuses others).
 #define HOLOFUSE_RING_SHIFT 25u
 #define HOLOFUSE_MAX_FIELD_VERTICES 0x1ffffffu
 

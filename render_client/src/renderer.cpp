@@ -276,11 +276,9 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
   for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &adjacency_, &rings_,
-                    &distances_, &temporal_, &carry_, &fans_}) {
+                    &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_}) {
     *b = ctx_.createBuffer(16, usageOf(*b));
   }
-  worklist_ = ctx_.createBuffer(16, kWorklistUsage);
-  worklist_counts_ = ctx_.createBuffer(16, usageOf(worklist_counts_));
   visible_counts_ = ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
                                       VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
 }

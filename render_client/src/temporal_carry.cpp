@@ -18,12 +18,16 @@ CarryMap carryAcross(const Mesh& previous, const Mesh& next, double max_distance
   while (keyed && slots < 2 * previous.vertexCount()) slots *= 2;
   std::vector<uint64_t> slot_key(keyed ? slots : 0);
   std::vector<int32_t> slot_vertex(keyed ? slots : 0, -1);
-  auto slotOf = [&](uint64_t key) { return static_cast<size_t>((key * 0x9E3779B97F4A7C15ull) >> 20) & (slots - 1); };
+  // The slot holding key, or the empty slot where it would go.
+  auto slotOf = [&](uint64_t key) {
+    size_t at = static_cast<size_t>((key * 0x9E3779B97F4A7C15ull) >> 20) & (slots - 1);
+    while (slot_vertex[at] >= 0 && slot_key[at] != key) at = (at + 1) & (slots - 1);
+    return at;
+  };
   if (keyed) {
     for (size_t v = 0; v < previous.vertexCount(); ++v) {
       const uint64_t key = previous.vertex_keys[v];
-      size_t at = slotOf(key);
-      while (slot_vertex[at] >= 0 && slot_key[at] != key) at = (at + 1) & (slots - 1);
+      const size_t at = slotOf(key);
       if (slot_vertex[at] < 0) {  // the first vertex with a key keeps it
         slot_key[at] = key;
         slot_vertex[at] = static_cast<int32_t>(v);
@@ -34,9 +38,7 @@ CarryMap carryAcross(const Mesh& previous, const Mesh& next, double max_distance
   std::vector<uint32_t> unmatched;
   for (size_t v = 0; v < next.vertexCount(); ++v) {
     if (keyed) {
-      const uint64_t key = next.vertex_keys[v];
-      size_t at = slotOf(key);
-      while (slot_vertex[at] >= 0 && slot_key[at] != key) at = (at + 1) & (slots - 1);
+      const size_t at = slotOf(next.vertex_keys[v]);
       if (slot_vertex[at] >= 0) {
         map.previous[v] = slot_vertex[at];
         ++map.by_key;

@@ -90,13 +90,13 @@ struct ComputePush {
 static_assert(sizeof(ComputePush) == 64);
 static_assert(HOLOFUSE_COMPUTE_PUSH_OFFSET + sizeof(ComputePush) <= 128, "lavapipe allows 128 bytes");
 
-// Geodesic worklist counts (dispatch size and length): count p belongs to
-// the list Jacobi pass p reads, which pass p - 1 appends to (the first
-// pass runs densely and reads none); the last pass appends to count K.
 // The largest geodesic reach in rings (k) the packed ring field holds.
 constexpr int kMaxGeodesicRings = 64;
 static_assert(kMaxGeodesicRings < static_cast<int>(HOLOFUSE_NO_RING));
 
+// Geodesic worklist counts (dispatch size and length): count p belongs to
+// the list Jacobi pass p reads, which pass p - 1 appends to (the first
+// pass runs densely and reads none); the last pass appends to count K.
 inline uint32_t worklistPasses(const FieldParameters& parameters) {
   return static_cast<uint32_t>(std::max(parameters.geodesic_iterations, 0)) + 1;
 }
