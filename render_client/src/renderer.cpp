@@ -792,6 +792,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
                                   std::to_string(HOLOFUSE_MAX_FIELD_VERTICES));
     }
     parameters.geodesics = true;
+    parameters.field_per_view = true;
     prepareTemporal();
     u.user_eye = glm::vec4(glm::vec3(user_camera.center()), 1.0f);
     u.temporal = glm::vec4(static_cast<float>(reference::temporalLambda(settings.lambda, settings.frame_interval_s)),
@@ -813,7 +814,8 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
                                        edges_.buffer, dilated_.buffer});
       ++field_passes_;
     }
-    if (montage) {
+    // (A measurement stop before stage 7 skips the per-view field too.)
+    if (montage && (parameters.last_stage < 0 || parameters.last_stage >= 7)) {
       field_passes_pipelines_->recordMontage(cmd, descriptor_set_, vertex_count_, static_cast<uint32_t>(cameras_.size()),
                                              parameters, static_cast<float>(geodesicScale(parameters)),
                                              temporal_stride_);

@@ -116,9 +116,17 @@ void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set,
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, montage_);
   vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
-  if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
-  computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
-                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
+  // Repeated for measurement as stage 7 (FieldParameters::repeated_stage):
+  // the pass reads the previous half and writes the current one, so every
+  // repeat writes the same values.
+  const int repeats = parameters.repeated_stage == 7 ? std::max(1, parameters.stage_repeats) : 1;
+  for (int r = 0; r < repeats; ++r) {
+    if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
+    computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
+  }
+  if (field_stamp_pending_) stamp(cmd, 8);  // this command buffer ran the per-mesh passes: the field is stage 7
+  field_stamp_pending_ = false;
 }
 
 void TextureFieldPasses::beginTiming(VkCommandBuffer cmd) {
@@ -328,6 +336,11 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   }
   stamp(cmd, 7);
   if (stopsAfter(6)) return;
+  recorded_ = true;
+  if (parameters.field_per_view) {  // recordMontage computes it and closes this run's timing
+    field_stamp_pending_ = true;
+    return;
+  }
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, field_);
   vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
   for (int r = 0; r < repeats(7); ++r) {
@@ -336,7 +349,6 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
   }
   stamp(cmd, 8);
-  recorded_ = true;
 }
 
 }  // namespace holofuse::render

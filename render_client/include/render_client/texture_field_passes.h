@@ -45,6 +45,9 @@ struct FieldParameters {
   // Geodesic distance from each camera's seams (stage 6): run only when a
   // mode needs it (montage4d); the Holoportation baseline does not pay for it.
   bool geodesics = false;
+  // montage4d: the field depends on the view, and recordMontage computes it
+  // for every rendered view in place of the per-mesh field pass (stage 7).
+  bool field_per_view = false;
   int geodesic_rings = 15;       // k
   int geodesic_iterations = 20;  // K
   // Metres from a seam at which gamma reaches 1, and beyond which no
@@ -56,10 +59,12 @@ struct FieldParameters {
   // Measurement only (bench_texture_fields): record the per-mesh passes up
   // to this stage of stageNames() and skip the rest (-1: all). Wall clock
   // differences between stops give each stage's cost where a CPU device's
-  // timestamps cannot (it rasterises lazily).
+  // timestamps cannot (it rasterises lazily). A stop before stage 7 skips
+  // montage4d's per-view field as well.
   int last_stage = -1;
   // Measurement only: record the dispatches of stage repeated_stage (1 to
-  // 5 or 7 of stageNames()) stage_repeats times over. Stages that cost a
+  // 7 of stageNames(); 7 in montage4d is its per-view field pass)
+  // stage_repeats times over. Stages that cost a
   // fraction of a millisecond drown in a shared machine's noise once; the
   // extra time of many repeats, divided by their number, does not. The
   // global visibility counts come out multiplied: timing runs only.
@@ -161,6 +166,7 @@ class TextureFieldPasses {
   VkQueryPool queries_ = VK_NULL_HANDLE;
   double timestamp_period_ns_ = 1.0;
   bool recorded_ = false;
+  bool field_stamp_pending_ = false;  // record() ran for montage4d: recordMontage writes the last stamp
 };
 
 }  // namespace holofuse::render
