@@ -1,9 +1,10 @@
-// Numerical extremes through the Vulkan texture-field path: whatever the
-// scale, geometry, cameras or parameters, every weight is finite and in
-// [0, 1] and every covered pixel is a blend of the images or the hole
-// colour.
+// Numerical extremes through the Vulkan texture-field path, in both field
+// modes: whatever the scale, geometry, cameras or parameters (alpha,
+// lambda), every weight is finite and in [0, 1] and every covered pixel is
+// a blend of the images or the hole colour.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -51,19 +52,17 @@ std::vector<ViewImages> ring(const Mesh& mesh, int count, double scale, bool emp
 struct Outcome {
   size_t covered = 0;
   size_t hole = 0;
+  size_t weighted = 0;  // vertices whose weights sum to 1
 };
 
-Outcome renderAndCheck(const Mesh& mesh, const std::vector<ViewImages>& views, const Camera& user, float alpha) {
-  Renderer renderer(context(), 64, 48);
-  renderer.setMesh(mesh);
-  renderer.setViews(views);
-  BlendSettings settings;
-  settings.mode = BlendMode::kHoloportation;
-  settings.alpha = alpha;
-  settings.fields.geodesics = true;
-  settings.hole_color = {1.0f, 0.0f, 1.0f};
+// One render's weights and pixels: every weight finite in [0, 1], each
+// vertex's summing to 1 or (no camera sees it) 0; every covered pixel the
+// hole colour or a blend of the grey images.
+Outcome checkRender(Renderer& renderer, const Camera& user, const BlendSettings& settings, const std::string& what) {
+  SCOPED_TRACE(what);
   const Image8 out = renderer.render(user, settings);
   const FieldSnapshot fields = renderer.readFields();
+  Outcome outcome;
   for (uint32_t v = 0; v < fields.vertex_count; ++v) {
     float sum = 0;
     for (uint32_t i = 0; i < fields.camera_count; ++i) {
@@ -72,9 +71,9 @@ Outcome renderAndCheck(const Mesh& mesh, const std::vector<ViewImages>& views, c
       sum += w;
     }
     EXPECT_TRUE(sum == 0.0f || std::abs(sum - 1.0f) < 1e-4f) << sum;
+    outcome.weighted += sum > 0.0f;
   }
   for (float d : fields.distances) EXPECT_TRUE(std::isfinite(d) && d >= 0.0f);
-  Outcome outcome;
   for (size_t p = 0; p < out.pixels.size(); p += 4) {
     if (out.pixels[p + 3] == 0) continue;
     ++outcome.covered;
@@ -86,6 +85,48 @@ Outcome renderAndCheck(const Mesh& mesh, const std::vector<ViewImages>& views, c
     }
   }
   return outcome;
+}
+
+// Both field modes. montage4d renders two frames per lambda (0, the
+// default and 1), so that its temporal field also runs with a previous
+// frame: the second from another pod's pose, a jump. The coverage is the
+// geometry's and must not depend on the mode. montage4d weighs every
+// vertex holoportation weighs: where its own field is empty it falls back
+// to the same normal weights (step 10), so a field zeroed by a guard shows.
+// The outcome returned has the most holes of any render.
+Outcome renderAndCheck(const Mesh& mesh, const std::vector<ViewImages>& views, const Camera& user, float alpha) {
+  BlendSettings settings;
+  settings.alpha = alpha;
+  settings.hole_color = {1.0f, 0.0f, 1.0f};
+  Outcome holoportation;
+  {
+    Renderer renderer(context(), 64, 48);
+    renderer.setMesh(mesh);
+    renderer.setViews(views);
+    settings.mode = BlendMode::kHoloportation;
+    settings.fields.geodesics = true;  // the geodesic passes run too, and their distances are checked
+    holoportation = checkRender(renderer, user, settings, "holoportation");
+  }
+  Outcome worst = holoportation;
+  auto keep = [&](const Outcome& o) {
+    EXPECT_EQ(o.covered, holoportation.covered) << "coverage is the mesh's, whatever the weights";
+    EXPECT_GE(o.weighted, holoportation.weighted) << "montage4d leaves vertices unweighted that holoportation weighs";
+    worst.hole = std::max(worst.hole, o.hole);
+  };
+  settings.mode = BlendMode::kMontage4D;
+  settings.fields.geodesics = false;
+  for (double lambda : {0.0, 0.05, 1.0}) {
+    Renderer renderer(context(), 64, 48);
+    renderer.setMesh(mesh);
+    renderer.setViews(views);
+    settings.lambda = lambda;
+    const std::string what = "montage4d, lambda " + std::to_string(lambda);
+    keep(checkRender(renderer, user, settings, what + ", first frame"));
+    const Camera& other = views[views.size() / 2].camera;
+    EXPECT_GE(checkRender(renderer, other, settings, what + ", from another pod").weighted, holoportation.weighted);
+    keep(checkRender(renderer, user, settings, what + ", back again"));
+  }
+  return worst;
 }
 
 TEST(Extremes, SceneScaleFromMillimetresToKilometres) {
@@ -101,7 +142,7 @@ TEST(Extremes, SceneScaleFromMillimetresToKilometres) {
   EXPECT_NEAR(static_cast<double>(covered[2]), static_cast<double>(covered[1]), covered[1] * 0.02);
 }
 
-TEST(Extremes, DegenerateSliversDuplicatesAndBadNormals) {
+TEST(Extremes, DegenerateSliversDuplicatesNonManifoldEdgesAndBadNormals) {
   Mesh mesh = sphere(1.0);
   const uint32_t n = static_cast<uint32_t>(mesh.positions.size());
   // Duplicate vertices, a zero-area triangle, a sliver, a NaN normal.
@@ -113,6 +154,13 @@ TEST(Extremes, DegenerateSliversDuplicatesAndBadNormals) {
   mesh.normals.push_back(mesh.normals[1]);
   for (uint32_t i : {0u, n, n + 1, 1u, n + 2, 2u}) mesh.indices.push_back(i);
   mesh.normals[5] = glm::vec3(0.0f);
+  // A non-manifold edge: a fin on the first triangle's first edge, which
+  // three triangles then share.
+  const uint32_t a = mesh.indices[0], b = mesh.indices[1];
+  const glm::vec3 middle = 0.5f * (mesh.positions[a] + mesh.positions[b]);
+  mesh.positions.push_back(middle * 1.2f);
+  mesh.normals.push_back(glm::normalize(middle));
+  for (uint32_t i : {a, b, n + 3}) mesh.indices.push_back(i);
   const auto views = ring(mesh, 4, 1.0);
   renderAndCheck(mesh, views, views[1].camera, 2.0f);
 }
