@@ -144,6 +144,45 @@ TEST(MeshCodec, DracoRoundTripIsWithinQuantisation) {
   EXPECT_FALSE(decodeDraco(bytes->data(), bytes->size() / 3).isOk());
 }
 
+// Bytes from a faulty server: Draco carries unquantised floats and its
+// sequential connectivity as given, so a NaN position and a face that
+// names a vertex past the end both reach the decoder, which must refuse
+// them by name rather than hand them to the renderer.
+DracoOptions losslessSequential() {
+  DracoOptions options;
+  options.position_bits = 0;  // no quantisation: floats as they are
+  options.normal_bits = 0;
+  options.speed = 10;         // sequential encoding: indices as they are
+  return options;
+}
+
+TEST(MeshCodec, DecodingRefusesNonFinitePositionsByVertex) {
+  Mesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, std::nanf("")}};
+  mesh.indices = {0, 1, 2, 1, 3, 2};
+  auto bytes = encodeDraco(mesh, losslessSequential());
+  ASSERT_TRUE(bytes.isOk()) << bytes.status().toString();
+  auto back = decodeDraco(bytes->data(), bytes->size());
+  ASSERT_FALSE(back.isOk());
+  EXPECT_NE(back.status().toString().find("is not finite"), std::string::npos) << back.status().toString();
+  mesh.positions[3].z = 0.5f;  // the same mesh, finite
+  bytes = encodeDraco(mesh, losslessSequential());
+  ASSERT_TRUE(bytes.isOk());
+  EXPECT_TRUE(decodeDraco(bytes->data(), bytes->size()).isOk());
+}
+
+TEST(MeshCodec, DecodingRefusesIndicesOutOfRange) {
+  Mesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  mesh.indices = {0, 1, 2, 0, 2, 7};
+  auto bytes = encodeDraco(mesh, losslessSequential());
+  ASSERT_TRUE(bytes.isOk()) << bytes.status().toString();
+  auto back = decodeDraco(bytes->data(), bytes->size());
+  ASSERT_FALSE(back.isOk()) << back->indices.size() << " indices decoded";
+  EXPECT_NE(back.status().toString().find("draco mesh: face 1 index 7 out of range"), std::string::npos)
+      << back.status().toString();
+}
+
 }  // namespace
 }  // namespace holofuse
 

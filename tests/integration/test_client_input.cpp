@@ -1,6 +1,7 @@
-// The render client against a scripted server on loopback that sends bad
-// frames: each is logged and skipped, the previous picture is kept, and the
-// client goes on to render the good frame that follows.
+// The render client against a scripted server on loopback that sends a
+// good frame, then bad ones: each bad frame is logged and skipped, the
+// previous picture is kept as it was, and the client goes on to render
+// the good frame that follows.
 #include <gtest/gtest.h>
 #include <poll.h>
 #include <signal.h>
@@ -71,7 +72,7 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
     dup2(fileno(log), STDOUT_FILENO);
     dup2(fileno(log), STDERR_FILENO);
     const std::string bin = std::string(HOLOFUSE_BIN_DIR) + "/render_client";
-    execl(bin.c_str(), bin.c_str(), "--server", endpoint.c_str(), "--out", out.c_str(), "--frames", "1", "--size",
+    execl(bin.c_str(), bin.c_str(), "--server", endpoint.c_str(), "--out", out.c_str(), "--frames", "2", "--size",
           "64x48", "--view", "pod:0", static_cast<char*>(nullptr));
     _exit(127);
   }
@@ -102,31 +103,64 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
     mesh.mesh = draco;
     return frameOf(protocol::encodeOutgoing(mesh, protocol::nextSequence()));
   };
+  const fs::path log = out / "client.log";
+  const fs::path first_picture = out / "frames" / "frame_000000.png";
+  // Frame 0: good. Its picture is what the bad frames must leave alone.
+  const Mesh good = scene.truthMesh(5, 0.03);
+  auto draco = encodeDraco(good);
+  ASSERT_TRUE(draco.isOk());
+  c.send(bundleFor(0, truth.color));
+  c.send(meshFor(0, *draco));
+  c.drain(2000);
+  for (int i = 0; i < 400 && !fs::exists(first_picture); ++i) {
+    (void)c.onReadable();
+    while (c.hasFrame()) c.takeFrame();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(fs::exists(first_picture)) << "see " << log;
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the PNG written to its end
+  const std::string first_bytes = readFile(first_picture);
   // Frame 1: Draco bytes that are not a mesh.
   const std::vector<uint8_t> garbage(64, 0x5A);
-  const fs::path log = out / "client.log";
   c.send(bundleFor(1, truth.color));
   c.send(meshFor(1, garbage));
   EXPECT_TRUE(sendAndWaitFor(c, log, "frame 1 skipped"));
   // Frame 2: images of the wrong size for the calibration.
   c.send(bundleFor(2, Image8(32, 24, 3, 100)));
-  c.send(meshFor(2, garbage));
+  c.send(meshFor(2, *draco));
   EXPECT_TRUE(sendAndWaitFor(c, log, "frame 2 skipped"));
-  // Frame 3: a mesh with vertices but no triangles.
+  // Frames 3 to 5 are Draco that a faulty server could send: unquantised
+  // and sequential, which carries floats, indices and an empty face list
+  // as given (the default encoder refuses a mesh without faces).
+  DracoOptions as_given;
+  as_given.position_bits = as_given.normal_bits = 0;
+  as_given.speed = 10;
+  // Frame 3: vertices but no triangles.
   Mesh points;
   points.positions = {{0, 1, 0}, {0.1f, 1, 0}, {0, 1.1f, 0}};
-  auto no_triangles = encodeDraco(points);
-  if (no_triangles.isOk()) {
-    c.send(bundleFor(3, truth.color));
-    c.send(meshFor(3, *no_triangles));
-    EXPECT_TRUE(sendAndWaitFor(c, log, "frame 3 skipped"));
-  }
-  // Frame 4: good.
-  const Mesh good = scene.truthMesh(5, 0.03);
-  auto draco = encodeDraco(good);
-  ASSERT_TRUE(draco.isOk());
+  auto no_triangles = encodeDraco(points, as_given);
+  ASSERT_TRUE(no_triangles.isOk()) << no_triangles.status().toString();
+  c.send(bundleFor(3, truth.color));
+  c.send(meshFor(3, *no_triangles));
+  EXPECT_TRUE(sendAndWaitFor(c, log, "frame 3 skipped"));
+  // Frames 4 and 5: a NaN position, and a face naming a vertex past the end.
+  Mesh faulty = good;
+  faulty.positions[7].y = std::nanf("");
+  auto nan_mesh = encodeDraco(faulty, as_given);
+  ASSERT_TRUE(nan_mesh.isOk()) << nan_mesh.status().toString();
   c.send(bundleFor(4, truth.color));
-  c.send(meshFor(4, *draco));
+  c.send(meshFor(4, *nan_mesh));
+  EXPECT_TRUE(sendAndWaitFor(c, log, "frame 4 skipped"));
+  faulty = good;
+  faulty.indices[5] = static_cast<uint32_t>(good.positions.size()) + 3;
+  auto out_of_range = encodeDraco(faulty, as_given);
+  ASSERT_TRUE(out_of_range.isOk()) << out_of_range.status().toString();
+  c.send(bundleFor(5, truth.color));
+  c.send(meshFor(5, *out_of_range));
+  EXPECT_TRUE(sendAndWaitFor(c, log, "frame 5 skipped"));
+  // Frame 6: good again.
+  c.send(bundleFor(6, truth.color));
+  c.send(meshFor(6, *draco));
   c.drain(2000);
   int status = 0;
   for (int i = 0; i < 600 && waitpid(client, &status, WNOHANG) != client; ++i) {
@@ -134,20 +168,26 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
     while (c.hasFrame()) c.takeFrame();
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "client did not finish; see " << out / "client.log";
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "client did not finish; see " << log;
   std::ifstream in(out / "report.json");
   const auto report = nlohmann::json::parse(in);
-  EXPECT_EQ(report["frames_rendered"], 1);
-  EXPECT_EQ(report["frames"][0]["frame_id"], 4);
+  EXPECT_EQ(report["frames_rendered"], 2);
+  EXPECT_EQ(report["frames"][0]["frame_id"], 0);
+  EXPECT_EQ(report["frames"][1]["frame_id"], 6);
   const std::string skipped = report["frames_skipped"].dump();
   EXPECT_NE(skipped.find("frame 1: draco mesh"), std::string::npos) << skipped;
   EXPECT_NE(skipped.find("frame 2: camera 0 images are not 64x48"), std::string::npos) << skipped;
-  if (no_triangles.isOk()) {
-    EXPECT_NE(skipped.find("frame 3: mesh with no triangles"), std::string::npos) << skipped;
-  }
-  // No picture was written for the bad frames.
-  EXPECT_TRUE(fs::exists(out / "frames" / "frame_000000.png"));
-  EXPECT_FALSE(fs::exists(out / "frames" / "frame_000001.png"));
+  // Draco does not decode a mesh without faces back: the decoder says so.
+  EXPECT_NE(skipped.find("frame 3: draco mesh"), std::string::npos) << skipped;
+  EXPECT_NE(skipped.find("frame 4: draco mesh: vertex"), std::string::npos) << skipped;
+  EXPECT_NE(skipped.find("is not finite"), std::string::npos) << skipped;
+  EXPECT_NE(skipped.find("frame 5: draco mesh: face"), std::string::npos) << skipped;
+  EXPECT_NE(skipped.find("out of range"), std::string::npos) << skipped;
+  // The bad frames wrote no picture and left the previous one as it was;
+  // the good frame after them has its own.
+  EXPECT_EQ(readFile(first_picture), first_bytes);
+  EXPECT_TRUE(fs::exists(out / "frames" / "frame_000001.png"));
+  EXPECT_FALSE(fs::exists(out / "frames" / "frame_000002.png"));
 }
 
 }  // namespace
