@@ -126,6 +126,81 @@ fs::path pointPath(const std::string& out_dir, const std::string& knob, const st
   return fs::path(out_dir) / "points" / (knob + "=" + value + ".json");
 }
 
+// Every setting a point's numbers depend on (not where files go). A point
+// on disk is reused only when it was measured under the same settings: a
+// rerun into the same folder with another scene, size or mode must not
+// mix its numbers with the old ones.
+nlohmann::json runSettings(const EvalOptions& run) {
+  std::vector<std::string> modes;
+  for (const auto mode : run.modes) modes.push_back(render::blendModeName(mode));
+  const render::FieldParameters& f = run.fields;
+  return {{"scenes", run.scenes},
+          {"datasets", run.datasets},
+          {"modes", modes},
+          {"frames", run.frames},
+          {"first_frame", run.first_frame},
+          {"size", std::to_string(run.width) + "x" + std::to_string(run.height)},
+          {"fps", run.fps},
+          {"held_out_cameras", run.held_out_cameras},
+          {"novel_view_degrees", run.novel_view_degrees},
+          {"camera_kept", run.camera_kept},
+          {"device", run.device},
+          {"geometry", run.geometry},
+          {"voxel_size", run.voxel_size},
+          {"hull_error_target", run.hull_error_target},
+          {"draco", {run.draco.position_bits, run.draco.normal_bits, run.draco.speed}},
+          {"image_codec", static_cast<int>(run.image_codec)},
+          {"lz4_acceleration", run.lz4_acceleration},
+          {"cameras", run.cameras},
+          {"fields",
+           {f.relative_jump, f.dilation_px, f.relative_depth_tolerance, f.vote_delta, f.vote_levels,
+            f.geodesic_rings, f.geodesic_iterations, f.geodesic_radius}},
+          {"alpha", run.alpha},
+          {"lambda", run.lambda}};
+}
+
+// Where a point of the sweep lives and what it runs.
+struct PlannedPoint {
+  EvalOptions run;
+  bool is_default = false;
+  fs::path path;
+};
+
+PlannedPoint planPoint(const SweepOptions& options, const Knob& knob, const std::string& value) {
+  PlannedPoint plan;
+  plan.run = options.base;
+  (void)knob.apply(plan.run, value);
+  plan.is_default = knob.current(plan.run) == knob.current(options.base);
+  // Every knob's default value is the same run: done once, shared.
+  plan.path = plan.is_default ? fs::path(options.out_dir) / "points" / "default.json"
+                              : pointPath(options.out_dir, knob.name, value);
+  return plan;
+}
+
+// A finished point's file, refused by name when it was measured under
+// other settings than this run's (the file stays as it is).
+nlohmann::json readPoint(const PlannedPoint& plan) {
+  std::ifstream in(plan.path);
+  const auto json = nlohmann::json::parse(in, nullptr, false);
+  if (json.is_discarded() || !json.is_object() || !json.contains("result")) {
+    throw std::invalid_argument(plan.path.string() + " is not a finished sweep point; remove it to measure it again");
+  }
+  const nlohmann::json now = runSettings(plan.run);
+  const nlohmann::json then = json.value("settings", nlohmann::json::object());
+  std::string differences;
+  for (const auto& [key, value] : now.items()) {
+    if (then.contains(key) && then.at(key) == value) continue;
+    differences += (differences.empty() ? "" : ", ") + key + " " +
+                   (then.contains(key) ? then.at(key).dump() : std::string("unrecorded")) + " (now " + value.dump() +
+                   ")";
+  }
+  if (!differences.empty()) {
+    throw std::invalid_argument(plan.path.string() + " was measured under other settings: " + differences +
+                                "; give another --out, or remove the file to measure it again");
+  }
+  return json;
+}
+
 }  // namespace
 
 const std::vector<Knob>& sweepKnobs() {
@@ -182,6 +257,13 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::functio
       if (!error.empty()) throw std::invalid_argument("knob " + name + ": " + error);
     }
   }
+  // Points already on disk must match this run before any work starts.
+  for (const auto& [name, values] : options.knobs) {
+    for (const auto& value : values) {
+      const PlannedPoint plan = planPoint(options, *findKnob(name), value);
+      if (fs::exists(plan.path)) (void)readPoint(plan);
+    }
+  }
   fs::create_directories(fs::path(options.out_dir) / "points");
   std::vector<SweepPoint> points;
   size_t done = 0, total = 0;
@@ -192,26 +274,22 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::functio
       SweepPoint point;
       point.knob = name;
       point.value = value;
-      EvalOptions run = options.base;
-      (void)knob.apply(run, value);
-      point.is_default = knob.current(run) == knob.current(options.base);
-      // Every knob's default value is the same run: done once, shared.
-      const fs::path path = point.is_default ? fs::path(options.out_dir) / "points" / "default.json"
-                                             : pointPath(options.out_dir, name, value);
-      if (fs::exists(path)) {
-        std::ifstream in(path);
-        const auto json = nlohmann::json::parse(in);
+      const PlannedPoint plan = planPoint(options, knob, value);
+      point.is_default = plan.is_default;
+      if (fs::exists(plan.path)) {
+        const auto json = readPoint(plan);
         point.result = sceneResultFromJson(json.at("scene").get<std::string>(), json.at("result"));
         point.resumed = true;
       } else {
-        point.result = runLeaveOneOut(run).at(0);
-        const fs::path partial = path.string() + ".partial";
+        point.result = runLeaveOneOut(plan.run).at(0);
+        const fs::path partial = plan.path.string() + ".partial";
         std::ofstream(partial) << nlohmann::json{{"knob", name},
                                                  {"value", value},
                                                  {"scene", point.result.name},
+                                                 {"settings", runSettings(plan.run)},
                                                  {"result", sceneResultJson(point.result)}}
                                       .dump(2);
-        fs::rename(partial, path);  // a point is on disk whole or not at all
+        fs::rename(partial, plan.path);  // a point is on disk whole or not at all
       }
       ++done;
       if (progress) {

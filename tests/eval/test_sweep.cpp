@@ -1,9 +1,11 @@
 // The sweep: bad knobs refused before any work, points written whole and
-// resumed after an interruption, the Pareto front and the default's place.
+// resumed after an interruption (only under the settings they were
+// measured with), the Pareto front and the default's place.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 
 #include "eval/sweep.h"
@@ -85,6 +87,42 @@ TEST(Sweep, AnInterruptedSweepKeepsFinishedPointsAndResumes) {
   EXPECT_NE(verdict.find("the default (alpha=2)"), std::string::npos) << verdict;
   EXPECT_TRUE(fs::exists(dir / "sweep.html"));
   EXPECT_TRUE(fs::exists(dir / "sweep.md"));
+  fs::remove_all(dir);
+}
+
+TEST(Sweep, PointsMeasuredUnderOtherSettingsAreRefusedNotMixedIn) {
+  const fs::path dir = fs::temp_directory_path() / "holofuse_sweep_settings";
+  fs::remove_all(dir);
+  SweepOptions options = tinySweep(dir.string());
+  options.knobs = {{"alpha", {"1"}}};
+  const auto first = runSweep(options);
+  ASSERT_EQ(first.size(), 1u);
+  const std::string measured = [&] {
+    std::ifstream in(dir / "points" / "alpha=1.json");
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }();
+  // The same folder, another image size: the point on disk is not this
+  // run's, and nothing runs or changes on disk.
+  options.base.width = 128;
+  options.base.height = 96;
+  try {
+    runSweep(options);
+    FAIL() << "a point from another image size was reused";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("alpha=1.json was measured under other settings: size \"96x72\" (now \"128x96\")"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("another --out"), std::string::npos) << what;
+  }
+  std::ifstream in(dir / "points" / "alpha=1.json");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), measured);
+  // Back to the settings it was measured under: resumed.
+  options.base.width = 96;
+  options.base.height = 72;
+  const auto again = runSweep(options);
+  ASSERT_EQ(again.size(), 1u);
+  EXPECT_TRUE(again[0].resumed);
   fs::remove_all(dir);
 }
 
