@@ -132,9 +132,11 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
       }
     }
   }
+  RecordProperty("discontinuity_agreement", std::to_string(static_cast<double>(pixel_agree) / pixels));
+  RecordProperty("discontinuity_flagged_agreement", std::to_string(static_cast<double>(flagged_agree) / flagged));
   EXPECT_GT(static_cast<double>(pixel_agree) / pixels, 0.99);
   ASSERT_GT(flagged, 0u);
-  EXPECT_GT(static_cast<double>(flagged_agree) / flagged, 0.9) << flagged_agree << " of " << flagged;
+  EXPECT_GT(static_cast<double>(flagged_agree) / flagged, 0.999) << flagged_agree << " of " << flagged;
   // Stage 3: visibility reasons, per camera and vertex. Rasterisation rules
   // differ at triangle edges, so a few vertices on silhouettes may differ.
   size_t sight_agree = 0, trust_agree = 0, trust_both = 0;
@@ -171,7 +173,8 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
     }
   }
   EXPECT_GT(cpu_seams, 0u);
-  EXPECT_GT(static_cast<double>(seam_agree) / (n * triangles), 0.99);
+  RecordProperty("seam_agreement", std::to_string(static_cast<double>(seam_agree) / (n * triangles)));
+  EXPECT_GT(static_cast<double>(seam_agree) / (n * triangles), 0.998);  // measured 99.93-100%
   // Stage 7: the global visibility score from the GPU counts.
   const auto g = reference::globalVisibility(visible);
   const double best = *std::max_element(gpu.visible_counts.begin(), gpu.visible_counts.end());
@@ -228,9 +231,12 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   RecordProperty("sight_agreement", std::to_string(sight_share));
   RecordProperty("vote_agreement", std::to_string(trust_share));
   RecordProperty("mean_weight_error", std::to_string(mean_weight_error));
-  EXPECT_GT(sight_share, 0.98);
-  EXPECT_GT(trust_share, 0.97);
-  EXPECT_LT(mean_weight_error, 0.02);
+  // Measured on lavapipe: sights 99.998-100%, votes 99.87-100%, weights
+  // within 8.5e-5 on average. The bounds leave room for another device's
+  // rasterisation rules at triangle edges.
+  EXPECT_GT(sight_share, 0.9995);
+  EXPECT_GT(trust_share, 0.997);
+  EXPECT_LT(mean_weight_error, 5e-4);
 }
 
 INSTANTIATE_TEST_SUITE_P(ThreeScenes, FieldPasses, ::testing::Values(0, 1, 2));
