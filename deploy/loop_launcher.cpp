@@ -229,6 +229,9 @@ int main(int argc, char** argv) {
   }
   std::vector<std::string> client_args = {bin_dir + "/render_client", "--server", endpoint, "--out", out, "--frames",
                                          std::to_string(frames), "--size", size, "--mode", mode, "--view", view};
+  if (replay.empty() && preset->view_jump_degrees != 0) {  // the scene's jump is the user's view's
+    client_args.insert(client_args.end(), {"--jump-degrees", std::to_string(preset->view_jump_degrees)});
+  }
   if (!budget.empty()) {
     client_args.push_back("--budget");
     client_args.push_back(budget);

@@ -69,20 +69,34 @@ glm::dvec3 ringAxis(const std::map<uint32_t, Camera>& cameras) {
   return agree >= 0 ? axis : -axis;
 }
 
-// The user camera: orbiting the subject around the pods' ring axis at
-// their mean distance and height, with their mean field of view, or sitting
-// exactly at a pod camera.
+// v turned by degrees around the unit axis (Rodrigues).
+glm::dvec3 turned(const glm::dvec3& v, const glm::dvec3& axis, double degrees) {
+  const double a = degrees * std::numbers::pi / 180.0;
+  return v * std::cos(a) + glm::cross(axis, v) * std::sin(a) + axis * glm::dot(axis, v) * (1.0 - std::cos(a));
+}
+
+}  // namespace
+
+// The orbit runs at the pods' mean distance and height with their mean
+// field of view. A pod view turned by the jump keeps the pod's field of
+// view and size, and looks the way the pod looks, turned alike.
 std::optional<Camera> userCamera(const ClientOptions& options, const std::map<uint32_t, Camera>& cameras,
                                  const Bounds& bounds, size_t frame_index) {
   if (cameras.empty()) return std::nullopt;
+  const glm::dvec3 target = 0.5 * (glm::dvec3(bounds.min) + glm::dvec3(bounds.max));
+  const glm::dvec3 up = ringAxis(cameras);
+  const double jump =
+      options.jump_degrees != 0 && frame_index >= options.jump_at_frame ? options.jump_degrees : 0.0;
+  auto fovX = [](const Camera& cam) { return 2.0 * std::atan(0.5 * cam.width / cam.fx) * 180.0 / std::numbers::pi; };
   if (options.view.rfind("pod:", 0) == 0) {
     const uint32_t id = static_cast<uint32_t>(std::stoul(options.view.substr(4)));
     auto it = cameras.find(id);
     if (it == cameras.end()) return std::nullopt;
-    return it->second;
+    const Camera& pod = it->second;
+    if (jump == 0) return pod;
+    const glm::dvec3 eye = target + turned(pod.center() - target, up, jump);
+    return lookAtCamera(pod.id, eye, eye + turned(pod.forward(), up, jump), up, pod.width, pod.height, fovX(pod));
   }
-  const glm::dvec3 target = 0.5 * (glm::dvec3(bounds.min) + glm::dvec3(bounds.max));
-  const glm::dvec3 up = ringAxis(cameras);
   // In-plane basis: the world's z (else x) projected onto the ring plane.
   glm::dvec3 e1 = glm::dvec3(0, 0, 1) - up * up.z;
   if (glm::length(e1) < 0.1) e1 = glm::dvec3(1, 0, 0) - up * up.x;
@@ -93,19 +107,17 @@ std::optional<Camera> userCamera(const ClientOptions& options, const std::map<ui
     const glm::dvec3 offset = cam.center() - target;
     height += glm::dot(offset, up);
     radius += glm::length(offset - up * glm::dot(offset, up));
-    fov_x += 2.0 * std::atan(0.5 * cam.width / cam.fx) * 180.0 / std::numbers::pi;
+    fov_x += fovX(cam);
   }
   const double n = static_cast<double>(cameras.size());
   radius /= n;
   height /= n;
   fov_x /= n;
-  const double angle = options.orbit_degrees_per_frame * static_cast<double>(frame_index) * std::numbers::pi / 180.0;
+  const double degrees = options.orbit_degrees_per_frame * static_cast<double>(frame_index) + jump;
+  const double angle = degrees * std::numbers::pi / 180.0;
   const glm::dvec3 eye = target + up * height + radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
   return lookAtCamera(0, eye, target, up, options.width, options.height, fov_x);
 }
-
-
-}  // namespace
 
 int runClient(const ClientOptions& options) {
   namespace fs = std::filesystem;
@@ -127,6 +139,10 @@ int runClient(const ClientOptions& options) {
   }
   std::fprintf(stderr, "[client] rendering on %s, mode %s\n", context->deviceName().c_str(),
                blendModeName(options.blend.mode).c_str());
+  if (options.jump_degrees != 0) {
+    std::fprintf(stderr, "[client] the view jumps %g degrees at rendered frame %llu\n", options.jump_degrees,
+                 static_cast<unsigned long long>(options.jump_at_frame));
+  }
 
   protocol::Hello hello;
   hello.role = protocol::Role::kClient;

@@ -20,6 +20,11 @@ int main(int argc, char** argv) {
   app.add_option("--size", size, "output size WxH");
   app.add_option("--view", options.view, "user camera: orbit, or pod:N to sit at pod camera N");
   app.add_option("--orbit-speed", options.orbit_degrees_per_frame, "orbit degrees per rendered frame");
+  app.add_option("--jump-degrees", options.jump_degrees,
+                 "turn the view this many degrees around the pods' ring at once, at --jump-at")
+      ->check(CLI::Range(-360.0, 360.0));
+  app.add_option("--jump-at", options.jump_at_frame,
+                 "the rendered frame the jump happens at (default: half of --frames, else 30)");
   app.add_option("--mode", mode, "blending mode")->check(CLI::IsMember(render::blendModeNames()));
   app.add_option("--alpha", options.blend.alpha, "exponent of the view weights")->check(CLI::Range(0.0, 1000.0));
   app.add_option("--lambda", options.blend.lambda, "montage4d: temporal rate per frame at 30 fps (eq. 5)")
@@ -77,6 +82,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   options.server = *endpoint;
+  if (!app.count("--jump-at")) options.jump_at_frame = options.frames > 0 ? options.frames / 2 : 30;
   options.width = w;
   options.height = h;
   options.blend.mode = *render::blendModeFromName(mode);

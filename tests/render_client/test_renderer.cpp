@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "capture_node/synthetic_scene.h"
+#include "render_client/client.h"
 #include "render_client/latency_report.h"
 #include "render_client/renderer.h"
 
@@ -109,6 +110,50 @@ TEST(Renderer, EmptyMeshGivesAnEmptyPictureAndMismatchedViewsAreRefused) {
   auto bad = f.views;
   bad[1].color = Image8(10, 10, 3);
   EXPECT_THROW(renderer.setViews(bad), std::invalid_argument);
+}
+
+// The viewpoint-jump scene's jump, as the live client makes it: before
+// the jump frame the view is the pod's (or the orbit's), from it on the
+// same view turned by 90 degrees around the ring, at the same distance
+// from the subject, still looking at it.
+TEST(UserCamera, AViewpointJumpTurnsTheViewAroundTheRingAtItsFrame) {
+  std::map<uint32_t, Camera> pods;
+  for (const auto& cam : capture::SyntheticScene::cameraRig(8, 64, 48)) pods[cam.id] = cam;
+  Bounds bounds;
+  bounds.min = glm::vec3(-0.3f, 0.0f, -0.3f);
+  bounds.max = glm::vec3(0.3f, 1.8f, 0.3f);
+  const glm::dvec3 centre(0.0, 0.9, 0.0);
+  ClientOptions options;
+  options.width = 64;
+  options.height = 48;
+  options.view = "pod:0";
+  options.jump_degrees = 90;
+  options.jump_at_frame = 5;
+  const Camera before = *userCamera(options, pods, bounds, 4);
+  const Camera after = *userCamera(options, pods, bounds, 5);
+  EXPECT_EQ(before.center(), pods[0].center()) << "the pod's own pose until the jump";
+  // The ring is horizontal: the turn keeps height and distance from the axis.
+  const glm::dvec3 b = before.center() - centre, a = after.center() - centre;
+  EXPECT_NEAR(a.y, b.y, 1e-9);
+  EXPECT_NEAR(glm::length(glm::dvec2(a.x, a.z)), glm::length(glm::dvec2(b.x, b.z)), 1e-9);
+  const double turn = std::acos(glm::dot(glm::normalize(glm::dvec2(a.x, a.z)), glm::normalize(glm::dvec2(b.x, b.z))));
+  EXPECT_NEAR(turn * 180.0 / M_PI, 90.0, 1e-6);
+  // Two pods along the ring of 8 is 90 degrees: the turned view sits where
+  // one of them does and looks the way it looks.
+  const bool at_pod = glm::length(after.center() - pods[2].center()) < 1e-6 ||
+                      glm::length(after.center() - pods[6].center()) < 1e-6;
+  EXPECT_TRUE(at_pod) << after.center().x << " " << after.center().z;
+  EXPECT_GT(glm::dot(after.forward(), glm::normalize(centre - after.center())), 0.9);
+  // The orbit jumps too, by the same angle on top of its own motion.
+  options.view = "orbit";
+  options.orbit_degrees_per_frame = 0;
+  const glm::dvec3 o4 = userCamera(options, pods, bounds, 4)->center() - centre;
+  const glm::dvec3 o5 = userCamera(options, pods, bounds, 5)->center() - centre;
+  const double orbit_turn =
+      std::acos(glm::dot(glm::normalize(glm::dvec2(o4.x, o4.z)), glm::normalize(glm::dvec2(o5.x, o5.z))));
+  EXPECT_NEAR(orbit_turn * 180.0 / M_PI, 90.0, 1e-6);
+  options.jump_degrees = 0;
+  EXPECT_EQ(userCamera(options, pods, bounds, 5)->center(), userCamera(options, pods, bounds, 4)->center());
 }
 
 TEST(LatencyReport, PercentilesInterpolate) {

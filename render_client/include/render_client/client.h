@@ -4,8 +4,12 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
+#include <optional>
 #include <string>
 
+#include "common/camera.h"
+#include "common/mesh.h"
 #include "protocol/socket.h"
 #include "render_client/latency_report.h"
 #include "render_client/renderer.h"
@@ -22,6 +26,11 @@ struct ClientOptions {
   uint64_t frames = 0;              // stop after this many rendered frames; 0 = until signalled
   std::string view = "orbit";       // "orbit" or "pod:N"
   double orbit_degrees_per_frame = 2.0;
+  // A viewpoint jump (the viewpoint-jump scene): from rendered frame
+  // jump_at_frame on, the user camera is turned this many degrees around
+  // the pods' ring axis through the subject, at once.
+  double jump_degrees = 0;
+  uint64_t jump_at_frame = 0;
   uint32_t width = 320, height = 240;
   std::string device;               // Vulkan device selector (VulkanContext)
   BlendSettings blend;
@@ -31,5 +40,11 @@ struct ClientOptions {
 };
 
 int runClient(const ClientOptions& options);
+
+// The user camera for rendered frame frame_index: orbiting the subject (the
+// bounds' centre) around the pods' ring axis, or at pod camera N, turned by
+// the jump once it is due. None when there is no camera, or no pod N.
+std::optional<Camera> userCamera(const ClientOptions& options, const std::map<uint32_t, Camera>& cameras,
+                                 const Bounds& bounds, size_t frame_index);
 
 }  // namespace holofuse::render
