@@ -13,6 +13,7 @@
 
 #include "common/html_report.h"
 #include "eval/leave_one_out.h"
+#include "eval/sweep.h"
 #include "render_client/latency_report.h"
 
 namespace holofuse {
@@ -103,6 +104,43 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
   std::ifstream in(dir / "quality.html");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("MISSED: PSNR gain below 0.5 dB"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+// The sweep's page: per knob, quality against client ms, pipeline ms and
+// bytes per frame as scatter plots, with where the default stands.
+TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
+  if (chromium().empty()) GTEST_SKIP() << "chromium is not installed (./holofuse deps installs it)";
+  eval::SweepOptions options;
+  options.base.scenes = {"clean"};
+  options.base.modes = {render::BlendMode::kMontage4D};
+  options.knobs = {{"alpha", {"1", "2", "8"}}, {"voxel", {"0.02", "0.01"}}};
+  std::vector<eval::SweepPoint> points;
+  auto add = [&](const std::string& knob, const std::string& value, bool is_default, double psnr, double ms,
+                 double bytes) {
+    eval::SweepPoint p;
+    p.knob = knob;
+    p.value = value;
+    p.is_default = is_default;
+    p.result.name = "clean";
+    p.result.hull_ms = 20;
+    p.result.bytes_per_frame = bytes;
+    p.result.modes["montage4d"].psnr_db = psnr;
+    p.result.modes["montage4d"].ms_per_new_mesh = ms;
+    points.push_back(p);
+  };
+  add("alpha", "1", false, 19.4, 30, 1.3e6);
+  add("alpha", "2", true, 19.5, 30, 1.3e6);
+  add("alpha", "8", false, 19.2, 31, 1.3e6);
+  add("voxel", "0.02", true, 19.5, 30, 1.3e6);
+  add("voxel", "0.01", false, 20.1, 55, 1.9e6);
+  const fs::path dir = scratch("sweep");
+  options.out_dir = dir.string();
+  eval::writeSweepReports(options, points);
+  EXPECT_EQ(chartsRendered(dir / "sweep.html"), 6) << "three plots for each of two knobs";
+  std::ifstream in(dir / "sweep.html");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("the default (alpha=2) is on the Pareto front"), std::string::npos);
   fs::remove_all(dir);
 }
 
