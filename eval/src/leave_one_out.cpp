@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -654,6 +655,63 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     md << cell << verdict << " |\n";
   }
 
+  // Paper 000 Table 3's layout: per scene, the GPU passes of a new mesh
+  // (timestamps, medians) as rows and the modes as columns, then the wall
+  // clock of that render. normal mode runs no field passes.
+  std::vector<std::pair<std::string, std::vector<std::vector<std::string>>>> stage_tables;
+  for (const auto& scene : results) {
+    if (scene.novel_view_degrees != 0 || scene.camera_kept) continue;  // the same renders as the scene's own row
+    std::vector<std::string> stages;  // in pipeline order
+    for (const auto& stage : render::TextureFieldPasses::stageNames()) {
+      for (const auto& mode : modes) {
+        const auto it = scene.modes.find(mode);
+        if (it != scene.modes.end() && it->second.gpu_passes_ms.count(stage) &&
+            std::find(stages.begin(), stages.end(), stage) == stages.end()) {
+          stages.push_back(stage);
+        }
+      }
+    }
+    auto row = [&](const std::string& label, const std::function<double(const ModeResult&)>& value) {
+      std::vector<std::string> cells = {label};
+      for (const auto& mode : modes) {
+        const auto it = scene.modes.find(mode);
+        const double v = it == scene.modes.end() ? -1.0 : value(it->second);
+        std::snprintf(cell, sizeof(cell), "%.2f", v);
+        cells.push_back(v >= 0 ? cell : "-");
+      }
+      return cells;
+    };
+    std::vector<std::vector<std::string>> table;
+    for (const auto& stage : stages) {
+      table.push_back(row(stage, [&](const ModeResult& m) {
+        const auto it = m.gpu_passes_ms.find(stage);
+        return it == m.gpu_passes_ms.end() ? -1.0 : it->second;
+      }));
+    }
+    table.push_back(row("field passes, total", [](const ModeResult& m) {
+      double total = 0;
+      for (const auto& [stage, ms] : m.gpu_passes_ms) total += ms;
+      return m.gpu_passes_ms.empty() ? -1.0 : total;
+    }));
+    table.push_back(row("render after a new mesh (wall clock)", [](const ModeResult& m) { return m.ms_per_new_mesh; }));
+    stage_tables.emplace_back(scene.name, std::move(table));
+  }
+  md << "\n## Time per stage of a new mesh (paper 000 Table 3 layout)\n\nGPU ms per field pass (timestamps, medians; "
+        "on a CPU device such as lavapipe the boundaries are approximate), then the wall clock of the whole render "
+        "after a new mesh. `-`: the mode runs no such pass.\n";
+  for (const auto& [name, table] : stage_tables) {
+    md << "\n" << name << "\n\n| stage |";
+    for (const auto& mode : modes) md << " " << mode << " |";
+    md << "\n|---|";
+    for (size_t i = 0; i < modes.size(); ++i) md << "---:|";
+    md << "\n";
+    for (const auto& cells : table) {
+      md << "|";
+      for (const auto& c : cells) md << " " << c << " |";
+      md << "\n";
+    }
+  }
+
   // The same for people, with charts.
   std::vector<std::string> scene_names;
   for (const auto& scene : results) scene_names.push_back(scene.name);
@@ -709,6 +767,11 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   body += "<h2>montage4d against holoportation</h2>\n<p>Target on every scene but clean: at least +0.5 dB PSNR, "
           "higher SSIM, and less flicker after a viewpoint jump. Misses are flagged.</p>\n" +
           html::table({"scene", "PSNR gain", "SSIM gain", "flicker ratio", "verdict"}, verdict_rows);
+  body += "<h2>Time per stage of a new mesh (paper 000 Table 3 layout)</h2>\n<p>GPU ms per field pass (timestamps, "
+          "medians; approximate on a CPU device), then the wall clock of the render after a new mesh.</p>\n";
+  std::vector<std::string> stage_header = {"stage"};
+  stage_header.insert(stage_header.end(), modes.begin(), modes.end());
+  for (const auto& [name, table] : stage_tables) body += "<h3>" + html::escape(name) + "</h3>\n" + html::table(stage_header, table);
   std::ofstream(fs::path(out_dir) / "quality.html") << html::page("holofuse leave-one-camera-out quality", body);
 }
 

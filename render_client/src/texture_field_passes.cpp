@@ -282,7 +282,10 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   for (int r = 0; r < repeats(4); ++r) dispatchLinear(vote_, vertex_count, true);
   stamp(cmd, 5);
   if (stopsAfter(4)) return;
-  for (int r = 0; r < repeats(5); ++r) {
+  // Seams and the global visibility feed only the geodesics and montage4d's
+  // g^i: the Holoportation baseline does not pay for them (paper 000
+  // Table 3: N/A).
+  for (int r = 0; r < (parameters.geodesics ? repeats(5) : 0); ++r) {
     // Seams and visibility counts read the same inputs: no barrier between.
     // (Counting inside the seams or vote pass measured no faster on
     // lavapipe: the work is the gathers, not the extra dispatch.)

@@ -70,6 +70,13 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
   std::ifstream md(fs::path(options.out_dir) / "quality.md");
   const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("| few-cameras |"), std::string::npos);
+  // Paper 000 Table 3's layout: the passes as rows, the modes as columns;
+  // normal mode runs none of them.
+  const size_t table3 = text.find("## Time per stage of a new mesh (paper 000 Table 3 layout)");
+  ASSERT_NE(table3, std::string::npos);
+  EXPECT_NE(text.find("| stage | normal | holoportation | montage4d |", table3), std::string::npos);
+  EXPECT_NE(text.find("| geodesics | - |", table3), std::string::npos);
+  EXPECT_NE(text.find("| render after a new mesh (wall clock) |", table3), std::string::npos);
   // Anyone can recompute the numbers from the saved images with their own
   // tools: here OpenCV's PNG reader and a plain masked PSNR (every channel
   // of every pixel inside the mask, peak 255), averaged over the images as

@@ -312,13 +312,28 @@ TEST(FieldPassesGlobalVisibility, CountsExactlyTheVerticesSeenAndTrusted) {
   const Scene scene = syntheticScene(5, 128, 96, 8);
   const std::vector<ViewImages> views = viewImages(scene);
   BlendSettings settings;
-  settings.mode = BlendMode::kHoloportation;
+  settings.mode = BlendMode::kMontage4D;
   Renderer renderer(context(), 64, 48);
   renderer.setMesh(scene.mesh);
   renderer.setViews(views);
   renderer.render(scene.views[0].camera, settings);
   const FieldSnapshot run = renderer.readFields();
   const size_t vertices = scene.mesh.vertexCount();
+  {
+    // The Holoportation baseline needs neither seams nor g^i and computes
+    // neither (paper 000 Table 3: N/A).
+    Renderer baseline(context(), 64, 48);
+    baseline.setMesh(scene.mesh);
+    baseline.setViews(views);
+    settings.mode = BlendMode::kHoloportation;
+    baseline.render(scene.views[0].camera, settings);
+    const FieldSnapshot holoportation = baseline.readFields();
+    EXPECT_EQ(std::count(holoportation.seams.begin(), holoportation.seams.end(), 0u),
+              static_cast<std::ptrdiff_t>(holoportation.seams.size()));
+    EXPECT_EQ(std::count(holoportation.visible_counts.begin(), holoportation.visible_counts.end(), 0u),
+              static_cast<std::ptrdiff_t>(holoportation.visible_counts.size()));
+    EXPECT_EQ(holoportation.sights, run.sights) << "the stages both modes run agree";
+  }
   ASSERT_EQ(run.visible_counts.size(), views.size());
   size_t total = 0;
   for (size_t i = 0; i < views.size(); ++i) {

@@ -42,8 +42,9 @@ struct FieldParameters {
   float vote_delta = 0.15f;              // paper 000: delta = 0.15
   int vote_levels = 3;
   float alpha = 2.0f;
-  // Geodesic distance from each camera's seams (stage 6): run only when a
-  // mode needs it (montage4d); the Holoportation baseline does not pay for it.
+  // Seams, the global visibility (stage 5) and the geodesic distance from
+  // the seams (stage 6): run only when a mode needs them (montage4d); the
+  // Holoportation baseline does not pay for them.
   bool geodesics = false;
   // montage4d: the field depends on the view, and recordMontage computes it
   // for every rendered view in place of the per-mesh field pass (stage 7).
