@@ -1,0 +1,132 @@
+#include "render_client/reference/blend.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/depth_raster.h"
+
+namespace holofuse::render::reference {
+namespace {
+
+// Where the ray o + t d meets triangle (a, b, c): barycentrics of b and c
+// (Moller-Trumbore), or false when it misses the triangle's plane.
+bool rayBarycentrics(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& a, const glm::dvec3& b,
+                     const glm::dvec3& c, double& u, double& v) {
+  const glm::dvec3 e1 = b - a, e2 = c - a, p = glm::cross(d, e2);
+  const double det = glm::dot(e1, p);
+  if (std::abs(det) < 1e-300) return false;
+  const glm::dvec3 s = o - a, q = glm::cross(s, e1);
+  u = glm::dot(s, p) / det;
+  v = glm::dot(d, q) / det;
+  return std::isfinite(u) && std::isfinite(v);
+}
+
+// Where p lands in the pod's image as texture coordinates, with its depth
+// along the pod's axis; false behind the pod or off the image.
+bool textureCoordinates(const Camera& camera, const glm::dvec3& p, double& u, double& v, double& depth) {
+  const auto pixel = camera.project(p);
+  if (!pixel || pixel->z <= 1e-6) return false;
+  u = pixel->x / camera.width;
+  v = pixel->y / camera.height;
+  depth = pixel->z;
+  return u >= 0.0 && u <= 1.0 && v >= 0.0 && v <= 1.0;
+}
+
+}  // namespace
+
+glm::dvec4 sampleBilinear(const PodView& view, double u, double v) {
+  const int w = static_cast<int>(view.color.width), h = static_cast<int>(view.color.height);
+  const double x = u * w - 0.5, y = v * h - 0.5;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  auto texel = [&](int tx, int ty) {
+    tx = std::clamp(tx, 0, w - 1);
+    ty = std::clamp(ty, 0, h - 1);
+    const size_t i = static_cast<size_t>(ty) * w + tx;
+    return glm::dvec4(view.color.pixels[3 * i], view.color.pixels[3 * i + 1], view.color.pixels[3 * i + 2],
+                      view.mask.pixels[i]) /
+           255.0;
+  };
+  return (texel(x0, y0) * (1 - fx) + texel(x0 + 1, y0) * fx) * (1 - fy) +
+         (texel(x0, y0 + 1) * (1 - fx) + texel(x0 + 1, y0 + 1) * fx) * fy;
+}
+
+Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std::vector<std::vector<double>>& weights,
+                 const Camera& user, const BlendOptions& options) {
+  std::vector<int32_t> triangle_of;
+  (void)rasterizeDepth(mesh, user, 0.05, &triangle_of);
+  // Each pod's depth map, for the fallback's occlusion test; a pod whose
+  // mask is empty takes no part in it.
+  std::vector<DepthMap> maps;
+  std::vector<bool> sees_subject;
+  for (const auto& view : views) {
+    maps.push_back(rasterizeDepth(mesh, view.camera));
+    sees_subject.push_back(std::any_of(view.mask.pixels.begin(), view.mask.pixels.end(), [](uint8_t m) { return m != 0; }));
+  }
+  Image8 out(user.width, user.height, 4, 0);
+  for (uint32_t y = 0; y < user.height; ++y) {
+    for (uint32_t x = 0; x < user.width; ++x) {
+      const size_t pixel = static_cast<size_t>(y) * user.width + x;
+      const int32_t t = triangle_of[pixel];
+      if (t < 0) continue;
+      const uint32_t ia = mesh.indices[3 * t], ib = mesh.indices[3 * t + 1], ic = mesh.indices[3 * t + 2];
+      double bu = 0, bv = 0;
+      if (!rayBarycentrics(user.center(), user.rayDirection(x + 0.5, y + 0.5), glm::dvec3(mesh.positions[ia]),
+                           glm::dvec3(mesh.positions[ib]), glm::dvec3(mesh.positions[ic]), bu, bv)) {
+        continue;
+      }
+      const double ba = 1.0 - bu - bv;
+      auto interpolate = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+        return ba * a + bu * b + bv * c;
+      };
+      const glm::dvec3 p = interpolate(glm::dvec3(mesh.positions[ia]), glm::dvec3(mesh.positions[ib]),
+                                       glm::dvec3(mesh.positions[ic]));
+      glm::dvec3 n(0.0);
+      if (mesh.normals.size() == mesh.positions.size()) {
+        n = interpolate(glm::dvec3(mesh.normals[ia]), glm::dvec3(mesh.normals[ib]), glm::dvec3(mesh.normals[ic]));
+        const double length = glm::length(n);
+        n = length > 1e-12 && std::isfinite(length) ? n / length : glm::dvec3(0.0);
+      }
+      glm::dvec3 sum(0.0);
+      double total = 0;
+      // The interpolated fields.
+      for (size_t i = 0; i < weights.size(); ++i) {
+        const double w = ba * weights[i][ia] + bu * weights[i][ib] + bv * weights[i][ic];
+        double u = 0, v = 0, depth = 0;
+        if (!(w > 0) || !textureCoordinates(views[i].camera, p, u, v, depth)) continue;
+        const glm::dvec4 texel = sampleBilinear(views[i], u, v);
+        if (texel.a < 0.5) continue;  // the pod's background
+        sum += w * glm::dvec3(texel);
+        total += w;
+      }
+      // Step 10: the normal-weighted blend, each pod tested against its
+      // depth map at this point.
+      if (!(total > 1e-8)) {
+        sum = glm::dvec3(0.0);
+        total = 0;
+        for (size_t i = 0; i < views.size(); ++i) {
+          const Camera& camera = views[i].camera;
+          double u = 0, v = 0, depth = 0;
+          if (!sees_subject[i] || !textureCoordinates(camera, p, u, v, depth)) continue;
+          const uint32_t px = std::min(static_cast<uint32_t>(u * camera.width), camera.width - 1);
+          const uint32_t py = std::min(static_cast<uint32_t>(v * camera.height), camera.height - 1);
+          if (depth > maps[i].at(px, py) + options.depth_tolerance) continue;  // occluded from pod i
+          const glm::dvec4 texel = sampleBilinear(views[i], u, v);
+          if (texel.a < 0.5) continue;
+          const double c = glm::dot(n, glm::normalize(camera.center() - p));
+          const double w = c > 0 ? std::pow(c, options.alpha) : 0.0;
+          sum += w * glm::dvec3(texel);
+          total += w;
+        }
+      }
+      const glm::dvec3 colour = total > 1e-8 ? sum / total : options.hole_color;
+      for (int k = 0; k < 3; ++k) {
+        out.pixels[4 * pixel + k] = static_cast<uint8_t>(std::lround(std::clamp(colour[k], 0.0, 1.0) * 255.0));
+      }
+      out.pixels[4 * pixel + 3] = 255;
+    }
+  }
+  return out;
+}
+
+}  // namespace holofuse::render::reference
