@@ -602,6 +602,7 @@ FieldSnapshot Renderer::readFields() const {
   out.sights.assign(views * vertices, 0);
   out.trusted.assign(views * vertices, 0);
   out.dilated.assign(views * pixels, 0);
+  out.depth_maps.assign(views * pixels, HOLOFUSE_NO_DEPTH);
   out.seams.assign(views * triangles, 0);
   out.visible_counts.assign(views, 0);
   out.distances.assign(s.distances.empty() ? 0 : views * vertices, HOLOFUSE_FAR);
@@ -613,6 +614,9 @@ FieldSnapshot Renderer::readFields() const {
     std::copy_n(s.sights.begin() + j * vertices, vertices, out.sights.begin() + i * vertices);
     std::copy_n(s.trusted.begin() + j * vertices, vertices, out.trusted.begin() + i * vertices);
     if (s.dilated.size() >= (j + 1) * pixels) std::copy_n(s.dilated.begin() + j * pixels, pixels, out.dilated.begin() + i * pixels);
+    if (s.depth_maps.size() >= (j + 1) * pixels) {
+      std::copy_n(s.depth_maps.begin() + j * pixels, pixels, out.depth_maps.begin() + i * pixels);
+    }
     std::copy_n(s.seams.begin() + j * triangles, triangles, out.seams.begin() + i * triangles);
     out.visible_counts[i] = s.visible_counts[j];
     if (!s.distances.empty()) std::copy_n(s.distances.begin() + j * vertices, vertices, out.distances.begin() + i * vertices);
@@ -675,6 +679,7 @@ FieldSnapshot Renderer::readActiveFields() const {
   copy(sights_, s.sights, per_vertex);
   copy(trusted_, s.trusted, per_vertex);
   copy(dilated_, s.dilated, size_t{images_.width} * images_.height * images_.layers);
+  copy(depth_maps_, s.depth_maps, size_t{images_.width} * images_.height * images_.layers);
   copy(weights_, s.weights, size_t{s.vertex_count} * HOLOFUSE_MAX_CAMERAS);
   s.triangle_count = triangle_count_;
   s.geodesic_scale = static_cast<float>(geodesicScale(field_parameters_));

@@ -114,6 +114,29 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
   ASSERT_EQ(gpu.vertex_count, vertices);
   EXPECT_EQ(renderer.camerasWithoutSubject(), GetParam() == 1 ? 1u : 0u);
 
+  // Stage 1: each pod's depth map, per pixel, against the plain z-buffer.
+  // Both sample pixel centres; on the subject's outline the rasterisers'
+  // edge rules may differ.
+  size_t depth_pixels = 0, depth_coverage = 0, depth_compared = 0;
+  double worst_depth = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (GetParam() == 1 && i == 3) continue;  // sees none of the subject: skipped by design
+    const auto cpu = reference::rasterizeDepth(scene.mesh, cameras[i]);
+    for (size_t p = 0; p < cpu.depth.size(); ++p, ++depth_pixels) {
+      const float g = gpu.depth_maps[i * cpu.depth.size() + p];
+      const bool gpu_surface = g < HOLOFUSE_NO_DEPTH * 0.5f, cpu_surface = cpu.depth[p] != reference::kNoDepth;
+      depth_coverage += gpu_surface == cpu_surface;
+      if (!gpu_surface || !cpu_surface) continue;
+      ++depth_compared;
+      worst_depth = std::max(worst_depth, std::abs(g - cpu.depth[p]) / cpu.depth[p]);
+    }
+  }
+  ASSERT_GT(depth_compared, 1000u);
+  RecordProperty("depth_coverage_agreement", std::to_string(static_cast<double>(depth_coverage) / depth_pixels));
+  RecordProperty("depth_worst_relative_difference", std::to_string(worst_depth));
+  // Measured: every pixel alike, within 5e-6 relative.
+  EXPECT_GT(static_cast<double>(depth_coverage) / depth_pixels, 0.999);
+  EXPECT_LT(worst_depth, 1e-4) << "float against double";
   // Stage 2: dilated discontinuities, per pixel.
   // Most pixels are far from any edge: the flagged ones are counted apart,
   // so that a pass that missed part of the image (it looks only inside the

@@ -33,6 +33,7 @@ struct BlendSettings {
 struct FieldSnapshot {
   uint32_t vertex_count = 0, camera_count = 0;
   std::vector<uint32_t> sights, trusted;
+  std::vector<float> depth_maps;  // [camera][y][x] of the pod images: camera-space depth, HOLOFUSE_NO_DEPTH where none
   std::vector<uint32_t> dilated;  // [camera][y][x] of the pod images
   uint32_t triangle_count = 0;
   std::vector<uint32_t> seams;           // [camera * triangle_count + triangle]: SeamRule bits
