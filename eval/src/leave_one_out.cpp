@@ -51,9 +51,36 @@ struct FrameData {
   std::vector<Image8> true_masks;         // per camera
   std::vector<capture::RenderedView> novel_truth;  // per novel pose (SceneInput::novel_poses)
   double hull_ms = 0;
+  // The codecs on the frame's way: the slowest pod's image encoding (pods
+  // work in parallel), Draco both ways, and the client decoding every
+  // pod's images. Transport is not simulated.
+  double codec_ms = 0;
   size_t bytes = 0;                       // what the server sends a client for this frame
   fusion::HullStats hull_stats;
 };
+
+// The hull through Draco as on the wire (quantisation is part of what the
+// client sees), timed both ways and counted in the frame's bytes.
+void sendThroughDraco(const Mesh& hull, const DracoOptions& draco, FrameData& frame) {
+  const auto t0 = Clock::now();
+  auto bytes = encodeDraco(hull, draco);
+  if (!bytes.isOk()) throw std::runtime_error("Draco encoding failed: " + bytes.status().message());
+  auto decoded = decodeDraco(bytes->data(), bytes->size());
+  if (!decoded.isOk()) throw std::runtime_error("Draco decoding failed: " + decoded.status().message());
+  frame.codec_ms += msSince(t0);
+  frame.bytes += bytes->size();
+  frame.mesh = std::move(*decoded);
+}
+
+// The client's decoding of one pod's planes, timed into the frame.
+void decodeTimed(const std::vector<protocol::Plane>& planes, FrameData& frame) {
+  const auto t0 = Clock::now();
+  for (const auto& plane : planes) {
+    auto image = decodePlane(plane);
+    if (!image.isOk()) throw std::runtime_error("image decoding failed: " + image.status().message());
+  }
+  frame.codec_ms += msSince(t0);
+}
 
 FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene& scene,
                        const std::vector<Camera>& truth, const std::vector<Camera>& reported,
@@ -61,18 +88,25 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
   FrameData frame;
   frame.frame_id = frame_id;
   std::vector<fusion::HullView> hull_views;
+  double slowest_pod_ms = 0;
   for (size_t i = 0; i < truth.size(); ++i) {
     capture::PodCapture capture =
         capture::capturePodFrame(scene, truth[i], plates[i], frame_id, static_cast<uint16_t>(i));
     hull_views.push_back({reported[i], capture.mask, capture.feather});
-    std::vector<uint8_t> storage;
-    frame.bytes += encodePlane(capture.view.color, protocol::PlaneKind::kColor, options.image_codec, storage,
-                               options.lz4_acceleration).data.size();
-    frame.bytes += encodePlane(capture.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage,
-                               options.lz4_acceleration).data.size();
+    std::vector<uint8_t> color_storage, mask_storage;
+    const auto t0 = Clock::now();
+    const std::vector<protocol::Plane> planes = {
+        encodePlane(capture.view.color, protocol::PlaneKind::kColor, options.image_codec, color_storage,
+                    options.lz4_acceleration),
+        encodePlane(capture.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, mask_storage,
+                    options.lz4_acceleration)};
+    slowest_pod_ms = std::max(slowest_pod_ms, msSince(t0));
+    for (const auto& plane : planes) frame.bytes += plane.data.size();
+    decodeTimed(planes, frame);
     frame.views.push_back({reported[i], std::move(capture.view.color), std::move(capture.mask)});
     frame.true_masks.push_back(std::move(capture.view.mask));
   }
+  frame.codec_ms += slowest_pod_ms;
   const auto t0 = Clock::now();
   // The true surface at the hull's voxel size, when asked for.
   fusion::HullOptions hull_options;
@@ -80,13 +114,7 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
   const Mesh hull = options.geometry == "truth" ? scene.truthMesh(frame_id, options.voxel_size)
                                                 : fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
   frame.hull_ms = msSince(t0);
-  // Through Draco as on the wire: quantisation is part of what the client sees.
-  auto bytes = encodeDraco(hull, options.draco);
-  if (!bytes.isOk()) throw std::runtime_error("Draco encoding failed: " + bytes.status().message());
-  auto decoded = decodeDraco(bytes->data(), bytes->size());
-  if (!decoded.isOk()) throw std::runtime_error("Draco decoding failed: " + decoded.status().message());
-  frame.bytes += bytes->size();
-  frame.mesh = std::move(*decoded);
+  sendThroughDraco(hull, options.draco, frame);
   return frame;
 }
 
@@ -272,16 +300,18 @@ double silhouetteErrorMm(const FrameData& frame) {
 
 // Frame statistics shared by both sources.
 void summariseFrames(const SceneInput& input, SceneResult& result) {
-  std::vector<double> hull_ms;
+  std::vector<double> hull_ms, codec_ms;
   const double n = static_cast<double>(input.frames.size());
   for (const auto& frame : input.frames) {
     hull_ms.push_back(frame.hull_ms);
+    codec_ms.push_back(frame.codec_ms);
     result.bytes_per_frame += static_cast<double>(frame.bytes) / n;
     result.cells_visited += static_cast<double>(frame.hull_stats.cells_visited()) / n;
     result.dense_grid_points += static_cast<double>(frame.hull_stats.grid_points) / n;
     result.triangles += static_cast<double>(frame.mesh.triangleCount()) / n;
   }
   result.hull_ms = median(hull_ms);
+  result.codec_ms = median(codec_ms);
 }
 
 // A dataset (recorded or imported): its cameras' images and masks, the
@@ -318,7 +348,9 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
     for (size_t c = 0; c < records.size(); ++c) {
       auto bytes = dataset->readFrame(records[c]);
       if (!bytes.isOk()) throw std::invalid_argument(bytes.status().message());
+      const auto decode_start = Clock::now();
       auto images = capture::decodePodImages(*bytes, cameras[c]);
+      frame.codec_ms += msSince(decode_start);  // recorded images: the client's decoding only
       if (!images.isOk()) throw std::invalid_argument(dir + ": " + images.status().message());
       frame.bytes += records[c].payload_length;
       hull_views.push_back({cameras[c], images->mask, images->feather});
@@ -337,11 +369,7 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
       hull = fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
     }
     frame.hull_ms = msSince(t0);
-    auto draco = encodeDraco(hull, options.draco);
-    if (!draco.isOk()) throw std::runtime_error("Draco encoding failed: " + draco.status().message());
-    auto decoded = decodeDraco(draco->data(), draco->size());
-    if (!decoded.isOk()) throw std::runtime_error("Draco decoding failed: " + decoded.status().message());
-    frame.mesh = std::move(*decoded);
+    sendThroughDraco(hull, options.draco, frame);
     input.frames.push_back(std::move(frame));
   }
   if (input.frames.empty()) throw std::invalid_argument(dir + ": no frame id is held by every camera");
@@ -472,6 +500,7 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
   if (scene.novel_view_degrees != 0) s["novel_view_degrees"] = scene.novel_view_degrees;
   if (scene.camera_kept) s["camera_kept"] = true;
   s["hull_ms"] = scene.hull_ms;
+  s["codec_ms"] = scene.codec_ms;
   s["triangles"] = scene.triangles;
   s["bytes_per_frame"] = scene.bytes_per_frame;
   s["hull"] = {{"chamfer_mm", scene.chamfer_mm >= 0 ? nlohmann::json(scene.chamfer_mm) : nlohmann::json()},
@@ -501,6 +530,7 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
   scene.novel_view_degrees = s.value("novel_view_degrees", 0.0);
   scene.camera_kept = s.value("camera_kept", false);
   scene.hull_ms = s.at("hull_ms").get<double>();
+  scene.codec_ms = s.value("codec_ms", 0.0);
   scene.triangles = s.at("triangles").get<double>();
   scene.bytes_per_frame = s.at("bytes_per_frame").get<double>();
   if (s.contains("hull")) {

@@ -54,6 +54,7 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
     EXPECT_GT(m.ms_per_new_mesh, 0.0);
   }
   EXPECT_FALSE(scene.modes.at("montage4d").gpu_passes_ms.empty());
+  EXPECT_GT(scene.codec_ms, 0.0) << "image and Draco coding on the frame's way";
   // The hull against the truth: a superset a few voxels thick, covering
   // each true silhouette.
   EXPECT_GT(scene.chamfer_mm, 2.0);

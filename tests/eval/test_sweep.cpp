@@ -126,6 +126,43 @@ TEST(Sweep, PointsMeasuredUnderOtherSettingsAreRefusedNotMixedIn) {
   fs::remove_all(dir);
 }
 
+// The default's place is judged on every cost at once: a value that
+// renders as fast at the same quality but sends more bytes does not beat it.
+TEST(Sweep, TheDefaultIsDominatedOnlyByAPointNoWorseOnEveryCost) {
+  const fs::path dir = fs::temp_directory_path() / "holofuse_sweep_verdict";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  SweepOptions options = tinySweep(dir.string());
+  options.knobs = {{"draco-bits", {"11", "14"}}, {"alpha", {"1", "2"}}};
+  std::vector<SweepPoint> points;
+  auto add = [&](const std::string& knob, const std::string& value, bool is_default, double psnr, double client_ms,
+                 double codec_ms, double bytes) {
+    SweepPoint p;
+    p.knob = knob;
+    p.value = value;
+    p.is_default = is_default;
+    p.result.name = "few-cameras";
+    p.result.hull_ms = 20;
+    p.result.codec_ms = codec_ms;
+    p.result.bytes_per_frame = bytes;
+    p.result.modes["normal"].psnr_db = psnr;
+    p.result.modes["normal"].ms_per_new_mesh = client_ms;
+    points.push_back(p);
+  };
+  add("draco-bits", "11", true, 19.5, 30, 5, 1.2e6);
+  add("draco-bits", "14", false, 19.5, 30, 6, 1.3e6);   // as good and as fast to render, but more to send
+  add("alpha", "1", false, 19.7, 30, 5, 1.2e6);         // better, at no cost
+  add("alpha", "2", true, 19.5, 30, 5, 1.2e6);
+  writeSweepReports(options, points);
+  std::ifstream in(dir / "sweep.json");
+  const auto json = nlohmann::json::parse(in);
+  EXPECT_EQ(json["knobs"]["draco-bits"]["default_verdict"], "the default (draco-bits=11) is on the Pareto front");
+  EXPECT_EQ(json["knobs"]["draco-bits"]["points"][1]["on_front"], false) << "14 bits: dominated by 11";
+  EXPECT_DOUBLE_EQ(json["knobs"]["draco-bits"]["points"][1]["pipeline_ms"].get<double>(), 20 + 6 + 30);
+  EXPECT_EQ(json["knobs"]["alpha"]["default_verdict"], "the default (alpha=2) is dominated by alpha=1");
+  fs::remove_all(dir);
+}
+
 TEST(Sweep, KnobsChangeWhatTheyName) {
   EvalOptions options;
   EXPECT_EQ(findKnob("voxel")->apply(options, "0.03"), "");

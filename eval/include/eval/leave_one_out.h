@@ -84,6 +84,9 @@ struct SceneResult {
   bool camera_kept = false;       // the held-out camera's image stayed in the blend (EvalOptions::camera_kept)
   int cameras = 0;
   double hull_ms = 0;          // median
+  // Median per frame: the slowest pod's image encoding, Draco encoding and
+  // decoding, and the client's decoding of every pod's images.
+  double codec_ms = 0;
   double triangles = 0;        // mean
   double view_jump_degrees = 0;
   double bytes_per_frame = 0;  // mean, server to client: Draco mesh plus every camera's compressed images
