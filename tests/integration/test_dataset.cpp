@@ -133,6 +133,29 @@ TEST_F(DatasetLoop, TheLiveLoopRecordsWholeCheckedProtocolFrames) {
   }
 }
 
+// eval --dataset on a recording of the live loop (the real-capture test
+// below needs ../shared/datasets): the recorded images go through the same
+// hull, codecs and renderer, scored inside the recorded masks.
+TEST_F(DatasetLoop, EvalScoresARecordingLeaveOneCameraOut) {
+  ASSERT_EQ(live_exit_, 0) << readFile(root_ / "live.log");
+  const fs::path out = root_ / "eval";
+  const pid_t eval = spawn({kBin + "/holofuse_eval", "--dataset", recording_.string(), "--frames", "2", "--modes",
+                            "normal,holoportation", "--out", out.string()},
+                           root_ / "eval.log");
+  ASSERT_EQ(waitExit(eval, 240), 0) << readFile(root_ / "eval.log");
+  const auto quality = readJson(out / "quality.json");
+  ASSERT_TRUE(quality["scenes"].contains("dataset:recording")) << quality["scenes"].dump();
+  const auto& scene = quality["scenes"]["dataset:recording"];
+  EXPECT_EQ(scene["cameras"].get<int>(), 2);
+  for (const char* mode : {"normal", "holoportation"}) {
+    // Two frames, each of the two cameras held out in turn.
+    EXPECT_EQ(scene["modes"][mode]["images"].get<int>(), 4) << mode;
+    EXPECT_GT(scene["modes"][mode]["psnr_db"].get<double>(), 8.0) << mode;
+  }
+  EXPECT_GT(scene["codec_ms"].get<double>(), 0.0) << "the recorded images are decoded and the hull sent through Draco";
+  EXPECT_TRUE(scene["hull"]["chamfer_mm"].is_null()) << "a recording has no true surface";
+}
+
 TEST_F(DatasetLoop, ReplayFusesTheSameMeshesBitForBitAndSendsTheRecordedImages) {
   ASSERT_EQ(live_exit_, 0) << readFile(root_ / "live.log");
   const fs::path first = root_ / "replay1", second = root_ / "replay2";
