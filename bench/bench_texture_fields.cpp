@@ -79,7 +79,9 @@ int main(int argc, char** argv) {
         if (modes[k] == render::BlendMode::kNormal) continue;  // no field passes to time
         const auto times = renderer.fieldTimesMs();
         const auto& names = render::TextureFieldPasses::stageNames();
-        for (size_t s = 0; s < times.size(); ++s) passes[name][names[s]].push_back(times[s]);
+        for (size_t s = 0; s < times.size(); ++s) {
+          if (times[s] >= 0) passes[name][names[s]].push_back(times[s]);  // -1: a pass this mode does not have
+        }
       }
     }
     mesh_ratios.push_back(median(round_mesh["montage4d"]) / median(round_mesh["holoportation"]));
@@ -97,7 +99,13 @@ int main(int argc, char** argv) {
   std::printf("\n");
   for (const auto& stage : render::TextureFieldPasses::stageNames()) {
     std::printf("%-30s", stage.c_str());
-    for (auto& [name, p] : passes) std::printf(" %14.1f", median(p[stage]));
+    for (auto& [name, p] : passes) {
+      if (p[stage].empty()) {
+        std::printf(" %14s", "-");
+      } else {
+        std::printf(" %14.1f", median(p[stage]));
+      }
+    }
     std::printf("\n");
   }
   // The CPU reference for the same per-mesh work (visibility, vote, seams,

@@ -39,7 +39,9 @@ vec4 blendNormal(vec3 n, inout float total) {
     vec4 texel = textureLod(images, vec3(uv, float(i)), 0.0);
     if (texel.a < 0.5) continue;                     // outside camera i's silhouette
     vec3 to_camera = normalize(cam.center.xyz - in_position);
-    float w = pow(max(dot(n, to_camera), 0.0), blend.params.x);
+    // 0 facing away, whatever alpha (pow(0, 0) is undefined in GLSL).
+    float c = dot(n, to_camera);
+    float w = c > 0.0 ? pow(c, blend.params.x) : 0.0;
     sum += w * texel.rgb;
     total += w;
   }

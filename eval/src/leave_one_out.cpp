@@ -222,7 +222,9 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         const Image8 picture = renderer.render(novel ? pose : input.reported[static_cast<size_t>(view)], settings);
         mesh_ms.push_back(msSince(t0));
         const auto times = renderer.fieldTimesMs();
-        for (size_t s = 0; s < times.size(); ++s) passes[render::TextureFieldPasses::stageNames()[s]].push_back(times[s]);
+        for (size_t s = 0; s < times.size(); ++s) {
+          if (times[s] >= 0) passes[render::TextureFieldPasses::stageNames()[s]].push_back(times[s]);  // -1: no such pass
+        }
         if (before_jump) continue;  // not at the held-out pose yet: nothing to compare with
         const Image8& truth_color =
             novel ? frame.novel_truth[static_cast<size_t>(held)].color : frame.views[static_cast<size_t>(held)].color;

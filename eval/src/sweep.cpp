@@ -170,7 +170,9 @@ PlannedPoint planPoint(const SweepOptions& options, const Knob& knob, const std:
   PlannedPoint plan;
   plan.run = options.base;
   (void)knob.apply(plan.run, value);
-  plan.is_default = knob.current(plan.run) == knob.current(options.base);
+  // The default only when every setting is the base's (the knob's printed
+  // value may round a value that differs).
+  plan.is_default = runSettings(plan.run) == runSettings(options.base);
   // Every knob's default value is the same run: done once, shared.
   plan.path = plan.is_default ? fs::path(options.out_dir) / "points" / "default.json"
                               : pointPath(options.out_dir, knob.name, value);

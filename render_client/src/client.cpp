@@ -78,8 +78,8 @@ glm::dvec3 turned(const glm::dvec3& v, const glm::dvec3& axis, double degrees) {
 }  // namespace
 
 // The orbit runs at the pods' mean distance and height with their mean
-// field of view. A pod view turned by the jump keeps the pod's field of
-// view and size, and looks the way the pod looks, turned alike.
+// field of view. A pod view turned by the jump keeps the pod's intrinsics
+// and turns its pose around the ring axis through the subject.
 std::optional<Camera> userCamera(const ClientOptions& options, const std::map<uint32_t, Camera>& cameras,
                                  const Bounds& bounds, size_t frame_index) {
   if (cameras.empty()) return std::nullopt;
@@ -92,10 +92,15 @@ std::optional<Camera> userCamera(const ClientOptions& options, const std::map<ui
     const uint32_t id = static_cast<uint32_t>(std::stoul(options.view.substr(4)));
     auto it = cameras.find(id);
     if (it == cameras.end()) return std::nullopt;
-    const Camera& pod = it->second;
+    Camera pod = it->second;
     if (jump == 0) return pod;
+    // The pod's whole pose turned, its intrinsics kept: the camera-to-world
+    // rotation becomes Q R^T, so world-to-camera R Q^T.
+    const glm::dmat3 q(turned({1, 0, 0}, up, jump), turned({0, 1, 0}, up, jump), turned({0, 0, 1}, up, jump));
     const glm::dvec3 eye = target + turned(pod.center() - target, up, jump);
-    return lookAtCamera(pod.id, eye, eye + turned(pod.forward(), up, jump), up, pod.width, pod.height, fovX(pod));
+    pod.rotation = pod.rotation * glm::transpose(q);
+    pod.translation = -(pod.rotation * eye);
+    return pod;
   }
   // In-plane basis: the world's z (else x) projected onto the ring plane.
   glm::dvec3 e1 = glm::dvec3(0, 0, 1) - up * up.z;
@@ -348,7 +353,9 @@ int runClient(const ClientOptions& options) {
         if (renderer->fieldPasses() != field_runs) {
           const auto times = renderer->fieldTimesMs();
           const auto& names = TextureFieldPasses::stageNames();
-          for (size_t s = 0; s < times.size() && s < names.size(); ++s) report.addGpuPass(names[s], times[s]);
+          for (size_t s = 0; s < times.size() && s < names.size(); ++s) {
+            if (times[s] >= 0) report.addGpuPass(names[s], times[s]);  // -1: a pass this mode does not have
+          }
         }
         FrameRecord record;
         record.frame_id = mesh_frame.frame_id;
@@ -356,8 +363,15 @@ int runClient(const ClientOptions& options) {
         std::snprintf(name, sizeof(name), "frame_%06zu.png", report.framesRendered());
         record.file = std::string("frames/") + name;
         if (options.write_frames) {
-          const protocol::Status written = writePng((out_dir / record.file).string(), picture);
+          // Written aside and renamed: whoever watches frames/ (a viewer,
+          // a test) never reads half a picture.
+          const fs::path path = out_dir / record.file;
+          const fs::path partial = path.parent_path() / (path.stem().string() + ".partial.png");  // PNG by its name
+          const protocol::Status written = writePng(partial.string(), picture);
+          std::error_code renamed;
+          if (written.isOk()) fs::rename(partial, path, renamed);
           if (!written.isOk()) std::fprintf(stderr, "[client] %s\n", written.message().c_str());
+          if (renamed) std::fprintf(stderr, "[client] %s: %s\n", path.c_str(), renamed.message().c_str());
         }
         const uint64_t t4 = monotonicNs();
         stamps.push_back({static_cast<uint16_t>(Stage::kUpload), kSourceClient, t1, t2});

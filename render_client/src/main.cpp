@@ -82,7 +82,16 @@ int main(int argc, char** argv) {
     return 2;
   }
   options.server = *endpoint;
+  if (app.count("--jump-at") && options.jump_degrees == 0) {
+    std::fprintf(stderr, "--jump-at: there is no jump to time; give --jump-degrees too\n");
+    return 2;
+  }
   if (!app.count("--jump-at")) options.jump_at_frame = options.frames > 0 ? options.frames / 2 : 30;
+  if (options.jump_degrees != 0 && options.frames > 0 && options.jump_at_frame >= options.frames) {
+    std::fprintf(stderr, "--jump-at %llu: past the last of --frames %llu, the jump would never show\n",
+                 static_cast<unsigned long long>(options.jump_at_frame), static_cast<unsigned long long>(options.frames));
+    return 2;
+  }
   options.width = w;
   options.height = h;
   options.blend.mode = *render::blendModeFromName(mode);

@@ -816,7 +816,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
                                       static_cast<uint32_t>(cameras_.size()), images_.width, images_.height,
                                       region_extent, parameters,
                                       {visible_counts_.buffer, worklist_.buffer, worklist_counts_.buffer,
-                                       edges_.buffer, dilated_.buffer});
+                                       edges_.buffer, dilated_.buffer, seams_.buffer});
       ++field_passes_;
     }
     // (A measurement stop before stage 7 skips the per-view field too.)

@@ -172,7 +172,8 @@ std::vector<double> TextureFieldPasses::lastTimesMs() const {
   }
   std::vector<double> ms;
   for (uint32_t k = 1; k < kStamps; ++k) {
-    ms.push_back(static_cast<double>(ticks[k] - ticks[k - 1]) * timestamp_period_ns_ / 1e6);
+    const bool absent = !geodesics_recorded_ && (k == 6 || k == 7);  // seams_and_global_visibility, geodesics
+    ms.push_back(absent ? -1.0 : static_cast<double>(ticks[k] - ticks[k - 1]) * timestamp_period_ns_ / 1e6);
   }
   return ms;
 }
@@ -221,6 +222,8 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   // zero there, written by nobody.
   vkCmdFillBuffer(cmd, reset.edges, 0, VK_WHOLE_SIZE, 0);
   vkCmdFillBuffer(cmd, reset.dilated, 0, VK_WHOLE_SIZE, 0);
+  geodesics_recorded_ = parameters.geodesics;
+  if (!parameters.geodesics) vkCmdFillBuffer(cmd, reset.seams, 0, VK_WHOLE_SIZE, 0);
   // Empty lists and clear marks. A pass whose list is empty dispatches no
   // group: once the distances settle, the remaining of the K passes cost
   // only their barriers.

@@ -118,8 +118,7 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   ASSERT_TRUE(fs::exists(first_picture)) << "see " << log;
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the PNG written to its end
-  const std::string first_bytes = readFile(first_picture);
+  const std::string first_bytes = readFile(first_picture);  // whole: the client renames it into place
   // Frame 1: Draco bytes that are not a mesh.
   const std::vector<uint8_t> garbage(64, 0x5A);
   c.send(bundleFor(1, truth.color));

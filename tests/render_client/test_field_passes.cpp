@@ -273,9 +273,17 @@ INSTANTIATE_TEST_SUITE_P(ThreeScenes, FieldPasses, ::testing::Values(0, 1, 2));
 class BlendPass : public ::testing::TestWithParam<int> {};
 
 TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
-  const Scene scene = GetParam() == 0   ? syntheticScene(4, 160, 120, 4)
-                      : GetParam() == 1 ? syntheticScene(7, 128, 96, 11)
-                                        : ghostSphere();
+  Scene scene = GetParam() == 0 ? syntheticScene(4, 160, 120, 4)
+                : GetParam() == 2 ? ghostSphere()
+                                  : syntheticScene(7, 128, 96, 11);
+  std::vector<bool> enabled;  // every camera
+  if (GetParam() == 3) {
+    // A pod that sees none of the subject, and one the user turned off.
+    std::fill(scene.views[3].mask.pixels.begin(), scene.views[3].mask.pixels.end(), 0);
+    enabled.assign(scene.views.size(), true);
+    enabled[5] = false;
+    scene.name += ", camera 3 seeing none of the subject, camera 5 off";
+  }
   SCOPED_TRACE(scene.name);
   const Camera& c0 = scene.views[0].camera;
   const Camera& c1 = scene.views[1].camera;
@@ -292,6 +300,7 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
     BlendSettings settings;
     settings.mode = mode;
     settings.hole_color = {1.0f, 0.0f, 1.0f};
+    settings.camera_enabled = enabled;
     const Image8 gpu = renderer.render(user, settings);
     const FieldSnapshot fields = renderer.readFields();
     std::vector<std::vector<double>> weights;
@@ -305,7 +314,17 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
     options.alpha = settings.alpha;
     options.depth_tolerance = settings.depth_tolerance;
     options.hole_color = glm::dvec3(settings.hole_color);
-    const Image8 cpu = reference::blendView(scene.mesh, scene.views, weights, user, options);
+    options.camera_enabled = enabled;
+    reference::BlendPaths paths;
+    const Image8 cpu = reference::blendView(scene.mesh, scene.views, weights, user, options, &paths);
+    // Both ways of blending are exercised: normal mode only the fallback,
+    // the field modes mostly their fields.
+    if (mode == BlendMode::kNormal) {
+      EXPECT_EQ(paths.fields, 0u);
+      EXPECT_GT(paths.fallback, 500u);
+    } else {
+      EXPECT_GT(paths.fields, 500u);
+    }
     ASSERT_EQ(cpu.pixels.size(), gpu.pixels.size());
     size_t covered = 0, coverage_agrees = 0, both = 0, close = 0;
     double difference = 0;
@@ -337,7 +356,7 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(ThreeScenes, BlendPass, ::testing::Values(0, 1, 2));
+INSTANTIATE_TEST_SUITE_P(ThreeScenes, BlendPass, ::testing::Values(0, 1, 2, 3));
 
 TEST(HoloportationMode, ReproducesThePodImageAndComputesFieldsOncePerMesh) {
   const Scene scene = syntheticScene(4, 200, 150, 6);

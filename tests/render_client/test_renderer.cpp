@@ -144,16 +144,25 @@ TEST(UserCamera, AViewpointJumpTurnsTheViewAroundTheRingAtItsFrame) {
                       glm::length(after.center() - pods[6].center()) < 1e-6;
   EXPECT_TRUE(at_pod) << after.center().x << " " << after.center().z;
   EXPECT_GT(glm::dot(after.forward(), glm::normalize(centre - after.center())), 0.9);
+  // Only the pose turns: the pod's intrinsics stay.
+  EXPECT_EQ(after.fx, pods[0].fx);
+  EXPECT_EQ(after.fy, pods[0].fy);
+  EXPECT_EQ(after.cx, pods[0].cx);
+  EXPECT_EQ(after.cy, pods[0].cy);
   // The orbit jumps too, by the same angle on top of its own motion.
   options.view = "orbit";
-  options.orbit_degrees_per_frame = 0;
-  const glm::dvec3 o4 = userCamera(options, pods, bounds, 4)->center() - centre;
-  const glm::dvec3 o5 = userCamera(options, pods, bounds, 5)->center() - centre;
-  const double orbit_turn =
-      std::acos(glm::dot(glm::normalize(glm::dvec2(o4.x, o4.z)), glm::normalize(glm::dvec2(o5.x, o5.z))));
-  EXPECT_NEAR(orbit_turn * 180.0 / M_PI, 90.0, 1e-6);
+  options.orbit_degrees_per_frame = 2;
+  auto turnBetween = [&](size_t a, size_t b) {
+    const glm::dvec3 oa = userCamera(options, pods, bounds, a)->center() - centre;
+    const glm::dvec3 ob = userCamera(options, pods, bounds, b)->center() - centre;
+    return std::acos(glm::dot(glm::normalize(glm::dvec2(oa.x, oa.z)), glm::normalize(glm::dvec2(ob.x, ob.z)))) *
+           180.0 / M_PI;
+  };
+  EXPECT_NEAR(turnBetween(3, 4), 2.0, 1e-6) << "before the jump, the orbit's own step";
+  EXPECT_NEAR(turnBetween(4, 5), 92.0, 1e-6) << "the step and the jump";
+  EXPECT_NEAR(turnBetween(5, 6), 2.0, 1e-6) << "after it, the orbit goes on from there";
   options.jump_degrees = 0;
-  EXPECT_EQ(userCamera(options, pods, bounds, 5)->center(), userCamera(options, pods, bounds, 4)->center());
+  EXPECT_NEAR(turnBetween(4, 5), 2.0, 1e-6);
 }
 
 TEST(LatencyReport, PercentilesInterpolate) {

@@ -134,6 +134,7 @@ class TextureFieldPasses {
     VkBuffer worklist;         // geodesic worklists and marks, cleared
     VkBuffer worklist_counts;  // indirect dispatch sizes, set to empty lists
     VkBuffer edges, dilated;   // discontinuity flags: zero outside the regions the pass writes
+    VkBuffer seams;            // zero where the mode computes no seams (holoportation)
   };
   // region_extent: the largest camera region (CameraGpu::region in
   // shaders/cameras.glsl), the discontinuity pass's grid per camera.
@@ -147,7 +148,9 @@ class TextureFieldPasses {
                      const FieldParameters& parameters, float geodesic_scale, uint32_t temporal_stride);
 
   // GPU milliseconds of each pass in the last recorded run (after the
-  // submission finished), in pass order, named as in stageNames().
+  // submission finished), in pass order, named as in stageNames(); -1 for
+  // a pass the run's mode does not have (holoportation: seams and
+  // geodesics), whose stamps only bracket nothing.
   std::vector<double> lastTimesMs() const;
   static const std::vector<std::string>& stageNames();
   // Which half of the ping-pong buffers holds the final distances.
@@ -168,6 +171,7 @@ class TextureFieldPasses {
   double timestamp_period_ns_ = 1.0;
   bool recorded_ = false;
   bool field_stamp_pending_ = false;  // record() ran for montage4d: recordMontage writes the last stamp
+  bool geodesics_recorded_ = false;   // the last record() ran stages 5 and 6
 };
 
 }  // namespace holofuse::render

@@ -52,7 +52,9 @@ glm::dvec4 sampleBilinear(const PodView& view, double u, double v) {
 }
 
 Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std::vector<std::vector<double>>& weights,
-                 const Camera& user, const BlendOptions& options) {
+                 const Camera& user, const BlendOptions& options, BlendPaths* paths) {
+  BlendPaths counted;
+  auto enabled = [&](size_t i) { return options.camera_enabled.empty() || options.camera_enabled.at(i); };
   std::vector<int32_t> triangle_of;
   (void)rasterizeDepth(mesh, user, 0.05, &triangle_of);
   // Each pod's depth map, for the fallback's occlusion test; a pod whose
@@ -93,7 +95,7 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std:
       for (size_t i = 0; i < weights.size(); ++i) {
         const double w = ba * weights[i][ia] + bu * weights[i][ib] + bv * weights[i][ic];
         double u = 0, v = 0, depth = 0;
-        if (!(w > 0) || !textureCoordinates(views[i].camera, p, u, v, depth)) continue;
+        if (!enabled(i) || !(w > 0) || !textureCoordinates(views[i].camera, p, u, v, depth)) continue;
         const glm::dvec4 texel = sampleBilinear(views[i], u, v);
         if (texel.a < 0.5) continue;  // the pod's background
         sum += w * glm::dvec3(texel);
@@ -101,13 +103,14 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std:
       }
       // Step 10: the normal-weighted blend, each pod tested against its
       // depth map at this point.
-      if (!(total > 1e-8)) {
+      const bool by_fields = total > 1e-8;
+      if (!by_fields) {
         sum = glm::dvec3(0.0);
         total = 0;
         for (size_t i = 0; i < views.size(); ++i) {
           const Camera& camera = views[i].camera;
           double u = 0, v = 0, depth = 0;
-          if (!sees_subject[i] || !textureCoordinates(camera, p, u, v, depth)) continue;
+          if (!enabled(i) || !sees_subject[i] || !textureCoordinates(camera, p, u, v, depth)) continue;
           const uint32_t px = std::min(static_cast<uint32_t>(u * camera.width), camera.width - 1);
           const uint32_t py = std::min(static_cast<uint32_t>(v * camera.height), camera.height - 1);
           if (depth > maps[i].at(px, py) + options.depth_tolerance) continue;  // occluded from pod i
@@ -120,12 +123,14 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std:
         }
       }
       const glm::dvec3 colour = total > 1e-8 ? sum / total : options.hole_color;
+      ++(by_fields ? counted.fields : total > 1e-8 ? counted.fallback : counted.holes);
       for (int k = 0; k < 3; ++k) {
         out.pixels[4 * pixel + k] = static_cast<uint8_t>(std::lround(std::clamp(colour[k], 0.0, 1.0) * 255.0));
       }
       out.pixels[4 * pixel + 3] = 255;
     }
   }
+  if (paths != nullptr) *paths = counted;
   return out;
 }
 

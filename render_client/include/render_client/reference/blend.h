@@ -22,6 +22,13 @@ struct BlendOptions {
   double alpha = 2.0;            // exponent of the normal weight of the fallback
   double depth_tolerance = 0.03; // metres behind a pod's depth map still visible to it
   glm::dvec3 hole_color{0.5, 0.5, 0.5};
+  std::vector<bool> camera_enabled;  // per view; empty: every camera (BlendSettings::camera_enabled)
+};
+
+// How many covered pixels took each way: the interpolated fields, the
+// normal-weighted fallback, or the hole colour.
+struct BlendPaths {
+  size_t fields = 0, fallback = 0, holes = 0;
 };
 
 // The pod image sampled as a GPU samples it: bilinear between texel
@@ -34,6 +41,6 @@ glm::dvec4 sampleBilinear(const PodView& view, double u, double v);
 // [camera][vertex] normalised per-vertex fields of holoportation or
 // montage4d; empty for mode normal (the normal-weighted blend everywhere).
 Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std::vector<std::vector<double>>& weights,
-                 const Camera& user, const BlendOptions& options = {});
+                 const Camera& user, const BlendOptions& options = {}, BlendPaths* paths = nullptr);
 
 }  // namespace holofuse::render::reference
