@@ -256,7 +256,7 @@ glm::ivec4 boxRegion(const glm::mat4& clip, const glm::dvec3& lo, const glm::dve
 // discontinuity flags) also need to be transfer destinations.
 VkBufferUsageFlags Renderer::usageOf(const Buffer& buffer) const {
   if (&buffer == &worklist_counts_) return kWorklistUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT;
-  const bool filled = &buffer == &worklist_ || &buffer == &edges_ || &buffer == &dilated_;
+  const bool filled = &buffer == &worklist_ || &buffer == &edges_ || &buffer == &dilated_ || &buffer == &seams_;
   return filled ? kWorklistUsage : VkBufferUsageFlags{VK_BUFFER_USAGE_STORAGE_BUFFER_BIT};
 }
 
