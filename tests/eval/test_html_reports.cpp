@@ -94,16 +94,19 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
   eval::SceneResult scene;
   scene.name = "colour-imbalance";
   scene.cameras = 8;
-  scene.modes["holoportation"] = {15.2, 16.7, 0.59, 19.2, 21.0, 16, 80, {}};
-  scene.modes["montage4d"] = {15.0, 16.9, 0.60, 18.0, 20.5, 16, 120, {}};
+  scene.modes["holoportation"] = {15.2, 16.7, 0.59, 19.2, 21.0, 16, 80, {}, 95};
+  scene.modes["montage4d"] = {15.0, 16.9, 0.60, 18.0, 20.5, 16, 120, {}, 150};
+  scene.hull_ms = scene.codec_ms = 20;
+  scene.hull_ms_p95 = scene.codec_ms_p95 = 30;
   eval::EvalOptions options;
   options.modes = {render::BlendMode::kHoloportation, render::BlendMode::kMontage4D};
   const fs::path dir = scratch("quality");
   eval::writeQualityReports(options, {scene}, dir.string());
-  EXPECT_EQ(chartsRendered(dir / "quality.html"), 5) << "PSNR, SSIM, flicker, seam visibility, time";
+  EXPECT_EQ(chartsRendered(dir / "quality.html"), 6) << "PSNR, SSIM, flicker, seam visibility, time, the latency stack";
   std::ifstream in(dir / "quality.html");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("MISSED: PSNR gain below 0.5 dB"), std::string::npos);
+  EXPECT_NE(text.find("Latency of a new mesh: colour-imbalance"), std::string::npos);
   fs::remove_all(dir);
 }
 

@@ -52,9 +52,12 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
     // one: no seam pixels to measure (n/a, not a perfect 0).
     EXPECT_LT(m.seam_visibility, 0.0) << mode;
     EXPECT_GT(m.ms_per_new_mesh, 0.0);
+    EXPECT_GE(m.ms_per_new_mesh_p95, m.ms_per_new_mesh);
   }
   EXPECT_FALSE(scene.modes.at("montage4d").gpu_passes_ms.empty());
   EXPECT_GT(scene.codec_ms, 0.0) << "image and Draco coding on the frame's way";
+  EXPECT_GE(scene.codec_ms_p95, scene.codec_ms);
+  EXPECT_GE(scene.hull_ms_p95, scene.hull_ms);
   // The hull against the truth: a superset a few voxels thick, covering
   // each true silhouette.
   EXPECT_GT(scene.chamfer_mm, 2.0);
@@ -208,8 +211,8 @@ TEST(LeaveOneOut, VerdictNeedsHalfADecibelHigherSsimAndLessFlickerAfterAJump) {
   SceneResult scene;
   scene.name = "viewpoint-jump";
   scene.view_jump_degrees = 90;
-  scene.modes["holoportation"] = {10.0, 30.0, 0.90, 4.0, 5.0, 10, 0, {}};
-  scene.modes["montage4d"] = {9.0, 30.6, 0.91, 3.0, 5.0, 10, 0, {}};
+  scene.modes["holoportation"] = {10.0, 30.0, 0.90, 4.0, 5.0, 10, 0, {}, 0};
+  scene.modes["montage4d"] = {9.0, 30.6, 0.91, 3.0, 5.0, 10, 0, {}, 0};
   EXPECT_TRUE(montageVerdict(scene).met);
   scene.modes["montage4d"].flicker = 5.0;
   EXPECT_FALSE(montageVerdict(scene).met);

@@ -76,6 +76,7 @@ struct ModeResult {
   size_t images = 0;
   double ms_per_new_mesh = 0;      // median wall time of a render that follows a new mesh
   std::map<std::string, double> gpu_passes_ms;  // medians of the field passes' timestamps
+  double ms_per_new_mesh_p95 = 0;  // the 95th percentile of ms_per_new_mesh's renders
 };
 
 struct SceneResult {
@@ -87,6 +88,7 @@ struct SceneResult {
   // Median per frame: the slowest pod's image encoding, Draco encoding and
   // decoding, and the client's decoding of every pod's images.
   double codec_ms = 0;
+  double hull_ms_p95 = 0, codec_ms_p95 = 0;  // 95th percentiles of the same
   double triangles = 0;        // mean
   double view_jump_degrees = 0;
   double bytes_per_frame = 0;  // mean, server to client: Draco mesh plus every camera's compressed images
