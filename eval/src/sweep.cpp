@@ -400,6 +400,15 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     body += plot(by_client, "PSNR against client ms (" + name + ")", "client ms per new mesh");
     body += plot(by_pipeline, "PSNR against pipeline ms (" + name + ")", "hull + codecs + client ms");
     body += plot(by_bytes, "PSNR against bytes per frame (" + name + ")", "bytes per frame, server to client");
+    // Where each value's pipeline time goes, p50 and p95 over its renders.
+    std::vector<html::StackRow> stack;
+    for (const SweepPoint* p : mine) {
+      const ModeResult& m = p->result.modes.at(mode);
+      stack.push_back({p->value + " p50", {p->result.hull_ms, p->result.codec_ms, m.ms_per_new_mesh}});
+      stack.push_back({p->value + " p95", {p->result.hull_ms_p95, p->result.codec_ms_p95, m.ms_per_new_mesh_p95}});
+    }
+    body += html::stackedBars("Latency of a new mesh by value (" + name + ")", {"hull", "codecs", "client render"},
+                              stack, "ms");
   }
   body += "<h2>All points</h2>\n" +
           html::table({"knob", "value", "PSNR dB", "SSIM", "client ms", "pipeline ms", "KB/frame", "front"}, rows);

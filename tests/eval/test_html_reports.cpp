@@ -128,8 +128,12 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
     p.result.name = "clean";
     p.result.hull_ms = 20;
     p.result.bytes_per_frame = bytes;
+    p.result.codec_ms = 5;
+    p.result.hull_ms_p95 = 25;
+    p.result.codec_ms_p95 = 7;
     p.result.modes["montage4d"].psnr_db = psnr;
     p.result.modes["montage4d"].ms_per_new_mesh = ms;
+    p.result.modes["montage4d"].ms_per_new_mesh_p95 = 1.3 * ms;
     points.push_back(p);
   };
   add("alpha", "1", false, 19.4, 30, 1.3e6);
@@ -140,7 +144,7 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   const fs::path dir = scratch("sweep");
   options.out_dir = dir.string();
   eval::writeSweepReports(options, points);
-  EXPECT_EQ(chartsRendered(dir / "sweep.html"), 6) << "three plots for each of two knobs";
+  EXPECT_EQ(chartsRendered(dir / "sweep.html"), 8) << "three plots and the latency stack for each of two knobs";
   std::ifstream in(dir / "sweep.html");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("the default (alpha=2) is on the Pareto front"), std::string::npos);
