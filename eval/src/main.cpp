@@ -45,7 +45,17 @@ int main(int argc, char** argv) {
   app.add_option("--geometry", options.geometry, "hull (the server's visual hull) or truth (the true surface)")
       ->check(CLI::IsMember({"hull", "truth"}));
   app.add_option("--device", options.device, "Vulkan device: index or part of its name");
+  std::string budget_file;
+  app.add_option("--budget", budget_file, "JSON of per-stage ms budgets (hull and render are checked at p95)");
   CLI11_PARSE(app, argc, argv);
+  if (!budget_file.empty()) {
+    auto budget = render::loadBudget(budget_file);
+    if (!budget.isOk()) {
+      std::fprintf(stderr, "--budget: %s\n", budget.status().message().c_str());
+      return 2;
+    }
+    options.budget = *budget;
+  }
   options.hull_error_target = hull_error_mm / 1000.0;
   for (size_t k = 0; k < options.novel_view_degrees.size(); ++k) {
     const double degrees = options.novel_view_degrees[k];

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <regex>
 
 #include "common/html_report.h"
@@ -100,6 +101,7 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
   scene.hull_ms_p95 = scene.codec_ms_p95 = 30;
   eval::EvalOptions options;
   options.modes = {render::BlendMode::kHoloportation, render::BlendMode::kMontage4D};
+  options.budget = {{"hull", 25.0}, {"render", 100.0}};  // the hull's p95 (30) and montage4d's (150) are over
   const fs::path dir = scratch("quality");
   eval::writeQualityReports(options, {scene}, dir.string());
   EXPECT_EQ(chartsRendered(dir / "quality.html"), 6) << "PSNR, SSIM, flicker, seam visibility, time, the latency stack";
@@ -107,6 +109,14 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("MISSED: PSNR gain below 0.5 dB"), std::string::npos);
   EXPECT_NE(text.find("Latency of a new mesh: colour-imbalance"), std::string::npos);
+  EXPECT_NE(text.find("<tr class=\"flagged\"><td>colour-imbalance</td><td>-</td><td>hull</td>"), std::string::npos);
+  EXPECT_NE(text.find("<tr class=\"flagged\"><td>colour-imbalance</td><td>montage4d</td><td>render</td>"),
+            std::string::npos);
+  EXPECT_NE(text.find("<tr><td>colour-imbalance</td><td>holoportation</td><td>render</td>"), std::string::npos)
+      << "95 ms is within 100";
+  std::ifstream json_in(dir / "quality.json");
+  const auto json = nlohmann::json::parse(json_in);
+  EXPECT_EQ(json["budget_violations"].size(), 2u);
   fs::remove_all(dir);
 }
 

@@ -21,6 +21,7 @@
 #include "common/mesh_codec.h"
 #include "protocol/messages.h"
 #include "render_client/blend_mode.h"
+#include "render_client/latency_report.h"
 #include "render_client/texture_field_passes.h"
 
 namespace holofuse::eval {
@@ -67,6 +68,10 @@ struct EvalOptions {
   render::FieldParameters fields;            // eps, k, K
   float alpha = 2.0f;
   double lambda = 0.05;
+  // Per-stage ms budgets (render::loadBudget's file); the reports flag each
+  // scene and mode whose p95 goes over the budget of "hull" or "render"
+  // (the stages an evaluation times the way the live loop does).
+  render::Budget budget;
 };
 
 struct ModeResult {
