@@ -48,14 +48,7 @@ int main(int argc, char** argv) {
   std::string budget_file;
   app.add_option("--budget", budget_file, "JSON of per-stage ms budgets (hull and render are checked at p95)");
   CLI11_PARSE(app, argc, argv);
-  if (!budget_file.empty()) {
-    auto budget = render::loadBudget(budget_file);
-    if (!budget.isOk()) {
-      std::fprintf(stderr, "--budget: %s\n", budget.status().message().c_str());
-      return 2;
-    }
-    options.budget = *budget;
-  }
+  if (!render::loadBudgetFlag(budget_file, options.budget)) return 2;
   options.hull_error_target = hull_error_mm / 1000.0;
   for (size_t k = 0; k < options.novel_view_degrees.size(); ++k) {
     const double degrees = options.novel_view_degrees[k];

@@ -63,6 +63,17 @@ protocol::StatusOr<Budget> loadBudget(const std::string& path) {
   return budget;
 }
 
+bool loadBudgetFlag(const std::string& path, Budget& budget) {
+  if (path.empty()) return true;
+  auto loaded = loadBudget(path);
+  if (!loaded.isOk()) {
+    std::fprintf(stderr, "--budget: %s\n", loaded.status().message().c_str());
+    return false;
+  }
+  budget = *loaded;
+  return true;
+}
+
 void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
   for (const auto& s : stamps) {
     if (s.end_ns >= s.start_ns && s.end_ns != 0) addStage(s.stage, static_cast<double>(s.end_ns - s.start_ns) / 1e6);

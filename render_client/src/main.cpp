@@ -63,14 +63,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "--size '%s': expected WxH with each side in 16..8192\n", size.c_str());
     return 2;
   }
-  if (!budget_file.empty()) {
-    auto budget = render::loadBudget(budget_file);
-    if (!budget.isOk()) {
-      std::fprintf(stderr, "--budget: %s\n", budget.status().message().c_str());
-      return 2;
-    }
-    options.budget = *budget;
-  }
+  if (!render::loadBudgetFlag(budget_file, options.budget)) return 2;
   if (options.view != "orbit" && (options.view.rfind("pod:", 0) != 0 || options.view.size() < 5 ||
                                   options.view.find_first_not_of("0123456789", 4) != std::string::npos)) {
     std::fprintf(stderr, "--view '%s': expected orbit or pod:N\n", options.view.c_str());

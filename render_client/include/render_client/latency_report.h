@@ -39,6 +39,9 @@ double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_receiv
 // the valid names listed.
 using Budget = std::map<std::string, double>;
 protocol::StatusOr<Budget> loadBudget(const std::string& path);
+// A command line's --budget FILE (none when path is empty): false after
+// saying on stderr what is wrong with the file.
+bool loadBudgetFlag(const std::string& path, Budget& budget);
 
 class LatencyReport {
  public:
