@@ -46,8 +46,11 @@ std::string startServer(const fs::path& out, int pods, pid_t* pid) {
 TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   const fs::path out = freshDir("loop");
   const double fps = 4.0;
+  // A budget no hull can meet and an end-to-end one no frame can miss: the
+  // report flags the first and not the second, through the launcher's flag.
+  std::ofstream(out / "budget.json") << R"({"hull": 0.001, "end_to_end": 100000})";
   const pid_t loop = spawn({kBin + "/holofuse_loop", "--pods", "4", "--frames", "6", "--fps", "4", "--size", "200x150",
-                            "--view", "pod:0", "--out", out.string()},
+                            "--view", "pod:0", "--budget", (out / "budget.json").string(), "--out", out.string()},
                            out / "loop.log");
   ASSERT_EQ(waitExit(loop, 240), 0) << "see " << (out / "loop.log");
   const auto report = readJson(out / "report.json");
@@ -63,6 +66,10 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
     EXPECT_GT(report["latency_ms"]["stages"][stage]["samples"].get<int>(), 0) << stage;
     EXPECT_LE(report["latency_ms"]["stages"][stage]["p50"].get<double>(), e2e["p99"].get<double>()) << stage;
   }
+  ASSERT_TRUE(report.contains("budget_violations")) << "the budget reached the client";
+  ASSERT_EQ(report["budget_violations"].size(), 1u) << report["budget_violations"].dump();
+  EXPECT_EQ(report["budget_violations"][0]["stage"], "hull");
+  EXPECT_GT(report["budget_violations"][0]["p95"].get<double>(), 0.001);
   EXPECT_GT(report["bytes_per_frame"]["pod_link"].get<double>(), 1000.0);
   EXPECT_GT(report["bytes_per_frame"]["client_link"].get<double>(), 1000.0);
 
