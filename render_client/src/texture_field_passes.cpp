@@ -172,7 +172,8 @@ std::vector<double> TextureFieldPasses::lastTimesMs() const {
   }
   std::vector<double> ms;
   for (uint32_t k = 1; k < kStamps; ++k) {
-    const bool absent = !geodesics_recorded_ && (k == 6 || k == 7);  // seams_and_global_visibility, geodesics
+    const std::string& stage = stageNames()[k - 1];
+    const bool absent = !geodesics_recorded_ && (stage == "seams_and_global_visibility" || stage == "geodesics");
     ms.push_back(absent ? -1.0 : static_cast<double>(ticks[k] - ticks[k - 1]) * timestamp_period_ns_ / 1e6);
   }
   return ms;

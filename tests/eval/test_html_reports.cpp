@@ -15,6 +15,7 @@
 #include "common/html_report.h"
 #include "eval/leave_one_out.h"
 #include "eval/sweep.h"
+#include "sweep_points.h"
 #include "render_client/latency_report.h"
 
 namespace holofuse {
@@ -131,20 +132,7 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   std::vector<eval::SweepPoint> points;
   auto add = [&](const std::string& knob, const std::string& value, bool is_default, double psnr, double ms,
                  double bytes) {
-    eval::SweepPoint p;
-    p.knob = knob;
-    p.value = value;
-    p.is_default = is_default;
-    p.result.name = "clean";
-    p.result.hull_ms = 20;
-    p.result.bytes_per_frame = bytes;
-    p.result.codec_ms = 5;
-    p.result.hull_ms_p95 = 25;
-    p.result.codec_ms_p95 = 7;
-    p.result.modes["montage4d"].psnr_db = psnr;
-    p.result.modes["montage4d"].ms_per_new_mesh = ms;
-    p.result.modes["montage4d"].ms_per_new_mesh_p95 = 1.3 * ms;
-    points.push_back(p);
+    points.push_back(eval::test::sweepPoint(knob, value, is_default, "montage4d", psnr, ms, 5, bytes));
   };
   add("alpha", "1", false, 19.4, 30, 1.3e6);
   add("alpha", "2", true, 19.5, 30, 1.3e6);

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "eval/sweep.h"
+#include "sweep_points.h"
 
 namespace holofuse::eval {
 namespace {
@@ -137,17 +138,7 @@ TEST(Sweep, TheDefaultIsDominatedOnlyByAPointNoWorseOnEveryCost) {
   std::vector<SweepPoint> points;
   auto add = [&](const std::string& knob, const std::string& value, bool is_default, double psnr, double client_ms,
                  double codec_ms, double bytes) {
-    SweepPoint p;
-    p.knob = knob;
-    p.value = value;
-    p.is_default = is_default;
-    p.result.name = "few-cameras";
-    p.result.hull_ms = 20;
-    p.result.codec_ms = codec_ms;
-    p.result.bytes_per_frame = bytes;
-    p.result.modes["normal"].psnr_db = psnr;
-    p.result.modes["normal"].ms_per_new_mesh = client_ms;
-    points.push_back(p);
+    points.push_back(test::sweepPoint(knob, value, is_default, "normal", psnr, client_ms, codec_ms, bytes));
   };
   add("draco-bits", "11", true, 19.5, 30, 5, 1.2e6);
   add("draco-bits", "14", false, 19.5, 30, 6, 1.3e6);   // as good and as fast to render, but more to send
