@@ -16,10 +16,13 @@ void main() {
   vec3 n = vertexNormal(v);
   float len = length(n);
   n = (len > 1e-20 && !isnan(len) && !isinf(len)) ? n / len : vec3(0.0);
-  float field[HOLOFUSE_MAX_CAMERAS];
+  // The fields go straight to the weights and are normalised there: a
+  // private array of HOLOFUSE_MAX_CAMERAS floats spills to memory on a CPU
+  // device (as in montage_field.comp.glsl).
+  uint at = v * HOLOFUSE_MAX_CAMERAS;
   float sum = 0.0;
   for (uint i = 0u; i < HOLOFUSE_MAX_CAMERAS; ++i) {
-    field[i] = 0.0;
+    weights[at + i] = 0.0;
     if (i >= push.camera_count) continue;
     uint index = i * push.vertex_count + v;
     if (sights[index] != HOLOFUSE_SIGHT_VISIBLE || trusted[index] == 0u) continue;
@@ -29,10 +32,11 @@ void main() {
     float c = dl > 0.0 ? dot(n, d / dl) : 0.0;
     // max(0, c)^alpha, 0 for NaN, never Inf.
     float w = c > 0.0 ? pow(min(c, 1.0), max(push.alpha, 0.0)) : 0.0;
-    field[i] = (isnan(w) || isinf(w)) ? 0.0 : w;
-    sum += field[i];
+    w = (isnan(w) || isinf(w)) ? 0.0 : w;
+    weights[at + i] = w;
+    sum += w;
   }
-  for (uint i = 0u; i < HOLOFUSE_MAX_CAMERAS; ++i) {
-    weights[v * HOLOFUSE_MAX_CAMERAS + i] = sum > 1e-12 ? field[i] / sum : 0.0;
+  for (uint i = 0u; i < push.camera_count; ++i) {
+    weights[at + i] = sum > 1e-12 ? weights[at + i] / sum : 0.0;
   }
 }
