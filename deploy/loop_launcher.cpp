@@ -6,7 +6,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -18,6 +17,8 @@
 #include "capture_node/dataset.h"
 #include "capture_node/replay_pod.h"
 #include "capture_node/scene_library.h"
+#include "common/command_line.h"
+#include "common/image_codec.h"
 
 namespace {
 
@@ -51,6 +52,51 @@ bool waitFor(pid_t pid, int timeout_ms, int* status) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return false;
+}
+
+// A setting of the sweep's (holofuse_sweep --knob) that the loop takes too,
+// with the same meaning and the range of the process it goes to: passed on
+// only when given, so each process keeps its own default otherwise.
+struct ForwardedSetting {
+  const char* flag;  // the launcher's
+  const char* description;
+  CLI::Validator check;
+  const char* server_flag;  // nullptr: not the server's
+  const char* pod_flag;
+  const char* client_flag;
+  std::string value;
+};
+
+std::vector<ForwardedSetting> forwardedSettings() {
+  return {
+      {"--voxel", "hull voxel size in metres", CLI::Range(0.0001, 0.5), "--voxel", nullptr, nullptr, {}},
+      {"--draco-bits", "Draco position quantisation bits", CLI::Range(4, 24), "--draco-bits", nullptr, nullptr, {}},
+      {"--image-codec", "colour codec of pods and server: raw, lz4, lz4-delta",
+       CLI::IsMember(holofuse::imageCodecNames()), "--image-codec", "--codec", nullptr, {}},
+      {"--lz4-acceleration", "LZ4 acceleration of pods and server (1 = default; higher: faster, larger)",
+       CLI::Range(1, 65537), "--lz4-acceleration", "--lz4-acceleration", nullptr, {}},
+      {"--alpha", "exponent of the view weights", CLI::Range(0.0, 1000.0), nullptr, nullptr, "--alpha", {}},
+      {"--lambda", "montage4d: temporal rate per frame at 30 fps (eq. 5)", CLI::Range(0.0, 1.0), nullptr, nullptr,
+       "--lambda", {}},
+      {"--dilation", "eps: depth discontinuities dilated by this many pixels (-1: the paper's, scaled)",
+       CLI::Range(-1, 64), nullptr, nullptr, "--dilation", {}},
+      {"--vote-delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3)", CLI::Range(0.0, 10.0),
+       nullptr, nullptr, "--vote-delta", {}},
+      {"--geodesic-rings", "montage4d: k, the geodesic reach in triangle rings", CLI::Range(1, 64), nullptr, nullptr,
+       "--geodesic-rings", {}},
+      {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", CLI::Range(1, 200), nullptr, nullptr,
+       "--geodesic-passes", {}},
+      {"--geodesic-radius", "montage4d: metres from a seam where gamma reaches 1", CLI::Range(0.0, 1000.0), nullptr,
+       nullptr, "--geodesic-radius", {}},
+  };
+}
+
+// Appends the given settings that belong to one process (flag_of picks its flag).
+void appendForwarded(const std::vector<ForwardedSetting>& settings, const char* ForwardedSetting::*flag_of,
+                     std::vector<std::string>& args) {
+  for (const auto& s : settings) {
+    if (!s.value.empty() && s.*flag_of != nullptr) args.insert(args.end(), {s.*flag_of, s.value});
+  }
 }
 
 void stop(pid_t pid, const char* what) {
@@ -101,12 +147,14 @@ int main(int argc, char** argv) {
   app.add_option("--hull-error-mm", hull_error_mm,
                  "the server's hull follows this silhouette error in mm frame by frame (finer voxels on a miss)")
       ->check(CLI::Range(0.0, 1000.0));
+  std::vector<ForwardedSetting> forwarded = forwardedSettings();
+  for (auto& s : forwarded) app.add_option(s.flag, s.value, s.description)->check(s.check);
   app.add_option("--record", record, "record what the pods send into this folder (a dataset for --replay)");
   app.add_flag("--record-fused", record_fused, "with --record: also record the server's fused meshes and images");
   app.add_option("--replay", replay, "replay this dataset folder through the same network path instead of synthetic pods");
   app.add_option("--speed", speed, "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
   app.add_flag("--loop", loop, "with --replay: start over at the end (until --frames or Ctrl-C)");
-  CLI11_PARSE(app, argc, argv);
+  HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   double speed_factor = 1.0;
   if (!holofuse::capture::parseReplaySpeed(speed, speed_factor)) {
     std::fprintf(stderr, "--speed '%s': expected a factor in (0, 1000] or max\n", speed.c_str());
@@ -153,7 +201,11 @@ int main(int argc, char** argv) {
                     metadata->volume_max.z);
       char voxel[32];
       std::snprintf(voxel, sizeof(voxel), "%.9g", metadata->voxel_size);
-      if (metadata->voxel_size > 0) dataset_server_args = {"--volume", volume, "--voxel", voxel};
+      if (metadata->voxel_size > 0) dataset_server_args = {"--volume", volume};
+      // A --voxel given here overrides the dataset's.
+      if (metadata->voxel_size > 0 && !app.count("--voxel")) {
+        dataset_server_args.insert(dataset_server_args.end(), {"--voxel", voxel});
+      }
     }
     // A still (one frame of a static scene) repeats so the client can orbit it.
     if (dataset->frameIds() == 1) loop = true;
@@ -184,6 +236,7 @@ int main(int argc, char** argv) {
     std::snprintf(text, sizeof(text), "%.9g", hull_error_mm);
     server_args.insert(server_args.end(), {"--hull-error-mm", text});
   }
+  appendForwarded(forwarded, &ForwardedSetting::server_flag, server_args);
   if (!record.empty()) {
     server_args.insert(server_args.end(), {"--record", record});
     if (record_fused) server_args.push_back("--record-fused");
@@ -225,6 +278,9 @@ int main(int argc, char** argv) {
       pod_args.insert(pod_args.end(), {"--replay", replay, "--speed", speed});
       if (loop) pod_args.push_back("--loop");
     }
+    // A replay pod sends the recorded bytes as they are: the codec settings
+    // reach only the server's images to clients.
+    if (replay.empty()) appendForwarded(forwarded, &ForwardedSetting::pod_flag, pod_args);
     pod_pids.push_back(spawn(pod_args, (fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log")).string()));
   }
   std::vector<std::string> client_args = {bin_dir + "/render_client", "--server", endpoint, "--out", out, "--frames",
@@ -232,6 +288,7 @@ int main(int argc, char** argv) {
   if (replay.empty() && preset->view_jump_degrees != 0) {  // the scene's jump is the user's view's
     client_args.insert(client_args.end(), {"--jump-degrees", std::to_string(preset->view_jump_degrees)});
   }
+  appendForwarded(forwarded, &ForwardedSetting::client_flag, client_args);
   if (!budget.empty()) {
     client_args.push_back("--budget");
     client_args.push_back(budget);

@@ -1,10 +1,11 @@
 // capture_node: one synthetic camera pod. See README.md for the flags.
-#include <CLI/CLI.hpp>
 #include <cstdio>
 
 #include "capture_node/pod.h"
 #include "capture_node/replay_pod.h"
 #include "capture_node/scene_library.h"
+#include "common/command_line.h"
+#include "common/image_codec.h"
 #include "common/shutdown.h"
 
 int main(int argc, char** argv) {
@@ -25,13 +26,16 @@ int main(int argc, char** argv) {
   app.add_option("--crop-margin", options.crop_margin,
                  "send only the foreground's rectangle grown by this many pixels (-1: whole images)")
       ->check(CLI::Range(-1, 4096));
-  app.add_option("--codec", codec, "colour codec")->check(CLI::IsMember({"raw", "lz4", "lz4-delta"}));
+  app.add_option("--codec", codec, "colour codec")->check(CLI::IsMember(imageCodecNames()));
+  app.add_option("--lz4-acceleration", options.lz4_acceleration,
+                 "LZ4 acceleration (1 = default; higher: faster, larger)")
+      ->check(CLI::Range(1, 65537));
   std::string replay, speed = "1";
   bool loop = false;
   app.add_option("--replay", replay, "replay camera --pod-id of this dataset folder instead of a synthetic scene");
   app.add_option("--speed", speed, "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
   app.add_flag("--loop", loop, "with --replay: start over at the end");
-  CLI11_PARSE(app, argc, argv);
+  HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   auto endpoint = protocol::parseEndpoint(server);
   if (!endpoint.isOk()) {
     std::fprintf(stderr, "--server: %s\n", endpoint.status().message().c_str());
@@ -76,9 +80,7 @@ int main(int argc, char** argv) {
   options.width = w;
   options.height = h;
   options.scene.frames_per_second = options.fps;
-  options.color_codec = codec == "raw"   ? protocol::Codec::kRaw
-                        : codec == "lz4" ? protocol::Codec::kLz4
-                                         : protocol::Codec::kLz4PlanarDelta;
+  options.color_codec = *imageCodecFromName(codec);
   installStopSignals();
   return capture::runPod(options);
 }

@@ -133,4 +133,25 @@ protocol::StatusOr<Image8> decodePlane(const protocol::Plane& plane) {
   return Status(StatusCode::kMalformed, which + ": unknown codec");
 }
 
+const std::vector<std::string>& imageCodecNames() {
+  static const std::vector<std::string> names = {"raw", "lz4", "lz4-delta"};
+  return names;
+}
+
+std::string imageCodecName(Codec codec) {
+  switch (codec) {
+    case Codec::kRaw: return "raw";
+    case Codec::kLz4: return "lz4";
+    case Codec::kLz4PlanarDelta: return "lz4-delta";
+  }
+  return "unknown codec " + std::to_string(static_cast<int>(codec));
+}
+
+std::optional<Codec> imageCodecFromName(const std::string& name) {
+  for (Codec codec : {Codec::kRaw, Codec::kLz4, Codec::kLz4PlanarDelta}) {
+    if (imageCodecName(codec) == name) return codec;
+  }
+  return std::nullopt;
+}
+
 }  // namespace holofuse

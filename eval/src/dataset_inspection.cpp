@@ -10,6 +10,7 @@
 #include <set>
 
 #include "capture_node/dataset.h"
+#include "common/image_codec.h"
 #include "common/image_io.h"
 #include "eval/geometry_metrics.h"
 #include "fusion_server/visual_hull.h"
@@ -76,15 +77,6 @@ Status verifyFile(const std::string& file, VerifyReport& report) {
     }
   }
   return Status::ok();
-}
-
-const char* codecName(protocol::Codec codec) {
-  switch (codec) {
-    case protocol::Codec::kRaw: return "raw";
-    case protocol::Codec::kLz4: return "lz4";
-    case protocol::Codec::kLz4PlanarDelta: return "lz4-delta";
-  }
-  return "unknown";
 }
 
 // A camera's tile: the image, dimmed where its mask says background, and
@@ -222,7 +214,7 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
     static const char* const kPlaneNames[] = {"colour", "mask", "feather"};
     for (size_t p = 0; p < decoded->codecs.size(); ++p) {
       c.codecs += (c.codecs.empty() ? "" : ", ") + std::string(p < 3 ? kPlaneNames[p] : "plane") + " " +
-                  codecName(decoded->codecs[p]);
+                  imageCodecName(decoded->codecs[p]);
     }
     views.push_back({camera, decoded->mask, decoded->feather});
     images.push_back(std::move(*decoded));

@@ -4,11 +4,11 @@
 //   holofuse_dataset import SRC --format holofuse|colmap|nerf --out DIR [segmentation flags]
 #include <unistd.h>
 
-#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
 
 #include "capture_node/dataset_import.h"
+#include "common/command_line.h"
 #include "eval/dataset_inspection.h"
 
 namespace {
@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
   import->add_option("--close-px", import_options.close_px, "closing radius after thresholding")->check(CLI::Range(0, 100));
   import->add_option("--voxel", import_voxel, "hull voxel size for replays (default: volume / 96)")
       ->check(CLI::Range(0.0001, 0.5));
-  CLI11_PARSE(app, argc, argv);
+  HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (import->parsed()) {
     const auto chosen = capture::captureFormatFromName(format);
     if (!chosen) {

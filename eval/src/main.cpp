@@ -1,11 +1,11 @@
 // holofuse_eval: leave-one-camera-out quality of every blending mode on the
 // named synthetic scenes. See README.md, section "Evaluate".
-#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <exception>
 
+#include "common/command_line.h"
 #include "eval/leave_one_out.h"
 
 int main(int argc, char** argv) {
@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
   app.add_option("--device", options.device, "Vulkan device: index or part of its name");
   std::string budget_file;
   app.add_option("--budget", budget_file, "JSON of per-stage ms budgets (hull and render are checked at p95)");
-  CLI11_PARSE(app, argc, argv);
+  HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (!render::loadBudgetFlag(budget_file, options.budget)) return 2;
   options.hull_error_target = hull_error_mm / 1000.0;
   for (size_t k = 0; k < options.novel_view_degrees.size(); ++k) {

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "common/html_report.h"
+#include "common/image_codec.h"
 #include "result_json.h"
 
 namespace holofuse::eval {
@@ -36,10 +37,12 @@ std::string formatNumber(double v) {
   return buffer;
 }
 
-Knob numberKnob(const std::string& name, const std::string& meaning, double lo, double hi, bool integer,
-                std::function<void(EvalOptions&, double)> set, std::function<double(const EvalOptions&)> get) {
+Knob numberKnob(const std::string& name, const std::string& loop_flag, const std::string& meaning, double lo, double hi,
+                bool integer, std::function<void(EvalOptions&, double)> set,
+                std::function<double(const EvalOptions&)> get) {
   Knob knob;
   knob.name = name;
+  knob.loop_flag = loop_flag;
   knob.meaning = meaning;
   knob.apply = [=](EvalOptions& options, const std::string& text) {
     double v = 0;
@@ -54,58 +57,67 @@ Knob numberKnob(const std::string& name, const std::string& meaning, double lo, 
 
 std::vector<Knob> makeKnobs() {
   std::vector<Knob> knobs;
-  knobs.push_back(numberKnob("voxel", "hull voxel size, metres (the accuracy knob)", 0.004, 0.1, false,
-                             [](EvalOptions& o, double v) { o.voxel_size = v; },
-                             [](const EvalOptions& o) { return o.voxel_size; }));
-  knobs.push_back(numberKnob("hull-error-mm", "hull error target: silhouette error in mm (0: the voxel is fixed)", 0,
-                             100, false, [](EvalOptions& o, double v) { o.hull_error_target = v / 1000.0; },
-                             [](const EvalOptions& o) { return 1000.0 * o.hull_error_target; }));
-  knobs.push_back(numberKnob("k", "geodesic reach in triangle rings", 1, 64, true,
-                             [](EvalOptions& o, double v) { o.fields.geodesic_rings = static_cast<int>(v); },
-                             [](const EvalOptions& o) { return double(o.fields.geodesic_rings); }));
-  knobs.push_back(numberKnob("radius", "geodesic radius, metres: gamma reaches 1 there (0: k mean edges)", 0, 10,
-                             false, [](EvalOptions& o, double v) { o.fields.geodesic_radius = static_cast<float>(v); },
-                             [](const EvalOptions& o) { return double(o.fields.geodesic_radius); }));
-  knobs.push_back(numberKnob("K", "geodesic Jacobi passes", 1, 200, true,
-                             [](EvalOptions& o, double v) { o.fields.geodesic_iterations = static_cast<int>(v); },
-                             [](const EvalOptions& o) { return double(o.fields.geodesic_iterations); }));
-  knobs.push_back(numberKnob("alpha", "exponent of the view weights", 0, 100, false,
-                             [](EvalOptions& o, double v) { o.alpha = static_cast<float>(v); },
-                             [](const EvalOptions& o) { return double(o.alpha); }));
-  knobs.push_back(numberKnob("lambda", "temporal rate per frame at 30 fps (eq. 5)", 0, 1, false,
-                             [](EvalOptions& o, double v) { o.lambda = v; },
-                             [](const EvalOptions& o) { return o.lambda; }));
-  knobs.push_back(numberKnob("cameras", "pods on the ring", 2, 16, true,
-                             [](EvalOptions& o, double v) { o.cameras = static_cast<int>(v); },
-                             [](const EvalOptions& o) { return double(o.cameras); }));
-  knobs.push_back(numberKnob("dilation", "eps: discontinuity dilation in pixels (-1: scaled from the paper's)", -1, 16,
-                             true, [](EvalOptions& o, double v) { o.fields.dilation_px = static_cast<int>(v); },
-                             [](const EvalOptions& o) { return double(o.fields.dilation_px); }));
-  knobs.push_back(numberKnob("delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3)", 0, 10,
-                             false, [](EvalOptions& o, double v) { o.fields.vote_delta = static_cast<float>(v); },
-                             [](const EvalOptions& o) { return double(o.fields.vote_delta); }));
-  knobs.push_back(numberKnob("draco-bits", "Draco position quantisation bits", 6, 24, true,
-                             [](EvalOptions& o, double v) { o.draco.position_bits = static_cast<int>(v); },
-                             [](const EvalOptions& o) { return double(o.draco.position_bits); }));
-  knobs.push_back(numberKnob("lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", 1, 65537,
-                             true, [](EvalOptions& o, double v) { o.lz4_acceleration = static_cast<int>(v); },
-                             [](const EvalOptions& o) { return double(o.lz4_acceleration); }));
+  knobs.push_back(numberKnob(
+      "voxel", "--voxel", "hull voxel size, metres (the accuracy knob)", 0.004, 0.1, false,
+      [](EvalOptions& o, double v) { o.voxel_size = v; }, [](const EvalOptions& o) { return o.voxel_size; }));
+  knobs.push_back(numberKnob(
+      "hull-error-mm", "--hull-error-mm", "hull error target: silhouette error in mm (0: the voxel is fixed)", 0, 100,
+      false, [](EvalOptions& o, double v) { o.hull_error_target = v / 1000.0; },
+      [](const EvalOptions& o) { return 1000.0 * o.hull_error_target; }));
+  knobs.push_back(numberKnob(
+      "k", "--geodesic-rings", "geodesic reach in triangle rings", 1, 64, true,
+      [](EvalOptions& o, double v) { o.fields.geodesic_rings = static_cast<int>(v); },
+      [](const EvalOptions& o) { return double(o.fields.geodesic_rings); }));
+  knobs.push_back(numberKnob(
+      "radius", "--geodesic-radius", "geodesic radius, metres: gamma reaches 1 there (0: k mean edges)", 0, 10, false,
+      [](EvalOptions& o, double v) { o.fields.geodesic_radius = static_cast<float>(v); },
+      [](const EvalOptions& o) { return double(o.fields.geodesic_radius); }));
+  knobs.push_back(numberKnob(
+      "K", "--geodesic-passes", "geodesic Jacobi passes", 1, 200, true,
+      [](EvalOptions& o, double v) { o.fields.geodesic_iterations = static_cast<int>(v); },
+      [](const EvalOptions& o) { return double(o.fields.geodesic_iterations); }));
+  knobs.push_back(numberKnob(
+      "alpha", "--alpha", "exponent of the view weights", 0, 100, false,
+      [](EvalOptions& o, double v) { o.alpha = static_cast<float>(v); },
+      [](const EvalOptions& o) { return double(o.alpha); }));
+  knobs.push_back(numberKnob(
+      "lambda", "--lambda", "temporal rate per frame at 30 fps (eq. 5)", 0, 1, false,
+      [](EvalOptions& o, double v) { o.lambda = v; }, [](const EvalOptions& o) { return o.lambda; }));
+  knobs.push_back(numberKnob(
+      "cameras", "--pods", "pods on the ring", 2, 16, true,
+      [](EvalOptions& o, double v) { o.cameras = static_cast<int>(v); },
+      [](const EvalOptions& o) { return double(o.cameras); }));
+  knobs.push_back(numberKnob(
+      "dilation", "--dilation", "eps: discontinuity dilation in pixels (-1: scaled from the paper's)", -1, 16, true,
+      [](EvalOptions& o, double v) { o.fields.dilation_px = static_cast<int>(v); },
+      [](const EvalOptions& o) { return double(o.fields.dilation_px); }));
+  knobs.push_back(numberKnob(
+      "delta", "--vote-delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3)", 0, 10, false,
+      [](EvalOptions& o, double v) { o.fields.vote_delta = static_cast<float>(v); },
+      [](const EvalOptions& o) { return double(o.fields.vote_delta); }));
+  knobs.push_back(numberKnob(
+      "draco-bits", "--draco-bits", "Draco position quantisation bits", 6, 24, true,
+      [](EvalOptions& o, double v) { o.draco.position_bits = static_cast<int>(v); },
+      [](const EvalOptions& o) { return double(o.draco.position_bits); }));
+  knobs.push_back(numberKnob(
+      "lz4-acceleration", "--lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", 1, 65537,
+      true, [](EvalOptions& o, double v) { o.lz4_acceleration = static_cast<int>(v); },
+      [](const EvalOptions& o) { return double(o.lz4_acceleration); }));
   Knob codec;
   codec.name = "image-codec";
+  codec.loop_flag = "--image-codec";
   codec.meaning = "colour planes: raw, lz4, or lz4-delta (planar with a left-neighbour delta pre-filter)";
   codec.apply = [](EvalOptions& o, const std::string& v) -> std::string {
-    if (v == "raw") o.image_codec = protocol::Codec::kRaw;
-    else if (v == "lz4") o.image_codec = protocol::Codec::kLz4;
-    else if (v == "lz4-delta") o.image_codec = protocol::Codec::kLz4PlanarDelta;
-    else return "'" + v + "' is not one of raw, lz4, lz4-delta";
+    const auto chosen = imageCodecFromName(v);
+    if (!chosen) return "'" + v + "' is not one of raw, lz4, lz4-delta";
+    o.image_codec = *chosen;
     return "";
   };
-  codec.current = [](const EvalOptions& o) -> std::string {
-    return o.image_codec == protocol::Codec::kRaw ? "raw" : o.image_codec == protocol::Codec::kLz4 ? "lz4" : "lz4-delta";
-  };
+  codec.current = [](const EvalOptions& o) { return imageCodecName(o.image_codec); };
   knobs.push_back(codec);
   Knob size;
   size.name = "size";
+  size.loop_flag = "--size";
   size.meaning = "camera and output image size WxH";
   size.apply = [](EvalOptions& o, const std::string& v) -> std::string {
     unsigned w = 0, h = 0;
@@ -308,6 +320,13 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::functio
   return points;
 }
 
+// The live loop with one knob set as a sweep point had it (the rest at
+// their defaults, as in the sweep).
+std::string liveCommand(const SweepOptions& options, const std::string& knob, const std::string& value) {
+  return "./holofuse demo --scene " + options.base.scenes.at(0) + " --mode " + primaryMode(options.base) + " " +
+         findKnob(knob)->loop_flag + " " + value;
+}
+
 void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint>& points) {
   const std::string mode = primaryMode(options.base);
   nlohmann::json json;
@@ -373,6 +392,7 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                              {"pipeline_ms", pipelineMs(p.result, mode)},
                              {"bytes_per_frame", p.result.bytes_per_frame},
                              {"on_front", onFront(i)},
+                             {"live_command", liveCommand(options, name, p.value)},
                              {"result", sceneResultJson(p.result)}});
       char cells[5][32];
       std::snprintf(cells[0], sizeof(cells[0]), "%.2f", m.psnr_db);
@@ -385,7 +405,8 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
             " | " + cells[4] + " | " + (onFront(i) ? "yes" : "") + " |\n";
       rows.push_back({name, value, cells[0], cells[1], cells[2], cells[3], cells[4], onFront(i) ? "yes" : ""});
     }
-    md += "\n" + verdict + ".\n\n";
+    const std::string live = liveCommand(options, name, "VALUE");
+    md += "\n" + verdict + ". A value in the live loop: `" + live + "`.\n\n";
     auto plot = [&](const std::vector<std::pair<double, double>>& xy, const std::string& title, const std::string& x) {
       const auto f = paretoFront(xy);
       std::vector<html::Point> marks;
@@ -396,7 +417,9 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
       return html::scatterChart(title, x, "PSNR dB", marks);
     };
     body += "<h2>" + html::escape(name) + "</h2>\n<p>" + html::escape(findKnob(name)->meaning) + ". " +
-            html::escape(verdict) + ". Filled: the Pareto front of each plot's pair; red ring: the default.</p>\n";
+            html::escape(verdict) +
+            ". Filled: the Pareto front of each plot's pair; red ring: the default. A value in " +
+            "the live loop: <code>" + html::escape(live) + "</code>.</p>\n";
     body += plot(by_client, "PSNR against client ms (" + name + ")", "client ms per new mesh");
     body += plot(by_pipeline, "PSNR against pipeline ms (" + name + ")", "hull + codecs + client ms");
     body += plot(by_bytes, "PSNR against bytes per frame (" + name + ")", "bytes per frame, server to client");

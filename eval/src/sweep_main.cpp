@@ -1,9 +1,9 @@
 // holofuse_sweep: the speed/accuracy trade, one knob at a time. See
 // README.md, section "Sweep".
-#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
 
+#include "common/command_line.h"
 #include "eval/sweep.h"
 
 int main(int argc, char** argv) {
@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 16));
   app.add_option("--out", options.out_dir, "output folder (points/, sweep.json, sweep.md, sweep.html)")->required();
   app.add_option("--device", options.base.device, "Vulkan device: index or part of its name");
-  CLI11_PARSE(app, argc, argv);
+  HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   options.base.scenes = {scene};
   if (capture::findScene(scene) == nullptr) {
     std::fprintf(stderr, "--scene: unknown scene '%s'; valid scenes: %s\n", scene.c_str(), capture::sceneNames().c_str());

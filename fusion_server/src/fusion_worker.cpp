@@ -61,9 +61,11 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
     image.offset_x = pod.offset_x;  // clients get the rectangle too
     image.offset_y = pod.offset_y;
     storage->emplace_back();
-    image.planes.push_back(encodePlane(pod.color, protocol::PlaneKind::kColor, settings.image_codec, storage->back()));
+    image.planes.push_back(encodePlane(pod.color, protocol::PlaneKind::kColor, settings.image_codec, storage->back(),
+                                       settings.lz4_acceleration));
     storage->emplace_back();
-    image.planes.push_back(encodePlane(pod.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage->back()));
+    image.planes.push_back(encodePlane(pod.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage->back(),
+                                       settings.lz4_acceleration));
     bundle.images.push_back(std::move(image));
   }
   const uint64_t t3 = monotonicNs();

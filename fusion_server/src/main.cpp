@@ -1,9 +1,10 @@
 // fusion_server: syncs pod frames, carves the visual hull, fans out to
 // render clients. See README.md for the flags.
-#include <CLI/CLI.hpp>
 #include <csignal>
 #include <cstdio>
 
+#include "common/command_line.h"
+#include "common/image_codec.h"
 #include "common/shutdown.h"
 #include "fusion_server/fusion_server.h"
 
@@ -28,7 +29,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(4, 24));
   app.add_option("--draco-speed", options.fusion.draco.speed, "Draco speed 0 (small) .. 10 (fast)")->check(CLI::Range(0, 10));
   app.add_option("--image-codec", image_codec, "codec of the images sent to clients")
-      ->check(CLI::IsMember({"raw", "lz4", "lz4-delta"}));
+      ->check(CLI::IsMember(imageCodecNames()));
+  app.add_option("--lz4-acceleration", options.fusion.lz4_acceleration,
+                 "LZ4 acceleration of the images sent to clients (1 = default; higher: faster, larger)")
+      ->check(CLI::Range(1, 65537));
   app.add_option("--client-queue", options.client_queue_frames, "frames queued per client before dropping the oldest")
       ->check(CLI::Range(1, 1024));
   app.add_option("--idle-timeout-ms", options.idle_timeout_ms, "close a silent peer after this long")
@@ -44,7 +48,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 64));
   app.add_flag("--exit-when-pods-done", options.exit_when_pods_done,
                "stop once every pod has left and its frames are fused and delivered (end of a replay)");
-  CLI11_PARSE(app, argc, argv);
+  HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   options.fusion.hull_error_target = hull_error_mm / 1000.0;
   if (!volume.empty()) {
     double v[6];
@@ -66,9 +70,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   options.listen = *endpoint;
-  options.fusion.image_codec = image_codec == "raw"   ? protocol::Codec::kRaw
-                               : image_codec == "lz4" ? protocol::Codec::kLz4
-                                                      : protocol::Codec::kLz4PlanarDelta;
+  options.fusion.image_codec = *imageCodecFromName(image_codec);
   installStopSignals();
   // A recording that reaches a file size limit gets EFBIG from write() and
   // is reported like a full disk, instead of the signal ending the server.

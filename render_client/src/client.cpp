@@ -418,10 +418,26 @@ int runClient(const ClientOptions& options) {
   }
   link.close(stopRequested() ? "client stopped by signal" : "client rendered its frames");
   report.setSuperseded(frames_superseded);
-  std::map<std::string, std::string> settings = {{"mode", blendModeName(options.blend.mode)},
-                                                 {"view", options.view},
-                                                 {"size", std::to_string(options.width) + "x" + std::to_string(options.height)},
-                                                 {"device", context->deviceName()}};
+  // What the frames were rendered with, so that a report can be matched
+  // with the sweep point it was meant to reproduce.
+  auto number = [](double v) {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%g", v);
+    return std::string(text);
+  };
+  const FieldParameters& fields = options.blend.fields;
+  std::map<std::string, std::string> settings = {
+      {"mode", blendModeName(options.blend.mode)},
+      {"view", options.view},
+      {"size", std::to_string(options.width) + "x" + std::to_string(options.height)},
+      {"device", context->deviceName()},
+      {"alpha", number(options.blend.alpha)},
+      {"lambda", number(options.blend.lambda)},
+      {"dilation", number(fields.dilation_px)},
+      {"vote_delta", number(fields.vote_delta)},
+      {"geodesic_rings", number(fields.geodesic_rings)},
+      {"geodesic_passes", number(fields.geodesic_iterations)},
+      {"geodesic_radius", number(fields.geodesic_radius)}};
   const fs::path report_path = out_dir / "report.json";
   std::ofstream(report_path) << report.toJson(settings, options.budget);
   std::ofstream(out_dir / "report.html") << report.toHtml(settings, options.budget);

@@ -1,8 +1,8 @@
 // render_client: headless Vulkan renderer of the fused stream. See
 // README.md for the flags.
-#include <CLI/CLI.hpp>
 #include <cstdio>
 
+#include "common/command_line.h"
 #include "common/shutdown.h"
 #include "render_client/client.h"
 
@@ -37,13 +37,22 @@ int main(int argc, char** argv) {
   app.add_option("--geodesic-radius", options.blend.fields.geodesic_radius,
                  "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)")
       ->check(CLI::Range(0.0, 1000.0));
+  app.add_option("--geodesic-rings", options.blend.fields.geodesic_rings,
+                 "montage4d: k, the geodesic reach in triangle rings")
+      ->check(CLI::Range(1, render::kMaxGeodesicRings));
+  app.add_option("--geodesic-passes", options.blend.fields.geodesic_iterations,
+                 "montage4d: K, the geodesic Jacobi passes")
+      ->check(CLI::Range(1, 200));
+  app.add_option("--vote-delta", options.blend.fields.vote_delta,
+                 "majority vote: Lab distance / 100 under which two views agree (eq. 3)")
+      ->check(CLI::Range(0.0, 10.0));
   app.add_option("--exclude-camera", options.exclude_camera, "leave this pod camera out of the blend");
   app.add_option("--device", options.device, "Vulkan device: index or part of its name (default: a GPU if any)");
   app.add_option("--client-id", options.client_id, "this client's id");
   app.add_flag("--list-devices", list_devices, "print the Vulkan devices and exit");
   std::string budget_file;
   app.add_option("--budget", budget_file, "JSON of per-stage ms budgets (stage names of report.json, end_to_end)");
-  CLI11_PARSE(app, argc, argv);
+  HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (list_devices) {
     try {
       const auto devices = render::VulkanContext::listDevices();

@@ -3,6 +3,7 @@
 // measured with), the Pareto front and the default's place.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -151,7 +152,26 @@ TEST(Sweep, TheDefaultIsDominatedOnlyByAPointNoWorseOnEveryCost) {
   EXPECT_EQ(json["knobs"]["draco-bits"]["points"][1]["on_front"], false) << "14 bits: dominated by 11";
   EXPECT_DOUBLE_EQ(json["knobs"]["draco-bits"]["points"][1]["pipeline_ms"].get<double>(), 20 + 6 + 30);
   EXPECT_EQ(json["knobs"]["alpha"]["default_verdict"], "the default (alpha=2) is dominated by alpha=1");
+  EXPECT_EQ(json["knobs"]["alpha"]["points"][0]["live_command"],
+            "./holofuse demo --scene few-cameras --mode normal --alpha 1");
+  EXPECT_EQ(json["knobs"]["draco-bits"]["points"][1]["live_command"],
+            "./holofuse demo --scene few-cameras --mode normal --draco-bits 14");
   fs::remove_all(dir);
+}
+
+// Every knob can be set in the live loop: its flag is one of the
+// launcher's (tests/integration/test_loop.cpp runs the loop with them).
+TEST(Sweep, EveryKnobIsAFlagOfTheLiveLoop) {
+  std::string help;
+  std::FILE* pipe = popen((std::string(HOLOFUSE_BIN_DIR) + "/holofuse_loop --help").c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  char buffer[4096];
+  for (size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) help.append(buffer, n);
+  ASSERT_EQ(pclose(pipe), 0);
+  for (const Knob& knob : sweepKnobs()) {
+    ASSERT_FALSE(knob.loop_flag.empty()) << knob.name;
+    EXPECT_NE(help.find("  " + knob.loop_flag + " "), std::string::npos) << knob.name << ": " << knob.loop_flag;
+  }
 }
 
 TEST(Sweep, KnobsChangeWhatTheyName) {

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
@@ -15,10 +16,10 @@
 #include "capture_node/synthetic_scene.h"
 #include "common/camera.h"
 #include "common/image_codec.h"
-#include "protocol/messages.h"
-#include "protocol/frame.h"
-#include "protocol/socket.h"
 #include "process_harness.h"
+#include "protocol/frame.h"
+#include "protocol/messages.h"
+#include "protocol/socket.h"
 
 namespace {
 
@@ -257,12 +258,84 @@ TEST(Loop, ASilentPeerIsClosedAfterTheIdleTimeout) {
   EXPECT_NE(readFile(out / "server.log").find("heard nothing for 800 ms"), std::string::npos);
 }
 
+// The sweep's knobs (holofuse_sweep) are flags of the loop too, so a point
+// can be run live: each reaches the process it belongs to, which says so in
+// its report or its log.
+TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
+  const fs::path out = freshDir("loop_settings");
+  const pid_t loop = spawn({kBin + "/holofuse_loop",
+                            "--pods",
+                            "2",
+                            "--frames",
+                            "2",
+                            "--fps",
+                            "4",
+                            "--size",
+                            "160x120",
+                            "--mode",
+                            "montage4d",
+                            "--voxel",
+                            "0.03",
+                            "--draco-bits",
+                            "12",
+                            "--image-codec",
+                            "lz4",
+                            "--lz4-acceleration",
+                            "8",
+                            "--alpha",
+                            "3",
+                            "--lambda",
+                            "0.5",
+                            "--dilation",
+                            "1",
+                            "--vote-delta",
+                            "0.25",
+                            "--geodesic-rings",
+                            "9",
+                            "--geodesic-passes",
+                            "11",
+                            "--geodesic-radius",
+                            "0.04",
+                            "--out",
+                            out.string()},
+                           out / "loop.log");
+  ASSERT_EQ(waitExit(loop, 120), 0) << readFile(out / "loop.log");
+  const auto settings = readJson(out / "report.json").at("settings");
+  const std::map<std::string, std::string> expected = {
+      {"mode", "montage4d"},  {"alpha", "3"},          {"lambda", "0.5"},         {"dilation", "1"},
+      {"vote_delta", "0.25"}, {"geodesic_rings", "9"}, {"geodesic_passes", "11"}, {"geodesic_radius", "0.04"}};
+  for (const auto& [key, value] : expected) EXPECT_EQ(settings.at(key).get<std::string>(), value) << key;
+  const std::string server_log = readFile(out / "logs" / "server.log");
+  EXPECT_NE(server_log.find("voxel 0.03 m"), std::string::npos) << server_log;
+  EXPECT_NE(server_log.find("Draco 12 bits"), std::string::npos) << server_log;
+  EXPECT_NE(server_log.find("images to clients lz4 at LZ4 acceleration 8"), std::string::npos) << server_log;
+  for (int pod = 0; pod < 2; ++pod) {
+    const std::string pod_log = readFile(out / "logs" / ("pod" + std::to_string(pod) + ".log"));
+    EXPECT_NE(pod_log.find("colour lz4 at LZ4 acceleration 8"), std::string::npos) << pod_log;
+  }
+  // A value outside the range of the process it goes to is refused before
+  // anything starts, naming the flag.
+  const fs::path refused = freshDir("loop_settings_refused");
+  EXPECT_EQ(waitExit(spawn({kBin + "/holofuse_loop", "--geodesic-rings", "65", "--out", refused.string()},
+                           refused / "loop.log"),
+                     10),
+            2);
+  EXPECT_NE(readFile(refused / "loop.log").find("--geodesic-rings"), std::string::npos);
+  EXPECT_FALSE(fs::exists(refused / "logs"));
+}
+
 TEST(Loop, WrongFlagsPrintUsageAndFail) {
   const fs::path out = freshDir("flags");
-  EXPECT_NE(waitExit(spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "9", "--pods", "4"},
-                           out / "a.log"), 10), 0);
-  EXPECT_NE(waitExit(spawn({kBin + "/fusion_server", "--no-such-flag"}, out / "b.log"), 10), 0);
-  EXPECT_NE(waitExit(spawn({kBin + "/render_client", "--server", "nonsense"}, out / "c.log"), 10), 0);
+  EXPECT_EQ(waitExit(spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "9", "--pods", "4"},
+                           out / "a.log"),
+                     10),
+            2);
+  EXPECT_EQ(waitExit(spawn({kBin + "/fusion_server", "--no-such-flag"}, out / "b.log"), 10), 2);
+  EXPECT_EQ(waitExit(spawn({kBin + "/render_client", "--server", "nonsense"}, out / "c.log"), 10), 2);
+  // A value out of range (CLI11's checks) exits 2 as well, naming the flag.
+  EXPECT_EQ(waitExit(spawn({kBin + "/render_client", "--server", "127.0.0.1:1", "--alpha", "-1"}, out / "d.log"), 10),
+            2);
+  EXPECT_NE(readFile(out / "d.log").find("--alpha"), std::string::npos);
   std::ifstream log(out / "a.log");
   const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("--pod-id"), std::string::npos);

@@ -24,6 +24,7 @@ struct PodOptions {
   // The calibration the pod reports is off by this much (scene presets).
   double calibration_error_degrees = 0.0;
   double calibration_error_metres = 0.0;
+  int lz4_acceleration = 1;  // LZ4's (1 = default; higher: faster, larger)
   int crop_margin = 8;  // pixels around the foreground's rectangle; kFullFrame sends whole images
 };
 
@@ -45,10 +46,11 @@ PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, co
 // are borrowed by the frame, not copied), appending the encode stamp. With
 // crop_margin >= 0 only the foreground's bounding rectangle grown by that
 // many pixels is sent, with its offset (paper 004: model only what the
-// scene requires); kFullFrame sends every pixel.
+// scene requires); kFullFrame sends every pixel. lz4_acceleration is LZ4's
+// (1 = default).
 constexpr int kFullFrame = -1;
 protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec,
-                                       int crop_margin = kFullFrame);
+                                       int crop_margin = kFullFrame, int lz4_acceleration = 1);
 
 // Runs until stopped (signal, frame count) or the server refuses the
 // version. Returns the process exit code.

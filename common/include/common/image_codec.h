@@ -3,6 +3,8 @@
 // pre-filter raises LZ4's ratio on camera images).
 #pragma once
 
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "common/image.h"
@@ -15,6 +17,12 @@ namespace holofuse {
 // storage, which must outlive it. acceleration is LZ4's (1 = default).
 protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, protocol::Codec codec,
                             std::vector<uint8_t>& storage, int acceleration = 1);
+
+// The colour codecs' names on command lines and in reports: raw, lz4,
+// lz4-delta (planar with the horizontal delta).
+const std::vector<std::string>& imageCodecNames();
+std::string imageCodecName(protocol::Codec codec);
+std::optional<protocol::Codec> imageCodecFromName(const std::string& name);
 
 // Decodes a plane from untrusted bytes. Safe on any input: the declared
 // size is capped and checked, LZ4 runs in its safe mode, and any mismatch is

@@ -22,6 +22,9 @@ namespace holofuse::eval {
 
 struct Knob {
   std::string name, meaning;
+  // The flag of `./holofuse demo` that sets the same thing in the live
+  // loop, so that a point can be run live.
+  std::string loop_flag;
   // Sets the value on options; returns "" or what is wrong with the value.
   std::function<std::string(EvalOptions&, const std::string&)> apply;
   // The value options hold now, as the sweep spells it.

@@ -28,6 +28,7 @@ struct FusionSettings {
   double hull_error_target = 0;
   DracoOptions draco;
   protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
+  int lz4_acceleration = 1;  // of the images sent to clients (1 = LZ4's default)
   uint32_t pods_expected = 0;
 };
 
