@@ -137,45 +137,9 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
     return Status(StatusCode::kUnexpectedMessage, "PodFrame before Calibration");
   }
   const uint64_t now = monotonicNs();
-  PodImages images;
-  images.camera_id = pod.camera_id;
-  images.capture_time_ns = pod.capture_time_ns;
-  images.bytes = frame.bytes.size();
-  images.stamps = pod.stamps;
-  uint64_t encode_end = pod.capture_time_ns;
-  for (const auto& s : pod.stamps) {
-    if (s.stage == static_cast<uint16_t>(protocol::Stage::kPodEncode)) encode_end = s.end_ns;
-  }
-  images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend), static_cast<uint16_t>(pod.camera_id),
-                           encode_end, now});
-  images.camera = cam->second;  // the calibration these images belong to
-  for (const auto& plane : pod.planes) {
-    // Checked against the calibration before anything is decompressed: the
-    // planes are the image, or a rectangle of it at the frame's offset.
-    if (!cropFits(pod.offset_x, pod.offset_y, plane.width, plane.height, cam->second.width, cam->second.height) ||
-        (pod.planes.front().width != plane.width || pod.planes.front().height != plane.height)) {
-      return Status(StatusCode::kMalformed, "plane " + std::to_string(static_cast<int>(plane.kind)) + " is " +
-                                                std::to_string(plane.width) + "x" + std::to_string(plane.height) +
-                                                " at (" + std::to_string(pod.offset_x) + ", " +
-                                                std::to_string(pod.offset_y) + "), calibration says " +
-                                                std::to_string(cam->second.width) + "x" +
-                                                std::to_string(cam->second.height));
-    }
-    auto image = decodePlane(plane);
-    if (!image.isOk()) return image.status();
-    switch (plane.kind) {
-      case protocol::PlaneKind::kColor: images.color = std::move(*image); break;
-      case protocol::PlaneKind::kMask: images.mask = std::move(*image); break;
-      case protocol::PlaneKind::kFeather: images.feather = std::move(*image); break;
-      case protocol::PlaneKind::kDepth: break;  // not used by the hull yet
-    }
-  }
-  if (images.color.channels != 3 || images.mask.channels != 1 || images.feather.channels != 1) {
-    return Status(StatusCode::kMalformed, "PodFrame needs an RGB colour, a grey mask and a grey feather plane");
-  }
-  images.offset_x = pod.offset_x;
-  images.offset_y = pod.offset_y;
-  const FrameSync::Added added = sync_.add(pod.frame_id, std::move(images), now);
+  auto images = podImagesOf(pod, frame.bytes.size(), cam->second, now);
+  if (!images.isOk()) return images.status();
+  const FrameSync::Added added = sync_.add(pod.frame_id, std::move(*images), now);
   if (added == FrameSync::Added::kImplausible) {
     return Status(StatusCode::kMalformed, "field 'pod_frame.frame_id': " + std::to_string(pod.frame_id) +
                                               " is implausibly far ahead of the frames being fused");

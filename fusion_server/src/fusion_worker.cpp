@@ -14,23 +14,56 @@ using protocol::monotonicNs;
 using protocol::Stage;
 using protocol::kSourceServer;
 
-FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
-  const FrameGroup& group = job.group;
-  FusedOutput out;
-  out.frame_id = group.frame_id;
-  std::vector<protocol::StageStamp> stamps;
-  uint64_t capture_time = UINT64_MAX;
-  uint64_t pod_bytes = 0;
-  uint64_t present = 0;
+protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes, const Camera& camera,
+                                          uint64_t now_ns) {
+  PodImages images;
+  images.camera_id = pod.camera_id;
+  images.capture_time_ns = pod.capture_time_ns;
+  images.bytes = wire_bytes;
+  images.stamps = pod.stamps;
+  uint64_t encode_end = pod.capture_time_ns;
+  for (const auto& s : pod.stamps) {
+    if (s.stage == static_cast<uint16_t>(protocol::Stage::kPodEncode)) encode_end = s.end_ns;
+  }
+  images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend), static_cast<uint16_t>(pod.camera_id),
+                           encode_end, now_ns});
+  images.camera = camera;  // the calibration these images belong to
+  for (const auto& plane : pod.planes) {
+    // Checked against the calibration before anything is decompressed: the
+    // planes are the image, or a rectangle of it at the frame's offset.
+    if (!cropFits(pod.offset_x, pod.offset_y, plane.width, plane.height, camera.width, camera.height) ||
+        (pod.planes.front().width != plane.width || pod.planes.front().height != plane.height)) {
+      return protocol::Status(protocol::StatusCode::kMalformed,
+                              "plane " + std::to_string(static_cast<int>(plane.kind)) + " is " +
+                                  std::to_string(plane.width) + "x" + std::to_string(plane.height) + " at (" +
+                                  std::to_string(pod.offset_x) + ", " + std::to_string(pod.offset_y) +
+                                  "), calibration says " + std::to_string(camera.width) + "x" +
+                                  std::to_string(camera.height));
+    }
+    auto image = decodePlane(plane);
+    if (!image.isOk()) return image.status();
+    switch (plane.kind) {
+      case protocol::PlaneKind::kColor: images.color = std::move(*image); break;
+      case protocol::PlaneKind::kMask: images.mask = std::move(*image); break;
+      case protocol::PlaneKind::kFeather: images.feather = std::move(*image); break;
+      case protocol::PlaneKind::kDepth: break;  // not used by the hull yet
+    }
+  }
+  if (images.color.channels != 3 || images.mask.channels != 1 || images.feather.channels != 1) {
+    return protocol::Status(protocol::StatusCode::kMalformed,
+                            "PodFrame needs an RGB colour, a grey mask and a grey feather plane");
+  }
+  images.offset_x = pod.offset_x;
+  images.offset_y = pod.offset_y;
+  return images;
+}
+
+std::vector<HullView> hullViewsOf(const FrameGroup& group) {
   std::vector<HullView> views;
   for (const auto& [camera_id, pod] : group.pods) {
-    stamps.insert(stamps.end(), pod.stamps.begin(), pod.stamps.end());
-    capture_time = std::min(capture_time, pod.capture_time_ns);
-    pod_bytes += pod.bytes;
-    // The calibration stored with the images: a newer one may have other
-    // sizes.
-    if (camera_id < 64) present |= uint64_t{1} << camera_id;
-    // The hull samples whole silhouettes: a rectangle goes back into its frame.
+    // The hull samples whole silhouettes: a rectangle goes back into its
+    // frame, in the calibration stored with the images (a newer one may
+    // have other sizes).
     const bool whole = pod.offset_x == 0 && pod.offset_y == 0 && pod.mask.width == pod.camera.width &&
                        pod.mask.height == pod.camera.height;
     views.push_back(whole ? HullView{pod.camera, pod.mask, pod.feather}
@@ -39,16 +72,42 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
                                      placeInFrame(pod.feather, pod.offset_x, pod.offset_y, pod.camera.width,
                                                   pod.camera.height)});
   }
-  stamps.push_back({static_cast<uint16_t>(Stage::kSyncWait), kSourceServer, group.first_arrival_ns, group.emitted_ns});
+  return views;
+}
 
+FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
+  const std::vector<HullView> views = hullViewsOf(job.group);
   const uint64_t t0 = monotonicNs();
   Mesh mesh = carveVisualHull(views, settings.hull);
-  out.voxel_size = settings.hull.voxel_size;
   const uint64_t t1 = monotonicNs();
-  stamps.push_back({static_cast<uint16_t>(Stage::kHull), kSourceServer, t0, t1});
+  FusedOutput out = packageFused(job, settings, mesh, t0, t1);
+  // Measured after the frame is on its way (not part of the hull's time):
+  // it only steers the next frame's voxel.
+  if (settings.hull_error_target > 0) out.silhouette_error = silhouetteError(mesh, views);
+  return out;
+}
+
+FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
+                         uint64_t hull_start_ns, uint64_t hull_end_ns) {
+  const FrameGroup& group = job.group;
+  FusedOutput out;
+  out.frame_id = group.frame_id;
+  std::vector<protocol::StageStamp> stamps;
+  uint64_t capture_time = UINT64_MAX;
+  uint64_t pod_bytes = 0;
+  uint64_t present = 0;
+  for (const auto& [camera_id, pod] : group.pods) {
+    stamps.insert(stamps.end(), pod.stamps.begin(), pod.stamps.end());
+    capture_time = std::min(capture_time, pod.capture_time_ns);
+    pod_bytes += pod.bytes;
+    if (camera_id < 64) present |= uint64_t{1} << camera_id;
+  }
+  stamps.push_back({static_cast<uint16_t>(Stage::kSyncWait), kSourceServer, group.first_arrival_ns, group.emitted_ns});
+  out.voxel_size = settings.hull.voxel_size;
+  stamps.push_back({static_cast<uint16_t>(Stage::kHull), kSourceServer, hull_start_ns, hull_end_ns});
   auto draco = encodeDraco(mesh, settings.draco);
   const uint64_t t2 = monotonicNs();
-  stamps.push_back({static_cast<uint16_t>(Stage::kMeshEncode), kSourceServer, t1, t2});
+  stamps.push_back({static_cast<uint16_t>(Stage::kMeshEncode), kSourceServer, hull_end_ns, t2});
 
   protocol::TextureBundle bundle;
   bundle.frame_id = group.frame_id;
@@ -112,9 +171,6 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   out.mesh_frame = share(protocol::encodeOutgoing(mesh_frame, protocol::nextSequence(), draco_bytes));
   out.stats = share(protocol::encodeOutgoing(stats, protocol::nextSequence()));
   out.triangles = mesh.triangleCount();
-  // Measured after the frame is on its way (not part of the hull's time):
-  // it only steers the next frame's voxel.
-  if (settings.hull_error_target > 0) out.silhouette_error = silhouetteError(mesh, views);
   return out;
 }
 

@@ -124,6 +124,44 @@ std::optional<Camera> userCamera(const ClientOptions& options, const std::map<ui
   return lookAtCamera(0, eye, target, up, options.width, options.height, fov_x);
 }
 
+protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& bundle,
+                                                          const std::map<uint32_t, Camera>& cameras) {
+  std::vector<ViewImages> views;
+  for (const auto& image : bundle.images) {
+    auto malformed = [&](const std::string& what) {
+      return protocol::Status(protocol::StatusCode::kMalformed, "camera " + std::to_string(image.camera_id) + what);
+    };
+    auto cam = cameras.find(image.camera_id);
+    if (cam == cameras.end()) return malformed(" has no calibration");
+    ViewImages view;
+    view.camera = cam->second;
+    for (const auto& plane : image.planes) {
+      auto decoded = decodePlane(plane);
+      if (!decoded.isOk()) return malformed(": " + decoded.status().message());
+      if (plane.kind == protocol::PlaneKind::kColor) view.color = std::move(*decoded);
+      if (plane.kind == protocol::PlaneKind::kMask) view.mask = std::move(*decoded);
+    }
+    // A rectangle of the image (the pods send their foreground's): back
+    // into a whole frame, background black with mask 0.
+    const bool whole = image.offset_x == 0 && image.offset_y == 0 && view.color.width == view.camera.width &&
+                       view.color.height == view.camera.height;
+    if (!whole && view.color.width == view.mask.width && view.color.height == view.mask.height &&
+        cropFits(image.offset_x, image.offset_y, view.color.width, view.color.height, view.camera.width,
+                 view.camera.height)) {
+      view.color = placeInFrame(view.color, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
+      view.mask = placeInFrame(view.mask, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
+    }
+    if (view.color.width != view.camera.width || view.color.height != view.camera.height ||
+        view.mask.width != view.camera.width || view.mask.height != view.camera.height || view.color.channels != 3 ||
+        view.mask.channels != 1) {
+      return malformed(" images are not " + std::to_string(view.camera.width) + "x" +
+                       std::to_string(view.camera.height) + " RGB + mask");
+    }
+    views.push_back(std::move(view));
+  }
+  return views;
+}
+
 int runClient(const ClientOptions& options) {
   namespace fs = std::filesystem;
   const fs::path out_dir(options.out_dir);
@@ -230,46 +268,10 @@ int runClient(const ClientOptions& options) {
         for (auto& stamp : pending.stamps) {
           if (stamp.stage == static_cast<uint16_t>(Stage::kFanout) && stamp.end_ns == 0) stamp.end_ns = receive_ns;
         }
-        std::string error;
-        for (const auto& image : bundle.images) {
-          auto cam = cameras.find(image.camera_id);
-          if (cam == cameras.end()) {
-            error = "camera " + std::to_string(image.camera_id) + " has no calibration";
-            break;
-          }
-          ViewImages view;
-          view.camera = cam->second;
-          for (const auto& plane : image.planes) {
-            auto decoded = decodePlane(plane);
-            if (!decoded.isOk()) {
-              error = "camera " + std::to_string(image.camera_id) + ": " + decoded.status().message();
-              break;
-            }
-            if (plane.kind == protocol::PlaneKind::kColor) view.color = std::move(*decoded);
-            if (plane.kind == protocol::PlaneKind::kMask) view.mask = std::move(*decoded);
-          }
-          if (!error.empty()) break;
-          // A rectangle of the image (the pods send their foreground's):
-          // back into a whole frame, background black with mask 0.
-          const bool whole = image.offset_x == 0 && image.offset_y == 0 && view.color.width == view.camera.width &&
-                             view.color.height == view.camera.height;
-          if (!whole && view.color.width == view.mask.width && view.color.height == view.mask.height &&
-              cropFits(image.offset_x, image.offset_y, view.color.width, view.color.height, view.camera.width,
-                       view.camera.height)) {
-            view.color = placeInFrame(view.color, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
-            view.mask = placeInFrame(view.mask, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
-          }
-          if (view.color.width != view.camera.width || view.color.height != view.camera.height ||
-              view.mask.width != view.camera.width || view.mask.height != view.camera.height ||
-              view.color.channels != 3 || view.mask.channels != 1) {
-            error = "camera " + std::to_string(image.camera_id) + " images are not " +
-                    std::to_string(view.camera.width) + "x" + std::to_string(view.camera.height) + " RGB + mask";
-            break;
-          }
-          pending.views.push_back(std::move(view));
-        }
-        if (!error.empty()) {
-          skip(bundle.frame_id, error);
+        auto views = viewsOfBundle(bundle, cameras);
+        if (views.isOk()) pending.views = std::move(*views);
+        if (!views.isOk()) {
+          skip(bundle.frame_id, views.status().message());
           failed_bundles.insert(bundle.frame_id);
           while (failed_bundles.size() > 64) failed_bundles.erase(failed_bundles.begin());
           continue;

@@ -46,8 +46,25 @@ struct GroupJob {
   uint64_t dropped_groups = 0;
 };
 
+// A pod's frame as the fusion takes it: its planes decoded (the whole image
+// or the rectangle the pod sent, checked against camera, the calibration in
+// force) and its stamps with the send stage ending at now_ns. An error names
+// the plane that does not fit or the plane that is missing.
+protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes, const Camera& camera,
+                                          uint64_t now_ns);
+
+// The group's silhouettes and feather maps as whole images, for the hull.
+std::vector<HullView> hullViewsOf(const FrameGroup& group);
+
 // The whole fusion of one group, callable without the thread (tests).
 FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings);
+
+// What fuseGroup sends for a given mesh (carved from hull_start_ns to
+// hull_end_ns): the Draco MeshFrame, the TextureBundle of the pods' images
+// re-encoded for clients, and the Stats. The evaluation packs its own
+// meshes with it, so that its bytes and codec times are the loop's.
+FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
+                         uint64_t hull_start_ns, uint64_t hull_end_ns);
 
 class FusionWorker {
  public:

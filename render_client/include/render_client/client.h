@@ -7,10 +7,13 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "common/camera.h"
 #include "common/mesh.h"
+#include "protocol/messages.h"
 #include "protocol/socket.h"
+#include "protocol/status.h"
 #include "render_client/latency_report.h"
 #include "render_client/renderer.h"
 
@@ -46,5 +49,12 @@ int runClient(const ClientOptions& options);
 // the jump once it is due. None when there is no camera, or no pod N.
 std::optional<Camera> userCamera(const ClientOptions& options, const std::map<uint32_t, Camera>& cameras,
                                  const Bounds& bounds, size_t frame_index);
+
+// The pods' images a TextureBundle carries, decoded and each back in its
+// whole frame (pods send their foreground's rectangle), with the
+// calibration of its camera. An error names the camera and what is wrong:
+// no calibration, a plane that does not decode, images of the wrong size.
+protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& bundle,
+                                                          const std::map<uint32_t, Camera>& cameras);
 
 }  // namespace holofuse::render
