@@ -20,12 +20,14 @@
 #include "eval/dataset_inspection.h"
 #include "eval/geometry_metrics.h"
 #include "eval/metrics.h"
-#include "result_json.h"
+#include "fusion_server/fusion_worker.h"
 #include "fusion_server/hull_error.h"
 #include "fusion_server/visual_hull.h"
+#include "render_client/client.h"
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
 #include "render_client/texture_field_passes.h"
+#include "result_json.h"
 
 namespace holofuse::eval {
 namespace {
@@ -51,43 +53,77 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-// One frame as the client would receive it, and the truth it is judged by.
+// One frame as the client receives it, and the truth it is judged by.
 struct FrameData {
   uint64_t frame_id = 0;
   Mesh mesh;
-  std::vector<render::ViewImages> views;  // reported calibration, colour, segmented mask
+  std::vector<render::ViewImages> views;  // reported calibration, colour, segmented mask: the client's
+  std::vector<Image8> true_colors;        // per camera: its whole image, which leave-one-out compares with
   std::vector<Image8> true_masks;         // per camera
   std::vector<capture::RenderedView> novel_truth;  // per novel pose (SceneInput::novel_poses)
   double hull_ms = 0;
-  // The codecs on the frame's way: the slowest pod's image encoding (pods
-  // work in parallel), Draco both ways, and the client decoding every
-  // pod's images. Transport is not simulated.
+  // The codecs on the frame's way: the slowest pod's encoding (pods work in
+  // parallel), the server's decoding of every pod frame, its Draco and
+  // image encoding for clients, and the client's decoding of both.
+  // Transport is not simulated.
   double codec_ms = 0;
-  size_t bytes = 0;                       // what the server sends a client for this frame
+  size_t pod_link_bytes = 0;     // every pod's PodFrame, as the pods send them
+  size_t client_link_bytes = 0;  // MeshFrame, TextureBundle and Stats, as the server sends each client
   fusion::HullStats hull_stats;
 };
 
-// The hull through Draco as on the wire (quantisation is part of what the
-// client sees), timed both ways and counted in the frame's bytes.
-void sendThroughDraco(const Mesh& hull, const DracoOptions& draco, FrameData& frame) {
+// The server's side of one pod frame (protocol bytes, as sent or
+// recorded), decoded as fusion_server decodes it, into the frame's group.
+void receivePodFrame(const protocol::Bytes& wire, const Camera& reported, fusion::FrameGroup& group, FrameData& frame) {
   const auto t0 = Clock::now();
-  auto bytes = encodeDraco(hull, draco);
-  if (!bytes.isOk()) throw std::runtime_error("Draco encoding failed: " + bytes.status().message());
-  auto decoded = decodeDraco(bytes->data(), bytes->size());
-  if (!decoded.isOk()) throw std::runtime_error("Draco decoding failed: " + decoded.status().message());
-  frame.codec_ms += msSince(t0);
-  frame.bytes += bytes->size();
-  frame.mesh = std::move(*decoded);
-}
-
-// The client's decoding of one pod's planes, timed into the frame.
-void decodeTimed(const std::vector<protocol::Plane>& planes, FrameData& frame) {
-  const auto t0 = Clock::now();
-  for (const auto& plane : planes) {
-    auto image = decodePlane(plane);
-    if (!image.isOk()) throw std::runtime_error("image decoding failed: " + image.status().message());
+  auto parsed = capture::parseWholeFrame(wire, "pod frame");
+  protocol::PodFrame pod;
+  protocol::Status status = parsed.isOk() ? protocol::decodeFrame(*parsed, pod) : parsed.status();
+  auto images = status.isOk() ? fusion::podImagesOf(pod, wire.size(), reported, 0) : status;
+  if (!images.isOk()) {
+    throw std::runtime_error("camera " + std::to_string(reported.id) + ": " + images.status().message());
   }
   frame.codec_ms += msSince(t0);
+  frame.pod_link_bytes += wire.size();
+  group.pods[pod.camera_id] = std::move(*images);
+}
+
+// The server's packing of the group's hull for clients (Draco, the images
+// re-encoded) and the client's decoding of it: the frame's mesh and views
+// are what a client of the live loop renders, its client-link bytes and
+// codec times what the loop spends.
+void sendToClient(const fusion::FrameGroup& group, const Mesh& hull, const EvalOptions& options,
+                  const std::vector<Camera>& reported, FrameData& frame) {
+  fusion::FusionSettings settings;
+  settings.hull.voxel_size = options.voxel_size;
+  settings.draco = options.draco;
+  settings.image_codec = options.image_codec;
+  settings.lz4_acceleration = options.lz4_acceleration;
+  settings.pods_expected = static_cast<uint32_t>(reported.size());
+  fusion::GroupJob job;
+  job.group = group;
+  job.group.complete = true;
+  auto t0 = Clock::now();
+  const fusion::FusedOutput fused = fusion::packageFused(job, settings, hull, 0, 0);
+  frame.codec_ms += msSince(t0);
+  const protocol::Bytes mesh_wire = fused.mesh_frame->flatten(), bundle_wire = fused.texture_bundle->flatten();
+  frame.client_link_bytes += mesh_wire.size() + bundle_wire.size() + fused.stats->flatten().size();
+  t0 = Clock::now();
+  std::map<uint32_t, Camera> cameras;
+  for (const Camera& camera : reported) cameras[camera.id] = camera;
+  auto bundle_frame = capture::parseWholeFrame(bundle_wire, "texture bundle");
+  protocol::TextureBundle bundle;
+  protocol::Status status = bundle_frame.isOk() ? protocol::decodeFrame(*bundle_frame, bundle) : bundle_frame.status();
+  auto views = status.isOk() ? render::viewsOfBundle(bundle, cameras) : status;
+  if (!views.isOk()) throw std::runtime_error("the client's images: " + views.status().message());
+  auto mesh_frame_wire = capture::parseWholeFrame(mesh_wire, "mesh frame");
+  protocol::MeshFrame mesh_frame;
+  status = mesh_frame_wire.isOk() ? protocol::decodeFrame(*mesh_frame_wire, mesh_frame) : mesh_frame_wire.status();
+  auto mesh = status.isOk() ? decodeDraco(mesh_frame.mesh.data(), mesh_frame.mesh.size()) : status;
+  if (!mesh.isOk()) throw std::runtime_error("the client's mesh: " + mesh.status().message());
+  frame.codec_ms += msSince(t0);
+  frame.mesh = std::move(*mesh);
+  frame.views = std::move(*views);
 }
 
 FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene& scene,
@@ -95,34 +131,32 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
                        const std::vector<Image8>& plates, uint64_t frame_id) {
   FrameData frame;
   frame.frame_id = frame_id;
-  std::vector<fusion::HullView> hull_views;
+  fusion::FrameGroup group;
+  group.frame_id = frame_id;
   double slowest_pod_ms = 0;
+  const int crop_margin = capture::PodOptions{}.crop_margin;  // the pods' own
   for (size_t i = 0; i < truth.size(); ++i) {
     capture::PodCapture capture =
         capture::capturePodFrame(scene, truth[i], plates[i], frame_id, static_cast<uint16_t>(i));
-    hull_views.push_back({reported[i], capture.mask, capture.feather});
-    std::vector<uint8_t> color_storage, mask_storage;
+    frame.true_colors.push_back(capture.view.color);
+    frame.true_masks.push_back(capture.view.mask);
     const auto t0 = Clock::now();
-    const std::vector<protocol::Plane> planes = {
-        encodePlane(capture.view.color, protocol::PlaneKind::kColor, options.image_codec, color_storage,
-                    options.lz4_acceleration),
-        encodePlane(capture.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, mask_storage,
-                    options.lz4_acceleration)};
+    const protocol::Bytes wire = capture::encodePodFrame(capture, static_cast<uint32_t>(i), options.image_codec,
+                                                         crop_margin, options.lz4_acceleration)
+                                     .flatten();
     slowest_pod_ms = std::max(slowest_pod_ms, msSince(t0));
-    for (const auto& plane : planes) frame.bytes += plane.data.size();
-    decodeTimed(planes, frame);
-    frame.views.push_back({reported[i], std::move(capture.view.color), std::move(capture.mask)});
-    frame.true_masks.push_back(std::move(capture.view.mask));
+    receivePodFrame(wire, reported[i], group, frame);
   }
   frame.codec_ms += slowest_pod_ms;
   const auto t0 = Clock::now();
   // The true surface at the hull's voxel size, when asked for.
   fusion::HullOptions hull_options;
   hull_options.voxel_size = options.voxel_size;
-  const Mesh hull = options.geometry == "truth" ? scene.truthMesh(frame_id, options.voxel_size)
-                                                : fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
+  const Mesh hull = options.geometry == "truth"
+                        ? scene.truthMesh(frame_id, options.voxel_size)
+                        : fusion::carveVisualHull(fusion::hullViewsOf(group), hull_options, &frame.hull_stats);
   frame.hull_ms = msSince(t0);
-  sendThroughDraco(hull, options.draco, frame);
+  sendToClient(group, hull, options, reported, frame);
   return frame;
 }
 
@@ -235,7 +269,7 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         }
         if (before_jump) continue;  // not at the held-out pose yet: nothing to compare with
         const Image8& truth_color =
-            novel ? frame.novel_truth[static_cast<size_t>(held)].color : frame.views[static_cast<size_t>(held)].color;
+            novel ? frame.novel_truth[static_cast<size_t>(held)].color : frame.true_colors[static_cast<size_t>(held)];
         const Image8& truth_mask =
             novel ? frame.novel_truth[static_cast<size_t>(held)].mask : frame.true_masks[static_cast<size_t>(held)];
         const ImageQuality q = compareInMask(picture, truth_color, truth_mask);
@@ -301,6 +335,22 @@ SceneResult cameraKeptRow(const EvalOptions& options, render::VulkanContext& con
   return row;
 }
 
+// Per scene (novel-view and camera-kept rows share their scene's frames):
+// bytes per frame on each link and the codecs' ms, as report cells.
+std::vector<std::vector<std::string>> linkRows(const std::vector<SceneResult>& results) {
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& scene : results) {
+    if (scene.novel_view_degrees != 0 || scene.camera_kept) continue;
+    char cells[4][32];
+    std::snprintf(cells[0], sizeof(cells[0]), "%.1f", scene.pod_link_bytes_per_frame / 1000.0);
+    std::snprintf(cells[1], sizeof(cells[1]), "%.1f", scene.bytes_per_frame / 1000.0);
+    std::snprintf(cells[2], sizeof(cells[2]), "%.1f", scene.codec_ms);
+    std::snprintf(cells[3], sizeof(cells[3]), "%.1f", scene.codec_ms_p95);
+    rows.push_back({scene.name, cells[0], cells[1], cells[2], cells[3]});
+  }
+  return rows;
+}
+
 // The first frame's hull against the masks the server carved from.
 double silhouetteErrorMm(const FrameData& frame) {
   std::vector<fusion::HullView> views;
@@ -316,7 +366,8 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
   for (const auto& frame : input.frames) {
     hull_ms.push_back(frame.hull_ms);
     codec_ms.push_back(frame.codec_ms);
-    result.bytes_per_frame += static_cast<double>(frame.bytes) / n;
+    result.bytes_per_frame += static_cast<double>(frame.client_link_bytes) / n;
+    result.pod_link_bytes_per_frame += static_cast<double>(frame.pod_link_bytes) / n;
     result.cells_visited += static_cast<double>(frame.hull_stats.cells_visited()) / n;
     result.dense_grid_points += static_cast<double>(frame.hull_stats.grid_points) / n;
     result.triangles += static_cast<double>(frame.mesh.triangleCount()) / n;
@@ -357,19 +408,20 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
     for (const auto& [id, r] : by_camera) records.push_back(r);
     FrameData frame;
     frame.frame_id = frame_id;
-    std::vector<fusion::HullView> hull_views;
+    fusion::FrameGroup group;
+    group.frame_id = frame_id;
     for (size_t c = 0; c < records.size(); ++c) {
-      auto bytes = dataset->readFrame(records[c]);
-      if (!bytes.isOk()) throw std::invalid_argument(bytes.status().message());
-      const auto decode_start = Clock::now();
-      auto images = capture::decodePodImages(*bytes, cameras[c]);
-      frame.codec_ms += msSince(decode_start);  // recorded images: the client's decoding only
+      auto recorded = dataset->readFrame(records[c]);
+      if (!recorded.isOk()) throw std::invalid_argument(recorded.status().message());
+      // The truth: the recorded image and mask, whole (the pods' encoding
+      // is not timed: the recording was made).
+      auto images = capture::decodePodImages(*recorded, cameras[c]);
       if (!images.isOk()) throw std::invalid_argument(dir + ": " + images.status().message());
-      frame.bytes += records[c].payload_length;
-      hull_views.push_back({cameras[c], images->mask, images->feather});
-      frame.views.push_back({cameras[c], images->color, images->mask});
+      frame.true_colors.push_back(std::move(images->color));
       frame.true_masks.push_back(std::move(images->mask));
+      receivePodFrame(recorded->bytes, cameras[c], group, frame);
     }
+    const std::vector<fusion::HullView> hull_views = fusion::hullViewsOf(group);
     const auto t0 = Clock::now();
     Mesh hull;
     if (options.hull_error_target > 0 && input.frames.empty()) {
@@ -382,7 +434,7 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
       hull = fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
     }
     frame.hull_ms = msSince(t0);
-    sendThroughDraco(hull, options.draco, frame);
+    sendToClient(group, hull, options, cameras, frame);
     input.frames.push_back(std::move(frame));
   }
   if (input.frames.empty()) throw std::invalid_argument(dir + ": no frame id is held by every camera");
@@ -518,6 +570,7 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
   s["codec_ms_p95"] = scene.codec_ms_p95;
   s["triangles"] = scene.triangles;
   s["bytes_per_frame"] = scene.bytes_per_frame;
+  s["pod_link_bytes_per_frame"] = scene.pod_link_bytes_per_frame;
   s["hull"] = {{"chamfer_mm", scene.chamfer_mm >= 0 ? nlohmann::json(scene.chamfer_mm) : nlohmann::json()},
                {"silhouette_iou", scene.silhouette_iou},
                {"cells_visited", scene.cells_visited},
@@ -551,6 +604,7 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
   scene.codec_ms_p95 = s.value("codec_ms_p95", scene.codec_ms);
   scene.triangles = s.at("triangles").get<double>();
   scene.bytes_per_frame = s.at("bytes_per_frame").get<double>();
+  scene.pod_link_bytes_per_frame = s.value("pod_link_bytes_per_frame", 0.0);
   if (s.contains("hull")) {
     const auto& hull = s.at("hull");
     scene.chamfer_mm = hull.contains("chamfer_mm") && hull["chamfer_mm"].is_number() ? hull["chamfer_mm"].get<double>() : -1.0;
@@ -675,6 +729,13 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
                   scene.name.c_str(), scene.voxel_mm, scene.triangles, scene.hull_ms, scene.cells_visited,
                   scene.dense_grid_points, chamfer, silhouette, mean_iou, worst_iou);
     md << cell;
+  }
+  md << "\n## Links and codecs\n\nBytes per frame as the loop sends them (the pods' rectangles with their "
+        "feather maps; the server's Draco mesh and images to one client), and the codecs' ms per frame: "
+     << kCodecsMeaning << ".\n\n| Scene | pods to server KB | server to client KB | codecs ms p50 | p95 |\n"
+     << "|---|---:|---:|---:|---:|\n";
+  for (const auto& row : linkRows(results)) {
+    md << "| " << row[0] << " | " << row[1] << " | " << row[2] << " | " << row[3] << " | " << row[4] << " |\n";
   }
   md << "\n"
      << "## montage4d against holoportation\n\nTarget on every scene but clean: at least +0.5 dB PSNR, higher SSIM, "
@@ -848,6 +909,9 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   body += "<h2>All numbers</h2>\n" +
           html::table({"scene", "mode", "RMSE", "PSNR", "SSIM", "flicker", "seam visibility", "ms per new mesh", "images"},
                       rows);
+  body += "<h2>Links and codecs</h2>\n<p>Bytes per frame as the loop sends them, and the codecs' ms per frame: " +
+          html::escape(kCodecsMeaning) + ".</p>\n" +
+          html::table({"scene", "pods to server KB", "server to client KB", "codecs ms p50", "p95"}, linkRows(results));
   body += "<h2>montage4d against holoportation</h2>\n<p>Target on every scene but clean: at least +0.5 dB PSNR, "
           "higher SSIM, and less flicker after a viewpoint jump. Misses are flagged.</p>\n" +
           html::table({"scene", "PSNR gain", "SSIM gain", "flicker ratio", "verdict"}, verdict_rows);
@@ -859,9 +923,8 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
             "(hull, render); over-budget rows are flagged.</p>\n" +
             html::table({"scene", "mode", "stage", "p95 ms", "budget ms"}, budget_rows);
   }
-  body += "<h2>Latency of a new mesh by stage</h2>\n<p>p50 and p95 over the renders: the hull, the codecs (the "
-          "slowest pod's image encoding, Draco both ways, the client's image decoding) and the client's render. "
-          "Transport is not simulated.</p>\n";
+  body += "<h2>Latency of a new mesh by stage</h2>\n<p>p50 and p95 over the renders: the hull, the codecs (" +
+          std::string(kCodecsMeaning) + ") and the client's render. Transport is not simulated.</p>\n";
   for (const auto& scene : results) {
     if (scene.novel_view_degrees != 0 || scene.camera_kept) continue;
     std::vector<html::StackRow> stack;

@@ -3,6 +3,7 @@
 // it, replays through server and client fuse the same meshes bit for bit,
 // a recorder killed with SIGKILL keeps every whole record, and bad input
 // is named.
+#include <algorithm>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -86,7 +87,8 @@ class DatasetLoop : public ::testing::Test {
     root_ = freshDir("dataset_loop");
     recording_ = root_ / "recording";
     const pid_t loop = spawn({kBin + "/holofuse_loop", "--pods", "2", "--frames", "5", "--fps", "4", "--size",
-                              "160x120", "--out", (root_ / "live").string(), "--record", recording_.string()},
+                              "160x120", "--out", (root_ / "live").string(), "--record", recording_.string(),
+                              "--record-fused"},
                              root_ / "live.log");
     live_exit_ = waitExit(loop, 240);
   }
@@ -154,6 +156,40 @@ TEST_F(DatasetLoop, EvalScoresARecordingLeaveOneCameraOut) {
   }
   EXPECT_GT(scene["codec_ms"].get<double>(), 0.0) << "the recorded images are decoded and the hull sent through Draco";
   EXPECT_TRUE(scene["hull"]["chamfer_mm"].is_null()) << "a recording has no true surface";
+
+  // Bytes per link as the live loop sent them. The eval's frames are the
+  // recording's first two ids that every camera holds: the pods' frames
+  // are the recorded ones, and the server's packing of the same hull is
+  // what the live server recorded (MeshFrame, TextureBundle, Stats), up to
+  // the stamps and notes inside.
+  auto dataset = capture::Dataset::open(recording_.string());
+  ASSERT_TRUE(dataset.isOk()) << dataset.status().toString();
+  std::map<uint64_t, std::map<uint32_t, size_t>> pod_bytes;  // frame id -> camera -> bytes on the wire
+  for (const auto& [id, camera] : dataset->cameras()) {
+    for (const auto& r : camera.frames) {
+      auto frame = dataset->readFrame(r);
+      ASSERT_TRUE(frame.isOk()) << frame.status().toString();
+      pod_bytes[r.frame_id].try_emplace(id, frame->bytes.size());
+    }
+  }
+  std::vector<uint64_t> ids;
+  double pod_link = 0;
+  for (const auto& [frame_id, by_camera] : pod_bytes) {
+    if (by_camera.size() != 2 || ids.size() == 2) continue;
+    ids.push_back(frame_id);
+    for (const auto& [camera, bytes] : by_camera) pod_link += static_cast<double>(bytes) / 2;
+  }
+  ASSERT_EQ(ids.size(), 2u);
+  EXPECT_DOUBLE_EQ(scene["pod_link_bytes_per_frame"].get<double>(), pod_link);
+  auto fused = protocol::RecordReader::open((recording_ / "fused.hfr").string());
+  ASSERT_TRUE(fused.isOk()) << fused.status().toString();
+  std::map<uint64_t, double> client_link;
+  for (const auto& r : fused->records()) {
+    if (std::find(ids.begin(), ids.end(), r.frame_id) != ids.end()) client_link[r.frame_id] += r.payload_length;
+  }
+  ASSERT_EQ(client_link.size(), 2u) << "the live server fused both frames";
+  const double client_mean = (client_link[ids[0]] + client_link[ids[1]]) / 2;
+  EXPECT_NEAR(scene["bytes_per_frame"].get<double>(), client_mean, 0.01 * client_mean);
 }
 
 TEST_F(DatasetLoop, ReplayFusesTheSameMeshesBitForBitAndSendsTheRecordedImages) {

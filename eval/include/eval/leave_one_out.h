@@ -84,6 +84,11 @@ struct ModeResult {
   double ms_per_new_mesh_p95 = 0;  // the 95th percentile of ms_per_new_mesh's renders
 };
 
+// What a frame's codec time covers, for reports.
+inline constexpr const char* kCodecsMeaning =
+    "the slowest pod's encoding, the server's decoding of every pod frame and its Draco and image encoding for "
+    "clients, and the client's decoding of both";
+
 struct SceneResult {
   std::string name, stresses;
   double novel_view_degrees = 0;  // 0: leave-one-camera-out; else the offset of a novel-view row
@@ -96,7 +101,13 @@ struct SceneResult {
   double hull_ms_p95 = 0, codec_ms_p95 = 0;  // 95th percentiles of the same
   double triangles = 0;        // mean
   double view_jump_degrees = 0;
-  double bytes_per_frame = 0;  // mean, server to client: Draco mesh plus every camera's compressed images
+  // Means per frame, as the loop sends them: server to one client (the
+  // Draco MeshFrame, the TextureBundle of every camera's images, the
+  // Stats), and every pod to the server (the PodFrames).
+  double bytes_per_frame = 0;
+  double pod_link_bytes_per_frame = 0;
+  // codec_ms and codec_ms_p95 (kCodecsMeaning): per frame, through the
+  // loop's own encoding and decoding code.
   // The geometry against the truth, on the first frame (hull as decoded by
   // the client; truth by marching cubes at 1 cm).
   double chamfer_mm = 0;  // negative: no true surface (datasets)
