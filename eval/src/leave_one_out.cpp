@@ -23,6 +23,7 @@
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/hull_error.h"
 #include "fusion_server/visual_hull.h"
+#include "protocol/clock.h"
 #include "render_client/client.h"
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
@@ -62,11 +63,11 @@ struct FrameData {
   std::vector<Image8> true_masks;         // per camera
   std::vector<capture::RenderedView> novel_truth;  // per novel pose (SceneInput::novel_poses)
   double hull_ms = 0;
-  // The codecs on the frame's way: the slowest pod's encoding (pods work in
-  // parallel), the server's decoding of every pod frame, its Draco and
-  // image encoding for clients, and the client's decoding of both.
-  // Transport is not simulated.
-  double codec_ms = 0;
+  // The codecs on the frame's way, per stage (codecStages()): the slowest
+  // pod's encoding (pods work in parallel), the server's decoding of every
+  // pod frame, its Draco and image encoding for clients, and the client's
+  // decoding of both. Transport is not simulated.
+  std::map<std::string, double> codec_ms;
   size_t pod_link_bytes = 0;     // every pod's PodFrame, as the pods send them
   size_t client_link_bytes = 0;  // MeshFrame, TextureBundle and Stats, as the server sends each client
   fusion::HullStats hull_stats;
@@ -83,7 +84,7 @@ void receivePodFrame(const protocol::Bytes& wire, const Camera& reported, fusion
   if (!images.isOk()) {
     throw std::runtime_error("camera " + std::to_string(reported.id) + ": " + images.status().message());
   }
-  frame.codec_ms += msSince(t0);
+  frame.codec_ms["server_decode"] += msSince(t0);
   frame.pod_link_bytes += wire.size();
   group.pods[pod.camera_id] = std::move(*images);
 }
@@ -103,12 +104,11 @@ void sendToClient(const fusion::FrameGroup& group, const Mesh& hull, const EvalO
   fusion::GroupJob job;
   job.group = group;
   job.group.complete = true;
-  auto t0 = Clock::now();
-  const fusion::FusedOutput fused = fusion::packageFused(job, settings, hull, 0, 0);
-  frame.codec_ms += msSince(t0);
+  const uint64_t hull_end_ns = protocol::monotonicNs();
+  const fusion::FusedOutput fused = fusion::packageFused(job, settings, hull, hull_end_ns, hull_end_ns);
   const protocol::Bytes mesh_wire = fused.mesh_frame->flatten(), bundle_wire = fused.texture_bundle->flatten();
   frame.client_link_bytes += mesh_wire.size() + bundle_wire.size() + fused.stats->flatten().size();
-  t0 = Clock::now();
+  const auto t0 = Clock::now();
   std::map<uint32_t, Camera> cameras;
   for (const Camera& camera : reported) cameras[camera.id] = camera;
   auto bundle_frame = capture::parseWholeFrame(bundle_wire, "texture bundle");
@@ -121,7 +121,18 @@ void sendToClient(const fusion::FrameGroup& group, const Mesh& hull, const EvalO
   status = mesh_frame_wire.isOk() ? protocol::decodeFrame(*mesh_frame_wire, mesh_frame) : mesh_frame_wire.status();
   auto mesh = status.isOk() ? decodeDraco(mesh_frame.mesh.data(), mesh_frame.mesh.size()) : status;
   if (!mesh.isOk()) throw std::runtime_error("the client's mesh: " + mesh.status().message());
-  frame.codec_ms += msSince(t0);
+  frame.codec_ms["decode"] += msSince(t0);
+  // The server's encoding, from the stamps it put in the frames it sent.
+  for (const auto& stamp : mesh_frame.stamps) {
+    if (stamp.stage == static_cast<uint16_t>(protocol::Stage::kMeshEncode)) {
+      frame.codec_ms["mesh_encode"] += 1e-6 * static_cast<double>(stamp.end_ns - stamp.start_ns);
+    }
+  }
+  for (const auto& stamp : bundle.stamps) {
+    if (stamp.stage == static_cast<uint16_t>(protocol::Stage::kImageEncode)) {
+      frame.codec_ms["image_encode"] += 1e-6 * static_cast<double>(stamp.end_ns - stamp.start_ns);
+    }
+  }
   frame.mesh = std::move(*mesh);
   frame.views = std::move(*views);
 }
@@ -147,7 +158,7 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
     slowest_pod_ms = std::max(slowest_pod_ms, msSince(t0));
     receivePodFrame(wire, reported[i], group, frame);
   }
-  frame.codec_ms += slowest_pod_ms;
+  frame.codec_ms["pod_encode"] = slowest_pod_ms;
   const auto t0 = Clock::now();
   // The true surface at the hull's voxel size, when asked for.
   fusion::HullOptions hull_options;
@@ -362,10 +373,17 @@ double silhouetteErrorMm(const FrameData& frame) {
 // Frame statistics shared by both sources.
 void summariseFrames(const SceneInput& input, SceneResult& result) {
   std::vector<double> hull_ms, codec_ms;
+  std::map<std::string, std::vector<double>> stage_ms;
   const double n = static_cast<double>(input.frames.size());
   for (const auto& frame : input.frames) {
     hull_ms.push_back(frame.hull_ms);
-    codec_ms.push_back(frame.codec_ms);
+    double sum = 0;
+    for (const std::string& stage : codecStages()) {
+      const auto it = frame.codec_ms.find(stage);
+      stage_ms[stage].push_back(it == frame.codec_ms.end() ? 0.0 : it->second);
+      sum += stage_ms[stage].back();
+    }
+    codec_ms.push_back(sum);
     result.bytes_per_frame += static_cast<double>(frame.client_link_bytes) / n;
     result.pod_link_bytes_per_frame += static_cast<double>(frame.pod_link_bytes) / n;
     result.cells_visited += static_cast<double>(frame.hull_stats.cells_visited()) / n;
@@ -376,6 +394,10 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
   result.codec_ms = median(codec_ms);
   result.hull_ms_p95 = percentile(hull_ms, 0.95);
   result.codec_ms_p95 = percentile(codec_ms, 0.95);
+  for (const auto& [stage, ms] : stage_ms) {
+    result.codec_stage_ms[stage] = median(ms);
+    result.codec_stage_ms_p95[stage] = percentile(ms, 0.95);
+  }
 }
 
 // A dataset (recorded or imported): its cameras' images and masks, the
@@ -568,6 +590,9 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
   s["codec_ms"] = scene.codec_ms;
   s["hull_ms_p95"] = scene.hull_ms_p95;
   s["codec_ms_p95"] = scene.codec_ms_p95;
+  for (const auto& [stage, ms] : scene.codec_stage_ms) {
+    s["codec_stages_ms"][stage] = {{"p50", ms}, {"p95", scene.codec_stage_ms_p95.at(stage)}};
+  }
   s["triangles"] = scene.triangles;
   s["bytes_per_frame"] = scene.bytes_per_frame;
   s["pod_link_bytes_per_frame"] = scene.pod_link_bytes_per_frame;
@@ -602,6 +627,12 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
   scene.codec_ms = s.value("codec_ms", 0.0);
   scene.hull_ms_p95 = s.value("hull_ms_p95", scene.hull_ms);
   scene.codec_ms_p95 = s.value("codec_ms_p95", scene.codec_ms);
+  if (s.contains("codec_stages_ms")) {
+    for (const auto& [stage, ms] : s.at("codec_stages_ms").items()) {
+      scene.codec_stage_ms[stage] = ms.at("p50").get<double>();
+      scene.codec_stage_ms_p95[stage] = ms.at("p95").get<double>();
+    }
+  }
   scene.triangles = s.at("triangles").get<double>();
   scene.bytes_per_frame = s.at("bytes_per_frame").get<double>();
   scene.pod_link_bytes_per_frame = s.value("pod_link_bytes_per_frame", 0.0);
@@ -839,13 +870,15 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
                                       {"budget_ms", it->second}});
     };
     check("-", "hull", scene.hull_ms_p95);
+    for (const auto& [stage, p95] : scene.codec_stage_ms_p95) check("-", stage, p95);
     for (const auto& mode : modes) {
       const auto it = scene.modes.find(mode);
       if (it != scene.modes.end()) check(mode, "render", it->second.ms_per_new_mesh_p95);
     }
   }
   if (!options.budget.empty()) {
-    md << "\n## Budget\n\np95 against the budget of each stage the evaluation times as the loop does (hull, render)."
+    md << "\n## Budget\n\np95 against the budget of each stage the evaluation times as the loop does (hull, "
+          "pod_encode, mesh_encode, image_encode, decode, render)."
        << (violations.empty() ? " Nothing is over budget.\n" : "\n\n| Scene | mode | stage | p95 ms | budget ms |\n|---|---|---|---:|---:|\n");
     for (const auto& v : violations) {
       std::snprintf(cell, sizeof(cell), "| %s | %s | %s | %.1f | %.1f |\n", v["scene"].get<std::string>().c_str(),
@@ -920,10 +953,10 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   // the frames (transport is not simulated).
   if (!budget_rows.empty() || !options.budget.empty()) {
     body += "<h2>Budget</h2>\n<p>p95 against the budget of each stage the evaluation times as the loop does "
-            "(hull, render); over-budget rows are flagged.</p>\n" +
+            "(hull, pod_encode, mesh_encode, image_encode, decode, render); over-budget rows are flagged.</p>\n" +
             html::table({"scene", "mode", "stage", "p95 ms", "budget ms"}, budget_rows);
   }
-  body += "<h2>Latency of a new mesh by stage</h2>\n<p>p50 and p95 over the renders: the hull, the codecs (" +
+  body += "<h2>Latency of a new mesh by stage</h2>\n<p>p50 and p95 over the renders: the hull, the codecs by stage (" +
           std::string(kCodecsMeaning) + ") and the client's render. Transport is not simulated.</p>\n";
   for (const auto& scene : results) {
     if (scene.novel_view_degrees != 0 || scene.camera_kept) continue;
@@ -931,10 +964,20 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     for (const auto& mode : modes) {
       const auto it = scene.modes.find(mode);
       if (it == scene.modes.end()) continue;
-      stack.push_back({mode + " p50", {scene.hull_ms, scene.codec_ms, it->second.ms_per_new_mesh}});
-      stack.push_back({mode + " p95", {scene.hull_ms_p95, scene.codec_ms_p95, it->second.ms_per_new_mesh_p95}});
+      for (const bool p95 : {false, true}) {
+        std::vector<double> parts = {p95 ? scene.hull_ms_p95 : scene.hull_ms};
+        for (const std::string& stage : codecStages()) {
+          const auto& ms = p95 ? scene.codec_stage_ms_p95 : scene.codec_stage_ms;
+          parts.push_back(ms.count(stage) ? ms.at(stage) : 0.0);
+        }
+        parts.push_back(p95 ? it->second.ms_per_new_mesh_p95 : it->second.ms_per_new_mesh);
+        stack.push_back({mode + (p95 ? " p95" : " p50"), parts});
+      }
     }
-    body += html::stackedBars("Latency of a new mesh: " + scene.name, {"hull", "codecs", "client render"}, stack, "ms");
+    std::vector<std::string> stage_names = {"hull"};
+    stage_names.insert(stage_names.end(), codecStages().begin(), codecStages().end());
+    stage_names.push_back("client render");
+    body += html::stackedBars("Latency of a new mesh: " + scene.name, stage_names, stack, "ms");
   }
   body += "<h2>Time per stage of a new mesh (paper 000 Table 3 layout)</h2>\n<p>GPU ms per field pass (timestamps, "
           "medians; approximate on a CPU device), then the wall clock of the render after a new mesh.</p>\n";

@@ -100,9 +100,15 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
   scene.modes["montage4d"] = {15.0, 16.9, 0.60, 18.0, 20.5, 16, 120, {}, 150};
   scene.hull_ms = scene.codec_ms = 20;
   scene.hull_ms_p95 = scene.codec_ms_p95 = 30;
+  scene.codec_stage_ms = {
+      {"pod_encode", 2}, {"server_decode", 3}, {"mesh_encode", 4}, {"image_encode", 8}, {"decode", 3}};
+  scene.codec_stage_ms_p95 = {{"pod_encode", 3}, {"server_decode", 4}, {"mesh_encode", 5}, {"image_encode", 12},
+                              {"decode", 6}};
   eval::EvalOptions options;
   options.modes = {render::BlendMode::kHoloportation, render::BlendMode::kMontage4D};
-  options.budget = {{"hull", 25.0}, {"render", 100.0}};  // the hull's p95 (30) and montage4d's (150) are over
+  // Over: the hull's p95 (30), montage4d's render (150) and the server's
+  // image encoding (12); the pods' encoding (3) is within.
+  options.budget = {{"hull", 25.0}, {"render", 100.0}, {"image_encode", 10.0}, {"pod_encode", 5.0}};
   const fs::path dir = scratch("quality");
   eval::writeQualityReports(options, {scene}, dir.string());
   EXPECT_EQ(chartsRendered(dir / "quality.html"), 6) << "PSNR, SSIM, flicker, seam visibility, time, the latency stack";
@@ -115,9 +121,13 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
             std::string::npos);
   EXPECT_NE(text.find("<tr><td>colour-imbalance</td><td>holoportation</td><td>render</td>"), std::string::npos)
       << "95 ms is within 100";
+  EXPECT_NE(text.find("<tr class=\"flagged\"><td>colour-imbalance</td><td>-</td><td>image_encode</td>"),
+            std::string::npos);
+  EXPECT_NE(text.find("<tr><td>colour-imbalance</td><td>-</td><td>pod_encode</td>"), std::string::npos);
   std::ifstream json_in(dir / "quality.json");
   const auto json = nlohmann::json::parse(json_in);
-  EXPECT_EQ(json["budget_violations"].size(), 2u);
+  EXPECT_EQ(json["budget_violations"].size(), 3u);
+  EXPECT_DOUBLE_EQ(json["scenes"]["colour-imbalance"]["codec_stages_ms"]["image_encode"]["p95"].get<double>(), 12.0);
   fs::remove_all(dir);
 }
 

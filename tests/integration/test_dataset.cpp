@@ -155,6 +155,10 @@ TEST_F(DatasetLoop, EvalScoresARecordingLeaveOneCameraOut) {
     EXPECT_GT(scene["modes"][mode]["psnr_db"].get<double>(), 8.0) << mode;
   }
   EXPECT_GT(scene["codec_ms"].get<double>(), 0.0) << "the recorded images are decoded and the hull sent through Draco";
+  for (const char* stage : {"server_decode", "mesh_encode", "image_encode", "decode"}) {
+    EXPECT_GT(scene["codec_stages_ms"][stage]["p50"].get<double>(), 0.0) << stage;
+  }
+  EXPECT_EQ(scene["codec_stages_ms"]["pod_encode"]["p50"].get<double>(), 0.0) << "a recording's pods encoded long ago";
   EXPECT_TRUE(scene["hull"]["chamfer_mm"].is_null()) << "a recording has no true surface";
 
   // Bytes per link as the live loop sent them. The eval's frames are the

@@ -89,16 +89,29 @@ inline constexpr const char* kCodecsMeaning =
     "the slowest pod's encoding, the server's decoding of every pod frame and its Draco and image encoding for "
     "clients, and the client's decoding of both";
 
+// The codec stages of a frame, in order, under the live report's stage
+// names (report.json latency_ms.stages) where the loop stamps them:
+// pod_encode (the slowest pod), mesh_encode, image_encode and decode (the
+// client's images and Draco mesh); server_decode (the server's decoding of
+// every pod frame) has no stamp in the loop.
+inline const std::vector<std::string>& codecStages() {
+  static const std::vector<std::string> stages = {"pod_encode", "server_decode", "mesh_encode", "image_encode",
+                                                  "decode"};
+  return stages;
+}
+
 struct SceneResult {
   std::string name, stresses;
   double novel_view_degrees = 0;  // 0: leave-one-camera-out; else the offset of a novel-view row
   bool camera_kept = false;       // the held-out camera's image stayed in the blend (EvalOptions::camera_kept)
   int cameras = 0;
   double hull_ms = 0;          // median
-  // Median per frame: the slowest pod's image encoding, Draco encoding and
-  // decoding, and the client's decoding of every pod's images.
+  // Median per frame of the codecs (kCodecsMeaning), through the loop's own
+  // encoding and decoding code.
   double codec_ms = 0;
   double hull_ms_p95 = 0, codec_ms_p95 = 0;  // 95th percentiles of the same
+  // Per codec stage (codecStages()): median and 95th percentile over frames.
+  std::map<std::string, double> codec_stage_ms, codec_stage_ms_p95;
   double triangles = 0;        // mean
   double view_jump_degrees = 0;
   // Means per frame, as the loop sends them: server to one client (the
@@ -106,8 +119,6 @@ struct SceneResult {
   // Stats), and every pod to the server (the PodFrames).
   double bytes_per_frame = 0;
   double pod_link_bytes_per_frame = 0;
-  // codec_ms and codec_ms_p95 (kCodecsMeaning): per frame, through the
-  // loop's own encoding and decoding code.
   // The geometry against the truth, on the first frame (hull as decoded by
   // the client; truth by marching cubes at 1 cm).
   double chamfer_mm = 0;  // negative: no true surface (datasets)
