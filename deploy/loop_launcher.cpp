@@ -86,8 +86,8 @@ std::vector<ForwardedSetting> forwardedSettings() {
        "--geodesic-rings", {}},
       {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", CLI::Range(1, 200), nullptr, nullptr,
        "--geodesic-passes", {}},
-      {"--geodesic-radius", "montage4d: metres from a seam where gamma reaches 1", CLI::Range(0.0, 1000.0), nullptr,
-       nullptr, "--geodesic-radius", {}},
+      {"--geodesic-radius", "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)",
+       CLI::Range(0.0, 1000.0), nullptr, nullptr, "--geodesic-radius", {}},
   };
 }
 

@@ -1,5 +1,6 @@
 // capture_node: one synthetic camera pod. See README.md for the flags.
 #include <cstdio>
+#include <vector>
 
 #include "capture_node/pod.h"
 #include "capture_node/replay_pod.h"
@@ -15,24 +16,29 @@ int main(int argc, char** argv) {
   CLI::App app{"holofuse capture_node: a synthetic camera pod streaming to a fusion server"};
   app.add_option("--server", server, "fusion server HOST:PORT")->required();
   app.add_option("--pod-id", options.pod_id, "this pod's camera index (0-based)")->required();
-  app.add_option("--pods", options.pods, "cameras on the ring (1..16)")->check(CLI::Range(1, 16));
-  app.add_option("--size", size, "image size WxH");
-  app.add_option("--fps", options.fps, "frames per second")->check(CLI::Range(0.1, 240.0));
-  app.add_option("--frames", options.frames, "stop after this many frames (0: run until signalled)");
-  app.add_option("--scene", scene_name, "named synthetic scene: " + capture::sceneNames());
-  app.add_option("--seed", options.scene.seed, "scene seed");
-  app.add_option("--noise", options.scene.noise_amplitude, "sensor noise amplitude, grey levels")
-      ->check(CLI::Range(0.0, 64.0));
-  app.add_option("--crop-margin", options.crop_margin,
-                 "send only the foreground's rectangle grown by this many pixels (-1: whole images)")
-      ->check(CLI::Range(-1, 4096));
-  app.add_option("--codec", codec, "colour codec")->check(CLI::IsMember(imageCodecNames()));
-  app.add_option("--lz4-acceleration", options.lz4_acceleration,
-                 "LZ4 acceleration (1 = default; higher: faster, larger)")
-      ->check(CLI::Range(1, 65537));
+  // What a synthetic pod makes and how it encodes it: a replay pod sends
+  // the recorded bytes as they are, so these are refused with --replay.
+  const std::vector<CLI::Option*> synthetic = {
+      app.add_option("--pods", options.pods, "cameras on the ring (1..16)")->check(CLI::Range(1, 16)),
+      app.add_option("--size", size, "image size WxH"),
+      app.add_option("--fps", options.fps, "frames per second")->check(CLI::Range(0.1, 240.0)),
+      app.add_option("--frames", options.frames, "stop after this many frames (0: run until signalled)"),
+      app.add_option("--scene", scene_name, "named synthetic scene: " + capture::sceneNames()),
+      app.add_option("--seed", options.scene.seed, "scene seed"),
+      app.add_option("--noise", options.scene.noise_amplitude, "sensor noise amplitude, grey levels")
+          ->check(CLI::Range(0.0, 64.0)),
+      app.add_option("--crop-margin", options.crop_margin,
+                     "send only the foreground's rectangle grown by this many pixels (-1: whole images)")
+          ->check(CLI::Range(-1, 4096)),
+      app.add_option("--codec", codec, "colour codec")->check(CLI::IsMember(imageCodecNames())),
+      app.add_option("--lz4-acceleration", options.lz4_acceleration,
+                     "LZ4 acceleration (1 = default; higher: faster, larger)")
+          ->check(CLI::Range(1, 65537))};
   std::string replay, speed = "1";
   bool loop = false;
-  app.add_option("--replay", replay, "replay camera --pod-id of this dataset folder instead of a synthetic scene");
+  CLI::Option* replay_option =
+      app.add_option("--replay", replay, "replay camera --pod-id of this dataset folder instead of a synthetic scene");
+  for (CLI::Option* option : synthetic) replay_option->excludes(option);
   app.add_option("--speed", speed, "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
   app.add_flag("--loop", loop, "with --replay: start over at the end");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)

@@ -73,18 +73,40 @@ struct FrameData {
   fusion::HullStats hull_stats;
 };
 
+// The milliseconds of a stage stamped into a frame (0 when absent).
+double stampedMs(const std::vector<protocol::StageStamp>& stamps, protocol::Stage stage) {
+  double ms = 0;
+  for (const auto& stamp : stamps) {
+    if (stamp.stage == static_cast<uint16_t>(stage) && stamp.end_ns >= stamp.start_ns) {
+      ms += 1e-6 * static_cast<double>(stamp.end_ns - stamp.start_ns);
+    }
+  }
+  return ms;
+}
+
+// One whole protocol frame from bytes that must hold one (this process
+// made or recorded them): the transport's parsing, which no codec stage of
+// the loop counts.
+protocol::Frame parsedFrame(const protocol::Bytes& wire, const std::string& what) {
+  auto frame = capture::parseWholeFrame(wire, what);
+  if (!frame.isOk()) throw std::runtime_error(frame.status().message());
+  return std::move(*frame);
+}
+
 // The server's side of one pod frame (protocol bytes, as sent or
 // recorded), decoded as fusion_server decodes it, into the frame's group.
-void receivePodFrame(const protocol::Bytes& wire, const Camera& reported, fusion::FrameGroup& group, FrameData& frame) {
+// source names where the bytes came from in errors.
+void receivePodFrame(const protocol::Bytes& wire, const Camera& reported, const std::string& source,
+                     fusion::FrameGroup& group, FrameData& frame) {
+  const protocol::Frame parsed = parsedFrame(wire, source + ": camera " + std::to_string(reported.id));
   const auto t0 = Clock::now();
-  auto parsed = capture::parseWholeFrame(wire, "pod frame");
   protocol::PodFrame pod;
-  protocol::Status status = parsed.isOk() ? protocol::decodeFrame(*parsed, pod) : parsed.status();
-  auto images = status.isOk() ? fusion::podImagesOf(pod, wire.size(), reported, 0) : status;
-  if (!images.isOk()) {
-    throw std::runtime_error("camera " + std::to_string(reported.id) + ": " + images.status().message());
-  }
+  protocol::Status status = protocol::decodeFrame(parsed, pod);
+  auto images = status.isOk() ? fusion::podImagesOf(pod, wire.size(), reported, protocol::monotonicNs()) : status;
   frame.codec_ms["server_decode"] += msSince(t0);
+  if (!images.isOk()) {
+    throw std::runtime_error(source + ": camera " + std::to_string(reported.id) + ": " + images.status().message());
+  }
   frame.pod_link_bytes += wire.size();
   group.pods[pod.camera_id] = std::move(*images);
 }
@@ -107,32 +129,31 @@ void sendToClient(const fusion::FrameGroup& group, const Mesh& hull, const EvalO
   const uint64_t hull_end_ns = protocol::monotonicNs();
   const fusion::FusedOutput fused = fusion::packageFused(job, settings, hull, hull_end_ns, hull_end_ns);
   const protocol::Bytes mesh_wire = fused.mesh_frame->flatten(), bundle_wire = fused.texture_bundle->flatten();
-  frame.client_link_bytes += mesh_wire.size() + bundle_wire.size() + fused.stats->flatten().size();
-  const auto t0 = Clock::now();
+  const protocol::Bytes stats_wire = fused.stats->flatten();
+  frame.client_link_bytes += mesh_wire.size() + bundle_wire.size() + stats_wire.size();
+  const protocol::Frame bundle_frame = parsedFrame(bundle_wire, "texture bundle");
+  const protocol::Frame mesh_frame_parsed = parsedFrame(mesh_wire, "mesh frame");
   std::map<uint32_t, Camera> cameras;
   for (const Camera& camera : reported) cameras[camera.id] = camera;
-  auto bundle_frame = capture::parseWholeFrame(bundle_wire, "texture bundle");
+  const auto t0 = Clock::now();
   protocol::TextureBundle bundle;
-  protocol::Status status = bundle_frame.isOk() ? protocol::decodeFrame(*bundle_frame, bundle) : bundle_frame.status();
+  protocol::Status status = protocol::decodeFrame(bundle_frame, bundle);
   auto views = status.isOk() ? render::viewsOfBundle(bundle, cameras) : status;
-  if (!views.isOk()) throw std::runtime_error("the client's images: " + views.status().message());
-  auto mesh_frame_wire = capture::parseWholeFrame(mesh_wire, "mesh frame");
   protocol::MeshFrame mesh_frame;
-  status = mesh_frame_wire.isOk() ? protocol::decodeFrame(*mesh_frame_wire, mesh_frame) : mesh_frame_wire.status();
+  status = protocol::decodeFrame(mesh_frame_parsed, mesh_frame);
   auto mesh = status.isOk() ? decodeDraco(mesh_frame.mesh.data(), mesh_frame.mesh.size()) : status;
-  if (!mesh.isOk()) throw std::runtime_error("the client's mesh: " + mesh.status().message());
   frame.codec_ms["decode"] += msSince(t0);
+  if (!views.isOk()) throw std::runtime_error("the client's images: " + views.status().message());
+  if (mesh_frame.mesh.empty()) {
+    // The server sends no Draco bytes when encoding failed, and says why in the Stats.
+    protocol::Stats stats;
+    status = protocol::decodeFrame(parsedFrame(stats_wire, "stats"), stats);
+    throw std::runtime_error("the server's mesh: " + (status.isOk() ? stats.note : status.message()));
+  }
+  if (!mesh.isOk()) throw std::runtime_error("the client's mesh: " + mesh.status().message());
   // The server's encoding, from the stamps it put in the frames it sent.
-  for (const auto& stamp : mesh_frame.stamps) {
-    if (stamp.stage == static_cast<uint16_t>(protocol::Stage::kMeshEncode)) {
-      frame.codec_ms["mesh_encode"] += 1e-6 * static_cast<double>(stamp.end_ns - stamp.start_ns);
-    }
-  }
-  for (const auto& stamp : bundle.stamps) {
-    if (stamp.stage == static_cast<uint16_t>(protocol::Stage::kImageEncode)) {
-      frame.codec_ms["image_encode"] += 1e-6 * static_cast<double>(stamp.end_ns - stamp.start_ns);
-    }
-  }
+  frame.codec_ms["mesh_encode"] += stampedMs(mesh_frame.stamps, protocol::Stage::kMeshEncode);
+  frame.codec_ms["image_encode"] += stampedMs(bundle.stamps, protocol::Stage::kImageEncode);
   frame.mesh = std::move(*mesh);
   frame.views = std::move(*views);
 }
@@ -151,21 +172,23 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
         capture::capturePodFrame(scene, truth[i], plates[i], frame_id, static_cast<uint16_t>(i));
     frame.true_colors.push_back(capture.view.color);
     frame.true_masks.push_back(capture.view.mask);
-    const auto t0 = Clock::now();
     const protocol::Bytes wire = capture::encodePodFrame(capture, static_cast<uint32_t>(i), options.image_codec,
                                                          crop_margin, options.lz4_acceleration)
                                      .flatten();
-    slowest_pod_ms = std::max(slowest_pod_ms, msSince(t0));
-    receivePodFrame(wire, reported[i], group, frame);
+    // As the pod stamps it: its planes' encoding, not the frame's packing.
+    slowest_pod_ms = std::max(slowest_pod_ms, stampedMs(capture.stamps, protocol::Stage::kPodEncode));
+    receivePodFrame(wire, reported[i], "pod", group, frame);
   }
   frame.codec_ms["pod_encode"] = slowest_pod_ms;
+  // The silhouettes back in whole frames before the hull's clock starts, as
+  // in the server.
+  const std::vector<fusion::HullView> hull_views = fusion::hullViewsOf(group);
   const auto t0 = Clock::now();
   // The true surface at the hull's voxel size, when asked for.
   fusion::HullOptions hull_options;
   hull_options.voxel_size = options.voxel_size;
-  const Mesh hull = options.geometry == "truth"
-                        ? scene.truthMesh(frame_id, options.voxel_size)
-                        : fusion::carveVisualHull(fusion::hullViewsOf(group), hull_options, &frame.hull_stats);
+  const Mesh hull = options.geometry == "truth" ? scene.truthMesh(frame_id, options.voxel_size)
+                                                : fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
   frame.hull_ms = msSince(t0);
   sendToClient(group, hull, options, reported, frame);
   return frame;
@@ -441,7 +464,7 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
       if (!images.isOk()) throw std::invalid_argument(dir + ": " + images.status().message());
       frame.true_colors.push_back(std::move(images->color));
       frame.true_masks.push_back(std::move(images->mask));
-      receivePodFrame(recorded->bytes, cameras[c], group, frame);
+      receivePodFrame(recorded->bytes, cameras[c], dir, group, frame);
     }
     const std::vector<fusion::HullView> hull_views = fusion::hullViewsOf(group);
     const auto t0 = Clock::now();

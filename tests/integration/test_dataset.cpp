@@ -196,6 +196,21 @@ TEST_F(DatasetLoop, EvalScoresARecordingLeaveOneCameraOut) {
   EXPECT_NEAR(scene["bytes_per_frame"].get<double>(), client_mean, 0.01 * client_mean);
 }
 
+// The sweep's codec settings in a replay reach the server's images to
+// clients only: the replay pods send the recorded bytes, and refuse codec
+// flags (so a launcher that passed them on would fail here).
+TEST_F(DatasetLoop, AReplayTakesCodecSettingsAtTheServerOnly) {
+  ASSERT_EQ(live_exit_, 0) << readFile(root_ / "live.log");
+  const fs::path out = root_ / "replay_codec";
+  const pid_t loop = spawn({kBin + "/holofuse_loop", "--replay", recording_.string(), "--speed", "max", "--image-codec",
+                            "lz4", "--lz4-acceleration", "8", "--out", out.string()},
+                           root_ / "replay_codec.log");
+  ASSERT_EQ(waitExit(loop, 240), 0) << readFile(root_ / "replay_codec.log");
+  const std::string server_log = readFile(out / "logs" / "server.log");
+  EXPECT_NE(server_log.find("images to clients lz4 at LZ4 acceleration 8"), std::string::npos) << server_log;
+  EXPECT_GT(readJson(out / "report.json")["frames_rendered"].get<int>(), 0);
+}
+
 TEST_F(DatasetLoop, ReplayFusesTheSameMeshesBitForBitAndSendsTheRecordedImages) {
   ASSERT_EQ(live_exit_, 0) << readFile(root_ / "live.log");
   const fs::path first = root_ / "replay1", second = root_ / "replay2";

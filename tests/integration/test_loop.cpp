@@ -332,6 +332,13 @@ TEST(Loop, WrongFlagsPrintUsageAndFail) {
             2);
   EXPECT_EQ(waitExit(spawn({kBin + "/fusion_server", "--no-such-flag"}, out / "b.log"), 10), 2);
   EXPECT_EQ(waitExit(spawn({kBin + "/render_client", "--server", "nonsense"}, out / "c.log"), 10), 2);
+  // A replay pod sends recorded bytes: a synthetic pod's flag is refused.
+  EXPECT_EQ(waitExit(spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "0", "--replay", "x",
+                            "--codec", "lz4"},
+                           out / "e.log"),
+                     10),
+            2);
+  EXPECT_NE(readFile(out / "e.log").find("--codec"), std::string::npos);
   // A value out of range (CLI11's checks) exits 2 as well, naming the flag.
   EXPECT_EQ(waitExit(spawn({kBin + "/render_client", "--server", "127.0.0.1:1", "--alpha", "-1"}, out / "d.log"), 10),
             2);

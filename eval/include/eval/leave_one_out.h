@@ -69,8 +69,9 @@ struct EvalOptions {
   float alpha = 2.0f;
   double lambda = 0.05;
   // Per-stage ms budgets (render::loadBudget's file); the reports flag each
-  // scene and mode whose p95 goes over the budget of "hull" or "render"
-  // (the stages an evaluation times the way the live loop does).
+  // scene and mode whose p95 goes over the budget of a stage the evaluation
+  // times the way the live loop does: "hull", the codec stages with a
+  // loop stamp (codecStages() but server_decode) and "render".
   render::Budget budget;
 };
 
