@@ -18,7 +18,6 @@
 #include "capture_node/replay_pod.h"
 #include "capture_node/scene_library.h"
 #include "common/command_line.h"
-#include "common/image_codec.h"
 
 namespace {
 
@@ -55,12 +54,12 @@ bool waitFor(pid_t pid, int timeout_ms, int* status) {
 }
 
 // A setting of the sweep's (holofuse_sweep --knob) that the loop takes too,
-// with the same meaning and the range of the process it goes to: passed on
-// only when given, so each process keeps its own default otherwise.
+// under the flag of the process it goes to (common/command_line.h holds
+// their help and ranges, so the launcher refuses what that process would):
+// passed on only when given, so each process keeps its own default
+// otherwise.
 struct ForwardedSetting {
-  const char* flag;  // the launcher's
-  const char* description;
-  CLI::Validator check;
+  const char* flag;         // the launcher's
   const char* server_flag;  // nullptr: not the server's
   const char* pod_flag;
   const char* client_flag;
@@ -69,26 +68,30 @@ struct ForwardedSetting {
 
 std::vector<ForwardedSetting> forwardedSettings() {
   return {
-      {"--voxel", "hull voxel size in metres", CLI::Range(0.0001, 0.5), "--voxel", nullptr, nullptr, {}},
-      {"--draco-bits", "Draco position quantisation bits", CLI::Range(4, 24), "--draco-bits", nullptr, nullptr, {}},
-      {"--image-codec", "colour codec of pods and server: raw, lz4, lz4-delta",
-       CLI::IsMember(holofuse::imageCodecNames()), "--image-codec", "--codec", nullptr, {}},
-      {"--lz4-acceleration", "LZ4 acceleration of pods and server (1 = default; higher: faster, larger)",
-       CLI::Range(1, 65537), "--lz4-acceleration", "--lz4-acceleration", nullptr, {}},
-      {"--alpha", "exponent of the view weights", CLI::Range(0.0, 1000.0), nullptr, nullptr, "--alpha", {}},
-      {"--lambda", "montage4d: temporal rate per frame at 30 fps (eq. 5)", CLI::Range(0.0, 1.0), nullptr, nullptr,
-       "--lambda", {}},
-      {"--dilation", "eps: depth discontinuities dilated by this many pixels (-1: the paper's, scaled)",
-       CLI::Range(-1, 64), nullptr, nullptr, "--dilation", {}},
-      {"--vote-delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3)", CLI::Range(0.0, 10.0),
-       nullptr, nullptr, "--vote-delta", {}},
-      {"--geodesic-rings", "montage4d: k, the geodesic reach in triangle rings", CLI::Range(1, 64), nullptr, nullptr,
-       "--geodesic-rings", {}},
-      {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", CLI::Range(1, 200), nullptr, nullptr,
-       "--geodesic-passes", {}},
-      {"--geodesic-radius", "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)",
-       CLI::Range(0.0, 1000.0), nullptr, nullptr, "--geodesic-radius", {}},
+      {"--voxel", "--voxel", nullptr, nullptr, {}},
+      {"--draco-bits", "--draco-bits", nullptr, nullptr, {}},
+      {"--image-codec", "--image-codec", "--codec", nullptr, {}},
+      {"--lz4-acceleration", "--lz4-acceleration", "--lz4-acceleration", nullptr, {}},
+      {"--alpha", nullptr, nullptr, "--alpha", {}},
+      {"--lambda", nullptr, nullptr, "--lambda", {}},
+      {"--dilation", nullptr, nullptr, "--dilation", {}},
+      {"--vote-delta", nullptr, nullptr, "--vote-delta", {}},
+      {"--geodesic-rings", nullptr, nullptr, "--geodesic-rings", {}},
+      {"--geodesic-passes", nullptr, nullptr, "--geodesic-passes", {}},
+      {"--geodesic-radius", nullptr, nullptr, "--geodesic-radius", {}},
   };
+}
+
+// Adds a forwarded setting to the launcher's flags, with the help and the
+// range of the flag it becomes (the pods' and the server's agree where
+// both take it).
+void addForwarded(CLI::App& app, ForwardedSetting& setting) {
+  const char* target = setting.client_flag ? setting.client_flag
+                       : setting.pod_flag  ? setting.pod_flag
+                                           : setting.server_flag;
+  const holofuse::SharedFlag& shared = holofuse::sharedFlag(target);
+  const std::string who = setting.client_flag ? "" : setting.pod_flag ? " (pods and server)" : " (server)";
+  app.add_option(setting.flag, setting.value, shared.description + who)->check(shared.check);
 }
 
 // Appends the given settings that belong to one process (flag_of picks its flag).
@@ -148,7 +151,7 @@ int main(int argc, char** argv) {
                  "the server's hull follows this silhouette error in mm frame by frame (finer voxels on a miss)")
       ->check(CLI::Range(0.0, 1000.0));
   std::vector<ForwardedSetting> forwarded = forwardedSettings();
-  for (auto& s : forwarded) app.add_option(s.flag, s.value, s.description)->check(s.check);
+  for (auto& s : forwarded) addForwarded(app, s);
   app.add_option("--record", record, "record what the pods send into this folder (a dataset for --replay)");
   app.add_flag("--record-fused", record_fused, "with --record: also record the server's fused meshes and images");
   app.add_option("--replay", replay, "replay this dataset folder through the same network path instead of synthetic pods");

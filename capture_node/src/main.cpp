@@ -30,10 +30,7 @@ int main(int argc, char** argv) {
       app.add_option("--crop-margin", options.crop_margin,
                      "send only the foreground's rectangle grown by this many pixels (-1: whole images)")
           ->check(CLI::Range(-1, 4096)),
-      app.add_option("--codec", codec, "colour codec")->check(CLI::IsMember(imageCodecNames())),
-      app.add_option("--lz4-acceleration", options.lz4_acceleration,
-                     "LZ4 acceleration (1 = default; higher: faster, larger)")
-          ->check(CLI::Range(1, 65537))};
+      addSharedFlag(app, "--codec", codec), addSharedFlag(app, "--lz4-acceleration", options.lz4_acceleration)};
   std::string replay, speed = "1";
   bool loop = false;
   CLI::Option* replay_option =

@@ -17,7 +17,7 @@ int main(int argc, char** argv) {
   app.add_option("--pods", options.pods, "cameras expected (1..16)")->check(CLI::Range(1, 16));
   app.add_option("--sync-deadline-ms", options.sync_deadline_ms, "wait this long for a frame's slowest pod")
       ->check(CLI::Range(1.0, 10000.0));
-  app.add_option("--voxel", options.fusion.hull.voxel_size, "hull voxel size in metres")->check(CLI::Range(0.0001, 0.5));
+  addSharedFlag(app, "--voxel", options.fusion.hull.voxel_size);
   double hull_error_mm = 0;
   app.add_option("--hull-error-mm", hull_error_mm,
                  "hull error target in mm of silhouette error: the voxel follows it frame by frame, never coarser "
@@ -25,14 +25,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1000.0));
   std::string volume;
   app.add_option("--volume", volume, "capture volume min and max corners x0,y0,z0,x1,y1,z1 in metres (a dataset's)");
-  app.add_option("--draco-bits", options.fusion.draco.position_bits, "Draco position quantisation bits")
-      ->check(CLI::Range(4, 24));
+  addSharedFlag(app, "--draco-bits", options.fusion.draco.position_bits);
   app.add_option("--draco-speed", options.fusion.draco.speed, "Draco speed 0 (small) .. 10 (fast)")->check(CLI::Range(0, 10));
-  app.add_option("--image-codec", image_codec, "codec of the images sent to clients")
-      ->check(CLI::IsMember(imageCodecNames()));
-  app.add_option("--lz4-acceleration", options.fusion.lz4_acceleration,
-                 "LZ4 acceleration of the images sent to clients (1 = default; higher: faster, larger)")
-      ->check(CLI::Range(1, 65537));
+  addSharedFlag(app, "--image-codec", image_codec);
+  addSharedFlag(app, "--lz4-acceleration", options.fusion.lz4_acceleration);
   app.add_option("--client-queue", options.client_queue_frames, "frames queued per client before dropping the oldest")
       ->check(CLI::Range(1, 1024));
   app.add_option("--idle-timeout-ms", options.idle_timeout_ms, "close a silent peer after this long")

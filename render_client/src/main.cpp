@@ -26,26 +26,16 @@ int main(int argc, char** argv) {
   app.add_option("--jump-at", options.jump_at_frame,
                  "the rendered frame the jump happens at (default: half of --frames, else 30)");
   app.add_option("--mode", mode, "blending mode")->check(CLI::IsMember(render::blendModeNames()));
-  app.add_option("--alpha", options.blend.alpha, "exponent of the view weights")->check(CLI::Range(0.0, 1000.0));
-  app.add_option("--lambda", options.blend.lambda, "montage4d: temporal rate per frame at 30 fps (eq. 5)")
-      ->check(CLI::Range(0.0, 1.0));
+  addSharedFlag(app, "--alpha", options.blend.alpha);
+  addSharedFlag(app, "--lambda", options.blend.lambda);
   app.add_option("--depth-tolerance", options.blend.depth_tolerance, "occlusion test tolerance, metres")
       ->check(CLI::Range(0.0, 10.0));
-  app.add_option("--dilation", options.blend.fields.dilation_px,
-                 "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, scaled)")
-      ->check(CLI::Range(-1, 64));
-  app.add_option("--geodesic-radius", options.blend.fields.geodesic_radius,
-                 "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)")
-      ->check(CLI::Range(0.0, 1000.0));
-  app.add_option("--geodesic-rings", options.blend.fields.geodesic_rings,
-                 "montage4d: k, the geodesic reach in triangle rings")
-      ->check(CLI::Range(1, render::kMaxGeodesicRings));
-  app.add_option("--geodesic-passes", options.blend.fields.geodesic_iterations,
-                 "montage4d: K, the geodesic Jacobi passes")
-      ->check(CLI::Range(1, 200));
-  app.add_option("--vote-delta", options.blend.fields.vote_delta,
-                 "majority vote: Lab distance / 100 under which two views agree (eq. 3)")
-      ->check(CLI::Range(0.0, 10.0));
+  addSharedFlag(app, "--dilation", options.blend.fields.dilation_px);
+  addSharedFlag(app, "--geodesic-radius", options.blend.fields.geodesic_radius);
+  static_assert(render::kMaxGeodesicRings == 64, "the range of --geodesic-rings in common/command_line.h");
+  addSharedFlag(app, "--geodesic-rings", options.blend.fields.geodesic_rings);
+  addSharedFlag(app, "--geodesic-passes", options.blend.fields.geodesic_iterations);
+  addSharedFlag(app, "--vote-delta", options.blend.fields.vote_delta);
   app.add_option("--exclude-camera", options.exclude_camera, "leave this pod camera out of the blend");
   app.add_option("--device", options.device, "Vulkan device: index or part of its name (default: a GPU if any)");
   app.add_option("--client-id", options.client_id, "this client's id");

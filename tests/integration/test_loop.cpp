@@ -322,6 +322,17 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
             2);
   EXPECT_NE(readFile(refused / "loop.log").find("--geodesic-rings"), std::string::npos);
   EXPECT_FALSE(fs::exists(refused / "logs"));
+  // Every forwarded flag is checked by the launcher (with the range of the
+  // process it goes to: common/command_line.h), not left to fail later.
+  for (const char* flag : {"--voxel", "--draco-bits", "--image-codec", "--lz4-acceleration", "--alpha", "--lambda",
+                           "--dilation", "--vote-delta", "--geodesic-rings", "--geodesic-passes",
+                           "--geodesic-radius"}) {
+    const fs::path log = refused / "nonsense.log";
+    EXPECT_EQ(waitExit(spawn({kBin + "/holofuse_loop", flag, "nonsense", "--out", refused.string()}, log), 10), 2)
+        << flag;
+    EXPECT_NE(readFile(log).find(flag), std::string::npos) << readFile(log);
+  }
+  EXPECT_FALSE(fs::exists(refused / "logs"));
 }
 
 TEST(Loop, WrongFlagsPrintUsageAndFail) {

@@ -4,6 +4,12 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/image_codec.h"
 
 #define HOLOFUSE_PARSE_FLAGS(app, argc, argv) \
   try {                                       \
@@ -11,3 +17,53 @@
   } catch (const CLI::ParseError& e) {        \
     return (app).exit(e) == 0 ? 0 : 2;        \
   }
+
+namespace holofuse {
+
+// A flag the live-loop launcher also takes and passes on to the process it
+// belongs to (the sweep's knobs): its name there, help and range, defined
+// once, so that the launcher refuses exactly what that process would.
+struct SharedFlag {
+  const char* flag;
+  const char* description;
+  CLI::Validator check;
+};
+
+inline const std::vector<SharedFlag>& sharedFlags() {
+  static const std::vector<SharedFlag> flags = {
+      // fusion_server
+      {"--voxel", "hull voxel size in metres", CLI::Range(0.0001, 0.5)},
+      {"--draco-bits", "Draco position quantisation bits", CLI::Range(4, 24)},
+      {"--image-codec", "codec of the images sent to clients: raw, lz4, lz4-delta", CLI::IsMember(imageCodecNames())},
+      // capture_node (and fusion_server for --lz4-acceleration)
+      {"--codec", "colour codec: raw, lz4, lz4-delta", CLI::IsMember(imageCodecNames())},
+      {"--lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", CLI::Range(1, 65537)},
+      // render_client
+      {"--alpha", "exponent of the view weights", CLI::Range(0.0, 1000.0)},
+      {"--lambda", "montage4d: temporal rate per frame at 30 fps (eq. 5)", CLI::Range(0.0, 1.0)},
+      {"--dilation", "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, scaled)",
+       CLI::Range(-1, 64)},
+      {"--vote-delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3)", CLI::Range(0.0, 10.0)},
+      {"--geodesic-rings", "montage4d: k, the geodesic reach in triangle rings", CLI::Range(1, 64)},
+      {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", CLI::Range(1, 200)},
+      {"--geodesic-radius", "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)",
+       CLI::Range(0.0, 1000.0)},
+  };
+  return flags;
+}
+
+inline const SharedFlag& sharedFlag(std::string_view flag) {
+  for (const SharedFlag& f : sharedFlags()) {
+    if (flag == f.flag) return f;
+  }
+  throw std::logic_error("no shared flag " + std::string(flag));
+}
+
+// Adds a shared flag bound to value, with its help and range.
+template <typename T>
+CLI::Option* addSharedFlag(CLI::App& app, std::string_view flag, T& value) {
+  const SharedFlag& f = sharedFlag(flag);
+  return app.add_option(f.flag, value, f.description)->check(f.check);
+}
+
+}  // namespace holofuse
