@@ -602,6 +602,21 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
   return results;
 }
 
+std::vector<std::string> latencyStages() {
+  std::vector<std::string> stages = {"hull"};
+  stages.insert(stages.end(), codecStages().begin(), codecStages().end());
+  stages.push_back("client render");
+  return stages;
+}
+
+std::vector<double> latencyParts(const SceneResult& scene, const ModeResult& mode, bool p95) {
+  std::vector<double> parts = {p95 ? scene.hull_ms_p95 : scene.hull_ms};
+  const auto& codec_ms = p95 ? scene.codec_stage_ms_p95 : scene.codec_stage_ms;
+  for (const std::string& stage : codecStages()) parts.push_back(codec_ms.count(stage) ? codec_ms.at(stage) : 0.0);
+  parts.push_back(p95 ? mode.ms_per_new_mesh_p95 : mode.ms_per_new_mesh);
+  return parts;
+}
+
 nlohmann::json sceneResultJson(const SceneResult& scene) {
   nlohmann::json s;
   s["stresses"] = scene.stresses;
@@ -988,19 +1003,10 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       const auto it = scene.modes.find(mode);
       if (it == scene.modes.end()) continue;
       for (const bool p95 : {false, true}) {
-        std::vector<double> parts = {p95 ? scene.hull_ms_p95 : scene.hull_ms};
-        for (const std::string& stage : codecStages()) {
-          const auto& ms = p95 ? scene.codec_stage_ms_p95 : scene.codec_stage_ms;
-          parts.push_back(ms.count(stage) ? ms.at(stage) : 0.0);
-        }
-        parts.push_back(p95 ? it->second.ms_per_new_mesh_p95 : it->second.ms_per_new_mesh);
-        stack.push_back({mode + (p95 ? " p95" : " p50"), parts});
+        stack.push_back({mode + (p95 ? " p95" : " p50"), latencyParts(scene, it->second, p95)});
       }
     }
-    std::vector<std::string> stage_names = {"hull"};
-    stage_names.insert(stage_names.end(), codecStages().begin(), codecStages().end());
-    stage_names.push_back("client render");
-    body += html::stackedBars("Latency of a new mesh: " + scene.name, stage_names, stack, "ms");
+    body += html::stackedBars("Latency of a new mesh: " + scene.name, latencyStages(), stack, "ms");
   }
   body += "<h2>Time per stage of a new mesh (paper 000 Table 3 layout)</h2>\n<p>GPU ms per field pass (timestamps, "
           "medians; approximate on a CPU device), then the wall clock of the render after a new mesh.</p>\n";

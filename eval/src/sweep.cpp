@@ -430,11 +430,10 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     std::vector<html::StackRow> stack;
     for (const SweepPoint* p : mine) {
       const ModeResult& m = p->result.modes.at(mode);
-      stack.push_back({p->value + " p50", {p->result.hull_ms, p->result.codec_ms, m.ms_per_new_mesh}});
-      stack.push_back({p->value + " p95", {p->result.hull_ms_p95, p->result.codec_ms_p95, m.ms_per_new_mesh_p95}});
+      stack.push_back({p->value + " p50", latencyParts(p->result, m, false)});
+      stack.push_back({p->value + " p95", latencyParts(p->result, m, true)});
     }
-    body += html::stackedBars("Latency of a new mesh by value (" + name + ")", {"hull", "codecs", "client render"},
-                              stack, "ms");
+    body += html::stackedBars("Latency of a new mesh by value (" + name + ")", latencyStages(), stack, "ms");
   }
   body += "<h2>All points</h2>\n" +
           html::table({"knob", "value", "PSNR dB", "SSIM", "client ms", "pipeline ms", "KB/frame", "front"}, rows);

@@ -131,6 +131,12 @@ struct SceneResult {
   std::map<std::string, ModeResult> modes;  // by blendModeName
 };
 
+// A new mesh's latency by stage for the reports' stacked bars: the hull,
+// each codec stage (codecStages()), the client's render; and one row of it
+// for a mode's result, at p50 or p95.
+std::vector<std::string> latencyStages();
+std::vector<double> latencyParts(const SceneResult& scene, const ModeResult& mode, bool p95);
+
 // progress(text) is called with one line per finished held-out sequence.
 std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
                                         const std::function<void(const std::string&)>& progress = {});
