@@ -79,6 +79,7 @@ std::vector<ForwardedSetting> forwardedSettings() {
       {"--geodesic-rings", nullptr, nullptr, "--geodesic-rings", {}},
       {"--geodesic-passes", nullptr, nullptr, "--geodesic-passes", {}},
       {"--geodesic-radius", nullptr, nullptr, "--geodesic-radius", {}},
+      {"--vertex-precision", nullptr, nullptr, "--vertex-precision", {}},
   };
 }
 

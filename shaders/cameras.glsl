@@ -13,7 +13,9 @@ struct CameraGpu {
 
 layout(set = 0, binding = HOLOFUSE_BINDING_CAMERAS) uniform Blend {
   CameraGpu cameras[HOLOFUSE_MAX_CAMERAS];
-  ivec4 counts;        // x: camera count, y: mode, z: cameras left out for an empty mask
+  // x: camera count, y: mode, z: cameras left out for an empty mask, w: 1
+  // for half-precision vertices (vertices.glsl)
+  ivec4 counts;
   vec4 params;         // x: alpha, y: depth tolerance (metres)
   vec4 hole_color;     // for surface no camera sees
   vec4 user_eye;       // xyz: the user's eye (montage4d, eq. 4)

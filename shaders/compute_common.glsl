@@ -21,7 +21,7 @@ layout(push_constant) uniform Push {
   uint temporal_stride;     // floats in one half of the temporal buffer
 } push;
 
-layout(std430, set = 0, binding = HOLOFUSE_BINDING_VERTICES) readonly buffer Vertices { float vertex_data[]; };
+#include "vertices.glsl"
 // [camera][y][x]: the bits of the camera-space depth (a float), HOLOFUSE_NO_DEPTH where no surface.
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DEPTHS) buffer DepthMaps { uint depth_bits[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_EDGES) buffer Edges { uint edges[]; };
@@ -64,8 +64,6 @@ float storedDepth(uint camera, ivec2 pixel) {
   return uintBitsToFloat(depth_bits[(camera * push.height + uint(pixel.y)) * push.width + uint(pixel.x)]);
 }
 
-vec3 vertexPosition(uint v) { return vec3(vertex_data[6 * v], vertex_data[6 * v + 1], vertex_data[6 * v + 2]); }
-vec3 vertexNormal(uint v) { return vec3(vertex_data[6 * v + 3], vertex_data[6 * v + 4], vertex_data[6 * v + 5]); }
 
 // Pixel coordinates (x right, y down, centres at .5) and depth of p in
 // camera i; depth <= 0 means behind the camera.

@@ -277,6 +277,7 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
       // Rendered at the held-out camera's own size, to compare pixel for pixel.
       const Camera& pose = novel ? input.novel_poses[static_cast<size_t>(held)] : input.reported[static_cast<size_t>(held)];
       render::Renderer renderer(context, pose.width, pose.height);
+      renderer.setHalfPrecisionVertices(options.half_precision_vertices);
       render::BlendSettings settings;
       settings.mode = mode;
       settings.frame_interval_s = 1.0 / options.fps;

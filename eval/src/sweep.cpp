@@ -115,6 +115,17 @@ std::vector<Knob> makeKnobs() {
   };
   codec.current = [](const EvalOptions& o) { return imageCodecName(o.image_codec); };
   knobs.push_back(codec);
+  Knob precision;
+  precision.name = "vertex-precision";
+  precision.loop_flag = "--vertex-precision";
+  precision.meaning = "vertex positions and normals on the GPU: fp32, or fp16 (paper 000's memory saving)";
+  precision.apply = [](EvalOptions& o, const std::string& v) -> std::string {
+    if (v != "fp32" && v != "fp16") return "'" + v + "' is not one of fp32, fp16";
+    o.half_precision_vertices = v == "fp16";
+    return "";
+  };
+  precision.current = [](const EvalOptions& o) { return std::string(o.half_precision_vertices ? "fp16" : "fp32"); };
+  knobs.push_back(precision);
   Knob size;
   size.name = "size";
   size.loop_flag = "--size";
@@ -169,6 +180,7 @@ nlohmann::json runSettings(const EvalOptions& run) {
             f.geodesic_rings, f.geodesic_iterations, f.geodesic_radius}},
           {"alpha", run.alpha},
           {"lambda", run.lambda},
+          {"half_precision_vertices", run.half_precision_vertices},
           // How bytes and codec times were counted: points from before
           // they went through the loop's own code differ here.
           {"links", "the loop's own encoding and decoding"}};

@@ -176,6 +176,7 @@ int runClient(const ClientOptions& options) {
   try {
     context = std::make_unique<VulkanContext>(options.device);
     renderer = std::make_unique<Renderer>(*context, options.width, options.height);
+    renderer->setHalfPrecisionVertices(options.half_precision_vertices);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "[client] Vulkan start-up failed: %s\n", e.what());
     return 1;
@@ -439,7 +440,8 @@ int runClient(const ClientOptions& options) {
       {"vote_delta", number(fields.vote_delta)},
       {"geodesic_rings", number(fields.geodesic_rings)},
       {"geodesic_passes", number(fields.geodesic_iterations)},
-      {"geodesic_radius", number(fields.geodesic_radius)}};
+      {"geodesic_radius", number(fields.geodesic_radius)},
+      {"vertex_precision", options.half_precision_vertices ? "fp16" : "fp32"}};
   const fs::path report_path = out_dir / "report.json";
   std::ofstream(report_path) << report.toJson(settings, options.budget);
   std::ofstream(out_dir / "report.html") << report.toHtml(settings, options.budget);

@@ -36,6 +36,8 @@ int main(int argc, char** argv) {
   addSharedFlag(app, "--geodesic-rings", options.blend.fields.geodesic_rings);
   addSharedFlag(app, "--geodesic-passes", options.blend.fields.geodesic_iterations);
   addSharedFlag(app, "--vote-delta", options.blend.fields.vote_delta);
+  std::string vertex_precision = "fp32";
+  addSharedFlag(app, "--vertex-precision", vertex_precision);
   app.add_option("--exclude-camera", options.exclude_camera, "leave this pod camera out of the blend");
   app.add_option("--device", options.device, "Vulkan device: index or part of its name (default: a GPU if any)");
   app.add_option("--client-id", options.client_id, "this client's id");
@@ -87,6 +89,7 @@ int main(int argc, char** argv) {
   options.width = w;
   options.height = h;
   options.blend.mode = *render::blendModeFromName(mode);
+  options.half_precision_vertices = vertex_precision == "fp16";
   installStopSignals();
   return render::runClient(options);
 }

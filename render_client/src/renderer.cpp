@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cmath>
 #include <cstring>
+#include <glm/gtc/packing.hpp>
 #include <limits>
 #include <stdexcept>
 #include <type_traits>
@@ -121,16 +122,11 @@ VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayou
   stages[1] = stages[0];
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = frag;
-  VkVertexInputBindingDescription binding{0, sizeof(float) * 6, VK_VERTEX_INPUT_RATE_VERTEX};
-  std::array<VkVertexInputAttributeDescription, 2> attributes{};
-  attributes[0] = {0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0};
-  attributes[1] = {1, 0, VK_FORMAT_R32G32B32_SFLOAT, sizeof(float) * 3};
+  // No vertex attributes: the vertex stage reads the vertices from the
+  // storage buffer the compute passes share (shaders/vertices.glsl), in
+  // full or half precision.
   VkPipelineVertexInputStateCreateInfo input{};
   input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
-  input.vertexBindingDescriptionCount = 1;
-  input.pVertexBindingDescriptions = &binding;
-  input.vertexAttributeDescriptionCount = static_cast<uint32_t>(attributes.size());
-  input.pVertexAttributeDescriptions = attributes.data();
   VkPipelineInputAssemblyStateCreateInfo assembly{};
   assembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
   assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
@@ -394,6 +390,22 @@ void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
 }
 
 void Renderer::setMesh(const Mesh& mesh) {
+  uploaded_half_ = half_vertices_;
+  if (!uploaded_half_) return uploadMesh(mesh);
+  // Everything the CPU derives from the mesh (unfolded triangles, bounds,
+  // the temporal carry) comes from the rounded values too, so that the
+  // passes see one mesh: the one half precision stores.
+  auto throughHalf = [](const glm::vec3& v) {
+    const glm::vec2 xy = glm::unpackHalf2x16(glm::packHalf2x16(glm::vec2(v.x, v.y)));
+    return glm::vec3(xy, glm::unpackHalf2x16(glm::packHalf2x16(glm::vec2(v.z, 0.0f))).x);
+  };
+  Mesh rounded = mesh;
+  for (auto& p : rounded.positions) p = throughHalf(p);
+  for (auto& n : rounded.normals) n = throughHalf(n);
+  uploadMesh(rounded);
+}
+
+void Renderer::uploadMesh(const Mesh& mesh) {
   const VkDeviceSize vertex_bytes = std::max<VkDeviceSize>(mesh.positions.size() * 24, 24);
   const VkDeviceSize index_bytes = std::max<VkDeviceSize>(mesh.indices.size() * 4, 4);
   if (vertex_buffer_.size < vertex_bytes) {
@@ -408,11 +420,17 @@ void Renderer::setMesh(const Mesh& mesh) {
     index_buffer_ = ctx_.createBuffer(index_bytes * 3 / 2, kIndexUsage);
     if (images_.image != VK_NULL_HANDLE) writeDescriptors();
   }
-  auto* v = static_cast<float*>(vertex_buffer_.mapped);
+  // Full precision: position and normal as six floats. Half: the same six
+  // values as halves, two to a word (shaders/vertices.glsl unpacks them).
+  auto* words = static_cast<uint32_t*>(vertex_buffer_.mapped);
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     const glm::vec3 n = i < mesh.normals.size() ? mesh.normals[i] : glm::vec3(0.0f);
     const float values[6] = {mesh.positions[i].x, mesh.positions[i].y, mesh.positions[i].z, n.x, n.y, n.z};
-    std::memcpy(v + i * 6, values, sizeof(values));
+    if (uploaded_half_) {
+      for (size_t k = 0; k < 3; ++k) words[i * 3 + k] = glm::packHalf2x16(glm::vec2(values[2 * k], values[2 * k + 1]));
+    } else {
+      std::memcpy(words + i * 6, values, sizeof(values));
+    }
   }
   std::memcpy(index_buffer_.mapped, mesh.indices.data(), mesh.indices.size() * 4);
   index_count_ = static_cast<uint32_t>(mesh.indices.size());
@@ -624,11 +642,10 @@ FieldSnapshot Renderer::readFields() const {
       out.weights[v * HOLOFUSE_MAX_CAMERAS + i] = s.weights[v * HOLOFUSE_MAX_CAMERAS + j];
     }
   }
-  const auto* positions = static_cast<const float*>(vertex_buffer_.mapped);
   for (size_t i = 0; i < views; ++i) {
     if (!left_out[i]) continue;
     for (size_t v = 0; v < vertices; ++v) {
-      const glm::dvec3 p(positions[6 * v], positions[6 * v + 1], positions[6 * v + 2]);
+      const glm::dvec3 p(current_surface_.positions[v]);
       const auto pixel = view_cameras_[i].project(p);
       const bool inside = pixel && pixel->x >= 0 && pixel->y >= 0 && pixel->x < view_cameras_[i].width &&
                           pixel->y < view_cameras_[i].height;
@@ -740,8 +757,6 @@ glm::mat4 Renderer::clipFor(const Camera& camera) const {
 
 void Renderer::drawMesh(VkCommandBuffer cmd) {
   if (index_count_ == 0) return;
-  VkDeviceSize offset = 0;
-  vkCmdBindVertexBuffers(cmd, 0, 1, &vertex_buffer_.buffer, &offset);
   vkCmdBindIndexBuffer(cmd, index_buffer_.buffer, 0, VK_INDEX_TYPE_UINT32);
   vkCmdDrawIndexed(cmd, index_count_, 1, 0, 0, 0);
 }
@@ -757,7 +772,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   // z: cameras left out of the arrays for their empty masks; each adds its
   // gamma of 1 (it sees no vertex) to montage4d's sum, as in the reference.
   u.counts = glm::ivec4(static_cast<int>(cameras_.size()), static_cast<int>(settings.mode),
-                        static_cast<int>(subject_seen_.size() - active_.size()), 0);
+                        static_cast<int>(subject_seen_.size() - active_.size()), uploaded_half_ ? 1 : 0);
   u.params = glm::vec4(settings.alpha, settings.depth_tolerance, 0, 0);
   u.hole_color = glm::vec4(settings.hole_color, 1.0f);
   glm::uvec2 region_extent(0);  // the largest camera region

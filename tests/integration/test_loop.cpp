@@ -296,6 +296,8 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
                             "11",
                             "--geodesic-radius",
                             "0.04",
+                            "--vertex-precision",
+                            "fp16",
                             "--out",
                             out.string()},
                            out / "loop.log");
@@ -303,7 +305,8 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
   const auto settings = readJson(out / "report.json").at("settings");
   const std::map<std::string, std::string> expected = {
       {"mode", "montage4d"},  {"alpha", "3"},          {"lambda", "0.5"},         {"dilation", "1"},
-      {"vote_delta", "0.25"}, {"geodesic_rings", "9"}, {"geodesic_passes", "11"}, {"geodesic_radius", "0.04"}};
+      {"vote_delta", "0.25"}, {"geodesic_rings", "9"}, {"geodesic_passes", "11"}, {"geodesic_radius", "0.04"},
+      {"vertex_precision", "fp16"}};
   for (const auto& [key, value] : expected) EXPECT_EQ(settings.at(key).get<std::string>(), value) << key;
   const std::string server_log = readFile(out / "logs" / "server.log");
   EXPECT_NE(server_log.find("voxel 0.03 m"), std::string::npos) << server_log;
@@ -326,7 +329,7 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
   // process it goes to: common/command_line.h), not left to fail later.
   for (const char* flag : {"--voxel", "--draco-bits", "--image-codec", "--lz4-acceleration", "--alpha", "--lambda",
                            "--dilation", "--vote-delta", "--geodesic-rings", "--geodesic-passes",
-                           "--geodesic-radius"}) {
+                           "--geodesic-radius", "--vertex-precision"}) {
     const fs::path log = refused / "nonsense.log";
     EXPECT_EQ(waitExit(spawn({kBin + "/holofuse_loop", flag, "nonsense", "--out", refused.string()}, log), 10), 2)
         << flag;

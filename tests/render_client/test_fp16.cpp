@@ -10,9 +10,24 @@
 #include "capture_node/synthetic_scene.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
+#include "render_client/renderer.h"
 
 namespace holofuse::render::reference {
 namespace {
+
+// The synthetic subject seen by a ring of `count` pods at frame 6, as
+// views of type View ({camera, colour, mask}), and their cameras.
+template <typename View>
+std::pair<std::vector<View>, std::vector<Camera>> ring(const capture::SyntheticScene& scene, int count, uint32_t width,
+                                                       uint32_t height) {
+  std::pair<std::vector<View>, std::vector<Camera>> out;
+  for (const auto& cam : capture::SyntheticScene::cameraRig(count, width, height)) {
+    const auto truth = scene.render(cam, 6);
+    out.first.push_back({cam, truth.color, truth.mask});
+    out.second.push_back(cam);
+  }
+  return out;
+}
 
 glm::vec3 throughHalf(const glm::vec3& v) {
   return glm::vec3(glm::unpackHalf1x16(glm::packHalf1x16(v.x)), glm::unpackHalf1x16(glm::packHalf1x16(v.y)),
@@ -30,13 +45,7 @@ TEST(Fp16Storage, PositionAndNormalRoundingChangesTheFieldsLittle) {
     position_error = std::max(position_error, static_cast<double>(glm::length(half.positions[v] - full.positions[v])));
     normal_error = std::max(normal_error, static_cast<double>(glm::length(half.normals[v] - full.normals[v])));
   }
-  std::vector<PodView> views;
-  std::vector<Camera> cameras;
-  for (const auto& cam : capture::SyntheticScene::cameraRig(4, 320, 240)) {
-    const auto truth = scene.render(cam, 6);
-    views.push_back({cam, truth.color, truth.mask});
-    cameras.push_back(cam);
-  }
+  const auto [views, cameras] = ring<PodView>(scene, 4, 320, 240);
   auto weightsOf = [&](const Mesh& mesh, std::vector<std::vector<uint8_t>>* visible_out) {
     const auto sights = vertexSights(mesh, views);
     const auto visible = finalVisibility(sights, majorityVote(mesh, views, sights));
@@ -70,6 +79,54 @@ TEST(Fp16Storage, PositionAndNormalRoundingChangesTheFieldsLittle) {
   EXPECT_LT(normal_error, 1.0e-3);
   EXPECT_LT(static_cast<double>(flips) / pairs, 0.005) << "visibility changes only at its boundaries";
   EXPECT_LT(weight_error / pairs, 0.005);
+}
+
+// The same storage on the GPU (Renderer::setHalfPrecisionVertices): every
+// pass reads the halves, unpacked. So montage4d over two meshes (fields,
+// temporal carry, blend) gives the same bits as full precision fed the
+// rounded mesh, in half the vertex memory; against the unrounded mesh the
+// picture changes by a fraction of a grey level, stated here.
+TEST(Fp16Storage, HalfPrecisionVerticesOnTheGpuAreTheRoundedMeshBitForBit) {
+  static VulkanContext context;
+  const capture::SyntheticScene scene;
+  const auto [views, cameras] = ring<ViewImages>(scene, 4, 160, 120);
+  auto rounded = [](Mesh mesh) {
+    for (size_t v = 0; v < mesh.vertexCount(); ++v) {
+      mesh.positions[v] = throughHalf(mesh.positions[v]);
+      mesh.normals[v] = throughHalf(mesh.normals[v]);
+    }
+    return mesh;
+  };
+  const std::vector<Mesh> meshes = {scene.truthMesh(6, 0.02), scene.truthMesh(7, 0.02)};
+  Renderer half(context, 160, 120), full_rounded(context, 160, 120), full(context, 160, 120);
+  half.setHalfPrecisionVertices(true);
+  BlendSettings settings;
+  settings.mode = BlendMode::kMontage4D;
+  double difference = 0;
+  size_t pixels = 0;
+  for (size_t f = 0; f < meshes.size(); ++f) {
+    half.setMesh(meshes[f]);
+    full_rounded.setMesh(rounded(meshes[f]));
+    full.setMesh(meshes[f]);
+    for (Renderer* r : {&half, &full_rounded, &full}) r->setViews(views);
+    const Image8 a = half.render(cameras[f], settings), b = full_rounded.render(cameras[f], settings),
+                 c = full.render(cameras[f], settings);
+    EXPECT_EQ(a.pixels, b.pixels) << "mesh " << f;
+    const FieldSnapshot fa = half.readFields(), fb = full_rounded.readFields();
+    EXPECT_EQ(fa.sights, fb.sights) << "mesh " << f;
+    EXPECT_EQ(fa.distances, fb.distances) << "mesh " << f;
+    EXPECT_EQ(fa.weights, fb.weights) << "mesh " << f;
+    EXPECT_EQ(half.vertexBytes(), 12 * meshes[f].vertexCount());
+    EXPECT_EQ(full.vertexBytes(), 24 * meshes[f].vertexCount());
+    for (size_t p = 0; p < a.pixels.size(); p += 4) {
+      for (size_t k = 0; k < 3; ++k) difference += std::abs(a.pixels[p + k] - c.pixels[p + k]);
+      ++pixels;
+    }
+  }
+  const double mean = difference / (3.0 * static_cast<double>(pixels));
+  RecordProperty("mean_pixel_difference_fp16_vs_fp32", std::to_string(mean));
+  EXPECT_GT(mean, 0.0) << "half precision does round the synthetic subject's vertices";
+  EXPECT_LT(mean, 0.5) << "grey levels per channel, over the whole picture";
 }
 
 }  // namespace

@@ -48,6 +48,8 @@ inline const std::vector<SharedFlag>& sharedFlags() {
       {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", CLI::Range(1, 200)},
       {"--geodesic-radius", "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)",
        CLI::Range(0.0, 1000.0)},
+      {"--vertex-precision", "vertex positions and normals on the GPU: fp32, or fp16 (half the memory)",
+       CLI::IsMember({"fp32", "fp16"})},
   };
   return flags;
 }

@@ -68,6 +68,7 @@ struct EvalOptions {
   render::FieldParameters fields;            // eps, k, K
   float alpha = 2.0f;
   double lambda = 0.05;
+  bool half_precision_vertices = false;  // Renderer::setHalfPrecisionVertices
   // Per-stage ms budgets (render::loadBudget's file); the reports flag each
   // scene and mode whose p95 goes over the budget of a stage the evaluation
   // times the way the live loop does: "hull", the codec stages with a

@@ -37,6 +37,7 @@ struct ClientOptions {
   uint32_t width = 320, height = 240;
   std::string device;               // Vulkan device selector (VulkanContext)
   BlendSettings blend;
+  bool half_precision_vertices = false;  // Renderer::setHalfPrecisionVertices
   int exclude_camera = -1;          // leave this camera out of the blend
   bool write_frames = true;
   Budget budget;                    // per-stage ms; violations are flagged in the reports
