@@ -3,6 +3,7 @@
 #include <array>
 #include <cstddef>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <glm/gtc/packing.hpp>
 #include <limits>
@@ -390,8 +391,23 @@ void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
 }
 
 void Renderer::setMesh(const Mesh& mesh) {
-  uploaded_half_ = half_vertices_;
-  if (!uploaded_half_) return uploadMesh(mesh);
+  if (!half_vertices_) {
+    uploaded_half_ = false;
+    return uploadMesh(mesh);
+  }
+  // A half holds magnitudes up to 65504: past that a position would become
+  // infinite. Refused before anything changes, so the previous mesh stays.
+  constexpr float kHalfMax = 65504.0f;
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    const glm::vec3& p = mesh.positions[v];
+    if (!(std::abs(p.x) <= kHalfMax && std::abs(p.y) <= kHalfMax && std::abs(p.z) <= kHalfMax)) {
+      char text[160];
+      std::snprintf(text, sizeof(text), "vertex %zu at (%g, %g, %g) is outside half precision's range (|x| <= 65504)",
+                    v, p.x, p.y, p.z);
+      throw std::invalid_argument(text);
+    }
+  }
+  uploaded_half_ = true;
   // Everything the CPU derives from the mesh (unfolded triangles, bounds,
   // the temporal carry) comes from the rounded values too, so that the
   // passes see one mesh: the one half precision stores.

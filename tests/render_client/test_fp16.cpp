@@ -123,6 +123,20 @@ TEST(Fp16Storage, HalfPrecisionVerticesOnTheGpuAreTheRoundedMeshBitForBit) {
       ++pixels;
     }
   }
+  // A mesh past half precision's range is refused by name, and the previous
+  // one stays: the same picture as before (holoportation: no temporal state).
+  Mesh huge = meshes.back();
+  for (auto& p : huge.positions) p *= 1e5f;
+  BlendSettings baseline;
+  baseline.mode = BlendMode::kHoloportation;
+  const Image8 before = half.render(cameras[1], baseline);
+  try {
+    half.setMesh(huge);
+    ADD_FAILURE() << "a mesh 100 km across was taken in half precision";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("half precision's range"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(half.render(cameras[1], baseline).pixels, before.pixels);
   const double mean = difference / (3.0 * static_cast<double>(pixels));
   RecordProperty("mean_pixel_difference_fp16_vs_fp32", std::to_string(mean));
   EXPECT_GT(mean, 0.0) << "half precision does round the synthetic subject's vertices";
