@@ -18,7 +18,7 @@
 namespace holofuse::render {
 namespace {
 
-// std140 mirror of the Blend uniform block in shaders/blend.frag.glsl.
+// std140 mirror of the Blend uniform block in shaders/cameras.glsl.
 struct CameraGpu {
   glm::mat4 world_to_clip;
   glm::vec4 center;
@@ -42,7 +42,8 @@ static_assert(sizeof(BlendUniforms) == 128 * HOLOFUSE_MAX_CAMERAS + 80);
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 // Geodesic worklists are cleared by transfer commands every mesh.
 constexpr VkBufferUsageFlags kWorklistUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-constexpr VkBufferUsageFlags kVertexUsage = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+// The vertices are read as a storage buffer by every stage (shaders/vertices.glsl).
+constexpr VkBufferUsageFlags kVertexUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
 constexpr VkBufferUsageFlags kIndexUsage = VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
 constexpr uint32_t kImageMipLevels = 4;  // the vote searches at most this many
 
@@ -390,11 +391,16 @@ void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
   });
 }
 
+glm::vec3 halfPrecision(const glm::vec3& v) {
+  auto round = [](float x) {
+    const float h = glm::unpackHalf2x16(glm::packHalf2x16(glm::vec2(x, 0.0f))).x;
+    return std::abs(h) < kSmallestNormalHalf ? 0.0f : h;
+  };
+  return glm::vec3(round(v.x), round(v.y), round(v.z));
+}
+
 void Renderer::setMesh(const Mesh& mesh) {
-  if (!half_vertices_) {
-    uploaded_half_ = false;
-    return uploadMesh(mesh);
-  }
+  if (!half_vertices_) return uploadMesh(mesh, false);
   // A half holds magnitudes up to 65504: past that a position would become
   // infinite. Refused before anything changes, so the previous mesh stays.
   constexpr float kHalfMax = 65504.0f;
@@ -407,22 +413,17 @@ void Renderer::setMesh(const Mesh& mesh) {
       throw std::invalid_argument(text);
     }
   }
-  uploaded_half_ = true;
   // Everything the CPU derives from the mesh (unfolded triangles, bounds,
   // the temporal carry) comes from the rounded values too, so that the
   // passes see one mesh: the one half precision stores.
-  auto throughHalf = [](const glm::vec3& v) {
-    const glm::vec2 xy = glm::unpackHalf2x16(glm::packHalf2x16(glm::vec2(v.x, v.y)));
-    return glm::vec3(xy, glm::unpackHalf2x16(glm::packHalf2x16(glm::vec2(v.z, 0.0f))).x);
-  };
   Mesh rounded = mesh;
-  for (auto& p : rounded.positions) p = throughHalf(p);
-  for (auto& n : rounded.normals) n = throughHalf(n);
-  uploadMesh(rounded);
+  for (auto& p : rounded.positions) p = halfPrecision(p);
+  for (auto& n : rounded.normals) n = halfPrecision(n);
+  uploadMesh(rounded, true);
 }
 
-void Renderer::uploadMesh(const Mesh& mesh) {
-  const VkDeviceSize vertex_bytes = std::max<VkDeviceSize>(mesh.positions.size() * 24, 24);
+void Renderer::uploadMesh(const Mesh& mesh, bool half) {
+  const VkDeviceSize vertex_bytes = std::max<VkDeviceSize>(mesh.positions.size() * (half ? 12 : 24), 24);
   const VkDeviceSize index_bytes = std::max<VkDeviceSize>(mesh.indices.size() * 4, 4);
   if (vertex_buffer_.size < vertex_bytes) {
     vkDeviceWaitIdle(ctx_.device());
@@ -438,6 +439,8 @@ void Renderer::uploadMesh(const Mesh& mesh) {
   }
   // Full precision: position and normal as six floats. Half: the same six
   // values as halves, two to a word (shaders/vertices.glsl unpacks them).
+  // The flag follows the buffer's contents, once they are written.
+  uploaded_half_ = half;
   auto* words = static_cast<uint32_t*>(vertex_buffer_.mapped);
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     const glm::vec3 n = i < mesh.normals.size() ? mesh.normals[i] : glm::vec3(0.0f);

@@ -58,6 +58,14 @@ glm::mat4 worldToClip(const Camera& camera, double near_plane = 0.05, double far
 // scene scale (millimetres to kilometres) keeps its depth precision.
 std::pair<double, double> depthRange(const Camera& camera, const glm::dvec3& lo, const glm::dvec3& hi);
 
+// What half-precision vertex storage keeps of a position or normal: each
+// component rounded to the nearest half, and halves too small to be normal
+// (below 2^-14) stored as 0, so that a GPU that flushes them reads the same.
+// Halves hold magnitudes up to 65504 with 11 significant bits: about 0.5 mm
+// at 1 m, 8 m at 10 km.
+constexpr float kSmallestNormalHalf = 6.103515625e-05f;  // 2^-14
+glm::vec3 halfPrecision(const glm::vec3& v);
+
 class Renderer {
  public:
   Renderer(VulkanContext& context, uint32_t width, uint32_t height);
@@ -73,8 +81,9 @@ class Renderer {
   // every pass reads what a full-precision buffer of the rounded values
   // would hold.
   void setHalfPrecisionVertices(bool half) { half_vertices_ = half; }
-  // Bytes the current mesh's vertices take on the GPU.
-  uint64_t vertexBytes() const { return uint64_t{vertex_count_} * (uploaded_half_ ? 12 : 24); }
+  // Bytes allocated for the vertices on the GPU (room for the largest mesh
+  // so far, with a margin).
+  uint64_t vertexBufferBytes() const { return vertex_buffer_.size; }
   // All views must share one image size (the pods' calibration). Throws
   // std::invalid_argument otherwise.
   void setViews(const std::vector<ViewImages>& views);
@@ -105,7 +114,7 @@ class Renderer {
   void writeDescriptors();
   void generateMips(VkCommandBuffer cmd);
   void drawMesh(VkCommandBuffer cmd);
-  void uploadMesh(const Mesh& mesh);  // setMesh in the precision chosen
+  void uploadMesh(const Mesh& mesh, bool half);  // setMesh's upload, in full or half precision
   glm::mat4 clipFor(const Camera& camera) const;
 
   // The fields of cameras_ as the passes left them (readFields expands
