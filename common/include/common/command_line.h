@@ -34,9 +34,9 @@ inline const std::vector<SharedFlag>& sharedFlags() {
       // fusion_server
       {"--voxel", "hull voxel size in metres", CLI::Range(0.0001, 0.5)},
       {"--draco-bits", "Draco position quantisation bits", CLI::Range(4, 24)},
-      {"--image-codec", "codec of the images sent to clients: raw, lz4, lz4-delta", CLI::IsMember(imageCodecNames())},
+      {"--image-codec", "codec of the images sent to clients", CLI::IsMember(imageCodecNames())},
       // capture_node (and fusion_server for --lz4-acceleration)
-      {"--codec", "colour codec: raw, lz4, lz4-delta", CLI::IsMember(imageCodecNames())},
+      {"--codec", "colour codec", CLI::IsMember(imageCodecNames())},
       {"--lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", CLI::Range(1, 65537)},
       // render_client
       {"--alpha", "exponent of the view weights", CLI::Range(0.0, 1000.0)},
@@ -48,7 +48,7 @@ inline const std::vector<SharedFlag>& sharedFlags() {
       {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", CLI::Range(1, 200)},
       {"--geodesic-radius", "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)",
        CLI::Range(0.0, 1000.0)},
-      {"--vertex-precision", "vertex positions and normals on the GPU: fp32, or fp16 (half the memory)",
+      {"--vertex-precision", "vertex positions and normals on the GPU: fp32, or fp16 in half the memory",
        CLI::IsMember({"fp32", "fp16"})},
   };
   return flags;
