@@ -95,9 +95,10 @@ protocol::Frame parsedFrame(const protocol::Bytes& wire, const std::string& what
 
 // The server's side of one pod frame (protocol bytes, as sent or
 // recorded), decoded as fusion_server decodes it, into the frame's group.
-// source names where the bytes came from in errors.
-void receivePodFrame(const protocol::Bytes& wire, const Camera& reported, const std::string& source,
-                     fusion::FrameGroup& group, FrameData& frame) {
+// source names where the bytes came from in errors. Returns what the
+// group now holds for that camera.
+const fusion::PodImages& receivePodFrame(const protocol::Bytes& wire, const Camera& reported, const std::string& source,
+                                         fusion::FrameGroup& group, FrameData& frame) {
   const protocol::Frame parsed = parsedFrame(wire, source + ": camera " + std::to_string(reported.id));
   const auto t0 = Clock::now();
   protocol::PodFrame pod;
@@ -108,7 +109,7 @@ void receivePodFrame(const protocol::Bytes& wire, const Camera& reported, const 
     throw std::runtime_error(source + ": camera " + std::to_string(reported.id) + ": " + images.status().message());
   }
   frame.pod_link_bytes += wire.size();
-  group.pods[pod.camera_id] = std::move(*images);
+  return group.pods[pod.camera_id] = std::move(*images);
 }
 
 // The server's packing of the group's hull for clients (Draco, the images
@@ -459,13 +460,12 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
     for (size_t c = 0; c < records.size(); ++c) {
       auto recorded = dataset->readFrame(records[c]);
       if (!recorded.isOk()) throw std::invalid_argument(recorded.status().message());
-      // The truth: the recorded image and mask, whole (the pods' encoding
-      // is not timed: the recording was made).
-      auto images = capture::decodePodImages(*recorded, cameras[c]);
-      if (!images.isOk()) throw std::invalid_argument(dir + ": " + images.status().message());
-      frame.true_colors.push_back(std::move(images->color));
-      frame.true_masks.push_back(std::move(images->mask));
-      receivePodFrame(recorded->bytes, cameras[c], dir, group, frame);
+      // The pods' encoding is not timed: the recording was made. The truth
+      // is the recorded image and mask, back in their whole frame.
+      const fusion::PodImages& pod = receivePodFrame(recorded->bytes, cameras[c], dir, group, frame);
+      const Camera& cam = cameras[c];
+      frame.true_colors.push_back(placeInFrame(pod.color, pod.offset_x, pod.offset_y, cam.width, cam.height));
+      frame.true_masks.push_back(placeInFrame(pod.mask, pod.offset_x, pod.offset_y, cam.width, cam.height));
     }
     const std::vector<fusion::HullView> hull_views = fusion::hullViewsOf(group);
     const auto t0 = Clock::now();
