@@ -5,10 +5,6 @@ struct CameraGpu {
   vec4 center;         // xyz: camera centre in world space
   vec4 size;           // width, height, 1/width, 1/height
   ivec4 flags;         // x: 1 if the camera takes part; y: 1 if its mask is empty (nothing to rasterise)
-  // x0, y0 (inclusive), x1, y1 (exclusive): the pixels the mesh can cover
-  // in this camera (its bounding box projected, with a margin); the
-  // discontinuity pass looks only there. Empty for an empty mask.
-  ivec4 region;
 };
 
 layout(set = 0, binding = HOLOFUSE_BINDING_CAMERAS) uniform Blend {

@@ -24,12 +24,10 @@ layout(push_constant) uniform Push {
 #include "vertices.glsl"
 // [camera][y][x]: the bits of the camera-space depth (a float), HOLOFUSE_NO_DEPTH where no surface.
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DEPTHS) buffer DepthMaps { uint depth_bits[]; };
-layout(std430, set = 0, binding = HOLOFUSE_BINDING_EDGES) buffer Edges { uint edges[]; };
-layout(std430, set = 0, binding = HOLOFUSE_BINDING_DILATED) buffer Dilated { uint dilated[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_DISCONTINUITIES) buffer Discontinuities { uint discontinuities[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_SIGHTS) buffer Sights { uint sights[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_TRUSTED) buffer Trusted { uint trusted[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WEIGHTS) buffer Weights { float weights[]; };
-layout(std430, set = 0, binding = HOLOFUSE_BINDING_ROWS) buffer Rows { uint rows[]; };  // dilation scratch
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_INDICES) readonly buffer Indices { uint indices[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_SEAMS) buffer Seams { uint seams[]; };  // [camera][triangle]
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_VISIBLE_COUNTS) buffer VisibleCounts { uint visible_counts[]; };

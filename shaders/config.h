@@ -11,10 +11,7 @@
 // Push constants: the vertex stage's matrix, then the compute passes' block.
 #define HOLOFUSE_COMPUTE_PUSH_OFFSET 64
 
-// Workgroup sizes: per-pixel passes run 16x16, per-vertex passes 64 wide.
-#define HOLOFUSE_PIXEL_GROUP 16
-// Pixels along a row per invocation of the discontinuity pass.
-#define HOLOFUSE_DISCONTINUITY_RUN 8
+// Workgroup size of the per-vertex and per-triangle passes.
 #define HOLOFUSE_VERTEX_GROUP 64
 
 // Depth-map value where no surface was drawn.
@@ -33,24 +30,22 @@
 #define HOLOFUSE_BINDING_DEPTHS 1
 #define HOLOFUSE_BINDING_IMAGES 2
 #define HOLOFUSE_BINDING_VERTICES 3
-#define HOLOFUSE_BINDING_EDGES 4
-#define HOLOFUSE_BINDING_DILATED 5
-#define HOLOFUSE_BINDING_SIGHTS 6
-#define HOLOFUSE_BINDING_TRUSTED 7
-#define HOLOFUSE_BINDING_WEIGHTS 8
-#define HOLOFUSE_BINDING_ROWS 9
-#define HOLOFUSE_BINDING_INDICES 10
-#define HOLOFUSE_BINDING_SEAMS 11
-#define HOLOFUSE_BINDING_VISIBLE_COUNTS 12
-#define HOLOFUSE_BINDING_ADJACENCY 13   // CSR: per vertex the triangles around it
-#define HOLOFUSE_BINDING_RINGS 14       // [2][camera][vertex] ping-pong: ring count and nearest seam vertex, packed
-#define HOLOFUSE_BINDING_DISTANCES 15   // [2][camera][vertex] ping-pong
-#define HOLOFUSE_BINDING_TEMPORAL 16    // [2][vertex][16]: previous and current temporal field
-#define HOLOFUSE_BINDING_CARRY 17       // per vertex: its vertex in the previous mesh, -1 for none
-#define HOLOFUSE_BINDING_FANS 18        // per (vertex, triangle) in ADJACENCY order: the triangle unfolded
-#define HOLOFUSE_BINDING_WORKLIST 19    // geodesics: [slot][camera * vertex] lists, then [slot][...] marks
-#define HOLOFUSE_BINDING_WORKLIST_COUNTS 20  // per Jacobi pass: dispatch groups x, y, z, then the list length
-#define HOLOFUSE_BINDING_COUNT 21
+#define HOLOFUSE_BINDING_DISCONTINUITIES 4  // per vertex: bit i set if it lies in camera i's dilated discontinuities
+#define HOLOFUSE_BINDING_SIGHTS 5
+#define HOLOFUSE_BINDING_TRUSTED 6
+#define HOLOFUSE_BINDING_WEIGHTS 7
+#define HOLOFUSE_BINDING_INDICES 8
+#define HOLOFUSE_BINDING_SEAMS 9
+#define HOLOFUSE_BINDING_VISIBLE_COUNTS 10
+#define HOLOFUSE_BINDING_ADJACENCY 11  // CSR: per vertex the triangles around it
+#define HOLOFUSE_BINDING_RINGS 12      // [2][camera][vertex] ping-pong: ring count and nearest seam vertex, packed
+#define HOLOFUSE_BINDING_DISTANCES 13  // [2][camera][vertex] ping-pong
+#define HOLOFUSE_BINDING_TEMPORAL 14   // [2][vertex][16]: previous and current temporal field
+#define HOLOFUSE_BINDING_CARRY 15      // per vertex: its vertex in the previous mesh, -1 for none
+#define HOLOFUSE_BINDING_FANS 16       // per (vertex, triangle) in ADJACENCY order: the triangle unfolded
+#define HOLOFUSE_BINDING_WORKLIST 17   // geodesics: [slot][camera * vertex] lists, then [slot][...] marks
+#define HOLOFUSE_BINDING_WORKLIST_COUNTS 18  // per Jacobi pass: dispatch groups x, y, z, then the list length
+#define HOLOFUSE_BINDING_COUNT 19
 
 // Geodesic worklists and their marks rotate through three slots of storage:
 // the one a pass reads (clearing each mark as it goes), the one it appends

@@ -3,18 +3,20 @@
 #include "config.h"
 #include "cameras.glsl"
 #include "compute_common.glsl"
-// Stage 2a (paper 000 section 4.2): depth discontinuities of each camera's
-// depth map (the camera is gl_GlobalInvocationID.z): a surface pixel whose
-// 4-neighbour is empty or farther by more than relative_jump times the
-// nearer depth.
+// Stage 2 (paper 000 section 4.2): whether each vertex lies in each
+// camera's depth discontinuities dilated by eps pixels. A surface pixel is
+// a discontinuity where a 4-neighbour is empty or farther by more than
+// relative_jump times the nearer depth; dilation marks every pixel within
+// the square of radius eps around one.
 //
-// Each invocation does a run of HOLOFUSE_DISCONTINUITY_RUN pixels along a
-// row with a sliding window, so a CPU device pays its per-invocation cost
-// once per run (one pixel per invocation was 3.5 times slower than the CPU
-// reference on lavapipe; an array of the run's row spilled to memory past
-// 8 pixels). On lavapipe, 21 repeats: runs of 4, 8, 16 and 32 took
-// 0.57-0.63, 0.48-0.50, 0.51-0.68 and 0.68-0.96 ms for 4 cameras.
-layout(local_size_x = HOLOFUSE_PIXEL_GROUP, local_size_y = HOLOFUSE_PIXEL_GROUP) in;
+// The dilated map is only ever read at the pixel a vertex projects to (by
+// the visibility pass), so it is evaluated there and nowhere else: one
+// invocation per vertex instead of one per pixel and a pass per dilation
+// axis. The result is the same as the whole map sampled at that pixel
+// (render::reference::dilatedDiscontinuities); on lavapipe the whole map
+// took 0.9-1.0 ms for 4 cameras at 320x240 and this pass 0.4-0.6 ms, and
+// no pixel-sized buffer is needed.
+layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
 
 const float kOutside = -1.0;  // beyond the image's border: continuous
 
@@ -29,39 +31,44 @@ bool breaks(float d, float e) {
   return e != kOutside && (e >= HOLOFUSE_NO_DEPTH * 0.5 || abs(e - d) > push.relative_jump * min(d, e));
 }
 
+// Pixel p of the camera's map holds surface at depth d with a break beside it.
+bool breaksAround(uint camera, ivec2 p, float d) {
+  return breaks(d, depthAt(camera, p + ivec2(-1, 0))) || breaks(d, depthAt(camera, p + ivec2(1, 0))) ||
+         breaks(d, depthAt(camera, p + ivec2(0, -1))) || breaks(d, depthAt(camera, p + ivec2(0, 1)));
+}
+
+bool isDiscontinuity(uint camera, ivec2 p) {
+  float d = depthAt(camera, p);
+  return d != kOutside && d < HOLOFUSE_NO_DEPTH * 0.5 && breaksAround(camera, p, d);
+}
+
 void main() {
-  const int run = HOLOFUSE_DISCONTINUITY_RUN;
-  uint camera = gl_GlobalInvocationID.z;  // all cameras in one dispatch
-  if (camera >= push.camera_count) return;
-  // Only the camera's region can hold depth (CameraGpu::region; empty for
-  // a camera that sees none of the subject); the flags are cleared
-  // everywhere before this pass.
-  ivec4 region = blend.cameras[camera].region;
-  ivec2 start = region.xy + ivec2(int(gl_GlobalInvocationID.x) * run, int(gl_GlobalInvocationID.y));
-  if (start.x >= region.z || start.y >= region.w) return;
-  // A window of three along the row slides over the run: each pixel loads
-  // its right neighbour and the two above and below.
-  float left = depthAt(camera, start + ivec2(-1, 0)), centre = depthAt(camera, start);
-  uint line = (camera * push.height + uint(start.y)) * push.width;
-  for (int k = 0; k < run; ++k) {
-    ivec2 p = start + ivec2(k, 0);
-    if (p.x >= region.z) break;
-    float right = depthAt(camera, p + ivec2(1, 0));
-    float d = centre;
-    bool edge = d < HOLOFUSE_NO_DEPTH * 0.5 &&
-                (breaks(d, left) || breaks(d, right) || breaks(d, depthAt(camera, p + ivec2(0, -1))) ||
-                 breaks(d, depthAt(camera, p + ivec2(0, 1))));
-    left = centre;
-    centre = right;
-    // Both maps were cleared before this pass: only edges are written
-    // (a CPU device pays for every scattered store). With eps = 0 the
-    // edges are the dilated map: the dilation passes are skipped.
-    if (!edge) continue;
-    uint index = line + uint(p.x);
-    if (push.dilation > 0) {
-      edges[index] = 1u;
+  uint v = gl_GlobalInvocationID.x;
+  if (v >= push.vertex_count) return;
+  vec3 p = vertexPosition(v);
+  int eps = max(push.dilation, 0);
+  uint bits = 0u;
+  for (uint i = 0u; i < push.camera_count; ++i) {
+    vec3 q = projectToCamera(i, p);
+    vec2 size = blend.cameras[i].size.xy;
+    if (!(q.z > 0.0 && q.x >= 0.0 && q.y >= 0.0 && q.x < size.x && q.y < size.y)) continue;
+    ivec2 pixel = ivec2(q.xy);
+    float depth = storedDepth(i, pixel);
+    // Visibility reads the flag only for a vertex that passes its depth
+    // test (the same test, visibility.comp.glsl): an occluded vertex is
+    // left 0 and costs no neighbourhood.
+    if (q.z > depth * (1.0 + push.depth_tolerance)) continue;
+    bool near = false;
+    if (eps == 0) {
+      // paper 000's 4 px at 2048 wide rounds to 0 below about 615 wide:
+      // the vertex's own pixel, whose depth is loaded already.
+      near = depth < HOLOFUSE_NO_DEPTH * 0.5 && breaksAround(i, pixel, depth);
     } else {
-      dilated[index] = 1u;
+      for (int dy = -eps; dy <= eps && !near; ++dy) {
+        for (int dx = -eps; dx <= eps && !near; ++dx) near = isDiscontinuity(i, pixel + ivec2(dx, dy));
+      }
     }
+    if (near) bits |= 1u << i;
   }
+  discontinuities[v] = bits;
 }

@@ -24,12 +24,11 @@ void main() {
       ivec2 pixel = ivec2(q.xy);
       float mask = texelFetch(images, ivec3(pixel, int(i)), 0).a;
       float stored = storedDepth(i, pixel);
-      uint w = uint(size.x), h = uint(size.y);
       if (mask <= 0.0) {
         sight = HOLOFUSE_SIGHT_BACKGROUND;
       } else if (q.z > stored * (1.0 + push.depth_tolerance)) {
         sight = HOLOFUSE_SIGHT_OCCLUDED;
-      } else if (dilated[(i * h + uint(pixel.y)) * w + uint(pixel.x)] != 0u) {
+      } else if (((discontinuities[v] >> i) & 1u) != 0u) {
         sight = HOLOFUSE_SIGHT_DISCONTINUITY;
       } else {
         sight = HOLOFUSE_SIGHT_VISIBLE;

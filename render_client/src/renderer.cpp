@@ -24,7 +24,6 @@ struct CameraGpu {
   glm::vec4 center;
   glm::vec4 size;
   glm::ivec4 flags;
-  glm::ivec4 region;
 };
 struct BlendUniforms {
   CameraGpu cameras[HOLOFUSE_MAX_CAMERAS];
@@ -34,10 +33,10 @@ struct BlendUniforms {
   glm::vec4 user_eye;
   glm::vec4 temporal;  // x: lambda of this frame, y: half holding the previous field
 };
-static_assert(sizeof(CameraGpu) == 128);
-static_assert(offsetof(BlendUniforms, counts) == 128 * HOLOFUSE_MAX_CAMERAS);
-static_assert(offsetof(BlendUniforms, params) == 128 * HOLOFUSE_MAX_CAMERAS + 16);
-static_assert(sizeof(BlendUniforms) == 128 * HOLOFUSE_MAX_CAMERAS + 80);
+static_assert(sizeof(CameraGpu) == 112);
+static_assert(offsetof(BlendUniforms, counts) == 112 * HOLOFUSE_MAX_CAMERAS);
+static_assert(offsetof(BlendUniforms, params) == 112 * HOLOFUSE_MAX_CAMERAS + 16);
+static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 80);
 
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 // Geodesic worklists are cleared by transfer commands every mesh.
@@ -224,37 +223,11 @@ std::pair<double, double> depthRange(const Camera& camera, const glm::dvec3& lo,
   return {near_plane, far_plane};
 }
 
-// The pixels of a width x height image that the box [lo, hi] can cover
-// through clip (as the shaders project: pixel centres at .5), with a pixel
-// of margin for rounding: x0, y0, x1, y1 with x1 and y1 exclusive. The
-// whole image where a corner is behind the camera or not finite.
-glm::ivec4 boxRegion(const glm::mat4& clip, const glm::dvec3& lo, const glm::dvec3& hi, uint32_t width,
-                     uint32_t height) {
-  const glm::ivec4 whole(0, 0, static_cast<int>(width), static_cast<int>(height));
-  double x_min = std::numeric_limits<double>::max(), y_min = x_min, x_max = -x_min, y_max = -x_min;
-  for (int corner = 0; corner < 8; ++corner) {
-    const glm::dvec4 p((corner & 1) ? hi.x : lo.x, (corner & 2) ? hi.y : lo.y, (corner & 4) ? hi.z : lo.z, 1.0);
-    const glm::dvec4 c = glm::dmat4(clip) * p;
-    if (!(c.w > 1e-9)) return whole;
-    const double x = (c.x / c.w * 0.5 + 0.5) * width, y = (c.y / c.w * 0.5 + 0.5) * height;
-    if (!std::isfinite(x) || !std::isfinite(y)) return whole;
-    x_min = std::min(x_min, x);
-    x_max = std::max(x_max, x);
-    y_min = std::min(y_min, y);
-    y_max = std::max(y_max, y);
-  }
-  auto clampTo = [](double v, uint32_t size) {
-    return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(size)));
-  };
-  return glm::ivec4(clampTo(std::floor(x_min - 0.5) - 1, width), clampTo(std::floor(y_min - 0.5) - 1, height),
-                    clampTo(std::ceil(x_max - 0.5) + 2, width), clampTo(std::ceil(y_max - 0.5) + 2, height));
-}
-
 // Storage buffers the field passes clear with vkCmdFillBuffer (worklists,
-// discontinuity flags) also need to be transfer destinations.
+// seams) also need to be transfer destinations.
 VkBufferUsageFlags Renderer::usageOf(const Buffer& buffer) const {
   if (&buffer == &worklist_counts_) return kWorklistUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT;
-  const bool filled = &buffer == &worklist_ || &buffer == &edges_ || &buffer == &dilated_ || &buffer == &seams_;
+  const bool filled = &buffer == &worklist_ || &buffer == &seams_;
   return filled ? kWorklistUsage : VkBufferUsageFlags{VK_BUFFER_USAGE_STORAGE_BUFFER_BIT};
 }
 
@@ -273,8 +246,8 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   // descriptor write: start small, grow with the mesh.
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
-  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &adjacency_, &rings_,
-                    &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_}) {
+  for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &adjacency_, &rings_, &distances_,
+                    &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_}) {
     *b = ctx_.createBuffer(16, usageOf(*b));
   }
   visible_counts_ = ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
@@ -292,8 +265,8 @@ Renderer::~Renderer() {
   ctx_.destroy(depth_);
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
-  for (Buffer* b : {&edges_, &dilated_, &sights_, &trusted_, &weights_, &rows_, &seams_, &visible_counts_, &adjacency_,
-                    &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_}) {
+  for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &visible_counts_, &adjacency_, &rings_,
+                    &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_}) {
     ctx_.destroy(*b);
   }
   field_passes_pipelines_.reset();
@@ -570,14 +543,18 @@ void Renderer::generateMips(VkCommandBuffer cmd) {
 }
 
 void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
-  const VkDeviceSize pixels = VkDeviceSize{images_.width} * images_.height * images_.layers * 4;
   const VkDeviceSize per_vertex = VkDeviceSize{std::max(vertex_count_, 1u)} * std::max(images_.layers, 1u) * 4;
   const VkDeviceSize weights = VkDeviceSize{std::max(vertex_count_, 1u)} * HOLOFUSE_MAX_CAMERAS * 4;
   const VkDeviceSize per_triangle = VkDeviceSize{std::max(triangle_count_, 1u)} * std::max(images_.layers, 1u) * 4;
   bool changed = false;
-  for (auto [buffer, size] : {std::pair{&edges_, pixels}, {&dilated_, pixels}, {&rows_, pixels}, {&sights_, per_vertex},
-                              {&trusted_, per_vertex}, {&weights_, weights}, {&seams_, per_triangle},
-                              {&rings_, 2 * per_vertex}, {&distances_, 2 * per_vertex},
+  const VkDeviceSize one_per_vertex = VkDeviceSize{std::max(vertex_count_, 1u)} * 4;
+  for (auto [buffer, size] : {std::pair{&discontinuities_, one_per_vertex},
+                              {&sights_, per_vertex},
+                              {&trusted_, per_vertex},
+                              {&weights_, weights},
+                              {&seams_, per_triangle},
+                              {&rings_, 2 * per_vertex},
+                              {&distances_, 2 * per_vertex},
                               {&adjacency_, VkDeviceSize{adjacency_data_.size() * 4 + 4}},
                               {&fans_, VkDeviceSize{fan_data_.size() * sizeof(GeodesicFan) + 32}},
                               {&worklist_, 2 * HOLOFUSE_WORKLIST_SLOTS * per_vertex},
@@ -598,13 +575,22 @@ void Renderer::writeDescriptors() {
   VkDescriptorImageInfo image_info{linear_sampler_, images_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   // Storage buffers in binding order from HOLOFUSE_BINDING_VERTICES on.
   std::array<VkDescriptorBufferInfo, HOLOFUSE_BINDING_COUNT - 3> storage = {
-      VkDescriptorBufferInfo{vertex_buffer_.buffer, 0, VK_WHOLE_SIZE}, {edges_.buffer, 0, VK_WHOLE_SIZE},
-      {dilated_.buffer, 0, VK_WHOLE_SIZE}, {sights_.buffer, 0, VK_WHOLE_SIZE}, {trusted_.buffer, 0, VK_WHOLE_SIZE},
-      {weights_.buffer, 0, VK_WHOLE_SIZE}, {rows_.buffer, 0, VK_WHOLE_SIZE}, {index_buffer_.buffer, 0, VK_WHOLE_SIZE},
-      {seams_.buffer, 0, VK_WHOLE_SIZE}, {visible_counts_.buffer, 0, VK_WHOLE_SIZE},
-      {adjacency_.buffer, 0, VK_WHOLE_SIZE}, {rings_.buffer, 0, VK_WHOLE_SIZE}, {distances_.buffer, 0, VK_WHOLE_SIZE},
-      {temporal_.buffer, 0, VK_WHOLE_SIZE}, {carry_.buffer, 0, VK_WHOLE_SIZE}, {fans_.buffer, 0, VK_WHOLE_SIZE},
-      {worklist_.buffer, 0, VK_WHOLE_SIZE}, {worklist_counts_.buffer, 0, VK_WHOLE_SIZE}};
+      VkDescriptorBufferInfo{vertex_buffer_.buffer, 0, VK_WHOLE_SIZE},
+      {discontinuities_.buffer, 0, VK_WHOLE_SIZE},
+      {sights_.buffer, 0, VK_WHOLE_SIZE},
+      {trusted_.buffer, 0, VK_WHOLE_SIZE},
+      {weights_.buffer, 0, VK_WHOLE_SIZE},
+      {index_buffer_.buffer, 0, VK_WHOLE_SIZE},
+      {seams_.buffer, 0, VK_WHOLE_SIZE},
+      {visible_counts_.buffer, 0, VK_WHOLE_SIZE},
+      {adjacency_.buffer, 0, VK_WHOLE_SIZE},
+      {rings_.buffer, 0, VK_WHOLE_SIZE},
+      {distances_.buffer, 0, VK_WHOLE_SIZE},
+      {temporal_.buffer, 0, VK_WHOLE_SIZE},
+      {carry_.buffer, 0, VK_WHOLE_SIZE},
+      {fans_.buffer, 0, VK_WHOLE_SIZE},
+      {worklist_.buffer, 0, VK_WHOLE_SIZE},
+      {worklist_counts_.buffer, 0, VK_WHOLE_SIZE}};
   std::array<VkWriteDescriptorSet, HOLOFUSE_BINDING_COUNT> writes{};
   for (uint32_t b = 0; b < writes.size(); ++b) {
     writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -638,7 +624,7 @@ FieldSnapshot Renderer::readFields() const {
   out.camera_count = static_cast<uint32_t>(views);
   out.sights.assign(views * vertices, 0);
   out.trusted.assign(views * vertices, 0);
-  out.dilated.assign(views * pixels, 0);
+  out.discontinuities.assign(views * vertices, 0);
   out.depth_maps.assign(views * pixels, HOLOFUSE_NO_DEPTH);
   out.seams.assign(views * triangles, 0);
   out.visible_counts.assign(views, 0);
@@ -650,7 +636,7 @@ FieldSnapshot Renderer::readFields() const {
     left_out[i] = false;
     std::copy_n(s.sights.begin() + j * vertices, vertices, out.sights.begin() + i * vertices);
     std::copy_n(s.trusted.begin() + j * vertices, vertices, out.trusted.begin() + i * vertices);
-    if (s.dilated.size() >= (j + 1) * pixels) std::copy_n(s.dilated.begin() + j * pixels, pixels, out.dilated.begin() + i * pixels);
+    std::copy_n(s.discontinuities.begin() + j * vertices, vertices, out.discontinuities.begin() + i * vertices);
     if (s.depth_maps.size() >= (j + 1) * pixels) {
       std::copy_n(s.depth_maps.begin() + j * pixels, pixels, out.depth_maps.begin() + i * pixels);
     }
@@ -714,7 +700,13 @@ FieldSnapshot Renderer::readActiveFields() const {
   };
   copy(sights_, s.sights, per_vertex);
   copy(trusted_, s.trusted, per_vertex);
-  copy(dilated_, s.dilated, size_t{images_.width} * images_.height * images_.layers);
+  std::vector<uint32_t> camera_bits;  // per vertex, bit i for camera i
+  copy(discontinuities_, camera_bits, s.vertex_count);
+  s.discontinuities.assign(per_vertex, 0);
+  for (size_t i = 0; i < s.camera_count; ++i) {
+    for (size_t v = 0; v < camera_bits.size(); ++v)
+      s.discontinuities[i * s.vertex_count + v] = (camera_bits[v] >> i) & 1u;
+  }
   copy(depth_maps_, s.depth_maps, size_t{images_.width} * images_.height * images_.layers);
   copy(weights_, s.weights, size_t{s.vertex_count} * HOLOFUSE_MAX_CAMERAS);
   s.triangle_count = triangle_count_;
@@ -794,7 +786,6 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
                         static_cast<int>(subject_seen_.size() - active_.size()), uploaded_half_ ? 1 : 0);
   u.params = glm::vec4(settings.alpha, settings.depth_tolerance, 0, 0);
   u.hole_color = glm::vec4(settings.hole_color, 1.0f);
-  glm::uvec2 region_extent(0);  // the largest camera region
   for (size_t i = 0; i < cameras_.size(); ++i) {
     const Camera& c = cameras_[i];
     u.cameras[i].world_to_clip = clipFor(c);
@@ -805,14 +796,9 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
                          (view < settings.camera_enabled.size() && settings.camera_enabled[view]);
     // y: the camera sees none of the subject (an empty mask; only when no
     // camera does, else it is not among cameras_). Its depth map and
-    // discontinuities are skipped: every vertex is on its background.
+    // discontinuity test find no surface: every vertex is on its background.
     const bool empty = view < subject_seen_.size() && !subject_seen_[view];
     u.cameras[i].flags = glm::ivec4(enabled ? 1 : 0, empty ? 1 : 0, 0, 0);
-    u.cameras[i].region = empty ? glm::ivec4(0)
-                                : boxRegion(u.cameras[i].world_to_clip, bounds_min_, bounds_max_, images_.width,
-                                            images_.height);
-    region_extent.x = std::max(region_extent.x, static_cast<uint32_t>(u.cameras[i].region.z - u.cameras[i].region.x));
-    region_extent.y = std::max(region_extent.y, static_cast<uint32_t>(u.cameras[i].region.w - u.cameras[i].region.y));
   }
   const bool have_views = !cameras_.empty();
   const bool montage = have_views && settings.mode == BlendMode::kMontage4D;
@@ -846,15 +832,14 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     if (have_views && depth_maps_stale_) renderDepthMaps(cmd);
     if (run_fields) {
       field_passes_pipelines_->depthMapsDone(cmd);
-      field_passes_pipelines_->record(cmd, descriptor_set_, vertex_count_, triangle_count_,
-                                      static_cast<uint32_t>(cameras_.size()), images_.width, images_.height,
-                                      region_extent, parameters,
-                                      {visible_counts_.buffer, worklist_.buffer, worklist_counts_.buffer,
-                                       edges_.buffer, dilated_.buffer, seams_.buffer});
+      field_passes_pipelines_->record(
+          cmd, descriptor_set_, vertex_count_, triangle_count_, static_cast<uint32_t>(cameras_.size()), images_.width,
+          images_.height, parameters,
+          {visible_counts_.buffer, worklist_.buffer, worklist_counts_.buffer, seams_.buffer});
       ++field_passes_;
     }
-    // (A measurement stop before stage 7 skips the per-view field too.)
-    if (montage && (parameters.last_stage < 0 || parameters.last_stage >= 7)) {
+    // (A measurement stop before stage 6, the field, skips the per-view field too.)
+    if (montage && (parameters.last_stage < 0 || parameters.last_stage >= 6)) {
       field_passes_pipelines_->recordMontage(cmd, descriptor_set_, vertex_count_, static_cast<uint32_t>(cameras_.size()),
                                              parameters, static_cast<float>(geodesicScale(parameters)),
                                              temporal_stride_);

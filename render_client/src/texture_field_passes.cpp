@@ -7,8 +7,6 @@
 #include "render_client/reference/depth_map.h"
 #include "shaders/config.h"
 #include "shaders/depth_raster_comp_spv.h"
-#include "shaders/dilate_columns_comp_spv.h"
-#include "shaders/dilate_comp_spv.h"
 #include "shaders/discontinuity_comp_spv.h"
 #include "shaders/geodesic_distance_comp_spv.h"
 #include "shaders/geodesic_seed_comp_spv.h"
@@ -44,7 +42,7 @@ void clearedBarrier(VkCommandBuffer cmd) {
 }
 
 uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size; }
-constexpr uint32_t kStamps = 9;  // around the depth maps and the seven timed passes
+constexpr uint32_t kStamps = 8;  // around the depth maps and the six timed passes
 
 }  // namespace
 
@@ -77,8 +75,6 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
     : ctx_(context), layout_(layout) {
   depth_raster_ = create(k_depth_raster_comp_spv, sizeof(k_depth_raster_comp_spv));
   discontinuity_ = create(k_discontinuity_comp_spv, sizeof(k_discontinuity_comp_spv));
-  dilate_ = create(k_dilate_comp_spv, sizeof(k_dilate_comp_spv));
-  dilate_columns_ = create(k_dilate_columns_comp_spv, sizeof(k_dilate_columns_comp_spv));
   visibility_ = create(k_visibility_comp_spv, sizeof(k_visibility_comp_spv));
   vote_ = create(k_vote_comp_spv, sizeof(k_vote_comp_spv));
   seams_ = create(k_seams_comp_spv, sizeof(k_seams_comp_spv));
@@ -98,8 +94,8 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
 }
 
 const std::vector<std::string>& TextureFieldPasses::stageNames() {
-  static const std::vector<std::string> kNames = {"depth_maps", "discontinuities", "dilation", "visibility",
-                                                  "voting", "seams_and_global_visibility", "geodesics", "field"};
+  static const std::vector<std::string> kNames = {
+      "depth_maps", "discontinuities", "visibility", "voting", "seams_and_global_visibility", "geodesics", "field"};
   return kNames;
 }
 
@@ -116,16 +112,16 @@ void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set,
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, montage_);
   vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
-  // Repeated for measurement as stage 7 (FieldParameters::repeated_stage):
+  // Repeated for measurement as stage 6 (FieldParameters::repeated_stage):
   // the pass reads the previous half and writes the current one, so every
   // repeat writes the same values.
-  const int repeats = parameters.repeated_stage == 7 ? std::max(1, parameters.stage_repeats) : 1;
+  const int repeats = parameters.repeated_stage == 6 ? std::max(1, parameters.stage_repeats) : 1;
   for (int r = 0; r < repeats; ++r) {
     if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
     computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
   }
-  if (field_stamp_pending_) stamp(cmd, 8);  // this command buffer ran the per-mesh passes: the field is stage 7
+  if (field_stamp_pending_) stamp(cmd, 7);  // this command buffer ran the per-mesh passes: the field is stage 6
   field_stamp_pending_ = false;
 }
 
@@ -180,8 +176,8 @@ std::vector<double> TextureFieldPasses::lastTimesMs() const {
 }
 
 TextureFieldPasses::~TextureFieldPasses() {
-  for (VkPipeline p : {depth_raster_, discontinuity_, dilate_, dilate_columns_, visibility_, vote_, seams_, global_visibility_,
-                       geodesic_seed_, geodesic_distance_, montage_, field_}) {
+  for (VkPipeline p : {depth_raster_, discontinuity_, visibility_, vote_, seams_, global_visibility_, geodesic_seed_,
+                       geodesic_distance_, montage_, field_}) {
     vkDestroyPipeline(ctx_.device(), p, nullptr);
   }
   vkDestroyQueryPool(ctx_.device(), queries_, nullptr);
@@ -204,8 +200,7 @@ VkPipeline TextureFieldPasses::create(const uint32_t* code, size_t bytes) {
 
 void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
                                 uint32_t triangle_count, uint32_t camera_count, uint32_t width, uint32_t height,
-                                glm::uvec2 region_extent, const FieldParameters& parameters,
-                                const ResetBuffers& reset) {
+                                const FieldParameters& parameters, const ResetBuffers& reset) {
   ComputePush push{};
   push.vertex_count = vertex_count;
   push.width = width;
@@ -219,10 +214,6 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   push.camera_count = camera_count;
   push.triangle_count = triangle_count;
   vkCmdFillBuffer(cmd, reset.visible_counts, 0, VK_WHOLE_SIZE, 0);
-  // Outside its camera's region no pixel has a depth, so none is an edge:
-  // zero there, written by nobody.
-  vkCmdFillBuffer(cmd, reset.edges, 0, VK_WHOLE_SIZE, 0);
-  vkCmdFillBuffer(cmd, reset.dilated, 0, VK_WHOLE_SIZE, 0);
   geodesics_recorded_ = parameters.geodesics;
   if (!parameters.geodesics) vkCmdFillBuffer(cmd, reset.seams, 0, VK_WHOLE_SIZE, 0);
   // Empty lists and clear marks. A pass whose list is empty dispatches no
@@ -243,24 +234,12 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   // A stop for measurement: the stamps of the skipped stages read zero.
   auto stopsAfter = [&](int stage) {
     if (parameters.last_stage != stage) return false;
-    for (uint32_t index = static_cast<uint32_t>(stage) + 2; index <= 8; ++index) stamp(cmd, index);
+    for (uint32_t index = static_cast<uint32_t>(stage) + 2; index < kStamps; ++index) stamp(cmd, index);
     recorded_ = true;
     return true;
   };
   if (stopsAfter(0)) return;
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
-  // One dispatch covers every camera (z) so each stage costs one barrier.
-  // grid: pixels per camera; pixels_per_invocation along x (the
-  // discontinuity pass does runs).
-  auto dispatchPerCamera = [&](VkPipeline pipeline, glm::uvec2 grid, uint32_t pixels_per_invocation = 1) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
-    if (camera_count > 0 && grid.x > 0 && grid.y > 0) {
-      vkCmdDispatch(cmd, groups(groups(grid.x, pixels_per_invocation), HOLOFUSE_PIXEL_GROUP),
-                    groups(grid.y, HOLOFUSE_PIXEL_GROUP), camera_count);
-    }
-    computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
-  };
   auto dispatchLinear = [&](VkPipeline pipeline, uint32_t items, bool barrier) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
     vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
@@ -269,35 +248,29 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   };
   // How many times stage s is recorded (FieldParameters::repeated_stage).
   auto repeats = [&](int stage) { return parameters.repeated_stage == stage ? std::max(1, parameters.stage_repeats) : 1; };
-  for (int r = 0; r < repeats(1); ++r) dispatchPerCamera(discontinuity_, region_extent, HOLOFUSE_DISCONTINUITY_RUN);
+  // Every per-vertex pass covers all cameras in one dispatch, so each
+  // stage costs one barrier.
+  for (int r = 0; r < repeats(1); ++r) dispatchLinear(discontinuity_, vertex_count, true);
   stamp(cmd, 2);
   if (stopsAfter(1)) return;
-  if (push.dilation > 0) {  // with eps = 0 the discontinuity pass wrote the dilated map itself
-    for (int r = 0; r < repeats(2); ++r) {
-      dispatchPerCamera(dilate_, {width, height});
-      dispatchPerCamera(dilate_columns_, {width, height});
-    }
-  }
+  for (int r = 0; r < repeats(2); ++r) dispatchLinear(visibility_, vertex_count, true);
   stamp(cmd, 3);
   if (stopsAfter(2)) return;
-  for (int r = 0; r < repeats(3); ++r) dispatchLinear(visibility_, vertex_count, true);
+  for (int r = 0; r < repeats(3); ++r) dispatchLinear(vote_, vertex_count, true);
   stamp(cmd, 4);
   if (stopsAfter(3)) return;
-  for (int r = 0; r < repeats(4); ++r) dispatchLinear(vote_, vertex_count, true);
-  stamp(cmd, 5);
-  if (stopsAfter(4)) return;
   // Seams and the global visibility feed only the geodesics and montage4d's
   // g^i: the Holoportation baseline does not pay for them (paper 000
   // Table 3: N/A).
-  for (int r = 0; r < (parameters.geodesics ? repeats(5) : 0); ++r) {
+  for (int r = 0; r < (parameters.geodesics ? repeats(4) : 0); ++r) {
     // Seams and visibility counts read the same inputs: no barrier between.
     // (Counting inside the seams or vote pass measured no faster on
     // lavapipe: the work is the gathers, not the extra dispatch.)
     dispatchLinear(seams_, triangle_count, false);
     dispatchLinear(global_visibility_, vertex_count, true);
   }
-  stamp(cmd, 6);
-  if (stopsAfter(5)) return;
+  stamp(cmd, 5);
+  if (stopsAfter(4)) return;
   if (parameters.geodesics) {
     // Stage 6: seed from the seams, then K Jacobi passes of rings and
     // distances together over all cameras (y) and vertices (x).
@@ -313,7 +286,7 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
       computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
     };
-    for (int r = 0; r < repeats(6); ++r) {
+    for (int r = 0; r < repeats(5); ++r) {
       if (r > 0) {  // a repeat for measurement starts from clean lists, as a new mesh does
         computeBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
         clearWorklists();
@@ -341,8 +314,8 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
       }
     }
   }
-  stamp(cmd, 7);
-  if (stopsAfter(6)) return;
+  stamp(cmd, 6);
+  if (stopsAfter(5)) return;
   recorded_ = true;
   if (parameters.field_per_view) {  // recordMontage computes it and closes this run's timing
     field_stamp_pending_ = true;
@@ -350,12 +323,12 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   }
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, field_);
   vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
-  for (int r = 0; r < repeats(7); ++r) {
+  for (int r = 0; r < repeats(6); ++r) {
     if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
     computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
   }
-  stamp(cmd, 8);
+  stamp(cmd, 7);
 }
 
 }  // namespace holofuse::render

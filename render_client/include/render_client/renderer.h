@@ -34,7 +34,9 @@ struct FieldSnapshot {
   uint32_t vertex_count = 0, camera_count = 0;
   std::vector<uint32_t> sights, trusted;
   std::vector<float> depth_maps;  // [camera][y][x] of the pod images: camera-space depth, HOLOFUSE_NO_DEPTH where none
-  std::vector<uint32_t> dilated;  // [camera][y][x] of the pod images
+  // 1 where the vertex lies in the camera's dilated depth discontinuities;
+  // computed only where it passes the depth test, 0 elsewhere.
+  std::vector<uint32_t> discontinuities;
   uint32_t triangle_count = 0;
   std::vector<uint32_t> seams;           // [camera * triangle_count + triangle]: SeamRule bits
   std::vector<uint32_t> visible_counts;  // per camera: vertices seen and trusted
@@ -170,9 +172,9 @@ class Renderer {
   double geodesicScale(const FieldParameters& p) const {
     return p.geodesic_radius > 0 ? p.geodesic_radius : std::max(1, p.geodesic_rings) * mean_edge_;
   }
-  // Texture-field buffers (config.h bindings 4 to 8).
-  Buffer edges_, dilated_, sights_, trusted_, weights_, rows_, seams_, visible_counts_, adjacency_, rings_,
-      distances_, fans_, worklist_, worklist_counts_;
+  // Texture-field buffers (config.h bindings 4 on).
+  Buffer discontinuities_, sights_, trusted_, weights_, seams_, visible_counts_, adjacency_, rings_, distances_, fans_,
+      worklist_, worklist_counts_;
   uint32_t triangle_count_ = 0;
   std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
   // Output

@@ -1,7 +1,7 @@
 // The texture-field compute passes of DESIGN.md section 6 on Vulkan, one
-// pipeline per stage (shaders/<stage>.comp.glsl): depth discontinuities,
-// their dilation, per-vertex visibility, majority voting and the
-// Holoportation field. Each has a CPU reference in render/reference/ that
+// pipeline per stage (shaders/<stage>.comp.glsl): dilated depth
+// discontinuities at the vertices, per-vertex visibility, majority voting,
+// seams, geodesics and the fields. Each has a CPU reference in render/reference/ that
 // the tests compare it with.
 #pragma once
 
@@ -42,12 +42,12 @@ struct FieldParameters {
   float vote_delta = 0.15f;              // paper 000: delta = 0.15
   int vote_levels = 3;
   float alpha = 2.0f;
-  // Seams, the global visibility (stage 5) and the geodesic distance from
-  // the seams (stage 6): run only when a mode needs them (montage4d); the
+  // Seams, the global visibility and the geodesic distance from the seams
+  // (DESIGN.md section 6, steps 5 to 7): run only when a mode needs them (montage4d); the
   // Holoportation baseline does not pay for them.
   bool geodesics = false;
   // montage4d: the field depends on the view, and recordMontage computes it
-  // for every rendered view in place of the per-mesh field pass (stage 7).
+  // for every rendered view in place of the per-mesh field pass ("field").
   bool field_per_view = false;
   int geodesic_rings = 15;       // k
   int geodesic_iterations = 20;  // K
@@ -60,11 +60,11 @@ struct FieldParameters {
   // Measurement only (bench_texture_fields): record the per-mesh passes up
   // to this stage of stageNames() and skip the rest (-1: all). Wall clock
   // differences between stops give each stage's cost where a CPU device's
-  // timestamps cannot (it rasterises lazily). A stop before stage 7 skips
+  // timestamps cannot (it rasterises lazily). A stop before stage 6 ("field") skips
   // montage4d's per-view field as well.
   int last_stage = -1;
   // Measurement only: record the dispatches of stage repeated_stage (1 to
-  // 7 of stageNames(); 7 in montage4d is its per-view field pass)
+  // 6 of stageNames(); 6 in montage4d is its per-view field pass)
   // stage_repeats times over. Stages that cost a
   // fraction of a millisecond drown in a shared machine's noise once; the
   // extra time of many repeats, divided by their number, does not. The
@@ -133,14 +133,11 @@ class TextureFieldPasses {
     VkBuffer visible_counts;   // cleared before stage 7 adds to it
     VkBuffer worklist;         // geodesic worklists and marks, cleared
     VkBuffer worklist_counts;  // indirect dispatch sizes, set to empty lists
-    VkBuffer edges, dilated;   // discontinuity flags: zero outside the regions the pass writes
     VkBuffer seams;            // zero where the mode computes no seams (holoportation)
   };
-  // region_extent: the largest camera region (CameraGpu::region in
-  // shaders/cameras.glsl), the discontinuity pass's grid per camera.
   void record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count, uint32_t triangle_count,
-              uint32_t camera_count, uint32_t width, uint32_t height, glm::uvec2 region_extent,
-              const FieldParameters& parameters, const ResetBuffers& reset);
+              uint32_t camera_count, uint32_t width, uint32_t height, const FieldParameters& parameters,
+              const ResetBuffers& reset);
 
   // Stages 8 to 10 of Montage4D for one rendered view (per frame, after the
   // per-mesh passes): target, temporal and normalised fields.
@@ -162,16 +159,15 @@ class TextureFieldPasses {
 
   VulkanContext& ctx_;
   VkPipelineLayout layout_;
-  VkPipeline depth_raster_ = VK_NULL_HANDLE, discontinuity_ = VK_NULL_HANDLE, dilate_ = VK_NULL_HANDLE, dilate_columns_ = VK_NULL_HANDLE,
-             visibility_ = VK_NULL_HANDLE, seams_ = VK_NULL_HANDLE, global_visibility_ = VK_NULL_HANDLE,
-             geodesic_seed_ = VK_NULL_HANDLE, geodesic_distance_ = VK_NULL_HANDLE,
-             montage_ = VK_NULL_HANDLE,
-             vote_ = VK_NULL_HANDLE, field_ = VK_NULL_HANDLE;
+  VkPipeline depth_raster_ = VK_NULL_HANDLE, discontinuity_ = VK_NULL_HANDLE, visibility_ = VK_NULL_HANDLE,
+             seams_ = VK_NULL_HANDLE, global_visibility_ = VK_NULL_HANDLE, geodesic_seed_ = VK_NULL_HANDLE,
+             geodesic_distance_ = VK_NULL_HANDLE, montage_ = VK_NULL_HANDLE, vote_ = VK_NULL_HANDLE,
+             field_ = VK_NULL_HANDLE;
   VkQueryPool queries_ = VK_NULL_HANDLE;
   double timestamp_period_ns_ = 1.0;
   bool recorded_ = false;
   bool field_stamp_pending_ = false;  // record() ran for montage4d: recordMontage writes the last stamp
-  bool geodesics_recorded_ = false;   // the last record() ran stages 5 and 6
+  bool geodesics_recorded_ = false;   // the last record() ran the seams and geodesics
 };
 
 }  // namespace holofuse::render
