@@ -26,6 +26,7 @@ layout(push_constant) uniform Push {
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DEPTHS) buffer DepthMaps { uint depth_bits[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DISCONTINUITIES) buffer Discontinuities { uint discontinuities[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_SIGHTS) buffer Sights { uint sights[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_SIGHT_BITS) buffer SightBits { uvec2 sight_bits[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_TRUSTED) buffer Trusted { uint trusted[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WEIGHTS) buffer Weights { float weights[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_INDICES) readonly buffer Indices { uint indices[]; };

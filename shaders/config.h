@@ -45,7 +45,15 @@
 #define HOLOFUSE_BINDING_FANS 16       // per (vertex, triangle) in ADJACENCY order: the triangle unfolded
 #define HOLOFUSE_BINDING_WORKLIST 17   // geodesics: [slot][camera * vertex] lists, then [slot][...] marks
 #define HOLOFUSE_BINDING_WORKLIST_COUNTS 18  // per Jacobi pass: dispatch groups x, y, z, then the list length
-#define HOLOFUSE_BINDING_COUNT 19
+// per vertex, a bit per camera (the seams and the count read one word pair
+// instead of every camera's sight and vote): x: hidden (occluded or in the
+// dilated discontinuities) | in view (visible or hidden) << 16; y: seen |
+// seen and trusted << 16. Written by the vote pass.
+#define HOLOFUSE_BINDING_SIGHT_BITS 19
+#if HOLOFUSE_MAX_CAMERAS > 16
+#error "the sight bits hold 16 cameras per half word"
+#endif
+#define HOLOFUSE_BINDING_COUNT 20
 
 // Geodesic worklists and their marks rotate through three slots of storage:
 // the one a pass reads (clearing each mark as it goes), the one it appends

@@ -20,9 +20,10 @@ void main() {
   if (local < HOLOFUSE_MAX_CAMERAS) group_counts[local] = 0u;
   barrier();
   if (v < push.vertex_count) {
-    for (uint i = 0u; i < push.camera_count; ++i) {
-      uint index = i * push.vertex_count + v;
-      if (sights[index] == HOLOFUSE_SIGHT_VISIBLE && trusted[index] != 0u) atomicAdd(group_counts[i], 1u);
+    uint seen_and_trusted = sight_bits[v].y >> 16;
+    while (seen_and_trusted != 0u) {
+      atomicAdd(group_counts[findLSB(seen_and_trusted)], 1u);
+      seen_and_trusted &= seen_and_trusted - 1u;
     }
   }
   barrier();

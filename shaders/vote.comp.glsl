@@ -6,7 +6,9 @@
 // Stage 4 (paper 000 eq. 3): multi-level majority voting in Lab. Camera
 // i's colour at a vertex is trusted when it agrees (Lab distance / 100 <
 // delta) with at least floor(X/2) of the other views that see the vertex,
-// at some mip level searched from coarse to fine.
+// at some mip level searched from coarse to fine. Also packs each vertex's
+// sights and votes into its sight bits (config.h) for the seams and the
+// count.
 layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
 
 float linearize(float c) { return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4); }
@@ -28,9 +30,15 @@ void main() {
   uint seen[HOLOFUSE_MAX_CAMERAS];
   vec2 uv[HOLOFUSE_MAX_CAMERAS];
   uint count = 0u;
+  uvec2 bits = uvec2(0u);
   for (uint i = 0u; i < push.camera_count; ++i) {
     trusted[i * push.vertex_count + v] = 0u;
-    if (sights[i * push.vertex_count + v] != HOLOFUSE_SIGHT_VISIBLE) continue;
+    uint s = sights[i * push.vertex_count + v];
+    bool hidden = s == HOLOFUSE_SIGHT_OCCLUDED || s == HOLOFUSE_SIGHT_DISCONTINUITY;
+    if (hidden) bits.x |= 1u << i;
+    if (hidden || s == HOLOFUSE_SIGHT_VISIBLE) bits.x |= 1u << (i + 16u);
+    if (s != HOLOFUSE_SIGHT_VISIBLE) continue;
+    bits.y |= 1u << i;
     vec3 q = projectToCamera(i, p);
     seen[count] = i;
     uv[count] = q.xy * blend.cameras[i].size.zw;
@@ -52,5 +60,9 @@ void main() {
       ok[a] = agree >= needed;
     }
   }
-  for (uint a = 0u; a < count; ++a) trusted[seen[a] * push.vertex_count + v] = ok[a] ? 1u : 0u;
+  for (uint a = 0u; a < count; ++a) {
+    trusted[seen[a] * push.vertex_count + v] = ok[a] ? 1u : 0u;
+    if (ok[a]) bits.y |= 1u << (seen[a] + 16u);
+  }
+  sight_bits[v] = bits;
 }

@@ -247,7 +247,7 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
   for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &adjacency_, &rings_, &distances_,
-                    &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_}) {
+                    &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_, &sight_bits_}) {
     *b = ctx_.createBuffer(16, usageOf(*b));
   }
   visible_counts_ = ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
@@ -266,7 +266,7 @@ Renderer::~Renderer() {
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
   for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &visible_counts_, &adjacency_, &rings_,
-                    &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_}) {
+                    &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_, &sight_bits_}) {
     ctx_.destroy(*b);
   }
   field_passes_pipelines_.reset();
@@ -549,6 +549,7 @@ void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
   bool changed = false;
   const VkDeviceSize one_per_vertex = VkDeviceSize{std::max(vertex_count_, 1u)} * 4;
   for (auto [buffer, size] : {std::pair{&discontinuities_, one_per_vertex},
+                              {&sight_bits_, 2 * one_per_vertex},
                               {&sights_, per_vertex},
                               {&trusted_, per_vertex},
                               {&weights_, weights},
@@ -590,7 +591,8 @@ void Renderer::writeDescriptors() {
       {carry_.buffer, 0, VK_WHOLE_SIZE},
       {fans_.buffer, 0, VK_WHOLE_SIZE},
       {worklist_.buffer, 0, VK_WHOLE_SIZE},
-      {worklist_counts_.buffer, 0, VK_WHOLE_SIZE}};
+      {worklist_counts_.buffer, 0, VK_WHOLE_SIZE},
+      {sight_bits_.buffer, 0, VK_WHOLE_SIZE}};
   std::array<VkWriteDescriptorSet, HOLOFUSE_BINDING_COUNT> writes{};
   for (uint32_t b = 0; b < writes.size(); ++b) {
     writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
