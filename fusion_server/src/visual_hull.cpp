@@ -37,45 +37,67 @@ float sampleBilinear(const std::vector<float>& image, int w, int h, double u, do
 
 enum class CellClass { kInside, kOutside, kBoundary };
 
-// Where the cube [p0, p1] lies against every silhouette, conservatively.
-// Its image lies within the convex hull of its projected corners, so no
-// point of it projects farther from the projected centre than the farthest
-// corner (r pixels). The silhouette distance is 1-Lipschitz, and its
-// bilinear interpolant is both sqrt(2)-Lipschitz and within sqrt(2) / 2 of
-// it (the farthest a point is from a pixel centre), so a centre deeper
-// inside (or outside) than min(sqrt(2) r, r + sqrt(2)) settles the cube. Points off the image count
-// as outside, as in the carve, so "inside" also needs the footprint inside
-// the image. Tests (test_fusion) hold the result to the dense grid's,
-// vertex for vertex.
+// Foreground pixels of a mask, summed: sums[(y + 1) * (w + 1) + x + 1]
+// counts those in [0, x] x [0, y], so any rectangle's count takes four
+// reads.
+std::vector<uint32_t> foregroundSums(const Image8& mask) {
+  const size_t w = mask.width, h = mask.height;
+  std::vector<uint32_t> sums((w + 1) * (h + 1), 0);
+  for (size_t y = 0; y < h; ++y) {
+    uint32_t row = 0;
+    for (size_t x = 0; x < w; ++x) {
+      row += mask.pixels[y * w + x] != 0 ? 1u : 0u;
+      sums[(y + 1) * (w + 1) + x + 1] = sums[y * (w + 1) + x + 1] + row;
+    }
+  }
+  return sums;
+}
+
+// Where the cube [p0, p1] lies against every silhouette, exactly as the
+// grid points inside it would be carved. Its image lies within the convex
+// hull of its projected corners, so within their bounding box. A point's
+// silhouette distance is the bilinear blend of the four pixels around it
+// (pixel centres at .5, clamped at the border), so every point of the box
+// takes a convex combination of the pixels in the box grown to those
+// neighbours. The signed distance of a foreground pixel is at least +0.5
+// and of a background pixel at most -0.5 (silhouetteSignedDistance): if
+// every pixel there is foreground, every point is inside for this camera;
+// if none is, every point is outside. Points off the image count as
+// outside, as in the carve. Tests (test_fusion) hold the result to the
+// dense grid's, vertex for vertex.
 CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1, const std::vector<HullView>& views,
-                       const std::vector<std::vector<float>>& distances) {
-  const glm::dvec3 centre = 0.5 * (p0 + p1);
+                       const std::vector<std::vector<uint32_t>>& foreground_sums) {
   bool inside_all = true;
   for (size_t i = 0; i < views.size(); ++i) {
     const Camera& cam = views[i].camera;
     // Lens distortion bends straight edges: the corner bound holds for a
     // pinhole only, so such cameras settle nothing.
     if (!cam.distortion.empty()) return CellClass::kBoundary;
-    const auto c = cam.project(centre);
-    if (!c || !std::isfinite(c->x) || !std::isfinite(c->y)) return CellClass::kBoundary;
-    double reach = 0;
+    double x_min = std::numeric_limits<double>::max(), y_min = x_min, x_max = -x_min, y_max = -x_min;
     for (int k = 0; k < 8; ++k) {
       const glm::dvec3 corner((k & 1) ? p1.x : p0.x, (k & 2) ? p1.y : p0.y, (k & 4) ? p1.z : p0.z);
       const auto q = cam.project(corner);
       if (!q || !std::isfinite(q->x) || !std::isfinite(q->y)) return CellClass::kBoundary;  // crosses the camera plane
-      reach = std::max(reach, std::hypot(q->x - c->x, q->y - c->y));
+      x_min = std::min(x_min, q->x);
+      x_max = std::max(x_max, q->x);
+      y_min = std::min(y_min, q->y);
+      y_max = std::max(y_max, q->y);
     }
-    const double radius = std::min(std::sqrt(2.0) * reach, reach + std::sqrt(2.0)) + 1e-3;
-    const double off = std::max({-c->x, -c->y, c->x - cam.width, c->y - cam.height});
-    if (off > reach) return CellClass::kOutside;  // wholly off the image
-    if (off > -reach - 1e-3) {
-      inside_all = false;  // straddles the image border (or touches it)
-      continue;
-    }
-    const double px = sampleBilinear(distances[i], static_cast<int>(cam.width), static_cast<int>(cam.height), c->x,
-                                     c->y);
-    if (px < -radius) return CellClass::kOutside;
-    if (px <= radius) inside_all = false;
+    const double w = cam.width, h = cam.height;
+    if (x_max < 0 || y_max < 0 || x_min >= w || y_min >= h) return CellClass::kOutside;  // wholly off the image
+    // Some points off the image are outside: the rest decide only "outside".
+    const bool off_image = x_min < 0 || y_min < 0 || x_max >= w || y_max >= h;
+    auto firstPixel = [](double u, double size) { return static_cast<int>(std::clamp(u - 0.5, 0.0, size - 1)); };
+    auto lastPixel = [](double u, double size) {
+      return std::min(static_cast<int>(std::clamp(u - 0.5, 0.0, size - 1)) + 1, static_cast<int>(size) - 1);
+    };
+    const int x0 = firstPixel(x_min, w), x1 = lastPixel(x_max, w), y0 = firstPixel(y_min, h), y1 = lastPixel(y_max, h);
+    const std::vector<uint32_t>& sums = foreground_sums[i];
+    const size_t stride = cam.width + 1;
+    const uint32_t foreground = sums[(y1 + 1) * stride + x1 + 1] - sums[y0 * stride + x1 + 1] -
+                                sums[(y1 + 1) * stride + x0] + sums[y0 * stride + x0];
+    if (foreground == 0) return CellClass::kOutside;
+    if (off_image || foreground < static_cast<uint32_t>((x1 - x0 + 1) * (y1 - y0 + 1))) inside_all = false;
   }
   return inside_all ? CellClass::kInside : CellClass::kBoundary;
 }
@@ -86,8 +108,9 @@ CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1, const std::ve
 // evaluate their eight corners.
 template <typename Distance>
 ScalarGrid sampleHierarchically(const glm::dvec3& lo, double s, const glm::ivec3& n, int levels,
-                                const std::vector<HullView>& views, const std::vector<std::vector<float>>& distances,
-                                Distance&& signedDistance, HullStats& stats) {
+                                const std::vector<HullView>& views,
+                                const std::vector<std::vector<uint32_t>>& foreground_sums, Distance&& signedDistance,
+                                HullStats& stats) {
   ScalarGrid grid;
   grid.nx = n.x;
   grid.ny = n.y;
@@ -139,7 +162,7 @@ ScalarGrid sampleHierarchically(const glm::dvec3& lo, double s, const glm::ivec3
     }
     const glm::dvec3 p0 = grid.point(cell.a.x, cell.a.y, cell.a.z), p1 = grid.point(b.x, b.y, b.z);
     ++stats.cells_classified;
-    CellClass c = classifyCell(p0, p1, views, distances);
+    CellClass c = classifyCell(p0, p1, views, foreground_sums);
     // The grid's outer layer is forced outside afterwards: an inside cell on
     // it must be refined, or its points keep a placeholder next to the
     // forced border.
@@ -262,7 +285,9 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
     grid = sampleGrid(lo, s, n.x, n.y, n.z, signedDistance);
     local.points_sampled = grid.values.size();
   } else {
-    grid = sampleHierarchically(lo, s, n, options.hierarchy_levels, views, distances, signedDistance, local);
+    std::vector<std::vector<uint32_t>> foreground_sums;
+    for (const auto& v : views) foreground_sums.push_back(foregroundSums(v.mask));
+    grid = sampleHierarchically(lo, s, n, options.hierarchy_levels, views, foreground_sums, signedDistance, local);
   }
   ScalarGrid closed = grid;
   for (int z = 0; z < n.z; ++z) {
