@@ -30,7 +30,9 @@
 #define HOLOFUSE_BINDING_DEPTHS 1
 #define HOLOFUSE_BINDING_IMAGES 2
 #define HOLOFUSE_BINDING_VERTICES 3
-#define HOLOFUSE_BINDING_DISCONTINUITIES 4  // per vertex: bit i set if it lies in camera i's dilated discontinuities
+// per vertex: bit i if in camera i's dilated discontinuities (computed only
+// where visibility's depth test can pass, else 0)
+#define HOLOFUSE_BINDING_DISCONTINUITIES 4
 #define HOLOFUSE_BINDING_SIGHTS 5
 #define HOLOFUSE_BINDING_TRUSTED 6
 #define HOLOFUSE_BINDING_WEIGHTS 7

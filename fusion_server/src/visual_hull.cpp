@@ -83,6 +83,14 @@ CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1, const std::ve
       y_min = std::min(y_min, q->y);
       y_max = std::max(y_max, q->y);
     }
+    // The grid points inside may project an ulp past the corners' box:
+    // grow it by far more than that, so the image-border tests stay
+    // conservative.
+    constexpr double kRounding = 1e-6;
+    x_min -= kRounding;
+    y_min -= kRounding;
+    x_max += kRounding;
+    y_max += kRounding;
     const double w = cam.width, h = cam.height;
     if (x_max < 0 || y_max < 0 || x_min >= w || y_min >= h) return CellClass::kOutside;  // wholly off the image
     // Some points off the image are outside: the rest decide only "outside".

@@ -291,10 +291,15 @@ TEST_P(DiscontinuityPass, FlagsEachVertexAsTheDilatedMapDoes) {
         const auto p = camera.project(glm::dvec3(scene.mesh.positions[v]));
         const bool inside = p && p->x >= 0 && p->y >= 0 && p->x < camera.width && p->y < camera.height;
         const size_t pixel = inside ? static_cast<size_t>(p->y) * camera.width + static_cast<size_t>(p->x) : 0;
-        if (!inside || p->z > depth.depth[pixel] * (1.0 + tests.relative_depth_tolerance)) {
+        const double limit = depth.depth[pixel] * (1.0 + tests.relative_depth_tolerance);
+        // The pass also tests vertices up to 1e-4 (relative) past the
+        // limit, in case visibility rounds the test the other way; beyond
+        // that it leaves them 0.
+        if (!inside || p->z > limit * (1 + 2e-4)) {
           unasked_flags += flag;
           continue;
         }
+        if (p->z > limit) continue;
         ++asked;
         const bool same = flag == (dilated[pixel] != 0);
         agree += same;
@@ -312,7 +317,7 @@ TEST_P(DiscontinuityPass, FlagsEachVertexAsTheDilatedMapDoes) {
     // pixel border or from the depth test may land on the other side.
     EXPECT_GT(static_cast<double>(agree) / asked, 0.9995);  // measured 99.997-100%
     EXPECT_GT(static_cast<double>(flagged_agree) / flagged, 0.999) << flagged_agree << " of " << flagged;
-    EXPECT_LT(unasked_flags, 5u);
+    EXPECT_EQ(unasked_flags, 0u);
   }
 }
 
