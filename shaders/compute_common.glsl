@@ -30,7 +30,9 @@ layout(std430, set = 0, binding = HOLOFUSE_BINDING_SIGHT_BITS) buffer SightBits 
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_TRUSTED) buffer Trusted { uint trusted[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WEIGHTS) buffer Weights { float weights[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_INDICES) readonly buffer Indices { uint indices[]; };
-layout(std430, set = 0, binding = HOLOFUSE_BINDING_SEAMS) buffer Seams { uint seams[]; };  // [camera][triangle]
+// Per triangle, a bit per camera for each seam rule: x: occlusion | vote
+// << 16, y: field of view.
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_SEAMS) buffer Seams { uvec2 seams[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_VISIBLE_COUNTS) buffer VisibleCounts { uint visible_counts[]; };
 // adjacency[v] .. adjacency[v + 1] index the triangle list that follows
 // the vertex_count + 1 offsets.

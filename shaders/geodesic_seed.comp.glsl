@@ -6,21 +6,26 @@
 // Stage 6, start (paper 000 section 4.4): the sources of camera i's
 // distance field are the vertices of its seam triangles (ring 0, distance
 // 0); everything else starts unreached, in both ping-pong halves. Gathered
-// per vertex from its triangles, so no two invocations write the same
-// word. The first Jacobi pass runs densely over the entries the camera
+// per vertex from its triangles' rule bits, every camera in one
+// invocation, so no two invocations write the same word. The first Jacobi pass runs densely over the entries the camera
 // sees (geodesic_distance.comp.glsl), so nothing is queued here.
 layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
 
 void main() {
   uint v = gl_GlobalInvocationID.x;
-  uint camera = gl_GlobalInvocationID.y;
-  if (v >= push.vertex_count || camera >= push.camera_count) return;
-  bool source = false;
-  for (uint k = adjacency[v]; k < adjacency[v + 1u] && !source; ++k) {
-    source = seams[camera * push.triangle_count + adjacency[push.vertex_count + 1u + k]] != 0u;
+  if (v >= push.vertex_count) return;
+  // Every camera at once: the cameras for which some triangle around v is
+  // a seam, by any rule.
+  uint sources = 0u;
+  for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
+    uvec2 rules = seams[adjacency[push.vertex_count + 1u + k]];
+    sources |= (rules.x & 0xffffu) | (rules.x >> 16) | rules.y;
   }
-  uint index = camera * push.vertex_count + v;
   uint half_size = push.camera_count * push.vertex_count;
-  rings[index] = rings[half_size + index] = source ? packRing(0u, v) : packRing(HOLOFUSE_NO_RING, HOLOFUSE_NO_SOURCE);
-  distances[index] = distances[half_size + index] = source ? 0.0 : HOLOFUSE_FAR;
+  for (uint camera = 0u; camera < push.camera_count; ++camera) {
+    bool source = ((sources >> camera) & 1u) != 0u;
+    uint index = camera * push.vertex_count + v;
+    rings[index] = rings[half_size + index] = source ? packRing(0u, v) : packRing(HOLOFUSE_NO_RING, HOLOFUSE_NO_SOURCE);
+    distances[index] = distances[half_size + index] = source ? 0.0 : HOLOFUSE_FAR;
+  }
 }

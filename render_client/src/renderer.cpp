@@ -545,15 +545,15 @@ void Renderer::generateMips(VkCommandBuffer cmd) {
 void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
   const VkDeviceSize per_vertex = VkDeviceSize{std::max(vertex_count_, 1u)} * std::max(images_.layers, 1u) * 4;
   const VkDeviceSize weights = VkDeviceSize{std::max(vertex_count_, 1u)} * HOLOFUSE_MAX_CAMERAS * 4;
-  const VkDeviceSize per_triangle = VkDeviceSize{std::max(triangle_count_, 1u)} * std::max(images_.layers, 1u) * 4;
   bool changed = false;
   const VkDeviceSize one_per_vertex = VkDeviceSize{std::max(vertex_count_, 1u)} * 4;
+  const VkDeviceSize rule_bits = VkDeviceSize{std::max(triangle_count_, 1u)} * 8;  // seams: a uvec2 per triangle
   for (auto [buffer, size] : {std::pair{&discontinuities_, one_per_vertex},
                               {&sight_bits_, 2 * one_per_vertex},
                               {&sights_, per_vertex},
                               {&trusted_, per_vertex},
                               {&weights_, weights},
-                              {&seams_, per_triangle},
+                              {&seams_, rule_bits},
                               {&rings_, 2 * per_vertex},
                               {&distances_, 2 * per_vertex},
                               {&adjacency_, VkDeviceSize{adjacency_data_.size() * 4 + 4}},
@@ -713,7 +713,20 @@ FieldSnapshot Renderer::readActiveFields() const {
   copy(weights_, s.weights, size_t{s.vertex_count} * HOLOFUSE_MAX_CAMERAS);
   s.triangle_count = triangle_count_;
   s.geodesic_scale = static_cast<float>(geodesicScale(field_parameters_));
-  copy(seams_, s.seams, size_t{triangle_count_} * s.camera_count);
+  // Per triangle, a bit per camera for each rule (compute_common.glsl):
+  // back to [camera][triangle] SeamRule bits.
+  std::vector<uint32_t> rule_bits;
+  copy(seams_, rule_bits, size_t{triangle_count_} * 2);
+  s.seams.assign(size_t{triangle_count_} * s.camera_count, 0);
+  for (size_t t = 0; 2 * t + 1 < rule_bits.size(); ++t) {
+    const uint32_t occlusion = rule_bits[2 * t] & 0xffffu, vote = rule_bits[2 * t] >> 16,
+                   field_of_view = rule_bits[2 * t + 1];
+    for (size_t i = 0; i < s.camera_count; ++i) {
+      s.seams[i * triangle_count_ + t] = ((occlusion >> i) & 1u) * HOLOFUSE_SEAM_OCCLUSION |
+                                         ((vote >> i) & 1u) * HOLOFUSE_SEAM_VOTE |
+                                         ((field_of_view >> i) & 1u) * HOLOFUSE_SEAM_FIELD_OF_VIEW;
+    }
+  }
   copy(visible_counts_, s.visible_counts, s.camera_count);
   std::vector<float> both;
   copy(distances_, both, 2 * per_vertex);

@@ -272,27 +272,21 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   stamp(cmd, 5);
   if (stopsAfter(4)) return;
   if (parameters.geodesics) {
-    // Stage 6: seed from the seams, then K Jacobi passes of rings and
-    // distances together over all cameras (y) and vertices (x).
+    // Stage 6: seed from the seams (per vertex, every camera), then K
+    // Jacobi passes of rings and distances together over all cameras (y)
+    // and vertices (x).
     push.max_rings = parameters.geodesic_rings;
     push.geodesic_scale = parameters.geodesic_radius > 0 ? parameters.geodesic_radius : HOLOFUSE_FAR;
-    auto perVertexAndCamera = [&](VkPipeline pipeline, uint32_t parity) {
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-      push.parity = parity;
-      vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
-      if (vertex_count > 0 && camera_count > 0) {
-        vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), camera_count, 1);
-      }
-      computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
-                     VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
-    };
+    push.parity = 0;
     for (int r = 0; r < repeats(5); ++r) {
       if (r > 0) {  // a repeat for measurement starts from clean lists, as a new mesh does
         computeBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
         clearWorklists();
         clearedBarrier(cmd);
       }
-      perVertexAndCamera(geodesic_seed_, 0);
+      dispatchLinear(geodesic_seed_, camera_count > 0 ? vertex_count : 0, false);
+      // The Jacobi passes write the halves the seeds wrote, too.
+      computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
       // The first pass runs over every entry; each later one only the
       // entries its predecessor queued, the dispatch size coming from the
       // GPU (indirect, no round trip to the host; zero groups once the
