@@ -57,10 +57,15 @@ void main() {
     float depth = storedDepth(i, pixel);
     // Visibility reads the flag only for a vertex that passes its depth
     // test (visibility.comp.glsl): a vertex well behind the depth map is
-    // left 0 and costs no neighbourhood. "Well": another pipeline may round
-    // the same test an ulp the other way, so the margin keeps every vertex
-    // visibility could find in front tested here.
-    if (q.z > depth * (1.0 + push.depth_tolerance) * (1.0 + 1e-4)) continue;
+    // left 0 and costs no neighbourhood. "Well": visibility is another
+    // pipeline and may round the projection an ulp the other way. The
+    // margin covers the depth; a vertex within a hair of a pixel border
+    // may land in the neighbouring pixel there, whose depth may differ by
+    // a jump, so it is always tested (across a jump both pixels are
+    // discontinuities, and the flag says so).
+    vec2 within = fract(q.xy);
+    bool on_border = any(lessThan(within, vec2(1e-3))) || any(greaterThan(within, vec2(1.0 - 1e-3)));
+    if (!on_border && q.z > depth * (1.0 + push.depth_tolerance) * (1.0 + 1e-4)) continue;
     bool near = false;
     if (eps == 0) {
       // paper 000's 4 px at 2048 wide rounds to 0 below about 615 wide:

@@ -7,8 +7,9 @@
 // distance field are the vertices of its seam triangles (ring 0, distance
 // 0); everything else starts unreached, in both ping-pong halves. Gathered
 // per vertex from its triangles' rule bits, every camera in one
-// invocation, so no two invocations write the same word. The first Jacobi pass runs densely over the entries the camera
-// sees (geodesic_distance.comp.glsl), so nothing is queued here.
+// invocation, so no two invocations write the same word. The first Jacobi
+// pass runs densely over the entries the camera sees
+// (geodesic_distance.comp.glsl), so nothing is queued here.
 layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
 
 void main() {
