@@ -279,17 +279,14 @@ int main(int argc, char** argv) {
   // (FieldParameters::repeated_stage): the extra time over kRepeats - 1
   // is one run of the stage, barrier included, with the noise divided.
   constexpr int kRepeats = 21;
-  std::map<std::string, double> repeated;  // by stage name: every stage after the depth maps
-  {
-    render::Renderer renderer(context, 320, 240);
-    render::BlendSettings settings;
-    settings.mode = render::BlendMode::kMontage4D;
-    std::vector<render::ViewImages> pod_views;
-    for (const auto& v : views) pod_views.push_back({v.camera, v.color, v.mask});
-    std::map<int, std::vector<double>> runs;  // by repeated stage, -1: none
+  // Renders of the mesh, each with one stage of `stages` recorded kRepeats
+  // times (-1: none), interleaved so the machine's noise spreads over all
+  // of them; by stage, the first round left out (it warms up).
+  auto repeatedRuns = [&](render::Renderer& renderer, render::BlendSettings settings,
+                          const std::vector<render::ViewImages>& pod_views, const std::vector<int>& stages) {
+    std::map<int, std::vector<double>> runs;
     for (int round = 0; round < 2 + 2 * meshes; ++round) {
-      for (int stage = -1; stage < static_cast<int>(stage_names.size()); ++stage) {
-        if (stage == 0) continue;  // the depth maps: timestamps
+      for (int stage : stages) {
         settings.fields.repeated_stage = stage;
         settings.fields.stage_repeats = kRepeats;
         renderer.setMesh(mesh);
@@ -299,6 +296,18 @@ int main(int argc, char** argv) {
         if (round > 0) runs[stage].push_back(ms(t0, Clock::now()));
       }
     }
+    return runs;
+  };
+  std::map<std::string, double> repeated;  // by stage name: every stage after the depth maps
+  {
+    render::Renderer renderer(context, 320, 240);
+    render::BlendSettings settings;
+    settings.mode = render::BlendMode::kMontage4D;
+    std::vector<render::ViewImages> pod_views;
+    for (const auto& v : views) pod_views.push_back({v.camera, v.color, v.mask});
+    std::vector<int> stages = {-1};  // every stage but the depth maps (timestamps)
+    for (int stage = 1; stage < static_cast<int>(stage_names.size()); ++stage) stages.push_back(stage);
+    auto runs = repeatedRuns(renderer, settings, pod_views, stages);
     std::printf("\nVulkan per stage, each recorded %d times in one frame (medians of %zu; extra time / %d):\n", kRepeats,
                 runs[-1].size(), kRepeats - 1);
     for (size_t k = 1; k < stage_names.size(); ++k) {
@@ -317,6 +326,40 @@ int main(int argc, char** argv) {
     const double ratio = cpu[stage] > 0 ? gpu[stage] / cpu[stage] : 0.0;
     std::printf("%-30s %10.1f %10.1f %10.2f %s\n", stage, cpu[stage], gpu[stage], ratio,
                 ratio <= 1.0 ? "ok" : "SLOWER");
+  }
+  // The discontinuity pass tests up to (2 eps + 1)^2 pixels around each
+  // vertex, where the reference dilates whole maps. Both grow with the
+  // pods' resolution, since eps is paper 000's 4 px at 2048 wide, scaled:
+  // the same mesh seen at 320, 640 and 1280 wide, with eps 0, 1 and 2.
+  {
+    std::printf(
+        "\nDiscontinuities by pod resolution, eps scaled (CPU: the whole dilated maps, best of 3; Vulkan: %d "
+        "repeats, medians of %d):\n%-10s %4s %10s %10s %16s\n",
+        kRepeats, 1 + 2 * meshes, "pods", "eps", "CPU ms", "Vulkan ms", "Vulkan / CPU");
+    for (uint32_t width : {320u, 640u, 1280u}) {
+      const uint32_t height = width * 3 / 4;
+      std::vector<render::reference::DepthMap> maps;
+      std::vector<render::ViewImages> pod_views;
+      for (const auto& cam : capture::SyntheticScene::cameraRig(4, width, height)) {
+        const auto truth = scene.render(cam, 10 + meshes);
+        pod_views.push_back({cam, truth.color, truth.mask});
+        maps.push_back(render::reference::rasterizeDepth(mesh, cam));
+      }
+      double cpu_ms = 1e30;
+      for (int repeat = 0; repeat < 3; ++repeat) {
+        const auto t0 = Clock::now();
+        for (const auto& map : maps) render::reference::dilatedDiscontinuities(map);
+        cpu_ms = std::min(cpu_ms, ms(t0, Clock::now()));
+      }
+      render::Renderer renderer(context, 320, 240);
+      render::BlendSettings settings;
+      settings.mode = render::BlendMode::kHoloportation;
+      auto runs = repeatedRuns(renderer, settings, pod_views, {-1, 1});  // 1: the discontinuities
+      const double gpu_ms = std::max(0.0, (median(runs[1]) - median(runs[-1])) / (kRepeats - 1));
+      std::printf("%4ux%-5u %4d %10.2f %10.2f %10.2f %s\n", width, height,
+                  render::reference::scaledDilationPx(static_cast<int>(width)), cpu_ms, gpu_ms, gpu_ms / cpu_ms,
+                  gpu_ms <= cpu_ms ? "ok" : "SLOWER");
+    }
   }
   // Timestamps on a CPU device include its flushes; wall clock is the
   // ground truth. Normal mode draws the depth maps too, so holoportation
