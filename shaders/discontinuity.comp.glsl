@@ -38,9 +38,30 @@ bool breaksAround(uint camera, ivec2 p, float d) {
          breaks(d, depthAt(camera, p + ivec2(0, -1))) || breaks(d, depthAt(camera, p + ivec2(0, 1)));
 }
 
-bool isDiscontinuity(uint camera, ivec2 p) {
-  float d = depthAt(camera, p);
-  return d != kOutside && d < HOLOFUSE_NO_DEPTH * 0.5 && breaksAround(camera, p, d);
+bool hasSurface(float d) { return d != kOutside && d < HOLOFUSE_NO_DEPTH * 0.5; }
+
+// Some pixel of the square of radius eps around `centre` is a
+// discontinuity: it has surface and breaks with a 4-neighbour. Every
+// break is between two neighbours, so the rows of the square are scanned
+// pair by pair along x, and its columns along y (one load a pixel in each
+// scan, where testing each pixel's four neighbours would take five).
+bool windowHasDiscontinuity(uint camera, ivec2 centre, int eps) {
+  for (int scan = 0; scan < 2; ++scan) {
+    ivec2 along = scan == 0 ? ivec2(1, 0) : ivec2(0, 1), across = ivec2(1, 1) - along;
+    for (int line = -eps; line <= eps; ++line) {
+      ivec2 start = centre + across * line - along * (eps + 1);
+      float previous = depthAt(camera, start);
+      for (int k = 1; k <= 2 * eps + 2; ++k) {
+        float current = depthAt(camera, start + along * k);
+        // The pair (k - 1, k): each end inside the square (steps 1 to
+        // 2 eps + 1 along the line) with surface, breaking with the other.
+        if (k - 1 >= 1 && hasSurface(previous) && breaks(previous, current)) return true;
+        if (k <= 2 * eps + 1 && hasSurface(current) && breaks(current, previous)) return true;
+        previous = current;
+      }
+    }
+  }
+  return false;
 }
 
 void main() {
@@ -72,9 +93,7 @@ void main() {
       // the vertex's own pixel, whose depth is loaded already.
       near = depth < HOLOFUSE_NO_DEPTH * 0.5 && breaksAround(i, pixel, depth);
     } else {
-      for (int dy = -eps; dy <= eps && !near; ++dy) {
-        for (int dx = -eps; dx <= eps && !near; ++dx) near = isDiscontinuity(i, pixel + ivec2(dx, dy));
-      }
+      near = windowHasDiscontinuity(i, pixel, eps);
     }
     if (near) bits |= 1u << i;
   }
