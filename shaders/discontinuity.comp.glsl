@@ -15,8 +15,9 @@
 // axis. The result is the same as the whole map sampled at that pixel
 // (render::reference::dilatedDiscontinuities); on lavapipe the whole map
 // took 0.9-1.0 ms for 4 cameras at 320x240 and this pass 0.4-0.5 ms, and
-// no pixel-sized buffer is needed. The window costs (2 eps + 1)^2 pixel
-// tests at most (a vertex stops at the first discontinuity it finds).
+// no pixel-sized buffer is needed. For eps above 0 the window costs
+// 2 (2 eps + 1)(2 eps + 3) loads at most (windowHasDiscontinuity; a vertex
+// stops at the first discontinuity it finds).
 layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
 
 const float kOutside = -1.0;  // beyond the image's border: continuous
