@@ -47,8 +47,7 @@ int main(int argc, char** argv) {
   app.add_option("--device", options.device, "Vulkan device: index or part of its name");
   std::string budget_file;
   app.add_option("--budget", budget_file,
-                 "JSON of per-stage ms budgets (hull, pod_encode, mesh_encode, image_encode, decode and render are "
-                 "checked at p95)");
+                 "JSON of per-stage ms budgets (" + eval::budgetedStagesText() + " are checked at p95)");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (!render::loadBudgetFlag(budget_file, options.budget)) return 2;
   options.hull_error_target = hull_error_mm / 1000.0;

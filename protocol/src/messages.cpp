@@ -119,6 +119,16 @@ std::string stageName(uint16_t stage) {
   return "stage_" + std::to_string(stage);
 }
 
+double stampedMs(const std::vector<StageStamp>& stamps, Stage stage) {
+  double ms = 0;
+  for (const auto& stamp : stamps) {
+    if (stamp.stage == static_cast<uint16_t>(stage) && stamp.end_ns >= stamp.start_ns) {
+      ms += 1e-6 * static_cast<double>(stamp.end_ns - stamp.start_ns);
+    }
+  }
+  return ms;
+}
+
 uint32_t bytesPerPixel(PixelFormat format) {
   switch (format) {
     case PixelFormat::kRgb8: return 3;

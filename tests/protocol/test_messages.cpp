@@ -132,6 +132,20 @@ TEST(Messages, EveryTypeRoundTrips) {
   }
 }
 
+// A stage's time adds up its finished stamps only: a fan-out stamp still
+// open (end 0) or a clock gone backwards adds nothing, other stages nothing.
+TEST(Messages, StampedMsAddsTheFinishedStampsOfOneStage) {
+  const uint16_t decode = static_cast<uint16_t>(Stage::kDecode);
+  const std::vector<StageStamp> stamps = {{decode, 1, 1'000'000, 3'500'000},
+                                          {decode, 2, 10'000'000, 11'000'000},
+                                          {decode, 3, 5'000'000, 0},
+                                          {decode, 4, 9'000'000, 8'000'000},
+                                          {static_cast<uint16_t>(Stage::kHull), 0, 0, 7'000'000}};
+  EXPECT_DOUBLE_EQ(stampedMs(stamps, Stage::kDecode), 3.5);
+  EXPECT_DOUBLE_EQ(stampedMs(stamps, Stage::kHull), 7.0);
+  EXPECT_DOUBLE_EQ(stampedMs(stamps, Stage::kRender), 0.0);
+}
+
 TEST(Messages, DecodingTheWrongTypeIsAnError) {
   Hello m;
   const Status s = decodeFrame(decodeOne(encodeFrame(Bye{"x"}, 1)), m);

@@ -102,6 +102,16 @@ inline const std::vector<std::string>& codecStages() {
   return stages;
 }
 
+// The stages a budget file can hold that the evaluation times as the loop
+// stamps them, listed for people: "hull, pod_encode, ..., render".
+inline std::string budgetedStagesText() {
+  std::string text = "hull";
+  for (const std::string& stage : codecStages()) {
+    if (stage != "server_decode") text += ", " + stage;
+  }
+  return text + ", render";
+}
+
 struct SceneResult {
   std::string name, stresses;
   double novel_view_degrees = 0;  // 0: leave-one-camera-out; else the offset of a novel-view row

@@ -56,6 +56,10 @@ struct StageStamp {
   bool operator==(const StageStamp&) const = default;
 };
 
+// Milliseconds of every finished stamp of `stage` in stamps, added up (0
+// when none; a stamp still open or ending before it starts counts 0).
+double stampedMs(const std::vector<StageStamp>& stamps, Stage stage);
+
 enum class PlaneKind : uint8_t { kColor = 1, kMask = 2, kFeather = 3, kDepth = 4 };
 enum class Codec : uint8_t { kRaw = 0, kLz4 = 1, kLz4PlanarDelta = 2 };
 enum class PixelFormat : uint8_t { kRgb8 = 1, kGray8 = 2, kR16 = 3 };
