@@ -22,6 +22,14 @@ std::string number(double v) {
 
 double finiteOrZero(double v) { return std::isfinite(v) ? v : 0.0; }
 
+// A mark's value in full, for the page's check that the browser drew it in
+// proportion (page()'s script).
+std::string exact(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.9g", v);
+  return buffer;
+}
+
 }  // namespace
 
 std::string escape(const std::string& text) {
@@ -62,12 +70,18 @@ std::string barChart(const std::string& title, const std::vector<std::string>& c
   for (size_t c = 0; c < categories.size(); ++c) {
     const double gx = 70 + group_width * static_cast<double>(c);
     for (size_t s = 0; s < series.size(); ++s) {
+      const double x = gx + 28.0 * static_cast<double>(s);
+      if (c < series[s].values.size() && std::isnan(series[s].values[c])) {
+        // Not measured: no bar, so that it cannot pass for a small value.
+        svg += "<text class=\"value\" x=\"" + number(x + 12) + "\" y=\"" + number(top + plot - 3) + "\">n/a</text>";
+        continue;
+      }
       const double v = c < series[s].values.size() ? finiteOrZero(series[s].values[c]) : 0.0;
       const double h = std::max(0.0, v) / top_value * plot;
-      const double x = gx + 28.0 * static_cast<double>(s);
-      svg += "<rect class=\"bar\" x=\"" + number(x) + "\" y=\"" + number(top + plot - h) + "\" width=\"24\" height=\"" +
-             number(std::max(h, 0.5)) + "\" fill=\"" + colour(s) + "\"><title>" + escape(series[s].name) + ", " +
-             escape(categories[c]) + ": " + number(v) + " " + escape(unit) + "</title></rect>";
+      svg += "<rect class=\"bar\" data-encoding=\"height\" data-value=\"" + exact(v) + "\" x=\"" + number(x) +
+             "\" y=\"" + number(top + plot - h) + "\" width=\"24\" height=\"" + number(std::max(h, 0.5)) +
+             "\" fill=\"" + colour(s) + "\"><title>" + escape(series[s].name) + ", " + escape(categories[c]) + ": " +
+             number(v) + " " + escape(unit) + "</title></rect>";
       svg += "<text class=\"value\" x=\"" + number(x + 12) + "\" y=\"" + number(top + plot - h - 3) + "\">" +
              number(v) + "</text>";
     }
@@ -108,9 +122,9 @@ std::string stackedBars(const std::string& title, const std::vector<std::string>
       total += v;
       const double w = v * scale;
       if (w <= 0) continue;
-      svg += "<rect class=\"bar\" x=\"" + number(x) + "\" y=\"" + number(y) + "\" width=\"" + number(w) +
-             "\" height=\"24\" fill=\"" + colour(s) + "\"><title>" + escape(stages[s]) + ": " + number(v) + " " +
-             escape(unit) + "</title></rect>";
+      svg += "<rect class=\"bar\" data-encoding=\"width\" data-value=\"" + exact(v) + "\" x=\"" + number(x) +
+             "\" y=\"" + number(y) + "\" width=\"" + number(w) + "\" height=\"24\" fill=\"" + colour(s) + "\"><title>" +
+             escape(stages[s]) + ": " + number(v) + " " + escape(unit) + "</title></rect>";
       x += w;
     }
     svg += "<text x=\"" + number(x + 6) + "\" y=\"" + number(y + 17) + "\">" + number(total) + " " + escape(unit) +
@@ -179,7 +193,8 @@ std::string scatterChart(const std::string& title, const std::string& x_label, c
   }
   for (const auto& p : points) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-    svg += "<circle class=\"bar\" cx=\"" + number(sx(p.x)) + "\" cy=\"" + number(sy(p.y)) + "\" r=\"5\" fill=\"" +
+    svg += "<circle class=\"bar\" data-encoding=\"position\" data-x=\"" + exact(p.x) + "\" data-y=\"" + exact(p.y) +
+           "\" cx=\"" + number(sx(p.x)) + "\" cy=\"" + number(sy(p.y)) + "\" r=\"5\" fill=\"" +
            std::string(p.highlighted ? "#59a14f" : "#ffffff") + "\" stroke=\"" +
            std::string(p.marked ? "#e15759" : "#4e79a7") + "\" stroke-width=\"" + (p.marked ? "3" : "1.5") +
            "\"><title>" + escape(p.label) + ": " + number(p.x) + ", " + number(p.y) + "</title></circle>";
@@ -210,14 +225,42 @@ std::string page(const std::string& title, const std::string& body) {
          "text-anchor:middle}svg .category{text-anchor:middle}svg .axis{stroke:#888}figure{margin:16px 0}</style>"
          "</head>\n<body data-charts-rendered=\"0\">\n<h1>" +
          escape(title) + "</h1>\n" + body +
-         "<script>\n// Counts the charts the browser actually laid out with visible bars.\n"
+         "<script>\n"
+         "// Counts the charts the browser laid out faithfully: every mark drawn, bar lengths in proportion to\n"
+         "// their values (within a pixel), scatter points in the order of their values along both axes.\n"
+         "function faithful(svg) {\n"
+         "  var marks = svg.querySelectorAll('.bar'), lengths = [], points = [], ok = marks.length > 0;\n"
+         "  if (svg.getBoundingClientRect().width <= 0) return false;\n"
+         "  marks.forEach(function (mark) {\n"
+         "    var box = mark.getBBox(), encoding = mark.getAttribute('data-encoding');\n"
+         "    if (!(box.width > 0 && box.height > 0)) ok = false;\n"
+         "    if (encoding === 'position') {\n"
+         "      points.push({x: +mark.getAttribute('data-x'), y: +mark.getAttribute('data-y'),\n"
+         "                   px: box.x + box.width / 2, py: box.y + box.height / 2});\n"
+         "    } else {\n"
+         "      lengths.push({value: +mark.getAttribute('data-value'),\n"
+         "                    size: encoding === 'width' ? box.width : box.height});\n"
+         "    }\n"
+         "  });\n"
+         "  var longest = null;\n"
+         "  lengths.forEach(function (l) { if (longest === null || l.value > longest.value) longest = l; });\n"
+         "  if (longest !== null && longest.value > 0) {\n"
+         "    var scale = longest.size / longest.value;\n"
+         "    lengths.forEach(function (l) {\n"
+         "      if (l.value > 0 && Math.abs(l.size - l.value * scale) > 1) ok = false;\n"
+         "    });\n"
+         "  }\n"
+         "  points.forEach(function (a) {\n"
+         "    points.forEach(function (b) {\n"
+         "      if (a.x < b.x && a.px > b.px + 0.5) ok = false;\n"
+         "      if (a.y < b.y && a.py < b.py - 0.5) ok = false;  // a higher value sits higher on the page\n"
+         "    });\n"
+         "  });\n"
+         "  return ok;\n"
+         "}\n"
          "window.addEventListener('load', function () {\n"
          "  var rendered = 0;\n"
-         "  document.querySelectorAll('svg.chart').forEach(function (svg) {\n"
-         "    var bars = svg.querySelectorAll('.bar'), drawn = 0;\n"
-         "    bars.forEach(function (bar) { var box = bar.getBBox(); if (box.width > 0 && box.height > 0) drawn++; });\n"
-         "    if (bars.length > 0 && drawn === bars.length && svg.getBoundingClientRect().width > 0) rendered++;\n"
-         "  });\n"
+         "  document.querySelectorAll('svg.chart').forEach(function (svg) { if (faithful(svg)) rendered++; });\n"
          "  document.body.setAttribute('data-charts-rendered', String(rendered));\n"
          "});\n</script>\n</body></html>\n";
 }

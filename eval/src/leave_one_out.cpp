@@ -54,6 +54,14 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// A metric that may not have been measured (negative), for a table cell.
+std::string measuredText(double value, const char* format) {
+  if (value < 0) return "n/a";
+  char text[32];
+  std::snprintf(text, sizeof(text), format, value);
+  return text;
+}
+
 // One frame as the client receives it, and the truth it is judged by.
 struct FrameData {
   uint64_t frame_id = 0;
@@ -338,7 +346,7 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
       m.psnr_db /= static_cast<double>(m.images);
       m.ssim /= static_cast<double>(m.images);
     }
-    m.flicker = flicker_pairs ? flicker_sum / static_cast<double>(flicker_pairs) : 0.0;
+    m.flicker = flicker_pairs ? flicker_sum / static_cast<double>(flicker_pairs) : -1.0;
     m.ms_per_new_mesh = median(mesh_ms);
     m.ms_per_new_mesh_p95 = percentile(mesh_ms, 0.95);
     for (const auto& [pass, values] : passes) m.gpu_passes_ms[pass] = median(values);
@@ -701,11 +709,22 @@ Verdict montageVerdict(const SceneResult& scene) {
   }
   v.psnr_gain_db = montage->second.psnr_db - holo->second.psnr_db;
   v.ssim_gain = montage->second.ssim - holo->second.ssim;
-  v.flicker_ratio = holo->second.flicker > 0 ? montage->second.flicker / holo->second.flicker : 0.0;
+  const double holo_flicker = holo->second.flicker, montage_flicker = montage->second.flicker;
+  if (holo_flicker >= 0 && montage_flicker >= 0) {
+    // Both steady (0 and 0) is a tie, not less flicker.
+    v.flicker_ratio = holo_flicker > 0      ? montage_flicker / holo_flicker
+                      : montage_flicker > 0 ? montage_flicker / 1e-6
+                                            : 1.0;
+  }
   std::vector<std::string> short_of;
   if (v.psnr_gain_db < 0.5) short_of.push_back("PSNR gain below 0.5 dB");
   if (!(v.ssim_gain > 0)) short_of.push_back("SSIM not higher");
-  if (scene.view_jump_degrees != 0 && !(v.flicker_ratio < 1.0)) short_of.push_back("flickers more after the jump");
+  if (scene.view_jump_degrees != 0 && v.flicker_ratio < 0) {
+    // The jump comes halfway: three frames give one pair after it.
+    short_of.push_back("flicker after the jump not measured (it needs --frames 3 or more)");
+  } else if (scene.view_jump_degrees != 0 && !(v.flicker_ratio < 1.0)) {
+    short_of.push_back("flickers no less after the jump");
+  }
   v.met = short_of.empty();
   for (const auto& s : short_of) v.why += (v.why.empty() ? "" : "; ") + s;
   return v;
@@ -715,15 +734,19 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
                          const std::string& out_dir) {
   fs::create_directories(out_dir);
   nlohmann::json json;
-  json["settings"] = {{"frames", options.frames},         {"first_frame", options.first_frame},
-                      {"size", std::to_string(options.width) + "x" + std::to_string(options.height)},
-                      {"scene_fps", options.fps},         {"held_out_cameras", options.held_out_cameras},
-                      {"geometry", options.geometry},
-                      {"metrics", "RMSE and PSNR over RGB inside the true mask; SSIM on luminance (Wang 2004, "
-                                  "11x11 Gaussian sigma 1.5, K1 0.01, K2 0.03), mean over windows centred in the mask; "
-                                  "flicker: mean |change of the error image| between frames, grey levels; "
-                                  "seam_visibility: RMS gradient of the luminance error image over the pixels seam "
-                                  "triangles cover, grey levels per pixel"}};
+  json["settings"] = {
+      {"frames", options.frames},
+      {"first_frame", options.first_frame},
+      {"size", std::to_string(options.width) + "x" + std::to_string(options.height)},
+      {"scene_fps", options.fps},
+      {"held_out_cameras", options.held_out_cameras},
+      {"geometry", options.geometry},
+      {"metrics",
+       "RMSE and PSNR over RGB inside the true mask; SSIM on luminance (Wang 2004, "
+       "11x11 Gaussian sigma 1.5, K1 0.01, K2 0.03), mean over windows centred in the mask; "
+       "flicker: mean |change of the error image| between frames, grey levels (-1: no two frames compared); "
+       "seam_visibility: RMS gradient of the luminance error image over the pixels seam "
+       "triangles cover, grey levels per pixel"}};
   for (const auto& scene : results) {
     nlohmann::json& s = json["scenes"][scene.name];
     s = sceneResultJson(scene);
@@ -757,10 +780,9 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
         continue;
       }
       const ModeResult& m = it->second;
-      char seams[16] = "n/a";
-      if (m.seam_visibility >= 0) std::snprintf(seams, sizeof(seams), "%.2f", m.seam_visibility);
-      std::snprintf(cell, sizeof(cell), " %.2f%% | %.2f dB | %.4f | %.2f | %s | %.1f |", m.rmse_percent, m.psnr_db,
-                    m.ssim, m.flicker, seams, m.ms_per_new_mesh > 0 ? 1000.0 / m.ms_per_new_mesh : 0.0);
+      std::snprintf(cell, sizeof(cell), " %.2f%% | %.2f dB | %.4f | %s | %s | %.1f |", m.rmse_percent, m.psnr_db,
+                    m.ssim, measuredText(m.flicker, "%.2f").c_str(), measuredText(m.seam_visibility, "%.2f").c_str(),
+                    m.ms_per_new_mesh > 0 ? 1000.0 / m.ms_per_new_mesh : 0.0);
       md << cell;
     }
     md << "\n";
@@ -804,10 +826,10 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   for (const auto& scene : results) {
     const Verdict v = montageVerdict(scene);
     if (scene.modes.count("holoportation") == 0 || scene.modes.count("montage4d") == 0) continue;
-    char gains[3][32];
+    char gains[2][32];
     std::snprintf(gains[0], sizeof(gains[0]), "%+.2f dB", v.psnr_gain_db);
     std::snprintf(gains[1], sizeof(gains[1]), "%+.4f", v.ssim_gain);
-    std::snprintf(gains[2], sizeof(gains[2]), "%.2f", v.flicker_ratio);
+    const std::string flicker_ratio = measuredText(v.flicker_ratio, "%.2f");
     const bool novel = scene.novel_view_degrees != 0;
     const bool target = scene.name != "clean" && !novel && !scene.camera_kept;
     const std::string verdict = novel    ? std::string("novel view (all pods blended): outside the target's protocol")
@@ -817,9 +839,9 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
                                 : !target ? std::string("baseline, not a target")
                                 : v.met   ? std::string("met")
                                           : "MISSED: " + v.why;
-    verdict_rows.push_back({(target && !v.met ? "!" : "") + scene.name, gains[0], gains[1], gains[2], verdict});
-    std::snprintf(cell, sizeof(cell), "| %s | %+.2f dB | %+.4f | %.2f | ", scene.name.c_str(), v.psnr_gain_db,
-                  v.ssim_gain, v.flicker_ratio);
+    verdict_rows.push_back({(target && !v.met ? "!" : "") + scene.name, gains[0], gains[1], flicker_ratio, verdict});
+    std::snprintf(cell, sizeof(cell), "| %s | %+.2f dB | %+.4f | %s | ", scene.name.c_str(), v.psnr_gain_db,
+                  v.ssim_gain, flicker_ratio.c_str());
     md << cell << verdict << " |\n";
   }
 
@@ -928,8 +950,10 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       html::Series s{mode, {}};
       for (const auto& scene : results) {
         const auto it = scene.modes.find(mode);
-        // Negative means not measured (seam visibility with no seam in view).
-        s.values.push_back(it == scene.modes.end() ? 0.0 : std::max(0.0, it->second.*field));
+        // Negative means not measured (no seam in view, no frame pair):
+        // drawn as "n/a", not as a 0 that would look best.
+        const double value = it == scene.modes.end() ? -1.0 : it->second.*field;
+        s.values.push_back(value < 0 ? std::nan("") : value);
       }
       series.push_back(std::move(s));
     }
@@ -941,18 +965,13 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       const auto it = scene.modes.find(mode);
       if (it == scene.modes.end()) continue;
       const ModeResult& m = it->second;
-      char v[6][32];
+      char v[4][32];
       std::snprintf(v[0], sizeof(v[0]), "%.2f%%", m.rmse_percent);
       std::snprintf(v[1], sizeof(v[1]), "%.2f dB", m.psnr_db);
       std::snprintf(v[2], sizeof(v[2]), "%.4f", m.ssim);
-      std::snprintf(v[3], sizeof(v[3]), "%.2f", m.flicker);
-      if (m.seam_visibility >= 0) {
-        std::snprintf(v[4], sizeof(v[4]), "%.2f", m.seam_visibility);
-      } else {
-        std::snprintf(v[4], sizeof(v[4]), "n/a");
-      }
-      std::snprintf(v[5], sizeof(v[5]), "%.1f", m.ms_per_new_mesh);
-      rows.push_back({scene.name, mode, v[0], v[1], v[2], v[3], v[4], v[5], std::to_string(m.images)});
+      std::snprintf(v[3], sizeof(v[3]), "%.1f", m.ms_per_new_mesh);
+      rows.push_back({scene.name, mode, v[0], v[1], v[2], measuredText(m.flicker, "%.2f"),
+                      measuredText(m.seam_visibility, "%.2f"), v[3], std::to_string(m.images)});
     }
   }
   std::string body = "<p>" + html::escape(std::to_string(options.frames) + " frames per scene from frame " +

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -15,8 +16,8 @@
 #include "common/html_report.h"
 #include "eval/leave_one_out.h"
 #include "eval/sweep.h"
-#include "sweep_points.h"
 #include "render_client/latency_report.h"
+#include "sweep_points.h"
 
 namespace holofuse {
 namespace {
@@ -54,12 +55,32 @@ fs::path scratch(const std::string& name) {
 TEST(HtmlReports, ChartsRenderInChromiumAndAnEmptyChartDoesNotCount) {
   if (chromium().empty()) GTEST_SKIP() << "chromium is not installed (./holofuse deps installs it)";
   const fs::path dir = scratch("charts");
-  const std::string body =
+  const std::string faithful =
       html::barChart("PSNR", {"clean", "few-cameras"}, {{"normal", {17.0, 11.2}}, {"montage4d", {17.3, 11.4}}}, "dB") +
       html::stackedBars("Latency", {"hull", "render"}, {{"p50", {30, 40}}, {"p95", {50, 80}}}, "ms") +
-      html::barChart("Nothing", {}, {}, "ms");  // no bars: must not count as rendered
-  std::ofstream(dir / "page.html") << html::page("test", body);
-  EXPECT_EQ(chartsRendered(dir / "page.html"), 2);
+      html::scatterChart("Trade", "ms", "dB", {{"a", 10, 19.0, true, false}, {"b", 30, 19.6, true, true}});
+  std::ofstream(dir / "page.html") << html::page("test", faithful + html::barChart("Nothing", {}, {}, "ms"));
+  EXPECT_EQ(chartsRendered(dir / "page.html"), 3) << "no bars: the empty chart does not count";
+  // Charts whose marks do not sit where their values say do not count: a
+  // bar drawn twice as long as its value, a point drawn on the wrong side.
+  auto swap = [](std::string text, const std::string& from, const std::string& to) {
+    const size_t at = text.find(from);
+    return at == std::string::npos ? std::string() : text.replace(at, from.size(), to);
+  };
+  const std::string bars = html::barChart("PSNR", {"clean"}, {{"normal", {10.0}}, {"montage4d", {20.0}}}, "dB");
+  const std::string scatter =
+      html::scatterChart("Trade", "ms", "dB", {{"a", 10, 19.0, false, false}, {"b", 30, 19.6, false, false}});
+  const std::string wrong_bar = swap(bars, "data-value=\"10\"", "data-value=\"5\"");
+  const std::string wrong_point = swap(scatter, "data-y=\"19\"", "data-y=\"20\"");
+  ASSERT_FALSE(wrong_bar.empty());
+  ASSERT_FALSE(wrong_point.empty());
+  std::ofstream(dir / "wrong.html") << html::page("test", bars + scatter + wrong_bar + wrong_point);
+  EXPECT_EQ(chartsRendered(dir / "wrong.html"), 2) << "only the two faithful charts";
+  // A value not measured (NaN) is drawn as "n/a", not as a bar.
+  const std::string unmeasured =
+      html::barChart("Flicker", {"clean"}, {{"normal", {std::nan("")}}, {"montage4d", {2.0}}}, "g");
+  EXPECT_EQ(unmeasured.find("data-value=\"0\""), std::string::npos);
+  EXPECT_NE(unmeasured.find(">n/a<"), std::string::npos);
   fs::remove_all(dir);
 }
 

@@ -47,6 +47,7 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
     EXPECT_LT(m.ssim, 1.0) << mode;
     EXPECT_NEAR(m.rmse_percent, 100.0 * std::sqrt(std::pow(10.0, -m.psnr_db / 10.0)), 0.35 * m.rmse_percent)
         << "RMSE and PSNR describe the same errors (means of each differ a little)";
+    EXPECT_GE(m.flicker, 0.0) << mode << ": two frames give one pair to compare";
     EXPECT_TRUE(std::isfinite(m.flicker));
     // No pod of the other three looks within 60 degrees of the held-out
     // one: no seam pixels to measure (n/a, not a perfect 0).
@@ -222,6 +223,16 @@ TEST(LeaveOneOut, VerdictNeedsHalfADecibelHigherSsimAndLessFlickerAfterAJump) {
   scene.modes["montage4d"].flicker = 5.0;
   EXPECT_FALSE(montageVerdict(scene).met);
   EXPECT_NE(montageVerdict(scene).why.find("flicker"), std::string::npos);
+  // Not measured (too few frames after the jump) is not less flicker.
+  scene.modes["montage4d"].flicker = -1;
+  EXPECT_FALSE(montageVerdict(scene).met);
+  EXPECT_LT(montageVerdict(scene).flicker_ratio, 0.0);
+  EXPECT_NE(montageVerdict(scene).why.find("not measured"), std::string::npos) << montageVerdict(scene).why;
+  // Both steady is a tie, not less.
+  scene.modes["montage4d"].flicker = 0;
+  scene.modes["holoportation"].flicker = 0;
+  EXPECT_FALSE(montageVerdict(scene).met);
+  EXPECT_DOUBLE_EQ(montageVerdict(scene).flicker_ratio, 1.0);
   scene.view_jump_degrees = 0;  // no jump: flicker is not part of the target
   EXPECT_TRUE(montageVerdict(scene).met);
   scene.modes["montage4d"].psnr_db = 30.4;

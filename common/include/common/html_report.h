@@ -15,7 +15,7 @@ std::string escape(const std::string& text);
 
 struct Series {
   std::string name;
-  std::vector<double> values;  // one per category
+  std::vector<double> values;  // one per category; NaN: not measured (no bar, "n/a")
 };
 
 // Grouped vertical bars: a group per category, a bar per series, values

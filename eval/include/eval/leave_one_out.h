@@ -78,7 +78,9 @@ struct EvalOptions {
 
 struct ModeResult {
   double rmse_percent = 0, psnr_db = 0, ssim = 0;  // means over the images compared
-  double flicker = 0;              // mean frame-to-frame change of the error image, grey levels
+  // Mean frame-to-frame change of the error image, grey levels; negative:
+  // not measured (no two consecutive frames were compared).
+  double flicker = -1;
   double seam_visibility = -1;     // mean of eval::seamVisibility over images with seams in view; -1: none
   size_t images = 0;
   double ms_per_new_mesh = 0;      // median wall time of a render that follows a new mesh
@@ -160,7 +162,8 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
 // The target of issue "Measure it": montage4d beats holoportation by at
 // least 0.5 dB PSNR and in SSIM (and flickers less after a viewpoint jump).
 struct Verdict {
-  double psnr_gain_db = 0, ssim_gain = 0, flicker_ratio = 0;
+  double psnr_gain_db = 0, ssim_gain = 0;
+  double flicker_ratio = -1;  // montage4d's flicker over holoportation's; negative: not measured
   bool met = false;
   std::string why;  // what fell short, empty when met
 };
