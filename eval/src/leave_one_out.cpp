@@ -54,14 +54,6 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-// A metric that may not have been measured (negative), for a table cell.
-std::string measuredText(double value, const char* format) {
-  if (value < 0) return "n/a";
-  char text[32];
-  std::snprintf(text, sizeof(text), format, value);
-  return text;
-}
-
 // One frame as the client receives it, and the truth it is judged by.
 struct FrameData {
   uint64_t frame_id = 0;
@@ -698,6 +690,13 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
     r.gpu_passes_ms = m.at("gpu_passes_ms").get<std::map<std::string, double>>();
   }
   return scene;
+}
+
+std::string measuredText(double value, const char* format) {
+  if (value < 0) return "n/a";
+  char text[32];
+  std::snprintf(text, sizeof(text), format, value);
+  return text;
 }
 
 Verdict montageVerdict(const SceneResult& scene) {

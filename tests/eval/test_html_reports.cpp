@@ -173,7 +173,7 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   const fs::path dir = scratch("sweep");
   options.out_dir = dir.string();
   eval::writeSweepReports(options, points);
-  EXPECT_EQ(chartsRendered(dir / "sweep.html"), 8) << "three plots and the latency stack for each of two knobs";
+  EXPECT_EQ(chartsRendered(dir / "sweep.html"), 10) << "four plots and the latency stack for each of two knobs";
   std::ifstream in(dir / "sweep.html");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("the default (alpha=2) is on the Pareto front"), std::string::npos);

@@ -29,11 +29,29 @@ SweepOptions tinySweep(const std::string& dir) {
   return options;
 }
 
-TEST(Sweep, ParetoFrontKeepsWhatNothingBeatsOnBoth) {
-  // (quality, cost): b beats a on both; c is better quality at more cost.
-  const auto front = paretoFront({{10.0, 5.0}, {11.0, 4.0}, {12.0, 9.0}, {12.0, 9.5}});
-  EXPECT_EQ(front, (std::vector<size_t>{1, 2}));
-  EXPECT_EQ(paretoFront({{1.0, 1.0}, {1.0, 1.0}}), (std::vector<size_t>{0, 1})) << "equal points both stay";
+TEST(Sweep, ParetoFrontKeepsWhatNothingBeatsBeyondNoise) {
+  auto point = [](double psnr, double ms, double ms_p95) { return TradePoint{psnr, {timeCost(ms, ms_p95)}}; };
+  const std::vector<TradePoint> points = {
+      point(10.0, 5.0, 5.0),     // 0: beaten by 1 on both
+      point(11.0, 4.0, 4.0),     // 1
+      point(12.0, 9.0, 9.0),     // 2: better quality at more cost
+      point(12.0, 9.5, 9.5),     // 3: 2's time within 10%: a tie, not beaten
+      point(12.0, 20.0, 20.0),   // 4: as good as 2, clearly slower: beaten
+      point(12.005, 11.0, 14.0)  // 5: slower than 2, but within its own spread: a tie
+  };
+  EXPECT_EQ(paretoFront(points), (std::vector<size_t>{1, 2, 3, 5}));
+  EXPECT_TRUE(dominates(points[2], points[4]));
+  EXPECT_FALSE(dominates(points[2], points[3]));
+  EXPECT_FALSE(dominates(points[3], points[2]));
+  // PSNR within 0.01 dB is a tie, beyond it a gain; bytes within 0.5% tie.
+  const TradePoint base{19.5, {timeCost(30, 31), bytesCost(1e6)}};
+  EXPECT_FALSE(dominates(TradePoint{19.505, {timeCost(30, 31), bytesCost(1e6)}}, base));
+  EXPECT_TRUE(dominates(TradePoint{19.52, {timeCost(30, 31), bytesCost(1e6)}}, base));
+  EXPECT_FALSE(dominates(TradePoint{19.5, {timeCost(30, 31), bytesCost(0.997e6)}}, base));
+  EXPECT_TRUE(dominates(TradePoint{19.5, {timeCost(30, 31), bytesCost(0.99e6)}}, base));
+  EXPECT_FALSE(dominates(TradePoint{19.6, {timeCost(30, 31), bytesCost(1.01e6)}}, base)) << "more bytes";
+  EXPECT_EQ(paretoFront({point(1.0, 1.0, 1.0), point(1.0, 1.0, 1.0)}), (std::vector<size_t>{0, 1}))
+      << "equal points both stay";
 }
 
 TEST(Sweep, BadKnobsAndValuesAreRefusedBeforeAnyWork) {
@@ -55,6 +73,13 @@ TEST(Sweep, BadKnobsAndValuesAreRefusedBeforeAnyWork) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("size: '320x'"), std::string::npos);
   }
+  options.knobs = {{"alpha", {"1", "4"}}, {"K", {"20"}}, {"alpha", {"5"}}};
+  try {
+    runSweep(options);
+    FAIL() << "a knob given twice accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("knob 'alpha' is given twice"), std::string::npos) << e.what();
+  }
   EXPECT_FALSE(fs::exists(dir / "points")) << "nothing ran, nothing written";
 }
 
@@ -62,13 +87,15 @@ TEST(Sweep, AnInterruptedSweepKeepsFinishedPointsAndResumes) {
   const fs::path dir = fs::temp_directory_path() / "holofuse_sweep_resume";
   fs::remove_all(dir);
   SweepOptions options = tinySweep(dir.string());
-  options.knobs = {{"alpha", {"1", "2", "8"}}, {"K", {"20"}}};
+  options.knobs = {{"alpha", {"1", "2", "8"}}, {"K", {"12"}}};
   const auto first = runSweep(options);
-  ASSERT_EQ(first.size(), 4u);
-  for (size_t i = 0; i < 3; ++i) EXPECT_FALSE(first[i].resumed);
+  ASSERT_EQ(first.size(), 5u) << "K swept without its default gets it";
+  for (size_t i = 0; i < 4; ++i) EXPECT_FALSE(first[i].resumed);
   EXPECT_TRUE(first[1].is_default) << "alpha 2 is the default";
-  EXPECT_TRUE(first[3].is_default && first[3].resumed) << "K = 20 is the same run as alpha = 2: not run twice";
-  EXPECT_DOUBLE_EQ(first[3].result.modes.at("normal").psnr_db, first[1].result.modes.at("normal").psnr_db);
+  EXPECT_FALSE(first[3].is_default);
+  EXPECT_EQ(first[4].knob + "=" + first[4].value, "K=20");
+  EXPECT_TRUE(first[4].is_default && first[4].resumed) << "K = 20 is the same run as alpha = 2: not run twice";
+  EXPECT_DOUBLE_EQ(first[4].result.modes.at("normal").psnr_db, first[1].result.modes.at("normal").psnr_db);
   options.knobs.pop_back();
   // As if killed while the last point ran: its file never appeared, a
   // partial one did.
@@ -98,7 +125,7 @@ TEST(Sweep, PointsMeasuredUnderOtherSettingsAreRefusedNotMixedIn) {
   SweepOptions options = tinySweep(dir.string());
   options.knobs = {{"alpha", {"1"}}};
   const auto first = runSweep(options);
-  ASSERT_EQ(first.size(), 1u);
+  ASSERT_EQ(first.size(), 2u) << "alpha=1 and the default";
   const std::string measured = [&] {
     std::ifstream in(dir / "points" / "alpha=1.json");
     return std::string(std::istreambuf_iterator<char>(in), {});
@@ -123,8 +150,8 @@ TEST(Sweep, PointsMeasuredUnderOtherSettingsAreRefusedNotMixedIn) {
   options.base.width = 96;
   options.base.height = 72;
   const auto again = runSweep(options);
-  ASSERT_EQ(again.size(), 1u);
-  EXPECT_TRUE(again[0].resumed);
+  ASSERT_EQ(again.size(), 2u);
+  EXPECT_TRUE(again[0].resumed && again[1].resumed);
   fs::remove_all(dir);
 }
 

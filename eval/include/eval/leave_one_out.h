@@ -159,6 +159,10 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
 void writeQualityReports(const EvalOptions& options, const std::vector<SceneResult>& results,
                          const std::string& out_dir);
 
+// A metric that may not have been measured (negative), for a table cell:
+// the value in format, or "n/a".
+std::string measuredText(double value, const char* format);
+
 // The target of issue "Measure it": montage4d beats holoportation by at
 // least 0.5 dB PSNR and in SSIM (and flickers less after a viewpoint jump).
 struct Verdict {

@@ -48,19 +48,45 @@ struct SweepPoint {
   SceneResult result;    // the first scene of the sweep
 };
 
-// Validates every knob and value before running anything (std::invalid_argument).
+// Validates every knob and value before running anything (std::invalid_argument;
+// a knob given twice is refused). A knob whose values leave out its default
+// gets the default as one more point, so that the report can place it.
 std::vector<SweepPoint> runSweep(const SweepOptions& options,
                                  const std::function<void(const std::string&)>& progress = {});
 
 // The mode whose quality the trade-off plots (the last of the modes asked for).
 std::string primaryMode(const EvalOptions& options);
 
-// Client ms per new mesh + hull ms: the per-frame work that moves with the knobs.
-double pipelineMs(const SceneResult& result, const std::string& mode);
+// Hull + codecs + client ms per new mesh: the per-frame work that moves
+// with the knobs; at p50, or at p95 (each part's p95, added).
+double pipelineMs(const SceneResult& result, const std::string& mode, bool p95 = false);
 
-// Indices of the points no other point beats on both quality (higher) and
-// cost (lower).
-std::vector<size_t> paretoFront(const std::vector<std::pair<double, double>>& quality_and_cost);
+// What the sweep counts as a difference, since its points are measured one
+// after another on a machine whose speed drifts: times must differ by more
+// than 10% and by more than either point's p50-to-p95 spread; PSNR by more
+// than 0.01 dB; bytes by more than 0.5%. Within that, two points tie.
+inline constexpr double kTimeTieShare = 0.10, kPsnrTieDb = 0.01, kBytesTieShare = 0.005;
+
+// One cost of a point: its median and 95th percentile (equal for exact
+// costs such as bytes), and the share under which two values tie.
+struct Cost {
+  double p50 = 0, p95 = 0;
+  double tie_share = kTimeTieShare;
+};
+inline Cost timeCost(double p50, double p95) { return {p50, p95, kTimeTieShare}; }
+inline Cost bytesCost(double bytes) { return {bytes, bytes, kBytesTieShare}; }
+
+struct TradePoint {
+  double psnr_db = 0;
+  std::vector<Cost> costs;  // the same costs, in the same order, for every point compared
+};
+
+// a dominates b: no worse than b in quality and in every cost, and better
+// in one, each beyond a tie.
+bool dominates(const TradePoint& a, const TradePoint& b);
+
+// Indices of the points no other point dominates.
+std::vector<size_t> paretoFront(const std::vector<TradePoint>& points);
 
 // sweep.json, sweep.md and sweep.html (table, Pareto plots per knob, and
 // whether the default sits on the front or which point dominates it).
