@@ -18,6 +18,8 @@
 #include "capture_node/replay_pod.h"
 #include "capture_node/scene_library.h"
 #include "common/command_line.h"
+#include "render_client/blend_mode.h"
+#include "render_client/latency_report.h"
 
 namespace {
 
@@ -72,6 +74,7 @@ std::vector<ForwardedSetting> forwardedSettings() {
       {"--draco-bits", "--draco-bits", nullptr, nullptr, {}},
       {"--image-codec", "--image-codec", "--codec", nullptr, {}},
       {"--lz4-acceleration", "--lz4-acceleration", "--lz4-acceleration", nullptr, {}},
+      {"--crop-margin", nullptr, "--crop-margin", nullptr, {}},
       {"--alpha", nullptr, nullptr, "--alpha", {}},
       {"--lambda", nullptr, nullptr, "--lambda", {}},
       {"--dilation", nullptr, nullptr, "--dilation", {}},
@@ -91,7 +94,10 @@ void addForwarded(CLI::App& app, ForwardedSetting& setting) {
                        : setting.pod_flag  ? setting.pod_flag
                                            : setting.server_flag;
   const holofuse::SharedFlag& shared = holofuse::sharedFlag(target);
-  const std::string who = setting.client_flag ? "" : setting.pod_flag ? " (pods and server)" : " (server)";
+  const std::string who = setting.client_flag                       ? ""
+                          : setting.pod_flag && setting.server_flag ? " (pods and server)"
+                          : setting.pod_flag                        ? " (pods)"
+                                                                    : " (server)";
   app.add_option(setting.flag, setting.value, shared.description + who)->check(shared.check);
 }
 
@@ -138,7 +144,8 @@ int main(int argc, char** argv) {
   app.add_option("--fps", fps, "pod frame rate")->check(CLI::Range(0.5, 120.0));
   app.add_option("--out", out, "output folder");
   app.add_option("--port", port, "server port (0: any free port)")->check(CLI::Range(0, 65535));
-  app.add_option("--mode", mode, "blending mode of the client");
+  app.add_option("--mode", mode, "blending mode of the client")
+      ->check(CLI::IsMember(holofuse::render::blendModeNames()));
   app.add_option("--view", view, "client view: orbit or pod:N");
   app.add_option("--scene", scene, "named synthetic scene (its camera count unless --pods): " + holofuse::capture::sceneNames());
   std::string budget;
@@ -159,6 +166,18 @@ int main(int argc, char** argv) {
   app.add_option("--speed", speed, "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
   app.add_flag("--loop", loop, "with --replay: start over at the end (until --frames or Ctrl-C)");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  // What the processes would refuse is refused here, before any starts.
+  unsigned width = 0, height = 0;
+  if (const std::string error = holofuse::parseImageSize(size, width, height); !error.empty()) {
+    std::fprintf(stderr, "--size %s\n", error.c_str());
+    return 2;
+  }
+  if (!holofuse::isViewName(view)) {
+    std::fprintf(stderr, "--view '%s': expected orbit or pod:N\n", view.c_str());
+    return 2;
+  }
+  holofuse::render::Budget checked_budget;
+  if (!holofuse::render::loadBudgetFlag(budget, checked_budget)) return 2;
   double speed_factor = 1.0;
   if (!holofuse::capture::parseReplaySpeed(speed, speed_factor)) {
     std::fprintf(stderr, "--speed '%s': expected a factor in (0, 1000] or max\n", speed.c_str());

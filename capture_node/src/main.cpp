@@ -27,10 +27,9 @@ int main(int argc, char** argv) {
       app.add_option("--seed", options.scene.seed, "scene seed"),
       app.add_option("--noise", options.scene.noise_amplitude, "sensor noise amplitude, grey levels")
           ->check(CLI::Range(0.0, 64.0)),
-      app.add_option("--crop-margin", options.crop_margin,
-                     "send only the foreground's rectangle grown by this many pixels (-1: whole images)")
-          ->check(CLI::Range(-1, 4096)),
-      addSharedFlag(app, "--codec", codec), addSharedFlag(app, "--lz4-acceleration", options.lz4_acceleration)};
+      addSharedFlag(app, "--crop-margin", options.crop_margin),
+      addSharedFlag(app, "--codec", codec),
+      addSharedFlag(app, "--lz4-acceleration", options.lz4_acceleration)};
   std::string replay, speed = "1";
   bool loop = false;
   CLI::Option* replay_option =
@@ -70,9 +69,8 @@ int main(int argc, char** argv) {
   options.calibration_error_metres = preset->calibration_error_metres;
 
   unsigned w = 0, h = 0;
-  if (std::sscanf(size.c_str(), "%ux%u", &w, &h) != 2 || w < 16 || h < 16 || w > 4096 || h > 4096) {
-    std::fprintf(stderr, "--size '%s': expected WxH with each side in 16..4096\n%s", size.c_str(),
-                 app.help().c_str());
+  if (const std::string error = parseImageSize(size, w, h); !error.empty()) {
+    std::fprintf(stderr, "--size %s\n%s", error.c_str(), app.help().c_str());
     return 2;
   }
   if (options.pod_id >= static_cast<uint32_t>(options.pods)) {

@@ -156,14 +156,13 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
   fusion::FrameGroup group;
   group.frame_id = frame_id;
   double slowest_pod_ms = 0;
-  const int crop_margin = capture::PodOptions{}.crop_margin;  // the pods' own
   for (size_t i = 0; i < truth.size(); ++i) {
     capture::PodCapture capture =
         capture::capturePodFrame(scene, truth[i], plates[i], frame_id, static_cast<uint16_t>(i));
     frame.true_colors.push_back(capture.view.color);
     frame.true_masks.push_back(capture.view.mask);
     const protocol::Bytes wire = capture::encodePodFrame(capture, static_cast<uint32_t>(i), options.image_codec,
-                                                         crop_margin, options.lz4_acceleration)
+                                                         options.crop_margin, options.lz4_acceleration)
                                      .flatten();
     // As the pod stamps it: its planes' encoding, not the frame's packing.
     slowest_pod_ms = std::max(slowest_pod_ms, protocol::stampedMs(capture.stamps, protocol::Stage::kPodEncode));
@@ -740,6 +739,9 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       {"scene_fps", options.fps},
       {"held_out_cameras", options.held_out_cameras},
       {"geometry", options.geometry},
+      {"voxel_size", options.voxel_size},
+      {"hull_error_target_mm", 1000.0 * options.hull_error_target},
+      {"crop_margin", options.crop_margin},
       {"metrics",
        "RMSE and PSNR over RGB inside the true mask; SSIM on luminance (Wang 2004, "
        "11x11 Gaussian sigma 1.5, K1 0.01, K2 0.03), mean over windows centred in the mask; "

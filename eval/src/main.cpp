@@ -28,8 +28,10 @@ int main(int argc, char** argv) {
   app.add_option("--out", options.out_dir, "output folder (quality.json, quality.md, images/)")->required();
   app.add_flag("--save-images", options.save_images, "write rendered, true and mask PNGs of every comparison");
   double hull_error_mm = 0;
+  addSharedFlag(app, "--voxel", options.voxel_size);
+  addSharedFlag(app, "--crop-margin", options.crop_margin);
   app.add_option("--hull-error-mm", hull_error_mm,
-                 "hull error target: the coarsest voxel (from 20 mm down) whose silhouette error meets it")
+                 "hull error target: the coarsest voxel (from --voxel down) whose silhouette error meets it")
       ->check(CLI::Range(0.0, 1000.0));
   app.add_option("--alpha", options.alpha, "exponent of the view (montage4d) and normal (holoportation) weights")
       ->check(CLI::Range(0.0, 100.0));
@@ -64,8 +66,8 @@ int main(int argc, char** argv) {
     }
   }
   unsigned w = 0, h = 0;
-  if (std::sscanf(size.c_str(), "%ux%u", &w, &h) != 2 || w < 32 || h < 32 || w > 4096 || h > 4096) {
-    std::fprintf(stderr, "--size '%s': expected WxH with each side in 32..4096\n", size.c_str());
+  if (const std::string error = parseImageSize(size, w, h); !error.empty()) {
+    std::fprintf(stderr, "holofuse eval: --size %s\n", error.c_str());
     return 2;
   }
   options.width = w;

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "capture_node/scene_library.h"
+#include "common/command_line.h"
 #include "common/html_report.h"
 #include "common/image_codec.h"
 #include "result_json.h"
@@ -113,6 +114,11 @@ std::vector<Knob> makeKnobs() {
       "lz4-acceleration", "--lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", 1, 65537,
       true, [](EvalOptions& o, double v) { o.lz4_acceleration = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.lz4_acceleration); }));
+  knobs.push_back(numberKnob(
+      "crop-margin", "--crop-margin",
+      "pods send the foreground's rectangle grown by this many pixels (-1: whole images)", -1, 4096, true,
+      [](EvalOptions& o, double v) { o.crop_margin = static_cast<int>(v); },
+      [](const EvalOptions& o) { return double(o.crop_margin); }));
   Knob codec;
   codec.name = "image-codec";
   codec.loop_flag = "--image-codec";
@@ -140,16 +146,7 @@ std::vector<Knob> makeKnobs() {
   size.name = "size";
   size.loop_flag = "--size";
   size.meaning = "camera and output image size WxH";
-  size.apply = [](EvalOptions& o, const std::string& v) -> std::string {
-    unsigned w = 0, h = 0;
-    char tail = 0;
-    if (std::sscanf(v.c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w < 32 || h < 32 || w > 4096 || h > 4096) {
-      return "'" + v + "' is not WxH with each side in 32..4096";
-    }
-    o.width = w;
-    o.height = h;
-    return "";
-  };
+  size.apply = [](EvalOptions& o, const std::string& v) -> std::string { return parseImageSize(v, o.width, o.height); };
   size.current = [](const EvalOptions& o) { return std::to_string(o.width) + "x" + std::to_string(o.height); };
   knobs.push_back(size);
   return knobs;
@@ -184,6 +181,7 @@ nlohmann::json runSettings(const EvalOptions& run) {
           {"draco", {run.draco.position_bits, run.draco.normal_bits, run.draco.speed}},
           {"image_codec", static_cast<int>(run.image_codec)},
           {"lz4_acceleration", run.lz4_acceleration},
+          {"crop_margin", run.crop_margin},
           {"cameras", camerasOf(run)},  // the scene's own count by number: the same run
           {"fields",
            {f.relative_jump, f.dilation_px, f.relative_depth_tolerance, f.vote_delta, f.vote_levels, f.geodesic_rings,

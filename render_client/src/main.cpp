@@ -60,13 +60,12 @@ int main(int argc, char** argv) {
     return 2;
   }
   unsigned w = 0, h = 0;
-  if (std::sscanf(size.c_str(), "%ux%u", &w, &h) != 2 || w < 16 || h < 16 || w > 8192 || h > 8192) {
-    std::fprintf(stderr, "--size '%s': expected WxH with each side in 16..8192\n", size.c_str());
+  if (const std::string error = parseImageSize(size, w, h, 8192); !error.empty()) {
+    std::fprintf(stderr, "--size %s\n", error.c_str());
     return 2;
   }
   if (!render::loadBudgetFlag(budget_file, options.budget)) return 2;
-  if (options.view != "orbit" && (options.view.rfind("pod:", 0) != 0 || options.view.size() < 5 ||
-                                  options.view.find_first_not_of("0123456789", 4) != std::string::npos)) {
+  if (!isViewName(options.view)) {
     std::fprintf(stderr, "--view '%s': expected orbit or pod:N\n", options.view.c_str());
     return 2;
   }

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -37,6 +38,8 @@ inline const std::vector<SharedFlag>& sharedFlags() {
       {"--image-codec", "codec of the images sent to clients", CLI::IsMember(imageCodecNames())},
       // capture_node (and fusion_server for --lz4-acceleration)
       {"--codec", "colour codec", CLI::IsMember(imageCodecNames())},
+      {"--crop-margin", "send only the foreground's rectangle grown by this many pixels (-1: whole images)",
+       CLI::Range(-1, 4096)},
       {"--lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", CLI::Range(1, 65537)},
       // render_client
       {"--alpha", "exponent of the view weights", CLI::Range(0.0, 1000.0)},
@@ -52,6 +55,26 @@ inline const std::vector<SharedFlag>& sharedFlags() {
        CLI::IsMember({"fp32", "fp16"})},
   };
   return flags;
+}
+
+// An image size "WxH" with each side in 16..max_side: "" and width and
+// height set, or what is wrong with the text.
+inline std::string parseImageSize(const std::string& text, unsigned& width, unsigned& height,
+                                  unsigned max_side = 4096) {
+  unsigned w = 0, h = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w < 16 || h < 16 || w > max_side || h > max_side) {
+    return "'" + text + "' is not WxH with each side in 16.." + std::to_string(max_side);
+  }
+  width = w;
+  height = h;
+  return "";
+}
+
+// The render client's user camera: "orbit", or "pod:N" to sit at pod N.
+inline bool isViewName(const std::string& view) {
+  return view == "orbit" || (view.rfind("pod:", 0) == 0 && view.size() > 4 &&
+                             view.find_first_not_of("0123456789", 4) == std::string::npos);
 }
 
 inline const SharedFlag& sharedFlag(std::string_view flag) {

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "capture_node/pod.h"
 #include "capture_node/scene_library.h"
 #include "common/mesh_codec.h"
 #include "protocol/messages.h"
@@ -64,6 +65,9 @@ struct EvalOptions {
   DracoOptions draco;                        // position bits etc.
   protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
   int lz4_acceleration = 1;
+  // Pods send the foreground's rectangle grown by this many pixels
+  // (capture::kFullFrame, -1: whole images), as the loop's pods do.
+  int crop_margin = capture::PodOptions{}.crop_margin;
   int cameras = 0;                           // 0: the scene's own count
   render::FieldParameters fields;            // eps, k, K
   float alpha = 2.0f;
