@@ -449,10 +449,20 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     k["default_verdict"] = verdict;
     md += "## " + name +
           "\n\n| value | PSNR dB | SSIM | flicker | Chamfer mm | client ms | pipeline ms | KB/frame to client | "
-          "pods KB/frame | front |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
+          "pods KB/frame | front | over budget |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n";
     for (size_t i = 0; i < mine.size(); ++i) {
       const SweepPoint& p = *mine[i];
       const ModeResult& m = p.result.modes.at(mode);
+      // The stages over the budget (--budget) at this point's p95.
+      std::string over;
+      nlohmann::json violations = nlohmann::json::array();
+      for (const BudgetCheck& check : checkBudget(options.base.budget, p.result, {mode})) {
+        if (!check.over()) continue;
+        char text[96];
+        std::snprintf(text, sizeof(text), "%s %.1f > %.1f ms", check.stage.c_str(), check.p95_ms, check.budget_ms);
+        over += (over.empty() ? "" : ", ") + std::string(text);
+        violations.push_back({{"stage", check.stage}, {"p95_ms", check.p95_ms}, {"budget_ms", check.budget_ms}});
+      }
       k["points"].push_back({{"value", p.value},
                              {"is_default", p.is_default},
                              {"psnr_db", m.psnr_db},
@@ -466,6 +476,7 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                              {"bytes_per_frame", p.result.bytes_per_frame},
                              {"pod_link_bytes_per_frame", p.result.pod_link_bytes_per_frame},
                              {"on_front", onFront(i)},
+                             {"budget_violations", violations},
                              {"live_command", liveCommand(options, name, p.value)},
                              {"result", sceneResultJson(p.result)}});
       char cells[6][32];
@@ -484,12 +495,13 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                                             cells[3],
                                             cells[4],
                                             cells[5],
-                                            onFront(i) ? "yes" : ""};
+                                            onFront(i) ? "yes" : "",
+                                            over};
       std::string line = "|";
       for (const auto& cell : row) line += " " + cell + " |";
       md += line + "\n";
       rows.push_back(row);
-      rows.back().insert(rows.back().begin(), name);
+      rows.back().insert(rows.back().begin(), (over.empty() ? "" : "!") + name);  // "!": flagged
     }
     const std::string live = liveCommand(options, name, "VALUE");
     md += "\n" + verdict + ". A value in the live loop: `" + live + "`.\n\n";
@@ -519,10 +531,10 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     }
     body += html::stackedBars("Latency of a new mesh by value (" + name + ")", latencyStages(), stack, "ms");
   }
-  body +=
-      "<h2>All points</h2>\n" + html::table({"knob", "value", "PSNR dB", "SSIM", "flicker", "Chamfer mm", "client ms",
-                                             "pipeline ms", "KB/frame to client", "pods KB/frame", "front"},
-                                            rows);
+  body += "<h2>All points</h2>\n" +
+          html::table({"knob", "value", "PSNR dB", "SSIM", "flicker", "Chamfer mm", "client ms", "pipeline ms",
+                       "KB/frame to client", "pods KB/frame", "front", "over budget"},
+                      rows);
   std::ofstream(fs::path(options.out_dir) / "sweep.json") << json.dump(2) << "\n";
   std::ofstream(fs::path(options.out_dir) / "sweep.md") << md;
   std::ofstream(fs::path(options.out_dir) / "sweep.html")

@@ -25,7 +25,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 16));
   app.add_option("--out", options.out_dir, "output folder (points/, sweep.json, sweep.md, sweep.html)")->required();
   app.add_option("--device", options.base.device, "Vulkan device: index or part of its name");
+  std::string budget_file;
+  app.add_option("--budget", budget_file,
+                 "JSON of per-stage ms budgets; each point's p95 of " + eval::budgetedStagesText() +
+                     " is checked and the points over are flagged");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  if (!render::loadBudgetFlag(budget_file, options.base.budget)) return 2;
   options.base.scenes = {scene};
   if (capture::findScene(scene) == nullptr) {
     std::fprintf(stderr, "--scene: unknown scene '%s'; valid scenes: %s\n", scene.c_str(), capture::sceneNames().c_str());

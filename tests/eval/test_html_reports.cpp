@@ -129,7 +129,8 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
   options.modes = {render::BlendMode::kHoloportation, render::BlendMode::kMontage4D};
   // Over: the hull's p95 (30), montage4d's render (150) and the server's
   // image encoding (12); the pods' encoding (3) is within.
-  options.budget = {{"hull", 25.0}, {"render", 100.0}, {"image_encode", 10.0}, {"pod_encode", 5.0}};
+  options.budget = {{"hull", 25.0},      {"render", 100.0},   {"image_encode", 10.0},
+                    {"pod_encode", 5.0}, {"end_to_end", 1.0}, {"upload", 0.001}};  // the last two: not timed by eval
   const fs::path dir = scratch("quality");
   eval::writeQualityReports(options, {scene}, dir.string());
   EXPECT_EQ(chartsRendered(dir / "quality.html"), 6) << "PSNR, SSIM, flicker, seam visibility, time, the latency stack";
@@ -148,6 +149,10 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
   std::ifstream json_in(dir / "quality.json");
   const auto json = nlohmann::json::parse(json_in);
   EXPECT_EQ(json["budget_violations"].size(), 3u);
+  EXPECT_DOUBLE_EQ(json["budget_ms"]["hull"].get<double>(), 25.0);
+  EXPECT_EQ(json["budget_unchecked"], (nlohmann::json{"end_to_end", "upload"}));
+  EXPECT_NE(text.find("not checked (the live loop's report checks them): end_to_end, upload"), std::string::npos)
+      << "stages eval does not time are named";
   EXPECT_DOUBLE_EQ(json["scenes"]["colour-imbalance"]["codec_stages_ms"]["image_encode"]["p95"].get<double>(), 12.0);
   fs::remove_all(dir);
 }
@@ -160,6 +165,7 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   options.base.scenes = {"clean"};
   options.base.modes = {render::BlendMode::kMontage4D};
   options.knobs = {{"alpha", {"1", "2", "8"}}, {"voxel", {"0.02", "0.01"}}};
+  options.base.budget = {{"render", 60.0}};  // over only at voxel 0.01: render p95 68.75 ms
   std::vector<eval::SweepPoint> points;
   auto add = [&](const std::string& knob, const std::string& value, bool is_default, double psnr, double ms,
                  double bytes) {
@@ -177,6 +183,13 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   std::ifstream in(dir / "sweep.html");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("the default (alpha=2) is on the Pareto front"), std::string::npos);
+  EXPECT_NE(text.find("<tr class=\"flagged\"><td>voxel</td><td>0.01</td>"), std::string::npos);
+  EXPECT_NE(text.find("<tr><td>voxel</td><td>0.02 (default)</td>"), std::string::npos) << "within budget";
+  EXPECT_NE(text.find("render 68.8 &gt; 60.0 ms"), std::string::npos);
+  std::ifstream json_in(dir / "sweep.json");
+  const auto json = nlohmann::json::parse(json_in);
+  EXPECT_EQ(json["knobs"]["voxel"]["points"][1]["budget_violations"].size(), 1u);
+  EXPECT_EQ(json["knobs"]["voxel"]["points"][0]["budget_violations"].size(), 0u);
   fs::remove_all(dir);
 }
 

@@ -163,6 +163,18 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
 void writeQualityReports(const EvalOptions& options, const std::vector<SceneResult>& results,
                          const std::string& out_dir);
 
+// One budgeted stage of a scene (and mode, "-" for the server's and the
+// codecs' stages) at p95 against its budget.
+struct BudgetCheck {
+  std::string mode, stage;
+  double p95_ms = 0, budget_ms = 0;
+  bool over() const { return p95_ms > budget_ms; }
+};
+// Every stage of budget the evaluation times (budgetedStagesText()) for the
+// scene's hull and codecs and each of modes' render.
+std::vector<BudgetCheck> checkBudget(const render::Budget& budget, const SceneResult& scene,
+                                     const std::vector<std::string>& modes);
+
 // A metric that may not have been measured (negative), for a table cell:
 // the value in format, or "n/a".
 std::string measuredText(double value, const char* format);
