@@ -76,24 +76,35 @@ std::vector<double> luminance(const Image8& image) {
 }
 
 std::vector<double> ssimMap(const std::vector<double>& a, const std::vector<double>& b, int width, int height) {
+  return maskedSsimMap(a, b, std::vector<double>(a.size(), 1.0), width, height);
+}
+
+// Wang's statistics restricted to the subject: the mask's outline must not
+// be an edge both images share.
+std::vector<double> maskedSsimMap(const std::vector<double>& a, const std::vector<double>& b,
+                                  const std::vector<double>& inside, int width, int height) {
   if (width <= 2 * kRadius || height <= 2 * kRadius) return {};
   const size_t n = static_cast<size_t>(width) * height;
-  std::vector<double> aa(n), bb(n), ab(n);
+  std::vector<double> ma(n), mb(n), maa(n), mbb(n), mab(n);
   for (size_t i = 0; i < n; ++i) {
-    aa[i] = a[i] * a[i];
-    bb[i] = b[i] * b[i];
-    ab[i] = a[i] * b[i];
+    ma[i] = inside[i] * a[i];
+    mb[i] = inside[i] * b[i];
+    maa[i] = ma[i] * a[i];
+    mbb[i] = mb[i] * b[i];
+    mab[i] = ma[i] * b[i];
   }
-  const auto mu_a = filterValid(a, width, height), mu_b = filterValid(b, width, height);
-  const auto e_aa = filterValid(aa, width, height), e_bb = filterValid(bb, width, height),
-             e_ab = filterValid(ab, width, height);
+  const auto weight = filterValid(inside, width, height);
+  const auto s_a = filterValid(ma, width, height), s_b = filterValid(mb, width, height);
+  const auto s_aa = filterValid(maa, width, height), s_bb = filterValid(mbb, width, height),
+             s_ab = filterValid(mab, width, height);
   const double c1 = (kK1 * kPeak) * (kK1 * kPeak), c2 = (kK2 * kPeak) * (kK2 * kPeak);
-  std::vector<double> map(mu_a.size());
+  std::vector<double> map(weight.size(), 0.0);
   for (size_t i = 0; i < map.size(); ++i) {
-    const double var_a = e_aa[i] - mu_a[i] * mu_a[i], var_b = e_bb[i] - mu_b[i] * mu_b[i];
-    const double cov = e_ab[i] - mu_a[i] * mu_b[i];
-    map[i] = ((2 * mu_a[i] * mu_b[i] + c1) * (2 * cov + c2)) /
-             ((mu_a[i] * mu_a[i] + mu_b[i] * mu_b[i] + c1) * (var_a + var_b + c2));
+    if (!(weight[i] > 0)) continue;
+    const double mu_a = s_a[i] / weight[i], mu_b = s_b[i] / weight[i];
+    const double var_a = s_aa[i] / weight[i] - mu_a * mu_a, var_b = s_bb[i] / weight[i] - mu_b * mu_b;
+    const double cov = s_ab[i] / weight[i] - mu_a * mu_b;
+    map[i] = ((2 * mu_a * mu_b + c1) * (2 * cov + c2)) / ((mu_a * mu_a + mu_b * mu_b + c1) * (var_a + var_b + c2));
   }
   return map;
 }
@@ -110,12 +121,11 @@ ImageQuality compareInMask(const Image8& rendered, const Image8& truth, const Im
   const int w = static_cast<int>(truth.width), h = static_cast<int>(truth.height);
   ImageQuality q;
   double squared = 0;
-  std::vector<double> ya = luminance(rendered), yb = luminance(truth);
+  const std::vector<double> ya = luminance(rendered), yb = luminance(truth);
+  std::vector<double> inside(mask.pixels.size(), 0.0);
   for (size_t p = 0; p < mask.pixels.size(); ++p) {
-    if (mask.pixels[p] == 0) {
-      ya[p] = yb[p] = 0.0;
-      continue;
-    }
+    if (mask.pixels[p] == 0) continue;
+    inside[p] = 1.0;
     ++q.pixels;
     for (int c = 0; c < 3; ++c) {
       const double d = double(rendered.pixels[p * rendered.channels + c]) - double(truth.pixels[p * truth.channels + c]);
@@ -125,7 +135,7 @@ ImageQuality compareInMask(const Image8& rendered, const Image8& truth, const Im
   const double mse = q.pixels ? squared / (3.0 * static_cast<double>(q.pixels)) : 0.0;
   q.rmse_percent = 100.0 * std::sqrt(mse) / 255.0;
   q.psnr_db = psnrFromMse(mse);
-  const auto map = ssimMap(ya, yb, w, h);
+  const auto map = maskedSsimMap(ya, yb, inside, w, h);
   double sum = 0;
   size_t count = 0;
   for (int y = 0; y + 2 * kRadius < h; ++y) {

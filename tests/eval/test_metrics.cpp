@@ -128,6 +128,28 @@ TEST(Metrics, OnlyTheMaskCounts) {
   EXPECT_THROW(compareInMask(Image8(kW, kH - 1, 3), rgb(a), mask), std::invalid_argument);
 }
 
+// The mask's outline is not structure the two images share: a window on
+// it weighs only the pixels inside. A render that is noisy everywhere
+// scores about what the same noise scores over the whole image, not near 1
+// as a black backdrop's edge, common to both, would make it.
+TEST(Metrics, TheMaskOutlineIsNotStructureBothImagesShare) {
+  const Grey flat(kW * kH, 100);
+  const Image8 truth = rgb(flat), rendered = rgb(noisy(flat));
+  const double whole = compareInMask(rendered, truth, Image8(kW, kH, 1, 255)).ssim;
+  Image8 mask(kW, kH, 1, 0);
+  for (int y = 14; y < 34; ++y) {
+    for (int x = 20; x < 44; ++x) *mask.at(x, y) = 255;
+  }
+  const double masked = compareInMask(rendered, truth, mask).ssim;
+  EXPECT_LT(whole, 0.5) << "noise of +-20 on a flat image";
+  EXPECT_NEAR(masked, whole, 0.05) << "the outline would lift it towards 1";
+  // A full mask is plain SSIM.
+  const Grey a = base(), b = noisy(a);
+  EXPECT_NEAR(compareInMask(rgb(b), rgb(a), Image8(kW, kH, 1, 255)).ssim,
+              meanSsim(std::vector<double>(b.begin(), b.end()), std::vector<double>(a.begin(), a.end()), kW, kH),
+              1e-12);
+}
+
 TEST(Metrics, FlickerIsTheChangeOfTheErrorNotTheError) {
   const Grey a = base();
   const Image8 truth = rgb(a), mask(kW, kH, 1, 255);
