@@ -774,39 +774,54 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   }
 
   // The layout of paper 000 Table 2: per scene, per mode RMSE, PSNR, SSIM
-  // and rate, plus flicker.
+  // and rate; then flicker and seams, which it does not measure.
   std::vector<std::string> modes;
   for (auto mode : options.modes) modes.push_back(render::blendModeName(mode));
   std::ofstream md(fs::path(out_dir) / "quality.md");
   md << "# Leave-one-camera-out quality\n\n"
-     << "Geometry: " << (options.geometry == "truth" ? "the true surface" : "the visual hull") << ". " << options.frames << " frames per scene from frame " << options.first_frame << ", " << options.width << "x"
-     << options.height << "; each camera rendered from its reported pose without its own image, compared with its "
+     << "Geometry: " << (options.geometry == "truth" ? "the true surface" : "the visual hull") << ". " << options.frames
+     << " frames per scene from frame " << options.first_frame << ", " << options.width << "x" << options.height
+     << "; each camera rendered from its reported pose without its own image, compared with its "
         "true image inside its true mask (rows \"(camera kept)\": with its own image; \"+D deg\": novel poses, every "
-        "camera blended).\n\n| Scene |";
-  for (const auto& mode : modes) md << " " << mode << " RMSE | PSNR | SSIM | flicker | seams | fps |";
-  md << "\n|---|";
-  for (size_t i = 0; i < modes.size(); ++i) md << "---:|---:|---:|---:|---:|---:|";
-  md << "\n";
+        "camera blended).\n\n";
   char cell[256];
-  for (const auto& scene : results) {
-    md << "| " << scene.name << " |";
+  // One table per group of columns, a column per mode and measure.
+  auto modeTable = [&](const std::vector<std::string>& measures,
+                       const std::function<std::vector<std::string>(const ModeResult&)>& cells) {
+    md << "| Scene |";
     for (const auto& mode : modes) {
-      const auto it = scene.modes.find(mode);
-      if (it == scene.modes.end()) {
-        md << " | | | | | |";
-        continue;
-      }
-      const ModeResult& m = it->second;
-      std::snprintf(cell, sizeof(cell), " %.2f%% | %.2f dB | %.4f | %s | %s | %.1f |", m.rmse_percent, m.psnr_db,
-                    m.ssim, measuredText(m.flicker, "%.2f").c_str(), measuredText(m.seam_visibility, "%.2f").c_str(),
-                    m.ms_per_new_mesh > 0 ? 1000.0 / m.ms_per_new_mesh : 0.0);
-      md << cell;
+      for (const auto& measure : measures) md << " " << mode << " " << measure << " |";
     }
+    md << "\n|---|";
+    for (size_t i = 0; i < modes.size() * measures.size(); ++i) md << "---:|";
     md << "\n";
-  }
-  md << "\nseams: seam visibility, the RMS gradient of the luminance error along the pixels seam triangles cover "
-        "(grey levels per pixel; lower is less visible). fps: one render after a new mesh (field passes included), "
-        "this machine's Vulkan device.\n\n"
+    for (const auto& scene : results) {
+      md << "| " << scene.name << " |";
+      for (const auto& mode : modes) {
+        const auto it = scene.modes.find(mode);
+        for (size_t i = 0; i < measures.size(); ++i) {
+          md << " " << (it == scene.modes.end() ? std::string() : cells(it->second).at(i)) << " |";
+        }
+      }
+      md << "\n";
+    }
+  };
+  modeTable({"RMSE", "PSNR", "SSIM", "fps"}, [&](const ModeResult& m) -> std::vector<std::string> {
+    char v[4][32];
+    std::snprintf(v[0], sizeof(v[0]), "%.2f%%", m.rmse_percent);
+    std::snprintf(v[1], sizeof(v[1]), "%.2f dB", m.psnr_db);
+    std::snprintf(v[2], sizeof(v[2]), "%.4f", m.ssim);
+    std::snprintf(v[3], sizeof(v[3]), "%.1f", m.ms_per_new_mesh > 0 ? 1000.0 / m.ms_per_new_mesh : 0.0);
+    return {v[0], v[1], v[2], v[3]};
+  });
+  md << "\nfps: one render after a new mesh (field passes included), this machine's Vulkan device; paper 000's is "
+        "the average over every frame.\n\n## Flicker and seams\n\n";
+  modeTable({"flicker", "seams"}, [&](const ModeResult& m) -> std::vector<std::string> {
+    return {measuredText(m.flicker, "%.2f"), measuredText(m.seam_visibility, "%.2f")};
+  });
+  md << "\nflicker: mean frame-to-frame change of the error image, grey levels (n/a: no two frames compared). seams: "
+        "seam visibility, the RMS gradient of the luminance error along the pixels seam triangles cover (grey levels "
+        "per pixel; lower is less visible; n/a: no seam in view).\n\n"
      << "## Geometry\n\nThe surface the client received against the truth (first frame; Chamfer between vertex "
         "sets, truth by marching cubes at 1 cm; IoU of its silhouette in each true mask; silhouette error: mean distance "
         "between its outline and each segmented mask's, what the voxel controls and `--hull-error-mm` targets).\n\n"

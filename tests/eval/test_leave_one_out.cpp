@@ -80,6 +80,11 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
   std::ifstream md(fs::path(options.out_dir) / "quality.md");
   const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("| few-cameras |"), std::string::npos);
+  // Paper 000 Table 2's layout: RMSE, PSNR, SSIM and fps per mode; flicker
+  // and seams in a table of their own.
+  EXPECT_NE(text.find("| Scene | normal RMSE | normal PSNR | normal SSIM | normal fps | holoportation RMSE |"),
+            std::string::npos);
+  EXPECT_NE(text.find("| Scene | normal flicker | normal seams | holoportation flicker |"), std::string::npos);
   // Paper 000 Table 3's layout: the passes as rows, the modes as columns;
   // normal mode runs none of them.
   const size_t table3 = text.find("## Time per stage of a new mesh (paper 000 Table 3 layout)");
