@@ -40,19 +40,10 @@ double msSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-// The value a share q of v lies at or below (nearest rank); 0 when empty.
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const size_t rank = static_cast<size_t>(std::ceil(q * static_cast<double>(v.size())));
-  return v[std::clamp<size_t>(rank, 1, v.size()) - 1];
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
+// Medians and 95th percentiles as the live loop's report takes them
+// (render::percentile, interpolated), so the two reports compare.
+double median(const std::vector<double>& v) { return render::percentile(v, 50); }
+double percentile95(const std::vector<double>& v) { return render::percentile(v, 95); }
 
 // One frame as the client receives it, and the truth it is judged by.
 struct FrameData {
@@ -190,10 +181,35 @@ std::vector<int> heldOutCameras(int cameras, int limit) {
   return ids;
 }
 
+// RGB like the true images (a render's alpha is not part of the comparison).
 void saveImage(const fs::path& path, const Image8& image) {
   fs::create_directories(path.parent_path());
-  const protocol::Status written = writePng(path.string(), image);
+  Image8 rgb = image;
+  if (image.channels == 4) {
+    rgb = Image8(image.width, image.height, 3);
+    for (size_t p = 0; p < static_cast<size_t>(image.width) * image.height; ++p) {
+      for (int c = 0; c < 3; ++c) rgb.pixels[p * 3 + c] = image.pixels[p * 4 + c];
+    }
+  }
+  const protocol::Status written = writePng(path.string(), rgb);
   if (!written.isOk()) throw std::runtime_error(written.message());
+}
+
+// A row's name as a folder name a shell takes unquoted: "clean (camera
+// kept)" -> "clean_camera_kept", "dataset:temple" -> "dataset-temple",
+// "clean +45 deg" -> "clean_+45_deg".
+std::string folderName(const std::string& name) {
+  std::string folder;
+  for (char c : name) {
+    if (c == ':') {
+      folder += '-';
+    } else if (c == ' ') {
+      if (!folder.empty() && folder.back() != '_') folder += '_';
+    } else if (c != '(' && c != ')') {
+      folder += c;
+    }
+  }
+  return folder;
 }
 
 
@@ -315,7 +331,7 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         }
         previous = std::move(error);
         if (options.save_images) {
-          const fs::path dir = fs::path(options.out_dir) / "images" / result.name / mode_name;
+          const fs::path dir = fs::path(options.out_dir) / "images" / folderName(result.name) / mode_name;
           const std::string stem = "frame" + std::to_string(frame.frame_id) + (novel ? "_novel" : "_camera") +
                                    std::to_string(held);
           saveImage(dir / (stem + "_rendered.png"), picture);
@@ -339,7 +355,7 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
     }
     m.flicker = flicker_pairs ? flicker_sum / static_cast<double>(flicker_pairs) : -1.0;
     m.ms_per_new_mesh = median(mesh_ms);
-    m.ms_per_new_mesh_p95 = percentile(mesh_ms, 0.95);
+    m.ms_per_new_mesh_p95 = percentile95(mesh_ms);
     for (const auto& [pass, values] : passes) m.gpu_passes_ms[pass] = median(values);
   }
 }
@@ -405,11 +421,11 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
   }
   result.hull_ms = median(hull_ms);
   result.codec_ms = median(codec_ms);
-  result.hull_ms_p95 = percentile(hull_ms, 0.95);
-  result.codec_ms_p95 = percentile(codec_ms, 0.95);
+  result.hull_ms_p95 = percentile95(hull_ms);
+  result.codec_ms_p95 = percentile95(codec_ms);
   for (const auto& [stage, ms] : stage_ms) {
     result.codec_stage_ms[stage] = median(ms);
-    result.codec_stage_ms_p95[stage] = percentile(ms, 0.95);
+    result.codec_stage_ms_p95[stage] = percentile95(ms);
   }
 }
 

@@ -106,6 +106,7 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
       const cv::Mat mask = cv::imread(stem.string() + "mask.png", cv::IMREAD_GRAYSCALE);
       ASSERT_FALSE(rendered.empty() || truth.empty() || mask.empty()) << stem;
       ASSERT_EQ(rendered.size(), truth.size());
+      EXPECT_EQ(cv::imread(stem.string() + "rendered.png", cv::IMREAD_UNCHANGED).channels(), 3) << "RGB, as the truth";
       double squared = 0;
       size_t values = 0;
       for (int y = 0; y < mask.rows; ++y) {
@@ -186,9 +187,15 @@ TEST(LeaveOneOut, KeepingTheCameraInTheBlendAddsARowThatScoresAboveLeaveOneOut) 
   options.frames = 1;
   options.modes = {render::BlendMode::kHoloportation, render::BlendMode::kMontage4D};
   options.camera_kept = true;
+  options.save_images = true;
+  options.out_dir = (fs::temp_directory_path() / "holofuse_eval_kept_images").string();
+  fs::remove_all(options.out_dir);
   const auto results = runLeaveOneOut(options);
   ASSERT_EQ(results.size(), 2u);
   EXPECT_FALSE(results[0].camera_kept);
+  // Its images go to a folder a shell takes unquoted.
+  EXPECT_TRUE(fs::exists(fs::path(options.out_dir) / "images" / "few-cameras_camera_kept" / "montage4d"));
+  fs::remove_all(options.out_dir);
   EXPECT_EQ(results[1].name, "few-cameras (camera kept)");
   EXPECT_TRUE(results[1].camera_kept);
   const double left_out = results[0].modes.at("montage4d").psnr_db, kept = results[1].modes.at("montage4d").psnr_db;
