@@ -212,7 +212,6 @@ std::string folderName(const std::string& name) {
   return folder;
 }
 
-
 // The pixels of a view that a seam triangle covers, the same for every
 // mode so their seam visibility compares: triangles the rules of paper 000
 // section 4.3 (the CPU reference) mark for a camera that looks within 60
@@ -639,18 +638,16 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
   s["triangles"] = scene.triangles;
   s["bytes_per_frame"] = scene.bytes_per_frame;
   s["pod_link_bytes_per_frame"] = scene.pod_link_bytes_per_frame;
-  s["hull"] = {{"chamfer_mm", scene.chamfer_mm >= 0 ? nlohmann::json(scene.chamfer_mm) : nlohmann::json()},
+  s["hull"] = {{"chamfer_mm", measuredJson(scene.chamfer_mm)},
                {"silhouette_iou", scene.silhouette_iou},
                {"cells_visited", scene.cells_visited},
                {"voxel_mm", scene.voxel_mm},
-               {"silhouette_error_mm", scene.silhouette_error_mm >= 0 ? nlohmann::json(scene.silhouette_error_mm)
-                                                                      : nlohmann::json()},
+               {"silhouette_error_mm", measuredJson(scene.silhouette_error_mm)},
                {"dense_grid_points", scene.dense_grid_points}};
   for (const auto& [mode, m] : scene.modes) {
     s["modes"][mode] = {{"rmse_percent", m.rmse_percent}, {"psnr_db", m.psnr_db},
-                        {"ssim", m.ssim},                 {"flicker", m.flicker},
-                        {"seam_visibility", m.seam_visibility >= 0 ? nlohmann::json(m.seam_visibility)
-                                                                   : nlohmann::json()},
+                        {"ssim", m.ssim},                 {"flicker", measuredJson(m.flicker)},
+                        {"seam_visibility", measuredJson(m.seam_visibility)},
                         {"images", m.images},             {"ms_per_new_mesh", m.ms_per_new_mesh},
                         {"ms_per_new_mesh_p95", m.ms_per_new_mesh_p95},
                         {"gpu_passes_ms", m.gpu_passes_ms}};
@@ -681,13 +678,11 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
   scene.pod_link_bytes_per_frame = s.value("pod_link_bytes_per_frame", 0.0);
   if (s.contains("hull")) {
     const auto& hull = s.at("hull");
-    scene.chamfer_mm = hull.contains("chamfer_mm") && hull["chamfer_mm"].is_number() ? hull["chamfer_mm"].get<double>() : -1.0;
+    scene.chamfer_mm = measuredFromJson(hull, "chamfer_mm");
     scene.silhouette_iou = hull.value("silhouette_iou", std::vector<double>{});
     scene.cells_visited = hull.value("cells_visited", 0.0);
     scene.voxel_mm = hull.value("voxel_mm", 0.0);
-    scene.silhouette_error_mm = hull.contains("silhouette_error_mm") && hull["silhouette_error_mm"].is_number()
-                                    ? hull["silhouette_error_mm"].get<double>()
-                                    : -1.0;
+    scene.silhouette_error_mm = measuredFromJson(hull, "silhouette_error_mm");
     scene.dense_grid_points = hull.value("dense_grid_points", 0.0);
   }
   for (const auto& [mode, m] : s.at("modes").items()) {
@@ -695,10 +690,8 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
     r.rmse_percent = m.at("rmse_percent").get<double>();
     r.psnr_db = m.at("psnr_db").get<double>();
     r.ssim = m.at("ssim").get<double>();
-    r.flicker = m.at("flicker").get<double>();
-    r.seam_visibility = m.contains("seam_visibility") && m["seam_visibility"].is_number()
-                            ? m["seam_visibility"].get<double>()
-                            : -1.0;
+    r.flicker = measuredFromJson(m, "flicker");
+    r.seam_visibility = measuredFromJson(m, "seam_visibility");
     r.images = m.at("images").get<size_t>();
     r.ms_per_new_mesh = m.at("ms_per_new_mesh").get<double>();
     r.ms_per_new_mesh_p95 = m.value("ms_per_new_mesh_p95", r.ms_per_new_mesh);
@@ -777,7 +770,7 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       {"metrics",
        "RMSE and PSNR over RGB inside the true mask; SSIM on luminance (Wang 2004, "
        "11x11 Gaussian sigma 1.5, K1 0.01, K2 0.03), mean over windows centred in the mask; "
-       "flicker: mean |change of the error image| between frames, grey levels (-1: no two frames compared); "
+       "flicker: mean |change of the error image| between frames, grey levels (null: no two frames compared); "
        "seam_visibility: RMS gradient of the luminance error image over the pixels seam "
        "triangles cover, grey levels per pixel"}};
   for (const auto& scene : results) {
@@ -785,7 +778,7 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     s = sceneResultJson(scene);
     const Verdict v = montageVerdict(scene);
     s["montage4d_against_holoportation"] = {{"psnr_gain_db", v.psnr_gain_db}, {"ssim_gain", v.ssim_gain},
-                                            {"flicker_ratio", v.flicker_ratio}, {"target_met", v.met},
+                                            {"flicker_ratio", measuredJson(v.flicker_ratio)}, {"target_met", v.met},
                                             {"short_of", v.why}, {"is_a_target", scene.name != "clean" && scene.novel_view_degrees == 0 && !scene.camera_kept}};
   }
 

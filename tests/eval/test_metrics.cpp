@@ -218,6 +218,22 @@ TEST(GeometryMetrics, ChamferIsTheMeanOfBothNearestDistanceMeans) {
   EXPECT_NEAR(chamferDistance(a, b), 0.5 * (0.05 + (0.1 + 0 + 4) / 3.0), 1e-6);
   EXPECT_DOUBLE_EQ(chamferDistance(a, a), 0.0);
   EXPECT_TRUE(std::isinf(chamferDistance(a, Mesh{})));
+  // With triangles, to the nearest point of the surface, not of its
+  // vertices: a small triangle 5 cm above a big one's inside is 5 cm from
+  // it, though 29 cm from its nearest corner.
+  Mesh big = pointsAt({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}), small = pointsAt({{0.2f, 0.2f, 0.05f}, {0.3f, 0.2f, 0.05f},
+                                                                          {0.2f, 0.3f, 0.05f}});
+  big.indices = small.indices = {0, 1, 2};
+  // big -> small: its corners reach the small triangle's nearest corners.
+  const double big_to_small =
+      (std::sqrt(0.08 + 0.0025) + 2 * std::sqrt(0.7 * 0.7 + 0.2 * 0.2 + 0.0025)) / 3.0;
+  EXPECT_NEAR(chamferDistance(small, big), 0.5 * (0.05 + big_to_small), 1e-6);
+  // Beyond an edge, the nearest point is on the edge: (0.6, 0.6, 0) is
+  // sqrt(0.02) from (0.5, 0.5, 0) on the long edge; a lone point has no
+  // triangles, so the way back is to it.
+  const Mesh beyond_edge = pointsAt({{0.6f, 0.6f, 0.0f}});
+  EXPECT_NEAR(chamferDistance(beyond_edge, big),
+              0.5 * (std::sqrt(0.02) + (std::sqrt(0.72) + 2 * std::sqrt(0.52)) / 3.0), 1e-6);
 }
 
 }  // namespace

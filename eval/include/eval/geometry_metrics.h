@@ -1,6 +1,6 @@
 // How far a reconstructed surface is from the truth: the symmetric Chamfer
-// distance between two meshes' vertices, and how well its silhouette covers
-// a camera's true mask (intersection over union).
+// distance between two meshes, vertices to surface, and how well its
+// silhouette covers a camera's true mask (intersection over union).
 #pragma once
 
 #include <vector>
@@ -11,9 +11,12 @@
 
 namespace holofuse::eval {
 
-// Mean of (mean nearest distance from a's vertices to b's) and (b's to a's),
-// metres; +infinity when either mesh has no vertices. Dense vertex sets
-// (marching cubes at the voxel size) make this the usual surface Chamfer.
+// Mean of (mean distance from a's vertices to b's surface) and (b's
+// vertices to a's), metres; +infinity when either mesh has no vertices. The
+// surface is the triangles (nearest point on any), or the vertices of a
+// mesh without triangles. To the surface rather than its vertices, so a
+// hull finer than the truth's 1 cm sampling is not held at the sampling's
+// spacing.
 double chamferDistance(const Mesh& a, const Mesh& b);
 
 // The mesh rasterised from the camera against the mask (non-zero = subject).
