@@ -387,11 +387,18 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::functio
   return sweepPoints(swept, progress);
 }
 
-// The live loop with one knob set as a sweep point had it (the rest at
-// their defaults, as in the sweep).
+// The live loop with one knob set as a sweep point had it, and the rest as
+// the sweep's base has them (the defaults, or what --set moved).
 std::string liveCommand(const SweepOptions& options, const std::string& knob, const std::string& value) {
-  return "./holofuse demo --scene " + options.base.scenes.at(0) + " --mode " + primaryMode(options.base) + " " +
-         findKnob(knob)->loop_flag + " " + value;
+  EvalOptions defaults;
+  defaults.scenes = options.base.scenes;
+  std::string command = "./holofuse demo --scene " + options.base.scenes.at(0) + " --mode " + primaryMode(options.base);
+  for (const Knob& other : sweepKnobs()) {
+    if (other.name != knob && other.current(options.base) != other.current(defaults)) {
+      command += " " + other.loop_flag + " " + other.current(options.base);
+    }
+  }
+  return command + " " + findKnob(knob)->loop_flag + " " + value;
 }
 
 void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint>& points) {
@@ -467,8 +474,8 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                              {"is_default", p.is_default},
                              {"psnr_db", m.psnr_db},
                              {"ssim", m.ssim},
-                             {"flicker", m.flicker},
-                             {"chamfer_mm", p.result.chamfer_mm},
+                             {"flicker", measuredJson(m.flicker)},
+                             {"chamfer_mm", measuredJson(p.result.chamfer_mm)},
                              {"client_ms", m.ms_per_new_mesh},
                              {"client_ms_p95", m.ms_per_new_mesh_p95},
                              {"pipeline_ms", pipelineMs(p.result, mode)},

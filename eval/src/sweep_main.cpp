@@ -25,6 +25,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 16));
   app.add_option("--out", options.out_dir, "output folder (points/, sweep.json, sweep.md, sweep.html)")->required();
   app.add_option("--device", options.base.device, "Vulkan device: index or part of its name");
+  std::vector<std::string> set_texts;
+  app.add_option("--set", set_texts,
+                 "NAME=VALUE (repeatable): move the sweep's base (the defaults every point starts from) by a knob, "
+                 "e.g. --set size=640x480 --knob draco-bits=8,11,14");
   std::string budget_file;
   app.add_option("--budget", budget_file,
                  "JSON of per-stage ms budgets; each point's p95 of " + eval::budgetedStagesText() +
@@ -40,6 +44,19 @@ int main(int argc, char** argv) {
     options.base.modes.clear();
     for (const auto& name : modes) {
       if (auto mode = render::blendModeFromName(name)) options.base.modes.push_back(*mode);  // names checked by CLI11
+    }
+  }
+  for (const auto& text : set_texts) {
+    const size_t eq = text.find('=');
+    const eval::Knob* knob = eq == std::string::npos ? nullptr : eval::findKnob(text.substr(0, eq));
+    if (knob == nullptr) {
+      std::fprintf(stderr, "--set '%s': expected NAME=VALUE with a knob's name; knobs: %s\n", text.c_str(),
+                   eval::knobNames().c_str());
+      return 2;
+    }
+    if (const std::string error = knob->apply(options.base, text.substr(eq + 1)); !error.empty()) {
+      std::fprintf(stderr, "--set %s: %s\n", knob->name.c_str(), error.c_str());
+      return 2;
     }
   }
   for (const auto& text : knob_texts) {

@@ -3,6 +3,8 @@
 // measured with), the Pareto front and the default's place.
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -180,9 +182,48 @@ TEST(Sweep, TheDefaultIsDominatedOnlyByAPointNoWorseOnEveryCost) {
   EXPECT_DOUBLE_EQ(json["knobs"]["draco-bits"]["points"][1]["pipeline_ms"].get<double>(), 20 + 6 + 30);
   EXPECT_EQ(json["knobs"]["alpha"]["default_verdict"], "the default (alpha=2) is dominated by alpha=1");
   EXPECT_EQ(json["knobs"]["alpha"]["points"][0]["live_command"],
-            "./holofuse demo --scene few-cameras --mode normal --alpha 1");
+            "./holofuse demo --scene few-cameras --mode normal --size 96x72 --alpha 1")
+      << "the base's size (96x72) goes with it";
   EXPECT_EQ(json["knobs"]["draco-bits"]["points"][1]["live_command"],
-            "./holofuse demo --scene few-cameras --mode normal --draco-bits 14");
+            "./holofuse demo --scene few-cameras --mode normal --size 96x72 --draco-bits 14");
+  fs::remove_all(dir);
+}
+
+std::string run(const std::string& command, int* status) {
+  std::string output;
+  std::FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return output;
+  char buffer[4096];
+  for (size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) output.append(buffer, n);
+  *status = pclose(pipe);
+  return output;
+}
+
+// --set moves the base every point starts from: the points are measured
+// at it, and their live commands carry it.
+TEST(Sweep, SetMovesTheBaseOfEveryPoint) {
+  const fs::path dir = fs::temp_directory_path() / "holofuse_sweep_set";
+  fs::remove_all(dir);
+  const std::string sweep = std::string(HOLOFUSE_BIN_DIR) + "/holofuse_sweep --scene few-cameras --modes normal "
+                                                            "--frames 1 --held-out 1 --out " + dir.string();
+  int status = 0;
+  std::string output = run(sweep + " --set brightness=2 --knob alpha=1", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 2) << output;
+  EXPECT_NE(output.find("knobs: voxel"), std::string::npos) << output;
+  output = run(sweep + " --set size=96x7 --knob alpha=1", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 2) << output;
+  EXPECT_NE(output.find("--set size: '96x7'"), std::string::npos) << output;
+  EXPECT_FALSE(fs::exists(dir / "points")) << "refused before any work";
+  output = run(sweep + " --set size=96x72 --set draco-bits=9 --knob alpha=1", &status);
+  ASSERT_EQ(status, 0) << output;
+  std::ifstream in(dir / "sweep.json");
+  const auto json = nlohmann::json::parse(in);
+  const auto& point = json["knobs"]["alpha"]["points"][0];
+  std::ifstream point_file(dir / "points" / "alpha=1.json");
+  EXPECT_EQ(nlohmann::json::parse(point_file)["settings"]["size"], "96x72") << "measured at the base's size";
+  EXPECT_EQ(point["live_command"], "./holofuse demo --scene few-cameras --mode normal --draco-bits 9 --size 96x72 "
+                                   "--alpha 1");
+  EXPECT_EQ(json["knobs"]["alpha"]["points"][1]["value"], "2") << "the default, added";
   fs::remove_all(dir);
 }
 
