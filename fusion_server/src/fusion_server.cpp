@@ -126,6 +126,7 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
 }
 
 Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
+  const uint64_t arrival = monotonicNs();  // before the decoding, which podImagesOf stamps from here
   protocol::PodFrame pod;
   HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, pod));
   if (pod.camera_id != peer.id) {
@@ -136,10 +137,9 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   if (cam == cameras_.end()) {
     return Status(StatusCode::kUnexpectedMessage, "PodFrame before Calibration");
   }
-  const uint64_t now = monotonicNs();
-  auto images = podImagesOf(pod, frame.bytes.size(), cam->second, now);
+  auto images = podImagesOf(pod, frame.bytes.size(), cam->second, arrival);
   if (!images.isOk()) return images.status();
-  const FrameSync::Added added = sync_.add(pod.frame_id, std::move(*images), now);
+  const FrameSync::Added added = sync_.add(pod.frame_id, std::move(*images), arrival);
   if (added == FrameSync::Added::kImplausible) {
     return Status(StatusCode::kMalformed, "field 'pod_frame.frame_id': " + std::to_string(pod.frame_id) +
                                               " is implausibly far ahead of the frames being fused");

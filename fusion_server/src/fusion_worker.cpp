@@ -55,6 +55,8 @@ protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_
   }
   images.offset_x = pod.offset_x;
   images.offset_y = pod.offset_y;
+  images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kServerDecode), static_cast<uint16_t>(pod.camera_id),
+                           now_ns, monotonicNs()});
   return images;
 }
 

@@ -39,7 +39,7 @@ protocol::StatusOr<Budget> loadBudget(const std::string& path) {
   if (!in) return Status(StatusCode::kIoError, path + ": cannot be read");
   std::set<std::string> names = {"end_to_end"};
   std::string valid = "end_to_end";
-  for (uint16_t stage = protocol::kFirstStage; stage <= protocol::kLastStage; ++stage) {
+  for (uint16_t stage : protocol::stagesInPipelineOrder()) {
     names.insert(protocol::stageName(stage));
     valid += ", " + protocol::stageName(stage);
   }
@@ -135,7 +135,7 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
                                    {"p95", endToEndPercentile(95)},
                                    {"p99", endToEndPercentile(99)}};
   nlohmann::ordered_json stages = nlohmann::ordered_json::object();
-  for (uint16_t stage = protocol::kFirstStage; stage <= protocol::kLastStage; ++stage) {
+  for (uint16_t stage : protocol::stagesInPipelineOrder()) {
     auto it = stage_ms_.find(stage);
     const std::vector<double> none;
     const auto& v = it == stage_ms_.end() ? none : it->second;
@@ -215,7 +215,7 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
   // The latency budget: the pipeline stages stacked, at p50 and at p95.
   std::vector<std::string> stages;
   html::StackRow p50{"p50", {}}, p95{"p95", {}};
-  for (uint16_t stage = protocol::kFirstStage; stage <= protocol::kLastStage; ++stage) {
+  for (uint16_t stage : protocol::stagesInPipelineOrder()) {
     const auto it = stage_ms_.find(stage);
     if (it == stage_ms_.end()) continue;
     stages.push_back(protocol::stageName(stage));

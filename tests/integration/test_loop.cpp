@@ -61,8 +61,8 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   EXPECT_GT(e2e["p50"].get<double>(), 0.0);
   EXPECT_LE(e2e["p50"].get<double>(), e2e["p95"].get<double>());
   EXPECT_LE(e2e["p95"].get<double>(), e2e["p99"].get<double>());
-  for (const char* stage : {"pod_render", "segment", "feather", "pod_encode", "send", "sync_wait", "hull",
-                            "mesh_encode", "image_encode", "fanout", "decode", "upload", "render", "write"}) {
+  for (const char* stage : {"pod_render", "segment", "feather", "pod_encode", "send", "server_decode", "sync_wait",
+                            "hull", "mesh_encode", "image_encode", "fanout", "decode", "upload", "render", "write"}) {
     ASSERT_TRUE(report["latency_ms"]["stages"].contains(stage)) << stage;
     EXPECT_GT(report["latency_ms"]["stages"][stage]["samples"].get<int>(), 0) << stage;
     EXPECT_LE(report["latency_ms"]["stages"][stage]["p50"].get<double>(), e2e["p99"].get<double>()) << stage;

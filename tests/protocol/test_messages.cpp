@@ -2,6 +2,7 @@
 // golden byte vectors of protocol v1.0.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -144,6 +145,24 @@ TEST(Messages, StampedMsAddsTheFinishedStampsOfOneStage) {
   EXPECT_DOUBLE_EQ(stampedMs(stamps, Stage::kDecode), 3.5);
   EXPECT_DOUBLE_EQ(stampedMs(stamps, Stage::kHull), 7.0);
   EXPECT_DOUBLE_EQ(stampedMs(stamps, Stage::kRender), 0.0);
+}
+
+// Reports list the stages in the order a frame passes them: every known
+// stage once, the pods' first and the written PNG last.
+TEST(Messages, EveryStageHasItsPlaceInThePipelineOrder) {
+  const std::vector<uint16_t>& order = stagesInPipelineOrder();
+  std::vector<uint16_t> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  ASSERT_EQ(sorted.size(), size_t{kLastStage - kFirstStage + 1});
+  for (uint16_t id = kFirstStage; id <= kLastStage; ++id) EXPECT_EQ(sorted[id - kFirstStage], id);
+  EXPECT_EQ(stageName(order.front()), "pod_render");
+  EXPECT_EQ(stageName(order.back()), "write");
+  EXPECT_EQ(stageName(static_cast<uint16_t>(Stage::kServerDecode)), "server_decode");
+  const auto at = [&](Stage s) {
+    return std::find(order.begin(), order.end(), static_cast<uint16_t>(s)) - order.begin();
+  };
+  EXPECT_LT(at(Stage::kSend), at(Stage::kServerDecode));
+  EXPECT_LT(at(Stage::kServerDecode), at(Stage::kSyncWait));
 }
 
 TEST(Messages, DecodingTheWrongTypeIsAnError) {

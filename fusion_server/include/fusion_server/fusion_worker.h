@@ -48,8 +48,9 @@ struct GroupJob {
 
 // A pod's frame as the fusion takes it: its planes decoded (the whole image
 // or the rectangle the pod sent, checked against camera, the calibration in
-// force) and its stamps with the send stage ending at now_ns. An error names
-// the plane that does not fit or the plane that is missing.
+// force) and its stamps with the send stage ending at now_ns (its arrival)
+// and the server_decode stage from then to the end of its decoding. An
+// error names the plane that does not fit or the plane that is missing.
 protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes, const Camera& camera,
                                           uint64_t now_ns);
 

@@ -32,12 +32,15 @@ enum class Stage : uint16_t {
   kUpload = 12,
   kRender = 13,
   kWrite = 14,
-  kReplayRead = 15,  // a replay pod reads and checks a recorded frame (in place of 1-4)
+  kReplayRead = 15,    // a replay pod reads and checks a recorded frame (in place of 1-4)
+  kServerDecode = 16,  // the server parses a PodFrame and decompresses its planes
 };
 constexpr uint16_t kFirstStage = 1;
-constexpr uint16_t kLastStage = 15;
+constexpr uint16_t kLastStage = 16;
 // Snake-case name of a stage id ("pod_render"), or "stage_<n>" for unknown ids.
 std::string stageName(uint16_t stage);
+// Every known stage id in the order a frame passes them (reports list them so).
+const std::vector<uint16_t>& stagesInPipelineOrder();
 
 constexpr uint16_t kSourceServer = 0xFFFF;
 constexpr uint16_t kSourceClient = 0xFFFE;
