@@ -168,7 +168,10 @@ int main(int argc, char** argv) {
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   // What the processes would refuse is refused here, before any starts.
   unsigned width = 0, height = 0;
-  if (const std::string error = holofuse::parseImageSize(size, width, height); !error.empty()) {
+  // A replay's pods keep the recorded size: --size is then the client's
+  // output alone, which may be larger than a pod's image.
+  if (const std::string error = holofuse::parseImageSize(size, width, height, replay.empty() ? 4096 : 8192);
+      !error.empty()) {
     std::fprintf(stderr, "--size %s\n", error.c_str());
     return 2;
   }

@@ -10,12 +10,26 @@
 namespace holofuse::eval {
 namespace {
 
+// The point of segment ab nearest to p (a point when a == b).
+glm::dvec3 nearestOnSegment(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b) {
+  const double length2 = glm::dot(b - a, b - a);
+  return length2 > 0 ? a + (b - a) * std::clamp(glm::dot(p - a, b - a) / length2, 0.0, 1.0) : a;
+}
+
 // The point of triangle abc nearest to p: the Voronoi regions of its
 // vertices, then its edges, then its face (Ericson, Real-Time Collision
-// Detection, section 5.1.5). A degenerate triangle falls to a vertex or an
-// edge before the face.
+// Detection, section 5.1.5). A triangle without area (two corners on one
+// point, or all three on a line, as quantisation makes) is its three
+// edges: the region tests would divide by zero there.
 glm::dvec3 nearestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
   const glm::dvec3 ab = b - a, ac = c - a;
+  if (!(glm::length(glm::cross(ab, ac)) > 1e-12 * std::max(glm::dot(ab, ab), glm::dot(ac, ac)))) {
+    glm::dvec3 best = nearestOnSegment(p, a, b);
+    for (const glm::dvec3& q : {nearestOnSegment(p, b, c), nearestOnSegment(p, c, a)}) {
+      if (glm::length(p - q) < glm::length(p - best)) best = q;
+    }
+    return best;
+  }
   const double d1 = glm::dot(ab, p - a), d2 = glm::dot(ac, p - a);
   if (d1 <= 0 && d2 <= 0) return a;
   const double d3 = glm::dot(ab, p - b), d4 = glm::dot(ac, p - b);
@@ -29,7 +43,6 @@ glm::dvec3 nearestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm
   const double va = d3 * d6 - d5 * d4;
   if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
   const double sum = va + vb + vc;
-  if (!(sum > 0)) return glm::length(p - a) <= glm::length(p - b) ? a : b;  // no area: not reached in practice
   return a + ab * (vb / sum) + ac * (vc / sum);
 }
 

@@ -44,7 +44,7 @@ int camerasOf(const EvalOptions& o) {
 
 std::string formatNumber(double v) {
   char buffer[32];
-  std::snprintf(buffer, sizeof(buffer), "%g", v);
+  std::snprintf(buffer, sizeof(buffer), "%.9g", v);  // every digit a --set value may have
   return buffer;
 }
 
@@ -189,9 +189,11 @@ nlohmann::json runSettings(const EvalOptions& run) {
           {"alpha", run.alpha},
           {"lambda", run.lambda},
           {"half_precision_vertices", run.half_precision_vertices},
-          // How bytes and codec times were counted: points from before
-          // they went through the loop's own code differ here.
-          {"links", "the loop's own encoding and decoding"}};
+          // How bytes and codec times were counted, and the metrics'
+          // definitions: points measured before a change differ here.
+          {"links", "the loop's own encoding and decoding"},
+          {"metrics", "SSIM over the mask's pixels per window; p50/p95 interpolated; Chamfer to triangles; "
+                      "codec stages per pod frame"}};
 }
 
 // Where a point of the sweep lives and what it runs.
@@ -281,12 +283,14 @@ int compareCost(const Cost& a, const Cost& b) {
 }  // namespace
 
 bool dominates(const TradePoint& a, const TradePoint& b) {
-  if (a.psnr_db < b.psnr_db - kPsnrTieDb) return false;
+  // No worse as measured, better beyond noise: a rule that chains (if a
+  // beats b and b beats c, a beats c), so the front is never empty, and
+  // noise can neither make a point win nor let a noisily slower one win.
+  if (a.psnr_db < b.psnr_db) return false;
   bool better = a.psnr_db > b.psnr_db + kPsnrTieDb;
   for (size_t k = 0; k < a.costs.size() && k < b.costs.size(); ++k) {
-    const int order = compareCost(a.costs[k], b.costs[k]);
-    if (order > 0) return false;
-    better = better || order < 0;
+    if (a.costs[k].p50 > b.costs[k].p50) return false;
+    better = better || compareCost(a.costs[k], b.costs[k]) < 0;
   }
   return better;
 }
@@ -411,9 +415,9 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                    "` (leave-one-camera-out), one knob at a time around the defaults. Pipeline ms: the hull, the "
                    "codecs (" + std::string(kCodecsMeaning) + ") and the client's render per new mesh. Front: no "
                    "other value of the knob is at least as good in PSNR, client ms, pipeline ms and bytes per frame on "
-                   "both links at once and better in one. Points are measured one after another, so "
-                   "differences within noise tie: times within 10% or within either point's p50-to-p95 spread, "
-                   "PSNR within 0.01 dB, bytes within 0.5%. Flicker and Chamfer are shown, not judged.\n\n";
+                   "both links at once and better in one beyond noise (points are measured one after another): "
+                   "times by more than 10% and more than either point's p50-to-p95 spread, PSNR by more than "
+                   "0.01 dB, bytes by more than 0.5%. Flicker and Chamfer are shown, not judged.\n\n";
   std::string body;
   std::vector<std::vector<std::string>> rows;
   for (const auto& [name, values] : options.knobs) {

@@ -139,7 +139,9 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   }
   auto images = podImagesOf(pod, frame.bytes.size(), cam->second, arrival);
   if (!images.isOk()) return images.status();
-  const FrameSync::Added added = sync_.add(pod.frame_id, std::move(*images), arrival);
+  // The group waits from the first frame decoded: its decoding is
+  // server_decode's, and the latency budget must not count it twice.
+  const FrameSync::Added added = sync_.add(pod.frame_id, std::move(*images), monotonicNs());
   if (added == FrameSync::Added::kImplausible) {
     return Status(StatusCode::kMalformed, "field 'pod_frame.frame_id': " + std::to_string(pod.frame_id) +
                                               " is implausibly far ahead of the frames being fused");

@@ -143,11 +143,43 @@ TEST(Metrics, TheMaskOutlineIsNotStructureBothImagesShare) {
   const double masked = compareInMask(rendered, truth, mask).ssim;
   EXPECT_LT(whole, 0.5) << "noise of +-20 on a flat image";
   EXPECT_NEAR(masked, whole, 0.05) << "the outline would lift it towards 1";
-  // A full mask is plain SSIM.
+  // Against Wang's statistics written out window by window: the Gaussian
+  // weights of the pixels inside, renormalised, on an L-shaped mask.
   const Grey a = base(), b = noisy(a);
-  EXPECT_NEAR(compareInMask(rgb(b), rgb(a), Image8(kW, kH, 1, 255)).ssim,
-              meanSsim(std::vector<double>(b.begin(), b.end()), std::vector<double>(a.begin(), a.end()), kW, kH),
-              1e-12);
+  Image8 l_mask(kW, kH, 1, 0);
+  for (int y = 8; y < 40; ++y) {
+    for (int x = 6; x < 30 + (y > 28 ? 30 : 0); ++x) *l_mask.at(x, y) = 255;
+  }
+  double gauss[11], total = 0;
+  for (int k = 0; k < 11; ++k) total += gauss[k] = std::exp(-(k - 5) * (k - 5) / (2 * 1.5 * 1.5));
+  const double c1 = 0.01 * 255 * 0.01 * 255, c2 = 0.03 * 255 * 0.03 * 255;
+  double sum = 0;
+  int windows = 0;
+  for (int cy = 5; cy < kH - 5; ++cy) {
+    for (int cx = 5; cx < kW - 5; ++cx) {
+      if (*l_mask.at(cx, cy) == 0) continue;
+      double w = 0, ma = 0, mb = 0, aa = 0, bb = 0, ab = 0;
+      for (int dy = -5; dy <= 5; ++dy) {
+        for (int dx = -5; dx <= 5; ++dx) {
+          if (*l_mask.at(cx + dx, cy + dy) == 0) continue;
+          const double g = gauss[dx + 5] * gauss[dy + 5] / (total * total);
+          const double va = a[(cy + dy) * kW + cx + dx], vb = b[(cy + dy) * kW + cx + dx];
+          w += g;
+          ma += g * va;
+          mb += g * vb;
+          aa += g * va * va;
+          bb += g * vb * vb;
+          ab += g * va * vb;
+        }
+      }
+      ma /= w;
+      mb /= w;
+      const double var_a = aa / w - ma * ma, var_b = bb / w - mb * mb, cov = ab / w - ma * mb;
+      sum += (2 * ma * mb + c1) * (2 * cov + c2) / ((ma * ma + mb * mb + c1) * (var_a + var_b + c2));
+      ++windows;
+    }
+  }
+  EXPECT_NEAR(compareInMask(rgb(b), rgb(a), l_mask).ssim, sum / windows, 1e-9);
 }
 
 TEST(Metrics, FlickerIsTheChangeOfTheErrorNotTheError) {
@@ -234,6 +266,13 @@ TEST(GeometryMetrics, ChamferIsTheMeanOfBothNearestDistanceMeans) {
   const Mesh beyond_edge = pointsAt({{0.6f, 0.6f, 0.0f}});
   EXPECT_NEAR(chamferDistance(beyond_edge, big),
               0.5 * (std::sqrt(0.02) + (std::sqrt(0.72) + 2 * std::sqrt(0.52)) / 3.0), 1e-6);
+  // A triangle with two corners on one point (as quantisation makes) is
+  // its edge: (0.5, 0.1, 0) is 0.1 from the segment (0,0,0)-(1,0,0).
+  Mesh sliver = pointsAt({{0, 0, 0}, {0, 0, 0}, {1, 0, 0}});
+  sliver.indices = {0, 1, 2};
+  const double to_sliver = chamferDistance(pointsAt({{0.5f, 0.1f, 0.0f}}), sliver);
+  EXPECT_TRUE(std::isfinite(to_sliver));
+  EXPECT_NEAR(to_sliver, 0.5 * (0.1 + (2 * std::sqrt(0.26) + std::sqrt(0.26)) / 3.0), 1e-6);
 }
 
 }  // namespace

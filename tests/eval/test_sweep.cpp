@@ -52,6 +52,14 @@ TEST(Sweep, ParetoFrontKeepsWhatNothingBeatsBeyondNoise) {
   EXPECT_FALSE(dominates(TradePoint{19.5, {timeCost(30, 31), bytesCost(0.997e6)}}, base));
   EXPECT_TRUE(dominates(TradePoint{19.5, {timeCost(30, 31), bytesCost(0.99e6)}}, base));
   EXPECT_FALSE(dominates(TradePoint{19.6, {timeCost(30, 31), bytesCost(1.01e6)}}, base)) << "more bytes";
+  EXPECT_FALSE(dominates(TradePoint{19.6, {timeCost(30.5, 31), bytesCost(1e6)}}, base)) << "slower, if within noise";
+  // Three points each cheapest in one cost, the others within 15%: none
+  // beats another, so all stay (a rule that forgave small losses would
+  // let each beat the next around a circle and leave no front).
+  const std::vector<TradePoint> circle = {{19.5, {timeCost(100, 100), timeCost(107, 107), timeCost(115, 115)}},
+                                          {19.5, {timeCost(115, 115), timeCost(100, 100), timeCost(107, 107)}},
+                                          {19.5, {timeCost(107, 107), timeCost(115, 115), timeCost(100, 100)}}};
+  EXPECT_EQ(paretoFront(circle), (std::vector<size_t>{0, 1, 2}));
   EXPECT_EQ(paretoFront({point(1.0, 1.0, 1.0), point(1.0, 1.0, 1.0)}), (std::vector<size_t>{0, 1}))
       << "equal points both stay";
 }

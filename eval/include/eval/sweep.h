@@ -61,10 +61,10 @@ std::string primaryMode(const EvalOptions& options);
 // with the knobs; at p50, or at p95 (each part's p95, added).
 double pipelineMs(const SceneResult& result, const std::string& mode, bool p95 = false);
 
-// What the sweep counts as a difference, since its points are measured one
-// after another on a machine whose speed drifts: times must differ by more
-// than 10% and by more than either point's p50-to-p95 spread; PSNR by more
-// than 0.01 dB; bytes by more than 0.5%. Within that, two points tie.
+// What the sweep counts as a gain, since its points are measured one after
+// another on a machine whose speed drifts: times must differ by more than
+// 10% and by more than either point's p50-to-p95 spread; PSNR by more than
+// 0.01 dB; bytes by more than 0.5%.
 inline constexpr double kTimeTieShare = 0.10, kPsnrTieDb = 0.01, kBytesTieShare = 0.005;
 
 // One cost of a point: its median and 95th percentile (equal for exact
@@ -81,8 +81,8 @@ struct TradePoint {
   std::vector<Cost> costs;  // the same costs, in the same order, for every point compared
 };
 
-// a dominates b: no worse than b in quality and in every cost, and better
-// in one, each beyond a tie.
+// a dominates b: no worse than b in quality and in every cost, as
+// measured, and better in one beyond a tie.
 bool dominates(const TradePoint& a, const TradePoint& b);
 
 // Indices of the points no other point dominates.
