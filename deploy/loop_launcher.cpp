@@ -150,6 +150,10 @@ int main(int argc, char** argv) {
   app.add_option("--scene", scene, "named synthetic scene (its camera count unless --pods): " + holofuse::capture::sceneNames());
   std::string budget;
   app.add_option("--budget", budget, "JSON of per-stage ms budgets for the client's report (flags violations)");
+  bool quality = true;
+  app.add_flag("--quality,!--no-quality", quality,
+               "judge every written frame against the synthetic scene's true image from the same view (PSNR, SSIM "
+               "in the report; on unless --replay); the client spends the time after each frame");
   app.add_option("--bin-dir", bin_dir, "folder of the executables (default: next to this one)");
   std::string record, replay, speed = "1";
   std::vector<std::string> dataset_server_args;
@@ -178,6 +182,13 @@ int main(int argc, char** argv) {
   if (!holofuse::isViewName(view)) {
     std::fprintf(stderr, "--view '%s': expected orbit or pod:N\n", view.c_str());
     return 2;
+  }
+  if (!replay.empty()) {
+    if (app.count("--quality") > 0 && quality) {
+      std::fprintf(stderr, "--quality needs a synthetic scene's truth; a --replay has none\n");
+      return 2;
+    }
+    quality = false;
   }
   holofuse::render::Budget checked_budget;
   if (!holofuse::render::loadBudgetFlag(budget, checked_budget)) return 2;
@@ -314,6 +325,7 @@ int main(int argc, char** argv) {
   if (replay.empty() && preset->view_jump_degrees != 0) {  // the scene's jump is the user's view's
     client_args.insert(client_args.end(), {"--jump-degrees", std::to_string(preset->view_jump_degrees)});
   }
+  if (quality) client_args.insert(client_args.end(), {"--truth-scene", scene, "--truth-fps", std::to_string(fps)});
   appendForwarded(forwarded, &ForwardedSetting::client_flag, client_args);
   if (!budget.empty()) {
     client_args.push_back("--budget");

@@ -374,6 +374,11 @@ int runClient(const ClientOptions& options) {
           if (renamed) std::fprintf(stderr, "[client] %s: %s\n", path.c_str(), renamed.message().c_str());
         }
         const uint64_t t4 = monotonicNs();
+        if (options.judge) {
+          const FrameQuality quality = options.judge(picture, *user, mesh_frame.frame_id);
+          record.psnr_db = quality.psnr_db;
+          record.ssim = quality.ssim;
+        }
         stamps.push_back({static_cast<uint16_t>(Stage::kUpload), kSourceClient, t1, t2});
         stamps.push_back({static_cast<uint16_t>(Stage::kRender), kSourceClient, t2, t3});
         stamps.push_back({static_cast<uint16_t>(Stage::kWrite), kSourceClient, t3, t4});

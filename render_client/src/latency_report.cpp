@@ -85,6 +85,23 @@ void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
   }
 }
 
+std::vector<LatencyReport::QualitySummary> LatencyReport::quality() const {
+  std::vector<double> psnr, ssim;
+  for (const auto& f : frames_) {
+    if (f.psnr_db < 0) continue;
+    psnr.push_back(f.psnr_db);
+    ssim.push_back(f.ssim);
+  }
+  if (psnr.empty()) return {};
+  auto summary = [](const char* name, const std::vector<double>& v) {
+    double sum = 0;
+    for (double x : v) sum += x;
+    return QualitySummary{name, sum / static_cast<double>(v.size()), percentile(v, 50),
+                          *std::min_element(v.begin(), v.end()), v.size()};
+  };
+  return {summary("psnr_db", psnr), summary("ssim", ssim)};
+}
+
 std::map<uint16_t, double> LatencyReport::podJitterMs() const {
   std::map<uint16_t, double> jitter;
   for (const auto& [pod, pairs] : transit_ms_) jitter[pod] = interarrivalJitter(pairs);
@@ -172,6 +189,12 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
     for (const auto& v : violations(budget)) over.push_back({{"stage", v.stage}, {"p95", v.p95}, {"budget", v.budget}});
     j["budget_violations"] = over;
   }
+  // Each judged frame against the truth from its view (--truth-scene).
+  nlohmann::ordered_json quality = nlohmann::ordered_json::object();
+  for (const auto& q : this->quality()) {
+    quality[q.measure] = {{"mean", q.mean}, {"p50", q.p50}, {"worst", q.worst}, {"frames", q.frames}};
+  }
+  j["quality"] = quality;
   j["frames_skipped"] = skipped_;
   j["frames_superseded"] = superseded_;
   j["camera_views_without_subject"] = views_without_subject_;
@@ -185,6 +208,8 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
                       {"cameras_expected", f.cameras_expected},
                       {"pod_bytes", f.pod_bytes},
                       {"client_bytes", f.client_bytes},
+                      {"psnr_db", f.psnr_db >= 0 ? nlohmann::ordered_json(f.psnr_db) : nlohmann::ordered_json()},
+                      {"ssim", f.ssim >= 0 ? nlohmann::ordered_json(f.ssim) : nlohmann::ordered_json()},
                       {"note", f.note}});
   }
   j["frames"] = frames;
@@ -237,6 +262,25 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
   for (const auto& f : frames_) {
     pod_bytes += static_cast<double>(f.pod_bytes);
     client_bytes += static_cast<double>(f.client_bytes);
+  }
+  const std::vector<QualitySummary> judged = quality();
+  if (!judged.empty()) {
+    // The quality table: every written frame against the scene's true image
+    // from the same view, inside its true mask (eval/metrics.h's measures).
+    std::vector<std::vector<std::string>> rows;
+    for (const auto& q : judged) {
+      const bool db = q.measure == "psnr_db";
+      auto cell = [&](double v) {
+        char text[32];
+        std::snprintf(text, sizeof(text), db ? "%.2f dB" : "%.4f", v);
+        return std::string(text);
+      };
+      rows.push_back({db ? "PSNR" : "SSIM", cell(q.mean), cell(q.p50), cell(q.worst), std::to_string(q.frames)});
+    }
+    body +=
+        "<h2>Quality against the truth</h2>\n<p>Each written frame against the synthetic scene's true image "
+        "from the same view, inside its true mask.</p>\n" +
+        html::table({"measure", "mean", "p50", "worst", "frames"}, rows);
   }
   const double n = std::max<double>(1.0, static_cast<double>(frames_.size()));
   body += html::barChart("Bytes per frame by link", {"pods -> server", "server -> client"},

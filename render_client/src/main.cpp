@@ -2,8 +2,12 @@
 // README.md for the flags.
 #include <cstdio>
 
+#include "capture_node/pod.h"
+#include "capture_node/scene_library.h"
+#include "capture_node/synthetic_scene.h"
 #include "common/command_line.h"
 #include "common/shutdown.h"
+#include "eval/metrics.h"
 #include "render_client/client.h"
 
 int main(int argc, char** argv) {
@@ -44,7 +48,32 @@ int main(int argc, char** argv) {
   app.add_flag("--list-devices", list_devices, "print the Vulkan devices and exit");
   std::string budget_file;
   app.add_option("--budget", budget_file, "JSON of per-stage ms budgets (stage names of report.json, end_to_end)");
+  std::string truth_scene;
+  app.add_option("--truth-scene", truth_scene,
+                 "the synthetic scene the pods render: judge each written frame against its true image from the "
+                 "same view (PSNR, SSIM in report.json and report.html); costs client time after each frame");
+  double truth_fps = capture::PodOptions{}.fps;
+  app.add_option("--truth-fps", truth_fps, "with --truth-scene: the pods' --fps (their frame ids' clock)")
+      ->check(CLI::Range(0.1, 240.0));
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  if (!truth_scene.empty()) {
+    const capture::ScenePreset* preset = capture::findScene(truth_scene);
+    if (preset == nullptr) {
+      std::fprintf(stderr, "--truth-scene '%s': unknown; valid scenes: %s\n", truth_scene.c_str(),
+                   capture::sceneNames().c_str());
+      return 2;
+    }
+    // The scene as the pods render it (capture_node --scene), seen from
+    // the user camera at the frame's time.
+    capture::SceneOptions scene_options = preset->scene;
+    scene_options.frames_per_second = truth_fps;  // as capture_node sets it from its --fps
+    options.judge = [scene = capture::SyntheticScene(scene_options)](const Image8& picture, const Camera& view,
+                                                                     uint64_t frame_id) {
+      const capture::RenderedView truth = scene.render(view, frame_id);
+      const eval::ImageQuality q = eval::compareInMask(picture, truth.color, truth.mask);
+      return render::FrameQuality{q.psnr_db, q.ssim};
+    };
+  }
   if (list_devices) {
     try {
       const auto devices = render::VulkanContext::listDevices();

@@ -98,8 +98,20 @@ TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
     record.end_to_end_ms = 200;
     record.pod_bytes = 600'000;
     record.client_bytes = 650'000;
+    if (f != 3) {  // a frame not judged does not count
+      record.psnr_db = 20.0 + static_cast<double>(f);
+      record.ssim = 0.5 + 0.01 * static_cast<double>(f);
+    }
     report.addFrame(record, t);
   }
+  // The quality table: 9 frames judged, PSNR 20..29 but 23, SSIM alike.
+  const auto quality = report.quality();
+  ASSERT_EQ(quality.size(), 2u);
+  EXPECT_EQ(quality[0].frames, 9u);
+  EXPECT_NEAR(quality[0].mean, (20 + 21 + 22 + 24 + 25 + 26 + 27 + 28 + 29) / 9.0, 1e-12);
+  EXPECT_DOUBLE_EQ(quality[0].p50, 25.0);
+  EXPECT_DOUBLE_EQ(quality[0].worst, 20.0);
+  EXPECT_DOUBLE_EQ(quality[1].worst, 0.5);
   const render::Budget budget = {{"hull", 30.0}, {"end_to_end", 500.0}};
   const fs::path dir = scratch("loop");
   std::ofstream(dir / "report.html") << report.toHtml({{"mode", "montage4d"}}, budget);
@@ -109,6 +121,12 @@ TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("<tr class=\"flagged\"><td>hull</td>"), std::string::npos) << "hull p95 40 ms > 30 ms budget";
   EXPECT_EQ(text.find("<tr class=\"flagged\"><td>end_to_end</td>"), std::string::npos);
+  EXPECT_NE(text.find("<tr><td>PSNR</td><td>24.67 dB</td><td>25.00 dB</td><td>20.00 dB</td><td>9</td></tr>"),
+            std::string::npos)
+      << "the quality table";
+  const auto json = nlohmann::json::parse(report.toJson({}, budget));
+  EXPECT_DOUBLE_EQ(json["quality"]["ssim"]["worst"].get<double>(), 0.5);
+  EXPECT_TRUE(json["frames"][3]["psnr_db"].is_null());
   fs::remove_all(dir);
 }
 

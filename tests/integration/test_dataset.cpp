@@ -248,6 +248,8 @@ TEST_F(DatasetLoop, ReplayFusesTheSameMeshesBitForBitAndSendsTheRecordedImages) 
   const auto report = readJson(first / "report.json");
   EXPECT_GT(report["frames_rendered"].get<int>(), 0);
   ASSERT_TRUE(report["latency_ms"]["stages"].contains("replay_read"));
+  EXPECT_TRUE(report["quality"].empty()) << "a replay has no truth to judge frames by";
+  EXPECT_TRUE(report["frames"][0]["psnr_db"].is_null());
   EXPECT_GT(report["latency_ms"]["stages"]["replay_read"]["samples"].get<int>(), 0);
 }
 

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -90,20 +91,36 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
     ASSERT_EQ(png.channels(), 4);
     const auto truth = scene.render(camera, frame["frame_id"].get<uint64_t>());
     size_t inter = 0, uni = 0;
+    double squared = 0;
+    size_t values = 0;
     for (int y = 0; y < png.rows; ++y) {
       for (int x = 0; x < png.cols; ++x) {
         const bool rendered = png.at<cv::Vec4b>(y, x)[3] != 0;
         const bool real = *truth.mask.at(x, y) != 0;
         inter += rendered && real;
         uni += rendered || real;
+        for (int c = 0; c < 3 && real; ++c, ++values) {
+          const double d = double(png.at<cv::Vec4b>(y, x)[2 - c]) - double(truth.color.at(x, y)[c]);  // BGRA
+          squared += d * d;
+        }
       }
     }
+    // The client judged the frame against the same truth (the launcher's
+    // --quality, on by default): its PSNR is the one recomputed here from
+    // the PNG, and from pod 0's own pose, its image in the blend, it is high.
+    const double psnr = 10 * std::log10(255.0 * 255.0 * static_cast<double>(values) / squared);
+    ASSERT_TRUE(frame["psnr_db"].is_number()) << frame.dump();
+    EXPECT_NEAR(frame["psnr_db"].get<double>(), psnr, 1e-6) << frame["file"];
+    EXPECT_GT(psnr, 20.0) << frame["file"];
+    EXPECT_GT(frame["ssim"].get<double>(), 0.8) << frame["file"];
     // The visual hull is a superset of the subject, so the overlap is high
     // but not perfect.
     EXPECT_GT(static_cast<double>(inter) / static_cast<double>(uni), 0.8) << frame["file"];
     ++checked;
   }
   EXPECT_GE(checked, 4);
+  EXPECT_EQ(report["quality"]["psnr_db"]["frames"], 6) << "every written frame judged";
+  EXPECT_LE(report["quality"]["psnr_db"]["worst"].get<double>(), report["quality"]["psnr_db"]["mean"].get<double>());
 }
 
 TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -41,6 +42,11 @@ struct ClientOptions {
   int exclude_camera = -1;          // leave this camera out of the blend
   bool write_frames = true;
   Budget budget;                    // per-stage ms; violations are flagged in the reports
+  // Judges each written frame against the truth from the user camera at
+  // its frame id (main: the synthetic scene the pods render, with
+  // --truth-scene); unset: frames are not judged. Runs after the frame is
+  // written, outside every stage's time.
+  std::function<FrameQuality(const Image8& picture, const Camera& view, uint64_t frame_id)> judge;
 };
 
 int runClient(const ClientOptions& options);

@@ -23,6 +23,15 @@ struct FrameRecord {
   uint64_t pod_bytes = 0;
   uint64_t client_bytes = 0;
   std::string note;
+  // The written frame against the truth from the same view (a synthetic
+  // scene's, ClientOptions::judge): PSNR and SSIM inside the true mask;
+  // negative: not measured.
+  double psnr_db = -1, ssim = -1;
+};
+
+// A written frame's quality against the truth (eval/metrics.h's measures).
+struct FrameQuality {
+  double psnr_db = 0, ssim = 0;
 };
 
 // p in [0, 100]; linear interpolation between order statistics. 0 for none.
@@ -50,6 +59,14 @@ class LatencyReport {
   // GPU time of a texture-field pass (timestamp queries), by pass name.
   void addGpuPass(const std::string& name, double ms) { gpu_ms_[name].push_back(ms); }
   void addFrame(const FrameRecord& record, uint64_t written_ns);
+  // PSNR and SSIM over the frames judged against the truth (FrameRecord);
+  // empty when none was.
+  struct QualitySummary {
+    std::string measure;  // "psnr_db" or "ssim"
+    double mean = 0, p50 = 0, worst = 0;
+    size_t frames = 0;
+  };
+  std::vector<QualitySummary> quality() const;
   void noteSkipped(const std::string& why) { skipped_.push_back(why); }
   // Meshes not rendered because a newer one had already arrived.
   void setSuperseded(uint64_t count) { superseded_ = count; }
