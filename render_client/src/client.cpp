@@ -447,9 +447,16 @@ int runClient(const ClientOptions& options) {
   const fs::path report_path = out_dir / "report.json";
   std::ofstream(report_path) << report.toJson(settings, options.budget);
   std::ofstream(out_dir / "report.html") << report.toHtml(settings, options.budget);
-  std::printf("%s[client] %zu frames, %.1f fps, end-to-end p50 %.1f ms p95 %.1f ms p99 %.1f ms; report: %s\n",
+  std::string quality;
+  for (const auto& q : report.quality()) {
+    char text[96];
+    std::snprintf(text, sizeof(text), q.measure == "psnr_db" ? ", PSNR %.2f dB" : ", SSIM %.3f", q.mean);
+    quality += text;
+  }
+  if (!quality.empty()) quality += " against the truth (mean)";
+  std::printf("%s[client] %zu frames, %.1f fps, end-to-end p50 %.1f ms p95 %.1f ms p99 %.1f ms%s; report: %s\n",
               tty ? "\n" : "", report.framesRendered(), report.fps(), report.endToEndPercentile(50),
-              report.endToEndPercentile(95), report.endToEndPercentile(99), report_path.c_str());
+              report.endToEndPercentile(95), report.endToEndPercentile(99), quality.c_str(), report_path.c_str());
   return 0;
 }
 
