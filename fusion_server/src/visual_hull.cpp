@@ -236,8 +236,8 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   // Valid region: the points of a coarse lattice that fall inside every
   // camera's silhouette rectangle, grown by one step.
   glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
-  const double step = options.valid_region_step;
-  for (double z = options.volume_min.z; z <= options.volume_max.z; z += step) {
+  const double step = options.valid_region ? options.valid_region_step : std::numeric_limits<double>::infinity();
+  for (double z = options.volume_min.z; options.valid_region && z <= options.volume_max.z; z += step) {
     for (double y = options.volume_min.y; y <= options.volume_max.y; y += step) {
       for (double x = options.volume_min.x; x <= options.volume_max.x; x += step) {
         const glm::dvec3 p(x, y, z);
@@ -256,9 +256,14 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
       }
     }
   }
-  if (lo.x > hi.x) return {};
-  lo = glm::max(lo - step, options.volume_min);
-  hi = glm::min(hi + step, options.volume_max);
+  if (options.valid_region) {
+    if (lo.x > hi.x) return {};
+    lo = glm::max(lo - step, options.volume_min);
+    hi = glm::min(hi + step, options.volume_max);
+  } else {
+    lo = options.volume_min;
+    hi = options.volume_max;
+  }
   // Snap the region onto the capture volume's voxel lattice, so a grid edge
   // has the same key in every frame however the region moves (the temporal
   // texture field follows vertices by these keys).

@@ -32,6 +32,9 @@ struct HullOptions {
   // or boundary against every silhouette and only boundary cells are split;
   // 0 samples every grid point (the dense reference).
   int hierarchy_levels = 4;
+  // false: carve the whole capture volume instead of the valid region (what
+  // the region saves is measured against it: bench_hull).
+  bool valid_region = true;
 };
 
 // Sets the capture volume and scales the valid-region search to it (40
