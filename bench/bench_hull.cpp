@@ -5,7 +5,6 @@
 // scene at 320x240 through the pods' own segmentation. Prints ratios
 // measured in one run; the machine is noisy.
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -21,16 +20,12 @@ using namespace holofuse;
 using bench::Clock;
 using bench::median;
 
-// A mesh's vertex positions to 0.1 mm, in lexicographic order: surfaces
-// compare whatever order their vertices were numbered in, and whatever
-// rounding grids with other origins gave them (the whole volume's grid and
-// the valid region's agree to about 1e-7 m).
-static std::vector<std::array<long, 3>> sortedPositions(const Mesh& mesh) {
-  std::vector<std::array<long, 3>> sorted;
-  for (const auto& p : mesh.positions)
-    sorted.push_back({std::lround(p.x * 1e4), std::lround(p.y * 1e4), std::lround(p.z * 1e4)});
-  std::sort(sorted.begin(), sorted.end());
-  return sorted;
+// A mesh's vertices by the lattice edges they sit on, in order: surfaces
+// compare whatever order their vertices were numbered in.
+static std::vector<uint64_t> sortedKeys(const Mesh& mesh) {
+  std::vector<uint64_t> keys = mesh.vertex_keys;
+  std::sort(keys.begin(), keys.end());
+  return keys;
 }
 
 int main(int argc, char** argv) {
@@ -89,12 +84,12 @@ int main(int argc, char** argv) {
         same = same && meshes[0].indices == meshes[1].indices && meshes[0].positions == meshes[1].positions;
         if (repeat == 1) {  // the same surface, its vertices numbered in another order
           same_as_whole = same_as_whole && whole_mesh.triangleCount() == meshes[0].triangleCount() &&
-                          sortedPositions(whole_mesh) == sortedPositions(meshes[0]);
+                          sortedKeys(whole_mesh) == sortedKeys(meshes[0]);
         }
       }
     }
     std::printf("%6.0f mm %-13s %10.1f %16.0f %12s %10s\n", voxel * 1000, "whole volume", median(whole_ms),
-                volume_points, "", same_as_whole ? "as region" : "DIFFERS");  // to 0.1 mm
+                volume_points, "", same_as_whole ? "as region" : "DIFFERS");
     std::printf("%6.0f mm %-13s %10.1f %16.0f %12zu %10s\n", voxel * 1000, "valid region", median(ms[0]), region_points,
                 triangles[0], "");
     std::printf("%6.0f mm %-13s %10.1f %16.0f %12zu %10s\n", voxel * 1000, "hierarchical", median(ms[1]), sampled[1],

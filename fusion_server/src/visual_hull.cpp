@@ -236,7 +236,7 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   // Valid region: the points of a coarse lattice that fall inside every
   // camera's silhouette rectangle, grown by one step.
   glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
-  const double step = options.valid_region ? options.valid_region_step : std::numeric_limits<double>::infinity();
+  const double step = options.valid_region_step;
   for (double z = options.volume_min.z; options.valid_region && z <= options.volume_max.z; z += step) {
     for (double y = options.volume_min.y; y <= options.volume_max.y; y += step) {
       for (double x = options.volume_min.x; x <= options.volume_max.x; x += step) {

@@ -121,7 +121,7 @@ std::optional<Camera> userCamera(const ClientOptions& options, const std::map<ui
   const double degrees = options.orbit_degrees_per_frame * static_cast<double>(frame_index) + jump;
   const double angle = degrees * std::numbers::pi / 180.0;
   const glm::dvec3 eye = target + up * height + radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
-  return lookAtCamera(0, eye, target, up, options.width, options.height, fov_x);
+  return lookAtCamera(kOrbitCameraId, eye, target, up, options.width, options.height, fov_x);
 }
 
 protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& bundle,
@@ -210,6 +210,7 @@ int runClient(const ClientOptions& options) {
   const bool tty = isatty(STDOUT_FILENO);
   uint64_t last_progress_ns = 0;
   uint64_t frames_superseded = 0;  // meshes skipped because a newer one was already there
+  bool judge_failed = false;       // warned once
   uint64_t last_render_ns = 0;      // for the temporal field's real frame interval
   std::vector<protocol::Frame> received;
 
@@ -375,9 +376,14 @@ int runClient(const ClientOptions& options) {
         }
         const uint64_t t4 = monotonicNs();
         if (options.judge) {
-          const FrameQuality quality = options.judge(picture, *user, mesh_frame.frame_id);
-          record.psnr_db = quality.psnr_db;
-          record.ssim = quality.ssim;
+          const uint64_t judge_start = monotonicNs();
+          try {
+            record.quality = options.judge(picture, *user, mesh_frame.frame_id);
+          } catch (const std::exception& e) {  // e.g. a pod view of another size than the picture
+            if (!judge_failed) std::fprintf(stderr, "[client] frames not judged: %s\n", e.what());
+            judge_failed = true;
+          }
+          report.addJudgeMs(static_cast<double>(monotonicNs() - judge_start) / 1e6);
         }
         stamps.push_back({static_cast<uint16_t>(Stage::kUpload), kSourceClient, t1, t2});
         stamps.push_back({static_cast<uint16_t>(Stage::kRender), kSourceClient, t2, t3});

@@ -88,9 +88,9 @@ void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
 std::vector<LatencyReport::QualitySummary> LatencyReport::quality() const {
   std::vector<double> psnr, ssim;
   for (const auto& f : frames_) {
-    if (f.psnr_db < 0) continue;
-    psnr.push_back(f.psnr_db);
-    ssim.push_back(f.ssim);
+    if (!f.quality) continue;
+    psnr.push_back(f.quality->psnr_db);
+    ssim.push_back(f.quality->ssim);
   }
   if (psnr.empty()) return {};
   auto summary = [](const char* name, const std::vector<double>& v) {
@@ -194,6 +194,9 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   for (const auto& q : this->quality()) {
     quality[q.measure] = {{"mean", q.mean}, {"p50", q.p50}, {"worst", q.worst}, {"frames", q.frames}};
   }
+  if (!judge_ms_.empty()) {
+    quality["judge_ms"] = {{"p50", percentile(judge_ms_, 50)}, {"p95", percentile(judge_ms_, 95)}};
+  }
   j["quality"] = quality;
   j["frames_skipped"] = skipped_;
   j["frames_superseded"] = superseded_;
@@ -208,8 +211,8 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
                       {"cameras_expected", f.cameras_expected},
                       {"pod_bytes", f.pod_bytes},
                       {"client_bytes", f.client_bytes},
-                      {"psnr_db", f.psnr_db >= 0 ? nlohmann::ordered_json(f.psnr_db) : nlohmann::ordered_json()},
-                      {"ssim", f.ssim >= 0 ? nlohmann::ordered_json(f.ssim) : nlohmann::ordered_json()},
+                      {"psnr_db", f.quality ? nlohmann::ordered_json(f.quality->psnr_db) : nlohmann::ordered_json()},
+                      {"ssim", f.quality ? nlohmann::ordered_json(f.quality->ssim) : nlohmann::ordered_json()},
                       {"note", f.note}});
   }
   j["frames"] = frames;
@@ -279,7 +282,9 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
     }
     body +=
         "<h2>Quality against the truth</h2>\n<p>Each written frame against the synthetic scene's true image "
-        "from the same view, inside its true mask.</p>\n" +
+        "from the same view, inside its true mask. Judging took " +
+        format(percentile(judge_ms_, 50), " ms") +
+        " per frame (p50), after the frame was written and before the next.</p>\n" +
         html::table({"measure", "mean", "p50", "worst", "frames"}, rows);
   }
   const double n = std::max<double>(1.0, static_cast<double>(frames_.size()));

@@ -49,12 +49,16 @@ int main(int argc, char** argv) {
   std::string budget_file;
   app.add_option("--budget", budget_file, "JSON of per-stage ms budgets (stage names of report.json, end_to_end)");
   std::string truth_scene;
-  app.add_option("--truth-scene", truth_scene,
-                 "the synthetic scene the pods render: judge each written frame against its true image from the "
-                 "same view (PSNR, SSIM in report.json and report.html); costs client time after each frame");
+  CLI::Option* truth_scene_option =
+      app.add_option("--truth-scene", truth_scene,
+                     "the synthetic scene the pods render: judge each written frame against its true image from the "
+                     "same view (PSNR, SSIM in report.json and report.html); costs client time after each frame");
   double truth_fps = capture::PodOptions{}.fps;
-  app.add_option("--truth-fps", truth_fps, "with --truth-scene: the pods' --fps (their frame ids' clock)")
-      ->check(CLI::Range(0.1, 240.0));
+  app.add_option("--truth-fps", truth_fps,
+                 "with --truth-scene: the pods' --fps (their frame ids' clock); pods started with --seed or --noise "
+                 "render another truth, which this does not follow")
+      ->check(CLI::Range(0.1, 240.0))
+      ->needs(truth_scene_option);
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (!truth_scene.empty()) {
     const capture::ScenePreset* preset = capture::findScene(truth_scene);
@@ -71,7 +75,8 @@ int main(int argc, char** argv) {
                                                                      uint64_t frame_id) {
       const capture::RenderedView truth = scene.render(view, frame_id);
       const eval::ImageQuality q = eval::compareInMask(picture, truth.color, truth.mask);
-      return render::FrameQuality{q.psnr_db, q.ssim};
+      // Nothing of the subject in view: nothing to judge (PSNR would be the cap).
+      return q.pixels == 0 ? std::nullopt : std::optional(render::FrameQuality{q.psnr_db, q.ssim});
     };
   }
   if (list_devices) {

@@ -99,8 +99,7 @@ TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
     record.pod_bytes = 600'000;
     record.client_bytes = 650'000;
     if (f != 3) {  // a frame not judged does not count
-      record.psnr_db = 20.0 + static_cast<double>(f);
-      record.ssim = 0.5 + 0.01 * static_cast<double>(f);
+      record.quality = render::FrameQuality{20.0 + static_cast<double>(f), 0.5 + 0.01 * static_cast<double>(f)};
     }
     report.addFrame(record, t);
   }

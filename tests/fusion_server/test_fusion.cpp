@@ -4,13 +4,12 @@
 #include <sys/eventfd.h>
 #include <unistd.h>
 
-#include <thread>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
 #include <set>
+#include <thread>
 
 #include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"

@@ -246,7 +246,7 @@ TEST_F(DatasetLoop, ReplayFusesTheSameMeshesBitForBitAndSendsTheRecordedImages) 
 
   // The same client and report as the live loop, with the replay's stage.
   const auto report = readJson(first / "report.json");
-  EXPECT_GT(report["frames_rendered"].get<int>(), 0);
+  ASSERT_GT(report["frames_rendered"].get<int>(), 0);
   ASSERT_TRUE(report["latency_ms"]["stages"].contains("replay_read"));
   EXPECT_TRUE(report["quality"].empty()) << "a replay has no truth to judge frames by";
   EXPECT_TRUE(report["frames"][0]["psnr_db"].is_null());

@@ -51,9 +51,10 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   // A budget no hull can meet and an end-to-end one no frame can miss: the
   // report flags the first and not the second, through the launcher's flag.
   std::ofstream(out / "budget.json") << R"({"hull": 0.001, "end_to_end": 100000})";
-  const pid_t loop = spawn({kBin + "/holofuse_loop", "--pods", "4", "--frames", "6", "--fps", "4", "--size", "200x150",
-                            "--view", "pod:0", "--budget", (out / "budget.json").string(), "--out", out.string()},
-                           out / "loop.log");
+  const pid_t loop =
+      spawn({kBin + "/holofuse_loop", "--pods", "4", "--frames", "6", "--fps", "4", "--size", "200x150", "--view",
+             "pod:0", "--budget", (out / "budget.json").string(), "--quality", "--out", out.string()},
+            out / "loop.log");
   ASSERT_EQ(waitExit(loop, 240), 0) << "see " << (out / "loop.log");
   const auto report = readJson(out / "report.json");
   ASSERT_EQ(report["frames_rendered"], 6);
@@ -106,7 +107,7 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
       }
     }
     // The client judged the frame against the same truth (the launcher's
-    // --quality, on by default): its PSNR is the one recomputed here from
+    // --quality): its PSNR is the one recomputed here from
     // the PNG, and from pod 0's own pose, its image in the blend, it is high.
     const double psnr = 10 * std::log10(255.0 * 255.0 * static_cast<double>(values) / squared);
     ASSERT_TRUE(frame["psnr_db"].is_number()) << frame.dump();
@@ -356,6 +357,14 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
     EXPECT_NE(readFile(log).find(flag), std::string::npos) << readFile(log);
   }
   EXPECT_FALSE(fs::exists(refused / "logs"));
+  // A replay has no truth to judge frames by.
+  const fs::path judged = refused / "quality.log";
+  EXPECT_EQ(
+      waitExit(spawn({kBin + "/holofuse_loop", "--replay", refused.string(), "--quality", "--out", refused.string()},
+                     judged),
+               10),
+      2);
+  EXPECT_NE(readFile(judged).find("--quality needs a synthetic scene"), std::string::npos) << readFile(judged);
 }
 
 TEST(Loop, WrongFlagsPrintUsageAndFail) {

@@ -46,7 +46,9 @@ struct ClientOptions {
   // its frame id (main: the synthetic scene the pods render, with
   // --truth-scene); unset: frames are not judged. Runs after the frame is
   // written, outside every stage's time.
-  std::function<FrameQuality(const Image8& picture, const Camera& view, uint64_t frame_id)> judge;
+  // None: nothing to judge by (no subject in the true view). An exception
+  // leaves the frame unjudged, with a warning.
+  std::function<std::optional<FrameQuality>(const Image8& picture, const Camera& view, uint64_t frame_id)> judge;
 };
 
 int runClient(const ClientOptions& options);
@@ -54,6 +56,11 @@ int runClient(const ClientOptions& options);
 // The user camera for rendered frame frame_index: orbiting the subject (the
 // bounds' centre) around the pods' ring axis, or at pod camera N, turned by
 // the jump once it is due. None when there is no camera, or no pod N.
+// The orbiting user camera's id: not a pod's (pods are 0..63), so that a
+// synthetic truth renders it with a white balance of its own, as eval's
+// novel views (ids from 1000).
+inline constexpr uint32_t kOrbitCameraId = 1000;
+
 std::optional<Camera> userCamera(const ClientOptions& options, const std::map<uint32_t, Camera>& cameras,
                                  const Bounds& bounds, size_t frame_index);
 

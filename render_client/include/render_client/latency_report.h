@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -13,6 +14,11 @@
 #include "protocol/status.h"
 
 namespace holofuse::render {
+
+// A written frame's quality against the truth (eval/metrics.h's measures).
+struct FrameQuality {
+  double psnr_db = 0, ssim = 0;
+};
 
 struct FrameRecord {
   uint64_t frame_id = 0;
@@ -25,13 +31,8 @@ struct FrameRecord {
   std::string note;
   // The written frame against the truth from the same view (a synthetic
   // scene's, ClientOptions::judge): PSNR and SSIM inside the true mask;
-  // negative: not measured.
-  double psnr_db = -1, ssim = -1;
-};
-
-// A written frame's quality against the truth (eval/metrics.h's measures).
-struct FrameQuality {
-  double psnr_db = 0, ssim = 0;
+  // none when not judged.
+  std::optional<FrameQuality> quality;
 };
 
 // p in [0, 100]; linear interpolation between order statistics. 0 for none.
@@ -67,6 +68,8 @@ class LatencyReport {
     size_t frames = 0;
   };
   std::vector<QualitySummary> quality() const;
+  // The client's time judging a frame (after it is written, before the next).
+  void addJudgeMs(double ms) { judge_ms_.push_back(ms); }
   void noteSkipped(const std::string& why) { skipped_.push_back(why); }
   // Meshes not rendered because a newer one had already arrived.
   void setSuperseded(uint64_t count) { superseded_ = count; }
@@ -96,6 +99,7 @@ class LatencyReport {
   std::map<uint16_t, std::vector<double>> stage_ms_;
   std::map<uint16_t, std::vector<std::pair<double, double>>> transit_ms_;  // per pod: sent, received
   std::map<std::string, std::vector<double>> gpu_ms_;
+  std::vector<double> judge_ms_;
   std::vector<FrameRecord> frames_;
   std::vector<uint64_t> written_ns_;
   std::vector<std::string> skipped_;
