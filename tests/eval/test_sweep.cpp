@@ -235,6 +235,37 @@ TEST(Sweep, SetMovesTheBaseOfEveryPoint) {
   fs::remove_all(dir);
 }
 
+// Eval's command line sets a resolution and the pods' crop margin, as the
+// loop's flags do, and the report says what it ran with.
+TEST(Sweep, EvalTakesTheVoxelAndTheCropMarginLikeTheLoop) {
+  const fs::path dir = fs::temp_directory_path() / "holofuse_eval_flags";
+  fs::remove_all(dir);
+  const std::string eval = std::string(HOLOFUSE_BIN_DIR) +
+                           "/holofuse_eval --scenes few-cameras --modes normal "
+                           "--frames 1 --held-out 1 --size 96x72 ";
+  int status = 0;
+  std::string output = run(eval + "--voxel 0.03 --crop-margin -1 --out " + (dir / "whole").string(), &status);
+  ASSERT_EQ(status, 0) << output;
+  output = run(eval + "--out " + (dir / "cropped").string(), &status);
+  ASSERT_EQ(status, 0) << output;
+  auto read = [&](const char* run_name) {
+    std::ifstream in(dir / run_name / "quality.json");
+    return nlohmann::json::parse(in);
+  };
+  const auto whole = read("whole"), cropped = read("cropped");
+  EXPECT_DOUBLE_EQ(whole["settings"]["voxel_size"].get<double>(), 0.03);
+  EXPECT_EQ(whole["settings"]["crop_margin"], -1);
+  EXPECT_DOUBLE_EQ(whole["scenes"]["few-cameras"]["hull"]["voxel_mm"].get<double>(), 30.0);
+  EXPECT_EQ(cropped["settings"]["crop_margin"], 8) << "the pods' own default";
+  EXPECT_GT(whole["scenes"]["few-cameras"]["pod_link_bytes_per_frame"].get<double>(),
+            1.5 * cropped["scenes"]["few-cameras"]["pod_link_bytes_per_frame"].get<double>())
+      << "whole images cost the pod link more than the subject's rectangle";
+  output = run(eval + "--crop-margin -2 --out " + (dir / "bad").string(), &status);
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+  EXPECT_NE(output.find("--crop-margin"), std::string::npos) << output;
+  fs::remove_all(dir);
+}
+
 // Every knob can be set in the live loop: its flag is one of the
 // launcher's (tests/integration/test_loop.cpp runs the loop with them).
 TEST(Sweep, EveryKnobIsAFlagOfTheLiveLoop) {
