@@ -74,6 +74,7 @@ std::vector<ForwardedSetting> forwardedSettings() {
       {"--draco-bits", "--draco-bits", nullptr, nullptr, {}},
       {"--image-codec", "--image-codec", "--codec", nullptr, {}},
       {"--lz4-acceleration", "--lz4-acceleration", "--lz4-acceleration", nullptr, {}},
+      {"--lz4-hc-level", "--lz4-hc-level", "--lz4-hc-level", nullptr, {}},
       {"--crop-margin", nullptr, "--crop-margin", nullptr, {}},
       {"--alpha", nullptr, nullptr, "--alpha", {}},
       {"--lambda", nullptr, nullptr, "--lambda", {}},

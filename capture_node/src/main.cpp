@@ -29,7 +29,8 @@ int main(int argc, char** argv) {
           ->check(CLI::Range(0.0, 64.0)),
       addSharedFlag(app, "--crop-margin", options.crop_margin),
       addSharedFlag(app, "--codec", codec),
-      addSharedFlag(app, "--lz4-acceleration", options.lz4_acceleration)};
+      addSharedFlag(app, "--lz4-acceleration", options.lz4_acceleration),
+      addSharedFlag(app, "--lz4-hc-level", options.lz4_hc_level)};
   std::string replay, speed = "1";
   bool loop = false;
   CLI::Option* replay_option =

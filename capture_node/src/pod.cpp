@@ -34,7 +34,7 @@ PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, co
 }
 
 protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec,
-                                       int crop_margin, int lz4_acceleration) {
+                                       int crop_margin, int lz4_acceleration, int lz4_hc_level) {
   const uint64_t t0 = monotonicNs();
   // The compressed planes live as long as the frame that borrows them.
   auto storage = std::make_shared<std::array<std::vector<uint8_t>, 3>>();
@@ -60,11 +60,12 @@ protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, 
     frame.offset_x = rect.x;
     frame.offset_y = rect.y;
   }
-  frame.planes.push_back(encodePlane(*color, protocol::PlaneKind::kColor, color_codec, color_bytes, lz4_acceleration));
   frame.planes.push_back(
-      encodePlane(*mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, mask_bytes, lz4_acceleration));
-  frame.planes.push_back(
-      encodePlane(*feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4, feather_bytes, lz4_acceleration));
+      encodePlane(*color, protocol::PlaneKind::kColor, color_codec, color_bytes, lz4_acceleration, lz4_hc_level));
+  frame.planes.push_back(encodePlane(*mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, mask_bytes,
+                                     lz4_acceleration, lz4_hc_level));
+  frame.planes.push_back(encodePlane(*feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4, feather_bytes,
+                                     lz4_acceleration, lz4_hc_level));
   capture.stamps.push_back({static_cast<uint16_t>(Stage::kPodEncode), static_cast<uint16_t>(camera_id), t0,
                             monotonicNs()});
   frame.stamps = capture.stamps;
@@ -78,9 +79,9 @@ int runPod(const PodOptions& options) {
   const Image8 plate = scene.backgroundPlate(camera);
   const Camera reported = reportedCalibration(camera, options.calibration_error_degrees,
                                               options.calibration_error_metres, options.scene.seed);
-  std::fprintf(stderr, "[pod-%u] %ux%u at %g fps; colour %s at LZ4 acceleration %d, crop margin %d\n", options.pod_id,
-               options.width, options.height, options.fps, imageCodecName(options.color_codec).c_str(),
-               options.lz4_acceleration, options.crop_margin);
+  std::fprintf(stderr, "[pod-%u] %ux%u at %g fps; colour %s at LZ4 acceleration %d, crop margin %d, LZ4HC level %d\n",
+               options.pod_id, options.width, options.height, options.fps, imageCodecName(options.color_codec).c_str(),
+               options.lz4_acceleration, options.crop_margin, options.lz4_hc_level);
 
   protocol::Hello hello;
   hello.role = protocol::Role::kPod;
@@ -115,8 +116,8 @@ int runPod(const PodOptions& options) {
     if (last_frame_id != 0 && frame_id > last_frame_id + 1) skipped += frame_id - last_frame_id - 1;
     last_frame_id = frame_id;
     PodCapture capture = capturePodFrame(scene, camera, plate, frame_id, static_cast<uint16_t>(options.pod_id));
-    link.send(std::make_shared<const protocol::OutgoingFrame>(
-        encodePodFrame(capture, camera.id, options.color_codec, options.crop_margin, options.lz4_acceleration)));
+    link.send(std::make_shared<const protocol::OutgoingFrame>(encodePodFrame(
+        capture, camera.id, options.color_codec, options.crop_margin, options.lz4_acceleration, options.lz4_hc_level)));
     link.poll(0, received);
     received.clear();
     ++sent;

@@ -1,7 +1,9 @@
 #include "common/image_codec.h"
 
 #include <lz4.h>
+#include <lz4hc.h>
 
+#include <algorithm>
 #include <string>
 
 namespace holofuse {
@@ -48,17 +50,21 @@ void undoPlanarDelta(const std::vector<uint8_t>& in, Image8& image) {
   }
 }
 
-void lz4Into(const uint8_t* src, size_t size, std::vector<uint8_t>& storage, int acceleration) {
+void lz4Into(const uint8_t* src, size_t size, std::vector<uint8_t>& storage, int acceleration, int hc_level) {
   storage.resize(static_cast<size_t>(LZ4_compressBound(static_cast<int>(size))));
-  const int n = LZ4_compress_fast(reinterpret_cast<const char*>(src), reinterpret_cast<char*>(storage.data()),
-                                  static_cast<int>(size), static_cast<int>(storage.size()), acceleration);
+  const char* in = reinterpret_cast<const char*>(src);
+  char* out = reinterpret_cast<char*>(storage.data());
+  const int n =
+      hc_level > 0 ? LZ4_compress_HC(in, out, static_cast<int>(size), static_cast<int>(storage.size()),
+                                     std::min(hc_level, kMaxLz4HcLevel))
+                   : LZ4_compress_fast(in, out, static_cast<int>(size), static_cast<int>(storage.size()), acceleration);
   storage.resize(static_cast<size_t>(n));
 }
 
 }  // namespace
 
-protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, Codec codec,
-                            std::vector<uint8_t>& storage, int acceleration) {
+protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, Codec codec, std::vector<uint8_t>& storage,
+                            int acceleration, int hc_level) {
   protocol::Plane plane;
   plane.kind = kind;
   plane.codec = codec;
@@ -71,12 +77,12 @@ protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, Codec
       storage = image.pixels;
       break;
     case Codec::kLz4:
-      lz4Into(image.pixels.data(), image.pixels.size(), storage, acceleration);
+      lz4Into(image.pixels.data(), image.pixels.size(), storage, acceleration, hc_level);
       break;
     case Codec::kLz4PlanarDelta: {
       std::vector<uint8_t> filtered;
       planarDelta(image, filtered);
-      lz4Into(filtered.data(), filtered.size(), storage, acceleration);
+      lz4Into(filtered.data(), filtered.size(), storage, acceleration, hc_level);
       break;
     }
   }

@@ -109,6 +109,7 @@ void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions&
   settings.draco = options.draco;
   settings.image_codec = options.image_codec;
   settings.lz4_acceleration = options.lz4_acceleration;
+  settings.lz4_hc_level = options.lz4_hc_level;
   settings.pods_expected = static_cast<uint32_t>(reported.size());
   fusion::GroupJob job;
   job.group = std::move(group);  // the decoded images move on; the caller is done with them
@@ -158,9 +159,10 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
         capture::capturePodFrame(scene, truth[i], plates[i], frame_id, static_cast<uint16_t>(i));
     frame.true_colors.push_back(capture.view.color);
     frame.true_masks.push_back(capture.view.mask);
-    const protocol::Bytes wire = capture::encodePodFrame(capture, static_cast<uint32_t>(i), options.image_codec,
-                                                         options.crop_margin, options.lz4_acceleration)
-                                     .flatten();
+    const protocol::Bytes wire =
+        capture::encodePodFrame(capture, static_cast<uint32_t>(i), options.image_codec, options.crop_margin,
+                                options.lz4_acceleration, options.lz4_hc_level)
+            .flatten();
     // As the pod stamps it: its planes' encoding, not the frame's packing.
     const double encode_ms = protocol::stampedMs(capture.stamps, protocol::Stage::kPodEncode);
     slowest_pod_ms = std::max(slowest_pod_ms, encode_ms);

@@ -115,6 +115,10 @@ std::vector<Knob> makeKnobs() {
       true, [](EvalOptions& o, double v) { o.lz4_acceleration = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.lz4_acceleration); }));
   knobs.push_back(numberKnob(
+      "lz4-hc-level", "--lz4-hc-level", "LZ4HC level of every image (0: LZ4's fast mode; 1-12: slower, smaller)", 0,
+      kMaxLz4HcLevel, true, [](EvalOptions& o, double v) { o.lz4_hc_level = static_cast<int>(v); },
+      [](const EvalOptions& o) { return double(o.lz4_hc_level); }));
+  knobs.push_back(numberKnob(
       "crop-margin", "--crop-margin",
       "pods send the foreground's rectangle grown by this many pixels (-1: whole images)", -1, 4096, true,
       [](EvalOptions& o, double v) { o.crop_margin = static_cast<int>(v); },
@@ -181,6 +185,7 @@ nlohmann::json runSettings(const EvalOptions& run) {
           {"draco", {run.draco.position_bits, run.draco.normal_bits, run.draco.speed}},
           {"image_codec", static_cast<int>(run.image_codec)},
           {"lz4_acceleration", run.lz4_acceleration},
+          {"lz4_hc_level", run.lz4_hc_level},
           {"crop_margin", run.crop_margin},
           {"cameras", camerasOf(run)},  // the scene's own count by number: the same run
           {"fields",
@@ -192,8 +197,9 @@ nlohmann::json runSettings(const EvalOptions& run) {
           // How bytes and codec times were counted, and the metrics'
           // definitions: points measured before a change differ here.
           {"links", "the loop's own encoding and decoding"},
-          {"metrics", "SSIM over the mask's pixels per window; p50/p95 interpolated; Chamfer to triangles; "
-                      "codec stages per pod frame"}};
+          {"metrics",
+           "SSIM over the mask's pixels per window; p50/p95 interpolated; Chamfer to triangles; "
+           "codec stages per pod frame"}};
 }
 
 // Where a point of the sweep lives and what it runs.

@@ -49,9 +49,10 @@ Status FusionServer::start() {
   const FusionSettings& f = options_.fusion;
   std::fprintf(stderr,
                "[server] listening on %s:%u for %d pods; voxel %g m (error target %g mm), Draco %d bits speed %d, "
-               "images to clients %s at LZ4 acceleration %d\n",
+               "images to clients %s at LZ4 acceleration %d, LZ4HC level %d\n",
                options_.listen.host.c_str(), port(), options_.pods, f.hull.voxel_size, 1000.0 * f.hull_error_target,
-               f.draco.position_bits, f.draco.speed, imageCodecName(f.image_codec).c_str(), f.lz4_acceleration);
+               f.draco.position_bits, f.draco.speed, imageCodecName(f.image_codec).c_str(), f.lz4_acceleration,
+               f.lz4_hc_level);
   return Status::ok();
 }
 

@@ -123,10 +123,10 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
     image.offset_y = pod.offset_y;
     storage->emplace_back();
     image.planes.push_back(encodePlane(pod.color, protocol::PlaneKind::kColor, settings.image_codec, storage->back(),
-                                       settings.lz4_acceleration));
+                                       settings.lz4_acceleration, settings.lz4_hc_level));
     storage->emplace_back();
     image.planes.push_back(encodePlane(pod.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage->back(),
-                                       settings.lz4_acceleration));
+                                       settings.lz4_acceleration, settings.lz4_hc_level));
     bundle.images.push_back(std::move(image));
   }
   const uint64_t t3 = monotonicNs();

@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   app.add_option("--draco-speed", options.fusion.draco.speed, "Draco speed 0 (small) .. 10 (fast)")->check(CLI::Range(0, 10));
   addSharedFlag(app, "--image-codec", image_codec);
   addSharedFlag(app, "--lz4-acceleration", options.fusion.lz4_acceleration);
+  addSharedFlag(app, "--lz4-hc-level", options.fusion.lz4_hc_level);
   app.add_option("--client-queue", options.client_queue_frames, "frames queued per client before dropping the oldest")
       ->check(CLI::Range(1, 1024));
   app.add_option("--idle-timeout-ms", options.idle_timeout_ms, "close a silent peer after this long")

@@ -302,6 +302,8 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
                             "8",
                             "--crop-margin",
                             "3",
+                            "--lz4-hc-level",
+                            "4",
                             "--alpha",
                             "3",
                             "--lambda",
@@ -331,10 +333,12 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
   const std::string server_log = readFile(out / "logs" / "server.log");
   EXPECT_NE(server_log.find("voxel 0.03 m"), std::string::npos) << server_log;
   EXPECT_NE(server_log.find("Draco 12 bits"), std::string::npos) << server_log;
-  EXPECT_NE(server_log.find("images to clients lz4 at LZ4 acceleration 8"), std::string::npos) << server_log;
+  EXPECT_NE(server_log.find("images to clients lz4 at LZ4 acceleration 8, LZ4HC level 4"), std::string::npos)
+      << server_log;
   for (int pod = 0; pod < 2; ++pod) {
     const std::string pod_log = readFile(out / "logs" / ("pod" + std::to_string(pod) + ".log"));
-    EXPECT_NE(pod_log.find("colour lz4 at LZ4 acceleration 8, crop margin 3"), std::string::npos) << pod_log;
+    EXPECT_NE(pod_log.find("colour lz4 at LZ4 acceleration 8, crop margin 3, LZ4HC level 4"), std::string::npos)
+        << pod_log;
   }
   // A value outside the range of the process it goes to is refused before
   // anything starts, naming the flag.
@@ -348,9 +352,10 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
   // Every forwarded flag is checked by the launcher (with the range of the
   // process it goes to: common/command_line.h), not left to fail later; so
   // are the client's mode, view, size and budget file.
-  for (const char* flag : {"--voxel", "--draco-bits", "--image-codec", "--lz4-acceleration", "--alpha", "--lambda",
-                           "--dilation", "--vote-delta", "--geodesic-rings", "--geodesic-passes", "--geodesic-radius",
-                           "--vertex-precision", "--crop-margin", "--mode", "--view", "--size", "--budget"}) {
+  for (const char* flag :
+       {"--voxel", "--draco-bits", "--image-codec", "--lz4-acceleration", "--alpha", "--lambda", "--dilation",
+        "--vote-delta", "--geodesic-rings", "--geodesic-passes", "--geodesic-radius", "--vertex-precision",
+        "--crop-margin", "--lz4-hc-level", "--mode", "--view", "--size", "--budget"}) {
     const fs::path log = refused / "nonsense.log";
     EXPECT_EQ(waitExit(spawn({kBin + "/holofuse_loop", flag, "nonsense", "--out", refused.string()}, log), 10), 2)
         << flag;

@@ -25,6 +25,7 @@ struct PodOptions {
   double calibration_error_degrees = 0.0;
   double calibration_error_metres = 0.0;
   int lz4_acceleration = 1;  // LZ4's (1 = default; higher: faster, larger)
+  int lz4_hc_level = 0;      // 0: LZ4's fast mode; 1-12: LZ4HC (common/image_codec.h)
   int crop_margin = 8;  // pixels around the foreground's rectangle; kFullFrame sends whole images
 };
 
@@ -50,7 +51,7 @@ PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, co
 // (1 = default).
 constexpr int kFullFrame = -1;
 protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec,
-                                       int crop_margin = kFullFrame, int lz4_acceleration = 1);
+                                       int crop_margin = kFullFrame, int lz4_acceleration = 1, int lz4_hc_level = 0);
 
 // Runs until stopped (signal, frame count) or the server refuses the
 // version. Returns the process exit code.

@@ -41,6 +41,8 @@ inline const std::vector<SharedFlag>& sharedFlags() {
       {"--crop-margin", "send only the foreground's rectangle grown by this many pixels (-1: whole images)",
        CLI::Range(-1, 4096)},
       {"--lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", CLI::Range(1, 65537)},
+      {"--lz4-hc-level", "LZ4HC level: 0 = LZ4's fast mode (at --lz4-acceleration), 1-12 slower and smaller",
+       CLI::Range(0, kMaxLz4HcLevel)},
       // render_client
       {"--alpha", "exponent of the view weights", CLI::Range(0.0, 1000.0)},
       {"--lambda", "montage4d: temporal rate per frame at 30 fps (eq. 5)", CLI::Range(0.0, 1.0)},

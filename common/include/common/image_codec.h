@@ -13,10 +13,16 @@
 
 namespace holofuse {
 
+// LZ4HC's levels: 0 is LZ4's fast mode (at its acceleration); 1 to 12 the
+// high-compression encoder, slower and smaller. Both write the same LZ4
+// block format, so decoders and the wire's codec ids do not change.
+inline constexpr int kMaxLz4HcLevel = 12;
+
 // Encodes image as a plane of the given kind. The plane's data points into
-// storage, which must outlive it. acceleration is LZ4's (1 = default).
+// storage, which must outlive it. acceleration is LZ4's fast mode's (1 =
+// default), used when hc_level is 0.
 protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, protocol::Codec codec,
-                            std::vector<uint8_t>& storage, int acceleration = 1);
+                            std::vector<uint8_t>& storage, int acceleration = 1, int hc_level = 0);
 
 // The colour codecs' names on command lines and in reports: raw, lz4,
 // lz4-delta (planar with the horizontal delta).

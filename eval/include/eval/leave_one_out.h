@@ -65,6 +65,7 @@ struct EvalOptions {
   DracoOptions draco;                        // position bits etc.
   protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
   int lz4_acceleration = 1;
+  int lz4_hc_level = 0;  // 0: LZ4's fast mode; 1-12: LZ4HC, pods and server alike
   // Pods send the foreground's rectangle grown by this many pixels
   // (capture::kFullFrame, -1: whole images), as the loop's pods do.
   int crop_margin = capture::PodOptions{}.crop_margin;

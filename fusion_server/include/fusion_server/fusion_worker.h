@@ -29,6 +29,7 @@ struct FusionSettings {
   DracoOptions draco;
   protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
   int lz4_acceleration = 1;  // of the images sent to clients (1 = LZ4's default)
+  int lz4_hc_level = 0;      // 0: LZ4's fast mode; 1-12: LZ4HC (common/image_codec.h)
   uint32_t pods_expected = 0;
 };
 
