@@ -55,58 +55,39 @@ bool waitFor(pid_t pid, int timeout_ms, int* status) {
   return false;
 }
 
-// A setting of the sweep's (holofuse_sweep --knob) that the loop takes too,
-// under the flag of the process it goes to (common/command_line.h holds
-// their help and ranges, so the launcher refuses what that process would):
-// passed on only when given, so each process keeps its own default
+// A flag of the shared table (common/command_line.h) the launcher takes
+// and passes on, with its help and range, so it refuses what the process
+// would; passed on only when given, so each process keeps its own default
 // otherwise.
 struct ForwardedSetting {
-  const char* flag;         // the launcher's
-  const char* server_flag;  // nullptr: not the server's
-  const char* pod_flag;
-  const char* client_flag;
+  const holofuse::SharedFlag* shared;
   std::string value;
 };
 
 std::vector<ForwardedSetting> forwardedSettings() {
-  return {
-      {"--voxel", "--voxel", nullptr, nullptr, {}},
-      {"--draco-bits", "--draco-bits", nullptr, nullptr, {}},
-      {"--image-codec", "--image-codec", "--codec", nullptr, {}},
-      {"--lz4-acceleration", "--lz4-acceleration", "--lz4-acceleration", nullptr, {}},
-      {"--lz4-hc-level", "--lz4-hc-level", "--lz4-hc-level", nullptr, {}},
-      {"--crop-margin", nullptr, "--crop-margin", nullptr, {}},
-      {"--alpha", nullptr, nullptr, "--alpha", {}},
-      {"--lambda", nullptr, nullptr, "--lambda", {}},
-      {"--dilation", nullptr, nullptr, "--dilation", {}},
-      {"--vote-delta", nullptr, nullptr, "--vote-delta", {}},
-      {"--geodesic-rings", nullptr, nullptr, "--geodesic-rings", {}},
-      {"--geodesic-passes", nullptr, nullptr, "--geodesic-passes", {}},
-      {"--geodesic-radius", nullptr, nullptr, "--geodesic-radius", {}},
-      {"--vertex-precision", nullptr, nullptr, "--vertex-precision", {}},
-  };
+  std::vector<ForwardedSetting> settings;
+  for (const holofuse::SharedFlag& f : holofuse::sharedFlags()) {
+    if (f.passed_to != 0) settings.push_back({&f, {}});
+  }
+  return settings;
 }
 
-// Adds a forwarded setting to the launcher's flags, with the help and the
-// range of the flag it becomes (the pods' and the server's agree where
-// both take it).
 void addForwarded(CLI::App& app, ForwardedSetting& setting) {
-  const char* target = setting.client_flag ? setting.client_flag
-                       : setting.pod_flag  ? setting.pod_flag
-                                           : setting.server_flag;
-  const holofuse::SharedFlag& shared = holofuse::sharedFlag(target);
-  const std::string who = setting.client_flag                       ? ""
-                          : setting.pod_flag && setting.server_flag ? " (pods and server)"
-                          : setting.pod_flag                        ? " (pods)"
-                                                                    : " (server)";
-  app.add_option(setting.flag, setting.value, shared.description + who)->check(shared.check);
+  const unsigned to = setting.shared->passed_to;
+  const std::string who = (to & holofuse::kToClient)                               ? ""
+                          : (to & holofuse::kToPods) && (to & holofuse::kToServer) ? " (pods and server)"
+                          : (to & holofuse::kToPods)                               ? " (pods)"
+                                                                                   : " (server)";
+  app.add_option(setting.shared->flag, setting.value, setting.shared->description + who)->check(setting.shared->check);
 }
 
-// Appends the given settings that belong to one process (flag_of picks its flag).
-void appendForwarded(const std::vector<ForwardedSetting>& settings, const char* ForwardedSetting::*flag_of,
+// Appends the given settings that go to process (its name for each).
+void appendForwarded(const std::vector<ForwardedSetting>& settings, holofuse::LoopProcess process,
                      std::vector<std::string>& args) {
   for (const auto& s : settings) {
-    if (!s.value.empty() && s.*flag_of != nullptr) args.insert(args.end(), {s.*flag_of, s.value});
+    if (s.value.empty() || !(s.shared->passed_to & process)) continue;
+    const char* name = process == holofuse::kToPods && s.shared->pods_name ? s.shared->pods_name : s.shared->flag;
+    args.insert(args.end(), {name, s.value});
   }
 }
 
@@ -272,7 +253,7 @@ int main(int argc, char** argv) {
     std::snprintf(text, sizeof(text), "%.9g", hull_error_mm);
     server_args.insert(server_args.end(), {"--hull-error-mm", text});
   }
-  appendForwarded(forwarded, &ForwardedSetting::server_flag, server_args);
+  appendForwarded(forwarded, holofuse::kToServer, server_args);
   if (!record.empty()) {
     server_args.insert(server_args.end(), {"--record", record});
     if (record_fused) server_args.push_back("--record-fused");
@@ -316,7 +297,7 @@ int main(int argc, char** argv) {
     }
     // A replay pod sends the recorded bytes as they are: the codec settings
     // reach only the server's images to clients.
-    if (replay.empty()) appendForwarded(forwarded, &ForwardedSetting::pod_flag, pod_args);
+    if (replay.empty()) appendForwarded(forwarded, holofuse::kToPods, pod_args);
     pod_pids.push_back(spawn(pod_args, (fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log")).string()));
   }
   std::vector<std::string> client_args = {bin_dir + "/render_client", "--server", endpoint, "--out", out, "--frames",
@@ -325,7 +306,7 @@ int main(int argc, char** argv) {
     client_args.insert(client_args.end(), {"--jump-degrees", std::to_string(preset->view_jump_degrees)});
   }
   if (quality) client_args.insert(client_args.end(), {"--truth-scene", scene, "--truth-fps", std::to_string(fps)});
-  appendForwarded(forwarded, &ForwardedSetting::client_flag, client_args);
+  appendForwarded(forwarded, holofuse::kToClient, client_args);
   if (!budget.empty()) {
     client_args.push_back("--budget");
     client_args.push_back(budget);
