@@ -197,8 +197,11 @@ TEST(Sweep, TheDefaultIsDominatedOnlyByAPointNoWorseOnEveryCost) {
   fs::remove_all(dir);
 }
 
+// Runs command; its output (stdout and stderr) and pclose's status (-1 when
+// it could not start).
 std::string run(const std::string& command, int* status) {
   std::string output;
+  *status = -1;
   std::FILE* pipe = popen((command + " 2>&1").c_str(), "r");
   if (pipe == nullptr) return output;
   char buffer[4096];
@@ -269,12 +272,9 @@ TEST(Sweep, EvalTakesTheVoxelAndTheCropMarginLikeTheLoop) {
 // Every knob can be set in the live loop: its flag is one of the
 // launcher's (tests/integration/test_loop.cpp runs the loop with them).
 TEST(Sweep, EveryKnobIsAFlagOfTheLiveLoop) {
-  std::string help;
-  std::FILE* pipe = popen((std::string(HOLOFUSE_BIN_DIR) + "/holofuse_loop --help").c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
-  char buffer[4096];
-  for (size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) help.append(buffer, n);
-  ASSERT_EQ(pclose(pipe), 0);
+  int status = -1;
+  const std::string help = run(std::string(HOLOFUSE_BIN_DIR) + "/holofuse_loop --help", &status);
+  ASSERT_EQ(status, 0) << help;
   for (const Knob& knob : sweepKnobs()) {
     ASSERT_FALSE(knob.loop_flag.empty()) << knob.name;
     EXPECT_NE(help.find("  " + knob.loop_flag + " "), std::string::npos) << knob.name << ": " << knob.loop_flag;

@@ -73,8 +73,8 @@ class LatencyReport {
   void noteSkipped(const std::string& why) { skipped_.push_back(why); }
   // Meshes not rendered because a newer one had already arrived.
   void setSuperseded(uint64_t count) { superseded_ = count; }
-  // Camera views of rendered meshes that held none of the subject (their
-  // depth maps and discontinuities were skipped).
+  // Camera views of rendered meshes that held none of the subject (left out
+  // of every texture-field pass and of the blend).
   void addViewsWithoutSubject(size_t count) { views_without_subject_ += count; }
 
   size_t framesRendered() const { return frames_.size(); }
