@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -78,7 +79,8 @@ void addForwarded(CLI::App& app, ForwardedSetting& setting) {
                           : (to & holofuse::kToPods) && (to & holofuse::kToServer) ? " (pods and server)"
                           : (to & holofuse::kToPods)                               ? " (pods)"
                                                                                    : " (server)";
-  app.add_option(setting.shared->flag, setting.value, setting.shared->description + who)->check(setting.shared->check);
+  app.add_option(setting.shared->flag, setting.value, setting.shared->description + who)
+      ->check(setting.shared->check());
 }
 
 // Appends the given settings that go to process (its name for each).
@@ -130,6 +132,12 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember(holofuse::render::blendModeNames()));
   app.add_option("--view", view, "client view: orbit or pod:N");
   app.add_option("--scene", scene, "named synthetic scene (its camera count unless --pods): " + holofuse::capture::sceneNames());
+  // Passed on only when given, so the pods keep the scene's own otherwise.
+  std::optional<uint64_t> seed_value;
+  std::optional<double> noise_value;
+  app.add_option("--seed", seed_value, "synthetic pods' scene seed (their motion, texture and calibration error)");
+  app.add_option("--noise", noise_value, "synthetic pods' sensor noise, grey levels (default: the scene's)")
+      ->check(CLI::Range(0.0, 64.0));
   std::string budget;
   app.add_option("--budget", budget, "JSON of per-stage ms budgets for the client's report (flags violations)");
   bool quality = false;
@@ -142,9 +150,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> dataset_server_args;
   bool record_fused = false, loop = false;
   double hull_error_mm = 0;
-  app.add_option("--hull-error-mm", hull_error_mm,
-                 "the server's hull follows this silhouette error in mm frame by frame (finer voxels on a miss)")
-      ->check(CLI::Range(0.0, 1000.0));
+  holofuse::addSharedFlag(app, "--hull-error-mm", hull_error_mm);
   std::vector<ForwardedSetting> forwarded = forwardedSettings();
   for (auto& s : forwarded) addForwarded(app, s);
   app.add_option("--record", record, "record what the pods send into this folder (a dataset for --replay)");
@@ -169,6 +175,16 @@ int main(int argc, char** argv) {
   if (!replay.empty() && quality) {
     std::fprintf(stderr, "--quality needs a synthetic scene's truth; a --replay has none\n");
     return 2;
+  }
+  const std::string seed = seed_value ? std::to_string(*seed_value) : "";
+  char noise_text[32] = "";
+  if (noise_value) std::snprintf(noise_text, sizeof(noise_text), "%.9g", *noise_value);
+  const std::string noise = noise_text;
+  for (const char* synthetic : {"--seed", "--noise"}) {
+    if (!replay.empty() && app.count(synthetic)) {
+      std::fprintf(stderr, "%s is a synthetic pod's; a --replay sends the recorded images\n", synthetic);
+      return 2;
+    }
   }
   holofuse::render::Budget checked_budget;
   if (!holofuse::render::loadBudgetFlag(budget, checked_budget)) return 2;
@@ -291,6 +307,8 @@ int main(int argc, char** argv) {
     if (replay.empty()) {
       pod_args.insert(pod_args.end(), {"--pods", std::to_string(pods), "--size", size, "--fps", std::to_string(fps),
                                        "--scene", scene});
+      if (!seed.empty()) pod_args.insert(pod_args.end(), {"--seed", seed});
+      if (!noise.empty()) pod_args.insert(pod_args.end(), {"--noise", noise});
     } else {
       pod_args.insert(pod_args.end(), {"--replay", replay, "--speed", speed});
       if (loop) pod_args.push_back("--loop");
@@ -305,7 +323,11 @@ int main(int argc, char** argv) {
   if (replay.empty() && preset->view_jump_degrees != 0) {  // the scene's jump is the user's view's
     client_args.insert(client_args.end(), {"--jump-degrees", std::to_string(preset->view_jump_degrees)});
   }
-  if (quality) client_args.insert(client_args.end(), {"--truth-scene", scene, "--truth-fps", std::to_string(fps)});
+  if (quality) {
+    client_args.insert(client_args.end(), {"--truth-scene", scene, "--truth-fps", std::to_string(fps)});
+    if (!seed.empty()) client_args.insert(client_args.end(), {"--truth-seed", seed});
+    if (!noise.empty()) client_args.insert(client_args.end(), {"--truth-noise", noise});
+  }
   appendForwarded(forwarded, holofuse::kToClient, client_args);
   if (!budget.empty()) {
     client_args.push_back("--budget");

@@ -30,13 +30,9 @@ int main(int argc, char** argv) {
   double hull_error_mm = 0;
   addSharedFlag(app, "--voxel", options.voxel_size);
   addSharedFlag(app, "--crop-margin", options.crop_margin);
-  app.add_option("--hull-error-mm", hull_error_mm,
-                 "hull error target: the coarsest voxel (from --voxel down) whose silhouette error meets it")
-      ->check(CLI::Range(0.0, 1000.0));
-  app.add_option("--alpha", options.alpha, "exponent of the view (montage4d) and normal (holoportation) weights")
-      ->check(CLI::Range(0.0, 100.0));
-  app.add_option("--lambda", options.lambda, "montage4d: temporal rate per frame at 30 fps (eq. 5)")
-      ->check(CLI::Range(0.0, 1.0));
+  addSharedFlag(app, "--hull-error-mm", hull_error_mm);
+  addSharedFlag(app, "--alpha", options.alpha);
+  addSharedFlag(app, "--lambda", options.lambda);
   app.add_option("--novel-views", options.novel_view_degrees,
                  "synthetic scenes: also render this many degrees around the ring from the chosen cameras' poses, "
                  "every camera blended, against the scene's true image there (one row per offset)")

@@ -66,86 +66,92 @@ Knob numberKnob(const std::string& name, const std::string& loop_flag, const std
   return knob;
 }
 
+// A knob that is a flag of the live loop: its meaning and range are the
+// flag's, so a value the sweep takes is one the loop takes.
+Knob flagKnob(const std::string& name, const char* flag, bool integer, std::function<void(EvalOptions&, double)> set,
+              std::function<double(const EvalOptions&)> get) {
+  const SharedFlag& f = sharedFlag(flag);
+  return numberKnob(name, flag, f.description, f.min, f.max, integer, std::move(set), std::move(get));
+}
+
+Knob choiceKnob(const std::string& name, const char* flag, std::function<void(EvalOptions&, const std::string&)> set,
+                std::function<std::string(const EvalOptions&)> get) {
+  const SharedFlag& f = sharedFlag(flag);
+  Knob knob;
+  knob.name = name;
+  knob.loop_flag = flag;
+  knob.meaning = f.description;
+  knob.apply = [choices = f.choices, set](EvalOptions& options, const std::string& text) -> std::string {
+    if (std::find(choices.begin(), choices.end(), text) == choices.end()) {
+      std::string names;
+      for (const auto& c : choices) names += (names.empty() ? "" : ", ") + c;
+      return "'" + text + "' is not one of " + names;
+    }
+    set(options, text);
+    return "";
+  };
+  knob.current = std::move(get);
+  return knob;
+}
+
 std::vector<Knob> makeKnobs() {
   std::vector<Knob> knobs;
-  knobs.push_back(numberKnob(
-      "voxel", "--voxel", "hull voxel size, metres (the accuracy knob)", 0.004, 0.1, false,
-      [](EvalOptions& o, double v) { o.voxel_size = v; }, [](const EvalOptions& o) { return o.voxel_size; }));
-  knobs.push_back(numberKnob(
-      "hull-error-mm", "--hull-error-mm", "hull error target: silhouette error in mm (0: the voxel is fixed)", 0, 100,
-      false, [](EvalOptions& o, double v) { o.hull_error_target = v / 1000.0; },
+  knobs.push_back(flagKnob(
+      "voxel", "--voxel", false, [](EvalOptions& o, double v) { o.voxel_size = v; },
+      [](const EvalOptions& o) { return o.voxel_size; }));
+  knobs.push_back(flagKnob(
+      "hull-error-mm", "--hull-error-mm", false, [](EvalOptions& o, double v) { o.hull_error_target = v / 1000.0; },
       [](const EvalOptions& o) { return 1000.0 * o.hull_error_target; }));
-  knobs.push_back(numberKnob(
-      "k", "--geodesic-rings", "geodesic reach in triangle rings", 1, 64, true,
-      [](EvalOptions& o, double v) { o.fields.geodesic_rings = static_cast<int>(v); },
+  knobs.push_back(flagKnob(
+      "k", "--geodesic-rings", true, [](EvalOptions& o, double v) { o.fields.geodesic_rings = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.fields.geodesic_rings); }));
-  knobs.push_back(numberKnob(
-      "radius", "--geodesic-radius", "geodesic radius, metres: gamma reaches 1 there (0: k mean edges)", 0, 10, false,
+  knobs.push_back(flagKnob(
+      "radius", "--geodesic-radius", false,
       [](EvalOptions& o, double v) { o.fields.geodesic_radius = static_cast<float>(v); },
       [](const EvalOptions& o) { return double(o.fields.geodesic_radius); }));
-  knobs.push_back(numberKnob(
-      "K", "--geodesic-passes", "geodesic Jacobi passes", 1, 200, true,
+  knobs.push_back(flagKnob(
+      "K", "--geodesic-passes", true,
       [](EvalOptions& o, double v) { o.fields.geodesic_iterations = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.fields.geodesic_iterations); }));
-  knobs.push_back(numberKnob(
-      "alpha", "--alpha", "exponent of the view weights", 0, 100, false,
-      [](EvalOptions& o, double v) { o.alpha = static_cast<float>(v); },
+  knobs.push_back(flagKnob(
+      "alpha", "--alpha", false, [](EvalOptions& o, double v) { o.alpha = static_cast<float>(v); },
       [](const EvalOptions& o) { return double(o.alpha); }));
-  knobs.push_back(numberKnob(
-      "lambda", "--lambda", "temporal rate per frame at 30 fps (eq. 5)", 0, 1, false,
-      [](EvalOptions& o, double v) { o.lambda = v; }, [](const EvalOptions& o) { return o.lambda; }));
+  knobs.push_back(flagKnob(
+      "lambda", "--lambda", false, [](EvalOptions& o, double v) { o.lambda = v; },
+      [](const EvalOptions& o) { return o.lambda; }));
+  // Leave-one-out needs a camera left to blend: 2 at least, where the
+  // loop's --pods takes 1.
   knobs.push_back(numberKnob(
       "cameras", "--pods", "pods on the ring", 2, 16, true,
       [](EvalOptions& o, double v) { o.cameras = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(camerasOf(o)); }));
-  knobs.push_back(numberKnob(
-      "dilation", "--dilation", "eps: discontinuity dilation in pixels (-1: scaled from the paper's)", -1, 16, true,
-      [](EvalOptions& o, double v) { o.fields.dilation_px = static_cast<int>(v); },
+  knobs.push_back(flagKnob(
+      "dilation", "--dilation", true, [](EvalOptions& o, double v) { o.fields.dilation_px = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.fields.dilation_px); }));
-  knobs.push_back(numberKnob(
-      "delta", "--vote-delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3)", 0, 10, false,
-      [](EvalOptions& o, double v) { o.fields.vote_delta = static_cast<float>(v); },
+  knobs.push_back(flagKnob(
+      "delta", "--vote-delta", false, [](EvalOptions& o, double v) { o.fields.vote_delta = static_cast<float>(v); },
       [](const EvalOptions& o) { return double(o.fields.vote_delta); }));
-  knobs.push_back(numberKnob(
-      "draco-bits", "--draco-bits", "Draco position quantisation bits", 6, 24, true,
-      [](EvalOptions& o, double v) { o.draco.position_bits = static_cast<int>(v); },
+  knobs.push_back(flagKnob(
+      "draco-bits", "--draco-bits", true, [](EvalOptions& o, double v) { o.draco.position_bits = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.draco.position_bits); }));
-  knobs.push_back(numberKnob(
-      "lz4-acceleration", "--lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", 1, 65537,
-      true, [](EvalOptions& o, double v) { o.lz4_acceleration = static_cast<int>(v); },
+  knobs.push_back(flagKnob(
+      "lz4-acceleration", "--lz4-acceleration", true,
+      [](EvalOptions& o, double v) { o.lz4_acceleration = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.lz4_acceleration); }));
-  knobs.push_back(numberKnob(
-      "lz4-hc-level", "--lz4-hc-level", "LZ4HC level of every image (0: LZ4's fast mode; 1-12: slower, smaller)", 0,
-      kMaxLz4HcLevel, true, [](EvalOptions& o, double v) { o.lz4_hc_level = static_cast<int>(v); },
+  knobs.push_back(flagKnob(
+      "lz4-hc-level", "--lz4-hc-level", true, [](EvalOptions& o, double v) { o.lz4_hc_level = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.lz4_hc_level); }));
-  knobs.push_back(numberKnob(
-      "crop-margin", "--crop-margin",
-      "pods send the foreground's rectangle grown by this many pixels (-1: whole images)", -1, 4096, true,
-      [](EvalOptions& o, double v) { o.crop_margin = static_cast<int>(v); },
+  knobs.push_back(flagKnob(
+      "crop-margin", "--crop-margin", true, [](EvalOptions& o, double v) { o.crop_margin = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.crop_margin); }));
-  Knob codec;
-  codec.name = "image-codec";
-  codec.loop_flag = "--image-codec";
-  codec.meaning = "colour planes: raw, lz4, or lz4-delta (planar with a left-neighbour delta pre-filter)";
-  codec.apply = [](EvalOptions& o, const std::string& v) -> std::string {
-    const auto chosen = imageCodecFromName(v);
-    if (!chosen) return "'" + v + "' is not one of raw, lz4, lz4-delta";
-    o.image_codec = *chosen;
-    return "";
-  };
-  codec.current = [](const EvalOptions& o) { return imageCodecName(o.image_codec); };
-  knobs.push_back(codec);
-  Knob precision;
-  precision.name = "vertex-precision";
-  precision.loop_flag = "--vertex-precision";
-  precision.meaning = "vertex positions and normals on the GPU: fp32, or fp16 (paper 000's memory saving)";
-  precision.apply = [](EvalOptions& o, const std::string& v) -> std::string {
-    if (v != "fp32" && v != "fp16") return "'" + v + "' is not one of fp32, fp16";
-    o.half_precision_vertices = v == "fp16";
-    return "";
-  };
-  precision.current = [](const EvalOptions& o) { return std::string(o.half_precision_vertices ? "fp16" : "fp32"); };
-  knobs.push_back(precision);
+  knobs.push_back(choiceKnob(
+      "image-codec", "--image-codec",
+      [](EvalOptions& o, const std::string& v) { o.image_codec = *imageCodecFromName(v); },
+      [](const EvalOptions& o) { return imageCodecName(o.image_codec); }));
+  knobs.push_back(choiceKnob(
+      "vertex-precision", "--vertex-precision",
+      [](EvalOptions& o, const std::string& v) { o.half_precision_vertices = v == "fp16"; },
+      [](const EvalOptions& o) { return std::string(o.half_precision_vertices ? "fp16" : "fp32"); }));
   Knob size;
   size.name = "size";
   size.loop_flag = "--size";

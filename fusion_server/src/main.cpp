@@ -19,10 +19,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1.0, 10000.0));
   addSharedFlag(app, "--voxel", options.fusion.hull.voxel_size);
   double hull_error_mm = 0;
-  app.add_option("--hull-error-mm", hull_error_mm,
-                 "hull error target in mm of silhouette error: the voxel follows it frame by frame, never coarser "
-                 "than --voxel")
-      ->check(CLI::Range(0.0, 1000.0));
+  addSharedFlag(app, "--hull-error-mm", hull_error_mm);
   std::string volume;
   app.add_option("--volume", volume, "capture volume min and max corners x0,y0,z0,x1,y1,z1 in metres (a dataset's)");
   addSharedFlag(app, "--draco-bits", options.fusion.draco.position_bits);

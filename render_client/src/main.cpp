@@ -1,6 +1,7 @@
 // render_client: headless Vulkan renderer of the fused stream. See
 // README.md for the flags.
 #include <cstdio>
+#include <optional>
 
 #include "capture_node/pod.h"
 #include "capture_node/scene_library.h"
@@ -54,10 +55,17 @@ int main(int argc, char** argv) {
                      "the synthetic scene the pods render: judge each written frame against its true image from the "
                      "same view (PSNR, SSIM in report.json and report.html); costs client time after each frame");
   double truth_fps = capture::PodOptions{}.fps;
-  app.add_option("--truth-fps", truth_fps,
-                 "with --truth-scene: the pods' --fps (their frame ids' clock); pods started with --seed or --noise "
-                 "render another truth, which this does not follow")
+  app.add_option("--truth-fps", truth_fps, "with --truth-scene: the pods' --fps (their frame ids' clock)")
       ->check(CLI::Range(0.1, 240.0))
+      ->needs(truth_scene_option);
+  // The pods' own flags of the same names change what they render; the
+  // truth must change with them.
+  std::optional<uint64_t> truth_seed;
+  std::optional<double> truth_noise;
+  app.add_option("--truth-seed", truth_seed, "with --truth-scene: the pods' --seed (their motion and texture)")
+      ->needs(truth_scene_option);
+  app.add_option("--truth-noise", truth_noise, "with --truth-scene: the pods' --noise, grey levels")
+      ->check(CLI::Range(0.0, 64.0))
       ->needs(truth_scene_option);
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (!truth_scene.empty()) {
@@ -71,6 +79,8 @@ int main(int argc, char** argv) {
     // the user camera at the frame's time.
     capture::SceneOptions scene_options = preset->scene;
     scene_options.frames_per_second = truth_fps;  // as capture_node sets it from its --fps
+    if (truth_seed) scene_options.seed = *truth_seed;
+    if (truth_noise) scene_options.noise_amplitude = *truth_noise;
     options.judge = [scene = capture::SyntheticScene(scene_options)](const Image8& picture, const Camera& view,
                                                                      uint64_t frame_id) {
       const capture::RenderedView truth = scene.render(view, frame_id);

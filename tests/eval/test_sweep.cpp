@@ -5,12 +5,14 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
 
+#include "common/command_line.h"
 #include "eval/sweep.h"
 #include "sweep_points.h"
 
@@ -279,6 +281,32 @@ TEST(Sweep, EveryKnobIsAFlagOfTheLiveLoop) {
     ASSERT_FALSE(knob.loop_flag.empty()) << knob.name;
     EXPECT_NE(help.find("  " + knob.loop_flag + " "), std::string::npos) << knob.name << ": " << knob.loop_flag;
   }
+}
+
+// A value the live loop takes, the sweep takes, and the reverse: a knob
+// of a shared flag has that flag's range or choices.
+TEST(Sweep, KnobsTakeExactlyWhatTheirLoopFlagTakes) {
+  int shared = 0;
+  for (const Knob& knob : sweepKnobs()) {
+    const auto flag = std::find_if(sharedFlags().begin(), sharedFlags().end(),
+                                   [&](const SharedFlag& f) { return knob.loop_flag == f.flag; });
+    if (flag == sharedFlags().end()) continue;
+    ++shared;
+    EvalOptions options;
+    if (!flag->choices.empty()) {
+      for (const std::string& choice : flag->choices) EXPECT_EQ(knob.apply(options, choice), "") << knob.name;
+      EXPECT_NE(knob.apply(options, "none-of-them"), "") << knob.name;
+      continue;
+    }
+    const double step = std::max(1.0, flag->max - flag->min) * 1e-3;
+    for (const double v : {flag->min, flag->max}) {
+      EXPECT_EQ(knob.apply(options, std::to_string(v)), "") << knob.name << " " << v;
+    }
+    for (const double v : {flag->min - step, flag->max + step}) {
+      EXPECT_NE(knob.apply(options, std::to_string(v)), "") << knob.name << " " << v;
+    }
+  }
+  EXPECT_EQ(shared, static_cast<int>(sweepKnobs().size()) - 2) << "all but cameras (2 at least) and size";
 }
 
 TEST(Sweep, KnobsChangeWhatTheyName) {

@@ -53,7 +53,8 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   std::ofstream(out / "budget.json") << R"({"hull": 0.001, "end_to_end": 100000})";
   const pid_t loop =
       spawn({kBin + "/holofuse_loop", "--pods", "4", "--frames", "6", "--fps", "4", "--size", "200x150", "--view",
-             "pod:0", "--budget", (out / "budget.json").string(), "--quality", "--out", out.string()},
+             "pod:0", "--budget", (out / "budget.json").string(), "--quality", "--seed", "5", "--noise", "0", "--out",
+             out.string()},
             out / "loop.log");
   ASSERT_EQ(waitExit(loop, 240), 0) << "see " << (out / "loop.log");
   const auto report = readJson(out / "report.json");
@@ -76,9 +77,13 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   EXPECT_GT(report["bytes_per_frame"]["pod_link"].get<double>(), 1000.0);
   EXPECT_GT(report["bytes_per_frame"]["client_link"].get<double>(), 1000.0);
 
-  // From pod 0's pose the rendered coverage must sit on the true silhouette.
+  // From pod 0's pose the rendered coverage must sit on the true silhouette
+  // of the scene the pods render: seed 5, no sensor noise (the launcher
+  // passes both to the pods and to the client's truth).
   holofuse::capture::SceneOptions scene_options;
   scene_options.frames_per_second = fps;
+  scene_options.seed = 5;
+  scene_options.noise_amplitude = 0;
   const holofuse::capture::SyntheticScene scene(scene_options);
   const auto camera = holofuse::capture::SyntheticScene::cameraRig(4, 200, 150)[0];
   // Frames the server had to fuse without a pod (a pod still starting, say)

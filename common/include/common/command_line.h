@@ -24,46 +24,53 @@ namespace holofuse {
 // The processes of the live loop a launcher flag is passed on to.
 enum LoopProcess : unsigned { kToServer = 1, kToPods = 2, kToClient = 4 };
 
-// A flag of a process that the live-loop launcher also takes and passes on
-// (the sweep's knobs): its name, help and range, defined once, so that the
-// launcher refuses exactly what that process would, and whom the launcher
-// passes it to, under the same name (the pods' own name where it differs).
+// A flag of a process that the live-loop launcher, eval or the sweep also
+// take: its name, help and values, defined once, so that the launcher and
+// the sweep's knobs refuse exactly what that process would, and whom the
+// launcher passes it to, under the same name (the pods' own name where it
+// differs).
 struct SharedFlag {
   const char* flag;
   const char* description;
-  CLI::Validator check;
-  unsigned passed_to = 0;           // LoopProcess bits; 0: not a launcher flag
-  const char* pods_name = nullptr;  // the pods' name for it, if not flag
+  double min = 0, max = 0;           // a number in [min, max], unless choices are given
+  std::vector<std::string> choices;  // or one of these
+  unsigned passed_to = 0;            // LoopProcess bits; 0: not a launcher flag
+  const char* pods_name = nullptr;   // the pods' name for it, if not flag
+
+  CLI::Validator check() const {
+    return choices.empty() ? CLI::Validator(CLI::Range(min, max)) : CLI::Validator(CLI::IsMember(choices));
+  }
 };
 
 inline const std::vector<SharedFlag>& sharedFlags() {
   static const std::vector<SharedFlag> flags = {
       // fusion_server
-      {"--voxel", "hull voxel size in metres", CLI::Range(0.0001, 0.5), kToServer},
-      {"--draco-bits", "Draco position quantisation bits", CLI::Range(4, 24), kToServer},
-      {"--image-codec", "colour codec of the images sent on", CLI::IsMember(imageCodecNames()), kToServer | kToPods,
-       "--codec"},
+      {"--voxel", "hull voxel size in metres", 0.0001, 0.5, {}, kToServer},
+      {"--hull-error-mm", "hull error target in mm of silhouette error: the coarsest voxel from --voxel down that "
+       "meets it, frame by frame (0: the voxel is fixed)", 0, 1000, {}},
+      {"--draco-bits", "Draco position quantisation bits", 4, 24, {}, kToServer},
+      {"--image-codec", "colour codec of the images sent on", 0, 0, imageCodecNames(), kToServer | kToPods, "--codec"},
       // capture_node (and fusion_server for the LZ4 settings)
-      {"--codec", "colour codec", CLI::IsMember(imageCodecNames())},
-      {"--crop-margin", "send only the foreground's rectangle grown by this many pixels (-1: whole images)",
-       CLI::Range(-1, 4096), kToPods},
-      {"--lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", CLI::Range(1, 65537),
+      {"--codec", "colour codec", 0, 0, imageCodecNames()},
+      {"--crop-margin", "send only the foreground's rectangle grown by this many pixels (-1: whole images)", -1, 4096,
+       {}, kToPods},
+      {"--lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", 1, 65537, {},
        kToServer | kToPods},
-      {"--lz4-hc-level", "LZ4HC level: 0 = LZ4's fast mode (at --lz4-acceleration), 1-12 slower and smaller",
-       CLI::Range(0, kMaxLz4HcLevel), kToServer | kToPods},
+      {"--lz4-hc-level", "LZ4HC level: 0 = LZ4's fast mode (at --lz4-acceleration), 1-12 slower and smaller", 0,
+       kMaxLz4HcLevel, {}, kToServer | kToPods},
       // render_client
-      {"--alpha", "exponent of the view weights", CLI::Range(0.0, 1000.0), kToClient},
-      {"--lambda", "montage4d: temporal rate per frame at 30 fps (eq. 5)", CLI::Range(0.0, 1.0), kToClient},
-      {"--dilation", "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, scaled)",
-       CLI::Range(-1, 64), kToClient},
-      {"--vote-delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3)", CLI::Range(0.0, 10.0),
+      {"--alpha", "exponent of the view (montage4d) and normal (holoportation, normal) weights", 0, 1000, {},
        kToClient},
-      {"--geodesic-rings", "montage4d: k, the geodesic reach in triangle rings", CLI::Range(1, 64), kToClient},
-      {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", CLI::Range(1, 200), kToClient},
-      {"--geodesic-radius", "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)",
-       CLI::Range(0.0, 1000.0), kToClient},
-      {"--vertex-precision", "vertex positions and normals on the GPU: fp32, or fp16 in half the memory",
-       CLI::IsMember({"fp32", "fp16"}), kToClient},
+      {"--lambda", "montage4d: temporal rate per frame at 30 fps (eq. 5)", 0, 1, {}, kToClient},
+      {"--dilation", "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, scaled)",
+       -1, 64, {}, kToClient},
+      {"--vote-delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3)", 0, 10, {}, kToClient},
+      {"--geodesic-rings", "montage4d: k, the geodesic reach in triangle rings", 1, 64, {}, kToClient},
+      {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", 1, 200, {}, kToClient},
+      {"--geodesic-radius", "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)", 0, 1000,
+       {}, kToClient},
+      {"--vertex-precision", "vertex positions and normals on the GPU: fp32, or fp16 in half the memory", 0, 0,
+       {"fp32", "fp16"}, kToClient},
   };
   return flags;
 }
@@ -99,7 +106,7 @@ inline const SharedFlag& sharedFlag(std::string_view flag) {
 template <typename T>
 CLI::Option* addSharedFlag(CLI::App& app, std::string_view flag, T& value) {
   const SharedFlag& f = sharedFlag(flag);
-  return app.add_option(f.flag, value, f.description)->check(f.check);
+  return app.add_option(f.flag, value, f.description)->check(f.check());
 }
 
 }  // namespace holofuse
