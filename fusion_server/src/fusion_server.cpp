@@ -115,6 +115,7 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
   if (hello.role == protocol::Role::kPod) departed_pods_.erase(hello.id);
   peer.role = hello.role;
   peer.id = hello.id;
+  peer.minor = ack->minor;
   peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
                                std::to_string(hello.id) + " (" + peer.connection->peerName() + ")");
   peer.connection->sendMessage(*ack);
@@ -140,6 +141,14 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   }
   auto images = podImagesOf(pod, frame.bytes.size(), cam->second, arrival);
   if (!images.isOk()) return images.status();
+  // Every frame a pod sends counts for its jitter, also one that arrives too
+  // late to be fused: the link's behaviour, not the fusion's. The send
+  // stage runs from the pod's encode end to the arrival.
+  for (const auto& s : images->stamps) {
+    if (s.stage == static_cast<uint16_t>(protocol::Stage::kSend) && s.start_ns != 0) {
+      pod_arrivals_[pod.camera_id].add(static_cast<double>(s.start_ns) / 1e6, static_cast<double>(s.end_ns) / 1e6);
+    }
+  }
   // The group waits from the first frame decoded: its decoding is
   // server_decode's, and the latency budget must not count it twice.
   const FrameSync::Added added = sync_.add(pod.frame_id, std::move(*images), monotonicNs());
@@ -222,6 +231,10 @@ void FusionServer::dispatchReadyGroups() {
     job.group = std::move(group);
     job.late_frames = sync_.lateFrames();
     job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();
+    for (const auto& [pod, jitter] : pod_arrivals_) {
+      job.pod_arrivals.push_back({static_cast<uint16_t>(pod), jitter.packets(),
+                                  static_cast<uint32_t>(std::min(jitter.ms() * 1000.0 + 0.5, 4.0e9))});
+    }
     worker_->submit(std::move(job));
   }
 }
@@ -237,7 +250,7 @@ void FusionServer::fanOut() {
       if (!peer.greeted || peer.role != protocol::Role::kClient) continue;
       // Bundle and Stats first: the client renders when the mesh arrives.
       peer.connection->send(out.texture_bundle);
-      peer.connection->send(out.stats);
+      peer.connection->send(peer.minor >= 1 ? out.stats : out.stats_v1_0);
       peer.connection->send(out.mesh_frame);
     }
   }

@@ -171,7 +171,12 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   auto draco_bytes = draco.isOk() ? std::make_shared<const std::vector<uint8_t>>(std::move(*draco)) : nullptr;
   if (draco_bytes) mesh_frame.mesh = *draco_bytes;
   out.mesh_frame = share(protocol::encodeOutgoing(mesh_frame, protocol::nextSequence(), draco_bytes));
-  out.stats = share(protocol::encodeOutgoing(stats, protocol::nextSequence()));
+  // One sequence number for both: it is one frame, spelt per minor.
+  const uint64_t stats_sequence = protocol::nextSequence();
+  protocol::Stats stats_v1_0 = stats;
+  out.stats_v1_0 = share(protocol::encodeOutgoing(stats_v1_0, stats_sequence, nullptr, 0));
+  stats.pod_arrivals = job.pod_arrivals;
+  out.stats = share(protocol::encodeOutgoing(stats, stats_sequence));
   out.triangles = mesh.triangleCount();
   return out;
 }

@@ -358,9 +358,17 @@ void writePayload(WireWriter& w, const Stats& m) {
   w.u64(m.dropped_groups);
   w.u64(m.pod_bytes);
   w.str(m.note);
+  if (m.pod_arrivals) {  // since 1.1
+    w.u16(static_cast<uint16_t>(m.pod_arrivals->size()));
+    for (const auto& a : *m.pod_arrivals) {
+      w.u16(a.pod);
+      w.u64(a.frames);
+      w.u32(a.jitter_us);
+    }
+  }
 }
 
-Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offset) {
+Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offset, uint8_t minor) {
   WireReader r(payload, base_offset);
   m.frame_id = r.u64("stats.frame_id");
   m.cameras_expected = r.u32("stats.cameras_expected");
@@ -369,6 +377,27 @@ Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offse
   m.dropped_groups = r.u64("stats.dropped_groups");
   m.pod_bytes = r.u64("stats.pod_bytes");
   m.note = r.str("stats.note");
+  m.pod_arrivals.reset();
+  // Since 1.1: a 1.0 payload ends here.
+  if (minor >= 1) {
+    const uint16_t n = r.u16("stats.pod_arrivals.count");
+    constexpr size_t kBytesPerPod = 14;
+    if (n > kMaxStatsPods) {
+      r.failValue("stats.pod_arrivals.count", StatusCode::kTooLarge,
+                  std::to_string(n) + " above cap " + std::to_string(kMaxStatsPods));
+      return finish(r);
+    }
+    if (!r.ok() || static_cast<size_t>(n) * kBytesPerPod > r.remaining()) {
+      r.raw("stats.pod_arrivals", static_cast<size_t>(n) * kBytesPerPod);
+      return finish(r);
+    }
+    m.pod_arrivals.emplace(n);
+    for (auto& a : *m.pod_arrivals) {
+      a.pod = r.u16("stats.pod_arrivals.pod");
+      a.frames = r.u64("stats.pod_arrivals.frames");
+      a.jitter_us = r.u32("stats.pod_arrivals.jitter_us");
+    }
+  }
   return finish(r);
 }
 

@@ -252,6 +252,7 @@ int runClient(const ClientOptions& options) {
       } else if (type == protocol::MessageType::kStats) {
         protocol::Stats st;
         if (protocol::decodeFrame(frame, st).isOk()) {
+          if (st.pod_arrivals) report.setServerArrivals(*st.pod_arrivals);
           const uint64_t id = st.frame_id;
           stats[id] = FrameStats{std::move(st), frame.bytes.size()};
           while (stats.size() > 64) stats.erase(stats.begin());

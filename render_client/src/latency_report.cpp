@@ -4,9 +4,10 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <set>
 #include <nlohmann/json.hpp>
+#include <set>
 
+#include "common/arrival_jitter.h"
 #include "common/html_report.h"
 
 namespace holofuse::render {
@@ -22,14 +23,9 @@ double percentile(std::vector<double> values, double p) {
 
 double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_received) {
   std::sort(sent_and_received.begin(), sent_and_received.end());
-  double jitter = 0;
-  for (size_t k = 1; k < sent_and_received.size(); ++k) {
-    const auto& [s_i, r_i] = sent_and_received[k - 1];
-    const auto& [s_j, r_j] = sent_and_received[k];
-    const double d = (r_j - r_i) - (s_j - s_i);
-    jitter += (std::abs(d) - jitter) / 16.0;
-  }
-  return jitter;
+  ArrivalJitter jitter;
+  for (const auto& [sent, received] : sent_and_received) jitter.add(sent, received);
+  return jitter.ms();
 }
 
 protocol::StatusOr<Budget> loadBudget(const std::string& path) {
@@ -104,6 +100,8 @@ std::vector<LatencyReport::QualitySummary> LatencyReport::quality() const {
 
 std::map<uint16_t, double> LatencyReport::podJitterMs() const {
   std::map<uint16_t, double> jitter;
+  for (const auto& a : server_arrivals_) jitter[a.pod] = static_cast<double>(a.jitter_us) / 1000.0;
+  if (!jitter.empty()) return jitter;
   for (const auto& [pod, pairs] : transit_ms_) jitter[pod] = interarrivalJitter(pairs);
   return jitter;
 }
@@ -183,6 +181,14 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   nlohmann::ordered_json jitter = nlohmann::ordered_json::object();
   for (const auto& [pod, ms] : podJitterMs()) jitter["pod_" + std::to_string(pod)] = ms;
   j["jitter_ms"] = jitter;
+  if (jitterFromServer()) {
+    j["jitter_source"] = "server, over every pod frame received";
+    nlohmann::ordered_json received = nlohmann::ordered_json::object();
+    for (const auto& a : server_arrivals_) received["pod_" + std::to_string(a.pod)] = a.frames;
+    j["pod_frames_at_server"] = received;
+  } else if (!jitter.empty()) {
+    j["jitter_source"] = "client, over the pod frames behind rendered meshes (a server before protocol 1.1)";
+  }
   if (!budget.empty()) {
     j["budget_ms"] = budget;
     nlohmann::ordered_json over = nlohmann::ordered_json::array();
@@ -298,7 +304,9 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
       pods.push_back("pod " + std::to_string(pod));
       series.values.push_back(ms);
     }
-    body += html::barChart("Arrival jitter per pod", pods, {series}, "ms");
+    body += html::barChart(jitterFromServer() ? "Arrival jitter per pod (at the server, every frame)"
+                                              : "Arrival jitter per pod (frames behind rendered meshes)",
+                           pods, {series}, "ms");
   }
   if (!budget.empty()) {
     std::vector<std::vector<std::string>> rows;

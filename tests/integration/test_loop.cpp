@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
@@ -20,6 +21,7 @@
 #include "process_harness.h"
 #include "protocol/frame.h"
 #include "protocol/messages.h"
+#include "protocol/server_link.h"
 #include "protocol/socket.h"
 
 namespace {
@@ -159,9 +161,85 @@ TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
   const auto& frames = report["frames"];
   EXPECT_EQ(frames.back()["cameras_present"], 3) << "the last frames come from the three live pods";
   EXPECT_EQ(frames.back()["cameras_expected"], 4);
+  // The server counts every frame each pod sent, not only those behind
+  // rendered meshes: the dead pod's count stops, the others' go on.
+  EXPECT_EQ(report["jitter_source"], "server, over every pod frame received");
+  const auto& received = report["pod_frames_at_server"];
+  ASSERT_EQ(received.size(), 4u) << report.dump();
+  EXPECT_LT(received["pod_3"].get<int>(), received["pod_0"].get<int>());
+  EXPECT_GE(received["pod_0"].get<int>(), 14);
+  for (const auto& [pod, ms] : report["jitter_ms"].items()) EXPECT_GE(ms.get<double>(), 0.0) << pod;
   std::ifstream log(out / "server.log");
   const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("pod 3"), std::string::npos) << "the server names the pod it lost";
+}
+
+// Protocol 1.1 appends each pod's arrivals to Stats. The server sends them
+// to a client that agreed on 1.1, and the 1.0 layout, under a 1.0 header,
+// to one that offered only 1.0.
+TEST(Loop, EachClientGetsStatsInTheMinorItAgreedOn) {
+  const fs::path out = freshDir("minor");
+  pid_t server = 0;
+  const std::string endpoint = startServer(out, 1, &server);
+  auto parsed = holofuse::protocol::parseEndpoint(endpoint);
+  ASSERT_TRUE(parsed.isOk()) << "the server did not report its port";
+  const pid_t pod = spawn(
+      {kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods", "1", "--size", "96x72", "--fps", "10"},
+      out / "pod.log");
+  struct Client {
+    uint8_t max_minor;
+    std::unique_ptr<holofuse::protocol::ServerLink> link;
+    std::vector<std::pair<uint8_t, holofuse::protocol::Stats>> stats;  // header minor, message
+  };
+  std::vector<Client> clients(2);
+  clients[0].max_minor = 0;
+  clients[1].max_minor = holofuse::protocol::kVersionMinor;
+  for (Client& c : clients) {
+    holofuse::protocol::Hello hello;
+    hello.role = holofuse::protocol::Role::kClient;
+    hello.id = c.max_minor;
+    hello.max_minor = c.max_minor;
+    c.link = std::make_unique<holofuse::protocol::ServerLink>(*parsed, hello, holofuse::protocol::LinkOptions{});
+  }
+  std::vector<holofuse::protocol::Frame> received;
+  for (int round = 0; round < 600 && (clients[0].stats.size() < 5 || clients[1].stats.size() < 5); ++round) {
+    for (Client& c : clients) {
+      received.clear();
+      c.link->poll(10, received);
+      for (const auto& frame : received) {
+        holofuse::protocol::Stats stats;
+        if (frame.header.type == static_cast<uint16_t>(holofuse::protocol::MessageType::kStats) &&
+            holofuse::protocol::decodeFrame(frame, stats).isOk()) {
+          c.stats.emplace_back(frame.header.minor, stats);
+        }
+      }
+    }
+  }
+  kill(pod, SIGTERM);
+  waitExit(pod, 10);
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  ASSERT_GE(clients[0].stats.size(), 5u) << readFile(out / "server.log");
+  ASSERT_GE(clients[1].stats.size(), 5u) << readFile(out / "server.log");
+  for (const auto& [minor, stats] : clients[0].stats) {
+    EXPECT_EQ(minor, 0);
+    EXPECT_FALSE(stats.pod_arrivals.has_value()) << "frame " << stats.frame_id;
+  }
+  uint64_t last_count = 0;
+  for (const auto& [minor, stats] : clients[1].stats) {
+    EXPECT_EQ(minor, 1);
+    ASSERT_TRUE(stats.pod_arrivals.has_value()) << "frame " << stats.frame_id;
+    ASSERT_EQ(stats.pod_arrivals->size(), 1u);
+    const auto& arrivals = stats.pod_arrivals->front();
+    EXPECT_EQ(arrivals.pod, 0);
+    EXPECT_GE(arrivals.frames, last_count) << "a running count";
+    EXPECT_LT(arrivals.jitter_us, 1000000u) << "under a second on loopback";
+    last_count = arrivals.frames;
+  }
+  EXPECT_GE(last_count, 5u);
+  const std::string log = readFile(out / "server.log");
+  EXPECT_NE(log.find("protocol 1.0"), std::string::npos) << log;
+  EXPECT_NE(log.find("protocol 1.1"), std::string::npos) << log;
 }
 
 TEST(Loop, APodWithoutServerRetriesWithBackoffAndJoinsWhenItAppears) {

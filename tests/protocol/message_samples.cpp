@@ -111,20 +111,28 @@ Stats sampleStats() {
   m.dropped_groups = 1;
   m.pod_bytes = 65536;
   m.note = "proceeded without camera(s) 2";
+  m.pod_arrivals = {{{0, 120, 1500}, {1, 119, 2250}, {3, 118, 0}}};
   return m;
 }
 
-std::vector<Sample> allSamples() {
-  return {{"hello", encodeFrame(sampleHello(), 1)},
-          {"hello_ack", encodeFrame(sampleHelloAck(), 2)},
-          {"calibration", encodeFrame(sampleCalibration(), 3)},
-          {"pod_frame", encodeFrame(samplePodFrame(), 4)},
-          {"mesh_frame", encodeFrame(sampleMeshFrame(), 5)},
-          {"texture_bundle", encodeFrame(sampleTextureBundle(), 6)},
-          {"heartbeat", encodeFrame(Heartbeat{777}, 7)},
-          {"stats", encodeFrame(sampleStats(), 8)},
-          {"bye", encodeFrame(Bye{"done"}, 9)},
-          {"error", encodeFrame(ErrorMessage{3, "version 2.0 not supported"}, 10)}};
+std::vector<Sample> allSamples(uint8_t minor) {
+  // A peer of that minor offers and agrees on it.
+  Hello hello = sampleHello();
+  hello.max_minor = minor;
+  HelloAck ack = sampleHelloAck();
+  ack.minor = minor;
+  Stats stats = sampleStats();
+  if (minor < 1) stats.pod_arrivals.reset();  // since 1.1
+  return {{"hello", encodeFrame(hello, 1, 0, minor)},
+          {"hello_ack", encodeFrame(ack, 2, 0, minor)},
+          {"calibration", encodeFrame(sampleCalibration(), 3, 0, minor)},
+          {"pod_frame", encodeFrame(samplePodFrame(), 4, 0, minor)},
+          {"mesh_frame", encodeFrame(sampleMeshFrame(), 5, 0, minor)},
+          {"texture_bundle", encodeFrame(sampleTextureBundle(), 6, 0, minor)},
+          {"heartbeat", encodeFrame(Heartbeat{777}, 7, 0, minor)},
+          {"stats", encodeFrame(stats, 8, 0, minor)},
+          {"bye", encodeFrame(Bye{"done"}, 9, 0, minor)},
+          {"error", encodeFrame(ErrorMessage{3, "version 2.0 not supported"}, 10, 0, minor)}};
 }
 
 }  // namespace holofuse::protocol::testing

@@ -16,7 +16,8 @@ struct Sample {
 };
 
 // The planes' bytes live in static storage, so spans stay valid.
-std::vector<Sample> allSamples();
+// Every message as the given minor spells it (its fields and header).
+std::vector<Sample> allSamples(uint8_t minor = kVersionMinor);
 Hello sampleHello();
 HelloAck sampleHelloAck();
 Calibration sampleCalibration();

@@ -119,6 +119,7 @@ TEST(Messages, EveryTypeRoundTrips) {
     ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(testing::sampleStats(), 1)), m).isOk());
     EXPECT_EQ(m.cameras_present, 0xBu);
     EXPECT_EQ(m.note, "proceeded without camera(s) 2");
+    EXPECT_EQ(m.pod_arrivals, testing::sampleStats().pod_arrivals);
   }
   {
     Heartbeat h;
@@ -277,18 +278,60 @@ TEST(Framing, UnknownMessageTypeIsDeliveredForSkippingAndTheStreamGoesOn) {
 }
 
 TEST(Framing, UnknownTrailingFieldsOfAKnownTypeAreSkipped) {
-  // A future minor appends fields: a 1.0 reader reads what it knows.
+  // A future minor appends fields: a 1.1 reader reads what it knows.
   FrameBuilder builder(MessageType::kStats, 0);
   WireWriter w(builder.buffer());
   writePayload(w, testing::sampleStats());
   w.u64(0xDEADBEEF);
-  w.str("a field from minor 1");
-  builder.setMinor(1);
+  w.str("a field from minor 2");
+  builder.setMinor(2);
   const auto bytes = std::move(builder).finish();
   Stats m;
   ASSERT_TRUE(decodeFrame(decodeOne(bytes), m).isOk());
   EXPECT_EQ(m.pod_bytes, 65536u);
   EXPECT_EQ(m.note, "proceeded without camera(s) 2");
+  EXPECT_EQ(m.pod_arrivals, testing::sampleStats().pod_arrivals);
+}
+
+// 1.1 appended each pod's arrivals to Stats. A 1.0 Stats has none (not an
+// empty list), and a list that is cut short or too long is refused by name.
+TEST(Framing, StatsCarriesPodArrivalsSinceMinor1) {
+  Stats v1_0 = testing::sampleStats();
+  v1_0.pod_arrivals.reset();
+  const Frame old_frame = decodeOne(encodeFrame(v1_0, 0, 0, 0));
+  EXPECT_EQ(old_frame.header.minor, 0);
+  Stats m;
+  ASSERT_TRUE(decodeFrame(old_frame, m).isOk());
+  EXPECT_FALSE(m.pod_arrivals.has_value());
+  EXPECT_EQ(m.note, v1_0.note);
+
+  Stats none = testing::sampleStats();
+  none.pod_arrivals.emplace();
+  ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(none, 0)), m).isOk());
+  ASSERT_TRUE(m.pod_arrivals.has_value()) << "no pod yet is an empty list, not a 1.0 Stats";
+  EXPECT_TRUE(m.pod_arrivals->empty());
+
+  auto payloadWith = [](uint16_t count, int pods) {
+    FrameBuilder builder(MessageType::kStats, 0);
+    Stats s = testing::sampleStats();
+    s.pod_arrivals.reset();
+    writePayload(builder.writer(), s);
+    builder.writer().u16(count);
+    for (int k = 0; k < pods; ++k) {
+      builder.writer().u16(static_cast<uint16_t>(k));
+      builder.writer().u64(10);
+      builder.writer().u32(500);
+    }
+    return std::move(builder).finish();
+  };
+  Status s = decodeFrame(decodeOne(payloadWith(3, 2)), m);
+  EXPECT_EQ(s.code(), StatusCode::kTruncated) << s.toString();
+  EXPECT_NE(s.message().find("stats.pod_arrivals"), std::string::npos) << s.toString();
+  s = decodeFrame(decodeOne(payloadWith(65, 0)), m);
+  EXPECT_EQ(s.code(), StatusCode::kTooLarge) << s.toString();
+  EXPECT_NE(s.message().find("stats.pod_arrivals.count"), std::string::npos) << s.toString();
+  ASSERT_TRUE(decodeFrame(decodeOne(payloadWith(2, 2)), m).isOk());
+  EXPECT_EQ(m.pod_arrivals->at(1), (PodArrivals{1, 10, 500}));
 }
 
 TEST(Framing, ByteByByteFeedingGivesTheSameFrames) {
@@ -344,14 +387,19 @@ TEST(Messages, HostileCountsAndSizesAreRejected) {
   EXPECT_EQ(decodeFrame(decodeOne(encodeFrame(c, 0)), cout).code(), StatusCode::kMalformed);
 }
 
-// Golden vectors lock the wire format: the bytes of each sample must equal
-// the file for its version. HOLOFUSE_REGENERATE_GOLDEN=1 writes missing or
-// changed files (never deletes old versions).
-TEST(Golden, EveryTypeMatchesItsV1_0Vector) {
+// Golden vectors lock the wire format: the bytes of each sample, as each
+// minor spells it, must equal the file for its version.
+// HOLOFUSE_REGENERATE_GOLDEN=1 writes missing or changed files (never
+// deletes old versions).
+TEST(Golden, EveryTypeMatchesItsVectorInEveryMinor) {
   const std::filesystem::path dir = HOLOFUSE_GOLDEN_DIR;
   const bool regenerate = std::getenv("HOLOFUSE_REGENERATE_GOLDEN") != nullptr;
-  for (const auto& sample : allSamples()) {
-    const auto path = dir / (sample.name + ".v1.0.bin");
+  std::vector<std::pair<std::string, testing::Sample>> versions;
+  for (uint8_t minor = 0; minor <= kVersionMinor; ++minor) {
+    for (auto& sample : allSamples(minor)) versions.emplace_back("1." + std::to_string(minor), std::move(sample));
+  }
+  for (const auto& [version, sample] : versions) {
+    const auto path = dir / (sample.name + ".v" + version + ".bin");
     if (regenerate) {
       std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(sample.frame.data()),
                                                   static_cast<std::streamsize>(sample.frame.size()));

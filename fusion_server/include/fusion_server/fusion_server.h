@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "common/arrival_jitter.h"
 #include "common/camera.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
@@ -63,6 +64,7 @@ class FusionServer {
     protocol::Role role = protocol::Role::kPod;
     uint32_t id = 0;
     bool replaced = false;  // a newer connection of the same pod took over
+    uint8_t minor = 0;      // agreed in the handshake: the fields this peer is sent
   };
 
   void acceptAll();
@@ -83,6 +85,7 @@ class FusionServer {
   int wake_fd_ = -1;
   std::vector<Peer> peers_;
   std::map<uint32_t, Camera> cameras_;
+  std::map<uint32_t, ArrivalJitter> pod_arrivals_;  // per pod, over every PodFrame received
   std::set<uint32_t> departed_pods_;  // pods that joined and then left
   std::map<uint32_t, protocol::SharedFrame> calibration_frames_;
   FrameSync sync_;

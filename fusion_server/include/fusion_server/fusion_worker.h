@@ -36,6 +36,7 @@ struct FusionSettings {
 struct FusedOutput {
   uint64_t frame_id = 0;
   protocol::SharedFrame mesh_frame, texture_bundle, stats;
+  protocol::SharedFrame stats_v1_0;  // the same Stats for a peer that agreed on 1.0 (no pod arrivals)
   size_t triangles = 0;
   double voxel_size = 0;
   SilhouetteError silhouette_error;  // measured only under an error target
@@ -45,6 +46,7 @@ struct GroupJob {
   FrameGroup group;
   uint64_t late_frames = 0;
   uint64_t dropped_groups = 0;
+  std::vector<protocol::PodArrivals> pod_arrivals;  // every pod's so far, when the group was dispatched
 };
 
 // A pod's frame as the fusion takes it: its planes decoded (the whole image

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -47,6 +48,7 @@ constexpr uint16_t kSourceClient = 0xFFFE;
 constexpr size_t kMaxStamps = 1024;
 constexpr size_t kMaxPlanes = 8;
 constexpr size_t kMaxImages = 64;
+constexpr size_t kMaxStatsPods = 64;  // cameras_present has a bit per pod
 constexpr size_t kMaxDistortion = 8;
 constexpr uint32_t kMaxPlaneBytes = 256u << 20;
 constexpr uint32_t kMaxImageSide = 16384;  // width and height of any plane
@@ -153,6 +155,15 @@ struct Heartbeat {
   uint64_t send_time_ns = 0;
 };
 
+// Since 1.1: one pod's PodFrames as they reached the server, every one of
+// them (also those no client renders), for the RFC 3550 jitter.
+struct PodArrivals {
+  uint16_t pod = 0;
+  uint64_t frames = 0;     // PodFrames received from this pod so far
+  uint32_t jitter_us = 0;  // RFC 3550 interarrival jitter over them, microseconds
+  bool operator==(const PodArrivals&) const = default;
+};
+
 struct Stats {
   static constexpr MessageType kType = MessageType::kStats;
   uint64_t frame_id = 0;
@@ -162,6 +173,8 @@ struct Stats {
   uint64_t dropped_groups = 0;
   uint64_t pod_bytes = 0;
   std::string note;
+  // Since 1.1; absent (not even a count) in a 1.0 Stats.
+  std::optional<std::vector<PodArrivals>> pod_arrivals;
 };
 
 struct Bye {
@@ -196,15 +209,18 @@ Status readPayload(std::span<const uint8_t> payload, PodFrame& m, size_t base_of
 Status readPayload(std::span<const uint8_t> payload, MeshFrame& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, Heartbeat& m, size_t base_offset = 0);
-Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offset = 0);
+// A Stats of minor 1 or later must hold the pods' arrivals; one of 1.0 has none.
+Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offset = 0, uint8_t minor = kVersionMinor);
 Status readPayload(std::span<const uint8_t> payload, Bye& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, ErrorMessage& m, size_t base_offset = 0);
 
 // A whole frame for message m: one copy of the payload into the frame
 // buffer (reserved up front from payload_hint), then one CRC pass.
+// minor pins the header's minor; the payload holds the fields m holds.
 template <typename Message>
-Bytes encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0) {
+Bytes encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0, uint8_t minor = kVersionMinor) {
   FrameBuilder builder(Message::kType, sequence, payload_hint);
+  builder.setMinor(minor);
   writePayload(builder.writer(), m);
   return std::move(builder).finish();
 }
@@ -212,10 +228,12 @@ Bytes encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0) 
 // The same frame for sending: bulk ranges (planes, Draco bytes) are
 // borrowed, not copied, when keep_alive owns them; one CRC pass remains.
 template <typename Message>
-OutgoingFrame encodeOutgoing(const Message& m, uint64_t sequence, std::shared_ptr<const void> keep_alive = nullptr) {
+OutgoingFrame encodeOutgoing(const Message& m, uint64_t sequence, std::shared_ptr<const void> keep_alive = nullptr,
+                             uint8_t minor = kVersionMinor) {
   // Room for every field and the small planes that are copied, so the own
   // buffer never grows while it is written.
   FrameBuilder builder(Message::kType, sequence, 4 * kBorrowMinBytes);
+  builder.setMinor(minor);
   builder.borrowBulk(std::move(keep_alive));
   writePayload(builder.writer(), m);
   return std::move(builder).finishParts();
@@ -229,7 +247,12 @@ Status decodeFrame(const Frame& frame, Message& m) {
                   std::string("expected ") + messageTypeName(static_cast<uint16_t>(Message::kType)) +
                       ", got " + messageTypeName(frame.header.type));
   }
-  return readPayload(frame.payload(), m, kHeaderSize);
+  // A message whose fields depend on the minor reads the frame's.
+  if constexpr (requires { readPayload(frame.payload(), m, kHeaderSize, frame.header.minor); }) {
+    return readPayload(frame.payload(), m, kHeaderSize, frame.header.minor);
+  } else {
+    return readPayload(frame.payload(), m, kHeaderSize);
+  }
 }
 
 }  // namespace holofuse::protocol

@@ -38,9 +38,9 @@ struct FrameRecord {
 // p in [0, 100]; linear interpolation between order statistics. 0 for none.
 double percentile(std::vector<double> values, double p);
 
-// Interarrival jitter of RFC 3550 (section 6.4.1): over packets in send
-// order, J += (|D| - J) / 16 with D = (R_j - R_i) - (S_j - S_i), the change
-// in transit time; in the unit of the times given.
+// Interarrival jitter of RFC 3550 (common/arrival_jitter.h) over packets
+// taken in send order (the client learns of them out of order); in the
+// unit of the times given.
 double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_received);
 
 // Per-stage budgets in ms (stage names of report.json, and "end_to_end"),
@@ -81,8 +81,14 @@ class LatencyReport {
   double fps() const;
   double endToEndPercentile(double p) const;
   const std::vector<FrameRecord>& frames() const { return frames_; }
-  // Per pod, its RFC 3550 jitter of PodFrame arrival at the server, ms.
+  // The server's account of every pod's frames (Stats since 1.1), the
+  // latest received: it covers frames no client rendered too.
+  void setServerArrivals(std::vector<protocol::PodArrivals> arrivals) { server_arrivals_ = std::move(arrivals); }
+  // Per pod, its RFC 3550 jitter of PodFrame arrival at the server, ms:
+  // the server's over every frame when it sent it, else computed here over
+  // the frames behind rendered meshes.
   std::map<uint16_t, double> podJitterMs() const;
+  bool jitterFromServer() const { return !server_arrivals_.empty(); }
   // The report as JSON text, and as a self-contained HTML page (latency
   // budget as stacked bars, GPU passes, bytes per link, per-pod jitter,
   // budget violations flagged).
@@ -98,6 +104,7 @@ class LatencyReport {
   double stagePercentile(const std::string& name, double p) const;
   std::map<uint16_t, std::vector<double>> stage_ms_;
   std::map<uint16_t, std::vector<std::pair<double, double>>> transit_ms_;  // per pod: sent, received
+  std::vector<protocol::PodArrivals> server_arrivals_;
   std::map<std::string, std::vector<double>> gpu_ms_;
   std::vector<double> judge_ms_;
   std::vector<FrameRecord> frames_;
