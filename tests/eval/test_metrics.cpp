@@ -1,11 +1,14 @@
-// Quality metrics against values computed by an independent implementation
-// (scikit-image, tests/eval/reference_metrics.py) on images both sides
-// build from the same integer formulas, plus the properties the masked
-// evaluation relies on.
+// Quality metrics against values published for a standard test image,
+// against values computed by an independent implementation (scikit-image,
+// tests/eval/reference_metrics.py) on images both sides build from the same
+// integer formulas, plus the properties the masked evaluation relies on.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <string>
 
 #include "eval/metrics.h"
 
@@ -92,6 +95,75 @@ TEST(Metrics, MatchScikitImageOnFourDistortions) {
     EXPECT_NEAR(q.rmse_percent, 100.0 * std::sqrt(255.0 * 255.0 / std::pow(10.0, r.psnr / 10.0)) / 255.0, 1e-8);
     EXPECT_EQ(q.pixels, size_t{kW * kH});
   }
+}
+
+// NumPy's legacy normal generator (np.random.seed, np.random.randn):
+// MT19937 seeded as std::mt19937 seeds it, 53-bit doubles from two draws,
+// and Marsaglia's polar method, which yields the pair's second value first.
+class LegacyNumpyNormal {
+ public:
+  explicit LegacyNumpyNormal(uint32_t seed) : twister_(seed) {}
+  double next() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    double x1 = 0, x2 = 0, r2 = 0;
+    do {
+      x1 = 2.0 * uniform() - 1.0;
+      x2 = 2.0 * uniform() - 1.0;
+      r2 = x1 * x1 + x2 * x2;
+    } while (r2 >= 1.0 || r2 == 0.0);
+    const double f = std::sqrt(-2.0 * std::log(r2) / r2);
+    spare_ = f * x1;
+    has_spare_ = true;
+    return f * x2;
+  }
+
+ private:
+  double uniform() {
+    const uint32_t high = twister_() >> 5, low = twister_() >> 6;
+    return (high * 67108864.0 + low) / 9007199254740992.0;
+  }
+  std::mt19937 twister_;
+  double spare_ = 0;
+  bool has_spare_ = false;
+};
+
+// Published values: the IPOL article's reference program (imdiff of
+// "Image quality metrics", www.ipol.im/pub/art/2011/g_lmii) on
+// scikit-image's camera image (512x512 grey, since scikit-image 0.18)
+// against the same image plus Gaussian noise of sigma 20 drawn with
+// np.random.seed(5), clipped to [0, 255] and truncated to 8 bits, as
+// scikit-image's test suite quotes them (test_PSNR_vs_IPOL,
+// test_gaussian_structural_similarity_vs_IPOL, to 4 and 3 decimals). The
+// image comes from Debian's python3-skimage (./holofuse test fetches it).
+TEST(Metrics, MatchTheValuesPublishedForTheCameraImage) {
+  const std::string path = std::string(HOLOFUSE_REFERENCE_DIR) + "/camera.png";
+  const cv::Mat camera = cv::imread(path, cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(camera.empty()) << path << " is missing: ./holofuse test fetches it from Debian's python3-skimage";
+  ASSERT_EQ(camera.type(), CV_8UC1);
+  ASSERT_EQ(camera.cols, 512);
+  ASSERT_EQ(camera.rows, 512);
+  LegacyNumpyNormal normal(5);
+  Grey clean(512 * 512), noisy(512 * 512);
+  for (int y = 0; y < 512; ++y) {
+    for (int x = 0; x < 512; ++x) {
+      const int i = y * 512 + x;
+      clean[i] = camera.at<uint8_t>(y, x);
+      noisy[i] = static_cast<int>(std::clamp(clean[i] + 20.0 * normal.next(), 0.0, 255.0));  // truncated, as astype
+    }
+  }
+  Image8 clean_rgb(512, 512, 3), noisy_rgb(512, 512, 3);
+  for (int i = 0; i < 512 * 512; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      clean_rgb.pixels[i * 3 + c] = static_cast<uint8_t>(clean[i]);
+      noisy_rgb.pixels[i * 3 + c] = static_cast<uint8_t>(noisy[i]);
+    }
+  }
+  const ImageQuality q = compareInMask(noisy_rgb, clean_rgb, Image8(512, 512, 1, 255));
+  EXPECT_NEAR(q.psnr_db, 22.409353363576034, 1e-5);  // ours: 22.4093528
+  EXPECT_NEAR(q.ssim, 0.357959091663361, 1e-4);      // ours: 0.3579642
 }
 
 TEST(Metrics, ConstantImagesFollowTheLuminanceTermAlone) {
