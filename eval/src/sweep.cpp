@@ -1,6 +1,12 @@
 #include "eval/sweep.h"
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -319,6 +325,82 @@ std::vector<size_t> paretoFront(const std::vector<TradePoint>& points) {
 
 namespace {
 
+// The live loop's flags for a point: the scene, the mode, every knob the
+// base moved from its default, and the point's own.
+std::vector<std::string> liveArguments(const SweepOptions& options, const std::string& knob, const std::string& value) {
+  EvalOptions defaults;
+  defaults.scenes = options.base.scenes;
+  std::vector<std::string> arguments = {"--scene", options.base.scenes.at(0), "--mode", primaryMode(options.base)};
+  for (const Knob& other : sweepKnobs()) {
+    if (other.name != knob && other.current(options.base) != other.current(defaults)) {
+      arguments.insert(arguments.end(), {other.loop_flag, other.current(options.base)});
+    }
+  }
+  arguments.insert(arguments.end(), {findKnob(knob)->loop_flag, value});
+  return arguments;
+}
+
+// Runs a program with its output into log: its exit status, or -1 when it
+// could not start.
+int runLogged(const std::vector<std::string>& command, const fs::path& log) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  std::vector<char*> argv;
+  for (const auto& part : command) argv.push_back(const_cast<char*>(part.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  const int spawned = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) return -1;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+nlohmann::json liveJson(const LiveMeasure& live, int frames_asked) {
+  return {{"frames_asked", frames_asked},
+          {"frames", live.frames},
+          {"end_to_end_ms_p50", live.end_to_end_ms_p50},
+          {"end_to_end_ms_p95", live.end_to_end_ms_p95},
+          {"fps", live.fps},
+          {"report", live.report}};
+}
+
+// The point's live run, as the loop's report gives it; an error names the
+// log when the loop fails or renders fewer frames than asked.
+LiveMeasure runLive(const SweepOptions& options, const std::string& knob, const std::string& value, bool is_default) {
+  const fs::path dir = fs::path(options.out_dir) / "live" / (is_default ? "default" : knob + "=" + value);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::vector<std::string> command = {options.loop_program};
+  for (auto& argument : liveArguments(options, knob, value)) command.push_back(std::move(argument));
+  command.insert(command.end(), {"--frames", std::to_string(options.live_frames), "--out", dir.string()});
+  const fs::path log = dir / "loop.log";
+  const int status = runLogged(command, log);
+  const fs::path report_path = dir / "report.json";
+  std::ifstream in(report_path);
+  const auto report = nlohmann::json::parse(in, nullptr, false);
+  if (status != 0 || report.is_discarded() || !report.contains("latency_ms")) {
+    throw std::runtime_error("the live run of " + knob + "=" + value + " failed (exit status " +
+                             std::to_string(status) + "); see " + log.string());
+  }
+  LiveMeasure live;
+  live.frames = report.value("frames_rendered", 0);
+  if (live.frames != options.live_frames) {
+    throw std::runtime_error("the live run of " + knob + "=" + value + " rendered " + std::to_string(live.frames) +
+                             " of " + std::to_string(options.live_frames) + " frames; see " + log.string());
+  }
+  const auto& e2e = report.at("latency_ms").at("end_to_end");
+  live.end_to_end_ms_p50 = e2e.at("p50").get<double>();
+  live.end_to_end_ms_p95 = e2e.at("p95").get<double>();
+  live.fps = report.value("fps", 0.0);
+  live.report = report_path.string();
+  return live;
+}
+
 std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
                                     const std::function<void(const std::string&)>& progress) {
   // Points already on disk must match this run before any work starts.
@@ -340,29 +422,61 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
       point.value = value;
       const PlannedPoint plan = planPoint(options, knob, value);
       point.is_default = plan.is_default;
+      nlohmann::json file;
+      bool changed = false;  // the point's file must be (re)written
       if (fs::exists(plan.path)) {
-        const auto json = readPoint(plan);
-        point.result = sceneResultFromJson(json.at("scene").get<std::string>(), json.at("result"));
+        file = readPoint(plan);
+        point.result = sceneResultFromJson(file.at("scene").get<std::string>(), file.at("result"));
         point.resumed = true;
       } else {
         point.result = runLeaveOneOut(plan.run).at(0);
+        file = {{"knob", name},
+                {"value", value},
+                {"scene", point.result.name},
+                {"settings", runSettings(plan.run)},
+                {"result", sceneResultJson(point.result)}};
+        changed = true;
+      }
+      // A live run is kept with its point, and reused when it rendered the
+      // frames this run asks for.
+      if (options.live_frames > 0) {
+        const auto kept = file.find("live");
+        if (kept != file.end() && kept->value("frames_asked", 0) == options.live_frames) {
+          LiveMeasure live;
+          live.frames = kept->at("frames").get<int>();
+          live.end_to_end_ms_p50 = kept->at("end_to_end_ms_p50").get<double>();
+          live.end_to_end_ms_p95 = kept->at("end_to_end_ms_p95").get<double>();
+          live.fps = kept->at("fps").get<double>();
+          live.report = kept->at("report").get<std::string>();
+          point.live = live;
+        } else {
+          if (progress) {
+            progress("running " + name + "=" + value + " live for " + std::to_string(options.live_frames) + " frames");
+          }
+          point.live = runLive(options, name, value, plan.is_default);
+          file["live"] = liveJson(*point.live, options.live_frames);
+          changed = true;
+        }
+      }
+      if (changed) {
         const fs::path partial = plan.path.string() + ".partial";
-        std::ofstream(partial) << nlohmann::json{{"knob", name},
-                                                 {"value", value},
-                                                 {"scene", point.result.name},
-                                                 {"settings", runSettings(plan.run)},
-                                                 {"result", sceneResultJson(point.result)}}
-                                      .dump(2);
+        std::ofstream(partial) << file.dump(2);
         fs::rename(partial, plan.path);  // a point is on disk whole or not at all
       }
       ++done;
       if (progress) {
         const auto& m = point.result.modes.at(primaryMode(options.base));
-        char line[200];
+        char line[240];
         std::snprintf(line, sizeof(line), "[%zu/%zu] %s=%s%s: PSNR %.2f dB, SSIM %.4f, client %.0f ms, %.0f KB/frame",
                       done, total, name.c_str(), value.c_str(), point.resumed ? " (already on disk)" : "", m.psnr_db,
                       m.ssim, m.ms_per_new_mesh, point.result.bytes_per_frame / 1000.0);
-        progress(line);
+        std::string text = line;
+        if (point.live) {
+          std::snprintf(line, sizeof(line), "; live end-to-end p50 %.0f ms, p95 %.0f ms, %.1f fps",
+                        point.live->end_to_end_ms_p50, point.live->end_to_end_ms_p95, point.live->fps);
+          text += line;
+        }
+        progress(text);
       }
       points.push_back(std::move(point));
     }
@@ -406,15 +520,9 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::functio
 // The live loop with one knob set as a sweep point had it, and the rest as
 // the sweep's base has them (the defaults, or what --set moved).
 std::string liveCommand(const SweepOptions& options, const std::string& knob, const std::string& value) {
-  EvalOptions defaults;
-  defaults.scenes = options.base.scenes;
-  std::string command = "./holofuse demo --scene " + options.base.scenes.at(0) + " --mode " + primaryMode(options.base);
-  for (const Knob& other : sweepKnobs()) {
-    if (other.name != knob && other.current(options.base) != other.current(defaults)) {
-      command += " " + other.loop_flag + " " + other.current(options.base);
-    }
-  }
-  return command + " " + findKnob(knob)->loop_flag + " " + value;
+  std::string command = "./holofuse demo";
+  for (const auto& argument : liveArguments(options, knob, value)) command += " " + argument;
+  return command;
 }
 
 void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint>& points) {
@@ -429,7 +537,9 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                    "other value of the knob is at least as good in PSNR, client ms, pipeline ms and bytes per frame on "
                    "both links at once and better in one beyond noise (points are measured one after another): "
                    "times by more than 10% and more than either point's p50-to-p95 spread, PSNR by more than "
-                   "0.01 dB, bytes by more than 0.5%. Flicker and Chamfer are shown, not judged.\n\n";
+                   "0.01 dB, bytes by more than 0.5%. Flicker and Chamfer are shown, not judged. Live end-to-end ms "
+                   "(with --live-frames): the live loop run with the point's settings, capture to written frame, "
+                   "network and queues included; judged too where every value of the knob ran live.\n\n";
   std::string body;
   std::vector<std::vector<std::string>> rows;
   for (const auto& [name, values] : options.knobs) {
@@ -439,7 +549,10 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     }
     // Each point's quality against its costs: client ms, pipeline ms and
     // bytes on each link, alone (the plots) and together (the front).
-    std::vector<TradePoint> by_client, by_pipeline, by_bytes, by_pod_bytes, by_all;
+    // Run live (--live-frames), the loop's end-to-end time is one more cost.
+    const bool all_live =
+        std::all_of(mine.begin(), mine.end(), [](const SweepPoint* p) { return p->live.has_value(); });
+    std::vector<TradePoint> by_client, by_pipeline, by_bytes, by_pod_bytes, by_live, by_all;
     for (const SweepPoint* p : mine) {
       const ModeResult& m = p->result.modes.at(mode);
       const Cost client = timeCost(m.ms_per_new_mesh, m.ms_per_new_mesh_p95);
@@ -451,6 +564,11 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
       by_bytes.push_back({m.psnr_db, {bytes}});
       by_pod_bytes.push_back({m.psnr_db, {pod_bytes}});
       by_all.push_back({m.psnr_db, {client, pipeline, bytes, pod_bytes}});
+      if (all_live) {
+        const Cost end_to_end = timeCost(p->live->end_to_end_ms_p50, p->live->end_to_end_ms_p95);
+        by_live.push_back({m.psnr_db, {end_to_end}});
+        by_all.back().costs.push_back(end_to_end);
+      }
     }
     auto dominator = [&](size_t i) {
       for (size_t j = 0; j < mine.size(); ++j) {
@@ -471,8 +589,9 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     nlohmann::json& k = json["knobs"][name];
     k["default_verdict"] = verdict;
     md += "## " + name +
-          "\n\n| value | PSNR dB | SSIM | flicker | Chamfer mm | client ms | pipeline ms | KB/frame to client | "
-          "pods KB/frame | front | over budget |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n";
+          "\n\n| value | PSNR dB | SSIM | flicker | Chamfer mm | client ms | pipeline ms | live end-to-end ms | "
+          "KB/frame to client | pods KB/frame | front | over budget |\n"
+          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n";
     for (size_t i = 0; i < mine.size(); ++i) {
       const SweepPoint& p = *mine[i];
       const ModeResult& m = p.result.modes.at(mode);
@@ -501,6 +620,7 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                              {"on_front", onFront(i)},
                              {"budget_violations", violations},
                              {"live_command", liveCommand(options, name, p.value)},
+                             {"live", p.live ? liveJson(*p.live, options.live_frames) : nlohmann::json()},
                              {"result", sceneResultJson(p.result)}});
       char cells[6][32];
       std::snprintf(cells[0], sizeof(cells[0]), "%.2f", m.psnr_db);
@@ -509,6 +629,11 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
       std::snprintf(cells[3], sizeof(cells[3]), "%.1f", pipelineMs(p.result, mode));
       std::snprintf(cells[4], sizeof(cells[4]), "%.0f", p.result.bytes_per_frame / 1000.0);
       std::snprintf(cells[5], sizeof(cells[5]), "%.0f", p.result.pod_link_bytes_per_frame / 1000.0);
+      char live_cell[48] = "not run";
+      if (p.live) {
+        std::snprintf(live_cell, sizeof(live_cell), "%.0f (p95 %.0f)", p.live->end_to_end_ms_p50,
+                      p.live->end_to_end_ms_p95);
+      }
       const std::vector<std::string> row = {p.value + (p.is_default ? " (default)" : ""),
                                             cells[0],
                                             cells[1],
@@ -516,6 +641,7 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                                             measuredText(p.result.chamfer_mm, "%.1f"),
                                             cells[2],
                                             cells[3],
+                                            live_cell,
                                             cells[4],
                                             cells[5],
                                             onFront(i) ? "yes" : "",
@@ -545,6 +671,10 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     body += plot(by_pipeline, "PSNR against pipeline ms (" + name + ")", "hull + codecs + client ms");
     body += plot(by_bytes, "PSNR against bytes per frame (" + name + ")", "bytes per frame, server to client");
     body += plot(by_pod_bytes, "PSNR against pod bytes per frame (" + name + ")", "bytes per frame, pods to server");
+    if (all_live) {
+      body += plot(by_live, "PSNR against live end-to-end ms (" + name + ")",
+                   "end-to-end ms, capture to written frame, live loop");
+    }
     // Where each value's pipeline time goes, p50 and p95 over its renders.
     std::vector<html::StackRow> stack;
     for (const SweepPoint* p : mine) {
@@ -556,7 +686,7 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
   }
   body += "<h2>All points</h2>\n" +
           html::table({"knob", "value", "PSNR dB", "SSIM", "flicker", "Chamfer mm", "client ms", "pipeline ms",
-                       "KB/frame to client", "pods KB/frame", "front", "over budget"},
+                       "live end-to-end ms", "KB/frame to client", "pods KB/frame", "front", "over budget"},
                       rows);
   std::ofstream(fs::path(options.out_dir) / "sweep.json") << json.dump(2) << "\n";
   std::ofstream(fs::path(options.out_dir) / "sweep.md") << md;

@@ -2,6 +2,7 @@
 // README.md, section "Sweep".
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 
 #include "common/command_line.h"
 #include "eval/sweep.h"
@@ -29,6 +30,10 @@ int main(int argc, char** argv) {
   app.add_option("--set", set_texts,
                  "NAME=VALUE (repeatable): move the sweep's base (the defaults every point starts from) by a knob, "
                  "e.g. --set size=640x480 --knob draco-bits=8,11,14");
+  app.add_option("--live-frames", options.live_frames,
+                 "also run each point in the live loop (real processes on loopback) for this many frames and "
+                 "judge its end-to-end latency too (0: no live runs)")
+      ->check(CLI::Range(0, 100000));
   std::string budget_file;
   app.add_option("--budget", budget_file,
                  "JSON of per-stage ms budgets; each point's p95 of " + eval::budgetedStagesText() +
@@ -36,6 +41,8 @@ int main(int argc, char** argv) {
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (!render::loadBudgetFlag(budget_file, options.base.budget)) return 2;
   options.base.scenes = {scene};
+  // The live loop's launcher lies next to this executable.
+  options.loop_program = (std::filesystem::canonical("/proc/self/exe").parent_path() / "holofuse_loop").string();
   if (capture::findScene(scene) == nullptr) {
     std::fprintf(stderr, "--scene: unknown scene '%s'; valid scenes: %s\n", scene.c_str(), capture::sceneNames().c_str());
     return 2;

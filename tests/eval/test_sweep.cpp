@@ -21,6 +21,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
+std::string readText(const fs::path& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
 SweepOptions tinySweep(const std::string& dir) {
   SweepOptions options;
   options.base.scenes = {"few-cameras"};
@@ -128,6 +133,55 @@ TEST(Sweep, AnInterruptedSweepKeepsFinishedPointsAndResumes) {
   EXPECT_NE(verdict.find("the default (alpha=2)"), std::string::npos) << verdict;
   EXPECT_TRUE(fs::exists(dir / "sweep.html"));
   EXPECT_TRUE(fs::exists(dir / "sweep.md"));
+  fs::remove_all(dir);
+}
+
+// With live frames each point also runs the live loop, with its settings
+// (the knob's value and the base's), and its end-to-end time joins the
+// report; a rerun keeps it, a live run that fails names its log.
+TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
+  const fs::path dir = fs::temp_directory_path() / "holofuse_sweep_live";
+  fs::remove_all(dir);
+  SweepOptions options = tinySweep(dir.string());
+  options.knobs = {{"draco-bits", {"8"}}};
+  options.live_frames = 3;
+  options.loop_program = std::string(HOLOFUSE_BIN_DIR) + "/holofuse_loop";
+  const auto points = runSweep(options);
+  ASSERT_EQ(points.size(), 2u) << "the default joins";
+  for (const auto& p : points) {
+    ASSERT_TRUE(p.live.has_value()) << p.value;
+    EXPECT_EQ(p.live->frames, 3);
+    EXPECT_GT(p.live->end_to_end_ms_p50, 0.0);
+    EXPECT_LE(p.live->end_to_end_ms_p50, p.live->end_to_end_ms_p95);
+    EXPECT_TRUE(fs::exists(p.live->report)) << p.live->report;
+  }
+  // The server of each live run says what it ran with: the point's Draco
+  // bits, and the base's image size reached the pods.
+  const std::string eight = readText(dir / "live" / "draco-bits=8" / "logs" / "server.log");
+  const std::string eleven = readText(dir / "live" / "default" / "logs" / "server.log");
+  EXPECT_NE(eight.find("Draco 8 bits"), std::string::npos) << eight;
+  EXPECT_NE(eleven.find("Draco 11 bits"), std::string::npos) << eleven;
+  EXPECT_NE(readText(dir / "live" / "default" / "loop.log").find("4 pods at 96x72"), std::string::npos);
+  writeSweepReports(options, points);
+  std::ifstream in(dir / "sweep.json");
+  const auto json = nlohmann::json::parse(in);
+  for (const auto& p : json["knobs"]["draco-bits"]["points"]) {
+    EXPECT_EQ(p["live"]["frames"], 3) << p.dump();
+    EXPECT_GT(p["live"]["end_to_end_ms_p50"].get<double>(), 0.0);
+  }
+  EXPECT_NE(readText(dir / "sweep.html").find("PSNR against live end-to-end ms"), std::string::npos);
+
+  const auto again = runSweep(options);
+  EXPECT_TRUE(again[0].resumed && again[1].resumed);
+  EXPECT_DOUBLE_EQ(again[0].live->end_to_end_ms_p50, points[0].live->end_to_end_ms_p50) << "kept, not run again";
+  options.live_frames = 4;  // asks for another live run, which cannot start
+  options.loop_program = (dir / "no-such-loop").string();
+  try {
+    runSweep(options);
+    ADD_FAILURE() << "a live run that cannot start must fail the sweep";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("loop.log"), std::string::npos) << e.what();
+  }
   fs::remove_all(dir);
 }
 

@@ -9,9 +9,16 @@
 // rename) and a rerun with the same --out skips the points already there.
 // Every knob's default value is the same run: it is done once and kept in
 // points/default.json.
+//
+// With live_frames, each point also runs the live loop (holofuse_loop, real
+// processes on loopback) with the point's settings for that many frames,
+// into <out>/live/<knob>=<value>/, and keeps its end-to-end latency: the
+// time from capture to the written frame, network and queues included,
+// which the leave-one-out run cannot see.
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -39,6 +46,15 @@ struct SweepOptions {
   EvalOptions base;
   std::vector<std::pair<std::string, std::vector<std::string>>> knobs;  // name, values
   std::string out_dir;
+  int live_frames = 0;       // 0: no live runs
+  std::string loop_program;  // holofuse_loop, for the live runs
+};
+
+// A point run live: the client's end-to-end latency and frame rate.
+struct LiveMeasure {
+  int frames = 0;  // rendered
+  double end_to_end_ms_p50 = 0, end_to_end_ms_p95 = 0, fps = 0;
+  std::string report;  // its report.json
 };
 
 struct SweepPoint {
@@ -46,11 +62,14 @@ struct SweepPoint {
   bool is_default = false;
   bool resumed = false;  // read back from a previous run
   SceneResult result;    // the first scene of the sweep
+  std::optional<LiveMeasure> live;
 };
 
 // Validates every knob and value before running anything (std::invalid_argument;
 // a knob given twice is refused). A knob whose values leave out its default
 // gets the default as one more point, so that the report can place it.
+// A live run that fails, or renders fewer frames than asked, is an error
+// naming its log (std::runtime_error); the points before it stay on disk.
 std::vector<SweepPoint> runSweep(const SweepOptions& options,
                                  const std::function<void(const std::string&)>& progress = {});
 
