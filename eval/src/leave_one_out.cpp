@@ -114,6 +114,9 @@ void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions&
   fusion::GroupJob job;
   job.group = std::move(group);  // the decoded images move on; the caller is done with them
   job.group.complete = true;
+  // The Stats carry each pod's arrivals as the loop's do, so their bytes
+  // are the loop's (no network here: no jitter).
+  for (const auto& [id, pod] : job.group.pods) job.pod_arrivals.push_back({static_cast<uint16_t>(id), 1, 0});
   const uint64_t hull_end_ns = protocol::monotonicNs();
   const fusion::FusedOutput fused = fusion::packageFused(job, settings, hull, hull_end_ns, hull_end_ns);
   const protocol::Bytes mesh_wire = fused.mesh_frame->flatten(), bundle_wire = fused.texture_bundle->flatten();
