@@ -136,8 +136,7 @@ int main(int argc, char** argv) {
   std::optional<uint64_t> seed_value;
   std::optional<double> noise_value;
   app.add_option("--seed", seed_value, "synthetic pods' scene seed (their motion, texture and calibration error)");
-  app.add_option("--noise", noise_value, "synthetic pods' sensor noise, grey levels (default: the scene's)")
-      ->check(CLI::Range(0.0, 64.0));
+  holofuse::addSharedFlag(app, "--noise", noise_value);
   std::string budget;
   app.add_option("--budget", budget, "JSON of per-stage ms budgets for the client's report (flags violations)");
   bool quality = false;

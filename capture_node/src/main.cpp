@@ -25,8 +25,7 @@ int main(int argc, char** argv) {
       app.add_option("--frames", options.frames, "stop after this many frames (0: run until signalled)"),
       app.add_option("--scene", scene_name, "named synthetic scene: " + capture::sceneNames()),
       app.add_option("--seed", options.scene.seed, "scene seed"),
-      app.add_option("--noise", options.scene.noise_amplitude, "sensor noise amplitude, grey levels")
-          ->check(CLI::Range(0.0, 64.0)),
+      addSharedFlag(app, "--noise", options.scene.noise_amplitude),
       addSharedFlag(app, "--crop-margin", options.crop_margin),
       addSharedFlag(app, "--codec", codec),
       addSharedFlag(app, "--lz4-acceleration", options.lz4_acceleration),

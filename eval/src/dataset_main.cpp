@@ -41,7 +41,8 @@ int main(int argc, char** argv) {
   auto* info = app.add_subcommand("info", "cameras, frames, sizes, codecs, silhouette IoU and a contact sheet");
   info->add_option("dir", dir, "dataset folder")->required();
   info->add_option("--sheet", sheet, "contact sheet PNG (default DIR/contact_sheet.png)");
-  info->add_option("--voxel", voxel, "hull voxel size in metres (default: the dataset's)")->check(CLI::Range(0.0001, 0.5));
+  info->add_option("--voxel", voxel, "hull voxel size in metres (default: the dataset's)")
+      ->check(holofuse::sharedFlag("--voxel").check());
   auto* import = app.add_subcommand("import", "convert a real multi-view capture into a dataset that replays");
   std::string source, format, out;
   capture::ImportOptions import_options;
@@ -55,7 +56,7 @@ int main(int argc, char** argv) {
   import->add_flag("--dark-subject", import_options.dark_subject, "the subject is darker than the background");
   import->add_option("--close-px", import_options.close_px, "closing radius after thresholding")->check(CLI::Range(0, 100));
   import->add_option("--voxel", import_voxel, "hull voxel size for replays (default: volume / 96)")
-      ->check(CLI::Range(0.0001, 0.5));
+      ->check(holofuse::sharedFlag("--voxel").check());
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (import->parsed()) {
     const auto chosen = capture::captureFormatFromName(format);

@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
   app.add_option("--truth-seed", truth_seed, "with --truth-scene: the pods' --seed (their motion and texture)")
       ->needs(truth_scene_option);
   app.add_option("--truth-noise", truth_noise, "with --truth-scene: the pods' --noise, grey levels")
-      ->check(CLI::Range(0.0, 64.0))
+      ->check(sharedFlag("--noise").check())
       ->needs(truth_scene_option);
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (!truth_scene.empty()) {

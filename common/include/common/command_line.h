@@ -52,6 +52,8 @@ inline const std::vector<SharedFlag>& sharedFlags() {
       {"--image-codec", "colour codec of the images sent on", 0, 0, imageCodecNames(), kToServer | kToPods, "--codec"},
       // capture_node (and fusion_server for the LZ4 settings)
       {"--codec", "colour codec", 0, 0, imageCodecNames()},
+      // (the launcher passes it on itself: to the pods and to the client's truth)
+      {"--noise", "synthetic pods' sensor noise, grey levels (default: the scene's)", 0, 64, {}},
       {"--crop-margin", "send only the foreground's rectangle grown by this many pixels (-1: whole images)", -1, 4096,
        {}, kToPods},
       {"--lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", 1, 65537, {},
