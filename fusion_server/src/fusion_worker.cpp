@@ -21,12 +21,17 @@ protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_
   images.capture_time_ns = pod.capture_time_ns;
   images.bytes = wire_bytes;
   images.stamps = pod.stamps;
-  uint64_t encode_end = pod.capture_time_ns;
+  // Sent when the pod finished its frame: a synthetic pod's encoding, a
+  // replay pod's read of the recording.
+  uint64_t sent = pod.capture_time_ns;
   for (const auto& s : pod.stamps) {
-    if (s.stage == static_cast<uint16_t>(protocol::Stage::kPodEncode)) encode_end = s.end_ns;
+    if (s.stage == static_cast<uint16_t>(protocol::Stage::kPodEncode) ||
+        s.stage == static_cast<uint16_t>(protocol::Stage::kReplayRead)) {
+      sent = s.end_ns;
+    }
   }
   images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend), static_cast<uint16_t>(pod.camera_id),
-                           encode_end, now_ns});
+                           sent, now_ns});
   images.camera = camera;  // the calibration these images belong to
   for (const auto& plane : pod.planes) {
     // Checked against the calibration before anything is decompressed: the
@@ -173,10 +178,9 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   out.mesh_frame = share(protocol::encodeOutgoing(mesh_frame, protocol::nextSequence(), draco_bytes));
   // One sequence number for both: it is one frame, spelt per minor.
   const uint64_t stats_sequence = protocol::nextSequence();
-  protocol::Stats stats_v1_0 = stats;
-  out.stats_v1_0 = share(protocol::encodeOutgoing(stats_v1_0, stats_sequence, nullptr, 0));
   stats.pod_arrivals = job.pod_arrivals;
   out.stats = share(protocol::encodeOutgoing(stats, stats_sequence));
+  out.stats_v1_0 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 0));
   out.triangles = mesh.triangleCount();
   return out;
 }

@@ -1,5 +1,6 @@
 #include "protocol/messages.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace holofuse::protocol {
@@ -350,7 +351,7 @@ Status readPayload(std::span<const uint8_t> payload, Heartbeat& m, size_t base_o
   return finish(r);
 }
 
-void writePayload(WireWriter& w, const Stats& m) {
+void writePayload(WireWriter& w, const Stats& m, uint8_t minor) {
   w.u64(m.frame_id);
   w.u32(m.cameras_expected);
   w.u64(m.cameras_present);
@@ -358,12 +359,14 @@ void writePayload(WireWriter& w, const Stats& m) {
   w.u64(m.dropped_groups);
   w.u64(m.pod_bytes);
   w.str(m.note);
-  if (m.pod_arrivals) {  // since 1.1
-    w.u16(static_cast<uint16_t>(m.pod_arrivals->size()));
-    for (const auto& a : *m.pod_arrivals) {
-      w.u16(a.pod);
-      w.u64(a.frames);
-      w.u32(a.jitter_us);
+  if (minor >= 1) {
+    const std::vector<PodArrivals> none;
+    const auto& arrivals = m.pod_arrivals ? *m.pod_arrivals : none;
+    w.u16(static_cast<uint16_t>(std::min(arrivals.size(), kMaxStatsPods)));
+    for (size_t k = 0; k < arrivals.size() && k < kMaxStatsPods; ++k) {
+      w.u16(arrivals[k].pod);
+      w.u64(arrivals[k].frames);
+      w.u32(arrivals[k].jitter_us);
     }
   }
 }

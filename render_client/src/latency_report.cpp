@@ -187,7 +187,7 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
     for (const auto& a : server_arrivals_) received["pod_" + std::to_string(a.pod)] = a.frames;
     j["pod_frames_at_server"] = received;
   } else if (!jitter.empty()) {
-    j["jitter_source"] = "client, over the pod frames behind rendered meshes (a server before protocol 1.1)";
+    j["jitter_source"] = "client, over the pod frames behind rendered meshes (the server sent no arrivals)";
   }
   if (!budget.empty()) {
     j["budget_ms"] = budget;

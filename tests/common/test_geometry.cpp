@@ -120,7 +120,9 @@ TEST(ImageCodec, Lz4HcLevelsDecodeAsLz4AndCompressMore) {
     auto back = decodePlane(plane);
     ASSERT_TRUE(back.isOk()) << back.status().toString();
     EXPECT_EQ(back->pixels, image.pixels) << "level " << level;
-    if (level >= 9) EXPECT_LT(hc.size(), fast.size()) << "level " << level;
+    if (level >= 9) {
+      EXPECT_LT(hc.size(), fast.size()) << "level " << level;
+    }
   }
 }
 

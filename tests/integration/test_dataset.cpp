@@ -251,6 +251,12 @@ TEST_F(DatasetLoop, ReplayFusesTheSameMeshesBitForBitAndSendsTheRecordedImages) 
   EXPECT_TRUE(report["quality"].empty()) << "a replay has no truth to judge frames by";
   EXPECT_TRUE(report["frames"][0]["psnr_db"].is_null());
   EXPECT_GT(report["latency_ms"]["stages"]["replay_read"]["samples"].get<int>(), 0);
+  // Replay pods are counted at the server like live ones, every frame.
+  EXPECT_EQ(report["jitter_source"], "server, over every pod frame received");
+  ASSERT_EQ(report["pod_frames_at_server"].size(), report["jitter_ms"].size());
+  for (const auto& [pod, frames] : report["pod_frames_at_server"].items()) {
+    EXPECT_GE(frames.get<int>(), report["frames_rendered"].get<int>()) << pod;
+  }
 }
 
 // SIGKILL the recording server while pods stream: every record written

@@ -121,8 +121,6 @@ std::vector<Sample> allSamples(uint8_t minor) {
   hello.max_minor = minor;
   HelloAck ack = sampleHelloAck();
   ack.minor = minor;
-  Stats stats = sampleStats();
-  if (minor < 1) stats.pod_arrivals.reset();  // since 1.1
   return {{"hello", encodeFrame(hello, 1, 0, minor)},
           {"hello_ack", encodeFrame(ack, 2, 0, minor)},
           {"calibration", encodeFrame(sampleCalibration(), 3, 0, minor)},
@@ -130,7 +128,7 @@ std::vector<Sample> allSamples(uint8_t minor) {
           {"mesh_frame", encodeFrame(sampleMeshFrame(), 5, 0, minor)},
           {"texture_bundle", encodeFrame(sampleTextureBundle(), 6, 0, minor)},
           {"heartbeat", encodeFrame(Heartbeat{777}, 7, 0, minor)},
-          {"stats", encodeFrame(stats, 8, 0, minor)},
+          {"stats", encodeFrame(sampleStats(), 8, 0, minor)},  // 1.0: without the arrivals
           {"bye", encodeFrame(Bye{"done"}, 9, 0, minor)},
           {"error", encodeFrame(ErrorMessage{3, "version 2.0 not supported"}, 10, 0, minor)}};
 }

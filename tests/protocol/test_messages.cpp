@@ -1,5 +1,5 @@
 // Round trips, truncation, caps, checksums, forward compatibility and the
-// golden byte vectors of protocol v1.0.
+// golden byte vectors of every minor of protocol v1.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -304,6 +304,17 @@ TEST(Framing, StatsCarriesPodArrivalsSinceMinor1) {
   ASSERT_TRUE(decodeFrame(old_frame, m).isOk());
   EXPECT_FALSE(m.pod_arrivals.has_value());
   EXPECT_EQ(m.note, v1_0.note);
+  EXPECT_EQ(encodeFrame(testing::sampleStats(), 0, 0, 0), encodeFrame(v1_0, 0, 0, 0))
+      << "a 1.0 encoding leaves the arrivals out whether or not the message has them";
+
+  // 1.1's fields under a 1.0 header: a reader takes what 1.0 has and
+  // skips the rest, as a 1.0 reader would.
+  FrameBuilder relabelled(MessageType::kStats, 0);
+  writePayload(relabelled.writer(), testing::sampleStats(), 1);
+  relabelled.setMinor(0);
+  ASSERT_TRUE(decodeFrame(decodeOne(std::move(relabelled).finish()), m).isOk());
+  EXPECT_FALSE(m.pod_arrivals.has_value());
+  EXPECT_EQ(m.pod_bytes, 65536u);
 
   Stats none = testing::sampleStats();
   none.pod_arrivals.emplace();
@@ -313,9 +324,7 @@ TEST(Framing, StatsCarriesPodArrivalsSinceMinor1) {
 
   auto payloadWith = [](uint16_t count, int pods) {
     FrameBuilder builder(MessageType::kStats, 0);
-    Stats s = testing::sampleStats();
-    s.pod_arrivals.reset();
-    writePayload(builder.writer(), s);
+    writePayload(builder.writer(), testing::sampleStats(), 0);  // the 1.0 fields
     builder.writer().u16(count);
     for (int k = 0; k < pods; ++k) {
       builder.writer().u16(static_cast<uint16_t>(k));
@@ -408,6 +417,19 @@ TEST(Golden, EveryTypeMatchesItsVectorInEveryMinor) {
     ASSERT_TRUE(in) << "missing golden vector " << path;
     const Bytes golden((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     EXPECT_EQ(golden, sample.frame) << "wire format of " << sample.name << " changed";
+  }
+  // And the reader takes each minor's file as that minor's message.
+  for (const char* version : {"1.0", "1.1"}) {
+    std::ifstream in(dir / ("stats.v" + std::string(version) + ".bin"), std::ios::binary);
+    const Bytes bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    Stats m;
+    ASSERT_TRUE(decodeFrame(decodeOne(bytes), m).isOk()) << version;
+    EXPECT_EQ(m.note, testing::sampleStats().note) << version;
+    if (std::string(version) == "1.0") {
+      EXPECT_FALSE(m.pod_arrivals.has_value());
+    } else {
+      EXPECT_EQ(m.pod_arrivals, testing::sampleStats().pod_arrivals);
+    }
   }
 }
 

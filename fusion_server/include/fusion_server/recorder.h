@@ -1,7 +1,7 @@
 // The server's recorder: what the pods sent (Calibration and every accepted
 // PodFrame, byte for byte as received, with receive times) into
 // DIR/pods.hfr, and optionally the fused output (MeshFrame, TextureBundle,
-// Stats as sent to clients) into DIR/fused.hfr. A failed write (a full
+// Stats as sent to clients of the server's own minor) into DIR/fused.hfr. A failed write (a full
 // disk) is reported once and stops that file; the server keeps serving.
 #pragma once
 

@@ -173,7 +173,8 @@ struct Stats {
   uint64_t dropped_groups = 0;
   uint64_t pod_bytes = 0;
   std::string note;
-  // Since 1.1; absent (not even a count) in a 1.0 Stats.
+  // Since 1.1: read from a 1.1 Stats (absent when read from a 1.0 one);
+  // written as the encoding's minor asks.
   std::optional<std::vector<PodArrivals>> pod_arrivals;
 };
 
@@ -196,7 +197,9 @@ void writePayload(WireWriter& w, const PodFrame& m);
 void writePayload(WireWriter& w, const MeshFrame& m);
 void writePayload(WireWriter& w, const TextureBundle& m);
 void writePayload(WireWriter& w, const Heartbeat& m);
-void writePayload(WireWriter& w, const Stats& m);
+// The fields of the given minor: from 1.1 on the pods' arrivals (an empty
+// list when m has none), before that not.
+void writePayload(WireWriter& w, const Stats& m, uint8_t minor = kVersionMinor);
 void writePayload(WireWriter& w, const Bye& m);
 void writePayload(WireWriter& w, const ErrorMessage& m);
 
@@ -216,12 +219,23 @@ Status readPayload(std::span<const uint8_t> payload, ErrorMessage& m, size_t bas
 
 // A whole frame for message m: one copy of the payload into the frame
 // buffer (reserved up front from payload_hint), then one CRC pass.
-// minor pins the header's minor; the payload holds the fields m holds.
+// A message whose fields depend on the minor writes the given minor's, the
+// minor the header says.
+template <typename Message>
+void writePayloadAt(WireWriter& w, const Message& m, uint8_t minor) {
+  if constexpr (requires { writePayload(w, m, minor); }) {
+    writePayload(w, m, minor);
+  } else {
+    writePayload(w, m);
+  }
+}
+
+// minor pins the encoding to an older minor: its header and its fields.
 template <typename Message>
 Bytes encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0, uint8_t minor = kVersionMinor) {
   FrameBuilder builder(Message::kType, sequence, payload_hint);
   builder.setMinor(minor);
-  writePayload(builder.writer(), m);
+  writePayloadAt(builder.writer(), m, minor);
   return std::move(builder).finish();
 }
 
@@ -235,7 +249,7 @@ OutgoingFrame encodeOutgoing(const Message& m, uint64_t sequence, std::shared_pt
   FrameBuilder builder(Message::kType, sequence, 4 * kBorrowMinBytes);
   builder.setMinor(minor);
   builder.borrowBulk(std::move(keep_alive));
-  writePayload(builder.writer(), m);
+  writePayloadAt(builder.writer(), m, minor);
   return std::move(builder).finishParts();
 }
 
