@@ -111,7 +111,8 @@ TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
   EXPECT_DOUBLE_EQ(quality[0].p50, 25.0);
   EXPECT_DOUBLE_EQ(quality[0].worst, 20.0);
   EXPECT_DOUBLE_EQ(quality[1].worst, 0.5);
-  const render::Budget budget = {{"hull", 30.0}, {"end_to_end", 500.0}};
+  // replay_read: a stage this (live) run never stamped.
+  const render::Budget budget = {{"hull", 30.0}, {"end_to_end", 500.0}, {"replay_read", 0.001}};
   const fs::path dir = scratch("loop");
   std::ofstream(dir / "report.html") << report.toHtml({{"mode", "montage4d"}}, budget);
   // Latency stages, GPU passes, bytes per link, jitter.
@@ -120,10 +121,16 @@ TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("<tr class=\"flagged\"><td>hull</td>"), std::string::npos) << "hull p95 40 ms > 30 ms budget";
   EXPECT_EQ(text.find("<tr class=\"flagged\"><td>end_to_end</td>"), std::string::npos);
+  EXPECT_NE(text.find("<tr><td>replay_read</td><td>0.0 ms</td><td>n/a</td><td>n/a</td><td>not measured"),
+            std::string::npos)
+      << "a stage without samples is neither within nor over";
   EXPECT_NE(text.find("<tr><td>PSNR</td><td>24.67 dB</td><td>25.00 dB</td><td>20.00 dB</td><td>9</td></tr>"),
             std::string::npos)
       << "the quality table";
   const auto json = nlohmann::json::parse(report.toJson({}, budget));
+  ASSERT_EQ(json["budget_violations"].size(), 1u);
+  EXPECT_EQ(json["budget_violations"][0]["stage"], "hull");
+  EXPECT_EQ(json["budget_unmeasured"], (nlohmann::json{"replay_read"}));
   EXPECT_DOUBLE_EQ(json["quality"]["ssim"]["worst"].get<double>(), 0.5);
   EXPECT_TRUE(json["frames"][3]["psnr_db"].is_null());
   fs::remove_all(dir);
