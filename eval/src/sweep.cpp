@@ -366,7 +366,32 @@ nlohmann::json liveJson(const LiveMeasure& live, int frames_asked) {
           {"end_to_end_ms_p50", live.end_to_end_ms_p50},
           {"end_to_end_ms_p95", live.end_to_end_ms_p95},
           {"fps", live.fps},
+          {"stage_ms_p95", live.stage_ms_p95},
+          {"jitter_ms", live.jitter_ms},
           {"report", live.report}};
+}
+
+// A live run kept in a point's file (points written before the stages and
+// jitter were kept have neither).
+LiveMeasure liveFromJson(const nlohmann::json& j) {
+  LiveMeasure live;
+  live.frames = j.at("frames").get<int>();
+  live.end_to_end_ms_p50 = j.at("end_to_end_ms_p50").get<double>();
+  live.end_to_end_ms_p95 = j.at("end_to_end_ms_p95").get<double>();
+  live.fps = j.at("fps").get<double>();
+  live.stage_ms_p95 = j.value("stage_ms_p95", std::map<std::string, double>{});
+  live.jitter_ms = j.value("jitter_ms", std::map<std::string, double>{});
+  live.report = j.at("report").get<std::string>();
+  return live;
+}
+
+// The worst pod's jitter of a live run, or -1 without one.
+double worstJitterMs(const std::optional<LiveMeasure>& live) {
+  double worst = -1;
+  if (live) {
+    for (const auto& [pod, ms] : live->jitter_ms) worst = std::max(worst, ms);
+  }
+  return worst;
 }
 
 // The point's live run, as the loop's report gives it; an error names the
@@ -397,8 +422,20 @@ LiveMeasure runLive(const SweepOptions& options, const std::string& knob, const 
   live.end_to_end_ms_p50 = e2e.at("p50").get<double>();
   live.end_to_end_ms_p95 = e2e.at("p95").get<double>();
   live.fps = report.value("fps", 0.0);
+  live.stage_ms_p95["end_to_end"] = live.end_to_end_ms_p95;
+  for (const auto& [stage, numbers] : report.at("latency_ms").at("stages").items()) {
+    if (numbers.value("samples", 0) > 0) live.stage_ms_p95[stage] = numbers.at("p95").get<double>();
+  }
+  live.jitter_ms = report.value("jitter_ms", std::map<std::string, double>{});
   live.report = report_path.string();
   return live;
+}
+
+// A point is on disk whole or not at all.
+void writePoint(const fs::path& path, const nlohmann::json& file) {
+  const fs::path partial = path.string() + ".partial";
+  std::ofstream(partial) << file.dump(2);
+  fs::rename(partial, path);
 }
 
 std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
@@ -423,7 +460,6 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
       const PlannedPoint plan = planPoint(options, knob, value);
       point.is_default = plan.is_default;
       nlohmann::json file;
-      bool changed = false;  // the point's file must be (re)written
       if (fs::exists(plan.path)) {
         file = readPoint(plan);
         point.result = sceneResultFromJson(file.at("scene").get<std::string>(), file.at("result"));
@@ -435,33 +471,24 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
                 {"scene", point.result.name},
                 {"settings", runSettings(plan.run)},
                 {"result", sceneResultJson(point.result)}};
-        changed = true;
+        // Written before the live run, which an interruption or a failed
+        // loop must not take the leave-one-out result down with.
+        writePoint(plan.path, file);
       }
       // A live run is kept with its point, and reused when it rendered the
       // frames this run asks for.
       if (options.live_frames > 0) {
         const auto kept = file.find("live");
         if (kept != file.end() && kept->value("frames_asked", 0) == options.live_frames) {
-          LiveMeasure live;
-          live.frames = kept->at("frames").get<int>();
-          live.end_to_end_ms_p50 = kept->at("end_to_end_ms_p50").get<double>();
-          live.end_to_end_ms_p95 = kept->at("end_to_end_ms_p95").get<double>();
-          live.fps = kept->at("fps").get<double>();
-          live.report = kept->at("report").get<std::string>();
-          point.live = live;
+          point.live = liveFromJson(*kept);
         } else {
           if (progress) {
             progress("running " + name + "=" + value + " live for " + std::to_string(options.live_frames) + " frames");
           }
           point.live = runLive(options, name, value, plan.is_default);
           file["live"] = liveJson(*point.live, options.live_frames);
-          changed = true;
+          writePoint(plan.path, file);
         }
-      }
-      if (changed) {
-        const fs::path partial = plan.path.string() + ".partial";
-        std::ofstream(partial) << file.dump(2);
-        fs::rename(partial, plan.path);  // a point is on disk whole or not at all
       }
       ++done;
       if (progress) {
@@ -517,6 +544,22 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::functio
   return sweepPoints(swept, progress);
 }
 
+PointBudget checkPointBudget(const render::Budget& budget, const SweepPoint& point, const std::string& mode) {
+  PointBudget out;
+  out.checks = checkBudget(budget, point.result, {mode});
+  const std::vector<std::string> timed = budgetedStages();
+  for (const auto& [stage, ms] : budget) {
+    if (std::find(timed.begin(), timed.end(), stage) != timed.end()) continue;
+    const auto live = point.live ? point.live->stage_ms_p95.find(stage) : std::map<std::string, double>::const_iterator{};
+    if (point.live && live != point.live->stage_ms_p95.end()) {
+      out.checks.push_back({"live", stage, live->second, ms});
+    } else {
+      out.unchecked.push_back(stage);
+    }
+  }
+  return out;
+}
+
 // The live loop with one knob set as a sweep point had it, and the rest as
 // the sweep's base has them (the defaults, or what --set moved).
 std::string liveCommand(const SweepOptions& options, const std::string& knob, const std::string& value) {
@@ -539,8 +582,11 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                    "times by more than 10% and more than either point's p50-to-p95 spread, PSNR by more than "
                    "0.01 dB, bytes by more than 0.5%. Flicker and Chamfer are shown, not judged. Live end-to-end ms "
                    "(with --live-frames): the live loop run with the point's settings, capture to written frame, "
-                   "network and queues included; judged too where every value of the knob ran live.\n\n";
+                   "network and queues included; judged too where every value of the knob ran live. Live jitter: the worst "
+                   "pod's RFC 3550 arrival jitter at the server in that run; the leave-one-out runs have no network, "
+                   "so a point not run live has none.\n\n";
   std::string body;
+  std::set<std::string> unchecked;  // budgeted stages some point could not hold against its budget
   std::vector<std::vector<std::string>> rows;
   for (const auto& [name, values] : options.knobs) {
     std::vector<const SweepPoint*> mine;
@@ -590,21 +636,28 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     k["default_verdict"] = verdict;
     md += "## " + name +
           "\n\n| value | PSNR dB | SSIM | flicker | Chamfer mm | client ms | pipeline ms | live end-to-end ms | "
-          "KB/frame to client | pods KB/frame | front | over budget |\n"
-          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n";
+          "live jitter ms (worst pod) | KB/frame to client | pods KB/frame | front | over budget |\n"
+          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n";
     for (size_t i = 0; i < mine.size(); ++i) {
       const SweepPoint& p = *mine[i];
       const ModeResult& m = p.result.modes.at(mode);
-      // The stages over the budget (--budget) at this point's p95.
+      // The stages over the budget (--budget) at this point's p95: the
+      // leave-one-out run's, then the live run's for the rest.
       std::string over;
       nlohmann::json violations = nlohmann::json::array();
-      for (const BudgetCheck& check : checkBudget(options.base.budget, p.result, {mode})) {
+      const PointBudget point_budget = checkPointBudget(options.base.budget, p, mode);
+      for (const BudgetCheck& check : point_budget.checks) {
         if (!check.over()) continue;
-        char text[96];
-        std::snprintf(text, sizeof(text), "%s %.1f > %.1f ms", check.stage.c_str(), check.p95_ms, check.budget_ms);
+        char text[112];
+        std::snprintf(text, sizeof(text), "%s%s %.1f > %.1f ms", check.mode == "live" ? "live " : "",
+                      check.stage.c_str(), check.p95_ms, check.budget_ms);
         over += (over.empty() ? "" : ", ") + std::string(text);
-        violations.push_back({{"stage", check.stage}, {"p95_ms", check.p95_ms}, {"budget_ms", check.budget_ms}});
+        violations.push_back({{"stage", check.stage},
+                              {"measured", check.mode == "live" ? "live loop" : "leave-one-out"},
+                              {"p95_ms", check.p95_ms},
+                              {"budget_ms", check.budget_ms}});
       }
+      for (const auto& stage : point_budget.unchecked) unchecked.insert(stage);
       k["points"].push_back({{"value", p.value},
                              {"is_default", p.is_default},
                              {"psnr_db", m.psnr_db},
@@ -619,6 +672,8 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                              {"pod_link_bytes_per_frame", p.result.pod_link_bytes_per_frame},
                              {"on_front", onFront(i)},
                              {"budget_violations", violations},
+                             {"budget_unchecked", point_budget.unchecked},
+                             {"live_worst_pod_jitter_ms", measuredJson(worstJitterMs(p.live))},
                              {"live_command", liveCommand(options, name, p.value)},
                              {"live", p.live ? liveJson(*p.live, options.live_frames) : nlohmann::json()},
                              {"result", sceneResultJson(p.result)}});
@@ -634,6 +689,7 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
         std::snprintf(live_cell, sizeof(live_cell), "%.0f (p95 %.0f)", p.live->end_to_end_ms_p50,
                       p.live->end_to_end_ms_p95);
       }
+      const std::string jitter_cell = p.live ? measuredText(worstJitterMs(p.live), "%.2f") : "not run";
       const std::vector<std::string> row = {p.value + (p.is_default ? " (default)" : ""),
                                             cells[0],
                                             cells[1],
@@ -642,6 +698,7 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                                             cells[2],
                                             cells[3],
                                             live_cell,
+                                            jitter_cell,
                                             cells[4],
                                             cells[5],
                                             onFront(i) ? "yes" : "",
@@ -684,9 +741,24 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     }
     body += html::stackedBars("Latency of a new mesh by value (" + name + ")", latencyStages(), stack, "ms");
   }
+  if (!options.base.budget.empty()) {
+    // Where each budgeted stage is measured, and which no point measured.
+    std::string unchecked_text;
+    for (const auto& stage : unchecked) unchecked_text += (unchecked_text.empty() ? "" : ", ") + stage;
+    const std::string budget_text =
+        "Budget: each point's p95 of " + budgetedStagesText() +
+        " from its leave-one-out run, and of the other stages (end_to_end, upload, ...) from its live run (\"live\" "
+        "in the table; --live-frames)." +
+        (unchecked_text.empty() ? std::string() : " Not checked at some points (no live run): " + unchecked_text + ".");
+    json["budget_ms"] = options.base.budget;
+    json["budget_unchecked"] = unchecked;
+    md += budget_text + "\n";
+    body += "<p>" + html::escape(budget_text) + "</p>\n";
+  }
   body += "<h2>All points</h2>\n" +
           html::table({"knob", "value", "PSNR dB", "SSIM", "flicker", "Chamfer mm", "client ms", "pipeline ms",
-                       "live end-to-end ms", "KB/frame to client", "pods KB/frame", "front", "over budget"},
+                       "live end-to-end ms", "live jitter ms (worst pod)", "KB/frame to client", "pods KB/frame",
+                       "front", "over budget"},
                       rows);
   std::ofstream(fs::path(options.out_dir) / "sweep.json") << json.dump(2) << "\n";
   std::ofstream(fs::path(options.out_dir) / "sweep.md") << md;

@@ -161,6 +161,7 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
   std::ifstream in(dir / "quality.html");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("MISSED: PSNR gain below 0.5 dB"), std::string::npos);
+  EXPECT_NE(text.find(html::escape(eval::kNoJitterHere)), std::string::npos) << "says why there is no jitter";
   EXPECT_NE(text.find("Latency of a new mesh: colour-imbalance"), std::string::npos);
   EXPECT_NE(text.find("<tr class=\"flagged\"><td>colour-imbalance</td><td>-</td><td>hull</td>"), std::string::npos);
   EXPECT_NE(text.find("<tr class=\"flagged\"><td>colour-imbalance</td><td>montage4d</td><td>render</td>"),
@@ -189,7 +190,9 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   options.base.scenes = {"clean"};
   options.base.modes = {render::BlendMode::kMontage4D};
   options.knobs = {{"alpha", {"1", "2", "8"}}, {"voxel", {"0.02", "0.01"}}};
-  options.base.budget = {{"render", 60.0}};  // over only at voxel 0.01: render p95 68.75 ms
+  // render: over only at voxel 0.01 (p95 68.75 ms); end_to_end: measured
+  // only where a point ran live (voxel), over at 0.01.
+  options.base.budget = {{"render", 60.0}, {"end_to_end", 300.0}};
   std::vector<eval::SweepPoint> points;
   auto add = [&](const std::string& knob, const std::string& value, bool is_default, double psnr, double ms,
                  double bytes) {
@@ -200,20 +203,41 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   add("alpha", "8", false, 19.2, 31, 1.3e6);
   add("voxel", "0.02", true, 19.5, 30, 1.3e6);
   add("voxel", "0.01", false, 20.1, 55, 1.9e6);
+  for (auto& p : points) {
+    if (p.knob != "voxel") continue;
+    const bool fine = p.value == "0.01";
+    eval::LiveMeasure live;
+    live.frames = 20;
+    live.end_to_end_ms_p50 = fine ? 380 : 240;
+    live.end_to_end_ms_p95 = fine ? 420 : 280;
+    live.stage_ms_p95 = {{"end_to_end", live.end_to_end_ms_p95}, {"upload", 4.0}};
+    live.jitter_ms = {{"pod_0", 0.5}, {"pod_1", fine ? 3.25 : 1.5}};
+    p.live = live;
+  }
   const fs::path dir = scratch("sweep");
   options.out_dir = dir.string();
   eval::writeSweepReports(options, points);
-  EXPECT_EQ(chartsRendered(dir / "sweep.html"), 10) << "four plots and the latency stack for each of two knobs";
+  EXPECT_EQ(chartsRendered(dir / "sweep.html"), 11)
+      << "four plots and the latency stack for each of two knobs, and the live end-to-end plot of the knob run live";
   std::ifstream in(dir / "sweep.html");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("the default (alpha=2) is on the Pareto front"), std::string::npos);
   EXPECT_NE(text.find("<tr class=\"flagged\"><td>voxel</td><td>0.01</td>"), std::string::npos);
   EXPECT_NE(text.find("<tr><td>voxel</td><td>0.02 (default)</td>"), std::string::npos) << "within budget";
-  EXPECT_NE(text.find("render 68.8 &gt; 60.0 ms"), std::string::npos);
+  EXPECT_NE(text.find("render 68.8 &gt; 60.0 ms, live end_to_end 420.0 &gt; 300.0 ms"), std::string::npos);
+  EXPECT_NE(text.find("Not checked at some points (no live run): end_to_end."), std::string::npos);
+  EXPECT_NE(text.find("<td>240 (p95 280)</td><td>1.50</td>"), std::string::npos) << "the worst pod's jitter";
   std::ifstream json_in(dir / "sweep.json");
   const auto json = nlohmann::json::parse(json_in);
-  EXPECT_EQ(json["knobs"]["voxel"]["points"][1]["budget_violations"].size(), 1u);
+  const auto& fine = json["knobs"]["voxel"]["points"][1];
+  ASSERT_EQ(fine["budget_violations"].size(), 2u);
+  EXPECT_EQ(fine["budget_violations"][1]["stage"], "end_to_end");
+  EXPECT_EQ(fine["budget_violations"][1]["measured"], "live loop");
+  EXPECT_DOUBLE_EQ(fine["live_worst_pod_jitter_ms"].get<double>(), 3.25);
   EXPECT_EQ(json["knobs"]["voxel"]["points"][0]["budget_violations"].size(), 0u);
+  EXPECT_EQ(json["knobs"]["alpha"]["points"][0]["budget_unchecked"], (nlohmann::json{"end_to_end"}));
+  EXPECT_TRUE(json["knobs"]["alpha"]["points"][0]["live_worst_pod_jitter_ms"].is_null());
+  EXPECT_EQ(json["budget_unchecked"], (nlohmann::json{"end_to_end"}));
   fs::remove_all(dir);
 }
 

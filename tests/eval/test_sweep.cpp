@@ -154,6 +154,12 @@ TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
     EXPECT_GT(p.live->end_to_end_ms_p50, 0.0);
     EXPECT_LE(p.live->end_to_end_ms_p50, p.live->end_to_end_ms_p95);
     EXPECT_TRUE(fs::exists(p.live->report)) << p.live->report;
+    // Every stage the live loop stamped, for the budget, and each of the
+    // scene's 4 pods' arrival jitter at the server.
+    EXPECT_DOUBLE_EQ(p.live->stage_ms_p95.at("end_to_end"), p.live->end_to_end_ms_p95);
+    EXPECT_GT(p.live->stage_ms_p95.count("upload"), 0u) << "a stage the leave-one-out run does not time";
+    EXPECT_EQ(p.live->stage_ms_p95.count("replay_read"), 0u) << "not stamped in a live run";
+    EXPECT_EQ(p.live->jitter_ms.size(), 4u);
   }
   // The server of each live run says what it ran with: the point's Draco
   // bits, and the base's image size reached the pods.
@@ -168,12 +174,34 @@ TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
   for (const auto& p : json["knobs"]["draco-bits"]["points"]) {
     EXPECT_EQ(p["live"]["frames"], 3) << p.dump();
     EXPECT_GT(p["live"]["end_to_end_ms_p50"].get<double>(), 0.0);
+    EXPECT_GE(p["live_worst_pod_jitter_ms"].get<double>(), 0.0);
   }
   EXPECT_NE(readText(dir / "sweep.html").find("PSNR against live end-to-end ms"), std::string::npos);
 
   const auto again = runSweep(options);
   EXPECT_TRUE(again[0].resumed && again[1].resumed);
   EXPECT_DOUBLE_EQ(again[0].live->end_to_end_ms_p50, points[0].live->end_to_end_ms_p50) << "kept, not run again";
+  EXPECT_EQ(again[0].live->jitter_ms, points[0].live->jitter_ms);
+  EXPECT_EQ(again[0].live->stage_ms_p95, points[0].live->stage_ms_p95);
+
+  // A new point whose live run fails keeps its leave-one-out result on
+  // disk; the rerun reads it back and runs only the live part.
+  const std::string loop = options.loop_program;
+  options.knobs = {{"draco-bits", {"14"}}};
+  options.loop_program = (dir / "no-such-loop").string();
+  EXPECT_THROW(runSweep(options), std::runtime_error);
+  {
+    std::ifstream kept_in(dir / "points" / "draco-bits=14.json");
+    const auto kept = nlohmann::json::parse(kept_in);
+    EXPECT_TRUE(kept.contains("result"));
+    EXPECT_FALSE(kept.contains("live"));
+  }
+  options.loop_program = loop;
+  const auto mended = runSweep(options);
+  ASSERT_EQ(mended.size(), 2u);
+  EXPECT_TRUE(mended[0].resumed) << "the leave-one-out run is not repeated";
+  ASSERT_TRUE(mended[0].live.has_value());
+  EXPECT_EQ(mended[0].live->frames, 3);
   options.live_frames = 4;  // asks for another live run, which cannot start
   options.loop_program = (dir / "no-such-loop").string();
   try {

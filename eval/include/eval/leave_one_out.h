@@ -97,6 +97,11 @@ struct ModeResult {
 inline constexpr const char* kCodecsMeaning =
     "the slowest pod's encoding, the server's decoding of every pod frame and its Draco and image encoding for "
     "clients, and the client's decoding of both";
+// Why a leave-one-out report has no per-pod jitter, and where to read it.
+inline constexpr const char* kNoJitterHere =
+    "The evaluation runs every stage in one process, with no network, so it has no arrival jitter: the live loop's "
+    "report (./holofuse demo) gives each pod's RFC 3550 jitter at the server, and so does each point of a sweep "
+    "run with --live-frames.";
 
 // The codec stages of a frame, in order, under the live report's stage
 // names (report.json latency_ms.stages): pod_encode and server_decode

@@ -12,12 +12,15 @@
 //
 // With live_frames, each point also runs the live loop (holofuse_loop, real
 // processes on loopback) with the point's settings for that many frames,
-// into <out>/live/<knob>=<value>/, and keeps its end-to-end latency: the
-// time from capture to the written frame, network and queues included,
-// which the leave-one-out run cannot see.
+// into <out>/live/<knob>=<value>/, and keeps its end-to-end latency (the
+// time from capture to the written frame, network and queues included),
+// every stage's p95 and each pod's arrival jitter: what the leave-one-out
+// run cannot see. The point's leave-one-out result is written before its
+// live run starts, so a live run that fails or is cut short loses only itself.
 #pragma once
 
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -50,10 +53,16 @@ struct SweepOptions {
   std::string loop_program;  // holofuse_loop, for the live runs
 };
 
-// A point run live: the client's end-to-end latency and frame rate.
+// A point run live: the client's end-to-end latency and frame rate, the
+// p95 of every stage the run stamped, and each pod's arrival jitter.
 struct LiveMeasure {
   int frames = 0;  // rendered
   double end_to_end_ms_p50 = 0, end_to_end_ms_p95 = 0, fps = 0;
+  // report.json latency_ms.stages' p95 of each stage with samples, and
+  // "end_to_end"; what a budget's stages are held against live.
+  std::map<std::string, double> stage_ms_p95;
+  // report.json jitter_ms: "pod_<N>" -> RFC 3550 interarrival jitter, ms.
+  std::map<std::string, double> jitter_ms;
   std::string report;  // its report.json
 };
 
@@ -64,6 +73,16 @@ struct SweepPoint {
   SceneResult result;    // the first scene of the sweep
   std::optional<LiveMeasure> live;
 };
+
+// A point's budget: each stage the leave-one-out run times held against it
+// at p95 (checkBudget), then each other budgeted stage (end_to_end,
+// upload, ...) against the point's live run when it has one (mode "live");
+// unchecked names the budgeted stages neither measured.
+struct PointBudget {
+  std::vector<BudgetCheck> checks;
+  std::vector<std::string> unchecked;
+};
+PointBudget checkPointBudget(const render::Budget& budget, const SweepPoint& point, const std::string& mode);
 
 // Validates every knob and value before running anything (std::invalid_argument;
 // a knob given twice is refused). A knob whose values leave out its default
