@@ -228,8 +228,11 @@ std::string folderName(const std::string& name) {
 // The pixels of a view that a seam triangle covers, the same for every
 // mode so their seam visibility compares: triangles the rules of paper 000
 // section 4.3 (the CPU reference) mark for a camera that looks within 60
-// degrees of the view's direction, the cameras any blend leans on there.
-// (The seams of every camera together cover most of the subject.)
+// degrees of the view's direction, the cameras any blend leans on there,
+// and always for the nearest camera (and any within a degree of it): with
+// 4 pods 90 degrees apart no other pod is within 60 degrees of a held-out
+// one, yet the two beside it carry the whole blend. (The seams of every
+// camera together cover most of the subject.)
 Image8 seamPixels(const Mesh& mesh, const Camera& pose, const std::vector<render::ViewImages>& views) {
   std::vector<render::reference::PodView> pods;
   for (const auto& view : views) pods.push_back({view.camera, view.color, view.mask});
@@ -237,9 +240,12 @@ Image8 seamPixels(const Mesh& mesh, const Camera& pose, const std::vector<render
   const auto trusted = render::reference::majorityVote(mesh, pods, sights);
   const auto seams = render::reference::seamTriangles(mesh, sights, trusted);
   std::vector<uint8_t> seam(mesh.triangleCount(), 0);
-  const double cos60 = 0.5;
+  double nearest = -1;  // the largest cosine between a camera's direction and the view's
+  for (const auto& pod : pods) nearest = std::max(nearest, glm::dot(pod.camera.forward(), pose.forward()));
+  const double one_degree = glm::radians(1.0);
+  const double lowest = std::min(0.5, std::cos(std::acos(std::clamp(nearest, -1.0, 1.0)) + one_degree));
   for (size_t i = 0; i < seams.size(); ++i) {
-    if (glm::dot(pods[i].camera.forward(), pose.forward()) < cos60) continue;
+    if (glm::dot(pods[i].camera.forward(), pose.forward()) < lowest) continue;
     for (size_t t = 0; t < seam.size() && t < seams[i].size(); ++t) seam[t] |= seams[i][t] != 0;
   }
   std::vector<int32_t> triangle_of;

@@ -1,18 +1,16 @@
-// The HTML reports open in a real browser: headless Chromium (Debian's
-// chromium) loads each page, its own check counts the charts whose bars
-// were laid out with a size, and the test reads that count back from the
-// DOM. Also the numbers behind the loop report: RFC 3550 jitter and budgets.
+// The HTML reports open in a real browser (browser_check.h): headless
+// Chromium loads each page and the test reads back how many charts it
+// rendered faithfully. Also the numbers behind the loop report: RFC 3550
+// jitter and budgets.
 #include <gtest/gtest.h>
 
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <memory>
 #include <nlohmann/json.hpp>
-#include <regex>
 
+#include "browser_check.h"
 #include "common/html_report.h"
 #include "eval/leave_one_out.h"
 #include "eval/sweep.h"
@@ -24,26 +22,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string chromium() {
-  for (const char* candidate : {"/usr/bin/chromium", "/usr/bin/chromium-browser"}) {
-    if (fs::exists(candidate)) return candidate;
-  }
-  return "";
-}
-
-// The charts the browser rendered, or -1 when the page did not load.
-int chartsRendered(const fs::path& page) {
-  const std::string command = chromium() + " --headless --no-sandbox --disable-gpu --dump-dom 'file://" +
-                              fs::absolute(page).string() + "' 2>/dev/null";
-  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
-  if (!pipe) return -1;
-  std::string dom;
-  std::array<char, 4096> buffer{};
-  while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe.get())) dom.append(buffer.data(), n);
-  std::smatch match;
-  if (!std::regex_search(dom, match, std::regex("data-charts-rendered=\"([0-9]+)\""))) return -1;
-  return std::stoi(match[1]);
-}
+using test::chartsRendered;
+using test::chromium;
 
 fs::path scratch(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("holofuse_html_" + name);

@@ -12,6 +12,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 
+#include "browser_check.h"
 #include "common/command_line.h"
 #include "eval/sweep.h"
 #include "sweep_points.h"
@@ -177,6 +178,10 @@ TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
     EXPECT_GE(p["live_worst_pod_jitter_ms"].get<double>(), 0.0);
   }
   EXPECT_NE(readText(dir / "sweep.html").find("PSNR against live end-to-end ms"), std::string::npos);
+  if (!holofuse::test::chromium().empty()) {
+    EXPECT_EQ(holofuse::test::chartsRendered(dir / "sweep.html"), 6)
+        << "PSNR against client ms, pipeline ms, both links' bytes and live end-to-end ms, and the latency stack";
+  }
 
   const auto again = runSweep(options);
   EXPECT_TRUE(again[0].resumed && again[1].resumed);
