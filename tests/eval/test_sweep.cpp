@@ -3,18 +3,22 @@
 // measured with), the Pareto front and the default's place.
 #include <gtest/gtest.h>
 
+#include <signal.h>
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "browser_check.h"
 #include "common/command_line.h"
 #include "eval/sweep.h"
+#include "integration/process_harness.h"
 #include "sweep_points.h"
 
 namespace holofuse::eval {
@@ -297,6 +301,45 @@ std::string run(const std::string& command, int* status) {
   for (size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) output.append(buffer, n);
   *status = pclose(pipe);
   return output;
+}
+
+// Killed for real in the middle of a sweep (SIGKILL, no chance to tidy
+// up), the finished points stay on disk and the rerun of the same command
+// skips them; a scene the library does not have is refused naming those it has.
+TEST(Sweep, AKilledSweepResumesWhereItStopped) {
+  const fs::path dir = holofuse::test::freshDir("sweep_killed");
+  const std::vector<std::string> command = {std::string(HOLOFUSE_BIN_DIR) + "/holofuse_sweep",
+                                            "--scene", "few-cameras", "--modes", "normal", "--frames", "1",
+                                            "--held-out", "1", "--set", "size=96x72", "--knob", "alpha=1,4,8,16",
+                                            "--out", dir.string()};
+  const pid_t sweep = holofuse::test::spawn(command, dir / "first.log");
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(dir / "points" / "alpha=1.json") && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_TRUE(fs::exists(dir / "points" / "alpha=1.json")) << readText(dir / "first.log");
+  kill(sweep, SIGKILL);
+  EXPECT_EQ(holofuse::test::waitExit(sweep, 30), 128 + SIGKILL) << "killed before it finished";
+  EXPECT_FALSE(fs::exists(dir / "sweep.json"));
+  const std::string measured = readText(dir / "points" / "alpha=1.json");
+  std::string joined;
+  for (const auto& part : command) joined += "'" + part + "' ";
+  int status = 0;
+  const std::string output = run(joined, &status);
+  ASSERT_EQ(status, 0) << output;
+  EXPECT_NE(output.find("alpha=1 (already on disk)"), std::string::npos) << output;
+  EXPECT_NE(output.find("[5/5] alpha=2"), std::string::npos) << "the default joins: " << output;
+  EXPECT_EQ(readText(dir / "points" / "alpha=1.json"), measured) << "read back, not measured again";
+  std::ifstream in(dir / "sweep.json");
+  EXPECT_EQ(nlohmann::json::parse(in)["knobs"]["alpha"]["points"].size(), 5u);
+
+  const std::string refused =
+      run(std::string(HOLOFUSE_BIN_DIR) + "/holofuse_sweep --scene nowhere --knob alpha=1 --out " + dir.string(),
+          &status);
+  EXPECT_EQ(WEXITSTATUS(status), 2) << refused;
+  EXPECT_NE(refused.find("unknown scene 'nowhere'; valid scenes: clean, calibration-error"), std::string::npos)
+      << refused;
+  fs::remove_all(dir);
 }
 
 // --set moves the base every point starts from: the points are measured
