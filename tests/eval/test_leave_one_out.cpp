@@ -136,6 +136,27 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
   fs::remove_all(options.out_dir);
 }
 
+// Pods that send only their foreground's rectangle (the default margin)
+// cost the links less and change nothing downstream: the server carves
+// the same hull from them and every mode renders the same picture as from
+// whole images.
+TEST(LeaveOneOut, CroppedPodImagesGiveTheSameHullAndPicturesAsWholeOnes) {
+  EvalOptions options = tiny();
+  options.scenes = {"clean"};
+  options.crop_margin = -1;
+  const SceneResult whole = runLeaveOneOut(options).at(0);
+  options.crop_margin = 8;
+  const SceneResult cropped = runLeaveOneOut(options).at(0);
+  EXPECT_EQ(cropped.triangles, whole.triangles);
+  EXPECT_DOUBLE_EQ(cropped.chamfer_mm, whole.chamfer_mm);
+  for (const auto& [mode, m] : whole.modes) {
+    EXPECT_DOUBLE_EQ(cropped.modes.at(mode).psnr_db, m.psnr_db) << mode;
+    EXPECT_DOUBLE_EQ(cropped.modes.at(mode).ssim, m.ssim) << mode;
+  }
+  EXPECT_LT(cropped.pod_link_bytes_per_frame, 0.7 * whole.pod_link_bytes_per_frame);
+  EXPECT_LT(cropped.bytes_per_frame, 0.7 * whole.bytes_per_frame);
+}
+
 TEST(LeaveOneOut, AViewpointJumpComparesOnlyTheFramesAtTheHeldOutPose) {
   EvalOptions options = tiny();
   options.scenes = {"viewpoint-jump"};
