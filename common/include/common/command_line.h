@@ -47,7 +47,8 @@ inline const std::vector<SharedFlag>& sharedFlags() {
       // fusion_server
       {"--voxel", "hull voxel size in metres", 0.0001, 0.5, {}, kToServer},
       {"--hull-error-mm", "hull error target in mm of silhouette error: the coarsest voxel from --voxel down that "
-       "meets it, frame by frame (0: the voxel is fixed)", 0, 1000, {}},
+       "meets it (the server follows it frame by frame; eval picks it per scene on the first frame; 0: the voxel "
+       "is fixed)", 0, 1000, {}},
       {"--draco-bits", "Draco position quantisation bits", 4, 24, {}, kToServer},
       {"--image-codec", "colour codec of the images sent on", 0, 0, imageCodecNames(), kToServer | kToPods, "--codec"},
       // capture_node (and fusion_server for the LZ4 settings)
