@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
 
@@ -147,6 +148,38 @@ ImageQuality compareInMask(const Image8& rendered, const Image8& truth, const Im
   }
   q.ssim = count ? sum / static_cast<double>(count) : 0.0;
   return q;
+}
+
+PictureAgreement pictureAgreement(const Image8& a, const Image8& b, const Image8& truth, const Image8& mask,
+                                  int tolerance) {
+  requireInputs(a, truth, mask);
+  requireInputs(b, truth, mask);
+  PictureAgreement agreement;
+  for (size_t p = 0; p < mask.pixels.size(); ++p) {
+    if (mask.pixels[p] == 0) continue;
+    ++agreement.pixels;
+    double a_squared = 0, b_squared = 0;
+    bool differ = false;
+    for (int c = 0; c < 3; ++c) {
+      const int va = a.pixels[p * a.channels + c], vb = b.pixels[p * b.channels + c];
+      const int vt = truth.pixels[p * truth.channels + c];
+      a_squared += double(va - vt) * double(va - vt);
+      b_squared += double(vb - vt) * double(vb - vt);
+      differ = differ || std::abs(va - vb) > tolerance;
+    }
+    agreement.a_squared_error += a_squared;
+    if (differ) {
+      ++agreement.differing;
+      agreement.a_squared_error_differing += a_squared;
+    } else {
+      agreement.b_squared_error_alike += b_squared;
+    }
+  }
+  return agreement;
+}
+
+double PictureAgreement::bestPsnrOfB() const {
+  return pixels ? psnrFromMse(b_squared_error_alike / (3.0 * static_cast<double>(pixels))) : kPsnrCap;
 }
 
 ErrorImage errorImage(const Image8& rendered, const Image8& truth, const Image8& mask) {

@@ -58,6 +58,13 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
     EXPECT_GE(m.ms_per_new_mesh_p95, m.ms_per_new_mesh);
   }
   EXPECT_FALSE(scene.modes.at("montage4d").gpu_passes_ms.empty());
+  // The two field modes' pictures compared view for view: the gain of
+  // montage4d exact wherever it differs bounds the gain it has.
+  ASSERT_TRUE(scene.montage_agreement.measured);
+  EXPECT_GE(scene.montage_agreement.differing_share, 0.0);
+  EXPECT_LE(scene.montage_agreement.differing_share, 1.0);
+  EXPECT_GE(scene.montage_agreement.gain_bound_db + 1e-9,
+            scene.modes.at("montage4d").psnr_db - scene.modes.at("holoportation").psnr_db);
   EXPECT_GT(scene.codec_ms, 0.0) << "image and Draco coding on the frame's way";
   EXPECT_GE(scene.codec_ms_p95, scene.codec_ms);
   // Every codec stage of the loop is timed.
@@ -79,6 +86,9 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
   EXPECT_DOUBLE_EQ(json["scenes"]["few-cameras"]["modes"]["montage4d"]["psnr_db"].get<double>(),
                    scene.modes.at("montage4d").psnr_db);
   EXPECT_TRUE(json["scenes"]["few-cameras"].contains("montage4d_against_holoportation"));
+  EXPECT_DOUBLE_EQ(
+      json["scenes"]["few-cameras"]["montage4d_against_holoportation"]["pictures"]["psnr_gain_bound_db"].get<double>(),
+      scene.montage_agreement.gain_bound_db);
   std::ifstream md(fs::path(options.out_dir) / "quality.md");
   const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("| few-cameras |"), std::string::npos);

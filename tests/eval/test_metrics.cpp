@@ -301,6 +301,34 @@ TEST(Metrics, SeamVisibilityIsTheErrorsStepAlongTheSeams) {
   EXPECT_THROW(seamVisibility(truth, truth, mask, Image8(8, 8, 1, 0)), std::invalid_argument);
 }
 
+// Two pictures against one truth: where they differ beyond the
+// tolerance, how much of the first's error is there, and the second's
+// PSNR with those pixels exact.
+TEST(Metrics, PictureAgreementBoundsWhatTheDifferingPixelsCanGain) {
+  Image8 truth(4, 2, 3, 100), mask(4, 2, 1, 255);
+  *mask.at(3, 1) = 0;  // outside: never counts
+  Image8 a = truth, b = truth;
+  a.at(0, 0)[0] = 110;              // a wrong by 10 where b is right: they differ
+  a.at(1, 0)[1] = 104;              // both wrong by 4 and 6: within 2 of each other, alike
+  b.at(1, 0)[1] = 106;
+  a.at(2, 0)[2] = 90;               // both wrong, 13 apart: they differ
+  b.at(2, 0)[2] = 103;
+  a.at(3, 1)[0] = b.at(3, 1)[0] = 0;  // outside the mask
+  const PictureAgreement g = pictureAgreement(a, b, truth, mask);
+  EXPECT_EQ(g.pixels, 7u);
+  EXPECT_EQ(g.differing, 2u);
+  EXPECT_DOUBLE_EQ(g.a_squared_error, 100 + 16 + 100);
+  EXPECT_DOUBLE_EQ(g.a_squared_error_differing, 100 + 100);
+  EXPECT_DOUBLE_EQ(g.b_squared_error_alike, 36);
+  EXPECT_DOUBLE_EQ(g.bestPsnrOfB(), psnrFromMse(36.0 / 21.0));
+  // b's own PSNR can never beat it: b exact where they differ is the best b.
+  EXPECT_LE(compareInMask(b, truth, mask).psnr_db, g.bestPsnrOfB());
+  EXPECT_EQ(pictureAgreement(a, b, truth, mask, 20).differing, 0u) << "a wider tolerance";
+  EXPECT_DOUBLE_EQ(pictureAgreement(a, a, truth, mask).bestPsnrOfB(), compareInMask(a, truth, mask).psnr_db)
+      << "identical pictures: no gain to be had";
+  EXPECT_THROW(pictureAgreement(a, Image8(3, 2, 3), truth, mask), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace holofuse::eval
 

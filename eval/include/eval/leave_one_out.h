@@ -130,6 +130,18 @@ inline std::string budgetedStagesText() {
   return text;
 }
 
+// montage4d's pictures against holoportation's, view for view (both modes
+// run): the share of the compared pixels where they differ by more than 2
+// grey levels, holoportation's squared error there as a share of its
+// whole, and what montage4d's mean PSNR would gain on holoportation's if
+// its pictures were exact on every differing pixel (metrics.h
+// PictureAgreement): where the two agree no choice of weights scores
+// differently, so this bounds the gain of the method's weights.
+struct ModeAgreement {
+  bool measured = false;
+  double differing_share = 0, holoportation_error_share = 0, gain_bound_db = 0;
+};
+
 struct SceneResult {
   std::string name, stresses;
   double novel_view_degrees = 0;  // 0: leave-one-camera-out; else the offset of a novel-view row
@@ -158,6 +170,7 @@ struct SceneResult {
   double cells_visited = 0;            // mean per frame (eval/visual_hull.h's count)
   double voxel_mm = 0;                 // the hull's voxel
   double silhouette_error_mm = -1;     // first frame, against the segmented masks; negative: not measured
+  ModeAgreement montage_agreement;
   double dense_grid_points = 0;        // what the dense grid would have sampled
   std::map<std::string, ModeResult> modes;  // by blendModeName
 };
@@ -198,6 +211,7 @@ std::string measuredText(double value, const char* format);
 struct Verdict {
   double psnr_gain_db = 0, ssim_gain = 0;
   double flicker_ratio = -1;  // montage4d's flicker over holoportation's; negative: not measured
+  ModeAgreement agreement;    // the scene's
   bool met = false;
   std::string why;  // what fell short, empty when met
 };

@@ -76,6 +76,24 @@ ErrorImage errorImage(const Image8& rendered, const Image8& truth, const Image8&
 // Mean |e1 - e0| over pixels inside both masks and channels; 0 when none.
 double flicker(const ErrorImage& previous, const ErrorImage& current);
 
+// Two renders of one view (a: the baseline, b: the method against it)
+// against its truth, inside the mask: where they differ at all (some
+// channel by more than tolerance grey levels) and how much of the
+// baseline's error sits there. Where the pictures agree, b scores what a
+// scores, so b's best PSNR is that of its own picture made exact on the
+// differing pixels: what changing b's weights could at most buy.
+struct PictureAgreement {
+  size_t pixels = 0;     // inside the mask
+  size_t differing = 0;  // of them, where a and b differ
+  double a_squared_error = 0, a_squared_error_differing = 0;  // summed over channels
+  double b_squared_error_alike = 0;                           // b's, where they agree
+  // b's PSNR with every differing pixel exact (kPsnrCap when b is exact
+  // wherever they agree, or inside an empty mask).
+  double bestPsnrOfB() const;
+};
+PictureAgreement pictureAgreement(const Image8& a, const Image8& b, const Image8& truth, const Image8& mask,
+                                  int tolerance = 2);
+
 // seams: one channel, non-zero where a seam triangle covers the pixel. The
 // gradient is taken where both neighbours on an axis are inside the mask;
 // negative (nothing to measure) when no seam pixel is.
