@@ -49,6 +49,9 @@ double percentile95(const std::vector<double>& v) { return render::percentile(v,
 struct FrameData {
   uint64_t frame_id = 0;
   Mesh mesh;
+  // With EvalOptions::hull_without_held_out, per camera: the hull carved
+  // without that camera's silhouette, as the client would receive it.
+  std::vector<Mesh> mesh_without;
   std::vector<render::ViewImages> views;  // reported calibration, colour, segmented mask: the client's
   std::vector<Image8> true_colors;        // per camera: its whole image, which leave-one-out compares with
   std::vector<Image8> true_masks;         // per camera
@@ -149,6 +152,26 @@ void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions&
   frame.views = std::move(*views);
 }
 
+// For each camera, the hull carved from the other cameras' silhouettes,
+// through Draco as a client receives a mesh (EvalOptions::hull_without_held_out).
+std::vector<Mesh> hullsWithoutEachCamera(const std::vector<fusion::HullView>& views,
+                                         const fusion::HullOptions& hull_options, const DracoOptions& draco) {
+  std::vector<Mesh> meshes;
+  for (size_t held = 0; held < views.size(); ++held) {
+    std::vector<fusion::HullView> others = views;
+    others.erase(others.begin() + static_cast<std::ptrdiff_t>(held));
+    const Mesh hull = fusion::carveVisualHull(others, hull_options);
+    auto bytes = encodeDraco(hull, draco);
+    auto mesh = bytes.isOk() ? decodeDraco(bytes->data(), bytes->size()) : bytes.status();
+    if (!mesh.isOk()) {
+      throw std::runtime_error("the hull without camera " + std::to_string(views[held].camera.id) + ": " +
+                               mesh.status().message());
+    }
+    meshes.push_back(std::move(*mesh));
+  }
+  return meshes;
+}
+
 FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene& scene,
                        const std::vector<Camera>& truth, const std::vector<Camera>& reported,
                        const std::vector<Image8>& plates, uint64_t frame_id) {
@@ -183,6 +206,9 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
   const Mesh hull = options.geometry == "truth" ? scene.truthMesh(frame_id, options.voxel_size)
                                                 : fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
   frame.hull_ms = msSince(t0);
+  if (options.hull_without_held_out && options.geometry == "hull") {
+    frame.mesh_without = hullsWithoutEachCamera(hull_views, hull_options, options.draco);
+  }
   sendToClient(std::move(group), hull, options, reported, frame);
   return frame;
 }
@@ -324,7 +350,11 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
       std::optional<ErrorImage> previous;
       for (int f = 0; f < frame_count; ++f) {
         const FrameData& frame = input.frames[static_cast<size_t>(f)];
-        renderer.setMesh(frame.mesh);
+        // Leave-one-out proper may carve without the held-out camera too; a
+        // kept camera or a novel pose has no camera to leave out.
+        const bool without = !novel && !input.camera_kept && !frame.mesh_without.empty();
+        const Mesh& mesh = without ? frame.mesh_without[static_cast<size_t>(held)] : frame.mesh;
+        renderer.setMesh(mesh);
         // The held-out image takes no part at all: not in the blend, the
         // vote, the seams or the global visibility (unless kept on purpose).
         std::vector<render::ViewImages> others = frame.views;
@@ -345,7 +375,7 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         const auto key = std::make_pair(held, f);
         if (compare_pictures && mode == render::BlendMode::kHoloportation) holoportation_pictures[key] = picture;
         if (compare_pictures && mode == render::BlendMode::kMontage4D) montage_pictures[key] = picture;
-        if (!seam_cache.count(key)) seam_cache[key] = seamPixels(frame.mesh, pose, others);
+        if (!seam_cache.count(key)) seam_cache[key] = seamPixels(mesh, pose, others);
         const double seams = seamVisibility(picture, truth_color, truth_mask, seam_cache[key]);
         if (seams >= 0) {
           seam_sum += seams;
@@ -547,6 +577,7 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
       hull = fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
     }
     frame.hull_ms = msSince(t0);
+    if (options.hull_without_held_out) frame.mesh_without = hullsWithoutEachCamera(hull_views, hull_options, options.draco);
     sendToClient(std::move(group), hull, options, cameras, frame);
     input.frames.push_back(std::move(frame));
   }
@@ -854,6 +885,7 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       {"voxel_size", options.voxel_size},
       {"hull_error_target_mm", 1000.0 * options.hull_error_target},
       {"crop_margin", options.crop_margin},
+      {"hull_without_held_out", options.hull_without_held_out},
       {"metrics",
        "RMSE and PSNR over RGB inside the true mask; SSIM on luminance (Wang 2004, "
        "11x11 Gaussian sigma 1.5, K1 0.01, K2 0.03), mean over windows centred in the mask; "
@@ -880,7 +912,9 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   md << "# Leave-one-camera-out quality\n\n"
      << "Geometry: " << (options.geometry == "truth" ? "the true surface" : "the visual hull") << ". " << options.frames
      << " frames per scene from frame " << options.first_frame << ", " << options.width << "x" << options.height
-     << "; each camera rendered from its reported pose without its own image, compared with its "
+     << "; each camera rendered from its reported pose without its own image"
+     << (options.hull_without_held_out ? " and with a hull carved without its silhouette" : "")
+     << ", compared with its "
         "true image inside its true mask (rows \"(camera kept)\": with its own image; \"+D deg\": novel poses, every "
         "camera blended).\n\n";
   char cell[256];

@@ -40,6 +40,9 @@ int main(int argc, char** argv) {
   app.add_flag("--camera-kept", options.camera_kept,
                "also score each chosen camera's own pose with its image kept in the blend (one more row per "
                "scene; paper 000's Table 2 numbers need it; outside the target's protocol)");
+  app.add_flag("--hull-without-held-out", options.hull_without_held_out,
+               "leave the held-out camera's silhouette out of the hull too (carved again for each held-out camera): "
+               "nothing of it shapes what its image is compared with");
   app.add_option("--geometry", options.geometry, "hull (the server's visual hull) or truth (the true surface)")
       ->check(CLI::IsMember({"hull", "truth"}));
   app.add_option("--device", options.device, "Vulkan device: index or part of its name");

@@ -167,6 +167,27 @@ TEST(LeaveOneOut, CroppedPodImagesGiveTheSameHullAndPicturesAsWholeOnes) {
   EXPECT_LT(cropped.bytes_per_frame, 0.7 * whole.bytes_per_frame);
 }
 
+// Stricter leave-one-out: the held-out camera's silhouette leaves the hull
+// too. The hull from the other three pods is another (larger) one, so the
+// scores move; the scene's geometry numbers stay those of the loop's hull.
+TEST(LeaveOneOut, TheHullCanBeCarvedWithoutTheHeldOutCameraToo) {
+  EvalOptions options = tiny();
+  options.scenes = {"few-cameras"};
+  options.modes = {render::BlendMode::kNormal};
+  const SceneResult shaped = runLeaveOneOut(options).at(0);
+  options.hull_without_held_out = true;
+  const SceneResult strict = runLeaveOneOut(options).at(0);
+  EXPECT_NE(strict.modes.at("normal").psnr_db, shaped.modes.at("normal").psnr_db);
+  EXPECT_EQ(strict.modes.at("normal").images, shaped.modes.at("normal").images);
+  EXPECT_EQ(strict.triangles, shaped.triangles) << "the scene's hull is the loop's";
+  EXPECT_DOUBLE_EQ(strict.chamfer_mm, shaped.chamfer_mm);
+  options.out_dir = (fs::temp_directory_path() / "holofuse_eval_strict").string();
+  writeQualityReports(options, {strict}, options.out_dir);
+  std::ifstream in(fs::path(options.out_dir) / "quality.json");
+  EXPECT_EQ(nlohmann::json::parse(in)["settings"]["hull_without_held_out"], true);
+  fs::remove_all(options.out_dir);
+}
+
 TEST(LeaveOneOut, AViewpointJumpComparesOnlyTheFramesAtTheHeldOutPose) {
   EvalOptions options = tiny();
   options.scenes = {"viewpoint-jump"};

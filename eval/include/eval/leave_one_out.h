@@ -50,6 +50,12 @@ struct EvalOptions {
   // a view-dependent field then gives the camera's own image most of the
   // weight. Outside the target's protocol.
   bool camera_kept = false;
+  // Leave-one-out with the held-out camera's silhouette out of the hull too
+  // (carved again from the others for each held-out camera and frame), not
+  // only its image out of the client: nothing of the camera shapes what is
+  // compared with its true image. Off by default, as in paper 000's
+  // cross-validation, where every sensor shapes the mesh.
+  bool hull_without_held_out = false;
   std::string out_dir;         // where save_images writes
   bool save_images = false;    // rendered, true image and mask per image compared
   std::string device;          // Vulkan device selector ("" picks a GPU if any)
