@@ -8,6 +8,7 @@
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 
 #include "capture_node/dataset.h"
@@ -319,7 +320,38 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
     return std::find(options.modes.begin(), options.modes.end(), mode) != options.modes.end();
   };
   const bool compare_pictures = runs(render::BlendMode::kHoloportation) && runs(render::BlendMode::kMontage4D);
-  std::map<std::pair<int, int>, Image8> holoportation_pictures, montage_pictures;
+  // The first of the two to run keeps its pictures, cut to the truth's
+  // rectangle (all that is compared), until the second renders the same view.
+  std::map<std::pair<int, int>, Image8> first_pictures;
+  std::optional<render::BlendMode> first_mode;
+  double holoportation_psnr = 0, best_montage_psnr = 0, error = 0, error_differing = 0;
+  size_t compared = 0, pixels = 0, differing = 0;
+  auto comparePictures = [&](const std::pair<int, int>& key, render::BlendMode mode, const Image8& picture) {
+    const auto [truth_color, truth_mask] = truthOf(key.first, key.second);
+    const PixelRect rect = foregroundRect(truth_mask);
+    if (rect.empty()) return;
+    if (!first_mode) first_mode = mode;
+    if (mode == *first_mode) {
+      first_pictures[key] = cropImage(picture, rect);
+      return;
+    }
+    const auto first = first_pictures.find(key);
+    if (first == first_pictures.end()) return;
+    const Image8 second = cropImage(picture, rect);
+    const bool holoportation_first = *first_mode == render::BlendMode::kHoloportation;
+    const PictureAgreement a = pictureAgreement(holoportation_first ? first->second : second,
+                                                holoportation_first ? second : first->second,
+                                                cropImage(truth_color, rect), cropImage(truth_mask, rect));
+    first_pictures.erase(first);
+    // The mean PSNR over images, as the modes' scores are.
+    holoportation_psnr += psnrFromMse(a.a_squared_error / (3.0 * static_cast<double>(a.pixels)));
+    best_montage_psnr += a.bestPsnrOfB();
+    ++compared;
+    pixels += a.pixels;
+    differing += a.differing;
+    error += a.a_squared_error;
+    error_differing += a.a_squared_error_differing;
+  };
   for (render::BlendMode mode : options.modes) {
     const std::string mode_name = render::blendModeName(mode);
     ModeResult& m = result.modes[mode_name];
@@ -373,8 +405,10 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         const auto [truth_color, truth_mask] = truthOf(held, f);
         const ImageQuality q = compareInMask(picture, truth_color, truth_mask);
         const auto key = std::make_pair(held, f);
-        if (compare_pictures && mode == render::BlendMode::kHoloportation) holoportation_pictures[key] = picture;
-        if (compare_pictures && mode == render::BlendMode::kMontage4D) montage_pictures[key] = picture;
+        if (compare_pictures &&
+            (mode == render::BlendMode::kHoloportation || mode == render::BlendMode::kMontage4D)) {
+          comparePictures(key, mode, picture);
+        }
         if (!seam_cache.count(key)) seam_cache[key] = seamPixels(mesh, pose, others);
         const double seams = seamVisibility(picture, truth_color, truth_mask, seam_cache[key]);
         if (seams >= 0) {
@@ -419,31 +453,12 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
     m.ms_per_new_mesh_p95 = percentile95(mesh_ms);
     for (const auto& [pass, values] : passes) m.gpu_passes_ms[pass] = median(values);
   }
-  if (compare_pictures) {
-    double holoportation_psnr = 0, best_montage_psnr = 0, error = 0, error_differing = 0;
-    size_t images = 0, pixels = 0, differing = 0;
-    for (const auto& [key, picture] : holoportation_pictures) {
-      const auto other = montage_pictures.find(key);
-      if (other == montage_pictures.end()) continue;
-      const auto [truth_color, truth_mask] = truthOf(key.first, key.second);
-      const PictureAgreement a = pictureAgreement(picture, other->second, truth_color, truth_mask);
-      if (a.pixels == 0) continue;
-      // The mean PSNR over images, as the modes' scores are.
-      holoportation_psnr += psnrFromMse(a.a_squared_error / (3.0 * static_cast<double>(a.pixels)));
-      best_montage_psnr += a.bestPsnrOfB();
-      ++images;
-      pixels += a.pixels;
-      differing += a.differing;
-      error += a.a_squared_error;
-      error_differing += a.a_squared_error_differing;
-    }
-    if (images > 0) {
-      ModeAgreement& agreement = result.montage_agreement;
-      agreement.measured = true;
-      agreement.differing_share = static_cast<double>(differing) / static_cast<double>(pixels);
-      agreement.holoportation_error_share = error > 0 ? error_differing / error : 0.0;
-      agreement.gain_bound_db = (best_montage_psnr - holoportation_psnr) / static_cast<double>(images);
-    }
+  if (compared > 0) {
+    ModeAgreement& agreement = result.montage_agreement;
+    agreement.measured = true;
+    agreement.differing_share = static_cast<double>(differing) / static_cast<double>(pixels);
+    agreement.holoportation_error_share = error > 0 ? error_differing / error : 0.0;
+    agreement.gain_bound_db = (best_montage_psnr - holoportation_psnr) / static_cast<double>(compared);
   }
 }
 
