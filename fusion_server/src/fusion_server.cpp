@@ -112,7 +112,12 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
   ack->heartbeat_interval_ms = options_.heartbeat_interval_ms;
   ack->idle_timeout_ms = options_.idle_timeout_ms;
   peer.greeted = true;
-  if (hello.role == protocol::Role::kPod) departed_pods_.erase(hello.id);
+  if (hello.role == protocol::Role::kPod) {
+    departed_pods_.erase(hello.id);
+    // A pod back on a new connection may send from another clock: its first
+    // transit starts afresh rather than counting the offset as jitter.
+    if (auto known = pod_arrivals_.find(hello.id); known != pod_arrivals_.end()) known->second.restart();
+  }
   peer.role = hello.role;
   peer.id = hello.id;
   peer.minor = ack->minor;
@@ -141,14 +146,8 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   }
   auto images = podImagesOf(pod, frame.bytes.size(), cam->second, arrival);
   if (!images.isOk()) return images.status();
-  // Every frame a pod sends counts for its jitter, also one that arrives too
-  // late to be fused: the link's behaviour, not the fusion's. The send
-  // stage runs from the pod's encode end to the arrival.
-  for (const auto& s : images->stamps) {
-    if (s.stage == static_cast<uint16_t>(protocol::Stage::kSend) && s.start_ns != 0) {
-      pod_arrivals_[pod.camera_id].add(static_cast<double>(s.start_ns) / 1e6, static_cast<double>(s.end_ns) / 1e6);
-    }
-  }
+  const double sent_ms = static_cast<double>(images->sent_ns) / 1e6;
+  const double arrival_ms = static_cast<double>(images->arrival_ns) / 1e6;
   // The group waits from the first frame decoded: its decoding is
   // server_decode's, and the latency budget must not count it twice.
   const FrameSync::Added added = sync_.add(pod.frame_id, std::move(*images), monotonicNs());
@@ -156,6 +155,10 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
     return Status(StatusCode::kMalformed, "field 'pod_frame.frame_id': " + std::to_string(pod.frame_id) +
                                               " is implausibly far ahead of the frames being fused");
   }
+  // Every frame a pod sends counts for its jitter, also one that arrives too
+  // late to be fused: the link's behaviour, not the fusion's. A frame refused
+  // as malformed does not count.
+  if (sent_ms > 0) pod_arrivals_[pod.camera_id].add(sent_ms, arrival_ms);
   // What the fusion takes, as it arrived (a late frame is not fused, so a
   // replay must not fuse it either).
   if (added == FrameSync::Added::kAccepted && recorder_) {

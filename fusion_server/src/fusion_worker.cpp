@@ -20,11 +20,13 @@ protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_
   images.camera_id = pod.camera_id;
   images.capture_time_ns = pod.capture_time_ns;
   images.bytes = wire_bytes;
-  images.stamps = pod.stamps;
   // Sent when the pod finished its frame: a synthetic pod's encoding, a
-  // replay pod's read of the recording.
+  // replay pod's read of the recording. The send stage is the server's to
+  // stamp: one a pod put in its frame is not kept.
   uint64_t sent = pod.capture_time_ns;
   for (const auto& s : pod.stamps) {
+    if (s.stage == static_cast<uint16_t>(protocol::Stage::kSend)) continue;
+    images.stamps.push_back(s);
     if (s.stage == static_cast<uint16_t>(protocol::Stage::kPodEncode) ||
         s.stage == static_cast<uint16_t>(protocol::Stage::kReplayRead)) {
       sent = s.end_ns;
@@ -32,6 +34,8 @@ protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_
   }
   images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend), static_cast<uint16_t>(pod.camera_id),
                            sent, now_ns});
+  images.sent_ns = sent;
+  images.arrival_ns = now_ns;
   images.camera = camera;  // the calibration these images belong to
   for (const auto& plane : pod.planes) {
     // Checked against the calibration before anything is decompressed: the

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "browser_check.h"
+#include "common/arrival_jitter.h"
 #include "common/html_report.h"
 #include "eval/leave_one_out.h"
 #include "eval/sweep.h"
@@ -228,9 +229,23 @@ TEST(LoopReport, JitterFollowsRfc3550) {
   std::vector<std::pair<double, double>> alternating;
   for (int k = 0; k < 200; ++k) alternating.emplace_back(k * 100.0, k * 100.0 + 2 + k % 2);
   EXPECT_NEAR(render::interarrivalJitter(alternating), 1.0 - std::pow(15.0 / 16.0, 199), 1e-9);
-  // Order of arrival in the list does not matter: packets are taken in send order.
-  std::vector<std::pair<double, double>> shuffled = {{20, 23}, {0, 2}, {10, 12}};
-  EXPECT_NEAR(render::interarrivalJitter(shuffled), (1.0 - 0.0) / 16.0, 1e-12);
+  // The order of the list does not matter: packets are taken in order of
+  // arrival. Sent at 0, 10, 20, the third overtakes the second: arrivals
+  // 2 (transit 2), 23 (transit 3, sent 20), 24 (transit 14, sent 10).
+  std::vector<std::pair<double, double>> shuffled = {{10, 24}, {0, 2}, {20, 23}};
+  const double after_second = 1.0 / 16.0;
+  EXPECT_NEAR(render::interarrivalJitter(shuffled), after_second + (11.0 - after_second) / 16.0, 1e-12);
+  // A sender that comes back (another connection, maybe another clock):
+  // its first transit is not a change from the last one's.
+  ArrivalJitter jitter;
+  jitter.add(0, 2);
+  jitter.add(10, 13);
+  jitter.restart();
+  jitter.add(20, 5020);  // 5 s of clock offset
+  EXPECT_NEAR(jitter.ms(), 1.0 / 16.0, 1e-12);
+  EXPECT_EQ(jitter.packets(), 3u);
+  jitter.add(30, 5031);
+  EXPECT_NEAR(jitter.ms(), 1.0 / 16.0 + (1.0 - 1.0 / 16.0) / 16.0, 1e-12);
 }
 
 TEST(LoopReport, BudgetFilesAreCheckedAndNamed) {

@@ -428,12 +428,22 @@ TEST(Sweep, KnobsTakeExactlyWhatTheirLoopFlagTakes) {
       EXPECT_NE(knob.apply(options, "none-of-them"), "") << knob.name;
       continue;
     }
-    const double step = std::max(1.0, flag->max - flag->min) * 1e-3;
+    auto text = [](double v) {
+      char buffer[32];
+      std::snprintf(buffer, sizeof(buffer), "%.9g", v);
+      return std::string(buffer);
+    };
+    // A whole-number knob is probed a whole step beyond each end: a
+    // fraction would be refused as a fraction whatever the range.
+    const bool whole = knob.apply(options, text(flag->min + 0.5)).find("whole number") != std::string::npos;
+    const double step = whole ? 1.0 : std::max(1.0, flag->max - flag->min) * 1e-3;
     for (const double v : {flag->min, flag->max}) {
-      EXPECT_EQ(knob.apply(options, std::to_string(v)), "") << knob.name << " " << v;
+      EXPECT_EQ(knob.apply(options, text(v)), "") << knob.name << " " << v;
     }
     for (const double v : {flag->min - step, flag->max + step}) {
-      EXPECT_NE(knob.apply(options, std::to_string(v)), "") << knob.name << " " << v;
+      const std::string error = knob.apply(options, text(v));
+      EXPECT_NE(error, "") << knob.name << " " << v;
+      EXPECT_EQ(error.find("whole number"), std::string::npos) << knob.name << ": refused for its range, " << error;
     }
   }
   EXPECT_EQ(shared, static_cast<int>(sweepKnobs().size()) - 2) << "all but cameras (2 at least) and size";

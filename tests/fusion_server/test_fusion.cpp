@@ -13,6 +13,7 @@
 
 #include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"
+#include "common/image_codec.h"
 #include "common/mesh_codec.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
@@ -314,6 +315,32 @@ TEST(FrameSync, ADeadPodDoesNotStallWhenItIsNoLongerExpected) {
   sync.add(9, imagesOf(0), 0);
   EXPECT_TRUE(sync.takeReady({0, 1}, 1).empty());
   EXPECT_EQ(sync.takeReady({0}, 2).size(), 1u);  // pod 1 disconnected
+}
+
+// The send stage is the server's: it runs from the pod's encode end to the
+// arrival, and a send stamp the pod put in its own frame is not kept (it
+// would count twice for the pod's jitter, with times the pod chose).
+TEST(FusionWorker, TheServerStampsTheSendStageItself) {
+  const auto views = syntheticViews(1, 3, 64, 48);
+  const capture::SyntheticScene scene;
+  const Image8 color = scene.render(views[0].camera, 3).color;
+  protocol::PodFrame pod;
+  pod.frame_id = 3;
+  pod.capture_time_ns = 1000;
+  pod.stamps = {{static_cast<uint16_t>(protocol::Stage::kPodEncode), 0, 1500, 2000},
+                {static_cast<uint16_t>(protocol::Stage::kSend), 0, 1, 999'999}};  // not the pod's to say
+  std::vector<uint8_t> storage[3];
+  pod.planes = {encodePlane(color, protocol::PlaneKind::kColor, protocol::Codec::kLz4, storage[0]),
+                encodePlane(views[0].mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage[1]),
+                encodePlane(views[0].feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4, storage[2])};
+  auto images = podImagesOf(pod, 4096, views[0].camera, 5000);
+  ASSERT_TRUE(images.isOk()) << images.status().toString();
+  EXPECT_EQ(images->sent_ns, 2000u) << "the pod's encode end";
+  EXPECT_EQ(images->arrival_ns, 5000u);
+  const auto sends = std::count_if(images->stamps.begin(), images->stamps.end(), [](const protocol::StageStamp& s) {
+    return s.stage == static_cast<uint16_t>(protocol::Stage::kSend);
+  });
+  EXPECT_EQ(sends, 1);
 }
 
 TEST(FusionWorker, FusesAGroupIntoDecodableFrames) {

@@ -14,16 +14,21 @@ class ArrivalJitter {
  public:
   void add(double sent_ms, double received_ms) {
     const double transit = received_ms - sent_ms;
-    if (packets_ > 0) jitter_ms_ += (std::abs(transit - last_transit_ms_) - jitter_ms_) / 16.0;
+    if (packets_ > 0 && !fresh_) jitter_ms_ += (std::abs(transit - last_transit_ms_) - jitter_ms_) / 16.0;
     last_transit_ms_ = transit;
+    fresh_ = false;
     ++packets_;
   }
+  // The next packet has no previous transit to differ from (its sender
+  // came back, maybe with another clock); the estimate and count stay.
+  void restart() { fresh_ = true; }
   double ms() const { return jitter_ms_; }
   uint64_t packets() const { return packets_; }
 
  private:
   double jitter_ms_ = 0, last_transit_ms_ = 0;
   uint64_t packets_ = 0;
+  bool fresh_ = false;
 };
 
 }  // namespace holofuse

@@ -23,6 +23,9 @@ struct PodImages {
   uint64_t capture_time_ns = 0;
   uint64_t bytes = 0;  // size of the frame on the wire
   Camera camera;       // the calibration in force when the frame arrived
+  // The transit RFC 3550 watches (the server's kSend stamp): from the pod's
+  // send (its encode end, a replay pod's read end) to the arrival.
+  uint64_t sent_ns = 0, arrival_ns = 0;
 };
 
 struct FrameGroup {

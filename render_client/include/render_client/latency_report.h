@@ -39,8 +39,8 @@ struct FrameRecord {
 double percentile(std::vector<double> values, double p);
 
 // Interarrival jitter of RFC 3550 (common/arrival_jitter.h) over packets
-// taken in send order (the client learns of them out of order); in the
-// unit of the times given.
+// taken in order of arrival (the client learns of them out of order); in
+// the unit of the times given.
 double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_received);
 
 // Per-stage budgets in ms (stage names of report.json, and "end_to_end"),
