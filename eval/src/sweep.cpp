@@ -371,15 +371,14 @@ nlohmann::json liveJson(const LiveMeasure& live, int frames_asked) {
           {"report", live.report}};
 }
 
-// A live run kept in a point's file (points written before the stages and
-// jitter were kept have neither).
+// A live run kept in a point's file.
 LiveMeasure liveFromJson(const nlohmann::json& j) {
   LiveMeasure live;
   live.frames = j.at("frames").get<int>();
   live.end_to_end_ms_p50 = j.at("end_to_end_ms_p50").get<double>();
   live.end_to_end_ms_p95 = j.at("end_to_end_ms_p95").get<double>();
   live.fps = j.at("fps").get<double>();
-  live.stage_ms_p95 = j.value("stage_ms_p95", std::map<std::string, double>{});
+  live.stage_ms_p95 = j.at("stage_ms_p95").get<std::map<std::string, double>>();
   live.jitter_ms = j.value("jitter_ms", std::map<std::string, double>{});
   live.report = j.at("report").get<std::string>();
   return live;
@@ -431,10 +430,18 @@ LiveMeasure runLive(const SweepOptions& options, const std::string& knob, const 
   return live;
 }
 
-// A point is on disk whole or not at all.
+// A point is on disk whole or not at all: a write that fails (a full
+// disk) leaves the point as it was and stops the sweep, naming the file.
 void writePoint(const fs::path& path, const nlohmann::json& file) {
   const fs::path partial = path.string() + ".partial";
-  std::ofstream(partial) << file.dump(2);
+  std::ofstream out(partial);
+  out << file.dump(2);
+  out.close();
+  if (!out) {
+    std::error_code ignored;
+    fs::remove(partial, ignored);
+    throw std::runtime_error(partial.string() + ": cannot be written (disk full?); the points before it are kept");
+  }
   fs::rename(partial, path);
 }
 
@@ -479,7 +486,9 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
       // frames this run asks for.
       if (options.live_frames > 0) {
         const auto kept = file.find("live");
-        if (kept != file.end() && kept->value("frames_asked", 0) == options.live_frames) {
+        // (A live run kept before its stages and jitter were is run again.)
+        if (kept != file.end() && kept->value("frames_asked", 0) == options.live_frames &&
+            kept->contains("stage_ms_p95")) {
           point.live = liveFromJson(*kept);
         } else {
           if (progress) {
@@ -749,7 +758,9 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
         "Budget: each point's p95 of " + budgetedStagesText() +
         " from its leave-one-out run, and of the other stages (end_to_end, upload, ...) from its live run (\"live\" "
         "in the table; --live-frames)." +
-        (unchecked_text.empty() ? std::string() : " Not checked at some points (no live run): " + unchecked_text + ".");
+        (unchecked_text.empty() ? std::string()
+                                : " Not checked at some points (no live run, or no sample in it): " + unchecked_text +
+                                      ".");
     json["budget_ms"] = options.base.budget;
     json["budget_unchecked"] = unchecked;
     md += budget_text + "\n";

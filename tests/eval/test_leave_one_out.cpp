@@ -186,6 +186,8 @@ TEST(LeaveOneOut, TheHullCanBeCarvedWithoutTheHeldOutCameraToo) {
   std::ifstream in(fs::path(options.out_dir) / "quality.json");
   EXPECT_EQ(nlohmann::json::parse(in)["settings"]["hull_without_held_out"], true);
   fs::remove_all(options.out_dir);
+  options.geometry = "truth";  // nothing to carve again
+  EXPECT_THROW(runLeaveOneOut(options), std::invalid_argument);
 }
 
 TEST(LeaveOneOut, AViewpointJumpComparesOnlyTheFramesAtTheHeldOutPose) {

@@ -308,19 +308,28 @@ std::string run(const std::string& command, int* status) {
 // skips them; a scene the library does not have is refused naming those it has.
 TEST(Sweep, AKilledSweepResumesWhereItStopped) {
   const fs::path dir = holofuse::test::freshDir("sweep_killed");
+  // Six points of a second or so each: the kill lands long before the last.
   const std::vector<std::string> command = {std::string(HOLOFUSE_BIN_DIR) + "/holofuse_sweep",
-                                            "--scene", "few-cameras", "--modes", "normal", "--frames", "1",
-                                            "--held-out", "1", "--set", "size=96x72", "--knob", "alpha=1,4,8,16",
-                                            "--out", dir.string()};
+                                            "--scene", "few-cameras", "--modes", "normal", "--frames", "2",
+                                            "--held-out", "2", "--set", "size=160x120", "--knob",
+                                            "alpha=1,4,8,16,32", "--out", dir.string()};
   const pid_t sweep = holofuse::test::spawn(command, dir / "first.log");
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (!fs::exists(dir / "points" / "alpha=1.json") && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  bool exited = false;
+  while (!fs::exists(dir / "points" / "alpha=1.json") && std::chrono::steady_clock::now() < deadline && !exited) {
+    exited = waitpid(sweep, nullptr, WNOHANG) == sweep;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
+  if (!exited) {
+    kill(sweep, SIGKILL);
+    EXPECT_EQ(holofuse::test::waitExit(sweep, 30), 128 + SIGKILL) << "killed before it finished";
+  }
+  ASSERT_FALSE(exited) << "the sweep ended before its first point: " << readText(dir / "first.log");
   ASSERT_TRUE(fs::exists(dir / "points" / "alpha=1.json")) << readText(dir / "first.log");
-  kill(sweep, SIGKILL);
-  EXPECT_EQ(holofuse::test::waitExit(sweep, 30), 128 + SIGKILL) << "killed before it finished";
   EXPECT_FALSE(fs::exists(dir / "sweep.json"));
+  size_t on_disk = 0;
+  for (const auto& entry : fs::directory_iterator(dir / "points")) on_disk += entry.path().extension() == ".json";
+  EXPECT_LT(on_disk, 6u) << "some points were still to run";
   const std::string measured = readText(dir / "points" / "alpha=1.json");
   std::string joined;
   for (const auto& part : command) joined += "'" + part + "' ";
@@ -328,10 +337,10 @@ TEST(Sweep, AKilledSweepResumesWhereItStopped) {
   const std::string output = run(joined, &status);
   ASSERT_EQ(status, 0) << output;
   EXPECT_NE(output.find("alpha=1 (already on disk)"), std::string::npos) << output;
-  EXPECT_NE(output.find("[5/5] alpha=2"), std::string::npos) << "the default joins: " << output;
+  EXPECT_NE(output.find("[6/6] alpha=2"), std::string::npos) << "the default joins: " << output;
   EXPECT_EQ(readText(dir / "points" / "alpha=1.json"), measured) << "read back, not measured again";
   std::ifstream in(dir / "sweep.json");
-  EXPECT_EQ(nlohmann::json::parse(in)["knobs"]["alpha"]["points"].size(), 5u);
+  EXPECT_EQ(nlohmann::json::parse(in)["knobs"]["alpha"]["points"].size(), 6u);
 
   const std::string refused =
       run(std::string(HOLOFUSE_BIN_DIR) + "/holofuse_sweep --scene nowhere --knob alpha=1 --out " + dir.string(),

@@ -141,8 +141,8 @@ inline std::string budgetedStagesText() {
 // grey levels, holoportation's squared error there as a share of its
 // whole, and what montage4d's mean PSNR would gain on holoportation's if
 // its pictures were exact on every differing pixel (metrics.h
-// PictureAgreement): where the two agree no choice of weights scores
-// differently, so this bounds the gain of the method's weights.
+// PictureAgreement): how much of the picture montage4d's fields change at
+// these settings, and the most those changes could gain.
 struct ModeAgreement {
   bool measured = false;
   double differing_share = 0, holoportation_error_share = 0, gain_bound_db = 0;

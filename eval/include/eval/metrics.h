@@ -79,9 +79,10 @@ double flicker(const ErrorImage& previous, const ErrorImage& current);
 // Two renders of one view (a: the baseline, b: the method against it)
 // against its truth, inside the mask: where they differ at all (some
 // channel by more than tolerance grey levels) and how much of the
-// baseline's error sits there. Where the pictures agree, b scores what a
-// scores, so b's best PSNR is that of its own picture made exact on the
-// differing pixels: what changing b's weights could at most buy.
+// baseline's error sits there, and b's PSNR were its picture exact on the
+// pixels where it differs: how much of the picture b's method changes, and
+// what those changes could at most buy it. (It does not bound another
+// setting of b's method, which would change other pixels.)
 struct PictureAgreement {
   size_t pixels = 0;     // inside the mask
   size_t differing = 0;  // of them, where a and b differ
