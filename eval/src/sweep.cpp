@@ -559,12 +559,13 @@ PointBudget checkPointBudget(const render::Budget& budget, const SweepPoint& poi
   const std::vector<std::string> timed = budgetedStages();
   for (const auto& [stage, ms] : budget) {
     if (std::find(timed.begin(), timed.end(), stage) != timed.end()) continue;
-    const auto live = point.live ? point.live->stage_ms_p95.find(stage) : std::map<std::string, double>::const_iterator{};
-    if (point.live && live != point.live->stage_ms_p95.end()) {
-      out.checks.push_back({"live", stage, live->second, ms});
-    } else {
-      out.unchecked.push_back(stage);
+    if (point.live) {
+      if (const auto live = point.live->stage_ms_p95.find(stage); live != point.live->stage_ms_p95.end()) {
+        out.checks.push_back({"live", stage, live->second, ms});
+        continue;
+      }
     }
+    out.unchecked.push_back(stage);
   }
   return out;
 }
