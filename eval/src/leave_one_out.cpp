@@ -550,7 +550,7 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
 
 // A dataset (recorded or imported): its cameras' images and masks, the
 // hull carved in its capture volume at its voxel size (options.voxel_size
-// when the dataset names none), through Draco. Its masks are the truth the
+// when the dataset names none or a voxel was given), through Draco. Its masks are the truth the
 // images are compared inside; there is no true surface.
 SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, SceneResult& result) {
   auto dataset = capture::Dataset::open(dir);
@@ -565,6 +565,7 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
   if (cameras.size() < 2) throw std::invalid_argument(dir + ": leave-one-camera-out needs at least 2 cameras");
   input.reported = cameras;
   fusion::HullOptions hull_options = hullOptionsFor(*dataset, options.voxel_size);
+  if (!options.voxel_from_dataset) hull_options.voxel_size = options.voxel_size;
   // The frame ids every camera holds, in order; each camera's record in
   // camera order (the first, should a camera repeat an id).
   std::map<uint64_t, std::map<uint32_t, protocol::RecordInfo>> by_id;

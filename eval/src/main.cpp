@@ -6,6 +6,7 @@
 #include <exception>
 
 #include "common/command_line.h"
+#include "eval/knobs.h"
 #include "eval/leave_one_out.h"
 
 int main(int argc, char** argv) {
@@ -27,12 +28,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 16));
   app.add_option("--out", options.out_dir, "output folder (quality.json, quality.md, images/)")->required();
   app.add_flag("--save-images", options.save_images, "write rendered, true and mask PNGs of every comparison");
-  double hull_error_mm = 0;
-  addSharedFlag(app, "--voxel", options.voxel_size);
-  addSharedFlag(app, "--crop-margin", options.crop_margin);
-  addSharedFlag(app, "--hull-error-mm", hull_error_mm);
-  addSharedFlag(app, "--alpha", options.alpha);
-  addSharedFlag(app, "--lambda", options.lambda);
+  // Every setting a sweep turns, under the live loop's flag names (--size
+  // is eval's own, above).
+  const eval::KnobFlags knob_flags(app, {"size"});
   app.add_option("--novel-views", options.novel_view_degrees,
                  "synthetic scenes: also render this many degrees around the ring from the chosen cameras' poses, "
                  "every camera blended, against the scene's true image there (one row per offset)")
@@ -51,7 +49,10 @@ int main(int argc, char** argv) {
                  "JSON of per-stage ms budgets (" + eval::budgetedStagesText() + " are checked at p95)");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (!render::loadBudgetFlag(budget_file, options.budget)) return 2;
-  options.hull_error_target = hull_error_mm / 1000.0;
+  if (const std::string error = knob_flags.apply(options); !error.empty()) {
+    std::fprintf(stderr, "holofuse eval: %s\n", error.c_str());
+    return 2;
+  }
   for (size_t k = 0; k < options.novel_view_degrees.size(); ++k) {
     const double degrees = options.novel_view_degrees[k];
     if (std::count(options.novel_view_degrees.begin(), options.novel_view_degrees.begin() + k, degrees) > 0) {

@@ -14,159 +14,18 @@
 #include <set>
 #include <stdexcept>
 
+#include "capture_node/dataset.h"
 #include "capture_node/scene_library.h"
 #include "common/command_line.h"
 #include "common/html_report.h"
 #include "common/image_codec.h"
+#include "eval/dataset_inspection.h"
 #include "result_json.h"
 
 namespace holofuse::eval {
 namespace {
 
 namespace fs = std::filesystem;
-
-// Parses a number in [lo, hi]; "" or an error naming the value.
-std::string parseNumber(const std::string& text, double lo, double hi, double& out) {
-  size_t used = 0;
-  try {
-    out = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || text.empty() || !(out >= lo && out <= hi)) {
-    char range[96];
-    std::snprintf(range, sizeof(range), "a number in [%g, %g]", lo, hi);
-    return "'" + text + "' is not " + range;
-  }
-  return "";
-}
-
-// The pods a run has: its own count, or its scene's (cameras 0).
-int camerasOf(const EvalOptions& o) {
-  if (o.cameras != 0 || o.scenes.empty()) return o.cameras;
-  const capture::ScenePreset* scene = capture::findScene(o.scenes.front());
-  return scene != nullptr ? scene->cameras : 0;
-}
-
-std::string formatNumber(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof(buffer), "%.9g", v);  // every digit a --set value may have
-  return buffer;
-}
-
-Knob numberKnob(const std::string& name, const std::string& loop_flag, const std::string& meaning, double lo, double hi,
-                bool integer, std::function<void(EvalOptions&, double)> set,
-                std::function<double(const EvalOptions&)> get) {
-  Knob knob;
-  knob.name = name;
-  knob.loop_flag = loop_flag;
-  knob.meaning = meaning;
-  knob.apply = [=](EvalOptions& options, const std::string& text) {
-    double v = 0;
-    std::string error = parseNumber(text, lo, hi, v);
-    if (error.empty() && integer && v != std::floor(v)) error = "'" + text + "' is not a whole number";
-    if (error.empty()) set(options, v);
-    return error;
-  };
-  knob.current = [=](const EvalOptions& options) { return formatNumber(get(options)); };
-  return knob;
-}
-
-// A knob that is a flag of the live loop: its meaning and range are the
-// flag's, so a value the sweep takes is one the loop takes.
-Knob flagKnob(const std::string& name, const char* flag, bool integer, std::function<void(EvalOptions&, double)> set,
-              std::function<double(const EvalOptions&)> get) {
-  const SharedFlag& f = sharedFlag(flag);
-  return numberKnob(name, flag, f.description, f.min, f.max, integer, std::move(set), std::move(get));
-}
-
-Knob choiceKnob(const std::string& name, const char* flag, std::function<void(EvalOptions&, const std::string&)> set,
-                std::function<std::string(const EvalOptions&)> get) {
-  const SharedFlag& f = sharedFlag(flag);
-  Knob knob;
-  knob.name = name;
-  knob.loop_flag = flag;
-  knob.meaning = f.description;
-  knob.apply = [choices = f.choices, set](EvalOptions& options, const std::string& text) -> std::string {
-    if (std::find(choices.begin(), choices.end(), text) == choices.end()) {
-      std::string names;
-      for (const auto& c : choices) names += (names.empty() ? "" : ", ") + c;
-      return "'" + text + "' is not one of " + names;
-    }
-    set(options, text);
-    return "";
-  };
-  knob.current = std::move(get);
-  return knob;
-}
-
-std::vector<Knob> makeKnobs() {
-  std::vector<Knob> knobs;
-  knobs.push_back(flagKnob(
-      "voxel", "--voxel", false, [](EvalOptions& o, double v) { o.voxel_size = v; },
-      [](const EvalOptions& o) { return o.voxel_size; }));
-  knobs.push_back(flagKnob(
-      "hull-error-mm", "--hull-error-mm", false, [](EvalOptions& o, double v) { o.hull_error_target = v / 1000.0; },
-      [](const EvalOptions& o) { return 1000.0 * o.hull_error_target; }));
-  knobs.push_back(flagKnob(
-      "k", "--geodesic-rings", true, [](EvalOptions& o, double v) { o.fields.geodesic_rings = static_cast<int>(v); },
-      [](const EvalOptions& o) { return double(o.fields.geodesic_rings); }));
-  knobs.push_back(flagKnob(
-      "radius", "--geodesic-radius", false,
-      [](EvalOptions& o, double v) { o.fields.geodesic_radius = static_cast<float>(v); },
-      [](const EvalOptions& o) { return double(o.fields.geodesic_radius); }));
-  knobs.push_back(flagKnob(
-      "K", "--geodesic-passes", true,
-      [](EvalOptions& o, double v) { o.fields.geodesic_iterations = static_cast<int>(v); },
-      [](const EvalOptions& o) { return double(o.fields.geodesic_iterations); }));
-  knobs.push_back(flagKnob(
-      "alpha", "--alpha", false, [](EvalOptions& o, double v) { o.alpha = static_cast<float>(v); },
-      [](const EvalOptions& o) { return double(o.alpha); }));
-  knobs.push_back(flagKnob(
-      "lambda", "--lambda", false, [](EvalOptions& o, double v) { o.lambda = v; },
-      [](const EvalOptions& o) { return o.lambda; }));
-  // Leave-one-out needs a camera left to blend: 2 at least, where the
-  // loop's --pods takes 1.
-  knobs.push_back(numberKnob(
-      "cameras", "--pods", "pods on the ring", 2, 16, true,
-      [](EvalOptions& o, double v) { o.cameras = static_cast<int>(v); },
-      [](const EvalOptions& o) { return double(camerasOf(o)); }));
-  knobs.push_back(flagKnob(
-      "dilation", "--dilation", true, [](EvalOptions& o, double v) { o.fields.dilation_px = static_cast<int>(v); },
-      [](const EvalOptions& o) { return double(o.fields.dilation_px); }));
-  knobs.push_back(flagKnob(
-      "delta", "--vote-delta", false, [](EvalOptions& o, double v) { o.fields.vote_delta = static_cast<float>(v); },
-      [](const EvalOptions& o) { return double(o.fields.vote_delta); }));
-  knobs.push_back(flagKnob(
-      "draco-bits", "--draco-bits", true, [](EvalOptions& o, double v) { o.draco.position_bits = static_cast<int>(v); },
-      [](const EvalOptions& o) { return double(o.draco.position_bits); }));
-  knobs.push_back(flagKnob(
-      "lz4-acceleration", "--lz4-acceleration", true,
-      [](EvalOptions& o, double v) { o.lz4_acceleration = static_cast<int>(v); },
-      [](const EvalOptions& o) { return double(o.lz4_acceleration); }));
-  knobs.push_back(flagKnob(
-      "lz4-hc-level", "--lz4-hc-level", true, [](EvalOptions& o, double v) { o.lz4_hc_level = static_cast<int>(v); },
-      [](const EvalOptions& o) { return double(o.lz4_hc_level); }));
-  knobs.push_back(flagKnob(
-      "crop-margin", "--crop-margin", true, [](EvalOptions& o, double v) { o.crop_margin = static_cast<int>(v); },
-      [](const EvalOptions& o) { return double(o.crop_margin); }));
-  knobs.push_back(choiceKnob(
-      "image-codec", "--image-codec",
-      [](EvalOptions& o, const std::string& v) { o.image_codec = *imageCodecFromName(v); },
-      [](const EvalOptions& o) { return imageCodecName(o.image_codec); }));
-  knobs.push_back(choiceKnob(
-      "vertex-precision", "--vertex-precision",
-      [](EvalOptions& o, const std::string& v) { o.half_precision_vertices = v == "fp16"; },
-      [](const EvalOptions& o) { return std::string(o.half_precision_vertices ? "fp16" : "fp32"); }));
-  Knob size;
-  size.name = "size";
-  size.loop_flag = "--size";
-  size.meaning = "camera and output image size WxH";
-  size.apply = [](EvalOptions& o, const std::string& v) -> std::string { return parseImageSize(v, o.width, o.height); };
-  size.current = [](const EvalOptions& o) { return std::to_string(o.width) + "x" + std::to_string(o.height); };
-  knobs.push_back(size);
-  return knobs;
-}
 
 fs::path pointPath(const std::string& out_dir, const std::string& knob, const std::string& value) {
   return fs::path(out_dir) / "points" / (knob + "=" + value + ".json");
@@ -180,7 +39,7 @@ nlohmann::json runSettings(const EvalOptions& run) {
   std::vector<std::string> modes;
   for (const auto mode : run.modes) modes.push_back(render::blendModeName(mode));
   const render::FieldParameters& f = run.fields;
-  return {{"scenes", run.scenes},
+  nlohmann::json settings = {{"scenes", run.scenes},
           {"datasets", run.datasets},
           {"modes", modes},
           {"frames", run.frames},
@@ -212,6 +71,9 @@ nlohmann::json runSettings(const EvalOptions& run) {
           {"metrics",
            "SSIM over the mask's pixels per window; p50/p95 interpolated; Chamfer to triangles; "
            "codec stages per pod frame"}};
+  // A dataset's own voxel, or the one given.
+  if (!run.datasets.empty()) settings["voxel_from_dataset"] = run.voxel_from_dataset;
+  return settings;
 }
 
 // Where a point of the sweep lives and what it runs.
@@ -259,24 +121,6 @@ nlohmann::json readPoint(const PlannedPoint& plan) {
 }
 
 }  // namespace
-
-const std::vector<Knob>& sweepKnobs() {
-  static const std::vector<Knob> knobs = makeKnobs();
-  return knobs;
-}
-
-const Knob* findKnob(const std::string& name) {
-  for (const auto& knob : sweepKnobs()) {
-    if (knob.name == name) return &knob;
-  }
-  return nullptr;
-}
-
-std::string knobNames() {
-  std::string names;
-  for (const auto& knob : sweepKnobs()) names += (names.empty() ? "" : ", ") + knob.name;
-  return names;
-}
 
 std::string primaryMode(const EvalOptions& options) {
   return options.modes.empty() ? "montage4d" : render::blendModeName(options.modes.back());
@@ -330,7 +174,14 @@ namespace {
 std::vector<std::string> liveArguments(const SweepOptions& options, const std::string& knob, const std::string& value) {
   EvalOptions defaults;
   defaults.scenes = options.base.scenes;
-  std::vector<std::string> arguments = {"--scene", options.base.scenes.at(0), "--mode", primaryMode(options.base)};
+  defaults.datasets = options.base.datasets;
+  // A dataset replays through the same network path, over and over until
+  // the frames asked for are rendered.
+  std::vector<std::string> arguments =
+      options.base.datasets.empty()
+          ? std::vector<std::string>{"--scene", options.base.scenes.at(0), "--mode", primaryMode(options.base)}
+          : std::vector<std::string>{"--replay", options.base.datasets.at(0), "--loop", "--mode",
+                                     primaryMode(options.base)};
   for (const Knob& other : sweepKnobs()) {
     if (other.name != knob && other.current(options.base) != other.current(defaults)) {
       arguments.insert(arguments.end(), {other.loop_flag, other.current(options.base)});
@@ -524,7 +375,9 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
 
 std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::function<void(const std::string&)>& progress) {
   if (options.knobs.empty()) throw std::invalid_argument("no --knob given; knobs: " + knobNames());
-  if (options.base.scenes.size() != 1) throw std::invalid_argument("a sweep runs on exactly one scene");
+  if (options.base.scenes.size() + options.base.datasets.size() != 1) {
+    throw std::invalid_argument("a sweep runs on exactly one scene or one dataset");
+  }
   // Every knob and value is checked before the first (long) point runs.
   std::set<std::string> named;
   for (const auto& [name, values] : options.knobs) {
@@ -535,6 +388,10 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::functio
                                   "=v1,v2,...");
     }
     if (values.empty()) throw std::invalid_argument("knob '" + name + "' has no values");
+    if (knob->synthetic_only && !options.base.datasets.empty()) {
+      throw std::invalid_argument("knob '" + name + "' needs a synthetic scene: a dataset's cameras and image size "
+                                  "are the recorded ones");
+    }
     for (const auto& value : values) {
       EvalOptions probe = options.base;
       const std::string error = knob->apply(probe, value);
@@ -544,6 +401,13 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::functio
   // The report places the default against the other values: a knob swept
   // without it gets it too (one run shared by every knob, points/default.json).
   SweepOptions swept = options;
+  if (!swept.base.datasets.empty() && swept.base.voxel_from_dataset) {
+    // The dataset's own voxel is the default point's, by number.
+    auto dataset = capture::Dataset::open(swept.base.datasets.front());
+    if (!dataset.isOk()) throw std::invalid_argument(dataset.status().message());
+    swept.base.voxel_size = hullOptionsFor(*dataset, swept.base.voxel_size).voxel_size;
+    swept.base.voxel_from_dataset = false;
+  }
   for (auto& [name, values] : swept.knobs) {
     const Knob& knob = *findKnob(name);
     bool has_default = false;
@@ -570,6 +434,10 @@ PointBudget checkPointBudget(const render::Budget& budget, const SweepPoint& poi
   return out;
 }
 
+std::string sweptSubject(const SweepOptions& options) {
+  return options.base.datasets.empty() ? options.base.scenes.at(0) : options.base.datasets.at(0);
+}
+
 // The live loop with one knob set as a sweep point had it, and the rest as
 // the sweep's base has them (the defaults, or what --set moved).
 std::string liveCommand(const SweepOptions& options, const std::string& knob, const std::string& value) {
@@ -581,10 +449,11 @@ std::string liveCommand(const SweepOptions& options, const std::string& knob, co
 void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint>& points) {
   const std::string mode = primaryMode(options.base);
   nlohmann::json json;
-  json["scene"] = options.base.scenes.at(0);
+  json[options.base.datasets.empty() ? "scene" : "dataset"] = sweptSubject(options);
   json["quality_mode"] = mode;
   json["pipeline_ms"] = "hull + codecs + client ms per new mesh: the per-frame work the knobs move (transport not included)";
-  std::string md = "# Sweep\n\nScene `" + options.base.scenes.at(0) + "`, quality of `" + mode +
+  std::string md = "# Sweep\n\n" + std::string(options.base.datasets.empty() ? "Scene" : "Dataset") + " `" +
+                   sweptSubject(options) + "`, quality of `" + mode +
                    "` (leave-one-camera-out), one knob at a time around the defaults. Pipeline ms: the hull, the "
                    "codecs (" + std::string(kCodecsMeaning) + ") and the client's render per new mesh. Front: no "
                    "other value of the knob is at least as good in PSNR, client ms, pipeline ms and bytes per frame on "
@@ -775,7 +644,7 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
   std::ofstream(fs::path(options.out_dir) / "sweep.json") << json.dump(2) << "\n";
   std::ofstream(fs::path(options.out_dir) / "sweep.md") << md;
   std::ofstream(fs::path(options.out_dir) / "sweep.html")
-      << html::page("holofuse sweep: " + options.base.scenes.at(0) + ", quality of " + mode, body);
+      << html::page("holofuse sweep: " + sweptSubject(options) + ", quality of " + mode, body);
 }
 
 }  // namespace holofuse::eval

@@ -17,7 +17,11 @@ int main(int argc, char** argv) {
   std::string scene = "clean";
   CLI::App app{"holofuse sweep: quality against time and bytes, one knob at a time around the defaults"};
   app.add_option("--knob", knob_texts, "NAME=v1,v2,... (repeatable); knobs: " + eval::knobNames())->required();
-  app.add_option("--scene", scene, "scene: " + capture::sceneNames());
+  auto* scene_flag = app.add_option("--scene", scene, "scene: " + capture::sceneNames());
+  std::string dataset;
+  app.add_option("--dataset", dataset,
+                 "a dataset folder (recorded or imported) to sweep instead of a scene; live points replay it")
+      ->excludes(scene_flag);
   app.add_option("--modes", modes, "modes measured; the last is the one whose quality is plotted")
       ->delimiter(',')
       ->check(CLI::IsMember(render::blendModeNames()));
@@ -40,10 +44,14 @@ int main(int argc, char** argv) {
                      " is checked and the points over are flagged");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (!render::loadBudgetFlag(budget_file, options.base.budget)) return 2;
-  options.base.scenes = {scene};
+  if (dataset.empty()) {
+    options.base.scenes = {scene};
+  } else {
+    options.base.datasets = {dataset};
+  }
   // The live loop's launcher lies next to this executable.
   options.loop_program = (std::filesystem::canonical("/proc/self/exe").parent_path() / "holofuse_loop").string();
-  if (capture::findScene(scene) == nullptr) {
+  if (dataset.empty() && capture::findScene(scene) == nullptr) {
     std::fprintf(stderr, "--scene: unknown scene '%s'; valid scenes: %s\n", scene.c_str(), capture::sceneNames().c_str());
     return 2;
   }

@@ -19,6 +19,7 @@
 #include "common/command_line.h"
 #include "eval/sweep.h"
 #include "integration/process_harness.h"
+#include "small_dataset.h"
 #include "sweep_points.h"
 
 namespace holofuse::eval {
@@ -411,15 +412,89 @@ TEST(Sweep, EvalTakesTheVoxelAndTheCropMarginLikeTheLoop) {
 }
 
 // Every knob can be set in the live loop: its flag is one of the
-// launcher's (tests/integration/test_loop.cpp runs the loop with them).
-TEST(Sweep, EveryKnobIsAFlagOfTheLiveLoop) {
-  int status = -1;
-  const std::string help = run(std::string(HOLOFUSE_BIN_DIR) + "/holofuse_loop --help", &status);
-  ASSERT_EQ(status, 0) << help;
-  for (const Knob& knob : sweepKnobs()) {
-    ASSERT_FALSE(knob.loop_flag.empty()) << knob.name;
-    EXPECT_NE(help.find("  " + knob.loop_flag + " "), std::string::npos) << knob.name << ": " << knob.loop_flag;
+// launcher's (tests/integration/test_loop.cpp runs the loop with them),
+// and one of eval's (but --size, which eval has of its own).
+TEST(Sweep, EveryKnobIsAFlagOfTheLiveLoopAndOfEval) {
+  for (const char* program : {"holofuse_loop", "holofuse_eval"}) {
+    int status = -1;
+    const std::string help = run(std::string(HOLOFUSE_BIN_DIR) + "/" + program + " --help", &status);
+    ASSERT_EQ(status, 0) << help;
+    for (const Knob& knob : sweepKnobs()) {
+      ASSERT_FALSE(knob.loop_flag.empty()) << knob.name;
+      EXPECT_NE(help.find("  " + knob.loop_flag + " "), std::string::npos)
+          << program << ": " << knob.name << ": " << knob.loop_flag;
+    }
   }
+}
+
+// Eval's flags set what the sweep's knobs set, and refuse what they refuse,
+// naming the flag.
+TEST(Sweep, EvalFlagsSetWhatTheKnobsSet) {
+  CLI::App app;
+  const KnobFlags flags(app, {"size"});
+  EXPECT_EQ(app.get_option_no_throw("--size"), nullptr) << "eval's own";
+  app.parse("--vote-delta 0.3 --dilation 2 --geodesic-rings 7 --voxel 0.04 --hull-error-mm 1.5 --lambda 0.2", false);
+  EvalOptions options;
+  ASSERT_EQ(flags.apply(options), "");
+  EXPECT_FLOAT_EQ(options.fields.vote_delta, 0.3f);
+  EXPECT_EQ(options.fields.dilation_px, 2);
+  EXPECT_EQ(options.fields.geodesic_rings, 7);
+  EXPECT_DOUBLE_EQ(options.voxel_size, 0.04);
+  EXPECT_FALSE(options.voxel_from_dataset) << "a voxel given overrides a dataset's own";
+  EXPECT_DOUBLE_EQ(options.hull_error_target, 0.0015);
+  EXPECT_DOUBLE_EQ(options.lambda, 0.2);
+  EXPECT_EQ(options.alpha, EvalOptions{}.alpha) << "a flag not given leaves its setting alone";
+  CLI::App bad_app;
+  const KnobFlags bad(bad_app, {"size"});
+  bad_app.parse("--dilation 65", false);
+  const std::string error = bad.apply(options);
+  EXPECT_NE(error.find("--dilation"), std::string::npos) << error;
+  EXPECT_NE(error.find("65"), std::string::npos) << error;
+}
+
+// A dataset carves at the voxel it was imported with unless one is given,
+// in eval and in a sweep, whose default point is the dataset's own voxel;
+// a sweep over a dataset refuses the knobs only a synthetic scene has.
+TEST(Sweep, ADatasetIsSweptAroundItsOwnSettings) {
+  const fs::path dir = fs::temp_directory_path() / "holofuse_sweep_dataset";
+  fs::remove_all(dir);
+  const fs::path capture = dir / "capture";
+  test::writeSmallDataset(capture, 4, 96, 72, 0.03);
+  EvalOptions eval = tinySweep("").base;
+  eval.scenes.clear();
+  eval.datasets = {capture.string()};
+  EXPECT_DOUBLE_EQ(runLeaveOneOut(eval).at(0).voxel_mm, 30.0) << "the dataset's own voxel";
+  ASSERT_EQ(findKnob("voxel")->apply(eval, "0.05"), "");
+  EXPECT_DOUBLE_EQ(runLeaveOneOut(eval).at(0).voxel_mm, 50.0) << "the voxel given";
+
+  SweepOptions options = tinySweep((dir / "sweep").string());
+  options.base.scenes.clear();
+  options.base.datasets = {capture.string()};
+  options.knobs = {{"voxel", {"0.05"}}};
+  const auto points = runSweep(options);
+  ASSERT_EQ(points.size(), 2u) << "the value asked for and the default";
+  EXPECT_EQ(points[0].result.name, "dataset:capture");
+  EXPECT_DOUBLE_EQ(points[0].result.voxel_mm, 50.0);
+  EXPECT_TRUE(points[1].is_default);
+  EXPECT_EQ(points[1].value, "0.03") << "the dataset's voxel is the default";
+  EXPECT_DOUBLE_EQ(points[1].result.voxel_mm, 30.0);
+  writeSweepReports(options, points);
+  std::ifstream in(dir / "sweep" / "sweep.json");
+  const auto json = nlohmann::json::parse(in);
+  EXPECT_EQ(json["dataset"], capture.string());
+  EXPECT_NE(json["knobs"]["voxel"]["points"][0]["live_command"].get<std::string>().find("--replay " + capture.string()),
+            std::string::npos)
+      << "a dataset's point runs live as a replay";
+  for (const char* knob : {"cameras", "size"}) {
+    options.knobs = {{knob, {knob == std::string("size") ? "64x48" : "3"}}};
+    try {
+      (void)runSweep(options);
+      ADD_FAILURE() << knob << " was taken for a dataset";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("needs a synthetic scene"), std::string::npos) << e.what();
+    }
+  }
+  fs::remove_all(dir);
 }
 
 // A value the live loop takes, the sweep takes, and the reverse: a knob

@@ -64,6 +64,9 @@ struct EvalOptions {
   std::string geometry = "hull";
   // The knobs a sweep turns; the defaults are the live loop's.
   double voxel_size = 0.02;                  // hull accuracy, metres
+  // A dataset carves at the voxel size it was recorded or imported with
+  // unless a voxel is given (--voxel, the sweep's voxel knob).
+  bool voxel_from_dataset = true;
   // Silhouette error, metres (fusion::silhouetteError): when set, each
   // scene's voxel is the coarsest from voxel_size down that meets it on the
   // first frame (fusion::carveToErrorTarget).

@@ -26,24 +26,11 @@
 #include <utility>
 #include <vector>
 
+#include "eval/knobs.h"
 #include "eval/leave_one_out.h"
 
 namespace holofuse::eval {
 
-struct Knob {
-  std::string name, meaning;
-  // The flag of `./holofuse demo` that sets the same thing in the live
-  // loop, so that a point can be run live.
-  std::string loop_flag;
-  // Sets the value on options; returns "" or what is wrong with the value.
-  std::function<std::string(EvalOptions&, const std::string&)> apply;
-  // The value options hold now, as the sweep spells it.
-  std::function<std::string(const EvalOptions&)> current;
-};
-
-const std::vector<Knob>& sweepKnobs();
-const Knob* findKnob(const std::string& name);
-std::string knobNames();
 
 struct SweepOptions {
   EvalOptions base;
@@ -91,6 +78,9 @@ PointBudget checkPointBudget(const render::Budget& budget, const SweepPoint& poi
 // naming its log (std::runtime_error); the points before it stay on disk.
 std::vector<SweepPoint> runSweep(const SweepOptions& options,
                                  const std::function<void(const std::string&)>& progress = {});
+
+// The scene or dataset folder a sweep runs on.
+std::string sweptSubject(const SweepOptions& options);
 
 // The mode whose quality the trade-off plots (the last of the modes asked for).
 std::string primaryMode(const EvalOptions& options);
