@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "bench_timing.h"
+#include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/reference/geodesics.h"
@@ -62,7 +63,7 @@ int main(int argc, char** argv) {
         std::vector<render::ViewImages> views;
         for (const auto& cam : cameras) {
           const auto truth = scene.render(cam, 10 + m);
-          views.push_back({cam, truth.color, truth.mask});
+          views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
         }
         renderer.setMesh(mesh);
         renderer.setViews(views);
@@ -114,7 +115,7 @@ int main(int argc, char** argv) {
   std::vector<render::reference::PodView> views;
   for (const auto& cam : cameras) {
     const auto truth = scene.render(cam, 10 + meshes);
-    views.push_back({cam, truth.color, truth.mask});
+    views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
   }
   // Each CPU stage timed alone, best of three (the machine is noisy).
   std::map<std::string, double> cpu;
@@ -258,7 +259,7 @@ int main(int argc, char** argv) {
     render::BlendSettings settings;
     settings.mode = render::BlendMode::kMontage4D;
     std::vector<render::ViewImages> pod_views;
-    for (const auto& v : views) pod_views.push_back({v.camera, v.color, v.mask});
+    for (const auto& v : views) pod_views.push_back({v.camera, v.color, v.mask, v.feather});
     for (int repeat = 0; repeat < 2 + 2 * meshes; ++repeat) {
       for (size_t k = 0; k < stage_names.size(); ++k) {
         settings.fields.last_stage = static_cast<int>(k);
@@ -304,7 +305,7 @@ int main(int argc, char** argv) {
     render::BlendSettings settings;
     settings.mode = render::BlendMode::kMontage4D;
     std::vector<render::ViewImages> pod_views;
-    for (const auto& v : views) pod_views.push_back({v.camera, v.color, v.mask});
+    for (const auto& v : views) pod_views.push_back({v.camera, v.color, v.mask, v.feather});
     std::vector<int> stages = {-1};  // every stage but the depth maps (timestamps)
     for (int stage = 1; stage < static_cast<int>(stage_names.size()); ++stage) stages.push_back(stage);
     auto runs = repeatedRuns(renderer, settings, pod_views, stages);
@@ -342,7 +343,7 @@ int main(int argc, char** argv) {
       std::vector<render::ViewImages> pod_views;
       for (const auto& cam : capture::SyntheticScene::cameraRig(4, width, height)) {
         const auto truth = scene.render(cam, 10 + meshes);
-        pod_views.push_back({cam, truth.color, truth.mask});
+        pod_views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
         maps.push_back(render::reference::rasterizeDepth(mesh, cam));
       }
       double cpu_ms = 1e30;
@@ -403,7 +404,7 @@ int main(int argc, char** argv) {
       std::vector<render::ViewImages> chosen;
       for (int i = 0; i < 8; i += count == 4 ? 2 : 1) {
         const auto truth = scene.render(ring8[static_cast<size_t>(i)], 10 + meshes);
-        render::ViewImages view{ring8[static_cast<size_t>(i)], truth.color, truth.mask};
+        render::ViewImages view{ring8[static_cast<size_t>(i)], truth.color, truth.mask, capture::featherMap(truth.mask)};
         if (odd_empty && i % 2 == 1) std::fill(view.mask.pixels.begin(), view.mask.pixels.end(), 0);
         chosen.push_back(std::move(view));
       }

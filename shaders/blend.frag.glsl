@@ -5,11 +5,17 @@
 // Fragment blending of the pod images (paper 000 eq. 1):
 //   colour = sum_i w_i * M_i(project_i(p)) / sum_i w_i
 // mode normal: w_i = V_i * max(0, n . d_i)^alpha computed here, with V_i the
-//   per-fragment test (inside image and mask, not behind the depth map);
+//   per-fragment test (inside image and mask, not behind the depth map by
+//   more than an absolute tolerance);
+// mode fragment (Li, Magnor, Seidel 2004, eqs. 1 to 4):
+//   w_k = V_k * F_k * max(0, d_k . n)^alpha * (d_k . d_v + 1)^beta,
+//   V_k the per-fragment test with a tolerance that follows depth and the
+//   mesh's scale, F_k the pod's feather weight, d_v towards the user's eye;
 // modes holoportation and montage4d: w_i are the per-vertex texture fields
 //   (eq. 2, or eqs. 4 and 5 normalised) computed by the compute passes and
-//   interpolated over the triangle.
-// Where the fields give no weight the normal-weighted blend fills in; a
+//   interpolated over the triangle, times V_k * F_k when the field modes
+//   take the per-fragment test (DESIGN.md section 6).
+// Where the weights give nothing the normal-weighted blend fills in; a
 // fragment no camera contributes to gets the hole colour: never a division
 // by zero.
 
@@ -20,24 +26,100 @@ layout(location = 0) out vec4 out_color;
 // The depth maps of the compute passes (depth_raster.comp.glsl).
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DEPTHS) readonly buffer DepthMaps { uint depth_bits[]; };
 
+// Where p lands in camera i: texture coordinates in [0, 1] and the
+// camera-space depth; false behind the camera or off its image.
+bool projectInto(int i, vec3 p, out vec2 uv, out float depth) {
+  vec4 clip = blend.cameras[i].world_to_clip * vec4(p, 1.0);
+  depth = clip.w;
+  uv = vec2(0.0);
+  if (clip.w <= 1e-6) return false;
+  uv = clip.xy / clip.w * 0.5 + 0.5;
+  return all(greaterThanEqual(uv, vec2(0.0))) && all(lessThanEqual(uv, vec2(1.0)));
+}
+
+// Camera i's depth map at the pixel uv falls in.
+float storedDepth(int i, vec2 uv) {
+  vec2 size = blend.cameras[i].size.xy;
+  ivec2 pixel = clamp(ivec2(uv * size), ivec2(0), ivec2(size) - 1);
+  return uintBitsToFloat(depth_bits[(i * int(size.y) + pixel.y) * int(size.x) + pixel.x]);
+}
+
+// Tap k (x = k & 1, y = k >> 1) of the bilinear filter at uv in camera
+// i's images: between texel centres, clamped at the border, as the CPU
+// reference samples them. Filtered here in float: a GPU's own filter of an
+// 8-bit image rounds the result to 8 bits (for the feather map, a whole
+// pixel of distance: 6% of an 8-pixel ramp).
+ivec3 bilinearTap(int i, vec2 uv, int k, out float weight) {
+  ivec2 size = ivec2(blend.cameras[i].size.xy);
+  vec2 texel = uv * vec2(size) - 0.5;
+  ivec2 base = ivec2(floor(texel));
+  vec2 f = texel - vec2(base);
+  ivec2 offset = ivec2(k & 1, k >> 1);
+  weight = (offset.x == 1 ? f.x : 1.0 - f.x) * (offset.y == 1 ? f.y : 1.0 - f.y);
+  return ivec3(clamp(base + offset, ivec2(0), size - 1), i);
+}
+
+// Camera i's image at uv over its foreground only: each texel weighted by
+// its mask too, so that the pod's background beside the silhouette never
+// bleeds into the subject's colour. a is the mask's bilinear coverage
+// (a >= 0.5 inside the silhouette).
+vec4 sampleForeground(int i, vec2 uv) {
+  vec4 sum = vec4(0.0);
+  for (int k = 0; k < 4; ++k) {
+    float w;
+    vec4 t = texelFetch(images, bilinearTap(i, uv, k, w), 0);
+    sum += w * vec4(t.rgb * t.a, t.a);
+  }
+  return vec4(sum.a > 1e-6 ? sum.rgb / sum.a : vec3(0.0), sum.a);
+}
+
+// Camera i's feather map at uv, in pixels.
+float featherAt(int i, vec2 uv) {
+  float sum = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    float w;
+    ivec3 tap = bilinearTap(i, uv, k, w);
+    sum += w * texelFetch(feathers, tap, 0).r;
+  }
+  return sum * 255.0;
+}
+
+// V_k * F_k of paper 004 at this fragment: 0 on camera k's background or
+// behind its depth map by more than the tolerance (relative to the depth,
+// plus the mesh's mean edge: a fragment of the surface the map holds lies
+// within a pixel's footprint of it); else the feather ramp
+// min(1, distance to the silhouette's edge / width), 1 without feathering.
+float sightAndFeather(int i, vec2 uv, float depth, float mask) {
+  if (mask < 0.5) return 0.0;
+  if (depth > storedDepth(i, uv) * (1.0 + blend.fragment_test.x) + blend.fragment_test.y) return 0.0;
+  float width = blend.fragment_test.z;
+  if (!(width > 0.0)) return 1.0;
+  return clamp(featherAt(i, uv) / width, 0.0, 1.0);
+}
+
+// Camera i takes part and the fragment lands on its image (uv, depth as
+// projectInto); not when it is left out or its mask is empty: it would
+// sample only background.
+bool imagedBy(int i, out vec2 uv, out float depth) {
+  uv = vec2(0.0);
+  depth = 0.0;
+  if (blend.cameras[i].flags.x == 0 || blend.cameras[i].flags.y != 0) return false;
+  return projectInto(i, in_position, uv, depth);
+}
+
 // Normal-weighted blend with the per-fragment occlusion test (mode normal,
-// and the fallback of the field modes).
+// and the fallback of the others).
 vec4 blendNormal(vec3 n, inout float total) {
   vec3 sum = vec3(0.0);
   total = 0.0;
   for (int i = 0; i < blend.counts.x; ++i) {
     CameraGpu cam = blend.cameras[i];
-    // Left out, or its mask is empty: it would sample only background.
-    if (cam.flags.x == 0 || cam.flags.y != 0) continue;
-    vec4 clip = cam.world_to_clip * vec4(in_position, 1.0);
-    if (clip.w <= 1e-6) continue;
-    vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) continue;
-    ivec2 pixel = clamp(ivec2(uv * cam.size.xy), ivec2(0), ivec2(cam.size.xy) - 1);
-    float stored = uintBitsToFloat(depth_bits[(i * int(cam.size.y) + pixel.y) * int(cam.size.x) + pixel.x]);
-    if (clip.w > stored + blend.params.y) continue;  // occluded from camera i
-    vec4 texel = textureLod(images, vec3(uv, float(i)), 0.0);
-    if (texel.a < 0.5) continue;                     // outside camera i's silhouette
+    vec2 uv;
+    float depth;
+    if (!imagedBy(i, uv, depth)) continue;
+    if (depth > storedDepth(i, uv) + blend.params.y) continue;  // occluded from camera i
+    vec4 texel = sampleForeground(i, uv);
+    if (texel.a < 0.5) continue;                              // outside camera i's silhouette
     vec3 to_camera = normalize(cam.center.xyz - in_position);
     // 0 facing away, whatever alpha (pow(0, 0) is undefined in GLSL).
     float c = dot(n, to_camera);
@@ -48,22 +130,66 @@ vec4 blendNormal(vec3 n, inout float total) {
   return vec4(total > 1e-8 ? sum / total : vec3(0.0), 1.0);
 }
 
+// Mode fragment, paper 004 eqs. 1 to 4. The weights are summed in the log
+// domain against the largest so far (each rescale is exact), so exponents
+// up to the flags' limits neither overflow nor underflow to all zero; the
+// view term is (d_k . d_v + 1)^beta over 2^beta, a factor every camera
+// shares, so that it stays within [0, 1].
+vec4 blendFragment(vec3 n, inout float total) {
+  vec3 sum = vec3(0.0);
+  total = 0.0;
+  float largest = -3.0e38;
+  vec3 to_eye = blend.user_eye.xyz - in_position;
+  float eye_distance = length(to_eye);
+  vec3 d_v = eye_distance > 1e-20 ? to_eye / eye_distance : vec3(0.0);
+  for (int i = 0; i < blend.counts.x; ++i) {
+    CameraGpu cam = blend.cameras[i];
+    vec2 uv;
+    float depth;
+    if (!imagedBy(i, uv, depth)) continue;
+    vec4 texel = sampleForeground(i, uv);
+    float sight = sightAndFeather(i, uv, depth, texel.a);
+    vec3 to_camera = cam.center.xyz - in_position;
+    float camera_distance = length(to_camera);
+    vec3 d_k = camera_distance > 1e-20 ? to_camera / camera_distance : vec3(0.0);
+    float obliqueness = min(dot(d_k, n), 1.0);
+    float direction = min(0.5 * (dot(d_k, d_v) + 1.0), 1.0);
+    if (!(sight > 0.0) || !(obliqueness > 0.0) || (!(direction > 0.0) && blend.view_weight.x > 0.0)) continue;
+    float log_w = log(sight) + blend.params.x * log(obliqueness) +
+                  (blend.view_weight.x > 0.0 ? blend.view_weight.x * log(direction) : 0.0);
+    if (isnan(log_w) || isinf(log_w)) continue;
+    if (log_w > largest) {
+      float rescale = exp(largest - log_w);  // 0 for the first camera
+      sum *= rescale;
+      total *= rescale;
+      largest = log_w;
+    }
+    float w = exp(log_w - largest);
+    sum += w * texel.rgb;
+    total += w;
+  }
+  return vec4(total > 1e-8 ? sum / total : vec3(0.0), 1.0);
+}
+
 // Blend with the interpolated per-vertex texture fields.
 vec4 blendFields(inout float total) {
   vec3 sum = vec3(0.0);
   total = 0.0;
+  bool fragment_test = blend.fragment_test.w > 0.5;
   for (int i = 0; i < blend.counts.x; ++i) {
     CameraGpu cam = blend.cameras[i];
     float w = in_weights[i / 4][i % 4];
     if (cam.flags.x == 0 || !(w > 0.0)) continue;
-    vec4 clip = cam.world_to_clip * vec4(in_position, 1.0);
-    if (clip.w <= 1e-6) continue;
-    vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) continue;
-    vec4 texel = textureLod(images, vec3(uv, float(i)), 0.0);
+    vec2 uv;
+    float depth;
+    if (!projectInto(i, in_position, uv, depth)) continue;
+    vec4 texel = sampleForeground(i, uv);
     // Weights are per vertex; near a silhouette a fragment of a visible
     // triangle can still land on the pod's background: never sample that.
-    if (texel.a < 0.5) continue;
+    // With the per-fragment test, the fragment is also tested against the
+    // camera's depth map and feathered towards its silhouette's edge.
+    w *= fragment_test ? sightAndFeather(i, uv, depth, texel.a) : (texel.a < 0.5 ? 0.0 : 1.0);
+    if (!(w > 0.0)) continue;
     sum += w * texel.rgb;
     total += w;
   }
@@ -75,10 +201,14 @@ void main() {
   vec3 n = len > 1e-12 ? in_normal / len : vec3(0.0);
   float total = 0.0;
   vec4 color = vec4(0.0);
-  if (blend.counts.y != HOLOFUSE_MODE_NORMAL) color = blendFields(total);
-  // Where no field weight reaches the fragment (every camera culled by the
-  // dilated discontinuities or the vote), the normal-weighted blend fills
-  // in (DESIGN.md section 6, step 10).
+  if (blend.counts.y == HOLOFUSE_MODE_FRAGMENT) {
+    color = blendFragment(n, total);
+  } else if (blend.counts.y != HOLOFUSE_MODE_NORMAL) {
+    color = blendFields(total);
+  }
+  // Where no weight reaches the fragment (every camera culled by the
+  // dilated discontinuities, the vote or the per-fragment test), the
+  // normal-weighted blend fills in (DESIGN.md section 6, step 10).
   if (!(total > 1e-8)) color = blendNormal(n, total);
   out_color = total > 1e-8 ? color : vec4(blend.hole_color.rgb, 1.0);
 }

@@ -26,7 +26,7 @@ void main() {
   out_position = in_position;
   out_normal = in_normal;
   for (int k = 0; k < 4; ++k) out_weights[k] = vec4(0.0);
-  if (blend.counts.y != HOLOFUSE_MODE_NORMAL) {
+  if (blend.counts.y == HOLOFUSE_MODE_HOLOPORTATION || blend.counts.y == HOLOFUSE_MODE_MONTAGE4D) {
     uint base = uint(gl_VertexIndex) * HOLOFUSE_MAX_CAMERAS;
     for (int k = 0; k < 4; ++k) {
       out_weights[k] = vec4(weights[base + 4 * k], weights[base + 4 * k + 1], weights[base + 4 * k + 2],

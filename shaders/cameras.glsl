@@ -14,8 +14,16 @@ layout(set = 0, binding = HOLOFUSE_BINDING_CAMERAS) uniform Blend {
   ivec4 counts;
   vec4 params;         // x: alpha, y: depth tolerance (metres)
   vec4 hole_color;     // for surface no camera sees
-  vec4 user_eye;       // xyz: the user's eye (montage4d, eq. 4)
+  vec4 user_eye;       // xyz: the user's eye (montage4d eq. 4, fragment's view weight)
   vec4 temporal;       // x: lambda of this frame (eq. 5), y: half of the temporal buffer holding the previous field
+  // The per-fragment test of paper 004 (mode fragment, and the field modes
+  // when fragment_test.w is 1): x: depth tolerance relative to the
+  // camera-space depth, y: absolute depth tolerance in metres (the mesh's
+  // mean edge), z: feather width in pixels (0: no feathering), w: 1 if the
+  // field modes take the test too.
+  vec4 fragment_test;
+  vec4 view_weight;    // x: beta, the exponent of (d_k . d_v + 1) (paper 004 eq. 4)
 } blend;
 
 layout(set = 0, binding = HOLOFUSE_BINDING_IMAGES) uniform sampler2DArray images;  // rgb + mask in a, with mips
+layout(set = 0, binding = HOLOFUSE_BINDING_FEATHERS) uniform sampler2DArray feathers;  // r: distance / 255

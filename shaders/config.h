@@ -7,6 +7,7 @@
 #define HOLOFUSE_MODE_NORMAL 0
 #define HOLOFUSE_MODE_HOLOPORTATION 1
 #define HOLOFUSE_MODE_MONTAGE4D 2
+#define HOLOFUSE_MODE_FRAGMENT 3
 
 // Push constants: the vertex stage's matrix, then the compute passes' block.
 #define HOLOFUSE_COMPUTE_PUSH_OFFSET 64
@@ -55,7 +56,10 @@
 #if HOLOFUSE_MAX_CAMERAS > 16
 #error "the sight bits hold 16 cameras per half word"
 #endif
-#define HOLOFUSE_BINDING_COUNT 20
+// The pods' feather maps (paper 004: distance to the silhouette's edge in
+// pixels, 255 and more as 255), one layer per camera as the images.
+#define HOLOFUSE_BINDING_FEATHERS 20
+#define HOLOFUSE_BINDING_COUNT 21
 
 // Geodesic worklists and their marks rotate through three slots of storage:
 // the one a pass reads (clearing each mark as it goes), the one it appends

@@ -122,6 +122,16 @@ std::vector<Knob> makeKnobs() {
   knobs.push_back(flagKnob(
       "lambda", "--lambda", false, [](EvalOptions& o, double v) { o.lambda = v; },
       [](const EvalOptions& o) { return o.lambda; }));
+  knobs.push_back(flagKnob(
+      "beta", "--beta", false, [](EvalOptions& o, double v) { o.beta = static_cast<float>(v); },
+      [](const EvalOptions& o) { return double(o.beta); }));
+  knobs.push_back(flagKnob(
+      "feather-width", "--feather-width", false,
+      [](EvalOptions& o, double v) { o.feather_width_px = static_cast<float>(v); },
+      [](const EvalOptions& o) { return double(o.feather_width_px); }));
+  knobs.push_back(choiceKnob(
+      "fragment-test", "--fragment-test", [](EvalOptions& o, const std::string& v) { o.fragment_test = v == "on"; },
+      [](const EvalOptions& o) { return std::string(o.fragment_test ? "on" : "off"); }));
   // Leave-one-out needs a camera left to blend: 2 at least, where the
   // loop's --pods takes 1.
   knobs.push_back(numberKnob(

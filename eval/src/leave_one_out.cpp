@@ -70,6 +70,7 @@ struct FrameData {
   std::map<std::string, std::vector<double>> per_pod_ms;
   size_t pod_link_bytes = 0;     // every pod's PodFrame, as the pods send them
   size_t client_link_bytes = 0;  // MeshFrame, TextureBundle and Stats, as the server sends each client
+  size_t feather_bytes = 0;      // of them, the pods' feather maps (protocol 1.2)
   fusion::HullStats hull_stats;
 };
 
@@ -135,6 +136,7 @@ void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions&
   protocol::TextureBundle bundle;
   protocol::Status status = protocol::decodeFrame(bundle_frame, bundle);
   auto views = status.isOk() ? render::viewsOfBundle(bundle, cameras) : status;
+  frame.feather_bytes += status.isOk() ? render::featherBytes(bundle) : 0;
   protocol::MeshFrame mesh_frame;
   status = protocol::decodeFrame(mesh_frame_parsed, mesh_frame);
   auto mesh = status.isOk() ? decodeDraco(mesh_frame.mesh.data(), mesh_frame.mesh.size()) : status;
@@ -264,7 +266,7 @@ std::string folderName(const std::string& name) {
 // camera together cover most of the subject.)
 Image8 seamPixels(const Mesh& mesh, const Camera& pose, const std::vector<render::ViewImages>& views) {
   std::vector<render::reference::PodView> pods;
-  for (const auto& view : views) pods.push_back({view.camera, view.color, view.mask});
+  for (const auto& view : views) pods.push_back({view.camera, view.color, view.mask, view.feather});
   const auto sights = render::reference::vertexSights(mesh, pods);
   const auto trusted = render::reference::majorityVote(mesh, pods, sights);
   const auto seams = render::reference::seamTriangles(mesh, sights, trusted);
@@ -390,6 +392,9 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
       settings.alpha = options.alpha;
       settings.lambda = options.lambda;
       settings.fields = options.fields;
+      settings.beta = options.beta;
+      settings.feather_width_px = options.feather_width_px;
+      settings.fragment_test = options.fragment_test;
       std::optional<ErrorImage> previous;
       for (int f = 0; f < frame_count; ++f) {
         const FrameData& frame = input.frames[static_cast<size_t>(f)];
@@ -494,12 +499,13 @@ std::vector<std::vector<std::string>> linkRows(const std::vector<SceneResult>& r
   std::vector<std::vector<std::string>> rows;
   for (const auto& scene : results) {
     if (scene.novel_view_degrees != 0 || scene.camera_kept) continue;
-    char cells[4][32];
+    char cells[5][32];
     std::snprintf(cells[0], sizeof(cells[0]), "%.1f", scene.pod_link_bytes_per_frame / 1000.0);
     std::snprintf(cells[1], sizeof(cells[1]), "%.1f", scene.bytes_per_frame / 1000.0);
-    std::snprintf(cells[2], sizeof(cells[2]), "%.1f", scene.codec_ms);
-    std::snprintf(cells[3], sizeof(cells[3]), "%.1f", scene.codec_ms_p95);
-    rows.push_back({scene.name, cells[0], cells[1], cells[2], cells[3]});
+    std::snprintf(cells[2], sizeof(cells[2]), "%.1f", scene.feather_bytes_per_frame / 1000.0);
+    std::snprintf(cells[3], sizeof(cells[3]), "%.1f", scene.codec_ms);
+    std::snprintf(cells[4], sizeof(cells[4]), "%.1f", scene.codec_ms_p95);
+    rows.push_back({scene.name, cells[0], cells[1], cells[2], cells[3], cells[4]});
   }
   return rows;
 }
@@ -533,6 +539,7 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
     }
     codec_ms.push_back(sum);
     result.bytes_per_frame += static_cast<double>(frame.client_link_bytes) / n;
+    result.feather_bytes_per_frame += static_cast<double>(frame.feather_bytes) / n;
     result.pod_link_bytes_per_frame += static_cast<double>(frame.pod_link_bytes) / n;
     result.cells_visited += static_cast<double>(frame.hull_stats.cells_visited()) / n;
     result.dense_grid_points += static_cast<double>(frame.hull_stats.grid_points) / n;
@@ -762,6 +769,7 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
   }
   s["triangles"] = scene.triangles;
   s["bytes_per_frame"] = scene.bytes_per_frame;
+  s["feather_bytes_per_frame"] = scene.feather_bytes_per_frame;
   s["pod_link_bytes_per_frame"] = scene.pod_link_bytes_per_frame;
   s["hull"] = {{"chamfer_mm", measuredJson(scene.chamfer_mm)},
                {"silhouette_iou", scene.silhouette_iou},
@@ -805,6 +813,7 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
   }
   scene.triangles = s.at("triangles").get<double>();
   scene.bytes_per_frame = s.at("bytes_per_frame").get<double>();
+  scene.feather_bytes_per_frame = s.value("feather_bytes_per_frame", 0.0);
   scene.pod_link_bytes_per_frame = s.value("pod_link_bytes_per_frame", 0.0);
   if (s.contains("hull")) {
     const auto& hull = s.at("hull");
@@ -1015,10 +1024,13 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   }
   md << "\n## Links and codecs\n\nBytes per frame as the loop sends them (the pods' rectangles with their "
         "feather maps; the server's Draco mesh and images to one client), and the codecs' ms per frame: "
-     << kCodecsMeaning << ". " << kNoJitterHere << "\n\n| Scene | pods to server KB | server to client KB | codecs ms p50 | p95 |\n"
-     << "|---|---:|---:|---:|---:|\n";
+     << kCodecsMeaning << ". " << kNoJitterHere
+     << "\n\n| Scene | pods to server KB | server to client KB | of which feather maps KB | codecs ms p50 | p95 |\n"
+     << "|---|---:|---:|---:|---:|---:|\n";
   for (const auto& row : linkRows(results)) {
-    md << "| " << row[0] << " | " << row[1] << " | " << row[2] << " | " << row[3] << " | " << row[4] << " |\n";
+    md << "|";
+    for (const auto& cell : row) md << " " << cell << " |";
+    md << "\n";
   }
   md << "\n"
      << "## montage4d against holoportation\n\nTarget on every scene but clean: at least +0.5 dB PSNR, higher SSIM, "
@@ -1211,7 +1223,9 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
                       rows);
   body += "<h2>Links and codecs</h2>\n<p>Bytes per frame as the loop sends them, and the codecs' ms per frame: " +
           html::escape(kCodecsMeaning) + ". " + html::escape(kNoJitterHere) + "</p>\n" +
-          html::table({"scene", "pods to server KB", "server to client KB", "codecs ms p50", "p95"}, linkRows(results));
+          html::table({"scene", "pods to server KB", "server to client KB", "of which feather maps KB", "codecs ms p50",
+                       "p95"},
+                      linkRows(results));
   body += "<h2>montage4d against holoportation</h2>\n<p>Target on every scene but clean: at least +0.5 dB PSNR, "
           "higher SSIM, and less flicker after a viewpoint jump. Misses are flagged. " +
           html::escape(kPicturesDifferMeaning) + "</p>\n" +

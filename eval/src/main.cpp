@@ -16,7 +16,7 @@ int main(int argc, char** argv) {
   std::string size = "320x240";
   CLI::App app{"holofuse eval: leave-one-camera-out quality (RMSE, PSNR, SSIM, flicker) per scene and mode"};
   app.add_option("--scenes", options.scenes, "scenes (default: all): " + capture::sceneNames())->delimiter(',');
-  app.add_option("--modes", modes, "blending modes (default: all): normal, holoportation, montage4d")
+  app.add_option("--modes", modes, "blending modes (default: all): normal, holoportation, montage4d, fragment")
       ->delimiter(',')
       ->check(CLI::IsMember(render::blendModeNames()));
   app.add_option("--dataset", options.datasets, "dataset folder(s), recorded or imported, evaluated like scenes")

@@ -64,6 +64,9 @@ nlohmann::json runSettings(const EvalOptions& run) {
             f.geodesic_iterations, f.geodesic_radius}},
           {"alpha", run.alpha},
           {"lambda", run.lambda},
+          {"beta", run.beta},
+          {"feather_width_px", run.feather_width_px},
+          {"fragment_test", run.fragment_test},
           {"half_precision_vertices", run.half_precision_vertices},
           // How bytes and codec times were counted, and the metrics'
           // definitions: points measured before a change differ here.

@@ -252,7 +252,7 @@ void FusionServer::fanOut() {
     for (auto& peer : peers_) {
       if (!peer.greeted || peer.role != protocol::Role::kClient) continue;
       // Bundle and Stats first: the client renders when the mesh arrives.
-      peer.connection->send(out.texture_bundle);
+      peer.connection->send(peer.minor >= 2 ? out.texture_bundle : out.texture_bundle_v1_1);
       peer.connection->send(peer.minor >= 1 ? out.stats : out.stats_v1_0);
       peer.connection->send(out.mesh_frame);
     }

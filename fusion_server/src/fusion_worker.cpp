@@ -120,8 +120,8 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   const uint64_t t2 = monotonicNs();
   stamps.push_back({static_cast<uint16_t>(Stage::kMeshEncode), kSourceServer, hull_end_ns, t2});
 
-  protocol::TextureBundle bundle;
-  bundle.frame_id = group.frame_id;
+  protocol::TextureBundle bundle, bundle_v1_1;
+  bundle.frame_id = bundle_v1_1.frame_id = group.frame_id;
   // The compressed images and the Draco bytes are borrowed by the frames
   // (fanned out to every client without a copy) and live as long as they do.
   auto storage = std::make_shared<std::deque<std::vector<uint8_t>>>();
@@ -136,11 +136,18 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
     storage->emplace_back();
     image.planes.push_back(encodePlane(pod.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage->back(),
                                        settings.lz4_acceleration, settings.lz4_hc_level));
+    // Since 1.2 the pod's feather map goes on too, cropped as its image
+    // (paper 004 weighs each pod by it at every fragment).
+    bundle_v1_1.images.push_back(image);
+    storage->emplace_back();
+    image.planes.push_back(encodePlane(pod.feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4,
+                                       storage->back(), settings.lz4_acceleration, settings.lz4_hc_level));
     bundle.images.push_back(std::move(image));
   }
   const uint64_t t3 = monotonicNs();
   bundle.stamps = {{static_cast<uint16_t>(Stage::kImageEncode), kSourceServer, t2, t3},
                    {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0}};
+  bundle_v1_1.stamps = bundle.stamps;
   stamps.push_back({static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0});
 
   protocol::MeshFrame mesh_frame;
@@ -176,7 +183,10 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   auto share = [](protocol::OutgoingFrame frame) {
     return std::make_shared<const protocol::OutgoingFrame>(std::move(frame));
   };
-  out.texture_bundle = share(protocol::encodeOutgoing(bundle, protocol::nextSequence(), storage));
+  // One sequence number for both spellings of the bundle, as for the Stats.
+  const uint64_t bundle_sequence = protocol::nextSequence();
+  out.texture_bundle = share(protocol::encodeOutgoing(bundle, bundle_sequence, storage));
+  out.texture_bundle_v1_1 = share(protocol::encodeOutgoing(bundle_v1_1, bundle_sequence, storage, 1));
   auto draco_bytes = draco.isOk() ? std::make_shared<const std::vector<uint8_t>>(std::move(*draco)) : nullptr;
   if (draco_bytes) mesh_frame.mesh = *draco_bytes;
   out.mesh_frame = share(protocol::encodeOutgoing(mesh_frame, protocol::nextSequence(), draco_bytes));

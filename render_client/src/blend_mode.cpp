@@ -6,6 +6,7 @@ std::optional<BlendMode> blendModeFromName(const std::string& name) {
   if (name == "normal") return BlendMode::kNormal;
   if (name == "holoportation") return BlendMode::kHoloportation;
   if (name == "montage4d") return BlendMode::kMontage4D;
+  if (name == "fragment") return BlendMode::kFragment;
   return std::nullopt;
 }
 
@@ -14,10 +15,11 @@ std::string blendModeName(BlendMode mode) {
     case BlendMode::kNormal: return "normal";
     case BlendMode::kHoloportation: return "holoportation";
     case BlendMode::kMontage4D: return "montage4d";
+    case BlendMode::kFragment: return "fragment";
   }
   return "unknown";
 }
 
-std::vector<std::string> blendModeNames() { return {"normal", "holoportation", "montage4d"}; }
+std::vector<std::string> blendModeNames() { return {"normal", "holoportation", "montage4d", "fragment"}; }
 
 }  // namespace holofuse::render

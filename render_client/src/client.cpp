@@ -33,6 +33,7 @@ struct PendingBundle {
   std::vector<ViewImages> views;
   std::vector<protocol::StageStamp> stamps;
   uint64_t bytes = 0;
+  uint64_t feather_bytes = 0;  // of bytes, the feather maps' compressed planes
 };
 
 // The axis the pods stand around: the normal of the plane through their
@@ -124,6 +125,14 @@ std::optional<Camera> userCamera(const ClientOptions& options, const std::map<ui
   return lookAtCamera(kOrbitCameraId, eye, target, up, options.width, options.height, fov_x);
 }
 
+uint64_t featherBytes(const protocol::TextureBundle& bundle) {
+  uint64_t bytes = 0;
+  for (const auto& image : bundle.images) {
+    for (const auto& plane : image.planes) bytes += plane.kind == protocol::PlaneKind::kFeather ? plane.data.size() : 0;
+  }
+  return bytes;
+}
+
 protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& bundle,
                                                           const std::map<uint32_t, Camera>& cameras) {
   std::vector<ViewImages> views;
@@ -140,6 +149,7 @@ protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::Textur
       if (!decoded.isOk()) return malformed(": " + decoded.status().message());
       if (plane.kind == protocol::PlaneKind::kColor) view.color = std::move(*decoded);
       if (plane.kind == protocol::PlaneKind::kMask) view.mask = std::move(*decoded);
+      if (plane.kind == protocol::PlaneKind::kFeather) view.feather = std::move(*decoded);
     }
     // A rectangle of the image (the pods send their foreground's): back
     // into a whole frame, background black with mask 0.
@@ -148,6 +158,12 @@ protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::Textur
     if (!whole && view.color.width == view.mask.width && view.color.height == view.mask.height &&
         cropFits(image.offset_x, image.offset_y, view.color.width, view.color.height, view.camera.width,
                  view.camera.height)) {
+      // (The feather map is the colour's rectangle too, checked before the
+      // colour is placed.)
+      if (view.feather.width == view.color.width && view.feather.height == view.color.height) {
+        view.feather =
+            placeInFrame(view.feather, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
+      }
       view.color = placeInFrame(view.color, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
       view.mask = placeInFrame(view.mask, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
     }
@@ -156,6 +172,13 @@ protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::Textur
         view.mask.channels != 1) {
       return malformed(" images are not " + std::to_string(view.camera.width) + "x" +
                        std::to_string(view.camera.height) + " RGB + mask");
+    }
+    // A feather map is optional (a 1.1 server sends none), but one that is
+    // sent must fit its image.
+    if (!view.feather.pixels.empty() && (view.feather.width != view.camera.width ||
+                                         view.feather.height != view.camera.height || view.feather.channels != 1)) {
+      return malformed(" feather map is not " + std::to_string(view.camera.width) + "x" +
+                       std::to_string(view.camera.height) + " grey");
     }
     views.push_back(std::move(view));
   }
@@ -267,6 +290,7 @@ int runClient(const ClientOptions& options) {
         }
         PendingBundle pending;
         pending.bytes = frame.bytes.size();
+        pending.feather_bytes = featherBytes(bundle);
         pending.stamps = bundle.stamps;
         for (auto& stamp : pending.stamps) {
           if (stamp.stage == static_cast<uint16_t>(Stage::kFanout) && stamp.end_ns == 0) stamp.end_ns = receive_ns;
@@ -393,6 +417,7 @@ int runClient(const ClientOptions& options) {
         report.addStage(static_cast<uint16_t>(Stage::kDecode), decode_ms);
         record.end_to_end_ms = static_cast<double>(t4 - mesh_frame.capture_time_ns) / 1e6;
         record.client_bytes = frame.bytes.size() + bundle->second.bytes;
+        record.feather_bytes = bundle->second.feather_bytes;
         auto st = stats.find(mesh_frame.frame_id);
         if (st != stats.end()) {
           record.client_bytes += st->second.bytes;

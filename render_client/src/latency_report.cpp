@@ -189,15 +189,18 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
     gpu[name] = {{"p50", percentile(v, 50)}, {"p95", percentile(v, 95)}, {"samples", v.size()}};
   }
   j["latency_ms"]["gpu_passes"] = gpu;
-  double pod_bytes = 0, client_bytes = 0;
+  double pod_bytes = 0, client_bytes = 0, feather_bytes = 0;
   size_t incomplete = 0;
   for (const auto& f : frames_) {
     pod_bytes += static_cast<double>(f.pod_bytes);
     client_bytes += static_cast<double>(f.client_bytes);
+    feather_bytes += static_cast<double>(f.feather_bytes);
     if (f.cameras_present < f.cameras_expected) ++incomplete;
   }
   const double n = std::max<double>(1.0, static_cast<double>(frames_.size()));
-  j["bytes_per_frame"] = {{"pod_link", pod_bytes / n}, {"client_link", client_bytes / n}};
+  j["bytes_per_frame"] = {{"pod_link", pod_bytes / n},
+                          {"client_link", client_bytes / n},
+                          {"client_link_feather_maps", feather_bytes / n}};
   j["frames_with_missing_cameras"] = incomplete;
   nlohmann::ordered_json jitter = nlohmann::ordered_json::object();
   for (const auto& [pod, ms] : podJitterMs()) jitter["pod_" + std::to_string(pod)] = ms;
@@ -289,10 +292,11 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
     }
     body += html::stackedBars("Texture-field passes per new mesh (GPU timestamps)", passes, {gpu50, gpu95}, "ms");
   }
-  double pod_bytes = 0, client_bytes = 0;
+  double pod_bytes = 0, client_bytes = 0, feather_bytes = 0;
   for (const auto& f : frames_) {
     pod_bytes += static_cast<double>(f.pod_bytes);
     client_bytes += static_cast<double>(f.client_bytes);
+    feather_bytes += static_cast<double>(f.feather_bytes);
   }
   const std::vector<QualitySummary> judged = quality();
   if (!judged.empty()) {
@@ -316,8 +320,10 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
         html::table({"measure", "mean", "p50", "worst", "frames"}, rows);
   }
   const double n = std::max<double>(1.0, static_cast<double>(frames_.size()));
-  body += html::barChart("Bytes per frame by link", {"pods -> server", "server -> client"},
-                         {{"KB per frame", {pod_bytes / n / 1000.0, client_bytes / n / 1000.0}}}, "KB");
+  body += html::barChart("Bytes per frame by link", {"pods -> server", "server -> client", "of which feather maps"},
+                         {{"KB per frame",
+                           {pod_bytes / n / 1000.0, client_bytes / n / 1000.0, feather_bytes / n / 1000.0}}},
+                         "KB");
   const auto jitter = podJitterMs();
   if (!jitter.empty()) {
     std::vector<std::string> pods;

@@ -41,6 +41,10 @@ int main(int argc, char** argv) {
   addSharedFlag(app, "--geodesic-rings", options.blend.fields.geodesic_rings);
   addSharedFlag(app, "--geodesic-passes", options.blend.fields.geodesic_iterations);
   addSharedFlag(app, "--vote-delta", options.blend.fields.vote_delta);
+  addSharedFlag(app, "--beta", options.blend.beta);
+  addSharedFlag(app, "--feather-width", options.blend.feather_width_px);
+  std::string fragment_test = options.blend.fragment_test ? "on" : "off";
+  addSharedFlag(app, "--fragment-test", fragment_test);
   std::string vertex_precision = "fp32";
   addSharedFlag(app, "--vertex-precision", vertex_precision);
   app.add_option("--exclude-camera", options.exclude_camera, "leave this pod camera out of the blend");
@@ -68,6 +72,7 @@ int main(int argc, char** argv) {
       ->check(sharedFlag("--noise").check())
       ->needs(truth_scene_option);
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  options.blend.fragment_test = fragment_test == "on";
   if (!truth_scene.empty()) {
     const capture::ScenePreset* preset = capture::findScene(truth_scene);
     if (preset == nullptr) {

@@ -32,11 +32,14 @@ struct BlendUniforms {
   glm::vec4 hole_color;
   glm::vec4 user_eye;
   glm::vec4 temporal;  // x: lambda of this frame, y: half holding the previous field
+  glm::vec4 fragment_test;  // relative and absolute depth tolerance, feather width, 1 for the field modes
+  glm::vec4 view_weight;    // x: beta
 };
 static_assert(sizeof(CameraGpu) == 112);
 static_assert(offsetof(BlendUniforms, counts) == 112 * HOLOFUSE_MAX_CAMERAS);
 static_assert(offsetof(BlendUniforms, params) == 112 * HOLOFUSE_MAX_CAMERAS + 16);
-static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 80);
+static_assert(offsetof(BlendUniforms, fragment_test) == 112 * HOLOFUSE_MAX_CAMERAS + 80);
+static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 112);
 
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 // Geodesic worklists are cleared by transfer commands every mesh.
@@ -289,6 +292,7 @@ void Renderer::createPipelines() {
   }
   bindings[HOLOFUSE_BINDING_CAMERAS].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
   bindings[HOLOFUSE_BINDING_IMAGES].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  bindings[HOLOFUSE_BINDING_FEATHERS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   VkDescriptorSetLayoutCreateInfo set_info{};
   set_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
   set_info.bindingCount = static_cast<uint32_t>(bindings.size());
@@ -310,8 +314,8 @@ void Renderer::createPipelines() {
                                    k_blend_frag_spv, sizeof(k_blend_frag_spv));
 
   std::array<VkDescriptorPoolSize, 3> sizes = {VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1},
-                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, HOLOFUSE_BINDING_COUNT - 2}};
+                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
+                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, HOLOFUSE_BINDING_COUNT - 3}};
   VkDescriptorPoolCreateInfo pool_info{};
   pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
   pool_info.maxSets = 1;
@@ -339,6 +343,7 @@ void Renderer::createPipelines() {
 
 void Renderer::destroyViewResources() {
   ctx_.destroy(images_);
+  ctx_.destroy(feathers_);
   ctx_.destroy(depth_maps_);
   ctx_.destroy(staging_);
 }
@@ -354,9 +359,13 @@ void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
                              VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
                                  VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                              VK_IMAGE_ASPECT_COLOR_BIT, true, levels);
+  feathers_ = ctx_.createImage(w, h, count, VK_FORMAT_R8_UNORM,
+                               VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, VK_IMAGE_ASPECT_COLOR_BIT,
+                               true, 1);
   depth_maps_ = ctx_.createBuffer(VkDeviceSize{w} * h * count * 4,
                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
-  staging_ = ctx_.createBuffer(VkDeviceSize{w} * h * 4 * count, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+  // RGBA of every layer, then every layer's feather map.
+  staging_ = ctx_.createBuffer(VkDeviceSize{w} * h * 5 * count, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
   writeDescriptors();
   // A frame drawn before any mesh reads maps of "no surface".
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
@@ -468,6 +477,11 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
       throw std::invalid_argument("camera " + std::to_string(view.camera.id) + " images do not match " +
                                   std::to_string(w) + "x" + std::to_string(h));
     }
+    const bool feather_sent = !view.feather.pixels.empty();
+    if (feather_sent && (view.feather.width != w || view.feather.height != h || view.feather.channels != 1)) {
+      throw std::invalid_argument("camera " + std::to_string(view.camera.id) + " feather map is not " +
+                                  std::to_string(w) + "x" + std::to_string(h) + " grey");
+    }
   }
   subject_seen_.clear();
   view_cameras_.clear();
@@ -500,6 +514,15 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
       out[p * 4 + 2] = rgb[p * 3 + 2];
       out[p * 4 + 3] = mask[p];
     }
+    // Without a feather map (a server of protocol 1.1 sends none) the
+    // silhouette is one plateau: every pixel of the mask as far from the
+    // edge as a map holds, so the feather weight is the same everywhere.
+    uint8_t* feather = dst + active_.size() * pixels * 4 + layer * pixels;
+    if (view.feather.pixels.empty()) {
+      for (size_t p = 0; p < pixels; ++p) feather[p] = mask[p] != 0 ? 255 : 0;
+    } else {
+      std::memcpy(feather, view.feather.pixels.data(), pixels);
+    }
   }
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
     transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
@@ -510,6 +533,14 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
     region.imageExtent = {w, h, 1};
     vkCmdCopyBufferToImage(cmd, staging_.buffer, images_.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
     generateMips(cmd);
+    transitionImage(cmd, feathers_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                    VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+    region.bufferOffset = VkDeviceSize{pixels} * 4 * active_.size();
+    vkCmdCopyBufferToImage(cmd, staging_.buffer, feathers_.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    transitionImage(cmd, feathers_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                    VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
   });
   // Depth maps depend on the camera poses as well as the mesh.
   depth_maps_stale_ = true;
@@ -574,8 +605,10 @@ void Renderer::writeDescriptors() {
   vkDeviceWaitIdle(ctx_.device());
   VkDescriptorBufferInfo ubo{uniforms_.buffer, 0, sizeof(BlendUniforms)};
   VkDescriptorImageInfo image_info{linear_sampler_, images_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  // Storage buffers in binding order from HOLOFUSE_BINDING_VERTICES on.
-  std::array<VkDescriptorBufferInfo, HOLOFUSE_BINDING_COUNT - 3> storage = {
+  VkDescriptorImageInfo feather_info{linear_sampler_, feathers_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  // Storage buffers in binding order from HOLOFUSE_BINDING_VERTICES to
+  // the sight bits.
+  std::array<VkDescriptorBufferInfo, HOLOFUSE_BINDING_SIGHT_BITS + 1 - HOLOFUSE_BINDING_VERTICES> storage = {
       VkDescriptorBufferInfo{vertex_buffer_.buffer, 0, VK_WHOLE_SIZE},
       {discontinuities_.buffer, 0, VK_WHOLE_SIZE},
       {sights_.buffer, 0, VK_WHOLE_SIZE},
@@ -599,7 +632,7 @@ void Renderer::writeDescriptors() {
     writes[b].dstSet = descriptor_set_;
     writes[b].dstBinding = b;
     writes[b].descriptorCount = 1;
-    if (b >= HOLOFUSE_BINDING_VERTICES) {
+    if (b >= HOLOFUSE_BINDING_VERTICES && b <= HOLOFUSE_BINDING_SIGHT_BITS) {
       writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
       writes[b].pBufferInfo = &storage[b - HOLOFUSE_BINDING_VERTICES];
     }
@@ -611,6 +644,8 @@ void Renderer::writeDescriptors() {
   writes[HOLOFUSE_BINDING_DEPTHS].pBufferInfo = &depth_maps;
   writes[HOLOFUSE_BINDING_IMAGES].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   writes[HOLOFUSE_BINDING_IMAGES].pImageInfo = &image_info;
+  writes[HOLOFUSE_BINDING_FEATHERS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  writes[HOLOFUSE_BINDING_FEATHERS].pImageInfo = &feather_info;
   vkUpdateDescriptorSets(ctx_.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
 }
 
@@ -801,6 +836,10 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
                         static_cast<int>(subject_seen_.size() - active_.size()), uploaded_half_ ? 1 : 0);
   u.params = glm::vec4(settings.alpha, settings.depth_tolerance, 0, 0);
   u.hole_color = glm::vec4(settings.hole_color, 1.0f);
+  u.user_eye = glm::vec4(glm::vec3(user_camera.center()), 1.0f);
+  u.fragment_test = glm::vec4(settings.fields.relative_depth_tolerance, static_cast<float>(fragmentDepthSlack()),
+                              std::max(settings.feather_width_px, 0.0f), settings.fragment_test ? 1.0f : 0.0f);
+  u.view_weight = glm::vec4(std::max(settings.beta, 0.0f), 0.0f, 0.0f, 0.0f);
   for (size_t i = 0; i < cameras_.size(); ++i) {
     const Camera& c = cameras_[i];
     u.cameras[i].world_to_clip = clipFor(c);
@@ -834,7 +873,6 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     parameters.geodesics = true;
     parameters.field_per_view = true;
     prepareTemporal();
-    u.user_eye = glm::vec4(glm::vec3(user_camera.center()), 1.0f);
     u.temporal = glm::vec4(static_cast<float>(reference::temporalLambda(settings.lambda, settings.frame_interval_s)),
                            static_cast<float>(temporal_half_), 0.0f, 0.0f);
   }

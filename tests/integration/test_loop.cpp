@@ -185,10 +185,11 @@ TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
   EXPECT_NE(text.find("pod 3"), std::string::npos) << "the server names the pod it lost";
 }
 
-// Protocol 1.1 appends each pod's arrivals to Stats. The server sends them
-// to a client that agreed on 1.1, and the 1.0 layout, under a 1.0 header,
-// to one that offered only 1.0.
-TEST(Loop, EachClientGetsStatsInTheMinorItAgreedOn) {
+// Protocol 1.1 appends each pod's arrivals to Stats, 1.2 each pod's
+// feather map to the TextureBundle's images. The server sends each client
+// the minor it agreed on: a 1.0 client the 1.0 Stats under a 1.0 header,
+// 1.0 and 1.1 clients the bundle without feather maps, a 1.2 client both.
+TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   const fs::path out = freshDir("minor");
   pid_t server = 0;
   const std::string endpoint = startServer(out, 1, &server);
@@ -201,10 +202,12 @@ TEST(Loop, EachClientGetsStatsInTheMinorItAgreedOn) {
     uint8_t max_minor;
     std::unique_ptr<holofuse::protocol::ServerLink> link;
     std::vector<std::pair<uint8_t, holofuse::protocol::Stats>> stats;  // header minor, message
+    // header minor, and the plane kinds of the bundle's one image
+    std::vector<std::pair<uint8_t, std::vector<holofuse::protocol::PlaneKind>>> bundles;
   };
-  std::vector<Client> clients(2);
-  clients[0].max_minor = 0;
-  clients[1].max_minor = holofuse::protocol::kVersionMinor;
+  static_assert(holofuse::protocol::kVersionMinor == 2, "a client of each minor");
+  std::vector<Client> clients(3);
+  for (uint8_t minor = 0; minor < 3; ++minor) clients[minor].max_minor = minor;
   for (Client& c : clients) {
     holofuse::protocol::Hello hello;
     hello.role = holofuse::protocol::Role::kClient;
@@ -212,16 +215,26 @@ TEST(Loop, EachClientGetsStatsInTheMinorItAgreedOn) {
     hello.max_minor = c.max_minor;
     c.link = std::make_unique<holofuse::protocol::ServerLink>(*parsed, hello, holofuse::protocol::LinkOptions{});
   }
+  auto enough = [&] {
+    return std::all_of(clients.begin(), clients.end(),
+                       [](const Client& c) { return c.stats.size() >= 5 && c.bundles.size() >= 5; });
+  };
   std::vector<holofuse::protocol::Frame> received;
-  for (int round = 0; round < 600 && (clients[0].stats.size() < 5 || clients[1].stats.size() < 5); ++round) {
+  for (int round = 0; round < 900 && !enough(); ++round) {
     for (Client& c : clients) {
       received.clear();
       c.link->poll(10, received);
       for (const auto& frame : received) {
         holofuse::protocol::Stats stats;
+        holofuse::protocol::TextureBundle bundle;
         if (frame.header.type == static_cast<uint16_t>(holofuse::protocol::MessageType::kStats) &&
             holofuse::protocol::decodeFrame(frame, stats).isOk()) {
           c.stats.emplace_back(frame.header.minor, stats);
+        } else if (frame.header.type == static_cast<uint16_t>(holofuse::protocol::MessageType::kTextureBundle) &&
+                   holofuse::protocol::decodeFrame(frame, bundle).isOk() && bundle.images.size() == 1) {
+          std::vector<holofuse::protocol::PlaneKind> kinds;
+          for (const auto& plane : bundle.images[0].planes) kinds.push_back(plane.kind);
+          c.bundles.emplace_back(frame.header.minor, kinds);
         }
       }
     }
@@ -230,27 +243,40 @@ TEST(Loop, EachClientGetsStatsInTheMinorItAgreedOn) {
   waitExit(pod, 10);
   kill(server, SIGTERM);
   EXPECT_EQ(waitExit(server, 10), 0);
-  ASSERT_GE(clients[0].stats.size(), 5u) << readFile(out / "server.log");
-  ASSERT_GE(clients[1].stats.size(), 5u) << readFile(out / "server.log");
+  ASSERT_TRUE(enough()) << readFile(out / "server.log");
   for (const auto& [minor, stats] : clients[0].stats) {
     EXPECT_EQ(minor, 0);
     EXPECT_FALSE(stats.pod_arrivals.has_value()) << "frame " << stats.frame_id;
   }
-  uint64_t last_count = 0;
-  for (const auto& [minor, stats] : clients[1].stats) {
-    EXPECT_EQ(minor, 1);
-    ASSERT_TRUE(stats.pod_arrivals.has_value()) << "frame " << stats.frame_id;
-    ASSERT_EQ(stats.pod_arrivals->size(), 1u);
-    const auto& arrivals = stats.pod_arrivals->front();
-    EXPECT_EQ(arrivals.pod, 0);
-    EXPECT_GE(arrivals.frames, last_count) << "a running count";
-    EXPECT_LT(arrivals.jitter_us, 1000000u) << "under a second on loopback";
-    last_count = arrivals.frames;
+  for (size_t k = 1; k < clients.size(); ++k) {
+    uint64_t last_count = 0;
+    for (const auto& [minor, stats] : clients[k].stats) {
+      // Stats last changed in 1.1: 1.1 and 1.2 peers get one frame, under
+      // the server's minor (SPEC.md section 3).
+      EXPECT_EQ(minor, holofuse::protocol::kVersionMinor) << "client of 1." << int(clients[k].max_minor);
+      ASSERT_TRUE(stats.pod_arrivals.has_value()) << "frame " << stats.frame_id;
+      ASSERT_EQ(stats.pod_arrivals->size(), 1u);
+      const auto& arrivals = stats.pod_arrivals->front();
+      EXPECT_EQ(arrivals.pod, 0);
+      EXPECT_GE(arrivals.frames, last_count) << "a running count";
+      EXPECT_LT(arrivals.jitter_us, 1000000u) << "under a second on loopback";
+      last_count = arrivals.frames;
+    }
+    EXPECT_GE(last_count, 5u);
   }
-  EXPECT_GE(last_count, 5u);
+  using holofuse::protocol::PlaneKind;
+  const std::vector<PlaneKind> images = {PlaneKind::kColor, PlaneKind::kMask};
+  const std::vector<PlaneKind> with_feather = {PlaneKind::kColor, PlaneKind::kMask, PlaneKind::kFeather};
+  for (const Client& c : clients) {
+    for (const auto& [minor, kinds] : c.bundles) {
+      EXPECT_EQ(minor, std::min<uint8_t>(std::max<uint8_t>(c.max_minor, 1), 2)) << "client of 1." << int(c.max_minor);
+      EXPECT_EQ(kinds, c.max_minor >= 2 ? with_feather : images) << "client of 1." << int(c.max_minor);
+    }
+  }
   const std::string log = readFile(out / "server.log");
-  EXPECT_NE(log.find("protocol 1.0"), std::string::npos) << log;
-  EXPECT_NE(log.find("protocol 1.1"), std::string::npos) << log;
+  for (const char* version : {"protocol 1.0", "protocol 1.1", "protocol 1.2"}) {
+    EXPECT_NE(log.find(version), std::string::npos) << version << "\n" << log;
+  }
 }
 
 TEST(Loop, APodWithoutServerRetriesWithBackoffAndJoinsWhenItAppears) {

@@ -91,13 +91,15 @@ MeshFrame sampleMeshFrame() {
   m.mesh = meshBytes();
   return m;
 }
-TextureBundle sampleTextureBundle() {
+TextureBundle sampleTextureBundle(uint8_t minor) {
   TextureBundle m;
   m.frame_id = 1000;
   m.stamps = {{9, kSourceServer, 400, 450}};
   BundleImage image;
   image.camera_id = 2;
   image.planes = {plane(PlaneKind::kColor, PixelFormat::kRgb8, colorBytes())};
+  // Since 1.2 the server sends each pod's feather map with its image.
+  if (minor >= 2) image.planes.push_back(plane(PlaneKind::kFeather, PixelFormat::kGray8, maskBytes()));
   m.images = {image, image};
   m.images[1].camera_id = 3;
   return m;
@@ -126,7 +128,7 @@ std::vector<Sample> allSamples(uint8_t minor) {
           {"calibration", encodeFrame(sampleCalibration(), 3, 0, minor)},
           {"pod_frame", encodeFrame(samplePodFrame(), 4, 0, minor)},
           {"mesh_frame", encodeFrame(sampleMeshFrame(), 5, 0, minor)},
-          {"texture_bundle", encodeFrame(sampleTextureBundle(), 6, 0, minor)},
+          {"texture_bundle", encodeFrame(sampleTextureBundle(minor), 6, 0, minor)},
           {"heartbeat", encodeFrame(Heartbeat{777}, 7, 0, minor)},
           {"stats", encodeFrame(sampleStats(), 8, 0, minor)},  // 1.0: without the arrivals
           {"bye", encodeFrame(Bye{"done"}, 9, 0, minor)},

@@ -23,7 +23,7 @@ HelloAck sampleHelloAck();
 Calibration sampleCalibration();
 PodFrame samplePodFrame();
 MeshFrame sampleMeshFrame();
-TextureBundle sampleTextureBundle();
+TextureBundle sampleTextureBundle(uint8_t minor = kVersionMinor);
 Stats sampleStats();
 
 }  // namespace holofuse::protocol::testing

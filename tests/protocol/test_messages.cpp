@@ -113,6 +113,8 @@ TEST(Messages, EveryTypeRoundTrips) {
     ASSERT_TRUE(decodeFrame(frame, m).isOk());
     ASSERT_EQ(m.images.size(), 2u);
     EXPECT_EQ(m.images[1].camera_id, 3u);
+    ASSERT_EQ(m.images[1].planes.size(), 2u);
+    EXPECT_EQ(m.images[1].planes[1].kind, PlaneKind::kFeather) << "since 1.2, each pod's feather map";
   }
   {
     Stats m;
@@ -419,7 +421,7 @@ TEST(Golden, EveryTypeMatchesItsVectorInEveryMinor) {
     EXPECT_EQ(golden, sample.frame) << "wire format of " << sample.name << " changed";
   }
   // And the reader takes each minor's file as that minor's message.
-  for (const char* version : {"1.0", "1.1"}) {
+  for (const char* version : {"1.0", "1.1", "1.2"}) {
     std::ifstream in(dir / ("stats.v" + std::string(version) + ".bin"), std::ios::binary);
     const Bytes bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     Stats m;

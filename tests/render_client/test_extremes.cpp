@@ -1,7 +1,8 @@
 // Numerical extremes through the Vulkan texture-field path, in both field
-// modes: whatever the scale, geometry, cameras or parameters (alpha,
-// lambda), every weight is finite and in [0, 1] and every covered pixel is
-// a blend of the images or the hole colour.
+// modes and mode fragment: whatever the scale, geometry, cameras or
+// parameters (alpha, lambda, beta, feather width), every weight is finite
+// and in [0, 1] and every covered pixel is a blend of the images or the
+// hole colour.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -192,6 +193,102 @@ TEST(Extremes, AlphaAndCameraCountExtremesAndEmptyMasks) {
   const auto empty = ring(mesh, 4, 1.0, true);
   const Outcome o = renderAndCheck(mesh, empty, empty[0].camera, 2.0f);
   EXPECT_EQ(o.hole, o.covered) << "with every mask empty, every covered pixel is the hole colour";
+}
+
+// The distance of each mask pixel to the nearest background pixel, as a
+// pod's feather map holds it (255 at most), by brute force on these small
+// images.
+Image8 featherOf(const Image8& mask) {
+  Image8 feather(mask.width, mask.height, 1, 0);
+  for (uint32_t y = 0; y < mask.height; ++y) {
+    for (uint32_t x = 0; x < mask.width; ++x) {
+      if (*mask.at(x, y) == 0) continue;
+      double nearest = 255.0;
+      for (uint32_t by = 0; by < mask.height; ++by) {
+        for (uint32_t bx = 0; bx < mask.width; ++bx) {
+          if (*mask.at(bx, by) != 0) continue;
+          nearest = std::min(nearest, std::hypot(double(bx) - x, double(by) - y));
+        }
+      }
+      feather.pixels[size_t{y} * mask.width + x] = static_cast<uint8_t>(std::lround(std::min(nearest, 255.0)));
+    }
+  }
+  return feather;
+}
+
+// Every covered pixel of a render is the hole colour or, the pods' images
+// being a uniform grey 200, that grey: a weight that went NaN, Inf or
+// negative would show as another colour. Returns the covered and hole
+// pixel counts.
+std::pair<size_t, size_t> expectGreyOrHole(const Image8& out, const std::string& what) {
+  size_t covered = 0, holes = 0;
+  for (size_t p = 0; p < out.pixels.size(); p += 4) {
+    if (out.pixels[p + 3] == 0) continue;
+    ++covered;
+    if (out.pixels[p] == 255 && out.pixels[p + 1] == 0 && out.pixels[p + 2] == 255) {
+      ++holes;
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(out.pixels[p + k], 200, 1) << what << ", pixel " << p / 4;
+  }
+  return {covered, holes};
+}
+
+// Paper 004's per-fragment weights at the ends of their ranges, in mode
+// fragment and in the field modes' per-fragment test: feather widths 0 and
+// 1000 px, alpha 0.01 and 200, beta 0 and 50, one and sixteen cameras,
+// empty masks and a part of the subject no camera sees.
+TEST(Extremes, PerFragmentWeightsAtTheirLimitsGiveOnlyImageColoursOrTheHole) {
+  const Mesh mesh = sphere(1.0);
+  struct Case {
+    int cameras;
+    float width, alpha, beta;
+    bool empty_masks;
+  };
+  const Case cases[] = {{4, 0, 2, 5, false},    {4, 1000, 2, 5, false}, {4, 8, 0.01f, 5, false},
+                        {4, 8, 200, 5, false},  {4, 8, 2, 0, false},    {4, 8, 2, 50, false},
+                        {4, 8, 200, 50, false}, {1, 8, 2, 5, false},    {16, 8, 2, 5, false},
+                        {4, 8, 2, 5, true}};
+  for (const Case& c : cases) {
+    auto views = ring(mesh, c.cameras, 1.0, c.empty_masks);
+    for (auto& view : views) view.feather = featherOf(view.mask);
+    // With one pod the user looks from a quarter turn away: half of what
+    // it sees no pod does.
+    const double a = c.cameras == 1 ? M_PI / 2 : 2 * M_PI * 0.5 / c.cameras;
+    const Camera user = lookAtCamera(99, {3 * std::sin(a), 0.4, 3 * std::cos(a)}, glm::dvec3(0.0), {0, 1, 0}, 64, 48,
+                                     40.0);
+    for (const auto& [mode, fragment_test] : {std::pair{BlendMode::kFragment, false},
+                                              std::pair{BlendMode::kHoloportation, true},
+                                              std::pair{BlendMode::kMontage4D, true}}) {
+      const std::string what = blendModeName(mode) + ", " + std::to_string(c.cameras) + " cameras, width " +
+                               std::to_string(c.width) + ", alpha " + std::to_string(c.alpha) + ", beta " +
+                               std::to_string(c.beta) + (c.empty_masks ? ", empty masks" : "");
+      SCOPED_TRACE(what);
+      Renderer renderer(context(), 64, 48);
+      renderer.setMesh(mesh);
+      renderer.setViews(views);
+      BlendSettings settings;
+      settings.mode = mode;
+      settings.fragment_test = fragment_test;
+      settings.feather_width_px = c.width;
+      settings.alpha = c.alpha;
+      settings.beta = c.beta;
+      settings.hole_color = {1.0f, 0.0f, 1.0f};
+      const auto [covered, holes] = expectGreyOrHole(renderer.render(user, settings), what);
+      EXPECT_GT(covered, 100u);
+      if (c.empty_masks) {
+        EXPECT_EQ(holes, covered) << "no pod sees anything: every covered pixel is the hole";
+      } else if (c.cameras == 1) {
+        EXPECT_GT(holes, covered / 4) << "the side no pod sees is the hole";
+        EXPECT_LT(holes, covered) << "the pod's side is not";
+      } else if (mode == BlendMode::kFragment || c.alpha < 100) {
+        // (The field modes' per-vertex powers underflow to 0 at alpha 200
+        // and leave holes, as without the test; mode fragment sums its
+        // weights in the log domain.)
+        EXPECT_LT(holes, covered / 10);
+      }
+    }
+  }
 }
 
 // The geodesic passes keep an entry's ring in 7 bits: k up to 64 renders,

@@ -9,6 +9,7 @@
 #include <string>
 #include <memory>
 
+#include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"
 #include "common/marching_cubes.h"
 #include "render_client/reference/blend.h"
@@ -37,14 +38,14 @@ Scene syntheticScene(int cameras, uint32_t w, uint32_t h, uint64_t frame) {
   Scene s{"synthetic " + std::to_string(cameras) + " cameras", scene.truthMesh(frame, 0.015), {}};
   for (const auto& cam : capture::SyntheticScene::cameraRig(cameras, w, h)) {
     const auto truth = scene.render(cam, frame);
-    s.views.push_back({cam, truth.color, truth.mask});
+    s.views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
   }
   return s;
 }
 
 std::vector<ViewImages> viewImages(const Scene& scene) {
   std::vector<ViewImages> views;
-  for (const auto& v : scene.views) views.push_back({v.camera, v.color, v.mask});
+  for (const auto& v : scene.views) views.push_back({v.camera, v.color, v.mask, v.feather});
   return views;
 }
 
@@ -325,8 +326,9 @@ TEST_P(DiscontinuityPass, FlagsEachVertexAsTheDilatedMapDoes) {
 INSTANTIATE_TEST_SUITE_P(ThreeScenes, DiscontinuityPass, ::testing::Values(0, 1, 2));
 
 // Stage 11, the fragment blend (eq. 1), against its CPU reference fed the
-// GPU's own per-vertex weights, on the three scenes in every mode, from a
-// view halfway between pods 0 and 1. Pixels differ where the rasterisers'
+// GPU's own per-vertex weights, on the three scenes in every mode (mode
+// fragment and the field modes' per-fragment test with the scenes' feather
+// maps), from a view halfway between pods 0 and 1. Pixels differ where the rasterisers'
 // edge rules pick different triangles on silhouettes and along steep
 // depth steps; elsewhere the colours agree to a grey level or two.
 class BlendPass : public ::testing::TestWithParam<int> {};
@@ -354,16 +356,22 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
   Renderer renderer(context(), user.width, user.height);
   renderer.setMesh(scene.mesh);
   renderer.setViews(viewImages(scene));
-  for (const BlendMode mode : {BlendMode::kNormal, BlendMode::kHoloportation, BlendMode::kMontage4D}) {
-    SCOPED_TRACE(blendModeName(mode));
+  // Every mode, and the field modes with paper 004's per-fragment test.
+  const std::pair<BlendMode, bool> cases[] = {{BlendMode::kNormal, false},       {BlendMode::kHoloportation, false},
+                                              {BlendMode::kMontage4D, false},    {BlendMode::kFragment, false},
+                                              {BlendMode::kHoloportation, true}, {BlendMode::kMontage4D, true}};
+  for (const auto& [mode, fragment_test] : cases) {
+    const std::string name = blendModeName(mode) + (fragment_test ? "_fragment_test" : "");
+    SCOPED_TRACE(name);
     BlendSettings settings;
     settings.mode = mode;
     settings.hole_color = {1.0f, 0.0f, 1.0f};
     settings.camera_enabled = enabled;
+    settings.fragment_test = fragment_test;
     const Image8 gpu = renderer.render(user, settings);
     const FieldSnapshot fields = renderer.readFields();
     std::vector<std::vector<double>> weights;
-    if (mode != BlendMode::kNormal) {
+    if (mode == BlendMode::kHoloportation || mode == BlendMode::kMontage4D) {
       weights.assign(scene.views.size(), std::vector<double>(scene.mesh.vertexCount()));
       for (size_t i = 0; i < weights.size(); ++i) {
         for (size_t v = 0; v < weights[i].size(); ++v) weights[i][v] = fields.weights[v * HOLOFUSE_MAX_CAMERAS + i];
@@ -374,10 +382,16 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
     options.depth_tolerance = settings.depth_tolerance;
     options.hole_color = glm::dvec3(settings.hole_color);
     options.camera_enabled = enabled;
+    options.fragment_mode = mode == BlendMode::kFragment;
+    options.fragment_test = fragment_test;
+    options.relative_depth_tolerance = settings.fields.relative_depth_tolerance;
+    options.depth_slack = renderer.fragmentDepthSlack();
+    options.feather_width_px = settings.feather_width_px;
+    options.beta = settings.beta;
     reference::BlendPaths paths;
     const Image8 cpu = reference::blendView(scene.mesh, scene.views, weights, user, options, &paths);
     // Both ways of blending are exercised: normal mode only the fallback,
-    // the field modes mostly their fields.
+    // the others mostly their own weights.
     if (mode == BlendMode::kNormal) {
       EXPECT_EQ(paths.fields, 0u);
       EXPECT_GT(paths.fallback, 500u);
@@ -404,9 +418,9 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
     ASSERT_GT(both, 500u);
     const double coverage = static_cast<double>(coverage_agrees) / (gpu.pixels.size() / 4);
     const double close_share = static_cast<double>(close) / both, mean = difference / both;
-    RecordProperty("blend_" + blendModeName(mode) + "_coverage_agreement", std::to_string(coverage));
-    RecordProperty("blend_" + blendModeName(mode) + "_within_2_grey_levels", std::to_string(close_share));
-    RecordProperty("blend_" + blendModeName(mode) + "_mean_difference", std::to_string(mean));
+    RecordProperty("blend_" + name + "_coverage_agreement", std::to_string(coverage));
+    RecordProperty("blend_" + name + "_within_2_grey_levels", std::to_string(close_share));
+    RecordProperty("blend_" + name + "_mean_difference", std::to_string(mean));
     // Measured on lavapipe: coverage and the 2-level share 100%, mean
     // 0.11-0.23 grey levels; a GPU's 8-bit filter weights may add a little.
     EXPECT_GT(coverage, 0.995);

@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
@@ -22,7 +23,7 @@ std::pair<std::vector<View>, std::vector<Camera>> ring(const capture::SyntheticS
   std::pair<std::vector<View>, std::vector<Camera>> out;
   for (const auto& cam : capture::SyntheticScene::cameraRig(count, width, height)) {
     const auto truth = scene.render(cam, 6);
-    out.first.push_back({cam, truth.color, truth.mask});
+    out.first.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
     out.second.push_back(cam);
   }
   return out;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"
 #include "common/marching_cubes.h"
 #include "render_client/reference/depth_map.h"
@@ -264,7 +265,7 @@ TEST(ReferencePipeline, SyntheticSceneVisibilityFollowsTheTruthMask) {
   std::vector<PodView> views;
   for (const auto& cam : capture::SyntheticScene::cameraRig(4, 120, 90)) {
     const auto truth = scene.render(cam, 3);
-    views.push_back({cam, truth.color, truth.mask});
+    views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
   }
   const auto sights = vertexSights(mesh, views);
   const auto trusted = majorityVote(mesh, views, sights);

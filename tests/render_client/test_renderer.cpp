@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"
 #include "render_client/client.h"
 #include "render_client/latency_report.h"
@@ -22,7 +23,7 @@ struct Fixture {
     mesh = scene.truthMesh(frame, 0.012);
     for (const auto& cam : cameras) {
       truth.push_back(scene.render(cam, frame));
-      views.push_back({cam, truth.back().color, truth.back().mask});
+      views.push_back({cam, truth.back().color, truth.back().mask, capture::featherMap(truth.back().mask)});
     }
   }
 };

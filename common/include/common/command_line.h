@@ -74,6 +74,12 @@ inline const std::vector<SharedFlag>& sharedFlags() {
        {}, kToClient},
       {"--vertex-precision", "vertex positions and normals on the GPU: fp32, or fp16 in half the memory", 0, 0,
        {"fp32", "fp16"}, kToClient},
+      {"--beta", "mode fragment: exponent of the view weight (d_k . d_v + 1)^beta (paper 004 eq. 4)", 0, 1000, {},
+       kToClient},
+      {"--feather-width", "pixels over which a pod's weight ramps from its silhouette's edge to 1 (paper 004's "
+       "feather weight; 0: none)", 0, 1000, {}, kToClient},
+      {"--fragment-test", "holoportation and montage4d: also test each fragment against every pod's depth map and "
+       "mask and feather it (paper 004), on or off", 0, 0, {"on", "off"}, kToClient},
   };
   return flags;
 }

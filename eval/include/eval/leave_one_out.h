@@ -23,6 +23,7 @@
 #include "protocol/messages.h"
 #include "render_client/blend_mode.h"
 #include "render_client/latency_report.h"
+#include "render_client/renderer.h"
 #include "render_client/texture_field_passes.h"
 
 namespace holofuse::eval {
@@ -33,7 +34,7 @@ struct EvalOptions {
   // masks are the truth the images are compared inside.
   std::vector<std::string> datasets;
   std::vector<render::BlendMode> modes = {render::BlendMode::kNormal, render::BlendMode::kHoloportation,
-                                          render::BlendMode::kMontage4D};
+                                          render::BlendMode::kMontage4D, render::BlendMode::kFragment};
   int frames = 8;
   uint64_t first_frame = 30;
   uint32_t width = 320, height = 240;
@@ -82,6 +83,10 @@ struct EvalOptions {
   render::FieldParameters fields;            // eps, k, K
   float alpha = 2.0f;
   double lambda = 0.05;
+  // The per-fragment test and feathering (render::BlendSettings).
+  float beta = render::BlendSettings{}.beta;
+  float feather_width_px = render::BlendSettings{}.feather_width_px;
+  bool fragment_test = render::BlendSettings{}.fragment_test;
   bool half_precision_vertices = false;  // Renderer::setHalfPrecisionVertices
   // Per-stage ms budgets (render::loadBudget's file); the reports flag each
   // scene and mode whose p95 goes over the budget of a stage the evaluation
@@ -171,6 +176,7 @@ struct SceneResult {
   // Draco MeshFrame, the TextureBundle of every camera's images, the
   // Stats), and every pod to the server (the PodFrames).
   double bytes_per_frame = 0;
+  double feather_bytes_per_frame = 0;  // of bytes_per_frame, the pods' feather maps
   double pod_link_bytes_per_frame = 0;
   // The geometry against the truth, on the first frame (hull as decoded by
   // the client; truth by marching cubes at 1 cm).

@@ -36,6 +36,9 @@ struct FusionSettings {
 struct FusedOutput {
   uint64_t frame_id = 0;
   protocol::SharedFrame mesh_frame, texture_bundle, stats;
+  // The same images without the pods' feather maps, under a 1.1 header,
+  // for a peer that agreed on 1.1 or 1.0.
+  protocol::SharedFrame texture_bundle_v1_1;
   protocol::SharedFrame stats_v1_0;  // the same Stats for a peer that agreed on 1.0 (no pod arrivals)
   size_t triangles = 0;
   double voxel_size = 0;

@@ -1,6 +1,6 @@
 // Blending modes of DESIGN.md section 6. Each mode is one value here, one
 // branch in shaders/blend.frag.glsl and one CPU reference; new modes
-// (holoportation, montage4d, fragment, layered) join the same list.
+// (layered) join the same list.
 #pragma once
 
 #include <optional>
@@ -19,6 +19,9 @@ enum class BlendMode : int {
   // Montage4D (paper 000 eqs. 4 and 5): view-dependent target fields
   // diffused away from seams by geodesic distance, smoothed in time.
   kMontage4D = HOLOFUSE_MODE_MONTAGE4D,
+  // Paper 004 (Li, Magnor, Seidel 2004): per fragment, each pod weighted by
+  // its visibility, feather weight, obliqueness and closeness to the view.
+  kFragment = HOLOFUSE_MODE_FRAGMENT,
 };
 
 std::optional<BlendMode> blendModeFromName(const std::string& name);

@@ -66,9 +66,14 @@ std::optional<Camera> userCamera(const ClientOptions& options, const std::map<ui
 
 // The pods' images a TextureBundle carries, decoded and each back in its
 // whole frame (pods send their foreground's rectangle), with the
-// calibration of its camera. An error names the camera and what is wrong:
-// no calibration, a plane that does not decode, images of the wrong size.
+// calibration of its camera, and the feather map where one came (protocol
+// 1.2). An error names the camera and what is wrong: no calibration, a
+// plane that does not decode, images of the wrong size.
 protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& bundle,
                                                           const std::map<uint32_t, Camera>& cameras);
+
+// The compressed bytes of a bundle's feather planes: what the feather maps
+// add to the client link.
+uint64_t featherBytes(const protocol::TextureBundle& bundle);
 
 }  // namespace holofuse::render

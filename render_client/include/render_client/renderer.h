@@ -26,6 +26,16 @@ struct BlendSettings {
   FieldParameters fields;                     // texture-field passes (holoportation, montage4d)
   double lambda = 0.05;                       // montage4d: temporal rate at 30 fps (eq. 5)
   double frame_interval_s = 1.0 / 30.0;       // montage4d: real time since the previous rendered frame
+  // The per-fragment test of paper 004 (Li, Magnor, Seidel 2004, section
+  // 4.4): mode fragment always takes it; the field modes multiply their
+  // interpolated weights by it when fragment_test is set. A fragment is
+  // visible to a pod when it lies inside its mask and within
+  // fields.relative_depth_tolerance of the depth plus the mesh's mean edge
+  // (Renderer::fragmentDepthSlack) of the pod's depth map; its feather
+  // weight is min(1, the pod's feather map / feather_width_px) (0: none).
+  float feather_width_px = 8.0f;
+  bool fragment_test = false;
+  float beta = 5.0f;  // mode fragment: exponent of (d_k . d_v + 1), paper 004 eq. 4
 };
 
 // What the texture-field passes computed, read back for tests, indexed
@@ -47,8 +57,12 @@ struct FieldSnapshot {
 
 struct ViewImages {
   Camera camera;
-  Image8 color;  // RGB
-  Image8 mask;   // grey, 255 foreground
+  Image8 color;    // RGB
+  Image8 mask;     // grey, 255 foreground
+  // grey: distance to the silhouette's edge in pixels, 255 and beyond as
+  // 255 (the pod's feather map); empty when none was sent (every pixel of
+  // the mask weighs alike).
+  Image8 feather;
 };
 
 // Column-major world-to-clip matrix of a pinhole camera for Vulkan: x and y
@@ -106,6 +120,10 @@ class Renderer {
   std::vector<double> fieldTimesMs() const { return field_passes_pipelines_->lastTimesMs(); }
   // The texture fields of the last render in a field mode.
   FieldSnapshot readFields() const;
+  // The absolute part of the per-fragment depth tolerance: the current
+  // mesh's mean edge length, about the depth a fragment of the surface a
+  // depth-map pixel holds can lie behind the pixel's centre's.
+  double fragmentDepthSlack() const { return mean_edge_; }
 
  private:
   void createPipelines();
@@ -144,6 +162,7 @@ class Renderer {
   std::vector<Camera> view_cameras_;  // every view given to setViews
   std::vector<bool> subject_seen_;  // per view given to setViews: its mask has foreground
   Image images_;
+  Image feathers_;  // one R8 layer per camera (config.h binding FEATHERS)
   Buffer depth_maps_;  // [camera][y][x] camera-space depth (config.h binding DEPTHS)
   Buffer staging_;
   bool depth_maps_stale_ = true;

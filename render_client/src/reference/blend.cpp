@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "common/depth_raster.h"
 
@@ -32,23 +33,50 @@ bool textureCoordinates(const Camera& camera, const glm::dvec3& p, double& u, do
   return u >= 0.0 && u <= 1.0 && v >= 0.0 && v <= 1.0;
 }
 
-}  // namespace
-
-glm::dvec4 sampleBilinear(const PodView& view, double u, double v) {
-  const int w = static_cast<int>(view.color.width), h = static_cast<int>(view.color.height);
+// Bilinear between texel centres, clamped at the border, as a GPU samples:
+// fetch(i) gives texel i of a width x height image.
+template <typename Fetch>
+glm::dvec4 bilinear(uint32_t width, uint32_t height, double u, double v, Fetch fetch) {
+  const int w = static_cast<int>(width), h = static_cast<int>(height);
   const double x = u * w - 0.5, y = v * h - 0.5;
   const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
   const double fx = x - x0, fy = y - y0;
   auto texel = [&](int tx, int ty) {
     tx = std::clamp(tx, 0, w - 1);
     ty = std::clamp(ty, 0, h - 1);
-    const size_t i = static_cast<size_t>(ty) * w + tx;
-    return glm::dvec4(view.color.pixels[3 * i], view.color.pixels[3 * i + 1], view.color.pixels[3 * i + 2],
-                      view.mask.pixels[i]) /
-           255.0;
+    return fetch(static_cast<size_t>(ty) * w + tx);
   };
   return (texel(x0, y0) * (1 - fx) + texel(x0 + 1, y0) * fx) * (1 - fy) +
          (texel(x0, y0 + 1) * (1 - fx) + texel(x0 + 1, y0 + 1) * fx) * fy;
+}
+
+}  // namespace
+
+glm::dvec4 sampleBilinear(const PodView& view, double u, double v) {
+  // Colour weighted by the mask (premultiplied), then divided by the
+  // coverage: the foreground's colours only.
+  const glm::dvec4 sum = bilinear(view.color.width, view.color.height, u, v, [&](size_t i) {
+    const double a = view.mask.pixels[i] / 255.0;
+    return glm::dvec4(a * view.color.pixels[3 * i] / 255.0, a * view.color.pixels[3 * i + 1] / 255.0,
+                      a * view.color.pixels[3 * i + 2] / 255.0, a);
+  });
+  return sum.a > 1e-6 ? glm::dvec4(glm::dvec3(sum) / sum.a, sum.a) : glm::dvec4(0.0, 0.0, 0.0, sum.a);
+}
+
+double sampleFeather(const PodView& view, double u, double v) {
+  // Without a map, the GPU's stand-in: 255 over the mask (Renderer::setViews).
+  const bool sent = !view.feather.pixels.empty();
+  return bilinear(view.mask.width, view.mask.height, u, v, [&](size_t i) {
+           return glm::dvec4(sent ? view.feather.pixels[i] : (view.mask.pixels[i] != 0 ? 255.0 : 0.0));
+         }).x;
+}
+
+double sightAndFeather(const PodView& view, double u, double v, double depth, double stored_depth, double mask,
+                       const BlendOptions& options) {
+  if (mask < 0.5) return 0.0;
+  if (depth > stored_depth * (1.0 + options.relative_depth_tolerance) + options.depth_slack) return 0.0;
+  if (!(options.feather_width_px > 0)) return 1.0;
+  return std::clamp(sampleFeather(view, u, v) / options.feather_width_px, 0.0, 1.0);
 }
 
 Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std::vector<std::vector<double>>& weights,
@@ -91,13 +119,55 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std:
       }
       glm::dvec3 sum(0.0);
       double total = 0;
+      // The pod's depth map where the point lands in its image.
+      auto storedDepth = [&](size_t i, double u, double v) {
+        const Camera& camera = views[i].camera;
+        const uint32_t px = std::min(static_cast<uint32_t>(u * camera.width), camera.width - 1);
+        const uint32_t py = std::min(static_cast<uint32_t>(v * camera.height), camera.height - 1);
+        return maps[i].at(px, py);
+      };
+      if (options.fragment_mode) {
+        // Paper 004 eqs. 2 to 4, summed in the log domain against the
+        // largest weight (as the shader does), the view term over 2^beta.
+        const double eye_distance = glm::length(user.center() - p);
+        const glm::dvec3 d_v = eye_distance > 1e-20 ? (user.center() - p) / eye_distance : glm::dvec3(0.0);
+        double largest = -std::numeric_limits<double>::infinity();
+        for (size_t i = 0; i < views.size(); ++i) {
+          double u = 0, v = 0, depth = 0;
+          if (!enabled(i) || !sees_subject[i] || !textureCoordinates(views[i].camera, p, u, v, depth)) continue;
+          const glm::dvec4 texel = sampleBilinear(views[i], u, v);
+          const double sight = sightAndFeather(views[i], u, v, depth, storedDepth(i, u, v), texel.a, options);
+          const double camera_distance = glm::length(views[i].camera.center() - p);
+          const glm::dvec3 d_k =
+              camera_distance > 1e-20 ? (views[i].camera.center() - p) / camera_distance : glm::dvec3(0.0);
+          const double obliqueness = std::min(glm::dot(d_k, n), 1.0);
+          const double direction = std::min(0.5 * (glm::dot(d_k, d_v) + 1.0), 1.0);
+          if (!(sight > 0) || !(obliqueness > 0) || (!(direction > 0) && options.beta > 0)) continue;
+          const double log_w = std::log(sight) + options.alpha * std::log(obliqueness) +
+                               (options.beta > 0 ? options.beta * std::log(direction) : 0.0);
+          if (!std::isfinite(log_w)) continue;
+          if (log_w > largest) {
+            const double rescale = std::exp(largest - log_w);
+            sum *= rescale;
+            total *= rescale;
+            largest = log_w;
+          }
+          const double w = std::exp(log_w - largest);
+          sum += w * glm::dvec3(texel);
+          total += w;
+        }
+      }
       // The interpolated fields.
-      for (size_t i = 0; i < weights.size(); ++i) {
-        const double w = ba * weights[i][ia] + bu * weights[i][ib] + bv * weights[i][ic];
+      for (size_t i = 0; i < weights.size() && !options.fragment_mode; ++i) {
+        double w = ba * weights[i][ia] + bu * weights[i][ib] + bv * weights[i][ic];
         double u = 0, v = 0, depth = 0;
         if (!enabled(i) || !(w > 0) || !textureCoordinates(views[i].camera, p, u, v, depth)) continue;
         const glm::dvec4 texel = sampleBilinear(views[i], u, v);
-        if (texel.a < 0.5) continue;  // the pod's background
+        // Never the pod's background; with the per-fragment test, also not
+        // behind its depth map, and feathered towards its silhouette's edge.
+        w *= options.fragment_test ? sightAndFeather(views[i], u, v, depth, storedDepth(i, u, v), texel.a, options)
+                                   : (texel.a < 0.5 ? 0.0 : 1.0);
+        if (!(w > 0)) continue;
         sum += w * glm::dvec3(texel);
         total += w;
       }
@@ -111,9 +181,7 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std:
           const Camera& camera = views[i].camera;
           double u = 0, v = 0, depth = 0;
           if (!enabled(i) || !sees_subject[i] || !textureCoordinates(camera, p, u, v, depth)) continue;
-          const uint32_t px = std::min(static_cast<uint32_t>(u * camera.width), camera.width - 1);
-          const uint32_t py = std::min(static_cast<uint32_t>(v * camera.height), camera.height - 1);
-          if (depth > maps[i].at(px, py) + options.depth_tolerance) continue;  // occluded from pod i
+          if (depth > storedDepth(i, u, v) + options.depth_tolerance) continue;  // occluded from pod i
           const glm::dvec4 texel = sampleBilinear(views[i], u, v);
           if (texel.a < 0.5) continue;
           const double c = glm::dot(n, glm::normalize(camera.center() - p));

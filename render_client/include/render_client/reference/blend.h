@@ -4,6 +4,10 @@
 // interpolated over its triangle (perspective-correct, as a rasteriser
 // does), and each pod image sampled where the point projects:
 //   colour = sum_i w_i M_i(project_i(p)) / sum_i w_i
+// Mode fragment weighs each pod per pixel instead (Li, Magnor, Seidel
+// 2004, eqs. 2 to 4): w_k = V_k F_k max(0, d_k . n)^alpha (d_k . d_v + 1)^beta,
+// and the field modes may multiply their interpolated weights by the same
+// V_k F_k (BlendOptions::fragment_test).
 // Where no weight reaches a pixel, the normal-weighted blend with its
 // per-pixel occlusion test fills in (step 10); where nothing does, the hole
 // colour. The Vulkan blend (shaders/blend.frag.glsl) is tested against it.
@@ -19,10 +23,19 @@
 namespace holofuse::render::reference {
 
 struct BlendOptions {
-  double alpha = 2.0;            // exponent of the normal weight of the fallback
-  double depth_tolerance = 0.03; // metres behind a pod's depth map still visible to it
+  double alpha = 2.0;            // exponent of the normal weight (mode fragment's obliqueness too)
+  double depth_tolerance = 0.03; // metres behind a pod's depth map still visible to the normal blend
   glm::dvec3 hole_color{0.5, 0.5, 0.5};
   std::vector<bool> camera_enabled;  // per view; empty: every camera (BlendSettings::camera_enabled)
+  // Paper 004's per-fragment test (render::BlendSettings): visible within
+  // relative_depth_tolerance of the depth plus depth_slack metres of the
+  // pod's depth map and inside its mask; feather weight min(1, feather /
+  // feather_width_px), 1 for a width of 0.
+  bool fragment_mode = false;  // mode fragment: weights are ignored
+  bool fragment_test = false;  // the field modes' weights times V_k F_k
+  double relative_depth_tolerance = 0.015, depth_slack = 0.0;
+  double feather_width_px = 8.0;
+  double beta = 5.0;
 };
 
 // How many covered pixels took each way: the interpolated fields, the
@@ -31,10 +44,20 @@ struct BlendPaths {
   size_t fields = 0, fallback = 0, holes = 0;
 };
 
-// The pod image sampled as a GPU samples it: bilinear between texel
-// centres, clamped at the border, colour and mask together (RGBA in 0..1,
-// the mask in alpha). u, v in 0..1 across the image.
+// The pod image sampled as the blend samples it: bilinear between texel
+// centres, clamped at the border, over the foreground only (each texel's
+// colour weighted by its mask, so the background beside the silhouette
+// never bleeds in), RGBA in 0..1 with the mask's coverage in alpha. u, v
+// in 0..1 across the image.
 glm::dvec4 sampleBilinear(const PodView& view, double u, double v);
+// The pod's feather map sampled the same way, in pixels (0..255).
+double sampleFeather(const PodView& view, double u, double v);
+
+// Paper 004's V_k * F_k of a point at depth (along the pod's axis) that
+// lands at (u, v) in the pod's image, given the pod's depth map there and
+// its colour and mask sampled there.
+double sightAndFeather(const PodView& view, double u, double v, double depth, double stored_depth, double mask,
+                       const BlendOptions& options);
 
 // The user's view, width x height of the user camera, RGBA: alpha 255
 // where the mesh covers the pixel, 0 (and black) elsewhere. weights:

@@ -18,6 +18,9 @@ struct PodView {
   Camera camera;
   Image8 color;  // RGB
   Image8 mask;   // grey, non-zero = foreground
+  // grey, distance to the silhouette's edge in pixels (the pod's feather
+  // map, render::ViewImages::feather); empty: 255 over the whole mask.
+  Image8 feather;
 };
 
 // Why a vertex is or is not seen by a camera, in test order.
