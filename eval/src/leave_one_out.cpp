@@ -264,7 +264,12 @@ std::string folderName(const std::string& name) {
 // 4 pods 90 degrees apart no other pod is within 60 degrees of a held-out
 // one, yet the two beside it carry the whole blend. (The seams of every
 // camera together cover most of the subject.)
-Image8 seamPixels(const Mesh& mesh, const Camera& pose, const std::vector<render::ViewImages>& views) {
+struct ViewRegions {
+  Image8 seams;    // one channel, 255 on a seam triangle
+  Image8 regions;  // eval::errorRegions of the truth's mask
+};
+ViewRegions viewRegions(const Mesh& mesh, const Camera& pose, const std::vector<render::ViewImages>& views,
+                        const Image8& truth_mask, double relative_jump) {
   std::vector<render::reference::PodView> pods;
   for (const auto& view : views) pods.push_back({view.camera, view.color, view.mask, view.feather});
   const auto sights = render::reference::vertexSights(mesh, pods);
@@ -280,11 +285,13 @@ Image8 seamPixels(const Mesh& mesh, const Camera& pose, const std::vector<render
     for (size_t t = 0; t < seam.size() && t < seams[i].size(); ++t) seam[t] |= seams[i][t] != 0;
   }
   std::vector<int32_t> triangle_of;
-  rasterizeDepth(mesh, pose, 0.05, &triangle_of);
-  Image8 out(pose.width, pose.height, 1, 0);
+  const DepthMap depth = rasterizeDepth(mesh, pose, 0.05, &triangle_of);
+  ViewRegions out;
+  out.seams = Image8(pose.width, pose.height, 1, 0);
   for (size_t p = 0; p < triangle_of.size(); ++p) {
-    if (triangle_of[p] >= 0 && seam[static_cast<size_t>(triangle_of[p])]) out.pixels[p] = 255;
+    if (triangle_of[p] >= 0 && seam[static_cast<size_t>(triangle_of[p])]) out.seams.pixels[p] = 255;
   }
+  out.regions = errorRegions(truth_mask, depth, out.seams, 3, relative_jump);
   return out;
 }
 
@@ -308,8 +315,8 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
   // A jump of this many cameras along the ring is the preset's angle.
   const int jump = static_cast<int>(std::lround(result.view_jump_degrees / 360.0 * camera_count));
   const int jump_frame = jump != 0 ? frame_count / 2 : 0;
-  // Seam pixels per (sequence, frame), shared by the modes.
-  std::map<std::pair<int, int>, Image8> seam_cache;
+  // Seam pixels and error regions per (sequence, frame), shared by the modes.
+  std::map<std::pair<int, int>, ViewRegions> region_cache;
   const bool novel = !input.novel_poses.empty();
   // The truth a sequence's frame is compared with.
   auto truthOf = [&](int held, int f) -> std::pair<const Image8&, const Image8&> {
@@ -425,8 +432,15 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
             (mode == render::BlendMode::kHoloportation || mode == render::BlendMode::kMontage4D)) {
           comparePictures(key, mode, picture);
         }
-        if (!seam_cache.count(key)) seam_cache[key] = seamPixels(mesh, pose, others);
-        const double seams = seamVisibility(picture, truth_color, truth_mask, seam_cache[key]);
+        auto cached = region_cache.find(key);
+        if (cached == region_cache.end()) {
+          cached = region_cache
+                       .emplace(key, viewRegions(mesh, pose, others, truth_mask, options.fields.relative_jump))
+                       .first;
+        }
+        const ViewRegions& regions = cached->second;
+        m.regions.add(regionErrors(picture, truth_color, regions.regions));
+        const double seams = seamVisibility(picture, truth_color, truth_mask, regions.seams);
         if (seams >= 0) {
           seam_sum += seams;
           ++seam_images;
@@ -448,6 +462,8 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
           saveImage(dir / (stem + "_rendered.png"), picture);
           saveImage(dir / (stem + "_true.png"), truth_color);
           saveImage(dir / (stem + "_mask.png"), truth_mask);
+          saveImage(dir / (stem + "_error.png"), errorMapPicture(picture, truth_color, truth_mask));
+          saveImage(dir / (stem + "_regions.png"), regionsPicture(regions.regions));
         }
       }
       if (progress) {
@@ -789,6 +805,16 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
                         {"images", m.images},             {"ms_per_new_mesh", m.ms_per_new_mesh},
                         {"ms_per_new_mesh_p95", m.ms_per_new_mesh_p95},
                         {"gpu_passes_ms", m.gpu_passes_ms}};
+    for (size_t r = 0; r < kErrorRegionCount; ++r) {
+      const double samples = 3.0 * static_cast<double>(m.regions.pixels[r]);
+      const double mse = samples > 0 ? m.regions.squared_error[r] / samples : 0.0;
+      s["modes"][mode]["regions"][errorRegionName(static_cast<ErrorRegion>(r))] = {
+          {"pixels", m.regions.pixels[r]},
+          {"squared_error", m.regions.squared_error[r]},
+          {"psnr_db", samples > 0 ? nlohmann::json(psnrFromMse(mse)) : nlohmann::json(nullptr)}};
+    }
+    const auto shares = regionSharesAgainstNormal(scene.modes, mode);
+    if (!shares.empty()) s["modes"][mode]["share_of_difference_from_normal"] = shares;
   }
   return s;
 }
@@ -841,8 +867,35 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
     r.ms_per_new_mesh = m.at("ms_per_new_mesh").get<double>();
     r.ms_per_new_mesh_p95 = m.value("ms_per_new_mesh_p95", r.ms_per_new_mesh);
     r.gpu_passes_ms = m.at("gpu_passes_ms").get<std::map<std::string, double>>();
+    if (m.contains("regions")) {
+      for (size_t k = 0; k < kErrorRegionCount; ++k) {
+        const auto& region = m.at("regions").at(errorRegionName(static_cast<ErrorRegion>(k)));
+        r.regions.pixels[k] = region.at("pixels").get<size_t>();
+        r.regions.squared_error[k] = region.at("squared_error").get<double>();
+      }
+    }
   }
   return scene;
+}
+
+std::map<std::string, double> regionSharesAgainstNormal(const std::map<std::string, ModeResult>& modes,
+                                                        const std::string& mode) {
+  const auto normal = modes.find(render::blendModeName(render::BlendMode::kNormal));
+  const auto other = modes.find(mode);
+  std::map<std::string, double> shares;
+  if (normal == modes.end() || other == modes.end() || normal == other) return shares;
+  std::array<double, kErrorRegionCount> difference{};
+  double total = 0, scale = 0;
+  for (size_t r = 0; r < kErrorRegionCount; ++r) {
+    difference[r] = normal->second.regions.squared_error[r] - other->second.regions.squared_error[r];
+    total += difference[r];
+    scale += normal->second.regions.squared_error[r];
+  }
+  if (!(std::abs(total) > 1e-9 * std::max(scale, 1.0))) return shares;
+  for (size_t r = 0; r < kErrorRegionCount; ++r) {
+    shares[errorRegionName(static_cast<ErrorRegion>(r))] = difference[r] / total;
+  }
+  return shares;
 }
 
 std::vector<BudgetCheck> checkBudget(const render::Budget& budget, const SceneResult& scene,
@@ -999,8 +1052,53 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   });
   md << "\nflicker: mean frame-to-frame change of the error image, grey levels (n/a: no two frames compared). seams: "
         "seam visibility, the RMS gradient of the luminance error along the pixels seam triangles cover (grey levels "
-        "per pixel; lower is less visible; n/a: no seam in view).\n\n"
-     << "## Geometry\n\nThe surface the client received against the truth (first frame; Chamfer from each mesh's "
+        "per pixel; lower is less visible; n/a: no seam in view).\n\n";
+  md << "## Where the errors differ\n\nPSNR per region over every image (the squared error pooled), and the share of "
+        "the squared-error difference from normal that each region carries (the shares sum to 100%; a negative "
+        "one goes against the whole picture's difference); the row \"pixels\" gives each region's share of the "
+        "compared pixels. Regions: within 3 px of the true mask's edge (border), of a depth jump of the "
+        "mesh seen from the pose (occlusion), on seam triangles (seam), elsewhere; pictures with --save-images "
+        "(*_error.png, *_regions.png).\n\n"
+     << "| Scene | mode |";
+  for (size_t r = 0; r < kErrorRegionCount; ++r) md << " " << errorRegionName(static_cast<ErrorRegion>(r)) << " |";
+  md << "\n|---|---|";
+  for (size_t r = 0; r < kErrorRegionCount; ++r) md << "---|";
+  md << "\n";
+  for (const auto& scene : results) {
+    if (scene.modes.empty()) continue;
+    const RegionErrors& any = scene.modes.begin()->second.regions;  // every mode compares the same pixels
+    double all_pixels = 0;
+    for (size_t count : any.pixels) all_pixels += static_cast<double>(count);
+    md << "| " << scene.name << " | pixels |";
+    for (size_t count : any.pixels) {
+      std::snprintf(cell, sizeof(cell), " %.1f%% |", all_pixels > 0 ? 100.0 * static_cast<double>(count) / all_pixels : 0.0);
+      md << cell;
+    }
+    md << "\n";
+    for (const auto& mode : modes) {
+      const auto it = scene.modes.find(mode);
+      if (it == scene.modes.end()) continue;
+      const auto shares = regionSharesAgainstNormal(scene.modes, mode);
+      md << "| " << scene.name << " | " << mode << " |";
+      for (size_t r = 0; r < kErrorRegionCount; ++r) {
+        const char* name = errorRegionName(static_cast<ErrorRegion>(r));
+        const double samples = 3.0 * static_cast<double>(it->second.regions.pixels[r]);
+        if (samples == 0) {
+          md << " n/a |";
+          continue;
+        }
+        std::snprintf(cell, sizeof(cell), " %.2f dB", psnrFromMse(it->second.regions.squared_error[r] / samples));
+        md << cell;
+        if (shares.count(name)) {
+          std::snprintf(cell, sizeof(cell), " (%+.0f%%)", 100.0 * shares.at(name));
+          md << cell;
+        }
+        md << " |";
+      }
+      md << "\n";
+    }
+  }
+  md << "\n## Geometry\n\nThe surface the client received against the truth (first frame; Chamfer from each mesh's "
         "vertices to the other's triangles, truth by marching cubes at 1 cm; IoU of its silhouette in each true mask; "
         "silhouette error: mean distance between its outline and each segmented mask's, what the voxel controls and "
         "`--hull-error-mm` targets).\n\n"

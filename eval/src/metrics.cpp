@@ -240,4 +240,140 @@ double seamVisibility(const Image8& rendered, const Image8& truth, const Image8&
   return count ? std::sqrt(sum / static_cast<double>(count)) : -1.0;
 }
 
+const char* errorRegionName(ErrorRegion region) {
+  switch (region) {
+    case ErrorRegion::kSilhouetteBorder: return "silhouette_border";
+    case ErrorRegion::kOcclusionEdge: return "occlusion_edge";
+    case ErrorRegion::kSeam: return "seam";
+    case ErrorRegion::kElsewhere: return "elsewhere";
+  }
+  return "elsewhere";
+}
+
+namespace {
+
+// 1 within reach pixels (a square window) of a pixel where marked is 1.
+std::vector<uint8_t> grown(const std::vector<uint8_t>& marked, uint32_t width, uint32_t height, int reach) {
+  // Separable: rows, then columns.
+  std::vector<uint8_t> rows(marked.size(), 0), out(marked.size(), 0);
+  const int w = static_cast<int>(width), h = static_cast<int>(height);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      for (int dx = -reach; dx <= reach && !rows[static_cast<size_t>(y) * width + x]; ++dx) {
+        const int xx = x + dx;
+        if (xx >= 0 && xx < w && marked[static_cast<size_t>(y) * width + xx]) rows[static_cast<size_t>(y) * width + x] = 1;
+      }
+    }
+  }
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      for (int dy = -reach; dy <= reach && !out[static_cast<size_t>(y) * width + x]; ++dy) {
+        const int yy = y + dy;
+        if (yy >= 0 && yy < h && rows[static_cast<size_t>(yy) * width + x]) out[static_cast<size_t>(y) * width + x] = 1;
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+Image8 errorRegions(const Image8& mask, const DepthMap& depth, const Image8& seams, int reach_px,
+                    double relative_jump) {
+  const uint32_t w = mask.width, h = mask.height;
+  if (mask.channels != 1 || seams.width != w || seams.height != h || seams.channels != 1 || depth.width != w ||
+      depth.height != h) {
+    throw std::invalid_argument("errorRegions: mask, depth and seams must be one-channel images of one size");
+  }
+  const size_t n = static_cast<size_t>(w) * h;
+  std::vector<uint8_t> outside(n), jump(n, 0);
+  for (size_t p = 0; p < n; ++p) outside[p] = mask.pixels[p] == 0;
+  auto jumps = [&](size_t a, size_t b) {
+    const double da = depth.depth[a], db = depth.depth[b];
+    if (da == kNoDepth || db == kNoDepth) return false;
+    return std::abs(da - db) > relative_jump * std::min(da, db);
+  };
+  for (uint32_t y = 0; y < h; ++y) {
+    for (uint32_t x = 0; x < w; ++x) {
+      const size_t p = static_cast<size_t>(y) * w + x;
+      if (x + 1 < w && jumps(p, p + 1)) jump[p] = jump[p + 1] = 1;
+      if (y + 1 < h && jumps(p, p + w)) jump[p] = jump[p + w] = 1;
+    }
+  }
+  const auto near_outside = grown(outside, w, h, reach_px);
+  const auto near_jump = grown(jump, w, h, reach_px);
+  Image8 regions(w, h, 1, kOutsideRegions);
+  for (size_t p = 0; p < n; ++p) {
+    if (outside[p]) continue;
+    ErrorRegion r = ErrorRegion::kElsewhere;
+    if (near_outside[p]) {
+      r = ErrorRegion::kSilhouetteBorder;
+    } else if (near_jump[p]) {
+      r = ErrorRegion::kOcclusionEdge;
+    } else if (seams.pixels[p] != 0) {
+      r = ErrorRegion::kSeam;
+    }
+    regions.pixels[p] = static_cast<uint8_t>(r);
+  }
+  return regions;
+}
+
+void RegionErrors::add(const RegionErrors& other) {
+  for (size_t r = 0; r < kErrorRegionCount; ++r) {
+    squared_error[r] += other.squared_error[r];
+    pixels[r] += other.pixels[r];
+  }
+}
+
+RegionErrors regionErrors(const Image8& rendered, const Image8& truth, const Image8& regions) {
+  if (rendered.width != truth.width || rendered.height != truth.height || regions.width != truth.width ||
+      regions.height != truth.height || regions.channels != 1 || rendered.channels < 3 || truth.channels < 3) {
+    throw std::invalid_argument("regionErrors: rendered, truth and regions must be one size");
+  }
+  RegionErrors out;
+  const size_t n = static_cast<size_t>(truth.width) * truth.height;
+  for (size_t p = 0; p < n; ++p) {
+    const uint8_t r = regions.pixels[p];
+    if (r >= kErrorRegionCount) continue;
+    double sum = 0;
+    for (uint32_t c = 0; c < 3; ++c) {
+      const double d = double(rendered.pixels[p * rendered.channels + c]) - double(truth.pixels[p * truth.channels + c]);
+      sum += d * d;
+    }
+    out.squared_error[r] += sum;
+    ++out.pixels[r];
+  }
+  return out;
+}
+
+Image8 errorMapPicture(const Image8& rendered, const Image8& truth, const Image8& mask) {
+  Image8 out(truth.width, truth.height, 3, 0);
+  const size_t n = static_cast<size_t>(truth.width) * truth.height;
+  for (size_t p = 0; p < n; ++p) {
+    if (mask.pixels[p] == 0) continue;
+    double sum = 0;
+    for (uint32_t c = 0; c < 3; ++c) {
+      sum += std::abs(double(rendered.pixels[p * rendered.channels + c]) - double(truth.pixels[p * truth.channels + c]));
+    }
+    // 0..64 grey levels -> black, red, yellow.
+    const double t = std::clamp(sum / 3.0 / 64.0, 0.0, 1.0);
+    out.pixels[3 * p] = static_cast<uint8_t>(std::lround(255 * std::min(1.0, 2 * t)));
+    out.pixels[3 * p + 1] = static_cast<uint8_t>(std::lround(255 * std::max(0.0, 2 * t - 1)));
+  }
+  return out;
+}
+
+Image8 regionsPicture(const Image8& regions) {
+  // silhouette border blue, occlusion edge orange, seam magenta, elsewhere grey
+  static constexpr std::array<std::array<uint8_t, 3>, kErrorRegionCount> kColours = {
+      {{40, 90, 230}, {240, 140, 20}, {220, 40, 200}, {110, 110, 110}}};
+  Image8 out(regions.width, regions.height, 3, 0);
+  for (size_t p = 0; p < regions.pixels.size(); ++p) {
+    const uint8_t r = regions.pixels[p];
+    if (r >= kErrorRegionCount) continue;
+    for (int c = 0; c < 3; ++c) out.pixels[3 * p + c] = kColours[r][c];
+  }
+  return out;
+}
+
 }  // namespace holofuse::eval

@@ -122,8 +122,8 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
   eval::SceneResult scene;
   scene.name = "colour-imbalance";
   scene.cameras = 8;
-  scene.modes["holoportation"] = {15.2, 16.7, 0.59, 19.2, 21.0, 16, 80, {}, 95};
-  scene.modes["montage4d"] = {15.0, 16.9, 0.60, 18.0, 20.5, 16, 120, {}, 150};
+  scene.modes["holoportation"] = {15.2, 16.7, 0.59, 19.2, 21.0, 16, 80, {}, 95, {}};
+  scene.modes["montage4d"] = {15.0, 16.9, 0.60, 18.0, 20.5, 16, 120, {}, 150, {}};
   scene.hull_ms = scene.codec_ms = 20;
   scene.hull_ms_p95 = scene.codec_ms_p95 = 30;
   scene.codec_stage_ms = {

@@ -115,7 +115,8 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
   // of every pixel inside the mask, peak 255), averaged over the images as
   // the report does.
   for (const auto& [mode, m] : scene.modes) {
-    double psnr_sum = 0;
+    double psnr_sum = 0, squared_sum = 0;
+    size_t values_sum = 0;
     int images = 0;
     for (const char* frame : {"frame30", "frame31"}) {
       const fs::path stem = fs::path(options.out_dir) / "images" / "few-cameras" / mode / (std::string(frame) + "_camera0_");
@@ -139,10 +140,58 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
       }
       ASSERT_GT(values, 0u);
       psnr_sum += 10.0 * std::log10(255.0 * 255.0 / (squared / static_cast<double>(values)));
+      squared_sum += squared;
+      values_sum += values;
       ++images;
+      // The error map is black outside the mask and somewhere not black
+      // inside it; the regions picture colours exactly the mask's pixels.
+      const cv::Mat error = cv::imread(stem.string() + "error.png", cv::IMREAD_COLOR);
+      const cv::Mat regions = cv::imread(stem.string() + "regions.png", cv::IMREAD_COLOR);
+      ASSERT_FALSE(error.empty() || regions.empty()) << stem;
+      size_t lit_error = 0, dark_outside = 0, outside = 0, region_inside = 0, inside = 0;
+      for (int y = 0; y < mask.rows; ++y) {
+        for (int x = 0; x < mask.cols; ++x) {
+          const bool in = mask.at<uint8_t>(y, x) != 0;
+          const bool error_lit = error.at<cv::Vec3b>(y, x) != cv::Vec3b(0, 0, 0);
+          const bool region_lit = regions.at<cv::Vec3b>(y, x) != cv::Vec3b(0, 0, 0);
+          inside += in;
+          outside += !in;
+          lit_error += in && error_lit;
+          dark_outside += !in && !error_lit && !region_lit;
+          region_inside += in && region_lit;
+        }
+      }
+      EXPECT_EQ(dark_outside, outside) << stem;
+      EXPECT_EQ(region_inside, inside) << stem;
+      EXPECT_GT(lit_error, 0u) << stem;
     }
     EXPECT_NEAR(psnr_sum / images, m.psnr_db, 1e-9) << mode << ": the saved images give the reported PSNR";
+    // The regions split the very error the PSNR is made of: every pixel
+    // inside the masks in one region, their squared errors adding up.
+    size_t region_pixels = 0;
+    double region_squared = 0;
+    for (size_t r = 0; r < holofuse::eval::kErrorRegionCount; ++r) {
+      region_pixels += m.regions.pixels[r];
+      region_squared += m.regions.squared_error[r];
+    }
+    EXPECT_EQ(3 * region_pixels, values_sum) << mode;
+    EXPECT_NEAR(region_squared, squared_sum, 1e-6 * squared_sum) << mode;
+    EXPECT_GT(m.regions.pixels[static_cast<size_t>(holofuse::eval::ErrorRegion::kSilhouetteBorder)], 0u) << mode;
+    EXPECT_GT(m.regions.pixels[static_cast<size_t>(holofuse::eval::ErrorRegion::kElsewhere)], 0u) << mode;
+    if (mode == "normal") continue;
+    // The shares of the difference from normal sum to one, in the report too.
+    const auto shares = regionSharesAgainstNormal(scene.modes, mode);
+    ASSERT_EQ(shares.size(), holofuse::eval::kErrorRegionCount) << mode;
+    double share_sum = 0;
+    for (const auto& [region, share] : shares) {
+      share_sum += share;
+      EXPECT_DOUBLE_EQ(json["scenes"]["few-cameras"]["modes"][mode]["share_of_difference_from_normal"][region].get<double>(),
+                       share);
+    }
+    EXPECT_NEAR(share_sum, 1.0, 1e-9) << mode;
   }
+  EXPECT_NE(text.find("## Where the errors differ"), std::string::npos);
+  EXPECT_NE(text.find("| few-cameras | pixels |"), std::string::npos);
   fs::remove_all(options.out_dir);
 }
 
@@ -291,8 +340,8 @@ TEST(LeaveOneOut, VerdictNeedsHalfADecibelHigherSsimAndLessFlickerAfterAJump) {
   SceneResult scene;
   scene.name = "viewpoint-jump";
   scene.view_jump_degrees = 90;
-  scene.modes["holoportation"] = {10.0, 30.0, 0.90, 4.0, 5.0, 10, 0, {}, 0};
-  scene.modes["montage4d"] = {9.0, 30.6, 0.91, 3.0, 5.0, 10, 0, {}, 0};
+  scene.modes["holoportation"] = {10.0, 30.0, 0.90, 4.0, 5.0, 10, 0, {}, 0, {}};
+  scene.modes["montage4d"] = {9.0, 30.6, 0.91, 3.0, 5.0, 10, 0, {}, 0, {}};
   EXPECT_TRUE(montageVerdict(scene).met);
   scene.modes["montage4d"].flicker = 5.0;
   EXPECT_FALSE(montageVerdict(scene).met);

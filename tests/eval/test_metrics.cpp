@@ -343,6 +343,52 @@ Mesh pointsAt(std::initializer_list<glm::vec3> points) {
   return mesh;
 }
 
+// Each pixel inside the mask lands in one region, the border first, then a
+// depth jump's neighbourhood, then the seams; the squared errors split
+// among them add up to the whole.
+TEST(Metrics, ErrorRegionsSplitTheMaskedErrorByWhereItSits) {
+  const uint32_t w = 40, h = 30;
+  Image8 mask(w, h, 1, 0);
+  for (uint32_t y = 5; y < 25; ++y)
+    for (uint32_t x = 5; x < 35; ++x) mask.pixels[y * w + x] = 255;
+  DepthMap depth{w, h, std::vector<double>(static_cast<size_t>(w) * h, kNoDepth)};
+  for (uint32_t y = 0; y < h; ++y) {
+    for (uint32_t x = 0; x < w; ++x) depth.depth[y * w + x] = x < 20 ? 1.0 : 1.5;  // a jump between x 19 and 20
+  }
+  Image8 seams(w, h, 1, 0);
+  for (uint32_t y = 0; y < h; ++y) seams.pixels[y * w + 30] = 255;  // a seam down column 30
+  const Image8 regions = errorRegions(mask, depth, seams, 3, 0.05);
+  auto at = [&](uint32_t x, uint32_t y) { return regions.pixels[y * w + x]; };
+  EXPECT_EQ(at(0, 0), kOutsideRegions);
+  EXPECT_EQ(at(5, 15), uint8_t(ErrorRegion::kSilhouetteBorder));   // on the mask's edge
+  EXPECT_EQ(at(7, 15), uint8_t(ErrorRegion::kSilhouetteBorder));   // 3 px from the background at x 4
+  EXPECT_EQ(at(8, 15), uint8_t(ErrorRegion::kElsewhere));          // 4 px from it
+  EXPECT_EQ(at(17, 15), uint8_t(ErrorRegion::kOcclusionEdge));     // 2 px from the jump
+  EXPECT_EQ(at(22, 15), uint8_t(ErrorRegion::kOcclusionEdge));
+  EXPECT_EQ(at(16, 15), uint8_t(ErrorRegion::kOcclusionEdge));     // 3 px from it
+  EXPECT_EQ(at(15, 15), uint8_t(ErrorRegion::kElsewhere));
+  EXPECT_EQ(at(20, 6), uint8_t(ErrorRegion::kSilhouetteBorder));   // the border wins over the jump
+  EXPECT_EQ(at(30, 15), uint8_t(ErrorRegion::kSeam));
+  EXPECT_EQ(at(31, 15), uint8_t(ErrorRegion::kElsewhere));
+  EXPECT_EQ(at(32, 15), uint8_t(ErrorRegion::kSilhouetteBorder));  // 3 px from the background at x 35
+
+  Image8 truth(w, h, 3, 100), rendered(w, h, 3, 100);
+  rendered.at(30, 15)[0] = 110;  // the seam: 100
+  rendered.at(12, 15)[1] = 103;  // elsewhere: 9
+  rendered.at(6, 10)[2] = 98;    // the border: 4
+  rendered.at(0, 0)[0] = 0;      // outside the mask: not counted
+  const RegionErrors e = regionErrors(rendered, truth, regions);
+  EXPECT_DOUBLE_EQ(e.squared_error[size_t(ErrorRegion::kSeam)], 100.0);
+  EXPECT_DOUBLE_EQ(e.squared_error[size_t(ErrorRegion::kElsewhere)], 9.0);
+  EXPECT_DOUBLE_EQ(e.squared_error[size_t(ErrorRegion::kSilhouetteBorder)], 4.0);
+  EXPECT_DOUBLE_EQ(e.squared_error[size_t(ErrorRegion::kOcclusionEdge)], 0.0);
+  size_t pixels = 0;
+  for (size_t count : e.pixels) pixels += count;
+  EXPECT_EQ(pixels, 20u * 30u) << "every pixel of the mask, once";
+  const ImageQuality q = compareInMask(rendered, truth, mask);
+  EXPECT_NEAR(psnrFromMse(113.0 / (3.0 * pixels)), q.psnr_db, 1e-9);
+}
+
 TEST(GeometryMetrics, ChamferIsTheMeanOfBothNearestDistanceMeans) {
   const Mesh a = pointsAt({{0, 0, 0}, {1, 0, 0}});
   const Mesh b = pointsAt({{0, 0.1f, 0}, {1, 0, 0}, {5, 0, 0}});

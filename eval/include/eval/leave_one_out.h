@@ -20,6 +20,7 @@
 #include "capture_node/pod.h"
 #include "capture_node/scene_library.h"
 #include "common/mesh_codec.h"
+#include "eval/metrics.h"
 #include "protocol/messages.h"
 #include "render_client/blend_mode.h"
 #include "render_client/latency_report.h"
@@ -105,7 +106,15 @@ struct ModeResult {
   double ms_per_new_mesh = 0;      // median wall time of a render that follows a new mesh
   std::map<std::string, double> gpu_passes_ms;  // medians of the field passes' timestamps
   double ms_per_new_mesh_p95 = 0;  // the 95th percentile of ms_per_new_mesh's renders
+  RegionErrors regions;            // the squared error over every image, by where it sits
 };
+
+// The share of the squared-error difference between normal and the mode
+// that each region carries: (normal's - the mode's) in the region over the
+// same in all; sums to 1. Empty where normal did not run or the two errors
+// are within 1e-9 of each other (no difference to share).
+std::map<std::string, double> regionSharesAgainstNormal(const std::map<std::string, ModeResult>& modes,
+                                                        const std::string& mode);
 
 // What a frame's codec time covers, for reports.
 inline constexpr const char* kCodecsMeaning =

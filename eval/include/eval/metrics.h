@@ -27,11 +27,17 @@
 //   across a seam leaves a step in the error there; an error that is the
 //   same on both sides (a colour offset) leaves none, and the truth's own
 //   edges cancel.
+// - Error regions: the squared error of the RMSE split by where it sits
+//   (silhouette border, occlusion edge, seam, elsewhere; errorRegions), so
+//   a PSNR difference between two modes can be traced to a region.
 #pragma once
 
+#include <array>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
+#include "common/depth_raster.h"
 #include "common/image.h"
 
 namespace holofuse::eval {
@@ -99,5 +105,40 @@ PictureAgreement pictureAgreement(const Image8& a, const Image8& b, const Image8
 // gradient is taken where both neighbours on an axis are inside the mask;
 // negative (nothing to measure) when no seam pixel is.
 double seamVisibility(const Image8& rendered, const Image8& truth, const Image8& mask, const Image8& seams);
+
+// Where an error sits, to tell which part of a picture a mode wins or
+// loses. Each pixel inside the truth's mask falls in exactly one region,
+// the first that applies in this order.
+enum class ErrorRegion : uint8_t {
+  kSilhouetteBorder,  // within a few pixels of the truth mask's edge
+  kOcclusionEdge,     // near a depth jump of the mesh seen from the pose
+  kSeam,              // on a seam triangle of the cameras the blend leans on
+  kElsewhere,
+};
+inline constexpr size_t kErrorRegionCount = 4;
+inline constexpr uint8_t kOutsideRegions = 255;  // outside the truth's mask
+const char* errorRegionName(ErrorRegion region);  // "silhouette_border", ...
+
+// One channel, an ErrorRegion per pixel (kOutsideRegions outside mask).
+// depth: the mesh's depth map from the pose (kNoDepth where none); a jump
+// is between neighbours both covered whose depths differ by more than
+// relative_jump of the nearer. seams: one channel, non-zero on a seam.
+// Borders and jumps count within reach_px pixels (a square window).
+Image8 errorRegions(const Image8& mask, const DepthMap& depth, const Image8& seams, int reach_px = 3,
+                    double relative_jump = 0.05);
+
+// Squared error summed over RGB and pixel counts per region.
+struct RegionErrors {
+  std::array<double, kErrorRegionCount> squared_error{};
+  std::array<size_t, kErrorRegionCount> pixels{};
+  void add(const RegionErrors& other);
+};
+RegionErrors regionErrors(const Image8& rendered, const Image8& truth, const Image8& regions);
+
+// Pictures for --save-images: the error's size per pixel (mean absolute
+// over RGB, 0 to 64 grey levels from black through red to yellow, black
+// outside the mask) and the regions in four colours.
+Image8 errorMapPicture(const Image8& rendered, const Image8& truth, const Image8& mask);
+Image8 regionsPicture(const Image8& regions);
 
 }  // namespace holofuse::eval
