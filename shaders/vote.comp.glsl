@@ -8,7 +8,7 @@
 // delta) with at least floor(X/2) of the other views that see the vertex,
 // at some mip level searched from coarse to fine. Also packs each vertex's
 // sights and votes into its sight bits (config.h) for the seams and the
-// count.
+// count. delta 0 trusts every view that sees the vertex (no vote).
 layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
 
 float linearize(float c) { return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4); }
@@ -46,9 +46,11 @@ void main() {
   }
   uint needed = count / 2u;  // floor(X / 2)
   bool ok[HOLOFUSE_MAX_CAMERAS];
-  for (uint a = 0u; a < count; ++a) ok[a] = false;
+  // delta 0: no vote, every view that sees the vertex is trusted.
+  bool vote = push.vote_delta > 0.0;
+  for (uint a = 0u; a < count; ++a) ok[a] = !vote;
   // Coarse to fine: each view's Lab colour once per level, then the votes.
-  for (int level = push.vote_levels - 1; level >= 0; --level) {
+  for (int level = vote ? push.vote_levels - 1 : -1; level >= 0; --level) {
     vec3 lab[HOLOFUSE_MAX_CAMERAS];
     for (uint a = 0u; a < count; ++a) lab[a] = labOf(textureLod(images, vec3(uv[a], float(seen[a])), float(level)).rgb);
     for (uint a = 0u; a < count; ++a) {

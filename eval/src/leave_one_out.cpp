@@ -269,11 +269,14 @@ struct ViewRegions {
   Image8 regions;  // eval::errorRegions of the truth's mask
 };
 ViewRegions viewRegions(const Mesh& mesh, const Camera& pose, const std::vector<render::ViewImages>& views,
-                        const Image8& truth_mask, double relative_jump) {
+                        const Image8& truth_mask, const render::FieldParameters& fields) {
   std::vector<render::reference::PodView> pods;
   for (const auto& view : views) pods.push_back({view.camera, view.color, view.mask, view.feather});
   const auto sights = render::reference::vertexSights(mesh, pods);
-  const auto trusted = render::reference::majorityVote(mesh, pods, sights);
+  render::reference::VoteOptions vote;
+  vote.delta = fields.vote_delta;
+  vote.levels = fields.vote_levels;
+  const auto trusted = render::reference::majorityVote(mesh, pods, sights, vote);
   const auto seams = render::reference::seamTriangles(mesh, sights, trusted);
   std::vector<uint8_t> seam(mesh.triangleCount(), 0);
   double nearest = -1;  // the largest cosine between a camera's direction and the view's
@@ -291,7 +294,7 @@ ViewRegions viewRegions(const Mesh& mesh, const Camera& pose, const std::vector<
   for (size_t p = 0; p < triangle_of.size(); ++p) {
     if (triangle_of[p] >= 0 && seam[static_cast<size_t>(triangle_of[p])]) out.seams.pixels[p] = 255;
   }
-  out.regions = errorRegions(truth_mask, depth, out.seams, 3, relative_jump);
+  out.regions = errorRegions(truth_mask, depth, out.seams, 3, fields.relative_jump);
   return out;
 }
 
@@ -435,7 +438,7 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         auto cached = region_cache.find(key);
         if (cached == region_cache.end()) {
           cached = region_cache
-                       .emplace(key, viewRegions(mesh, pose, others, truth_mask, options.fields.relative_jump))
+                       .emplace(key, viewRegions(mesh, pose, others, truth_mask, options.fields))
                        .first;
         }
         const ViewRegions& regions = cached->second;

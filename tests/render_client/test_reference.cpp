@@ -186,6 +186,15 @@ TEST(ReferenceVote, AGhostViewIsOutvotedAndTheOthersAreTrusted) {
   ASSERT_GT(ghost_seen, 0u);
   EXPECT_LT(static_cast<double>(ghost_trusted) / ghost_seen, 0.05);
   EXPECT_GT(static_cast<double>(other_trusted) / other_seen, 0.95);
+  // delta 0 is no vote: every view that sees a vertex is trusted, the ghost too.
+  VoteOptions none;
+  none.delta = 0;
+  const auto all = majorityVote(mesh, views, sights, none);
+  for (size_t i = 0; i < views.size(); ++i) {
+    for (size_t v = 0; v < mesh.vertexCount(); ++v) {
+      EXPECT_EQ(all[i][v] != 0, sights[i][v] == Sight::kVisible) << "camera " << i << " vertex " << v;
+    }
+  }
 }
 
 TEST(ReferenceSeams, LieAlongTheSilhouetteAndNameTheirRule) {

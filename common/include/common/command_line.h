@@ -67,7 +67,7 @@ inline const std::vector<SharedFlag>& sharedFlags() {
       {"--lambda", "montage4d: temporal rate per frame at 30 fps (eq. 5)", 0, 1, {}, kToClient},
       {"--dilation", "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, scaled)",
        -1, 64, {}, kToClient},
-      {"--vote-delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3)", 0, 10, {}, kToClient},
+      {"--vote-delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3; 0: no vote, the default; paper 000: 0.15)", 0, 10, {}, kToClient},
       {"--geodesic-rings", "montage4d: k, the geodesic reach in triangle rings", 1, 64, {}, kToClient},
       {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", 1, 200, {}, kToClient},
       {"--geodesic-radius", "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)", 0, 1000,

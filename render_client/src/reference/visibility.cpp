@@ -138,6 +138,10 @@ std::vector<std::vector<uint8_t>> majorityVote(const Mesh& mesh, const std::vect
       pixel[i] = glm::dvec3(p->x, p->y, 0.0);
       seen.push_back(i);
     }
+    if (!(options.delta > 0)) {  // no vote
+      for (size_t i : seen) trusted[i][v] = 1;
+      continue;
+    }
     const size_t x_count = seen.size();
     const size_t needed = x_count / 2;  // floor(X / 2)
     for (size_t i : seen) {

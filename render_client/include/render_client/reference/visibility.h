@@ -47,7 +47,7 @@ std::vector<std::vector<Sight>> vertexSights(const Mesh& mesh, const std::vector
 glm::dvec3 srgbToLab(const uint8_t* rgb);
 
 struct VoteOptions {
-  double delta = 0.15;  // Lab distance (scaled by 1/100) under which two views agree
+  double delta = 0.15;  // Lab distance (scaled by 1/100) under which two views agree; 0: trust every view
   int levels = 3;       // mip levels searched, coarsest first
 };
 
