@@ -134,6 +134,10 @@ int main(int argc, char** argv) {
   // The geodesics as the renderer runs them: k rings, K passes, the
   // geodesic radius, into the vertices camera i sees.
   const render::FieldParameters defaults;
+  // The reference votes as the renderer does by default (delta 0: no vote).
+  render::reference::VoteOptions vote;
+  vote.delta = defaults.vote_delta;
+  vote.levels = defaults.vote_levels;
   auto geodesicsAsRendered = [&](const std::vector<uint8_t>& source, const std::vector<render::reference::Sight>& sight) {
     render::reference::GeodesicOptions options;
     options.max_rings = defaults.geodesic_rings;
@@ -154,7 +158,7 @@ int main(int argc, char** argv) {
     auto c2 = Clock::now();
     const auto sights = render::reference::vertexSights(mesh, views);  // maps and discontinuities again, then the tests
     auto c3 = Clock::now();
-    const auto trusted = render::reference::majorityVote(mesh, views, sights);
+    const auto trusted = render::reference::majorityVote(mesh, views, sights, vote);
     auto c4 = Clock::now();
     const auto seams = render::reference::seamTriangles(mesh, sights, trusted);
     render::reference::globalVisibility(render::reference::finalVisibility(sights, trusted));
@@ -207,7 +211,7 @@ int main(int argc, char** argv) {
     // (paper 000 section 4.5). Seen from between pods 0 and 1.
     namespace ref = render::reference;
     const auto sights = ref::vertexSights(mesh, views);
-    const auto trusted = ref::majorityVote(mesh, views, sights);
+    const auto trusted = ref::majorityVote(mesh, views, sights, vote);
     const auto seams = ref::seamTriangles(mesh, sights, trusted);
     const auto visible = ref::finalVisibility(sights, trusted);
     const double scale = defaults.geodesic_radius > 0 ? defaults.geodesic_radius

@@ -151,6 +151,16 @@ protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::Textur
       if (plane.kind == protocol::PlaneKind::kMask) view.mask = std::move(*decoded);
       if (plane.kind == protocol::PlaneKind::kFeather) view.feather = std::move(*decoded);
     }
+    // A feather map is optional (a 1.1 server sends none), but one that is
+    // sent covers the colour's rectangle, as one grey plane (SPEC.md 1.2).
+    if (!view.feather.pixels.empty() &&
+        (view.feather.width != view.color.width || view.feather.height != view.color.height ||
+         view.feather.channels != 1)) {
+      return malformed(" feather map is " + std::to_string(view.feather.width) + "x" +
+                       std::to_string(view.feather.height) + " with " + std::to_string(view.feather.channels) +
+                       " channel(s), not one grey plane of the colour's " + std::to_string(view.color.width) + "x" +
+                       std::to_string(view.color.height));
+    }
     // A rectangle of the image (the pods send their foreground's): back
     // into a whole frame, background black with mask 0.
     const bool whole = image.offset_x == 0 && image.offset_y == 0 && view.color.width == view.camera.width &&
@@ -158,9 +168,8 @@ protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::Textur
     if (!whole && view.color.width == view.mask.width && view.color.height == view.mask.height &&
         cropFits(image.offset_x, image.offset_y, view.color.width, view.color.height, view.camera.width,
                  view.camera.height)) {
-      // (The feather map is the colour's rectangle too, checked before the
-      // colour is placed.)
-      if (view.feather.width == view.color.width && view.feather.height == view.color.height) {
+      // (The feather map is the colour's rectangle too, checked above.)
+      if (!view.feather.pixels.empty()) {
         view.feather =
             placeInFrame(view.feather, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
       }
@@ -172,13 +181,6 @@ protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::Textur
         view.mask.channels != 1) {
       return malformed(" images are not " + std::to_string(view.camera.width) + "x" +
                        std::to_string(view.camera.height) + " RGB + mask");
-    }
-    // A feather map is optional (a 1.1 server sends none), but one that is
-    // sent must fit its image.
-    if (!view.feather.pixels.empty() && (view.feather.width != view.camera.width ||
-                                         view.feather.height != view.camera.height || view.feather.channels != 1)) {
-      return malformed(" feather map is not " + std::to_string(view.camera.width) + "x" +
-                       std::to_string(view.camera.height) + " grey");
     }
     views.push_back(std::move(view));
   }
@@ -470,6 +472,9 @@ int runClient(const ClientOptions& options) {
       {"device", context->deviceName()},
       {"alpha", number(options.blend.alpha)},
       {"lambda", number(options.blend.lambda)},
+      {"beta", number(options.blend.beta)},
+      {"feather_width", number(options.blend.feather_width_px)},
+      {"fragment_test", options.blend.fragment_test ? "on" : "off"},
       {"dilation", number(fields.dilation_px)},
       {"vote_delta", number(fields.vote_delta)},
       {"geodesic_rings", number(fields.geodesic_rings)},

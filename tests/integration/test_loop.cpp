@@ -428,6 +428,12 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
                             "3",
                             "--lambda",
                             "0.5",
+                            "--beta",
+                            "7",
+                            "--feather-width",
+                            "4",
+                            "--fragment-test",
+                            "on",
                             "--dilation",
                             "1",
                             "--vote-delta",
@@ -448,7 +454,7 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
   const std::map<std::string, std::string> expected = {
       {"mode", "montage4d"},  {"alpha", "3"},          {"lambda", "0.5"},         {"dilation", "1"},
       {"vote_delta", "0.25"}, {"geodesic_rings", "9"}, {"geodesic_passes", "11"}, {"geodesic_radius", "0.04"},
-      {"vertex_precision", "fp16"}};
+      {"vertex_precision", "fp16"}, {"beta", "7"},        {"feather_width", "4"},    {"fragment_test", "on"}};
   for (const auto& [key, value] : expected) EXPECT_EQ(settings.at(key).get<std::string>(), value) << key;
   const std::string server_log = readFile(out / "logs" / "server.log");
   EXPECT_NE(server_log.find("voxel 0.03 m"), std::string::npos) << server_log;

@@ -6,6 +6,7 @@
 
 #include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"
+#include "common/image_codec.h"
 #include "render_client/client.h"
 #include "render_client/latency_report.h"
 #include "render_client/renderer.h"
@@ -117,6 +118,58 @@ TEST(Renderer, EmptyMeshGivesAnEmptyPictureAndMismatchedViewsAreRefused) {
 // the jump frame the view is the pod's (or the orbit's), from it on the
 // same view turned by 90 degrees around the ring, at the same distance
 // from the subject, still looking at it.
+// A bundle's image back into whole frames: a cropped rectangle with its
+// feather map (protocol 1.2) is placed where it was cut, a bundle without
+// one (a 1.1 server's) gives none, and a feather map of another size or
+// format is refused naming the camera and both sizes.
+TEST(ClientBundle, FeatherMapsArePlacedLikeTheColourAndAWrongOneIsRefused) {
+  const Camera camera = capture::SyntheticScene::cameraRig(1, 40, 30)[0];
+  const std::map<uint32_t, Camera> cameras = {{camera.id, camera}};
+  Image8 color(12, 10, 3, 90), mask(12, 10, 1, 255), feather(12, 10, 1, 7);
+  std::vector<std::vector<uint8_t>> storage(4);
+  auto bundleOf = [&](const std::vector<std::pair<const Image8*, protocol::PlaneKind>>& planes) {
+    protocol::TextureBundle bundle;
+    protocol::BundleImage image;
+    image.camera_id = camera.id;
+    image.offset_x = 20;
+    image.offset_y = 5;
+    for (size_t k = 0; k < planes.size(); ++k) {
+      image.planes.push_back(encodePlane(*planes[k].first, planes[k].second, protocol::Codec::kLz4, storage[k]));
+    }
+    bundle.images.push_back(std::move(image));
+    return bundle;
+  };
+  using protocol::PlaneKind;
+  auto views = viewsOfBundle(
+      bundleOf({{&color, PlaneKind::kColor}, {&mask, PlaneKind::kMask}, {&feather, PlaneKind::kFeather}}), cameras);
+  ASSERT_TRUE(views.isOk()) << views.status().message();
+  const Image8& placed = (*views)[0].feather;
+  ASSERT_EQ(placed.width, 40u);
+  ASSERT_EQ(placed.height, 30u);
+  EXPECT_EQ(placed.at(20, 5)[0], 7);   // the rectangle's first pixel
+  EXPECT_EQ(placed.at(31, 14)[0], 7);  // its last
+  EXPECT_EQ(placed.at(19, 5)[0], 0);   // beside it: outside the silhouette
+  EXPECT_EQ(placed.at(32, 14)[0], 0);
+
+  auto old = viewsOfBundle(bundleOf({{&color, PlaneKind::kColor}, {&mask, PlaneKind::kMask}}), cameras);
+  ASSERT_TRUE(old.isOk()) << old.status().message();
+  EXPECT_TRUE((*old)[0].feather.empty()) << "a 1.1 server's bundle: no feather map, the renderer feathers nothing";
+
+  const Image8 whole_feather(40, 30, 1, 7), rgb_feather(12, 10, 3, 7);
+  for (const Image8* wrong : {&whole_feather, &rgb_feather}) {
+    auto refused = viewsOfBundle(
+        bundleOf({{&color, PlaneKind::kColor}, {&mask, PlaneKind::kMask}, {wrong, PlaneKind::kFeather}}), cameras);
+    ASSERT_FALSE(refused.isOk());
+    EXPECT_EQ(refused.status().code(), protocol::StatusCode::kMalformed);
+    const std::string message = refused.status().message();
+    EXPECT_NE(message.find("camera " + std::to_string(camera.id)), std::string::npos) << message;
+    EXPECT_NE(message.find("feather map is " + std::to_string(wrong->width) + "x" + std::to_string(wrong->height)),
+              std::string::npos)
+        << message;
+    EXPECT_NE(message.find("12x10"), std::string::npos) << message;
+  }
+}
+
 TEST(UserCamera, AViewpointJumpTurnsTheViewAroundTheRingAtItsFrame) {
   std::map<uint32_t, Camera> pods;
   for (const auto& cam : capture::SyntheticScene::cameraRig(8, 64, 48)) pods[cam.id] = cam;

@@ -62,7 +62,7 @@ inline const std::vector<SharedFlag>& sharedFlags() {
       {"--lz4-hc-level", "LZ4HC level: 0 = LZ4's fast mode (at --lz4-acceleration), 1-12 slower and smaller", 0,
        kMaxLz4HcLevel, {}, kToServer | kToPods},
       // render_client
-      {"--alpha", "exponent of the view (montage4d) and normal (holoportation, normal) weights", 0, 1000, {},
+      {"--alpha", "exponent of the view (montage4d) and normal (holoportation, normal, fragment) weights", 0, 1000, {},
        kToClient},
       {"--lambda", "montage4d: temporal rate per frame at 30 fps (eq. 5)", 0, 1, {}, kToClient},
       {"--dilation", "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, scaled)",

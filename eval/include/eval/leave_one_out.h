@@ -111,8 +111,8 @@ struct ModeResult {
 
 // The share of the squared-error difference between normal and the mode
 // that each region carries: (normal's - the mode's) in the region over the
-// same in all; sums to 1. Empty where normal did not run or the two errors
-// are within 1e-9 of each other (no difference to share).
+// same in all; sums to 1. Empty where normal did not run or the two
+// errors differ by under 1e-9 of normal's (no difference to share).
 std::map<std::string, double> regionSharesAgainstNormal(const std::map<std::string, ModeResult>& modes,
                                                         const std::string& mode);
 

@@ -125,7 +125,7 @@ const char* errorRegionName(ErrorRegion region);  // "silhouette_border", ...
 // relative_jump of the nearer. seams: one channel, non-zero on a seam.
 // Borders and jumps count within reach_px pixels (a square window).
 Image8 errorRegions(const Image8& mask, const DepthMap& depth, const Image8& seams, int reach_px = 3,
-                    double relative_jump = 0.05);
+                    double relative_jump = 0.03);  // the discontinuity pass's (FieldParameters)
 
 // Squared error summed over RGB and pixel counts per region.
 struct RegionErrors {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "common/depth_raster.h"
 
@@ -66,6 +68,11 @@ glm::dvec4 sampleBilinear(const PodView& view, double u, double v) {
 double sampleFeather(const PodView& view, double u, double v) {
   // Without a map, the GPU's stand-in: 255 over the mask (Renderer::setViews).
   const bool sent = !view.feather.pixels.empty();
+  if (sent && (view.feather.width != view.mask.width || view.feather.height != view.mask.height ||
+               view.feather.channels != 1)) {
+    throw std::invalid_argument("reference blend: camera " + std::to_string(view.camera.id) +
+                                "'s feather map is not one grey plane the size of its mask");
+  }
   return bilinear(view.mask.width, view.mask.height, u, v, [&](size_t i) {
            return glm::dvec4(sent ? view.feather.pixels[i] : (view.mask.pixels[i] != 0 ? 255.0 : 0.0));
          }).x;
