@@ -228,7 +228,8 @@ int main(int argc, char** argv) {
       }
     }
     const glm::dvec3 eye = 0.5 * (cameras[0].center() + cameras[1].center());
-    const auto target = ref::montageTargetField(mesh, cameras, visible, ref::globalVisibility(visible), gamma, eye, 2.0);
+    const auto target = ref::montageTargetField(mesh, cameras, visible, ref::globalVisibility(visible), gamma, eye,
+                                                 render::BlendSettings{}.beta);
     const auto blend = ref::normalizeFields(target, gamma, ref::holoportationField(mesh, cameras, visible, 2.0));
     // Counted over the vertices facing the eye, which are what a picture
     // from there shows: behind the subject every pod's view weight is 0

@@ -5,7 +5,11 @@
 #include "compute_common.glsl"
 // Stages 8 to 10 of Montage4D (paper 000 eqs. 4 and 5), once per rendered
 // view, per vertex:
-//   target   T_i = V_i g_i gamma_i max(0, v . v_i)^alpha
+//   target   T_i = V_i g_i gamma_i max(0, v . v_i)^beta
+//            (paper 000 writes this exponent alpha, as the normal weight's;
+//            here it is the view weight's exponent, beta, as in paper 004
+//            eq. 4 and mode fragment, so that alpha is every mode's normal
+//            exponent and beta every mode's view exponent)
 //            (v: user eye -> vertex, v_i: camera i -> vertex, gamma_i the
 //            geodesic distance to camera i's seams over the normalising
 //            distance, g_i camera i's visible count over the largest);
@@ -61,7 +65,7 @@ void main() {
     if (seen) {
       vec3 c = blend.cameras[i].center.xyz;
       float g = best > 0u ? float(visible_counts[i]) / float(best) : 0.0;
-      target = g * gamma * guardedPower(dot(view, unitOrZero(p - c)), blend.params.x);
+      target = g * gamma * guardedPower(dot(view, unitOrZero(p - c)), blend.view_weight.x);
       normal = guardedPower(dot(n, unitOrZero(c - p)), blend.params.x);
     }
     float previous = from >= 0 ? temporal[previous_half + uint(from) * HOLOFUSE_MAX_CAMERAS + i] : target;

@@ -593,7 +593,8 @@ std::unique_ptr<Renderer> rendererHolding(const Scene& scene, const std::vector<
 // starts from its target), eq. 5, then step 10's normalisation. temporal
 // becomes this frame's field.
 reference::BlendWeights montageReference(const Mesh& mesh, const std::vector<Camera>& cameras, const FieldSnapshot& gpu,
-                                         const glm::dvec3& eye, float alpha, double lambda, reference::Field& temporal,
+                                         const glm::dvec3& eye, float alpha, float beta, double lambda,
+                                         reference::Field& temporal,
                                          const CarryMap* carry = nullptr) {
   const size_t n = cameras.size(), vertices = mesh.vertexCount();
   std::vector<std::vector<uint8_t>> visible(n, std::vector<uint8_t>(vertices));
@@ -608,7 +609,7 @@ reference::BlendWeights montageReference(const Mesh& mesh, const std::vector<Cam
       gamma[i][v] = d >= 1e37f ? 1.0 : std::min(1.0, static_cast<double>(d) / gpu.geodesic_scale);
     }
   }
-  const auto target = reference::montageTargetField(mesh, cameras, visible, g, gamma, eye, alpha);
+  const auto target = reference::montageTargetField(mesh, cameras, visible, g, gamma, eye, beta);
   if (temporal.empty()) {
     temporal = target;
   } else {
@@ -663,7 +664,7 @@ TEST_P(MontageFieldPasses, MatchTheCpuReferenceAcrossANewMesh) {
   reference::Field temporal;
   const FieldSnapshot first = renderer.readFields();
   const double first_error =
-      meanWeightError(first, montageReference(before.mesh, cameras, first, cameras[0].center(), settings.alpha, lambda,
+      meanWeightError(first, montageReference(before.mesh, cameras, first, cameras[0].center(), settings.alpha, settings.beta, lambda,
                                               temporal));
   renderer.setMesh(after.mesh);
   renderer.setViews(viewImages(after));
@@ -673,9 +674,9 @@ TEST_P(MontageFieldPasses, MatchTheCpuReferenceAcrossANewMesh) {
   ASSERT_GT(carry.by_key, after.mesh.vertexCount() / 4) << "the meshes share grid edges";
   reference::Field fresh;  // as if the GPU had dropped the previous field
   const auto restarted =
-      montageReference(after.mesh, cameras, second, cameras[1].center(), settings.alpha, lambda, fresh);
+      montageReference(after.mesh, cameras, second, cameras[1].center(), settings.alpha, settings.beta, lambda, fresh);
   const auto carried =
-      montageReference(after.mesh, cameras, second, cameras[1].center(), settings.alpha, lambda, temporal, &carry);
+      montageReference(after.mesh, cameras, second, cameras[1].center(), settings.alpha, settings.beta, lambda, temporal, &carry);
   const double second_error = meanWeightError(second, carried);
   const double restarted_error = meanWeightError(second, restarted);
   auto text = [](double x) {
@@ -817,7 +818,7 @@ TEST(Montage4DMode, FieldsMatchTheReferenceAndAViewpointJumpFadesIn) {
   reference::Field temporal;
   auto expected = [&](const FieldSnapshot& gpu, const glm::dvec3& eye, bool first) {
     if (first) temporal.clear();
-    return montageReference(scene.mesh, cameras, gpu, eye, settings.alpha, lambda, temporal);
+    return montageReference(scene.mesh, cameras, gpu, eye, settings.alpha, settings.beta, lambda, temporal);
   };
   renderer.render(cameras[0], settings);
   const FieldSnapshot first = renderer.readFields();

@@ -62,7 +62,7 @@ inline const std::vector<SharedFlag>& sharedFlags() {
       {"--lz4-hc-level", "LZ4HC level: 0 = LZ4's fast mode (at --lz4-acceleration), 1-12 slower and smaller", 0,
        kMaxLz4HcLevel, {}, kToServer | kToPods},
       // render_client
-      {"--alpha", "exponent of the view (montage4d) and normal (holoportation, normal, fragment) weights", 0, 1000, {},
+      {"--alpha", "exponent of the normal weight max(0, n . d_i) (normal, holoportation, fragment, montage4d's fallback)", 0, 1000, {},
        kToClient},
       {"--lambda", "montage4d: temporal rate per frame at 30 fps (eq. 5)", 0, 1, {}, kToClient},
       {"--dilation", "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, scaled)",
@@ -74,7 +74,7 @@ inline const std::vector<SharedFlag>& sharedFlags() {
        {}, kToClient},
       {"--vertex-precision", "vertex positions and normals on the GPU: fp32, or fp16 in half the memory", 0, 0,
        {"fp32", "fp16"}, kToClient},
-      {"--beta", "mode fragment: exponent of the view weight (d_k . d_v + 1)^beta (paper 004 eq. 4)", 0, 1000, {},
+      {"--beta", "exponent of the view weight: (d_k . d_v + 1) in fragment (paper 004 eq. 4), max(0, v . v_i) in montage4d (paper 000 eq. 4)", 0, 1000, {},
        kToClient},
       {"--feather-width", "pixels over which a pod's weight ramps from its silhouette's edge to 1 (paper 004's "
        "feather weight; 0: none)", 0, 1000, {}, kToClient},

@@ -35,7 +35,9 @@ struct BlendSettings {
   // weight is min(1, the pod's feather map / feather_width_px) (0: none).
   float feather_width_px = 8.0f;
   bool fragment_test = false;
-  float beta = 5.0f;  // mode fragment: exponent of (d_k . d_v + 1), paper 004 eq. 4
+  // Exponent of the view weight: (d_k . d_v + 1) in mode fragment (paper
+  // 004 eq. 4, its 5) and max(0, v . v_i) in montage4d's target field.
+  float beta = 5.0f;
 };
 
 // What the texture-field passes computed, read back for tests, indexed

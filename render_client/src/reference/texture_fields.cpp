@@ -38,7 +38,7 @@ Field holoportationField(const Mesh& mesh, const std::vector<Camera>& cameras,
 
 Field montageTargetField(const Mesh& mesh, const std::vector<Camera>& cameras,
                          const std::vector<std::vector<uint8_t>>& visible, const std::vector<double>& global_visibility,
-                         const Field& geodesic, const glm::dvec3& user_eye, double alpha) {
+                         const Field& geodesic, const glm::dvec3& user_eye, double beta) {
   Field field = zeros(cameras.size(), mesh.vertexCount());
   for (size_t i = 0; i < cameras.size(); ++i) {
     const glm::dvec3 center = cameras[i].center();
@@ -47,7 +47,7 @@ Field montageTargetField(const Mesh& mesh, const std::vector<Camera>& cameras,
       if (!visible[i][v]) continue;
       const glm::dvec3 p(mesh.positions[v]);
       const double gamma = std::isfinite(geodesic[i][v]) ? std::clamp(geodesic[i][v], 0.0, 1.0) : 0.0;
-      field[i][v] = g * gamma * clampedPower(glm::dot(unitOrZero(p - user_eye), unitOrZero(p - center)), alpha);
+      field[i][v] = g * gamma * clampedPower(glm::dot(unitOrZero(p - user_eye), unitOrZero(p - center)), beta);
     }
   }
   return field;

@@ -24,11 +24,13 @@ double clampedPower(double x, double alpha);
 Field holoportationField(const Mesh& mesh, const std::vector<Camera>& cameras,
                          const std::vector<std::vector<uint8_t>>& visible, double alpha);
 
-// Eq. 4: T = V * g^i * gamma * max(0, v . v_i)^alpha, v the unit direction
-// from the user's eye to the vertex, v_i from camera i's centre to it.
+// Eq. 4: T = V * g^i * gamma * max(0, v . v_i)^beta, v the unit direction
+// from the user's eye to the vertex, v_i from camera i's centre to it. (The
+// paper's exponent is named alpha; here it is the view weight's exponent,
+// beta, as in mode fragment: BlendSettings::beta.)
 Field montageTargetField(const Mesh& mesh, const std::vector<Camera>& cameras,
                          const std::vector<std::vector<uint8_t>>& visible, const std::vector<double>& global_visibility,
-                         const Field& geodesic, const glm::dvec3& user_eye, double alpha);
+                         const Field& geodesic, const glm::dvec3& user_eye, double beta);
 
 // The per-frame lambda for a frame interval of dt seconds, so that the
 // field decays by as much per second as lambda_reference does per frame at
