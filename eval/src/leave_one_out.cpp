@@ -26,6 +26,7 @@
 #include "fusion_server/visual_hull.h"
 #include "protocol/clock.h"
 #include "render_client/client.h"
+#include "render_client/reference/depth_map.h"
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
 #include "render_client/texture_field_passes.h"
@@ -879,6 +880,39 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
     }
   }
   return scene;
+}
+
+Image8 errorRegions(const Image8& mask, const DepthMap& depth, const Image8& seams, int reach_px,
+                    double relative_jump) {
+  const uint32_t w = mask.width, h = mask.height;
+  if (mask.channels != 1 || seams.width != w || seams.height != h || seams.channels != 1 || depth.width != w ||
+      depth.height != h) {
+    throw std::invalid_argument("errorRegions: mask, depth and seams must be one-channel images of one size");
+  }
+  const size_t n = static_cast<size_t>(w) * h;
+  // The mask as a depth map: its outline is the mask's inside pixels next
+  // to the background, so that grown by reach_px - 1 it holds the pixels
+  // within reach_px of the background.
+  DepthMap silhouette{w, h, std::vector<double>(n, kNoDepth)};
+  for (size_t p = 0; p < n; ++p) {
+    if (mask.pixels[p] != 0) silhouette.depth[p] = 1.0;
+  }
+  const auto near_outside = render::reference::dilatedDiscontinuities(silhouette, {std::max(0, reach_px - 1), relative_jump});
+  const auto near_jump = render::reference::dilatedDiscontinuities(depth, {std::max(0, reach_px), relative_jump});
+  Image8 regions(w, h, 1, kOutsideRegions);
+  for (size_t p = 0; p < n; ++p) {
+    if (mask.pixels[p] == 0) continue;
+    ErrorRegion r = ErrorRegion::kElsewhere;
+    if (near_outside[p]) {
+      r = ErrorRegion::kSilhouetteBorder;
+    } else if (near_jump[p]) {
+      r = ErrorRegion::kOcclusionEdge;
+    } else if (seams.pixels[p] != 0) {
+      r = ErrorRegion::kSeam;
+    }
+    regions.pixels[p] = static_cast<uint8_t>(r);
+  }
+  return regions;
 }
 
 std::map<std::string, double> regionSharesAgainstNormal(const std::map<std::string, ModeResult>& modes,

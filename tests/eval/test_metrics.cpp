@@ -10,6 +10,7 @@
 #include <random>
 #include <string>
 
+#include "eval/leave_one_out.h"
 #include "eval/metrics.h"
 
 namespace holofuse::eval {

@@ -19,6 +19,7 @@
 
 #include "capture_node/pod.h"
 #include "capture_node/scene_library.h"
+#include "common/depth_raster.h"
 #include "common/mesh_codec.h"
 #include "eval/metrics.h"
 #include "protocol/messages.h"
@@ -113,6 +114,16 @@ struct ModeResult {
 // that each region carries: (normal's - the mode's) in the region over the
 // same in all; sums to 1. Empty where normal did not run or the two
 // errors differ by under 1e-9 of normal's (no difference to share).
+// One channel, an ErrorRegion per pixel of a compared view
+// (kOutsideRegions outside mask): within reach_px of the mask's background
+// (the silhouette border), then within reach_px of a depth discontinuity
+// of the mesh seen from the pose (depth, kNoDepth where none: the
+// discontinuity test of paper 000 section 4.2, reference::
+// dilatedDiscontinuities, so the mesh's outline counts too), then the
+// seams (one channel, non-zero on a seam), then elsewhere.
+Image8 errorRegions(const Image8& mask, const DepthMap& depth, const Image8& seams, int reach_px = 3,
+                    double relative_jump = 0.03);
+
 std::map<std::string, double> regionSharesAgainstNormal(const std::map<std::string, ModeResult>& modes,
                                                         const std::string& mode);
 

@@ -28,7 +28,8 @@
 //   same on both sides (a colour offset) leaves none, and the truth's own
 //   edges cancel.
 // - Error regions: the squared error of the RMSE split by where it sits
-//   (silhouette border, occlusion edge, seam, elsewhere; errorRegions), so
+//   (silhouette border, occlusion edge, seam, elsewhere; eval::errorRegions
+//   in leave_one_out.h), so
 //   a PSNR difference between two modes can be traced to a region.
 #pragma once
 
@@ -37,7 +38,6 @@
 #include <cstdint>
 #include <vector>
 
-#include "common/depth_raster.h"
 #include "common/image.h"
 
 namespace holofuse::eval {
@@ -118,14 +118,6 @@ enum class ErrorRegion : uint8_t {
 inline constexpr size_t kErrorRegionCount = 4;
 inline constexpr uint8_t kOutsideRegions = 255;  // outside the truth's mask
 const char* errorRegionName(ErrorRegion region);  // "silhouette_border", ...
-
-// One channel, an ErrorRegion per pixel (kOutsideRegions outside mask).
-// depth: the mesh's depth map from the pose (kNoDepth where none); a jump
-// is between neighbours both covered whose depths differ by more than
-// relative_jump of the nearer. seams: one channel, non-zero on a seam.
-// Borders and jumps count within reach_px pixels (a square window).
-Image8 errorRegions(const Image8& mask, const DepthMap& depth, const Image8& seams, int reach_px = 3,
-                    double relative_jump = 0.03);  // the discontinuity pass's (FieldParameters)
 
 // Squared error summed over RGB and pixel counts per region.
 struct RegionErrors {
