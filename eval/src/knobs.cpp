@@ -106,6 +106,9 @@ std::vector<Knob> makeKnobs() {
       "hull-error-mm", "--hull-error-mm", false, [](EvalOptions& o, double v) { o.hull_error_target = v / 1000.0; },
       [](const EvalOptions& o) { return 1000.0 * o.hull_error_target; }));
   knobs.push_back(flagKnob(
+      "refine-voxels", "--refine-voxels", false, [](EvalOptions& o, double v) { o.refine_voxels = v; },
+      [](const EvalOptions& o) { return o.refine_voxels; }));
+  knobs.push_back(flagKnob(
       "k", "--geodesic-rings", true, [](EvalOptions& o, double v) { o.fields.geodesic_rings = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.fields.geodesic_rings); }));
   knobs.push_back(flagKnob(

@@ -21,6 +21,7 @@
 #include "eval/dataset_inspection.h"
 #include "eval/geometry_metrics.h"
 #include "eval/metrics.h"
+#include "fusion_server/photo_refine.h"
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/hull_error.h"
 #include "fusion_server/visual_hull.h"
@@ -60,6 +61,7 @@ struct FrameData {
   std::vector<Image8> true_masks;         // per camera
   std::vector<capture::RenderedView> novel_truth;  // per novel pose (SceneInput::novel_poses)
   double hull_ms = 0;
+  double refine_ms = 0;  // the hull's photo-consistency refinement (EvalOptions::refine_voxels)
   // The codecs on the frame's way, per stage (codecStages()): the slowest
   // pod's encoding (pods work in parallel), the server's decoding of every
   // pod frame, its Draco and image encoding for clients, and the client's
@@ -164,26 +166,58 @@ std::vector<int> heldOutCameras(int cameras, int limit) {
   return ids;
 }
 
-// For each camera held out, the hull carved from the other cameras'
-// silhouettes, through Draco as a client receives a mesh
-// (EvalOptions::hull_without_held_out).
-std::map<int, Mesh> hullsWithoutHeldOut(const EvalOptions& options, const std::vector<fusion::HullView>& views,
-                                        const fusion::HullOptions& hull_options) {
+// The hull refined as the server refines it (EvalOptions::refine_voxels;
+// the hull itself when off).
+Mesh refined(const Mesh& hull, const std::vector<fusion::HullView>& views, const std::vector<Image8>& colors,
+             const EvalOptions& options, double voxel_size) {
+  if (!(options.refine_voxels > 0)) return hull;
+  fusion::PhotoRefineOptions refine;
+  refine.depth_voxels = options.refine_voxels;
+  refine.voxel_size = voxel_size;
+  return fusion::refineByPhotoConsistency(hull, views, colors, refine);
+}
+
+// For each camera held out, the mesh its image is compared with where that
+// is not the frame's: the hull carved without its silhouette
+// (EvalOptions::hull_without_held_out), and refined without its colour
+// (EvalOptions::refine_voxels), so that beyond its silhouette, which paper
+// 000's protocol lets shape the hull, nothing of a held-out image shapes
+// what it is compared with. Through Draco, as a client receives a mesh.
+std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options, const std::vector<fusion::HullView>& views,
+                                     const std::vector<Image8>& colors, const Mesh& hull,
+                                     const fusion::HullOptions& hull_options) {
   std::map<int, Mesh> meshes;
-  if (!options.hull_without_held_out) return meshes;
+  if (!options.hull_without_held_out && !(options.refine_voxels > 0)) return meshes;
   for (int held : heldOutCameras(static_cast<int>(views.size()), options.held_out_cameras)) {
     std::vector<fusion::HullView> others = views;
     others.erase(others.begin() + held);
-    const Mesh hull = fusion::carveVisualHull(others, hull_options);
-    auto bytes = encodeDraco(hull, options.draco);
-    auto mesh = bytes.isOk() ? decodeDraco(bytes->data(), bytes->size()) : bytes.status();
-    if (!mesh.isOk()) {
+    std::vector<Image8> other_colors = colors;
+    other_colors.erase(other_colors.begin() + held);
+    const Mesh mesh = refined(options.hull_without_held_out ? fusion::carveVisualHull(others, hull_options) : hull,
+                              others, other_colors, options, hull_options.voxel_size);
+    auto bytes = encodeDraco(mesh, options.draco);
+    auto decoded = bytes.isOk() ? decodeDraco(bytes->data(), bytes->size()) : bytes.status();
+    if (!decoded.isOk()) {
       throw std::runtime_error("the hull without camera " + std::to_string(views[static_cast<size_t>(held)].camera.id) +
-                               ": " + mesh.status().message());
+                               ": " + decoded.status().message());
     }
-    meshes[held] = std::move(*mesh);
+    meshes[held] = std::move(*decoded);
   }
   return meshes;
+}
+
+// What follows the carving in the server, timed as its refine stage, and
+// the meshes the held-out cameras are compared with: the mesh the frame
+// sends.
+Mesh refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
+                  const std::vector<fusion::HullView>& views, Mesh carved, const fusion::HullOptions& hull_options,
+                  FrameData& frame) {
+  const std::vector<Image8> colors = fusion::colorsInFrame(group);
+  const auto t0 = Clock::now();
+  Mesh mesh = refined(carved, views, colors, options, hull_options.voxel_size);
+  frame.refine_ms = msSince(t0);
+  frame.mesh_without = meshesForHeldOut(options, views, colors, carved, hull_options);
+  return mesh;
 }
 
 FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene& scene,
@@ -217,10 +251,10 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
   // The true surface at the hull's voxel size, when asked for.
   fusion::HullOptions hull_options;
   hull_options.voxel_size = options.voxel_size;
-  const Mesh hull = options.geometry == "truth" ? scene.truthMesh(frame_id, options.voxel_size)
-                                                : fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
+  Mesh hull = options.geometry == "truth" ? scene.truthMesh(frame_id, options.voxel_size)
+                                          : fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
   frame.hull_ms = msSince(t0);
-  frame.mesh_without = hullsWithoutHeldOut(options, hull_views, hull_options);
+  if (options.geometry != "truth") hull = refineCarved(options, group, hull_views, std::move(hull), hull_options, frame);
   sendToClient(std::move(group), hull, options, reported, frame);
   return frame;
 }
@@ -540,11 +574,12 @@ double silhouetteErrorMm(const FrameData& frame) {
 
 // Frame statistics shared by both sources.
 void summariseFrames(const SceneInput& input, SceneResult& result) {
-  std::vector<double> hull_ms, codec_ms;
+  std::vector<double> hull_ms, refine_ms, codec_ms;
   std::map<std::string, std::vector<double>> stage_ms;
   const double n = static_cast<double>(input.frames.size());
   for (const auto& frame : input.frames) {
     hull_ms.push_back(frame.hull_ms);
+    refine_ms.push_back(frame.refine_ms);
     double sum = 0;
     for (const std::string& stage : codecStages()) {
       const auto it = frame.codec_ms.find(stage);
@@ -568,6 +603,8 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
   result.hull_ms = median(hull_ms);
   result.codec_ms = median(codec_ms);
   result.hull_ms_p95 = percentile95(hull_ms);
+  result.refine_ms = median(refine_ms);
+  result.refine_ms_p95 = percentile95(refine_ms);
   result.codec_ms_p95 = percentile95(codec_ms);
   for (const auto& [stage, ms] : stage_ms) {
     result.codec_stage_ms[stage] = median(ms);
@@ -631,7 +668,7 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
       hull = fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
     }
     frame.hull_ms = msSince(t0);
-    frame.mesh_without = hullsWithoutHeldOut(options, hull_views, hull_options);
+    hull = refineCarved(options, group, hull_views, std::move(hull), hull_options, frame);
     sendToClient(std::move(group), hull, options, cameras, frame);
     input.frames.push_back(std::move(frame));
   }
@@ -759,14 +796,14 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
 }
 
 std::vector<std::string> latencyStages() {
-  std::vector<std::string> stages = {"hull"};
+  std::vector<std::string> stages = {"hull", "refine"};
   stages.insert(stages.end(), codecStages().begin(), codecStages().end());
   stages.push_back("client render");
   return stages;
 }
 
 std::vector<double> latencyParts(const SceneResult& scene, const ModeResult& mode, bool p95) {
-  std::vector<double> parts = {p95 ? scene.hull_ms_p95 : scene.hull_ms};
+  std::vector<double> parts = {p95 ? scene.hull_ms_p95 : scene.hull_ms, p95 ? scene.refine_ms_p95 : scene.refine_ms};
   const auto& codec_ms = p95 ? scene.codec_stage_ms_p95 : scene.codec_stage_ms;
   for (const std::string& stage : codecStages()) parts.push_back(codec_ms.count(stage) ? codec_ms.at(stage) : 0.0);
   parts.push_back(p95 ? mode.ms_per_new_mesh_p95 : mode.ms_per_new_mesh);
@@ -783,6 +820,8 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
   s["hull_ms"] = scene.hull_ms;
   s["codec_ms"] = scene.codec_ms;
   s["hull_ms_p95"] = scene.hull_ms_p95;
+  s["refine_ms"] = scene.refine_ms;
+  s["refine_ms_p95"] = scene.refine_ms_p95;
   s["codec_ms_p95"] = scene.codec_ms_p95;
   for (const auto& [stage, ms] : scene.codec_stage_ms) {
     s["codec_stages_ms"][stage] = {{"p50", ms}, {"p95", scene.codec_stage_ms_p95.at(stage)}};
@@ -834,6 +873,8 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
   scene.hull_ms = s.at("hull_ms").get<double>();
   scene.codec_ms = s.value("codec_ms", 0.0);
   scene.hull_ms_p95 = s.value("hull_ms_p95", scene.hull_ms);
+  scene.refine_ms = s.value("refine_ms", 0.0);
+  scene.refine_ms_p95 = s.value("refine_ms_p95", scene.refine_ms);
   scene.codec_ms_p95 = s.value("codec_ms_p95", scene.codec_ms);
   if (s.contains("codec_stages_ms")) {
     for (const auto& [stage, ms] : s.at("codec_stages_ms").items()) {
@@ -943,6 +984,7 @@ std::vector<BudgetCheck> checkBudget(const render::Budget& budget, const SceneRe
     if (it != budget.end()) checks.push_back({mode, stage, p95, it->second});
   };
   check("-", "hull", scene.hull_ms_p95);
+  check("-", "refine", scene.refine_ms_p95);
   for (const auto& [stage, p95] : scene.codec_stage_ms_p95) check("-", stage, p95);
   for (const auto& mode : modes) {
     const auto it = scene.modes.find(mode);
@@ -1019,6 +1061,7 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       {"geometry", options.geometry},
       {"voxel_size", options.voxel_size},
       {"hull_error_target_mm", 1000.0 * options.hull_error_target},
+      {"refine_voxels", options.refine_voxels},
       {"crop_margin", options.crop_margin},
       {"hull_without_held_out", options.hull_without_held_out},
       {"metrics",

@@ -48,10 +48,11 @@ Status FusionServer::start() {
   // The settings a run's numbers depend on, in its log.
   const FusionSettings& f = options_.fusion;
   std::fprintf(stderr,
-               "[server] listening on %s:%u for %d pods; voxel %g m (error target %g mm), Draco %d bits speed %d, "
+               "[server] listening on %s:%u for %d pods; voxel %g m (error target %g mm, refinement %g voxels), Draco %d "
+               "bits speed %d, "
                "images to clients %s at LZ4 acceleration %d, LZ4HC level %d\n",
                options_.listen.host.c_str(), port(), options_.pods, f.hull.voxel_size, 1000.0 * f.hull_error_target,
-               f.draco.position_bits, f.draco.speed, imageCodecName(f.image_codec).c_str(), f.lz4_acceleration,
+               f.refine.depth_voxels, f.draco.position_bits, f.draco.speed, imageCodecName(f.image_codec).c_str(), f.lz4_acceleration,
                f.lz4_hc_level);
   return Status::ok();
 }

@@ -86,20 +86,43 @@ std::vector<HullView> hullViewsOf(const FrameGroup& group) {
   return views;
 }
 
+std::vector<Image8> colorsInFrame(const FrameGroup& group) {
+  std::vector<Image8> colors;
+  colors.reserve(group.pods.size());
+  for (const auto& [camera_id, pod] : group.pods) {
+    colors.push_back(pod.offset_x == 0 && pod.offset_y == 0 && pod.color.width == pod.camera.width &&
+                             pod.color.height == pod.camera.height
+                         ? pod.color
+                         : placeInFrame(pod.color, pod.offset_x, pod.offset_y, pod.camera.width, pod.camera.height));
+  }
+  return colors;
+}
+
+Mesh refineHull(const Mesh& hull, const std::vector<HullView>& views, const FrameGroup& group,
+                const FusionSettings& settings, PhotoRefineStats* stats) {
+  if (!(settings.refine.depth_voxels > 0)) return hull;
+  PhotoRefineOptions refine = settings.refine;
+  refine.voxel_size = settings.hull.voxel_size;
+  return refineByPhotoConsistency(hull, views, colorsInFrame(group), refine, stats);
+}
+
 FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   const std::vector<HullView> views = hullViewsOf(job.group);
   const uint64_t t0 = monotonicNs();
-  Mesh mesh = carveVisualHull(views, settings.hull);
+  const Mesh hull = carveVisualHull(views, settings.hull);
   const uint64_t t1 = monotonicNs();
-  FusedOutput out = packageFused(job, settings, mesh, t0, t1);
+  const bool refining = settings.refine.depth_voxels > 0;
+  const Mesh refined = refining ? refineHull(hull, views, job.group, settings) : Mesh{};
+  const uint64_t t2 = refining ? monotonicNs() : 0;
+  FusedOutput out = packageFused(job, settings, refining ? refined : hull, t0, t1, t2);
   // Measured after the frame is on its way (not part of the hull's time):
-  // it only steers the next frame's voxel.
-  if (settings.hull_error_target > 0) out.silhouette_error = silhouetteError(mesh, views);
+  // it only steers the next frame's voxel, which is the carved hull's.
+  if (settings.hull_error_target > 0) out.silhouette_error = silhouetteError(hull, views);
   return out;
 }
 
 FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
-                         uint64_t hull_start_ns, uint64_t hull_end_ns) {
+                         uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns) {
   const FrameGroup& group = job.group;
   FusedOutput out;
   out.frame_id = group.frame_id;
@@ -116,9 +139,11 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   stamps.push_back({static_cast<uint16_t>(Stage::kSyncWait), kSourceServer, group.first_arrival_ns, group.emitted_ns});
   out.voxel_size = settings.hull.voxel_size;
   stamps.push_back({static_cast<uint16_t>(Stage::kHull), kSourceServer, hull_start_ns, hull_end_ns});
+  const uint64_t mesh_ready_ns = refine_end_ns != 0 ? refine_end_ns : hull_end_ns;
+  if (refine_end_ns != 0) stamps.push_back({static_cast<uint16_t>(Stage::kRefine), kSourceServer, hull_end_ns, refine_end_ns});
   auto draco = encodeDraco(mesh, settings.draco);
   const uint64_t t2 = monotonicNs();
-  stamps.push_back({static_cast<uint16_t>(Stage::kMeshEncode), kSourceServer, hull_end_ns, t2});
+  stamps.push_back({static_cast<uint16_t>(Stage::kMeshEncode), kSourceServer, mesh_ready_ns, t2});
 
   protocol::TextureBundle bundle, bundle_v1_1;
   bundle.frame_id = bundle_v1_1.frame_id = group.frame_id;

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   addSharedFlag(app, "--voxel", options.fusion.hull.voxel_size);
   double hull_error_mm = 0;
   addSharedFlag(app, "--hull-error-mm", hull_error_mm);
+  addSharedFlag(app, "--refine-voxels", options.fusion.refine.depth_voxels);
   std::string volume;
   app.add_option("--volume", volume, "capture volume min and max corners x0,y0,z0,x1,y1,z1 in metres (a dataset's)");
   addSharedFlag(app, "--draco-bits", options.fusion.draco.position_bits);

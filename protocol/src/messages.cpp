@@ -116,7 +116,7 @@ const std::vector<uint16_t>& stagesInPipelineOrder() {
     std::vector<uint16_t> ids;
     for (Stage s :
          {Stage::kPodRender, Stage::kSegment, Stage::kFeather, Stage::kPodEncode, Stage::kReplayRead, Stage::kSend,
-          Stage::kServerDecode, Stage::kSyncWait, Stage::kHull, Stage::kMeshEncode, Stage::kImageEncode, Stage::kFanout,
+          Stage::kServerDecode, Stage::kSyncWait, Stage::kHull, Stage::kRefine, Stage::kMeshEncode, Stage::kImageEncode, Stage::kFanout,
           Stage::kDecode, Stage::kUpload, Stage::kRender, Stage::kWrite}) {
       ids.push_back(static_cast<uint16_t>(s));
     }
@@ -128,7 +128,8 @@ const std::vector<uint16_t>& stagesInPipelineOrder() {
 std::string stageName(uint16_t stage) {
   static const char* const kNames[] = {
       "pod_render",   "segment", "feather", "pod_encode", "send",   "sync_wait", "hull",        "mesh_encode",
-      "image_encode", "fanout",  "decode",  "upload",     "render", "write",     "replay_read", "server_decode"};
+      "image_encode", "fanout",  "decode",  "upload",     "render", "write",     "replay_read", "server_decode",
+      "refine"};
   if (stage >= kFirstStage && stage <= kLastStage) return kNames[stage - kFirstStage];
   return "stage_" + std::to_string(stage);
 }

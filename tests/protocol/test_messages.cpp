@@ -166,6 +166,9 @@ TEST(Messages, EveryStageHasItsPlaceInThePipelineOrder) {
   };
   EXPECT_LT(at(Stage::kSend), at(Stage::kServerDecode));
   EXPECT_LT(at(Stage::kServerDecode), at(Stage::kSyncWait));
+  EXPECT_LT(at(Stage::kHull), at(Stage::kRefine));
+  EXPECT_LT(at(Stage::kRefine), at(Stage::kMeshEncode));
+  EXPECT_EQ(stageName(static_cast<uint16_t>(Stage::kRefine)), "refine");
 }
 
 TEST(Messages, DecodingTheWrongTypeIsAnError) {

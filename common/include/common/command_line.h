@@ -49,6 +49,8 @@ inline const std::vector<SharedFlag>& sharedFlags() {
       {"--hull-error-mm", "hull error target in mm of silhouette error: the coarsest voxel from --voxel down that "
        "meets it (the server follows it frame by frame; eval picks it per scene on the first frame; 0: the voxel "
        "is fixed)", 0, 1000, {}},
+      {"--refine-voxels", "photo-consistency refinement: hull voxels the hull's vertices may move inward where the "
+       "pods that see them disagree in colour (0: none)", 0, 64, {}, kToServer},
       {"--draco-bits", "Draco position quantisation bits", 4, 24, {}, kToServer},
       {"--image-codec", "colour codec of the images sent on", 0, 0, imageCodecNames(), kToServer | kToPods, "--codec"},
       // capture_node (and fusion_server for the LZ4 settings)

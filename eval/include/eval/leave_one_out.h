@@ -59,6 +59,7 @@ struct EvalOptions {
   // compared with its true image. Off by default, as in paper 000's
   // cross-validation, where every sensor shapes the mesh.
   bool hull_without_held_out = false;
+  double refine_voxels = 0;  // hull voxels its vertices may move inward by photo-consistency (0: none)
   std::string out_dir;         // where save_images writes
   bool save_images = false;    // rendered, true image and mask per image compared
   std::string device;          // Vulkan device selector ("" picks a GPU if any)
@@ -186,6 +187,7 @@ struct SceneResult {
   // encoding and decoding code.
   double codec_ms = 0;
   double hull_ms_p95 = 0, codec_ms_p95 = 0;  // 95th percentiles of the same
+  double refine_ms = 0, refine_ms_p95 = 0;    // the hull's refinement (0 without it): median, 95th percentile
   // Per codec stage (codecStages()): median and 95th percentile over frames,
   // or for pod_encode and server_decode over pod frames (as the live report
   // samples them).

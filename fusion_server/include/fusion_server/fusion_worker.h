@@ -15,6 +15,7 @@
 #include "common/mesh_codec.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/hull_error.h"
+#include "fusion_server/photo_refine.h"
 #include "fusion_server/visual_hull.h"
 #include "protocol/connection.h"
 
@@ -26,6 +27,9 @@ struct FusionSettings {
   // follows from frame to frame, starting from hull.voxel_size and never
   // coarser; 0: the voxel is fixed.
   double hull_error_target = 0;
+  // Photo-consistency refinement of the hull (refine.depth_voxels 0: none);
+  // its voxel is the hull's of the frame.
+  PhotoRefineOptions refine;
   DracoOptions draco;
   protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
   int lz4_acceleration = 1;  // of the images sent to clients (1 = LZ4's default)
@@ -62,16 +66,24 @@ protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_
 
 // The group's silhouettes and feather maps as whole images, for the hull.
 std::vector<HullView> hullViewsOf(const FrameGroup& group);
+// The group's colour images as whole images, in hullViewsOf's order.
+std::vector<Image8> colorsInFrame(const FrameGroup& group);
+
+// The carved hull refined as settings.refine says (the hull itself when
+// refinement is off), the hull's voxel being settings.hull.voxel_size.
+Mesh refineHull(const Mesh& hull, const std::vector<HullView>& views, const FrameGroup& group,
+                const FusionSettings& settings, PhotoRefineStats* stats = nullptr);
 
 // The whole fusion of one group, callable without the thread (tests).
 FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings);
 
 // What fuseGroup sends for a given mesh (carved from hull_start_ns to
-// hull_end_ns): the Draco MeshFrame, the TextureBundle of the pods' images
+// hull_end_ns, refined from then to refine_end_ns; refine_end_ns 0: not
+// refined, no refine stage): the Draco MeshFrame, the TextureBundle of the pods' images
 // re-encoded for clients, and the Stats. The evaluation packs its own
 // meshes with it, so that its bytes and codec times are the loop's.
 FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
-                         uint64_t hull_start_ns, uint64_t hull_end_ns);
+                         uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns = 0);
 
 class FusionWorker {
  public:

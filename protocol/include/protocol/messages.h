@@ -35,9 +35,10 @@ enum class Stage : uint16_t {
   kWrite = 14,
   kReplayRead = 15,    // a replay pod reads and checks a recorded frame (in place of 1-4)
   kServerDecode = 16,  // the server parses a PodFrame and decompresses its planes
+  kRefine = 17,        // the server moves the hull's vertices by photo-consistency (off unless asked)
 };
 constexpr uint16_t kFirstStage = 1;
-constexpr uint16_t kLastStage = 16;
+constexpr uint16_t kLastStage = 17;
 // Snake-case name of a stage id ("pod_render"), or "stage_<n>" for unknown ids.
 std::string stageName(uint16_t stage);
 // Every known stage id in the order a frame passes them (reports list them so).
