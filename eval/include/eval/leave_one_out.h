@@ -1,4 +1,4 @@
-// Leave-one-camera-out evaluation (DESIGN.md section 7, paper 000 section
+// Leave-one-camera-out evaluation (docs/design.md section 7, paper 000 section
 // 5.1): every frame of a named synthetic scene goes through the loop's own
 // stages in one process (pod capture and segmentation, visual hull, Draco
 // round trip, the render client's Renderer), and each camera in turn is
@@ -151,10 +151,10 @@ inline const std::vector<std::string>& codecStages() {
 }
 
 // The stages a budget file can hold that the evaluation times as the loop
-// stamps them: hull, the codec stages, render; and the same listed for
+// stamps them: hull, refine, the codec stages, render; and the same listed for
 // people: "hull, pod_encode, ..., render".
 inline std::vector<std::string> budgetedStages() {
-  std::vector<std::string> stages = {"hull"};
+  std::vector<std::string> stages = {"hull", "refine"};
   stages.insert(stages.end(), codecStages().begin(), codecStages().end());
   stages.push_back("render");
   return stages;
