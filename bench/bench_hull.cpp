@@ -1,4 +1,4 @@
-// What modelling only the subject saves on the fusion server (DESIGN.md
+// What modelling only the subject saves on the fusion server (docs/design.md
 // section 5): the visual hull carved coarse to fine inside the valid region
 // against the dense grid over the same region, and the grid the whole
 // capture volume would be, at two voxel sizes, 8 pods of the synthetic

@@ -14,7 +14,7 @@
 // modes holoportation and montage4d: w_i are the per-vertex texture fields
 //   (eq. 2, or eqs. 4 and 5 normalised) computed by the compute passes and
 //   interpolated over the triangle, times V_k * F_k when the field modes
-//   take the per-fragment test (DESIGN.md section 6).
+//   take the per-fragment test (docs/design.md section 6).
 // Where the weights give nothing the normal-weighted blend fills in; a
 // fragment no camera contributes to gets the hole colour: never a division
 // by zero.
@@ -208,7 +208,7 @@ void main() {
   }
   // Where no weight reaches the fragment (every camera culled by the
   // dilated discontinuities, the vote or the per-fragment test), the
-  // normal-weighted blend fills in (DESIGN.md section 6, step 10).
+  // normal-weighted blend fills in (docs/design.md section 6, step 10).
   if (!(total > 1e-8)) color = blendNormal(n, total);
   out_color = total > 1e-8 ? color : vec4(blend.hole_color.rgb, 1.0);
 }

@@ -1,4 +1,4 @@
-// capture_node: one synthetic camera pod. See README.md for the flags.
+// capture_node: one synthetic camera pod. Its --help lists the flags.
 #include <cstdio>
 #include <vector>
 

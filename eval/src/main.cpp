@@ -1,5 +1,5 @@
 // holofuse_eval: leave-one-camera-out quality of every blending mode on the
-// named synthetic scenes. See README.md, section "Evaluate".
+// named synthetic scenes. See docs/evaluation.md.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>

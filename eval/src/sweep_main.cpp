@@ -1,5 +1,5 @@
 // holofuse_sweep: the speed/accuracy trade, one knob at a time. See
-// README.md, section "Sweep".
+// docs/sweep.md.
 #include <cstdio>
 #include <exception>
 #include <filesystem>

@@ -1,5 +1,5 @@
 // fusion_server: syncs pod frames, carves the visual hull, fans out to
-// render clients. See README.md for the flags.
+// render clients. Its --help lists the flags.
 #include <csignal>
 #include <cstdio>
 

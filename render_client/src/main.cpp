@@ -1,5 +1,5 @@
 // render_client: headless Vulkan renderer of the fused stream. See
-// README.md for the flags.
+// its --help for the flags.
 #include <cstdio>
 #include <optional>
 

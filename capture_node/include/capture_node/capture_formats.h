@@ -45,7 +45,7 @@ bool naturalLess(const std::string& a, const std::string& b);
 // follow).
 void numberCamerasByName(CaptureDescription& description);
 
-// The holofuse capture JSON (README "Import real captures"): per camera K,
+// The holofuse capture JSON (docs/datasets.md, "Import real captures"): per camera K,
 // distortion, R, t, image size; per frame the image (and optional mask)
 // file of each camera.
 protocol::StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder);

@@ -1,4 +1,4 @@
-// Image quality the way the papers measure it (DESIGN.md section 7), for a
+// Image quality the way the papers measure it (docs/design.md section 7), for a
 // rendered view against the true image of the same camera, inside that
 // camera's foreground mask.
 //

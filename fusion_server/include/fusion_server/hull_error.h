@@ -1,4 +1,4 @@
-// The error target of the visual hull (DESIGN.md section 5: resolution is
+// The error target of the visual hull (docs/design.md section 5: resolution is
 // the accuracy knob; a user sets either a voxel size or an error). An exact
 // visual hull projects onto every silhouette it was carved from: each
 // silhouette ray touches it. What the outlines disagree by is therefore the

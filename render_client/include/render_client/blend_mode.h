@@ -1,4 +1,4 @@
-// Blending modes of DESIGN.md section 6. Each mode is one value here, one
+// Blending modes of docs/design.md section 6. Each mode is one value here, one
 // branch in shaders/blend.frag.glsl and one CPU reference; new modes
 // (layered) join the same list.
 #pragma once

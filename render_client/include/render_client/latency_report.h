@@ -1,6 +1,6 @@
 // LatencyReport collects what the client learns per frame (stage stamps
 // from every process, end-to-end latency, bytes per link) and writes
-// report.json in the layout README.md documents.
+// report.json in the layout docs/report-json.md documents.
 #pragma once
 
 #include <cstdint>

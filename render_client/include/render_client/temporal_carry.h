@@ -1,7 +1,7 @@
 // Follows vertices from one mesh to the next so the temporal texture field
 // (paper 000 eq. 5) survives a mesh that is rebuilt every frame: a vertex
 // keeps the field of the previous vertex with the same key (the grid edge
-// it sits on, DESIGN.md section 6 step 9), else of the nearest previous
+// it sits on, docs/design.md section 6 step 9), else of the nearest previous
 // vertex within a radius, else it starts fresh.
 #pragma once
 

@@ -1,4 +1,4 @@
-// The texture-field compute passes of DESIGN.md section 6 on Vulkan, one
+// The texture-field compute passes of docs/design.md section 6 on Vulkan, one
 // pipeline per stage (shaders/<stage>.comp.glsl): dilated depth
 // discontinuities at the vertices, per-vertex visibility, majority voting,
 // seams, geodesics and the fields. Each has a CPU reference in render/reference/ that
@@ -43,12 +43,12 @@ struct FieldParameters {
   // Paper 000's vote (delta = 0.15) rejects a view whose colour disagrees;
   // on a visual hull every view disagrees somewhat, the hull lying off the
   // surface, and the vote cost the temple 0.7-0.9 dB while gaining no
-  // synthetic scene more than 0.1 (README, "Blending modes").
+  // synthetic scene more than 0.1 (docs/blending.md).
   float vote_delta = 0.0f;
   int vote_levels = 3;
   float alpha = 2.0f;
   // Seams, the global visibility and the geodesic distance from the seams
-  // (DESIGN.md section 6, steps 5 to 7): run only when a mode needs them (montage4d); the
+  // (docs/design.md section 6, steps 5 to 7): run only when a mode needs them (montage4d); the
   // Holoportation baseline does not pay for them.
   bool geodesics = false;
   // montage4d: the field depends on the view, and recordMontage computes it

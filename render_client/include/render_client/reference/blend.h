@@ -1,4 +1,4 @@
-// CPU reference (double precision) of texture-field stage 11 of DESIGN.md
+// CPU reference (double precision) of texture-field stage 11 of docs/design.md
 // section 6: fragment blending, paper 000 eq. 1. For each pixel of the
 // user's view, the surface point the pixel sees, the per-vertex weights
 // interpolated over its triangle (perspective-correct, as a rasteriser

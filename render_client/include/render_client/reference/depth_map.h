@@ -1,5 +1,5 @@
 // CPU reference (double precision) of texture-field stages 1 and 2 of
-// DESIGN.md section 6 (paper 000 section 4.2): the depth map of the mesh
+// docs/design.md section 6 (paper 000 section 4.2): the depth map of the mesh
 // seen from a pod camera, and its depth discontinuities dilated by eps
 // pixels. Slow and plain on purpose: the Vulkan passes are tested against it.
 #pragma once

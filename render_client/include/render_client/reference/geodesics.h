@@ -1,4 +1,4 @@
-// Stage 6 of DESIGN.md section 6 (paper 000 section 4.4): distance over the
+// Stage 6 of docs/design.md section 6 (paper 000 section 4.4): distance over the
 // surface from a camera's seam vertices, bounded to k triangle rings and K
 // Jacobi iterations. Each update unfolds a triangle into the plane and
 // measures the straight line from the virtual source (the point at the two

@@ -1,4 +1,4 @@
-// CPU reference of texture-field stages 8 to 10 (DESIGN.md section 6):
+// CPU reference of texture-field stages 8 to 10 (docs/design.md section 6):
 // target fields (paper 000 eq. 2 for the Holoportation baseline, eq. 4 for
 // Montage4D), the temporal field (eq. 5) with lambda rescaled by the real
 // frame interval, and normalisation with the normal-weighted fallback.

@@ -1,4 +1,4 @@
-// CPU reference of texture-field stages 3 to 5 and 7 (DESIGN.md section 6,
+// CPU reference of texture-field stages 3 to 5 and 7 (docs/design.md section 6,
 // paper 000 sections 4.2, 4.3 and eq. 4): per-vertex visibility of every
 // pod camera, multi-level majority voting in Lab, seam triangles by the
 // three rules, and the global visibility score.
