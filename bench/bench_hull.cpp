@@ -36,14 +36,16 @@ int main(int argc, char** argv) {
   for (int f = 0; f < frames; ++f) {
     std::vector<fusion::HullView> views;
     for (const auto& camera : cameras) {
-      capture::PodCapture pod = capture::capturePodFrame(scene, camera, scene.backgroundPlate(camera),
-                                                         30 + static_cast<uint64_t>(f), static_cast<uint16_t>(camera.id));
+      capture::PodCapture pod =
+          capture::capturePodFrame(scene, camera, scene.backgroundPlate(camera),
+                                   30 + static_cast<uint64_t>(f), static_cast<uint16_t>(camera.id));
       views.push_back({camera, pod.mask, pod.feather});
     }
     groups.push_back(std::move(views));
   }
   std::printf("8 pods at 320x240, %d frames of the synthetic subject\n\n", frames);
-  std::printf("%8s %-13s %10s %16s %12s %10s\n", "voxel", "hull", "ms", "points sampled", "triangles", "same mesh");
+  std::printf("%8s %-13s %10s %16s %12s %10s\n", "voxel", "hull", "ms", "points sampled",
+              "triangles", "same mesh");
   for (double voxel : {0.02, 0.01}) {
     fusion::HullOptions options;
     options.voxel_size = voxel;
@@ -81,24 +83,29 @@ int main(int argc, char** argv) {
           region_points += hierarchical ? 0.0 : static_cast<double>(stats.grid_points) / frames;
           triangles[hierarchical] = meshes[hierarchical].triangleCount();
         }
-        same = same && meshes[0].indices == meshes[1].indices && meshes[0].positions == meshes[1].positions;
+        same = same && meshes[0].indices == meshes[1].indices &&
+               meshes[0].positions == meshes[1].positions;
         if (repeat == 1) {  // the same surface, its vertices numbered in another order
-          same_as_whole = same_as_whole && whole_mesh.triangleCount() == meshes[0].triangleCount() &&
+          same_as_whole = same_as_whole &&
+                          whole_mesh.triangleCount() == meshes[0].triangleCount() &&
                           sortedKeys(whole_mesh) == sortedKeys(meshes[0]);
         }
       }
     }
-    std::printf("%6.0f mm %-13s %10.1f %16.0f %12s %10s\n", voxel * 1000, "whole volume", median(whole_ms),
-                volume_points, "", same_as_whole ? "as region" : "DIFFERS");
-    std::printf("%6.0f mm %-13s %10.1f %16.0f %12zu %10s\n", voxel * 1000, "valid region", median(ms[0]), region_points,
-                triangles[0], "");
-    std::printf("%6.0f mm %-13s %10.1f %16.0f %12zu %10s\n", voxel * 1000, "hierarchical", median(ms[1]), sampled[1],
-                triangles[1], same ? "yes" : "NO");
+    std::printf("%6.0f mm %-13s %10.1f %16.0f %12s %10s\n", voxel * 1000, "whole volume",
+                median(whole_ms), volume_points, "", same_as_whole ? "as region" : "DIFFERS");
+    std::printf("%6.0f mm %-13s %10.1f %16.0f %12zu %10s\n", voxel * 1000, "valid region",
+                median(ms[0]), region_points, triangles[0], "");
+    std::printf("%6.0f mm %-13s %10.1f %16.0f %12zu %10s\n", voxel * 1000, "hierarchical",
+                median(ms[1]), sampled[1], triangles[1], same ? "yes" : "NO");
     std::printf(
-        "         the valid region samples %.1fx fewer points than the whole volume, %.1fx faster; coarse to "
-        "fine %.1fx fewer again (target >= 5x at the same Chamfer: the same mesh), %.1fx faster\n\n",
-        volume_points / std::max(region_points, 1.0), median(whole_ms) / std::max(median(ms[0]), 1e-9),
-        region_points / std::max(sampled[1], 1.0), median(ms[0]) / std::max(median(ms[1]), 1e-9));
+        "         the valid region samples %.1fx fewer points than the whole volume, %.1fx faster; "
+        "coarse to "
+        "fine %.1fx fewer again (target >= 5x at the same Chamfer: the same mesh), %.1fx "
+        "faster\n\n",
+        volume_points / std::max(region_points, 1.0),
+        median(whole_ms) / std::max(median(ms[0]), 1e-9), region_points / std::max(sampled[1], 1.0),
+        median(ms[0]) / std::max(median(ms[1]), 1e-9));
   }
   return 0;
 }

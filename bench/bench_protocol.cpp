@@ -18,15 +18,16 @@ namespace {
 using namespace holofuse;
 
 struct Input {
-  protocol::Bytes frame;                   // an encoded PodFrame
-  protocol::PodFrame message;              // its decoded form (views into frame)
+  protocol::Bytes frame;       // an encoded PodFrame
+  protocol::PodFrame message;  // its decoded form (views into frame)
 };
 
 const Input& input() {
   static const Input kInput = [] {
     const capture::SyntheticScene scene;
     const auto cam = capture::SyntheticScene::cameraRig(4, 320, 240)[0];
-    capture::PodCapture capture = capture::capturePodFrame(scene, cam, scene.backgroundPlate(cam), 10, 0);
+    capture::PodCapture capture =
+        capture::capturePodFrame(scene, cam, scene.backgroundPlate(cam), 10, 0);
     Input in;
     in.frame = capture::encodePodFrame(capture, 0, protocol::Codec::kLz4PlanarDelta).flatten();
     protocol::StreamDecoder decoder;
@@ -52,7 +53,8 @@ void BM_Memcpy(benchmark::State& state) {
 // The checksum alone: encode and decode each make one pass of it.
 void BM_Crc32c(benchmark::State& state) {
   const auto& in = input();
-  for (auto _ : state) benchmark::DoNotOptimize(protocol::crc32c(0, in.frame.data(), in.frame.size()));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(protocol::crc32c(0, in.frame.data(), in.frame.size()));
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * in.frame.size()));
 }
 
@@ -126,7 +128,8 @@ void BM_EncodePodCapture(benchmark::State& state) {
     state.PauseTiming();
     capture::PodCapture capture = kCaptured;  // the encoder appends a stamp and borrows the planes
     state.ResumeTiming();
-    const auto frame = capture::encodePodFrame(capture, 0, protocol::Codec::kLz4PlanarDelta, margin);
+    const auto frame =
+        capture::encodePodFrame(capture, 0, protocol::Codec::kLz4PlanarDelta, margin);
     wire_bytes = frame.size();
     benchmark::DoNotOptimize(wire_bytes);
   }
@@ -139,7 +142,11 @@ BENCHMARK(BM_EncodePodFrame);
 BENCHMARK(BM_EncodePodFrameContiguous);
 BENCHMARK(BM_DecodePodFrame);
 BENCHMARK(BM_FeedAndDecodePodFrame);
-BENCHMARK(BM_EncodePodCapture)->ArgName("crop_margin")->Arg(capture::kFullFrame)->Arg(8)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EncodePodCapture)
+    ->ArgName("crop_margin")
+    ->Arg(capture::kFullFrame)
+    ->Arg(8)
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 
@@ -157,9 +164,11 @@ class RatioReporter : public benchmark::ConsoleReporter {
   void printRatios() const {
     auto base = throughput_.find("BM_Memcpy");
     if (base == throughput_.end() || base->second <= 0) return;
-    std::printf("\nthroughput relative to memcpy in this run (target for encode and decode: >= 50%%)\n");
+    std::printf(
+        "\nthroughput relative to memcpy in this run (target for encode and decode: >= 50%%)\n");
     for (const auto& [name, value] : throughput_) {
-      if (name != "BM_Memcpy") std::printf("  %-28s %5.1f%%\n", name.c_str(), 100.0 * value / base->second);
+      if (name != "BM_Memcpy")
+        std::printf("  %-28s %5.1f%%\n", name.c_str(), 100.0 * value / base->second);
     }
   }
 

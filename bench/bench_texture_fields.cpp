@@ -33,8 +33,8 @@ int main(int argc, char** argv) {
   const capture::SyntheticScene scene;
   const auto cameras = capture::SyntheticScene::cameraRig(4, 320, 240);
   render::VulkanContext context;
-  std::printf("device: %s; 4 cameras at 320x240, output 320x240, %d meshes per mode and round\n", context.deviceName().c_str(),
-              meshes);
+  std::printf("device: %s; 4 cameras at 320x240, output 320x240, %d meshes per mode and round\n",
+              context.deviceName().c_str(), meshes);
   std::map<std::string, std::vector<double>> per_mesh, per_view;
   std::map<std::string, std::map<std::string, std::vector<double>>> passes;
   size_t vertices = 0;
@@ -45,10 +45,12 @@ int main(int argc, char** argv) {
   // one round is all that can move it; the report gives the median and
   // the range over the rounds.
   constexpr int kRounds = 3;
-  const std::vector<render::BlendMode> modes = {render::BlendMode::kNormal, render::BlendMode::kHoloportation,
-                                                render::BlendMode::kMontage4D, render::BlendMode::kFragment};
+  const std::vector<render::BlendMode> modes = {
+      render::BlendMode::kNormal, render::BlendMode::kHoloportation, render::BlendMode::kMontage4D,
+      render::BlendMode::kFragment};
   std::vector<std::unique_ptr<render::Renderer>> renderers;
-  for (size_t k = 0; k < modes.size(); ++k) renderers.push_back(std::make_unique<render::Renderer>(context, 320, 240));
+  for (size_t k = 0; k < modes.size(); ++k)
+    renderers.push_back(std::make_unique<render::Renderer>(context, 320, 240));
   std::vector<double> mesh_ratios, view_ratios;
   std::map<std::string, std::vector<double>> mesh_against_normal, view_against_normal;  // per round
   for (int round = 0; round < kRounds; ++round) {
@@ -59,7 +61,8 @@ int main(int argc, char** argv) {
       render::Renderer& renderer = *renderers[k];
       render::BlendSettings settings;
       settings.mode = modes[k];
-      for (int m = 0; m < meshes + 1; ++m) {  // the first mesh of a block warms up (JIT, caches, the carry)
+      for (int m = 0; m < meshes + 1;
+           ++m) {  // the first mesh of a block warms up (JIT, caches, the carry)
         const Mesh mesh = scene.truthMesh(10 + m, 0.02);
         vertices = mesh.vertexCount();
         std::vector<render::ViewImages> views;
@@ -83,7 +86,8 @@ int main(int argc, char** argv) {
         const auto times = renderer.fieldTimesMs();
         const auto& names = render::TextureFieldPasses::stageNames();
         for (size_t s = 0; s < times.size(); ++s) {
-          if (times[s] >= 0) passes[name][names[s]].push_back(times[s]);  // -1: a pass this mode does not have
+          if (times[s] >= 0)
+            passes[name][names[s]].push_back(times[s]);  // -1: a pass this mode does not have
         }
       }
     }
@@ -94,17 +98,23 @@ int main(int argc, char** argv) {
       view_against_normal[name].push_back(median(round_view[name]) / median(round_view["normal"]));
     }
   }
-  std::printf("\n%-14s %16s %16s %18s %18s   (medians over %d rounds of %d meshes; ratios per round)\n", "mode",
-              "per new mesh ms", "per view ms", "mesh / normal's", "view / normal's", kRounds, meshes);
+  std::printf(
+      "\n%-14s %16s %16s %18s %18s   (medians over %d rounds of %d meshes; ratios per round)\n",
+      "mode", "per new mesh ms", "per view ms", "mesh / normal's", "view / normal's", kRounds,
+      meshes);
   for (const auto& [name, v] : per_mesh) {
-    std::printf("%-14s %16.1f %16.1f %18.2f %18.2f\n", name.c_str(), median(v), median(per_view[name]),
-                median(mesh_against_normal[name]), median(view_against_normal[name]));
+    std::printf("%-14s %16.1f %16.1f %18.2f %18.2f\n", name.c_str(), median(v),
+                median(per_view[name]), median(mesh_against_normal[name]),
+                median(view_against_normal[name]));
   }
-  std::printf("montage4d / holoportation per new mesh: %.2f, the median of %d rounds (%.2f to %.2f; target <= 1.5); per "
-              "view %.2f\n",
-              median(mesh_ratios), kRounds, *std::min_element(mesh_ratios.begin(), mesh_ratios.end()),
-              *std::max_element(mesh_ratios.begin(), mesh_ratios.end()), median(view_ratios));
-  std::printf("\nGPU ms per pass (timestamps; on lavapipe the boundaries are approximate)\n%-30s", "pass");
+  std::printf(
+      "montage4d / holoportation per new mesh: %.2f, the median of %d rounds (%.2f to %.2f; target "
+      "<= 1.5); per "
+      "view %.2f\n",
+      median(mesh_ratios), kRounds, *std::min_element(mesh_ratios.begin(), mesh_ratios.end()),
+      *std::max_element(mesh_ratios.begin(), mesh_ratios.end()), median(view_ratios));
+  std::printf("\nGPU ms per pass (timestamps; on lavapipe the boundaries are approximate)\n%-30s",
+              "pass");
   for (const auto& [name, p] : passes) std::printf(" %14s", name.c_str());
   std::printf("\n");
   for (const auto& stage : render::TextureFieldPasses::stageNames()) {
@@ -138,13 +148,15 @@ int main(int argc, char** argv) {
   render::reference::VoteOptions vote;
   vote.delta = defaults.vote_delta;
   vote.levels = defaults.vote_levels;
-  auto geodesicsAsRendered = [&](const std::vector<uint8_t>& source, const std::vector<render::reference::Sight>& sight) {
+  auto geodesicsAsRendered = [&](const std::vector<uint8_t>& source,
+                                 const std::vector<render::reference::Sight>& sight) {
     render::reference::GeodesicOptions options;
     options.max_rings = defaults.geodesic_rings;
     options.iterations = defaults.geodesic_iterations;
     options.max_distance = defaults.geodesic_radius;
     options.region.resize(sight.size());
-    for (size_t v = 0; v < sight.size(); ++v) options.region[v] = sight[v] == render::reference::Sight::kVisible;
+    for (size_t v = 0; v < sight.size(); ++v)
+      options.region[v] = sight[v] == render::reference::Sight::kVisible;
     return render::reference::approximateGeodesic(mesh, source, options);
   };
   size_t sources = 0, reached = 0;
@@ -152,11 +164,13 @@ int main(int argc, char** argv) {
   for (int repeat = 0; repeat < 3; ++repeat) {
     auto c0 = Clock::now();
     std::vector<render::reference::DepthMap> maps;
-    for (const auto& view : views) maps.push_back(render::reference::rasterizeDepth(mesh, view.camera));
+    for (const auto& view : views)
+      maps.push_back(render::reference::rasterizeDepth(mesh, view.camera));
     auto c1 = Clock::now();
     for (const auto& map : maps) render::reference::dilatedDiscontinuities(map);
     auto c2 = Clock::now();
-    const auto sights = render::reference::vertexSights(mesh, views);  // maps and discontinuities again, then the tests
+    const auto sights = render::reference::vertexSights(
+        mesh, views);  // maps and discontinuities again, then the tests
     auto c3 = Clock::now();
     const auto trusted = render::reference::majorityVote(mesh, views, sights, vote);
     auto c4 = Clock::now();
@@ -175,11 +189,13 @@ int main(int argc, char** argv) {
     for (size_t i = 0; i < views.size(); ++i) {
       std::fill(source.begin(), source.end(), 0);
       for (size_t t = 0; t < mesh.triangleCount(); ++t) {
-        if (seams[i][t]) for (int k = 0; k < 3; ++k) source[mesh.indices[3 * t + k]] = 1;
+        if (seams[i][t])
+          for (int k = 0; k < 3; ++k) source[mesh.indices[3 * t + k]] = 1;
       }
       const auto distance = geodesicsAsRendered(source, sights[i]);
       sources += static_cast<size_t>(std::count(source.begin(), source.end(), 1));
-      reached += static_cast<size_t>(std::count_if(distance.begin(), distance.end(), [](double d) { return std::isfinite(d); }));
+      reached += static_cast<size_t>(std::count_if(distance.begin(), distance.end(),
+                                                   [](double d) { return std::isfinite(d); }));
     }
     auto c6 = Clock::now();
     best("depth_maps", ms(c0, c1));
@@ -195,16 +211,20 @@ int main(int argc, char** argv) {
   }
   cpu["visibility"] = std::max(0.0, cpu["sights_with_maps"] - cpu["maps_and_discontinuities"]);
   const double pairs = static_cast<double>(mesh.vertexCount() * views.size());
-  std::printf("\nseam vertices: %.1f%% of (vertex, camera) pairs; reached (within k rings and the radius, in view): %.1f%%\n",
-              100.0 * static_cast<double>(sources) / pairs, 100.0 * static_cast<double>(reached) / pairs);
+  std::printf(
+      "\nseam vertices: %.1f%% of (vertex, camera) pairs; reached (within k rings and the radius, "
+      "in view): %.1f%%\n",
+      100.0 * static_cast<double>(sources) / pairs, 100.0 * static_cast<double>(reached) / pairs);
   // Paper 000 section 4.3 saw under 1% seam triangles on its captures.
   const double triangle_pairs = static_cast<double>(mesh.triangleCount() * views.size());
-  std::printf("seam triangles: %.1f%% of (triangle, camera) pairs; by rule (a triangle may have several): occlusion "
-              "%.1f%%, vote %.1f%%, field of view %.1f%%\n",
-              100.0 * static_cast<double>(seam_triangles) / triangle_pairs,
-              100.0 * static_cast<double>(rule_triangles[0]) / triangle_pairs,
-              100.0 * static_cast<double>(rule_triangles[1]) / triangle_pairs,
-              100.0 * static_cast<double>(rule_triangles[2]) / triangle_pairs);
+  std::printf(
+      "seam triangles: %.1f%% of (triangle, camera) pairs; by rule (a triangle may have several): "
+      "occlusion "
+      "%.1f%%, vote %.1f%%, field of view %.1f%%\n",
+      100.0 * static_cast<double>(seam_triangles) / triangle_pairs,
+      100.0 * static_cast<double>(rule_triangles[0]) / triangle_pairs,
+      100.0 * static_cast<double>(rule_triangles[1]) / triangle_pairs,
+      100.0 * static_cast<double>(rule_triangles[2]) / triangle_pairs);
   {
     // How often montage4d's field is used at all: where the geodesic
     // fields sum below 1 the normal-weighted (holoportation) field is
@@ -214,13 +234,15 @@ int main(int argc, char** argv) {
     const auto trusted = ref::majorityVote(mesh, views, sights, vote);
     const auto seams = ref::seamTriangles(mesh, sights, trusted);
     const auto visible = ref::finalVisibility(sights, trusted);
-    const double scale = defaults.geodesic_radius > 0 ? defaults.geodesic_radius
-                                                      : defaults.geodesic_rings * meanEdgeLength(mesh);
+    const double scale = defaults.geodesic_radius > 0
+                             ? defaults.geodesic_radius
+                             : defaults.geodesic_rings * meanEdgeLength(mesh);
     ref::Field gamma(views.size(), std::vector<double>(mesh.vertexCount(), 1.0));
     for (size_t i = 0; i < views.size(); ++i) {
       std::vector<uint8_t> source(mesh.vertexCount(), 0);
       for (size_t t = 0; t < mesh.triangleCount(); ++t) {
-        if (seams[i][t]) for (int k = 0; k < 3; ++k) source[mesh.indices[3 * t + k]] = 1;
+        if (seams[i][t])
+          for (int k = 0; k < 3; ++k) source[mesh.indices[3 * t + k]] = 1;
       }
       const auto distance = geodesicsAsRendered(source, sights[i]);
       for (size_t v = 0; v < mesh.vertexCount(); ++v) {
@@ -228,9 +250,11 @@ int main(int argc, char** argv) {
       }
     }
     const glm::dvec3 eye = 0.5 * (cameras[0].center() + cameras[1].center());
-    const auto target = ref::montageTargetField(mesh, cameras, visible, ref::globalVisibility(visible), gamma, eye,
-                                                 render::BlendSettings{}.beta);
-    const auto blend = ref::normalizeFields(target, gamma, ref::holoportationField(mesh, cameras, visible, 2.0));
+    const auto target =
+        ref::montageTargetField(mesh, cameras, visible, ref::globalVisibility(visible), gamma, eye,
+                                render::BlendSettings{}.beta);
+    const auto blend =
+        ref::normalizeFields(target, gamma, ref::holoportationField(mesh, cameras, visible, 2.0));
     // Counted over the vertices facing the eye, which are what a picture
     // from there shows: behind the subject every pod's view weight is 0
     // and the field is empty by design.
@@ -250,15 +274,22 @@ int main(int argc, char** argv) {
       if (blend.fallback[v]) ++(gamma_sum >= 1.0 ? no_field : fallback);
     }
     const double n = std::max<double>(1.0, static_cast<double>(facing));
-    std::printf("of the %zu seen vertices facing a view between pods 0 and 1: seen by 1 pod %.1f%%, 2 pods %.1f%%, "
-                "3 %.1f%%, 4 %.1f%% (only where two or more see a vertex can the modes' weights differ)\n",
-                facing, 100.0 * static_cast<double>(seen_by[0]) / n, 100.0 * static_cast<double>(seen_by[1]) / n,
-                100.0 * static_cast<double>(seen_by[2]) / n, 100.0 * static_cast<double>(seen_by[3]) / n);
-    std::printf("montage4d falls back to normal weighting there at %.1f%%: %.1f%% where the geodesic fields sum "
-                "below 1 (normalising distance, the geodesic radius: %.0f mm), %.1f%% where every seeing pod's "
-                "target is 0 (the vertex is on its seams)\n",
-                100.0 * static_cast<double>(fallback + no_field) / n, 100.0 * static_cast<double>(fallback) / n,
-                1000 * scale, 100.0 * static_cast<double>(no_field) / n);
+    std::printf(
+        "of the %zu seen vertices facing a view between pods 0 and 1: seen by 1 pod %.1f%%, 2 pods "
+        "%.1f%%, "
+        "3 %.1f%%, 4 %.1f%% (only where two or more see a vertex can the modes' weights differ)\n",
+        facing, 100.0 * static_cast<double>(seen_by[0]) / n,
+        100.0 * static_cast<double>(seen_by[1]) / n, 100.0 * static_cast<double>(seen_by[2]) / n,
+        100.0 * static_cast<double>(seen_by[3]) / n);
+    std::printf(
+        "montage4d falls back to normal weighting there at %.1f%%: %.1f%% where the geodesic "
+        "fields sum "
+        "below 1 (normalising distance, the geodesic radius: %.0f mm), %.1f%% where every seeing "
+        "pod's "
+        "target is 0 (the vertex is on its seams)\n",
+        100.0 * static_cast<double>(fallback + no_field) / n,
+        100.0 * static_cast<double>(fallback) / n, 1000 * scale,
+        100.0 * static_cast<double>(no_field) / n);
   }
   auto& m4 = passes["montage4d"];
   // Each Vulkan stage by wall clock: montage4d renders of the same new mesh
@@ -285,11 +316,16 @@ int main(int argc, char** argv) {
       }
     }
   }
-  auto wall = [&](size_t stage) { return median(stop_ms[stage]) - (stage > 0 ? median(stop_ms[stage - 1]) : 0.0); };
-  std::printf("\nVulkan per stage by wall clock (montage4d renders stopping after each stage, medians of %zu; a "
-              "difference under about 1 ms is within a shared machine's noise):\n",
-              stop_ms[0].size());
-  for (size_t k = 1; k < stage_names.size(); ++k) std::printf("%-30s %10.1f ms\n", stage_names[k].c_str(), wall(k));
+  auto wall = [&](size_t stage) {
+    return median(stop_ms[stage]) - (stage > 0 ? median(stop_ms[stage - 1]) : 0.0);
+  };
+  std::printf(
+      "\nVulkan per stage by wall clock (montage4d renders stopping after each stage, medians of "
+      "%zu; a "
+      "difference under about 1 ms is within a shared machine's noise):\n",
+      stop_ms[0].size());
+  for (size_t k = 1; k < stage_names.size(); ++k)
+    std::printf("%-30s %10.1f ms\n", stage_names[k].c_str(), wall(k));
   // The small stages once more, each recorded kRepeats times in one frame
   // (FieldParameters::repeated_stage): the extra time over kRepeats - 1
   // is one run of the stage, barrier included, with the noise divided.
@@ -298,7 +334,8 @@ int main(int argc, char** argv) {
   // times (-1: none), interleaved so the machine's noise spreads over all
   // of them; by stage, the first round left out (it warms up).
   auto repeatedRuns = [&](render::Renderer& renderer, render::BlendSettings settings,
-                          const std::vector<render::ViewImages>& pod_views, const std::vector<int>& stages) {
+                          const std::vector<render::ViewImages>& pod_views,
+                          const std::vector<int>& stages) {
     std::map<int, std::vector<double>> runs;
     for (int round = 0; round < 2 + 2 * meshes; ++round) {
       for (int stage : stages) {
@@ -321,23 +358,29 @@ int main(int argc, char** argv) {
     std::vector<render::ViewImages> pod_views;
     for (const auto& v : views) pod_views.push_back({v.camera, v.color, v.mask, v.feather});
     std::vector<int> stages = {-1};  // every stage but the depth maps (timestamps)
-    for (int stage = 1; stage < static_cast<int>(stage_names.size()); ++stage) stages.push_back(stage);
+    for (int stage = 1; stage < static_cast<int>(stage_names.size()); ++stage)
+      stages.push_back(stage);
     auto runs = repeatedRuns(renderer, settings, pod_views, stages);
-    std::printf("\nVulkan per stage, each recorded %d times in one frame (medians of %zu; extra time / %d):\n", kRepeats,
-                runs[-1].size(), kRepeats - 1);
+    std::printf(
+        "\nVulkan per stage, each recorded %d times in one frame (medians of %zu; extra time / "
+        "%d):\n",
+        kRepeats, runs[-1].size(), kRepeats - 1);
     for (size_t k = 1; k < stage_names.size(); ++k) {
-      repeated[stage_names[k]] = std::max(0.0, (median(runs[static_cast<int>(k)]) - median(runs[-1])) / (kRepeats - 1));
+      repeated[stage_names[k]] =
+          std::max(0.0, (median(runs[static_cast<int>(k)]) - median(runs[-1])) / (kRepeats - 1));
       std::printf("%-30s %10.2f ms\n", stage_names[k].c_str(), repeated[stage_names[k]]);
     }
   }
   std::map<std::string, double> gpu = repeated;
   gpu["depth_maps"] = median(m4["depth_maps"]);
-  std::printf("\nPer stage, CPU reference (one thread, double, best of 3) against Vulkan (depth maps: timestamps; "
-              "the rest: repeats above), %zu vertices:\n",
-              vertices);
+  std::printf(
+      "\nPer stage, CPU reference (one thread, double, best of 3) against Vulkan (depth maps: "
+      "timestamps; "
+      "the rest: repeats above), %zu vertices:\n",
+      vertices);
   std::printf("%-30s %10s %10s %16s\n", "stage", "CPU ms", "Vulkan ms", "Vulkan / CPU");
-  for (const auto& stage :
-       {"depth_maps", "discontinuities", "visibility", "voting", "seams_and_global_visibility", "geodesics"}) {
+  for (const auto& stage : {"depth_maps", "discontinuities", "visibility", "voting",
+                            "seams_and_global_visibility", "geodesics"}) {
     const double ratio = cpu[stage] > 0 ? gpu[stage] / cpu[stage] : 0.0;
     std::printf("%-30s %10.1f %10.1f %10.2f %s\n", stage, cpu[stage], gpu[stage], ratio,
                 ratio <= 1.0 ? "ok" : "SLOWER");
@@ -348,7 +391,8 @@ int main(int argc, char** argv) {
   // the same mesh seen at 320, 640 and 1280 wide, with eps 0, 1 and 2.
   {
     std::printf(
-        "\nDiscontinuities by pod resolution, eps scaled (CPU: the whole dilated maps, best of 3; Vulkan: %d "
+        "\nDiscontinuities by pod resolution, eps scaled (CPU: the whole dilated maps, best of 3; "
+        "Vulkan: %d "
         "repeats, medians of %d):\n%-10s %4s %10s %10s %16s\n",
         kRepeats, 1 + 2 * meshes, "pods", "eps", "CPU ms", "Vulkan ms", "Vulkan / CPU");
     for (uint32_t width : {320u, 640u, 1280u}) {
@@ -372,8 +416,8 @@ int main(int argc, char** argv) {
       auto runs = repeatedRuns(renderer, settings, pod_views, {-1, 1});  // 1: the discontinuities
       const double gpu_ms = std::max(0.0, (median(runs[1]) - median(runs[-1])) / (kRepeats - 1));
       std::printf("%4ux%-5u %4d %10.2f %10.2f %10.2f %s\n", width, height,
-                  render::reference::scaledDilationPx(static_cast<int>(width)), cpu_ms, gpu_ms, gpu_ms / cpu_ms,
-                  gpu_ms <= cpu_ms ? "ok" : "SLOWER");
+                  render::reference::scaledDilationPx(static_cast<int>(width)), cpu_ms, gpu_ms,
+                  gpu_ms / cpu_ms, gpu_ms <= cpu_ms ? "ok" : "SLOWER");
     }
   }
   // Timestamps on a CPU device include its flushes; wall clock is the
@@ -383,7 +427,8 @@ int main(int argc, char** argv) {
   const double fields_wall = median(per_mesh["holoportation"]) - median(per_mesh["normal"]);
   const double fields_cpu = cpu["discontinuities"] + cpu["visibility"] + cpu["voting"];
   std::printf(
-      "wall clock, holoportation's field passes (holoportation - normal per mesh): Vulkan %.1f ms, CPU "
+      "wall clock, holoportation's field passes (holoportation - normal per mesh): Vulkan %.1f ms, "
+      "CPU "
       "reference (discontinuities, visibility, voting) %.1f ms\n",
       fields_wall, fields_cpu);
   const double m4_mesh = median(per_mesh["montage4d"]);
@@ -400,14 +445,19 @@ int main(int argc, char** argv) {
       map = render::carryAcross(before, mesh, 2.0 * meanEdgeLength(mesh));
       carry_ms = std::min(carry_ms, ms(t0, Clock::now()));
     }
-    std::printf("temporal carry between consecutive meshes (CPU, best of 5): %.2f ms; %zu vertices by key, %zu by "
-                "nearest, %zu fresh\n",
-                carry_ms, map.by_key, map.by_nearest, map.fresh);
+    std::printf(
+        "temporal carry between consecutive meshes (CPU, best of 5): %.2f ms; %zu vertices by key, "
+        "%zu by "
+        "nearest, %zu fresh\n",
+        carry_ms, map.by_key, map.by_nearest, map.fresh);
   }
-  const double diffusion = gpu["seams_and_global_visibility"] + gpu["geodesics"] + repeated["field"] + carry_ms;
-  std::printf("seams + geodesics + temporal update (field pass and carry): %.1f ms = %.0f%% of montage4d's mesh frame "
-              "(target <= 10%%)\n",
-              diffusion, m4_mesh > 0 ? 100.0 * diffusion / m4_mesh : 0.0);
+  const double diffusion =
+      gpu["seams_and_global_visibility"] + gpu["geodesics"] + repeated["field"] + carry_ms;
+  std::printf(
+      "seams + geodesics + temporal update (field pass and carry): %.1f ms = %.0f%% of montage4d's "
+      "mesh frame "
+      "(target <= 10%%)\n",
+      diffusion, m4_mesh > 0 ? 100.0 * diffusion / m4_mesh : 0.0);
   // Cameras that see none of the subject: the client skips their depth map
   // and discontinuities. 8 pods where 4 see the subject and 4 have empty
   // masks, against the 4 alone and against 8 that all see it.
@@ -418,7 +468,8 @@ int main(int argc, char** argv) {
       std::vector<render::ViewImages> chosen;
       for (int i = 0; i < 8; i += count == 4 ? 2 : 1) {
         const auto truth = scene.render(ring8[static_cast<size_t>(i)], 10 + meshes);
-        render::ViewImages view{ring8[static_cast<size_t>(i)], truth.color, truth.mask, capture::featherMap(truth.mask)};
+        render::ViewImages view{ring8[static_cast<size_t>(i)], truth.color, truth.mask,
+                                capture::featherMap(truth.mask)};
         if (odd_empty && i % 2 == 1) std::fill(view.mask.pixels.begin(), view.mask.pixels.end(), 0);
         chosen.push_back(std::move(view));
       }
@@ -436,9 +487,11 @@ int main(int argc, char** argv) {
       return median(times);
     };
     const double four = perMesh(4, false), skipped = perMesh(8, true), eight = perMesh(8, false);
-    std::printf("\nCameras that see none of the subject (holoportation per new mesh): 4 pods %.1f ms; 8 pods of which 4 "
-                "see nothing %.1f ms; 8 that all see it %.1f ms\n",
-                four, skipped, eight);
+    std::printf(
+        "\nCameras that see none of the subject (holoportation per new mesh): 4 pods %.1f ms; 8 "
+        "pods of which 4 "
+        "see nothing %.1f ms; 8 that all see it %.1f ms\n",
+        four, skipped, eight);
   }
   return 0;
 }

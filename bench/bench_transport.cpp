@@ -40,7 +40,8 @@ Result run(int pods, const protocol::PodFrame& message, int frames_per_pod) {
         protocol::PodFrame f = message;
         f.frame_id = static_cast<uint64_t>(i);
         f.capture_time_ns = protocol::monotonicNs();
-        c.send(std::make_shared<const protocol::OutgoingFrame>(protocol::encodeOutgoing(f, protocol::nextSequence(), planes_owner)));
+        c.send(std::make_shared<const protocol::OutgoingFrame>(
+            protocol::encodeOutgoing(f, protocol::nextSequence(), planes_owner)));
         while (c.wantsWrite()) {
           (void)c.onWritable();
           if (c.wantsWrite()) {
@@ -74,7 +75,8 @@ Result run(int pods, const protocol::PodFrame& message, int frames_per_pod) {
         const auto frame = receivers[i - 1]->takeFrame();
         protocol::PodFrame f;
         if (!protocol::decodeFrame(frame, f).isOk()) continue;
-        latency_us.push_back(static_cast<double>(protocol::monotonicNs() - f.capture_time_ns) / 1e3);
+        latency_us.push_back(static_cast<double>(protocol::monotonicNs() - f.capture_time_ns) /
+                             1e3);
         bytes += frame.bytes.size();
         ++received;
       }
@@ -96,18 +98,22 @@ Result run(int pods, const protocol::PodFrame& message, int frames_per_pod) {
 int main() {
   const capture::SyntheticScene scene;
   const auto cam = capture::SyntheticScene::cameraRig(4, 320, 240)[0];
-  capture::PodCapture capture = capture::capturePodFrame(scene, cam, scene.backgroundPlate(cam), 10, 0);
-  const auto frame = capture::encodePodFrame(capture, 0, protocol::Codec::kLz4PlanarDelta).flatten();
+  capture::PodCapture capture =
+      capture::capturePodFrame(scene, cam, scene.backgroundPlate(cam), 10, 0);
+  const auto frame =
+      capture::encodePodFrame(capture, 0, protocol::Codec::kLz4PlanarDelta).flatten();
   protocol::StreamDecoder decoder;
   decoder.feed(frame);
   const protocol::Frame decoded = decoder.takeFrame();
   protocol::PodFrame message;  // planes point into decoded
   if (!protocol::decodeFrame(decoded, message).isOk()) return 1;
   std::printf("PodFrame at 320x240: %zu bytes on the wire\n", frame.size());
-  std::printf("%-6s %12s %12s %14s %14s\n", "pods", "MB/s", "frames/s", "latency p50", "latency p95");
+  std::printf("%-6s %12s %12s %14s %14s\n", "pods", "MB/s", "frames/s", "latency p50",
+              "latency p95");
   for (int pods : {4, 8}) {
     const Result r = run(pods, message, 400);
-    std::printf("%-6d %12.1f %12.0f %11.0f us %11.0f us\n", pods, r.mb_per_s, r.messages_per_s, r.p50_us, r.p95_us);
+    std::printf("%-6d %12.1f %12.0f %11.0f us %11.0f us\n", pods, r.mb_per_s, r.messages_per_s,
+                r.p50_us, r.p95_us);
   }
   return 0;
 }

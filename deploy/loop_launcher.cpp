@@ -75,10 +75,11 @@ std::vector<ForwardedSetting> forwardedSettings() {
 
 void addForwarded(CLI::App& app, ForwardedSetting& setting) {
   const unsigned to = setting.shared->passed_to;
-  const std::string who = (to & holofuse::kToClient)                               ? ""
-                          : (to & holofuse::kToPods) && (to & holofuse::kToServer) ? " (pods and server)"
-                          : (to & holofuse::kToPods)                               ? " (pods)"
-                                                                                   : " (server)";
+  const std::string who = (to & holofuse::kToClient) ? ""
+                          : (to & holofuse::kToPods) && (to & holofuse::kToServer)
+                              ? " (pods and server)"
+                          : (to & holofuse::kToPods) ? " (pods)"
+                                                     : " (server)";
   app.add_option(setting.shared->flag, setting.value, setting.shared->description + who)
       ->check(setting.shared->check());
 }
@@ -88,7 +89,8 @@ void appendForwarded(const std::vector<ForwardedSetting>& settings, holofuse::Lo
                      std::vector<std::string>& args) {
   for (const auto& s : settings) {
     if (s.value.empty() || !(s.shared->passed_to & process)) continue;
-    const char* name = process == holofuse::kToPods && s.shared->pods_name ? s.shared->pods_name : s.shared->flag;
+    const char* name =
+        process == holofuse::kToPods && s.shared->pods_name ? s.shared->pods_name : s.shared->flag;
     args.insert(args.end(), {name, s.value});
   }
 }
@@ -120,10 +122,12 @@ void printLogTail(const std::filesystem::path& path) {
 int main(int argc, char** argv) {
   int pods = 4, frames = 40, port = 0;
   double fps = 5.0;
-  std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit", scene = "clean";
+  std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit",
+              scene = "clean";
   CLI::App app{"holofuse loop: pods -> fusion server -> render client on localhost"};
   app.add_option("--pods", pods, "camera pods (1..16)")->check(CLI::Range(1, 16));
-  app.add_option("--frames", frames, "frames the client renders before everything stops")->check(CLI::Range(1, 1000000));
+  app.add_option("--frames", frames, "frames the client renders before everything stops")
+      ->check(CLI::Range(1, 1000000));
   app.add_option("--size", size, "pod image and output size WxH");
   app.add_option("--fps", fps, "pod frame rate")->check(CLI::Range(0.5, 120.0));
   app.add_option("--out", out, "output folder");
@@ -131,18 +135,24 @@ int main(int argc, char** argv) {
   app.add_option("--mode", mode, "blending mode of the client")
       ->check(CLI::IsMember(holofuse::render::blendModeNames()));
   app.add_option("--view", view, "client view: orbit or pod:N");
-  app.add_option("--scene", scene, "named synthetic scene (its camera count unless --pods): " + holofuse::capture::sceneNames());
+  app.add_option(
+      "--scene", scene,
+      "named synthetic scene (its camera count unless --pods): " + holofuse::capture::sceneNames());
   // Passed on only when given, so the pods keep the scene's own otherwise.
   std::optional<uint64_t> seed_value;
   std::optional<double> noise_value;
-  app.add_option("--seed", seed_value, "synthetic pods' scene seed (their motion, texture and calibration error)");
+  app.add_option("--seed", seed_value,
+                 "synthetic pods' scene seed (their motion, texture and calibration error)");
   holofuse::addSharedFlag(app, "--noise", noise_value);
   std::string budget;
-  app.add_option("--budget", budget, "JSON of per-stage ms budgets for the client's report (flags violations)");
+  app.add_option("--budget", budget,
+                 "JSON of per-stage ms budgets for the client's report (flags violations)");
   bool quality = false;
   app.add_flag("--quality", quality,
-               "judge every written frame against the synthetic scene's true image from the same view (PSNR, SSIM "
-               "in the report); off by default: the client renders the truth between frames, which on a small "
+               "judge every written frame against the synthetic scene's true image from the same "
+               "view (PSNR, SSIM "
+               "in the report); off by default: the client renders the truth between frames, which "
+               "on a small "
                "machine delays the next ones");
   app.add_option("--bin-dir", bin_dir, "folder of the executables (default: next to this one)");
   std::string record, replay, speed = "1";
@@ -152,17 +162,24 @@ int main(int argc, char** argv) {
   holofuse::addSharedFlag(app, "--hull-error-mm", hull_error_mm);
   std::vector<ForwardedSetting> forwarded = forwardedSettings();
   for (auto& s : forwarded) addForwarded(app, s);
-  app.add_option("--record", record, "record what the pods send into this folder (a dataset for --replay)");
-  app.add_flag("--record-fused", record_fused, "with --record: also record the server's fused meshes and images");
-  app.add_option("--replay", replay, "replay this dataset folder through the same network path instead of synthetic pods");
-  app.add_option("--speed", speed, "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
+  app.add_option("--record", record,
+                 "record what the pods send into this folder (a dataset for --replay)");
+  app.add_flag("--record-fused", record_fused,
+               "with --record: also record the server's fused meshes and images");
+  app.add_option(
+      "--replay", replay,
+      "replay this dataset folder through the same network path instead of synthetic pods");
+  app.add_option(
+      "--speed", speed,
+      "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
   app.add_flag("--loop", loop, "with --replay: start over at the end (until --frames or Ctrl-C)");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   // What the processes would refuse is refused here, before any starts.
   unsigned width = 0, height = 0;
   // A replay's pods keep the recorded size: --size is then the client's
   // output alone, which may be larger than a pod's image.
-  if (const std::string error = holofuse::parseImageSize(size, width, height, replay.empty() ? 4096 : 8192);
+  if (const std::string error =
+          holofuse::parseImageSize(size, width, height, replay.empty() ? 4096 : 8192);
       !error.empty()) {
     std::fprintf(stderr, "--size %s\n", error.c_str());
     return 2;
@@ -181,7 +198,8 @@ int main(int argc, char** argv) {
   const std::string noise = noise_text;
   for (const char* synthetic : {"--seed", "--noise"}) {
     if (!replay.empty() && app.count(synthetic)) {
-      std::fprintf(stderr, "%s is a synthetic pod's; a --replay sends the recorded images\n", synthetic);
+      std::fprintf(stderr, "%s is a synthetic pod's; a --replay sends the recorded images\n",
+                   synthetic);
       return 2;
     }
   }
@@ -212,8 +230,10 @@ int main(int argc, char** argv) {
     holofuse::protocol::Calibration calibration;  // camera 0's: the output size
     for (const auto& [id, camera] : dataset->cameras()) {
       if (id != expected_id++ || !camera.calibration) {
-        std::fprintf(stderr, "--replay: %s: cameras must be numbered 0..%d, each with a calibration (camera %u)\n",
-                     replay.c_str(), pods - 1, id);
+        std::fprintf(
+            stderr,
+            "--replay: %s: cameras must be numbered 0..%d, each with a calibration (camera %u)\n",
+            replay.c_str(), pods - 1, id);
         return 2;
       }
       // Checked here, so that no replay pod fails after the others started.
@@ -224,13 +244,14 @@ int main(int argc, char** argv) {
       }
       if (id == 0) calibration = *decoded;
     }
-    if (!app.count("--size")) size = std::to_string(calibration.width) + "x" + std::to_string(calibration.height);
+    if (!app.count("--size"))
+      size = std::to_string(calibration.width) + "x" + std::to_string(calibration.height);
     if (const auto& metadata = dataset->metadata()) {
       // Carve where the dataset says its subject is, at its resolution.
       char volume[256];
       std::snprintf(volume, sizeof(volume), "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g", metadata->volume_min.x,
-                    metadata->volume_min.y, metadata->volume_min.z, metadata->volume_max.x, metadata->volume_max.y,
-                    metadata->volume_max.z);
+                    metadata->volume_min.y, metadata->volume_min.z, metadata->volume_max.x,
+                    metadata->volume_max.y, metadata->volume_max.z);
       char voxel[32];
       std::snprintf(voxel, sizeof(voxel), "%.9g", metadata->voxel_size);
       if (metadata->voxel_size > 0) dataset_server_args = {"--volume", volume};
@@ -245,11 +266,13 @@ int main(int argc, char** argv) {
   }
   const holofuse::capture::ScenePreset* preset = holofuse::capture::findScene(scene);
   if (preset == nullptr) {
-    std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene.c_str(), holofuse::capture::sceneNames().c_str());
+    std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene.c_str(),
+                 holofuse::capture::sceneNames().c_str());
     return 2;
   }
   if (app.count("--scene") && !app.count("--pods") && replay.empty()) pods = preset->cameras;
-  const std::string source = replay.empty() ? "scene " + scene : "replay of " + replay + " at speed " + speed;
+  const std::string source =
+      replay.empty() ? "scene " + scene : "replay of " + replay + " at speed " + speed;
   namespace fs = std::filesystem;
   if (bin_dir.empty()) bin_dir = fs::canonical("/proc/self/exe").parent_path().string();
   fs::create_directories(fs::path(out) / "logs");
@@ -261,8 +284,13 @@ int main(int argc, char** argv) {
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
 
-  std::vector<std::string> server_args = {bin_dir + "/fusion_server", "--listen", "127.0.0.1:" + std::to_string(port),
-                                         "--pods", std::to_string(pods), "--port-file", port_file};
+  std::vector<std::string> server_args = {bin_dir + "/fusion_server",
+                                          "--listen",
+                                          "127.0.0.1:" + std::to_string(port),
+                                          "--pods",
+                                          std::to_string(pods),
+                                          "--port-file",
+                                          port_file};
   if (hull_error_mm > 0) {
     char text[32];
     std::snprintf(text, sizeof(text), "%.9g", hull_error_mm);
@@ -287,7 +315,8 @@ int main(int argc, char** argv) {
     if (bound.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(20));
     int status;
     if (waitpid(server, &status, WNOHANG) == server) {
-      std::fprintf(stderr, "[loop] fusion_server exited at start-up; see %s/logs/server.log\n", out.c_str());
+      std::fprintf(stderr, "[loop] fusion_server exited at start-up; see %s/logs/server.log\n",
+                   out.c_str());
       return 1;
     }
   }
@@ -297,15 +326,16 @@ int main(int argc, char** argv) {
     return 1;
   }
   const std::string endpoint = "127.0.0.1:" + bound;
-  std::printf("[loop] server on %s, %s, %d pods at %s, %.1f fps; writing %s\n", endpoint.c_str(), source.c_str(),
-              pods, size.c_str(), fps, out.c_str());
+  std::printf("[loop] server on %s, %s, %d pods at %s, %.1f fps; writing %s\n", endpoint.c_str(),
+              source.c_str(), pods, size.c_str(), fps, out.c_str());
   std::fflush(stdout);
   std::vector<pid_t> pod_pids;
   for (int i = 0; i < pods; ++i) {
-    std::vector<std::string> pod_args = {bin_dir + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(i)};
+    std::vector<std::string> pod_args = {bin_dir + "/capture_node", "--server", endpoint,
+                                         "--pod-id", std::to_string(i)};
     if (replay.empty()) {
-      pod_args.insert(pod_args.end(), {"--pods", std::to_string(pods), "--size", size, "--fps", std::to_string(fps),
-                                       "--scene", scene});
+      pod_args.insert(pod_args.end(), {"--pods", std::to_string(pods), "--size", size, "--fps",
+                                       std::to_string(fps), "--scene", scene});
       if (!seed.empty()) pod_args.insert(pod_args.end(), {"--seed", seed});
       if (!noise.empty()) pod_args.insert(pod_args.end(), {"--noise", noise});
     } else {
@@ -315,15 +345,29 @@ int main(int argc, char** argv) {
     // A replay pod sends the recorded bytes as they are: the codec settings
     // reach only the server's images to clients.
     if (replay.empty()) appendForwarded(forwarded, holofuse::kToPods, pod_args);
-    pod_pids.push_back(spawn(pod_args, (fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log")).string()));
+    pod_pids.push_back(
+        spawn(pod_args, (fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log")).string()));
   }
-  std::vector<std::string> client_args = {bin_dir + "/render_client", "--server", endpoint, "--out", out, "--frames",
-                                         std::to_string(frames), "--size", size, "--mode", mode, "--view", view};
+  std::vector<std::string> client_args = {bin_dir + "/render_client",
+                                          "--server",
+                                          endpoint,
+                                          "--out",
+                                          out,
+                                          "--frames",
+                                          std::to_string(frames),
+                                          "--size",
+                                          size,
+                                          "--mode",
+                                          mode,
+                                          "--view",
+                                          view};
   if (replay.empty() && preset->view_jump_degrees != 0) {  // the scene's jump is the user's view's
-    client_args.insert(client_args.end(), {"--jump-degrees", std::to_string(preset->view_jump_degrees)});
+    client_args.insert(client_args.end(),
+                       {"--jump-degrees", std::to_string(preset->view_jump_degrees)});
   }
   if (quality) {
-    client_args.insert(client_args.end(), {"--truth-scene", scene, "--truth-fps", std::to_string(fps)});
+    client_args.insert(client_args.end(),
+                       {"--truth-scene", scene, "--truth-fps", std::to_string(fps)});
     if (!seed.empty()) client_args.insert(client_args.end(), {"--truth-seed", seed});
     if (!noise.empty()) client_args.insert(client_args.end(), {"--truth-noise", noise});
   }
@@ -334,8 +378,7 @@ int main(int argc, char** argv) {
   }
   const bool replay_ends = !replay.empty() && !loop;
   if (replay_ends) client_args.push_back("--exit-when-server-leaves");
-  const pid_t client = spawn(client_args,
-                             (fs::path(out) / "logs" / "client.log").string());
+  const pid_t client = spawn(client_args, (fs::path(out) / "logs" / "client.log").string());
   int client_status = 0, server_status = 0;
   bool client_done = false, server_done = false, failed = false;
   std::vector<bool> pod_done(pod_pids.size(), false);
@@ -350,7 +393,8 @@ int main(int argc, char** argv) {
       if (pod_done[i] || waitpid(pod_pids[i], &status, WNOHANG) != pod_pids[i]) continue;
       pod_done[i] = true;
       if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        std::fprintf(stderr, "\n[loop] capture_node %zu failed; the end of %s/logs/pod%zu.log:\n", i, out.c_str(), i);
+        std::fprintf(stderr, "\n[loop] capture_node %zu failed; the end of %s/logs/pod%zu.log:\n",
+                     i, out.c_str(), i);
         printLogTail(fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log"));
         failed = true;
       }
@@ -358,7 +402,8 @@ int main(int argc, char** argv) {
     if (!server_done && waitpid(server, &server_status, WNOHANG) == server) {
       server_done = true;
       if (!replay_ends || !WIFEXITED(server_status) || WEXITSTATUS(server_status) != 0) {
-        std::fprintf(stderr, "\n[loop] fusion_server stopped; the end of %s/logs/server.log:\n", out.c_str());
+        std::fprintf(stderr, "\n[loop] fusion_server stopped; the end of %s/logs/server.log:\n",
+                     out.c_str());
         printLogTail(fs::path(out) / "logs" / "server.log");
         failed = true;
       }
@@ -366,27 +411,34 @@ int main(int argc, char** argv) {
     // A replay ends when the server has fused and delivered everything and
     // said goodbye; the client then finishes on its own.
     if (server_done && !failed && (waited_after_server_ms += 100) > 60000) {
-      std::fprintf(stderr, "\n[loop] the client did not finish within 60 s of the end of the replay\n");
+      std::fprintf(stderr,
+                   "\n[loop] the client did not finish within 60 s of the end of the replay\n");
       failed = true;
     }
   }
   if (!client_done) {
-    std::printf("\n[loop] %s: stopping the client (it writes its report)\n", failed ? "failed" : "interrupted");
+    std::printf("\n[loop] %s: stopping the client (it writes its report)\n",
+                failed ? "failed" : "interrupted");
     stop(client, "render_client");
   }
   for (size_t i = 0; i < pod_pids.size(); ++i) {
     if (!pod_done[i]) stop(pod_pids[i], "capture_node");
   }
   if (!server_done) stop(server, "fusion_server");
-  const bool ok = !failed && (client_done ? (WIFEXITED(client_status) && WEXITSTATUS(client_status) == 0) : true);
+  const bool ok =
+      !failed &&
+      (client_done ? (WIFEXITED(client_status) && WEXITSTATUS(client_status) == 0) : true);
   if (!ok && !failed) {
     // Say why right here: the end of the client's log.
-    std::fprintf(stderr, "[loop] render_client failed; the end of %s/logs/client.log:\n", out.c_str());
+    std::fprintf(stderr, "[loop] render_client failed; the end of %s/logs/client.log:\n",
+                 out.c_str());
     printLogTail(fs::path(out) / "logs" / "client.log");
   }
   if (ok) {
-    std::printf("[loop] all processes stopped; frames in %s/frames, report in %s/report.json, logs in %s/logs\n",
-                out.c_str(), out.c_str(), out.c_str());
+    std::printf(
+        "[loop] all processes stopped; frames in %s/frames, report in %s/report.json, logs in "
+        "%s/logs\n",
+        out.c_str(), out.c_str(), out.c_str());
   } else {
     std::printf("[loop] all processes stopped; logs in %s/logs\n", out.c_str());
   }

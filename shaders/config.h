@@ -41,13 +41,17 @@
 #define HOLOFUSE_BINDING_SEAMS 9
 #define HOLOFUSE_BINDING_VISIBLE_COUNTS 10
 #define HOLOFUSE_BINDING_ADJACENCY 11  // CSR: per vertex the triangles around it
-#define HOLOFUSE_BINDING_RINGS 12      // [2][camera][vertex] ping-pong: ring count and nearest seam vertex, packed
+#define HOLOFUSE_BINDING_RINGS \
+  12  // [2][camera][vertex] ping-pong: ring count and nearest seam vertex, packed
 #define HOLOFUSE_BINDING_DISTANCES 13  // [2][camera][vertex] ping-pong
 #define HOLOFUSE_BINDING_TEMPORAL 14   // [2][vertex][16]: previous and current temporal field
 #define HOLOFUSE_BINDING_CARRY 15      // per vertex: its vertex in the previous mesh, -1 for none
-#define HOLOFUSE_BINDING_FANS 16       // per (vertex, triangle) in ADJACENCY order: the triangle unfolded
-#define HOLOFUSE_BINDING_WORKLIST 17   // geodesics: [slot][camera * vertex] lists, then [slot][...] marks
-#define HOLOFUSE_BINDING_WORKLIST_COUNTS 18  // per Jacobi pass: dispatch groups x, y, z, then the list length
+#define HOLOFUSE_BINDING_FANS \
+  16  // per (vertex, triangle) in ADJACENCY order: the triangle unfolded
+#define HOLOFUSE_BINDING_WORKLIST \
+  17  // geodesics: [slot][camera * vertex] lists, then [slot][...] marks
+#define HOLOFUSE_BINDING_WORKLIST_COUNTS \
+  18  // per Jacobi pass: dispatch groups x, y, z, then the list length
 // per vertex, a bit per camera (the seams and the count read one word pair
 // instead of every camera's sight and vote): x: hidden (occluded or in the
 // dilated discontinuities) | in view (visible or hidden) << 16; y: seen |

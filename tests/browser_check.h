@@ -26,10 +26,12 @@ inline std::string chromium() {
 inline int chartsRendered(const std::filesystem::path& page) {
   char profile[] = "/tmp/holofuse_chromium_XXXXXX";
   if (mkdtemp(profile) == nullptr) return -1;
-  const std::string command = "timeout 60 " + chromium() +
-                              " --headless --no-sandbox --disable-gpu --no-first-run --disable-background-networking "
-                              "--user-data-dir=" + std::string(profile) + " --dump-dom 'file://" +
-                              std::filesystem::absolute(page).string() + "' 2>/dev/null";
+  const std::string command =
+      "timeout 60 " + chromium() +
+      " --headless --no-sandbox --disable-gpu --no-first-run --disable-background-networking "
+      "--user-data-dir=" +
+      std::string(profile) + " --dump-dom 'file://" + std::filesystem::absolute(page).string() +
+      "' 2>/dev/null";
   std::string dom;
   int status = -1;
   if (FILE* pipe = popen(command.c_str(), "r")) {

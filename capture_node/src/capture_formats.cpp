@@ -33,7 +33,9 @@ protocol::StatusOr<nlohmann::json> readJson(const fs::path& file) {
     return nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     const size_t at = std::min(e.byte == 0 ? 0 : e.byte - 1, text.size());
-    const size_t line = 1 + static_cast<size_t>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+    const size_t line =
+        1 + static_cast<size_t>(
+                std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
     const size_t line_start = text.rfind('\n', at == 0 ? 0 : at - 1);
     const size_t column = line_start == std::string::npos ? at + 1 : at - line_start;
     return malformed(file.string() + ":" + std::to_string(line) + ":" + std::to_string(column),
@@ -42,13 +44,16 @@ protocol::StatusOr<nlohmann::json> readJson(const fs::path& file) {
 }
 
 // A number at a JSON path, or a message naming the path.
-protocol::StatusOr<double> number(const nlohmann::json& object, const std::string& key, const std::string& where) {
-  if (!object.is_object() || !object.contains(key)) return malformed(where, "missing \"" + key + "\"");
+protocol::StatusOr<double> number(const nlohmann::json& object, const std::string& key,
+                                  const std::string& where) {
+  if (!object.is_object() || !object.contains(key))
+    return malformed(where, "missing \"" + key + "\"");
   if (!object[key].is_number()) return malformed(where + "." + key, "expected a number");
   return object[key].get<double>();
 }
 
-protocol::StatusOr<std::vector<double>> numbers(const nlohmann::json& value, size_t count, const std::string& where) {
+protocol::StatusOr<std::vector<double>> numbers(const nlohmann::json& value, size_t count,
+                                                const std::string& where) {
   std::vector<double> out;
   auto flat = [&](const nlohmann::json& v, auto&& self) -> bool {
     if (v.is_number()) {
@@ -72,10 +77,11 @@ protocol::StatusOr<std::vector<double>> numbers(const nlohmann::json& value, siz
 
 Status checkCamera(const Camera& c, const std::string& where) {
   if (c.width == 0 || c.height == 0 || c.width > 16384 || c.height > 16384) {
-    return malformed(where, "image size " + std::to_string(c.width) + "x" + std::to_string(c.height) +
-                                " outside 1..16384");
+    return malformed(where, "image size " + std::to_string(c.width) + "x" +
+                                std::to_string(c.height) + " outside 1..16384");
   }
-  if (!(c.fx > 0) || !(c.fy > 0) || !std::isfinite(c.cx) || !std::isfinite(c.cy) || !std::isfinite(c.skew)) {
+  if (!(c.fx > 0) || !(c.fy > 0) || !std::isfinite(c.cx) || !std::isfinite(c.cy) ||
+      !std::isfinite(c.skew)) {
     return malformed(where, "focal lengths must be positive and every intrinsic finite");
   }
   // A rotation: orthonormal with determinant +1.
@@ -122,7 +128,8 @@ const char* captureFormatNames() { return "holofuse, colmap, nerf"; }
 bool naturalLess(const std::string& a, const std::string& b) {
   size_t i = 0, j = 0;
   while (i < a.size() && j < b.size()) {
-    if (std::isdigit(static_cast<unsigned char>(a[i])) && std::isdigit(static_cast<unsigned char>(b[j]))) {
+    if (std::isdigit(static_cast<unsigned char>(a[i])) &&
+        std::isdigit(static_cast<unsigned char>(b[j]))) {
       size_t i_end = i, j_end = j;
       while (i_end < a.size() && std::isdigit(static_cast<unsigned char>(a[i_end]))) ++i_end;
       while (j_end < b.size() && std::isdigit(static_cast<unsigned char>(b[j_end]))) ++j_end;
@@ -147,8 +154,9 @@ bool naturalLess(const std::string& a, const std::string& b) {
 void numberCamerasByName(CaptureDescription& d) {
   std::vector<size_t> order(d.cameras.size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(),
-                   [&](size_t x, size_t y) { return naturalLess(d.cameras[x].name, d.cameras[y].name); });
+  std::stable_sort(order.begin(), order.end(), [&](size_t x, size_t y) {
+    return naturalLess(d.cameras[x].name, d.cameras[y].name);
+  });
   CaptureDescription sorted = d;
   for (size_t k = 0; k < order.size(); ++k) {
     sorted.cameras[k] = d.cameras[order[k]];
@@ -172,7 +180,8 @@ protocol::StatusOr<CaptureDescription> readHolofuseCapture(const std::string& fo
   if (!root.is_object() || root.value("format", "") != "holofuse-capture") {
     return malformed(where, "expected \"format\": \"holofuse-capture\"");
   }
-  if (!root.contains("version") || !root["version"].is_number_integer()) return malformed(where, "missing \"version\"");
+  if (!root.contains("version") || !root["version"].is_number_integer())
+    return malformed(where, "missing \"version\"");
   if (root["version"].get<int>() > 1) {
     return Status(StatusCode::kUnsupportedVersion, where + ": capture format version " +
                                                        std::to_string(root["version"].get<int>()) +
@@ -194,9 +203,11 @@ protocol::StatusOr<CaptureDescription> readHolofuseCapture(const std::string& fo
     const nlohmann::json& c = root["cameras"][i];
     const std::string at = where + ": cameras[" + std::to_string(i) + "]";
     CaptureCamera cam;
-    if (!c.is_object() || !c.contains("name") || !c["name"].is_string()) return malformed(at, "missing \"name\"");
+    if (!c.is_object() || !c.contains("name") || !c["name"].is_string())
+      return malformed(at, "missing \"name\"");
     cam.name = c["name"].get<std::string>();
-    if (by_name.count(cam.name)) return malformed(at, "camera name \"" + cam.name + "\" is used twice");
+    if (by_name.count(cam.name))
+      return malformed(at, "camera name \"" + cam.name + "\" is used twice");
     auto width = number(c, "width", at), height = number(c, "height", at);
     if (!width.isOk()) return width.status();
     if (!height.isOk()) return height.status();
@@ -221,7 +232,8 @@ protocol::StatusOr<CaptureDescription> readHolofuseCapture(const std::string& fo
       if (!dist.isOk()) return dist.status();
       cam.camera.distortion = *dist;
     }
-    if (!c.contains("R") || !c.contains("t")) return malformed(at, "missing \"R\" or \"t\" (world to camera)");
+    if (!c.contains("R") || !c.contains("t"))
+      return malformed(at, "missing \"R\" or \"t\" (world to camera)");
     auto r = numbers(c["R"], 9, at + ".R");
     if (!r.isOk()) return r.status();
     auto t = numbers(c["t"], 3, at + ".t");
@@ -230,7 +242,8 @@ protocol::StatusOr<CaptureDescription> readHolofuseCapture(const std::string& fo
     cam.camera.translation = glm::dvec3((*t)[0], (*t)[1], (*t)[2]);
     HOLOFUSE_RETURN_IF_ERROR(checkCamera(cam.camera, at));
     if (c.contains("background")) {
-      if (!c["background"].is_string()) return malformed(at + ".background", "expected a file name");
+      if (!c["background"].is_string())
+        return malformed(at + ".background", "expected a file name");
       cam.background = relativeTo(folder, c["background"].get<std::string>());
     }
     by_name[cam.name] = i;
@@ -249,18 +262,22 @@ protocol::StatusOr<CaptureDescription> readHolofuseCapture(const std::string& fo
     out.images.resize(d.cameras.size());
     out.masks.resize(d.cameras.size());
     for (const auto& [name, file] : frame["images"].items()) {
-      if (!by_name.count(name)) return malformed(at + ".images", "camera \"" + name + "\" is not in \"cameras\"");
+      if (!by_name.count(name))
+        return malformed(at + ".images", "camera \"" + name + "\" is not in \"cameras\"");
       if (!file.is_string()) return malformed(at + ".images." + name, "expected a file name");
       out.images[by_name[name]] = relativeTo(folder, file.get<std::string>());
     }
     if (frame["images"].size() != d.cameras.size()) {
-      return malformed(at + ".images", "has " + std::to_string(frame["images"].size()) + " cameras, \"cameras\" has " +
+      return malformed(at + ".images", "has " + std::to_string(frame["images"].size()) +
+                                           " cameras, \"cameras\" has " +
                                            std::to_string(d.cameras.size()));
     }
     if (frame.contains("masks")) {
-      if (!frame["masks"].is_object()) return malformed(at + ".masks", "expected camera name -> file");
+      if (!frame["masks"].is_object())
+        return malformed(at + ".masks", "expected camera name -> file");
       for (const auto& [name, file] : frame["masks"].items()) {
-        if (!by_name.count(name)) return malformed(at + ".masks", "camera \"" + name + "\" is not in \"cameras\"");
+        if (!by_name.count(name))
+          return malformed(at + ".masks", "camera \"" + name + "\" is not in \"cameras\"");
         if (!file.is_string()) return malformed(at + ".masks." + name, "expected a file name");
         out.masks[by_name[name]] = relativeTo(folder, file.get<std::string>());
       }
@@ -292,11 +309,13 @@ protocol::StatusOr<std::vector<std::pair<size_t, std::string>>> colmapLines(cons
 }
 
 // COLMAP's camera models, as (fx, fy, cx, cy, distortion k1 k2 p1 p2 k3).
-Status colmapIntrinsics(const std::string& model, const std::vector<double>& p, Camera& c, const std::string& at) {
+Status colmapIntrinsics(const std::string& model, const std::vector<double>& p, Camera& c,
+                        const std::string& at) {
   auto need = [&](size_t n) {
-    return p.size() == n ? Status::ok()
-                         : malformed(at, model + " takes " + std::to_string(n) + " parameters, the line has " +
-                                             std::to_string(p.size()));
+    return p.size() == n
+               ? Status::ok()
+               : malformed(at, model + " takes " + std::to_string(n) +
+                                   " parameters, the line has " + std::to_string(p.size()));
   };
   if (model == "SIMPLE_PINHOLE") {
     HOLOFUSE_RETURN_IF_ERROR(need(3));
@@ -318,12 +337,14 @@ Status colmapIntrinsics(const std::string& model, const std::vector<double>& p, 
     c.distortion = {p[4], p[5], p[6], p[7], 0};
   } else if (model == "FULL_OPENCV") {
     HOLOFUSE_RETURN_IF_ERROR(need(12));
-    if (p[9] != 0 || p[10] != 0 || p[11] != 0) return malformed(at, "FULL_OPENCV with k4..k6 is not supported");
+    if (p[9] != 0 || p[10] != 0 || p[11] != 0)
+      return malformed(at, "FULL_OPENCV with k4..k6 is not supported");
     c.fx = p[0], c.fy = p[1], c.cx = p[2], c.cy = p[3];
     c.distortion = {p[4], p[5], p[6], p[7], p[8]};
   } else {
     return malformed(at, "camera model " + model +
-                             " is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV)");
+                             " is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, "
+                             "OPENCV, FULL_OPENCV)");
   }
   return Status::ok();
 }
@@ -353,8 +374,10 @@ protocol::StatusOr<CaptureDescription> readColmapCapture(const std::string& fold
     }
   }
   if (model_dir.empty()) {
-    return Status(StatusCode::kIoError, folder + ": no COLMAP text model (cameras.txt and images.txt at the root, in "
-                                                 "sparse/ or in sparse/0/)");
+    return Status(StatusCode::kIoError,
+                  folder +
+                      ": no COLMAP text model (cameras.txt and images.txt at the root, in "
+                      "sparse/ or in sparse/0/)");
   }
   const fs::path cameras_file = model_dir / "cameras.txt", images_file = model_dir / "images.txt";
   auto camera_lines = colmapLines(cameras_file);
@@ -374,7 +397,9 @@ protocol::StatusOr<CaptureDescription> readColmapCapture(const std::string& fold
     std::vector<double> params;
     for (size_t i = 4; i < w.size(); ++i) {
       double v = 0;
-      if (!parseDouble(w[i], v)) return malformed(at, "parameter " + std::to_string(i - 3) + " '" + w[i] + "' is not a number");
+      if (!parseDouble(w[i], v))
+        return malformed(at,
+                         "parameter " + std::to_string(i - 3) + " '" + w[i] + "' is not a number");
       params.push_back(v);
     }
     HOLOFUSE_RETURN_IF_ERROR(colmapIntrinsics(w[1], params, c, at));
@@ -402,7 +427,8 @@ protocol::StatusOr<CaptureDescription> readColmapCapture(const std::string& fold
     double v[7];
     for (int k = 0; k < 7; ++k) {
       if (!parseDouble(w[static_cast<size_t>(k) + 1], v[k])) {
-        return malformed(at, "value " + std::to_string(k + 2) + " '" + w[static_cast<size_t>(k) + 1] + "' is not a number");
+        return malformed(at, "value " + std::to_string(k + 2) + " '" +
+                                 w[static_cast<size_t>(k) + 1] + "' is not a number");
       }
     }
     const auto it = intrinsics.find(w[8]);
@@ -421,7 +447,8 @@ protocol::StatusOr<CaptureDescription> readColmapCapture(const std::string& fold
     frame.images.push_back((images_dir / cam.name).string());
     // COLMAP's mask convention: masks/<image name>.png, zero = background.
     const fs::path mask = masks_dir / (cam.name + ".png");
-    frame.masks.push_back(fs::exists(mask) ? std::optional<std::string>(mask.string()) : std::nullopt);
+    frame.masks.push_back(fs::exists(mask) ? std::optional<std::string>(mask.string())
+                                           : std::nullopt);
     d.cameras.push_back(std::move(cam));
   }
   if (d.cameras.empty()) return malformed(images_file.string(), "lists no image");
@@ -438,7 +465,8 @@ protocol::StatusOr<CaptureDescription> readNerfCapture(const std::string& folder
   if (!json.isOk()) return json.status();
   const nlohmann::json& root = *json;
   const std::string where = file.string();
-  if (!root.is_object() || !root.contains("frames") || !root["frames"].is_array() || root["frames"].empty()) {
+  if (!root.is_object() || !root.contains("frames") || !root["frames"].is_array() ||
+      root["frames"].empty()) {
     return malformed(where, "expected a non-empty \"frames\" array");
   }
   CaptureDescription d;
@@ -458,7 +486,8 @@ protocol::StatusOr<CaptureDescription> readNerfCapture(const std::string& folder
     };
     Camera c;
     const auto w = value("w"), h = value("h");
-    if (!w || !h) return malformed(at, "needs the image size \"w\" and \"h\" (here or at the top level)");
+    if (!w || !h)
+      return malformed(at, "needs the image size \"w\" and \"h\" (here or at the top level)");
     c.width = imageSide(*w);
     c.height = imageSide(*h);
     const auto fl_x = value("fl_x"), angle_x = value("camera_angle_x");
@@ -470,11 +499,15 @@ protocol::StatusOr<CaptureDescription> readNerfCapture(const std::string& folder
       return malformed(at, "needs \"fl_x\" or \"camera_angle_x\"");
     }
     const auto fl_y = value("fl_y"), angle_y = value("camera_angle_y");
-    c.fy = fl_y ? *fl_y : (angle_y && *angle_y > 0 && *angle_y < 3.14 ? 0.5 * c.height / std::tan(0.5 * *angle_y) : c.fx);
+    c.fy = fl_y ? *fl_y
+                : (angle_y && *angle_y > 0 && *angle_y < 3.14
+                       ? 0.5 * c.height / std::tan(0.5 * *angle_y)
+                       : c.fx);
     c.cx = value("cx").value_or(0.5 * c.width);
     c.cy = value("cy").value_or(0.5 * c.height);
-    const double k1 = value("k1").value_or(0), k2 = value("k2").value_or(0), p1 = value("p1").value_or(0),
-                 p2 = value("p2").value_or(0), k3 = value("k3").value_or(0);
+    const double k1 = value("k1").value_or(0), k2 = value("k2").value_or(0),
+                 p1 = value("p1").value_or(0), p2 = value("p2").value_or(0),
+                 k3 = value("k3").value_or(0);
     if (k1 != 0 || k2 != 0 || p1 != 0 || p2 != 0 || k3 != 0) c.distortion = {k1, k2, p1, p2, k3};
     if (!f.contains("transform_matrix")) return malformed(at, "missing \"transform_matrix\"");
     auto m = numbers(f["transform_matrix"], 16, at + ".transform_matrix");
@@ -497,31 +530,39 @@ protocol::StatusOr<CaptureDescription> readNerfCapture(const std::string& folder
     // Blender's sets name files without their extension.
     const fs::path resolved = relativeTo(folder, path);
     std::string image = resolved.string();
-    if (!resolved.has_extension() || (!fs::exists(resolved) && fs::exists(resolved.string() + ".png"))) {
+    if (!resolved.has_extension() ||
+        (!fs::exists(resolved) && fs::exists(resolved.string() + ".png"))) {
       image = resolved.string() + ".png";
     }
     cam.name = fs::path(path).filename().string();
     cam.camera = c;
     frame.images.push_back(image);
-    const fs::path mask = fs::path(folder) / "masks" / (fs::path(image).filename().string() + ".png");
-    frame.masks.push_back(fs::exists(mask) ? std::optional<std::string>(mask.string()) : std::nullopt);
+    const fs::path mask =
+        fs::path(folder) / "masks" / (fs::path(image).filename().string() + ".png");
+    frame.masks.push_back(fs::exists(mask) ? std::optional<std::string>(mask.string())
+                                           : std::nullopt);
     d.cameras.push_back(std::move(cam));
   }
   std::map<std::string, int> names;
   for (const auto& c : d.cameras) {
-    if (++names[c.name] > 1) return malformed(where, "two frames name the same image \"" + c.name + "\"");
+    if (++names[c.name] > 1)
+      return malformed(where, "two frames name the same image \"" + c.name + "\"");
   }
   d.frames.push_back(std::move(frame));
   numberCamerasByName(d);
   return d;
 }
 
-protocol::StatusOr<CaptureDescription> readCapture(const std::string& folder, CaptureFormat format) {
+protocol::StatusOr<CaptureDescription> readCapture(const std::string& folder,
+                                                   CaptureFormat format) {
   if (!fs::is_directory(folder)) return Status(StatusCode::kIoError, folder + ": not a folder");
   switch (format) {
-    case CaptureFormat::kHolofuse: return readHolofuseCapture(folder);
-    case CaptureFormat::kColmap: return readColmapCapture(folder);
-    case CaptureFormat::kNerf: return readNerfCapture(folder);
+    case CaptureFormat::kHolofuse:
+      return readHolofuseCapture(folder);
+    case CaptureFormat::kColmap:
+      return readColmapCapture(folder);
+    case CaptureFormat::kNerf:
+      return readNerfCapture(folder);
   }
   return Status(StatusCode::kMalformed, "unknown capture format");
 }

@@ -11,40 +11,53 @@ using protocol::RecordKind;
 using protocol::Status;
 using protocol::StatusCode;
 
-protocol::StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes, const std::string& what) {
+protocol::StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes,
+                                                    const std::string& what) {
   protocol::StreamDecoder decoder;
   decoder.feed(bytes);
-  if (!decoder.status().isOk()) return Status(decoder.status().code(), what + ": " + decoder.status().message());
+  if (!decoder.status().isOk())
+    return Status(decoder.status().code(), what + ": " + decoder.status().message());
   if (!decoder.hasFrame() || decoder.bytesConsumed() != bytes.size()) {
     return Status(StatusCode::kMalformed, what + ": does not hold exactly one protocol frame");
   }
   protocol::Frame frame = decoder.takeFrame();
-  if (decoder.hasFrame()) return Status(StatusCode::kMalformed, what + ": holds more than one protocol frame");
+  if (decoder.hasFrame())
+    return Status(StatusCode::kMalformed, what + ": holds more than one protocol frame");
   return frame;
 }
 
-protocol::StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame, const Camera& camera) {
+protocol::StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame,
+                                                  const Camera& camera) {
   protocol::PodFrame pod;
   HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, pod));
   PodImagesFull out;
   out.frame_id = pod.frame_id;
   for (const auto& plane : pod.planes) {
     out.codecs.push_back(plane.codec);
-    if (uint64_t{pod.offset_x} + plane.width > camera.width || uint64_t{pod.offset_y} + plane.height > camera.height) {
-      return Status(StatusCode::kMalformed, "a " + std::to_string(plane.width) + "x" + std::to_string(plane.height) +
-                                                " plane at (" + std::to_string(pod.offset_x) + ", " +
-                                                std::to_string(pod.offset_y) + ") does not fit camera " +
-                                                std::to_string(camera.id) + "'s " + std::to_string(camera.width) +
-                                                "x" + std::to_string(camera.height) + " image");
+    if (uint64_t{pod.offset_x} + plane.width > camera.width ||
+        uint64_t{pod.offset_y} + plane.height > camera.height) {
+      return Status(StatusCode::kMalformed,
+                    "a " + std::to_string(plane.width) + "x" + std::to_string(plane.height) +
+                        " plane at (" + std::to_string(pod.offset_x) + ", " +
+                        std::to_string(pod.offset_y) + ") does not fit camera " +
+                        std::to_string(camera.id) + "'s " + std::to_string(camera.width) + "x" +
+                        std::to_string(camera.height) + " image");
     }
     auto image = decodePlane(plane);
     if (!image.isOk()) return image.status();
     Image8 whole = placeInFrame(*image, pod.offset_x, pod.offset_y, camera.width, camera.height);
     switch (plane.kind) {
-      case protocol::PlaneKind::kColor: out.color = std::move(whole); break;
-      case protocol::PlaneKind::kMask: out.mask = std::move(whole); break;
-      case protocol::PlaneKind::kFeather: out.feather = std::move(whole); break;
-      case protocol::PlaneKind::kDepth: break;
+      case protocol::PlaneKind::kColor:
+        out.color = std::move(whole);
+        break;
+      case protocol::PlaneKind::kMask:
+        out.mask = std::move(whole);
+        break;
+      case protocol::PlaneKind::kFeather:
+        out.feather = std::move(whole);
+        break;
+      case protocol::PlaneKind::kDepth:
+        break;
     }
   }
   if (out.color.channels != 3 || out.mask.channels != 1) {
@@ -59,7 +72,8 @@ protocol::StatusOr<Dataset> Dataset::open(const std::string& path) {
   if (fs::is_directory(path)) {
     file = (fs::path(path) / kDatasetPodsFile).string();
     if (!fs::exists(file)) {
-      return Status(StatusCode::kIoError, path + ": not a holofuse dataset (no " + kDatasetPodsFile + " in it)");
+      return Status(StatusCode::kIoError,
+                    path + ": not a holofuse dataset (no " + kDatasetPodsFile + " in it)");
     }
   }
   auto reader = protocol::RecordReader::open(file);
@@ -92,7 +106,8 @@ protocol::StatusOr<Dataset> Dataset::open(const std::string& path) {
     if (r.kind == static_cast<uint16_t>(RecordKind::kDatasetInfo) && !dataset.metadata_) {
       auto bytes = dataset.reader_.read(r);
       if (!bytes.isOk()) return bytes.status();
-      auto metadata = decodeDatasetMetadata(*bytes, file + ": the dataset_info record at byte " + std::to_string(r.offset));
+      auto metadata = decodeDatasetMetadata(
+          *bytes, file + ": the dataset_info record at byte " + std::to_string(r.offset));
       if (!metadata.isOk()) return metadata.status();
       dataset.metadata_ = std::move(*metadata);
     }
@@ -109,9 +124,9 @@ protocol::StatusOr<protocol::Calibration> Dataset::readCalibration(uint32_t came
     for (const auto& [id, cam] : cameras_) {
       if (cam.calibration) have += (have.empty() ? "" : ", ") + std::to_string(id);
     }
-    return Status(StatusCode::kMalformed, reader_.path() + " has no calibration for camera " +
-                                              std::to_string(camera_id) + " (cameras with one: " +
-                                              (have.empty() ? std::string("none") : have) + ")");
+    return Status(StatusCode::kMalformed,
+                  reader_.path() + " has no calibration for camera " + std::to_string(camera_id) +
+                      " (cameras with one: " + (have.empty() ? std::string("none") : have) + ")");
   }
   auto frame = readFrame(*it->second.calibration);
   if (!frame.isOk()) return frame.status();

@@ -32,18 +32,24 @@ struct LoadedImage {
   std::optional<Image8> alpha_mask;
 };
 
-protocol::StatusOr<cv::Mat> readAny(const std::string& file, const Camera& camera, const char* what) {
-  if (!fs::exists(file)) return Status(StatusCode::kIoError, file + ": " + what + " file is missing");
+protocol::StatusOr<cv::Mat> readAny(const std::string& file, const Camera& camera,
+                                    const char* what) {
+  if (!fs::exists(file))
+    return Status(StatusCode::kIoError, file + ": " + what + " file is missing");
   cv::Mat m = cv::imread(file, cv::IMREAD_UNCHANGED);
-  if (m.empty()) return Status(StatusCode::kMalformed, file + ": cannot decode the " + what + " (corrupt, or not a PNG or JPEG)");
+  if (m.empty())
+    return Status(StatusCode::kMalformed,
+                  file + ": cannot decode the " + what + " (corrupt, or not a PNG or JPEG)");
   if (m.cols != static_cast<int>(camera.width) || m.rows != static_cast<int>(camera.height)) {
-    return Status(StatusCode::kMalformed, file + ": the " + std::string(what) + " is " + std::to_string(m.cols) + "x" +
-                                              std::to_string(m.rows) + ", the calibration of camera " +
-                                              std::to_string(camera.id) + " says " + std::to_string(camera.width) +
-                                              "x" + std::to_string(camera.height));
+    return Status(StatusCode::kMalformed,
+                  file + ": the " + std::string(what) + " is " + std::to_string(m.cols) + "x" +
+                      std::to_string(m.rows) + ", the calibration of camera " +
+                      std::to_string(camera.id) + " says " + std::to_string(camera.width) + "x" +
+                      std::to_string(camera.height));
   }
   if (m.depth() == CV_16U) m.convertTo(m, CV_8U, 1.0 / 257.0);
-  if (m.depth() != CV_8U) return Status(StatusCode::kMalformed, file + ": only 8- and 16-bit images are supported");
+  if (m.depth() != CV_8U)
+    return Status(StatusCode::kMalformed, file + ": only 8- and 16-bit images are supported");
   return m;
 }
 
@@ -53,8 +59,12 @@ protocol::StatusOr<LoadedImage> readColor(const std::string& file, const Camera&
   LoadedImage out;
   cv::Mat rgb;
   switch (m->channels()) {
-    case 1: cv::cvtColor(*m, rgb, cv::COLOR_GRAY2RGB); break;
-    case 3: cv::cvtColor(*m, rgb, cv::COLOR_BGR2RGB); break;
+    case 1:
+      cv::cvtColor(*m, rgb, cv::COLOR_GRAY2RGB);
+      break;
+    case 3:
+      cv::cvtColor(*m, rgb, cv::COLOR_BGR2RGB);
+      break;
     case 4: {
       // RGBA (NeRF's synthetic sets): alpha is the mask, colour over black.
       std::vector<cv::Mat> channels;
@@ -69,7 +79,9 @@ protocol::StatusOr<LoadedImage> readColor(const std::string& file, const Camera&
       out.alpha_mask = fromMat(mask);
       break;
     }
-    default: return Status(StatusCode::kMalformed, file + ": " + std::to_string(m->channels()) + " channels");
+    default:
+      return Status(StatusCode::kMalformed,
+                    file + ": " + std::to_string(m->channels()) + " channels");
   }
   out.color = fromMat(rgb);
   return out;
@@ -113,15 +125,18 @@ struct Undistortion {
       for (uint32_t x = 0; x < c.width; ++x) {
         const glm::dvec3 world = pinhole.center() + pinhole.rayDirection(x + 0.5, y + 0.5);
         const auto p = c.project(world);
-        u.map_x.at<float>(static_cast<int>(y), static_cast<int>(x)) = p ? static_cast<float>(p->x - 0.5) : -1.0f;
-        u.map_y.at<float>(static_cast<int>(y), static_cast<int>(x)) = p ? static_cast<float>(p->y - 0.5) : -1.0f;
+        u.map_x.at<float>(static_cast<int>(y), static_cast<int>(x)) =
+            p ? static_cast<float>(p->x - 0.5) : -1.0f;
+        u.map_y.at<float>(static_cast<int>(y), static_cast<int>(x)) =
+            p ? static_cast<float>(p->y - 0.5) : -1.0f;
       }
     }
     return u;
   }
   Image8 apply(const Image8& image, int interpolation) const {
     cv::Mat out;
-    cv::remap(wrapForReading(image), out, map_x, map_y, interpolation, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+    cv::remap(wrapForReading(image), out, map_x, map_y, interpolation, cv::BORDER_CONSTANT,
+              cv::Scalar::all(0));
     return fromMat(out);
   }
 };
@@ -138,7 +153,8 @@ struct Box {
   glm::dvec3 min{0.0}, max{0.0};
 };
 
-protocol::StatusOr<Box> estimateCaptureVolume(const std::vector<Camera>& cameras, const std::vector<Image8>& masks) {
+protocol::StatusOr<Box> estimateCaptureVolume(const std::vector<Camera>& cameras,
+                                              const std::vector<Image8>& masks) {
   // The point nearest to every optical axis (least squares).
   glm::dmat3 a(0.0);
   glm::dvec3 b(0.0);
@@ -149,7 +165,8 @@ protocol::StatusOr<Box> estimateCaptureVolume(const std::vector<Camera>& cameras
     b += p * o;
   }
   if (std::abs(glm::determinant(a)) < 1e-12) {
-    return Status(StatusCode::kMalformed, "the cameras' optical axes are parallel: cannot place the capture volume");
+    return Status(StatusCode::kMalformed,
+                  "the cameras' optical axes are parallel: cannot place the capture volume");
   }
   const glm::dvec3 centre = glm::inverse(a) * b;
   // The sphere every camera sees: its radius at the centre's distance.
@@ -176,7 +193,8 @@ protocol::StatusOr<Box> estimateCaptureVolume(const std::vector<Camera>& cameras
         bool all = true;
         for (size_t c = 0; c < cameras.size() && all; ++c) {
           const auto q = cameras[c].project(p);
-          all = q && q->x >= 0 && q->y >= 0 && q->x < cameras[c].width && q->y < cameras[c].height &&
+          all = q && q->x >= 0 && q->y >= 0 && q->x < cameras[c].width &&
+                q->y < cameras[c].height &&
                 dilated[c].at<uint8_t>(static_cast<int>(q->y), static_cast<int>(q->x)) != 0;
         }
         if (!all) continue;
@@ -188,7 +206,8 @@ protocol::StatusOr<Box> estimateCaptureVolume(const std::vector<Camera>& cameras
   }
   if (inside == 0) {
     return Status(StatusCode::kMalformed,
-                  "no point near the cameras' common focus projects into every camera's mask: the masks or the "
+                  "no point near the cameras' common focus projects into every camera's mask: the "
+                  "masks or the "
                   "calibration do not agree");
   }
   // Two grid steps of margin: the hull's surface lies inside.
@@ -216,10 +235,12 @@ Image8 segmentByBrightness(const Image8& color, const ImportOptions& options) {
   } else {
     cv::threshold(brightness, mask, 0, 255, type | cv::THRESH_OTSU);
   }
-  cv::morphologyEx(mask, mask, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(3, 3)));
+  cv::morphologyEx(mask, mask, cv::MORPH_OPEN,
+                   cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(3, 3)));
   if (options.close_px > 0) {
     const int k = 2 * options.close_px + 1;
-    cv::morphologyEx(mask, mask, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k)));
+    cv::morphologyEx(mask, mask, cv::MORPH_CLOSE,
+                     cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k)));
   }
   // The subject is the largest connected component, holes filled.
   cv::Mat labels, stats, centroids;
@@ -239,9 +260,9 @@ Image8 segmentByBrightness(const Image8& color, const ImportOptions& options) {
   return fromMat(filled);
 }
 
-protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& capture, const std::string& out_folder,
-                                                const ImportOptions& options,
-                                                const std::function<void(const ImportProgress&)>& progress) {
+protocol::StatusOr<ImportSummary> importCapture(
+    const CaptureDescription& capture, const std::string& out_folder, const ImportOptions& options,
+    const std::function<void(const ImportProgress&)>& progress) {
   const auto start = std::chrono::steady_clock::now();
   // "out/" and "out" are the same folder; the temporary one sits beside it.
   fs::path normal = fs::path(out_folder).lexically_normal();
@@ -254,7 +275,8 @@ protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& captur
     return Status(StatusCode::kMalformed, capture.source + ": no camera or no frame to import");
   }
   if (capture.cameras.size() > 16) {
-    return Status(StatusCode::kTooLarge, capture.source + ": " + std::to_string(capture.cameras.size()) +
+    return Status(StatusCode::kTooLarge, capture.source + ": " +
+                                             std::to_string(capture.cameras.size()) +
                                              " cameras; the loop serves at most 16");
   }
   if (fs::exists(out_dir) && !(fs::is_directory(out_dir) && fs::is_empty(out_dir))) {
@@ -265,14 +287,16 @@ protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& captur
   for (size_t f = 0; f < capture.frames.size(); ++f) {
     const CaptureFrame& frame = capture.frames[f];
     if (frame.images.size() != capture.cameras.size()) {
-      return Status(StatusCode::kMalformed, capture.source + ": frame " + std::to_string(f) + " has " +
-                                                std::to_string(frame.images.size()) + " images for " +
-                                                std::to_string(capture.cameras.size()) + " cameras");
+      return Status(StatusCode::kMalformed,
+                    capture.source + ": frame " + std::to_string(f) + " has " +
+                        std::to_string(frame.images.size()) + " images for " +
+                        std::to_string(capture.cameras.size()) + " cameras");
     }
     for (size_t c = 0; c < frame.images.size(); ++c) {
       if (!fs::exists(frame.images[c])) {
-        return Status(StatusCode::kIoError, frame.images[c] + ": image of camera \"" + capture.cameras[c].name +
-                                                "\" in frame " + std::to_string(f) + " is missing");
+        return Status(StatusCode::kIoError, frame.images[c] + ": image of camera \"" +
+                                                capture.cameras[c].name + "\" in frame " +
+                                                std::to_string(f) + " is missing");
       }
       if (frame.masks[c] && !fs::exists(*frame.masks[c])) {
         return Status(StatusCode::kIoError, *frame.masks[c] + ": mask file is missing");
@@ -290,7 +314,8 @@ protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& captur
     if (c.background) {
       auto plate = readColor(*c.background, c.camera);
       if (!plate.isOk()) return plate.status();
-      plates.push_back(undistort.back() ? undistort.back()->apply(plate->color, cv::INTER_LINEAR) : plate->color);
+      plates.push_back(undistort.back() ? undistort.back()->apply(plate->color, cv::INTER_LINEAR)
+                                        : plate->color);
     } else {
       plates.push_back(std::nullopt);
     }
@@ -315,9 +340,11 @@ protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& captur
       mask = std::move(color->alpha_mask);
     }
     view.mask_given = mask.has_value();
-    view.color = undistort[c] ? undistort[c]->apply(std::move(color->color), cv::INTER_LINEAR) : std::move(color->color);
+    view.color = undistort[c] ? undistort[c]->apply(std::move(color->color), cv::INTER_LINEAR)
+                              : std::move(color->color);
     if (mask) {
-      view.mask = undistort[c] ? undistort[c]->apply(std::move(*mask), cv::INTER_NEAREST) : std::move(*mask);
+      view.mask = undistort[c] ? undistort[c]->apply(std::move(*mask), cv::INTER_NEAREST)
+                               : std::move(*mask);
     } else if (plates[c]) {
       // Real sensors and JPEG blocks are noisier than the synthetic pods.
       SegmentationOptions plate_options;
@@ -339,7 +366,8 @@ protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& captur
     first.push_back(std::move(*view));
   }
   auto box = estimateCaptureVolume(cameras, first_masks);
-  if (!box.isOk()) return Status(box.status().code(), capture.source + ": " + box.status().message());
+  if (!box.isOk())
+    return Status(box.status().code(), capture.source + ": " + box.status().message());
   const glm::dvec3 extent = box->max - box->min;
   DatasetMetadata metadata;
   metadata.source = capture.source;
@@ -347,13 +375,14 @@ protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& captur
   metadata.volume_max = box->max;
   // Within what the server accepts (--voxel 0.0001..0.5 m): captures in
   // other units (COLMAP's are arbitrary) still carve.
-  metadata.voxel_size = std::clamp(options.voxel_size.value_or(std::max({extent.x, extent.y, extent.z}) / 96.0),
-                                   0.0001, 0.5);
+  metadata.voxel_size = std::clamp(
+      options.voxel_size.value_or(std::max({extent.x, extent.y, extent.z}) / 96.0), 0.0001, 0.5);
   metadata.still = capture.frames.size() == 1;
   for (const auto& c : capture.cameras) metadata.camera_names.push_back(c.name);
   char segmentation[160];
   std::snprintf(segmentation, sizeof(segmentation),
-                "masks from the source; otherwise background plates, else brightness %s%s, close %d px, largest "
+                "masks from the source; otherwise background plates, else brightness %s%s, close "
+                "%d px, largest "
                 "component",
                 options.threshold ? ("> " + std::to_string(*options.threshold)).c_str() : "by Otsu",
                 options.dark_subject ? " (dark subject)" : "", options.close_px);
@@ -366,21 +395,24 @@ protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& captur
   fs::remove_all(partial);
   std::error_code error;
   fs::create_directories(partial, error);
-  if (error) return Status(StatusCode::kIoError, partial + ": cannot create (" + error.message() + ")");
+  if (error)
+    return Status(StatusCode::kIoError, partial + ": cannot create (" + error.message() + ")");
   auto fail = [&](const Status& s) -> Status {
     fs::remove_all(partial);
     return s;
   };
-  auto writer = protocol::RecordWriter::create((fs::path(partial) / kDatasetPodsFile).string(),
-                                               static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                                   std::chrono::system_clock::now().time_since_epoch())
-                                                                         .count()));
+  auto writer = protocol::RecordWriter::create(
+      (fs::path(partial) / kDatasetPodsFile).string(),
+      static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                std::chrono::system_clock::now().time_since_epoch())
+                                .count()));
   if (!writer.isOk()) return fail(writer.status());
   Status s = writer->append(protocol::RecordKind::kDatasetInfo, protocol::kServerStream, 0, 0,
                             encodeDatasetMetadata(metadata));
   if (!s.isOk()) return fail(s);
   for (const auto& camera : cameras) {
-    const protocol::OutgoingFrame calibration = protocol::encodeOutgoing(toCalibration(camera), protocol::nextSequence());
+    const protocol::OutgoingFrame calibration =
+        protocol::encodeOutgoing(toCalibration(camera), protocol::nextSequence());
     s = writer->append(protocol::RecordKind::kCalibration, camera.id, 0, 0, calibration);
     if (!s.isOk()) return fail(s);
   }
@@ -403,11 +435,13 @@ protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& captur
       pod.feather = featherMap(pod.mask);
       const protocol::OutgoingFrame frame =
           encodePodFrame(pod, cameras[c].id, protocol::Codec::kLz4PlanarDelta, options.crop_margin);
-      s = writer->append(protocol::RecordKind::kPodFrame, cameras[c].id, f + 1, f * interval_ns, frame);
+      s = writer->append(protocol::RecordKind::kPodFrame, cameras[c].id, f + 1, f * interval_ns,
+                         frame);
       if (!s.isOk()) return fail(s);
       ++status.done;
       status.megabytes = static_cast<double>(writer->bytes()) / 1e6;
-      status.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      status.seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       if (progress) progress(status);
     }
   }
@@ -416,8 +450,10 @@ protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& captur
   summary.megabytes = status.megabytes;
   if (fs::exists(out_dir)) fs::remove(out_dir);  // empty, checked above
   fs::rename(partial, out_dir, error);
-  if (error) return fail(Status(StatusCode::kIoError, out_dir + ": cannot move the finished dataset there (" +
-                                                          error.message() + ")"));
+  if (error)
+    return fail(
+        Status(StatusCode::kIoError,
+               out_dir + ": cannot move the finished dataset there (" + error.message() + ")"));
   return summary;
 }
 

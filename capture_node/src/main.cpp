@@ -19,10 +19,12 @@ int main(int argc, char** argv) {
   // What a synthetic pod makes and how it encodes it: a replay pod sends
   // the recorded bytes as they are, so these are refused with --replay.
   const std::vector<CLI::Option*> synthetic = {
-      app.add_option("--pods", options.pods, "cameras on the ring (1..16)")->check(CLI::Range(1, 16)),
+      app.add_option("--pods", options.pods, "cameras on the ring (1..16)")
+          ->check(CLI::Range(1, 16)),
       app.add_option("--size", size, "image size WxH"),
       app.add_option("--fps", options.fps, "frames per second")->check(CLI::Range(0.1, 240.0)),
-      app.add_option("--frames", options.frames, "stop after this many frames (0: run until signalled)"),
+      app.add_option("--frames", options.frames,
+                     "stop after this many frames (0: run until signalled)"),
       app.add_option("--scene", scene_name, "named synthetic scene: " + capture::sceneNames()),
       app.add_option("--seed", options.scene.seed, "scene seed"),
       addSharedFlag(app, "--noise", options.scene.noise_amplitude),
@@ -33,9 +35,12 @@ int main(int argc, char** argv) {
   std::string replay, speed = "1";
   bool loop = false;
   CLI::Option* replay_option =
-      app.add_option("--replay", replay, "replay camera --pod-id of this dataset folder instead of a synthetic scene");
+      app.add_option("--replay", replay,
+                     "replay camera --pod-id of this dataset folder instead of a synthetic scene");
   for (CLI::Option* option : synthetic) replay_option->excludes(option);
-  app.add_option("--speed", speed, "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
+  app.add_option(
+      "--speed", speed,
+      "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
   app.add_flag("--loop", loop, "with --replay: start over at the end");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   auto endpoint = protocol::parseEndpoint(server);
@@ -58,7 +63,8 @@ int main(int argc, char** argv) {
   }
   const capture::ScenePreset* preset = capture::findScene(scene_name);
   if (preset == nullptr) {
-    std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene_name.c_str(), capture::sceneNames().c_str());
+    std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene_name.c_str(),
+                 capture::sceneNames().c_str());
     return 2;
   }
   const capture::SceneOptions given = options.scene;

@@ -18,7 +18,8 @@ inline cv::Mat wrapForReading(const Image8& image) { return wrap(const_cast<Imag
 
 // A copy of an 8-bit Mat of 1 to 4 channels.
 inline Image8 fromMat(const cv::Mat& m) {
-  Image8 out(static_cast<uint32_t>(m.cols), static_cast<uint32_t>(m.rows), static_cast<uint32_t>(m.channels()));
+  Image8 out(static_cast<uint32_t>(m.cols), static_cast<uint32_t>(m.rows),
+             static_cast<uint32_t>(m.channels()));
   cv::Mat target = wrap(out);
   m.copyTo(target);
   return out;

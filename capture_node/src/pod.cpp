@@ -33,8 +33,9 @@ PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, co
   return capture;
 }
 
-protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec,
-                                       int crop_margin, int lz4_acceleration, int lz4_hc_level) {
+protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id,
+                                       protocol::Codec color_codec, int crop_margin,
+                                       int lz4_acceleration, int lz4_hc_level) {
   const uint64_t t0 = monotonicNs();
   // The compressed planes live as long as the frame that borrows them.
   auto storage = std::make_shared<std::array<std::vector<uint8_t>, 3>>();
@@ -60,14 +61,14 @@ protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, 
     frame.offset_x = rect.x;
     frame.offset_y = rect.y;
   }
-  frame.planes.push_back(
-      encodePlane(*color, protocol::PlaneKind::kColor, color_codec, color_bytes, lz4_acceleration, lz4_hc_level));
-  frame.planes.push_back(encodePlane(*mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, mask_bytes,
+  frame.planes.push_back(encodePlane(*color, protocol::PlaneKind::kColor, color_codec, color_bytes,
                                      lz4_acceleration, lz4_hc_level));
-  frame.planes.push_back(encodePlane(*feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4, feather_bytes,
-                                     lz4_acceleration, lz4_hc_level));
-  capture.stamps.push_back({static_cast<uint16_t>(Stage::kPodEncode), static_cast<uint16_t>(camera_id), t0,
-                            monotonicNs()});
+  frame.planes.push_back(encodePlane(*mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4,
+                                     mask_bytes, lz4_acceleration, lz4_hc_level));
+  frame.planes.push_back(encodePlane(*feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4,
+                                     feather_bytes, lz4_acceleration, lz4_hc_level));
+  capture.stamps.push_back({static_cast<uint16_t>(Stage::kPodEncode),
+                            static_cast<uint16_t>(camera_id), t0, monotonicNs()});
   frame.stamps = capture.stamps;
   return protocol::encodeOutgoing(frame, protocol::nextSequence(), storage);
 }
@@ -79,9 +80,12 @@ int runPod(const PodOptions& options) {
   const Image8 plate = scene.backgroundPlate(camera);
   const Camera reported = reportedCalibration(camera, options.calibration_error_degrees,
                                               options.calibration_error_metres, options.scene.seed);
-  std::fprintf(stderr, "[pod-%u] %ux%u at %g fps; colour %s at LZ4 acceleration %d, crop margin %d, LZ4HC level %d\n",
-               options.pod_id, options.width, options.height, options.fps, imageCodecName(options.color_codec).c_str(),
-               options.lz4_acceleration, options.crop_margin, options.lz4_hc_level);
+  std::fprintf(stderr,
+               "[pod-%u] %ux%u at %g fps; colour %s at LZ4 acceleration %d, crop margin %d, LZ4HC "
+               "level %d\n",
+               options.pod_id, options.width, options.height, options.fps,
+               imageCodecName(options.color_codec).c_str(), options.lz4_acceleration,
+               options.crop_margin, options.lz4_hc_level);
 
   protocol::Hello hello;
   hello.role = protocol::Role::kPod;
@@ -107,7 +111,8 @@ int runPod(const PodOptions& options) {
       link.poll(static_cast<int>(std::min<uint64_t>((next_due - now) / 1000000 + 1, 50)), received);
       received.clear();  // pods expect nothing but handshake and heartbeats
       if (link.fatalError()) {
-        std::fprintf(stderr, "[%s] giving up: %s\n", hello.name.c_str(), link.fatalError()->toString().c_str());
+        std::fprintf(stderr, "[%s] giving up: %s\n", hello.name.c_str(),
+                     link.fatalError()->toString().c_str());
         return 2;
       }
       if (link.takeConnectedEvent()) link.sendMessage(toCalibration(reported));
@@ -115,18 +120,23 @@ int runPod(const PodOptions& options) {
     }
     if (last_frame_id != 0 && frame_id > last_frame_id + 1) skipped += frame_id - last_frame_id - 1;
     last_frame_id = frame_id;
-    PodCapture capture = capturePodFrame(scene, camera, plate, frame_id, static_cast<uint16_t>(options.pod_id));
-    link.send(std::make_shared<const protocol::OutgoingFrame>(encodePodFrame(
-        capture, camera.id, options.color_codec, options.crop_margin, options.lz4_acceleration, options.lz4_hc_level)));
+    PodCapture capture =
+        capturePodFrame(scene, camera, plate, frame_id, static_cast<uint16_t>(options.pod_id));
+    link.send(std::make_shared<const protocol::OutgoingFrame>(
+        encodePodFrame(capture, camera.id, options.color_codec, options.crop_margin,
+                       options.lz4_acceleration, options.lz4_hc_level)));
     link.poll(0, received);
     received.clear();
     ++sent;
     if (options.frames > 0 && sent >= options.frames) break;
   }
   link.close(stopRequested() ? "pod stopped by signal" : "pod finished its frames");
-  std::fprintf(stderr, "[%s] sent %llu frames (%llu ids skipped to stay real-time), %.1f MB, %llu dropped by the queue\n",
-               hello.name.c_str(), static_cast<unsigned long long>(sent), static_cast<unsigned long long>(skipped),
-               link.bytesOut() / 1e6, static_cast<unsigned long long>(link.framesDropped()));
+  std::fprintf(stderr,
+               "[%s] sent %llu frames (%llu ids skipped to stay real-time), %.1f MB, %llu dropped "
+               "by the queue\n",
+               hello.name.c_str(), static_cast<unsigned long long>(sent),
+               static_cast<unsigned long long>(skipped), link.bytesOut() / 1e6,
+               static_cast<unsigned long long>(link.framesDropped()));
   return 0;
 }
 

@@ -31,7 +31,8 @@ namespace {
 
 // The recorded PodFrame with this replay's id, capture time and stamps;
 // its planes are borrowed from the recorded bytes, never re-encoded.
-protocol::StatusOr<protocol::SharedFrame> restamp(const Dataset& dataset, const protocol::RecordInfo& record,
+protocol::StatusOr<protocol::SharedFrame> restamp(const Dataset& dataset,
+                                                  const protocol::RecordInfo& record,
                                                   uint64_t frame_id, uint32_t camera_id) {
   const uint64_t t0 = monotonicNs();
   auto frame = dataset.readFrame(record);
@@ -41,14 +42,15 @@ protocol::StatusOr<protocol::SharedFrame> restamp(const Dataset& dataset, const 
   HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(*owned, pod));
   if (pod.camera_id != camera_id) {
     return protocol::Status(protocol::StatusCode::kMalformed,
-                            dataset.records().path() + ": the record at byte " + std::to_string(record.offset) +
-                                " is filed under camera " + std::to_string(camera_id) + " but holds camera " +
+                            dataset.records().path() + ": the record at byte " +
+                                std::to_string(record.offset) + " is filed under camera " +
+                                std::to_string(camera_id) + " but holds camera " +
                                 std::to_string(pod.camera_id));
   }
   pod.frame_id = frame_id;
   pod.capture_time_ns = t0;
-  pod.stamps = {{static_cast<uint16_t>(protocol::Stage::kReplayRead), static_cast<uint16_t>(camera_id), t0,
-                 monotonicNs()}};
+  pod.stamps = {{static_cast<uint16_t>(protocol::Stage::kReplayRead),
+                 static_cast<uint16_t>(camera_id), t0, monotonicNs()}};
   return std::make_shared<const protocol::OutgoingFrame>(
       protocol::encodeOutgoing(pod, protocol::nextSequence(), std::shared_ptr<const void>(owned)));
 }
@@ -95,7 +97,8 @@ int runReplayPod(const ReplayOptions& options) {
   // one frame interval.
   const uint64_t id_span = dataset->lastFrameId() - dataset->firstFrameId() + 1;
   const uint64_t duration = dataset->lastTimeNs() - dataset->firstTimeNs();
-  const uint64_t interval = dataset->frameIds() > 1 ? duration / (dataset->frameIds() - 1) : 100000000ull;
+  const uint64_t interval =
+      dataset->frameIds() > 1 ? duration / (dataset->frameIds() - 1) : 100000000ull;
   const uint64_t loop_period = duration + interval;
   const size_t total = camera.frames.size();
   const uint64_t start = monotonicNs();
@@ -106,17 +109,21 @@ int runReplayPod(const ReplayOptions& options) {
       // Pace: the recorded receive time (scaled), or the server's accept
       // rate (nothing queued beyond what the socket holds).
       const uint64_t due =
-          options.speed > 0 ? start + static_cast<uint64_t>(static_cast<double>(loop * loop_period + record.time_ns -
-                                                                                 dataset->firstTimeNs()) /
-                                                            options.speed)
-                            : 0;
+          options.speed > 0
+              ? start +
+                    static_cast<uint64_t>(static_cast<double>(loop * loop_period + record.time_ns -
+                                                              dataset->firstTimeNs()) /
+                                          options.speed)
+              : 0;
       for (;;) {
         const uint64_t now = monotonicNs();
         const bool ready = link.ready() && link.queuedFrames() == 0 && now >= due;
         if (ready) break;
-        const int wait_ms = now >= due ? 20 : static_cast<int>(std::min<uint64_t>((due - now) / 1000000 + 1, 50));
+        const int wait_ms =
+            now >= due ? 20 : static_cast<int>(std::min<uint64_t>((due - now) / 1000000 + 1, 50));
         if (!pump(wait_ms)) {
-          std::fprintf(stderr, "[%s] giving up: %s\n", name.c_str(), link.fatalError()->toString().c_str());
+          std::fprintf(stderr, "[%s] giving up: %s\n", name.c_str(),
+                       link.fatalError()->toString().c_str());
           return 2;
         }
         if (stopRequested()) break;
@@ -125,7 +132,8 @@ int runReplayPod(const ReplayOptions& options) {
       auto frame = restamp(*dataset, record, record.frame_id + loop * id_span, options.pod_id);
       if (!frame.isOk()) {
         // A damaged record costs that frame, as a dropped frame would.
-        std::fprintf(stderr, "[%s] skipping a frame: %s\n", name.c_str(), frame.status().message().c_str());
+        std::fprintf(stderr, "[%s] skipping a frame: %s\n", name.c_str(),
+                     frame.status().message().c_str());
         continue;
       }
       bytes += (*frame)->size();
@@ -138,20 +146,24 @@ int runReplayPod(const ReplayOptions& options) {
         const double seconds = static_cast<double>(now - start) / 1e9;
         const double rate = static_cast<double>(sent) / seconds;
         const size_t done = i + 1;
-        std::fprintf(stderr, "[%s] loop %llu: %zu/%zu frames, %.1f MB, %.1f frames/s, ETA %.0f s\n", name.c_str(),
-                     static_cast<unsigned long long>(loop + 1), done, total, static_cast<double>(bytes) / 1e6, rate,
+        std::fprintf(stderr, "[%s] loop %llu: %zu/%zu frames, %.1f MB, %.1f frames/s, ETA %.0f s\n",
+                     name.c_str(), static_cast<unsigned long long>(loop + 1), done, total,
+                     static_cast<double>(bytes) / 1e6, rate,
                      rate > 0 ? static_cast<double>(total - done) / rate : 0.0);
       }
     }
     if (!options.loop || total == 0) break;  // nothing to loop over
   }
-  if (total == 0) std::fprintf(stderr, "[%s] camera %u has a calibration but no frames\n", name.c_str(), options.pod_id);
+  if (total == 0)
+    std::fprintf(stderr, "[%s] camera %u has a calibration but no frames\n", name.c_str(),
+                 options.pod_id);
   // Everything handed to the socket, then an orderly close that waits for
   // the server to read it all (it may be holding this pod back).
   while (!stopRequested() && link.ready() && link.queuedFrames() > 0) pump(20);
-  link.close(stopRequested() ? "replay stopped by signal" : "replay finished", stopRequested() ? 500 : 120000);
-  std::fprintf(stderr, "[%s] sent %llu frames, %.1f MB\n", name.c_str(), static_cast<unsigned long long>(sent),
-               static_cast<double>(bytes) / 1e6);
+  link.close(stopRequested() ? "replay stopped by signal" : "replay finished",
+             stopRequested() ? 500 : 120000);
+  std::fprintf(stderr, "[%s] sent %llu frames, %.1f MB\n", name.c_str(),
+               static_cast<unsigned long long>(sent), static_cast<double>(bytes) / 1e6);
   return 0;
 }
 

@@ -21,7 +21,8 @@ std::vector<ScenePreset> makeLibrary() {
     s.calibration_error_metres = 0.008;
   }
   {
-    ScenePreset& s = add("colour-imbalance", "white balance and gain three times as uneven, and a specular highlight");
+    ScenePreset& s = add("colour-imbalance",
+                         "white balance and gain three times as uneven, and a specular highlight");
     s.scene.gain_spread = 3.0;
     s.scene.specular = 0.45;
   }

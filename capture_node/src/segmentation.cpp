@@ -6,7 +6,8 @@
 
 namespace holofuse::capture {
 
-Image8 segmentForeground(const Image8& frame, const Image8& plate, const SegmentationOptions& options) {
+Image8 segmentForeground(const Image8& frame, const Image8& plate,
+                         const SegmentationOptions& options) {
   Image8 mask(frame.width, frame.height, 1);
   cv::Mat diff;
   cv::absdiff(wrapForReading(frame), wrapForReading(plate), diff);

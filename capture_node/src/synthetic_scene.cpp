@@ -11,7 +11,20 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-enum Part { kTorso, kHead, kNeck, kUpperArmL, kForearmL, kUpperArmR, kForearmR, kThighL, kShinL, kThighR, kShinR, kPartCount };
+enum Part {
+  kTorso,
+  kHead,
+  kNeck,
+  kUpperArmL,
+  kForearmL,
+  kUpperArmR,
+  kForearmR,
+  kThighL,
+  kShinL,
+  kThighR,
+  kShinR,
+  kPartCount
+};
 
 struct Capsule {
   glm::dvec3 a, b;
@@ -24,7 +37,6 @@ double capsuleDistance(const glm::dvec3& p, const Capsule& c) {
   const double h = len2 > 0 ? std::clamp(glm::dot(pa, ba) / len2, 0.0, 1.0) : 0.0;
   return glm::length(pa - ba * h) - c.radius;
 }
-
 
 int64_t cell(double v, double size) { return static_cast<int64_t>(std::floor(v / size)); }
 
@@ -46,7 +58,9 @@ struct SyntheticScene::Pose {
   glm::dmat3 body_to_world{1.0};
   glm::dvec3 body_origin{0.0};
   std::array<Capsule, kPartCount> parts{};
-  glm::dvec3 toBody(const glm::dvec3& p) const { return glm::transpose(body_to_world) * (p - body_origin); }
+  glm::dvec3 toBody(const glm::dvec3& p) const {
+    return glm::transpose(body_to_world) * (p - body_origin);
+  }
 };
 
 SyntheticScene::SyntheticScene(SceneOptions options) : options_(options) {}
@@ -59,7 +73,9 @@ SyntheticScene::Pose SyntheticScene::poseAt(double t) const {
   const double c = std::cos(yaw), s = std::sin(yaw);
   pose.body_to_world = glm::dmat3(glm::dvec3(c, 0, -s), glm::dvec3(0, 1, 0), glm::dvec3(s, 0, c));
   pose.body_origin = glm::dvec3(0.08 * std::sin(0.6 * t + phase), 0, 0);
-  auto world = [&](const glm::dvec3& local) { return pose.body_origin + pose.body_to_world * local; };
+  auto world = [&](const glm::dvec3& local) {
+    return pose.body_origin + pose.body_to_world * local;
+  };
 
   pose.parts[kTorso] = {glm::dvec3(0, 0.88, 0), glm::dvec3(0, 1.28, 0), 0.16};
   pose.parts[kHead] = {glm::dvec3(0, 1.56, 0), glm::dvec3(0, 1.56, 0), 0.115};
@@ -133,7 +149,8 @@ glm::dvec3 SyntheticScene::albedo(const glm::dvec3& p, const Pose& pose, int par
         const double cell_size = 0.011;
         const int64_t cx = cell(b.x + 0.11, cell_size), cy = cell(1.2 - b.y, cell_size);
         const int64_t gx = cx / 6, gy = cy / 8, ix = cx % 6, iy = cy % 8;
-        if (ix < 5 && iy < 7 && hashToUnitInterval(options_.seed * 7919 + gx * 131 + gy * 977 + ix * 17 + iy) > 0.55) {
+        if (ix < 5 && iy < 7 &&
+            hashToUnitInterval(options_.seed * 7919 + gx * 131 + gy * 977 + ix * 17 + iy) > 0.55) {
           return glm::dvec3(0.06, 0.06, 0.08);
         }
         return glm::dvec3(0.96, 0.95, 0.9);
@@ -146,7 +163,8 @@ glm::dvec3 SyntheticScene::albedo(const glm::dvec3& p, const Pose& pose, int par
       if (h.y > 0.045 || (h.z < -0.02 && h.y > -0.03)) return glm::dvec3(0.3, 0.18, 0.08);  // hair
       if (h.z > 0.05) {
         for (double ex : {-0.04, 0.04}) {
-          if (std::hypot(h.x - ex, h.y - 0.015) < 0.017) return glm::dvec3(0.08, 0.08, 0.12);  // eyes
+          if (std::hypot(h.x - ex, h.y - 0.015) < 0.017)
+            return glm::dvec3(0.08, 0.08, 0.12);  // eyes
         }
         if (std::abs(h.x) < 0.04 && h.y > -0.06 && h.y < -0.042) return glm::dvec3(0.62, 0.1, 0.12);
         if (std::abs(h.x) < 0.012 && h.y > -0.03 && h.y < 0.0) return glm::dvec3(0.75, 0.5, 0.42);
@@ -170,7 +188,8 @@ glm::dvec3 SyntheticScene::albedo(const glm::dvec3& p, const Pose& pose, int par
       const int64_t checker = cell(along, 0.03) + cell(angle + kPi, kPi / 6);
       const bool arm = part <= kForearmR;
       if (arm) return (checker & 1) ? glm::dvec3(0.95, 0.8, 0.1) : glm::dvec3(0.12, 0.3, 0.8);
-      return (cell(angle + kPi, kPi / 10) & 1) ? glm::dvec3(0.16, 0.24, 0.5) : glm::dvec3(0.3, 0.38, 0.62);
+      return (cell(angle + kPi, kPi / 10) & 1) ? glm::dvec3(0.16, 0.24, 0.5)
+                                               : glm::dvec3(0.3, 0.38, 0.62);
     }
   }
 }
@@ -213,7 +232,8 @@ Image8 SyntheticScene::backgroundPlate(const Camera& camera) const {
     for (uint32_t x = 0; x < camera.width; ++x) {
       const glm::dvec3 c = backdrop(camera.rayDirection(x + 0.5, y + 0.5));
       uint8_t* px = plate.at(x, y);
-      for (int k = 0; k < 3; ++k) px[k] = static_cast<uint8_t>(std::clamp(c[k] * 255.0 + 0.5, 0.0, 255.0));
+      for (int k = 0; k < 3; ++k)
+        px[k] = static_cast<uint8_t>(std::clamp(c[k] * 255.0 + 0.5, 0.0, 255.0));
     }
   }
   return plate;
@@ -243,7 +263,8 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
         ry1 = camera.height;
         continue;
       }
-      const double margin = c.radius * std::max(camera.fx, camera.fy) / std::max(pixel->z - c.radius, 1e-3) + 2;
+      const double margin =
+          c.radius * std::max(camera.fx, camera.fy) / std::max(pixel->z - c.radius, 1e-3) + 2;
       rx0 = std::min(rx0, pixel->x - margin);
       ry0 = std::min(ry0, pixel->y - margin);
       rx1 = std::max(rx1, pixel->x + margin);
@@ -275,10 +296,13 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
         if (hit) {
           const glm::dvec3 p = origin + t * dir;
           const double e = 5e-4;
-          const glm::dvec3 n = glm::normalize(glm::dvec3(
-              distance(p + glm::dvec3(e, 0, 0), pose, nullptr) - distance(p - glm::dvec3(e, 0, 0), pose, nullptr),
-              distance(p + glm::dvec3(0, e, 0), pose, nullptr) - distance(p - glm::dvec3(0, e, 0), pose, nullptr),
-              distance(p + glm::dvec3(0, 0, e), pose, nullptr) - distance(p - glm::dvec3(0, 0, e), pose, nullptr)));
+          const glm::dvec3 n =
+              glm::normalize(glm::dvec3(distance(p + glm::dvec3(e, 0, 0), pose, nullptr) -
+                                            distance(p - glm::dvec3(e, 0, 0), pose, nullptr),
+                                        distance(p + glm::dvec3(0, e, 0), pose, nullptr) -
+                                            distance(p - glm::dvec3(0, e, 0), pose, nullptr),
+                                        distance(p + glm::dvec3(0, 0, e), pose, nullptr) -
+                                            distance(p - glm::dvec3(0, 0, e), pose, nullptr)));
           // Lambertian: the colour of a surface point is the same from
           // every camera up to that camera's gain.
           color = albedo(p, pose, part) * (0.35 + 0.65 * std::max(0.0, glm::dot(n, kLight))) * gain;
@@ -290,11 +314,13 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
           }
         }
       }
-      const uint64_t noise_key = ((options_.seed * 1000003 + frame_id) * 64 + camera.id) * 0x100000000ull +
-                                 static_cast<uint64_t>(y) * camera.width + x;
+      const uint64_t noise_key =
+          ((options_.seed * 1000003 + frame_id) * 64 + camera.id) * 0x100000000ull +
+          static_cast<uint64_t>(y) * camera.width + x;
       uint8_t* px = view.color.at(x, y);
       for (int k = 0; k < 3; ++k) {
-        const double noise = options_.noise_amplitude * (2 * hashToUnitInterval(noise_key * 3 + k) - 1);
+        const double noise =
+            options_.noise_amplitude * (2 * hashToUnitInterval(noise_key * 3 + k) - 1);
         px[k] = static_cast<uint8_t>(std::clamp(color[k] * 255.0 + noise + 0.5, 0.0, 255.0));
       }
       *view.mask.at(x, y) = hit ? 255 : 0;
@@ -308,8 +334,8 @@ Mesh SyntheticScene::truthMesh(uint64_t frame_id, double spacing) const {
   glm::dvec3 lo, hi;
   subjectBounds(lo, hi);
   const glm::ivec3 n = glm::ivec3(glm::ceil((hi - lo) / spacing)) + 1;
-  const ScalarGrid grid = sampleGrid(lo, spacing, n.x, n.y, n.z,
-                                     [&](const glm::dvec3& p) { return -distance(p, pose, nullptr); });
+  const ScalarGrid grid = sampleGrid(
+      lo, spacing, n.x, n.y, n.z, [&](const glm::dvec3& p) { return -distance(p, pose, nullptr); });
   return marchingCubes(grid);
 }
 

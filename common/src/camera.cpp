@@ -80,7 +80,8 @@ protocol::Calibration toCalibration(const Camera& camera) {
   m.skew = camera.skew;
   m.distortion = camera.distortion;
   for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) m.rotation[r * 3 + c] = camera.rotation[c][r];  // glm is column major
+    for (int c = 0; c < 3; ++c)
+      m.rotation[r * 3 + c] = camera.rotation[c][r];  // glm is column major
     m.translation[r] = camera.translation[r];
   }
   return m;

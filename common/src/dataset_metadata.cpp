@@ -18,7 +18,8 @@ protocol::Bytes encodeDatasetMetadata(const DatasetMetadata& m) {
   return protocol::Bytes(text.begin(), text.end());
 }
 
-protocol::StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes& bytes, const std::string& where) {
+protocol::StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes& bytes,
+                                                          const std::string& where) {
   using protocol::Status;
   using protocol::StatusCode;
   DatasetMetadata m;
@@ -36,17 +37,20 @@ protocol::StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes&
       return true;
     };
     if (!vec("volume_min", m.volume_min) || !vec("volume_max", m.volume_max)) {
-      return Status(StatusCode::kMalformed, where + ": volume_min and volume_max must be three finite numbers");
+      return Status(StatusCode::kMalformed,
+                    where + ": volume_min and volume_max must be three finite numbers");
     }
     m.voxel_size = j.value("voxel_size", 0.0);
     if (!(m.voxel_size >= 0.0) || !std::isfinite(m.voxel_size)) {
       return Status(StatusCode::kMalformed, where + ": voxel_size must be a non-negative number");
     }
-    if (j.contains("camera_names")) m.camera_names = j["camera_names"].get<std::vector<std::string>>();
+    if (j.contains("camera_names"))
+      m.camera_names = j["camera_names"].get<std::vector<std::string>>();
     m.still = j.value("still", false);
     m.segmentation = j.value("segmentation", "");
   } catch (const nlohmann::json::exception& e) {
-    return Status(StatusCode::kMalformed, where + ": dataset metadata is not the expected JSON (" + e.what() + ")");
+    return Status(StatusCode::kMalformed,
+                  where + ": dataset metadata is not the expected JSON (" + e.what() + ")");
   }
   return m;
 }

@@ -5,7 +5,8 @@
 
 namespace holofuse {
 
-DepthMap rasterizeDepth(const Mesh& mesh, const Camera& camera, double near_plane, std::vector<int32_t>* triangle_of) {
+DepthMap rasterizeDepth(const Mesh& mesh, const Camera& camera, double near_plane,
+                        std::vector<int32_t>* triangle_of) {
   DepthMap map;
   map.width = camera.width;
   map.height = camera.height;
@@ -21,12 +22,15 @@ DepthMap rasterizeDepth(const Mesh& mesh, const Camera& camera, double near_plan
       if (usable) p[k] = *projected;
     }
     if (!usable) continue;
-    const double area = (p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[2].x - p[0].x) * (p[1].y - p[0].y);
+    const double area =
+        (p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[2].x - p[0].x) * (p[1].y - p[0].y);
     if (!(std::abs(area) > 1e-12)) continue;  // degenerate in the image
-    const int x0 = std::max(0, static_cast<int>(std::floor(std::min({p[0].x, p[1].x, p[2].x}) - 0.5)));
+    const int x0 =
+        std::max(0, static_cast<int>(std::floor(std::min({p[0].x, p[1].x, p[2].x}) - 0.5)));
     const int x1 = std::min(static_cast<int>(camera.width) - 1,
                             static_cast<int>(std::ceil(std::max({p[0].x, p[1].x, p[2].x}) - 0.5)));
-    const int y0 = std::max(0, static_cast<int>(std::floor(std::min({p[0].y, p[1].y, p[2].y}) - 0.5)));
+    const int y0 =
+        std::max(0, static_cast<int>(std::floor(std::min({p[0].y, p[1].y, p[2].y}) - 0.5)));
     const int y1 = std::min(static_cast<int>(camera.height) - 1,
                             static_cast<int>(std::ceil(std::max({p[0].y, p[1].y, p[2].y}) - 0.5)));
     for (int y = y0; y <= y1; ++y) {

@@ -16,7 +16,12 @@ std::string colour(size_t i) { return kPalette[i % (sizeof(kPalette) / sizeof(kP
 std::string number(double v) {
   char buffer[32];
   const double a = std::abs(v);
-  std::snprintf(buffer, sizeof(buffer), a >= 100 ? "%.0f" : a >= 10 ? "%.1f" : a >= 1 ? "%.2f" : "%.3f", v);
+  std::snprintf(buffer, sizeof(buffer),
+                a >= 100  ? "%.0f"
+                : a >= 10 ? "%.1f"
+                : a >= 1  ? "%.2f"
+                          : "%.3f",
+                v);
   return buffer;
 }
 
@@ -36,11 +41,20 @@ std::string escape(const std::string& text) {
   std::string out;
   for (char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -50,49 +64,56 @@ std::string barChart(const std::string& title, const std::vector<std::string>& c
                      const std::vector<Series>& series, const std::string& unit) {
   size_t longest_label = 0;
   for (const auto& c : categories) longest_label = std::max(longest_label, c.size());
-  const double group_width = std::max(28.0 * static_cast<double>(std::max<size_t>(series.size(), 1)) + 24.0,
-                                      7.0 * static_cast<double>(longest_label) + 12.0);
+  const double group_width =
+      std::max(28.0 * static_cast<double>(std::max<size_t>(series.size(), 1)) + 24.0,
+               7.0 * static_cast<double>(longest_label) + 12.0);
   // Wide enough for the groups, the legend and the title.
-  const double width = std::max({70 + group_width * static_cast<double>(std::max<size_t>(categories.size(), 1)) + 20,
-                                 80 + 130.0 * static_cast<double>(series.size()),
-                                 40 + 8.0 * static_cast<double>(title.size() + unit.size())});
+  const double width =
+      std::max({70 + group_width * static_cast<double>(std::max<size_t>(categories.size(), 1)) + 20,
+                80 + 130.0 * static_cast<double>(series.size()),
+                40 + 8.0 * static_cast<double>(title.size() + unit.size())});
   const double height = 300, top = 40, bottom = 60, plot = height - top - bottom;
   double top_value = 0;
   for (const auto& s : series) {
     for (double v : s.values) top_value = std::max(top_value, finiteOrZero(v));
   }
   if (!(top_value > 0)) top_value = 1;
-  std::string svg = "<figure><svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" + number(width) +
-                    "\" height=\"" + number(height) + "\" role=\"img\" aria-label=\"" + escape(title) + "\">";
-  svg += "<text x=\"10\" y=\"20\" class=\"title\">" + escape(title) + " (" + escape(unit) + ")</text>";
-  svg += "<line x1=\"60\" y1=\"" + number(top + plot) + "\" x2=\"" + number(width - 10) + "\" y2=\"" +
-         number(top + plot) + "\" class=\"axis\"/>";
+  std::string svg = "<figure><svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" +
+                    number(width) + "\" height=\"" + number(height) +
+                    "\" role=\"img\" aria-label=\"" + escape(title) + "\">";
+  svg +=
+      "<text x=\"10\" y=\"20\" class=\"title\">" + escape(title) + " (" + escape(unit) + ")</text>";
+  svg += "<line x1=\"60\" y1=\"" + number(top + plot) + "\" x2=\"" + number(width - 10) +
+         "\" y2=\"" + number(top + plot) + "\" class=\"axis\"/>";
   for (size_t c = 0; c < categories.size(); ++c) {
     const double gx = 70 + group_width * static_cast<double>(c);
     for (size_t s = 0; s < series.size(); ++s) {
       const double x = gx + 28.0 * static_cast<double>(s);
       if (c < series[s].values.size() && std::isnan(series[s].values[c])) {
         // Not measured: no bar, so that it cannot pass for a small value.
-        svg += "<text class=\"value\" x=\"" + number(x + 12) + "\" y=\"" + number(top + plot - 3) + "\">n/a</text>";
+        svg += "<text class=\"value\" x=\"" + number(x + 12) + "\" y=\"" + number(top + plot - 3) +
+               "\">n/a</text>";
         continue;
       }
       const double v = c < series[s].values.size() ? finiteOrZero(series[s].values[c]) : 0.0;
       const double h = std::max(0.0, v) / top_value * plot;
-      svg += "<rect class=\"bar\" data-encoding=\"height\" data-value=\"" + exact(v) + "\" x=\"" + number(x) +
-             "\" y=\"" + number(top + plot - h) + "\" width=\"24\" height=\"" + number(std::max(h, 0.5)) +
-             "\" fill=\"" + colour(s) + "\"><title>" + escape(series[s].name) + ", " + escape(categories[c]) + ": " +
-             number(v) + " " + escape(unit) + "</title></rect>";
-      svg += "<text class=\"value\" x=\"" + number(x + 12) + "\" y=\"" + number(top + plot - h - 3) + "\">" +
-             number(v) + "</text>";
+      svg += "<rect class=\"bar\" data-encoding=\"height\" data-value=\"" + exact(v) + "\" x=\"" +
+             number(x) + "\" y=\"" + number(top + plot - h) + "\" width=\"24\" height=\"" +
+             number(std::max(h, 0.5)) + "\" fill=\"" + colour(s) + "\"><title>" +
+             escape(series[s].name) + ", " + escape(categories[c]) + ": " + number(v) + " " +
+             escape(unit) + "</title></rect>";
+      svg += "<text class=\"value\" x=\"" + number(x + 12) + "\" y=\"" +
+             number(top + plot - h - 3) + "\">" + number(v) + "</text>";
     }
     svg += "<text class=\"category\" x=\"" + number(gx + group_width / 2 - 12) + "\" y=\"" +
            number(top + plot + 16) + "\">" + escape(categories[c]) + "</text>";
   }
   for (size_t s = 0; s < series.size(); ++s) {
     const double lx = 70 + 130.0 * static_cast<double>(s);
-    svg += "<rect x=\"" + number(lx) + "\" y=\"" + number(height - 22) + "\" width=\"12\" height=\"12\" fill=\"" +
-           colour(s) + "\"/><text x=\"" + number(lx + 16) + "\" y=\"" + number(height - 12) + "\">" +
-           escape(series[s].name) + "</text>";
+    svg += "<rect x=\"" + number(lx) + "\" y=\"" + number(height - 22) +
+           "\" width=\"12\" height=\"12\" fill=\"" + colour(s) + "\"/><text x=\"" +
+           number(lx + 16) + "\" y=\"" + number(height - 12) + "\">" + escape(series[s].name) +
+           "</text>";
   }
   return svg + "</svg></figure>\n";
 }
@@ -110,9 +131,11 @@ std::string stackedBars(const std::string& title, const std::vector<std::string>
   }
   if (!(longest > 0)) longest = 1;
   const double scale = (width - left - right) / longest;
-  std::string svg = "<figure><svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" + number(width) +
-                    "\" height=\"" + number(height) + "\" role=\"img\" aria-label=\"" + escape(title) + "\">";
-  svg += "<text x=\"10\" y=\"20\" class=\"title\">" + escape(title) + " (" + escape(unit) + ")</text>";
+  std::string svg = "<figure><svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" +
+                    number(width) + "\" height=\"" + number(height) +
+                    "\" role=\"img\" aria-label=\"" + escape(title) + "\">";
+  svg +=
+      "<text x=\"10\" y=\"20\" class=\"title\">" + escape(title) + " (" + escape(unit) + ")</text>";
   for (size_t r = 0; r < rows.size(); ++r) {
     const double y = 34 + row_height * static_cast<double>(r);
     svg += "<text x=\"10\" y=\"" + number(y + 18) + "\">" + escape(rows[r].label) + "</text>";
@@ -122,25 +145,28 @@ std::string stackedBars(const std::string& title, const std::vector<std::string>
       total += v;
       const double w = v * scale;
       if (w <= 0) continue;
-      svg += "<rect class=\"bar\" data-encoding=\"width\" data-value=\"" + exact(v) + "\" x=\"" + number(x) +
-             "\" y=\"" + number(y) + "\" width=\"" + number(w) + "\" height=\"24\" fill=\"" + colour(s) + "\"><title>" +
-             escape(stages[s]) + ": " + number(v) + " " + escape(unit) + "</title></rect>";
+      svg += "<rect class=\"bar\" data-encoding=\"width\" data-value=\"" + exact(v) + "\" x=\"" +
+             number(x) + "\" y=\"" + number(y) + "\" width=\"" + number(w) +
+             "\" height=\"24\" fill=\"" + colour(s) + "\"><title>" + escape(stages[s]) + ": " +
+             number(v) + " " + escape(unit) + "</title></rect>";
       x += w;
     }
-    svg += "<text x=\"" + number(x + 6) + "\" y=\"" + number(y + 17) + "\">" + number(total) + " " + escape(unit) +
-           "</text>";
+    svg += "<text x=\"" + number(x + 6) + "\" y=\"" + number(y + 17) + "\">" + number(total) + " " +
+           escape(unit) + "</text>";
   }
   for (size_t s = 0; s < stages.size(); ++s) {
     const double lx = 10 + 170.0 * static_cast<double>(s % 5);
-    const double ly = 40 + row_height * static_cast<double>(rows.size()) + 22 * static_cast<double>(s / 5);
-    svg += "<rect x=\"" + number(lx) + "\" y=\"" + number(ly) + "\" width=\"12\" height=\"12\" fill=\"" + colour(s) +
-           "\"/><text x=\"" + number(lx + 16) + "\" y=\"" + number(ly + 10) + "\">" + escape(stages[s]) + "</text>";
+    const double ly =
+        40 + row_height * static_cast<double>(rows.size()) + 22 * static_cast<double>(s / 5);
+    svg += "<rect x=\"" + number(lx) + "\" y=\"" + number(ly) +
+           "\" width=\"12\" height=\"12\" fill=\"" + colour(s) + "\"/><text x=\"" +
+           number(lx + 16) + "\" y=\"" + number(ly + 10) + "\">" + escape(stages[s]) + "</text>";
   }
   return svg + "</svg></figure>\n";
 }
 
-std::string scatterChart(const std::string& title, const std::string& x_label, const std::string& y_label,
-                         const std::vector<Point>& points) {
+std::string scatterChart(const std::string& title, const std::string& x_label,
+                         const std::string& y_label, const std::vector<Point>& points) {
   const double width = 620, height = 380, left = 70, right = 30, top = 40, bottom = 50;
   double x0 = 0, x1 = 1, y0 = 0, y1 = 1;
   bool first = true;
@@ -163,23 +189,26 @@ std::string scatterChart(const std::string& title, const std::string& x_label, c
   y0 -= pady;
   y1 += pady;
   auto sx = [&](double x) { return left + (x - x0) / (x1 - x0) * (width - left - right); };
-  auto sy = [&](double y) { return height - bottom - (y - y0) / (y1 - y0) * (height - top - bottom); };
-  std::string svg = "<figure><svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" + number(width) +
-                    "\" height=\"" + number(height) + "\" role=\"img\" aria-label=\"" + escape(title) + "\">";
+  auto sy = [&](double y) {
+    return height - bottom - (y - y0) / (y1 - y0) * (height - top - bottom);
+  };
+  std::string svg = "<figure><svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" +
+                    number(width) + "\" height=\"" + number(height) +
+                    "\" role=\"img\" aria-label=\"" + escape(title) + "\">";
   svg += "<text x=\"10\" y=\"20\" class=\"title\">" + escape(title) + "</text>";
-  svg += "<line class=\"axis\" x1=\"" + number(left) + "\" y1=\"" + number(height - bottom) + "\" x2=\"" +
-         number(width - right) + "\" y2=\"" + number(height - bottom) + "\"/>";
-  svg += "<line class=\"axis\" x1=\"" + number(left) + "\" y1=\"" + number(top) + "\" x2=\"" + number(left) +
-         "\" y2=\"" + number(height - bottom) + "\"/>";
+  svg += "<line class=\"axis\" x1=\"" + number(left) + "\" y1=\"" + number(height - bottom) +
+         "\" x2=\"" + number(width - right) + "\" y2=\"" + number(height - bottom) + "\"/>";
+  svg += "<line class=\"axis\" x1=\"" + number(left) + "\" y1=\"" + number(top) + "\" x2=\"" +
+         number(left) + "\" y2=\"" + number(height - bottom) + "\"/>";
   for (int t = 0; t <= 4; ++t) {
     const double xv = x0 + (x1 - x0) * t / 4, yv = y0 + (y1 - y0) * t / 4;
-    svg += "<text class=\"category\" x=\"" + number(sx(xv)) + "\" y=\"" + number(height - bottom + 16) + "\">" +
-           number(xv) + "</text>";
+    svg += "<text class=\"category\" x=\"" + number(sx(xv)) + "\" y=\"" +
+           number(height - bottom + 16) + "\">" + number(xv) + "</text>";
     svg += "<text x=\"" + number(left - 6) + "\" y=\"" + number(sy(yv) + 4) +
            "\" style=\"text-anchor:end\">" + number(yv) + "</text>";
   }
-  svg += "<text class=\"category\" x=\"" + number((left + width - right) / 2) + "\" y=\"" + number(height - 10) +
-         "\">" + escape(x_label) + "</text>";
+  svg += "<text class=\"category\" x=\"" + number((left + width - right) / 2) + "\" y=\"" +
+         number(height - 10) + "\">" + escape(x_label) + "</text>";
   svg += "<text x=\"14\" y=\"" + number(top - 8) + "\">" + escape(y_label) + "</text>";
   std::vector<const Point*> front;
   for (const auto& p : points) {
@@ -193,43 +222,57 @@ std::string scatterChart(const std::string& title, const std::string& x_label, c
   }
   for (const auto& p : points) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-    svg += "<circle class=\"bar\" data-encoding=\"position\" data-x=\"" + exact(p.x) + "\" data-y=\"" + exact(p.y) +
-           "\" cx=\"" + number(sx(p.x)) + "\" cy=\"" + number(sy(p.y)) + "\" r=\"5\" fill=\"" +
+    svg += "<circle class=\"bar\" data-encoding=\"position\" data-x=\"" + exact(p.x) +
+           "\" data-y=\"" + exact(p.y) + "\" cx=\"" + number(sx(p.x)) + "\" cy=\"" +
+           number(sy(p.y)) + "\" r=\"5\" fill=\"" +
            std::string(p.highlighted ? "#59a14f" : "#ffffff") + "\" stroke=\"" +
-           std::string(p.marked ? "#e15759" : "#4e79a7") + "\" stroke-width=\"" + (p.marked ? "3" : "1.5") +
-           "\"><title>" + escape(p.label) + ": " + number(p.x) + ", " + number(p.y) + "</title></circle>";
-    svg += "<text x=\"" + number(sx(p.x) + 7) + "\" y=\"" + number(sy(p.y) - 6) + "\">" + escape(p.label) + "</text>";
+           std::string(p.marked ? "#e15759" : "#4e79a7") + "\" stroke-width=\"" +
+           (p.marked ? "3" : "1.5") + "\"><title>" + escape(p.label) + ": " + number(p.x) + ", " +
+           number(p.y) + "</title></circle>";
+    svg += "<text x=\"" + number(sx(p.x) + 7) + "\" y=\"" + number(sy(p.y) - 6) + "\">" +
+           escape(p.label) + "</text>";
   }
   return svg + "</svg></figure>\n";
 }
 
-std::string table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows) {
+std::string table(const std::vector<std::string>& header,
+                  const std::vector<std::vector<std::string>>& rows) {
   std::string out = "<table><thead><tr>";
   for (const auto& h : header) out += "<th>" + escape(h) + "</th>";
   out += "</tr></thead><tbody>";
   for (const auto& row : rows) {
     const bool flagged = !row.empty() && !row[0].empty() && row[0][0] == '!';
     out += flagged ? "<tr class=\"flagged\">" : "<tr>";
-    for (size_t c = 0; c < row.size(); ++c) out += "<td>" + escape(c == 0 && flagged ? row[c].substr(1) : row[c]) + "</td>";
+    for (size_t c = 0; c < row.size(); ++c)
+      out += "<td>" + escape(c == 0 && flagged ? row[c].substr(1) : row[c]) + "</td>";
     out += "</tr>";
   }
   return out + "</tbody></table>\n";
 }
 
 std::string page(const std::string& title, const std::string& body) {
-  return "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" + escape(title) +
-         "</title>\n<style>body{font-family:sans-serif;margin:24px;color:#222}table{border-collapse:collapse;margin:12px 0}"
+  return "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" +
+         escape(title) +
+         "</"
+         "title>\n<style>body{font-family:sans-serif;margin:24px;color:#222}table{border-collapse:"
+         "collapse;margin:12px 0}"
          "td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}th{background:#f4f4f4}"
-         "td:first-child,th:first-child{text-align:left}tr.flagged td{background:#fde0dc;color:#a40000}"
-         "svg text{font-size:12px}svg .title{font-size:14px;font-weight:bold}svg .value{font-size:10px;"
-         "text-anchor:middle}svg .category{text-anchor:middle}svg .axis{stroke:#888}figure{margin:16px 0}</style>"
+         "td:first-child,th:first-child{text-align:left}tr.flagged "
+         "td{background:#fde0dc;color:#a40000}"
+         "svg text{font-size:12px}svg .title{font-size:14px;font-weight:bold}svg "
+         ".value{font-size:10px;"
+         "text-anchor:middle}svg .category{text-anchor:middle}svg "
+         ".axis{stroke:#888}figure{margin:16px 0}</style>"
          "</head>\n<body data-charts-rendered=\"0\">\n<h1>" +
          escape(title) + "</h1>\n" + body +
          "<script>\n"
-         "// Counts the charts the browser laid out faithfully: every mark drawn, bar lengths in proportion to\n"
-         "// their values (within a pixel), scatter points in the order of their values along both axes.\n"
+         "// Counts the charts the browser laid out faithfully: every mark drawn, bar lengths in "
+         "proportion to\n"
+         "// their values (within a pixel), scatter points in the order of their values along both "
+         "axes.\n"
          "function faithful(svg) {\n"
-         "  var marks = svg.querySelectorAll('.bar'), lengths = [], points = [], ok = marks.length > 0;\n"
+         "  var marks = svg.querySelectorAll('.bar'), lengths = [], points = [], ok = marks.length "
+         "> 0;\n"
          "  if (svg.getBoundingClientRect().width <= 0) return false;\n"
          "  marks.forEach(function (mark) {\n"
          "    var box = mark.getBBox(), encoding = mark.getAttribute('data-encoding');\n"
@@ -243,7 +286,8 @@ std::string page(const std::string& title, const std::string& body) {
          "    }\n"
          "  });\n"
          "  var longest = null;\n"
-         "  lengths.forEach(function (l) { if (longest === null || l.value > longest.value) longest = l; });\n"
+         "  lengths.forEach(function (l) { if (longest === null || l.value > longest.value) "
+         "longest = l; });\n"
          "  if (longest !== null && longest.value > 0) {\n"
          "    var scale = longest.size / longest.value;\n"
          "    lengths.forEach(function (l) {\n"
@@ -253,14 +297,16 @@ std::string page(const std::string& title, const std::string& body) {
          "  points.forEach(function (a) {\n"
          "    points.forEach(function (b) {\n"
          "      if (a.x < b.x && a.px > b.px + 0.5) ok = false;\n"
-         "      if (a.y < b.y && a.py < b.py - 0.5) ok = false;  // a higher value sits higher on the page\n"
+         "      if (a.y < b.y && a.py < b.py - 0.5) ok = false;  // a higher value sits higher on "
+         "the page\n"
          "    });\n"
          "  });\n"
          "  return ok;\n"
          "}\n"
          "window.addEventListener('load', function () {\n"
          "  var rendered = 0;\n"
-         "  document.querySelectorAll('svg.chart').forEach(function (svg) { if (faithful(svg)) rendered++; });\n"
+         "  document.querySelectorAll('svg.chart').forEach(function (svg) { if (faithful(svg)) "
+         "rendered++; });\n"
          "  document.body.setAttribute('data-charts-rendered', String(rendered));\n"
          "});\n</script>\n</body></html>\n";
 }

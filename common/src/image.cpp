@@ -34,15 +34,18 @@ Image8 cropImage(const Image8& image, const PixelRect& rect) {
   }
   Image8 out(rect.width, rect.height, image.channels);
   const size_t row_bytes = size_t{rect.width} * image.channels;
-  for (uint32_t y = 0; y < rect.height; ++y) std::memcpy(out.at(0, y), image.at(rect.x, rect.y + y), row_bytes);
+  for (uint32_t y = 0; y < rect.height; ++y)
+    std::memcpy(out.at(0, y), image.at(rect.x, rect.y + y), row_bytes);
   return out;
 }
 
 Image8 placeInFrame(const Image8& crop, uint32_t x, uint32_t y, uint32_t width, uint32_t height) {
-  if (!cropFits(x, y, crop.width, crop.height, width, height)) throw std::invalid_argument("crop outside the frame");
+  if (!cropFits(x, y, crop.width, crop.height, width, height))
+    throw std::invalid_argument("crop outside the frame");
   Image8 out(width, height, crop.channels);
   const size_t row_bytes = size_t{crop.width} * crop.channels;
-  for (uint32_t r = 0; r < crop.height; ++r) std::memcpy(out.at(x, y + r), crop.at(0, r), row_bytes);
+  for (uint32_t r = 0; r < crop.height; ++r)
+    std::memcpy(out.at(x, y + r), crop.at(0, r), row_bytes);
   return out;
 }
 

@@ -50,21 +50,23 @@ void undoPlanarDelta(const std::vector<uint8_t>& in, Image8& image) {
   }
 }
 
-void lz4Into(const uint8_t* src, size_t size, std::vector<uint8_t>& storage, int acceleration, int hc_level) {
+void lz4Into(const uint8_t* src, size_t size, std::vector<uint8_t>& storage, int acceleration,
+             int hc_level) {
   storage.resize(static_cast<size_t>(LZ4_compressBound(static_cast<int>(size))));
   const char* in = reinterpret_cast<const char*>(src);
   char* out = reinterpret_cast<char*>(storage.data());
-  const int n =
-      hc_level > 0 ? LZ4_compress_HC(in, out, static_cast<int>(size), static_cast<int>(storage.size()),
-                                     std::min(hc_level, kMaxLz4HcLevel))
-                   : LZ4_compress_fast(in, out, static_cast<int>(size), static_cast<int>(storage.size()), acceleration);
+  const int n = hc_level > 0 ? LZ4_compress_HC(in, out, static_cast<int>(size),
+                                               static_cast<int>(storage.size()),
+                                               std::min(hc_level, kMaxLz4HcLevel))
+                             : LZ4_compress_fast(in, out, static_cast<int>(size),
+                                                 static_cast<int>(storage.size()), acceleration);
   storage.resize(static_cast<size_t>(n));
 }
 
 }  // namespace
 
-protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, Codec codec, std::vector<uint8_t>& storage,
-                            int acceleration, int hc_level) {
+protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, Codec codec,
+                            std::vector<uint8_t>& storage, int acceleration, int hc_level) {
   protocol::Plane plane;
   plane.kind = kind;
   plane.codec = codec;
@@ -99,7 +101,8 @@ protocol::StatusOr<Image8> decodePlane(const protocol::Plane& plane) {
   if (channels == 0) return Status(StatusCode::kMalformed, which + ": unsupported pixel format");
   if (plane.width == 0 || plane.height == 0 || plane.width > protocol::kMaxImageSide ||
       plane.height > protocol::kMaxImageSide) {
-    return Status(StatusCode::kMalformed, which + ": size outside 1.." + std::to_string(protocol::kMaxImageSide));
+    return Status(StatusCode::kMalformed,
+                  which + ": size outside 1.." + std::to_string(protocol::kMaxImageSide));
   }
   const uint64_t expected = static_cast<uint64_t>(plane.width) * plane.height * channels;
   if (expected != plane.raw_size || expected > protocol::kMaxPlaneBytes || expected == 0) {
@@ -110,8 +113,8 @@ protocol::StatusOr<Image8> decodePlane(const protocol::Plane& plane) {
   switch (plane.codec) {
     case Codec::kRaw:
       if (plane.data.size() != expected) {
-        return Status(StatusCode::kMalformed, which + ": raw data has " +
-                                                  std::to_string(plane.data.size()) + " bytes");
+        return Status(StatusCode::kMalformed,
+                      which + ": raw data has " + std::to_string(plane.data.size()) + " bytes");
       }
       std::copy(plane.data.begin(), plane.data.end(), image.pixels.begin());
       return image;
@@ -123,9 +126,9 @@ protocol::StatusOr<Image8> decodePlane(const protocol::Plane& plane) {
         scratch.resize(expected);
         dst = scratch.data();
       }
-      const int n = LZ4_decompress_safe(reinterpret_cast<const char*>(plane.data.data()),
-                                        reinterpret_cast<char*>(dst), static_cast<int>(plane.data.size()),
-                                        static_cast<int>(expected));
+      const int n = LZ4_decompress_safe(
+          reinterpret_cast<const char*>(plane.data.data()), reinterpret_cast<char*>(dst),
+          static_cast<int>(plane.data.size()), static_cast<int>(expected));
       if (n != static_cast<int>(expected)) {
         return Status(StatusCode::kMalformed,
                       which + ": LZ4 data is corrupt or decodes to " +
@@ -146,9 +149,12 @@ const std::vector<std::string>& imageCodecNames() {
 
 std::string imageCodecName(Codec codec) {
   switch (codec) {
-    case Codec::kRaw: return "raw";
-    case Codec::kLz4: return "lz4";
-    case Codec::kLz4PlanarDelta: return "lz4-delta";
+    case Codec::kRaw:
+      return "raw";
+    case Codec::kLz4:
+      return "lz4";
+    case Codec::kLz4PlanarDelta:
+      return "lz4-delta";
   }
   return "unknown codec " + std::to_string(static_cast<int>(codec));
 }

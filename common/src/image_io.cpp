@@ -7,11 +7,11 @@ namespace holofuse {
 
 protocol::Status writePng(const std::string& path, const Image8& image) {
   if (image.empty() || (image.channels != 1 && image.channels != 3 && image.channels != 4)) {
-    return {protocol::StatusCode::kMalformed, path + ": cannot write an image with " +
-                                                  std::to_string(image.channels) + " channels"};
+    return {protocol::StatusCode::kMalformed,
+            path + ": cannot write an image with " + std::to_string(image.channels) + " channels"};
   }
-  const cv::Mat mat(static_cast<int>(image.height), static_cast<int>(image.width), CV_8UC(image.channels),
-                    const_cast<uint8_t*>(image.pixels.data()));
+  const cv::Mat mat(static_cast<int>(image.height), static_cast<int>(image.width),
+                    CV_8UC(image.channels), const_cast<uint8_t*>(image.pixels.data()));
   // OpenCV stores blue first. The reordered copy gets its own storage: an
   // output Mat that shares the caller's pixels would be swapped in place.
   cv::Mat ordered;

@@ -147,17 +147,20 @@ Mesh marchingCubes(const ScalarGrid& grid) {
   Mesh mesh;
   std::unordered_map<uint64_t, uint32_t> vertex_of_edge;
   auto vertexFor = [&](int x, int y, int z, const CubeEdge& edge) -> uint32_t {
-    const int bx = x + (edge.base & 1), by = y + ((edge.base >> 1) & 1), bz = z + ((edge.base >> 2) & 1);
-    const uint64_t key =
-        ((static_cast<uint64_t>(bz) * grid.ny + by) * grid.nx + bx) * 3 + static_cast<uint64_t>(edge.axis);
-    auto [it, inserted] = vertex_of_edge.try_emplace(key, static_cast<uint32_t>(mesh.positions.size()));
+    const int bx = x + (edge.base & 1), by = y + ((edge.base >> 1) & 1),
+              bz = z + ((edge.base >> 2) & 1);
+    const uint64_t key = ((static_cast<uint64_t>(bz) * grid.ny + by) * grid.nx + bx) * 3 +
+                         static_cast<uint64_t>(edge.axis);
+    auto [it, inserted] =
+        vertex_of_edge.try_emplace(key, static_cast<uint32_t>(mesh.positions.size()));
     if (inserted) {
       const int ox = bx + (edge.axis == 0), oy = by + (edge.axis == 1), oz = bz + (edge.axis == 2);
       const double v0 = grid.at(bx, by, bz), v1 = grid.at(ox, oy, oz);
       // Linear placement of the zero crossing, kept off the end points so no
       // triangle collapses to zero area.
       const double t = std::clamp(v0 / (v0 - v1), 1e-3, 1.0 - 1e-3);
-      const glm::dvec3 p = grid.point(bx, by, bz) + t * (grid.point(ox, oy, oz) - grid.point(bx, by, bz));
+      const glm::dvec3 p =
+          grid.point(bx, by, bz) + t * (grid.point(ox, oy, oz) - grid.point(bx, by, bz));
       mesh.positions.emplace_back(p);
       mesh.vertex_keys.push_back(key);
     }

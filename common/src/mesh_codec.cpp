@@ -14,19 +14,22 @@ using protocol::StatusCode;
 
 namespace {
 
-int addFloat3Attribute(draco::Mesh& dm, draco::GeometryAttribute::Type type, const std::vector<glm::vec3>& values) {
+int addFloat3Attribute(draco::Mesh& dm, draco::GeometryAttribute::Type type,
+                       const std::vector<glm::vec3>& values) {
   draco::GeometryAttribute attribute;
   attribute.Init(type, nullptr, 3, draco::DT_FLOAT32, false, sizeof(float) * 3, 0);
   const int id = dm.AddAttribute(attribute, true, static_cast<uint32_t>(values.size()));
   for (size_t i = 0; i < values.size(); ++i) {
-    dm.attribute(id)->SetAttributeValue(draco::AttributeValueIndex(static_cast<uint32_t>(i)), &values[i][0]);
+    dm.attribute(id)->SetAttributeValue(draco::AttributeValueIndex(static_cast<uint32_t>(i)),
+                                        &values[i][0]);
   }
   return id;
 }
 
 }  // namespace
 
-protocol::StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions& options) {
+protocol::StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh,
+                                                     const DracoOptions& options) {
   draco::Mesh dm;
   dm.set_num_points(static_cast<uint32_t>(mesh.positions.size()));
   addFloat3Attribute(dm, draco::GeometryAttribute::POSITION, mesh.positions);
@@ -37,12 +40,14 @@ protocol::StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const Dra
     // Vertex identity: two 32-bit halves of the key, integers (Draco keeps
     // them exactly; quantisation applies to float attributes only).
     draco::GeometryAttribute attribute;
-    attribute.Init(draco::GeometryAttribute::GENERIC, nullptr, 2, draco::DT_UINT32, false, sizeof(uint32_t) * 2, 0);
+    attribute.Init(draco::GeometryAttribute::GENERIC, nullptr, 2, draco::DT_UINT32, false,
+                   sizeof(uint32_t) * 2, 0);
     const int id = dm.AddAttribute(attribute, true, static_cast<uint32_t>(mesh.positions.size()));
     for (size_t i = 0; i < mesh.vertex_keys.size(); ++i) {
       const uint32_t halves[2] = {static_cast<uint32_t>(mesh.vertex_keys[i]),
                                   static_cast<uint32_t>(mesh.vertex_keys[i] >> 32)};
-      dm.attribute(id)->SetAttributeValue(draco::AttributeValueIndex(static_cast<uint32_t>(i)), halves);
+      dm.attribute(id)->SetAttributeValue(draco::AttributeValueIndex(static_cast<uint32_t>(i)),
+                                          halves);
     }
   }
   for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
@@ -56,7 +61,8 @@ protocol::StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const Dra
   draco::EncoderBuffer buffer;
   const draco::Status status = encoder.EncodeMeshToBuffer(dm, &buffer);
   if (!status.ok()) {
-    return Status(StatusCode::kMalformed, std::string("draco encode failed: ") + status.error_msg());
+    return Status(StatusCode::kMalformed,
+                  std::string("draco encode failed: ") + status.error_msg());
   }
   return std::vector<uint8_t>(buffer.data(), buffer.data() + buffer.size());
 }
@@ -67,10 +73,12 @@ protocol::StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size) {
   draco::Decoder decoder;
   auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
   if (!decoded.ok()) {
-    return Status(StatusCode::kMalformed, std::string("draco mesh: ") + decoded.status().error_msg());
+    return Status(StatusCode::kMalformed,
+                  std::string("draco mesh: ") + decoded.status().error_msg());
   }
   const std::unique_ptr<draco::Mesh>& dm = decoded.value();
-  const draco::PointAttribute* positions = dm->GetNamedAttribute(draco::GeometryAttribute::POSITION);
+  const draco::PointAttribute* positions =
+      dm->GetNamedAttribute(draco::GeometryAttribute::POSITION);
   if (positions == nullptr || positions->num_components() != 3) {
     return Status(StatusCode::kMalformed, "draco mesh: no 3-component position attribute");
   }
@@ -82,7 +90,8 @@ protocol::StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size) {
     float v[3] = {0, 0, 0};
     positions->ConvertValue<float, 3>(positions->mapped_index(draco::PointIndex(i)), v);
     if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) {
-      return Status(StatusCode::kMalformed, "draco mesh: vertex " + std::to_string(i) + " is not finite");
+      return Status(StatusCode::kMalformed,
+                    "draco mesh: vertex " + std::to_string(i) + " is not finite");
     }
     mesh.positions[i] = glm::vec3(v[0], v[1], v[2]);
   }

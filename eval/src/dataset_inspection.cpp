@@ -43,13 +43,14 @@ Status verifyFile(const std::string& file, VerifyReport& report) {
   if (!reader.isOk()) return reader.status();
   const protocol::RecordScan& scan = reader->scan();
   std::string& t = report.text;
-  t += file + ": recording format " + std::to_string(scan.format_major) + "." + std::to_string(scan.format_minor) +
-       ", created " + utcTime(scan.created_unix_ns) + ", " + std::to_string(scan.file_size) + " bytes\n";
+  t += file + ": recording format " + std::to_string(scan.format_major) + "." +
+       std::to_string(scan.format_minor) + ", created " + utcTime(scan.created_unix_ns) + ", " +
+       std::to_string(scan.file_size) + " bytes\n";
   if (scan.index_found) {
     t += "  index: in place, " + std::to_string(reader->records().size()) + " records\n";
   } else {
-    t += "  index: " + scan.index_note + "; rebuilt by scanning: " + std::to_string(reader->records().size()) +
-         " whole records\n";
+    t += "  index: " + scan.index_note +
+         "; rebuilt by scanning: " + std::to_string(reader->records().size()) + " whole records\n";
   }
   std::map<std::string, size_t> kinds;
   std::set<uint32_t> streams;
@@ -58,7 +59,8 @@ Status verifyFile(const std::string& file, VerifyReport& report) {
     if (r.stream != protocol::kServerStream) streams.insert(r.stream);
   }
   std::string kind_text;
-  for (const auto& [name, n] : kinds) kind_text += (kind_text.empty() ? "" : ", ") + std::to_string(n) + " " + name;
+  for (const auto& [name, n] : kinds)
+    kind_text += (kind_text.empty() ? "" : ", ") + std::to_string(n) + " " + name;
   t += "  records: " + (kind_text.empty() ? std::string("none") : kind_text) +
        (streams.empty() ? "" : " from " + std::to_string(streams.size()) + " camera(s)") + "\n";
   const Status checked = reader->verifyAll();
@@ -69,7 +71,8 @@ Status verifyFile(const std::string& file, VerifyReport& report) {
     report.verdict = VerifyVerdict::kCorrupt;
   }
   if (scan.tail_problem) {
-    t += std::string(scan.tail_incomplete ? "  incomplete tail: " : "  CORRUPT: ") + *scan.tail_problem + "\n";
+    t += std::string(scan.tail_incomplete ? "  incomplete tail: " : "  CORRUPT: ") +
+         *scan.tail_problem + "\n";
     if (!scan.tail_incomplete) {
       report.verdict = VerifyVerdict::kCorrupt;
     } else if (report.verdict == VerifyVerdict::kClean) {
@@ -81,35 +84,43 @@ Status verifyFile(const std::string& file, VerifyReport& report) {
 
 // A camera's tile: the image, dimmed where its mask says background, and
 // the hull's silhouette border drawn over it.
-cv::Mat tile(const Image8& color, const Image8& mask, const Image8& hull_mask, const std::string& label) {
+cv::Mat tile(const Image8& color, const Image8& mask, const Image8& hull_mask,
+             const std::string& label) {
   cv::Mat image(static_cast<int>(color.height), static_cast<int>(color.width), CV_8UC3,
                 const_cast<uint8_t*>(color.pixels.data()));
   cv::Mat out = image.clone();
   for (uint32_t i = 0; i < color.width * color.height; ++i) {
     if (mask.pixels[i] != 0) continue;
-    for (int c = 0; c < 3; ++c) out.data[3 * i + static_cast<uint32_t>(c)] = static_cast<uint8_t>(out.data[3 * i + static_cast<uint32_t>(c)] / 3);
+    for (int c = 0; c < 3; ++c)
+      out.data[3 * i + static_cast<uint32_t>(c)] =
+          static_cast<uint8_t>(out.data[3 * i + static_cast<uint32_t>(c)] / 3);
   }
   cv::Mat hull(static_cast<int>(hull_mask.height), static_cast<int>(hull_mask.width), CV_8UC1,
                const_cast<uint8_t*>(hull_mask.pixels.data()));
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(hull.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
   cv::drawContours(out, contours, -1, cv::Scalar(255, 0, 255), 1);  // RGB order: magenta
-  cv::putText(out, label, cv::Point(6, 18), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
+  cv::putText(out, label, cv::Point(6, 18), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 0),
+              1, cv::LINE_AA);
   return out;
 }
 
 // The mesh's silhouette in a camera: its triangles filled.
 Image8 meshSilhouette(const Mesh& mesh, const Camera& camera) {
-  cv::Mat mask = cv::Mat::zeros(static_cast<int>(camera.height), static_cast<int>(camera.width), CV_8UC1);
+  cv::Mat mask =
+      cv::Mat::zeros(static_cast<int>(camera.height), static_cast<int>(camera.width), CV_8UC1);
   for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
     cv::Point pts[3];
     bool ok = true;
     for (int k = 0; k < 3 && ok; ++k) {
-      const auto p = camera.project(glm::dvec3(mesh.positions[mesh.indices[t + static_cast<size_t>(k)]]));
-      ok = p.has_value() && std::isfinite(p->x) && std::isfinite(p->y) && std::abs(p->x) < 1e6 && std::abs(p->y) < 1e6;
+      const auto p =
+          camera.project(glm::dvec3(mesh.positions[mesh.indices[t + static_cast<size_t>(k)]]));
+      ok = p.has_value() && std::isfinite(p->x) && std::isfinite(p->y) && std::abs(p->x) < 1e6 &&
+           std::abs(p->y) < 1e6;
       // Camera pixel centres sit at +0.5, OpenCV's at integers; 4 bits of subpixel.
       if (ok) {
-        pts[k] = cv::Point(static_cast<int>(std::lround((p->x - 0.5) * 16)), static_cast<int>(std::lround((p->y - 0.5) * 16)));
+        pts[k] = cv::Point(static_cast<int>(std::lround((p->x - 0.5) * 16)),
+                           static_cast<int>(std::lround((p->y - 0.5) * 16)));
       }
     }
     if (ok) cv::fillConvexPoly(mask, pts, 3, cv::Scalar(255), cv::LINE_8, 4);
@@ -137,24 +148,34 @@ fusion::HullOptions hullOptionsFor(const capture::Dataset& dataset, double fallb
 protocol::StatusOr<VerifyReport> verifyDataset(const std::string& dir) {
   namespace fs = std::filesystem;
   VerifyReport report;
-  const std::string pods = fs::is_directory(dir) ? (fs::path(dir) / capture::kDatasetPodsFile).string() : dir;
+  const std::string pods =
+      fs::is_directory(dir) ? (fs::path(dir) / capture::kDatasetPodsFile).string() : dir;
   if (!fs::exists(pods)) {
-    return Status(StatusCode::kIoError, dir + ": not a holofuse dataset (no " + capture::kDatasetPodsFile + " in it)");
+    return Status(StatusCode::kIoError,
+                  dir + ": not a holofuse dataset (no " + capture::kDatasetPodsFile + " in it)");
   }
   HOLOFUSE_RETURN_IF_ERROR(verifyFile(pods, report));
   const fs::path fused = fs::path(dir) / capture::kDatasetFusedFile;
-  if (fs::is_directory(dir) && fs::exists(fused)) HOLOFUSE_RETURN_IF_ERROR(verifyFile(fused.string(), report));
+  if (fs::is_directory(dir) && fs::exists(fused))
+    HOLOFUSE_RETURN_IF_ERROR(verifyFile(fused.string(), report));
   switch (report.verdict) {
-    case VerifyVerdict::kClean: report.text += "verdict: OK\n"; break;
-    case VerifyVerdict::kIncompleteTail:
-      report.text += "verdict: OK but for an incomplete tail (a recorder stopped mid-write); every whole record reads\n";
+    case VerifyVerdict::kClean:
+      report.text += "verdict: OK\n";
       break;
-    case VerifyVerdict::kCorrupt: report.text += "verdict: CORRUPT\n"; break;
+    case VerifyVerdict::kIncompleteTail:
+      report.text +=
+          "verdict: OK but for an incomplete tail (a recorder stopped mid-write); every whole "
+          "record reads\n";
+      break;
+    case VerifyVerdict::kCorrupt:
+      report.text += "verdict: CORRUPT\n";
+      break;
   }
   return report;
 }
 
-protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::string& sheet_png,
+protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir,
+                                                   const std::string& sheet_png,
                                                    double voxel_size) {
   auto dataset = capture::Dataset::open(dir);
   if (!dataset.isOk()) return dataset.status();
@@ -164,9 +185,10 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
   const double seconds = static_cast<double>(dataset->lastTimeNs() - dataset->firstTimeNs()) / 1e9;
   char duration[32];
   std::snprintf(duration, sizeof(duration), "%.1f s", seconds);
-  t += dir + ": " + std::to_string(dataset->cameras().size()) + " camera(s), " + std::to_string(dataset->frameIds()) +
-       " frame(s) over " + duration + ", format " + std::to_string(scan.format_major) + "." +
-       std::to_string(scan.format_minor) + ", recorded " + utcTime(scan.created_unix_ns) + "\n";
+  t += dir + ": " + std::to_string(dataset->cameras().size()) + " camera(s), " +
+       std::to_string(dataset->frameIds()) + " frame(s) over " + duration + ", format " +
+       std::to_string(scan.format_major) + "." + std::to_string(scan.format_minor) + ", recorded " +
+       utcTime(scan.created_unix_ns) + "\n";
   if (scan.tail_problem) t += "note: " + *scan.tail_problem + "\n";
 
   // The frame to look at: the first id every camera has (a camera that
@@ -199,22 +221,25 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
     const Camera camera = fromCalibration(*calibration);
     c.width = camera.width;
     c.height = camera.height;
-    const auto record = std::find_if(cam.frames.begin(), cam.frames.end(),
-                                     [&](const protocol::RecordInfo& r) { return r.frame_id == frame_id; });
+    const auto record =
+        std::find_if(cam.frames.begin(), cam.frames.end(),
+                     [&](const protocol::RecordInfo& r) { return r.frame_id == frame_id; });
     if (record == cam.frames.end()) {
-      return Status(StatusCode::kMalformed, dir + ": camera " + std::to_string(id) + " lacks frame " + std::to_string(frame_id));
+      return Status(StatusCode::kMalformed, dir + ": camera " + std::to_string(id) +
+                                                " lacks frame " + std::to_string(frame_id));
     }
     auto frame = dataset->readFrame(*record);
     if (!frame.isOk()) return frame.status();
     auto decoded = capture::decodePodImages(*frame, camera);
     if (!decoded.isOk()) {
       return Status(decoded.status().code(), dir + ": camera " + std::to_string(id) + " frame " +
-                                                 std::to_string(frame_id) + ": " + decoded.status().message());
+                                                 std::to_string(frame_id) + ": " +
+                                                 decoded.status().message());
     }
     static const char* const kPlaneNames[] = {"colour", "mask", "feather"};
     for (size_t p = 0; p < decoded->codecs.size(); ++p) {
-      c.codecs += (c.codecs.empty() ? "" : ", ") + std::string(p < 3 ? kPlaneNames[p] : "plane") + " " +
-                  imageCodecName(decoded->codecs[p]);
+      c.codecs += (c.codecs.empty() ? "" : ", ") + std::string(p < 3 ? kPlaneNames[p] : "plane") +
+                  " " + imageCodecName(decoded->codecs[p]);
     }
     views.push_back({camera, decoded->mask, decoded->feather});
     images.push_back(std::move(*decoded));
@@ -226,8 +251,8 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
   const Mesh hull = fusion::carveVisualHull(views, hull_options);
   char voxel_text[32];
   std::snprintf(voxel_text, sizeof(voxel_text), "%.2f mm", voxel_size * 1000);
-  t += "frame " + std::to_string(frame_id) + ": visual hull of " + std::to_string(hull.triangleCount()) +
-       " triangles at " + voxel_text + " voxels";
+  t += "frame " + std::to_string(frame_id) + ": visual hull of " +
+       std::to_string(hull.triangleCount()) + " triangles at " + voxel_text + " voxels";
   if (const auto& m = dataset->metadata()) t += " (" + m->source + ")";
   t += "\n";
   t += "camera  size        frames   data       silhouette IoU  codecs\n";
@@ -236,12 +261,14 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
     CameraSummary& c = summary.cameras[i];
     c.silhouette_iou = silhouetteIoU(hull, views[i].camera, views[i].mask);
     char line[256];
-    std::snprintf(line, sizeof(line), "%-7u %4ux%-7u %-8zu %-10s %-15.3f %s\n", c.id, c.width, c.height, c.frames,
-                  megabytes(static_cast<uint64_t>(c.megabytes * 1e6)).c_str(), c.silhouette_iou, c.codecs.c_str());
+    std::snprintf(line, sizeof(line), "%-7u %4ux%-7u %-8zu %-10s %-15.3f %s\n", c.id, c.width,
+                  c.height, c.frames, megabytes(static_cast<uint64_t>(c.megabytes * 1e6)).c_str(),
+                  c.silhouette_iou, c.codecs.c_str());
     t += line;
     char label[64];
     std::snprintf(label, sizeof(label), "camera %u  IoU %.3f", c.id, c.silhouette_iou);
-    tiles.push_back(tile(images[i].color, images[i].mask, meshSilhouette(hull, views[i].camera), label));
+    tiles.push_back(
+        tile(images[i].color, images[i].mask, meshSilhouette(hull, views[i].camera), label));
   }
   // The sheet: tiles scaled to one height, in rows of up to four.
   const int tile_height = 240;
@@ -251,7 +278,8 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
   for (size_t i = 0; i < tiles.size(); ++i) {
     cv::Mat scaled;
     const double s = static_cast<double>(tile_height) / tiles[i].rows;
-    cv::resize(tiles[i], scaled, cv::Size(std::max(1, static_cast<int>(tiles[i].cols * s)), tile_height), 0, 0,
+    cv::resize(tiles[i], scaled,
+               cv::Size(std::max(1, static_cast<int>(tiles[i].cols * s)), tile_height), 0, 0,
                cv::INTER_AREA);
     row.push_back(scaled);
     if (static_cast<int>(row.size()) == columns || i + 1 == tiles.size()) {
@@ -263,7 +291,9 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
     }
   }
   for (auto& r : rows) {
-    if (r.cols < max_width) cv::copyMakeBorder(r, r, 0, 0, 0, max_width - r.cols, cv::BORDER_CONSTANT, cv::Scalar(0, 0, 0));
+    if (r.cols < max_width)
+      cv::copyMakeBorder(r, r, 0, 0, 0, max_width - r.cols, cv::BORDER_CONSTANT,
+                         cv::Scalar(0, 0, 0));
   }
   cv::Mat sheet;
   cv::vconcat(rows, sheet);
@@ -273,7 +303,8 @@ protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const
   png.channels = 3;
   png.pixels.assign(sheet.data, sheet.data + sheet.total() * 3);
   HOLOFUSE_RETURN_IF_ERROR(writePng(sheet_png, png));
-  t += "contact sheet (image, mask dimmed outside, hull silhouette in magenta): " + sheet_png + "\n";
+  t +=
+      "contact sheet (image, mask dimmed outside, hull silhouette in magenta): " + sheet_png + "\n";
   return summary;
 }
 

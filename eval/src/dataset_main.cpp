@@ -24,8 +24,8 @@ void printProgress(const holofuse::capture::ImportProgress& p) {
   const double eta = rate > 0 ? static_cast<double>(p.total - p.done) / rate : 0.0;
   const int filled = p.total ? static_cast<int>(20 * p.done / p.total) : 20;
   std::fprintf(stderr, "%s[import] |%.*s%*s| %zu/%zu images, %.1f MB, %.1f images/s, ETA %.0f s%s",
-               tty ? "\r" : "", filled, "####################", 20 - filled, "", p.done, p.total, p.megabytes, rate,
-               eta, tty && p.done != p.total ? "" : "\n");
+               tty ? "\r" : "", filled, "####################", 20 - filled, "", p.done, p.total,
+               p.megabytes, rate, eta, tty && p.done != p.total ? "" : "\n");
 }
 
 }  // namespace
@@ -36,32 +36,44 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   std::string dir, sheet;
   double voxel = 0.02;
-  auto* verify = app.add_subcommand("verify", "check every record; name the bytes a crash left incomplete");
+  auto* verify =
+      app.add_subcommand("verify", "check every record; name the bytes a crash left incomplete");
   verify->add_option("dir", dir, "dataset folder")->required();
-  auto* info = app.add_subcommand("info", "cameras, frames, sizes, codecs, silhouette IoU and a contact sheet");
+  auto* info = app.add_subcommand(
+      "info", "cameras, frames, sizes, codecs, silhouette IoU and a contact sheet");
   info->add_option("dir", dir, "dataset folder")->required();
   info->add_option("--sheet", sheet, "contact sheet PNG (default DIR/contact_sheet.png)");
   info->add_option("--voxel", voxel, "hull voxel size in metres (default: the dataset's)")
       ->check(holofuse::sharedFlag("--voxel").check());
-  auto* import = app.add_subcommand("import", "convert a real multi-view capture into a dataset that replays");
+  auto* import =
+      app.add_subcommand("import", "convert a real multi-view capture into a dataset that replays");
   std::string source, format, out;
   capture::ImportOptions import_options;
   double threshold = -1, import_voxel = -1;
   import->add_option("source", source, "capture folder")->required();
-  import->add_option("--format", format, std::string("capture format: ") + capture::captureFormatNames())->required();
-  import->add_option("--out", out, "dataset folder to create (must not exist or be empty)")->required();
-  import->add_option("--threshold", threshold, "segment by brightness above this (0..1) where masks are missing; "
-                                               "default Otsu's threshold")
+  import
+      ->add_option("--format", format,
+                   std::string("capture format: ") + capture::captureFormatNames())
+      ->required();
+  import->add_option("--out", out, "dataset folder to create (must not exist or be empty)")
+      ->required();
+  import
+      ->add_option("--threshold", threshold,
+                   "segment by brightness above this (0..1) where masks are missing; "
+                   "default Otsu's threshold")
       ->check(CLI::Range(0.0, 1.0));
-  import->add_flag("--dark-subject", import_options.dark_subject, "the subject is darker than the background");
-  import->add_option("--close-px", import_options.close_px, "closing radius after thresholding")->check(CLI::Range(0, 100));
+  import->add_flag("--dark-subject", import_options.dark_subject,
+                   "the subject is darker than the background");
+  import->add_option("--close-px", import_options.close_px, "closing radius after thresholding")
+      ->check(CLI::Range(0, 100));
   import->add_option("--voxel", import_voxel, "hull voxel size for replays (default: volume / 96)")
       ->check(holofuse::sharedFlag("--voxel").check());
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (import->parsed()) {
     const auto chosen = capture::captureFormatFromName(format);
     if (!chosen) {
-      std::fprintf(stderr, "--format '%s': unknown; valid formats: %s\n", format.c_str(), capture::captureFormatNames());
+      std::fprintf(stderr, "--format '%s': unknown; valid formats: %s\n", format.c_str(),
+                   capture::captureFormatNames());
       return 2;
     }
     if (threshold >= 0) import_options.threshold = threshold;
@@ -75,14 +87,16 @@ int main(int argc, char** argv) {
                  description->cameras.size(), description->frames.size());
     auto summary = capture::importCapture(*description, out, import_options, printProgress);
     if (!summary.isOk()) {
-      std::fprintf(stderr, "dataset import: %s (nothing was written to %s)\n", summary.status().message().c_str(),
-                   out.c_str());
+      std::fprintf(stderr, "dataset import: %s (nothing was written to %s)\n",
+                   summary.status().message().c_str(), out.c_str());
       return 2;
     }
-    std::printf("imported %zu camera(s) x %zu frame(s) into %s (%.1f MB): masks %zu from the source, %zu segmented; "
-                "capture volume %s\n",
-                summary->cameras, summary->frames, out.c_str(), summary->megabytes, summary->masks_given,
-                summary->masks_segmented, summary->volume.c_str());
+    std::printf(
+        "imported %zu camera(s) x %zu frame(s) into %s (%.1f MB): masks %zu from the source, %zu "
+        "segmented; "
+        "capture volume %s\n",
+        summary->cameras, summary->frames, out.c_str(), summary->megabytes, summary->masks_given,
+        summary->masks_segmented, summary->volume.c_str());
     return 0;
   }
   if (verify->parsed()) {

@@ -21,7 +21,8 @@ glm::dvec3 nearestOnSegment(const glm::dvec3& p, const glm::dvec3& a, const glm:
 // Detection, section 5.1.5). A triangle without area (two corners on one
 // point, or all three on a line, as quantisation makes) is its three
 // edges: the region tests would divide by zero there.
-glm::dvec3 nearestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+glm::dvec3 nearestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b,
+                             const glm::dvec3& c) {
   const glm::dvec3 ab = b - a, ac = c - a;
   if (!(glm::length(glm::cross(ab, ac)) > 1e-12 * std::max(glm::dot(ab, ab), glm::dot(ac, ac)))) {
     glm::dvec3 best = nearestOnSegment(p, a, b);
@@ -41,7 +42,8 @@ glm::dvec3 nearestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm
   const double vb = d5 * d2 - d1 * d6;
   if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
   const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0)
+    return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
   const double sum = va + vb + vc;
   return a + ab * (vb / sum) + ac * (vc / sum);
 }
@@ -54,7 +56,8 @@ class SurfaceGrid {
   SurfaceGrid(const Mesh& mesh, double cell) : mesh_(mesh), cell_(cell) {
     const size_t elements = mesh.indices.empty() ? mesh.positions.size() : mesh.triangleCount();
     for (size_t e = 0; e < elements; ++e) {
-      glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+      glm::dvec3 lo(std::numeric_limits<double>::infinity()),
+          hi(-std::numeric_limits<double>::infinity());
       for (int k = 0; k < corners(); ++k) {
         lo = glm::min(lo, corner(e, k));
         hi = glm::max(hi, corner(e, k));
@@ -62,7 +65,8 @@ class SurfaceGrid {
       const glm::ivec3 from = cellOf(lo), to = cellOf(hi);
       for (int z = from.z; z <= to.z; ++z) {
         for (int y = from.y; y <= to.y; ++y) {
-          for (int x = from.x; x <= to.x; ++x) buckets_[key({x, y, z})].push_back(static_cast<uint32_t>(e));
+          for (int x = from.x; x <= to.x; ++x)
+            buckets_[key({x, y, z})].push_back(static_cast<uint32_t>(e));
         }
       }
     }
@@ -76,7 +80,8 @@ class SurfaceGrid {
       for (int z = -r; z <= r; ++z) {
         for (int y = -r; y <= r; ++y) {
           for (int x = -r; x <= r; ++x) {
-            if (std::max({std::abs(x), std::abs(y), std::abs(z)}) != r) continue;  // this shell only
+            if (std::max({std::abs(x), std::abs(y), std::abs(z)}) != r)
+              continue;  // this shell only
             const auto it = buckets_.find(key(c + glm::ivec3(x, y, z)));
             if (it == buckets_.end()) continue;
             for (uint32_t e : it->second) best = std::min(best, distance(p, e));
@@ -92,11 +97,13 @@ class SurfaceGrid {
  private:
   int corners() const { return mesh_.indices.empty() ? 1 : 3; }
   glm::dvec3 corner(size_t element, int k) const {
-    return glm::dvec3(mesh_.positions[mesh_.indices.empty() ? element : mesh_.indices[3 * element + k]]);
+    return glm::dvec3(
+        mesh_.positions[mesh_.indices.empty() ? element : mesh_.indices[3 * element + k]]);
   }
   double distance(const glm::dvec3& p, size_t element) const {
     if (mesh_.indices.empty()) return glm::length(p - corner(element, 0));
-    return glm::length(p - nearestOnTriangle(p, corner(element, 0), corner(element, 1), corner(element, 2)));
+    return glm::length(
+        p - nearestOnTriangle(p, corner(element, 0), corner(element, 1), corner(element, 2)));
   }
   glm::ivec3 cellOf(const glm::dvec3& p) const { return glm::ivec3(glm::floor(p / cell_)); }
   static uint64_t key(const glm::ivec3& c) {

@@ -39,7 +39,8 @@ std::string formatNumber(double v) {
   for (int digits = 1; digits <= 17; ++digits) {
     std::snprintf(buffer, sizeof(buffer), "%.*g", digits, v);
     // (20 as "20", not "2e+01")
-    const bool exponent = std::strchr(buffer, 'e') != nullptr && std::abs(v) >= 1e-4 && std::abs(v) < 1e15;
+    const bool exponent =
+        std::strchr(buffer, 'e') != nullptr && std::abs(v) >= 1e-4 && std::abs(v) < 1e15;
     const double back = std::strtod(buffer, nullptr);
     if (exponent) continue;
     if (back == v || (single && static_cast<float>(back) == static_cast<float>(v))) break;
@@ -47,8 +48,8 @@ std::string formatNumber(double v) {
   return buffer;
 }
 
-Knob numberKnob(const std::string& name, const std::string& loop_flag, const std::string& meaning, double lo, double hi,
-                bool integer, std::function<void(EvalOptions&, double)> set,
+Knob numberKnob(const std::string& name, const std::string& loop_flag, const std::string& meaning,
+                double lo, double hi, bool integer, std::function<void(EvalOptions&, double)> set,
                 std::function<double(const EvalOptions&)> get) {
   Knob knob;
   knob.name = name;
@@ -57,7 +58,8 @@ Knob numberKnob(const std::string& name, const std::string& loop_flag, const std
   knob.apply = [=](EvalOptions& options, const std::string& text) {
     double v = 0;
     std::string error = parseNumber(text, lo, hi, v);
-    if (error.empty() && integer && v != std::floor(v)) error = "'" + text + "' is not a whole number";
+    if (error.empty() && integer && v != std::floor(v))
+      error = "'" + text + "' is not a whole number";
     if (error.empty()) set(options, v);
     return error;
   };
@@ -67,20 +69,24 @@ Knob numberKnob(const std::string& name, const std::string& loop_flag, const std
 
 // A knob that is a flag of the live loop: its meaning and range are the
 // flag's, so a value the sweep takes is one the loop takes.
-Knob flagKnob(const std::string& name, const char* flag, bool integer, std::function<void(EvalOptions&, double)> set,
+Knob flagKnob(const std::string& name, const char* flag, bool integer,
+              std::function<void(EvalOptions&, double)> set,
               std::function<double(const EvalOptions&)> get) {
   const SharedFlag& f = sharedFlag(flag);
-  return numberKnob(name, flag, f.description, f.min, f.max, integer, std::move(set), std::move(get));
+  return numberKnob(name, flag, f.description, f.min, f.max, integer, std::move(set),
+                    std::move(get));
 }
 
-Knob choiceKnob(const std::string& name, const char* flag, std::function<void(EvalOptions&, const std::string&)> set,
+Knob choiceKnob(const std::string& name, const char* flag,
+                std::function<void(EvalOptions&, const std::string&)> set,
                 std::function<std::string(const EvalOptions&)> get) {
   const SharedFlag& f = sharedFlag(flag);
   Knob knob;
   knob.name = name;
   knob.loop_flag = flag;
   knob.meaning = f.description;
-  knob.apply = [choices = f.choices, set](EvalOptions& options, const std::string& text) -> std::string {
+  knob.apply = [choices = f.choices, set](EvalOptions& options,
+                                          const std::string& text) -> std::string {
     if (std::find(choices.begin(), choices.end(), text) == choices.end()) {
       std::string names;
       for (const auto& c : choices) names += (names.empty() ? "" : ", ") + c;
@@ -103,13 +109,16 @@ std::vector<Knob> makeKnobs() {
       },
       [](const EvalOptions& o) { return o.voxel_size; }));
   knobs.push_back(flagKnob(
-      "hull-error-mm", "--hull-error-mm", false, [](EvalOptions& o, double v) { o.hull_error_target = v / 1000.0; },
+      "hull-error-mm", "--hull-error-mm", false,
+      [](EvalOptions& o, double v) { o.hull_error_target = v / 1000.0; },
       [](const EvalOptions& o) { return 1000.0 * o.hull_error_target; }));
   knobs.push_back(flagKnob(
-      "refine-voxels", "--refine-voxels", false, [](EvalOptions& o, double v) { o.refine_voxels = v; },
+      "refine-voxels", "--refine-voxels", false,
+      [](EvalOptions& o, double v) { o.refine_voxels = v; },
       [](const EvalOptions& o) { return o.refine_voxels; }));
   knobs.push_back(flagKnob(
-      "k", "--geodesic-rings", true, [](EvalOptions& o, double v) { o.fields.geodesic_rings = static_cast<int>(v); },
+      "k", "--geodesic-rings", true,
+      [](EvalOptions& o, double v) { o.fields.geodesic_rings = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.fields.geodesic_rings); }));
   knobs.push_back(flagKnob(
       "radius", "--geodesic-radius", false,
@@ -133,7 +142,8 @@ std::vector<Knob> makeKnobs() {
       [](EvalOptions& o, double v) { o.feather_width_px = static_cast<float>(v); },
       [](const EvalOptions& o) { return double(o.feather_width_px); }));
   knobs.push_back(choiceKnob(
-      "fragment-test", "--fragment-test", [](EvalOptions& o, const std::string& v) { o.fragment_test = v == "on"; },
+      "fragment-test", "--fragment-test",
+      [](EvalOptions& o, const std::string& v) { o.fragment_test = v == "on"; },
       [](const EvalOptions& o) { return std::string(o.fragment_test ? "on" : "off"); }));
   // Leave-one-out needs a camera left to blend: 2 at least, where the
   // loop's --pods takes 1.
@@ -143,23 +153,28 @@ std::vector<Knob> makeKnobs() {
       [](const EvalOptions& o) { return double(camerasOf(o)); }));
   knobs.back().synthetic_only = true;
   knobs.push_back(flagKnob(
-      "dilation", "--dilation", true, [](EvalOptions& o, double v) { o.fields.dilation_px = static_cast<int>(v); },
+      "dilation", "--dilation", true,
+      [](EvalOptions& o, double v) { o.fields.dilation_px = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.fields.dilation_px); }));
   knobs.push_back(flagKnob(
-      "delta", "--vote-delta", false, [](EvalOptions& o, double v) { o.fields.vote_delta = static_cast<float>(v); },
+      "delta", "--vote-delta", false,
+      [](EvalOptions& o, double v) { o.fields.vote_delta = static_cast<float>(v); },
       [](const EvalOptions& o) { return double(o.fields.vote_delta); }));
   knobs.push_back(flagKnob(
-      "draco-bits", "--draco-bits", true, [](EvalOptions& o, double v) { o.draco.position_bits = static_cast<int>(v); },
+      "draco-bits", "--draco-bits", true,
+      [](EvalOptions& o, double v) { o.draco.position_bits = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.draco.position_bits); }));
   knobs.push_back(flagKnob(
       "lz4-acceleration", "--lz4-acceleration", true,
       [](EvalOptions& o, double v) { o.lz4_acceleration = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.lz4_acceleration); }));
   knobs.push_back(flagKnob(
-      "lz4-hc-level", "--lz4-hc-level", true, [](EvalOptions& o, double v) { o.lz4_hc_level = static_cast<int>(v); },
+      "lz4-hc-level", "--lz4-hc-level", true,
+      [](EvalOptions& o, double v) { o.lz4_hc_level = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.lz4_hc_level); }));
   knobs.push_back(flagKnob(
-      "crop-margin", "--crop-margin", true, [](EvalOptions& o, double v) { o.crop_margin = static_cast<int>(v); },
+      "crop-margin", "--crop-margin", true,
+      [](EvalOptions& o, double v) { o.crop_margin = static_cast<int>(v); },
       [](const EvalOptions& o) { return double(o.crop_margin); }));
   knobs.push_back(choiceKnob(
       "image-codec", "--image-codec",
@@ -168,13 +183,19 @@ std::vector<Knob> makeKnobs() {
   knobs.push_back(choiceKnob(
       "vertex-precision", "--vertex-precision",
       [](EvalOptions& o, const std::string& v) { o.half_precision_vertices = v == "fp16"; },
-      [](const EvalOptions& o) { return std::string(o.half_precision_vertices ? "fp16" : "fp32"); }));
+      [](const EvalOptions& o) {
+        return std::string(o.half_precision_vertices ? "fp16" : "fp32");
+      }));
   Knob size;
   size.name = "size";
   size.loop_flag = "--size";
   size.meaning = "camera and output image size WxH";
-  size.apply = [](EvalOptions& o, const std::string& v) -> std::string { return parseImageSize(v, o.width, o.height); };
-  size.current = [](const EvalOptions& o) { return std::to_string(o.width) + "x" + std::to_string(o.height); };
+  size.apply = [](EvalOptions& o, const std::string& v) -> std::string {
+    return parseImageSize(v, o.width, o.height);
+  };
+  size.current = [](const EvalOptions& o) {
+    return std::to_string(o.width) + "x" + std::to_string(o.height);
+  };
   size.synthetic_only = true;
   knobs.push_back(size);
   return knobs;
@@ -211,7 +232,8 @@ KnobFlags::KnobFlags(CLI::App& app, const std::vector<std::string>& except) {
     if (std::find(except.begin(), except.end(), knob.name) != except.end()) continue;
     auto given = std::make_unique<Given>();
     given->knob = &knob;
-    given->option = app.add_option(knob.loop_flag, given->value, knob.meaning + " (sweep knob " + knob.name + ")");
+    given->option = app.add_option(knob.loop_flag, given->value,
+                                   knob.meaning + " (sweep knob " + knob.name + ")");
     flags_.push_back(std::move(given));
   }
 }

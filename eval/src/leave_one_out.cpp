@@ -21,9 +21,9 @@
 #include "eval/dataset_inspection.h"
 #include "eval/geometry_metrics.h"
 #include "eval/metrics.h"
-#include "fusion_server/photo_refine.h"
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/hull_error.h"
+#include "fusion_server/photo_refine.h"
 #include "fusion_server/visual_hull.h"
 #include "protocol/clock.h"
 #include "render_client/client.h"
@@ -56,9 +56,11 @@ struct FrameData {
   // index): the hull carved without its silhouette, as the client would
   // receive it.
   std::map<int, Mesh> mesh_without;
-  std::vector<render::ViewImages> views;  // reported calibration, colour, segmented mask: the client's
-  std::vector<Image8> true_colors;        // per camera: its whole image, which leave-one-out compares with
-  std::vector<Image8> true_masks;         // per camera
+  std::vector<render::ViewImages>
+      views;  // reported calibration, colour, segmented mask: the client's
+  std::vector<Image8>
+      true_colors;                 // per camera: its whole image, which leave-one-out compares with
+  std::vector<Image8> true_masks;  // per camera
   std::vector<capture::RenderedView> novel_truth;  // per novel pose (SceneInput::novel_poses)
   double hull_ms = 0;
   double refine_ms = 0;  // the hull's photo-consistency refinement (EvalOptions::refine_voxels)
@@ -71,9 +73,10 @@ struct FrameData {
   // server_decode): each pod's time, so their p50 and p95 mean what the
   // live report's do.
   std::map<std::string, std::vector<double>> per_pod_ms;
-  size_t pod_link_bytes = 0;     // every pod's PodFrame, as the pods send them
-  size_t client_link_bytes = 0;  // MeshFrame, TextureBundle and Stats, as the server sends each client
-  size_t feather_bytes = 0;      // of them, the pods' feather maps (protocol 1.2)
+  size_t pod_link_bytes = 0;  // every pod's PodFrame, as the pods send them
+  size_t client_link_bytes =
+      0;                     // MeshFrame, TextureBundle and Stats, as the server sends each client
+  size_t feather_bytes = 0;  // of them, the pods' feather maps (protocol 1.2)
   fusion::HullStats hull_stats;
 };
 
@@ -90,18 +93,23 @@ protocol::Frame parsedFrame(const protocol::Bytes& wire, const std::string& what
 // recorded), decoded as fusion_server decodes it, into the frame's group.
 // source names where the bytes came from in errors. Returns what the
 // group now holds for that camera.
-const fusion::PodImages& receivePodFrame(const protocol::Bytes& wire, const Camera& reported, const std::string& source,
-                                         fusion::FrameGroup& group, FrameData& frame) {
-  const protocol::Frame parsed = parsedFrame(wire, source + ": camera " + std::to_string(reported.id));
+const fusion::PodImages& receivePodFrame(const protocol::Bytes& wire, const Camera& reported,
+                                         const std::string& source, fusion::FrameGroup& group,
+                                         FrameData& frame) {
+  const protocol::Frame parsed =
+      parsedFrame(wire, source + ": camera " + std::to_string(reported.id));
   const auto t0 = Clock::now();
   protocol::PodFrame pod;
   protocol::Status status = protocol::decodeFrame(parsed, pod);
-  auto images = status.isOk() ? fusion::podImagesOf(pod, wire.size(), reported, protocol::monotonicNs()) : status;
+  auto images = status.isOk()
+                    ? fusion::podImagesOf(pod, wire.size(), reported, protocol::monotonicNs())
+                    : status;
   const double decode_ms = msSince(t0);
   frame.codec_ms["server_decode"] += decode_ms;
   frame.per_pod_ms["server_decode"].push_back(decode_ms);
   if (!images.isOk()) {
-    throw std::runtime_error(source + ": camera " + std::to_string(reported.id) + ": " + images.status().message());
+    throw std::runtime_error(source + ": camera " + std::to_string(reported.id) + ": " +
+                             images.status().message());
   }
   frame.pod_link_bytes += wire.size();
   return group.pods[pod.camera_id] = std::move(*images);
@@ -125,10 +133,13 @@ void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions&
   job.group.complete = true;
   // The Stats carry each pod's arrivals as the loop's do, so their bytes
   // are the loop's (no network here: no jitter).
-  for (const auto& [id, pod] : job.group.pods) job.pod_arrivals.push_back({static_cast<uint16_t>(id), 1, 0});
+  for (const auto& [id, pod] : job.group.pods)
+    job.pod_arrivals.push_back({static_cast<uint16_t>(id), 1, 0});
   const uint64_t hull_end_ns = protocol::monotonicNs();
-  const fusion::FusedOutput fused = fusion::packageFused(job, settings, hull, hull_end_ns, hull_end_ns);
-  const protocol::Bytes mesh_wire = fused.mesh_frame->flatten(), bundle_wire = fused.texture_bundle->flatten();
+  const fusion::FusedOutput fused =
+      fusion::packageFused(job, settings, hull, hull_end_ns, hull_end_ns);
+  const protocol::Bytes mesh_wire = fused.mesh_frame->flatten(),
+                        bundle_wire = fused.texture_bundle->flatten();
   const protocol::Bytes stats_wire = fused.stats->flatten();
   frame.client_link_bytes += mesh_wire.size() + bundle_wire.size() + stats_wire.size();
   const protocol::Frame bundle_frame = parsedFrame(bundle_wire, "texture bundle");
@@ -149,12 +160,15 @@ void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions&
     // The server sends no Draco bytes when encoding failed, and says why in the Stats.
     protocol::Stats stats;
     status = protocol::decodeFrame(parsedFrame(stats_wire, "stats"), stats);
-    throw std::runtime_error("the server's mesh: " + (status.isOk() ? stats.note : status.message()));
+    throw std::runtime_error("the server's mesh: " +
+                             (status.isOk() ? stats.note : status.message()));
   }
   if (!mesh.isOk()) throw std::runtime_error("the client's mesh: " + mesh.status().message());
   // The server's encoding, from the stamps it put in the frames it sent.
-  frame.codec_ms["mesh_encode"] += protocol::stampedMs(mesh_frame.stamps, protocol::Stage::kMeshEncode);
-  frame.codec_ms["image_encode"] += protocol::stampedMs(bundle.stamps, protocol::Stage::kImageEncode);
+  frame.codec_ms["mesh_encode"] +=
+      protocol::stampedMs(mesh_frame.stamps, protocol::Stage::kMeshEncode);
+  frame.codec_ms["image_encode"] +=
+      protocol::stampedMs(bundle.stamps, protocol::Stage::kImageEncode);
   frame.mesh = std::move(*mesh);
   frame.views = std::move(*views);
 }
@@ -168,8 +182,8 @@ std::vector<int> heldOutCameras(int cameras, int limit) {
 
 // The hull refined as the server refines it (EvalOptions::refine_voxels;
 // the hull itself when off).
-Mesh refined(const Mesh& hull, const std::vector<fusion::HullView>& views, const std::vector<Image8>& colors,
-             const EvalOptions& options, double voxel_size) {
+Mesh refined(const Mesh& hull, const std::vector<fusion::HullView>& views,
+             const std::vector<Image8>& colors, const EvalOptions& options, double voxel_size) {
   if (!(options.refine_voxels > 0)) return hull;
   fusion::PhotoRefineOptions refine;
   refine.depth_voxels = options.refine_voxels;
@@ -183,7 +197,8 @@ Mesh refined(const Mesh& hull, const std::vector<fusion::HullView>& views, const
 // (EvalOptions::refine_voxels), so that beyond its silhouette, which paper
 // 000's protocol lets shape the hull, nothing of a held-out image shapes
 // what it is compared with. Through Draco, as a client receives a mesh.
-std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options, const std::vector<fusion::HullView>& views,
+std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
+                                     const std::vector<fusion::HullView>& views,
                                      const std::vector<Image8>& colors, const Mesh& hull,
                                      const fusion::HullOptions& hull_options) {
   std::map<int, Mesh> meshes;
@@ -193,13 +208,15 @@ std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options, const std::vect
     others.erase(others.begin() + held);
     std::vector<Image8> other_colors = colors;
     other_colors.erase(other_colors.begin() + held);
-    const Mesh mesh = refined(options.hull_without_held_out ? fusion::carveVisualHull(others, hull_options) : hull,
-                              others, other_colors, options, hull_options.voxel_size);
+    const Mesh mesh = refined(
+        options.hull_without_held_out ? fusion::carveVisualHull(others, hull_options) : hull,
+        others, other_colors, options, hull_options.voxel_size);
     auto bytes = encodeDraco(mesh, options.draco);
     auto decoded = bytes.isOk() ? decodeDraco(bytes->data(), bytes->size()) : bytes.status();
     if (!decoded.isOk()) {
-      throw std::runtime_error("the hull without camera " + std::to_string(views[static_cast<size_t>(held)].camera.id) +
-                               ": " + decoded.status().message());
+      throw std::runtime_error("the hull without camera " +
+                               std::to_string(views[static_cast<size_t>(held)].camera.id) + ": " +
+                               decoded.status().message());
     }
     meshes[held] = std::move(*decoded);
   }
@@ -210,8 +227,8 @@ std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options, const std::vect
 // the meshes the held-out cameras are compared with: the mesh the frame
 // sends.
 Mesh refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
-                  const std::vector<fusion::HullView>& views, Mesh carved, const fusion::HullOptions& hull_options,
-                  FrameData& frame) {
+                  const std::vector<fusion::HullView>& views, Mesh carved,
+                  const fusion::HullOptions& hull_options, FrameData& frame) {
   const std::vector<Image8> colors = fusion::colorsInFrame(group);
   const auto t0 = Clock::now();
   Mesh mesh = refined(carved, views, colors, options, hull_options.voxel_size);
@@ -234,8 +251,8 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
     frame.true_colors.push_back(capture.view.color);
     frame.true_masks.push_back(capture.view.mask);
     const protocol::Bytes wire =
-        capture::encodePodFrame(capture, static_cast<uint32_t>(i), options.image_codec, options.crop_margin,
-                                options.lz4_acceleration, options.lz4_hc_level)
+        capture::encodePodFrame(capture, static_cast<uint32_t>(i), options.image_codec,
+                                options.crop_margin, options.lz4_acceleration, options.lz4_hc_level)
             .flatten();
     // As the pod stamps it: its planes' encoding, not the frame's packing.
     const double encode_ms = protocol::stampedMs(capture.stamps, protocol::Stage::kPodEncode);
@@ -251,14 +268,15 @@ FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene
   // The true surface at the hull's voxel size, when asked for.
   fusion::HullOptions hull_options;
   hull_options.voxel_size = options.voxel_size;
-  Mesh hull = options.geometry == "truth" ? scene.truthMesh(frame_id, options.voxel_size)
-                                          : fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
+  Mesh hull = options.geometry == "truth"
+                  ? scene.truthMesh(frame_id, options.voxel_size)
+                  : fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
   frame.hull_ms = msSince(t0);
-  if (options.geometry != "truth") hull = refineCarved(options, group, hull_views, std::move(hull), hull_options, frame);
+  if (options.geometry != "truth")
+    hull = refineCarved(options, group, hull_views, std::move(hull), hull_options, frame);
   sendToClient(std::move(group), hull, options, reported, frame);
   return frame;
 }
-
 
 // RGB like the true images (a render's alpha is not part of the comparison).
 void saveImage(const fs::path& path, const Image8& image) {
@@ -303,8 +321,9 @@ struct ViewRegions {
   Image8 seams;    // one channel, 255 on a seam triangle
   Image8 regions;  // eval::errorRegions of the truth's mask
 };
-ViewRegions viewRegions(const Mesh& mesh, const Camera& pose, const std::vector<render::ViewImages>& views,
-                        const Image8& truth_mask, const render::FieldParameters& fields) {
+ViewRegions viewRegions(const Mesh& mesh, const Camera& pose,
+                        const std::vector<render::ViewImages>& views, const Image8& truth_mask,
+                        const render::FieldParameters& fields) {
   std::vector<render::reference::PodView> pods;
   for (const auto& view : views) pods.push_back({view.camera, view.color, view.mask, view.feather});
   const auto sights = render::reference::vertexSights(mesh, pods);
@@ -315,9 +334,11 @@ ViewRegions viewRegions(const Mesh& mesh, const Camera& pose, const std::vector<
   const auto seams = render::reference::seamTriangles(mesh, sights, trusted);
   std::vector<uint8_t> seam(mesh.triangleCount(), 0);
   double nearest = -1;  // the largest cosine between a camera's direction and the view's
-  for (const auto& pod : pods) nearest = std::max(nearest, glm::dot(pod.camera.forward(), pose.forward()));
+  for (const auto& pod : pods)
+    nearest = std::max(nearest, glm::dot(pod.camera.forward(), pose.forward()));
   const double one_degree = glm::radians(1.0);
-  const double lowest = std::min(0.5, std::cos(std::acos(std::clamp(nearest, -1.0, 1.0)) + one_degree));
+  const double lowest =
+      std::min(0.5, std::cos(std::acos(std::clamp(nearest, -1.0, 1.0)) + one_degree));
   for (size_t i = 0; i < seams.size(); ++i) {
     if (glm::dot(pods[i].camera.forward(), pose.forward()) < lowest) continue;
     for (size_t t = 0; t < seam.size() && t < seams[i].size(); ++t) seam[t] |= seams[i][t] != 0;
@@ -346,8 +367,9 @@ struct SceneInput {
 };
 
 // Every mode, every held-out camera, every frame of one scene.
-void evaluateModes(const EvalOptions& options, render::VulkanContext& context, const SceneInput& input,
-                   SceneResult& result, const std::function<void(const std::string&)>& progress) {
+void evaluateModes(const EvalOptions& options, render::VulkanContext& context,
+                   const SceneInput& input, SceneResult& result,
+                   const std::function<void(const std::string&)>& progress) {
   const int camera_count = static_cast<int>(input.reported.size());
   const int frame_count = static_cast<int>(input.frames.size());
   // A jump of this many cameras along the ring is the preset's angle.
@@ -368,14 +390,16 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
   const auto runs = [&](render::BlendMode mode) {
     return std::find(options.modes.begin(), options.modes.end(), mode) != options.modes.end();
   };
-  const bool compare_pictures = runs(render::BlendMode::kHoloportation) && runs(render::BlendMode::kMontage4D);
+  const bool compare_pictures =
+      runs(render::BlendMode::kHoloportation) && runs(render::BlendMode::kMontage4D);
   // The first of the two to run keeps its pictures, cut to the truth's
   // rectangle (all that is compared), until the second renders the same view.
   std::map<std::pair<int, int>, Image8> first_pictures;
   std::optional<render::BlendMode> first_mode;
   double holoportation_psnr = 0, best_montage_psnr = 0, error = 0, error_differing = 0;
   size_t compared = 0, pixels = 0, differing = 0;
-  auto comparePictures = [&](const std::pair<int, int>& key, render::BlendMode mode, const Image8& picture) {
+  auto comparePictures = [&](const std::pair<int, int>& key, render::BlendMode mode,
+                             const Image8& picture) {
     const auto [truth_color, truth_mask] = truthOf(key.first, key.second);
     const PixelRect rect = foregroundRect(truth_mask);
     if (!first_mode) first_mode = mode;
@@ -397,9 +421,9 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
     if (first == first_pictures.end()) return;
     const Image8 second = cropImage(picture, rect);
     const bool holoportation_first = *first_mode == render::BlendMode::kHoloportation;
-    const PictureAgreement a = pictureAgreement(holoportation_first ? first->second : second,
-                                                holoportation_first ? second : first->second,
-                                                cropImage(truth_color, rect), cropImage(truth_mask, rect));
+    const PictureAgreement a = pictureAgreement(
+        holoportation_first ? first->second : second, holoportation_first ? second : first->second,
+        cropImage(truth_color, rect), cropImage(truth_mask, rect));
     first_pictures.erase(first);
     // The mean PSNR over images, as the modes' scores are.
     holoportation_psnr += psnrFromMse(a.a_squared_error / (3.0 * static_cast<double>(a.pixels)));
@@ -424,11 +448,13 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         novel ? std::vector<int>{} : heldOutCameras(camera_count, options.held_out_cameras);
     std::vector<int> sequences = evaluated;
     if (novel) {
-      for (size_t j = 0; j < input.novel_poses.size(); ++j) sequences.push_back(static_cast<int>(j));
+      for (size_t j = 0; j < input.novel_poses.size(); ++j)
+        sequences.push_back(static_cast<int>(j));
     }
     for (int held : sequences) {
       // Rendered at the held-out camera's own size, to compare pixel for pixel.
-      const Camera& pose = novel ? input.novel_poses[static_cast<size_t>(held)] : input.reported[static_cast<size_t>(held)];
+      const Camera& pose = novel ? input.novel_poses[static_cast<size_t>(held)]
+                                 : input.reported[static_cast<size_t>(held)];
       render::Renderer renderer(context, pose.width, pose.height);
       renderer.setHalfPrecisionVertices(options.half_precision_vertices);
       render::BlendSettings settings;
@@ -445,7 +471,8 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         const FrameData& frame = input.frames[static_cast<size_t>(f)];
         // Leave-one-out proper may carve without the held-out camera too; a
         // kept camera or a novel pose has no camera to leave out.
-        const auto without = novel || input.camera_kept ? frame.mesh_without.end() : frame.mesh_without.find(held);
+        const auto without =
+            novel || input.camera_kept ? frame.mesh_without.end() : frame.mesh_without.find(held);
         const Mesh& mesh = without != frame.mesh_without.end() ? without->second : frame.mesh;
         renderer.setMesh(mesh);
         // The held-out image takes no part at all: not in the blend, the
@@ -454,13 +481,17 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         if (!novel && !input.camera_kept) others.erase(others.begin() + held);
         renderer.setViews(others);
         const bool before_jump = !novel && f < jump_frame;
-        const int view = before_jump ? ((held + jump) % camera_count + camera_count) % camera_count : held;
+        const int view =
+            before_jump ? ((held + jump) % camera_count + camera_count) % camera_count : held;
         const auto t0 = Clock::now();
-        const Image8 picture = renderer.render(novel ? pose : input.reported[static_cast<size_t>(view)], settings);
+        const Image8 picture =
+            renderer.render(novel ? pose : input.reported[static_cast<size_t>(view)], settings);
         mesh_ms.push_back(msSince(t0));
         const auto times = renderer.fieldTimesMs();
         for (size_t s = 0; s < times.size(); ++s) {
-          if (times[s] >= 0) passes[render::TextureFieldPasses::stageNames()[s]].push_back(times[s]);  // -1: no such pass
+          if (times[s] >= 0)
+            passes[render::TextureFieldPasses::stageNames()[s]].push_back(
+                times[s]);  // -1: no such pass
         }
         if (before_jump) continue;  // not at the held-out pose yet: nothing to compare with
         const auto [truth_color, truth_mask] = truthOf(held, f);
@@ -472,9 +503,9 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         }
         auto cached = region_cache.find(key);
         if (cached == region_cache.end()) {
-          cached = region_cache
-                       .emplace(key, viewRegions(mesh, pose, others, truth_mask, options.fields))
-                       .first;
+          cached =
+              region_cache.emplace(key, viewRegions(mesh, pose, others, truth_mask, options.fields))
+                  .first;
         }
         const ViewRegions& regions = cached->second;
         m.regions.add(regionErrors(picture, truth_color, regions.regions));
@@ -494,9 +525,10 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         }
         previous = std::move(error);
         if (options.save_images) {
-          const fs::path dir = fs::path(options.out_dir) / "images" / folderName(result.name) / mode_name;
-          const std::string stem = "frame" + std::to_string(frame.frame_id) + (novel ? "_novel" : "_camera") +
-                                   std::to_string(held);
+          const fs::path dir =
+              fs::path(options.out_dir) / "images" / folderName(result.name) / mode_name;
+          const std::string stem = "frame" + std::to_string(frame.frame_id) +
+                                   (novel ? "_novel" : "_camera") + std::to_string(held);
           saveImage(dir / (stem + "_rendered.png"), picture);
           saveImage(dir / (stem + "_true.png"), truth_color);
           saveImage(dir / (stem + "_mask.png"), truth_mask);
@@ -505,7 +537,10 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
         }
       }
       if (progress) {
-        progress(result.name + " / " + mode_name + (novel ? ": novel view " : input.camera_kept ? ": camera kept " : ": held out camera ") +
+        progress(result.name + " / " + mode_name +
+                 (novel               ? ": novel view "
+                  : input.camera_kept ? ": camera kept "
+                                      : ": held out camera ") +
                  std::to_string(held) + " of " +
                  std::to_string(novel ? static_cast<int>(sequences.size()) : camera_count) + ", " +
                  std::to_string(frame_count) + " frames, " +
@@ -526,17 +561,20 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context, c
   if (compared > 0) {
     ModeAgreement& agreement = result.montage_agreement;
     agreement.measured = true;
-    agreement.differing_share = pixels ? static_cast<double>(differing) / static_cast<double>(pixels) : 0.0;
+    agreement.differing_share =
+        pixels ? static_cast<double>(differing) / static_cast<double>(pixels) : 0.0;
     agreement.holoportation_error_share = error > 0 ? error_differing / error : 0.0;
-    agreement.gain_bound_db = (best_montage_psnr - holoportation_psnr) / static_cast<double>(compared);
+    agreement.gain_bound_db =
+        (best_montage_psnr - holoportation_psnr) / static_cast<double>(compared);
   }
 }
 
 // The leave-one-out row's scene again, with each held-out camera's image
 // kept in the blend: what the camera's own pose scores when its image
 // takes part.
-SceneResult cameraKeptRow(const EvalOptions& options, render::VulkanContext& context, const SceneInput& input,
-                          const SceneResult& leave_one_out, const std::function<void(const std::string&)>& progress) {
+SceneResult cameraKeptRow(const EvalOptions& options, render::VulkanContext& context,
+                          const SceneInput& input, const SceneResult& leave_one_out,
+                          const std::function<void(const std::string&)>& progress) {
   SceneInput kept = input;
   kept.camera_kept = true;
   SceneResult row = leave_one_out;
@@ -616,7 +654,8 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
 // hull carved in its capture volume at its voxel size (options.voxel_size
 // when the dataset names none or a voxel was given), through Draco. Its masks are the truth the
 // images are compared inside; there is no true surface.
-SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, SceneResult& result) {
+SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
+                            SceneResult& result) {
   auto dataset = capture::Dataset::open(dir);
   if (!dataset.isOk()) throw std::invalid_argument(dataset.status().message());
   SceneInput input;
@@ -626,7 +665,8 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
     if (!calibration.isOk()) throw std::invalid_argument(calibration.status().message());
     cameras.push_back(fromCalibration(*calibration));
   }
-  if (cameras.size() < 2) throw std::invalid_argument(dir + ": leave-one-camera-out needs at least 2 cameras");
+  if (cameras.size() < 2)
+    throw std::invalid_argument(dir + ": leave-one-camera-out needs at least 2 cameras");
   input.reported = cameras;
   fusion::HullOptions hull_options = hullOptionsFor(*dataset, options.voxel_size);
   if (!options.voxel_from_dataset) hull_options.voxel_size = options.voxel_size;
@@ -650,18 +690,21 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
       if (!recorded.isOk()) throw std::invalid_argument(recorded.status().message());
       // The pods' encoding is not timed: the recording was made. The truth
       // is the recorded image and mask, back in their whole frame.
-      const fusion::PodImages& pod = receivePodFrame(recorded->bytes, cameras[c], dir, group, frame);
+      const fusion::PodImages& pod =
+          receivePodFrame(recorded->bytes, cameras[c], dir, group, frame);
       const Camera& cam = cameras[c];
-      frame.true_colors.push_back(placeInFrame(pod.color, pod.offset_x, pod.offset_y, cam.width, cam.height));
-      frame.true_masks.push_back(placeInFrame(pod.mask, pod.offset_x, pod.offset_y, cam.width, cam.height));
+      frame.true_colors.push_back(
+          placeInFrame(pod.color, pod.offset_x, pod.offset_y, cam.width, cam.height));
+      frame.true_masks.push_back(
+          placeInFrame(pod.mask, pod.offset_x, pod.offset_y, cam.width, cam.height));
     }
     const std::vector<fusion::HullView> hull_views = fusion::hullViewsOf(group);
     const auto t0 = Clock::now();
     Mesh hull;
     if (options.hull_error_target > 0 && input.frames.empty()) {
       // The error target picks the voxel on the first frame; the rest follow it.
-      fusion::HullForTarget found = fusion::carveToErrorTarget(hull_views, hull_options, options.hull_error_target,
-                                                               &frame.hull_stats);
+      fusion::HullForTarget found = fusion::carveToErrorTarget(
+          hull_views, hull_options, options.hull_error_target, &frame.hull_stats);
       hull = std::move(found.mesh);
       hull_options.voxel_size = found.voxel_size;
     } else {
@@ -672,15 +715,18 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir, 
     sendToClient(std::move(group), hull, options, cameras, frame);
     input.frames.push_back(std::move(frame));
   }
-  if (input.frames.empty()) throw std::invalid_argument(dir + ": no frame id is held by every camera");
+  if (input.frames.empty())
+    throw std::invalid_argument(dir + ": no frame id is held by every camera");
   result.name = "dataset:" + fs::path(dir).lexically_normal().filename().string();
-  if (result.name == "dataset:") result.name = "dataset:" + fs::path(dir).lexically_normal().parent_path().filename().string();
+  if (result.name == "dataset:")
+    result.name = "dataset:" + fs::path(dir).lexically_normal().parent_path().filename().string();
   result.stresses = dataset->metadata() ? dataset->metadata()->source : "a recording";
   result.cameras = static_cast<int>(cameras.size());
   result.chamfer_mm = -1;  // no true surface
   result.voxel_mm = 1000.0 * hull_options.voxel_size;
   for (size_t i = 0; i < cameras.size(); ++i) {
-    result.silhouette_iou.push_back(silhouetteIoU(input.frames[0].mesh, cameras[i], input.frames[0].true_masks[i]));
+    result.silhouette_iou.push_back(
+        silhouetteIoU(input.frames[0].mesh, cameras[i], input.frames[0].true_masks[i]));
   }
   return input;
 }
@@ -696,7 +742,8 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
   for (const auto& name : options.scenes) {
     const capture::ScenePreset* preset = capture::findScene(name);
     if (preset == nullptr) {
-      throw std::invalid_argument("unknown scene '" + name + "'; valid scenes: " + capture::sceneNames());
+      throw std::invalid_argument("unknown scene '" + name +
+                                  "'; valid scenes: " + capture::sceneNames());
     }
     presets.push_back(preset);
   }
@@ -705,10 +752,12 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     throw std::invalid_argument("geometry '" + options.geometry + "': expected hull or truth");
   }
   if (options.geometry == "truth" && options.hull_without_held_out) {
-    throw std::invalid_argument("--hull-without-held-out carves the hull again: it needs --geometry hull");
+    throw std::invalid_argument(
+        "--hull-without-held-out carves the hull again: it needs --geometry hull");
   }
   if (options.geometry == "truth" && !options.datasets.empty()) {
-    throw std::invalid_argument("--geometry truth needs a synthetic scene: a dataset has no true surface");
+    throw std::invalid_argument(
+        "--geometry truth needs a synthetic scene: a dataset has no true surface");
   }
   render::VulkanContext context(options.device);
   std::vector<SceneResult> results;
@@ -719,19 +768,22 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     result.silhouette_error_mm = silhouetteErrorMm(input.frames[0]);
     evaluateModes(options, context, input, result, progress);
     results.push_back(std::move(result));
-    if (options.camera_kept) results.push_back(cameraKeptRow(options, context, input, results.back(), progress));
+    if (options.camera_kept)
+      results.push_back(cameraKeptRow(options, context, input, results.back(), progress));
   }
   for (const capture::ScenePreset* preset : presets) {
     capture::SceneOptions scene_options = preset->scene;
     scene_options.frames_per_second = options.fps;
     const capture::SyntheticScene scene(scene_options);
     const int camera_count = options.cameras > 0 ? options.cameras : preset->cameras;
-    const std::vector<Camera> truth = capture::SyntheticScene::cameraRig(camera_count, options.width, options.height);
+    const std::vector<Camera> truth =
+        capture::SyntheticScene::cameraRig(camera_count, options.width, options.height);
     SceneInput input;
     std::vector<Image8> plates;
     for (const Camera& camera : truth) {
-      input.reported.push_back(capture::reportedCalibration(camera, preset->calibration_error_degrees,
-                                                            preset->calibration_error_metres, scene_options.seed));
+      input.reported.push_back(
+          capture::reportedCalibration(camera, preset->calibration_error_degrees,
+                                       preset->calibration_error_metres, scene_options.seed));
       plates.push_back(scene.backgroundPlate(camera));
     }
     EvalOptions scene_eval = options;
@@ -739,13 +791,14 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
       // The error target picks the voxel on the first frame; the rest follow it.
       std::vector<fusion::HullView> views;
       for (size_t i = 0; i < truth.size(); ++i) {
-        capture::PodCapture capture =
-            capture::capturePodFrame(scene, truth[i], plates[i], options.first_frame, static_cast<uint16_t>(i));
+        capture::PodCapture capture = capture::capturePodFrame(
+            scene, truth[i], plates[i], options.first_frame, static_cast<uint16_t>(i));
         views.push_back({input.reported[i], capture.mask, capture.feather});
       }
       fusion::HullOptions hull_options;
       hull_options.voxel_size = options.voxel_size;
-      scene_eval.voxel_size = fusion::carveToErrorTarget(views, hull_options, options.hull_error_target).voxel_size;
+      scene_eval.voxel_size =
+          fusion::carveToErrorTarget(views, hull_options, options.hull_error_target).voxel_size;
     }
     SceneResult result;
     result.name = preset->name;
@@ -763,23 +816,27 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
       const Mesh truth_surface = scene.truthMesh(options.first_frame, 0.01);
       result.chamfer_mm = 1000.0 * chamferDistance(input.frames[0].mesh, truth_surface);
       for (size_t i = 0; i < truth.size(); ++i) {
-        result.silhouette_iou.push_back(silhouetteIoU(input.frames[0].mesh, truth[i], input.frames[0].true_masks[i]));
+        result.silhouette_iou.push_back(
+            silhouetteIoU(input.frames[0].mesh, truth[i], input.frames[0].true_masks[i]));
       }
     }
     evaluateModes(options, context, input, result, progress);
     const SceneResult leave_one_out = result;
     results.push_back(std::move(result));
-    if (options.camera_kept) results.push_back(cameraKeptRow(options, context, input, leave_one_out, progress));
+    if (options.camera_kept)
+      results.push_back(cameraKeptRow(options, context, input, leave_one_out, progress));
     for (double degrees : options.novel_view_degrees) {
       // The same frames, seen from beside the chosen pods with all of them
       // blended; the scene renders the truth there.
       SceneInput novel = input;
       for (int k : heldOutCameras(camera_count, options.held_out_cameras)) {
         novel.novel_poses.push_back(capture::SyntheticScene::ringPose(
-            360.0 * k / camera_count + degrees, static_cast<uint32_t>(1000 + k), options.width, options.height));
+            360.0 * k / camera_count + degrees, static_cast<uint32_t>(1000 + k), options.width,
+            options.height));
       }
       for (FrameData& frame : novel.frames) {
-        for (const Camera& pose : novel.novel_poses) frame.novel_truth.push_back(scene.render(pose, frame.frame_id));
+        for (const Camera& pose : novel.novel_poses)
+          frame.novel_truth.push_back(scene.render(pose, frame.frame_id));
       }
       SceneResult row = leave_one_out;
       row.modes.clear();
@@ -803,9 +860,11 @@ std::vector<std::string> latencyStages() {
 }
 
 std::vector<double> latencyParts(const SceneResult& scene, const ModeResult& mode, bool p95) {
-  std::vector<double> parts = {p95 ? scene.hull_ms_p95 : scene.hull_ms, p95 ? scene.refine_ms_p95 : scene.refine_ms};
+  std::vector<double> parts = {p95 ? scene.hull_ms_p95 : scene.hull_ms,
+                               p95 ? scene.refine_ms_p95 : scene.refine_ms};
   const auto& codec_ms = p95 ? scene.codec_stage_ms_p95 : scene.codec_stage_ms;
-  for (const std::string& stage : codecStages()) parts.push_back(codec_ms.count(stage) ? codec_ms.at(stage) : 0.0);
+  for (const std::string& stage : codecStages())
+    parts.push_back(codec_ms.count(stage) ? codec_ms.at(stage) : 0.0);
   parts.push_back(p95 ? mode.ms_per_new_mesh_p95 : mode.ms_per_new_mesh);
   return parts;
 }
@@ -837,15 +896,19 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
                {"silhouette_error_mm", measuredJson(scene.silhouette_error_mm)},
                {"dense_grid_points", scene.dense_grid_points}};
   if (scene.montage_agreement.measured) {
-    s["montage_agreement"] = {{"differing_pixel_share", scene.montage_agreement.differing_share},
-                              {"holoportation_error_share_there", scene.montage_agreement.holoportation_error_share},
-                              {"psnr_gain_bound_db", scene.montage_agreement.gain_bound_db}};
+    s["montage_agreement"] = {
+        {"differing_pixel_share", scene.montage_agreement.differing_share},
+        {"holoportation_error_share_there", scene.montage_agreement.holoportation_error_share},
+        {"psnr_gain_bound_db", scene.montage_agreement.gain_bound_db}};
   }
   for (const auto& [mode, m] : scene.modes) {
-    s["modes"][mode] = {{"rmse_percent", m.rmse_percent}, {"psnr_db", m.psnr_db},
-                        {"ssim", m.ssim},                 {"flicker", measuredJson(m.flicker)},
+    s["modes"][mode] = {{"rmse_percent", m.rmse_percent},
+                        {"psnr_db", m.psnr_db},
+                        {"ssim", m.ssim},
+                        {"flicker", measuredJson(m.flicker)},
                         {"seam_visibility", measuredJson(m.seam_visibility)},
-                        {"images", m.images},             {"ms_per_new_mesh", m.ms_per_new_mesh},
+                        {"images", m.images},
+                        {"ms_per_new_mesh", m.ms_per_new_mesh},
                         {"ms_per_new_mesh_p95", m.ms_per_new_mesh_p95},
                         {"gpu_passes_ms", m.gpu_passes_ms}};
     for (size_t r = 0; r < kErrorRegionCount; ++r) {
@@ -926,9 +989,10 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
 Image8 errorRegions(const Image8& mask, const DepthMap& depth, const Image8& seams, int reach_px,
                     double relative_jump) {
   const uint32_t w = mask.width, h = mask.height;
-  if (mask.channels != 1 || seams.width != w || seams.height != h || seams.channels != 1 || depth.width != w ||
-      depth.height != h) {
-    throw std::invalid_argument("errorRegions: mask, depth and seams must be one-channel images of one size");
+  if (mask.channels != 1 || seams.width != w || seams.height != h || seams.channels != 1 ||
+      depth.width != w || depth.height != h) {
+    throw std::invalid_argument(
+        "errorRegions: mask, depth and seams must be one-channel images of one size");
   }
   const size_t n = static_cast<size_t>(w) * h;
   // The mask as a depth map: its outline is the mask's inside pixels next
@@ -938,8 +1002,10 @@ Image8 errorRegions(const Image8& mask, const DepthMap& depth, const Image8& sea
   for (size_t p = 0; p < n; ++p) {
     if (mask.pixels[p] != 0) silhouette.depth[p] = 1.0;
   }
-  const auto near_outside = render::reference::dilatedDiscontinuities(silhouette, {std::max(0, reach_px - 1), relative_jump});
-  const auto near_jump = render::reference::dilatedDiscontinuities(depth, {std::max(0, reach_px), relative_jump});
+  const auto near_outside = render::reference::dilatedDiscontinuities(
+      silhouette, {std::max(0, reach_px - 1), relative_jump});
+  const auto near_jump =
+      render::reference::dilatedDiscontinuities(depth, {std::max(0, reach_px), relative_jump});
   Image8 regions(w, h, 1, kOutsideRegions);
   for (size_t p = 0; p < n; ++p) {
     if (mask.pixels[p] == 0) continue;
@@ -956,8 +1022,8 @@ Image8 errorRegions(const Image8& mask, const DepthMap& depth, const Image8& sea
   return regions;
 }
 
-std::map<std::string, double> regionSharesAgainstNormal(const std::map<std::string, ModeResult>& modes,
-                                                        const std::string& mode) {
+std::map<std::string, double> regionSharesAgainstNormal(
+    const std::map<std::string, ModeResult>& modes, const std::string& mode) {
   const auto normal = modes.find(render::blendModeName(render::BlendMode::kNormal));
   const auto other = modes.find(mode);
   std::map<std::string, double> shares;
@@ -965,7 +1031,8 @@ std::map<std::string, double> regionSharesAgainstNormal(const std::map<std::stri
   std::array<double, kErrorRegionCount> difference{};
   double total = 0, scale = 0;
   for (size_t r = 0; r < kErrorRegionCount; ++r) {
-    difference[r] = normal->second.regions.squared_error[r] - other->second.regions.squared_error[r];
+    difference[r] =
+        normal->second.regions.squared_error[r] - other->second.regions.squared_error[r];
     total += difference[r];
     scale += normal->second.regions.squared_error[r];
   }
@@ -1002,9 +1069,12 @@ std::string measuredText(double value, const char* format) {
 
 // What the verdict tables' "pictures differ on" column says.
 constexpr const char* kPicturesDifferMeaning =
-    "Pictures differ on: the share of the compared pixels where montage4d's picture differs from holoportation's "
-    "by more than 2 grey levels, and (in brackets) the PSNR gain montage4d would have if exact on every one of them: "
-    "the most that what its fields change could gain, at these settings (other settings change other pixels).";
+    "Pictures differ on: the share of the compared pixels where montage4d's picture differs from "
+    "holoportation's "
+    "by more than 2 grey levels, and (in brackets) the PSNR gain montage4d would have if exact on "
+    "every one of them: "
+    "the most that what its fields change could gain, at these settings (other settings change "
+    "other pixels).";
 
 Verdict montageVerdict(const SceneResult& scene) {
   Verdict v;
@@ -1029,7 +1099,8 @@ Verdict montageVerdict(const SceneResult& scene) {
     if (v.agreement.measured && v.agreement.gain_bound_db < 0.5) {
       char text[200];
       std::snprintf(text, sizeof(text),
-                    " (montage4d changes too little of holoportation's picture: they differ on %.0f%% of the pixels, "
+                    " (montage4d changes too little of holoportation's picture: they differ on "
+                    "%.0f%% of the pixels, "
                     "and exact on all of them it would gain %.2f dB)",
                     100 * v.agreement.differing_share, v.agreement.gain_bound_db);
       why += text;
@@ -1067,16 +1138,22 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       {"metrics",
        "RMSE and PSNR over RGB inside the true mask; SSIM on luminance (Wang 2004, "
        "11x11 Gaussian sigma 1.5, K1 0.01, K2 0.03), mean over windows centred in the mask; "
-       "flicker: mean |change of the error image| between frames, grey levels (null: no two frames compared); "
+       "flicker: mean |change of the error image| between frames, grey levels (null: no two frames "
+       "compared); "
        "seam_visibility: RMS gradient of the luminance error image over the pixels seam "
        "triangles cover, grey levels per pixel"}};
   for (const auto& scene : results) {
     nlohmann::json& s = json["scenes"][scene.name];
     s = sceneResultJson(scene);
     const Verdict v = montageVerdict(scene);
-    s["montage4d_against_holoportation"] = {{"psnr_gain_db", v.psnr_gain_db}, {"ssim_gain", v.ssim_gain},
-                                            {"flicker_ratio", measuredJson(v.flicker_ratio)}, {"target_met", v.met},
-                                            {"short_of", v.why}, {"is_a_target", scene.name != "clean" && scene.novel_view_degrees == 0 && !scene.camera_kept}};
+    s["montage4d_against_holoportation"] = {
+        {"psnr_gain_db", v.psnr_gain_db},
+        {"ssim_gain", v.ssim_gain},
+        {"flicker_ratio", measuredJson(v.flicker_ratio)},
+        {"target_met", v.met},
+        {"short_of", v.why},
+        {"is_a_target",
+         scene.name != "clean" && scene.novel_view_degrees == 0 && !scene.camera_kept}};
     if (v.agreement.measured) {
       s["montage4d_against_holoportation"]["pictures"] = s["montage_agreement"];
     }
@@ -1088,12 +1165,14 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   for (auto mode : options.modes) modes.push_back(render::blendModeName(mode));
   std::ofstream md(fs::path(out_dir) / "quality.md");
   md << "# Leave-one-camera-out quality\n\n"
-     << "Geometry: " << (options.geometry == "truth" ? "the true surface" : "the visual hull") << ". " << options.frames
-     << " frames per scene from frame " << options.first_frame << ", " << options.width << "x" << options.height
+     << "Geometry: " << (options.geometry == "truth" ? "the true surface" : "the visual hull")
+     << ". " << options.frames << " frames per scene from frame " << options.first_frame << ", "
+     << options.width << "x" << options.height
      << "; each camera rendered from its reported pose without its own image"
      << (options.hull_without_held_out ? " and with a hull carved without its silhouette" : "")
      << ", compared with its "
-        "true image inside its true mask (rows \"(camera kept)\": with its own image; \"+D deg\": novel poses, every "
+        "true image inside its true mask (rows \"(camera kept)\": with its own image; \"+D deg\": "
+        "novel poses, every "
         "camera blended).\n\n";
   char cell[256];
   // One table per group of columns, a column per mode and measure.
@@ -1122,36 +1201,48 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     std::snprintf(v[0], sizeof(v[0]), "%.2f%%", m.rmse_percent);
     std::snprintf(v[1], sizeof(v[1]), "%.2f dB", m.psnr_db);
     std::snprintf(v[2], sizeof(v[2]), "%.4f", m.ssim);
-    std::snprintf(v[3], sizeof(v[3]), "%.1f", m.ms_per_new_mesh > 0 ? 1000.0 / m.ms_per_new_mesh : 0.0);
+    std::snprintf(v[3], sizeof(v[3]), "%.1f",
+                  m.ms_per_new_mesh > 0 ? 1000.0 / m.ms_per_new_mesh : 0.0);
     return {v[0], v[1], v[2], v[3]};
   });
-  md << "\nfps: one render after a new mesh (field passes included), this machine's Vulkan device; paper 000's is "
+  md << "\nfps: one render after a new mesh (field passes included), this machine's Vulkan device; "
+        "paper 000's is "
         "the average over every frame.\n\n## Flicker and seams\n\n";
   modeTable({"flicker", "seams"}, [&](const ModeResult& m) -> std::vector<std::string> {
     return {measuredText(m.flicker, "%.2f"), measuredText(m.seam_visibility, "%.2f")};
   });
-  md << "\nflicker: mean frame-to-frame change of the error image, grey levels (n/a: no two frames compared). seams: "
-        "seam visibility, the RMS gradient of the luminance error along the pixels seam triangles cover (grey levels "
+  md << "\nflicker: mean frame-to-frame change of the error image, grey levels (n/a: no two frames "
+        "compared). seams: "
+        "seam visibility, the RMS gradient of the luminance error along the pixels seam triangles "
+        "cover (grey levels "
         "per pixel; lower is less visible; n/a: no seam in view).\n\n";
-  md << "## Where the errors differ\n\nPSNR per region over every image (the squared error pooled), and the share of "
-        "the squared-error difference from normal that each region carries (the shares sum to 100%; a negative "
-        "one goes against the whole picture's difference); the row \"pixels\" gives each region's share of the "
-        "compared pixels. Regions: within 3 px of the true mask's edge (border), of a depth jump of the "
-        "mesh seen from the pose (occlusion), on seam triangles (seam), elsewhere; pictures with --save-images "
+  md << "## Where the errors differ\n\nPSNR per region over every image (the squared error "
+        "pooled), and the share of "
+        "the squared-error difference from normal that each region carries (the shares sum to "
+        "100%; a negative "
+        "one goes against the whole picture's difference); the row \"pixels\" gives each region's "
+        "share of the "
+        "compared pixels. Regions: within 3 px of the true mask's edge (border), of a depth jump "
+        "of the "
+        "mesh seen from the pose (occlusion), on seam triangles (seam), elsewhere; pictures with "
+        "--save-images "
         "(*_error.png, *_regions.png).\n\n"
      << "| Scene | mode |";
-  for (size_t r = 0; r < kErrorRegionCount; ++r) md << " " << errorRegionName(static_cast<ErrorRegion>(r)) << " |";
+  for (size_t r = 0; r < kErrorRegionCount; ++r)
+    md << " " << errorRegionName(static_cast<ErrorRegion>(r)) << " |";
   md << "\n|---|---|";
   for (size_t r = 0; r < kErrorRegionCount; ++r) md << "---|";
   md << "\n";
   for (const auto& scene : results) {
     if (scene.modes.empty()) continue;
-    const RegionErrors& any = scene.modes.begin()->second.regions;  // every mode compares the same pixels
+    const RegionErrors& any =
+        scene.modes.begin()->second.regions;  // every mode compares the same pixels
     double all_pixels = 0;
     for (size_t count : any.pixels) all_pixels += static_cast<double>(count);
     md << "| " << scene.name << " | pixels |";
     for (size_t count : any.pixels) {
-      std::snprintf(cell, sizeof(cell), " %.1f%% |", all_pixels > 0 ? 100.0 * static_cast<double>(count) / all_pixels : 0.0);
+      std::snprintf(cell, sizeof(cell), " %.1f%% |",
+                    all_pixels > 0 ? 100.0 * static_cast<double>(count) / all_pixels : 0.0);
       md << cell;
     }
     md << "\n";
@@ -1167,7 +1258,8 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
           md << " n/a |";
           continue;
         }
-        std::snprintf(cell, sizeof(cell), " %.2f dB", psnrFromMse(it->second.regions.squared_error[r] / samples));
+        std::snprintf(cell, sizeof(cell), " %.2f dB",
+                      psnrFromMse(it->second.regions.squared_error[r] / samples));
         md << cell;
         if (shares.count(name)) {
           std::snprintf(cell, sizeof(cell), " (%+.0f%%)", 100.0 * shares.at(name));
@@ -1178,11 +1270,15 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       md << "\n";
     }
   }
-  md << "\n## Geometry\n\nThe surface the client received against the truth (first frame; Chamfer from each mesh's "
-        "vertices to the other's triangles, truth by marching cubes at 1 cm; IoU of its silhouette in each true mask; "
-        "silhouette error: mean distance between its outline and each segmented mask's, what the voxel controls and "
+  md << "\n## Geometry\n\nThe surface the client received against the truth (first frame; Chamfer "
+        "from each mesh's "
+        "vertices to the other's triangles, truth by marching cubes at 1 cm; IoU of its silhouette "
+        "in each true mask; "
+        "silhouette error: mean distance between its outline and each segmented mask's, what the "
+        "voxel controls and "
         "`--hull-error-mm` targets).\n\n"
-        "| Scene | voxel mm | triangles | hull ms | cells visited | dense grid points | Chamfer mm | silhouette error mm "
+        "| Scene | voxel mm | triangles | hull ms | cells visited | dense grid points | Chamfer mm "
+        "| silhouette error mm "
         "| IoU mean | IoU worst |\n"
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& scene : results) {
@@ -1194,16 +1290,21 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     char chamfer[32] = "n/a (no true surface)";
     if (scene.chamfer_mm >= 0) std::snprintf(chamfer, sizeof(chamfer), "%.1f", scene.chamfer_mm);
     char silhouette[32] = "n/a";
-    if (scene.silhouette_error_mm >= 0) std::snprintf(silhouette, sizeof(silhouette), "%.2f", scene.silhouette_error_mm);
-    std::snprintf(cell, sizeof(cell), "| %s | %.1f | %.0f | %.1f | %.0f | %.0f | %s | %s | %.3f | %.3f |\n",
-                  scene.name.c_str(), scene.voxel_mm, scene.triangles, scene.hull_ms, scene.cells_visited,
-                  scene.dense_grid_points, chamfer, silhouette, mean_iou, worst_iou);
+    if (scene.silhouette_error_mm >= 0)
+      std::snprintf(silhouette, sizeof(silhouette), "%.2f", scene.silhouette_error_mm);
+    std::snprintf(
+        cell, sizeof(cell), "| %s | %.1f | %.0f | %.1f | %.0f | %.0f | %s | %s | %.3f | %.3f |\n",
+        scene.name.c_str(), scene.voxel_mm, scene.triangles, scene.hull_ms, scene.cells_visited,
+        scene.dense_grid_points, chamfer, silhouette, mean_iou, worst_iou);
     md << cell;
   }
-  md << "\n## Links and codecs\n\nBytes per frame as the loop sends them (the pods' rectangles with their "
-        "feather maps; the server's Draco mesh and images to one client), and the codecs' ms per frame: "
+  md << "\n## Links and codecs\n\nBytes per frame as the loop sends them (the pods' rectangles "
+        "with their "
+        "feather maps; the server's Draco mesh and images to one client), and the codecs' ms per "
+        "frame: "
      << kCodecsMeaning << ". " << kNoJitterHere
-     << "\n\n| Scene | pods to server KB | server to client KB | of which feather maps KB | codecs ms p50 | p95 |\n"
+     << "\n\n| Scene | pods to server KB | server to client KB | of which feather maps KB | codecs "
+        "ms p50 | p95 |\n"
      << "|---|---:|---:|---:|---:|---:|\n";
   for (const auto& row : linkRows(results)) {
     md << "|";
@@ -1211,8 +1312,11 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     md << "\n";
   }
   md << "\n"
-     << "## montage4d against holoportation\n\nTarget on every scene but clean: at least +0.5 dB PSNR, higher SSIM, "
-        "and less flicker after a viewpoint jump. " << kPicturesDifferMeaning << "\n\n| Scene | PSNR gain | SSIM gain | flicker ratio | pictures differ on | verdict |\n"
+     << "## montage4d against holoportation\n\nTarget on every scene but clean: at least +0.5 dB "
+        "PSNR, higher SSIM, "
+        "and less flicker after a viewpoint jump. "
+     << kPicturesDifferMeaning
+     << "\n\n| Scene | PSNR gain | SSIM gain | flicker ratio | pictures differ on | verdict |\n"
         "|---|---:|---:|---:|---:|---|\n";
   std::vector<std::vector<std::string>> verdict_rows;
   for (const auto& scene : results) {
@@ -1224,22 +1328,24 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     const std::string flicker_ratio = measuredText(v.flicker_ratio, "%.2f");
     const bool novel = scene.novel_view_degrees != 0;
     const bool target = scene.name != "clean" && !novel && !scene.camera_kept;
-    const std::string verdict = novel    ? std::string("novel view (all pods blended): outside the target's protocol")
-                                : scene.camera_kept
-                                    ? std::string("camera kept in the blend (paper 000 Table 2's reach): outside the "
-                                                  "target's protocol")
-                                : !target ? std::string("baseline, not a target")
-                                : v.met   ? std::string("met")
-                                          : "MISSED: " + v.why;
+    const std::string verdict =
+        novel ? std::string("novel view (all pods blended): outside the target's protocol")
+        : scene.camera_kept
+            ? std::string(
+                  "camera kept in the blend (paper 000 Table 2's reach): outside the "
+                  "target's protocol")
+        : !target ? std::string("baseline, not a target")
+        : v.met   ? std::string("met")
+                  : "MISSED: " + v.why;
     char differ[48] = "n/a";
     if (v.agreement.measured) {
       std::snprintf(differ, sizeof(differ), "%.1f%% (%+.2f dB)", 100 * v.agreement.differing_share,
                     v.agreement.gain_bound_db);
     }
-    verdict_rows.push_back(
-        {(target && !v.met ? "!" : "") + scene.name, gains[0], gains[1], flicker_ratio, differ, verdict});
-    std::snprintf(cell, sizeof(cell), "| %s | %+.2f dB | %+.4f | %s | %s | ", scene.name.c_str(), v.psnr_gain_db,
-                  v.ssim_gain, flicker_ratio.c_str(), differ);
+    verdict_rows.push_back({(target && !v.met ? "!" : "") + scene.name, gains[0], gains[1],
+                            flicker_ratio, differ, verdict});
+    std::snprintf(cell, sizeof(cell), "| %s | %+.2f dB | %+.4f | %s | %s | ", scene.name.c_str(),
+                  v.psnr_gain_db, v.ssim_gain, flicker_ratio.c_str(), differ);
     md << cell << verdict << " |\n";
   }
 
@@ -1248,7 +1354,8 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   // clock of that render. normal mode runs no field passes.
   std::vector<std::pair<std::string, std::vector<std::vector<std::string>>>> stage_tables;
   for (const auto& scene : results) {
-    if (scene.novel_view_degrees != 0 || scene.camera_kept) continue;  // the same renders as the scene's own row
+    if (scene.novel_view_degrees != 0 || scene.camera_kept)
+      continue;                       // the same renders as the scene's own row
     std::vector<std::string> stages;  // in pipeline order
     for (const auto& stage : render::TextureFieldPasses::stageNames()) {
       for (const auto& mode : modes) {
@@ -1259,7 +1366,8 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
         }
       }
     }
-    auto row = [&](const std::string& label, const std::function<double(const ModeResult&)>& value) {
+    auto row = [&](const std::string& label,
+                   const std::function<double(const ModeResult&)>& value) {
       std::vector<std::string> cells = {label};
       for (const auto& mode : modes) {
         const auto it = scene.modes.find(mode);
@@ -1281,11 +1389,14 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       for (const auto& [stage, ms] : m.gpu_passes_ms) total += ms;
       return m.gpu_passes_ms.empty() ? -1.0 : total;
     }));
-    table.push_back(row("render after a new mesh (wall clock)", [](const ModeResult& m) { return m.ms_per_new_mesh; }));
+    table.push_back(row("render after a new mesh (wall clock)",
+                        [](const ModeResult& m) { return m.ms_per_new_mesh; }));
     stage_tables.emplace_back(scene.name, std::move(table));
   }
-  md << "\n## Time per stage of a new mesh (paper 000 Table 3 layout)\n\nGPU ms per field pass (timestamps, medians; "
-        "on a CPU device such as lavapipe the boundaries are approximate), then the wall clock of the whole render "
+  md << "\n## Time per stage of a new mesh (paper 000 Table 3 layout)\n\nGPU ms per field pass "
+        "(timestamps, medians; "
+        "on a CPU device such as lavapipe the boundaries are approximate), then the wall clock of "
+        "the whole render "
         "after a new mesh. `-`: the mode runs no such pass.\n";
   for (const auto& [name, table] : stage_tables) {
     md << "\n" << name << "\n\n| stage |";
@@ -1310,7 +1421,8 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
       char value[2][32];
       std::snprintf(value[0], sizeof(value[0]), "%.1f", check.p95_ms);
       std::snprintf(value[1], sizeof(value[1]), "%.1f", check.budget_ms);
-      budget_rows.push_back({(check.over() ? "!" : "") + scene.name, check.mode, check.stage, value[0], value[1]});
+      budget_rows.push_back(
+          {(check.over() ? "!" : "") + scene.name, check.mode, check.stage, value[0], value[1]});
       if (check.over()) {
         violations.push_back({{"scene", scene.name},
                               {"mode", check.mode},
@@ -1331,19 +1443,24 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     unchecked_stages.push_back(stage);
   }
   const std::string unchecked_text =
-      unchecked.empty() ? ""
-                        : " Not timed here, so not checked (the live loop's report checks them): " + unchecked + ".";
+      unchecked.empty()
+          ? ""
+          : " Not timed here, so not checked (the live loop's report checks them): " + unchecked +
+                ".";
   if (!options.budget.empty()) {
     json["budget_ms"] = options.budget;
     json["budget_unchecked"] = unchecked_stages;
-    md << "\n## Budget\n\np95 against the budget of each stage the evaluation times as the loop does ("
+    md << "\n## Budget\n\np95 against the budget of each stage the evaluation times as the loop "
+          "does ("
        << budgetedStagesText() << ")." << unchecked_text
-       << (violations.empty() ? " Nothing is over budget.\n"
-                              : "\n\n| Scene | mode | stage | p95 ms | budget ms |\n|---|---|---|---:|---:|\n");
+       << (violations.empty()
+               ? " Nothing is over budget.\n"
+               : "\n\n| Scene | mode | stage | p95 ms | budget ms |\n|---|---|---|---:|---:|\n");
     for (const auto& v : violations) {
-      std::snprintf(cell, sizeof(cell), "| %s | %s | %s | %.1f | %.1f |\n", v["scene"].get<std::string>().c_str(),
-                    v["mode"].get<std::string>().c_str(), v["stage"].get<std::string>().c_str(),
-                    v["p95_ms"].get<double>(), v["budget_ms"].get<double>());
+      std::snprintf(cell, sizeof(cell), "| %s | %s | %s | %.1f | %.1f |\n",
+                    v["scene"].get<std::string>().c_str(), v["mode"].get<std::string>().c_str(),
+                    v["stage"].get<std::string>().c_str(), v["p95_ms"].get<double>(),
+                    v["budget_ms"].get<double>());
       md << cell;
     }
     json["budget_violations"] = violations;
@@ -1383,45 +1500,60 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
                       measuredText(m.seam_visibility, "%.2f"), v[3], std::to_string(m.images)});
     }
   }
-  std::string body = "<p>" + html::escape(std::to_string(options.frames) + " frames per scene from frame " +
-                                          std::to_string(options.first_frame) + ", " + std::to_string(options.width) +
-                                          "x" + std::to_string(options.height) +
-                                          "; each camera rendered from its reported pose without its own image, "
-                                          "compared with its true image inside its true mask (rows \"(camera kept)\": with its own "
-                                          "image; \"+D deg\": novel poses, every camera blended).") +
-                     "</p>\n";
+  std::string body =
+      "<p>" +
+      html::escape(
+          std::to_string(options.frames) + " frames per scene from frame " +
+          std::to_string(options.first_frame) + ", " + std::to_string(options.width) + "x" +
+          std::to_string(options.height) +
+          "; each camera rendered from its reported pose without its own image, "
+          "compared with its true image inside its true mask (rows \"(camera kept)\": with its own "
+          "image; \"+D deg\": novel poses, every camera blended).") +
+      "</p>\n";
   body += html::barChart("PSNR by scene", scene_names, metric(&ModeResult::psnr_db), "dB");
-  body += html::barChart("SSIM by scene", scene_names, metric(&ModeResult::ssim), "luminance, masked");
-  body += html::barChart("Flicker by scene", scene_names, metric(&ModeResult::flicker), "grey levels per frame");
-  body += html::barChart("Seam visibility by scene", scene_names, metric(&ModeResult::seam_visibility),
-                         "RMS error gradient along seams, grey levels per pixel");
-  body += html::barChart("Client time per new mesh", scene_names, metric(&ModeResult::ms_per_new_mesh), "ms");
-  body += "<h2>All numbers</h2>\n" +
-          html::table({"scene", "mode", "RMSE", "PSNR", "SSIM", "flicker", "seam visibility", "ms per new mesh", "images"},
-                      rows);
-  body += "<h2>Links and codecs</h2>\n<p>Bytes per frame as the loop sends them, and the codecs' ms per frame: " +
-          html::escape(kCodecsMeaning) + ". " + html::escape(kNoJitterHere) + "</p>\n" +
-          html::table({"scene", "pods to server KB", "server to client KB", "of which feather maps KB", "codecs ms p50",
-                       "p95"},
-                      linkRows(results));
-  body += "<h2>montage4d against holoportation</h2>\n<p>Target on every scene but clean: at least +0.5 dB PSNR, "
-          "higher SSIM, and less flicker after a viewpoint jump. Misses are flagged. " +
-          html::escape(kPicturesDifferMeaning) + "</p>\n" +
-          html::table({"scene", "PSNR gain", "SSIM gain", "flicker ratio", "pictures differ on (gain if exact there)",
-                       "verdict"},
-                      verdict_rows);
+  body +=
+      html::barChart("SSIM by scene", scene_names, metric(&ModeResult::ssim), "luminance, masked");
+  body += html::barChart("Flicker by scene", scene_names, metric(&ModeResult::flicker),
+                         "grey levels per frame");
+  body +=
+      html::barChart("Seam visibility by scene", scene_names, metric(&ModeResult::seam_visibility),
+                     "RMS error gradient along seams, grey levels per pixel");
+  body += html::barChart("Client time per new mesh", scene_names,
+                         metric(&ModeResult::ms_per_new_mesh), "ms");
+  body +=
+      "<h2>All numbers</h2>\n" + html::table({"scene", "mode", "RMSE", "PSNR", "SSIM", "flicker",
+                                              "seam visibility", "ms per new mesh", "images"},
+                                             rows);
+  body +=
+      "<h2>Links and codecs</h2>\n<p>Bytes per frame as the loop sends them, and the codecs' ms "
+      "per frame: " +
+      html::escape(kCodecsMeaning) + ". " + html::escape(kNoJitterHere) + "</p>\n" +
+      html::table({"scene", "pods to server KB", "server to client KB", "of which feather maps KB",
+                   "codecs ms p50", "p95"},
+                  linkRows(results));
+  body +=
+      "<h2>montage4d against holoportation</h2>\n<p>Target on every scene but clean: at least +0.5 "
+      "dB PSNR, "
+      "higher SSIM, and less flicker after a viewpoint jump. Misses are flagged. " +
+      html::escape(kPicturesDifferMeaning) + "</p>\n" +
+      html::table({"scene", "PSNR gain", "SSIM gain", "flicker ratio",
+                   "pictures differ on (gain if exact there)", "verdict"},
+                  verdict_rows);
   // The latency budget of a new mesh per scene: the server's hull, the
   // codecs on the frame's way, and each mode's render, p50 and p95 over
   // the frames (transport is not simulated).
   if (!budget_rows.empty() || !options.budget.empty()) {
     body +=
-        "<h2>Budget</h2>\n<p>p95 against the budget of each stage the evaluation times as the loop does "
+        "<h2>Budget</h2>\n<p>p95 against the budget of each stage the evaluation times as the loop "
+        "does "
         "(" +
-        budgetedStagesText() + "); over-budget rows are flagged." + html::escape(unchecked_text) + "</p>\n" +
-        html::table({"scene", "mode", "stage", "p95 ms", "budget ms"}, budget_rows);
+        budgetedStagesText() + "); over-budget rows are flagged." + html::escape(unchecked_text) +
+        "</p>\n" + html::table({"scene", "mode", "stage", "p95 ms", "budget ms"}, budget_rows);
   }
-  body += "<h2>Latency of a new mesh by stage</h2>\n<p>p50 and p95 over the renders: the hull, the codecs by stage (" +
-          std::string(kCodecsMeaning) + ") and the client's render. Transport is not simulated.</p>\n";
+  body +=
+      "<h2>Latency of a new mesh by stage</h2>\n<p>p50 and p95 over the renders: the hull, the "
+      "codecs by stage (" +
+      std::string(kCodecsMeaning) + ") and the client's render. Transport is not simulated.</p>\n";
   for (const auto& scene : results) {
     if (scene.novel_view_degrees != 0 || scene.camera_kept) continue;
     std::vector<html::StackRow> stack;
@@ -1434,12 +1566,17 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     }
     body += html::stackedBars("Latency of a new mesh: " + scene.name, latencyStages(), stack, "ms");
   }
-  body += "<h2>Time per stage of a new mesh (paper 000 Table 3 layout)</h2>\n<p>GPU ms per field pass (timestamps, "
-          "medians; approximate on a CPU device), then the wall clock of the render after a new mesh.</p>\n";
+  body +=
+      "<h2>Time per stage of a new mesh (paper 000 Table 3 layout)</h2>\n<p>GPU ms per field pass "
+      "(timestamps, "
+      "medians; approximate on a CPU device), then the wall clock of the render after a new "
+      "mesh.</p>\n";
   std::vector<std::string> stage_header = {"stage"};
   stage_header.insert(stage_header.end(), modes.begin(), modes.end());
-  for (const auto& [name, table] : stage_tables) body += "<h3>" + html::escape(name) + "</h3>\n" + html::table(stage_header, table);
-  std::ofstream(fs::path(out_dir) / "quality.html") << html::page("holofuse leave-one-camera-out quality", body);
+  for (const auto& [name, table] : stage_tables)
+    body += "<h3>" + html::escape(name) + "</h3>\n" + html::table(stage_header, table);
+  std::ofstream(fs::path(out_dir) / "quality.html")
+      << html::page("holofuse leave-one-camera-out quality", body);
 }
 
 }  // namespace holofuse::eval

@@ -14,39 +14,51 @@ int main(int argc, char** argv) {
   eval::EvalOptions options;
   std::vector<std::string> modes;
   std::string size = "320x240";
-  CLI::App app{"holofuse eval: leave-one-camera-out quality (RMSE, PSNR, SSIM, flicker) per scene and mode"};
-  app.add_option("--scenes", options.scenes, "scenes (default: all): " + capture::sceneNames())->delimiter(',');
-  app.add_option("--modes", modes, "blending modes (default: all): normal, holoportation, montage4d, fragment")
+  CLI::App app{
+      "holofuse eval: leave-one-camera-out quality (RMSE, PSNR, SSIM, flicker) per scene and mode"};
+  app.add_option("--scenes", options.scenes, "scenes (default: all): " + capture::sceneNames())
+      ->delimiter(',');
+  app.add_option("--modes", modes,
+                 "blending modes (default: all): normal, holoportation, montage4d, fragment")
       ->delimiter(',')
       ->check(CLI::IsMember(render::blendModeNames()));
-  app.add_option("--dataset", options.datasets, "dataset folder(s), recorded or imported, evaluated like scenes")
+  app.add_option("--dataset", options.datasets,
+                 "dataset folder(s), recorded or imported, evaluated like scenes")
       ->delimiter(',');
   app.add_option("--frames", options.frames, "frames per scene")->check(CLI::Range(1, 10000));
   app.add_option("--first-frame", options.first_frame, "first frame id (scene time = id / 10 s)");
   app.add_option("--size", size, "camera and output size WxH");
-  app.add_option("--held-out", options.held_out_cameras, "held-out cameras per scene, evenly spread (0: all)")
+  app.add_option("--held-out", options.held_out_cameras,
+                 "held-out cameras per scene, evenly spread (0: all)")
       ->check(CLI::Range(0, 16));
-  app.add_option("--out", options.out_dir, "output folder (quality.json, quality.md, images/)")->required();
-  app.add_flag("--save-images", options.save_images, "write rendered, true and mask PNGs of every comparison");
+  app.add_option("--out", options.out_dir, "output folder (quality.json, quality.md, images/)")
+      ->required();
+  app.add_flag("--save-images", options.save_images,
+               "write rendered, true and mask PNGs of every comparison");
   // Every setting a sweep turns, under the live loop's flag names (--size
   // is eval's own, above).
   const eval::KnobFlags knob_flags(app, {"size"});
   app.add_option("--novel-views", options.novel_view_degrees,
-                 "synthetic scenes: also render this many degrees around the ring from the chosen cameras' poses, "
+                 "synthetic scenes: also render this many degrees around the ring from the chosen "
+                 "cameras' poses, "
                  "every camera blended, against the scene's true image there (one row per offset)")
       ->delimiter(',');
-  app.add_flag("--camera-kept", options.camera_kept,
-               "also score each chosen camera's own pose with its image kept in the blend (one more row per "
-               "scene; paper 000's Table 2 numbers need it; outside the target's protocol)");
+  app.add_flag(
+      "--camera-kept", options.camera_kept,
+      "also score each chosen camera's own pose with its image kept in the blend (one more row per "
+      "scene; paper 000's Table 2 numbers need it; outside the target's protocol)");
   app.add_flag("--hull-without-held-out", options.hull_without_held_out,
-               "leave the held-out camera's silhouette out of the hull too (carved again for each held-out camera): "
+               "leave the held-out camera's silhouette out of the hull too (carved again for each "
+               "held-out camera): "
                "nothing of it shapes what its image is compared with");
-  app.add_option("--geometry", options.geometry, "hull (the server's visual hull) or truth (the true surface)")
+  app.add_option("--geometry", options.geometry,
+                 "hull (the server's visual hull) or truth (the true surface)")
       ->check(CLI::IsMember({"hull", "truth"}));
   app.add_option("--device", options.device, "Vulkan device: index or part of its name");
   std::string budget_file;
-  app.add_option("--budget", budget_file,
-                 "JSON of per-stage ms budgets (" + eval::budgetedStagesText() + " are checked at p95)");
+  app.add_option(
+      "--budget", budget_file,
+      "JSON of per-stage ms budgets (" + eval::budgetedStagesText() + " are checked at p95)");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (!render::loadBudgetFlag(budget_file, options.budget)) return 2;
   if (const std::string error = knob_flags.apply(options); !error.empty()) {
@@ -55,13 +67,17 @@ int main(int argc, char** argv) {
   }
   for (size_t k = 0; k < options.novel_view_degrees.size(); ++k) {
     const double degrees = options.novel_view_degrees[k];
-    if (std::count(options.novel_view_degrees.begin(), options.novel_view_degrees.begin() + k, degrees) > 0) {
+    if (std::count(options.novel_view_degrees.begin(), options.novel_view_degrees.begin() + k,
+                   degrees) > 0) {
       std::fprintf(stderr, "holofuse eval: --novel-views %g is given twice\n", degrees);
       return 2;
     }
     if (!(degrees != 0 && std::abs(degrees) < 360)) {
-      std::fprintf(stderr, "holofuse eval: --novel-views %g: an offset must be nonzero and within (-360, 360) degrees "
-                           "(0 is the camera's own pose: leave-one-out covers it)\n", degrees);
+      std::fprintf(stderr,
+                   "holofuse eval: --novel-views %g: an offset must be nonzero and within (-360, "
+                   "360) degrees "
+                   "(0 is the camera's own pose: leave-one-out covers it)\n",
+                   degrees);
       return 2;
     }
   }
@@ -82,7 +98,8 @@ int main(int argc, char** argv) {
   if (!modes.empty()) {
     options.modes.clear();
     for (const auto& name : modes) {
-      if (auto mode = render::blendModeFromName(name)) options.modes.push_back(*mode);  // names checked by CLI11
+      if (auto mode = render::blendModeFromName(name))
+        options.modes.push_back(*mode);  // names checked by CLI11
     }
   }
   try {
@@ -92,7 +109,8 @@ int main(int argc, char** argv) {
       std::fflush(stdout);
     });
     eval::writeQualityReports(options, results, options.out_dir);
-    std::printf("[eval] %zu scenes in %.0f s; wrote %s/quality.json and quality.md\n", results.size(),
+    std::printf("[eval] %zu scenes in %.0f s; wrote %s/quality.json and quality.md\n",
+                results.size(),
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
                 options.out_dir.c_str());
   } catch (const std::exception& e) {

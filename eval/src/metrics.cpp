@@ -17,7 +17,8 @@ constexpr double kK1 = 0.01, kK2 = 0.03, kPeak = 255.0;
 std::array<double, 2 * kRadius + 1> gaussianWeights() {
   std::array<double, 2 * kRadius + 1> w{};
   double sum = 0;
-  for (int i = -kRadius; i <= kRadius; ++i) sum += w[i + kRadius] = std::exp(-(i * i) / (2 * kSigma * kSigma));
+  for (int i = -kRadius; i <= kRadius; ++i)
+    sum += w[i + kRadius] = std::exp(-(i * i) / (2 * kSigma * kSigma));
   for (double& v : w) v /= sum;
   return w;
 }
@@ -30,7 +31,8 @@ std::vector<double> filterValid(const std::vector<double>& image, int width, int
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < out_w; ++x) {
       double s = 0;
-      for (int k = 0; k <= 2 * kRadius; ++k) s += w[k] * image[static_cast<size_t>(y) * width + x + k];
+      for (int k = 0; k <= 2 * kRadius; ++k)
+        s += w[k] * image[static_cast<size_t>(y) * width + x + k];
       rows[static_cast<size_t>(y) * out_w + x] = s;
     }
   }
@@ -38,7 +40,8 @@ std::vector<double> filterValid(const std::vector<double>& image, int width, int
   for (int y = 0; y < out_h; ++y) {
     for (int x = 0; x < out_w; ++x) {
       double s = 0;
-      for (int k = 0; k <= 2 * kRadius; ++k) s += w[k] * rows[static_cast<size_t>(y + k) * out_w + x];
+      for (int k = 0; k <= 2 * kRadius; ++k)
+        s += w[k] * rows[static_cast<size_t>(y + k) * out_w + x];
       out[static_cast<size_t>(y) * out_w + x] = s;
     }
   }
@@ -47,8 +50,9 @@ std::vector<double> filterValid(const std::vector<double>& image, int width, int
 
 void requireSameSize(const Image8& a, const Image8& b, const char* what) {
   if (a.width != b.width || a.height != b.height) {
-    throw std::invalid_argument(std::string(what) + ": " + std::to_string(a.width) + "x" + std::to_string(a.height) +
-                                " against " + std::to_string(b.width) + "x" + std::to_string(b.height));
+    throw std::invalid_argument(std::string(what) + ": " + std::to_string(a.width) + "x" +
+                                std::to_string(a.height) + " against " + std::to_string(b.width) +
+                                "x" + std::to_string(b.height));
   }
 }
 
@@ -76,7 +80,8 @@ std::vector<double> luminance(const Image8& image) {
   return y;
 }
 
-std::vector<double> ssimMap(const std::vector<double>& a, const std::vector<double>& b, int width, int height) {
+std::vector<double> ssimMap(const std::vector<double>& a, const std::vector<double>& b, int width,
+                            int height) {
   return maskedSsimMap(a, b, std::vector<double>(a.size(), 1.0), width, height);
 }
 
@@ -103,9 +108,11 @@ std::vector<double> maskedSsimMap(const std::vector<double>& a, const std::vecto
   for (size_t i = 0; i < map.size(); ++i) {
     if (!(weight[i] > 0)) continue;
     const double mu_a = s_a[i] / weight[i], mu_b = s_b[i] / weight[i];
-    const double var_a = s_aa[i] / weight[i] - mu_a * mu_a, var_b = s_bb[i] / weight[i] - mu_b * mu_b;
+    const double var_a = s_aa[i] / weight[i] - mu_a * mu_a,
+                 var_b = s_bb[i] / weight[i] - mu_b * mu_b;
     const double cov = s_ab[i] / weight[i] - mu_a * mu_b;
-    map[i] = ((2 * mu_a * mu_b + c1) * (2 * cov + c2)) / ((mu_a * mu_a + mu_b * mu_b + c1) * (var_a + var_b + c2));
+    map[i] = ((2 * mu_a * mu_b + c1) * (2 * cov + c2)) /
+             ((mu_a * mu_a + mu_b * mu_b + c1) * (var_a + var_b + c2));
   }
   return map;
 }
@@ -129,7 +136,8 @@ ImageQuality compareInMask(const Image8& rendered, const Image8& truth, const Im
     inside[p] = 1.0;
     ++q.pixels;
     for (int c = 0; c < 3; ++c) {
-      const double d = double(rendered.pixels[p * rendered.channels + c]) - double(truth.pixels[p * truth.channels + c]);
+      const double d = double(rendered.pixels[p * rendered.channels + c]) -
+                       double(truth.pixels[p * truth.channels + c]);
       squared += d * d;
     }
   }
@@ -150,8 +158,8 @@ ImageQuality compareInMask(const Image8& rendered, const Image8& truth, const Im
   return q;
 }
 
-PictureAgreement pictureAgreement(const Image8& a, const Image8& b, const Image8& truth, const Image8& mask,
-                                  int tolerance) {
+PictureAgreement pictureAgreement(const Image8& a, const Image8& b, const Image8& truth,
+                                  const Image8& mask, int tolerance) {
   requireInputs(a, truth, mask);
   requireInputs(b, truth, mask);
   PictureAgreement agreement;
@@ -179,7 +187,8 @@ PictureAgreement pictureAgreement(const Image8& a, const Image8& b, const Image8
 }
 
 double PictureAgreement::bestPsnrOfB() const {
-  return pixels ? psnrFromMse(b_squared_error_alike / (3.0 * static_cast<double>(pixels))) : kPsnrCap;
+  return pixels ? psnrFromMse(b_squared_error_alike / (3.0 * static_cast<double>(pixels)))
+                : kPsnrCap;
 }
 
 ErrorImage errorImage(const Image8& rendered, const Image8& truth, const Image8& mask) {
@@ -187,8 +196,8 @@ ErrorImage errorImage(const Image8& rendered, const Image8& truth, const Image8&
   ErrorImage e{mask, std::vector<float>(mask.pixels.size() * 3, 0.0f)};
   for (size_t p = 0; p < mask.pixels.size(); ++p) {
     for (int c = 0; c < 3; ++c) {
-      e.error[p * 3 + c] =
-          static_cast<float>(int(rendered.pixels[p * rendered.channels + c]) - int(truth.pixels[p * truth.channels + c]));
+      e.error[p * 3 + c] = static_cast<float>(int(rendered.pixels[p * rendered.channels + c]) -
+                                              int(truth.pixels[p * truth.channels + c]));
     }
   }
   return e;
@@ -200,21 +209,28 @@ double flicker(const ErrorImage& previous, const ErrorImage& current) {
   size_t count = 0;
   for (size_t p = 0; p < current.mask.pixels.size(); ++p) {
     if (current.mask.pixels[p] == 0 || previous.mask.pixels[p] == 0) continue;
-    for (int c = 0; c < 3; ++c) sum += std::abs(current.error[p * 3 + c] - previous.error[p * 3 + c]);
+    for (int c = 0; c < 3; ++c)
+      sum += std::abs(current.error[p * 3 + c] - previous.error[p * 3 + c]);
     count += 3;
   }
   return count ? sum / static_cast<double>(count) : 0.0;
 }
 
-double seamVisibility(const Image8& rendered, const Image8& truth, const Image8& mask, const Image8& seams) {
-  if (rendered.width != truth.width || rendered.height != truth.height || mask.width != truth.width ||
-      mask.height != truth.height || seams.width != truth.width || seams.height != truth.height) {
+double seamVisibility(const Image8& rendered, const Image8& truth, const Image8& mask,
+                      const Image8& seams) {
+  if (rendered.width != truth.width || rendered.height != truth.height ||
+      mask.width != truth.width || mask.height != truth.height || seams.width != truth.width ||
+      seams.height != truth.height) {
     throw std::invalid_argument("seamVisibility: images of different sizes");
   }
   const int w = static_cast<int>(truth.width), h = static_cast<int>(truth.height);
   const std::vector<double> r = luminance(rendered), t = luminance(truth);
-  auto inside = [&](int x, int y) { return x >= 0 && y >= 0 && x < w && y < h && *mask.at(x, y) != 0; };
-  auto error = [&](int x, int y) { return r[static_cast<size_t>(y) * w + x] - t[static_cast<size_t>(y) * w + x]; };
+  auto inside = [&](int x, int y) {
+    return x >= 0 && y >= 0 && x < w && y < h && *mask.at(x, y) != 0;
+  };
+  auto error = [&](int x, int y) {
+    return r[static_cast<size_t>(y) * w + x] - t[static_cast<size_t>(y) * w + x];
+  };
   double sum = 0;
   size_t count = 0;
   for (int y = 0; y < h; ++y) {
@@ -242,10 +258,14 @@ double seamVisibility(const Image8& rendered, const Image8& truth, const Image8&
 
 const char* errorRegionName(ErrorRegion region) {
   switch (region) {
-    case ErrorRegion::kSilhouetteBorder: return "silhouette_border";
-    case ErrorRegion::kOcclusionEdge: return "occlusion_edge";
-    case ErrorRegion::kSeam: return "seam";
-    case ErrorRegion::kElsewhere: return "elsewhere";
+    case ErrorRegion::kSilhouetteBorder:
+      return "silhouette_border";
+    case ErrorRegion::kOcclusionEdge:
+      return "occlusion_edge";
+    case ErrorRegion::kSeam:
+      return "seam";
+    case ErrorRegion::kElsewhere:
+      return "elsewhere";
   }
   return "elsewhere";
 }
@@ -258,8 +278,9 @@ void RegionErrors::add(const RegionErrors& other) {
 }
 
 RegionErrors regionErrors(const Image8& rendered, const Image8& truth, const Image8& regions) {
-  if (rendered.width != truth.width || rendered.height != truth.height || regions.width != truth.width ||
-      regions.height != truth.height || regions.channels != 1 || rendered.channels < 3 || truth.channels < 3) {
+  if (rendered.width != truth.width || rendered.height != truth.height ||
+      regions.width != truth.width || regions.height != truth.height || regions.channels != 1 ||
+      rendered.channels < 3 || truth.channels < 3) {
     throw std::invalid_argument("regionErrors: rendered, truth and regions must be one size");
   }
   RegionErrors out;
@@ -269,7 +290,8 @@ RegionErrors regionErrors(const Image8& rendered, const Image8& truth, const Ima
     if (r >= kErrorRegionCount) continue;
     double sum = 0;
     for (uint32_t c = 0; c < 3; ++c) {
-      const double d = double(rendered.pixels[p * rendered.channels + c]) - double(truth.pixels[p * truth.channels + c]);
+      const double d = double(rendered.pixels[p * rendered.channels + c]) -
+                       double(truth.pixels[p * truth.channels + c]);
       sum += d * d;
     }
     out.squared_error[r] += sum;
@@ -285,7 +307,8 @@ Image8 errorMapPicture(const Image8& rendered, const Image8& truth, const Image8
     if (mask.pixels[p] == 0) continue;
     double sum = 0;
     for (uint32_t c = 0; c < 3; ++c) {
-      sum += std::abs(double(rendered.pixels[p * rendered.channels + c]) - double(truth.pixels[p * truth.channels + c]));
+      sum += std::abs(double(rendered.pixels[p * rendered.channels + c]) -
+                      double(truth.pixels[p * truth.channels + c]));
     }
     // 0..64 grey levels -> black, red, yellow.
     const double t = std::clamp(sum / 3.0 / 64.0, 0.0, 1.0);

@@ -10,7 +10,9 @@ namespace holofuse::eval {
 
 // A value that may not have been measured (negative in the structs) is
 // null in JSON, and null or absent reads back as -1.
-inline nlohmann::json measuredJson(double value) { return value >= 0 ? nlohmann::json(value) : nlohmann::json(); }
+inline nlohmann::json measuredJson(double value) {
+  return value >= 0 ? nlohmann::json(value) : nlohmann::json();
+}
 inline double measuredFromJson(const nlohmann::json& object, const char* key) {
   return object.contains(key) && object[key].is_number() ? object[key].get<double>() : -1.0;
 }

@@ -39,42 +39,43 @@ nlohmann::json runSettings(const EvalOptions& run) {
   std::vector<std::string> modes;
   for (const auto mode : run.modes) modes.push_back(render::blendModeName(mode));
   const render::FieldParameters& f = run.fields;
-  nlohmann::json settings = {{"scenes", run.scenes},
-          {"datasets", run.datasets},
-          {"modes", modes},
-          {"frames", run.frames},
-          {"first_frame", run.first_frame},
-          {"size", std::to_string(run.width) + "x" + std::to_string(run.height)},
-          {"fps", run.fps},
-          {"held_out_cameras", run.held_out_cameras},
-          {"novel_view_degrees", run.novel_view_degrees},
-          {"camera_kept", run.camera_kept},
-          {"device", run.device},
-          {"geometry", run.geometry},
-          {"voxel_size", run.voxel_size},
-          {"hull_error_target", run.hull_error_target},
-          {"refine_voxels", run.refine_voxels},
-          {"draco", {run.draco.position_bits, run.draco.normal_bits, run.draco.speed}},
-          {"image_codec", static_cast<int>(run.image_codec)},
-          {"lz4_acceleration", run.lz4_acceleration},
-          {"lz4_hc_level", run.lz4_hc_level},
-          {"crop_margin", run.crop_margin},
-          {"cameras", camerasOf(run)},  // the scene's own count by number: the same run
-          {"fields",
-           {f.relative_jump, f.dilation_px, f.relative_depth_tolerance, f.vote_delta, f.vote_levels, f.geodesic_rings,
-            f.geodesic_iterations, f.geodesic_radius}},
-          {"alpha", run.alpha},
-          {"lambda", run.lambda},
-          {"beta", run.beta},
-          {"feather_width_px", run.feather_width_px},
-          {"fragment_test", run.fragment_test},
-          {"half_precision_vertices", run.half_precision_vertices},
-          // How bytes and codec times were counted, and the metrics'
-          // definitions: points measured before a change differ here.
-          {"links", "the loop's own encoding and decoding"},
-          {"metrics",
-           "SSIM over the mask's pixels per window; p50/p95 interpolated; Chamfer to triangles; "
-           "codec stages per pod frame"}};
+  nlohmann::json settings = {
+      {"scenes", run.scenes},
+      {"datasets", run.datasets},
+      {"modes", modes},
+      {"frames", run.frames},
+      {"first_frame", run.first_frame},
+      {"size", std::to_string(run.width) + "x" + std::to_string(run.height)},
+      {"fps", run.fps},
+      {"held_out_cameras", run.held_out_cameras},
+      {"novel_view_degrees", run.novel_view_degrees},
+      {"camera_kept", run.camera_kept},
+      {"device", run.device},
+      {"geometry", run.geometry},
+      {"voxel_size", run.voxel_size},
+      {"hull_error_target", run.hull_error_target},
+      {"refine_voxels", run.refine_voxels},
+      {"draco", {run.draco.position_bits, run.draco.normal_bits, run.draco.speed}},
+      {"image_codec", static_cast<int>(run.image_codec)},
+      {"lz4_acceleration", run.lz4_acceleration},
+      {"lz4_hc_level", run.lz4_hc_level},
+      {"crop_margin", run.crop_margin},
+      {"cameras", camerasOf(run)},  // the scene's own count by number: the same run
+      {"fields",
+       {f.relative_jump, f.dilation_px, f.relative_depth_tolerance, f.vote_delta, f.vote_levels,
+        f.geodesic_rings, f.geodesic_iterations, f.geodesic_radius}},
+      {"alpha", run.alpha},
+      {"lambda", run.lambda},
+      {"beta", run.beta},
+      {"feather_width_px", run.feather_width_px},
+      {"fragment_test", run.fragment_test},
+      {"half_precision_vertices", run.half_precision_vertices},
+      // How bytes and codec times were counted, and the metrics'
+      // definitions: points measured before a change differ here.
+      {"links", "the loop's own encoding and decoding"},
+      {"metrics",
+       "SSIM over the mask's pixels per window; p50/p95 interpolated; Chamfer to triangles; "
+       "codec stages per pod frame"}};
   // A dataset's own voxel, or the one given.
   if (!run.datasets.empty()) settings["voxel_from_dataset"] = run.voxel_from_dataset;
   return settings;
@@ -106,7 +107,8 @@ nlohmann::json readPoint(const PlannedPoint& plan) {
   std::ifstream in(plan.path);
   const auto json = nlohmann::json::parse(in, nullptr, false);
   if (json.is_discarded() || !json.is_object() || !json.contains("result")) {
-    throw std::invalid_argument(plan.path.string() + " is not a finished sweep point; remove it to measure it again");
+    throw std::invalid_argument(plan.path.string() +
+                                " is not a finished sweep point; remove it to measure it again");
   }
   const nlohmann::json now = runSettings(plan.run);
   const nlohmann::json then = json.value("settings", nlohmann::json::object());
@@ -114,11 +116,12 @@ nlohmann::json readPoint(const PlannedPoint& plan) {
   for (const auto& [key, value] : now.items()) {
     if (then.contains(key) && then.at(key) == value) continue;
     differences += (differences.empty() ? "" : ", ") + key + " " +
-                   (then.contains(key) ? then.at(key).dump() : std::string("unrecorded")) + " (now " + value.dump() +
-                   ")";
+                   (then.contains(key) ? then.at(key).dump() : std::string("unrecorded")) +
+                   " (now " + value.dump() + ")";
   }
   if (!differences.empty()) {
-    throw std::invalid_argument(plan.path.string() + " was measured under other settings: " + differences +
+    throw std::invalid_argument(plan.path.string() +
+                                " was measured under other settings: " + differences +
                                 "; give another --out, or remove the file to measure it again");
   }
   return json;
@@ -167,7 +170,8 @@ std::vector<size_t> paretoFront(const std::vector<TradePoint>& points) {
   std::vector<size_t> front;
   for (size_t i = 0; i < points.size(); ++i) {
     bool dominated = false;
-    for (size_t j = 0; j < points.size() && !dominated; ++j) dominated = j != i && dominates(points[j], points[i]);
+    for (size_t j = 0; j < points.size() && !dominated; ++j)
+      dominated = j != i && dominates(points[j], points[i]);
     if (!dominated) front.push_back(i);
   }
   return front;
@@ -177,7 +181,8 @@ namespace {
 
 // The live loop's flags for a point: the scene, the mode, every knob the
 // base moved from its default, and the point's own.
-std::vector<std::string> liveArguments(const SweepOptions& options, const std::string& knob, const std::string& value) {
+std::vector<std::string> liveArguments(const SweepOptions& options, const std::string& knob,
+                                       const std::string& value) {
   EvalOptions defaults;
   defaults.scenes = options.base.scenes;
   defaults.datasets = options.base.datasets;
@@ -185,7 +190,8 @@ std::vector<std::string> liveArguments(const SweepOptions& options, const std::s
   // the frames asked for are rendered.
   std::vector<std::string> arguments =
       options.base.datasets.empty()
-          ? std::vector<std::string>{"--scene", options.base.scenes.at(0), "--mode", primaryMode(options.base)}
+          ? std::vector<std::string>{"--scene", options.base.scenes.at(0), "--mode",
+                                     primaryMode(options.base)}
           : std::vector<std::string>{"--replay", options.base.datasets.at(0), "--loop", "--mode",
                                      primaryMode(options.base)};
   for (const Knob& other : sweepKnobs()) {
@@ -202,7 +208,8 @@ std::vector<std::string> liveArguments(const SweepOptions& options, const std::s
 int runLogged(const std::vector<std::string>& command, const fs::path& log) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
+                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
   std::vector<char*> argv;
   for (const auto& part : command) argv.push_back(const_cast<char*>(part.c_str()));
@@ -252,13 +259,16 @@ double worstJitterMs(const std::optional<LiveMeasure>& live) {
 
 // The point's live run, as the loop's report gives it; an error names the
 // log when the loop fails or renders fewer frames than asked.
-LiveMeasure runLive(const SweepOptions& options, const std::string& knob, const std::string& value, bool is_default) {
-  const fs::path dir = fs::path(options.out_dir) / "live" / (is_default ? "default" : knob + "=" + value);
+LiveMeasure runLive(const SweepOptions& options, const std::string& knob, const std::string& value,
+                    bool is_default) {
+  const fs::path dir =
+      fs::path(options.out_dir) / "live" / (is_default ? "default" : knob + "=" + value);
   fs::remove_all(dir);
   fs::create_directories(dir);
   std::vector<std::string> command = {options.loop_program};
   for (auto& argument : liveArguments(options, knob, value)) command.push_back(std::move(argument));
-  command.insert(command.end(), {"--frames", std::to_string(options.live_frames), "--out", dir.string()});
+  command.insert(command.end(),
+                 {"--frames", std::to_string(options.live_frames), "--out", dir.string()});
   const fs::path log = dir / "loop.log";
   const int status = runLogged(command, log);
   const fs::path report_path = dir / "report.json";
@@ -271,8 +281,9 @@ LiveMeasure runLive(const SweepOptions& options, const std::string& knob, const 
   LiveMeasure live;
   live.frames = report.value("frames_rendered", 0);
   if (live.frames != options.live_frames) {
-    throw std::runtime_error("the live run of " + knob + "=" + value + " rendered " + std::to_string(live.frames) +
-                             " of " + std::to_string(options.live_frames) + " frames; see " + log.string());
+    throw std::runtime_error("the live run of " + knob + "=" + value + " rendered " +
+                             std::to_string(live.frames) + " of " +
+                             std::to_string(options.live_frames) + " frames; see " + log.string());
   }
   const auto& e2e = report.at("latency_ms").at("end_to_end");
   live.end_to_end_ms_p50 = e2e.at("p50").get<double>();
@@ -297,7 +308,8 @@ void writePoint(const fs::path& path, const nlohmann::json& file) {
   if (!out) {
     std::error_code ignored;
     fs::remove(partial, ignored);
-    throw std::runtime_error(partial.string() + ": cannot be written (disk full?); the points before it are kept");
+    throw std::runtime_error(partial.string() +
+                             ": cannot be written (disk full?); the points before it are kept");
   }
   fs::rename(partial, path);
 }
@@ -349,7 +361,8 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
           point.live = liveFromJson(*kept);
         } else {
           if (progress) {
-            progress("running " + name + "=" + value + " live for " + std::to_string(options.live_frames) + " frames");
+            progress("running " + name + "=" + value + " live for " +
+                     std::to_string(options.live_frames) + " frames");
           }
           point.live = runLive(options, name, value, plan.is_default);
           file["live"] = liveJson(*point.live, options.live_frames);
@@ -360,13 +373,16 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
       if (progress) {
         const auto& m = point.result.modes.at(primaryMode(options.base));
         char line[240];
-        std::snprintf(line, sizeof(line), "[%zu/%zu] %s=%s%s: PSNR %.2f dB, SSIM %.4f, client %.0f ms, %.0f KB/frame",
-                      done, total, name.c_str(), value.c_str(), point.resumed ? " (already on disk)" : "", m.psnr_db,
-                      m.ssim, m.ms_per_new_mesh, point.result.bytes_per_frame / 1000.0);
+        std::snprintf(line, sizeof(line),
+                      "[%zu/%zu] %s=%s%s: PSNR %.2f dB, SSIM %.4f, client %.0f ms, %.0f KB/frame",
+                      done, total, name.c_str(), value.c_str(),
+                      point.resumed ? " (already on disk)" : "", m.psnr_db, m.ssim,
+                      m.ms_per_new_mesh, point.result.bytes_per_frame / 1000.0);
         std::string text = line;
         if (point.live) {
           std::snprintf(line, sizeof(line), "; live end-to-end p50 %.0f ms, p95 %.0f ms, %.1f fps",
-                        point.live->end_to_end_ms_p50, point.live->end_to_end_ms_p95, point.live->fps);
+                        point.live->end_to_end_ms_p50, point.live->end_to_end_ms_p95,
+                        point.live->fps);
           text += line;
         }
         progress(text);
@@ -379,7 +395,8 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
 
 }  // namespace
 
-std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::function<void(const std::string&)>& progress) {
+std::vector<SweepPoint> runSweep(const SweepOptions& options,
+                                 const std::function<void(const std::string&)>& progress) {
   if (options.knobs.empty()) throw std::invalid_argument("no --knob given; knobs: " + knobNames());
   if (options.base.scenes.size() + options.base.datasets.size() != 1) {
     throw std::invalid_argument("a sweep runs on exactly one scene or one dataset");
@@ -388,14 +405,17 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::functio
   std::set<std::string> named;
   for (const auto& [name, values] : options.knobs) {
     const Knob* knob = findKnob(name);
-    if (knob == nullptr) throw std::invalid_argument("unknown knob '" + name + "'; knobs: " + knobNames());
+    if (knob == nullptr)
+      throw std::invalid_argument("unknown knob '" + name + "'; knobs: " + knobNames());
     if (!named.insert(name).second) {
-      throw std::invalid_argument("knob '" + name + "' is given twice; list all its values in one --knob " + name +
+      throw std::invalid_argument("knob '" + name +
+                                  "' is given twice; list all its values in one --knob " + name +
                                   "=v1,v2,...");
     }
     if (values.empty()) throw std::invalid_argument("knob '" + name + "' has no values");
     if (knob->synthetic_only && !options.base.datasets.empty()) {
-      throw std::invalid_argument("knob '" + name + "' needs a synthetic scene: a dataset's cameras and image size "
+      throw std::invalid_argument("knob '" + name +
+                                  "' needs a synthetic scene: a dataset's cameras and image size "
                                   "are the recorded ones");
     }
     for (const auto& value : values) {
@@ -417,20 +437,23 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options, const std::functio
   for (auto& [name, values] : swept.knobs) {
     const Knob& knob = *findKnob(name);
     bool has_default = false;
-    for (const auto& value : values) has_default = has_default || planPoint(swept, knob, value).is_default;
+    for (const auto& value : values)
+      has_default = has_default || planPoint(swept, knob, value).is_default;
     if (!has_default) values.push_back(knob.current(swept.base));
   }
   return sweepPoints(swept, progress);
 }
 
-PointBudget checkPointBudget(const render::Budget& budget, const SweepPoint& point, const std::string& mode) {
+PointBudget checkPointBudget(const render::Budget& budget, const SweepPoint& point,
+                             const std::string& mode) {
   PointBudget out;
   out.checks = checkBudget(budget, point.result, {mode});
   const std::vector<std::string> timed = budgetedStages();
   for (const auto& [stage, ms] : budget) {
     if (std::find(timed.begin(), timed.end(), stage) != timed.end()) continue;
     if (point.live) {
-      if (const auto live = point.live->stage_ms_p95.find(stage); live != point.live->stage_ms_p95.end()) {
+      if (const auto live = point.live->stage_ms_p95.find(stage);
+          live != point.live->stage_ms_p95.end()) {
         out.checks.push_back({"live", stage, live->second, ms});
         continue;
       }
@@ -446,7 +469,8 @@ std::string sweptSubject(const SweepOptions& options) {
 
 // The live loop with one knob set as a sweep point had it, and the rest as
 // the sweep's base has them (the defaults, or what --set moved).
-std::string liveCommand(const SweepOptions& options, const std::string& knob, const std::string& value) {
+std::string liveCommand(const SweepOptions& options, const std::string& knob,
+                        const std::string& value) {
   std::string command = "./holofuse demo";
   for (const auto& argument : liveArguments(options, knob, value)) command += " " + argument;
   return command;
@@ -457,19 +481,30 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
   nlohmann::json json;
   json[options.base.datasets.empty() ? "scene" : "dataset"] = sweptSubject(options);
   json["quality_mode"] = mode;
-  json["pipeline_ms"] = "hull + codecs + client ms per new mesh: the per-frame work the knobs move (transport not included)";
-  std::string md = "# Sweep\n\n" + std::string(options.base.datasets.empty() ? "Scene" : "Dataset") + " `" +
-                   sweptSubject(options) + "`, quality of `" + mode +
-                   "` (leave-one-camera-out), one knob at a time around the defaults. Pipeline ms: the hull, the "
-                   "codecs (" + std::string(kCodecsMeaning) + ") and the client's render per new mesh. Front: no "
-                   "other value of the knob is at least as good in PSNR, client ms, pipeline ms and bytes per frame on "
-                   "both links at once and better in one beyond noise (points are measured one after another): "
-                   "times by more than 10% and more than either point's p50-to-p95 spread, PSNR by more than "
-                   "0.01 dB, bytes by more than 0.5%. Flicker and Chamfer are shown, not judged. Live end-to-end ms "
-                   "(with --live-frames): the live loop run with the point's settings, capture to written frame, "
-                   "network and queues included; judged too where every value of the knob ran live. Live jitter: the worst "
-                   "pod's RFC 3550 arrival jitter at the server in that run; the leave-one-out runs have no network, "
-                   "so a point not run live has none.\n\n";
+  json["pipeline_ms"] =
+      "hull + codecs + client ms per new mesh: the per-frame work the knobs move (transport not "
+      "included)";
+  std::string md =
+      "# Sweep\n\n" + std::string(options.base.datasets.empty() ? "Scene" : "Dataset") + " `" +
+      sweptSubject(options) + "`, quality of `" + mode +
+      "` (leave-one-camera-out), one knob at a time around the defaults. Pipeline ms: the hull, "
+      "the "
+      "codecs (" +
+      std::string(kCodecsMeaning) +
+      ") and the client's render per new mesh. Front: no "
+      "other value of the knob is at least as good in PSNR, client ms, pipeline ms and bytes per "
+      "frame on "
+      "both links at once and better in one beyond noise (points are measured one after another): "
+      "times by more than 10% and more than either point's p50-to-p95 spread, PSNR by more than "
+      "0.01 dB, bytes by more than 0.5%. Flicker and Chamfer are shown, not judged. Live "
+      "end-to-end ms "
+      "(with --live-frames): the live loop run with the point's settings, capture to written "
+      "frame, "
+      "network and queues included; judged too where every value of the knob ran live. Live "
+      "jitter: the worst "
+      "pod's RFC 3550 arrival jitter at the server in that run; the leave-one-out runs have no "
+      "network, "
+      "so a point not run live has none.\n\n";
   std::string body;
   std::set<std::string> unchecked;  // budgeted stages some point could not hold against its budget
   std::vector<std::vector<std::string>> rows;
@@ -481,13 +516,14 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     // Each point's quality against its costs: client ms, pipeline ms and
     // bytes on each link, alone (the plots) and together (the front).
     // Run live (--live-frames), the loop's end-to-end time is one more cost.
-    const bool all_live =
-        std::all_of(mine.begin(), mine.end(), [](const SweepPoint* p) { return p->live.has_value(); });
+    const bool all_live = std::all_of(mine.begin(), mine.end(),
+                                      [](const SweepPoint* p) { return p->live.has_value(); });
     std::vector<TradePoint> by_client, by_pipeline, by_bytes, by_pod_bytes, by_live, by_all;
     for (const SweepPoint* p : mine) {
       const ModeResult& m = p->result.modes.at(mode);
       const Cost client = timeCost(m.ms_per_new_mesh, m.ms_per_new_mesh_p95);
-      const Cost pipeline = timeCost(pipelineMs(p->result, mode), pipelineMs(p->result, mode, true));
+      const Cost pipeline =
+          timeCost(pipelineMs(p->result, mode), pipelineMs(p->result, mode, true));
       const Cost bytes = bytesCost(p->result.bytes_per_frame);
       const Cost pod_bytes = bytesCost(p->result.pod_link_bytes_per_frame);
       by_client.push_back({m.psnr_db, {client}});
@@ -519,10 +555,12 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     }
     nlohmann::json& k = json["knobs"][name];
     k["default_verdict"] = verdict;
-    md += "## " + name +
-          "\n\n| value | PSNR dB | SSIM | flicker | Chamfer mm | client ms | pipeline ms | live end-to-end ms | "
-          "live jitter ms (worst pod) | KB/frame to client | pods KB/frame | front | over budget |\n"
-          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n";
+    md +=
+        "## " + name +
+        "\n\n| value | PSNR dB | SSIM | flicker | Chamfer mm | client ms | pipeline ms | live "
+        "end-to-end ms | "
+        "live jitter ms (worst pod) | KB/frame to client | pods KB/frame | front | over budget |\n"
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n";
     for (size_t i = 0; i < mine.size(); ++i) {
       const SweepPoint& p = *mine[i];
       const ModeResult& m = p.result.modes.at(mode);
@@ -534,8 +572,9 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
       for (const BudgetCheck& check : point_budget.checks) {
         if (!check.over()) continue;
         char text[112];
-        std::snprintf(text, sizeof(text), "%s%s %.1f > %.1f ms", check.mode == "live" ? "live " : "",
-                      check.stage.c_str(), check.p95_ms, check.budget_ms);
+        std::snprintf(text, sizeof(text), "%s%s %.1f > %.1f ms",
+                      check.mode == "live" ? "live " : "", check.stage.c_str(), check.p95_ms,
+                      check.budget_ms);
         over += (over.empty() ? "" : ", ") + std::string(text);
         violations.push_back({{"stage", check.stage},
                               {"measured", check.mode == "live" ? "live loop" : "leave-one-out"},
@@ -543,25 +582,26 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                               {"budget_ms", check.budget_ms}});
       }
       for (const auto& stage : point_budget.unchecked) unchecked.insert(stage);
-      k["points"].push_back({{"value", p.value},
-                             {"is_default", p.is_default},
-                             {"psnr_db", m.psnr_db},
-                             {"ssim", m.ssim},
-                             {"flicker", measuredJson(m.flicker)},
-                             {"chamfer_mm", measuredJson(p.result.chamfer_mm)},
-                             {"client_ms", m.ms_per_new_mesh},
-                             {"client_ms_p95", m.ms_per_new_mesh_p95},
-                             {"pipeline_ms", pipelineMs(p.result, mode)},
-                             {"pipeline_ms_p95", pipelineMs(p.result, mode, true)},
-                             {"bytes_per_frame", p.result.bytes_per_frame},
-                             {"pod_link_bytes_per_frame", p.result.pod_link_bytes_per_frame},
-                             {"on_front", onFront(i)},
-                             {"budget_violations", violations},
-                             {"budget_unchecked", point_budget.unchecked},
-                             {"live_worst_pod_jitter_ms", measuredJson(worstJitterMs(p.live))},
-                             {"live_command", liveCommand(options, name, p.value)},
-                             {"live", p.live ? liveJson(*p.live, options.live_frames) : nlohmann::json()},
-                             {"result", sceneResultJson(p.result)}});
+      k["points"].push_back(
+          {{"value", p.value},
+           {"is_default", p.is_default},
+           {"psnr_db", m.psnr_db},
+           {"ssim", m.ssim},
+           {"flicker", measuredJson(m.flicker)},
+           {"chamfer_mm", measuredJson(p.result.chamfer_mm)},
+           {"client_ms", m.ms_per_new_mesh},
+           {"client_ms_p95", m.ms_per_new_mesh_p95},
+           {"pipeline_ms", pipelineMs(p.result, mode)},
+           {"pipeline_ms_p95", pipelineMs(p.result, mode, true)},
+           {"bytes_per_frame", p.result.bytes_per_frame},
+           {"pod_link_bytes_per_frame", p.result.pod_link_bytes_per_frame},
+           {"on_front", onFront(i)},
+           {"budget_violations", violations},
+           {"budget_unchecked", point_budget.unchecked},
+           {"live_worst_pod_jitter_ms", measuredJson(worstJitterMs(p.live))},
+           {"live_command", liveCommand(options, name, p.value)},
+           {"live", p.live ? liveJson(*p.live, options.live_frames) : nlohmann::json()},
+           {"result", sceneResultJson(p.result)}});
       char cells[6][32];
       std::snprintf(cells[0], sizeof(cells[0]), "%.2f", m.psnr_db);
       std::snprintf(cells[1], sizeof(cells[1]), "%.4f", m.ssim);
@@ -574,7 +614,8 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
         std::snprintf(live_cell, sizeof(live_cell), "%.0f (p95 %.0f)", p.live->end_to_end_ms_p50,
                       p.live->end_to_end_ms_p95);
       }
-      const std::string jitter_cell = p.live ? measuredText(worstJitterMs(p.live), "%.2f") : "not run";
+      const std::string jitter_cell =
+          p.live ? measuredText(worstJitterMs(p.live), "%.2f") : "not run";
       const std::vector<std::string> row = {p.value + (p.is_default ? " (default)" : ""),
                                             cells[0],
                                             cells[1],
@@ -596,7 +637,8 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
     }
     const std::string live = liveCommand(options, name, "VALUE");
     md += "\n" + verdict + ". A value in the live loop: `" + live + "`.\n\n";
-    auto plot = [&](const std::vector<TradePoint>& trade, const std::string& title, const std::string& x) {
+    auto plot = [&](const std::vector<TradePoint>& trade, const std::string& title,
+                    const std::string& x) {
       const auto f = paretoFront(trade);
       std::vector<html::Point> marks;
       for (size_t i = 0; i < mine.size(); ++i) {
@@ -605,14 +647,17 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
       }
       return html::scatterChart(title, x, "PSNR dB", marks);
     };
-    body += "<h2>" + html::escape(name) + "</h2>\n<p>" + html::escape(findKnob(name)->meaning) + ". " +
-            html::escape(verdict) +
+    body += "<h2>" + html::escape(name) + "</h2>\n<p>" + html::escape(findKnob(name)->meaning) +
+            ". " + html::escape(verdict) +
             ". Filled: the Pareto front of each plot's pair; red ring: the default. A value in " +
             "the live loop: <code>" + html::escape(live) + "</code>.</p>\n";
     body += plot(by_client, "PSNR against client ms (" + name + ")", "client ms per new mesh");
-    body += plot(by_pipeline, "PSNR against pipeline ms (" + name + ")", "hull + codecs + client ms");
-    body += plot(by_bytes, "PSNR against bytes per frame (" + name + ")", "bytes per frame, server to client");
-    body += plot(by_pod_bytes, "PSNR against pod bytes per frame (" + name + ")", "bytes per frame, pods to server");
+    body +=
+        plot(by_pipeline, "PSNR against pipeline ms (" + name + ")", "hull + codecs + client ms");
+    body += plot(by_bytes, "PSNR against bytes per frame (" + name + ")",
+                 "bytes per frame, server to client");
+    body += plot(by_pod_bytes, "PSNR against pod bytes per frame (" + name + ")",
+                 "bytes per frame, pods to server");
     if (all_live) {
       body += plot(by_live, "PSNR against live end-to-end ms (" + name + ")",
                    "end-to-end ms, capture to written frame, live loop");
@@ -624,28 +669,32 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
       stack.push_back({p->value + " p50", latencyParts(p->result, m, false)});
       stack.push_back({p->value + " p95", latencyParts(p->result, m, true)});
     }
-    body += html::stackedBars("Latency of a new mesh by value (" + name + ")", latencyStages(), stack, "ms");
+    body += html::stackedBars("Latency of a new mesh by value (" + name + ")", latencyStages(),
+                              stack, "ms");
   }
   if (!options.base.budget.empty()) {
     // Where each budgeted stage is measured, and which no point measured.
     std::string unchecked_text;
-    for (const auto& stage : unchecked) unchecked_text += (unchecked_text.empty() ? "" : ", ") + stage;
+    for (const auto& stage : unchecked)
+      unchecked_text += (unchecked_text.empty() ? "" : ", ") + stage;
     const std::string budget_text =
         "Budget: each point's p95 of " + budgetedStagesText() +
-        " from its leave-one-out run, and of the other stages (end_to_end, upload, ...) from its live run (\"live\" "
+        " from its leave-one-out run, and of the other stages (end_to_end, upload, ...) from its "
+        "live run (\"live\" "
         "in the table; --live-frames)." +
-        (unchecked_text.empty() ? std::string()
-                                : " Not checked at some points (no live run, or no sample in it): " + unchecked_text +
-                                      ".");
+        (unchecked_text.empty()
+             ? std::string()
+             : " Not checked at some points (no live run, or no sample in it): " + unchecked_text +
+                   ".");
     json["budget_ms"] = options.base.budget;
     json["budget_unchecked"] = unchecked;
     md += budget_text + "\n";
     body += "<p>" + html::escape(budget_text) + "</p>\n";
   }
   body += "<h2>All points</h2>\n" +
-          html::table({"knob", "value", "PSNR dB", "SSIM", "flicker", "Chamfer mm", "client ms", "pipeline ms",
-                       "live end-to-end ms", "live jitter ms (worst pod)", "KB/frame to client", "pods KB/frame",
-                       "front", "over budget"},
+          html::table({"knob", "value", "PSNR dB", "SSIM", "flicker", "Chamfer mm", "client ms",
+                       "pipeline ms", "live end-to-end ms", "live jitter ms (worst pod)",
+                       "KB/frame to client", "pods KB/frame", "front", "over budget"},
                       rows);
   std::ofstream(fs::path(options.out_dir) / "sweep.json") << json.dump(2) << "\n";
   std::ofstream(fs::path(options.out_dir) / "sweep.md") << md;

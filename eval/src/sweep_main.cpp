@@ -15,12 +15,15 @@ int main(int argc, char** argv) {
   options.base.modes = {render::BlendMode::kHoloportation, render::BlendMode::kMontage4D};
   std::vector<std::string> knob_texts, modes;
   std::string scene = "clean";
-  CLI::App app{"holofuse sweep: quality against time and bytes, one knob at a time around the defaults"};
-  app.add_option("--knob", knob_texts, "NAME=v1,v2,... (repeatable); knobs: " + eval::knobNames())->required();
+  CLI::App app{
+      "holofuse sweep: quality against time and bytes, one knob at a time around the defaults"};
+  app.add_option("--knob", knob_texts, "NAME=v1,v2,... (repeatable); knobs: " + eval::knobNames())
+      ->required();
   auto* scene_flag = app.add_option("--scene", scene, "scene: " + capture::sceneNames());
   std::string dataset;
   app.add_option("--dataset", dataset,
-                 "a dataset folder (recorded or imported) to sweep instead of a scene; live points replay it")
+                 "a dataset folder (recorded or imported) to sweep instead of a scene; live points "
+                 "replay it")
       ->excludes(scene_flag);
   app.add_option("--modes", modes, "modes measured; the last is the one whose quality is plotted")
       ->delimiter(',')
@@ -28,14 +31,18 @@ int main(int argc, char** argv) {
   app.add_option("--frames", options.base.frames, "frames per point")->check(CLI::Range(1, 1000));
   app.add_option("--held-out", options.base.held_out_cameras, "held-out cameras per point (0: all)")
       ->check(CLI::Range(0, 16));
-  app.add_option("--out", options.out_dir, "output folder (points/, sweep.json, sweep.md, sweep.html)")->required();
+  app.add_option("--out", options.out_dir,
+                 "output folder (points/, sweep.json, sweep.md, sweep.html)")
+      ->required();
   app.add_option("--device", options.base.device, "Vulkan device: index or part of its name");
   std::vector<std::string> set_texts;
   app.add_option("--set", set_texts,
-                 "NAME=VALUE (repeatable): move the sweep's base (the defaults every point starts from) by a knob, "
+                 "NAME=VALUE (repeatable): move the sweep's base (the defaults every point starts "
+                 "from) by a knob, "
                  "e.g. --set size=640x480 --knob draco-bits=8,11,14");
   app.add_option("--live-frames", options.live_frames,
-                 "also run each point in the live loop (real processes on loopback) for this many frames and "
+                 "also run each point in the live loop (real processes on loopback) for this many "
+                 "frames and "
                  "judge its end-to-end latency too (0: no live runs)")
       ->check(CLI::Range(0, 100000));
   std::string budget_file;
@@ -50,23 +57,26 @@ int main(int argc, char** argv) {
     options.base.datasets = {dataset};
   }
   // The live loop's launcher lies next to this executable.
-  options.loop_program = (std::filesystem::canonical("/proc/self/exe").parent_path() / "holofuse_loop").string();
+  options.loop_program =
+      (std::filesystem::canonical("/proc/self/exe").parent_path() / "holofuse_loop").string();
   if (dataset.empty() && capture::findScene(scene) == nullptr) {
-    std::fprintf(stderr, "--scene: unknown scene '%s'; valid scenes: %s\n", scene.c_str(), capture::sceneNames().c_str());
+    std::fprintf(stderr, "--scene: unknown scene '%s'; valid scenes: %s\n", scene.c_str(),
+                 capture::sceneNames().c_str());
     return 2;
   }
   if (!modes.empty()) {
     options.base.modes.clear();
     for (const auto& name : modes) {
-      if (auto mode = render::blendModeFromName(name)) options.base.modes.push_back(*mode);  // names checked by CLI11
+      if (auto mode = render::blendModeFromName(name))
+        options.base.modes.push_back(*mode);  // names checked by CLI11
     }
   }
   for (const auto& text : set_texts) {
     const size_t eq = text.find('=');
     const eval::Knob* knob = eq == std::string::npos ? nullptr : eval::findKnob(text.substr(0, eq));
     if (knob == nullptr) {
-      std::fprintf(stderr, "--set '%s': expected NAME=VALUE with a knob's name; knobs: %s\n", text.c_str(),
-                   eval::knobNames().c_str());
+      std::fprintf(stderr, "--set '%s': expected NAME=VALUE with a knob's name; knobs: %s\n",
+                   text.c_str(), eval::knobNames().c_str());
       return 2;
     }
     if (const std::string error = knob->apply(options.base, text.substr(eq + 1)); !error.empty()) {
@@ -77,14 +87,16 @@ int main(int argc, char** argv) {
   for (const auto& text : knob_texts) {
     const size_t eq = text.find('=');
     if (eq == std::string::npos || eq == 0 || eq + 1 == text.size()) {
-      std::fprintf(stderr, "--knob '%s': expected NAME=v1,v2,...; knobs: %s\n", text.c_str(), eval::knobNames().c_str());
+      std::fprintf(stderr, "--knob '%s': expected NAME=v1,v2,...; knobs: %s\n", text.c_str(),
+                   eval::knobNames().c_str());
       return 2;
     }
     std::vector<std::string> values;
     size_t start = eq + 1;
     while (start <= text.size()) {
       const size_t comma = text.find(',', start);
-      values.push_back(text.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+      values.push_back(
+          text.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
       if (comma == std::string::npos) break;
       start = comma + 1;
     }

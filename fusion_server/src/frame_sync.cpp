@@ -4,8 +4,9 @@ namespace holofuse::fusion {
 
 FrameSync::Added FrameSync::add(uint64_t frame_id, PodImages images, uint64_t now_ns) {
   if (last_emitted_) {
-    if (frame_id > *last_emitted_ && frame_id - *last_emitted_ > kMaxIdJump) return Added::kImplausible;
-    if (frame_id < *last_emitted_ && *last_emitted_ - frame_id > kMaxIdJump) {
+    if (frame_id > *last_emitted_ && frame_id - *last_emitted_ > kMaxIdJump)
+      return Added::kImplausible;
+    if (frame_id<*last_emitted_&& * last_emitted_ - frame_id> kMaxIdJump) {
       // Every pod's clock went back (or the first ids seen were bogus):
       // start over rather than calling every frame late forever.
       last_emitted_.reset();
@@ -79,7 +80,8 @@ size_t FrameSync::pendingWith(uint32_t camera_id) const {
 std::optional<uint64_t> FrameSync::nextDeadline() const {
   if (pending_.empty() || deadline_ns_ == kNoDeadline) return std::nullopt;
   uint64_t earliest = UINT64_MAX;
-  for (const auto& [id, group] : pending_) earliest = std::min(earliest, group.first_arrival_ns + deadline_ns_);
+  for (const auto& [id, group] : pending_)
+    earliest = std::min(earliest, group.first_arrival_ns + deadline_ns_);
   return earliest;
 }
 

@@ -16,13 +16,14 @@ namespace holofuse::fusion {
 
 using protocol::Frame;
 using protocol::MessageType;
+using protocol::monotonicNs;
 using protocol::Status;
 using protocol::StatusCode;
-using protocol::monotonicNs;
 
 FusionServer::FusionServer(ServerOptions options)
     : options_(std::move(options)),
-      sync_(options_.lossless ? FrameSync::lossless() : FrameSync(static_cast<uint64_t>(options_.sync_deadline_ms * 1e6))) {
+      sync_(options_.lossless ? FrameSync::lossless()
+                              : FrameSync(static_cast<uint64_t>(options_.sync_deadline_ms * 1e6))) {
   options_.fusion.pods_expected = static_cast<uint32_t>(options_.pods);
 }
 
@@ -48,11 +49,13 @@ Status FusionServer::start() {
   // The settings a run's numbers depend on, in its log.
   const FusionSettings& f = options_.fusion;
   std::fprintf(stderr,
-               "[server] listening on %s:%u for %d pods; voxel %g m (error target %g mm, refinement %g voxels), Draco %d "
+               "[server] listening on %s:%u for %d pods; voxel %g m (error target %g mm, "
+               "refinement %g voxels), Draco %d "
                "bits speed %d, "
                "images to clients %s at LZ4 acceleration %d, LZ4HC level %d\n",
-               options_.listen.host.c_str(), port(), options_.pods, f.hull.voxel_size, 1000.0 * f.hull_error_target,
-               f.refine.depth_voxels, f.draco.position_bits, f.draco.speed, imageCodecName(f.image_codec).c_str(), f.lz4_acceleration,
+               options_.listen.host.c_str(), port(), options_.pods, f.hull.voxel_size,
+               1000.0 * f.hull_error_target, f.refine.depth_voxels, f.draco.position_bits,
+               f.draco.speed, imageCodecName(f.image_codec).c_str(), f.lz4_acceleration,
                f.lz4_hc_level);
   return Status::ok();
 }
@@ -87,13 +90,15 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
   HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, hello));
   auto ack = protocol::negotiate(hello);
   if (!ack.isOk()) {
-    peer.connection->sendMessage(protocol::ErrorMessage{static_cast<uint16_t>(ack.status().code()), ack.status().message()});
+    peer.connection->sendMessage(
+        protocol::ErrorMessage{static_cast<uint16_t>(ack.status().code()), ack.status().message()});
     return ack.status();
   }
   if (hello.role == protocol::Role::kPod && hello.id >= static_cast<uint32_t>(options_.pods)) {
     const Status s(StatusCode::kMalformed, "pod id " + std::to_string(hello.id) + " outside 0.." +
                                                std::to_string(options_.pods - 1));
-    peer.connection->sendMessage(protocol::ErrorMessage{static_cast<uint16_t>(s.code()), s.message()});
+    peer.connection->sendMessage(
+        protocol::ErrorMessage{static_cast<uint16_t>(s.code()), s.message()});
     return s;
   }
   if (hello.role == protocol::Role::kPod) {
@@ -101,9 +106,10 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
     // new one replaces it.
     for (size_t i = 0; i < peers_.size(); ++i) {
       Peer& other = peers_[i];
-      if (&other != &peer && other.greeted && other.role == protocol::Role::kPod && other.id == hello.id) {
-        std::fprintf(stderr, "[server] pod %u connected again; dropping its old connection %s\n", hello.id,
-                     other.connection->peerName().c_str());
+      if (&other != &peer && other.greeted && other.role == protocol::Role::kPod &&
+          other.id == hello.id) {
+        std::fprintf(stderr, "[server] pod %u connected again; dropping its old connection %s\n",
+                     hello.id, other.connection->peerName().c_str());
         other.replaced = true;
       }
     }
@@ -117,7 +123,8 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
     departed_pods_.erase(hello.id);
     // A pod back on a new connection may send from another clock: its first
     // transit starts afresh rather than counting the offset as jitter.
-    if (auto known = pod_arrivals_.find(hello.id); known != pod_arrivals_.end()) known->second.restart();
+    if (auto known = pod_arrivals_.find(hello.id); known != pod_arrivals_.end())
+      known->second.restart();
   }
   peer.role = hello.role;
   peer.id = hello.id;
@@ -125,8 +132,8 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
   peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
                                std::to_string(hello.id) + " (" + peer.connection->peerName() + ")");
   peer.connection->sendMessage(*ack);
-  std::fprintf(stderr, "[server] %s joined, protocol %u.%u\n", peer.connection->peerName().c_str(), ack->major,
-               ack->minor);
+  std::fprintf(stderr, "[server] %s joined, protocol %u.%u\n", peer.connection->peerName().c_str(),
+               ack->major, ack->minor);
   if (peer.role == protocol::Role::kClient) {
     for (const auto& [id, bytes] : calibration_frames_) peer.connection->send(bytes);
   }
@@ -134,12 +141,14 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
 }
 
 Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
-  const uint64_t arrival = monotonicNs();  // before the decoding, which podImagesOf stamps from here
+  const uint64_t arrival =
+      monotonicNs();  // before the decoding, which podImagesOf stamps from here
   protocol::PodFrame pod;
   HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, pod));
   if (pod.camera_id != peer.id) {
-    return Status(StatusCode::kMalformed, "field 'pod_frame.camera_id': " + std::to_string(pod.camera_id) +
-                                              " from the pod that said it is " + std::to_string(peer.id));
+    return Status(StatusCode::kMalformed,
+                  "field 'pod_frame.camera_id': " + std::to_string(pod.camera_id) +
+                      " from the pod that said it is " + std::to_string(peer.id));
   }
   auto cam = cameras_.find(pod.camera_id);
   if (cam == cameras_.end()) {
@@ -153,8 +162,9 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   // server_decode's, and the latency budget must not count it twice.
   const FrameSync::Added added = sync_.add(pod.frame_id, std::move(*images), monotonicNs());
   if (added == FrameSync::Added::kImplausible) {
-    return Status(StatusCode::kMalformed, "field 'pod_frame.frame_id': " + std::to_string(pod.frame_id) +
-                                              " is implausibly far ahead of the frames being fused");
+    return Status(StatusCode::kMalformed,
+                  "field 'pod_frame.frame_id': " + std::to_string(pod.frame_id) +
+                      " is implausibly far ahead of the frames being fused");
   }
   // Every frame a pod sends counts for its jitter, also one that arrives too
   // late to be fused: the link's behaviour, not the fusion's. A frame refused
@@ -163,7 +173,8 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   // What the fusion takes, as it arrived (a late frame is not fused, so a
   // replay must not fuse it either).
   if (added == FrameSync::Added::kAccepted && recorder_) {
-    recorder_->recordPodMessage(protocol::RecordKind::kPodFrame, pod.camera_id, pod.frame_id, frame);
+    recorder_->recordPodMessage(protocol::RecordKind::kPodFrame, pod.camera_id, pod.frame_id,
+                                frame);
   }
   return Status::ok();
 }
@@ -172,8 +183,9 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
   const auto type = static_cast<MessageType>(frame.header.type);
   if (!peer.greeted) {
     if (type != MessageType::kHello) {
-      return Status(StatusCode::kUnexpectedMessage,
-                    std::string("expected Hello first, got ") + protocol::messageTypeName(frame.header.type));
+      return Status(
+          StatusCode::kUnexpectedMessage,
+          std::string("expected Hello first, got ") + protocol::messageTypeName(frame.header.type));
     }
     return handleHello(peer, frame);
   }
@@ -186,15 +198,19 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
       return Status(StatusCode::kClosed, "said bye: " + bye.reason);
     }
     case MessageType::kCalibration: {
-      if (peer.role != protocol::Role::kPod) return Status(StatusCode::kUnexpectedMessage, "Calibration from a client");
+      if (peer.role != protocol::Role::kPod)
+        return Status(StatusCode::kUnexpectedMessage, "Calibration from a client");
       protocol::Calibration calibration;
       HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, calibration));
       if (calibration.camera_id != peer.id) {
-        return Status(StatusCode::kMalformed, "field 'calibration.camera_id': " + std::to_string(calibration.camera_id) +
-                                                  " from pod " + std::to_string(peer.id));
+        return Status(StatusCode::kMalformed,
+                      "field 'calibration.camera_id': " + std::to_string(calibration.camera_id) +
+                          " from pod " + std::to_string(peer.id));
       }
       cameras_[calibration.camera_id] = fromCalibration(calibration);
-      if (recorder_) recorder_->recordPodMessage(protocol::RecordKind::kCalibration, calibration.camera_id, 0, frame);
+      if (recorder_)
+        recorder_->recordPodMessage(protocol::RecordKind::kCalibration, calibration.camera_id, 0,
+                                    frame);
       auto bytes = std::make_shared<const protocol::OutgoingFrame>(frame.bytes);
       calibration_frames_[calibration.camera_id] = bytes;
       for (auto& other : peers_) {
@@ -203,7 +219,8 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
       return Status::ok();
     }
     case MessageType::kPodFrame:
-      if (peer.role != protocol::Role::kPod) return Status(StatusCode::kUnexpectedMessage, "PodFrame from a client");
+      if (peer.role != protocol::Role::kPod)
+        return Status(StatusCode::kUnexpectedMessage, "PodFrame from a client");
       return handlePodFrame(peer, frame);
     case MessageType::kHello:
       return Status(StatusCode::kUnexpectedMessage, "second Hello");
@@ -215,13 +232,17 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
 
 void FusionServer::closePeer(size_t index, const Status& why) {
   Peer& peer = peers_[index];
-  if (peer.greeted && peer.role == protocol::Role::kPod && !peer.replaced) departed_pods_.insert(peer.id);
+  if (peer.greeted && peer.role == protocol::Role::kPod && !peer.replaced)
+    departed_pods_.insert(peer.id);
   if (why.code() == StatusCode::kClosed) {
-    std::fprintf(stderr, "[server] %s left (%s)\n", peer.connection->peerName().c_str(), why.message().c_str());
+    std::fprintf(stderr, "[server] %s left (%s)\n", peer.connection->peerName().c_str(),
+                 why.message().c_str());
   } else {
-    std::fprintf(stderr, "[server] closing %s: %s\n", peer.connection->peerName().c_str(), why.toString().c_str());
+    std::fprintf(stderr, "[server] closing %s: %s\n", peer.connection->peerName().c_str(),
+                 why.toString().c_str());
     if (why.code() != StatusCode::kIoError && why.code() != StatusCode::kTimeout) {
-      peer.connection->sendMessage(protocol::ErrorMessage{static_cast<uint16_t>(why.code()), why.message()});
+      peer.connection->sendMessage(
+          protocol::ErrorMessage{static_cast<uint16_t>(why.code()), why.message()});
       peer.connection->drain(50);
     }
   }
@@ -236,8 +257,9 @@ void FusionServer::dispatchReadyGroups() {
     job.late_frames = sync_.lateFrames();
     job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();
     for (const auto& [pod, jitter] : pod_arrivals_) {
-      job.pod_arrivals.push_back({static_cast<uint16_t>(pod), jitter.packets(),
-                                  static_cast<uint32_t>(std::min(jitter.ms() * 1000.0 + 0.5, 4.0e9))});
+      job.pod_arrivals.push_back(
+          {static_cast<uint16_t>(pod), jitter.packets(),
+           static_cast<uint32_t>(std::min(jitter.ms() * 1000.0 + 0.5, 4.0e9))});
     }
     worker_->submit(std::move(job));
   }
@@ -264,7 +286,8 @@ bool FusionServer::readable(const Peer& peer) {
   if (!peer.greeted || peer.role != protocol::Role::kPod) return true;
   if (!clients_arrived_) {
     int clients = 0;
-    for (const auto& other : peers_) clients += other.greeted && other.role == protocol::Role::kClient;
+    for (const auto& other : peers_)
+      clients += other.greeted && other.role == protocol::Role::kClient;
     if (clients < options_.wait_for_clients) return false;
     clients_arrived_ = true;  // from now on pods are read whoever comes and goes
   }
@@ -292,7 +315,9 @@ int FusionServer::run() {
     if (options_.exit_when_pods_done && podsDone()) {
       fanOut();
       if (podsDone()) {
-        std::fprintf(stderr, "[server] every pod has left and its frames are fused and delivered: stopping\n");
+        std::fprintf(
+            stderr,
+            "[server] every pod has left and its frames are fused and delivered: stopping\n");
         bye_reason = "every pod has left and its frames are delivered";
         break;
       }
@@ -304,13 +329,17 @@ int FusionServer::run() {
     for (const auto& peer : peers_) {
       reading.push_back(readable(peer));
       fds.push_back({peer.connection->fd(),
-                     static_cast<short>((reading.back() ? POLLIN : 0) | (peer.connection->wantsWrite() ? POLLOUT : 0)),
+                     static_cast<short>((reading.back() ? POLLIN : 0) |
+                                        (peer.connection->wantsWrite() ? POLLOUT : 0)),
                      0});
     }
     int timeout_ms = 100;
     if (auto deadline = sync_.nextDeadline()) {
       const uint64_t now = monotonicNs();
-      timeout_ms = *deadline <= now ? 0 : std::min<int>(timeout_ms, static_cast<int>((*deadline - now) / 1000000) + 1);
+      timeout_ms =
+          *deadline <= now
+              ? 0
+              : std::min<int>(timeout_ms, static_cast<int>((*deadline - now) / 1000000) + 1);
     }
     ::poll(fds.data(), fds.size(), timeout_ms);
     if (fds[0].revents & POLLIN) acceptAll();
@@ -334,10 +363,12 @@ int FusionServer::run() {
       // A pod held back by backpressure is silent because we do not read it.
       if (status.isOk() && reading[i] &&
           now - peer.connection->lastReceiveNs() > uint64_t{options_.idle_timeout_ms} * 1000000) {
-        status = Status(StatusCode::kTimeout, "heard nothing for " + std::to_string(options_.idle_timeout_ms) + " ms");
+        status = Status(StatusCode::kTimeout,
+                        "heard nothing for " + std::to_string(options_.idle_timeout_ms) + " ms");
       }
       if (status.isOk() && peer.greeted && !peer.connection->wantsWrite() &&
-          now - peer.connection->lastSendNs() > uint64_t{options_.heartbeat_interval_ms} * 1000000) {
+          now - peer.connection->lastSendNs() >
+              uint64_t{options_.heartbeat_interval_ms} * 1000000) {
         peer.connection->sendMessage(protocol::Heartbeat{now});
       }
       if (status.isOk() && peer.replaced) {
@@ -359,9 +390,12 @@ int FusionServer::run() {
     peer.connection->closeGracefully(options_.exit_when_pods_done ? 5000 : 100);
   }
   if (recorder_) recorder_->close();
-  std::fprintf(stderr, "[server] stopped after fusing %llu groups (%llu late pod frames, %llu groups dropped)\n",
-               static_cast<unsigned long long>(groups_fused_), static_cast<unsigned long long>(sync_.lateFrames()),
-               static_cast<unsigned long long>(sync_.overflowedGroups() + worker_->replacedJobs()));
+  std::fprintf(
+      stderr,
+      "[server] stopped after fusing %llu groups (%llu late pod frames, %llu groups dropped)\n",
+      static_cast<unsigned long long>(groups_fused_),
+      static_cast<unsigned long long>(sync_.lateFrames()),
+      static_cast<unsigned long long>(sync_.overflowedGroups() + worker_->replacedJobs()));
   return 0;
 }
 

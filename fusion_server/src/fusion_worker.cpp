@@ -10,12 +10,12 @@
 
 namespace holofuse::fusion {
 
+using protocol::kSourceServer;
 using protocol::monotonicNs;
 using protocol::Stage;
-using protocol::kSourceServer;
 
-protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes, const Camera& camera,
-                                          uint64_t now_ns) {
+protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
+                                          const Camera& camera, uint64_t now_ns) {
   PodImages images;
   images.camera_id = pod.camera_id;
   images.capture_time_ns = pod.capture_time_ns;
@@ -32,30 +32,39 @@ protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_
       sent = s.end_ns;
     }
   }
-  images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend), static_cast<uint16_t>(pod.camera_id),
-                           sent, now_ns});
+  images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend),
+                           static_cast<uint16_t>(pod.camera_id), sent, now_ns});
   images.sent_ns = sent;
   images.arrival_ns = now_ns;
   images.camera = camera;  // the calibration these images belong to
   for (const auto& plane : pod.planes) {
     // Checked against the calibration before anything is decompressed: the
     // planes are the image, or a rectangle of it at the frame's offset.
-    if (!cropFits(pod.offset_x, pod.offset_y, plane.width, plane.height, camera.width, camera.height) ||
+    if (!cropFits(pod.offset_x, pod.offset_y, plane.width, plane.height, camera.width,
+                  camera.height) ||
         (pod.planes.front().width != plane.width || pod.planes.front().height != plane.height)) {
       return protocol::Status(protocol::StatusCode::kMalformed,
                               "plane " + std::to_string(static_cast<int>(plane.kind)) + " is " +
-                                  std::to_string(plane.width) + "x" + std::to_string(plane.height) + " at (" +
-                                  std::to_string(pod.offset_x) + ", " + std::to_string(pod.offset_y) +
-                                  "), calibration says " + std::to_string(camera.width) + "x" +
+                                  std::to_string(plane.width) + "x" + std::to_string(plane.height) +
+                                  " at (" + std::to_string(pod.offset_x) + ", " +
+                                  std::to_string(pod.offset_y) + "), calibration says " +
+                                  std::to_string(camera.width) + "x" +
                                   std::to_string(camera.height));
     }
     auto image = decodePlane(plane);
     if (!image.isOk()) return image.status();
     switch (plane.kind) {
-      case protocol::PlaneKind::kColor: images.color = std::move(*image); break;
-      case protocol::PlaneKind::kMask: images.mask = std::move(*image); break;
-      case protocol::PlaneKind::kFeather: images.feather = std::move(*image); break;
-      case protocol::PlaneKind::kDepth: break;  // not used by the hull yet
+      case protocol::PlaneKind::kColor:
+        images.color = std::move(*image);
+        break;
+      case protocol::PlaneKind::kMask:
+        images.mask = std::move(*image);
+        break;
+      case protocol::PlaneKind::kFeather:
+        images.feather = std::move(*image);
+        break;
+      case protocol::PlaneKind::kDepth:
+        break;  // not used by the hull yet
     }
   }
   if (images.color.channels != 3 || images.mask.channels != 1 || images.feather.channels != 1) {
@@ -64,8 +73,8 @@ protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_
   }
   images.offset_x = pod.offset_x;
   images.offset_y = pod.offset_y;
-  images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kServerDecode), static_cast<uint16_t>(pod.camera_id),
-                           now_ns, monotonicNs()});
+  images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kServerDecode),
+                           static_cast<uint16_t>(pod.camera_id), now_ns, monotonicNs()});
   return images;
 }
 
@@ -75,13 +84,14 @@ std::vector<HullView> hullViewsOf(const FrameGroup& group) {
     // The hull samples whole silhouettes: a rectangle goes back into its
     // frame, in the calibration stored with the images (a newer one may
     // have other sizes).
-    const bool whole = pod.offset_x == 0 && pod.offset_y == 0 && pod.mask.width == pod.camera.width &&
-                       pod.mask.height == pod.camera.height;
+    const bool whole = pod.offset_x == 0 && pod.offset_y == 0 &&
+                       pod.mask.width == pod.camera.width && pod.mask.height == pod.camera.height;
     views.push_back(whole ? HullView{pod.camera, pod.mask, pod.feather}
                           : HullView{pod.camera,
-                                     placeInFrame(pod.mask, pod.offset_x, pod.offset_y, pod.camera.width, pod.camera.height),
-                                     placeInFrame(pod.feather, pod.offset_x, pod.offset_y, pod.camera.width,
-                                                  pod.camera.height)});
+                                     placeInFrame(pod.mask, pod.offset_x, pod.offset_y,
+                                                  pod.camera.width, pod.camera.height),
+                                     placeInFrame(pod.feather, pod.offset_x, pod.offset_y,
+                                                  pod.camera.width, pod.camera.height)});
   }
   return views;
 }
@@ -90,10 +100,12 @@ std::vector<Image8> colorsInFrame(const FrameGroup& group) {
   std::vector<Image8> colors;
   colors.reserve(group.pods.size());
   for (const auto& [camera_id, pod] : group.pods) {
-    colors.push_back(pod.offset_x == 0 && pod.offset_y == 0 && pod.color.width == pod.camera.width &&
+    colors.push_back(pod.offset_x == 0 && pod.offset_y == 0 &&
+                             pod.color.width == pod.camera.width &&
                              pod.color.height == pod.camera.height
                          ? pod.color
-                         : placeInFrame(pod.color, pod.offset_x, pod.offset_y, pod.camera.width, pod.camera.height));
+                         : placeInFrame(pod.color, pod.offset_x, pod.offset_y, pod.camera.width,
+                                        pod.camera.height));
   }
   return colors;
 }
@@ -136,11 +148,15 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
     pod_bytes += pod.bytes;
     if (camera_id < 64) present |= uint64_t{1} << camera_id;
   }
-  stamps.push_back({static_cast<uint16_t>(Stage::kSyncWait), kSourceServer, group.first_arrival_ns, group.emitted_ns});
+  stamps.push_back({static_cast<uint16_t>(Stage::kSyncWait), kSourceServer, group.first_arrival_ns,
+                    group.emitted_ns});
   out.voxel_size = settings.hull.voxel_size;
-  stamps.push_back({static_cast<uint16_t>(Stage::kHull), kSourceServer, hull_start_ns, hull_end_ns});
+  stamps.push_back(
+      {static_cast<uint16_t>(Stage::kHull), kSourceServer, hull_start_ns, hull_end_ns});
   const uint64_t mesh_ready_ns = refine_end_ns != 0 ? refine_end_ns : hull_end_ns;
-  if (refine_end_ns != 0) stamps.push_back({static_cast<uint16_t>(Stage::kRefine), kSourceServer, hull_end_ns, refine_end_ns});
+  if (refine_end_ns != 0)
+    stamps.push_back(
+        {static_cast<uint16_t>(Stage::kRefine), kSourceServer, hull_end_ns, refine_end_ns});
   auto draco = encodeDraco(mesh, settings.draco);
   const uint64_t t2 = monotonicNs();
   stamps.push_back({static_cast<uint16_t>(Stage::kMeshEncode), kSourceServer, mesh_ready_ns, t2});
@@ -156,17 +172,20 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
     image.offset_x = pod.offset_x;  // clients get the rectangle too
     image.offset_y = pod.offset_y;
     storage->emplace_back();
-    image.planes.push_back(encodePlane(pod.color, protocol::PlaneKind::kColor, settings.image_codec, storage->back(),
-                                       settings.lz4_acceleration, settings.lz4_hc_level));
+    image.planes.push_back(encodePlane(pod.color, protocol::PlaneKind::kColor, settings.image_codec,
+                                       storage->back(), settings.lz4_acceleration,
+                                       settings.lz4_hc_level));
     storage->emplace_back();
-    image.planes.push_back(encodePlane(pod.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage->back(),
-                                       settings.lz4_acceleration, settings.lz4_hc_level));
+    image.planes.push_back(encodePlane(pod.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4,
+                                       storage->back(), settings.lz4_acceleration,
+                                       settings.lz4_hc_level));
     // Since 1.2 the pod's feather map goes on too, cropped as its image
     // (paper 004 weighs each pod by it at every fragment).
     bundle_v1_1.images.push_back(image);
     storage->emplace_back();
-    image.planes.push_back(encodePlane(pod.feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4,
-                                       storage->back(), settings.lz4_acceleration, settings.lz4_hc_level));
+    image.planes.push_back(encodePlane(pod.feather, protocol::PlaneKind::kFeather,
+                                       protocol::Codec::kLz4, storage->back(),
+                                       settings.lz4_acceleration, settings.lz4_hc_level));
     bundle.images.push_back(std::move(image));
   }
   const uint64_t t3 = monotonicNs();
@@ -201,7 +220,8 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
     }
     // A group that went out because its pods left (end of a replay) may
     // still hold every camera.
-    if (!missing.empty()) stats.note = "proceeded without camera(s) " + missing + " after the sync deadline";
+    if (!missing.empty())
+      stats.note = "proceeded without camera(s) " + missing + " after the sync deadline";
   }
   if (!draco.isOk()) stats.note += (stats.note.empty() ? "" : "; ") + draco.status().message();
 
@@ -211,10 +231,13 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   // One sequence number for both spellings of the bundle, as for the Stats.
   const uint64_t bundle_sequence = protocol::nextSequence();
   out.texture_bundle = share(protocol::encodeOutgoing(bundle, bundle_sequence, storage));
-  out.texture_bundle_v1_1 = share(protocol::encodeOutgoing(bundle_v1_1, bundle_sequence, storage, 1));
-  auto draco_bytes = draco.isOk() ? std::make_shared<const std::vector<uint8_t>>(std::move(*draco)) : nullptr;
+  out.texture_bundle_v1_1 =
+      share(protocol::encodeOutgoing(bundle_v1_1, bundle_sequence, storage, 1));
+  auto draco_bytes =
+      draco.isOk() ? std::make_shared<const std::vector<uint8_t>>(std::move(*draco)) : nullptr;
   if (draco_bytes) mesh_frame.mesh = *draco_bytes;
-  out.mesh_frame = share(protocol::encodeOutgoing(mesh_frame, protocol::nextSequence(), draco_bytes));
+  out.mesh_frame =
+      share(protocol::encodeOutgoing(mesh_frame, protocol::nextSequence(), draco_bytes));
   // One sequence number for both: it is one frame, spelt per minor.
   const uint64_t stats_sequence = protocol::nextSequence();
   stats.pod_arrivals = job.pod_arrivals;
@@ -227,7 +250,8 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
 FusionWorker::FusionWorker(FusionSettings settings, int wake_fd, bool lossless)
     : settings_(std::move(settings)), wake_fd_(wake_fd), lossless_(lossless) {
   if (settings_.hull_error_target > 0) {
-    voxel_.emplace(settings_.hull_error_target, settings_.hull.voxel_size, settings_.hull.voxel_size);
+    voxel_.emplace(settings_.hull_error_target, settings_.hull.voxel_size,
+                   settings_.hull.voxel_size);
   }
   thread_ = std::thread([this] { run(); });
 }
@@ -280,10 +304,14 @@ void FusionWorker::run() {
       if (voxel_) settings.hull.voxel_size = voxel_->voxel();
       out = fuseGroup(job, settings);
       if (voxel_ && voxel_->observe(out.silhouette_error)) {
-        std::fprintf(stderr, "[server] hull voxel %.1f -> %.1f mm: silhouette error %.2f mm against the target of %.2f mm%s\n",
-                     1000 * settings.hull.voxel_size, 1000 * voxel_->voxel(), 1000 * out.silhouette_error.mean_m,
-                     1000 * settings_.hull_error_target,
-                     voxel_->unreachable() ? " (out of reach: a finer voxel did not help, the silhouettes disagree)" : "");
+        std::fprintf(stderr,
+                     "[server] hull voxel %.1f -> %.1f mm: silhouette error %.2f mm against the "
+                     "target of %.2f mm%s\n",
+                     1000 * settings.hull.voxel_size, 1000 * voxel_->voxel(),
+                     1000 * out.silhouette_error.mean_m, 1000 * settings_.hull_error_target,
+                     voxel_->unreachable()
+                         ? " (out of reach: a finer voxel did not help, the silhouettes disagree)"
+                         : "");
       }
     } catch (const std::exception& e) {
       // One group that cannot be fused (memory for a hostile calibration's

@@ -28,7 +28,8 @@ cv::Mat outlineOf(const cv::Mat& inside) {
 
 // Mean over the outline pixels of `from` of the distance to the outline of
 // `to`; adds to sum and count.
-void accumulate(const cv::Mat& from_outline, const cv::Mat& to_distance, double& sum, size_t& count) {
+void accumulate(const cv::Mat& from_outline, const cv::Mat& to_distance, double& sum,
+                size_t& count) {
   for (int y = 0; y < from_outline.rows; ++y) {
     for (int x = 0; x < from_outline.cols; ++x) {
       if (from_outline.at<uint8_t>(y, x) != 0) continue;
@@ -86,8 +87,8 @@ SilhouetteError silhouetteError(const Mesh& mesh, const std::vector<HullView>& v
   return result;
 }
 
-HullForTarget carveToErrorTarget(const std::vector<HullView>& views, const HullOptions& options, double target_m,
-                                 HullStats* stats) {
+HullForTarget carveToErrorTarget(const std::vector<HullView>& views, const HullOptions& options,
+                                 double target_m, HullStats* stats) {
   HullForTarget best;
   HullStats best_stats;
   HullOptions tried = options;
@@ -123,7 +124,8 @@ VoxelController::VoxelController(double target_m, double start_voxel, double coa
 bool VoxelController::observe(const SilhouetteError& error) {
   if (!error.valid || !(target_m_ > 0)) return false;
   const double before = voxel_;
-  if (++since_miss_ > kMissMemory) missed_voxel_ = 0;  // the subject may have changed: try coarser again
+  if (++since_miss_ > kMissMemory)
+    missed_voxel_ = 0;  // the subject may have changed: try coarser again
   if (floor_voxel_ > 0 && ++since_floor_ > kMissMemory) floor_voxel_ = 0;
   if (error.mean_m > target_m_) {
     missed_voxel_ = missed_voxel_ > 0 ? std::min(missed_voxel_, voxel_) : voxel_;

@@ -15,45 +15,58 @@ int main(int argc, char** argv) {
   CLI::App app{"holofuse fusion_server: visual hull fusion and fan-out"};
   app.add_option("--listen", listen, "HOST:PORT to listen on (port 0: any free port)");
   app.add_option("--pods", options.pods, "cameras expected (1..16)")->check(CLI::Range(1, 16));
-  app.add_option("--sync-deadline-ms", options.sync_deadline_ms, "wait this long for a frame's slowest pod")
+  app.add_option("--sync-deadline-ms", options.sync_deadline_ms,
+                 "wait this long for a frame's slowest pod")
       ->check(CLI::Range(1.0, 10000.0));
   addSharedFlag(app, "--voxel", options.fusion.hull.voxel_size);
   double hull_error_mm = 0;
   addSharedFlag(app, "--hull-error-mm", hull_error_mm);
   addSharedFlag(app, "--refine-voxels", options.fusion.refine.depth_voxels);
   std::string volume;
-  app.add_option("--volume", volume, "capture volume min and max corners x0,y0,z0,x1,y1,z1 in metres (a dataset's)");
+  app.add_option("--volume", volume,
+                 "capture volume min and max corners x0,y0,z0,x1,y1,z1 in metres (a dataset's)");
   addSharedFlag(app, "--draco-bits", options.fusion.draco.position_bits);
-  app.add_option("--draco-speed", options.fusion.draco.speed, "Draco speed 0 (small) .. 10 (fast)")->check(CLI::Range(0, 10));
+  app.add_option("--draco-speed", options.fusion.draco.speed, "Draco speed 0 (small) .. 10 (fast)")
+      ->check(CLI::Range(0, 10));
   addSharedFlag(app, "--image-codec", image_codec);
   addSharedFlag(app, "--lz4-acceleration", options.fusion.lz4_acceleration);
   addSharedFlag(app, "--lz4-hc-level", options.fusion.lz4_hc_level);
-  app.add_option("--client-queue", options.client_queue_frames, "frames queued per client before dropping the oldest")
+  app.add_option("--client-queue", options.client_queue_frames,
+                 "frames queued per client before dropping the oldest")
       ->check(CLI::Range(1, 1024));
-  app.add_option("--idle-timeout-ms", options.idle_timeout_ms, "close a silent peer after this long")
+  app.add_option("--idle-timeout-ms", options.idle_timeout_ms,
+                 "close a silent peer after this long")
       ->check(CLI::Range(100, 600000));
   app.add_option("--port-file", options.port_file, "write the bound port to this file");
-  app.add_option("--record", options.record_dir,
-                 "record what the pods send (calibration and every frame, as received) into this folder");
-  app.add_flag("--record-fused", options.record_fused, "with --record: also record the fused meshes and images");
-  app.add_flag("--lossless", options.lossless,
-               "fuse every frame of every pod: no sync deadline, no dropped group; pods ahead are not read");
+  app.add_option(
+      "--record", options.record_dir,
+      "record what the pods send (calibration and every frame, as received) into this folder");
+  app.add_flag("--record-fused", options.record_fused,
+               "with --record: also record the fused meshes and images");
+  app.add_flag(
+      "--lossless", options.lossless,
+      "fuse every frame of every pod: no sync deadline, no dropped group; pods ahead are not read");
   app.add_option("--wait-for-clients", options.wait_for_clients,
                  "read nothing from pods until this many render clients have joined (replays)")
       ->check(CLI::Range(0, 64));
-  app.add_flag("--exit-when-pods-done", options.exit_when_pods_done,
-               "stop once every pod has left and its frames are fused and delivered (end of a replay)");
+  app.add_flag(
+      "--exit-when-pods-done", options.exit_when_pods_done,
+      "stop once every pod has left and its frames are fused and delivered (end of a replay)");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   options.fusion.hull_error_target = hull_error_mm / 1000.0;
   if (!volume.empty()) {
     double v[6];
     char tail = 0;
-    if (std::sscanf(volume.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &tail) != 6 ||
+    if (std::sscanf(volume.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &v[3], &v[4],
+                    &v[5], &tail) != 6 ||
         !(v[0] < v[3] && v[1] < v[4] && v[2] < v[5])) {
-      std::fprintf(stderr, "--volume '%s': expected x0,y0,z0,x1,y1,z1 with each min below its max\n", volume.c_str());
+      std::fprintf(stderr,
+                   "--volume '%s': expected x0,y0,z0,x1,y1,z1 with each min below its max\n",
+                   volume.c_str());
       return 2;
     }
-    fusion::setCaptureVolume(options.fusion.hull, glm::dvec3(v[0], v[1], v[2]), glm::dvec3(v[3], v[4], v[5]));
+    fusion::setCaptureVolume(options.fusion.hull, glm::dvec3(v[0], v[1], v[2]),
+                             glm::dvec3(v[3], v[4], v[5]));
   }
   if (options.record_fused && options.record_dir.empty()) {
     std::fprintf(stderr, "--record-fused needs --record DIR\n");

@@ -41,14 +41,15 @@ uint8_t maskAt(const Image8& mask, const glm::dvec3& pixel) {
 Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<HullView>& views,
                               const std::vector<Image8>& colors, const PhotoRefineOptions& options,
                               PhotoRefineStats* stats) {
-  if (colors.size() != views.size()) throw std::invalid_argument("photo refinement: one colour image per view");
+  if (colors.size() != views.size())
+    throw std::invalid_argument("photo refinement: one colour image per view");
   for (size_t i = 0; i < views.size(); ++i) {
     const Camera& c = views[i].camera;
     if (colors[i].width != c.width || colors[i].height != c.height || colors[i].channels < 3 ||
         views[i].mask.width != c.width || views[i].mask.height != c.height) {
       throw std::invalid_argument("photo refinement: camera " + std::to_string(c.id) +
-                                  "'s colour and mask are not whole " + std::to_string(c.width) + "x" +
-                                  std::to_string(c.height) + " images");
+                                  "'s colour and mask are not whole " + std::to_string(c.width) +
+                                  "x" + std::to_string(c.height) + " images");
     }
   }
   Mesh out = hull;
@@ -58,7 +59,8 @@ Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<HullView>& vie
   if (!(max_depth > 0) || options.steps < 1 || n == 0 || views.size() < 2) return out;
   std::vector<DepthMap> depth;
   std::vector<std::vector<int32_t>> front_triangle(views.size());
-  for (size_t i = 0; i < views.size(); ++i) depth.push_back(rasterizeDepth(hull, views[i].camera, 0.05, &front_triangle[i]));
+  for (size_t i = 0; i < views.size(); ++i)
+    depth.push_back(rasterizeDepth(hull, views[i].camera, 0.05, &front_triangle[i]));
   const double step = max_depth / options.steps;
   const double slack = step;  // a vertex lies within a step of the depth map's surface
   std::vector<double> offset(n, 0.0);
@@ -83,10 +85,11 @@ Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<HullView>& vie
       if (cosine >= options.min_facing) facing.emplace_back(cosine, i);
     }
     if (facing.size() < 2) continue;
-    const glm::dvec3 tangent =
-        glm::normalize(glm::cross(normal, std::abs(normal.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
+    const glm::dvec3 tangent = glm::normalize(
+        glm::cross(normal, std::abs(normal.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
     const glm::dvec3 bitangent = glm::cross(normal, tangent);
-    std::sort(facing.begin(), facing.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::sort(facing.begin(), facing.end(),
+              [](const auto& a, const auto& b) { return a.first > b.first; });
     facing.resize(std::min(facing.size(), static_cast<size_t>(std::max(options.views, 2))));
     // Colour variance among them at each depth inward; the least wins (the
     // hull's own surface on a tie).
@@ -109,7 +112,8 @@ Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<HullView>& vie
       const double spacing = glm::length(candidate - best.center()) / best.fx;
       for (const auto& [cosine, i] : facing) {
         for (int j = 0; j < 9; ++j) {
-          const glm::dvec3 point = candidate + spacing * (double(j % 3 - 1) * tangent + double(j / 3 - 1) * bitangent);
+          const glm::dvec3 point =
+              candidate + spacing * (double(j % 3 - 1) * tangent + double(j / 3 - 1) * bitangent);
           const auto q = views[i].camera.project(point);
           if (!q || !insideImage(*q, views[i].camera)) break;
           colours.push_back(sampleRgb(colors[i], q->x, q->y));
@@ -119,8 +123,10 @@ Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<HullView>& vie
       double cost = 0;
       for (int j = 0; j < 9; ++j) {
         glm::dvec3 mean(0.0);
-        for (size_t k = 0; k < facing.size(); ++k) mean += colours[9 * k + j] / static_cast<double>(facing.size());
-        for (size_t k = 0; k < facing.size(); ++k) cost += glm::dot(colours[9 * k + j] - mean, colours[9 * k + j] - mean);
+        for (size_t k = 0; k < facing.size(); ++k)
+          mean += colours[9 * k + j] / static_cast<double>(facing.size());
+        for (size_t k = 0; k < facing.size(); ++k)
+          cost += glm::dot(colours[9 * k + j] - mean, colours[9 * k + j] - mean);
       }
       if (s == 0) surface_cost = cost;
       if (cost < best_cost) {
@@ -163,9 +169,10 @@ Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<HullView>& vie
     for (size_t v = 0; v < n; ++v) {
       const glm::dvec3 normal(hull.normals[v]);
       const double length = glm::length(normal);
-      out.positions[v] = length > 1e-12 && offset[v] > 0
-                             ? glm::vec3(glm::dvec3(hull.positions[v]) - normal / length * offset[v])
-                             : hull.positions[v];
+      out.positions[v] =
+          length > 1e-12 && offset[v] > 0
+              ? glm::vec3(glm::dvec3(hull.positions[v]) - normal / length * offset[v])
+              : hull.positions[v];
     }
   };
   place();
@@ -203,7 +210,8 @@ Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<HullView>& vie
   }
   if (stats) {
     stats->mean_offset = total / static_cast<double>(n);
-    stats->vertices_restored = static_cast<size_t>(std::count(restored_once.begin(), restored_once.end(), 1));
+    stats->vertices_restored =
+        static_cast<size_t>(std::count(restored_once.begin(), restored_once.end(), 1));
   }
   computeVertexNormals(out);
   return out;

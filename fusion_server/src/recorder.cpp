@@ -16,7 +16,9 @@ protocol::StatusOr<Recorder> Recorder::open(const std::string& dir, bool record_
   namespace fs = std::filesystem;
   std::error_code error;
   fs::create_directories(dir, error);
-  if (error) return Status(StatusCode::kIoError, dir + ": cannot create the recording folder (" + error.message() + ")");
+  if (error)
+    return Status(StatusCode::kIoError,
+                  dir + ": cannot create the recording folder (" + error.message() + ")");
   Recorder recorder;
   recorder.dir_ = dir;
   const uint64_t created = protocol::realtimeNs();
@@ -24,7 +26,8 @@ protocol::StatusOr<Recorder> Recorder::open(const std::string& dir, bool record_
   if (!pods.isOk()) return pods.status();
   recorder.pods_ = std::move(*pods);
   if (record_fused) {
-    auto fused = protocol::RecordWriter::create((fs::path(dir) / kFusedRecordFile).string(), created);
+    auto fused =
+        protocol::RecordWriter::create((fs::path(dir) / kFusedRecordFile).string(), created);
     if (!fused.isOk()) {
       // Leave no empty pods.hfr behind to block the next attempt.
       (void)recorder.pods_.close();
@@ -35,19 +38,24 @@ protocol::StatusOr<Recorder> Recorder::open(const std::string& dir, bool record_
   }
   recorder.start_ns_ = protocol::monotonicNs();
   recorder.last_report_ns_ = recorder.start_ns_;
-  std::fprintf(stderr, "[server] recording pods%s into %s\n", record_fused ? " and fused output" : "", dir.c_str());
+  std::fprintf(stderr, "[server] recording pods%s into %s\n",
+               record_fused ? " and fused output" : "", dir.c_str());
   return recorder;
 }
 
 template <typename Payload>
-void Recorder::append(protocol::RecordWriter& writer, RecordKind kind, uint32_t stream, uint64_t frame_id,
-                      const Payload& payload) {
+void Recorder::append(protocol::RecordWriter& writer, RecordKind kind, uint32_t stream,
+                      uint64_t frame_id, const Payload& payload) {
   if (writer.failure()) return;  // already reported
-  const Status s = writer.append(kind, stream, frame_id, protocol::monotonicNs() - start_ns_, payload);
-  if (!s.isOk()) std::fprintf(stderr, "[server] recording failed, the server goes on: %s\n", s.message().c_str());
+  const Status s =
+      writer.append(kind, stream, frame_id, protocol::monotonicNs() - start_ns_, payload);
+  if (!s.isOk())
+    std::fprintf(stderr, "[server] recording failed, the server goes on: %s\n",
+                 s.message().c_str());
 }
 
-void Recorder::recordPodMessage(RecordKind kind, uint32_t camera_id, uint64_t frame_id, const protocol::Frame& frame) {
+void Recorder::recordPodMessage(RecordKind kind, uint32_t camera_id, uint64_t frame_id,
+                                const protocol::Frame& frame) {
   // The frame as received, header and CRC included.
   append(pods_, kind, camera_id, frame_id, std::span<const uint8_t>(frame.bytes));
   if (kind == RecordKind::kPodFrame) ++pod_frames_;
@@ -55,8 +63,10 @@ void Recorder::recordPodMessage(RecordKind kind, uint32_t camera_id, uint64_t fr
 
 void Recorder::recordFused(const FusedOutput& output) {
   if (!fused_) return;
-  append(*fused_, RecordKind::kMeshFrame, protocol::kServerStream, output.frame_id, *output.mesh_frame);
-  append(*fused_, RecordKind::kTextureBundle, protocol::kServerStream, output.frame_id, *output.texture_bundle);
+  append(*fused_, RecordKind::kMeshFrame, protocol::kServerStream, output.frame_id,
+         *output.mesh_frame);
+  append(*fused_, RecordKind::kTextureBundle, protocol::kServerStream, output.frame_id,
+         *output.texture_bundle);
   append(*fused_, RecordKind::kStats, protocol::kServerStream, output.frame_id, *output.stats);
 }
 
@@ -66,7 +76,8 @@ void Recorder::maybeReportProgress(uint64_t now_ns, uint64_t interval_ns) {
   const double seconds = static_cast<double>(now_ns - start_ns_) / 1e9;
   const double mb = static_cast<double>(pods_.bytes() + (fused_ ? fused_->bytes() : 0)) / 1e6;
   std::fprintf(stderr, "[server] recording: %llu pod frames, %.1f MB, %.2f MB/s over %.0f s\n",
-               static_cast<unsigned long long>(pod_frames_), mb, seconds > 0 ? mb / seconds : 0.0, seconds);
+               static_cast<unsigned long long>(pod_frames_), mb, seconds > 0 ? mb / seconds : 0.0,
+               seconds);
 }
 
 void Recorder::close() {
@@ -75,8 +86,9 @@ void Recorder::close() {
     const uint64_t records = w->records();
     const Status s = w->close();
     if (s.isOk()) {
-      std::fprintf(stderr, "[server] recorded %llu records, %.1f MB, in %s\n", static_cast<unsigned long long>(records),
-                   static_cast<double>(w->bytes()) / 1e6, w->path().c_str());
+      std::fprintf(stderr, "[server] recorded %llu records, %.1f MB, in %s\n",
+                   static_cast<unsigned long long>(records), static_cast<double>(w->bytes()) / 1e6,
+                   w->path().c_str());
     } else {
       std::fprintf(stderr, "[server] closing %s: %s\n", w->path().c_str(), s.message().c_str());
     }

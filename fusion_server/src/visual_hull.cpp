@@ -1,10 +1,9 @@
 #include "fusion_server/visual_hull.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 
 #include "common/marching_cubes.h"
 
@@ -65,7 +64,8 @@ std::vector<uint32_t> foregroundSums(const Image8& mask) {
 // if none is, every point is outside. Points off the image count as
 // outside, as in the carve. Tests (test_fusion) hold the result to the
 // dense grid's, vertex for vertex.
-CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1, const std::vector<HullView>& views,
+CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1,
+                       const std::vector<HullView>& views,
                        const std::vector<std::vector<uint32_t>>& foreground_sums) {
   bool inside_all = true;
   for (size_t i = 0; i < views.size(); ++i) {
@@ -73,11 +73,13 @@ CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1, const std::ve
     // Lens distortion bends straight edges: the corner bound holds for a
     // pinhole only, so such cameras settle nothing.
     if (!cam.distortion.empty()) return CellClass::kBoundary;
-    double x_min = std::numeric_limits<double>::max(), y_min = x_min, x_max = -x_min, y_max = -x_min;
+    double x_min = std::numeric_limits<double>::max(), y_min = x_min, x_max = -x_min,
+           y_max = -x_min;
     for (int k = 0; k < 8; ++k) {
       const glm::dvec3 corner((k & 1) ? p1.x : p0.x, (k & 2) ? p1.y : p0.y, (k & 4) ? p1.z : p0.z);
       const auto q = cam.project(corner);
-      if (!q || !std::isfinite(q->x) || !std::isfinite(q->y)) return CellClass::kBoundary;  // crosses the camera plane
+      if (!q || !std::isfinite(q->x) || !std::isfinite(q->y))
+        return CellClass::kBoundary;  // crosses the camera plane
       x_min = std::min(x_min, q->x);
       x_max = std::max(x_max, q->x);
       y_min = std::min(y_min, q->y);
@@ -92,20 +94,26 @@ CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1, const std::ve
     x_max += kRounding;
     y_max += kRounding;
     const double w = cam.width, h = cam.height;
-    if (x_max < 0 || y_max < 0 || x_min >= w || y_min >= h) return CellClass::kOutside;  // wholly off the image
+    if (x_max < 0 || y_max < 0 || x_min >= w || y_min >= h)
+      return CellClass::kOutside;  // wholly off the image
     // Some points off the image are outside: the rest decide only "outside".
     const bool off_image = x_min < 0 || y_min < 0 || x_max >= w || y_max >= h;
-    auto firstPixel = [](double u, double size) { return static_cast<int>(std::clamp(u - 0.5, 0.0, size - 1)); };
-    auto lastPixel = [](double u, double size) {
-      return std::min(static_cast<int>(std::clamp(u - 0.5, 0.0, size - 1)) + 1, static_cast<int>(size) - 1);
+    auto firstPixel = [](double u, double size) {
+      return static_cast<int>(std::clamp(u - 0.5, 0.0, size - 1));
     };
-    const int x0 = firstPixel(x_min, w), x1 = lastPixel(x_max, w), y0 = firstPixel(y_min, h), y1 = lastPixel(y_max, h);
+    auto lastPixel = [](double u, double size) {
+      return std::min(static_cast<int>(std::clamp(u - 0.5, 0.0, size - 1)) + 1,
+                      static_cast<int>(size) - 1);
+    };
+    const int x0 = firstPixel(x_min, w), x1 = lastPixel(x_max, w), y0 = firstPixel(y_min, h),
+              y1 = lastPixel(y_max, h);
     const std::vector<uint32_t>& sums = foreground_sums[i];
     const size_t stride = cam.width + 1;
     const uint32_t foreground = sums[(y1 + 1) * stride + x1 + 1] - sums[y0 * stride + x1 + 1] -
                                 sums[(y1 + 1) * stride + x0] + sums[y0 * stride + x0];
     if (foreground == 0) return CellClass::kOutside;
-    if (off_image || foreground < static_cast<uint32_t>((x1 - x0 + 1) * (y1 - y0 + 1))) inside_all = false;
+    if (off_image || foreground < static_cast<uint32_t>((x1 - x0 + 1) * (y1 - y0 + 1)))
+      inside_all = false;
   }
   return inside_all ? CellClass::kInside : CellClass::kBoundary;
 }
@@ -117,8 +125,8 @@ CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1, const std::ve
 template <typename Distance>
 ScalarGrid sampleHierarchically(const glm::dvec3& lo, double s, const glm::ivec3& n, int levels,
                                 const std::vector<HullView>& views,
-                                const std::vector<std::vector<uint32_t>>& foreground_sums, Distance&& signedDistance,
-                                HullStats& stats) {
+                                const std::vector<std::vector<uint32_t>>& foreground_sums,
+                                Distance&& signedDistance, HullStats& stats) {
   ScalarGrid grid;
   grid.nx = n.x;
   grid.ny = n.y;
@@ -174,8 +182,8 @@ ScalarGrid sampleHierarchically(const glm::dvec3& lo, double s, const glm::ivec3
     // The grid's outer layer is forced outside afterwards: an inside cell on
     // it must be refined, or its points keep a placeholder next to the
     // forced border.
-    const bool on_border = cell.a.x == 0 || cell.a.y == 0 || cell.a.z == 0 || b.x == n.x - 1 || b.y == n.y - 1 ||
-                           b.z == n.z - 1;
+    const bool on_border = cell.a.x == 0 || cell.a.y == 0 || cell.a.z == 0 || b.x == n.x - 1 ||
+                           b.y == n.y - 1 || b.z == n.z - 1;
     if (c == CellClass::kInside && on_border) c = CellClass::kBoundary;
     if (c == CellClass::kInside) {
       settle(cell.a, b, static_cast<float>(s));
@@ -198,10 +206,12 @@ ScalarGrid sampleHierarchically(const glm::dvec3& lo, double s, const glm::ivec3
 
 }  // namespace
 
-void setCaptureVolume(HullOptions& options, const glm::dvec3& volume_min, const glm::dvec3& volume_max) {
+void setCaptureVolume(HullOptions& options, const glm::dvec3& volume_min,
+                      const glm::dvec3& volume_max) {
   options.volume_min = volume_min;
   options.volume_max = volume_max;
-  options.valid_region_step = std::min(options.valid_region_step, glm::length(volume_max - volume_min) / 40);
+  options.valid_region_step =
+      std::min(options.valid_region_step, glm::length(volume_max - volume_min) / 40);
 }
 
 std::vector<float> silhouetteSignedDistance(const HullView& view) {
@@ -222,12 +232,13 @@ std::vector<float> silhouetteSignedDistance(const HullView& view) {
   return sd;
 }
 
-Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options, HullStats* stats) {
+Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options,
+                     HullStats* stats) {
   if (views.empty()) return {};
   std::vector<Rect> rects;
   for (const auto& v : views) {
-    if (v.mask.width != v.camera.width || v.mask.height != v.camera.height || v.feather.width != v.mask.width ||
-        v.feather.height != v.mask.height) {
+    if (v.mask.width != v.camera.width || v.mask.height != v.camera.height ||
+        v.feather.width != v.mask.width || v.feather.height != v.mask.height) {
       return {};  // images that do not match their calibration cannot be carved with
     }
     rects.push_back(silhouetteRect(v.mask));
@@ -237,7 +248,8 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   // camera's silhouette rectangle, grown by one step.
   glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
   const double step = options.valid_region_step;
-  for (double z = options.volume_min.z; options.valid_region && z <= options.volume_max.z; z += step) {
+  for (double z = options.volume_min.z; options.valid_region && z <= options.volume_max.z;
+       z += step) {
     for (double y = options.volume_min.y; y <= options.volume_max.y; y += step) {
       for (double x = options.volume_min.x; x <= options.volume_max.x; x += step) {
         const glm::dvec3 p(x, y, z);
@@ -247,8 +259,9 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
           // A lattice point within one step of the rectangle may still carry
           // surface: test against the rectangle grown by the step's footprint.
           const double margin = proj ? step * views[i].camera.fx / proj->z : 0;
-          inside_all = proj && proj->x >= rects[i].x0 - margin && proj->x <= rects[i].x1 + 1 + margin &&
-                       proj->y >= rects[i].y0 - margin && proj->y <= rects[i].y1 + 1 + margin;
+          inside_all = proj && proj->x >= rects[i].x0 - margin &&
+                       proj->x <= rects[i].x1 + 1 + margin && proj->y >= rects[i].y0 - margin &&
+                       proj->y <= rects[i].y1 + 1 + margin;
         }
         if (!inside_all) continue;
         lo = glm::min(lo, p);
@@ -285,9 +298,10 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
       const Camera& cam = views[i].camera;
       const auto proj = cam.project(p);
       // Written so that NaN (a hostile calibration) counts as outside.
-      if (!proj || !(proj->x >= 0 && proj->y >= 0 && proj->x < cam.width && proj->y < cam.height)) return -s;
-      const double px = sampleBilinear(distances[i], static_cast<int>(cam.width), static_cast<int>(cam.height),
-                                       proj->x, proj->y);
+      if (!proj || !(proj->x >= 0 && proj->y >= 0 && proj->x < cam.width && proj->y < cam.height))
+        return -s;
+      const double px = sampleBilinear(distances[i], static_cast<int>(cam.width),
+                                       static_cast<int>(cam.height), proj->x, proj->y);
       value = std::min(value, px * proj->z / cam.fx);
     }
     return value;
@@ -300,7 +314,8 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   } else {
     std::vector<std::vector<uint32_t>> foreground_sums;
     for (const auto& v : views) foreground_sums.push_back(foregroundSums(v.mask));
-    grid = sampleHierarchically(lo, s, n, options.hierarchy_levels, views, foreground_sums, signedDistance, local);
+    grid = sampleHierarchically(lo, s, n, options.hierarchy_levels, views, foreground_sums,
+                                signedDistance, local);
   }
   ScalarGrid closed = grid;
   for (int z = 0; z < n.z; ++z) {
@@ -317,10 +332,12 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   // Local edge keys to keys on the capture volume's lattice.
   // The stride depends on the capture volume only (never on this frame's
   // region): first + n - 1 stays below ceil(extent / s) + 3 on every axis.
-  const glm::ivec3 lattice = glm::ivec3(glm::ceil((options.volume_max - options.volume_min) / s)) + 3;
+  const glm::ivec3 lattice =
+      glm::ivec3(glm::ceil((options.volume_max - options.volume_min) / s)) + 3;
   for (uint64_t& key : mesh.vertex_keys) {
     const uint64_t axis = key % 3, point = key / 3;
-    const uint64_t x = point % n.x + first.x, y = (point / n.x) % n.y + first.y, z = point / (uint64_t(n.x) * n.y) + first.z;
+    const uint64_t x = point % n.x + first.x, y = (point / n.x) % n.y + first.y,
+                   z = point / (uint64_t(n.x) * n.y) + first.z;
     key = ((z * lattice.y + y) * lattice.x + x) * 3 + axis;
   }
   if (stats != nullptr) {

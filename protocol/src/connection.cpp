@@ -98,8 +98,8 @@ Status Connection::onWritable() {
     }
   }
   if (queued_bytes_ > limits_.max_queued_bytes) {
-    return Status(StatusCode::kIoError, "peer " + peer_name_ + " is not reading: " +
-                                            std::to_string(queued_bytes_) +
+    return Status(StatusCode::kIoError, "peer " + peer_name_ +
+                                            " is not reading: " + std::to_string(queued_bytes_) +
                                             " bytes of control messages queued");
   }
   return Status::ok();

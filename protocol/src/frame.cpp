@@ -11,17 +11,28 @@ namespace holofuse::protocol {
 
 const char* messageTypeName(uint16_t type) {
   switch (static_cast<MessageType>(type)) {
-    case MessageType::kHello: return "Hello";
-    case MessageType::kHelloAck: return "HelloAck";
-    case MessageType::kAuth: return "Auth";
-    case MessageType::kCalibration: return "Calibration";
-    case MessageType::kPodFrame: return "PodFrame";
-    case MessageType::kMeshFrame: return "MeshFrame";
-    case MessageType::kTextureBundle: return "TextureBundle";
-    case MessageType::kHeartbeat: return "Heartbeat";
-    case MessageType::kStats: return "Stats";
-    case MessageType::kBye: return "Bye";
-    case MessageType::kError: return "Error";
+    case MessageType::kHello:
+      return "Hello";
+    case MessageType::kHelloAck:
+      return "HelloAck";
+    case MessageType::kAuth:
+      return "Auth";
+    case MessageType::kCalibration:
+      return "Calibration";
+    case MessageType::kPodFrame:
+      return "PodFrame";
+    case MessageType::kMeshFrame:
+      return "MeshFrame";
+    case MessageType::kTextureBundle:
+      return "TextureBundle";
+    case MessageType::kHeartbeat:
+      return "Heartbeat";
+    case MessageType::kStats:
+      return "Stats";
+    case MessageType::kBye:
+      return "Bye";
+    case MessageType::kError:
+      return "Error";
   }
   return "unknown";
 }
@@ -65,7 +76,9 @@ FrameBuilder::FrameBuilder(MessageType type, uint64_t sequence, size_t payload_h
   bytes_.resize(kHeaderSize);
 }
 
-void FrameBuilder::borrowBulk(std::shared_ptr<const void> keep_alive) { keep_alive_ = std::move(keep_alive); }
+void FrameBuilder::borrowBulk(std::shared_ptr<const void> keep_alive) {
+  keep_alive_ = std::move(keep_alive);
+}
 
 void FrameBuilder::borrow(std::span<const uint8_t> data) {
   if (keep_alive_ == nullptr) {
@@ -138,8 +151,8 @@ Status parseHeader(std::span<const uint8_t> bytes, uint32_t max_payload, uint64_
   WireReader r(bytes.first(std::min(bytes.size(), kHeaderSize)), stream_offset);
   auto magic = r.raw("magic", 4);
   if (r.ok() && !std::equal(magic.begin(), magic.end(), kMagic)) {
-    return Status(StatusCode::kBadMagic, "field 'magic' at offset " + std::to_string(stream_offset) +
-                                             ": expected 'HFUS'");
+    return Status(StatusCode::kBadMagic,
+                  "field 'magic' at offset " + std::to_string(stream_offset) + ": expected 'HFUS'");
   }
   header.major = r.u8("major");
   header.minor = r.u8("minor");
@@ -158,9 +171,8 @@ Status parseHeader(std::span<const uint8_t> bytes, uint32_t max_payload, uint64_
                       ", this build speaks " + std::to_string(kVersionMajor) + ".x");
   }
   if ((header.flags & ~kKnownFlags) != 0) {
-    return Status(StatusCode::kReservedNonZero, "field 'flags'" + at +
-                                                    std::to_string(stream_offset + 8) +
-                                                    ": reserved bits set");
+    return Status(StatusCode::kReservedNonZero,
+                  "field 'flags'" + at + std::to_string(stream_offset + 8) + ": reserved bits set");
   }
   if (reserved != 0) {
     return Status(StatusCode::kReservedNonZero,
@@ -189,7 +201,8 @@ Status verifyCrc(const Frame& frame, uint64_t stream_offset) {
 
 std::span<uint8_t> StreamDecoder::writableSpan() {
   if (!status_.isOk()) return {};
-  if (!in_payload_) return std::span<uint8_t>(header_bytes_ + header_filled_, kHeaderSize - header_filled_);
+  if (!in_payload_)
+    return std::span<uint8_t>(header_bytes_ + header_filled_, kHeaderSize - header_filled_);
   return std::span<uint8_t>(current_.bytes).subspan(kHeaderSize + payload_filled_);
 }
 
@@ -202,8 +215,9 @@ void StreamDecoder::commit(size_t n) {
     // probe, say) is refused at once instead of waiting for 28 bytes.
     for (size_t i = before; i < std::min(header_filled_, sizeof(kMagic)); ++i) {
       if (header_bytes_[i] != kMagic[i]) {
-        status_ = Status(StatusCode::kBadMagic, "field 'magic' at offset " + std::to_string(frame_start_offset_) +
-                                                    ": expected 'HFUS'");
+        status_ = Status(
+            StatusCode::kBadMagic,
+            "field 'magic' at offset " + std::to_string(frame_start_offset_) + ": expected 'HFUS'");
         return;
       }
     }

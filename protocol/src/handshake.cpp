@@ -19,10 +19,10 @@ StatusOr<HelloAck> negotiate(const Hello& hello) {
   const uint32_t hi =
       std::min(packed(hello.max_major, hello.max_minor), packed(kVersionMajor, kVersionMinor));
   if (lo > hi) {
-    return Status(StatusCode::kUnsupportedVersion,
-                  "peer speaks " +
-                      range(hello.min_major, hello.min_minor, hello.max_major, hello.max_minor) +
-                      ", this server speaks " + range(kVersionMajor, 0, kVersionMajor, kVersionMinor));
+    return Status(
+        StatusCode::kUnsupportedVersion,
+        "peer speaks " + range(hello.min_major, hello.min_minor, hello.max_major, hello.max_minor) +
+            ", this server speaks " + range(kVersionMajor, 0, kVersionMajor, kVersionMinor));
   }
   HelloAck ack;
   ack.major = static_cast<uint8_t>(hi >> 8);
@@ -34,11 +34,11 @@ Status checkAck(const Hello& offered, const HelloAck& ack) {
   const uint32_t v = packed(ack.major, ack.minor);
   if (v < packed(offered.min_major, offered.min_minor) ||
       v > packed(offered.max_major, offered.max_minor)) {
-    return Status(StatusCode::kUnsupportedVersion,
-                  "server picked " + std::to_string(ack.major) + "." + std::to_string(ack.minor) +
-                      ", outside the offered range " +
-                      range(offered.min_major, offered.min_minor, offered.max_major,
-                            offered.max_minor));
+    return Status(
+        StatusCode::kUnsupportedVersion,
+        "server picked " + std::to_string(ack.major) + "." + std::to_string(ack.minor) +
+            ", outside the offered range " +
+            range(offered.min_major, offered.min_minor, offered.max_major, offered.max_minor));
   }
   return Status::ok();
 }

@@ -91,8 +91,7 @@ void readPlanes(WireReader& r, std::vector<Plane>& planes) {
                       std::to_string(kMaxImageSide));
       return;
     }
-    const uint64_t expected =
-        static_cast<uint64_t>(p.width) * p.height * bytesPerPixel(p.format);
+    const uint64_t expected = static_cast<uint64_t>(p.width) * p.height * bytesPerPixel(p.format);
     if (expected != p.raw_size || p.raw_size > kMaxPlaneBytes) {
       r.failValue("plane.raw_size", StatusCode::kMalformed,
                   std::to_string(p.raw_size) + " does not match " + std::to_string(p.width) + "x" +
@@ -115,9 +114,10 @@ const std::vector<uint16_t>& stagesInPipelineOrder() {
   static const std::vector<uint16_t> order = [] {
     std::vector<uint16_t> ids;
     for (Stage s :
-         {Stage::kPodRender, Stage::kSegment, Stage::kFeather, Stage::kPodEncode, Stage::kReplayRead, Stage::kSend,
-          Stage::kServerDecode, Stage::kSyncWait, Stage::kHull, Stage::kRefine, Stage::kMeshEncode, Stage::kImageEncode, Stage::kFanout,
-          Stage::kDecode, Stage::kUpload, Stage::kRender, Stage::kWrite}) {
+         {Stage::kPodRender, Stage::kSegment, Stage::kFeather, Stage::kPodEncode,
+          Stage::kReplayRead, Stage::kSend, Stage::kServerDecode, Stage::kSyncWait, Stage::kHull,
+          Stage::kRefine, Stage::kMeshEncode, Stage::kImageEncode, Stage::kFanout, Stage::kDecode,
+          Stage::kUpload, Stage::kRender, Stage::kWrite}) {
       ids.push_back(static_cast<uint16_t>(s));
     }
     return ids;
@@ -127,9 +127,9 @@ const std::vector<uint16_t>& stagesInPipelineOrder() {
 
 std::string stageName(uint16_t stage) {
   static const char* const kNames[] = {
-      "pod_render",   "segment", "feather", "pod_encode", "send",   "sync_wait", "hull",        "mesh_encode",
-      "image_encode", "fanout",  "decode",  "upload",     "render", "write",     "replay_read", "server_decode",
-      "refine"};
+      "pod_render", "segment",     "feather",      "pod_encode",    "send",   "sync_wait",
+      "hull",       "mesh_encode", "image_encode", "fanout",        "decode", "upload",
+      "render",     "write",       "replay_read",  "server_decode", "refine"};
   if (stage >= kFirstStage && stage <= kLastStage) return kNames[stage - kFirstStage];
   return "stage_" + std::to_string(stage);
 }
@@ -146,9 +146,12 @@ double stampedMs(const std::vector<StageStamp>& stamps, Stage stage) {
 
 uint32_t bytesPerPixel(PixelFormat format) {
   switch (format) {
-    case PixelFormat::kRgb8: return 3;
-    case PixelFormat::kGray8: return 1;
-    case PixelFormat::kR16: return 2;
+    case PixelFormat::kRgb8:
+      return 3;
+    case PixelFormat::kGray8:
+      return 1;
+    case PixelFormat::kR16:
+      return 2;
   }
   return 0;
 }
@@ -182,8 +185,8 @@ Status readPayload(std::span<const uint8_t> payload, Hello& m, size_t base_offse
   m.nonce = r.u64("hello.nonce");
   m.send_time_ns = r.u64("hello.send_time");
   m.name = r.str("hello.name");
-  if (r.ok() && (m.min_major > m.max_major ||
-                 (m.min_major == m.max_major && m.min_minor > m.max_minor))) {
+  if (r.ok() &&
+      (m.min_major > m.max_major || (m.min_major == m.max_major && m.min_minor > m.max_minor))) {
     r.failValue("hello.min_major", StatusCode::kMalformed, "version range is empty");
   }
   return finish(r);

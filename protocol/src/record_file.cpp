@@ -61,7 +61,9 @@ StatusOr<size_t> readAt(int fd, uint64_t offset, uint8_t* out, size_t n, const s
   while (done < n) {
     const ssize_t got = ::pread(fd, out + done, n - done, static_cast<off_t>(offset + done));
     if (got < 0 && errno == EINTR) continue;
-    if (got < 0) return Status(StatusCode::kIoError, path + ": read" + at(offset + done) + ": " + errnoText(errno));
+    if (got < 0)
+      return Status(StatusCode::kIoError,
+                    path + ": read" + at(offset + done) + ": " + errnoText(errno));
     if (got == 0) break;
     done += static_cast<size_t>(got);
   }
@@ -72,13 +74,20 @@ StatusOr<size_t> readAt(int fd, uint64_t offset, uint8_t* out, size_t n, const s
 
 const char* recordKindName(uint16_t kind) {
   switch (static_cast<RecordKind>(kind)) {
-    case RecordKind::kCalibration: return "calibration";
-    case RecordKind::kPodFrame: return "pod_frame";
-    case RecordKind::kMeshFrame: return "mesh_frame";
-    case RecordKind::kTextureBundle: return "texture_bundle";
-    case RecordKind::kStats: return "stats";
-    case RecordKind::kDatasetInfo: return "dataset_info";
-    case RecordKind::kIndex: return "index";
+    case RecordKind::kCalibration:
+      return "calibration";
+    case RecordKind::kPodFrame:
+      return "pod_frame";
+    case RecordKind::kMeshFrame:
+      return "mesh_frame";
+    case RecordKind::kTextureBundle:
+      return "texture_bundle";
+    case RecordKind::kStats:
+      return "stats";
+    case RecordKind::kDatasetInfo:
+      return "dataset_info";
+    case RecordKind::kIndex:
+      return "index";
   }
   return "unknown";
 }
@@ -108,8 +117,9 @@ RecordWriter& RecordWriter::operator=(RecordWriter&& other) noexcept {
 StatusOr<RecordWriter> RecordWriter::create(const std::string& path, uint64_t created_unix_ns) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) {
-    return Status(StatusCode::kIoError, path + ": cannot create (" + errnoText(errno) +
-                                            (errno == EEXIST ? "; recordings are never overwritten" : "") + ")");
+    return Status(StatusCode::kIoError,
+                  path + ": cannot create (" + errnoText(errno) +
+                      (errno == EEXIST ? "; recordings are never overwritten" : "") + ")");
   }
   RecordWriter writer;
   writer.fd_ = fd;
@@ -126,7 +136,8 @@ StatusOr<RecordWriter> RecordWriter::create(const std::string& path, uint64_t cr
   return writer;
 }
 
-Status RecordWriter::writeAll(std::span<const std::span<const uint8_t>> parts, uint64_t total, const char* what) {
+Status RecordWriter::writeAll(std::span<const std::span<const uint8_t>> parts, uint64_t total,
+                              const char* what) {
   if (failure_) return *failure_;
   if (fd_ < 0) return Status(StatusCode::kIoError, path_ + ": recording is closed");
   std::vector<iovec> iov;
@@ -148,8 +159,9 @@ Status RecordWriter::writeAll(std::span<const std::span<const uint8_t>> parts, u
       if (error == ENOSPC) reason = "disk full (" + reason + ")";
       if (error == EFBIG) reason = "file size limit reached (" + reason + ")";
       failure_ = Status(StatusCode::kIoError,
-                        path_ + ": writing " + what + at(size_) + " failed after " + std::to_string(written) + " of " +
-                            std::to_string(total) + " bytes: " + reason + "; " + std::to_string(index_.size()) +
+                        path_ + ": writing " + what + at(size_) + " failed after " +
+                            std::to_string(written) + " of " + std::to_string(total) +
+                            " bytes: " + reason + "; " + std::to_string(index_.size()) +
                             " records (" + std::to_string(size_) + " bytes) are kept" +
                             (cut ? "" : ", but the partial record could not be cut off") +
                             "; recording stopped");
@@ -169,7 +181,8 @@ Status RecordWriter::writeAll(std::span<const std::span<const uint8_t>> parts, u
 
 Status RecordWriter::append(RecordKind kind, uint32_t stream, uint64_t frame_id, uint64_t time_ns,
                             std::span<const uint8_t> payload) {
-  return appendParts(kind, stream, frame_id, time_ns, std::vector<std::span<const uint8_t>>{payload}, payload.size());
+  return appendParts(kind, stream, frame_id, time_ns,
+                     std::vector<std::span<const uint8_t>>{payload}, payload.size());
 }
 
 Status RecordWriter::append(RecordKind kind, uint32_t stream, uint64_t frame_id, uint64_t time_ns,
@@ -177,11 +190,14 @@ Status RecordWriter::append(RecordKind kind, uint32_t stream, uint64_t frame_id,
   return appendParts(kind, stream, frame_id, time_ns, frame.parts(), frame.size());
 }
 
-Status RecordWriter::appendParts(RecordKind kind, uint32_t stream, uint64_t frame_id, uint64_t time_ns,
-                                 const std::vector<std::span<const uint8_t>>& payload, uint64_t payload_size) {
+Status RecordWriter::appendParts(RecordKind kind, uint32_t stream, uint64_t frame_id,
+                                 uint64_t time_ns,
+                                 const std::vector<std::span<const uint8_t>>& payload,
+                                 uint64_t payload_size) {
   if (payload_size > kMaxRecordPayload) {
-    return Status(StatusCode::kTooLarge, path_ + ": a " + recordKindName(static_cast<uint16_t>(kind)) + " of " +
-                                             std::to_string(payload_size) + " bytes is above the record cap");
+    return Status(StatusCode::kTooLarge,
+                  path_ + ": a " + recordKindName(static_cast<uint16_t>(kind)) + " of " +
+                      std::to_string(payload_size) + " bytes is above the record cap");
   }
   RecordInfo info;
   info.offset = size_;
@@ -196,7 +212,8 @@ Status RecordWriter::appendParts(RecordKind kind, uint32_t stream, uint64_t fram
   std::vector<std::span<const uint8_t>> parts;
   parts.push_back(header);
   parts.insert(parts.end(), payload.begin(), payload.end());
-  HOLOFUSE_RETURN_IF_ERROR(writeAll(parts, header.size() + payload_size, recordKindName(info.kind)));
+  HOLOFUSE_RETURN_IF_ERROR(
+      writeAll(parts, header.size() + payload_size, recordKindName(info.kind)));
   index_.push_back(info);
   return Status::ok();
 }
@@ -258,12 +275,14 @@ RecordReader& RecordReader::operator=(RecordReader&& other) noexcept {
 
 StatusOr<RecordReader> RecordReader::open(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return Status(StatusCode::kIoError, path + ": cannot open (" + errnoText(errno) + ")");
+  if (fd < 0)
+    return Status(StatusCode::kIoError, path + ": cannot open (" + errnoText(errno) + ")");
   RecordReader reader;
   reader.fd_ = fd;
   reader.path_ = path;
   struct stat st {};
-  if (::fstat(fd, &st) != 0) return Status(StatusCode::kIoError, path + ": stat: " + errnoText(errno));
+  if (::fstat(fd, &st) != 0)
+    return Status(StatusCode::kIoError, path + ": stat: " + errnoText(errno));
   reader.scan_.file_size = static_cast<uint64_t>(st.st_size);
   uint8_t header[kRecordFileHeaderSize];
   auto got = readAt(fd, 0, header, sizeof(header), path);
@@ -273,7 +292,8 @@ StatusOr<RecordReader> RecordReader::open(const std::string& path) {
                                               " bytes, shorter than the 32-byte recording header");
   }
   if (std::memcmp(header, kFileMagic, sizeof(kFileMagic)) != 0) {
-    return Status(StatusCode::kBadMagic, path + ": not a holofuse recording (bad magic in the first 8 bytes)");
+    return Status(StatusCode::kBadMagic,
+                  path + ": not a holofuse recording (bad magic in the first 8 bytes)");
   }
   WireReader r(std::span<const uint8_t>(header + 8, sizeof(header) - 8));
   reader.scan_.format_major = r.u16("format major");
@@ -283,17 +303,19 @@ StatusOr<RecordReader> RecordReader::open(const std::string& path) {
   const uint32_t reserved = r.u32("reserved");
   const uint32_t crc = r.u32("header crc");
   if (crc != crc32c(0, header, kRecordFileHeaderSize - 4)) {
-    return Status(StatusCode::kBadChecksum, path + ": the recording header's CRC32C does not match (bytes 0..31)");
+    return Status(StatusCode::kBadChecksum,
+                  path + ": the recording header's CRC32C does not match (bytes 0..31)");
   }
   if (reader.scan_.format_major > kRecordFormatMajor) {
     return Status(StatusCode::kUnsupportedVersion,
                   path + ": recording format " + std::to_string(reader.scan_.format_major) + "." +
-                      std::to_string(reader.scan_.format_minor) + " is newer than this holofuse reads (" +
-                      std::to_string(kRecordFormatMajor) + ".x); use a newer holofuse");
+                      std::to_string(reader.scan_.format_minor) +
+                      " is newer than this holofuse reads (" + std::to_string(kRecordFormatMajor) +
+                      ".x); use a newer holofuse");
   }
   if (flags != 0 || reserved != 0) {
-    return Status(StatusCode::kReservedNonZero, path + ": reserved header bits are set (flags " +
-                                                    std::to_string(flags) + ")");
+    return Status(StatusCode::kReservedNonZero,
+                  path + ": reserved header bits are set (flags " + std::to_string(flags) + ")");
   }
   const Status index = reader.loadIndex();
   if (!index.isOk()) {
@@ -308,8 +330,9 @@ Status RecordReader::readHeader(uint64_t offset, RecordInfo& info, uint32_t& pay
   auto got = readAt(fd_, offset, header, sizeof(header), path_);
   if (!got.isOk()) return got.status();
   if (*got < sizeof(header)) {
-    return Status(StatusCode::kTruncated, "a record header" + at(offset) + " is cut short: " + std::to_string(*got) +
-                                              " of " + std::to_string(kRecordHeaderSize) + " bytes present");
+    return Status(StatusCode::kTruncated, "a record header" + at(offset) +
+                                              " is cut short: " + std::to_string(*got) + " of " +
+                                              std::to_string(kRecordHeaderSize) + " bytes present");
   }
   if (std::memcmp(header, kRecordMagic, sizeof(kRecordMagic)) != 0) {
     return Status(StatusCode::kBadMagic, "no record magic" + at(offset));
@@ -327,10 +350,13 @@ Status RecordReader::readHeader(uint64_t offset, RecordInfo& info, uint32_t& pay
   if (header_crc != crc32c(0, header, kRecordHeaderSize - 4)) {
     return Status(StatusCode::kBadChecksum, "record header" + at(offset) + ": CRC32C mismatch");
   }
-  if (reserved != 0) return Status(StatusCode::kReservedNonZero, "record header" + at(offset) + ": reserved bits set");
+  if (reserved != 0)
+    return Status(StatusCode::kReservedNonZero,
+                  "record header" + at(offset) + ": reserved bits set");
   if (info.payload_length > kMaxRecordPayload) {
     return Status(StatusCode::kTooLarge, "record" + at(offset) + ": payload length " +
-                                             std::to_string(info.payload_length) + " above the 1 GiB cap");
+                                             std::to_string(info.payload_length) +
+                                             " above the 1 GiB cap");
   }
   return Status::ok();
 }
@@ -344,17 +370,20 @@ Status RecordReader::loadIndex() {
   auto got = readAt(fd_, size - kRecordTailSize, tail, sizeof(tail), path_);
   if (!got.isOk()) return got.status();
   if (*got < sizeof(tail) || std::memcmp(tail + 8, kTailMagic, sizeof(kTailMagic)) != 0) {
-    return Status(StatusCode::kBadMagic, "no index at the end (the recording was not closed cleanly)");
+    return Status(StatusCode::kBadMagic,
+                  "no index at the end (the recording was not closed cleanly)");
   }
   WireReader tr(std::span<const uint8_t>(tail, 8));
   const uint64_t index_offset = tr.u64("index offset");
   RecordInfo info;
   uint32_t payload_crc = 0;
-  if (index_offset < kRecordFileHeaderSize || index_offset > size - kRecordTailSize - kRecordHeaderSize) {
+  if (index_offset < kRecordFileHeaderSize ||
+      index_offset > size - kRecordTailSize - kRecordHeaderSize) {
     return Status(StatusCode::kMalformed, "the tail points outside the file");
   }
   HOLOFUSE_RETURN_IF_ERROR(readHeader(index_offset, info, payload_crc));
-  if (info.kind != static_cast<uint16_t>(RecordKind::kIndex) || info.end() + kRecordTailSize != size) {
+  if (info.kind != static_cast<uint16_t>(RecordKind::kIndex) ||
+      info.end() + kRecordTailSize != size) {
     return Status(StatusCode::kMalformed, "the tail does not point at an index record");
   }
   Bytes payload(info.payload_length);
@@ -379,8 +408,10 @@ Status RecordReader::loadIndex() {
     e.time_ns = r.u64("time");
     e.payload_length = r.u32("payload length");
     // Records are back to back: an index that says otherwise is not trusted.
-    if (e.offset != expected_offset || e.payload_length > kMaxRecordPayload || e.end() > index_offset) {
-      return Status(StatusCode::kMalformed, "index entry " + std::to_string(i) + " does not match the file layout");
+    if (e.offset != expected_offset || e.payload_length > kMaxRecordPayload ||
+        e.end() > index_offset) {
+      return Status(StatusCode::kMalformed,
+                    "index entry " + std::to_string(i) + " does not match the file layout");
     }
     expected_offset = e.end();
     records.push_back(e);
@@ -410,16 +441,18 @@ void RecordReader::scanRecords() {
     }
     if (info.end() > size) {
       scan_.tail_incomplete = true;
-      scan_.tail_problem = "the " + std::string(recordKindName(info.kind)) + " record" + at(offset) + " is incomplete: " +
-                           std::to_string(size - offset - kRecordHeaderSize) + " of its " +
-                           std::to_string(info.payload_length) + " payload bytes are present";
+      scan_.tail_problem =
+          "the " + std::string(recordKindName(info.kind)) + " record" + at(offset) +
+          " is incomplete: " + std::to_string(size - offset - kRecordHeaderSize) + " of its " +
+          std::to_string(info.payload_length) + " payload bytes are present";
       break;
     }
     payload.resize(info.payload_length);
     auto read = readAt(fd_, offset + kRecordHeaderSize, payload.data(), payload.size(), path_);
-    if (!read.isOk() || *read < payload.size() || crc32c(0, payload.data(), payload.size()) != payload_crc) {
-      scan_.tail_problem = "the " + std::string(recordKindName(info.kind)) + " record" + at(offset) +
-                           ": payload CRC32C mismatch (corrupt bytes)";
+    if (!read.isOk() || *read < payload.size() ||
+        crc32c(0, payload.data(), payload.size()) != payload_crc) {
+      scan_.tail_problem = "the " + std::string(recordKindName(info.kind)) + " record" +
+                           at(offset) + ": payload CRC32C mismatch (corrupt bytes)";
       break;
     }
     if (info.kind == static_cast<uint16_t>(RecordKind::kIndex)) {
@@ -427,7 +460,8 @@ void RecordReader::scanRecords() {
       offset = info.end();
       if (size - offset < kRecordTailSize) {
         scan_.tail_incomplete = true;
-        scan_.tail_problem = "the index" + at(info.offset) + " is whole but its 16-byte tail is cut short";
+        scan_.tail_problem =
+            "the index" + at(info.offset) + " is whole but its 16-byte tail is cut short";
       } else if (size - offset > kRecordTailSize) {
         continue;  // records after an index: keep scanning
       }
@@ -438,9 +472,9 @@ void RecordReader::scanRecords() {
   }
   scan_.good_end = records_.empty() ? kRecordFileHeaderSize : records_.back().end();
   if (scan_.tail_problem) {
-    scan_.tail_problem = "bytes " + std::to_string(scan_.good_end) + ".." + std::to_string(size) + " (" +
-                         std::to_string(size - scan_.good_end) + " bytes) after the last whole record: " +
-                         *scan_.tail_problem;
+    scan_.tail_problem = "bytes " + std::to_string(scan_.good_end) + ".." + std::to_string(size) +
+                         " (" + std::to_string(size - scan_.good_end) +
+                         " bytes) after the last whole record: " + *scan_.tail_problem;
   }
 }
 
@@ -449,22 +483,26 @@ StatusOr<Bytes> RecordReader::read(const RecordInfo& record) const {
   uint32_t payload_crc = 0;
   Status header = readHeader(record.offset, info, payload_crc);
   if (!header.isOk()) return Status(header.code(), path_ + ": " + header.message());
-  if (info.kind != record.kind || info.payload_length != record.payload_length || info.stream != record.stream ||
-      info.frame_id != record.frame_id) {
-    return Status(StatusCode::kMalformed, path_ + ": the record" + at(record.offset) + " differs from its index entry");
+  if (info.kind != record.kind || info.payload_length != record.payload_length ||
+      info.stream != record.stream || info.frame_id != record.frame_id) {
+    return Status(StatusCode::kMalformed,
+                  path_ + ": the record" + at(record.offset) + " differs from its index entry");
   }
   // Checked before allocating: a header may lie about its length.
   if (info.end() > scan_.file_size) {
-    return Status(StatusCode::kTruncated, path_ + ": the record" + at(record.offset) + " runs past the end of the file");
+    return Status(StatusCode::kTruncated,
+                  path_ + ": the record" + at(record.offset) + " runs past the end of the file");
   }
   Bytes payload(info.payload_length);
   auto got = readAt(fd_, info.offset + kRecordHeaderSize, payload.data(), payload.size(), path_);
   if (!got.isOk()) return got.status();
   if (*got < payload.size()) {
-    return Status(StatusCode::kTruncated, path_ + ": the record" + at(record.offset) + " is cut short");
+    return Status(StatusCode::kTruncated,
+                  path_ + ": the record" + at(record.offset) + " is cut short");
   }
   if (crc32c(0, payload.data(), payload.size()) != payload_crc) {
-    return Status(StatusCode::kBadChecksum, path_ + ": the " + std::string(recordKindName(info.kind)) + " record" +
+    return Status(StatusCode::kBadChecksum, path_ + ": the " +
+                                                std::string(recordKindName(info.kind)) + " record" +
                                                 at(record.offset) + ": payload CRC32C mismatch");
   }
   return payload;

@@ -36,7 +36,8 @@ void ServerLink::tryConnect() {
     next_attempt_ns_ = now + static_cast<uint64_t>(backoff_ms_) * 1000000ull;
     return;
   }
-  connection_ = std::make_unique<Connection>(std::move(*socket), server_.toString(), options_.limits);
+  connection_ =
+      std::make_unique<Connection>(std::move(*socket), server_.toString(), options_.limits);
   acked_ = false;
   hello_.send_time_ns = now;
   connection_->sendMessage(hello_);
@@ -53,7 +54,8 @@ void ServerLink::fail(const Status& why) {
   // handshake is retried with growing backoff too; only a connection that
   // worked starts again from the initial delay.
   backoff_ms_ = acked_ ? options_.backoff_initial_ms
-                       : std::min(std::max(backoff_ms_ * 2, options_.backoff_initial_ms), options_.backoff_max_ms);
+                       : std::min(std::max(backoff_ms_ * 2, options_.backoff_initial_ms),
+                                  options_.backoff_max_ms);
   connection_.reset();
   acked_ = false;
   next_attempt_ns_ = monotonicNs() + static_cast<uint64_t>(backoff_ms_) * 1000000ull;
@@ -83,8 +85,8 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
     connected_event_ = true;
     server_said_bye_ = false;
     ++connects_;
-    heartbeat_interval_ms_ = ack.heartbeat_interval_ms > 0 ? ack.heartbeat_interval_ms
-                                                           : options_.heartbeat_interval_ms;
+    heartbeat_interval_ms_ =
+        ack.heartbeat_interval_ms > 0 ? ack.heartbeat_interval_ms : options_.heartbeat_interval_ms;
     idle_timeout_ms_ = ack.idle_timeout_ms > 0 ? ack.idle_timeout_ms : options_.idle_timeout_ms;
     backoff_ms_ = 0;
     if (attempts_failed_ > 0) {
@@ -122,12 +124,13 @@ void ServerLink::poll(int timeout_ms, std::vector<Frame>& received) {
     tryConnect();
     if (connection_ == nullptr) return;
   }
-  pollfd p{connection_->fd(), static_cast<short>(POLLIN | (connection_->wantsWrite() ? POLLOUT : 0)),
-           0};
+  pollfd p{connection_->fd(),
+           static_cast<short>(POLLIN | (connection_->wantsWrite() ? POLLOUT : 0)), 0};
   const int rc = ::poll(&p, 1, timeout_ms);
   if (rc > 0 && (p.revents & (POLLIN | POLLHUP | POLLERR))) {
     const Status s = connection_->onReadable();
-    while (connection_ != nullptr && connection_->hasFrame()) handle(connection_->takeFrame(), received);
+    while (connection_ != nullptr && connection_->hasFrame())
+      handle(connection_->takeFrame(), received);
     if (!s.isOk()) {
       fail(s);
       return;
@@ -147,7 +150,8 @@ void ServerLink::poll(int timeout_ms, std::vector<Frame>& received) {
     }
   }
   if (now - connection_->lastReceiveNs() > uint64_t{idle_timeout_ms_} * 1000000ull) {
-    fail(Status(StatusCode::kTimeout, "heard nothing for " + std::to_string(idle_timeout_ms_) + " ms"));
+    fail(Status(StatusCode::kTimeout,
+                "heard nothing for " + std::to_string(idle_timeout_ms_) + " ms"));
   }
 }
 

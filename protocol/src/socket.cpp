@@ -58,8 +58,8 @@ StatusOr<Endpoint> parseEndpoint(const std::string& text) {
   }
   const std::string port = text.substr(colon + 1);
   if (port.find_first_not_of("0123456789") != std::string::npos || port.size() > 5) {
-    return Status(StatusCode::kMalformed, "endpoint '" + text + "': port '" + port +
-                                              "' is not a number in 0..65535");
+    return Status(StatusCode::kMalformed,
+                  "endpoint '" + text + "': port '" + port + "' is not a number in 0..65535");
   }
   const unsigned long value = std::stoul(port);
   if (value > 65535) {

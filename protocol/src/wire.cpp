@@ -26,10 +26,10 @@ void WireWriter::bytes32(std::span<const uint8_t> data) {
 bool WireReader::need(const char* field, size_t n) {
   if (!status_.isOk()) return false;
   if (n <= data_.size() - pos_) return true;
-  status_ = Status(StatusCode::kTruncated,
-                   "field '" + std::string(field) + "' at offset " +
-                       std::to_string(base_offset_ + pos_) + " needs " + std::to_string(n) +
-                       " bytes, " + std::to_string(data_.size() - pos_) + " left");
+  status_ = Status(StatusCode::kTruncated, "field '" + std::string(field) + "' at offset " +
+                                               std::to_string(base_offset_ + pos_) + " needs " +
+                                               std::to_string(n) + " bytes, " +
+                                               std::to_string(data_.size() - pos_) + " left");
   return false;
 }
 

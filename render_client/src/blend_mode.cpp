@@ -12,14 +12,20 @@ std::optional<BlendMode> blendModeFromName(const std::string& name) {
 
 std::string blendModeName(BlendMode mode) {
   switch (mode) {
-    case BlendMode::kNormal: return "normal";
-    case BlendMode::kHoloportation: return "holoportation";
-    case BlendMode::kMontage4D: return "montage4d";
-    case BlendMode::kFragment: return "fragment";
+    case BlendMode::kNormal:
+      return "normal";
+    case BlendMode::kHoloportation:
+      return "holoportation";
+    case BlendMode::kMontage4D:
+      return "montage4d";
+    case BlendMode::kFragment:
+      return "fragment";
   }
   return "unknown";
 }
 
-std::vector<std::string> blendModeNames() { return {"normal", "holoportation", "montage4d", "fragment"}; }
+std::vector<std::string> blendModeNames() {
+  return {"normal", "holoportation", "montage4d", "fragment"};
+}
 
 }  // namespace holofuse::render

@@ -8,9 +8,9 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <set>
 #include <stdexcept>
-#include <numbers>
 
 #include "common/camera.h"
 #include "common/image_codec.h"
@@ -23,9 +23,9 @@
 
 namespace holofuse::render {
 
+using protocol::kSourceClient;
 using protocol::monotonicNs;
 using protocol::Stage;
-using protocol::kSourceClient;
 
 namespace {
 
@@ -73,7 +73,8 @@ glm::dvec3 ringAxis(const std::map<uint32_t, Camera>& cameras) {
 // v turned by degrees around the unit axis (Rodrigues).
 glm::dvec3 turned(const glm::dvec3& v, const glm::dvec3& axis, double degrees) {
   const double a = degrees * std::numbers::pi / 180.0;
-  return v * std::cos(a) + glm::cross(axis, v) * std::sin(a) + axis * glm::dot(axis, v) * (1.0 - std::cos(a));
+  return v * std::cos(a) + glm::cross(axis, v) * std::sin(a) +
+         axis * glm::dot(axis, v) * (1.0 - std::cos(a));
 }
 
 }  // namespace
@@ -81,14 +82,18 @@ glm::dvec3 turned(const glm::dvec3& v, const glm::dvec3& axis, double degrees) {
 // The orbit runs at the pods' mean distance and height with their mean
 // field of view. A pod view turned by the jump keeps the pod's intrinsics
 // and turns its pose around the ring axis through the subject.
-std::optional<Camera> userCamera(const ClientOptions& options, const std::map<uint32_t, Camera>& cameras,
-                                 const Bounds& bounds, size_t frame_index) {
+std::optional<Camera> userCamera(const ClientOptions& options,
+                                 const std::map<uint32_t, Camera>& cameras, const Bounds& bounds,
+                                 size_t frame_index) {
   if (cameras.empty()) return std::nullopt;
   const glm::dvec3 target = 0.5 * (glm::dvec3(bounds.min) + glm::dvec3(bounds.max));
   const glm::dvec3 up = ringAxis(cameras);
-  const double jump =
-      options.jump_degrees != 0 && frame_index >= options.jump_at_frame ? options.jump_degrees : 0.0;
-  auto fovX = [](const Camera& cam) { return 2.0 * std::atan(0.5 * cam.width / cam.fx) * 180.0 / std::numbers::pi; };
+  const double jump = options.jump_degrees != 0 && frame_index >= options.jump_at_frame
+                          ? options.jump_degrees
+                          : 0.0;
+  auto fovX = [](const Camera& cam) {
+    return 2.0 * std::atan(0.5 * cam.width / cam.fx) * 180.0 / std::numbers::pi;
+  };
   if (options.view.rfind("pod:", 0) == 0) {
     const uint32_t id = static_cast<uint32_t>(std::stoul(options.view.substr(4)));
     auto it = cameras.find(id);
@@ -97,7 +102,8 @@ std::optional<Camera> userCamera(const ClientOptions& options, const std::map<ui
     if (jump == 0) return pod;
     // The pod's whole pose turned, its intrinsics kept: the camera-to-world
     // rotation becomes Q R^T, so world-to-camera R Q^T.
-    const glm::dmat3 q(turned({1, 0, 0}, up, jump), turned({0, 1, 0}, up, jump), turned({0, 0, 1}, up, jump));
+    const glm::dmat3 q(turned({1, 0, 0}, up, jump), turned({0, 1, 0}, up, jump),
+                       turned({0, 0, 1}, up, jump));
     const glm::dvec3 eye = target + turned(pod.center() - target, up, jump);
     pod.rotation = pod.rotation * glm::transpose(q);
     pod.translation = -(pod.rotation * eye);
@@ -121,24 +127,27 @@ std::optional<Camera> userCamera(const ClientOptions& options, const std::map<ui
   fov_x /= n;
   const double degrees = options.orbit_degrees_per_frame * static_cast<double>(frame_index) + jump;
   const double angle = degrees * std::numbers::pi / 180.0;
-  const glm::dvec3 eye = target + up * height + radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
+  const glm::dvec3 eye =
+      target + up * height + radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
   return lookAtCamera(kOrbitCameraId, eye, target, up, options.width, options.height, fov_x);
 }
 
 uint64_t featherBytes(const protocol::TextureBundle& bundle) {
   uint64_t bytes = 0;
   for (const auto& image : bundle.images) {
-    for (const auto& plane : image.planes) bytes += plane.kind == protocol::PlaneKind::kFeather ? plane.data.size() : 0;
+    for (const auto& plane : image.planes)
+      bytes += plane.kind == protocol::PlaneKind::kFeather ? plane.data.size() : 0;
   }
   return bytes;
 }
 
-protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& bundle,
-                                                          const std::map<uint32_t, Camera>& cameras) {
+protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(
+    const protocol::TextureBundle& bundle, const std::map<uint32_t, Camera>& cameras) {
   std::vector<ViewImages> views;
   for (const auto& image : bundle.images) {
     auto malformed = [&](const std::string& what) {
-      return protocol::Status(protocol::StatusCode::kMalformed, "camera " + std::to_string(image.camera_id) + what);
+      return protocol::Status(protocol::StatusCode::kMalformed,
+                              "camera " + std::to_string(image.camera_id) + what);
     };
     auto cam = cameras.find(image.camera_id);
     if (cam == cameras.end()) return malformed(" has no calibration");
@@ -157,28 +166,32 @@ protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::Textur
         (view.feather.width != view.color.width || view.feather.height != view.color.height ||
          view.feather.channels != 1)) {
       return malformed(" feather map is " + std::to_string(view.feather.width) + "x" +
-                       std::to_string(view.feather.height) + " with " + std::to_string(view.feather.channels) +
-                       " channel(s), not one grey plane of the colour's " + std::to_string(view.color.width) + "x" +
-                       std::to_string(view.color.height));
+                       std::to_string(view.feather.height) + " with " +
+                       std::to_string(view.feather.channels) +
+                       " channel(s), not one grey plane of the colour's " +
+                       std::to_string(view.color.width) + "x" + std::to_string(view.color.height));
     }
     // A rectangle of the image (the pods send their foreground's): back
     // into a whole frame, background black with mask 0.
-    const bool whole = image.offset_x == 0 && image.offset_y == 0 && view.color.width == view.camera.width &&
+    const bool whole = image.offset_x == 0 && image.offset_y == 0 &&
+                       view.color.width == view.camera.width &&
                        view.color.height == view.camera.height;
     if (!whole && view.color.width == view.mask.width && view.color.height == view.mask.height &&
-        cropFits(image.offset_x, image.offset_y, view.color.width, view.color.height, view.camera.width,
-                 view.camera.height)) {
+        cropFits(image.offset_x, image.offset_y, view.color.width, view.color.height,
+                 view.camera.width, view.camera.height)) {
       // (The feather map is the colour's rectangle too, checked above.)
       if (!view.feather.pixels.empty()) {
-        view.feather =
-            placeInFrame(view.feather, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
+        view.feather = placeInFrame(view.feather, image.offset_x, image.offset_y, view.camera.width,
+                                    view.camera.height);
       }
-      view.color = placeInFrame(view.color, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
-      view.mask = placeInFrame(view.mask, image.offset_x, image.offset_y, view.camera.width, view.camera.height);
+      view.color = placeInFrame(view.color, image.offset_x, image.offset_y, view.camera.width,
+                                view.camera.height);
+      view.mask = placeInFrame(view.mask, image.offset_x, image.offset_y, view.camera.width,
+                               view.camera.height);
     }
     if (view.color.width != view.camera.width || view.color.height != view.camera.height ||
-        view.mask.width != view.camera.width || view.mask.height != view.camera.height || view.color.channels != 3 ||
-        view.mask.channels != 1) {
+        view.mask.width != view.camera.width || view.mask.height != view.camera.height ||
+        view.color.channels != 3 || view.mask.channels != 1) {
       return malformed(" images are not " + std::to_string(view.camera.width) + "x" +
                        std::to_string(view.camera.height) + " RGB + mask");
     }
@@ -193,7 +206,8 @@ int runClient(const ClientOptions& options) {
   std::error_code ec;
   fs::create_directories(out_dir / "frames", ec);
   if (ec) {
-    std::fprintf(stderr, "[client] cannot create %s: %s\n", (out_dir / "frames").c_str(), ec.message().c_str());
+    std::fprintf(stderr, "[client] cannot create %s: %s\n", (out_dir / "frames").c_str(),
+                 ec.message().c_str());
     return 1;
   }
   std::unique_ptr<VulkanContext> context;
@@ -209,8 +223,8 @@ int runClient(const ClientOptions& options) {
   std::fprintf(stderr, "[client] rendering on %s, mode %s\n", context->deviceName().c_str(),
                blendModeName(options.blend.mode).c_str());
   if (options.jump_degrees != 0) {
-    std::fprintf(stderr, "[client] the view jumps %g degrees at rendered frame %llu\n", options.jump_degrees,
-                 static_cast<unsigned long long>(options.jump_at_frame));
+    std::fprintf(stderr, "[client] the view jumps %g degrees at rendered frame %llu\n",
+                 options.jump_degrees, static_cast<unsigned long long>(options.jump_at_frame));
   }
 
   protocol::Hello hello;
@@ -236,7 +250,7 @@ int runClient(const ClientOptions& options) {
   uint64_t last_progress_ns = 0;
   uint64_t frames_superseded = 0;  // meshes skipped because a newer one was already there
   bool judge_failed = false;       // warned once
-  uint64_t last_render_ns = 0;      // for the temporal field's real frame interval
+  uint64_t last_render_ns = 0;     // for the temporal field's real frame interval
   std::vector<protocol::Frame> received;
 
   auto skip = [&](uint64_t frame_id, const std::string& why) {
@@ -255,13 +269,15 @@ int runClient(const ClientOptions& options) {
     // mesh of a batch is rendered: older ones would only add latency.
     size_t newest_mesh = received.size();
     for (size_t k = 0; k < received.size(); ++k) {
-      if (received[k].header.type == static_cast<uint16_t>(protocol::MessageType::kMeshFrame)) newest_mesh = k;
+      if (received[k].header.type == static_cast<uint16_t>(protocol::MessageType::kMeshFrame))
+        newest_mesh = k;
     }
     for (size_t k = 0; k < received.size(); ++k) {
       auto& frame = received[k];
       if (options.frames != 0 && report.framesRendered() >= options.frames) break;
       const uint64_t receive_ns = monotonicNs();
-      if (frame.header.type == static_cast<uint16_t>(protocol::MessageType::kMeshFrame) && k != newest_mesh) {
+      if (frame.header.type == static_cast<uint16_t>(protocol::MessageType::kMeshFrame) &&
+          k != newest_mesh) {
         ++frames_superseded;
         continue;
       }
@@ -295,7 +311,8 @@ int runClient(const ClientOptions& options) {
         pending.feather_bytes = featherBytes(bundle);
         pending.stamps = bundle.stamps;
         for (auto& stamp : pending.stamps) {
-          if (stamp.stage == static_cast<uint16_t>(Stage::kFanout) && stamp.end_ns == 0) stamp.end_ns = receive_ns;
+          if (stamp.stage == static_cast<uint16_t>(Stage::kFanout) && stamp.end_ns == 0)
+            stamp.end_ns = receive_ns;
         }
         auto views = viewsOfBundle(bundle, cameras);
         if (views.isOk()) pending.views = std::move(*views);
@@ -305,7 +322,8 @@ int runClient(const ClientOptions& options) {
           while (failed_bundles.size() > 64) failed_bundles.erase(failed_bundles.begin());
           continue;
         }
-        pending.stamps.push_back({static_cast<uint16_t>(Stage::kDecode), kSourceClient, t0, monotonicNs()});
+        pending.stamps.push_back(
+            {static_cast<uint16_t>(Stage::kDecode), kSourceClient, t0, monotonicNs()});
         bundles[bundle.frame_id] = std::move(pending);
         while (bundles.size() > 4) bundles.erase(bundles.begin());
       } else if (type == protocol::MessageType::kMeshFrame) {
@@ -325,18 +343,20 @@ int runClient(const ClientOptions& options) {
         }
         auto mesh = decodeDraco(mesh_frame.mesh.data(), mesh_frame.mesh.size());
         if (!mesh.isOk() || mesh->triangleCount() == 0) {
-          skip(mesh_frame.frame_id, mesh.isOk() ? "mesh with no triangles" : mesh.status().message());
+          skip(mesh_frame.frame_id,
+               mesh.isOk() ? "mesh with no triangles" : mesh.status().message());
           bundles.erase(bundle);
           continue;
         }
         const uint64_t t1 = monotonicNs();
         std::vector<protocol::StageStamp> stamps = mesh_frame.stamps;
         for (auto& stamp : stamps) {
-          if (stamp.stage == static_cast<uint16_t>(Stage::kFanout) && stamp.end_ns == 0) stamp.end_ns = receive_ns;
+          if (stamp.stage == static_cast<uint16_t>(Stage::kFanout) && stamp.end_ns == 0)
+            stamp.end_ns = receive_ns;
         }
         // Decode of this frame: the bundle's and the mesh's together.
-        const double decode_ms =
-            static_cast<double>(t1 - t0) / 1e6 + protocol::stampedMs(bundle->second.stamps, Stage::kDecode);
+        const double decode_ms = static_cast<double>(t1 - t0) / 1e6 +
+                                 protocol::stampedMs(bundle->second.stamps, Stage::kDecode);
         for (const auto& stamp : bundle->second.stamps) {
           if (stamp.stage == static_cast<uint16_t>(Stage::kImageEncode)) stamps.push_back(stamp);
         }
@@ -361,18 +381,22 @@ int runClient(const ClientOptions& options) {
         // frames (clamped: a stall must not make the field jump).
         const uint64_t now_ns = monotonicNs();
         blend.frame_interval_s =
-            last_render_ns == 0 ? 1.0 / 30.0 : std::clamp(static_cast<double>(now_ns - last_render_ns) / 1e9, 1e-3, 0.5);
+            last_render_ns == 0
+                ? 1.0 / 30.0
+                : std::clamp(static_cast<double>(now_ns - last_render_ns) / 1e9, 1e-3, 0.5);
         last_render_ns = now_ns;
         if (options.exclude_camera >= 0) {
           for (const auto& view : bundle->second.views) {
-            blend.camera_enabled.push_back(static_cast<int>(view.camera.id) != options.exclude_camera);
+            blend.camera_enabled.push_back(static_cast<int>(view.camera.id) !=
+                                           options.exclude_camera);
           }
         }
         const uint64_t field_runs = renderer->fieldPasses();
         Image8 picture;
         try {
           picture = renderer->render(*user, blend);
-        } catch (const std::invalid_argument& e) {  // a mesh or setting this mode cannot take: skip the frame
+        } catch (const std::invalid_argument&
+                     e) {  // a mesh or setting this mode cannot take: skip the frame
           skip(mesh_frame.frame_id, e.what());
           bundles.erase(bundle);
           continue;
@@ -382,7 +406,8 @@ int runClient(const ClientOptions& options) {
           const auto times = renderer->fieldTimesMs();
           const auto& names = TextureFieldPasses::stageNames();
           for (size_t s = 0; s < times.size() && s < names.size(); ++s) {
-            if (times[s] >= 0) report.addGpuPass(names[s], times[s]);  // -1: a pass this mode does not have
+            if (times[s] >= 0)
+              report.addGpuPass(names[s], times[s]);  // -1: a pass this mode does not have
           }
         }
         FrameRecord record;
@@ -394,12 +419,14 @@ int runClient(const ClientOptions& options) {
           // Written aside and renamed: whoever watches frames/ (a viewer,
           // a test) never reads half a picture.
           const fs::path path = out_dir / record.file;
-          const fs::path partial = path.parent_path() / (path.stem().string() + ".partial.png");  // PNG by its name
+          const fs::path partial =
+              path.parent_path() / (path.stem().string() + ".partial.png");  // PNG by its name
           const protocol::Status written = writePng(partial.string(), picture);
           std::error_code renamed;
           if (written.isOk()) fs::rename(partial, path, renamed);
           if (!written.isOk()) std::fprintf(stderr, "[client] %s\n", written.message().c_str());
-          if (renamed) std::fprintf(stderr, "[client] %s: %s\n", path.c_str(), renamed.message().c_str());
+          if (renamed)
+            std::fprintf(stderr, "[client] %s: %s\n", path.c_str(), renamed.message().c_str());
         }
         const uint64_t t4 = monotonicNs();
         if (options.judge) {
@@ -424,7 +451,8 @@ int runClient(const ClientOptions& options) {
         if (st != stats.end()) {
           record.client_bytes += st->second.bytes;
           record.cameras_expected = st->second.stats.cameras_expected;
-          record.cameras_present = static_cast<uint32_t>(__builtin_popcountll(st->second.stats.cameras_present));
+          record.cameras_present =
+              static_cast<uint32_t>(__builtin_popcountll(st->second.stats.cameras_present));
           record.pod_bytes = st->second.stats.pod_bytes;
           record.note = st->second.stats.note;
           stats.erase(stats.begin(), std::next(st));
@@ -441,11 +469,12 @@ int runClient(const ClientOptions& options) {
     if (now - last_progress_ns > 1000000000ull && report.framesRendered() > 0) {
       last_progress_ns = now;
       const auto& last = report.frames().back();
-      std::printf("%sframes %zu%s | %5.1f fps | end-to-end p50 %6.1f ms p95 %6.1f ms | cameras %u/%u%s",
-                  tty ? "\r" : "", report.framesRendered(),
-                  options.frames ? ("/" + std::to_string(options.frames)).c_str() : "", report.fps(),
-                  report.endToEndPercentile(50), report.endToEndPercentile(95), last.cameras_present,
-                  last.cameras_expected, tty ? "   " : "\n");
+      std::printf(
+          "%sframes %zu%s | %5.1f fps | end-to-end p50 %6.1f ms p95 %6.1f ms | cameras %u/%u%s",
+          tty ? "\r" : "", report.framesRendered(),
+          options.frames ? ("/" + std::to_string(options.frames)).c_str() : "", report.fps(),
+          report.endToEndPercentile(50), report.endToEndPercentile(95), last.cameras_present,
+          last.cameras_expected, tty ? "   " : "\n");
       std::fflush(stdout);
     }
     // Bye follows everything the server sent on the stream: all of it has
@@ -487,13 +516,17 @@ int runClient(const ClientOptions& options) {
   std::string quality;
   for (const auto& q : report.quality()) {
     char text[96];
-    std::snprintf(text, sizeof(text), q.measure == "psnr_db" ? ", PSNR %.2f dB" : ", SSIM %.3f", q.mean);
+    std::snprintf(text, sizeof(text), q.measure == "psnr_db" ? ", PSNR %.2f dB" : ", SSIM %.3f",
+                  q.mean);
     quality += text;
   }
   if (!quality.empty()) quality += " against the truth (mean)";
-  std::printf("%s[client] %zu frames, %.1f fps, end-to-end p50 %.1f ms p95 %.1f ms p99 %.1f ms%s; report: %s\n",
-              tty ? "\n" : "", report.framesRendered(), report.fps(), report.endToEndPercentile(50),
-              report.endToEndPercentile(95), report.endToEndPercentile(99), quality.c_str(), report_path.c_str());
+  std::printf(
+      "%s[client] %zu frames, %.1f fps, end-to-end p50 %.1f ms p95 %.1f ms p99 %.1f ms%s; report: "
+      "%s\n",
+      tty ? "\n" : "", report.framesRendered(), report.fps(), report.endToEndPercentile(50),
+      report.endToEndPercentile(95), report.endToEndPercentile(99), quality.c_str(),
+      report_path.c_str());
   return 0;
 }
 

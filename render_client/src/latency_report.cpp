@@ -23,8 +23,9 @@ double percentile(std::vector<double> values, double p) {
 
 double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_received) {
   // In order of arrival, as RFC 3550 (and the server) takes them.
-  std::sort(sent_and_received.begin(), sent_and_received.end(),
-            [](const auto& a, const auto& b) { return a.second != b.second ? a.second < b.second : a.first < b.first; });
+  std::sort(sent_and_received.begin(), sent_and_received.end(), [](const auto& a, const auto& b) {
+    return a.second != b.second ? a.second < b.second : a.first < b.first;
+  });
   ArrivalJitter jitter;
   for (const auto& [sent, received] : sent_and_received) jitter.add(sent, received);
   return jitter.ms();
@@ -47,14 +48,17 @@ protocol::StatusOr<Budget> loadBudget(const std::string& path) {
   } catch (const nlohmann::json::parse_error& e) {
     return Status(StatusCode::kMalformed, path + ": not JSON (" + e.what() + ")");
   }
-  if (!j.is_object()) return Status(StatusCode::kMalformed, path + ": expected an object of stage -> ms");
+  if (!j.is_object())
+    return Status(StatusCode::kMalformed, path + ": expected an object of stage -> ms");
   Budget budget;
   for (const auto& [name, value] : j.items()) {
     if (names.count(name) == 0) {
-      return Status(StatusCode::kMalformed, path + ": unknown stage '" + name + "'; valid: " + valid);
+      return Status(StatusCode::kMalformed,
+                    path + ": unknown stage '" + name + "'; valid: " + valid);
     }
     if (!value.is_number() || !(value.get<double>() > 0)) {
-      return Status(StatusCode::kMalformed, path + ": budget of '" + name + "' must be a positive number of ms");
+      return Status(StatusCode::kMalformed,
+                    path + ": budget of '" + name + "' must be a positive number of ms");
     }
     budget[name] = value.get<double>();
   }
@@ -74,11 +78,14 @@ bool loadBudgetFlag(const std::string& path, Budget& budget) {
 
 void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
   for (const auto& s : stamps) {
-    if (s.end_ns >= s.start_ns && s.end_ns != 0) addStage(s.stage, static_cast<double>(s.end_ns - s.start_ns) / 1e6);
+    if (s.end_ns >= s.start_ns && s.end_ns != 0)
+      addStage(s.stage, static_cast<double>(s.end_ns - s.start_ns) / 1e6);
     // The server stamps each PodFrame's send stage from the pod's encode
     // end (its send time) to its arrival: the transit RFC 3550 watches.
-    if (s.stage == static_cast<uint16_t>(protocol::Stage::kSend) && s.end_ns != 0 && s.source < 64) {
-      transit_ms_[s.source].emplace_back(static_cast<double>(s.start_ns) / 1e6, static_cast<double>(s.end_ns) / 1e6);
+    if (s.stage == static_cast<uint16_t>(protocol::Stage::kSend) && s.end_ns != 0 &&
+        s.source < 64) {
+      transit_ms_[s.source].emplace_back(static_cast<double>(s.start_ns) / 1e6,
+                                         static_cast<double>(s.end_ns) / 1e6);
     }
   }
 }
@@ -163,7 +170,8 @@ double LatencyReport::endToEndPercentile(double p) const {
   return percentile(e2e, p);
 }
 
-std::string LatencyReport::toJson(const std::map<std::string, std::string>& settings, const Budget& budget) const {
+std::string LatencyReport::toJson(const std::map<std::string, std::string>& settings,
+                                  const Budget& budget) const {
   nlohmann::ordered_json j;
   j["frames_rendered"] = frames_.size();
   j["fps"] = fps();
@@ -175,11 +183,13 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
     auto it = stage_ms_.find(stage);
     const std::vector<double> none;
     const auto& v = it == stage_ms_.end() ? none : it->second;
-    stages[protocol::stageName(stage)] = {{"p50", percentile(v, 50)}, {"p95", percentile(v, 95)}, {"samples", v.size()}};
+    stages[protocol::stageName(stage)] = {
+        {"p50", percentile(v, 50)}, {"p95", percentile(v, 95)}, {"samples", v.size()}};
   }
   for (const auto& [stage, v] : stage_ms_) {
     if (stage < protocol::kFirstStage || stage > protocol::kLastStage) {
-      stages[protocol::stageName(stage)] = {{"p50", percentile(v, 50)}, {"p95", percentile(v, 95)}, {"samples", v.size()}};
+      stages[protocol::stageName(stage)] = {
+          {"p50", percentile(v, 50)}, {"p95", percentile(v, 95)}, {"samples", v.size()}};
     }
   }
   j["latency_ms"]["stages"] = stages;
@@ -211,19 +221,22 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
     for (const auto& a : server_arrivals_) received["pod_" + std::to_string(a.pod)] = a.frames;
     j["pod_frames_at_server"] = received;
   } else if (!jitter.empty()) {
-    j["jitter_source"] = "client, over the pod frames behind rendered meshes (the server sent no arrivals)";
+    j["jitter_source"] =
+        "client, over the pod frames behind rendered meshes (the server sent no arrivals)";
   }
   if (!budget.empty()) {
     j["budget_ms"] = budget;
     nlohmann::ordered_json over = nlohmann::ordered_json::array();
-    for (const auto& v : violations(budget)) over.push_back({{"stage", v.stage}, {"p95", v.p95}, {"budget", v.budget}});
+    for (const auto& v : violations(budget))
+      over.push_back({{"stage", v.stage}, {"p95", v.p95}, {"budget", v.budget}});
     j["budget_violations"] = over;
     j["budget_unmeasured"] = unmeasured(budget);
   }
   // Each judged frame against the truth from its view (--truth-scene).
   nlohmann::ordered_json quality = nlohmann::ordered_json::object();
   for (const auto& q : this->quality()) {
-    quality[q.measure] = {{"mean", q.mean}, {"p50", q.p50}, {"worst", q.worst}, {"frames", q.frames}};
+    quality[q.measure] = {
+        {"mean", q.mean}, {"p50", q.p50}, {"worst", q.worst}, {"frames", q.frames}};
   }
   if (!judge_ms_.empty()) {
     quality["judge_ms"] = {{"p50", percentile(judge_ms_, 50)}, {"p95", percentile(judge_ms_, 95)}};
@@ -235,16 +248,18 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   j["settings"] = settings;
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
   for (const auto& f : frames_) {
-    frames.push_back({{"frame_id", f.frame_id},
-                      {"file", f.file},
-                      {"end_to_end_ms", f.end_to_end_ms},
-                      {"cameras_present", f.cameras_present},
-                      {"cameras_expected", f.cameras_expected},
-                      {"pod_bytes", f.pod_bytes},
-                      {"client_bytes", f.client_bytes},
-                      {"psnr_db", f.quality ? nlohmann::ordered_json(f.quality->psnr_db) : nlohmann::ordered_json()},
-                      {"ssim", f.quality ? nlohmann::ordered_json(f.quality->ssim) : nlohmann::ordered_json()},
-                      {"note", f.note}});
+    frames.push_back(
+        {{"frame_id", f.frame_id},
+         {"file", f.file},
+         {"end_to_end_ms", f.end_to_end_ms},
+         {"cameras_present", f.cameras_present},
+         {"cameras_expected", f.cameras_expected},
+         {"pod_bytes", f.pod_bytes},
+         {"client_bytes", f.client_bytes},
+         {"psnr_db",
+          f.quality ? nlohmann::ordered_json(f.quality->psnr_db) : nlohmann::ordered_json()},
+         {"ssim", f.quality ? nlohmann::ordered_json(f.quality->ssim) : nlohmann::ordered_json()},
+         {"note", f.note}});
   }
   j["frames"] = frames;
   return j.dump(2) + "\n";
@@ -254,7 +269,8 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
 
 namespace holofuse::render {
 
-std::string LatencyReport::toHtml(const std::map<std::string, std::string>& settings, const Budget& budget) const {
+std::string LatencyReport::toHtml(const std::map<std::string, std::string>& settings,
+                                  const Budget& budget) const {
   auto format = [](double v, const char* unit) {
     char buffer[48];
     std::snprintf(buffer, sizeof(buffer), "%.1f%s", v, unit);
@@ -264,9 +280,9 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
   std::vector<std::vector<std::string>> summary = {
       {"frames rendered", std::to_string(frames_.size())},
       {"frames per second", format(fps(), "")},
-      {"end-to-end p50 / p95 / p99",
-       format(endToEndPercentile(50), " ms") + " / " + format(endToEndPercentile(95), " ms") + " / " +
-           format(endToEndPercentile(99), " ms")},
+      {"end-to-end p50 / p95 / p99", format(endToEndPercentile(50), " ms") + " / " +
+                                         format(endToEndPercentile(95), " ms") + " / " +
+                                         format(endToEndPercentile(99), " ms")},
       {"meshes superseded (a newer one was waiting)", std::to_string(superseded_)},
       {"frames skipped (bad input)", std::to_string(skipped_.size())}};
   for (const auto& [key, value] : settings) summary.push_back({key, value});
@@ -290,7 +306,8 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
       gpu50.segments.push_back(percentile(v, 50));
       gpu95.segments.push_back(percentile(v, 95));
     }
-    body += html::stackedBars("Texture-field passes per new mesh (GPU timestamps)", passes, {gpu50, gpu95}, "ms");
+    body += html::stackedBars("Texture-field passes per new mesh (GPU timestamps)", passes,
+                              {gpu50, gpu95}, "ms");
   }
   double pod_bytes = 0, client_bytes = 0, feather_bytes = 0;
   for (const auto& f : frames_) {
@@ -310,20 +327,23 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
         std::snprintf(text, sizeof(text), db ? "%.2f dB" : "%.4f", v);
         return std::string(text);
       };
-      rows.push_back({db ? "PSNR" : "SSIM", cell(q.mean), cell(q.p50), cell(q.worst), std::to_string(q.frames)});
+      rows.push_back({db ? "PSNR" : "SSIM", cell(q.mean), cell(q.p50), cell(q.worst),
+                      std::to_string(q.frames)});
     }
     body +=
-        "<h2>Quality against the truth</h2>\n<p>Each written frame against the synthetic scene's true image "
+        "<h2>Quality against the truth</h2>\n<p>Each written frame against the synthetic scene's "
+        "true image "
         "from the same view, inside its true mask. Judging took " +
         format(percentile(judge_ms_, 50), " ms") +
         " per frame (p50), after the frame was written and before the next.</p>\n" +
         html::table({"measure", "mean", "p50", "worst", "frames"}, rows);
   }
   const double n = std::max<double>(1.0, static_cast<double>(frames_.size()));
-  body += html::barChart("Bytes per frame by link", {"pods -> server", "server -> client", "of which feather maps"},
-                         {{"KB per frame",
-                           {pod_bytes / n / 1000.0, client_bytes / n / 1000.0, feather_bytes / n / 1000.0}}},
-                         "KB");
+  body += html::barChart(
+      "Bytes per frame by link", {"pods -> server", "server -> client", "of which feather maps"},
+      {{"KB per frame",
+        {pod_bytes / n / 1000.0, client_bytes / n / 1000.0, feather_bytes / n / 1000.0}}},
+      "KB");
   const auto jitter = podJitterMs();
   if (!jitter.empty()) {
     std::vector<std::string> pods;
@@ -332,22 +352,26 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
       pods.push_back("pod " + std::to_string(pod));
       series.values.push_back(ms);
     }
-    body += html::barChart(jitterFromServer() ? "Arrival jitter per pod (at the server, every frame)"
-                                              : "Arrival jitter per pod (frames behind rendered meshes)",
+    body += html::barChart(jitterFromServer()
+                               ? "Arrival jitter per pod (at the server, every frame)"
+                               : "Arrival jitter per pod (frames behind rendered meshes)",
                            pods, {series}, "ms");
   }
   if (!budget.empty()) {
     std::vector<std::vector<std::string>> rows;
     for (const auto& [name, ms] : budget) {
       if (!stageMeasured(name)) {
-        rows.push_back({name, format(ms, " ms"), "n/a", "n/a", "not measured: no sample in this run"});
+        rows.push_back(
+            {name, format(ms, " ms"), "n/a", "n/a", "not measured: no sample in this run"});
         continue;
       }
       const double p95_ms = stagePercentile(name, 95);
-      rows.push_back({(p95_ms > ms ? "!" : "") + name, format(ms, " ms"), format(stagePercentile(name, 50), " ms"),
-                      format(p95_ms, " ms"), p95_ms > ms ? "OVER" : "within"});
+      rows.push_back({(p95_ms > ms ? "!" : "") + name, format(ms, " ms"),
+                      format(stagePercentile(name, 50), " ms"), format(p95_ms, " ms"),
+                      p95_ms > ms ? "OVER" : "within"});
     }
-    body += "<h2>Budget</h2>\n" + html::table({"stage", "budget", "p50", "p95", "p95 against budget"}, rows);
+    body += "<h2>Budget</h2>\n" +
+            html::table({"stage", "budget", "p50", "p95", "p95 against budget"}, rows);
   }
   return html::page("holofuse live loop report", body);
 }

@@ -19,12 +19,14 @@ int main(int argc, char** argv) {
   CLI::App app{"holofuse render_client: renders the fused stream to PNG frames"};
   app.add_option("--server", server, "fusion server HOST:PORT");
   app.add_option("--out", options.out_dir, "output folder (frames/ and report.json)");
-  app.add_option("--frames", options.frames, "stop after this many rendered frames (0: until signalled)");
+  app.add_option("--frames", options.frames,
+                 "stop after this many rendered frames (0: until signalled)");
   app.add_flag("--exit-when-server-leaves", options.exit_when_server_leaves,
                "finish when the server says goodbye (the end of a replay)");
   app.add_option("--size", size, "output size WxH");
   app.add_option("--view", options.view, "user camera: orbit, or pod:N to sit at pod camera N");
-  app.add_option("--orbit-speed", options.orbit_degrees_per_frame, "orbit degrees per rendered frame");
+  app.add_option("--orbit-speed", options.orbit_degrees_per_frame,
+                 "orbit degrees per rendered frame");
   app.add_option("--jump-degrees", options.jump_degrees,
                  "turn the view this many degrees around the pods' ring at once, at --jump-at")
       ->check(CLI::Range(-360.0, 360.0));
@@ -33,11 +35,13 @@ int main(int argc, char** argv) {
   app.add_option("--mode", mode, "blending mode")->check(CLI::IsMember(render::blendModeNames()));
   addSharedFlag(app, "--alpha", options.blend.alpha);
   addSharedFlag(app, "--lambda", options.blend.lambda);
-  app.add_option("--depth-tolerance", options.blend.depth_tolerance, "occlusion test tolerance, metres")
+  app.add_option("--depth-tolerance", options.blend.depth_tolerance,
+                 "occlusion test tolerance, metres")
       ->check(CLI::Range(0.0, 10.0));
   addSharedFlag(app, "--dilation", options.blend.fields.dilation_px);
   addSharedFlag(app, "--geodesic-radius", options.blend.fields.geodesic_radius);
-  static_assert(render::kMaxGeodesicRings == 64, "the range of --geodesic-rings in common/command_line.h");
+  static_assert(render::kMaxGeodesicRings == 64,
+                "the range of --geodesic-rings in common/command_line.h");
   addSharedFlag(app, "--geodesic-rings", options.blend.fields.geodesic_rings);
   addSharedFlag(app, "--geodesic-passes", options.blend.fields.geodesic_iterations);
   addSharedFlag(app, "--vote-delta", options.blend.fields.vote_delta);
@@ -47,26 +51,32 @@ int main(int argc, char** argv) {
   addSharedFlag(app, "--fragment-test", fragment_test);
   std::string vertex_precision = "fp32";
   addSharedFlag(app, "--vertex-precision", vertex_precision);
-  app.add_option("--exclude-camera", options.exclude_camera, "leave this pod camera out of the blend");
-  app.add_option("--device", options.device, "Vulkan device: index or part of its name (default: a GPU if any)");
+  app.add_option("--exclude-camera", options.exclude_camera,
+                 "leave this pod camera out of the blend");
+  app.add_option("--device", options.device,
+                 "Vulkan device: index or part of its name (default: a GPU if any)");
   app.add_option("--client-id", options.client_id, "this client's id");
   app.add_flag("--list-devices", list_devices, "print the Vulkan devices and exit");
   std::string budget_file;
-  app.add_option("--budget", budget_file, "JSON of per-stage ms budgets (stage names of report.json, end_to_end)");
+  app.add_option("--budget", budget_file,
+                 "JSON of per-stage ms budgets (stage names of report.json, end_to_end)");
   std::string truth_scene;
-  CLI::Option* truth_scene_option =
-      app.add_option("--truth-scene", truth_scene,
-                     "the synthetic scene the pods render: judge each written frame against its true image from the "
-                     "same view (PSNR, SSIM in report.json and report.html); costs client time after each frame");
+  CLI::Option* truth_scene_option = app.add_option(
+      "--truth-scene", truth_scene,
+      "the synthetic scene the pods render: judge each written frame against its true image from "
+      "the "
+      "same view (PSNR, SSIM in report.json and report.html); costs client time after each frame");
   double truth_fps = capture::PodOptions{}.fps;
-  app.add_option("--truth-fps", truth_fps, "with --truth-scene: the pods' --fps (their frame ids' clock)")
+  app.add_option("--truth-fps", truth_fps,
+                 "with --truth-scene: the pods' --fps (their frame ids' clock)")
       ->check(CLI::Range(0.1, 240.0))
       ->needs(truth_scene_option);
   // The pods' own flags of the same names change what they render; the
   // truth must change with them.
   std::optional<uint64_t> truth_seed;
   std::optional<double> truth_noise;
-  app.add_option("--truth-seed", truth_seed, "with --truth-scene: the pods' --seed (their motion and texture)")
+  app.add_option("--truth-seed", truth_seed,
+                 "with --truth-scene: the pods' --seed (their motion and texture)")
       ->needs(truth_scene_option);
   app.add_option("--truth-noise", truth_noise, "with --truth-scene: the pods' --noise, grey levels")
       ->check(sharedFlag("--noise").check())
@@ -86,8 +96,8 @@ int main(int argc, char** argv) {
     scene_options.frames_per_second = truth_fps;  // as capture_node sets it from its --fps
     if (truth_seed) scene_options.seed = *truth_seed;
     if (truth_noise) scene_options.noise_amplitude = *truth_noise;
-    options.judge = [scene = capture::SyntheticScene(scene_options)](const Image8& picture, const Camera& view,
-                                                                     uint64_t frame_id) {
+    options.judge = [scene = capture::SyntheticScene(scene_options)](
+                        const Image8& picture, const Camera& view, uint64_t frame_id) {
       const capture::RenderedView truth = scene.render(view, frame_id);
       const eval::ImageQuality q = eval::compareInMask(picture, truth.color, truth.mask);
       // Nothing of the subject in view: nothing to judge (PSNR would be the cap).
@@ -97,7 +107,8 @@ int main(int argc, char** argv) {
   if (list_devices) {
     try {
       const auto devices = render::VulkanContext::listDevices();
-      for (size_t i = 0; i < devices.size(); ++i) std::printf("%zu: %s\n", i, devices[i].name.c_str());
+      for (size_t i = 0; i < devices.size(); ++i)
+        std::printf("%zu: %s\n", i, devices[i].name.c_str());
       return 0;
     } catch (const std::exception& e) {
       std::fprintf(stderr, "%s\n", e.what());
@@ -130,8 +141,10 @@ int main(int argc, char** argv) {
   }
   if (!app.count("--jump-at")) options.jump_at_frame = options.frames > 0 ? options.frames / 2 : 30;
   if (options.jump_degrees != 0 && options.frames > 0 && options.jump_at_frame >= options.frames) {
-    std::fprintf(stderr, "--jump-at %llu: past the last of --frames %llu, the jump would never show\n",
-                 static_cast<unsigned long long>(options.jump_at_frame), static_cast<unsigned long long>(options.frames));
+    std::fprintf(stderr,
+                 "--jump-at %llu: past the last of --frames %llu, the jump would never show\n",
+                 static_cast<unsigned long long>(options.jump_at_frame),
+                 static_cast<unsigned long long>(options.frames));
     return 2;
   }
   options.width = w;

@@ -1,8 +1,8 @@
 #include "render_client/renderer.h"
 
 #include <array>
-#include <cstddef>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <cstring>
 #include <glm/gtc/packing.hpp>
@@ -32,8 +32,9 @@ struct BlendUniforms {
   glm::vec4 hole_color;
   glm::vec4 user_eye;
   glm::vec4 temporal;  // x: lambda of this frame, y: half holding the previous field
-  glm::vec4 fragment_test;  // relative and absolute depth tolerance, feather width, 1 for the field modes
-  glm::vec4 view_weight;    // x: beta
+  glm::vec4
+      fragment_test;  // relative and absolute depth tolerance, feather width, 1 for the field modes
+  glm::vec4 view_weight;  // x: beta
 };
 static_assert(sizeof(CameraGpu) == 112);
 static_assert(offsetof(BlendUniforms, counts) == 112 * HOLOFUSE_MAX_CAMERAS);
@@ -43,10 +44,12 @@ static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 112);
 
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 // Geodesic worklists are cleared by transfer commands every mesh.
-constexpr VkBufferUsageFlags kWorklistUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+constexpr VkBufferUsageFlags kWorklistUsage =
+    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
 // The vertices are read as a storage buffer by every stage (shaders/vertices.glsl).
 constexpr VkBufferUsageFlags kVertexUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
-constexpr VkBufferUsageFlags kIndexUsage = VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+constexpr VkBufferUsageFlags kIndexUsage =
+    VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
 constexpr uint32_t kImageMipLevels = 4;  // the vote searches at most this many
 
 VkRenderPass createPass(VkDevice device, VkFormat color_format, VkImageLayout color_final) {
@@ -98,8 +101,8 @@ VkRenderPass createPass(VkDevice device, VkFormat color_format, VkImageLayout co
   return pass;
 }
 
-VkFramebuffer createFramebuffer(VkDevice device, VkRenderPass pass, VkImageView color, VkImageView depth, uint32_t w,
-                                uint32_t h) {
+VkFramebuffer createFramebuffer(VkDevice device, VkRenderPass pass, VkImageView color,
+                                VkImageView depth, uint32_t w, uint32_t h) {
   VkImageView views[2] = {color, depth};
   VkFramebufferCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
@@ -114,8 +117,9 @@ VkFramebuffer createFramebuffer(VkDevice device, VkRenderPass pass, VkImageView 
   return fb;
 }
 
-VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayout layout, const uint32_t* vs,
-                          size_t vs_bytes, const uint32_t* fs, size_t fs_bytes) {
+VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayout layout,
+                          const uint32_t* vs, size_t vs_bytes, const uint32_t* fs,
+                          size_t fs_bytes) {
   VkShaderModule vert = ctx.createShader(vs, vs_bytes);
   VkShaderModule frag = ctx.createShader(fs, fs_bytes);
   std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
@@ -153,13 +157,14 @@ VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayou
   depth.depthWriteEnable = VK_TRUE;
   depth.depthCompareOp = VK_COMPARE_OP_LESS;
   VkPipelineColorBlendAttachmentState blend_attachment{};
-  blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
-                                    VK_COLOR_COMPONENT_A_BIT;
+  blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                    VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
   VkPipelineColorBlendStateCreateInfo blend{};
   blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
   blend.attachmentCount = 1;
   blend.pAttachments = &blend_attachment;
-  std::array<VkDynamicState, 2> dynamic_states = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  std::array<VkDynamicState, 2> dynamic_states = {VK_DYNAMIC_STATE_VIEWPORT,
+                                                  VK_DYNAMIC_STATE_SCISSOR};
   VkPipelineDynamicStateCreateInfo dynamic{};
   dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
   dynamic.dynamicStateCount = static_cast<uint32_t>(dynamic_states.size());
@@ -179,7 +184,8 @@ VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayou
   info.layout = layout;
   info.renderPass = pass;
   VkPipeline pipeline;
-  HOLOFUSE_VK_CHECK(vkCreateGraphicsPipelines(ctx.device(), VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
+  HOLOFUSE_VK_CHECK(
+      vkCreateGraphicsPipelines(ctx.device(), VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
   vkDestroyShaderModule(ctx.device(), vert, nullptr);
   vkDestroyShaderModule(ctx.device(), frag, nullptr);
   return pipeline;
@@ -210,10 +216,12 @@ glm::mat4 worldToClip(const Camera& c, double n, double f) {
   return glm::mat4(projection * view);
 }
 
-std::pair<double, double> depthRange(const Camera& camera, const glm::dvec3& lo, const glm::dvec3& hi) {
+std::pair<double, double> depthRange(const Camera& camera, const glm::dvec3& lo,
+                                     const glm::dvec3& hi) {
   double z_min = std::numeric_limits<double>::max(), z_max = 0.0;
   for (int corner = 0; corner < 8; ++corner) {
-    const glm::dvec3 p((corner & 1) ? hi.x : lo.x, (corner & 2) ? hi.y : lo.y, (corner & 4) ? hi.z : lo.z);
+    const glm::dvec3 p((corner & 1) ? hi.x : lo.x, (corner & 2) ? hi.y : lo.y,
+                       (corner & 4) ? hi.z : lo.z);
     const double z = camera.toCamera(p).z;
     if (!std::isfinite(z)) continue;
     z_min = std::min(z_min, z);
@@ -240,21 +248,25 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   color_ = ctx_.createImage(width, height, 1, VK_FORMAT_R8G8B8A8_UNORM,
                             VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                             VK_IMAGE_ASPECT_COLOR_BIT, false);
-  depth_ = ctx_.createImage(width, height, 1, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                            VK_IMAGE_ASPECT_DEPTH_BIT, false);
-  output_framebuffer_ = createFramebuffer(ctx_.device(), blend_pass_, color_.view, depth_.view, width, height);
+  depth_ =
+      ctx_.createImage(width, height, 1, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                       VK_IMAGE_ASPECT_DEPTH_BIT, false);
+  output_framebuffer_ =
+      createFramebuffer(ctx_.device(), blend_pass_, color_.view, depth_.view, width, height);
   readback_ = ctx_.createBuffer(VkDeviceSize{width} * height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   uniforms_ = ctx_.createBuffer(sizeof(BlendUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
   // Every binding of the shared set must hold a buffer before the first
   // descriptor write: start small, grow with the mesh.
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
-  for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &adjacency_, &rings_, &distances_,
-                    &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_, &sight_bits_}) {
+  for (Buffer* b :
+       {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &adjacency_, &rings_,
+        &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_, &sight_bits_}) {
     *b = ctx_.createBuffer(16, usageOf(*b));
   }
-  visible_counts_ = ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
-                                      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  visible_counts_ =
+      ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
+                        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
 }
 
 Renderer::~Renderer() {
@@ -268,8 +280,9 @@ Renderer::~Renderer() {
   ctx_.destroy(depth_);
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
-  for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &visible_counts_, &adjacency_, &rings_,
-                    &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_, &sight_bits_}) {
+  for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &visible_counts_,
+                    &adjacency_, &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_,
+                    &worklist_counts_, &sight_bits_}) {
     ctx_.destroy(*b);
   }
   field_passes_pipelines_.reset();
@@ -299,8 +312,10 @@ void Renderer::createPipelines() {
   set_info.pBindings = bindings.data();
   HOLOFUSE_VK_CHECK(vkCreateDescriptorSetLayout(d, &set_info, nullptr, &set_layout_));
 
-  std::array<VkPushConstantRange, 2> push = {VkPushConstantRange{VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(glm::mat4)},
-                                             VkPushConstantRange{VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(ComputePush)}};
+  std::array<VkPushConstantRange, 2> push = {
+      VkPushConstantRange{VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(glm::mat4)},
+      VkPushConstantRange{VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET,
+                          sizeof(ComputePush)}};
   VkPipelineLayoutCreateInfo layout_info{};
   layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
   layout_info.pPushConstantRanges = push.data();
@@ -310,12 +325,14 @@ void Renderer::createPipelines() {
   HOLOFUSE_VK_CHECK(vkCreatePipelineLayout(d, &layout_info, nullptr, &blend_layout_));
   field_passes_pipelines_ = std::make_unique<TextureFieldPasses>(ctx_, blend_layout_);
 
-  blend_pipeline_ = createPipeline(ctx_, blend_pass_, blend_layout_, k_blend_vert_spv, sizeof(k_blend_vert_spv),
-                                   k_blend_frag_spv, sizeof(k_blend_frag_spv));
+  blend_pipeline_ =
+      createPipeline(ctx_, blend_pass_, blend_layout_, k_blend_vert_spv, sizeof(k_blend_vert_spv),
+                     k_blend_frag_spv, sizeof(k_blend_frag_spv));
 
-  std::array<VkDescriptorPoolSize, 3> sizes = {VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
-                                               VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, HOLOFUSE_BINDING_COUNT - 3}};
+  std::array<VkDescriptorPoolSize, 3> sizes = {
+      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
+      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, HOLOFUSE_BINDING_COUNT - 3}};
   VkDescriptorPoolCreateInfo pool_info{};
   pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
   pool_info.maxSets = 1;
@@ -349,7 +366,9 @@ void Renderer::destroyViewResources() {
 }
 
 void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
-  if (images_.image != VK_NULL_HANDLE && images_.width == w && images_.height == h && images_.layers == count) return;
+  if (images_.image != VK_NULL_HANDLE && images_.width == w && images_.height == h &&
+      images_.layers == count)
+    return;
   vkDeviceWaitIdle(ctx_.device());
   destroyViewResources();
   // Mips for the majority vote's coarse-to-fine search.
@@ -360,16 +379,18 @@ void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
                                  VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                              VK_IMAGE_ASPECT_COLOR_BIT, true, levels);
   feathers_ = ctx_.createImage(w, h, count, VK_FORMAT_R8_UNORM,
-                               VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, VK_IMAGE_ASPECT_COLOR_BIT,
-                               true, 1);
-  depth_maps_ = ctx_.createBuffer(VkDeviceSize{w} * h * count * 4,
-                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+                               VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                               VK_IMAGE_ASPECT_COLOR_BIT, true, 1);
+  depth_maps_ =
+      ctx_.createBuffer(VkDeviceSize{w} * h * count * 4,
+                        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   // RGBA of every layer, then every layer's feather map.
   staging_ = ctx_.createBuffer(VkDeviceSize{w} * h * 5 * count, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
   writeDescriptors();
   // A frame drawn before any mesh reads maps of "no surface".
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
-    field_passes_pipelines_->recordDepthMaps(cmd, descriptor_set_, 0, count, w, h, depth_maps_.buffer);
+    field_passes_pipelines_->recordDepthMaps(cmd, descriptor_set_, 0, count, w, h,
+                                             depth_maps_.buffer);
   });
 }
 
@@ -390,7 +411,8 @@ void Renderer::setMesh(const Mesh& mesh) {
     const glm::vec3& p = mesh.positions[v];
     if (!(std::abs(p.x) <= kHalfMax && std::abs(p.y) <= kHalfMax && std::abs(p.z) <= kHalfMax)) {
       char text[160];
-      std::snprintf(text, sizeof(text), "vertex %zu at (%g, %g, %g) is outside half precision's range (|x| <= 65504)",
+      std::snprintf(text, sizeof(text),
+                    "vertex %zu at (%g, %g, %g) is outside half precision's range (|x| <= 65504)",
                     v, p.x, p.y, p.z);
       throw std::invalid_argument(text);
     }
@@ -405,7 +427,8 @@ void Renderer::setMesh(const Mesh& mesh) {
 }
 
 void Renderer::uploadMesh(const Mesh& mesh, bool half) {
-  const VkDeviceSize vertex_bytes = std::max<VkDeviceSize>(mesh.positions.size() * (half ? 12 : 24), 24);
+  const VkDeviceSize vertex_bytes =
+      std::max<VkDeviceSize>(mesh.positions.size() * (half ? 12 : 24), 24);
   const VkDeviceSize index_bytes = std::max<VkDeviceSize>(mesh.indices.size() * 4, 4);
   if (vertex_buffer_.size < vertex_bytes) {
     vkDeviceWaitIdle(ctx_.device());
@@ -426,9 +449,11 @@ void Renderer::uploadMesh(const Mesh& mesh, bool half) {
   auto* words = static_cast<uint32_t*>(vertex_buffer_.mapped);
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     const glm::vec3 n = i < mesh.normals.size() ? mesh.normals[i] : glm::vec3(0.0f);
-    const float values[6] = {mesh.positions[i].x, mesh.positions[i].y, mesh.positions[i].z, n.x, n.y, n.z};
+    const float values[6] = {
+        mesh.positions[i].x, mesh.positions[i].y, mesh.positions[i].z, n.x, n.y, n.z};
     if (uploaded_half_) {
-      for (size_t k = 0; k < 3; ++k) words[i * 3 + k] = glm::packHalf2x16(glm::vec2(values[2 * k], values[2 * k + 1]));
+      for (size_t k = 0; k < 3; ++k)
+        words[i * 3 + k] = glm::packHalf2x16(glm::vec2(values[2 * k], values[2 * k + 1]));
     } else {
       std::memcpy(words + i * 6, values, sizeof(values));
     }
@@ -454,7 +479,8 @@ void Renderer::uploadMesh(const Mesh& mesh, bool half) {
   for (uint32_t v = 0; v < vertex_count_; ++v) adjacency_data_[v + 1] += adjacency_data_[v];
   std::vector<uint32_t> fill(adjacency_data_.begin(), adjacency_data_.begin() + vertex_count_);
   for (uint32_t t = 0; t < triangle_count_; ++t) {
-    for (int k = 0; k < 3; ++k) adjacency_data_[vertex_count_ + 1 + fill[mesh.indices[3 * t + k]]++] = t;
+    for (int k = 0; k < 3; ++k)
+      adjacency_data_[vertex_count_ + 1 + fill[mesh.indices[3 * t + k]]++] = t;
   }
   fan_data_ = geodesicFans(mesh, adjacency_data_);
   depth_maps_stale_ = true;
@@ -472,24 +498,30 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
   if (views.size() > HOLOFUSE_MAX_CAMERAS) throw std::invalid_argument("more than 16 cameras");
   const uint32_t w = views[0].camera.width, h = views[0].camera.height;
   for (const auto& view : views) {
-    if (view.camera.width != w || view.camera.height != h || view.color.width != w || view.color.height != h ||
-        view.mask.width != w || view.mask.height != h || view.color.channels != 3 || view.mask.channels != 1) {
-      throw std::invalid_argument("camera " + std::to_string(view.camera.id) + " images do not match " +
-                                  std::to_string(w) + "x" + std::to_string(h));
+    if (view.camera.width != w || view.camera.height != h || view.color.width != w ||
+        view.color.height != h || view.mask.width != w || view.mask.height != h ||
+        view.color.channels != 3 || view.mask.channels != 1) {
+      throw std::invalid_argument("camera " + std::to_string(view.camera.id) +
+                                  " images do not match " + std::to_string(w) + "x" +
+                                  std::to_string(h));
     }
     const bool feather_sent = !view.feather.pixels.empty();
-    if (feather_sent && (view.feather.width != w || view.feather.height != h || view.feather.channels != 1)) {
-      throw std::invalid_argument("camera " + std::to_string(view.camera.id) + " feather map is not " +
-                                  std::to_string(w) + "x" + std::to_string(h) + " grey");
+    if (feather_sent &&
+        (view.feather.width != w || view.feather.height != h || view.feather.channels != 1)) {
+      throw std::invalid_argument("camera " + std::to_string(view.camera.id) +
+                                  " feather map is not " + std::to_string(w) + "x" +
+                                  std::to_string(h) + " grey");
     }
   }
   subject_seen_.clear();
   view_cameras_.clear();
   for (const auto& view : views) {
     view_cameras_.push_back(view.camera);
-    subject_seen_.push_back(std::any_of(view.mask.pixels.begin(), view.mask.pixels.end(), [](uint8_t m) { return m != 0; }));
+    subject_seen_.push_back(std::any_of(view.mask.pixels.begin(), view.mask.pixels.end(),
+                                        [](uint8_t m) { return m != 0; }));
   }
-  const bool any_seen = std::find(subject_seen_.begin(), subject_seen_.end(), true) != subject_seen_.end();
+  const bool any_seen =
+      std::find(subject_seen_.begin(), subject_seen_.end(), true) != subject_seen_.end();
   std::vector<uint32_t> active;
   for (uint32_t i = 0; i < views.size(); ++i) {
     if (subject_seen_[i] || !any_seen) active.push_back(i);
@@ -529,18 +561,22 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
                     VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
     VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, static_cast<uint32_t>(active_.size())};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0,
+                               static_cast<uint32_t>(active_.size())};
     region.imageExtent = {w, h, 1};
-    vkCmdCopyBufferToImage(cmd, staging_.buffer, images_.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    vkCmdCopyBufferToImage(cmd, staging_.buffer, images_.image,
+                           VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
     generateMips(cmd);
     transitionImage(cmd, feathers_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
                     VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
     region.bufferOffset = VkDeviceSize{pixels} * 4 * active_.size();
-    vkCmdCopyBufferToImage(cmd, staging_.buffer, feathers_.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    vkCmdCopyBufferToImage(cmd, staging_.buffer, feathers_.image,
+                           VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
     transitionImage(cmd, feathers_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
-                    VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT,
+                    VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                    VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
   });
   // Depth maps depend on the camera poses as well as the mesh.
   depth_maps_stale_ = true;
@@ -553,8 +589,9 @@ void Renderer::generateMips(VkCommandBuffer cmd) {
   int32_t w = static_cast<int32_t>(images_.width), h = static_cast<int32_t>(images_.height);
   for (uint32_t level = 1; level < images_.mip_levels; ++level) {
     transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                    VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
-                    VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, level - 1, 1);
+                    VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT,
+                    VK_ACCESS_TRANSFER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                    VK_PIPELINE_STAGE_TRANSFER_BIT, level - 1, 1);
     VkImageBlit blit{};
     blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level - 1, 0, images_.layers};
     blit.srcOffsets[1] = {w, h, 1};
@@ -565,20 +602,24 @@ void Renderer::generateMips(VkCommandBuffer cmd) {
     vkCmdBlitImage(cmd, images_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, images_.image,
                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &blit, VK_FILTER_LINEAR);
     transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_READ_BIT, VK_ACCESS_SHADER_READ_BIT,
-                    VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, level - 1, 1);
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_READ_BIT,
+                    VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                    VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, level - 1, 1);
   }
   transitionImage(cmd, images_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
-                  VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, images_.mip_levels - 1, 1);
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT,
+                  VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                  VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, images_.mip_levels - 1, 1);
 }
 
 void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
-  const VkDeviceSize per_vertex = VkDeviceSize{std::max(vertex_count_, 1u)} * std::max(images_.layers, 1u) * 4;
+  const VkDeviceSize per_vertex =
+      VkDeviceSize{std::max(vertex_count_, 1u)} * std::max(images_.layers, 1u) * 4;
   const VkDeviceSize weights = VkDeviceSize{std::max(vertex_count_, 1u)} * HOLOFUSE_MAX_CAMERAS * 4;
   bool changed = false;
   const VkDeviceSize one_per_vertex = VkDeviceSize{std::max(vertex_count_, 1u)} * 4;
-  const VkDeviceSize rule_bits = VkDeviceSize{std::max(triangle_count_, 1u)} * 8;  // seams: a uvec2 per triangle
+  const VkDeviceSize rule_bits =
+      VkDeviceSize{std::max(triangle_count_, 1u)} * 8;  // seams: a uvec2 per triangle
   for (auto [buffer, size] : {std::pair{&discontinuities_, one_per_vertex},
                               {&sight_bits_, 2 * one_per_vertex},
                               {&sights_, per_vertex},
@@ -604,28 +645,30 @@ void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
 void Renderer::writeDescriptors() {
   vkDeviceWaitIdle(ctx_.device());
   VkDescriptorBufferInfo ubo{uniforms_.buffer, 0, sizeof(BlendUniforms)};
-  VkDescriptorImageInfo image_info{linear_sampler_, images_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  VkDescriptorImageInfo feather_info{linear_sampler_, feathers_.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo image_info{linear_sampler_, images_.view,
+                                   VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo feather_info{linear_sampler_, feathers_.view,
+                                     VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   // Storage buffers in binding order from HOLOFUSE_BINDING_VERTICES to
   // the sight bits.
-  std::array<VkDescriptorBufferInfo, HOLOFUSE_BINDING_SIGHT_BITS + 1 - HOLOFUSE_BINDING_VERTICES> storage = {
-      VkDescriptorBufferInfo{vertex_buffer_.buffer, 0, VK_WHOLE_SIZE},
-      {discontinuities_.buffer, 0, VK_WHOLE_SIZE},
-      {sights_.buffer, 0, VK_WHOLE_SIZE},
-      {trusted_.buffer, 0, VK_WHOLE_SIZE},
-      {weights_.buffer, 0, VK_WHOLE_SIZE},
-      {index_buffer_.buffer, 0, VK_WHOLE_SIZE},
-      {seams_.buffer, 0, VK_WHOLE_SIZE},
-      {visible_counts_.buffer, 0, VK_WHOLE_SIZE},
-      {adjacency_.buffer, 0, VK_WHOLE_SIZE},
-      {rings_.buffer, 0, VK_WHOLE_SIZE},
-      {distances_.buffer, 0, VK_WHOLE_SIZE},
-      {temporal_.buffer, 0, VK_WHOLE_SIZE},
-      {carry_.buffer, 0, VK_WHOLE_SIZE},
-      {fans_.buffer, 0, VK_WHOLE_SIZE},
-      {worklist_.buffer, 0, VK_WHOLE_SIZE},
-      {worklist_counts_.buffer, 0, VK_WHOLE_SIZE},
-      {sight_bits_.buffer, 0, VK_WHOLE_SIZE}};
+  std::array<VkDescriptorBufferInfo, HOLOFUSE_BINDING_SIGHT_BITS + 1 - HOLOFUSE_BINDING_VERTICES>
+      storage = {VkDescriptorBufferInfo{vertex_buffer_.buffer, 0, VK_WHOLE_SIZE},
+                 {discontinuities_.buffer, 0, VK_WHOLE_SIZE},
+                 {sights_.buffer, 0, VK_WHOLE_SIZE},
+                 {trusted_.buffer, 0, VK_WHOLE_SIZE},
+                 {weights_.buffer, 0, VK_WHOLE_SIZE},
+                 {index_buffer_.buffer, 0, VK_WHOLE_SIZE},
+                 {seams_.buffer, 0, VK_WHOLE_SIZE},
+                 {visible_counts_.buffer, 0, VK_WHOLE_SIZE},
+                 {adjacency_.buffer, 0, VK_WHOLE_SIZE},
+                 {rings_.buffer, 0, VK_WHOLE_SIZE},
+                 {distances_.buffer, 0, VK_WHOLE_SIZE},
+                 {temporal_.buffer, 0, VK_WHOLE_SIZE},
+                 {carry_.buffer, 0, VK_WHOLE_SIZE},
+                 {fans_.buffer, 0, VK_WHOLE_SIZE},
+                 {worklist_.buffer, 0, VK_WHOLE_SIZE},
+                 {worklist_counts_.buffer, 0, VK_WHOLE_SIZE},
+                 {sight_bits_.buffer, 0, VK_WHOLE_SIZE}};
   std::array<VkWriteDescriptorSet, HOLOFUSE_BINDING_COUNT> writes{};
   for (uint32_t b = 0; b < writes.size(); ++b) {
     writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -646,7 +689,8 @@ void Renderer::writeDescriptors() {
   writes[HOLOFUSE_BINDING_IMAGES].pImageInfo = &image_info;
   writes[HOLOFUSE_BINDING_FEATHERS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   writes[HOLOFUSE_BINDING_FEATHERS].pImageInfo = &feather_info;
-  vkUpdateDescriptorSets(ctx_.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
+  vkUpdateDescriptorSets(ctx_.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0,
+                         nullptr);
 }
 
 FieldSnapshot Renderer::readFields() const {
@@ -655,7 +699,8 @@ FieldSnapshot Renderer::readFields() const {
   // Back to the views' indexing: a camera left out for its empty mask sees
   // every vertex on its background (or behind it, or outside its image),
   // trusts none, has no seams, no distances, no weight.
-  const size_t views = subject_seen_.size(), vertices = s.vertex_count, triangles = s.triangle_count;
+  const size_t views = subject_seen_.size(), vertices = s.vertex_count,
+               triangles = s.triangle_count;
   const size_t pixels = size_t{images_.width} * images_.height;
   FieldSnapshot out = s;
   out.camera_count = static_cast<uint32_t>(views);
@@ -673,13 +718,16 @@ FieldSnapshot Renderer::readFields() const {
     left_out[i] = false;
     std::copy_n(s.sights.begin() + j * vertices, vertices, out.sights.begin() + i * vertices);
     std::copy_n(s.trusted.begin() + j * vertices, vertices, out.trusted.begin() + i * vertices);
-    std::copy_n(s.discontinuities.begin() + j * vertices, vertices, out.discontinuities.begin() + i * vertices);
+    std::copy_n(s.discontinuities.begin() + j * vertices, vertices,
+                out.discontinuities.begin() + i * vertices);
     if (s.depth_maps.size() >= (j + 1) * pixels) {
       std::copy_n(s.depth_maps.begin() + j * pixels, pixels, out.depth_maps.begin() + i * pixels);
     }
     std::copy_n(s.seams.begin() + j * triangles, triangles, out.seams.begin() + i * triangles);
     out.visible_counts[i] = s.visible_counts[j];
-    if (!s.distances.empty()) std::copy_n(s.distances.begin() + j * vertices, vertices, out.distances.begin() + i * vertices);
+    if (!s.distances.empty())
+      std::copy_n(s.distances.begin() + j * vertices, vertices,
+                  out.distances.begin() + i * vertices);
     for (size_t v = 0; v < vertices && !s.weights.empty(); ++v) {
       out.weights[v * HOLOFUSE_MAX_CAMERAS + i] = s.weights[v * HOLOFUSE_MAX_CAMERAS + j];
     }
@@ -689,9 +737,11 @@ FieldSnapshot Renderer::readFields() const {
     for (size_t v = 0; v < vertices; ++v) {
       const glm::dvec3 p(current_surface_.positions[v]);
       const auto pixel = view_cameras_[i].project(p);
-      const bool inside = pixel && pixel->x >= 0 && pixel->y >= 0 && pixel->x < view_cameras_[i].width &&
-                          pixel->y < view_cameras_[i].height;
-      out.sights[i * vertices + v] = !pixel ? HOLOFUSE_SIGHT_BEHIND : inside ? HOLOFUSE_SIGHT_BACKGROUND : HOLOFUSE_SIGHT_OUTSIDE_IMAGE;
+      const bool inside = pixel && pixel->x >= 0 && pixel->y >= 0 &&
+                          pixel->x < view_cameras_[i].width && pixel->y < view_cameras_[i].height;
+      out.sights[i * vertices + v] = !pixel   ? HOLOFUSE_SIGHT_BEHIND
+                                     : inside ? HOLOFUSE_SIGHT_BACKGROUND
+                                              : HOLOFUSE_SIGHT_OUTSIDE_IMAGE;
     }
   }
   return out;
@@ -766,7 +816,8 @@ FieldSnapshot Renderer::readActiveFields() const {
   std::vector<float> both;
   copy(distances_, both, 2 * per_vertex);
   const size_t half = TextureFieldPasses::finalDistanceHalf(field_parameters_);
-  if (both.size() == 2 * per_vertex) s.distances.assign(both.begin() + half * per_vertex, both.begin() + (half + 1) * per_vertex);
+  if (both.size() == 2 * per_vertex)
+    s.distances.assign(both.begin() + half * per_vertex, both.begin() + (half + 1) * per_vertex);
   return s;
 }
 
@@ -774,14 +825,18 @@ void Renderer::prepareTemporal() {
   // Room for this mesh and the previous one in each half; growing keeps the
   // previous half's contents.
   const uint32_t needed =
-      std::max<uint32_t>(1, std::max<uint32_t>(vertex_count_, static_cast<uint32_t>(previous_surface_.vertexCount()))) *
+      std::max<uint32_t>(
+          1, std::max<uint32_t>(vertex_count_,
+                                static_cast<uint32_t>(previous_surface_.vertexCount()))) *
       HOLOFUSE_MAX_CAMERAS;
   if (needed > temporal_stride_) {
     const uint32_t stride = needed * 3 / 2;
-    Buffer grown = ctx_.createBuffer(VkDeviceSize{stride} * 2 * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    Buffer grown =
+        ctx_.createBuffer(VkDeviceSize{stride} * 2 * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     if (temporal_stride_ > 0) {
       std::memcpy(static_cast<float*>(grown.mapped) + temporal_half_ * stride,
-                  static_cast<const float*>(temporal_.mapped) + temporal_half_ * temporal_stride_, temporal_stride_ * 4);
+                  static_cast<const float*>(temporal_.mapped) + temporal_half_ * temporal_stride_,
+                  temporal_stride_ * 4);
     }
     vkDeviceWaitIdle(ctx_.device());
     ctx_.destroy(temporal_);
@@ -792,7 +847,8 @@ void Renderer::prepareTemporal() {
   if (carry_.size < VkDeviceSize{std::max(vertex_count_, 1u)} * 4) {
     vkDeviceWaitIdle(ctx_.device());
     ctx_.destroy(carry_);
-    carry_ = ctx_.createBuffer(VkDeviceSize{std::max(vertex_count_, 1u)} * 4 * 3 / 2, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    carry_ = ctx_.createBuffer(VkDeviceSize{std::max(vertex_count_, 1u)} * 4 * 3 / 2,
+                               VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     writeDescriptors();
     carry_is_identity_ = false;
     carry_pending_ = true;
@@ -823,8 +879,9 @@ void Renderer::drawMesh(VkCommandBuffer cmd) {
 }
 
 void Renderer::renderDepthMaps(VkCommandBuffer cmd) {
-  field_passes_pipelines_->recordDepthMaps(cmd, descriptor_set_, triangle_count_, static_cast<uint32_t>(cameras_.size()),
-                                           images_.width, images_.height, depth_maps_.buffer);
+  field_passes_pipelines_->recordDepthMaps(cmd, descriptor_set_, triangle_count_,
+                                           static_cast<uint32_t>(cameras_.size()), images_.width,
+                                           images_.height, depth_maps_.buffer);
   ++depth_map_passes_;
 }
 
@@ -832,13 +889,15 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   BlendUniforms u{};
   // z: cameras left out of the arrays for their empty masks; each adds its
   // gamma of 1 (it sees no vertex) to montage4d's sum, as in the reference.
-  u.counts = glm::ivec4(static_cast<int>(cameras_.size()), static_cast<int>(settings.mode),
-                        static_cast<int>(subject_seen_.size() - active_.size()), uploaded_half_ ? 1 : 0);
+  u.counts =
+      glm::ivec4(static_cast<int>(cameras_.size()), static_cast<int>(settings.mode),
+                 static_cast<int>(subject_seen_.size() - active_.size()), uploaded_half_ ? 1 : 0);
   u.params = glm::vec4(settings.alpha, settings.depth_tolerance, 0, 0);
   u.hole_color = glm::vec4(settings.hole_color, 1.0f);
   u.user_eye = glm::vec4(glm::vec3(user_camera.center()), 1.0f);
-  u.fragment_test = glm::vec4(settings.fields.relative_depth_tolerance, static_cast<float>(fragmentDepthSlack()),
-                              std::max(settings.feather_width_px, 0.0f), settings.fragment_test ? 1.0f : 0.0f);
+  u.fragment_test =
+      glm::vec4(settings.fields.relative_depth_tolerance, static_cast<float>(fragmentDepthSlack()),
+                std::max(settings.feather_width_px, 0.0f), settings.fragment_test ? 1.0f : 0.0f);
   u.view_weight = glm::vec4(std::max(settings.beta, 0.0f), 0.0f, 0.0f, 0.0f);
   for (size_t i = 0; i < cameras_.size(); ++i) {
     const Camera& c = cameras_[i];
@@ -863,21 +922,25 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     // The geodesic passes pack an entry's ring and nearest seam vertex in
     // one word (shaders/config.h).
     if (parameters.geodesic_rings < 0 || parameters.geodesic_rings > kMaxGeodesicRings) {
-      throw std::invalid_argument("geodesic rings k = " + std::to_string(parameters.geodesic_rings) +
-                                  " is outside 0.." + std::to_string(kMaxGeodesicRings));
+      throw std::invalid_argument(
+          "geodesic rings k = " + std::to_string(parameters.geodesic_rings) + " is outside 0.." +
+          std::to_string(kMaxGeodesicRings));
     }
     if (vertex_count_ > HOLOFUSE_MAX_FIELD_VERTICES) {
-      throw std::invalid_argument("a mesh of " + std::to_string(vertex_count_) + " vertices is over montage4d's " +
+      throw std::invalid_argument("a mesh of " + std::to_string(vertex_count_) +
+                                  " vertices is over montage4d's " +
                                   std::to_string(HOLOFUSE_MAX_FIELD_VERTICES));
     }
     parameters.geodesics = true;
     parameters.field_per_view = true;
     prepareTemporal();
-    u.temporal = glm::vec4(static_cast<float>(reference::temporalLambda(settings.lambda, settings.frame_interval_s)),
-                           static_cast<float>(temporal_half_), 0.0f, 0.0f);
+    u.temporal = glm::vec4(
+        static_cast<float>(reference::temporalLambda(settings.lambda, settings.frame_interval_s)),
+        static_cast<float>(temporal_half_), 0.0f, 0.0f);
   }
   std::memcpy(uniforms_.mapped, &u, sizeof(u));
-  const bool settings_changed = settings.camera_enabled != field_cameras_ || !(parameters == field_parameters_);
+  const bool settings_changed =
+      settings.camera_enabled != field_cameras_ || !(parameters == field_parameters_);
   const bool run_fields = want_fields && (fields_stale_ || depth_maps_stale_ || settings_changed);
   if (run_fields) ensureFieldBuffers(parameters);
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
@@ -886,16 +949,16 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     if (run_fields) {
       field_passes_pipelines_->depthMapsDone(cmd);
       field_passes_pipelines_->record(
-          cmd, descriptor_set_, vertex_count_, triangle_count_, static_cast<uint32_t>(cameras_.size()), images_.width,
-          images_.height, parameters,
+          cmd, descriptor_set_, vertex_count_, triangle_count_,
+          static_cast<uint32_t>(cameras_.size()), images_.width, images_.height, parameters,
           {visible_counts_.buffer, worklist_.buffer, worklist_counts_.buffer, seams_.buffer});
       ++field_passes_;
     }
     // (A measurement stop before stage 6, the field, skips the per-view field too.)
     if (montage && (parameters.last_stage < 0 || parameters.last_stage >= 6)) {
-      field_passes_pipelines_->recordMontage(cmd, descriptor_set_, vertex_count_, static_cast<uint32_t>(cameras_.size()),
-                                             parameters, static_cast<float>(geodesicScale(parameters)),
-                                             temporal_stride_);
+      field_passes_pipelines_->recordMontage(
+          cmd, descriptor_set_, vertex_count_, static_cast<uint32_t>(cameras_.size()), parameters,
+          static_cast<float>(geodesicScale(parameters)), temporal_stride_);
     }
     std::array<VkClearValue, 2> clears{};
     clears[0].color = {{0.0f, 0.0f, 0.0f, 0.0f}};
@@ -910,7 +973,8 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
     if (have_views) {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_pipeline_);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_layout_, 0, 1, &descriptor_set_, 0, nullptr);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_layout_, 0, 1,
+                              &descriptor_set_, 0, nullptr);
       setViewport(cmd, width_, height_);
       // The output may differ in size from the user camera's calibration:
       // scale the intrinsics to the output.
@@ -932,13 +996,14 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = {width_, height_, 1};
-    vkCmdCopyImageToBuffer(cmd, color_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback_.buffer, 1, &region);
+    vkCmdCopyImageToBuffer(cmd, color_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                           readback_.buffer, 1, &region);
     VkMemoryBarrier to_host{};
     to_host.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
     to_host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
     to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &to_host, 0, nullptr,
-                         0, nullptr);
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                         &to_host, 0, nullptr, 0, nullptr);
   });
   if (have_views) depth_maps_stale_ = false;
   if (montage) temporal_half_ ^= 1u;  // this frame's field is the next one's previous

@@ -12,7 +12,8 @@ CarryMap carryAcross(const Mesh& previous, const Mesh& next, double max_distance
   // Previous vertices by key in an open-addressed table (linear probing,
   // at most half full): a std::unordered_map cost 0.45 ms per new mesh
   // on a 6k-vertex hull, mostly allocation.
-  const bool keyed = next.vertex_keys.size() == next.vertexCount() && previous.vertex_keys.size() == previous.vertexCount() &&
+  const bool keyed = next.vertex_keys.size() == next.vertexCount() &&
+                     previous.vertex_keys.size() == previous.vertexCount() &&
                      previous.vertexCount() > 0;
   size_t slots = 1;
   while (keyed && slots < 2 * previous.vertexCount()) slots *= 2;
@@ -68,9 +69,12 @@ CarryMap carryAcross(const Mesh& previous, const Mesh& next, double max_distance
     while (countCells().x * countCells().y * countCells().z > kMaxCells) cell *= 2;
     dims = glm::ivec3(countCells());
   }
-  auto cellOf = [&](const glm::vec3& p) { return glm::ivec3(glm::floor((glm::dvec3(p) - lo) / cell)); };
+  auto cellOf = [&](const glm::vec3& p) {
+    return glm::ivec3(glm::floor((glm::dvec3(p) - lo) / cell));
+  };
   auto cellIndex = [&](const glm::ivec3& c) {
-    return (static_cast<size_t>(c.z) * static_cast<size_t>(dims.y) + static_cast<size_t>(c.y)) * static_cast<size_t>(dims.x) +
+    return (static_cast<size_t>(c.z) * static_cast<size_t>(dims.y) + static_cast<size_t>(c.y)) *
+               static_cast<size_t>(dims.x) +
            static_cast<size_t>(c.x);
   };
   std::vector<int32_t> first_in_cell, next_in_cell;
@@ -93,12 +97,15 @@ CarryMap carryAcross(const Mesh& previous, const Mesh& next, double max_distance
       int32_t found = -1;
       // Cells -1..+1 around p's, within the grid (p may lie outside it);
       // a cell whose box lies farther than the best so far is skipped.
-      const glm::ivec3 c = glm::ivec3(glm::clamp(glm::floor(from), glm::dvec3(-2.0), glm::dvec3(dims) + 1.0));
+      const glm::ivec3 c =
+          glm::ivec3(glm::clamp(glm::floor(from), glm::dvec3(-2.0), glm::dvec3(dims) + 1.0));
       auto search = [&](int x, int y, int z) {
-        const glm::dvec3 nearest_in_box = glm::clamp(from, glm::dvec3(x, y, z), glm::dvec3(x + 1, y + 1, z + 1));
+        const glm::dvec3 nearest_in_box =
+            glm::clamp(from, glm::dvec3(x, y, z), glm::dvec3(x + 1, y + 1, z + 1));
         const glm::dvec3 gap = (from - nearest_in_box) * cell;
         if (glm::dot(gap, gap) > best) return;
-        for (int32_t w = first_in_cell[cellIndex({x, y, z})]; w >= 0; w = next_in_cell[static_cast<size_t>(w)]) {
+        for (int32_t w = first_in_cell[cellIndex({x, y, z})]; w >= 0;
+             w = next_in_cell[static_cast<size_t>(w)]) {
           const glm::dvec3 d = glm::dvec3(previous.positions[w]) - glm::dvec3(p);
           const double d2 = glm::dot(d, d);
           // Ties go to the lower index: the same input, the same map.
@@ -109,7 +116,8 @@ CarryMap carryAcross(const Mesh& previous, const Mesh& next, double max_distance
         }
       };
       const glm::ivec3 own = glm::clamp(c, glm::ivec3(0), dims - 1);
-      if (own == c) search(c.x, c.y, c.z);  // p's own cell first: its best prunes most of the others
+      if (own == c)
+        search(c.x, c.y, c.z);  // p's own cell first: its best prunes most of the others
       for (int z = std::max(c.z - 1, 0); z <= std::min(c.z + 1, dims.z - 1); ++z) {
         for (int y = std::max(c.y - 1, 0); y <= std::min(c.y + 1, dims.y - 1); ++y) {
           for (int x = std::max(c.x - 1, 0); x <= std::min(c.x + 1, dims.x - 1); ++x) {
@@ -135,7 +143,8 @@ std::vector<std::vector<double>> carryField(const std::vector<std::vector<double
   for (size_t i = 0; i < fresh.size(); ++i) {
     for (size_t v = 0; v < map.previous.size(); ++v) {
       const int32_t p = map.previous[v];
-      const bool carried = p >= 0 && i < previous_field.size() && static_cast<size_t>(p) < previous_field[i].size();
+      const bool carried =
+          p >= 0 && i < previous_field.size() && static_cast<size_t>(p) < previous_field[i].size();
       out[i][v] = carried ? previous_field[i][p] : fresh[i][v];
     }
   }

@@ -26,7 +26,8 @@ void computeBarrier(VkCommandBuffer cmd, VkPipelineStageFlags dst_stage, VkAcces
   barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
   barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
   barrier.dstAccessMask = dst_access;
-  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, dst_stage, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, dst_stage, 0, 1, &barrier, 0,
+                       nullptr, 0, nullptr);
 }
 
 // Buffers cleared or filled by transfer commands, then used by compute.
@@ -35,10 +36,11 @@ void clearedBarrier(VkCommandBuffer cmd) {
   cleared.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
   cleared.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
   // The geodesic counts are also indirect dispatch arguments.
-  cleared.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT;
+  cleared.dstAccessMask =
+      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT;
   vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT, 0, 1, &cleared, 0,
-                       nullptr, 0, nullptr);
+                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+                       0, 1, &cleared, 0, nullptr, 0, nullptr);
 }
 
 uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size; }
@@ -52,7 +54,8 @@ std::vector<GeodesicFan> geodesicFans(const Mesh& mesh, const std::vector<uint32
   for (uint32_t c = 0; c < vertex_count; ++c) {
     for (uint32_t k = adjacency[c]; k < adjacency[c + 1]; ++k) {
       const uint32_t t = adjacency[vertex_count + 1 + k];
-      const uint32_t i0 = mesh.indices[3 * t], i1 = mesh.indices[3 * t + 1], i2 = mesh.indices[3 * t + 2];
+      const uint32_t i0 = mesh.indices[3 * t], i1 = mesh.indices[3 * t + 1],
+                     i2 = mesh.indices[3 * t + 2];
       GeodesicFan& f = fans[k];
       f.a = i0 == c ? i1 : (i1 == c ? i2 : i0);
       f.b = i0 == c ? i2 : (i1 == c ? i0 : i1);
@@ -94,13 +97,19 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
 }
 
 const std::vector<std::string>& TextureFieldPasses::stageNames() {
-  static const std::vector<std::string> kNames = {
-      "depth_maps", "discontinuities", "visibility", "voting", "seams_and_global_visibility", "geodesics", "field"};
+  static const std::vector<std::string> kNames = {"depth_maps",
+                                                  "discontinuities",
+                                                  "visibility",
+                                                  "voting",
+                                                  "seams_and_global_visibility",
+                                                  "geodesics",
+                                                  "field"};
   return kNames;
 }
 
-void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
-                                       uint32_t camera_count, const FieldParameters& parameters, float geodesic_scale,
+void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set,
+                                       uint32_t vertex_count, uint32_t camera_count,
+                                       const FieldParameters& parameters, float geodesic_scale,
                                        uint32_t temporal_stride) {
   ComputePush push{};
   push.vertex_count = vertex_count;
@@ -111,17 +120,22 @@ void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set,
   push.temporal_stride = temporal_stride;
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, montage_);
-  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET,
+                     sizeof(push), &push);
   // Repeated for measurement as stage 6 (FieldParameters::repeated_stage):
   // the pass reads the previous half and writes the current one, so every
   // repeat writes the same values.
   const int repeats = parameters.repeated_stage == 6 ? std::max(1, parameters.stage_repeats) : 1;
   for (int r = 0; r < repeats; ++r) {
     if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
-    computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
+    computeBarrier(
+        cmd,
+        VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT |
+            VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
   }
-  if (field_stamp_pending_) stamp(cmd, 7);  // this command buffer ran the per-mesh passes: the field is stage 6
+  if (field_stamp_pending_)
+    stamp(cmd, 7);  // this command buffer ran the per-mesh passes: the field is stage 6
   field_stamp_pending_ = false;
 }
 
@@ -132,8 +146,9 @@ void TextureFieldPasses::beginTiming(VkCommandBuffer cmd) {
 
 void TextureFieldPasses::depthMapsDone(VkCommandBuffer cmd) { stamp(cmd, 1); }
 
-void TextureFieldPasses::recordDepthMaps(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t triangle_count,
-                                         uint32_t camera_count, uint32_t width, uint32_t height, VkBuffer depth_maps) {
+void TextureFieldPasses::recordDepthMaps(VkCommandBuffer cmd, VkDescriptorSet set,
+                                         uint32_t triangle_count, uint32_t camera_count,
+                                         uint32_t width, uint32_t height, VkBuffer depth_maps) {
   const float far_depth = HOLOFUSE_NO_DEPTH;
   uint32_t far_bits;
   std::memcpy(&far_bits, &far_depth, 4);
@@ -146,7 +161,8 @@ void TextureFieldPasses::recordDepthMaps(VkCommandBuffer cmd, VkDescriptorSet se
   push.triangle_count = triangle_count;
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, depth_raster_);
-  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET,
+                     sizeof(push), &push);
   if (triangle_count > 0 && camera_count > 0) {
     vkCmdDispatch(cmd, groups(triangle_count, HOLOFUSE_VERTEX_GROUP), camera_count, 1);
   }
@@ -162,22 +178,24 @@ void TextureFieldPasses::stamp(VkCommandBuffer cmd, uint32_t index) {
 std::vector<double> TextureFieldPasses::lastTimesMs() const {
   if (!recorded_) return {};
   uint64_t ticks[kStamps] = {};
-  if (vkGetQueryPoolResults(ctx_.device(), queries_, 0, kStamps, sizeof(ticks), ticks, sizeof(uint64_t),
-                            VK_QUERY_RESULT_64_BIT) != VK_SUCCESS) {
+  if (vkGetQueryPoolResults(ctx_.device(), queries_, 0, kStamps, sizeof(ticks), ticks,
+                            sizeof(uint64_t), VK_QUERY_RESULT_64_BIT) != VK_SUCCESS) {
     return {};
   }
   std::vector<double> ms;
   for (uint32_t k = 1; k < kStamps; ++k) {
     const std::string& stage = stageNames()[k - 1];
-    const bool absent = !geodesics_recorded_ && (stage == "seams_and_global_visibility" || stage == "geodesics");
-    ms.push_back(absent ? -1.0 : static_cast<double>(ticks[k] - ticks[k - 1]) * timestamp_period_ns_ / 1e6);
+    const bool absent =
+        !geodesics_recorded_ && (stage == "seams_and_global_visibility" || stage == "geodesics");
+    ms.push_back(
+        absent ? -1.0 : static_cast<double>(ticks[k] - ticks[k - 1]) * timestamp_period_ns_ / 1e6);
   }
   return ms;
 }
 
 TextureFieldPasses::~TextureFieldPasses() {
-  for (VkPipeline p : {depth_raster_, discontinuity_, visibility_, vote_, seams_, global_visibility_, geodesic_seed_,
-                       geodesic_distance_, montage_, field_}) {
+  for (VkPipeline p : {depth_raster_, discontinuity_, visibility_, vote_, seams_,
+                       global_visibility_, geodesic_seed_, geodesic_distance_, montage_, field_}) {
     vkDestroyPipeline(ctx_.device(), p, nullptr);
   }
   vkDestroyQueryPool(ctx_.device(), queries_, nullptr);
@@ -193,20 +211,23 @@ VkPipeline TextureFieldPasses::create(const uint32_t* code, size_t bytes) {
   info.stage.pName = "main";
   info.layout = layout_;
   VkPipeline pipeline;
-  HOLOFUSE_VK_CHECK(vkCreateComputePipelines(ctx_.device(), VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
+  HOLOFUSE_VK_CHECK(
+      vkCreateComputePipelines(ctx_.device(), VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
   vkDestroyShaderModule(ctx_.device(), module, nullptr);
   return pipeline;
 }
 
 void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
-                                uint32_t triangle_count, uint32_t camera_count, uint32_t width, uint32_t height,
-                                const FieldParameters& parameters, const ResetBuffers& reset) {
+                                uint32_t triangle_count, uint32_t camera_count, uint32_t width,
+                                uint32_t height, const FieldParameters& parameters,
+                                const ResetBuffers& reset) {
   ComputePush push{};
   push.vertex_count = vertex_count;
   push.width = width;
   push.height = height;
   push.relative_jump = parameters.relative_jump;
-  push.dilation = parameters.dilation_px < 0 ? reference::scaledDilationPx(static_cast<int>(width)) : parameters.dilation_px;
+  push.dilation = parameters.dilation_px < 0 ? reference::scaledDilationPx(static_cast<int>(width))
+                                             : parameters.dilation_px;
   push.depth_tolerance = parameters.relative_depth_tolerance;
   push.vote_delta = parameters.vote_delta;
   push.vote_levels = parameters.vote_levels;
@@ -234,7 +255,8 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   // A stop for measurement: the stamps of the skipped stages read zero.
   auto stopsAfter = [&](int stage) {
     if (parameters.last_stage != stage) return false;
-    for (uint32_t index = static_cast<uint32_t>(stage) + 2; index < kStamps; ++index) stamp(cmd, index);
+    for (uint32_t index = static_cast<uint32_t>(stage) + 2; index < kStamps; ++index)
+      stamp(cmd, index);
     recorded_ = true;
     return true;
   };
@@ -242,12 +264,16 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
   auto dispatchLinear = [&](VkPipeline pipeline, uint32_t items, bool barrier) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET,
+                       sizeof(push), &push);
     if (items > 0) vkCmdDispatch(cmd, groups(items, HOLOFUSE_VERTEX_GROUP), 1, 1);
-    if (barrier) computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+    if (barrier)
+      computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
   };
   // How many times stage s is recorded (FieldParameters::repeated_stage).
-  auto repeats = [&](int stage) { return parameters.repeated_stage == stage ? std::max(1, parameters.stage_repeats) : 1; };
+  auto repeats = [&](int stage) {
+    return parameters.repeated_stage == stage ? std::max(1, parameters.stage_repeats) : 1;
+  };
   // Every per-vertex pass covers all cameras in one dispatch, so each
   // stage costs one barrier.
   for (int r = 0; r < repeats(1); ++r) dispatchLinear(discontinuity_, vertex_count, true);
@@ -276,7 +302,8 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
     // Jacobi passes of rings and distances together over all cameras (y)
     // and vertices (x).
     push.max_rings = parameters.geodesic_rings;
-    push.geodesic_scale = parameters.geodesic_radius > 0 ? parameters.geodesic_radius : HOLOFUSE_FAR;
+    push.geodesic_scale =
+        parameters.geodesic_radius > 0 ? parameters.geodesic_radius : HOLOFUSE_FAR;
     push.parity = 0;
     for (int r = 0; r < repeats(5); ++r) {
       if (r > 0) {  // a repeat for measurement starts from clean lists, as a new mesh does
@@ -286,7 +313,8 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
       }
       dispatchLinear(geodesic_seed_, camera_count > 0 ? vertex_count : 0, false);
       // The Jacobi passes write the halves the seeds wrote, too.
-      computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+      computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                     VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
       // The first pass runs over every entry; each later one only the
       // entries its predecessor queued, the dispatch size coming from the
       // GPU (indirect, no round trip to the host; zero groups once the
@@ -295,7 +323,8 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
       for (int pass = 0; pass < parameters.geodesic_iterations; ++pass) {
         push.parity = static_cast<uint32_t>(pass) % 2;
         push.worklist_pass = static_cast<uint32_t>(pass);
-        vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+        vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET,
+                           sizeof(push), &push);
         if (pass == 0) {  // every entry (see the shader): vertices along x, cameras along y
           if (vertex_count > 0 && camera_count > 0) {
             vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), camera_count, 1);
@@ -303,8 +332,10 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
         } else {
           vkCmdDispatchIndirect(cmd, reset.worklist_counts, VkDeviceSize{16} * push.worklist_pass);
         }
-        computeBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
-                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
+        computeBarrier(cmd,
+                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+                           VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
       }
     }
   }
@@ -316,10 +347,13 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
     return;
   }
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, field_);
-  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET, sizeof(push), &push);
+  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET,
+                     sizeof(push), &push);
   for (int r = 0; r < repeats(6); ++r) {
     if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
-    computeBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+    computeBarrier(cmd,
+                   VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT |
+                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
   }
   stamp(cmd, 7);

@@ -6,7 +6,8 @@ namespace holofuse::render {
 
 void vkFail(const char* call, VkResult result, const char* file, int line) {
   throw std::runtime_error(std::string("Vulkan call ") + call + " failed with VkResult " +
-                           std::to_string(static_cast<int>(result)) + " at " + file + ":" + std::to_string(line));
+                           std::to_string(static_cast<int>(result)) + " at " + file + ":" +
+                           std::to_string(line));
 }
 
 namespace {
@@ -34,11 +35,16 @@ std::vector<VkPhysicalDevice> physicalDevices(VkInstance instance) {
 
 int typeRank(VkPhysicalDeviceType type) {
   switch (type) {
-    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 0;
-    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 1;
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
-    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 3;
-    default: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+      return 0;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+      return 1;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+      return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU:
+      return 3;
+    default:
+      return 4;
   }
 }
 
@@ -59,7 +65,8 @@ std::vector<DeviceInfo> VulkanContext::listDevices() {
 VulkanContext::VulkanContext(const std::string& selector) {
   instance_ = createInstance();
   const auto devices = physicalDevices(instance_);
-  if (devices.empty()) throw std::runtime_error("no Vulkan device (install mesa-vulkan-drivers for lavapipe)");
+  if (devices.empty())
+    throw std::runtime_error("no Vulkan device (install mesa-vulkan-drivers for lavapipe)");
   int best = -1;
   for (size_t i = 0; i < devices.size(); ++i) {
     VkPhysicalDeviceProperties props;
@@ -97,12 +104,14 @@ VulkanContext::VulkanContext(const std::string& selector) {
   vkGetPhysicalDeviceQueueFamilyProperties(physical_, &family_count, families.data());
   queue_family_ = UINT32_MAX;
   for (uint32_t i = 0; i < family_count; ++i) {
-    if ((families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) && (families[i].queueFlags & VK_QUEUE_COMPUTE_BIT)) {
+    if ((families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) &&
+        (families[i].queueFlags & VK_QUEUE_COMPUTE_BIT)) {
       queue_family_ = i;
       break;
     }
   }
-  if (queue_family_ == UINT32_MAX) throw std::runtime_error(device_name_ + " has no graphics+compute queue");
+  if (queue_family_ == UINT32_MAX)
+    throw std::runtime_error(device_name_ + " has no graphics+compute queue");
   const float priority = 1.0f;
   VkDeviceQueueCreateInfo queue_info{};
   queue_info.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
@@ -118,7 +127,8 @@ VulkanContext::VulkanContext(const std::string& selector) {
 
   VkCommandPoolCreateInfo pool_info{};
   pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-  pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT | VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+  pool_info.flags =
+      VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT | VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
   pool_info.queueFamilyIndex = queue_family_;
   HOLOFUSE_VK_CHECK(vkCreateCommandPool(device_, &pool_info, nullptr, &pool_));
   VkFenceCreateInfo fence_info{};
@@ -159,8 +169,8 @@ Buffer VulkanContext::createBuffer(VkDeviceSize size, VkBufferUsageFlags usage) 
   VkMemoryAllocateInfo alloc{};
   alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
   alloc.allocationSize = req.size;
-  alloc.memoryTypeIndex =
-      memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+  alloc.memoryTypeIndex = memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                                                             VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
   HOLOFUSE_VK_CHECK(vkAllocateMemory(device_, &alloc, nullptr, &b.memory));
   HOLOFUSE_VK_CHECK(vkBindBufferMemory(device_, b.buffer, b.memory, 0));
   HOLOFUSE_VK_CHECK(vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped));
@@ -176,8 +186,8 @@ void VulkanContext::destroy(Buffer& b) {
 }
 
 Image VulkanContext::createImage(uint32_t width, uint32_t height, uint32_t layers, VkFormat format,
-                                 VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array_view,
-                                 uint32_t mip_levels) {
+                                 VkImageUsageFlags usage, VkImageAspectFlags aspect,
+                                 bool array_view, uint32_t mip_levels) {
   Image img;
   img.format = format;
   img.width = width;
@@ -265,10 +275,10 @@ void VulkanContext::endOneShotAndWait(VkCommandBuffer cmd) {
   vkFreeCommandBuffers(device_, pool_, 1, &cmd);
 }
 
-void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect, VkImageLayout from,
-                     VkImageLayout to, VkAccessFlags src_access, VkAccessFlags dst_access,
-                     VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage, uint32_t first_level,
-                     uint32_t level_count) {
+void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect,
+                     VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
+                     VkAccessFlags dst_access, VkPipelineStageFlags src_stage,
+                     VkPipelineStageFlags dst_stage, uint32_t first_level, uint32_t level_count) {
   VkImageMemoryBarrier barrier{};
   barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
   barrier.oldLayout = from;

@@ -3,21 +3,20 @@
 // same cameras and masks; distortion is undone, skew kept, names sorted
 // naturally, masks segmented when missing; bad input is named and leaves
 // nothing behind.
-#include "capture_node/dataset_import.h"
-
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
-#include <iomanip>
 #include <glm/gtc/quaternion.hpp>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "capture_node/capture_formats.h"
 #include "capture_node/dataset.h"
+#include "capture_node/dataset_import.h"
 #include "capture_node/synthetic_scene.h"
 
 namespace holofuse::capture {
@@ -26,8 +25,8 @@ namespace {
 namespace fs = std::filesystem;
 
 cv::Mat toMat(const Image8& image) {
-  cv::Mat m(static_cast<int>(image.height), static_cast<int>(image.width), CV_8UC(static_cast<int>(image.channels)),
-            const_cast<uint8_t*>(image.pixels.data()));
+  cv::Mat m(static_cast<int>(image.height), static_cast<int>(image.width),
+            CV_8UC(static_cast<int>(image.channels)), const_cast<uint8_t*>(image.pixels.data()));
   cv::Mat out;
   if (image.channels == 3) {
     cv::cvtColor(m, out, cv::COLOR_RGB2BGR);
@@ -95,7 +94,8 @@ class ImportTest : public ::testing::Test {
       cam["height"] = c.height;
       cam["K"] = {{c.fx, c.skew, c.cx}, {0, c.fy, c.cy}, {0, 0, 1}};
       nlohmann::json r = nlohmann::json::array();
-      for (int row = 0; row < 3; ++row) r.push_back({c.rotation[0][row], c.rotation[1][row], c.rotation[2][row]});
+      for (int row = 0; row < 3; ++row)
+        r.push_back({c.rotation[0][row], c.rotation[1][row], c.rotation[2][row]});
       cam["R"] = r;
       cam["t"] = {c.translation.x, c.translation.y, c.translation.z};
       j["cameras"].push_back(cam);
@@ -123,12 +123,14 @@ class ImportTest : public ::testing::Test {
 
   // The imported dataset: cameras in natural name order, each calibration
   // as the source said, each mask as the truth.
-  void expectDatasetMatches(const fs::path& out, double min_iou, const std::string& name_suffix = "") {
+  void expectDatasetMatches(const fs::path& out, double min_iou,
+                            const std::string& name_suffix = "") {
     auto dataset = Dataset::open(out.string());
     ASSERT_TRUE(dataset.isOk()) << dataset.status().toString();
     ASSERT_TRUE(dataset->metadata().has_value());
     const std::string x = name_suffix;
-    EXPECT_EQ(dataset->metadata()->camera_names, (std::vector<std::string>{"cam1" + x, "cam2" + x, "cam10" + x, "cam11" + x}));
+    EXPECT_EQ(dataset->metadata()->camera_names,
+              (std::vector<std::string>{"cam1" + x, "cam2" + x, "cam10" + x, "cam11" + x}));
     EXPECT_TRUE(dataset->metadata()->still);
     ASSERT_EQ(dataset->cameras().size(), 4u);
     const size_t source_of[4] = {3, 0, 1, 2};  // pod id -> index in cameras_
@@ -213,12 +215,12 @@ TEST_F(ImportTest, ColmapTextInSparseZeroWithRgbMasks) {
       views_[i] = scene_.render(cameras_[i], 30);
       cv::imwrite((src / "images" / (name(i) + ".png")).string(), toMat(views_[i].color));
     }
-    cameras << i + 1 << " PINHOLE " << c.width << " " << c.height << " " << std::setprecision(17) << c.fx << " "
-            << c.fy << " " << c.cx << " " << c.cy << "\n";
+    cameras << i + 1 << " PINHOLE " << c.width << " " << c.height << " " << std::setprecision(17)
+            << c.fx << " " << c.fy << " " << c.cx << " " << c.cy << "\n";
     const glm::dquat q = glm::quat_cast(c.rotation);
-    images << i + 1 << " " << std::setprecision(17) << q.w << " " << q.x << " " << q.y << " " << q.z << " "
-           << c.translation.x << " " << c.translation.y << " " << c.translation.z << " " << i + 1 << " " << name(i)
-           << ".png\n";
+    images << i + 1 << " " << std::setprecision(17) << q.w << " " << q.x << " " << q.y << " " << q.z
+           << " " << c.translation.x << " " << c.translation.y << " " << c.translation.z << " "
+           << i + 1 << " " << name(i) << ".png\n";
     images << "12.5 3.5 -1 40.0 7.25 -1\n";  // POINTS2D
   }
   cameras.close();
@@ -283,7 +285,8 @@ TEST_F(ImportTest, RadialDistortionIsUndone) {
     for (uint32_t y = 0; y < lens.height; ++y) {
       for (uint32_t x = 0; x < lens.width; ++x) {
         // Undistort by fixed-point iteration in normalised coordinates.
-        const double yd = (y + 0.5 - lens.cy) / lens.fy, xd = (x + 0.5 - lens.cx - lens.skew * yd) / lens.fx;
+        const double yd = (y + 0.5 - lens.cy) / lens.fy,
+                     xd = (x + 0.5 - lens.cx - lens.skew * yd) / lens.fx;
         double xu = xd, yu = yd;
         for (int it = 0; it < 50; ++it) {
           const double r2 = xu * xu + yu * yu;
@@ -293,8 +296,10 @@ TEST_F(ImportTest, RadialDistortionIsUndone) {
           xu = (xd - dx) / radial;
           yu = (yd - dy) / radial;
         }
-        map_x.at<float>(static_cast<int>(y), static_cast<int>(x)) = static_cast<float>(lens.fx * xu + lens.skew * yu + lens.cx - 0.5);
-        map_y.at<float>(static_cast<int>(y), static_cast<int>(x)) = static_cast<float>(lens.fy * yu + lens.cy - 0.5);
+        map_x.at<float>(static_cast<int>(y), static_cast<int>(x)) =
+            static_cast<float>(lens.fx * xu + lens.skew * yu + lens.cx - 0.5);
+        map_y.at<float>(static_cast<int>(y), static_cast<int>(x)) =
+            static_cast<float>(lens.fy * yu + lens.cy - 0.5);
       }
     }
     cv::Mat color, mask;
@@ -330,7 +335,8 @@ TEST_F(ImportTest, MissingMasksAreSegmented) {
   for (size_t i = 0; i < cameras_.size(); ++i) {
     if (i % 2 == 0) {
       cv::imwrite((src / "images" / (name(i) + ".png")).string(), toMat(views_[i].color));
-      cv::imwrite((src / "plates" / (name(i) + ".png")).string(), toMat(scene_.backgroundPlate(cameras_[i])));
+      cv::imwrite((src / "plates" / (name(i) + ".png")).string(),
+                  toMat(scene_.backgroundPlate(cameras_[i])));
       j["cameras"][i]["background"] = "plates/" + name(i) + ".png";
     } else {
       cv::Mat on_black = toMat(views_[i].color);
@@ -368,17 +374,20 @@ TEST_F(ImportTest, BadInputIsNamedAndLeavesNoDataset) {
     EXPECT_NE(message.find(expected), std::string::npos) << message;
     EXPECT_FALSE(fs::exists(out)) << "a half dataset was left behind for: " << expected;
     for (const auto& entry : fs::directory_iterator(root_)) {
-      EXPECT_EQ(entry.path().filename().string().find("out.partial"), std::string::npos) << entry.path();
+      EXPECT_EQ(entry.path().filename().string().find("out.partial"), std::string::npos)
+          << entry.path();
     }
   };
   // A JSON syntax error: file, line and column.
-  std::ofstream(src / "capture.json") << "{\n  \"format\": \"holofuse-capture\",\n  \"version\": 1,\n  oops\n}\n";
+  std::ofstream(src / "capture.json")
+      << "{\n  \"format\": \"holofuse-capture\",\n  \"version\": 1,\n  oops\n}\n";
   importFails(CaptureFormat::kHolofuse, (src / "capture.json").string() + ":4:");
   // A newer format version.
   nlohmann::json j = holofuseJson(".png", false);
   j["version"] = 7;
   std::ofstream(src / "capture.json") << j.dump();
-  importFails(CaptureFormat::kHolofuse, "capture format version 7 is newer than this holofuse reads (1)");
+  importFails(CaptureFormat::kHolofuse,
+              "capture format version 7 is newer than this holofuse reads (1)");
   // A frame that lists fewer cameras than "cameras".
   j = holofuseJson(".png", false);
   j["frames"].push_back(j["frames"][0]);
@@ -394,20 +403,26 @@ TEST_F(ImportTest, BadInputIsNamedAndLeavesNoDataset) {
   j = holofuseJson(".png", false);
   std::ofstream(src / "capture.json") << j.dump();
   fs::rename(src / "images" / "cam11.png", src / "images" / "moved.png");
-  importFails(CaptureFormat::kHolofuse, (src / "images" / "cam11.png").string() + ": image of camera \"cam11\" in frame 0 is missing");
+  importFails(CaptureFormat::kHolofuse, (src / "images" / "cam11.png").string() +
+                                            ": image of camera \"cam11\" in frame 0 is missing");
   std::ofstream(src / "images" / "cam11.png") << "this is not a PNG";
-  importFails(CaptureFormat::kHolofuse, (src / "images" / "cam11.png").string() + ": cannot decode the image");
-  cv::imwrite((src / "images" / "cam11.png").string(), cv::Mat(50, 60, CV_8UC3, cv::Scalar(1, 2, 3)));
+  importFails(CaptureFormat::kHolofuse,
+              (src / "images" / "cam11.png").string() + ": cannot decode the image");
+  cv::imwrite((src / "images" / "cam11.png").string(),
+              cv::Mat(50, 60, CV_8UC3, cv::Scalar(1, 2, 3)));
   importFails(CaptureFormat::kHolofuse, "cam11.png: the image is 60x50, the calibration of camera");
   // COLMAP: a line that does not parse, an unknown camera, an unknown model.
   fs::create_directories(src / "sparse");
   std::ofstream(src / "sparse" / "cameras.txt") << "# comment\n1 PINHOLE 160 120 100 100 80 60\n";
   std::ofstream(src / "sparse" / "images.txt") << "# comment\n\n1 1 0 0 0 0 0 x 1 a.png\n";
-  importFails(CaptureFormat::kColmap, (src / "sparse" / "images.txt").string() + ":3: value 8 'x' is not a number");
+  importFails(CaptureFormat::kColmap,
+              (src / "sparse" / "images.txt").string() + ":3: value 8 'x' is not a number");
   std::ofstream(src / "sparse" / "images.txt") << "1 1 0 0 0 0 0 1 9 a.png\n";
-  importFails(CaptureFormat::kColmap, (src / "sparse" / "images.txt").string() + ":1: CAMERA_ID 9 is not in");
+  importFails(CaptureFormat::kColmap,
+              (src / "sparse" / "images.txt").string() + ":1: CAMERA_ID 9 is not in");
   std::ofstream(src / "sparse" / "cameras.txt") << "1 FISHEYE_X 160 120 100 100 80 60\n";
-  importFails(CaptureFormat::kColmap, (src / "sparse" / "cameras.txt").string() + ":1: camera model FISHEYE_X is not supported");
+  importFails(CaptureFormat::kColmap, (src / "sparse" / "cameras.txt").string() +
+                                          ":1: camera model FISHEYE_X is not supported");
   // A corrupt image in a later frame: found after writing has begun, and
   // still nothing is left behind.
   j = holofuseJson(".png", false);
@@ -416,7 +431,8 @@ TEST_F(ImportTest, BadInputIsNamedAndLeavesNoDataset) {
   std::ofstream(src / "capture.json") << j.dump();
   fs::rename(src / "images" / "moved.png", src / "images" / "cam11.png");
   std::ofstream(src / "images" / "broken.png") << "not an image either";
-  importFails(CaptureFormat::kHolofuse, (src / "images" / "broken.png").string() + ": cannot decode the image");
+  importFails(CaptureFormat::kHolofuse,
+              (src / "images" / "broken.png").string() + ": cannot decode the image");
   // A trailing slash names the same folder; the dataset lands there whole.
   {
     auto capture = readCapture(src.string(), CaptureFormat::kHolofuse);
@@ -426,7 +442,8 @@ TEST_F(ImportTest, BadInputIsNamedAndLeavesNoDataset) {
     ASSERT_TRUE(summary.isOk()) << summary.status().toString();
     EXPECT_TRUE(fs::exists(out / "pods.hfr"));
     for (const auto& entry : fs::directory_iterator(out)) {
-      EXPECT_EQ(entry.path().filename().string().find("partial"), std::string::npos) << entry.path();
+      EXPECT_EQ(entry.path().filename().string().find("partial"), std::string::npos)
+          << entry.path();
     }
     fs::remove_all(out);
   }

@@ -23,7 +23,8 @@ double maskIoU(const Image8& a, const Image8& b) {
 TEST(SyntheticScene, IsDeterministicAndMoves) {
   const SyntheticScene scene;
   const auto cams = SyntheticScene::cameraRig(4, 160, 120);
-  const auto a = scene.render(cams[0], 10), b = scene.render(cams[0], 10), c = scene.render(cams[0], 15);
+  const auto a = scene.render(cams[0], 10), b = scene.render(cams[0], 10),
+             c = scene.render(cams[0], 15);
   EXPECT_EQ(a.color.pixels, b.color.pixels);
   EXPECT_NE(a.mask.pixels, c.mask.pixels);
   size_t fg = 0;
@@ -92,7 +93,8 @@ TEST(SyntheticScene, RingPosesAtThePodsAnglesAreThePods) {
   }
   // Between pods 0 and 1: as far from both.
   const Camera between = SyntheticScene::ringPose(30.0, 0, 160, 120);
-  EXPECT_NEAR(glm::length(between.center() - rig[0].center()), glm::length(between.center() - rig[1].center()), 1e-12);
+  EXPECT_NEAR(glm::length(between.center() - rig[0].center()),
+              glm::length(between.center() - rig[1].center()), 1e-12);
 }
 
 TEST(Feather, IsTheDistanceToTheSilhouetteBorder) {
@@ -127,7 +129,8 @@ TEST(Pod, EncodedFrameCarriesStampsAndDecodablePlanes) {
   auto color = decodePlane(frame.planes[0]);
   ASSERT_TRUE(color.isOk());
   EXPECT_EQ(color->pixels, capture.view.color.pixels);
-  EXPECT_LT(bytes.size(), capture.view.color.pixels.size()) << "LZ4 with the delta filter must compress";
+  EXPECT_LT(bytes.size(), capture.view.color.pixels.size())
+      << "LZ4 with the delta filter must compress";
 }
 
 }  // namespace
@@ -164,8 +167,8 @@ TEST(Pod, SendsOnlyTheForegroundRectangleWithItsOffset) {
 }
 
 TEST(SceneLibrary, NamesEveryScenarioAndRefusesUnknownOnes) {
-  for (const char* name : {"clean", "calibration-error", "colour-imbalance", "fast-motion", "viewpoint-jump",
-                           "few-cameras", "many-cameras"}) {
+  for (const char* name : {"clean", "calibration-error", "colour-imbalance", "fast-motion",
+                           "viewpoint-jump", "few-cameras", "many-cameras"}) {
     ASSERT_NE(findScene(name), nullptr) << name;
     EXPECT_NE(sceneNames().find(name), std::string::npos);
   }
@@ -187,7 +190,8 @@ TEST(SceneLibrary, ReportedCalibrationIsOffByExactlyTheStatedError) {
     EXPECT_EQ(reportedCalibration(truth, 0.0, 0.0, 1).rotation, truth.rotation);
   }
   // Deterministic, and different per camera.
-  EXPECT_EQ(reportedCalibration(rig[2], 0.6, 0.008, 1).translation, reportedCalibration(rig[2], 0.6, 0.008, 1).translation);
+  EXPECT_EQ(reportedCalibration(rig[2], 0.6, 0.008, 1).translation,
+            reportedCalibration(rig[2], 0.6, 0.008, 1).translation);
   EXPECT_NE(reportedCalibration(rig[2], 0.6, 0.008, 1).center() - rig[2].center(),
             reportedCalibration(rig[3], 0.6, 0.008, 1).center() - rig[3].center());
 }
@@ -196,14 +200,16 @@ TEST(SceneLibrary, ImbalanceAndSpecularChangeWhatCamerasSeeAndSpeedMovesTheClock
   const ScenePreset& clean = *findScene("clean");
   const ScenePreset& imbalance = *findScene("colour-imbalance");
   const SyntheticScene a(clean.scene), b(imbalance.scene);
-  const glm::dvec3 deviation_a = a.cameraGain(3) - glm::dvec3(1.0), deviation_b = b.cameraGain(3) - glm::dvec3(1.0);
+  const glm::dvec3 deviation_a = a.cameraGain(3) - glm::dvec3(1.0),
+                   deviation_b = b.cameraGain(3) - glm::dvec3(1.0);
   EXPECT_NEAR(glm::length(deviation_b), 3.0 * glm::length(deviation_a), 1e-12);
   // The highlight brightens some of the subject, never darkens it.
   const Camera cam = SyntheticScene::cameraRig(8, 160, 120)[0];
   SceneOptions shiny = clean.scene, matte = clean.scene;
   shiny.specular = 0.45;
   shiny.noise_amplitude = matte.noise_amplitude = 0.0;
-  const auto lit = SyntheticScene(shiny).render(cam, 5), flat = SyntheticScene(matte).render(cam, 5);
+  const auto lit = SyntheticScene(shiny).render(cam, 5),
+             flat = SyntheticScene(matte).render(cam, 5);
   int brighter = 0;
   for (size_t i = 0; i < lit.color.pixels.size(); ++i) {
     ASSERT_GE(lit.color.pixels[i], flat.color.pixels[i]);

@@ -92,8 +92,10 @@ TEST(MarchingCubes, AmbiguousCheckerFieldStillGivesAClosedSurface) {
 
 TEST(ImageCodec, EveryCodecRoundTripsExactly) {
   Image8 image(37, 23, 3);
-  for (size_t i = 0; i < image.pixels.size(); ++i) image.pixels[i] = static_cast<uint8_t>((i * 7) ^ (i >> 3));
-  for (auto codec : {protocol::Codec::kRaw, protocol::Codec::kLz4, protocol::Codec::kLz4PlanarDelta}) {
+  for (size_t i = 0; i < image.pixels.size(); ++i)
+    image.pixels[i] = static_cast<uint8_t>((i * 7) ^ (i >> 3));
+  for (auto codec :
+       {protocol::Codec::kRaw, protocol::Codec::kLz4, protocol::Codec::kLz4PlanarDelta}) {
     std::vector<uint8_t> storage;
     const auto plane = encodePlane(image, protocol::PlaneKind::kColor, codec, storage);
     auto back = decodePlane(plane);
@@ -115,7 +117,8 @@ TEST(ImageCodec, Lz4HcLevelsDecodeAsLz4AndCompressMore) {
   std::vector<uint8_t> fast, hc;
   encodePlane(image, protocol::PlaneKind::kColor, protocol::Codec::kLz4, fast, 1, 0);
   for (int level : {1, 9, kMaxLz4HcLevel}) {
-    const auto plane = encodePlane(image, protocol::PlaneKind::kColor, protocol::Codec::kLz4, hc, 1, level);
+    const auto plane =
+        encodePlane(image, protocol::PlaneKind::kColor, protocol::Codec::kLz4, hc, 1, level);
     EXPECT_EQ(plane.codec, protocol::Codec::kLz4) << "the wire's codec is LZ4";
     auto back = decodePlane(plane);
     ASSERT_TRUE(back.isOk()) << back.status().toString();
@@ -176,7 +179,7 @@ DracoOptions losslessSequential() {
   DracoOptions options;
   options.position_bits = 0;  // no quantisation: floats as they are
   options.normal_bits = 0;
-  options.speed = 10;         // sequential encoding: indices as they are
+  options.speed = 10;  // sequential encoding: indices as they are
   return options;
 }
 
@@ -188,7 +191,8 @@ TEST(MeshCodec, DecodingRefusesNonFinitePositionsByVertex) {
   ASSERT_TRUE(bytes.isOk()) << bytes.status().toString();
   auto back = decodeDraco(bytes->data(), bytes->size());
   ASSERT_FALSE(back.isOk());
-  EXPECT_NE(back.status().toString().find("is not finite"), std::string::npos) << back.status().toString();
+  EXPECT_NE(back.status().toString().find("is not finite"), std::string::npos)
+      << back.status().toString();
   mesh.positions[3].z = 0.5f;  // the same mesh, finite
   bytes = encodeDraco(mesh, losslessSequential());
   ASSERT_TRUE(bytes.isOk());
@@ -203,7 +207,8 @@ TEST(MeshCodec, DecodingRefusesIndicesOutOfRange) {
   ASSERT_TRUE(bytes.isOk()) << bytes.status().toString();
   auto back = decodeDraco(bytes->data(), bytes->size());
   ASSERT_FALSE(back.isOk()) << back->indices.size() << " indices decoded";
-  EXPECT_NE(back.status().toString().find("draco mesh: face 1 index 7 out of range"), std::string::npos)
+  EXPECT_NE(back.status().toString().find("draco mesh: face 1 index 7 out of range"),
+            std::string::npos)
       << back.status().toString();
 }
 
@@ -235,7 +240,8 @@ TEST(ImageRects, ForegroundRectCropAndPlaceRoundTrip) {
   for (uint32_t y = 0; y < 30; ++y) {
     for (uint32_t x = 0; x < 40; ++x) {
       const bool in = x >= r.x && x < r.x + r.width && y >= r.y && y < r.y + r.height;
-      for (int c = 0; c < 3; ++c) ASSERT_EQ(back.at(x, y)[c], in ? colour.at(x, y)[c] : 0) << x << "," << y;
+      for (int c = 0; c < 3; ++c)
+        ASSERT_EQ(back.at(x, y)[c], in ? colour.at(x, y)[c] : 0) << x << "," << y;
     }
   }
   EXPECT_THROW(cropImage(colour, {38, 0, 5, 5}), std::invalid_argument);

@@ -15,7 +15,8 @@ Image8 gradient(uint32_t channels) {
   Image8 image(7, 5, channels);
   for (uint32_t y = 0; y < image.height; ++y) {
     for (uint32_t x = 0; x < image.width; ++x) {
-      for (uint32_t c = 0; c < channels; ++c) image.at(x, y)[c] = static_cast<uint8_t>(40 * c + 9 * x + y);
+      for (uint32_t c = 0; c < channels; ++c)
+        image.at(x, y)[c] = static_cast<uint8_t>(40 * c + 9 * x + y);
     }
   }
   return image;
@@ -41,7 +42,8 @@ TEST(WritePng, LeavesTheImageAndWritesItsChannelsInOrder) {
     // OpenCV reads blue first: channel c of ours is channel (2 - c) of its.
     for (uint32_t c = 0; c < channels; ++c) {
       const uint32_t theirs = (channels >= 3 && c < 3) ? 2 - c : c;
-      EXPECT_EQ(read.ptr<uint8_t>(3)[4 * channels + theirs], original.at(4, 3)[c]) << channels << " channels, " << c;
+      EXPECT_EQ(read.ptr<uint8_t>(3)[4 * channels + theirs], original.at(4, 3)[c])
+          << channels << " channels, " << c;
     }
   }
   EXPECT_FALSE(writePng((dir / "missing" / "x.png").string(), gradient(3)).isOk());

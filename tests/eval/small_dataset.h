@@ -17,8 +17,8 @@ namespace holofuse::eval::test {
 
 // cameras pods of the default scene at frame 30, width x height, into dir
 // (replaced); the dataset stores voxel as its own.
-inline void writeSmallDataset(const std::filesystem::path& dir, int cameras, uint32_t width, uint32_t height,
-                              double voxel) {
+inline void writeSmallDataset(const std::filesystem::path& dir, int cameras, uint32_t width,
+                              uint32_t height, double voxel) {
   namespace fs = std::filesystem;
   fs::remove_all(dir);
   const fs::path source = dir.string() + ".source";

@@ -10,7 +10,8 @@
 namespace holofuse::eval::test {
 
 inline SweepPoint sweepPoint(const std::string& knob, const std::string& value, bool is_default,
-                             const std::string& mode, double psnr, double client_ms, double codec_ms, double bytes) {
+                             const std::string& mode, double psnr, double client_ms,
+                             double codec_ms, double bytes) {
   SweepPoint p;
   p.knob = knob;
   p.value = value;

@@ -37,10 +37,14 @@ TEST(HtmlReports, ChartsRenderInChromiumAndAnEmptyChartDoesNotCount) {
   if (chromium().empty()) GTEST_SKIP() << "chromium is not installed (./holofuse deps installs it)";
   const fs::path dir = scratch("charts");
   const std::string faithful =
-      html::barChart("PSNR", {"clean", "few-cameras"}, {{"normal", {17.0, 11.2}}, {"montage4d", {17.3, 11.4}}}, "dB") +
-      html::stackedBars("Latency", {"hull", "render"}, {{"p50", {30, 40}}, {"p95", {50, 80}}}, "ms") +
-      html::scatterChart("Trade", "ms", "dB", {{"a", 10, 19.0, true, false}, {"b", 30, 19.6, true, true}});
-  std::ofstream(dir / "page.html") << html::page("test", faithful + html::barChart("Nothing", {}, {}, "ms"));
+      html::barChart("PSNR", {"clean", "few-cameras"},
+                     {{"normal", {17.0, 11.2}}, {"montage4d", {17.3, 11.4}}}, "dB") +
+      html::stackedBars("Latency", {"hull", "render"}, {{"p50", {30, 40}}, {"p95", {50, 80}}},
+                        "ms") +
+      html::scatterChart("Trade", "ms", "dB",
+                         {{"a", 10, 19.0, true, false}, {"b", 30, 19.6, true, true}});
+  std::ofstream(dir / "page.html")
+      << html::page("test", faithful + html::barChart("Nothing", {}, {}, "ms"));
   EXPECT_EQ(chartsRendered(dir / "page.html"), 3) << "no bars: the empty chart does not count";
   // Charts whose marks do not sit where their values say do not count: a
   // bar drawn twice as long as its value, a point drawn on the wrong side.
@@ -48,9 +52,10 @@ TEST(HtmlReports, ChartsRenderInChromiumAndAnEmptyChartDoesNotCount) {
     const size_t at = text.find(from);
     return at == std::string::npos ? std::string() : text.replace(at, from.size(), to);
   };
-  const std::string bars = html::barChart("PSNR", {"clean"}, {{"normal", {10.0}}, {"montage4d", {20.0}}}, "dB");
-  const std::string scatter =
-      html::scatterChart("Trade", "ms", "dB", {{"a", 10, 19.0, false, false}, {"b", 30, 19.6, false, false}});
+  const std::string bars =
+      html::barChart("PSNR", {"clean"}, {{"normal", {10.0}}, {"montage4d", {20.0}}}, "dB");
+  const std::string scatter = html::scatterChart(
+      "Trade", "ms", "dB", {{"a", 10, 19.0, false, false}, {"b", 30, 19.6, false, false}});
   const std::string wrong_bar = swap(bars, "data-value=\"10\"", "data-value=\"5\"");
   const std::string wrong_point = swap(scatter, "data-y=\"19\"", "data-y=\"20\"");
   ASSERT_FALSE(wrong_bar.empty());
@@ -70,9 +75,11 @@ TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
   render::LatencyReport report;
   for (uint64_t f = 0; f < 10; ++f) {
     const uint64_t t = f * 100'000'000;
-    report.addStamps({{static_cast<uint16_t>(protocol::Stage::kHull), protocol::kSourceServer, t, t + 40'000'000},
-                      {static_cast<uint16_t>(protocol::Stage::kSend), 0, t, t + 2'000'000 + (f % 2) * 1'000'000},
-                      {static_cast<uint16_t>(protocol::Stage::kSend), 1, t, t + 3'000'000}});
+    report.addStamps(
+        {{static_cast<uint16_t>(protocol::Stage::kHull), protocol::kSourceServer, t,
+          t + 40'000'000},
+         {static_cast<uint16_t>(protocol::Stage::kSend), 0, t, t + 2'000'000 + (f % 2) * 1'000'000},
+         {static_cast<uint16_t>(protocol::Stage::kSend), 1, t, t + 3'000'000}});
     report.addGpuPass("geodesics", 60.0);
     render::FrameRecord record;
     record.frame_id = f;
@@ -80,7 +87,8 @@ TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
     record.pod_bytes = 600'000;
     record.client_bytes = 650'000;
     if (f != 3) {  // a frame not judged does not count
-      record.quality = render::FrameQuality{20.0 + static_cast<double>(f), 0.5 + 0.01 * static_cast<double>(f)};
+      record.quality =
+          render::FrameQuality{20.0 + static_cast<double>(f), 0.5 + 0.01 * static_cast<double>(f)};
     }
     report.addFrame(record, t);
   }
@@ -100,13 +108,17 @@ TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
   EXPECT_EQ(chartsRendered(dir / "report.html"), 4);
   std::ifstream in(dir / "report.html");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text.find("<tr class=\"flagged\"><td>hull</td>"), std::string::npos) << "hull p95 40 ms > 30 ms budget";
+  EXPECT_NE(text.find("<tr class=\"flagged\"><td>hull</td>"), std::string::npos)
+      << "hull p95 40 ms > 30 ms budget";
   EXPECT_EQ(text.find("<tr class=\"flagged\"><td>end_to_end</td>"), std::string::npos);
-  EXPECT_NE(text.find("<tr><td>replay_read</td><td>0.0 ms</td><td>n/a</td><td>n/a</td><td>not measured"),
-            std::string::npos)
+  EXPECT_NE(
+      text.find("<tr><td>replay_read</td><td>0.0 ms</td><td>n/a</td><td>n/a</td><td>not measured"),
+      std::string::npos)
       << "a stage without samples is neither within nor over";
-  EXPECT_NE(text.find("<tr><td>PSNR</td><td>24.67 dB</td><td>25.00 dB</td><td>20.00 dB</td><td>9</td></tr>"),
-            std::string::npos)
+  EXPECT_NE(
+      text.find(
+          "<tr><td>PSNR</td><td>24.67 dB</td><td>25.00 dB</td><td>20.00 dB</td><td>9</td></tr>"),
+      std::string::npos)
       << "the quality table";
   const auto json = nlohmann::json::parse(report.toJson({}, budget));
   ASSERT_EQ(json["budget_violations"].size(), 1u);
@@ -126,40 +138,57 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
   scene.modes["montage4d"] = {15.0, 16.9, 0.60, 18.0, 20.5, 16, 120, {}, 150, {}};
   scene.hull_ms = scene.codec_ms = 20;
   scene.hull_ms_p95 = scene.codec_ms_p95 = 30;
-  scene.codec_stage_ms = {
-      {"pod_encode", 2}, {"server_decode", 3}, {"mesh_encode", 4}, {"image_encode", 8}, {"decode", 3}};
-  scene.codec_stage_ms_p95 = {{"pod_encode", 3}, {"server_decode", 4}, {"mesh_encode", 5}, {"image_encode", 12},
+  scene.codec_stage_ms = {{"pod_encode", 2},
+                          {"server_decode", 3},
+                          {"mesh_encode", 4},
+                          {"image_encode", 8},
+                          {"decode", 3}};
+  scene.codec_stage_ms_p95 = {{"pod_encode", 3},
+                              {"server_decode", 4},
+                              {"mesh_encode", 5},
+                              {"image_encode", 12},
                               {"decode", 6}};
   eval::EvalOptions options;
   options.modes = {render::BlendMode::kHoloportation, render::BlendMode::kMontage4D};
   // Over: the hull's p95 (30), montage4d's render (150) and the server's
   // image encoding (12); the pods' encoding (3) is within.
-  options.budget = {{"hull", 25.0},      {"render", 100.0},   {"image_encode", 10.0},
-                    {"pod_encode", 5.0}, {"end_to_end", 1.0}, {"upload", 0.001}};  // the last two: not timed by eval
+  options.budget = {{"hull", 25.0},         {"render", 100.0},
+                    {"image_encode", 10.0}, {"pod_encode", 5.0},
+                    {"end_to_end", 1.0},    {"upload", 0.001}};  // the last two: not timed by eval
   const fs::path dir = scratch("quality");
   eval::writeQualityReports(options, {scene}, dir.string());
-  EXPECT_EQ(chartsRendered(dir / "quality.html"), 6) << "PSNR, SSIM, flicker, seam visibility, time, the latency stack";
+  EXPECT_EQ(chartsRendered(dir / "quality.html"), 6)
+      << "PSNR, SSIM, flicker, seam visibility, time, the latency stack";
   std::ifstream in(dir / "quality.html");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("MISSED: PSNR gain below 0.5 dB"), std::string::npos);
-  EXPECT_NE(text.find(html::escape(eval::kNoJitterHere)), std::string::npos) << "says why there is no jitter";
+  EXPECT_NE(text.find(html::escape(eval::kNoJitterHere)), std::string::npos)
+      << "says why there is no jitter";
   EXPECT_NE(text.find("Latency of a new mesh: colour-imbalance"), std::string::npos);
-  EXPECT_NE(text.find("<tr class=\"flagged\"><td>colour-imbalance</td><td>-</td><td>hull</td>"), std::string::npos);
-  EXPECT_NE(text.find("<tr class=\"flagged\"><td>colour-imbalance</td><td>montage4d</td><td>render</td>"),
+  EXPECT_NE(text.find("<tr class=\"flagged\"><td>colour-imbalance</td><td>-</td><td>hull</td>"),
             std::string::npos);
-  EXPECT_NE(text.find("<tr><td>colour-imbalance</td><td>holoportation</td><td>render</td>"), std::string::npos)
+  EXPECT_NE(
+      text.find("<tr class=\"flagged\"><td>colour-imbalance</td><td>montage4d</td><td>render</td>"),
+      std::string::npos);
+  EXPECT_NE(text.find("<tr><td>colour-imbalance</td><td>holoportation</td><td>render</td>"),
+            std::string::npos)
       << "95 ms is within 100";
-  EXPECT_NE(text.find("<tr class=\"flagged\"><td>colour-imbalance</td><td>-</td><td>image_encode</td>"),
+  EXPECT_NE(
+      text.find("<tr class=\"flagged\"><td>colour-imbalance</td><td>-</td><td>image_encode</td>"),
+      std::string::npos);
+  EXPECT_NE(text.find("<tr><td>colour-imbalance</td><td>-</td><td>pod_encode</td>"),
             std::string::npos);
-  EXPECT_NE(text.find("<tr><td>colour-imbalance</td><td>-</td><td>pod_encode</td>"), std::string::npos);
   std::ifstream json_in(dir / "quality.json");
   const auto json = nlohmann::json::parse(json_in);
   EXPECT_EQ(json["budget_violations"].size(), 3u);
   EXPECT_DOUBLE_EQ(json["budget_ms"]["hull"].get<double>(), 25.0);
   EXPECT_EQ(json["budget_unchecked"], (nlohmann::json{"end_to_end", "upload"}));
-  EXPECT_NE(text.find("not checked (the live loop's report checks them): end_to_end, upload"), std::string::npos)
+  EXPECT_NE(text.find("not checked (the live loop's report checks them): end_to_end, upload"),
+            std::string::npos)
       << "stages eval does not time are named";
-  EXPECT_DOUBLE_EQ(json["scenes"]["colour-imbalance"]["codec_stages_ms"]["image_encode"]["p95"].get<double>(), 12.0);
+  EXPECT_DOUBLE_EQ(
+      json["scenes"]["colour-imbalance"]["codec_stages_ms"]["image_encode"]["p95"].get<double>(),
+      12.0);
   fs::remove_all(dir);
 }
 
@@ -175,9 +204,10 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   // only where a point ran live (voxel), over at 0.01.
   options.base.budget = {{"render", 60.0}, {"end_to_end", 300.0}};
   std::vector<eval::SweepPoint> points;
-  auto add = [&](const std::string& knob, const std::string& value, bool is_default, double psnr, double ms,
-                 double bytes) {
-    points.push_back(eval::test::sweepPoint(knob, value, is_default, "montage4d", psnr, ms, 5, bytes));
+  auto add = [&](const std::string& knob, const std::string& value, bool is_default, double psnr,
+                 double ms, double bytes) {
+    points.push_back(
+        eval::test::sweepPoint(knob, value, is_default, "montage4d", psnr, ms, 5, bytes));
   };
   add("alpha", "1", false, 19.4, 30, 1.3e6);
   add("alpha", "2", true, 19.5, 30, 1.3e6);
@@ -199,15 +229,20 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   options.out_dir = dir.string();
   eval::writeSweepReports(options, points);
   EXPECT_EQ(chartsRendered(dir / "sweep.html"), 11)
-      << "four plots and the latency stack for each of two knobs, and the live end-to-end plot of the knob run live";
+      << "four plots and the latency stack for each of two knobs, and the live end-to-end plot of "
+         "the knob run live";
   std::ifstream in(dir / "sweep.html");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("the default (alpha=2) is on the Pareto front"), std::string::npos);
   EXPECT_NE(text.find("<tr class=\"flagged\"><td>voxel</td><td>0.01</td>"), std::string::npos);
-  EXPECT_NE(text.find("<tr><td>voxel</td><td>0.02 (default)</td>"), std::string::npos) << "within budget";
-  EXPECT_NE(text.find("render 68.8 &gt; 60.0 ms, live end_to_end 420.0 &gt; 300.0 ms"), std::string::npos);
-  EXPECT_NE(text.find("Not checked at some points (no live run, or no sample in it): end_to_end."), std::string::npos);
-  EXPECT_NE(text.find("<td>240 (p95 280)</td><td>1.50</td>"), std::string::npos) << "the worst pod's jitter";
+  EXPECT_NE(text.find("<tr><td>voxel</td><td>0.02 (default)</td>"), std::string::npos)
+      << "within budget";
+  EXPECT_NE(text.find("render 68.8 &gt; 60.0 ms, live end_to_end 420.0 &gt; 300.0 ms"),
+            std::string::npos);
+  EXPECT_NE(text.find("Not checked at some points (no live run, or no sample in it): end_to_end."),
+            std::string::npos);
+  EXPECT_NE(text.find("<td>240 (p95 280)</td><td>1.50</td>"), std::string::npos)
+      << "the worst pod's jitter";
   std::ifstream json_in(dir / "sweep.json");
   const auto json = nlohmann::json::parse(json_in);
   const auto& fine = json["knobs"]["voxel"]["points"][1];
@@ -216,7 +251,8 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   EXPECT_EQ(fine["budget_violations"][1]["measured"], "live loop");
   EXPECT_DOUBLE_EQ(fine["live_worst_pod_jitter_ms"].get<double>(), 3.25);
   EXPECT_EQ(json["knobs"]["voxel"]["points"][0]["budget_violations"].size(), 0u);
-  EXPECT_EQ(json["knobs"]["alpha"]["points"][0]["budget_unchecked"], (nlohmann::json{"end_to_end"}));
+  EXPECT_EQ(json["knobs"]["alpha"]["points"][0]["budget_unchecked"],
+            (nlohmann::json{"end_to_end"}));
   EXPECT_TRUE(json["knobs"]["alpha"]["points"][0]["live_worst_pod_jitter_ms"].is_null());
   EXPECT_EQ(json["budget_unchecked"], (nlohmann::json{"end_to_end"}));
   fs::remove_all(dir);
@@ -234,7 +270,8 @@ TEST(LoopReport, JitterFollowsRfc3550) {
   // 2 (transit 2), 23 (transit 3, sent 20), 24 (transit 14, sent 10).
   std::vector<std::pair<double, double>> shuffled = {{10, 24}, {0, 2}, {20, 23}};
   const double after_second = 1.0 / 16.0;
-  EXPECT_NEAR(render::interarrivalJitter(shuffled), after_second + (11.0 - after_second) / 16.0, 1e-12);
+  EXPECT_NEAR(render::interarrivalJitter(shuffled), after_second + (11.0 - after_second) / 16.0,
+              1e-12);
   // A sender that comes back (another connection, maybe another clock):
   // its first transit is not a change from the last one's.
   ArrivalJitter jitter;
@@ -260,7 +297,8 @@ TEST(LoopReport, BudgetFilesAreCheckedAndNamed) {
   const auto unknown = render::loadBudget((dir / "unknown.json").string());
   ASSERT_FALSE(unknown.isOk());
   EXPECT_NE(unknown.status().message().find("unknown stage 'hul'"), std::string::npos);
-  EXPECT_NE(unknown.status().message().find("sync_wait"), std::string::npos) << "lists the valid names";
+  EXPECT_NE(unknown.status().message().find("sync_wait"), std::string::npos)
+      << "lists the valid names";
   EXPECT_FALSE(render::loadBudget((dir / "negative.json").string()).isOk());
   const auto broken = render::loadBudget((dir / "broken.json").string());
   ASSERT_FALSE(broken.isOk());

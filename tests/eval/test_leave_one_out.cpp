@@ -46,7 +46,8 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
     EXPECT_LT(m.psnr_db, 40.0) << mode;
     EXPECT_GT(m.ssim, 0.05) << mode;
     EXPECT_LT(m.ssim, 1.0) << mode;
-    EXPECT_NEAR(m.rmse_percent, 100.0 * std::sqrt(std::pow(10.0, -m.psnr_db / 10.0)), 0.35 * m.rmse_percent)
+    EXPECT_NEAR(m.rmse_percent, 100.0 * std::sqrt(std::pow(10.0, -m.psnr_db / 10.0)),
+                0.35 * m.rmse_percent)
         << "RMSE and PSNR describe the same errors (means of each differ a little)";
     EXPECT_GE(m.flicker, 0.0) << mode << ": two frames give one pair to compare";
     EXPECT_TRUE(std::isfinite(m.flicker));
@@ -79,24 +80,29 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
   EXPECT_LT(scene.chamfer_mm, 60.0);
   ASSERT_EQ(scene.silhouette_iou.size(), 4u);
   for (double iou : scene.silhouette_iou) EXPECT_GT(iou, 0.6);
-  EXPECT_LT(scene.cells_visited, scene.dense_grid_points) << "the hierarchical hull samples less than the dense grid";
+  EXPECT_LT(scene.cells_visited, scene.dense_grid_points)
+      << "the hierarchical hull samples less than the dense grid";
   writeQualityReports(options, results, options.out_dir);
   std::ifstream json_file(fs::path(options.out_dir) / "quality.json");
   const auto json = nlohmann::json::parse(json_file);
   EXPECT_DOUBLE_EQ(json["scenes"]["few-cameras"]["modes"]["montage4d"]["psnr_db"].get<double>(),
                    scene.modes.at("montage4d").psnr_db);
   EXPECT_TRUE(json["scenes"]["few-cameras"].contains("montage4d_against_holoportation"));
-  EXPECT_DOUBLE_EQ(
-      json["scenes"]["few-cameras"]["montage4d_against_holoportation"]["pictures"]["psnr_gain_bound_db"].get<double>(),
-      scene.montage_agreement.gain_bound_db);
+  EXPECT_DOUBLE_EQ(json["scenes"]["few-cameras"]["montage4d_against_holoportation"]["pictures"]
+                       ["psnr_gain_bound_db"]
+                           .get<double>(),
+                   scene.montage_agreement.gain_bound_db);
   std::ifstream md(fs::path(options.out_dir) / "quality.md");
   const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("| few-cameras |"), std::string::npos);
   // Paper 000 Table 2's layout: RMSE, PSNR, SSIM and fps per mode; flicker
   // and seams in a table of their own.
-  EXPECT_NE(text.find("| Scene | normal RMSE | normal PSNR | normal SSIM | normal fps | holoportation RMSE |"),
+  EXPECT_NE(
+      text.find(
+          "| Scene | normal RMSE | normal PSNR | normal SSIM | normal fps | holoportation RMSE |"),
+      std::string::npos);
+  EXPECT_NE(text.find("| Scene | normal flicker | normal seams | holoportation flicker |"),
             std::string::npos);
-  EXPECT_NE(text.find("| Scene | normal flicker | normal seams | holoportation flicker |"), std::string::npos);
   // Paper 000 Table 3's layout: the passes as rows, the modes as columns;
   // normal mode runs none of them.
   const size_t table3 = text.find("## Time per stage of a new mesh (paper 000 Table 3 layout)");
@@ -119,13 +125,15 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
     size_t values_sum = 0;
     int images = 0;
     for (const char* frame : {"frame30", "frame31"}) {
-      const fs::path stem = fs::path(options.out_dir) / "images" / "few-cameras" / mode / (std::string(frame) + "_camera0_");
+      const fs::path stem = fs::path(options.out_dir) / "images" / "few-cameras" / mode /
+                            (std::string(frame) + "_camera0_");
       const cv::Mat rendered = cv::imread(stem.string() + "rendered.png", cv::IMREAD_COLOR);
       const cv::Mat truth = cv::imread(stem.string() + "true.png", cv::IMREAD_COLOR);
       const cv::Mat mask = cv::imread(stem.string() + "mask.png", cv::IMREAD_GRAYSCALE);
       ASSERT_FALSE(rendered.empty() || truth.empty() || mask.empty()) << stem;
       ASSERT_EQ(rendered.size(), truth.size());
-      EXPECT_EQ(cv::imread(stem.string() + "rendered.png", cv::IMREAD_UNCHANGED).channels(), 3) << "RGB, as the truth";
+      EXPECT_EQ(cv::imread(stem.string() + "rendered.png", cv::IMREAD_UNCHANGED).channels(), 3)
+          << "RGB, as the truth";
       double squared = 0;
       size_t values = 0;
       for (int y = 0; y < mask.rows; ++y) {
@@ -165,7 +173,8 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
       EXPECT_EQ(region_inside, inside) << stem;
       EXPECT_GT(lit_error, 0u) << stem;
     }
-    EXPECT_NEAR(psnr_sum / images, m.psnr_db, 1e-9) << mode << ": the saved images give the reported PSNR";
+    EXPECT_NEAR(psnr_sum / images, m.psnr_db, 1e-9)
+        << mode << ": the saved images give the reported PSNR";
     // The regions split the very error the PSNR is made of: every pixel
     // inside the masks in one region, their squared errors adding up.
     size_t region_pixels = 0;
@@ -176,8 +185,11 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
     }
     EXPECT_EQ(3 * region_pixels, values_sum) << mode;
     EXPECT_NEAR(region_squared, squared_sum, 1e-6 * squared_sum) << mode;
-    EXPECT_GT(m.regions.pixels[static_cast<size_t>(holofuse::eval::ErrorRegion::kSilhouetteBorder)], 0u) << mode;
-    EXPECT_GT(m.regions.pixels[static_cast<size_t>(holofuse::eval::ErrorRegion::kElsewhere)], 0u) << mode;
+    EXPECT_GT(m.regions.pixels[static_cast<size_t>(holofuse::eval::ErrorRegion::kSilhouetteBorder)],
+              0u)
+        << mode;
+    EXPECT_GT(m.regions.pixels[static_cast<size_t>(holofuse::eval::ErrorRegion::kElsewhere)], 0u)
+        << mode;
     if (mode == "normal") continue;
     // The shares of the difference from normal sum to one, in the report too.
     const auto shares = regionSharesAgainstNormal(scene.modes, mode);
@@ -185,8 +197,10 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
     double share_sum = 0;
     for (const auto& [region, share] : shares) {
       share_sum += share;
-      EXPECT_DOUBLE_EQ(json["scenes"]["few-cameras"]["modes"][mode]["share_of_difference_from_normal"][region].get<double>(),
-                       share);
+      EXPECT_DOUBLE_EQ(
+          json["scenes"]["few-cameras"]["modes"][mode]["share_of_difference_from_normal"][region]
+              .get<double>(),
+          share);
     }
     EXPECT_NEAR(share_sum, 1.0, 1e-9) << mode;
   }
@@ -278,7 +292,8 @@ TEST(LeaveOneOut, NovelViewsBesideAPodScoreAboveViewsBetweenPods) {
   EXPECT_EQ(results[2].name, "few-cameras +45 deg");
   EXPECT_DOUBLE_EQ(results[1].novel_view_degrees, 5.0);
   for (const auto& row : results) EXPECT_EQ(row.modes.at("normal").images, 1u) << row.name;
-  const double held_out = results[0].modes.at("normal").psnr_db, beside = results[1].modes.at("normal").psnr_db,
+  const double held_out = results[0].modes.at("normal").psnr_db,
+               beside = results[1].modes.at("normal").psnr_db,
                between = results[2].modes.at("normal").psnr_db;
   EXPECT_GT(beside, held_out + 3.0) << held_out << " / " << beside;
   EXPECT_GT(beside, between) << beside << " / " << between;
@@ -305,11 +320,13 @@ TEST(LeaveOneOut, KeepingTheCameraInTheBlendAddsARowThatScoresAboveLeaveOneOut) 
   ASSERT_EQ(results.size(), 2u);
   EXPECT_FALSE(results[0].camera_kept);
   // Its images go to a folder a shell takes unquoted.
-  EXPECT_TRUE(fs::exists(fs::path(options.out_dir) / "images" / "few-cameras_camera_kept" / "montage4d"));
+  EXPECT_TRUE(
+      fs::exists(fs::path(options.out_dir) / "images" / "few-cameras_camera_kept" / "montage4d"));
   fs::remove_all(options.out_dir);
   EXPECT_EQ(results[1].name, "few-cameras (camera kept)");
   EXPECT_TRUE(results[1].camera_kept);
-  const double left_out = results[0].modes.at("montage4d").psnr_db, kept = results[1].modes.at("montage4d").psnr_db;
+  const double left_out = results[0].modes.at("montage4d").psnr_db,
+               kept = results[1].modes.at("montage4d").psnr_db;
   EXPECT_GT(kept, left_out + 3.0) << left_out << " / " << kept;
   const fs::path out = fs::temp_directory_path() / "holofuse_eval_kept_test";
   writeQualityReports(options, results, out.string());
@@ -350,7 +367,8 @@ TEST(LeaveOneOut, VerdictNeedsHalfADecibelHigherSsimAndLessFlickerAfterAJump) {
   scene.modes["montage4d"].flicker = -1;
   EXPECT_FALSE(montageVerdict(scene).met);
   EXPECT_LT(montageVerdict(scene).flicker_ratio, 0.0);
-  EXPECT_NE(montageVerdict(scene).why.find("not measured"), std::string::npos) << montageVerdict(scene).why;
+  EXPECT_NE(montageVerdict(scene).why.find("not measured"), std::string::npos)
+      << montageVerdict(scene).why;
   // Both steady is a tie, not less.
   scene.modes["montage4d"].flicker = 0;
   scene.modes["holoportation"].flicker = 0;

@@ -44,7 +44,8 @@ Grey blurred(const Grey& a) {
     for (int x = 0; x < kW; ++x) {
       int s = 0;
       for (int dy = -1; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) s += a[std::clamp(y + dy, 0, kH - 1) * kW + std::clamp(x + dx, 0, kW - 1)];
+        for (int dx = -1; dx <= 1; ++dx)
+          s += a[std::clamp(y + dy, 0, kH - 1) * kW + std::clamp(x + dx, 0, kW - 1)];
       }
       b[y * kW + x] = s / 9;
     }
@@ -93,7 +94,8 @@ TEST(Metrics, MatchScikitImageOnFourDistortions) {
     const ImageQuality q = compareInMask(rgb(r.make(a)), rgb(a), everywhere);
     EXPECT_NEAR(q.ssim, r.ssim, 1e-8) << r.name;
     EXPECT_NEAR(q.psnr_db, r.psnr, 1e-8) << r.name;
-    EXPECT_NEAR(q.rmse_percent, 100.0 * std::sqrt(255.0 * 255.0 / std::pow(10.0, r.psnr / 10.0)) / 255.0, 1e-8);
+    EXPECT_NEAR(q.rmse_percent,
+                100.0 * std::sqrt(255.0 * 255.0 / std::pow(10.0, r.psnr / 10.0)) / 255.0, 1e-8);
     EXPECT_EQ(q.pixels, size_t{kW * kH});
   }
 }
@@ -142,7 +144,8 @@ class LegacyNumpyNormal {
 TEST(Metrics, MatchTheValuesPublishedForTheCameraImage) {
   const std::string path = std::string(HOLOFUSE_REFERENCE_DIR) + "/camera.png";
   const cv::Mat camera = cv::imread(path, cv::IMREAD_UNCHANGED);
-  ASSERT_FALSE(camera.empty()) << path << " is missing: ./holofuse test fetches it from Debian's python3-skimage";
+  ASSERT_FALSE(camera.empty())
+      << path << " is missing: ./holofuse test fetches it from Debian's python3-skimage";
   ASSERT_EQ(camera.type(), CV_8UC1);
   ASSERT_EQ(camera.cols, 512);
   ASSERT_EQ(camera.rows, 512);
@@ -152,7 +155,8 @@ TEST(Metrics, MatchTheValuesPublishedForTheCameraImage) {
     for (int x = 0; x < 512; ++x) {
       const int i = y * 512 + x;
       clean[i] = camera.at<uint8_t>(y, x);
-      noisy[i] = static_cast<int>(std::clamp(clean[i] + 20.0 * normal.next(), 0.0, 255.0));  // truncated, as astype
+      noisy[i] = static_cast<int>(
+          std::clamp(clean[i] + 20.0 * normal.next(), 0.0, 255.0));  // truncated, as astype
     }
   }
   Image8 clean_rgb(512, 512, 3), noisy_rgb(512, 512, 3);
@@ -171,7 +175,8 @@ TEST(Metrics, ConstantImagesFollowTheLuminanceTermAlone) {
   // No variance: SSIM = (2 mu_a mu_b + C1) / (mu_a^2 + mu_b^2 + C1).
   const double c1 = (0.01 * 255) * (0.01 * 255);
   const std::vector<double> a(kW * kH, 100.0), b(kW * kH, 110.0);
-  EXPECT_NEAR(meanSsim(a, b, kW, kH), (2 * 100.0 * 110 + c1) / (100.0 * 100 + 110.0 * 110 + c1), 1e-12);
+  EXPECT_NEAR(meanSsim(a, b, kW, kH), (2 * 100.0 * 110 + c1) / (100.0 * 100 + 110.0 * 110 + c1),
+              1e-12);
   EXPECT_DOUBLE_EQ(meanSsim(a, a, kW, kH), 1.0);
   EXPECT_DOUBLE_EQ(psnrFromMse(0.0), kPsnrCap) << "identical images: capped, never infinite";
   EXPECT_NEAR(psnrFromMse(100.0), 10 * std::log10(255.0 * 255.0 / 100.0), 1e-12);
@@ -186,7 +191,8 @@ TEST(Metrics, OnlyTheMaskCounts) {
   Image8 rendered = rgb(noisy(a)), changed_outside = rendered;
   for (int y = 0; y < kH; ++y) {
     for (int x = 0; x < kW; ++x) {
-      if (*mask.at(x, y) == 0) changed_outside.at(x, y)[1] = static_cast<uint8_t>(255 - changed_outside.at(x, y)[1]);
+      if (*mask.at(x, y) == 0)
+        changed_outside.at(x, y)[1] = static_cast<uint8_t>(255 - changed_outside.at(x, y)[1]);
     }
   }
   const ImageQuality q = compareInMask(rendered, rgb(a), mask);
@@ -248,7 +254,8 @@ TEST(Metrics, TheMaskOutlineIsNotStructureBothImagesShare) {
       ma /= w;
       mb /= w;
       const double var_a = aa / w - ma * ma, var_b = bb / w - mb * mb, cov = ab / w - ma * mb;
-      sum += (2 * ma * mb + c1) * (2 * cov + c2) / ((ma * ma + mb * mb + c1) * (var_a + var_b + c2));
+      sum +=
+          (2 * ma * mb + c1) * (2 * cov + c2) / ((ma * ma + mb * mb + c1) * (var_a + var_b + c2));
       ++windows;
     }
   }
@@ -261,7 +268,8 @@ TEST(Metrics, FlickerIsTheChangeOfTheErrorNotTheError) {
   Grey brighter = a;
   for (int& v : brighter) v = std::min(255, v + 10);
   // Wrong by the same amount twice: no flicker.
-  const auto e0 = errorImage(rgb(brighter), truth, mask), e1 = errorImage(rgb(brighter), truth, mask);
+  const auto e0 = errorImage(rgb(brighter), truth, mask),
+             e1 = errorImage(rgb(brighter), truth, mask);
   EXPECT_DOUBLE_EQ(flicker(e0, e1), 0.0);
   // Right, then wrong: the mean change of the error.
   const auto right = errorImage(truth, truth, mask);
@@ -291,8 +299,10 @@ TEST(Metrics, SeamVisibilityIsTheErrorsStepAlongTheSeams) {
     return out;
   };
   EXPECT_DOUBLE_EQ(seamVisibility(truth, truth, mask, seams), 0.0);
-  EXPECT_NEAR(seamVisibility(shifted(0, 20), truth, mask, seams), 0.0, 1e-9) << "an offset everywhere";
-  EXPECT_NEAR(seamVisibility(shifted(26, 20), truth, mask, seams), 0.0, 1e-9) << "a step away from the seams";
+  EXPECT_NEAR(seamVisibility(shifted(0, 20), truth, mask, seams), 0.0, 1e-9)
+      << "an offset everywhere";
+  EXPECT_NEAR(seamVisibility(shifted(26, 20), truth, mask, seams), 0.0, 1e-9)
+      << "a step away from the seams";
   // A step of 20 between x = 15 and 16: central differences of 10 at those
   // two columns of the four in the band, nothing vertically.
   EXPECT_NEAR(seamVisibility(shifted(16, 20), truth, mask, seams), std::sqrt(2 * 100.0 / 4), 1e-9);
@@ -309,10 +319,10 @@ TEST(Metrics, PictureAgreementBoundsWhatTheDifferingPixelsCanGain) {
   Image8 truth(4, 2, 3, 100), mask(4, 2, 1, 255);
   *mask.at(3, 1) = 0;  // outside: never counts
   Image8 a = truth, b = truth;
-  a.at(0, 0)[0] = 110;              // a wrong by 10 where b is right: they differ
-  a.at(1, 0)[1] = 104;              // both wrong by 4 and 6: within 2 of each other, alike
+  a.at(0, 0)[0] = 110;  // a wrong by 10 where b is right: they differ
+  a.at(1, 0)[1] = 104;  // both wrong by 4 and 6: within 2 of each other, alike
   b.at(1, 0)[1] = 106;
-  a.at(2, 0)[2] = 90;               // both wrong, 13 apart: they differ
+  a.at(2, 0)[2] = 90;  // both wrong, 13 apart: they differ
   b.at(2, 0)[2] = 103;
   a.at(3, 1)[0] = b.at(3, 1)[0] = 0;  // outside the mask
   const PictureAgreement g = pictureAgreement(a, b, truth, mask);
@@ -325,7 +335,8 @@ TEST(Metrics, PictureAgreementBoundsWhatTheDifferingPixelsCanGain) {
   // b's own PSNR can never beat it: b exact where they differ is the best b.
   EXPECT_LE(compareInMask(b, truth, mask).psnr_db, g.bestPsnrOfB());
   EXPECT_EQ(pictureAgreement(a, b, truth, mask, 20).differing, 0u) << "a wider tolerance";
-  EXPECT_DOUBLE_EQ(pictureAgreement(a, a, truth, mask).bestPsnrOfB(), compareInMask(a, truth, mask).psnr_db)
+  EXPECT_DOUBLE_EQ(pictureAgreement(a, a, truth, mask).bestPsnrOfB(),
+                   compareInMask(a, truth, mask).psnr_db)
       << "identical pictures: no gain to be had";
   EXPECT_THROW(pictureAgreement(a, Image8(3, 2, 3), truth, mask), std::invalid_argument);
 }
@@ -354,24 +365,26 @@ TEST(Metrics, ErrorRegionsSplitTheMaskedErrorByWhereItSits) {
     for (uint32_t x = 5; x < 35; ++x) mask.pixels[y * w + x] = 255;
   DepthMap depth{w, h, std::vector<double>(static_cast<size_t>(w) * h, kNoDepth)};
   for (uint32_t y = 0; y < h; ++y) {
-    for (uint32_t x = 0; x < w; ++x) depth.depth[y * w + x] = x < 20 ? 1.0 : 1.5;  // a jump between x 19 and 20
+    for (uint32_t x = 0; x < w; ++x)
+      depth.depth[y * w + x] = x < 20 ? 1.0 : 1.5;  // a jump between x 19 and 20
   }
   Image8 seams(w, h, 1, 0);
   for (uint32_t y = 0; y < h; ++y) seams.pixels[y * w + 30] = 255;  // a seam down column 30
   const Image8 regions = errorRegions(mask, depth, seams, 3, 0.05);
   auto at = [&](uint32_t x, uint32_t y) { return regions.pixels[y * w + x]; };
   EXPECT_EQ(at(0, 0), kOutsideRegions);
-  EXPECT_EQ(at(5, 15), uint8_t(ErrorRegion::kSilhouetteBorder));   // on the mask's edge
-  EXPECT_EQ(at(7, 15), uint8_t(ErrorRegion::kSilhouetteBorder));   // 3 px from the background at x 4
-  EXPECT_EQ(at(8, 15), uint8_t(ErrorRegion::kElsewhere));          // 4 px from it
-  EXPECT_EQ(at(17, 15), uint8_t(ErrorRegion::kOcclusionEdge));     // 2 px from the jump
+  EXPECT_EQ(at(5, 15), uint8_t(ErrorRegion::kSilhouetteBorder));  // on the mask's edge
+  EXPECT_EQ(at(7, 15), uint8_t(ErrorRegion::kSilhouetteBorder));  // 3 px from the background at x 4
+  EXPECT_EQ(at(8, 15), uint8_t(ErrorRegion::kElsewhere));         // 4 px from it
+  EXPECT_EQ(at(17, 15), uint8_t(ErrorRegion::kOcclusionEdge));    // 2 px from the jump
   EXPECT_EQ(at(22, 15), uint8_t(ErrorRegion::kOcclusionEdge));
-  EXPECT_EQ(at(16, 15), uint8_t(ErrorRegion::kOcclusionEdge));     // 3 px from it
+  EXPECT_EQ(at(16, 15), uint8_t(ErrorRegion::kOcclusionEdge));  // 3 px from it
   EXPECT_EQ(at(15, 15), uint8_t(ErrorRegion::kElsewhere));
-  EXPECT_EQ(at(20, 6), uint8_t(ErrorRegion::kSilhouetteBorder));   // the border wins over the jump
+  EXPECT_EQ(at(20, 6), uint8_t(ErrorRegion::kSilhouetteBorder));  // the border wins over the jump
   EXPECT_EQ(at(30, 15), uint8_t(ErrorRegion::kSeam));
   EXPECT_EQ(at(31, 15), uint8_t(ErrorRegion::kElsewhere));
-  EXPECT_EQ(at(32, 15), uint8_t(ErrorRegion::kSilhouetteBorder));  // 3 px from the background at x 35
+  EXPECT_EQ(at(32, 15),
+            uint8_t(ErrorRegion::kSilhouetteBorder));  // 3 px from the background at x 35
 
   Image8 truth(w, h, 3, 100), rendered(w, h, 3, 100);
   rendered.at(30, 15)[0] = 110;  // the seam: 100
@@ -400,8 +413,8 @@ TEST(GeometryMetrics, ChamferIsTheMeanOfBothNearestDistanceMeans) {
   // With triangles, to the nearest point of the surface, not of its
   // vertices: a small triangle 5 cm above a big one's inside is 5 cm from
   // it, though 29 cm from its nearest corner.
-  Mesh big = pointsAt({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}), small = pointsAt({{0.2f, 0.2f, 0.05f}, {0.3f, 0.2f, 0.05f},
-                                                                          {0.2f, 0.3f, 0.05f}});
+  Mesh big = pointsAt({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}),
+       small = pointsAt({{0.2f, 0.2f, 0.05f}, {0.3f, 0.2f, 0.05f}, {0.2f, 0.3f, 0.05f}});
   big.indices = small.indices = {0, 1, 2};
   // big -> small: its corners reach the small triangle's nearest corners.
   const double big_to_small =

@@ -2,7 +2,6 @@
 // resumed after an interruption (only under the settings they were
 // measured with), the Pareto front and the default's place.
 #include <gtest/gtest.h>
-
 #include <signal.h>
 #include <sys/wait.h>
 
@@ -45,7 +44,9 @@ SweepOptions tinySweep(const std::string& dir) {
 }
 
 TEST(Sweep, ParetoFrontKeepsWhatNothingBeatsBeyondNoise) {
-  auto point = [](double psnr, double ms, double ms_p95) { return TradePoint{psnr, {timeCost(ms, ms_p95)}}; };
+  auto point = [](double psnr, double ms, double ms_p95) {
+    return TradePoint{psnr, {timeCost(ms, ms_p95)}};
+  };
   const std::vector<TradePoint> points = {
       point(10.0, 5.0, 5.0),     // 0: beaten by 1 on both
       point(11.0, 4.0, 4.0),     // 1
@@ -64,14 +65,17 @@ TEST(Sweep, ParetoFrontKeepsWhatNothingBeatsBeyondNoise) {
   EXPECT_TRUE(dominates(TradePoint{19.52, {timeCost(30, 31), bytesCost(1e6)}}, base));
   EXPECT_FALSE(dominates(TradePoint{19.5, {timeCost(30, 31), bytesCost(0.997e6)}}, base));
   EXPECT_TRUE(dominates(TradePoint{19.5, {timeCost(30, 31), bytesCost(0.99e6)}}, base));
-  EXPECT_FALSE(dominates(TradePoint{19.6, {timeCost(30, 31), bytesCost(1.01e6)}}, base)) << "more bytes";
-  EXPECT_FALSE(dominates(TradePoint{19.6, {timeCost(30.5, 31), bytesCost(1e6)}}, base)) << "slower, if within noise";
+  EXPECT_FALSE(dominates(TradePoint{19.6, {timeCost(30, 31), bytesCost(1.01e6)}}, base))
+      << "more bytes";
+  EXPECT_FALSE(dominates(TradePoint{19.6, {timeCost(30.5, 31), bytesCost(1e6)}}, base))
+      << "slower, if within noise";
   // Three points each cheapest in one cost, the others within 15%: none
   // beats another, so all stay (a rule that forgave small losses would
   // let each beat the next around a circle and leave no front).
-  const std::vector<TradePoint> circle = {{19.5, {timeCost(100, 100), timeCost(107, 107), timeCost(115, 115)}},
-                                          {19.5, {timeCost(115, 115), timeCost(100, 100), timeCost(107, 107)}},
-                                          {19.5, {timeCost(107, 107), timeCost(115, 115), timeCost(100, 100)}}};
+  const std::vector<TradePoint> circle = {
+      {19.5, {timeCost(100, 100), timeCost(107, 107), timeCost(115, 115)}},
+      {19.5, {timeCost(115, 115), timeCost(100, 100), timeCost(107, 107)}},
+      {19.5, {timeCost(107, 107), timeCost(115, 115), timeCost(100, 100)}}};
   EXPECT_EQ(paretoFront(circle), (std::vector<size_t>{0, 1, 2}));
   EXPECT_EQ(paretoFront({point(1.0, 1.0, 1.0), point(1.0, 1.0, 1.0)}), (std::vector<size_t>{0, 1}))
       << "equal points both stay";
@@ -101,7 +105,8 @@ TEST(Sweep, BadKnobsAndValuesAreRefusedBeforeAnyWork) {
     runSweep(options);
     FAIL() << "a knob given twice accepted";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("knob 'alpha' is given twice"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("knob 'alpha' is given twice"), std::string::npos)
+        << e.what();
   }
   EXPECT_FALSE(fs::exists(dir / "points")) << "nothing ran, nothing written";
 }
@@ -117,8 +122,10 @@ TEST(Sweep, AnInterruptedSweepKeepsFinishedPointsAndResumes) {
   EXPECT_TRUE(first[1].is_default) << "alpha 2 is the default";
   EXPECT_FALSE(first[3].is_default);
   EXPECT_EQ(first[4].knob + "=" + first[4].value, "K=20");
-  EXPECT_TRUE(first[4].is_default && first[4].resumed) << "K = 20 is the same run as alpha = 2: not run twice";
-  EXPECT_DOUBLE_EQ(first[4].result.modes.at("normal").psnr_db, first[1].result.modes.at("normal").psnr_db);
+  EXPECT_TRUE(first[4].is_default && first[4].resumed)
+      << "K = 20 is the same run as alpha = 2: not run twice";
+  EXPECT_DOUBLE_EQ(first[4].result.modes.at("normal").psnr_db,
+                   first[1].result.modes.at("normal").psnr_db);
   options.knobs.pop_back();
   // As if killed while the last point ran: its file never appeared, a
   // partial one did.
@@ -129,7 +136,8 @@ TEST(Sweep, AnInterruptedSweepKeepsFinishedPointsAndResumes) {
   EXPECT_TRUE(second[0].resumed);
   EXPECT_TRUE(second[1].resumed);
   EXPECT_FALSE(second[2].resumed);
-  EXPECT_DOUBLE_EQ(second[0].result.modes.at("normal").psnr_db, first[0].result.modes.at("normal").psnr_db);
+  EXPECT_DOUBLE_EQ(second[0].result.modes.at("normal").psnr_db,
+                   first[0].result.modes.at("normal").psnr_db);
   EXPECT_DOUBLE_EQ(second[0].result.bytes_per_frame, first[0].result.bytes_per_frame);
   writeSweepReports(options, second);
   std::ifstream in(dir / "sweep.json");
@@ -163,7 +171,8 @@ TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
     // Every stage the live loop stamped, for the budget, and each of the
     // scene's 4 pods' arrival jitter at the server.
     EXPECT_DOUBLE_EQ(p.live->stage_ms_p95.at("end_to_end"), p.live->end_to_end_ms_p95);
-    EXPECT_GT(p.live->stage_ms_p95.count("upload"), 0u) << "a stage the leave-one-out run does not time";
+    EXPECT_GT(p.live->stage_ms_p95.count("upload"), 0u)
+        << "a stage the leave-one-out run does not time";
     EXPECT_EQ(p.live->stage_ms_p95.count("replay_read"), 0u) << "not stamped in a live run";
     EXPECT_EQ(p.live->jitter_ms.size(), 4u);
   }
@@ -173,7 +182,8 @@ TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
   const std::string eleven = readText(dir / "live" / "default" / "logs" / "server.log");
   EXPECT_NE(eight.find("Draco 8 bits"), std::string::npos) << eight;
   EXPECT_NE(eleven.find("Draco 11 bits"), std::string::npos) << eleven;
-  EXPECT_NE(readText(dir / "live" / "default" / "loop.log").find("4 pods at 96x72"), std::string::npos);
+  EXPECT_NE(readText(dir / "live" / "default" / "loop.log").find("4 pods at 96x72"),
+            std::string::npos);
   writeSweepReports(options, points);
   std::ifstream in(dir / "sweep.json");
   const auto json = nlohmann::json::parse(in);
@@ -182,15 +192,18 @@ TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
     EXPECT_GT(p["live"]["end_to_end_ms_p50"].get<double>(), 0.0);
     EXPECT_GE(p["live_worst_pod_jitter_ms"].get<double>(), 0.0);
   }
-  EXPECT_NE(readText(dir / "sweep.html").find("PSNR against live end-to-end ms"), std::string::npos);
+  EXPECT_NE(readText(dir / "sweep.html").find("PSNR against live end-to-end ms"),
+            std::string::npos);
   if (!holofuse::test::chromium().empty()) {
     EXPECT_EQ(holofuse::test::chartsRendered(dir / "sweep.html"), 6)
-        << "PSNR against client ms, pipeline ms, both links' bytes and live end-to-end ms, and the latency stack";
+        << "PSNR against client ms, pipeline ms, both links' bytes and live end-to-end ms, and the "
+           "latency stack";
   }
 
   const auto again = runSweep(options);
   EXPECT_TRUE(again[0].resumed && again[1].resumed);
-  EXPECT_DOUBLE_EQ(again[0].live->end_to_end_ms_p50, points[0].live->end_to_end_ms_p50) << "kept, not run again";
+  EXPECT_DOUBLE_EQ(again[0].live->end_to_end_ms_p50, points[0].live->end_to_end_ms_p50)
+      << "kept, not run again";
   EXPECT_EQ(again[0].live->jitter_ms, points[0].live->jitter_ms);
   EXPECT_EQ(again[0].live->stage_ms_p95, points[0].live->stage_ms_p95);
 
@@ -243,8 +256,10 @@ TEST(Sweep, PointsMeasuredUnderOtherSettingsAreRefusedNotMixedIn) {
     FAIL() << "a point from another image size was reused";
   } catch (const std::invalid_argument& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("alpha=1.json was measured under other settings: size \"96x72\" (now \"128x96\")"),
-              std::string::npos)
+    EXPECT_NE(
+        what.find(
+            "alpha=1.json was measured under other settings: size \"96x72\" (now \"128x96\")"),
+        std::string::npos)
         << what;
     EXPECT_NE(what.find("another --out"), std::string::npos) << what;
   }
@@ -268,21 +283,27 @@ TEST(Sweep, TheDefaultIsDominatedOnlyByAPointNoWorseOnEveryCost) {
   SweepOptions options = tinySweep(dir.string());
   options.knobs = {{"draco-bits", {"11", "14"}}, {"alpha", {"1", "2"}}};
   std::vector<SweepPoint> points;
-  auto add = [&](const std::string& knob, const std::string& value, bool is_default, double psnr, double client_ms,
-                 double codec_ms, double bytes) {
-    points.push_back(test::sweepPoint(knob, value, is_default, "normal", psnr, client_ms, codec_ms, bytes));
+  auto add = [&](const std::string& knob, const std::string& value, bool is_default, double psnr,
+                 double client_ms, double codec_ms, double bytes) {
+    points.push_back(
+        test::sweepPoint(knob, value, is_default, "normal", psnr, client_ms, codec_ms, bytes));
   };
   add("draco-bits", "11", true, 19.5, 30, 5, 1.2e6);
-  add("draco-bits", "14", false, 19.5, 30, 6, 1.3e6);   // as good and as fast to render, but more to send
-  add("alpha", "1", false, 19.7, 30, 5, 1.2e6);         // better, at no cost
+  add("draco-bits", "14", false, 19.5, 30, 6,
+      1.3e6);                                    // as good and as fast to render, but more to send
+  add("alpha", "1", false, 19.7, 30, 5, 1.2e6);  // better, at no cost
   add("alpha", "2", true, 19.5, 30, 5, 1.2e6);
   writeSweepReports(options, points);
   std::ifstream in(dir / "sweep.json");
   const auto json = nlohmann::json::parse(in);
-  EXPECT_EQ(json["knobs"]["draco-bits"]["default_verdict"], "the default (draco-bits=11) is on the Pareto front");
-  EXPECT_EQ(json["knobs"]["draco-bits"]["points"][1]["on_front"], false) << "14 bits: dominated by 11";
-  EXPECT_DOUBLE_EQ(json["knobs"]["draco-bits"]["points"][1]["pipeline_ms"].get<double>(), 20 + 6 + 30);
-  EXPECT_EQ(json["knobs"]["alpha"]["default_verdict"], "the default (alpha=2) is dominated by alpha=1");
+  EXPECT_EQ(json["knobs"]["draco-bits"]["default_verdict"],
+            "the default (draco-bits=11) is on the Pareto front");
+  EXPECT_EQ(json["knobs"]["draco-bits"]["points"][1]["on_front"], false)
+      << "14 bits: dominated by 11";
+  EXPECT_DOUBLE_EQ(json["knobs"]["draco-bits"]["points"][1]["pipeline_ms"].get<double>(),
+                   20 + 6 + 30);
+  EXPECT_EQ(json["knobs"]["alpha"]["default_verdict"],
+            "the default (alpha=2) is dominated by alpha=1");
   EXPECT_EQ(json["knobs"]["alpha"]["points"][0]["live_command"],
             "./holofuse demo --scene few-cameras --mode normal --size 96x72 --alpha 1")
       << "the base's size (96x72) goes with it";
@@ -311,13 +332,25 @@ TEST(Sweep, AKilledSweepResumesWhereItStopped) {
   const fs::path dir = holofuse::test::freshDir("sweep_killed");
   // Six points of a second or so each: the kill lands long before the last.
   const std::vector<std::string> command = {std::string(HOLOFUSE_BIN_DIR) + "/holofuse_sweep",
-                                            "--scene", "few-cameras", "--modes", "normal", "--frames", "2",
-                                            "--held-out", "2", "--set", "size=160x120", "--knob",
-                                            "alpha=1,4,8,16,32", "--out", dir.string()};
+                                            "--scene",
+                                            "few-cameras",
+                                            "--modes",
+                                            "normal",
+                                            "--frames",
+                                            "2",
+                                            "--held-out",
+                                            "2",
+                                            "--set",
+                                            "size=160x120",
+                                            "--knob",
+                                            "alpha=1,4,8,16,32",
+                                            "--out",
+                                            dir.string()};
   const pid_t sweep = holofuse::test::spawn(command, dir / "first.log");
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
   bool exited = false;
-  while (!fs::exists(dir / "points" / "alpha=1.json") && std::chrono::steady_clock::now() < deadline && !exited) {
+  while (!fs::exists(dir / "points" / "alpha=1.json") &&
+         std::chrono::steady_clock::now() < deadline && !exited) {
     exited = waitpid(sweep, nullptr, WNOHANG) == sweep;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
@@ -329,7 +362,8 @@ TEST(Sweep, AKilledSweepResumesWhereItStopped) {
   ASSERT_TRUE(fs::exists(dir / "points" / "alpha=1.json")) << readText(dir / "first.log");
   EXPECT_FALSE(fs::exists(dir / "sweep.json"));
   size_t on_disk = 0;
-  for (const auto& entry : fs::directory_iterator(dir / "points")) on_disk += entry.path().extension() == ".json";
+  for (const auto& entry : fs::directory_iterator(dir / "points"))
+    on_disk += entry.path().extension() == ".json";
   EXPECT_LT(on_disk, 6u) << "some points were still to run";
   const std::string measured = readText(dir / "points" / "alpha=1.json");
   std::string joined;
@@ -344,10 +378,12 @@ TEST(Sweep, AKilledSweepResumesWhereItStopped) {
   EXPECT_EQ(nlohmann::json::parse(in)["knobs"]["alpha"]["points"].size(), 6u);
 
   const std::string refused =
-      run(std::string(HOLOFUSE_BIN_DIR) + "/holofuse_sweep --scene nowhere --knob alpha=1 --out " + dir.string(),
+      run(std::string(HOLOFUSE_BIN_DIR) + "/holofuse_sweep --scene nowhere --knob alpha=1 --out " +
+              dir.string(),
           &status);
   EXPECT_EQ(WEXITSTATUS(status), 2) << refused;
-  EXPECT_NE(refused.find("unknown scene 'nowhere'; valid scenes: clean, calibration-error"), std::string::npos)
+  EXPECT_NE(refused.find("unknown scene 'nowhere'; valid scenes: clean, calibration-error"),
+            std::string::npos)
       << refused;
   fs::remove_all(dir);
 }
@@ -357,8 +393,10 @@ TEST(Sweep, AKilledSweepResumesWhereItStopped) {
 TEST(Sweep, SetMovesTheBaseOfEveryPoint) {
   const fs::path dir = fs::temp_directory_path() / "holofuse_sweep_set";
   fs::remove_all(dir);
-  const std::string sweep = std::string(HOLOFUSE_BIN_DIR) + "/holofuse_sweep --scene few-cameras --modes normal "
-                                                            "--frames 1 --held-out 1 --out " + dir.string();
+  const std::string sweep = std::string(HOLOFUSE_BIN_DIR) +
+                            "/holofuse_sweep --scene few-cameras --modes normal "
+                            "--frames 1 --held-out 1 --out " +
+                            dir.string();
   int status = 0;
   std::string output = run(sweep + " --set brightness=2 --knob alpha=1", &status);
   EXPECT_EQ(WEXITSTATUS(status), 2) << output;
@@ -373,9 +411,11 @@ TEST(Sweep, SetMovesTheBaseOfEveryPoint) {
   const auto json = nlohmann::json::parse(in);
   const auto& point = json["knobs"]["alpha"]["points"][0];
   std::ifstream point_file(dir / "points" / "alpha=1.json");
-  EXPECT_EQ(nlohmann::json::parse(point_file)["settings"]["size"], "96x72") << "measured at the base's size";
-  EXPECT_EQ(point["live_command"], "./holofuse demo --scene few-cameras --mode normal --draco-bits 9 --size 96x72 "
-                                   "--alpha 1");
+  EXPECT_EQ(nlohmann::json::parse(point_file)["settings"]["size"], "96x72")
+      << "measured at the base's size";
+  EXPECT_EQ(point["live_command"],
+            "./holofuse demo --scene few-cameras --mode normal --draco-bits 9 --size 96x72 "
+            "--alpha 1");
   EXPECT_EQ(json["knobs"]["alpha"]["points"][1]["value"], "2") << "the default, added";
   fs::remove_all(dir);
 }
@@ -389,7 +429,8 @@ TEST(Sweep, EvalTakesTheVoxelAndTheCropMarginLikeTheLoop) {
                            "/holofuse_eval --scenes few-cameras --modes normal "
                            "--frames 1 --held-out 1 --size 96x72 ";
   int status = 0;
-  std::string output = run(eval + "--voxel 0.03 --crop-margin -1 --out " + (dir / "whole").string(), &status);
+  std::string output =
+      run(eval + "--voxel 0.03 --crop-margin -1 --out " + (dir / "whole").string(), &status);
   ASSERT_EQ(status, 0) << output;
   output = run(eval + "--out " + (dir / "cropped").string(), &status);
   ASSERT_EQ(status, 0) << output;
@@ -417,7 +458,8 @@ TEST(Sweep, EvalTakesTheVoxelAndTheCropMarginLikeTheLoop) {
 TEST(Sweep, EveryKnobIsAFlagOfTheLiveLoopAndOfEval) {
   for (const char* program : {"holofuse_loop", "holofuse_eval"}) {
     int status = -1;
-    const std::string help = run(std::string(HOLOFUSE_BIN_DIR) + "/" + program + " --help", &status);
+    const std::string help =
+        run(std::string(HOLOFUSE_BIN_DIR) + "/" + program + " --help", &status);
     ASSERT_EQ(status, 0) << help;
     for (const Knob& knob : sweepKnobs()) {
       ASSERT_FALSE(knob.loop_flag.empty()) << knob.name;
@@ -433,7 +475,10 @@ TEST(Sweep, EvalFlagsSetWhatTheKnobsSet) {
   CLI::App app;
   const KnobFlags flags(app, {"size"});
   EXPECT_EQ(app.get_option_no_throw("--size"), nullptr) << "eval's own";
-  app.parse("--vote-delta 0.3 --dilation 2 --geodesic-rings 7 --voxel 0.04 --hull-error-mm 1.5 --lambda 0.2", false);
+  app.parse(
+      "--vote-delta 0.3 --dilation 2 --geodesic-rings 7 --voxel 0.04 --hull-error-mm 1.5 --lambda "
+      "0.2",
+      false);
   EvalOptions options;
   ASSERT_EQ(flags.apply(options), "");
   EXPECT_FLOAT_EQ(options.fields.vote_delta, 0.3f);
@@ -482,7 +527,8 @@ TEST(Sweep, ADatasetIsSweptAroundItsOwnSettings) {
   std::ifstream in(dir / "sweep" / "sweep.json");
   const auto json = nlohmann::json::parse(in);
   EXPECT_EQ(json["dataset"], capture.string());
-  EXPECT_NE(json["knobs"]["voxel"]["points"][0]["live_command"].get<std::string>().find("--replay " + capture.string()),
+  EXPECT_NE(json["knobs"]["voxel"]["points"][0]["live_command"].get<std::string>().find(
+                "--replay " + capture.string()),
             std::string::npos)
       << "a dataset's point runs live as a replay";
   for (const char* knob : {"cameras", "size"}) {
@@ -491,7 +537,8 @@ TEST(Sweep, ADatasetIsSweptAroundItsOwnSettings) {
       (void)runSweep(options);
       ADD_FAILURE() << knob << " was taken for a dataset";
     } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("needs a synthetic scene"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("needs a synthetic scene"), std::string::npos)
+          << e.what();
     }
   }
   fs::remove_all(dir);
@@ -508,7 +555,8 @@ TEST(Sweep, KnobsTakeExactlyWhatTheirLoopFlagTakes) {
     ++shared;
     EvalOptions options;
     if (!flag->choices.empty()) {
-      for (const std::string& choice : flag->choices) EXPECT_EQ(knob.apply(options, choice), "") << knob.name;
+      for (const std::string& choice : flag->choices)
+        EXPECT_EQ(knob.apply(options, choice), "") << knob.name;
       EXPECT_NE(knob.apply(options, "none-of-them"), "") << knob.name;
       continue;
     }
@@ -519,7 +567,8 @@ TEST(Sweep, KnobsTakeExactlyWhatTheirLoopFlagTakes) {
     };
     // A whole-number knob is probed a whole step beyond each end: a
     // fraction would be refused as a fraction whatever the range.
-    const bool whole = knob.apply(options, text(flag->min + 0.5)).find("whole number") != std::string::npos;
+    const bool whole =
+        knob.apply(options, text(flag->min + 0.5)).find("whole number") != std::string::npos;
     const double step = whole ? 1.0 : std::max(1.0, flag->max - flag->min) * 1e-3;
     for (const double v : {flag->min, flag->max}) {
       EXPECT_EQ(knob.apply(options, text(v)), "") << knob.name << " " << v;
@@ -527,10 +576,12 @@ TEST(Sweep, KnobsTakeExactlyWhatTheirLoopFlagTakes) {
     for (const double v : {flag->min - step, flag->max + step}) {
       const std::string error = knob.apply(options, text(v));
       EXPECT_NE(error, "") << knob.name << " " << v;
-      EXPECT_EQ(error.find("whole number"), std::string::npos) << knob.name << ": refused for its range, " << error;
+      EXPECT_EQ(error.find("whole number"), std::string::npos)
+          << knob.name << ": refused for its range, " << error;
     }
   }
-  EXPECT_EQ(shared, static_cast<int>(sweepKnobs().size()) - 2) << "all but cameras (2 at least) and size";
+  EXPECT_EQ(shared, static_cast<int>(sweepKnobs().size()) - 2)
+      << "all but cameras (2 at least) and size";
 }
 
 TEST(Sweep, KnobsChangeWhatTheyName) {

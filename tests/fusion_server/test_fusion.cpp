@@ -23,7 +23,8 @@
 namespace holofuse::fusion {
 namespace {
 
-std::vector<HullView> syntheticViews(int count, uint64_t frame_id, uint32_t w = 240, uint32_t h = 180) {
+std::vector<HullView> syntheticViews(int count, uint64_t frame_id, uint32_t w = 240,
+                                     uint32_t h = 180) {
   const capture::SyntheticScene scene;
   std::vector<HullView> views;
   for (const auto& cam : capture::SyntheticScene::cameraRig(count, w, h)) {
@@ -80,8 +81,9 @@ TEST(HullErrorTarget, SilhouetteErrorFallsWithTheVoxelAndTheSearchMeetsTheTarget
     const SilhouetteError error = silhouetteError(carveVisualHull(views, options), views);
     ASSERT_TRUE(error.valid);
     EXPECT_GE(error.worst_m, error.mean_m);
-    RecordProperty("silhouette_error_mm_at_voxel_" + std::to_string(static_cast<int>(voxel * 1000)) + "mm",
-                   std::to_string(1000 * error.mean_m));
+    RecordProperty(
+        "silhouette_error_mm_at_voxel_" + std::to_string(static_cast<int>(voxel * 1000)) + "mm",
+        std::to_string(1000 * error.mean_m));
     errors.push_back(error.mean_m);
   }
   EXPECT_GT(errors[0], errors[1]);
@@ -101,7 +103,8 @@ TEST(HullErrorTarget, SilhouetteErrorFallsWithTheVoxelAndTheSearchMeetsTheTarget
   EXPECT_GT(found.carves, 1);
   EXPECT_GT(found.mesh.triangleCount(), 1000u);
   options.voxel_size = found.voxel_size / kVoxelStep;
-  EXPECT_GT(silhouetteError(carveVisualHull(views, options), views).mean_m, target) << "one step coarser misses";
+  EXPECT_GT(silhouetteError(carveVisualHull(views, options), views).mean_m, target)
+      << "one step coarser misses";
 
   // A camera whose calibration is 6 px off: no voxel brings the outlines
   // together, and the search stops where refining stopped helping instead
@@ -185,17 +188,21 @@ TEST(VisualHull, CoarseToFineGivesTheDenseMeshWithAFifthOfTheWork) {
       EXPECT_EQ(coarse.indices, dense.indices);
       EXPECT_EQ(coarse.vertex_keys, dense.vertex_keys);
       EXPECT_EQ(dense_stats.cells_visited(), dense_stats.grid_points);
-      const double ratio = static_cast<double>(dense_stats.cells_visited()) / coarse_stats.cells_visited();
+      const double ratio =
+          static_cast<double>(dense_stats.cells_visited()) / coarse_stats.cells_visited();
       RecordProperty("cells_dense_" + std::to_string(cameras) + "_" + std::to_string(voxel),
                      std::to_string(dense_stats.cells_visited()));
       RecordProperty("cells_hierarchical_" + std::to_string(cameras) + "_" + std::to_string(voxel),
                      std::to_string(coarse_stats.cells_visited()));
       // Reported, not asserted (timing in tests is not allowed).
-      std::printf("%d cameras, voxel %.3f m: dense %zu points in %.0f ms, hierarchical %zu cells + %zu points "
-                  "(%.1fx fewer) in %.0f ms\n",
-                  cameras, voxel, dense_stats.cells_visited(),
-                  std::chrono::duration<double, std::milli>(t1 - t0).count(), coarse_stats.cells_classified,
-                  coarse_stats.points_sampled, ratio, std::chrono::duration<double, std::milli>(t2 - t1).count());
+      std::printf(
+          "%d cameras, voxel %.3f m: dense %zu points in %.0f ms, hierarchical %zu cells + %zu "
+          "points "
+          "(%.1fx fewer) in %.0f ms\n",
+          cameras, voxel, dense_stats.cells_visited(),
+          std::chrono::duration<double, std::milli>(t1 - t0).count(), coarse_stats.cells_classified,
+          coarse_stats.points_sampled, ratio,
+          std::chrono::duration<double, std::milli>(t2 - t1).count());
       // The target: at least 5x fewer. The band of boundary cells
       // around the surface is about a voxel thick whatever the voxel, so
       // the saving grows as voxels shrink: measured 6.2x (4 cameras) and
@@ -248,7 +255,8 @@ TEST(VisualHull, HostileCalibrationOrMismatchedImagesCarveNothingAndNeverReadOut
   hostile[0].camera.fx = 1e300;
   hostile[0].camera.skew = -1e300;  // projections overflow to inf and NaN
   const Mesh mesh = carveVisualHull(hostile, HullOptions{});
-  for (const auto& p : mesh.positions) ASSERT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
+  for (const auto& p : mesh.positions)
+    ASSERT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
 }
 
 TEST(FrameSync, CompleteGroupsGoAtOnceLateOnesAtTheDeadline) {
@@ -327,19 +335,23 @@ TEST(FusionWorker, TheServerStampsTheSendStageItself) {
   protocol::PodFrame pod;
   pod.frame_id = 3;
   pod.capture_time_ns = 1000;
-  pod.stamps = {{static_cast<uint16_t>(protocol::Stage::kPodEncode), 0, 1500, 2000},
-                {static_cast<uint16_t>(protocol::Stage::kSend), 0, 1, 999'999}};  // not the pod's to say
+  pod.stamps = {
+      {static_cast<uint16_t>(protocol::Stage::kPodEncode), 0, 1500, 2000},
+      {static_cast<uint16_t>(protocol::Stage::kSend), 0, 1, 999'999}};  // not the pod's to say
   std::vector<uint8_t> storage[3];
-  pod.planes = {encodePlane(color, protocol::PlaneKind::kColor, protocol::Codec::kLz4, storage[0]),
-                encodePlane(views[0].mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage[1]),
-                encodePlane(views[0].feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4, storage[2])};
+  pod.planes = {
+      encodePlane(color, protocol::PlaneKind::kColor, protocol::Codec::kLz4, storage[0]),
+      encodePlane(views[0].mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage[1]),
+      encodePlane(views[0].feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4,
+                  storage[2])};
   auto images = podImagesOf(pod, 4096, views[0].camera, 5000);
   ASSERT_TRUE(images.isOk()) << images.status().toString();
   EXPECT_EQ(images->sent_ns, 2000u) << "the pod's encode end";
   EXPECT_EQ(images->arrival_ns, 5000u);
-  const auto sends = std::count_if(images->stamps.begin(), images->stamps.end(), [](const protocol::StageStamp& s) {
-    return s.stage == static_cast<uint16_t>(protocol::Stage::kSend);
-  });
+  const auto sends = std::count_if(
+      images->stamps.begin(), images->stamps.end(), [](const protocol::StageStamp& s) {
+        return s.stage == static_cast<uint16_t>(protocol::Stage::kSend);
+      });
   EXPECT_EQ(sends, 1);
 }
 

@@ -66,11 +66,13 @@ TEST(PhotoRefine, MovesTheHullTowardTheSubjectOnlyInwardAndKeepsItsTriangles) {
   const Mesh hull = carve(capture);
   ASSERT_GT(hull.vertexCount(), 1000u);
   PhotoRefineStats stats;
-  const Mesh refined = refineByPhotoConsistency(hull, capture.views, capture.colors, refineOptions(4), &stats);
+  const Mesh refined =
+      refineByPhotoConsistency(hull, capture.views, capture.colors, refineOptions(4), &stats);
   ASSERT_EQ(refined.vertexCount(), hull.vertexCount());
   EXPECT_EQ(refined.indices, hull.indices);
   EXPECT_EQ(refined.vertex_keys, hull.vertex_keys);
-  EXPECT_GT(stats.vertices_moved, hull.vertexCount() / 20) << "the subject is textured: a part of it moves";
+  EXPECT_GT(stats.vertices_moved, hull.vertexCount() / 20)
+      << "the subject is textured: a part of it moves";
   // Each vertex on the line inward along its normal, at most 4 voxels deep.
   for (size_t v = 0; v < hull.vertexCount(); ++v) {
     const glm::dvec3 moved = glm::dvec3(hull.positions[v]) - glm::dvec3(refined.positions[v]);
@@ -81,18 +83,21 @@ TEST(PhotoRefine, MovesTheHullTowardTheSubjectOnlyInwardAndKeepsItsTriangles) {
     ASSERT_LT(glm::length(moved - depth * normal), 1e-5) << "vertex " << v << " moved sideways";
   }
   const double before = meanDistanceToTruth(hull), after = meanDistanceToTruth(refined);
-  EXPECT_LT(after, 0.95 * before) << "mean distance to the true surface " << 1000 * before << " mm -> "
-                                  << 1000 * after << " mm";
+  EXPECT_LT(after, 0.95 * before) << "mean distance to the true surface " << 1000 * before
+                                  << " mm -> " << 1000 * after << " mm";
 }
 
 TEST(PhotoRefine, EverySilhouettePixelTheHullCoversStaysCovered) {
   const Capture capture = syntheticCapture(6);
   const Mesh hull = carve(capture);
   PhotoRefineStats stats;
-  const Mesh refined = refineByPhotoConsistency(hull, capture.views, capture.colors, refineOptions(8), &stats);
-  EXPECT_GT(stats.vertices_restored, 0u) << "8 voxels deep, some outline vertex must have been put back";
+  const Mesh refined =
+      refineByPhotoConsistency(hull, capture.views, capture.colors, refineOptions(8), &stats);
+  EXPECT_GT(stats.vertices_restored, 0u)
+      << "8 voxels deep, some outline vertex must have been put back";
   for (const auto& view : capture.views) {
-    const DepthMap before = rasterizeDepth(hull, view.camera), after = rasterizeDepth(refined, view.camera);
+    const DepthMap before = rasterizeDepth(hull, view.camera),
+                   after = rasterizeDepth(refined, view.camera);
     size_t covered = 0, bared = 0;
     for (size_t pixel = 0; pixel < before.depth.size(); ++pixel) {
       if (view.mask.pixels[pixel] == 0 || before.depth[pixel] == kNoDepth) continue;
@@ -100,7 +105,8 @@ TEST(PhotoRefine, EverySilhouettePixelTheHullCoversStaysCovered) {
       bared += after.depth[pixel] == kNoDepth;
     }
     EXPECT_GT(covered, 1000u);
-    EXPECT_EQ(bared, 0u) << "camera " << view.camera.id << ": of " << covered << " silhouette pixels";
+    EXPECT_EQ(bared, 0u) << "camera " << view.camera.id << ": of " << covered
+                         << " silhouette pixels";
   }
 }
 
@@ -109,7 +115,8 @@ TEST(PhotoRefine, ColourThatAgreesEverywhereMovesNothing) {
   for (auto& color : capture.colors) color = Image8(color.width, color.height, 3, 128);
   const Mesh hull = carve(capture);
   PhotoRefineStats stats;
-  const Mesh refined = refineByPhotoConsistency(hull, capture.views, capture.colors, refineOptions(4), &stats);
+  const Mesh refined =
+      refineByPhotoConsistency(hull, capture.views, capture.colors, refineOptions(4), &stats);
   EXPECT_EQ(stats.vertices_moved, 0u);
   EXPECT_EQ(refined.positions, hull.positions);
 }
@@ -117,8 +124,9 @@ TEST(PhotoRefine, ColourThatAgreesEverywhereMovesNothing) {
 TEST(PhotoRefine, OffGivesTheHullAndImagesThatDoNotFitAreRefusedByCamera) {
   Capture capture = syntheticCapture(4);
   const Mesh hull = carve(capture);
-  EXPECT_EQ(refineByPhotoConsistency(hull, capture.views, capture.colors, refineOptions(0)).positions,
-            hull.positions);
+  EXPECT_EQ(
+      refineByPhotoConsistency(hull, capture.views, capture.colors, refineOptions(0)).positions,
+      hull.positions);
   capture.colors[2] = Image8(100, 100, 3, 0);
   try {
     refineByPhotoConsistency(hull, capture.views, capture.colors, refineOptions(4));

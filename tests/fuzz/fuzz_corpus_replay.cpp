@@ -13,7 +13,8 @@ TEST(FuzzCorpus, EverySeedAndItsMutationsDecodeWithoutHarm) {
   size_t seeds = 0;
   for (const auto& entry : std::filesystem::directory_iterator(HOLOFUSE_FUZZ_CORPUS_DIR)) {
     std::ifstream in(entry.path(), std::ios::binary);
-    std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                               std::istreambuf_iterator<char>());
     EXPECT_EQ(LLVMFuzzerTestOneInput(bytes.data(), bytes.size()), 0);
     for (size_t n = 0; n < bytes.size(); ++n) LLVMFuzzerTestOneInput(bytes.data(), n);
     for (size_t i = 0; i < bytes.size(); ++i) {

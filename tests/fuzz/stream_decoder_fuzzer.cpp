@@ -17,17 +17,58 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   while (decoder.hasFrame()) {
     const Frame frame = decoder.takeFrame();
     switch (static_cast<MessageType>(frame.header.type)) {
-      case MessageType::kHello: { Hello m; (void)decodeFrame(frame, m); break; }
-      case MessageType::kHelloAck: { HelloAck m; (void)decodeFrame(frame, m); break; }
-      case MessageType::kCalibration: { Calibration m; (void)decodeFrame(frame, m); break; }
-      case MessageType::kPodFrame: { PodFrame m; (void)decodeFrame(frame, m); break; }
-      case MessageType::kMeshFrame: { MeshFrame m; (void)decodeFrame(frame, m); break; }
-      case MessageType::kTextureBundle: { TextureBundle m; (void)decodeFrame(frame, m); break; }
-      case MessageType::kHeartbeat: { Heartbeat m; (void)decodeFrame(frame, m); break; }
-      case MessageType::kStats: { Stats m; (void)decodeFrame(frame, m); break; }
-      case MessageType::kBye: { Bye m; (void)decodeFrame(frame, m); break; }
-      case MessageType::kError: { ErrorMessage m; (void)decodeFrame(frame, m); break; }
-      default: break;
+      case MessageType::kHello: {
+        Hello m;
+        (void)decodeFrame(frame, m);
+        break;
+      }
+      case MessageType::kHelloAck: {
+        HelloAck m;
+        (void)decodeFrame(frame, m);
+        break;
+      }
+      case MessageType::kCalibration: {
+        Calibration m;
+        (void)decodeFrame(frame, m);
+        break;
+      }
+      case MessageType::kPodFrame: {
+        PodFrame m;
+        (void)decodeFrame(frame, m);
+        break;
+      }
+      case MessageType::kMeshFrame: {
+        MeshFrame m;
+        (void)decodeFrame(frame, m);
+        break;
+      }
+      case MessageType::kTextureBundle: {
+        TextureBundle m;
+        (void)decodeFrame(frame, m);
+        break;
+      }
+      case MessageType::kHeartbeat: {
+        Heartbeat m;
+        (void)decodeFrame(frame, m);
+        break;
+      }
+      case MessageType::kStats: {
+        Stats m;
+        (void)decodeFrame(frame, m);
+        break;
+      }
+      case MessageType::kBye: {
+        Bye m;
+        (void)decodeFrame(frame, m);
+        break;
+      }
+      case MessageType::kError: {
+        ErrorMessage m;
+        (void)decodeFrame(frame, m);
+        break;
+      }
+      default:
+        break;
     }
   }
   return 0;

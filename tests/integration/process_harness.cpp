@@ -29,7 +29,8 @@ pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
 int waitExit(pid_t pid, int timeout_s) {
   int status = 0;
   for (int i = 0; i < timeout_s * 20; ++i) {
-    if (waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    if (waitpid(pid, &status, WNOHANG) == pid)
+      return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   kill(pid, SIGKILL);
@@ -38,7 +39,8 @@ int waitExit(pid_t pid, int timeout_s) {
 }
 
 fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("holofuse_" + name + "_" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("holofuse_" + name + "_" + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -52,8 +54,9 @@ std::string readFile(const fs::path& p) {
 std::string startServer(const std::string& bin_dir, const fs::path& out, int pods, pid_t* pid,
                         const std::vector<std::string>& extra) {
   const fs::path port_file = out / "port";
-  std::vector<std::string> args = {bin_dir + "/fusion_server", "--listen", "127.0.0.1:0", "--pods",
-                                   std::to_string(pods), "--port-file", port_file.string()};
+  std::vector<std::string> args = {
+      bin_dir + "/fusion_server", "--listen",    "127.0.0.1:0",     "--pods",
+      std::to_string(pods),       "--port-file", port_file.string()};
   args.insert(args.end(), extra.begin(), extra.end());
   *pid = spawn(args, out / "server.log");
   std::string port;

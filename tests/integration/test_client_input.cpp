@@ -18,10 +18,10 @@
 #include "common/image_codec.h"
 #include "common/marching_cubes.h"
 #include "common/mesh_codec.h"
+#include "process_harness.h"
 #include "protocol/clock.h"
 #include "protocol/connection.h"
 #include "protocol/messages.h"
-#include "process_harness.h"
 
 namespace {
 
@@ -60,7 +60,8 @@ protocol::SharedFrame frameOf(protocol::OutgoingFrame f) {
 }
 
 TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
-  const fs::path out = fs::temp_directory_path() / ("holofuse_client_input_" + std::to_string(getpid()));
+  const fs::path out =
+      fs::temp_directory_path() / ("holofuse_client_input_" + std::to_string(getpid()));
   fs::remove_all(out);
   fs::create_directories(out);
   auto listener = protocol::listenTcp({"127.0.0.1", 0});
@@ -72,8 +73,8 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
     dup2(fileno(log), STDOUT_FILENO);
     dup2(fileno(log), STDERR_FILENO);
     const std::string bin = std::string(HOLOFUSE_BIN_DIR) + "/render_client";
-    execl(bin.c_str(), bin.c_str(), "--server", endpoint.c_str(), "--out", out.c_str(), "--frames", "2", "--size",
-          "64x48", "--view", "pod:0", static_cast<char*>(nullptr));
+    execl(bin.c_str(), bin.c_str(), "--server", endpoint.c_str(), "--out", out.c_str(), "--frames",
+          "2", "--size", "64x48", "--view", "pod:0", static_cast<char*>(nullptr));
     _exit(127);
   }
   pollfd p{listener->fd(), POLLIN, 0};
@@ -91,8 +92,9 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
     protocol::TextureBundle bundle;
     bundle.frame_id = id;
     protocol::BundleImage image;
-    image.planes = {encodePlane(color, protocol::PlaneKind::kColor, protocol::Codec::kLz4, color_bytes),
-                    encodePlane(truth.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, mask_bytes)};
+    image.planes = {
+        encodePlane(color, protocol::PlaneKind::kColor, protocol::Codec::kLz4, color_bytes),
+        encodePlane(truth.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4, mask_bytes)};
     bundle.images = {image};
     return frameOf(protocol::encodeOutgoing(bundle, protocol::nextSequence()));
   };
@@ -118,7 +120,8 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   ASSERT_TRUE(fs::exists(first_picture)) << "see " << log;
-  const std::string first_bytes = readFile(first_picture);  // whole: the client renames it into place
+  const std::string first_bytes =
+      readFile(first_picture);  // whole: the client renames it into place
   // Frame 1: Draco bytes that are not a mesh.
   const std::vector<uint8_t> garbage(64, 0x5A);
   c.send(bundleFor(1, truth.color));
@@ -167,7 +170,8 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
     while (c.hasFrame()) c.takeFrame();
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "client did not finish; see " << log;
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+      << "client did not finish; see " << log;
   std::ifstream in(out / "report.json");
   const auto report = nlohmann::json::parse(in);
   EXPECT_EQ(report["frames_rendered"], 2);

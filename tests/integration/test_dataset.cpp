@@ -3,18 +3,18 @@
 // it, replays through server and client fuse the same meshes bit for bit,
 // a recorder killed with SIGKILL keeps every whole record, and bad input
 // is named.
-#include <algorithm>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <sstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
 #include "capture_node/dataset.h"
@@ -86,10 +86,10 @@ class DatasetLoop : public ::testing::Test {
   static void SetUpTestSuite() {
     root_ = freshDir("dataset_loop");
     recording_ = root_ / "recording";
-    const pid_t loop = spawn({kBin + "/holofuse_loop", "--pods", "2", "--frames", "5", "--fps", "4", "--size",
-                              "160x120", "--out", (root_ / "live").string(), "--record", recording_.string(),
-                              "--record-fused"},
-                             root_ / "live.log");
+    const pid_t loop = spawn(
+        {kBin + "/holofuse_loop", "--pods", "2", "--frames", "5", "--fps", "4", "--size", "160x120",
+         "--out", (root_ / "live").string(), "--record", recording_.string(), "--record-fused"},
+        root_ / "live.log");
     live_exit_ = waitExit(loop, 240);
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
@@ -97,9 +97,10 @@ class DatasetLoop : public ::testing::Test {
   // Replays the recording as fast as the server accepts, recording what
   // the replay pods sent and the fused output into out/record.
   static int replay(const fs::path& out) {
-    const pid_t loop = spawn({kBin + "/holofuse_loop", "--replay", recording_.string(), "--speed", "max", "--out",
-                              out.string(), "--record", (out / "record").string(), "--record-fused"},
-                             out.string() + ".log");
+    const pid_t loop =
+        spawn({kBin + "/holofuse_loop", "--replay", recording_.string(), "--speed", "max", "--out",
+               out.string(), "--record", (out / "record").string(), "--record-fused"},
+              out.string() + ".log");
     return waitExit(loop, 240);
   }
 
@@ -109,7 +110,8 @@ class DatasetLoop : public ::testing::Test {
 
 TEST_F(DatasetLoop, TheLiveLoopRecordsWholeCheckedProtocolFrames) {
   ASSERT_EQ(live_exit_, 0) << readFile(root_ / "live.log");
-  const pid_t verify = spawn({kBin + "/holofuse_dataset", "verify", recording_.string()}, root_ / "verify.log");
+  const pid_t verify =
+      spawn({kBin + "/holofuse_dataset", "verify", recording_.string()}, root_ / "verify.log");
   ASSERT_EQ(waitExit(verify, 60), 0) << readFile(root_ / "verify.log");
   const std::string text = readFile(root_ / "verify.log");
   EXPECT_NE(text.find("index: in place"), std::string::npos) << text;
@@ -141,8 +143,8 @@ TEST_F(DatasetLoop, TheLiveLoopRecordsWholeCheckedProtocolFrames) {
 TEST_F(DatasetLoop, EvalScoresARecordingLeaveOneCameraOut) {
   ASSERT_EQ(live_exit_, 0) << readFile(root_ / "live.log");
   const fs::path out = root_ / "eval";
-  const pid_t eval = spawn({kBin + "/holofuse_eval", "--dataset", recording_.string(), "--frames", "2", "--modes",
-                            "normal,holoportation", "--out", out.string()},
+  const pid_t eval = spawn({kBin + "/holofuse_eval", "--dataset", recording_.string(), "--frames",
+                            "2", "--modes", "normal,holoportation", "--out", out.string()},
                            root_ / "eval.log");
   ASSERT_EQ(waitExit(eval, 240), 0) << readFile(root_ / "eval.log");
   const auto quality = readJson(out / "quality.json");
@@ -154,11 +156,13 @@ TEST_F(DatasetLoop, EvalScoresARecordingLeaveOneCameraOut) {
     EXPECT_EQ(scene["modes"][mode]["images"].get<int>(), 4) << mode;
     EXPECT_GT(scene["modes"][mode]["psnr_db"].get<double>(), 8.0) << mode;
   }
-  EXPECT_GT(scene["codec_ms"].get<double>(), 0.0) << "the recorded images are decoded and the hull sent through Draco";
+  EXPECT_GT(scene["codec_ms"].get<double>(), 0.0)
+      << "the recorded images are decoded and the hull sent through Draco";
   for (const char* stage : {"server_decode", "mesh_encode", "image_encode", "decode"}) {
     EXPECT_GT(scene["codec_stages_ms"][stage]["p50"].get<double>(), 0.0) << stage;
   }
-  EXPECT_EQ(scene["codec_stages_ms"]["pod_encode"]["p50"].get<double>(), 0.0) << "a recording's pods encoded long ago";
+  EXPECT_EQ(scene["codec_stages_ms"]["pod_encode"]["p50"].get<double>(), 0.0)
+      << "a recording's pods encoded long ago";
   EXPECT_TRUE(scene["hull"]["chamfer_mm"].is_null()) << "a recording has no true surface";
 
   // Bytes per link as the live loop sent them. The eval's frames are the
@@ -168,7 +172,8 @@ TEST_F(DatasetLoop, EvalScoresARecordingLeaveOneCameraOut) {
   // the stamps and notes inside.
   auto dataset = capture::Dataset::open(recording_.string());
   ASSERT_TRUE(dataset.isOk()) << dataset.status().toString();
-  std::map<uint64_t, std::map<uint32_t, size_t>> pod_bytes;  // frame id -> camera -> bytes on the wire
+  std::map<uint64_t, std::map<uint32_t, size_t>>
+      pod_bytes;  // frame id -> camera -> bytes on the wire
   for (const auto& [id, camera] : dataset->cameras()) {
     for (const auto& r : camera.frames) {
       auto frame = dataset->readFrame(r);
@@ -201,9 +206,11 @@ TEST_F(DatasetLoop, EvalScoresARecordingLeaveOneCameraOut) {
     fused_sum += client_link[id];
     ++fused_count;
   }
-  ASSERT_GE(fused_count, 1) << "the live server fused neither of the frames " << ids[0] << ", " << ids[1];
+  ASSERT_GE(fused_count, 1) << "the live server fused neither of the frames " << ids[0] << ", "
+                            << ids[1];
   const double client_mean = fused_sum / fused_count;
-  EXPECT_NEAR(scene["bytes_per_frame"].get<double>(), client_mean, (fused_count == 2 ? 0.01 : 0.05) * client_mean)
+  EXPECT_NEAR(scene["bytes_per_frame"].get<double>(), client_mean,
+              (fused_count == 2 ? 0.01 : 0.05) * client_mean)
       << fused_count << " of the eval's frames fused live";
 }
 
@@ -213,12 +220,14 @@ TEST_F(DatasetLoop, EvalScoresARecordingLeaveOneCameraOut) {
 TEST_F(DatasetLoop, AReplayTakesCodecSettingsAtTheServerOnly) {
   ASSERT_EQ(live_exit_, 0) << readFile(root_ / "live.log");
   const fs::path out = root_ / "replay_codec";
-  const pid_t loop = spawn({kBin + "/holofuse_loop", "--replay", recording_.string(), "--speed", "max", "--image-codec",
-                            "lz4", "--lz4-acceleration", "8", "--out", out.string()},
-                           root_ / "replay_codec.log");
+  const pid_t loop =
+      spawn({kBin + "/holofuse_loop", "--replay", recording_.string(), "--speed", "max",
+             "--image-codec", "lz4", "--lz4-acceleration", "8", "--out", out.string()},
+            root_ / "replay_codec.log");
   ASSERT_EQ(waitExit(loop, 240), 0) << readFile(root_ / "replay_codec.log");
   const std::string server_log = readFile(out / "logs" / "server.log");
-  EXPECT_NE(server_log.find("images to clients lz4 at LZ4 acceleration 8"), std::string::npos) << server_log;
+  EXPECT_NE(server_log.find("images to clients lz4 at LZ4 acceleration 8"), std::string::npos)
+      << server_log;
   EXPECT_GT(readJson(out / "report.json")["frames_rendered"].get<int>(), 0);
 }
 
@@ -247,9 +256,10 @@ TEST_F(DatasetLoop, ReplayFusesTheSameMeshesBitForBitAndSendsTheRecordedImages) 
 
   // A looping replay keeps going past the recording's end with new ids.
   const fs::path looped = root_ / "looped";
-  const pid_t loop = spawn({kBin + "/holofuse_loop", "--replay", recording_.string(), "--speed", "4", "--loop",
-                            "--frames", std::to_string(2 * a.size() + 2), "--out", looped.string()},
-                           looped.string() + ".log");
+  const pid_t loop =
+      spawn({kBin + "/holofuse_loop", "--replay", recording_.string(), "--speed", "4", "--loop",
+             "--frames", std::to_string(2 * a.size() + 2), "--out", looped.string()},
+            looped.string() + ".log");
   ASSERT_EQ(waitExit(loop, 240), 0) << readFile(looped.string() + ".log");
   const auto looped_report = readJson(looped / "report.json");
   EXPECT_EQ(looped_report["frames_rendered"].get<size_t>(), 2 * a.size() + 2);
@@ -264,7 +274,8 @@ TEST_F(DatasetLoop, ReplayFusesTheSameMeshesBitForBitAndSendsTheRecordedImages) 
   EXPECT_GT(report["latency_ms"]["stages"]["replay_read"]["samples"].get<int>(), 0);
   // Replay pods are counted at the server like live ones, every frame.
   EXPECT_EQ(report["jitter_source"], "server, over every pod frame received");
-  ASSERT_EQ(report["pod_frames_at_server"].size(), dataset->cameras().size()) << "every camera replays as a pod";
+  ASSERT_EQ(report["pod_frames_at_server"].size(), dataset->cameras().size())
+      << "every camera replays as a pod";
   for (const auto& [pod, frames] : report["pod_frames_at_server"].items()) {
     EXPECT_GE(frames.get<int>(), report["frames_rendered"].get<int>()) << pod;
   }
@@ -277,12 +288,13 @@ TEST(DatasetRecorder, AKilledRecorderKeepsEveryWholeRecordAndStillReplays) {
   const fs::path out = freshDir("dataset_killed");
   const fs::path recording = out / "recording";
   pid_t server = 0;
-  const std::string endpoint = test::startServer(kBin, out, 2, &server, {"--record", recording.string()});
+  const std::string endpoint =
+      test::startServer(kBin, out, 2, &server, {"--record", recording.string()});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   std::vector<pid_t> pods;
   for (int i = 0; i < 2; ++i) {
-    pods.push_back(spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(i), "--pods", "2",
-                          "--size", "160x120", "--fps", "8"},
+    pods.push_back(spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id",
+                          std::to_string(i), "--pods", "2", "--size", "160x120", "--fps", "8"},
                          out / ("pod" + std::to_string(i) + ".log")));
   }
   const fs::path file = recording / "pods.hfr";
@@ -297,12 +309,14 @@ TEST(DatasetRecorder, AKilledRecorderKeepsEveryWholeRecordAndStillReplays) {
     waitExit(pod, 10);
   }
 
-  const pid_t verify = spawn({kBin + "/holofuse_dataset", "verify", recording.string()}, out / "verify.log");
+  const pid_t verify =
+      spawn({kBin + "/holofuse_dataset", "verify", recording.string()}, out / "verify.log");
   const int verdict = waitExit(verify, 60);
   const std::string text = readFile(out / "verify.log");
   ASSERT_TRUE(verdict == 0 || verdict == 3) << text;
-  EXPECT_NE(text.find("no index at the end (the recording was not closed cleanly); rebuilt by scanning"),
-            std::string::npos)
+  EXPECT_NE(
+      text.find("no index at the end (the recording was not closed cleanly); rebuilt by scanning"),
+      std::string::npos)
       << text;
   EXPECT_NE(text.find("every record's CRC32C matches"), std::string::npos) << text;
   auto reader = protocol::RecordReader::open(file.string());
@@ -318,8 +332,8 @@ TEST(DatasetRecorder, AKilledRecorderKeepsEveryWholeRecordAndStillReplays) {
     EXPECT_EQ(reader->scan().good_end, fs::file_size(file));
   }
 
-  const pid_t loop = spawn({kBin + "/holofuse_loop", "--replay", recording.string(), "--speed", "max", "--out",
-                            (out / "replay").string()},
+  const pid_t loop = spawn({kBin + "/holofuse_loop", "--replay", recording.string(), "--speed",
+                            "max", "--out", (out / "replay").string()},
                            out / "replay.log");
   ASSERT_EQ(waitExit(loop, 240), 0) << readFile(out / "replay.log");
   EXPECT_GT(readJson(out / "replay" / "report.json")["frames_rendered"].get<int>(), 0);
@@ -334,8 +348,10 @@ TEST(DatasetRecorder, ARecordingThatRunsOutOfSpaceIsReportedAndServingGoesOn) {
   const fs::path recording = out / "recording";
   // 600 KB: a few frames of two pods, then every write fails.
   const pid_t server = spawn({"/bin/bash", "-c",
-                              "ulimit -f 600 && exec " + kBin + "/fusion_server --listen 127.0.0.1:0 --pods 2 "
-                                  "--port-file " + (out / "port").string() + " --record " + recording.string()},
+                              "ulimit -f 600 && exec " + kBin +
+                                  "/fusion_server --listen 127.0.0.1:0 --pods 2 "
+                                  "--port-file " +
+                                  (out / "port").string() + " --record " + recording.string()},
                              out / "server.log");
   std::string port;
   for (int i = 0; i < 100 && port.empty(); ++i) {
@@ -347,13 +363,13 @@ TEST(DatasetRecorder, ARecordingThatRunsOutOfSpaceIsReportedAndServingGoesOn) {
   const std::string endpoint = "127.0.0.1:" + port;
   std::vector<pid_t> pods;
   for (int i = 0; i < 2; ++i) {
-    pods.push_back(spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(i), "--pods", "2",
-                          "--size", "160x120", "--fps", "8"},
+    pods.push_back(spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id",
+                          std::to_string(i), "--pods", "2", "--size", "160x120", "--fps", "8"},
                          out / ("pod" + std::to_string(i) + ".log")));
   }
   // A client that asks for more frames than fit in the recording.
-  const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out", (out / "client").string(),
-                              "--frames", "24", "--size", "160x120"},
+  const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out",
+                              (out / "client").string(), "--frames", "24", "--size", "160x120"},
                              out / "client.log");
   EXPECT_EQ(waitExit(client, 240), 0) << readFile(out / "client.log");
   for (pid_t pod : pods) {
@@ -363,7 +379,8 @@ TEST(DatasetRecorder, ARecordingThatRunsOutOfSpaceIsReportedAndServingGoesOn) {
   kill(server, SIGTERM);
   EXPECT_EQ(waitExit(server, 20), 0) << readFile(out / "server.log");
   const std::string log = readFile(out / "server.log");
-  EXPECT_NE(log.find("recording failed, the server goes on: " + (recording / "pods.hfr").string() + ": writing pod_frame"),
+  EXPECT_NE(log.find("recording failed, the server goes on: " + (recording / "pods.hfr").string() +
+                     ": writing pod_frame"),
             std::string::npos)
       << log;
   EXPECT_NE(log.find("file size limit reached"), std::string::npos) << log;
@@ -381,9 +398,12 @@ TEST(DatasetRecorder, ARecordingThatRunsOutOfSpaceIsReportedAndServingGoesOn) {
 TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
   const fs::path out = freshDir("dataset_bad");
   // A folder that holds no recording.
-  pid_t p = spawn({kBin + "/holofuse_loop", "--replay", out.string(), "--out", (out / "o").string()}, out / "a.log");
+  pid_t p =
+      spawn({kBin + "/holofuse_loop", "--replay", out.string(), "--out", (out / "o").string()},
+            out / "a.log");
   EXPECT_EQ(waitExit(p, 30), 2);
-  EXPECT_NE(readFile(out / "a.log").find("not a holofuse dataset (no pods.hfr in it)"), std::string::npos)
+  EXPECT_NE(readFile(out / "a.log").find("not a holofuse dataset (no pods.hfr in it)"),
+            std::string::npos)
       << readFile(out / "a.log");
 
   // A recording with one camera, asked for another.
@@ -402,14 +422,15 @@ TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
     ASSERT_TRUE(writer->append(protocol::RecordKind::kCalibration, 0, 0, 0, bytes).isOk());
     ASSERT_TRUE(writer->close().isOk());
   }
-  p = spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "7", "--replay", dir.string()},
+  p = spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "7", "--replay",
+             dir.string()},
             out / "b.log");
   EXPECT_EQ(waitExit(p, 30), 2);
   EXPECT_NE(readFile(out / "b.log").find("has no calibration for camera 7 (cameras with one: 0)"),
             std::string::npos)
       << readFile(out / "b.log");
-  p = spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "0", "--replay", dir.string(), "--speed",
-             "fast"},
+  p = spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "0", "--replay",
+             dir.string(), "--speed", "fast"},
             out / "c.log");
   EXPECT_EQ(waitExit(p, 30), 2);
   EXPECT_NE(readFile(out / "c.log").find("--speed 'fast': expected a factor"), std::string::npos)
@@ -422,8 +443,9 @@ TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
   std::ofstream(dir / "pods.hfr", std::ios::binary | std::ios::trunc) << bytes;
   p = spawn({kBin + "/holofuse_dataset", "verify", dir.string()}, out / "d.log");
   EXPECT_EQ(waitExit(p, 30), 1);
-  EXPECT_NE(readFile(out / "d.log").find("CORRUPT: " + (dir / "pods.hfr").string() +
-                                         ": the calibration record at byte 32: payload CRC32C mismatch"),
+  EXPECT_NE(readFile(out / "d.log")
+                .find("CORRUPT: " + (dir / "pods.hfr").string() +
+                      ": the calibration record at byte 32: payload CRC32C mismatch"),
             std::string::npos)
       << readFile(out / "d.log");
   fs::remove_all(out);
@@ -433,29 +455,34 @@ TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
 // repository: skipped when absent).
 TEST(RealCapture, TheMiddleburyTempleImportsReplaysAndEvaluates) {
   const char* env = std::getenv("HOLOFUSE_DATASETS");
-  const fs::path src = fs::path(env != nullptr ? env : HOLOFUSE_SHARED_DATASETS) / "middlebury-temple-colmap";
+  const fs::path src =
+      fs::path(env != nullptr ? env : HOLOFUSE_SHARED_DATASETS) / "middlebury-temple-colmap";
   if (!fs::exists(src / "sparse" / "cameras.txt")) {
-    GTEST_SKIP() << "no real capture at " << src << " (../shared/datasets is not part of the repository)";
+    GTEST_SKIP() << "no real capture at " << src
+                 << " (../shared/datasets is not part of the repository)";
   }
   const fs::path out = freshDir("temple");
   const fs::path dataset_dir = out / "temple";
-  pid_t p = spawn({kBin + "/holofuse_dataset", "import", src.string(), "--format", "colmap", "--out",
-                   dataset_dir.string()},
+  pid_t p = spawn({kBin + "/holofuse_dataset", "import", src.string(), "--format", "colmap",
+                   "--out", dataset_dir.string()},
                   out / "import.log");
   ASSERT_EQ(waitExit(p, 120), 0) << readFile(out / "import.log");
-  EXPECT_NE(readFile(out / "import.log").find("imported 16 camera(s) x 1 frame(s)"), std::string::npos)
+  EXPECT_NE(readFile(out / "import.log").find("imported 16 camera(s) x 1 frame(s)"),
+            std::string::npos)
       << readFile(out / "import.log");
   auto dataset = capture::Dataset::open(dataset_dir.string());
   ASSERT_TRUE(dataset.isOk());
   ASSERT_TRUE(dataset->metadata().has_value());
   // The capture volume holds the benchmark's tight bounding box (its
   // ORIGINAL_README), and is not much larger.
-  const glm::dvec3 tight_min(-0.073568, 0.021728, -0.012445), tight_max(0.028855, 0.181892, 0.062736);
+  const glm::dvec3 tight_min(-0.073568, 0.021728, -0.012445),
+      tight_max(0.028855, 0.181892, 0.062736);
   const auto& m = *dataset->metadata();
   for (int k = 0; k < 3; ++k) {
     EXPECT_LE(m.volume_min[k], tight_min[k]) << "axis " << k;
     EXPECT_GE(m.volume_max[k], tight_max[k]) << "axis " << k;
-    EXPECT_LT(m.volume_max[k] - m.volume_min[k], 1.5 * (tight_max[k] - tight_min[k])) << "axis " << k;
+    EXPECT_LT(m.volume_max[k] - m.volume_min[k], 1.5 * (tight_max[k] - tight_min[k]))
+        << "axis " << k;
   }
 
   // The hull from the segmented masks projects back onto each mask.
@@ -482,14 +509,15 @@ TEST(RealCapture, TheMiddleburyTempleImportsReplaysAndEvaluates) {
   EXPECT_EQ(readJson(out / "replay" / "report.json")["frames_rendered"].get<int>(), 3);
 
   // Leave-one-camera-out on the real images.
-  p = spawn({kBin + "/holofuse_eval", "--dataset", dataset_dir.string(), "--held-out", "2", "--modes",
-             "normal,montage4d", "--out", (out / "eval").string()},
+  p = spawn({kBin + "/holofuse_eval", "--dataset", dataset_dir.string(), "--held-out", "2",
+             "--modes", "normal,montage4d", "--out", (out / "eval").string()},
             out / "eval.log");
   ASSERT_EQ(waitExit(p, 240), 0) << readFile(out / "eval.log");
   const auto quality = readJson(out / "eval" / "quality.json");
   const auto& scene = quality["scenes"]["dataset:temple"];
   for (const char* mode : {"normal", "montage4d"}) {
-    EXPECT_GT(scene["modes"][mode]["psnr_db"].get<double>(), 12.0) << mode;  // measured 14.4-15.3 dB
+    EXPECT_GT(scene["modes"][mode]["psnr_db"].get<double>(), 12.0)
+        << mode;  // measured 14.4-15.3 dB
     EXPECT_GT(scene["modes"][mode]["images"].get<int>(), 0) << mode;
   }
   EXPECT_TRUE(scene["hull"]["chamfer_mm"].is_null());

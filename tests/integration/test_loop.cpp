@@ -54,11 +54,27 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   // A budget no hull can meet and an end-to-end one no frame can miss: the
   // report flags the first and not the second, through the launcher's flag.
   std::ofstream(out / "budget.json") << R"({"hull": 0.001, "end_to_end": 100000})";
-  const pid_t loop =
-      spawn({kBin + "/holofuse_loop", "--pods", "4", "--frames", "6", "--fps", "4", "--size", "200x150", "--view",
-             "pod:0", "--budget", (out / "budget.json").string(), "--quality", "--seed", "5", "--noise", "0", "--out",
-             out.string()},
-            out / "loop.log");
+  const pid_t loop = spawn({kBin + "/holofuse_loop",
+                            "--pods",
+                            "4",
+                            "--frames",
+                            "6",
+                            "--fps",
+                            "4",
+                            "--size",
+                            "200x150",
+                            "--view",
+                            "pod:0",
+                            "--budget",
+                            (out / "budget.json").string(),
+                            "--quality",
+                            "--seed",
+                            "5",
+                            "--noise",
+                            "0",
+                            "--out",
+                            out.string()},
+                           out / "loop.log");
   ASSERT_EQ(waitExit(loop, 240), 0) << "see " << (out / "loop.log");
   const auto report = readJson(out / "report.json");
   ASSERT_EQ(report["frames_rendered"], 6);
@@ -67,11 +83,13 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   EXPECT_GT(e2e["p50"].get<double>(), 0.0);
   EXPECT_LE(e2e["p50"].get<double>(), e2e["p95"].get<double>());
   EXPECT_LE(e2e["p95"].get<double>(), e2e["p99"].get<double>());
-  for (const char* stage : {"pod_render", "segment", "feather", "pod_encode", "send", "server_decode", "sync_wait",
-                            "hull", "mesh_encode", "image_encode", "fanout", "decode", "upload", "render", "write"}) {
+  for (const char* stage :
+       {"pod_render", "segment", "feather", "pod_encode", "send", "server_decode", "sync_wait",
+        "hull", "mesh_encode", "image_encode", "fanout", "decode", "upload", "render", "write"}) {
     ASSERT_TRUE(report["latency_ms"]["stages"].contains(stage)) << stage;
     EXPECT_GT(report["latency_ms"]["stages"][stage]["samples"].get<int>(), 0) << stage;
-    EXPECT_LE(report["latency_ms"]["stages"][stage]["p50"].get<double>(), e2e["p99"].get<double>()) << stage;
+    EXPECT_LE(report["latency_ms"]["stages"][stage]["p50"].get<double>(), e2e["p99"].get<double>())
+        << stage;
   }
   ASSERT_TRUE(report.contains("budget_violations")) << "the budget reached the client";
   ASSERT_EQ(report["budget_violations"].size(), 1u) << report["budget_violations"].dump();
@@ -95,7 +113,8 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   int checked = 0;
   for (const auto& frame : report["frames"]) {
     if (frame["cameras_present"] != 4) continue;
-    const cv::Mat png = cv::imread((out / frame["file"].get<std::string>()).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat png =
+        cv::imread((out / frame["file"].get<std::string>()).string(), cv::IMREAD_UNCHANGED);
     ASSERT_FALSE(png.empty()) << frame["file"];
     ASSERT_EQ(png.channels(), 4);
     const auto truth = scene.render(camera, frame["frame_id"].get<uint64_t>());
@@ -109,7 +128,8 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
         inter += rendered && real;
         uni += rendered || real;
         for (int c = 0; c < 3 && real; ++c, ++values) {
-          const double d = double(png.at<cv::Vec4b>(y, x)[2 - c]) - double(truth.color.at(x, y)[c]);  // BGRA
+          const double d =
+              double(png.at<cv::Vec4b>(y, x)[2 - c]) - double(truth.color.at(x, y)[c]);  // BGRA
           squared += d * d;
         }
       }
@@ -129,12 +149,14 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   }
   EXPECT_GE(checked, 4);
   EXPECT_EQ(report["quality"]["psnr_db"]["frames"], 6) << "every written frame judged";
-  EXPECT_LE(report["quality"]["psnr_db"]["worst"].get<double>(), report["quality"]["psnr_db"]["mean"].get<double>());
+  EXPECT_LE(report["quality"]["psnr_db"]["worst"].get<double>(),
+            report["quality"]["psnr_db"]["mean"].get<double>());
 
   // The page the run wrote, in a browser: the latency stack, bytes per
   // link and the server's jitter per pod drawn as their values say, the
   // hull flagged over budget, the quality table.
-  if (holofuse::test::chromium().empty()) GTEST_SKIP() << "chromium is not installed (./holofuse deps installs it)";
+  if (holofuse::test::chromium().empty())
+    GTEST_SKIP() << "chromium is not installed (./holofuse deps installs it)";
   EXPECT_EQ(holofuse::test::chartsRendered(out / "report.html"), 3);
   const std::string page = readFile(out / "report.html");
   EXPECT_NE(page.find("Arrival jitter per pod (at the server, every frame)"), std::string::npos);
@@ -149,12 +171,12 @@ TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
   ASSERT_FALSE(endpoint.empty()) << "the server did not report its port";
   std::vector<pid_t> pods;
   for (int i = 0; i < 4; ++i) {
-    pods.push_back(spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(i), "--pods", "4",
-                          "--size", "160x120", "--fps", "4"},
+    pods.push_back(spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id",
+                          std::to_string(i), "--pods", "4", "--size", "160x120", "--fps", "4"},
                          out / ("pod" + std::to_string(i) + ".log")));
   }
-  const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out", out.string(), "--frames", "14",
-                              "--size", "160x120"},
+  const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out", out.string(),
+                              "--frames", "14", "--size", "160x120"},
                              out / "client.log");
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   kill(pods[3], SIGKILL);
@@ -195,9 +217,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   const std::string endpoint = startServer(out, 1, &server);
   auto parsed = holofuse::protocol::parseEndpoint(endpoint);
   ASSERT_TRUE(parsed.isOk()) << "the server did not report its port";
-  const pid_t pod = spawn(
-      {kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods", "1", "--size", "96x72", "--fps", "10"},
-      out / "pod.log");
+  const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods",
+                           "1", "--size", "96x72", "--fps", "10"},
+                          out / "pod.log");
   struct Client {
     uint8_t max_minor;
     std::unique_ptr<holofuse::protocol::ServerLink> link;
@@ -213,11 +235,13 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     hello.role = holofuse::protocol::Role::kClient;
     hello.id = c.max_minor;
     hello.max_minor = c.max_minor;
-    c.link = std::make_unique<holofuse::protocol::ServerLink>(*parsed, hello, holofuse::protocol::LinkOptions{});
+    c.link = std::make_unique<holofuse::protocol::ServerLink>(*parsed, hello,
+                                                              holofuse::protocol::LinkOptions{});
   }
   auto enough = [&] {
-    return std::all_of(clients.begin(), clients.end(),
-                       [](const Client& c) { return c.stats.size() >= 5 && c.bundles.size() >= 5; });
+    return std::all_of(clients.begin(), clients.end(), [](const Client& c) {
+      return c.stats.size() >= 5 && c.bundles.size() >= 5;
+    });
   };
   std::vector<holofuse::protocol::Frame> received;
   for (int round = 0; round < 900 && !enough(); ++round) {
@@ -230,8 +254,10 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
         if (frame.header.type == static_cast<uint16_t>(holofuse::protocol::MessageType::kStats) &&
             holofuse::protocol::decodeFrame(frame, stats).isOk()) {
           c.stats.emplace_back(frame.header.minor, stats);
-        } else if (frame.header.type == static_cast<uint16_t>(holofuse::protocol::MessageType::kTextureBundle) &&
-                   holofuse::protocol::decodeFrame(frame, bundle).isOk() && bundle.images.size() == 1) {
+        } else if (frame.header.type ==
+                       static_cast<uint16_t>(holofuse::protocol::MessageType::kTextureBundle) &&
+                   holofuse::protocol::decodeFrame(frame, bundle).isOk() &&
+                   bundle.images.size() == 1) {
           std::vector<holofuse::protocol::PlaneKind> kinds;
           for (const auto& plane : bundle.images[0].planes) kinds.push_back(plane.kind);
           c.bundles.emplace_back(frame.header.minor, kinds);
@@ -253,7 +279,8 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     for (const auto& [minor, stats] : clients[k].stats) {
       // Stats last changed in 1.1: 1.1 and 1.2 peers get one frame, under
       // the server's minor (SPEC.md section 3).
-      EXPECT_EQ(minor, holofuse::protocol::kVersionMinor) << "client of 1." << int(clients[k].max_minor);
+      EXPECT_EQ(minor, holofuse::protocol::kVersionMinor)
+          << "client of 1." << int(clients[k].max_minor);
       ASSERT_TRUE(stats.pod_arrivals.has_value()) << "frame " << stats.frame_id;
       ASSERT_EQ(stats.pod_arrivals->size(), 1u);
       const auto& arrivals = stats.pod_arrivals->front();
@@ -266,11 +293,14 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   }
   using holofuse::protocol::PlaneKind;
   const std::vector<PlaneKind> images = {PlaneKind::kColor, PlaneKind::kMask};
-  const std::vector<PlaneKind> with_feather = {PlaneKind::kColor, PlaneKind::kMask, PlaneKind::kFeather};
+  const std::vector<PlaneKind> with_feather = {PlaneKind::kColor, PlaneKind::kMask,
+                                               PlaneKind::kFeather};
   for (const Client& c : clients) {
     for (const auto& [minor, kinds] : c.bundles) {
-      EXPECT_EQ(minor, std::min<uint8_t>(std::max<uint8_t>(c.max_minor, 1), 2)) << "client of 1." << int(c.max_minor);
-      EXPECT_EQ(kinds, c.max_minor >= 2 ? with_feather : images) << "client of 1." << int(c.max_minor);
+      EXPECT_EQ(minor, std::min<uint8_t>(std::max<uint8_t>(c.max_minor, 1), 2))
+          << "client of 1." << int(c.max_minor);
+      EXPECT_EQ(kinds, c.max_minor >= 2 ? with_feather : images)
+          << "client of 1." << int(c.max_minor);
     }
   }
   const std::string log = readFile(out / "server.log");
@@ -284,11 +314,12 @@ TEST(Loop, APodWithoutServerRetriesWithBackoffAndJoinsWhenItAppears) {
   const uint16_t port = freePort();
   ASSERT_NE(port, 0);
   const std::string endpoint = "127.0.0.1:" + std::to_string(port);
-  const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods", "1", "--size",
-                           "64x48", "--fps", "5"},
+  const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods",
+                           "1", "--size", "64x48", "--fps", "5"},
                           out / "pod.log");
   std::this_thread::sleep_for(std::chrono::milliseconds(1200));
-  const pid_t server = spawn({kBin + "/fusion_server", "--listen", endpoint, "--pods", "1"}, out / "server.log");
+  const pid_t server =
+      spawn({kBin + "/fusion_server", "--listen", endpoint, "--pods", "1"}, out / "server.log");
   bool joined = false;
   for (int i = 0; i < 100 && !joined; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -304,7 +335,8 @@ TEST(Loop, APodWithoutServerRetriesWithBackoffAndJoinsWhenItAppears) {
   EXPECT_NE(log.find("retry 1 in 100 ms"), std::string::npos) << log;
   EXPECT_NE(log.find("retry 2 in 200 ms"), std::string::npos) << log;
   EXPECT_NE(log.find("retry 3 in 400 ms"), std::string::npos) << log;
-  EXPECT_NE(readFile(out / "server.log").find("said bye"), std::string::npos) << "SIGTERM closes with Bye";
+  EXPECT_NE(readFile(out / "server.log").find("said bye"), std::string::npos)
+      << "SIGTERM closes with Bye";
 }
 
 TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
@@ -313,12 +345,13 @@ TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
   // Two pods expected: the second slot is the crooked peer's (the real pod
   // goes on alone past the sync deadline).
   const std::string endpoint = startServer(out, 2, &server);
-  ASSERT_TRUE(holofuse::protocol::parseEndpoint(endpoint).isOk()) << "the server did not report its port";
-  const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods", "1", "--size",
-                           "96x72", "--fps", "5"},
+  ASSERT_TRUE(holofuse::protocol::parseEndpoint(endpoint).isOk())
+      << "the server did not report its port";
+  const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods",
+                           "1", "--size", "96x72", "--fps", "5"},
                           out / "pod.log");
-  const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out", out.string(), "--frames", "8",
-                              "--size", "96x72"},
+  const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out", out.string(),
+                              "--frames", "8", "--size", "96x72"},
                              out / "client.log");
   std::this_thread::sleep_for(std::chrono::milliseconds(600));
   auto parsed = holofuse::protocol::parseEndpoint(endpoint);
@@ -331,7 +364,8 @@ TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
   garbage->writeVector(&part, 1);
   auto huge = holofuse::protocol::connectTcp(*parsed, 1000);
   ASSERT_TRUE(huge.isOk());
-  uint8_t header[holofuse::protocol::kHeaderSize] = {'H', 'F', 'U', 'S', 1, 0, 5, 0, 1, 0, 0, 0, 0xFF, 0xFF, 0xFF, 0xFF};
+  uint8_t header[holofuse::protocol::kHeaderSize] = {'H', 'F', 'U', 'S', 1,    0,    5,    0,
+                                                     1,   0,   0,   0,   0xFF, 0xFF, 0xFF, 0xFF};
   iovec hpart{header, sizeof(header)};
   huge->writeVector(&hpart, 1);
   // A third claims to be pod 1 and sends a rectangle whose offset would
@@ -369,15 +403,17 @@ TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
   const std::string log = readFile(out / "server.log");
   EXPECT_NE(log.find("field 'magic' at offset 0"), std::string::npos) << log;
   EXPECT_NE(log.find("field 'payload_length' at offset 12"), std::string::npos) << log;
-  EXPECT_NE(log.find("is 96x72 at (4294967280, 0), calibration says 96x72"), std::string::npos) << log;
+  EXPECT_NE(log.find("is 96x72 at (4294967280, 0), calibration says 96x72"), std::string::npos)
+      << log;
 }
 
 TEST(Loop, ASilentPeerIsClosedAfterTheIdleTimeout) {
   const fs::path out = freshDir("idle");
   const uint16_t port = freePort();
   const std::string endpoint = "127.0.0.1:" + std::to_string(port);
-  const pid_t server = spawn({kBin + "/fusion_server", "--listen", endpoint, "--pods", "1", "--idle-timeout-ms", "800"},
-                             out / "server.log");
+  const pid_t server = spawn(
+      {kBin + "/fusion_server", "--listen", endpoint, "--pods", "1", "--idle-timeout-ms", "800"},
+      out / "server.log");
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   auto silent = holofuse::protocol::connectTcp(*holofuse::protocol::parseEndpoint(endpoint), 1000);
   ASSERT_TRUE(silent.isOk());
@@ -451,70 +487,91 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
                            out / "loop.log");
   ASSERT_EQ(waitExit(loop, 120), 0) << readFile(out / "loop.log");
   const auto settings = readJson(out / "report.json").at("settings");
-  const std::map<std::string, std::string> expected = {
-      {"mode", "montage4d"},  {"alpha", "3"},          {"lambda", "0.5"},         {"dilation", "1"},
-      {"vote_delta", "0.25"}, {"geodesic_rings", "9"}, {"geodesic_passes", "11"}, {"geodesic_radius", "0.04"},
-      {"vertex_precision", "fp16"}, {"beta", "7"},        {"feather_width", "4"},    {"fragment_test", "on"}};
-  for (const auto& [key, value] : expected) EXPECT_EQ(settings.at(key).get<std::string>(), value) << key;
+  const std::map<std::string, std::string> expected = {{"mode", "montage4d"},
+                                                       {"alpha", "3"},
+                                                       {"lambda", "0.5"},
+                                                       {"dilation", "1"},
+                                                       {"vote_delta", "0.25"},
+                                                       {"geodesic_rings", "9"},
+                                                       {"geodesic_passes", "11"},
+                                                       {"geodesic_radius", "0.04"},
+                                                       {"vertex_precision", "fp16"},
+                                                       {"beta", "7"},
+                                                       {"feather_width", "4"},
+                                                       {"fragment_test", "on"}};
+  for (const auto& [key, value] : expected)
+    EXPECT_EQ(settings.at(key).get<std::string>(), value) << key;
   const std::string server_log = readFile(out / "logs" / "server.log");
   EXPECT_NE(server_log.find("voxel 0.03 m"), std::string::npos) << server_log;
   EXPECT_NE(server_log.find("Draco 12 bits"), std::string::npos) << server_log;
-  EXPECT_NE(server_log.find("images to clients lz4 at LZ4 acceleration 8, LZ4HC level 4"), std::string::npos)
+  EXPECT_NE(server_log.find("images to clients lz4 at LZ4 acceleration 8, LZ4HC level 4"),
+            std::string::npos)
       << server_log;
   for (int pod = 0; pod < 2; ++pod) {
     const std::string pod_log = readFile(out / "logs" / ("pod" + std::to_string(pod) + ".log"));
-    EXPECT_NE(pod_log.find("colour lz4 at LZ4 acceleration 8, crop margin 3, LZ4HC level 4"), std::string::npos)
+    EXPECT_NE(pod_log.find("colour lz4 at LZ4 acceleration 8, crop margin 3, LZ4HC level 4"),
+              std::string::npos)
         << pod_log;
   }
   // A value outside the range of the process it goes to is refused before
   // anything starts, naming the flag.
   const fs::path refused = freshDir("loop_settings_refused");
-  EXPECT_EQ(waitExit(spawn({kBin + "/holofuse_loop", "--geodesic-rings", "65", "--out", refused.string()},
-                           refused / "loop.log"),
-                     10),
-            2);
+  EXPECT_EQ(
+      waitExit(spawn({kBin + "/holofuse_loop", "--geodesic-rings", "65", "--out", refused.string()},
+                     refused / "loop.log"),
+               10),
+      2);
   EXPECT_NE(readFile(refused / "loop.log").find("--geodesic-rings"), std::string::npos);
   EXPECT_FALSE(fs::exists(refused / "logs"));
   // Every forwarded flag is checked by the launcher (with the range of the
   // process it goes to: common/command_line.h), not left to fail later; so
   // are the client's mode, view, size and budget file.
   for (const char* flag :
-       {"--voxel", "--draco-bits", "--image-codec", "--lz4-acceleration", "--alpha", "--lambda", "--dilation",
-        "--vote-delta", "--geodesic-rings", "--geodesic-passes", "--geodesic-radius", "--vertex-precision",
-        "--crop-margin", "--lz4-hc-level", "--mode", "--view", "--size", "--budget"}) {
+       {"--voxel", "--draco-bits", "--image-codec", "--lz4-acceleration", "--alpha", "--lambda",
+        "--dilation", "--vote-delta", "--geodesic-rings", "--geodesic-passes", "--geodesic-radius",
+        "--vertex-precision", "--crop-margin", "--lz4-hc-level", "--mode", "--view", "--size",
+        "--budget"}) {
     const fs::path log = refused / "nonsense.log";
-    EXPECT_EQ(waitExit(spawn({kBin + "/holofuse_loop", flag, "nonsense", "--out", refused.string()}, log), 10), 2)
+    EXPECT_EQ(
+        waitExit(spawn({kBin + "/holofuse_loop", flag, "nonsense", "--out", refused.string()}, log),
+                 10),
+        2)
         << flag;
     EXPECT_NE(readFile(log).find(flag), std::string::npos) << readFile(log);
   }
   EXPECT_FALSE(fs::exists(refused / "logs"));
   // A replay has no truth to judge frames by.
   const fs::path judged = refused / "quality.log";
-  EXPECT_EQ(
-      waitExit(spawn({kBin + "/holofuse_loop", "--replay", refused.string(), "--quality", "--out", refused.string()},
-                     judged),
-               10),
-      2);
-  EXPECT_NE(readFile(judged).find("--quality needs a synthetic scene"), std::string::npos) << readFile(judged);
+  EXPECT_EQ(waitExit(spawn({kBin + "/holofuse_loop", "--replay", refused.string(), "--quality",
+                            "--out", refused.string()},
+                           judged),
+                     10),
+            2);
+  EXPECT_NE(readFile(judged).find("--quality needs a synthetic scene"), std::string::npos)
+      << readFile(judged);
 }
 
 TEST(Loop, WrongFlagsPrintUsageAndFail) {
   const fs::path out = freshDir("flags");
-  EXPECT_EQ(waitExit(spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "9", "--pods", "4"},
+  EXPECT_EQ(waitExit(spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "9",
+                            "--pods", "4"},
                            out / "a.log"),
                      10),
             2);
   EXPECT_EQ(waitExit(spawn({kBin + "/fusion_server", "--no-such-flag"}, out / "b.log"), 10), 2);
-  EXPECT_EQ(waitExit(spawn({kBin + "/render_client", "--server", "nonsense"}, out / "c.log"), 10), 2);
+  EXPECT_EQ(waitExit(spawn({kBin + "/render_client", "--server", "nonsense"}, out / "c.log"), 10),
+            2);
   // A replay pod sends recorded bytes: a synthetic pod's flag is refused.
-  EXPECT_EQ(waitExit(spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "0", "--replay", "x",
-                            "--codec", "lz4"},
+  EXPECT_EQ(waitExit(spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "0",
+                            "--replay", "x", "--codec", "lz4"},
                            out / "e.log"),
                      10),
             2);
   EXPECT_NE(readFile(out / "e.log").find("--codec"), std::string::npos);
   // A value out of range (CLI11's checks) exits 2 as well, naming the flag.
-  EXPECT_EQ(waitExit(spawn({kBin + "/render_client", "--server", "127.0.0.1:1", "--alpha", "-1"}, out / "d.log"), 10),
+  EXPECT_EQ(waitExit(spawn({kBin + "/render_client", "--server", "127.0.0.1:1", "--alpha", "-1"},
+                           out / "d.log"),
+                     10),
             2);
   EXPECT_NE(readFile(out / "d.log").find("--alpha"), std::string::npos);
   std::ifstream log(out / "a.log");

@@ -99,7 +99,8 @@ TextureBundle sampleTextureBundle(uint8_t minor) {
   image.camera_id = 2;
   image.planes = {plane(PlaneKind::kColor, PixelFormat::kRgb8, colorBytes())};
   // Since 1.2 the server sends each pod's feather map with its image.
-  if (minor >= 2) image.planes.push_back(plane(PlaneKind::kFeather, PixelFormat::kGray8, maskBytes()));
+  if (minor >= 2)
+    image.planes.push_back(plane(PlaneKind::kFeather, PixelFormat::kGray8, maskBytes()));
   m.images = {image, image};
   m.images[1].camera_id = 3;
   return m;

@@ -11,8 +11,8 @@
 namespace holofuse::protocol::testing {
 
 struct Sample {
-  std::string name;                 // file name stem of its golden vector
-  Bytes frame;                      // the encoded frame
+  std::string name;  // file name stem of its golden vector
+  Bytes frame;       // the encoded frame
 };
 
 // The planes' bytes live in static storage, so spans stay valid.

@@ -43,7 +43,8 @@ TEST(Crc32c, FastPathEqualsPortableAtEveryLengthAndAlignment) {
   for (size_t i = 0; i < data.size(); ++i) data[i] = static_cast<uint8_t>(i * 31 + 7);
   for (size_t offset = 0; offset < 9; ++offset) {
     for (size_t n = 0; n + offset <= data.size(); n += 13) {
-      ASSERT_EQ(crc32c(0, data.data() + offset, n), crc32cPortable(0, data.data() + offset, n)) << offset << " " << n;
+      ASSERT_EQ(crc32c(0, data.data() + offset, n), crc32cPortable(0, data.data() + offset, n))
+          << offset << " " << n;
     }
   }
   // Long inputs take the three-stream path: every length around its block
@@ -56,7 +57,8 @@ TEST(Crc32c, FastPathEqualsPortableAtEveryLengthAndAlignment) {
     }
   }
   // Continuing a CRC equals computing it at once.
-  EXPECT_EQ(crc32c(crc32c(0, data.data(), 100), data.data() + 100, 200), crc32c(0, data.data(), 300));
+  EXPECT_EQ(crc32c(crc32c(0, data.data(), 100), data.data() + 100, 200),
+            crc32c(0, data.data(), 300));
 }
 
 TEST(Messages, EveryTypeRoundTrips) {
@@ -94,8 +96,8 @@ TEST(Messages, EveryTypeRoundTrips) {
     EXPECT_EQ(m.offset_x, 8u);
     EXPECT_EQ(m.stamps, in.stamps);
     ASSERT_EQ(m.planes.size(), 2u);
-    EXPECT_TRUE(std::equal(m.planes[0].data.begin(), m.planes[0].data.end(), in.planes[0].data.begin(),
-                           in.planes[0].data.end()));
+    EXPECT_TRUE(std::equal(m.planes[0].data.begin(), m.planes[0].data.end(),
+                           in.planes[0].data.begin(), in.planes[0].data.end()));
     EXPECT_EQ(m.planes[1].format, PixelFormat::kGray8);
   }
   {
@@ -114,7 +116,8 @@ TEST(Messages, EveryTypeRoundTrips) {
     ASSERT_EQ(m.images.size(), 2u);
     EXPECT_EQ(m.images[1].camera_id, 3u);
     ASSERT_EQ(m.images[1].planes.size(), 2u);
-    EXPECT_EQ(m.images[1].planes[1].kind, PlaneKind::kFeather) << "since 1.2, each pod's feather map";
+    EXPECT_EQ(m.images[1].planes[1].kind, PlaneKind::kFeather)
+        << "since 1.2, each pod's feather map";
   }
   {
     Stats m;
@@ -195,17 +198,58 @@ TEST(Messages, EveryTruncationFailsCleanly) {
       cut.bytes.resize(kHeaderSize + n);
       Status s;
       switch (static_cast<MessageType>(frame.header.type)) {
-        case MessageType::kHello: { Hello m; s = decodeFrame(cut, m); break; }
-        case MessageType::kHelloAck: { HelloAck m; s = decodeFrame(cut, m); break; }
-        case MessageType::kCalibration: { Calibration m; s = decodeFrame(cut, m); break; }
-        case MessageType::kPodFrame: { PodFrame m; s = decodeFrame(cut, m); break; }
-        case MessageType::kMeshFrame: { MeshFrame m; s = decodeFrame(cut, m); break; }
-        case MessageType::kTextureBundle: { TextureBundle m; s = decodeFrame(cut, m); break; }
-        case MessageType::kHeartbeat: { Heartbeat m; s = decodeFrame(cut, m); break; }
-        case MessageType::kStats: { Stats m; s = decodeFrame(cut, m); break; }
-        case MessageType::kBye: { Bye m; s = decodeFrame(cut, m); break; }
-        case MessageType::kError: { ErrorMessage m; s = decodeFrame(cut, m); break; }
-        default: FAIL();
+        case MessageType::kHello: {
+          Hello m;
+          s = decodeFrame(cut, m);
+          break;
+        }
+        case MessageType::kHelloAck: {
+          HelloAck m;
+          s = decodeFrame(cut, m);
+          break;
+        }
+        case MessageType::kCalibration: {
+          Calibration m;
+          s = decodeFrame(cut, m);
+          break;
+        }
+        case MessageType::kPodFrame: {
+          PodFrame m;
+          s = decodeFrame(cut, m);
+          break;
+        }
+        case MessageType::kMeshFrame: {
+          MeshFrame m;
+          s = decodeFrame(cut, m);
+          break;
+        }
+        case MessageType::kTextureBundle: {
+          TextureBundle m;
+          s = decodeFrame(cut, m);
+          break;
+        }
+        case MessageType::kHeartbeat: {
+          Heartbeat m;
+          s = decodeFrame(cut, m);
+          break;
+        }
+        case MessageType::kStats: {
+          Stats m;
+          s = decodeFrame(cut, m);
+          break;
+        }
+        case MessageType::kBye: {
+          Bye m;
+          s = decodeFrame(cut, m);
+          break;
+        }
+        case MessageType::kError: {
+          ErrorMessage m;
+          s = decodeFrame(cut, m);
+          break;
+        }
+        default:
+          FAIL();
       }
       ASSERT_FALSE(s.isOk()) << sample.name << " payload prefix " << n;
       EXPECT_NE(s.message().find("field '"), std::string::npos) << s.message();
@@ -410,13 +454,15 @@ TEST(Golden, EveryTypeMatchesItsVectorInEveryMinor) {
   const bool regenerate = std::getenv("HOLOFUSE_REGENERATE_GOLDEN") != nullptr;
   std::vector<std::pair<std::string, testing::Sample>> versions;
   for (uint8_t minor = 0; minor <= kVersionMinor; ++minor) {
-    for (auto& sample : allSamples(minor)) versions.emplace_back("1." + std::to_string(minor), std::move(sample));
+    for (auto& sample : allSamples(minor))
+      versions.emplace_back("1." + std::to_string(minor), std::move(sample));
   }
   for (const auto& [version, sample] : versions) {
     const auto path = dir / (sample.name + ".v" + version + ".bin");
     if (regenerate) {
-      std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(sample.frame.data()),
-                                                  static_cast<std::streamsize>(sample.frame.size()));
+      std::ofstream(path, std::ios::binary)
+          .write(reinterpret_cast<const char*>(sample.frame.data()),
+                 static_cast<std::streamsize>(sample.frame.size()));
     }
     std::ifstream in(path, std::ios::binary);
     ASSERT_TRUE(in) << "missing golden vector " << path;

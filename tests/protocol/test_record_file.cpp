@@ -1,8 +1,6 @@
 // The recording container (protocol/SPEC.md section 7): round trip, a file
 // cut at every byte, corruption, versions, a write that fails for lack of
 // space, and a writer killed with SIGKILL.
-#include "protocol/record_file.h"
-
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
@@ -14,6 +12,7 @@
 #include <random>
 
 #include "protocol/crc32c.h"
+#include "protocol/record_file.h"
 
 namespace holofuse::protocol {
 namespace {
@@ -23,8 +22,9 @@ namespace fs = std::filesystem;
 class RecordFileTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("holofuse_record_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() /
+           ("holofuse_record_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -34,7 +34,8 @@ class RecordFileTest : public ::testing::Test {
 
   static Bytes payloadFor(int i) {
     Bytes b(static_cast<size_t>(7 + 13 * i));
-    for (size_t k = 0; k < b.size(); ++k) b[k] = static_cast<uint8_t>(k * 31 + static_cast<size_t>(i));
+    for (size_t k = 0; k < b.size(); ++k)
+      b[k] = static_cast<uint8_t>(k * 31 + static_cast<size_t>(i));
     return b;
   }
 
@@ -44,8 +45,9 @@ class RecordFileTest : public ::testing::Test {
     ASSERT_TRUE(writer.isOk()) << writer.status().toString();
     for (int i = 0; i < count; ++i) {
       const auto kind = i == 0 ? RecordKind::kCalibration : RecordKind::kPodFrame;
-      ASSERT_TRUE(writer->append(kind, static_cast<uint32_t>(i % 3), 100 + static_cast<uint64_t>(i),
-                                 1000 * static_cast<uint64_t>(i), payloadFor(i))
+      ASSERT_TRUE(writer
+                      ->append(kind, static_cast<uint32_t>(i % 3), 100 + static_cast<uint64_t>(i),
+                               1000 * static_cast<uint64_t>(i), payloadFor(i))
                       .isOk());
     }
     ASSERT_TRUE(writer->close().isOk());
@@ -57,7 +59,8 @@ class RecordFileTest : public ::testing::Test {
   }
   static void writeFile(const std::string& file, const Bytes& bytes) {
     std::ofstream out(file, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    out.write(reinterpret_cast<const char*>(bytes.data()),
+              static_cast<std::streamsize>(bytes.size()));
   }
 
   fs::path dir_;
@@ -74,7 +77,8 @@ TEST_F(RecordFileTest, RoundTripThroughTheIndex) {
   ASSERT_EQ(reader->records().size(), 6u);
   for (int i = 0; i < 6; ++i) {
     const RecordInfo& r = reader->records()[static_cast<size_t>(i)];
-    EXPECT_EQ(r.kind, static_cast<uint16_t>(i == 0 ? RecordKind::kCalibration : RecordKind::kPodFrame));
+    EXPECT_EQ(r.kind,
+              static_cast<uint16_t>(i == 0 ? RecordKind::kCalibration : RecordKind::kPodFrame));
     EXPECT_EQ(r.stream, static_cast<uint32_t>(i % 3));
     EXPECT_EQ(r.frame_id, 100u + static_cast<uint64_t>(i));
     EXPECT_EQ(r.time_ns, 1000u * static_cast<uint64_t>(i));
@@ -90,7 +94,8 @@ TEST_F(RecordFileTest, ExistingFilesAreNeverOverwritten) {
   writeRecords(file, 1);
   auto again = RecordWriter::create(file, 0);
   ASSERT_FALSE(again.isOk());
-  EXPECT_NE(again.status().message().find("never overwritten"), std::string::npos) << again.status().message();
+  EXPECT_NE(again.status().message().find("never overwritten"), std::string::npos)
+      << again.status().message();
 }
 
 // A recorder killed at any moment leaves a prefix of the closed file. For
@@ -117,12 +122,14 @@ TEST_F(RecordFileTest, EveryCutKeepsEveryWholeRecordAndNamesTheRest) {
     const uint64_t good_end = whole == 0 ? kRecordFileHeaderSize : all[whole - 1].end();
     EXPECT_EQ(reader->scan().good_end, good_end) << "cut at " << cut;
     if (cut == good_end && cut <= index_offset) {
-      EXPECT_FALSE(reader->scan().tail_problem.has_value()) << "cut at " << cut << ": " << *reader->scan().tail_problem;
+      EXPECT_FALSE(reader->scan().tail_problem.has_value())
+          << "cut at " << cut << ": " << *reader->scan().tail_problem;
     } else {
       ASSERT_TRUE(reader->scan().tail_problem.has_value()) << "cut at " << cut;
       EXPECT_TRUE(reader->scan().tail_incomplete) << *reader->scan().tail_problem;
       const std::string expected = "bytes " + std::to_string(good_end) + ".." + std::to_string(cut);
-      EXPECT_EQ(reader->scan().tail_problem->rfind(expected, 0), 0u) << *reader->scan().tail_problem;
+      EXPECT_EQ(reader->scan().tail_problem->rfind(expected, 0), 0u)
+          << *reader->scan().tail_problem;
     }
   }
 }
@@ -154,7 +161,8 @@ TEST_F(RecordFileTest, ACorruptPayloadIsFoundWithOrWithoutTheIndex) {
   EXPECT_EQ(scanned->records().size(), 2u);
   ASSERT_TRUE(scanned->scan().tail_problem.has_value());
   EXPECT_FALSE(scanned->scan().tail_incomplete);
-  EXPECT_NE(scanned->scan().tail_problem->find("CRC32C mismatch"), std::string::npos) << *scanned->scan().tail_problem;
+  EXPECT_NE(scanned->scan().tail_problem->find("CRC32C mismatch"), std::string::npos)
+      << *scanned->scan().tail_problem;
 }
 
 // Untrusted files: thousands of random corruptions (flipped bytes, a run
@@ -172,9 +180,15 @@ TEST_F(RecordFileTest, RandomCorruptionIsAlwaysAStatusNeverACrash) {
     for (int k = 0; k < flips; ++k) {
       const size_t at = random() % bytes.size();
       switch (random() % 3) {
-        case 0: bytes[at] ^= static_cast<uint8_t>(1u << (random() % 8)); break;
-        case 1: bytes[at] = static_cast<uint8_t>(random()); break;
-        default: bytes.resize(at); break;
+        case 0:
+          bytes[at] ^= static_cast<uint8_t>(1u << (random() % 8));
+          break;
+        case 1:
+          bytes[at] = static_cast<uint8_t>(random());
+          break;
+        default:
+          bytes.resize(at);
+          break;
       }
       if (bytes.size() < 2) break;
     }
@@ -210,9 +224,11 @@ TEST_F(RecordFileTest, ALyingLengthIsRefusedBeforeAllocating) {
   const RecordInfo victim = reader->records()[1];
   const uint32_t huge = kMaxRecordPayload;  // 1 GiB: allowed by the cap, far beyond the file
   const size_t h = victim.offset;
-  for (int i = 0; i < 4; ++i) bytes[h + 12 + static_cast<size_t>(i)] = static_cast<uint8_t>(huge >> (8 * i));
+  for (int i = 0; i < 4; ++i)
+    bytes[h + 12 + static_cast<size_t>(i)] = static_cast<uint8_t>(huge >> (8 * i));
   const uint32_t crc = crc32c(0, bytes.data() + h, kRecordHeaderSize - 4);
-  for (int i = 0; i < 4; ++i) bytes[h + 36 + static_cast<size_t>(i)] = static_cast<uint8_t>(crc >> (8 * i));
+  for (int i = 0; i < 4; ++i)
+    bytes[h + 36 + static_cast<size_t>(i)] = static_cast<uint8_t>(crc >> (8 * i));
   writeFile(file, bytes);
   // With the index: the record no longer matches its entry.
   auto indexed = RecordReader::open(file);
@@ -234,7 +250,8 @@ TEST_F(RecordFileTest, ALyingLengthIsRefusedBeforeAllocating) {
   ASSERT_TRUE(scanned.isOk());
   EXPECT_EQ(scanned->records().size(), 1u);
   ASSERT_TRUE(scanned->scan().tail_problem.has_value());
-  EXPECT_NE(scanned->scan().tail_problem->find("of its 1073741824 payload bytes are present"), std::string::npos)
+  EXPECT_NE(scanned->scan().tail_problem->find("of its 1073741824 payload bytes are present"),
+            std::string::npos)
       << *scanned->scan().tail_problem;
 }
 
@@ -242,15 +259,18 @@ TEST_F(RecordFileTest, ANewerFormatIsRefusedByName) {
   const std::string file = path("a.hfr");
   writeRecords(file, 1);
   Bytes bytes = readFile(file);
-  bytes[8] = 2;  // format major 2
+  bytes[8] = 2;   // format major 2
   bytes[10] = 3;  // minor 3
   const uint32_t crc = crc32c(0, bytes.data(), kRecordFileHeaderSize - 4);
-  for (int i = 0; i < 4; ++i) bytes[kRecordFileHeaderSize - 4 + static_cast<size_t>(i)] = static_cast<uint8_t>(crc >> (8 * i));
+  for (int i = 0; i < 4; ++i)
+    bytes[kRecordFileHeaderSize - 4 + static_cast<size_t>(i)] =
+        static_cast<uint8_t>(crc >> (8 * i));
   writeFile(file, bytes);
   auto reader = RecordReader::open(file);
   ASSERT_FALSE(reader.isOk());
   EXPECT_EQ(reader.status().code(), StatusCode::kUnsupportedVersion);
-  EXPECT_NE(reader.status().message().find("format 2.3 is newer"), std::string::npos) << reader.status().message();
+  EXPECT_NE(reader.status().message().find("format 2.3 is newer"), std::string::npos)
+      << reader.status().message();
 }
 
 TEST_F(RecordFileTest, NotARecordingSaysSo) {
@@ -280,7 +300,9 @@ TEST_F(RecordFileTest, AFullDiskIsReportedAndTheFileKeepsWholeRecords) {
     Bytes payload(300, 7);
     int appended = 0;
     Status s = Status::ok();
-    while ((s = writer->append(RecordKind::kPodFrame, 0, static_cast<uint64_t>(appended), 0, payload)).isOk()) {
+    while (
+        (s = writer->append(RecordKind::kPodFrame, 0, static_cast<uint64_t>(appended), 0, payload))
+            .isOk()) {
       ++appended;
     }
     const bool refuses_more = !writer->append(RecordKind::kPodFrame, 0, 0, 0, payload).isOk();

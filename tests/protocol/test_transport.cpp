@@ -87,7 +87,8 @@ TEST(Transport, BorrowedPartsGoOutInPlaceAndByteIdenticalThroughPartialWrites) {
   }
   const OutgoingFrame outgoing = encodeOutgoing(f, 5, owner);
   EXPECT_GE(outgoing.parts().size(), 4u) << "own, plane, own, plane, own";
-  EXPECT_EQ(outgoing.flatten(), encodeFrame(f, 5)) << "borrowing must not change the bytes on the wire";
+  EXPECT_EQ(outgoing.flatten(), encodeFrame(f, 5))
+      << "borrowing must not change the bytes on the wire";
 
   auto pair = socketPair();
   ASSERT_TRUE(pair.isOk());
@@ -106,7 +107,8 @@ TEST(Transport, BorrowedPartsGoOutInPlaceAndByteIdenticalThroughPartialWrites) {
     const Status decoded = decodeFrame(got[i], back);
     ASSERT_TRUE(decoded.isOk()) << decoded.toString();
     ASSERT_EQ(back.planes.size(), 2u);
-    EXPECT_TRUE(std::equal(back.planes[1].data.begin(), back.planes[1].data.end(), owner->begin(), owner->end()));
+    EXPECT_TRUE(std::equal(back.planes[1].data.begin(), back.planes[1].data.end(), owner->begin(),
+                           owner->end()));
   }
 }
 
@@ -117,7 +119,8 @@ TEST(Transport, SlowPeerLosesTheOldestFramesButNeverControlMessages) {
   limits.max_queued_droppable = 2;
   Connection a(std::move(pair->first), "a", limits), b(std::move(pair->second), "b");
   // Nothing is written while the peer "is slow": queue everything first.
-  a.sendMessage(Calibration{});  // default calibration does not decode (size 0) but is never dropped
+  a.sendMessage(
+      Calibration{});  // default calibration does not decode (size 0) but is never dropped
   for (uint64_t id = 1; id <= 6; ++id) {
     a.send(std::make_shared<const OutgoingFrame>(bigPodFrame(id, 1000)));
     a.sendMessage(Heartbeat{id});

@@ -23,8 +23,9 @@ VulkanContext& context() {
 }
 
 Mesh sphere(double scale) {
-  Mesh mesh = marchingCubes(sampleGrid(glm::dvec3(-0.6 * scale), 0.06 * scale, 21, 21, 21,
-                                       [&](const glm::dvec3& p) { return 0.5 * scale - glm::length(p); }));
+  Mesh mesh =
+      marchingCubes(sampleGrid(glm::dvec3(-0.6 * scale), 0.06 * scale, 21, 21, 21,
+                               [&](const glm::dvec3& p) { return 0.5 * scale - glm::length(p); }));
   return mesh;
 }
 
@@ -35,7 +36,8 @@ std::vector<ViewImages> ring(const Mesh& mesh, int count, double scale, bool emp
   for (int i = 0; i < count; ++i) {
     const double a = 2 * M_PI * i / count;
     ViewImages v;
-    v.camera = lookAtCamera(static_cast<uint32_t>(i), glm::dvec3(3 * std::sin(a), 0.4, 3 * std::cos(a)) * scale,
+    v.camera = lookAtCamera(static_cast<uint32_t>(i),
+                            glm::dvec3(3 * std::sin(a), 0.4, 3 * std::cos(a)) * scale,
                             glm::dvec3(0.0), {0, 1, 0}, 64, 48, 40.0);
     const auto depth = reference::rasterizeDepth(mesh, v.camera, 1e-6 * scale);
     v.color = Image8(64, 48, 3, 0);
@@ -59,7 +61,8 @@ struct Outcome {
 // One render's weights and pixels: every weight finite in [0, 1], each
 // vertex's summing to 1 or (no camera sees it) 0; every covered pixel the
 // hole colour or a blend of the grey images.
-Outcome checkRender(Renderer& renderer, const Camera& user, const BlendSettings& settings, const std::string& what) {
+Outcome checkRender(Renderer& renderer, const Camera& user, const BlendSettings& settings,
+                    const std::string& what) {
   SCOPED_TRACE(what);
   const Image8 out = renderer.render(user, settings);
   const FieldSnapshot fields = renderer.readFields();
@@ -68,7 +71,8 @@ Outcome checkRender(Renderer& renderer, const Camera& user, const BlendSettings&
     float sum = 0;
     for (uint32_t i = 0; i < fields.camera_count; ++i) {
       const float w = fields.weights[v * HOLOFUSE_MAX_CAMERAS + i];
-      EXPECT_TRUE(std::isfinite(w) && w >= 0.0f && w <= 1.0f) << "vertex " << v << " camera " << i << ": " << w;
+      EXPECT_TRUE(std::isfinite(w) && w >= 0.0f && w <= 1.0f)
+          << "vertex " << v << " camera " << i << ": " << w;
       sum += w;
     }
     EXPECT_TRUE(sum == 0.0f || std::abs(sum - 1.0f) < 1e-4f) << sum;
@@ -95,7 +99,8 @@ Outcome checkRender(Renderer& renderer, const Camera& user, const BlendSettings&
 // vertex holoportation weighs: where its own field is empty it falls back
 // to the same normal weights (step 10), so a field zeroed by a guard shows.
 // The outcome returned has the most holes of any render.
-Outcome renderAndCheck(const Mesh& mesh, const std::vector<ViewImages>& views, const Camera& user, float alpha) {
+Outcome renderAndCheck(const Mesh& mesh, const std::vector<ViewImages>& views, const Camera& user,
+                       float alpha) {
   BlendSettings settings;
   settings.alpha = alpha;
   settings.hole_color = {1.0f, 0.0f, 1.0f};
@@ -105,13 +110,15 @@ Outcome renderAndCheck(const Mesh& mesh, const std::vector<ViewImages>& views, c
     renderer.setMesh(mesh);
     renderer.setViews(views);
     settings.mode = BlendMode::kHoloportation;
-    settings.fields.geodesics = true;  // the geodesic passes run too, and their distances are checked
+    settings.fields.geodesics =
+        true;  // the geodesic passes run too, and their distances are checked
     holoportation = checkRender(renderer, user, settings, "holoportation");
   }
   Outcome worst = holoportation;
   auto keep = [&](const Outcome& o) {
     EXPECT_EQ(o.covered, holoportation.covered) << "coverage is the mesh's, whatever the weights";
-    EXPECT_GE(o.weighted, holoportation.weighted) << "montage4d leaves vertices unweighted that holoportation weighs";
+    EXPECT_GE(o.weighted, holoportation.weighted)
+        << "montage4d leaves vertices unweighted that holoportation weighs";
     worst.hole = std::max(worst.hole, o.hole);
   };
   settings.mode = BlendMode::kMontage4D;
@@ -124,7 +131,8 @@ Outcome renderAndCheck(const Mesh& mesh, const std::vector<ViewImages>& views, c
     const std::string what = "montage4d, lambda " + std::to_string(lambda);
     keep(checkRender(renderer, user, settings, what + ", first frame"));
     const Camera& other = views[views.size() / 2].camera;
-    EXPECT_GE(checkRender(renderer, other, settings, what + ", from another pod").weighted, holoportation.weighted);
+    EXPECT_GE(checkRender(renderer, other, settings, what + ", from another pod").weighted,
+              holoportation.weighted);
     keep(checkRender(renderer, user, settings, what + ", back again"));
   }
   return worst;
@@ -171,8 +179,8 @@ TEST(Extremes, CameraAtAVertexBehindTheSubjectAndGrazing) {
   auto views = ring(mesh, 4, 1.0);
   // A pod camera sitting exactly on a vertex, looking out, and one grazing
   // the surface.
-  views[2].camera = lookAtCamera(2, glm::dvec3(mesh.positions[0]), glm::dvec3(mesh.positions[0]) * 2.0, {0, 1, 0},
-                                 64, 48, 40.0);
+  views[2].camera = lookAtCamera(2, glm::dvec3(mesh.positions[0]),
+                                 glm::dvec3(mesh.positions[0]) * 2.0, {0, 1, 0}, 64, 48, 40.0);
   views[3].camera = lookAtCamera(3, {0.5, 0.0, 3.0}, {0.5, 0.0, -3.0}, {0, 1, 0}, 64, 48, 40.0);
   const Outcome o = renderAndCheck(mesh, views, views[0].camera, 2.0f);
   EXPECT_GT(o.covered, 100u);
@@ -210,7 +218,8 @@ Image8 featherOf(const Image8& mask) {
           nearest = std::min(nearest, std::hypot(double(bx) - x, double(by) - y));
         }
       }
-      feather.pixels[size_t{y} * mask.width + x] = static_cast<uint8_t>(std::lround(std::min(nearest, 255.0)));
+      feather.pixels[size_t{y} * mask.width + x] =
+          static_cast<uint8_t>(std::lround(std::min(nearest, 255.0)));
     }
   }
   return feather;
@@ -229,7 +238,8 @@ std::pair<size_t, size_t> expectGreyOrHole(const Image8& out, const std::string&
       ++holes;
       continue;
     }
-    for (int k = 0; k < 3; ++k) EXPECT_NEAR(out.pixels[p + k], 200, 1) << what << ", pixel " << p / 4;
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(out.pixels[p + k], 200, 1) << what << ", pixel " << p / 4;
   }
   return {covered, holes};
 }
@@ -255,14 +265,15 @@ TEST(Extremes, PerFragmentWeightsAtTheirLimitsGiveOnlyImageColoursOrTheHole) {
     // With one pod the user looks from a quarter turn away: half of what
     // it sees no pod does.
     const double a = c.cameras == 1 ? M_PI / 2 : 2 * M_PI * 0.5 / c.cameras;
-    const Camera user = lookAtCamera(99, {3 * std::sin(a), 0.4, 3 * std::cos(a)}, glm::dvec3(0.0), {0, 1, 0}, 64, 48,
-                                     40.0);
-    for (const auto& [mode, fragment_test] : {std::pair{BlendMode::kFragment, false},
-                                              std::pair{BlendMode::kHoloportation, true},
-                                              std::pair{BlendMode::kMontage4D, true}}) {
-      const std::string what = blendModeName(mode) + ", " + std::to_string(c.cameras) + " cameras, width " +
-                               std::to_string(c.width) + ", alpha " + std::to_string(c.alpha) + ", beta " +
-                               std::to_string(c.beta) + (c.empty_masks ? ", empty masks" : "");
+    const Camera user = lookAtCamera(99, {3 * std::sin(a), 0.4, 3 * std::cos(a)}, glm::dvec3(0.0),
+                                     {0, 1, 0}, 64, 48, 40.0);
+    for (const auto& [mode, fragment_test] :
+         {std::pair{BlendMode::kFragment, false}, std::pair{BlendMode::kHoloportation, true},
+          std::pair{BlendMode::kMontage4D, true}}) {
+      const std::string what = blendModeName(mode) + ", " + std::to_string(c.cameras) +
+                               " cameras, width " + std::to_string(c.width) + ", alpha " +
+                               std::to_string(c.alpha) + ", beta " + std::to_string(c.beta) +
+                               (c.empty_masks ? ", empty masks" : "");
       SCOPED_TRACE(what);
       Renderer renderer(context(), 64, 48);
       renderer.setMesh(mesh);

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <string>
 #include <memory>
+#include <string>
 
 #include "capture_node/segmentation.h"
 #include "capture_node/synthetic_scene.h"
@@ -57,8 +57,8 @@ Scene ghostSphere(double radius = 0.5) {
   for (int i = 0; i < 8; ++i) {
     const double a = 2 * M_PI * i / 8;
     reference::PodView view;
-    view.camera = lookAtCamera(static_cast<uint32_t>(i), {3 * std::sin(a), 0.3, 3 * std::cos(a)}, glm::dvec3(0.0),
-                               {0, 1, 0}, 128, 96, 40.0);
+    view.camera = lookAtCamera(static_cast<uint32_t>(i), {3 * std::sin(a), 0.3, 3 * std::cos(a)},
+                               glm::dvec3(0.0), {0, 1, 0}, 128, 96, 40.0);
     const auto depth = reference::rasterizeDepth(s.mesh, view.camera);
     view.color = Image8(128, 96, 3, 0);
     view.mask = Image8(128, 96, 1, 0);
@@ -67,7 +67,8 @@ Scene ghostSphere(double radius = 0.5) {
       view.mask.pixels[p] = 255;
       const uint32_t x = static_cast<uint32_t>(p % 128), y = static_cast<uint32_t>(p / 128);
       const glm::dvec3 dir = view.camera.rayDirection(x + 0.5, y + 0.5);
-      const glm::dvec3 hit = view.camera.center() + dir * (depth.depth[p] / glm::dot(dir, view.camera.forward()));
+      const glm::dvec3 hit =
+          view.camera.center() + dir * (depth.depth[p] / glm::dot(dir, view.camera.forward()));
       const bool ghost = i == 3;
       view.color.pixels[3 * p + 0] = ghost ? 30 : static_cast<uint8_t>(128 + 120 * hit.y);
       view.color.pixels[3 * p + 1] = ghost ? 220 : static_cast<uint8_t>(128 + 120 * hit.x);
@@ -133,7 +134,8 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
     const auto cpu = reference::rasterizeDepth(scene.mesh, cameras[i]);
     for (size_t p = 0; p < cpu.depth.size(); ++p, ++depth_pixels) {
       const float g = gpu.depth_maps[i * cpu.depth.size() + p];
-      const bool gpu_surface = g < HOLOFUSE_NO_DEPTH * 0.5f, cpu_surface = cpu.depth[p] != reference::kNoDepth;
+      const bool gpu_surface = g < HOLOFUSE_NO_DEPTH * 0.5f,
+                 cpu_surface = cpu.depth[p] != reference::kNoDepth;
       depth_coverage += gpu_surface == cpu_surface;
       if (!gpu_surface || !cpu_surface) continue;
       ++depth_compared;
@@ -141,7 +143,8 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
     }
   }
   ASSERT_GT(depth_compared, 1000u);
-  RecordProperty("depth_coverage_agreement", std::to_string(static_cast<double>(depth_coverage) / depth_pixels));
+  RecordProperty("depth_coverage_agreement",
+                 std::to_string(static_cast<double>(depth_coverage) / depth_pixels));
   RecordProperty("depth_worst_relative_difference", std::to_string(worst_depth));
   // Measured: every pixel alike, within 5e-6 relative.
   EXPECT_GT(static_cast<double>(depth_coverage) / depth_pixels, 0.999);
@@ -183,12 +186,14 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
     }
   }
   EXPECT_GT(cpu_seams, 0u);
-  RecordProperty("seam_agreement", std::to_string(static_cast<double>(seam_agree) / (n * triangles)));
+  RecordProperty("seam_agreement",
+                 std::to_string(static_cast<double>(seam_agree) / (n * triangles)));
   EXPECT_GT(static_cast<double>(seam_agree) / (n * triangles), 0.998);  // measured 99.93-100%
   // Stage 7: the global visibility score from the GPU counts.
   const auto g = reference::globalVisibility(visible);
   const double best = *std::max_element(gpu.visible_counts.begin(), gpu.visible_counts.end());
-  for (size_t i = 0; i < n; ++i) EXPECT_NEAR(best > 0 ? gpu.visible_counts[i] / best : 0.0, g[i], 0.01) << i;
+  for (size_t i = 0; i < n; ++i)
+    EXPECT_NEAR(best > 0 ? gpu.visible_counts[i] / best : 0.0, g[i], 0.01) << i;
   // Stage 6: geodesic distance from each camera's seam vertices, against
   // the reference run from the GPU's own seams (so both start alike).
   ASSERT_EQ(gpu.distances.size(), n * vertices);
@@ -206,7 +211,8 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
     options.iterations = settings.fields.geodesic_iterations;
     options.max_distance = settings.fields.geodesic_radius;
     options.region.resize(vertices);
-    for (size_t v = 0; v < vertices; ++v) options.region[v] = gpu.sights[i * vertices + v] == 0;  // seen
+    for (size_t v = 0; v < vertices; ++v)
+      options.region[v] = gpu.sights[i * vertices + v] == 0;  // seen
     const auto cpu = reference::approximateGeodesic(scene.mesh, source, options);
     for (size_t v = 0; v < vertices; ++v) {
       const float g = gpu.distances[i * vertices + v];
@@ -226,7 +232,8 @@ TEST_P(FieldPasses, MatchTheCpuReference) {
     }
   }
   ASSERT_GT(compared, 0u);
-  RecordProperty("geodesic_reach_agreement", std::to_string(static_cast<double>(reach_agree) / (n * vertices)));
+  RecordProperty("geodesic_reach_agreement",
+                 std::to_string(static_cast<double>(reach_agree) / (n * vertices)));
   RecordProperty("geodesic_mean_relative_difference", std::to_string(distance_error / compared));
   EXPECT_EQ(reach_agree, n * vertices) << "the same rings are reached";
   EXPECT_GT(bounded, 0u) << "some distances come near the radius";
@@ -291,15 +298,18 @@ TEST_P(DiscontinuityPass, FlagsEachVertexAsTheDilatedMapDoes) {
       for (size_t v = 0; v < vertices; ++v) {
         const bool flag = gpu.discontinuities[i * vertices + v] != 0;
         const auto p = camera.project(glm::dvec3(scene.mesh.positions[v]));
-        const bool inside = p && p->x >= 0 && p->y >= 0 && p->x < camera.width && p->y < camera.height;
-        const size_t pixel = inside ? static_cast<size_t>(p->y) * camera.width + static_cast<size_t>(p->x) : 0;
+        const bool inside =
+            p && p->x >= 0 && p->y >= 0 && p->x < camera.width && p->y < camera.height;
+        const size_t pixel =
+            inside ? static_cast<size_t>(p->y) * camera.width + static_cast<size_t>(p->x) : 0;
         const double limit = depth.depth[pixel] * (1.0 + tests.relative_depth_tolerance);
         // The pass also tests vertices up to 1e-4 (relative) past the
         // limit, and those within 1e-3 px of a pixel border, in case
         // visibility rounds the test the other way; it leaves the rest 0.
         if (!inside || p->z > limit * (1 + 2e-4)) {
           auto onBorder = [](double u) { return std::abs(u - std::round(u)) < 2e-3; };
-          unasked_flags += flag && !(p && (onBorder(p->x) || onBorder(p->y)));  // (the image's edge too)
+          unasked_flags +=
+              flag && !(p && (onBorder(p->x) || onBorder(p->y)));  // (the image's edge too)
           continue;
         }
         if (p->z > limit) continue;
@@ -312,14 +322,17 @@ TEST_P(DiscontinuityPass, FlagsEachVertexAsTheDilatedMapDoes) {
         }
       }
     }
-    std::printf("eps %d: %zu of %zu vertices alike, %zu of %zu flagged, %zu flags where the depth test fails\n", eps,
-                agree, asked, flagged_agree, flagged, unasked_flags);
+    std::printf(
+        "eps %d: %zu of %zu vertices alike, %zu of %zu flagged, %zu flags where the depth test "
+        "fails\n",
+        eps, agree, asked, flagged_agree, flagged, unasked_flags);
     ASSERT_GT(asked, 1000u);
     ASSERT_GT(flagged, 50u);
     // Float against double projection and depth: a vertex a hair from a
     // pixel border or from the depth test may land on the other side.
     EXPECT_GT(static_cast<double>(agree) / asked, 0.9995);  // measured 99.997-100%
-    EXPECT_GT(static_cast<double>(flagged_agree) / flagged, 0.999) << flagged_agree << " of " << flagged;
+    EXPECT_GT(static_cast<double>(flagged_agree) / flagged, 0.999)
+        << flagged_agree << " of " << flagged;
     EXPECT_EQ(unasked_flags, 0u);
   }
 }
@@ -335,7 +348,7 @@ INSTANTIATE_TEST_SUITE_P(ThreeScenes, DiscontinuityPass, ::testing::Values(0, 1,
 class BlendPass : public ::testing::TestWithParam<int> {};
 
 TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
-  Scene scene = GetParam() == 0 ? syntheticScene(4, 160, 120, 4)
+  Scene scene = GetParam() == 0   ? syntheticScene(4, 160, 120, 4)
                 : GetParam() == 2 ? ghostSphere()
                                   : syntheticScene(7, 128, 96, 11);
   std::vector<bool> enabled;  // every camera
@@ -352,15 +365,16 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
   const glm::dvec3 eye = 0.5 * (c0.center() + c1.center());
   const glm::dvec3 up = -(glm::transpose(c0.rotation) * glm::dvec3(0, 1, 0));
   const double fov_x = 2.0 * std::atan(0.5 * c0.width / c0.fx) * 180.0 / M_PI;
-  const Camera user = lookAtCamera(99, eye, eye + glm::normalize(c0.forward() + c1.forward()), up, c0.width,
-                                   c0.height, fov_x);
+  const Camera user = lookAtCamera(99, eye, eye + glm::normalize(c0.forward() + c1.forward()), up,
+                                   c0.width, c0.height, fov_x);
   Renderer renderer(context(), user.width, user.height);
   renderer.setMesh(scene.mesh);
   renderer.setViews(viewImages(scene));
   // Every mode, and the field modes with paper 004's per-fragment test.
-  const std::pair<BlendMode, bool> cases[] = {{BlendMode::kNormal, false},       {BlendMode::kHoloportation, false},
-                                              {BlendMode::kMontage4D, false},    {BlendMode::kFragment, false},
-                                              {BlendMode::kHoloportation, true}, {BlendMode::kMontage4D, true}};
+  const std::pair<BlendMode, bool> cases[] = {
+      {BlendMode::kNormal, false},       {BlendMode::kHoloportation, false},
+      {BlendMode::kMontage4D, false},    {BlendMode::kFragment, false},
+      {BlendMode::kHoloportation, true}, {BlendMode::kMontage4D, true}};
   for (const auto& [mode, fragment_test] : cases) {
     const std::string name = blendModeName(mode) + (fragment_test ? "_fragment_test" : "");
     SCOPED_TRACE(name);
@@ -375,7 +389,8 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
     if (mode == BlendMode::kHoloportation || mode == BlendMode::kMontage4D) {
       weights.assign(scene.views.size(), std::vector<double>(scene.mesh.vertexCount()));
       for (size_t i = 0; i < weights.size(); ++i) {
-        for (size_t v = 0; v < weights[i].size(); ++v) weights[i][v] = fields.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+        for (size_t v = 0; v < weights[i].size(); ++v)
+          weights[i][v] = fields.weights[v * HOLOFUSE_MAX_CAMERAS + i];
       }
     }
     reference::BlendOptions options;
@@ -390,7 +405,8 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
     options.feather_width_px = settings.feather_width_px;
     options.beta = settings.beta;
     reference::BlendPaths paths;
-    const Image8 cpu = reference::blendView(scene.mesh, scene.views, weights, user, options, &paths);
+    const Image8 cpu =
+        reference::blendView(scene.mesh, scene.views, weights, user, options, &paths);
     // Both ways of blending are exercised: normal mode only the fallback,
     // the others mostly their own weights.
     if (mode == BlendMode::kNormal) {
@@ -410,7 +426,8 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
       ++both;
       int worst = 0;
       for (int k = 0; k < 3; ++k) {
-        const int d = std::abs(static_cast<int>(gpu.pixels[p + k]) - static_cast<int>(cpu.pixels[p + k]));
+        const int d =
+            std::abs(static_cast<int>(gpu.pixels[p + k]) - static_cast<int>(cpu.pixels[p + k]));
         difference += d / 3.0;
         worst = std::max(worst, d);
       }
@@ -460,13 +477,12 @@ TEST(HoloportationMode, ReproducesThePodImageAndComputesFieldsOncePerMesh) {
   EXPECT_GT(psnr, 24.0);
 }
 
-
 // The picture comes from the fields, not from the normal-weighted fallback:
 // a pod whose colours every other pod outvotes (the ghost sphere's camera
 // 3, painted green) tints the normal blend from its own pose but leaves no
-// trace where the vote excluded it in holoportation's and montage4d's. (A vertex shader that read the blend mode from the wrong offset
-// once made every mode draw the normal blend, unnoticed by the field
-// comparisons above.)
+// trace where the vote excluded it in holoportation's and montage4d's. (A vertex shader that read
+// the blend mode from the wrong offset once made every mode draw the normal blend, unnoticed by the
+// field comparisons above.)
 TEST(FieldModes, TheBlendUsesTheFieldsSoAnOutvotedGhostLeavesNoTrace) {
   const Scene scene = ghostSphere();
   Renderer renderer(context(), 128, 96);
@@ -529,29 +545,35 @@ TEST(FieldPassesGlobalVisibility, CountsExactlyTheVerticesSeenAndTrusted) {
     const FieldSnapshot holoportation = baseline.readFields();
     EXPECT_EQ(std::count(holoportation.seams.begin(), holoportation.seams.end(), 0u),
               static_cast<std::ptrdiff_t>(holoportation.seams.size()));
-    EXPECT_EQ(std::count(holoportation.visible_counts.begin(), holoportation.visible_counts.end(), 0u),
-              static_cast<std::ptrdiff_t>(holoportation.visible_counts.size()));
+    EXPECT_EQ(
+        std::count(holoportation.visible_counts.begin(), holoportation.visible_counts.end(), 0u),
+        static_cast<std::ptrdiff_t>(holoportation.visible_counts.size()));
     EXPECT_EQ(holoportation.sights, run.sights) << "the stages both modes run agree";
   }
   ASSERT_EQ(run.visible_counts.size(), views.size());
   size_t total = 0;
   for (size_t i = 0; i < views.size(); ++i) {
     uint32_t expected = 0;
-    for (size_t v = 0; v < vertices; ++v) expected += run.sights[i * vertices + v] == 0 && run.trusted[i * vertices + v] != 0;
+    for (size_t v = 0; v < vertices; ++v)
+      expected += run.sights[i * vertices + v] == 0 && run.trusted[i * vertices + v] != 0;
     EXPECT_EQ(run.visible_counts[i], expected) << "camera " << i;
     total += expected;
   }
   EXPECT_GT(total, vertices / 2) << "the cameras see the subject";
   size_t seen = 0;
   for (size_t k = 0; k < run.sights.size(); ++k) seen += run.sights[k] == 0;
-  EXPECT_LT(total, seen) << "the vote distrusts some view, so the count must read the votes, not the sights";
+  EXPECT_LT(total, seen)
+      << "the vote distrusts some view, so the count must read the votes, not the sights";
   // The same renderer switched to the baseline: the seams montage4d left
   // behind are cleared, not read back as the baseline's.
-  ASSERT_GT(std::count_if(run.seams.begin(), run.seams.end(), [](uint32_t rules) { return rules != 0; }), 0);
+  ASSERT_GT(
+      std::count_if(run.seams.begin(), run.seams.end(), [](uint32_t rules) { return rules != 0; }),
+      0);
   settings.mode = BlendMode::kHoloportation;
   renderer.render(scene.views[0].camera, settings);
   const FieldSnapshot after = renderer.readFields();
-  EXPECT_EQ(std::count(after.seams.begin(), after.seams.end(), 0u), static_cast<std::ptrdiff_t>(after.seams.size()));
+  EXPECT_EQ(std::count(after.seams.begin(), after.seams.end(), 0u),
+            static_cast<std::ptrdiff_t>(after.seams.size()));
 }
 
 TEST(FieldPassesDeterminism, TheSameInputGivesTheSameBits) {
@@ -572,13 +594,15 @@ TEST(FieldPassesDeterminism, TheSameInputGivesTheSameBits) {
   EXPECT_EQ(runs[0].trusted, runs[1].trusted);
   EXPECT_EQ(runs[0].seams, runs[1].seams);
   EXPECT_EQ(runs[0].visible_counts, runs[1].visible_counts);
-  EXPECT_EQ(0, std::memcmp(runs[0].distances.data(), runs[1].distances.data(), runs[0].distances.size() * 4));
-  EXPECT_EQ(0, std::memcmp(runs[0].weights.data(), runs[1].weights.data(), runs[0].weights.size() * 4));
+  EXPECT_EQ(0, std::memcmp(runs[0].distances.data(), runs[1].distances.data(),
+                           runs[0].distances.size() * 4));
+  EXPECT_EQ(
+      0, std::memcmp(runs[0].weights.data(), runs[1].weights.data(), runs[0].weights.size() * 4));
 }
 
-
 // A 96x72 renderer holding the scene's mesh and these views.
-std::unique_ptr<Renderer> rendererHolding(const Scene& scene, const std::vector<ViewImages>& views) {
+std::unique_ptr<Renderer> rendererHolding(const Scene& scene,
+                                          const std::vector<ViewImages>& views) {
   auto renderer = std::make_unique<Renderer>(context(), 96, 72);
   renderer->setMesh(scene.mesh);
   renderer->setViews(views);
@@ -592,8 +616,9 @@ std::unique_ptr<Renderer> rendererHolding(const Scene& scene, const std::vector<
 // (carry: null on the same mesh; empty temporal: every vertex new, it
 // starts from its target), eq. 5, then step 10's normalisation. temporal
 // becomes this frame's field.
-reference::BlendWeights montageReference(const Mesh& mesh, const std::vector<Camera>& cameras, const FieldSnapshot& gpu,
-                                         const glm::dvec3& eye, float alpha, float beta, double lambda,
+reference::BlendWeights montageReference(const Mesh& mesh, const std::vector<Camera>& cameras,
+                                         const FieldSnapshot& gpu, const glm::dvec3& eye,
+                                         float alpha, float beta, double lambda,
                                          reference::Field& temporal,
                                          const CarryMap* carry = nullptr) {
   const size_t n = cameras.size(), vertices = mesh.vertexCount();
@@ -616,7 +641,8 @@ reference::BlendWeights montageReference(const Mesh& mesh, const std::vector<Cam
     if (carry != nullptr) temporal = carryField(temporal, *carry, target);
     reference::temporalUpdate(temporal, target, lambda, visible);
   }
-  return reference::normalizeFields(temporal, gamma, reference::holoportationField(mesh, cameras, visible, alpha));
+  return reference::normalizeFields(temporal, gamma,
+                                    reference::holoportationField(mesh, cameras, visible, alpha));
 }
 
 // Mean absolute difference of the GPU's weights from the reference's.
@@ -624,7 +650,8 @@ double meanWeightError(const FieldSnapshot& gpu, const reference::BlendWeights& 
   const size_t n = cpu.weight.size(), vertices = cpu.hole.size();
   double error = 0;
   for (size_t v = 0; v < vertices; ++v) {
-    for (size_t i = 0; i < n; ++i) error += std::abs(gpu.weights[v * HOLOFUSE_MAX_CAMERAS + i] - cpu.weight[i][v]);
+    for (size_t i = 0; i < n; ++i)
+      error += std::abs(gpu.weights[v * HOLOFUSE_MAX_CAMERAS + i] - cpu.weight[i][v]);
   }
   return error / static_cast<double>(n * vertices);
 }
@@ -664,8 +691,8 @@ TEST_P(MontageFieldPasses, MatchTheCpuReferenceAcrossANewMesh) {
   reference::Field temporal;
   const FieldSnapshot first = renderer.readFields();
   const double first_error =
-      meanWeightError(first, montageReference(before.mesh, cameras, first, cameras[0].center(), settings.alpha, settings.beta, lambda,
-                                              temporal));
+      meanWeightError(first, montageReference(before.mesh, cameras, first, cameras[0].center(),
+                                              settings.alpha, settings.beta, lambda, temporal));
   renderer.setMesh(after.mesh);
   renderer.setViews(viewImages(after));
   renderer.render(cameras[1], settings);
@@ -673,10 +700,10 @@ TEST_P(MontageFieldPasses, MatchTheCpuReferenceAcrossANewMesh) {
   const CarryMap carry = carryAcross(before.mesh, after.mesh, 2.0 * meanEdgeLength(after.mesh));
   ASSERT_GT(carry.by_key, after.mesh.vertexCount() / 4) << "the meshes share grid edges";
   reference::Field fresh;  // as if the GPU had dropped the previous field
-  const auto restarted =
-      montageReference(after.mesh, cameras, second, cameras[1].center(), settings.alpha, settings.beta, lambda, fresh);
-  const auto carried =
-      montageReference(after.mesh, cameras, second, cameras[1].center(), settings.alpha, settings.beta, lambda, temporal, &carry);
+  const auto restarted = montageReference(after.mesh, cameras, second, cameras[1].center(),
+                                          settings.alpha, settings.beta, lambda, fresh);
+  const auto carried = montageReference(after.mesh, cameras, second, cameras[1].center(),
+                                        settings.alpha, settings.beta, lambda, temporal, &carry);
   const double second_error = meanWeightError(second, carried);
   const double restarted_error = meanWeightError(second, restarted);
   auto text = [](double x) {
@@ -729,7 +756,8 @@ TEST(Montage4DMode, TheTemporalFieldFollowsEachCameraWhenAnotherLeavesTheArrays)
   size_t compared = 0, kept = 0;
   for (size_t v = 0; v < vertices; ++v) {
     EXPECT_EQ(after.weights[v * HOLOFUSE_MAX_CAMERAS + 1], 0.0f);
-    EXPECT_EQ(after.sights[1 * vertices + v] == 0, false) << "a camera with an empty mask sees nothing";
+    EXPECT_EQ(after.sights[1 * vertices + v] == 0, false)
+        << "a camera with an empty mask sees nothing";
     double others = 0;
     for (size_t i : {0, 2, 3}) others += before.weights[v * HOLOFUSE_MAX_CAMERAS + i];
     // Only where camera 1 took part and another camera still does.
@@ -763,7 +791,8 @@ TEST(Montage4DMode, TheTemporalFieldFollowsEachCameraWhenAnotherLeavesTheArrays)
   ASSERT_GT(seen_again, 20u);
   // Measured 73%, 0% without the remapping; the rest fall back to the
   // normal weighting (the fields there sum below 1 or to 0).
-  EXPECT_GT(static_cast<double>(still_zero) / seen_again, 0.6) << still_zero << " of " << seen_again;
+  EXPECT_GT(static_cast<double>(still_zero) / seen_again, 0.6)
+      << still_zero << " of " << seen_again;
 }
 
 // A pod missing from a bundle shifts the views after it: the temporal
@@ -818,7 +847,8 @@ TEST(Montage4DMode, FieldsMatchTheReferenceAndAViewpointJumpFadesIn) {
   reference::Field temporal;
   auto expected = [&](const FieldSnapshot& gpu, const glm::dvec3& eye, bool first) {
     if (first) temporal.clear();
-    return montageReference(scene.mesh, cameras, gpu, eye, settings.alpha, settings.beta, lambda, temporal);
+    return montageReference(scene.mesh, cameras, gpu, eye, settings.alpha, settings.beta, lambda,
+                            temporal);
   };
   renderer.render(cameras[0], settings);
   const FieldSnapshot first = renderer.readFields();
@@ -845,8 +875,10 @@ TEST(Montage4DMode, FieldsMatchTheReferenceAndAViewpointJumpFadesIn) {
       // normal-weighted fallback until its field builds up.
       if (cpu_first.fallback[v] || cpu_first.hole[v] || cpu_second.fallback[v]) continue;
       for (size_t i = 0; i < n; ++i) {
-        moved += std::abs(second.weights[v * HOLOFUSE_MAX_CAMERAS + i] - first.weights[v * HOLOFUSE_MAX_CAMERAS + i]);
-        total_change += std::abs(snapped.weight[i][v] - first.weights[v * HOLOFUSE_MAX_CAMERAS + i]);
+        moved += std::abs(second.weights[v * HOLOFUSE_MAX_CAMERAS + i] -
+                          first.weights[v * HOLOFUSE_MAX_CAMERAS + i]);
+        total_change +=
+            std::abs(snapped.weight[i][v] - first.weights[v * HOLOFUSE_MAX_CAMERAS + i]);
       }
     }
     temporal = saved;

@@ -18,8 +18,8 @@ namespace {
 // The synthetic subject seen by a ring of `count` pods at frame 6, as
 // views of type View ({camera, colour, mask}), and their cameras.
 template <typename View>
-std::pair<std::vector<View>, std::vector<Camera>> ring(const capture::SyntheticScene& scene, int count, uint32_t width,
-                                                       uint32_t height) {
+std::pair<std::vector<View>, std::vector<Camera>> ring(const capture::SyntheticScene& scene,
+                                                       int count, uint32_t width, uint32_t height) {
   std::pair<std::vector<View>, std::vector<Camera>> out;
   for (const auto& cam : capture::SyntheticScene::cameraRig(count, width, height)) {
     const auto truth = scene.render(cam, 6);
@@ -29,7 +29,6 @@ std::pair<std::vector<View>, std::vector<Camera>> ring(const capture::SyntheticS
   return out;
 }
 
-
 TEST(Fp16Storage, PositionAndNormalRoundingChangesTheFieldsLittle) {
   const capture::SyntheticScene scene;
   const Mesh full = scene.truthMesh(6, 0.015);
@@ -38,8 +37,10 @@ TEST(Fp16Storage, PositionAndNormalRoundingChangesTheFieldsLittle) {
   for (size_t v = 0; v < half.vertexCount(); ++v) {
     half.positions[v] = halfPrecision(full.positions[v]);
     half.normals[v] = halfPrecision(full.normals[v]);
-    position_error = std::max(position_error, static_cast<double>(glm::length(half.positions[v] - full.positions[v])));
-    normal_error = std::max(normal_error, static_cast<double>(glm::length(half.normals[v] - full.normals[v])));
+    position_error = std::max(
+        position_error, static_cast<double>(glm::length(half.positions[v] - full.positions[v])));
+    normal_error =
+        std::max(normal_error, static_cast<double>(glm::length(half.normals[v] - full.normals[v])));
   }
   const auto [views, cameras] = ring<PodView>(scene, 4, 320, 240);
   auto weightsOf = [&](const Mesh& mesh, std::vector<std::vector<uint8_t>>* visible_out) {
@@ -73,7 +74,8 @@ TEST(Fp16Storage, PositionAndNormalRoundingChangesTheFieldsLittle) {
   // most 2^-11 of its magnitude (0.5 mm at 1 m), a unit normal 2^-11.
   EXPECT_LT(position_error, 1.0e-3);
   EXPECT_LT(normal_error, 1.0e-3);
-  EXPECT_LT(static_cast<double>(flips) / pairs, 0.005) << "visibility changes only at its boundaries";
+  EXPECT_LT(static_cast<double>(flips) / pairs, 0.005)
+      << "visibility changes only at its boundaries";
   EXPECT_LT(weight_error / pairs, 0.005);
 }
 
@@ -106,14 +108,16 @@ TEST(Fp16Storage, HalfPrecisionVerticesOnTheGpuAreTheRoundedMeshBitForBit) {
     full_rounded.setMesh(rounded(meshes[f]));
     full.setMesh(meshes[f]);
     for (Renderer* r : {&half, &full_rounded, &full}) r->setViews(views);
-    const Image8 a = half.render(cameras[f], settings), b = full_rounded.render(cameras[f], settings),
+    const Image8 a = half.render(cameras[f], settings),
+                 b = full_rounded.render(cameras[f], settings),
                  c = full.render(cameras[f], settings);
     EXPECT_EQ(a.pixels, b.pixels) << "mesh " << f;
     const FieldSnapshot fa = half.readFields(), fb = full_rounded.readFields();
     EXPECT_EQ(fa.sights, fb.sights) << "mesh " << f;
     EXPECT_EQ(fa.distances, fb.distances) << "mesh " << f;
     EXPECT_EQ(fa.weights, fb.weights) << "mesh " << f;
-    EXPECT_EQ(2 * half.vertexBufferBytes(), full.vertexBufferBytes()) << "half the vertex memory, mesh " << f;
+    EXPECT_EQ(2 * half.vertexBufferBytes(), full.vertexBufferBytes())
+        << "half the vertex memory, mesh " << f;
     for (size_t p = 0; p < a.pixels.size(); p += 4) {
       for (size_t k = 0; k < 3; ++k) difference += std::abs(a.pixels[p + k] - c.pixels[p + k]);
       ++pixels;

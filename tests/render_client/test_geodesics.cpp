@@ -35,7 +35,8 @@ Mesh plane(int n, double h) {
 
 std::vector<double> chordLengths(const Mesh& mesh, uint32_t from) {
   std::vector<double> d(mesh.vertexCount());
-  for (size_t v = 0; v < d.size(); ++v) d[v] = glm::length(glm::dvec3(mesh.positions[v]) - glm::dvec3(mesh.positions[from]));
+  for (size_t v = 0; v < d.size(); ++v)
+    d[v] = glm::length(glm::dvec3(mesh.positions[v]) - glm::dvec3(mesh.positions[from]));
   return d;
 }
 
@@ -59,8 +60,8 @@ struct Errors {
 
 // Relative error against exact distances for the vertices the field
 // reaches (within k rings) with min_distance < exact <= radius.
-Errors relativeErrors(const std::vector<double>& approx, const std::vector<double>& exact, double min_distance,
-                      double radius) {
+Errors relativeErrors(const std::vector<double>& approx, const std::vector<double>& exact,
+                      double min_distance, double radius) {
   Errors e;
   for (size_t v = 0; v < exact.size(); ++v) {
     if (!(exact[v] > min_distance && exact[v] <= radius) || !std::isfinite(approx[v])) continue;
@@ -126,8 +127,8 @@ TEST(Geodesics, PlaneMatchesEuclideanWithinTwoPercentAndBeatsTheEdgeGraph) {
 
 TEST(Geodesics, SphereMatchesGreatCircleWithinTwoPercent) {
   const double r = 1.0;
-  const Mesh mesh = marchingCubes(sampleGrid(glm::dvec3(-1.2), 0.08, 31, 31, 31,
-                                             [&](const glm::dvec3& p) { return r - glm::length(p); }));
+  const Mesh mesh = marchingCubes(sampleGrid(
+      glm::dvec3(-1.2), 0.08, 31, 31, 31, [&](const glm::dvec3& p) { return r - glm::length(p); }));
   std::vector<uint8_t> source(mesh.vertexCount(), 0);
   size_t top = 0;
   for (size_t v = 0; v < mesh.vertexCount(); ++v) {
@@ -137,7 +138,8 @@ TEST(Geodesics, SphereMatchesGreatCircleWithinTwoPercent) {
   const glm::dvec3 s = glm::normalize(glm::dvec3(mesh.positions[top]));
   std::vector<double> exact(mesh.vertexCount());
   for (size_t v = 0; v < exact.size(); ++v) {
-    exact[v] = r * std::acos(std::clamp(glm::dot(glm::normalize(glm::dvec3(mesh.positions[v])), s), -1.0, 1.0));
+    exact[v] = r * std::acos(std::clamp(glm::dot(glm::normalize(glm::dvec3(mesh.positions[v])), s),
+                                        -1.0, 1.0));
   }
   const Errors approx = relativeErrors(approximateGeodesic(mesh, source), exact, 0.15, 0.7);
   const Errors graph = relativeErrors(edgeGraphDistance(mesh, source), exact, 0.15, 0.7);
@@ -230,7 +232,8 @@ Mesh cube(int m) {
   Mesh mesh;
   std::map<std::tuple<long, long, long>, uint32_t> index_of;
   auto vertex = [&](const glm::dvec3& p) {
-    const auto key = std::make_tuple(std::lround(p.x * 1e6), std::lround(p.y * 1e6), std::lround(p.z * 1e6));
+    const auto key =
+        std::make_tuple(std::lround(p.x * 1e6), std::lround(p.y * 1e6), std::lround(p.z * 1e6));
     const auto [it, added] = index_of.emplace(key, static_cast<uint32_t>(mesh.positions.size()));
     if (added) mesh.positions.emplace_back(p);
     return it->second;
@@ -255,7 +258,6 @@ Mesh cube(int m) {
   computeVertexNormals(mesh);
   return mesh;
 }
-
 
 TEST(ExactGeodesics, PlaneIsEuclidean) {
   const auto [mesh, source, centre] = centredPlane(31, 0.1);
@@ -292,7 +294,8 @@ TEST(ExactGeodesics, CubeFollowsTheUnfoldingAcrossEdges) {
   for (size_t v = 0; v < exact.size(); ++v) {
     const glm::dvec3 p(mesh.positions[v]);
     if (std::abs(p.x - 1.0) > 1e-9) continue;
-    ASSERT_NEAR(exact[v], std::hypot(2.0 - p.z, p.y), 1e-9) << "at " << p.x << " " << p.y << " " << p.z;
+    ASSERT_NEAR(exact[v], std::hypot(2.0 - p.z, p.y), 1e-9)
+        << "at " << p.x << " " << p.y << " " << p.z;
     ++checked;
   }
   EXPECT_EQ(checked, 17u * 17u);
@@ -332,7 +335,8 @@ TEST(Geodesics, BumpySurfaceErrorAgainstExactFallsWithK) {
   // (k = 15 mean edges) and away from the sources' first ring.
   const Mesh mesh = bumpySphere();
   std::vector<uint8_t> source(mesh.vertexCount(), 0);
-  for (size_t v = 0; v < mesh.vertexCount(); ++v) source[v] = std::abs(mesh.positions[v].z - 0.3f) < 0.03f;
+  for (size_t v = 0; v < mesh.vertexCount(); ++v)
+    source[v] = std::abs(mesh.positions[v].z - 0.3f) < 0.03f;
   ASSERT_GT(std::count(source.begin(), source.end(), 1), 20);
   const double mean_edge = meanEdgeLength(mesh);
   const double radius = 15 * mean_edge;
@@ -357,8 +361,10 @@ TEST(Geodesics, BumpySurfaceErrorAgainstExactFallsWithK) {
     RecordProperty(key + "_mean_error", std::to_string(e.mean));
     RecordProperty(key + "_worst_error", std::to_string(e.worst));
     RecordProperty(key + "_coverage", std::to_string(coverage));
-    std::printf("K = %2d: mean relative error %.3f%%, worst %.2f%%, reached %zu of %zu vertices within the radius\n",
-                passes, 100 * e.mean, 100 * e.worst, reached, inside);
+    std::printf(
+        "K = %2d: mean relative error %.3f%%, worst %.2f%%, reached %zu of %zu vertices within the "
+        "radius\n",
+        passes, 100 * e.mean, 100 * e.worst, reached, inside);
     EXPECT_GE(coverage, previous_coverage) << "more passes reach at least as far, K = " << passes;
     previous_coverage = coverage;
     if (passes >= 15) {

@@ -116,9 +116,11 @@ std::vector<PodView> sphereViews(const Mesh& mesh, int count) {
       // A colour that depends on where on the sphere the pixel is: every
       // camera sees the same surface colour.
       const uint32_t x = static_cast<uint32_t>(p % 160), y = static_cast<uint32_t>(p / 160);
-      const glm::dvec3 hit = view.camera.center() + view.camera.rayDirection(x + 0.5, y + 0.5) *
-                                                        (map.depth[p] / glm::dot(view.camera.rayDirection(x + 0.5, y + 0.5),
-                                                                                 view.camera.forward()));
+      const glm::dvec3 hit =
+          view.camera.center() +
+          view.camera.rayDirection(x + 0.5, y + 0.5) *
+              (map.depth[p] /
+               glm::dot(view.camera.rayDirection(x + 0.5, y + 0.5), view.camera.forward()));
       view.color.pixels[3 * p + 0] = static_cast<uint8_t>(128 + 100 * hit.y);
       view.color.pixels[3 * p + 1] = static_cast<uint8_t>(128 + 100 * hit.x);
       view.color.pixels[3 * p + 2] = 90;
@@ -135,7 +137,8 @@ TEST(ReferenceVisibility, FrontFacingVerticesAreSeenBackFacingNever) {
   const glm::dvec3 c = views[0].camera.center();
   size_t front = 0, front_seen = 0;
   for (size_t v = 0; v < mesh.vertexCount(); ++v) {
-    const double facing = glm::dot(glm::dvec3(mesh.normals[v]), glm::normalize(c - glm::dvec3(mesh.positions[v])));
+    const double facing =
+        glm::dot(glm::dvec3(mesh.normals[v]), glm::normalize(c - glm::dvec3(mesh.positions[v])));
     if (facing < -0.05) {
       EXPECT_NE(sights[0][v], Sight::kVisible) << v;
     }
@@ -192,7 +195,8 @@ TEST(ReferenceVote, AGhostViewIsOutvotedAndTheOthersAreTrusted) {
   const auto all = majorityVote(mesh, views, sights, none);
   for (size_t i = 0; i < views.size(); ++i) {
     for (size_t v = 0; v < mesh.vertexCount(); ++v) {
-      EXPECT_EQ(all[i][v] != 0, sights[i][v] == Sight::kVisible) << "camera " << i << " vertex " << v;
+      EXPECT_EQ(all[i][v] != 0, sights[i][v] == Sight::kVisible)
+          << "camera " << i << " vertex " << v;
     }
   }
 }
@@ -209,7 +213,8 @@ TEST(ReferenceSeams, LieAlongTheSilhouetteAndNameTheirRule) {
     if (!seams[0][t]) continue;
     ++count;
     const uint32_t v = mesh.indices[3 * t];
-    const double facing = glm::dot(glm::dvec3(mesh.normals[v]), glm::normalize(c - glm::dvec3(mesh.positions[v])));
+    const double facing =
+        glm::dot(glm::dvec3(mesh.normals[v]), glm::normalize(c - glm::dvec3(mesh.positions[v])));
     EXPECT_LT(std::abs(facing), 0.7) << "seam triangle far from the silhouette";
   }
   EXPECT_GT(count, 10u);
@@ -241,12 +246,14 @@ TEST(ReferenceFields, ExtremeParametersStayFiniteAndBounded) {
   Mesh mesh = sphere(0.5, 0.1);
   mesh.normals[0] = glm::vec3(0.0f);  // a degenerate normal
   mesh.normals[1] = glm::vec3(std::nanf(""));
-  std::vector<Camera> cameras = {cameraAt({0, 0, 3}), cameraAt({0, 0, 0.5000001})};  // one at the surface
+  std::vector<Camera> cameras = {cameraAt({0, 0, 3}),
+                                 cameraAt({0, 0, 0.5000001})};  // one at the surface
   const std::vector<std::vector<uint8_t>> all(2, std::vector<uint8_t>(mesh.vertexCount(), 1));
   const Field ones(2, std::vector<double>(mesh.vertexCount(), 1.0));
   for (double alpha : {0.0, 0.01, 2.0, 200.0, 1e6}) {
     const Field h = holoportationField(mesh, cameras, all, alpha);
-    const Field m = montageTargetField(mesh, cameras, all, {1.0, 0.5}, ones, {0, 0, 0}, alpha);  // user at a vertex-free centre
+    const Field m = montageTargetField(mesh, cameras, all, {1.0, 0.5}, ones, {0, 0, 0},
+                                       alpha);  // user at a vertex-free centre
     for (const Field* f : {&h, &m}) {
       for (const auto& row : *f) {
         for (double x : row) ASSERT_TRUE(std::isfinite(x) && x >= 0 && x <= 1) << alpha;
@@ -255,7 +262,8 @@ TEST(ReferenceFields, ExtremeParametersStayFiniteAndBounded) {
   }
   const Field zero(2, std::vector<double>(mesh.vertexCount(), 0.0));
   const BlendWeights none = normalizeFields(zero, ones, zero);
-  EXPECT_EQ(std::accumulate(none.hole.begin(), none.hole.end(), 0), static_cast<int>(mesh.vertexCount()));
+  EXPECT_EQ(std::accumulate(none.hole.begin(), none.hole.end(), 0),
+            static_cast<int>(mesh.vertexCount()));
   const Field h = holoportationField(mesh, cameras, all, 2.0);
   const BlendWeights w = normalizeFields(h, ones, h);
   for (size_t v = 0; v < mesh.vertexCount(); ++v) {

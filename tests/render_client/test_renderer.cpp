@@ -24,7 +24,8 @@ struct Fixture {
     mesh = scene.truthMesh(frame, 0.012);
     for (const auto& cam : cameras) {
       truth.push_back(scene.render(cam, frame));
-      views.push_back({cam, truth.back().color, truth.back().mask, capture::featherMap(truth.back().mask)});
+      views.push_back(
+          {cam, truth.back().color, truth.back().mask, capture::featherMap(truth.back().mask)});
     }
   }
 };
@@ -134,14 +135,17 @@ TEST(ClientBundle, FeatherMapsArePlacedLikeTheColourAndAWrongOneIsRefused) {
     image.offset_x = 20;
     image.offset_y = 5;
     for (size_t k = 0; k < planes.size(); ++k) {
-      image.planes.push_back(encodePlane(*planes[k].first, planes[k].second, protocol::Codec::kLz4, storage[k]));
+      image.planes.push_back(
+          encodePlane(*planes[k].first, planes[k].second, protocol::Codec::kLz4, storage[k]));
     }
     bundle.images.push_back(std::move(image));
     return bundle;
   };
   using protocol::PlaneKind;
-  auto views = viewsOfBundle(
-      bundleOf({{&color, PlaneKind::kColor}, {&mask, PlaneKind::kMask}, {&feather, PlaneKind::kFeather}}), cameras);
+  auto views = viewsOfBundle(bundleOf({{&color, PlaneKind::kColor},
+                                       {&mask, PlaneKind::kMask},
+                                       {&feather, PlaneKind::kFeather}}),
+                             cameras);
   ASSERT_TRUE(views.isOk()) << views.status().message();
   const Image8& placed = (*views)[0].feather;
   ASSERT_EQ(placed.width, 40u);
@@ -151,19 +155,24 @@ TEST(ClientBundle, FeatherMapsArePlacedLikeTheColourAndAWrongOneIsRefused) {
   EXPECT_EQ(placed.at(19, 5)[0], 0);   // beside it: outside the silhouette
   EXPECT_EQ(placed.at(32, 14)[0], 0);
 
-  auto old = viewsOfBundle(bundleOf({{&color, PlaneKind::kColor}, {&mask, PlaneKind::kMask}}), cameras);
+  auto old =
+      viewsOfBundle(bundleOf({{&color, PlaneKind::kColor}, {&mask, PlaneKind::kMask}}), cameras);
   ASSERT_TRUE(old.isOk()) << old.status().message();
-  EXPECT_TRUE((*old)[0].feather.empty()) << "a 1.1 server's bundle: no feather map, the renderer feathers nothing";
+  EXPECT_TRUE((*old)[0].feather.empty())
+      << "a 1.1 server's bundle: no feather map, the renderer feathers nothing";
 
   const Image8 whole_feather(40, 30, 1, 7), rgb_feather(12, 10, 3, 7);
   for (const Image8* wrong : {&whole_feather, &rgb_feather}) {
     auto refused = viewsOfBundle(
-        bundleOf({{&color, PlaneKind::kColor}, {&mask, PlaneKind::kMask}, {wrong, PlaneKind::kFeather}}), cameras);
+        bundleOf(
+            {{&color, PlaneKind::kColor}, {&mask, PlaneKind::kMask}, {wrong, PlaneKind::kFeather}}),
+        cameras);
     ASSERT_FALSE(refused.isOk());
     EXPECT_EQ(refused.status().code(), protocol::StatusCode::kMalformed);
     const std::string message = refused.status().message();
     EXPECT_NE(message.find("camera " + std::to_string(camera.id)), std::string::npos) << message;
-    EXPECT_NE(message.find("feather map is " + std::to_string(wrong->width) + "x" + std::to_string(wrong->height)),
+    EXPECT_NE(message.find("feather map is " + std::to_string(wrong->width) + "x" +
+                           std::to_string(wrong->height)),
               std::string::npos)
         << message;
     EXPECT_NE(message.find("12x10"), std::string::npos) << message;
@@ -190,7 +199,8 @@ TEST(UserCamera, AViewpointJumpTurnsTheViewAroundTheRingAtItsFrame) {
   const glm::dvec3 b = before.center() - centre, a = after.center() - centre;
   EXPECT_NEAR(a.y, b.y, 1e-9);
   EXPECT_NEAR(glm::length(glm::dvec2(a.x, a.z)), glm::length(glm::dvec2(b.x, b.z)), 1e-9);
-  const double turn = std::acos(glm::dot(glm::normalize(glm::dvec2(a.x, a.z)), glm::normalize(glm::dvec2(b.x, b.z))));
+  const double turn = std::acos(
+      glm::dot(glm::normalize(glm::dvec2(a.x, a.z)), glm::normalize(glm::dvec2(b.x, b.z))));
   EXPECT_NEAR(turn * 180.0 / M_PI, 90.0, 1e-6);
   // Two pods along the ring of 8 is 90 degrees: the turned view sits where
   // one of them does and looks the way it looks.
@@ -209,7 +219,8 @@ TEST(UserCamera, AViewpointJumpTurnsTheViewAroundTheRingAtItsFrame) {
   auto turnBetween = [&](size_t a, size_t b) {
     const glm::dvec3 oa = userCamera(options, pods, bounds, a)->center() - centre;
     const glm::dvec3 ob = userCamera(options, pods, bounds, b)->center() - centre;
-    return std::acos(glm::dot(glm::normalize(glm::dvec2(oa.x, oa.z)), glm::normalize(glm::dvec2(ob.x, ob.z)))) *
+    return std::acos(glm::dot(glm::normalize(glm::dvec2(oa.x, oa.z)),
+                              glm::normalize(glm::dvec2(ob.x, ob.z)))) *
            180.0 / M_PI;
   };
   EXPECT_NEAR(turnBetween(3, 4), 2.0, 1e-6) << "before the jump, the orbit's own step";

@@ -33,7 +33,8 @@ TEST(TemporalCarry, SameKeysFollowTheVertexWhateverTheOrder) {
   }
   const CarryMap map = carryAcross(a, b, 0.1);
   EXPECT_EQ(map.by_key, b.vertexCount());
-  for (size_t v = 0; v < b.vertexCount(); ++v) EXPECT_EQ(map.previous[v], static_cast<int32_t>(order[v]));
+  for (size_t v = 0; v < b.vertexCount(); ++v)
+    EXPECT_EQ(map.previous[v], static_cast<int32_t>(order[v]));
 }
 
 TEST(TemporalCarry, MovedSurfaceFallsBackToTheNearestVertexAndNewSurfaceStartsFresh) {
@@ -44,7 +45,8 @@ TEST(TemporalCarry, MovedSurfaceFallsBackToTheNearestVertexAndNewSurfaceStartsFr
   EXPECT_EQ(map.by_nearest, b.vertexCount());
   for (size_t v = 0; v < b.vertexCount(); ++v) {
     ASSERT_GE(map.previous[v], 0);
-    EXPECT_LT(glm::length(glm::dvec3(a.positions[map.previous[v]]) - glm::dvec3(b.positions[v])), 0.05);
+    EXPECT_LT(glm::length(glm::dvec3(a.positions[map.previous[v]]) - glm::dvec3(b.positions[v])),
+              0.05);
   }
   const Mesh far = blob(0.2, glm::dvec3(0.7, 0.0, 0.0));  // a surface where there was none
   const CarryMap fresh = carryAcross(a, far, 0.05);
@@ -52,7 +54,8 @@ TEST(TemporalCarry, MovedSurfaceFallsBackToTheNearestVertexAndNewSurfaceStartsFr
   const std::vector<std::vector<double>> previous(1, std::vector<double>(a.vertexCount(), 0.25));
   const std::vector<std::vector<double>> target(1, std::vector<double>(far.vertexCount(), 0.75));
   const auto carried = carryField(previous, fresh, target);
-  EXPECT_DOUBLE_EQ(carried[0][0], 0.75) << "new surface takes the target, it does not fade in from zero";
+  EXPECT_DOUBLE_EQ(carried[0][0], 0.75)
+      << "new surface takes the target, it does not fade in from zero";
 }
 
 // The grid search finds what comparing every pair finds: the nearest
@@ -63,10 +66,12 @@ TEST(TemporalCarry, NearestMatchesTheExhaustiveSearch) {
   std::mt19937 random(11);
   std::uniform_real_distribution<float> coordinate(-0.3f, 0.3f);
   Mesh previous, next;
-  for (int v = 0; v < 800; ++v) previous.positions.emplace_back(coordinate(random), coordinate(random), coordinate(random));
+  for (int v = 0; v < 800; ++v)
+    previous.positions.emplace_back(coordinate(random), coordinate(random), coordinate(random));
   previous.positions[5] = glm::vec3(std::numeric_limits<float>::quiet_NaN());
   for (int v = 0; v < 400; ++v) {
-    next.positions.emplace_back(1.3f * coordinate(random), 1.3f * coordinate(random), 1.3f * coordinate(random));
+    next.positions.emplace_back(1.3f * coordinate(random), 1.3f * coordinate(random),
+                                1.3f * coordinate(random));
   }
   next.positions.push_back(previous.positions[7]);  // at distance 0
   const double max_distance = 0.04;
@@ -88,7 +93,8 @@ TEST(TemporalCarry, NearestMatchesTheExhaustiveSearch) {
   }
   EXPECT_EQ(map.previous.back(), 7);
   EXPECT_GT(found, 50u);
-  EXPECT_LT(found, next.vertexCount() - 50) << "some lie farther than the distance from every previous vertex";
+  EXPECT_LT(found, next.vertexCount() - 50)
+      << "some lie farther than the distance from every previous vertex";
   EXPECT_EQ(map.by_nearest, found);
 }
 
@@ -123,7 +129,8 @@ TEST(TemporalField, AViewpointJumpFadesInAtTheSameSpeedAtAnyFrameRate) {
     if (fps == 30.0) {
       EXPECT_NEAR(temporal[1][0], 0.05, 1e-12) << "first frame after the jump";
     }
-    for (int k = 1; k < static_cast<int>(fps); ++k) reference::temporalUpdate(temporal, target, lambda);
+    for (int k = 1; k < static_cast<int>(fps); ++k)
+      reference::temporalUpdate(temporal, target, lambda);
     EXPECT_NEAR(temporal[1][0], 1 - std::pow(0.95, 30), 1e-9) << fps;
     EXPECT_LT(temporal[1][0], 0.9) << "no snap";
   }

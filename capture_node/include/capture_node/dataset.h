@@ -70,10 +70,12 @@ struct PodImagesFull {
   std::vector<protocol::Codec> codecs;  // per plane, in the frame's order
 };
 // Checks the planes against the camera before decompressing anything.
-protocol::StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame, const Camera& camera);
+protocol::StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame,
+                                                  const Camera& camera);
 
 // Parses bytes holding exactly one protocol frame (header checked, CRC
 // checked); what names the source in errors.
-protocol::StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes, const std::string& what);
+protocol::StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes,
+                                                    const std::string& what);
 
 }  // namespace holofuse::capture

@@ -25,9 +25,9 @@ struct ImportOptions {
   // unset; dark_subject flips it for a dark subject on a light background.
   std::optional<double> threshold;
   bool dark_subject = false;
-  int close_px = 5;   // morphological closing radius after thresholding
+  int close_px = 5;                  // morphological closing radius after thresholding
   std::optional<double> voxel_size;  // default: the capture volume's longest side / 96
-  int crop_margin = 8;  // as pods send: the foreground rectangle grown by this
+  int crop_margin = 8;               // as pods send: the foreground rectangle grown by this
 };
 
 struct ImportProgress {
@@ -48,8 +48,8 @@ struct ImportSummary {
 Image8 segmentByBrightness(const Image8& color, const ImportOptions& options);
 
 // Writes the dataset into out_dir (which must not exist or be empty).
-protocol::StatusOr<ImportSummary> importCapture(const CaptureDescription& capture, const std::string& out_dir,
-                                                const ImportOptions& options,
-                                                const std::function<void(const ImportProgress&)>& progress = {});
+protocol::StatusOr<ImportSummary> importCapture(
+    const CaptureDescription& capture, const std::string& out_dir, const ImportOptions& options,
+    const std::function<void(const ImportProgress&)>& progress = {});
 
 }  // namespace holofuse::capture

@@ -32,8 +32,8 @@ struct PodOptions {
 // Everything a pod produces for one frame, before it goes on the wire.
 struct PodCapture {
   uint64_t frame_id = 0;
-  RenderedView view;   // colour and the true mask
-  Image8 mask;         // the segmented mask (what is sent)
+  RenderedView view;  // colour and the true mask
+  Image8 mask;        // the segmented mask (what is sent)
   Image8 feather;
   std::vector<protocol::StageStamp> stamps;
   uint64_t capture_time_ns = 0;
@@ -50,8 +50,9 @@ PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, co
 // scene requires); kFullFrame sends every pixel. lz4_acceleration is LZ4's
 // (1 = default).
 constexpr int kFullFrame = -1;
-protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id, protocol::Codec color_codec,
-                                       int crop_margin = kFullFrame, int lz4_acceleration = 1, int lz4_hc_level = 0);
+protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id,
+                                       protocol::Codec color_codec, int crop_margin = kFullFrame,
+                                       int lz4_acceleration = 1, int lz4_hc_level = 0);
 
 // Runs until stopped (signal, frame count) or the server refuses the
 // version. Returns the process exit code.

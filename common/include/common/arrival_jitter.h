@@ -14,7 +14,8 @@ class ArrivalJitter {
  public:
   void add(double sent_ms, double received_ms) {
     const double transit = received_ms - sent_ms;
-    if (packets_ > 0 && !fresh_) jitter_ms_ += (std::abs(transit - last_transit_ms_) - jitter_ms_) / 16.0;
+    if (packets_ > 0 && !fresh_)
+      jitter_ms_ += (std::abs(transit - last_transit_ms_) - jitter_ms_) / 16.0;
     last_transit_ms_ = transit;
     fresh_ = false;
     ++packets_;

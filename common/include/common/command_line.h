@@ -38,7 +38,8 @@ struct SharedFlag {
   const char* pods_name = nullptr;   // the pods' name for it, if not flag
 
   CLI::Validator check() const {
-    return choices.empty() ? CLI::Validator(CLI::Range(min, max)) : CLI::Validator(CLI::IsMember(choices));
+    return choices.empty() ? CLI::Validator(CLI::Range(min, max))
+                           : CLI::Validator(CLI::IsMember(choices));
   }
 };
 
@@ -46,42 +47,109 @@ inline const std::vector<SharedFlag>& sharedFlags() {
   static const std::vector<SharedFlag> flags = {
       // fusion_server
       {"--voxel", "hull voxel size in metres", 0.0001, 0.5, {}, kToServer},
-      {"--hull-error-mm", "hull error target in mm of silhouette error: the coarsest voxel from --voxel down that "
-       "meets it (the server follows it frame by frame; eval picks it per scene on the first frame; 0: the voxel "
-       "is fixed)", 0, 1000, {}},
-      {"--refine-voxels", "photo-consistency refinement: hull voxels the hull's vertices may move inward where the "
-       "pods that see them disagree in colour (0: none)", 0, 64, {}, kToServer},
+      {"--hull-error-mm",
+       "hull error target in mm of silhouette error: the coarsest voxel from --voxel down that "
+       "meets it (the server follows it frame by frame; eval picks it per scene on the first "
+       "frame; 0: the voxel "
+       "is fixed)",
+       0,
+       1000,
+       {}},
+      {"--refine-voxels",
+       "photo-consistency refinement: hull voxels the hull's vertices may move inward where the "
+       "pods that see them disagree in colour (0: none)",
+       0,
+       64,
+       {},
+       kToServer},
       {"--draco-bits", "Draco position quantisation bits", 4, 24, {}, kToServer},
-      {"--image-codec", "colour codec of the images sent on", 0, 0, imageCodecNames(), kToServer | kToPods, "--codec"},
+      {"--image-codec", "colour codec of the images sent on", 0, 0, imageCodecNames(),
+       kToServer | kToPods, "--codec"},
       // capture_node (and fusion_server for the LZ4 settings)
       {"--codec", "colour codec", 0, 0, imageCodecNames()},
       // (the launcher passes it on itself: to the pods and to the client's truth)
       {"--noise", "synthetic pods' sensor noise, grey levels (default: the scene's)", 0, 64, {}},
-      {"--crop-margin", "send only the foreground's rectangle grown by this many pixels (-1: whole images)", -1, 4096,
-       {}, kToPods},
-      {"--lz4-acceleration", "LZ4 acceleration (1 = default; higher: faster, larger)", 1, 65537, {},
+      {"--crop-margin",
+       "send only the foreground's rectangle grown by this many pixels (-1: whole images)",
+       -1,
+       4096,
+       {},
+       kToPods},
+      {"--lz4-acceleration",
+       "LZ4 acceleration (1 = default; higher: faster, larger)",
+       1,
+       65537,
+       {},
        kToServer | kToPods},
-      {"--lz4-hc-level", "LZ4HC level: 0 = LZ4's fast mode (at --lz4-acceleration), 1-12 slower and smaller", 0,
-       kMaxLz4HcLevel, {}, kToServer | kToPods},
+      {"--lz4-hc-level",
+       "LZ4HC level: 0 = LZ4's fast mode (at --lz4-acceleration), 1-12 slower and smaller",
+       0,
+       kMaxLz4HcLevel,
+       {},
+       kToServer | kToPods},
       // render_client
-      {"--alpha", "exponent of the normal weight max(0, n . d_i) (normal, holoportation, fragment, montage4d's fallback)", 0, 1000, {},
+      {"--alpha",
+       "exponent of the normal weight max(0, n . d_i) (normal, holoportation, fragment, "
+       "montage4d's fallback)",
+       0,
+       1000,
+       {},
        kToClient},
       {"--lambda", "montage4d: temporal rate per frame at 30 fps (eq. 5)", 0, 1, {}, kToClient},
-      {"--dilation", "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, scaled)",
-       -1, 64, {}, kToClient},
-      {"--vote-delta", "majority vote: Lab distance / 100 under which two views agree (eq. 3; 0: no vote, the default; paper 000: 0.15)", 0, 10, {}, kToClient},
-      {"--geodesic-rings", "montage4d: k, the geodesic reach in triangle rings", 1, 64, {}, kToClient},
-      {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", 1, 200, {}, kToClient},
-      {"--geodesic-radius", "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)", 0, 1000,
-       {}, kToClient},
-      {"--vertex-precision", "vertex positions and normals on the GPU: fp32, or fp16 in half the memory", 0, 0,
-       {"fp32", "fp16"}, kToClient},
-      {"--beta", "exponent of the view weight: (d_k . d_v + 1) in fragment (paper 004 eq. 4), max(0, v . v_i) in montage4d (paper 000 eq. 4)", 0, 1000, {},
+      {"--dilation",
+       "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, "
+       "scaled)",
+       -1,
+       64,
+       {},
        kToClient},
-      {"--feather-width", "pixels over which a pod's weight ramps from its silhouette's edge to 1 (paper 004's "
-       "feather weight; 0: none)", 0, 1000, {}, kToClient},
-      {"--fragment-test", "holoportation and montage4d: also test each fragment against every pod's depth map and "
-       "mask and feather it (paper 004), on or off", 0, 0, {"on", "off"}, kToClient},
+      {"--vote-delta",
+       "majority vote: Lab distance / 100 under which two views agree (eq. 3; 0: no vote, the "
+       "default; paper 000: 0.15)",
+       0,
+       10,
+       {},
+       kToClient},
+      {"--geodesic-rings",
+       "montage4d: k, the geodesic reach in triangle rings",
+       1,
+       64,
+       {},
+       kToClient},
+      {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", 1, 200, {}, kToClient},
+      {"--geodesic-radius",
+       "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)",
+       0,
+       1000,
+       {},
+       kToClient},
+      {"--vertex-precision",
+       "vertex positions and normals on the GPU: fp32, or fp16 in half the memory",
+       0,
+       0,
+       {"fp32", "fp16"},
+       kToClient},
+      {"--beta",
+       "exponent of the view weight: (d_k . d_v + 1) in fragment (paper 004 eq. 4), max(0, v . "
+       "v_i) in montage4d (paper 000 eq. 4)",
+       0,
+       1000,
+       {},
+       kToClient},
+      {"--feather-width",
+       "pixels over which a pod's weight ramps from its silhouette's edge to 1 (paper 004's "
+       "feather weight; 0: none)",
+       0,
+       1000,
+       {},
+       kToClient},
+      {"--fragment-test",
+       "holoportation and montage4d: also test each fragment against every pod's depth map and "
+       "mask and feather it (paper 004), on or off",
+       0,
+       0,
+       {"on", "off"},
+       kToClient},
   };
   return flags;
 }
@@ -92,7 +160,8 @@ inline std::string parseImageSize(const std::string& text, unsigned& width, unsi
                                   unsigned max_side = 4096) {
   unsigned w = 0, h = 0;
   char tail = 0;
-  if (std::sscanf(text.c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w < 16 || h < 16 || w > max_side || h > max_side) {
+  if (std::sscanf(text.c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w < 16 || h < 16 ||
+      w > max_side || h > max_side) {
     return "'" + text + "' is not WxH with each side in 16.." + std::to_string(max_side);
   }
   width = w;

@@ -5,10 +5,9 @@
 // what they measured.
 #pragma once
 
+#include <glm/glm.hpp>
 #include <string>
 #include <vector>
-
-#include <glm/glm.hpp>
 
 #include "protocol/bytes.h"
 #include "protocol/status.h"
@@ -16,16 +15,17 @@
 namespace holofuse {
 
 struct DatasetMetadata {
-  std::string source;           // "recording", "colmap /path", ...
+  std::string source;  // "recording", "colmap /path", ...
   glm::dvec3 volume_min{0.0}, volume_max{0.0};
-  double voxel_size = 0.0;      // metres; 0: not given
+  double voxel_size = 0.0;  // metres; 0: not given
   std::vector<std::string> camera_names;
-  bool still = false;           // one frame of a static scene
-  std::string segmentation;     // how masks were made, for people
+  bool still = false;        // one frame of a static scene
+  std::string segmentation;  // how masks were made, for people
 };
 
 protocol::Bytes encodeDatasetMetadata(const DatasetMetadata& metadata);
 // Unknown keys are ignored (a newer writer may add some).
-protocol::StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes& bytes, const std::string& where);
+protocol::StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes& bytes,
+                                                          const std::string& where);
 
 }  // namespace holofuse

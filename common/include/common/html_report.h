@@ -39,12 +39,13 @@ struct Point {
   bool marked = false;       // drawn with a ring (the default setting)
 };
 // Scatter plot of labelled points; highlighted points are joined in x order.
-std::string scatterChart(const std::string& title, const std::string& x_label, const std::string& y_label,
-                         const std::vector<Point>& points);
+std::string scatterChart(const std::string& title, const std::string& x_label,
+                         const std::string& y_label, const std::vector<Point>& points);
 
 // A table; cells are escaped. Rows whose first cell starts with "!" are
 // flagged (shown red, the "!" dropped).
-std::string table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows);
+std::string table(const std::vector<std::string>& header,
+                  const std::vector<std::vector<std::string>>& rows);
 
 std::string page(const std::string& title, const std::string& body);
 

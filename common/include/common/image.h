@@ -14,7 +14,9 @@ struct Image8 {
   Image8() = default;
   Image8(uint32_t w, uint32_t h, uint32_t c, uint8_t fill = 0)
       : width(w), height(h), channels(c), pixels(static_cast<size_t>(w) * h * c, fill) {}
-  uint8_t* at(uint32_t x, uint32_t y) { return pixels.data() + (static_cast<size_t>(y) * width + x) * channels; }
+  uint8_t* at(uint32_t x, uint32_t y) {
+    return pixels.data() + (static_cast<size_t>(y) * width + x) * channels;
+  }
   const uint8_t* at(uint32_t x, uint32_t y) const {
     return pixels.data() + (static_cast<size_t>(y) * width + x) * channels;
   }
@@ -45,7 +47,8 @@ Image8 placeInFrame(const Image8& crop, uint32_t x, uint32_t y, uint32_t width, 
 
 // Whether a w x h crop at (x, y) lies inside a width x height frame,
 // without overflow for any 32-bit input.
-inline bool cropFits(uint64_t x, uint64_t y, uint64_t w, uint64_t h, uint64_t width, uint64_t height) {
+inline bool cropFits(uint64_t x, uint64_t y, uint64_t w, uint64_t h, uint64_t width,
+                     uint64_t height) {
   return x + w <= width && y + h <= height;
 }
 

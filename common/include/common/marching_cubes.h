@@ -14,10 +14,10 @@
 namespace holofuse {
 
 struct ScalarGrid {
-  int nx = 0, ny = 0, nz = 0;       // grid points per axis
-  glm::dvec3 origin{0.0};           // world position of point (0,0,0)
-  double spacing = 1.0;             // distance between neighbouring points
-  std::vector<float> values;        // nx*ny*nz, x fastest; > 0 means inside
+  int nx = 0, ny = 0, nz = 0;  // grid points per axis
+  glm::dvec3 origin{0.0};      // world position of point (0,0,0)
+  double spacing = 1.0;        // distance between neighbouring points
+  std::vector<float> values;   // nx*ny*nz, x fastest; > 0 means inside
 
   float at(int x, int y, int z) const { return values[(static_cast<size_t>(z) * ny + y) * nx + x]; }
   glm::dvec3 point(int x, int y, int z) const { return origin + spacing * glm::dvec3(x, y, z); }

@@ -9,8 +9,8 @@ namespace holofuse {
 
 struct Mesh {
   std::vector<glm::vec3> positions;
-  std::vector<glm::vec3> normals;       // per vertex, unit length (or zero)
-  std::vector<uint32_t> indices;        // three per triangle, counter-clockwise seen from outside
+  std::vector<glm::vec3> normals;  // per vertex, unit length (or zero)
+  std::vector<uint32_t> indices;   // three per triangle, counter-clockwise seen from outside
   // Identity of each vertex across frames where the extractor gives one
   // (marching cubes: the grid edge it sits on); empty otherwise.
   std::vector<uint64_t> vertex_keys;

@@ -16,7 +16,8 @@ struct DracoOptions {
   int speed = 7;  // Draco's encoding/decoding speed, 0 (smallest) .. 10 (fastest)
 };
 
-protocol::StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions& options = {});
+protocol::StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh,
+                                                     const DracoOptions& options = {});
 
 // Decodes untrusted Draco bytes; the result is validated (indices in range,
 // finite positions) and normals are recomputed when absent.

@@ -19,9 +19,9 @@ namespace holofuse::eval {
 fusion::HullOptions hullOptionsFor(const capture::Dataset& dataset, double fallback_voxel);
 
 enum class VerifyVerdict {
-  kClean = 0,            // every record checks and the index is in place
-  kCorrupt = 1,          // a record's bytes are damaged
-  kIncompleteTail = 3,   // every whole record checks; the end holds an incomplete one
+  kClean = 0,           // every record checks and the index is in place
+  kCorrupt = 1,         // a record's bytes are damaged
+  kIncompleteTail = 3,  // every whole record checks; the end holds an incomplete one
 };
 
 struct VerifyReport {
@@ -52,7 +52,8 @@ struct DatasetSummary {
 // mask dimmed outside, the hull's silhouette outlined) to sheet_png. The
 // hull is carved in the dataset's capture volume at its voxel size (or at
 // voxel_size when positive).
-protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::string& sheet_png,
+protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir,
+                                                   const std::string& sheet_png,
                                                    double voxel_size = 0.0);
 
 }  // namespace holofuse::eval

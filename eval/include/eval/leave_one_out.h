@@ -35,13 +35,14 @@ struct EvalOptions {
   // Dataset folders (recorded or imported), evaluated like scenes: their
   // masks are the truth the images are compared inside.
   std::vector<std::string> datasets;
-  std::vector<render::BlendMode> modes = {render::BlendMode::kNormal, render::BlendMode::kHoloportation,
-                                          render::BlendMode::kMontage4D, render::BlendMode::kFragment};
+  std::vector<render::BlendMode> modes = {
+      render::BlendMode::kNormal, render::BlendMode::kHoloportation, render::BlendMode::kMontage4D,
+      render::BlendMode::kFragment};
   int frames = 8;
   uint64_t first_frame = 30;
   uint32_t width = 320, height = 240;
-  double fps = 10.0;           // the scene clock: frame ids per second
-  int held_out_cameras = 0;    // 0: every camera; else this many, evenly spread
+  double fps = 10.0;         // the scene clock: frame ids per second
+  int held_out_cameras = 0;  // 0: every camera; else this many, evenly spread
   // Synthetic scenes only: besides leave-one-out, render at these offsets
   // (degrees around the ring) from the chosen cameras' poses with every
   // camera blended, against the scene's true image at that pose; one result
@@ -59,15 +60,16 @@ struct EvalOptions {
   // compared with its true image. Off by default, as in paper 000's
   // cross-validation, where every sensor shapes the mesh.
   bool hull_without_held_out = false;
-  double refine_voxels = 0;  // hull voxels its vertices may move inward by photo-consistency (0: none)
-  std::string out_dir;         // where save_images writes
-  bool save_images = false;    // rendered, true image and mask per image compared
-  std::string device;          // Vulkan device selector ("" picks a GPU if any)
+  double refine_voxels =
+      0;                // hull voxels its vertices may move inward by photo-consistency (0: none)
+  std::string out_dir;  // where save_images writes
+  bool save_images = false;  // rendered, true image and mask per image compared
+  std::string device;        // Vulkan device selector ("" picks a GPU if any)
   // "hull": the fusion server's visual hull (what the loop sees); "truth":
   // the scene's true surface, to tell blending errors from geometry errors.
   std::string geometry = "hull";
   // The knobs a sweep turns; the defaults are the live loop's.
-  double voxel_size = 0.02;                  // hull accuracy, metres
+  double voxel_size = 0.02;  // hull accuracy, metres
   // A dataset carves at the voxel size it was recorded or imported with
   // unless a voxel is given (--voxel, the sweep's voxel knob).
   bool voxel_from_dataset = true;
@@ -75,15 +77,15 @@ struct EvalOptions {
   // scene's voxel is the coarsest from voxel_size down that meets it on the
   // first frame (fusion::carveToErrorTarget).
   double hull_error_target = 0;
-  DracoOptions draco;                        // position bits etc.
+  DracoOptions draco;  // position bits etc.
   protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
   int lz4_acceleration = 1;
   int lz4_hc_level = 0;  // 0: LZ4's fast mode; 1-12: LZ4HC, pods and server alike
   // Pods send the foreground's rectangle grown by this many pixels
   // (capture::kFullFrame, -1: whole images), as the loop's pods do.
   int crop_margin = capture::PodOptions{}.crop_margin;
-  int cameras = 0;                           // 0: the scene's own count
-  render::FieldParameters fields;            // eps, k, K
+  int cameras = 0;                 // 0: the scene's own count
+  render::FieldParameters fields;  // eps, k, K
   float alpha = 2.0f;
   double lambda = 0.05;
   // The per-fragment test and feathering (render::BlendSettings).
@@ -103,12 +105,13 @@ struct ModeResult {
   // Mean frame-to-frame change of the error image, grey levels; negative:
   // not measured (no two consecutive frames were compared).
   double flicker = -1;
-  double seam_visibility = -1;     // mean of eval::seamVisibility over images with seams in view; -1: none
+  double seam_visibility =
+      -1;  // mean of eval::seamVisibility over images with seams in view; -1: none
   size_t images = 0;
-  double ms_per_new_mesh = 0;      // median wall time of a render that follows a new mesh
+  double ms_per_new_mesh = 0;  // median wall time of a render that follows a new mesh
   std::map<std::string, double> gpu_passes_ms;  // medians of the field passes' timestamps
-  double ms_per_new_mesh_p95 = 0;  // the 95th percentile of ms_per_new_mesh's renders
-  RegionErrors regions;            // the squared error over every image, by where it sits
+  double ms_per_new_mesh_p95 = 0;               // the 95th percentile of ms_per_new_mesh's renders
+  RegionErrors regions;  // the squared error over every image, by where it sits
 };
 
 // The share of the squared-error difference between normal and the mode
@@ -122,20 +125,23 @@ struct ModeResult {
 // discontinuity test of paper 000 section 4.2, reference::
 // dilatedDiscontinuities, so the mesh's outline counts too), then the
 // seams (one channel, non-zero on a seam), then elsewhere.
-Image8 errorRegions(const Image8& mask, const DepthMap& depth, const Image8& seams, int reach_px = 3,
-                    double relative_jump = 0.03);
+Image8 errorRegions(const Image8& mask, const DepthMap& depth, const Image8& seams,
+                    int reach_px = 3, double relative_jump = 0.03);
 
-std::map<std::string, double> regionSharesAgainstNormal(const std::map<std::string, ModeResult>& modes,
-                                                        const std::string& mode);
+std::map<std::string, double> regionSharesAgainstNormal(
+    const std::map<std::string, ModeResult>& modes, const std::string& mode);
 
 // What a frame's codec time covers, for reports.
 inline constexpr const char* kCodecsMeaning =
-    "the slowest pod's encoding, the server's decoding of every pod frame and its Draco and image encoding for "
+    "the slowest pod's encoding, the server's decoding of every pod frame and its Draco and image "
+    "encoding for "
     "clients, and the client's decoding of both";
 // Why a leave-one-out report has no per-pod jitter, and where to read it.
 inline constexpr const char* kNoJitterHere =
-    "The evaluation runs every stage in one process, with no network, so it has no arrival jitter: the live loop's "
-    "report (./holofuse demo) gives each pod's RFC 3550 jitter at the server, and so does each point of a sweep "
+    "The evaluation runs every stage in one process, with no network, so it has no arrival jitter: "
+    "the live loop's "
+    "report (./holofuse demo) gives each pod's RFC 3550 jitter at the server, and so does each "
+    "point of a sweep "
     "run with --live-frames.";
 
 // The codec stages of a frame, in order, under the live report's stage
@@ -145,8 +151,8 @@ inline constexpr const char* kNoJitterHere =
 // server does one after another as they arrive), mesh_encode, image_encode
 // and decode (the client's images and Draco mesh).
 inline const std::vector<std::string>& codecStages() {
-  static const std::vector<std::string> stages = {"pod_encode", "server_decode", "mesh_encode", "image_encode",
-                                                  "decode"};
+  static const std::vector<std::string> stages = {"pod_encode", "server_decode", "mesh_encode",
+                                                  "image_encode", "decode"};
   return stages;
 }
 
@@ -180,19 +186,21 @@ struct ModeAgreement {
 struct SceneResult {
   std::string name, stresses;
   double novel_view_degrees = 0;  // 0: leave-one-camera-out; else the offset of a novel-view row
-  bool camera_kept = false;       // the held-out camera's image stayed in the blend (EvalOptions::camera_kept)
+  bool camera_kept =
+      false;  // the held-out camera's image stayed in the blend (EvalOptions::camera_kept)
   int cameras = 0;
-  double hull_ms = 0;          // median
+  double hull_ms = 0;  // median
   // Median per frame of the codecs (kCodecsMeaning), through the loop's own
   // encoding and decoding code.
   double codec_ms = 0;
   double hull_ms_p95 = 0, codec_ms_p95 = 0;  // 95th percentiles of the same
-  double refine_ms = 0, refine_ms_p95 = 0;    // the hull's refinement (0 without it): median, 95th percentile
+  double refine_ms = 0,
+         refine_ms_p95 = 0;  // the hull's refinement (0 without it): median, 95th percentile
   // Per codec stage (codecStages()): median and 95th percentile over frames,
   // or for pod_encode and server_decode over pod frames (as the live report
   // samples them).
   std::map<std::string, double> codec_stage_ms, codec_stage_ms_p95;
-  double triangles = 0;        // mean
+  double triangles = 0;  // mean
   double view_jump_degrees = 0;
   // Means per frame, as the loop sends them: server to one client (the
   // Draco MeshFrame, the TextureBundle of every camera's images, the
@@ -202,13 +210,14 @@ struct SceneResult {
   double pod_link_bytes_per_frame = 0;
   // The geometry against the truth, on the first frame (hull as decoded by
   // the client; truth by marching cubes at 1 cm).
-  double chamfer_mm = 0;  // negative: no true surface (datasets)
+  double chamfer_mm = 0;               // negative: no true surface (datasets)
   std::vector<double> silhouette_iou;  // per camera
   double cells_visited = 0;            // mean per frame (eval/visual_hull.h's count)
   double voxel_mm = 0;                 // the hull's voxel
-  double silhouette_error_mm = -1;     // first frame, against the segmented masks; negative: not measured
+  double silhouette_error_mm =
+      -1;  // first frame, against the segmented masks; negative: not measured
   ModeAgreement montage_agreement;
-  double dense_grid_points = 0;        // what the dense grid would have sampled
+  double dense_grid_points = 0;             // what the dense grid would have sampled
   std::map<std::string, ModeResult> modes;  // by blendModeName
 };
 
@@ -219,8 +228,8 @@ std::vector<std::string> latencyStages();
 std::vector<double> latencyParts(const SceneResult& scene, const ModeResult& mode, bool p95);
 
 // progress(text) is called with one line per finished held-out sequence.
-std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
-                                        const std::function<void(const std::string&)>& progress = {});
+std::vector<SceneResult> runLeaveOneOut(
+    const EvalOptions& options, const std::function<void(const std::string&)>& progress = {});
 
 // quality.json (scene -> mode -> metric, with the settings) and quality.md
 // (paper 000 Table 2 layout, plus flicker and the montage4d verdict).

@@ -64,7 +64,8 @@ std::vector<double> luminance(const Image8& image);
 // wholly inside the image: (w - 10) x (h - 10) values, the window centred on
 // pixel (x + 5, y + 5) at index y * (w - 10) + x. Empty when an image is
 // smaller than the window.
-std::vector<double> ssimMap(const std::vector<double>& a, const std::vector<double>& b, int width, int height);
+std::vector<double> ssimMap(const std::vector<double>& a, const std::vector<double>& b, int width,
+                            int height);
 // The same map with each window's weights restricted to the pixels where
 // inside is 1 (0 elsewhere) and renormalised; 0 where a window holds none.
 // With every pixel inside it equals ssimMap.
@@ -90,21 +91,22 @@ double flicker(const ErrorImage& previous, const ErrorImage& current);
 // what those changes could at most buy it. (It does not bound another
 // setting of b's method, which would change other pixels.)
 struct PictureAgreement {
-  size_t pixels = 0;     // inside the mask
-  size_t differing = 0;  // of them, where a and b differ
+  size_t pixels = 0;                                          // inside the mask
+  size_t differing = 0;                                       // of them, where a and b differ
   double a_squared_error = 0, a_squared_error_differing = 0;  // summed over channels
   double b_squared_error_alike = 0;                           // b's, where they agree
   // b's PSNR with every differing pixel exact (kPsnrCap when b is exact
   // wherever they agree, or inside an empty mask).
   double bestPsnrOfB() const;
 };
-PictureAgreement pictureAgreement(const Image8& a, const Image8& b, const Image8& truth, const Image8& mask,
-                                  int tolerance = 2);
+PictureAgreement pictureAgreement(const Image8& a, const Image8& b, const Image8& truth,
+                                  const Image8& mask, int tolerance = 2);
 
 // seams: one channel, non-zero where a seam triangle covers the pixel. The
 // gradient is taken where both neighbours on an axis are inside the mask;
 // negative (nothing to measure) when no seam pixel is.
-double seamVisibility(const Image8& rendered, const Image8& truth, const Image8& mask, const Image8& seams);
+double seamVisibility(const Image8& rendered, const Image8& truth, const Image8& mask,
+                      const Image8& seams);
 
 // Where an error sits, to tell which part of a picture a mode wins or
 // loses. Each pixel inside the truth's mask falls in exactly one region,
@@ -116,7 +118,7 @@ enum class ErrorRegion : uint8_t {
   kElsewhere,
 };
 inline constexpr size_t kErrorRegionCount = 4;
-inline constexpr uint8_t kOutsideRegions = 255;  // outside the truth's mask
+inline constexpr uint8_t kOutsideRegions = 255;   // outside the truth's mask
 const char* errorRegionName(ErrorRegion region);  // "silhouette_border", ...
 
 // Squared error summed over RGB and pixel counts per region.

@@ -31,7 +31,6 @@
 
 namespace holofuse::eval {
 
-
 struct SweepOptions {
   EvalOptions base;
   std::vector<std::pair<std::string, std::vector<std::string>>> knobs;  // name, values
@@ -69,7 +68,8 @@ struct PointBudget {
   std::vector<BudgetCheck> checks;
   std::vector<std::string> unchecked;
 };
-PointBudget checkPointBudget(const render::Budget& budget, const SweepPoint& point, const std::string& mode);
+PointBudget checkPointBudget(const render::Budget& budget, const SweepPoint& point,
+                             const std::string& mode);
 
 // Validates every knob and value before running anything (std::invalid_argument;
 // a knob given twice is refused). A knob whose values leave out its default

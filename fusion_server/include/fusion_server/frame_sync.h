@@ -17,7 +17,7 @@ namespace holofuse::fusion {
 
 struct PodImages {
   uint32_t camera_id = 0;
-  Image8 color, mask, feather;        // the whole image, or the rectangle the pod sent
+  Image8 color, mask, feather;          // the whole image, or the rectangle the pod sent
   uint32_t offset_x = 0, offset_y = 0;  // where that rectangle sits in the camera's image
   std::vector<protocol::StageStamp> stamps;
   uint64_t capture_time_ns = 0;
@@ -38,7 +38,8 @@ struct FrameGroup {
 
 class FrameSync {
  public:
-  FrameSync(uint64_t deadline_ns, size_t max_pending = 8) : deadline_ns_(deadline_ns), max_pending_(max_pending) {}
+  FrameSync(uint64_t deadline_ns, size_t max_pending = 8)
+      : deadline_ns_(deadline_ns), max_pending_(max_pending) {}
 
   // Lossless (replay as fast as the server accepts): a group waits for
   // every expected pod however long it takes, and the caller bounds what

@@ -31,8 +31,8 @@ struct ServerOptions {
   uint32_t idle_timeout_ms = 5000;
   uint32_t max_payload = protocol::kDefaultMaxPayload;
   FusionSettings fusion;
-  std::string port_file;  // when set, the bound port is written here (port 0 use)
-  std::string record_dir;  // when set, what the pods send is recorded here
+  std::string port_file;      // when set, the bound port is written here (port 0 use)
+  std::string record_dir;     // when set, what the pods send is recorded here
   bool record_fused = false;  // with record_dir: the fused output too
   // Replay as fast as the server accepts: every group waits for all its
   // pods, no group is dropped, and pods that are ahead are not read
@@ -86,7 +86,7 @@ class FusionServer {
   std::vector<Peer> peers_;
   std::map<uint32_t, Camera> cameras_;
   std::map<uint32_t, ArrivalJitter> pod_arrivals_;  // per pod, over every PodFrame received
-  std::set<uint32_t> departed_pods_;  // pods that joined and then left
+  std::set<uint32_t> departed_pods_;                // pods that joined and then left
   std::map<uint32_t, protocol::SharedFrame> calibration_frames_;
   FrameSync sync_;
   std::unique_ptr<FusionWorker> worker_;

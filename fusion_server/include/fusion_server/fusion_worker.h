@@ -43,7 +43,8 @@ struct FusedOutput {
   // The same images without the pods' feather maps, under a 1.1 header,
   // for a peer that agreed on 1.1 or 1.0.
   protocol::SharedFrame texture_bundle_v1_1;
-  protocol::SharedFrame stats_v1_0;  // the same Stats for a peer that agreed on 1.0 (no pod arrivals)
+  protocol::SharedFrame
+      stats_v1_0;  // the same Stats for a peer that agreed on 1.0 (no pod arrivals)
   size_t triangles = 0;
   double voxel_size = 0;
   SilhouetteError silhouette_error;  // measured only under an error target
@@ -53,7 +54,8 @@ struct GroupJob {
   FrameGroup group;
   uint64_t late_frames = 0;
   uint64_t dropped_groups = 0;
-  std::vector<protocol::PodArrivals> pod_arrivals;  // every pod's so far, when the group was dispatched
+  std::vector<protocol::PodArrivals>
+      pod_arrivals;  // every pod's so far, when the group was dispatched
 };
 
 // A pod's frame as the fusion takes it: its planes decoded (the whole image
@@ -61,8 +63,8 @@ struct GroupJob {
 // force) and its stamps with the send stage ending at now_ns (its arrival)
 // and the server_decode stage from then to the end of its decoding. An
 // error names the plane that does not fit or the plane that is missing.
-protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes, const Camera& camera,
-                                          uint64_t now_ns);
+protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
+                                          const Camera& camera, uint64_t now_ns);
 
 // The group's silhouettes and feather maps as whole images, for the hull.
 std::vector<HullView> hullViewsOf(const FrameGroup& group);

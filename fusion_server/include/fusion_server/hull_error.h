@@ -46,8 +46,8 @@ constexpr double kUsefulImprovement = 0.1;
 // until the silhouette error is within target_m: the coarsest hull that
 // meets the target. It stops unmet at kFinestVoxel, or where a finer voxel
 // stopped helping (and returns the coarser hull).
-HullForTarget carveToErrorTarget(const std::vector<HullView>& views, const HullOptions& options, double target_m,
-                                 HullStats* stats = nullptr);
+HullForTarget carveToErrorTarget(const std::vector<HullView>& views, const HullOptions& options,
+                                 double target_m, HullStats* stats = nullptr);
 
 // Follows an error target from frame to frame with one carve per frame: a
 // finer voxel for the next frame when the last one missed the target, a
@@ -70,7 +70,7 @@ class VoxelController {
   double missed_voxel_ = 0;  // the finest voxel that missed lately; 0: none
   int since_miss_ = 0;
   double refined_from_ = 0, refined_from_error_ = 0;  // the last refinement after a miss
-  double floor_voxel_ = 0;                           // where refining stopped helping; 0: none
+  double floor_voxel_ = 0;                            // where refining stopped helping; 0: none
   int since_floor_ = 0;
 };
 

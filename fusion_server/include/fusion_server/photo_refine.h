@@ -20,19 +20,20 @@ struct PhotoRefineOptions {
   // gain grows to about there (docs/photo-refinement.md) and the hull's
   // error with a few cameras is several voxels.
   double depth_voxels = 0;
-  double voxel_size = 0.02; // metres, the hull's voxel
-  int steps = 8;            // candidates between 0 and max_depth
-  int views = 3;            // cameras compared per vertex, the best facing
-  double min_facing = 0.3;  // cos of the largest angle between normal and camera
-  int smoothing_passes = 3; // neighbour averages of the offsets
-  int silhouette_rounds = 4; // restorations of vertices that left a mask pixel bare
+  double voxel_size = 0.02;   // metres, the hull's voxel
+  int steps = 8;              // candidates between 0 and max_depth
+  int views = 3;              // cameras compared per vertex, the best facing
+  double min_facing = 0.3;    // cos of the largest angle between normal and camera
+  int smoothing_passes = 3;   // neighbour averages of the offsets
+  int silhouette_rounds = 4;  // restorations of vertices that left a mask pixel bare
 };
 
 struct PhotoRefineStats {
   size_t vertices_moved = 0;
-  int silhouette_rounds = 0;   // checks run (the last found nothing bare unless the hull came back whole)
+  int silhouette_rounds =
+      0;  // checks run (the last found nothing bare unless the hull came back whole)
   size_t vertices_restored = 0;  // put back: moving them bared a silhouette pixel
-  double mean_offset = 0;  // metres, over every vertex
+  double mean_offset = 0;        // metres, over every vertex
 };
 
 // views[i].camera and .mask as carved; colors[i]: camera i's whole RGB

@@ -33,8 +33,8 @@ class Recorder {
 
  private:
   template <typename Payload>
-  void append(protocol::RecordWriter& writer, protocol::RecordKind kind, uint32_t stream, uint64_t frame_id,
-              const Payload& payload);
+  void append(protocol::RecordWriter& writer, protocol::RecordKind kind, uint32_t stream,
+              uint64_t frame_id, const Payload& payload);
 
   std::string dir_;
   protocol::RecordWriter pods_;

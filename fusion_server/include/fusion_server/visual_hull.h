@@ -19,15 +19,15 @@ namespace holofuse::fusion {
 
 struct HullView {
   Camera camera;
-  Image8 mask;      // 255 foreground
-  Image8 feather;   // distance inside the silhouette, pixels (0 outside)
+  Image8 mask;     // 255 foreground
+  Image8 feather;  // distance inside the silhouette, pixels (0 outside)
 };
 
 struct HullOptions {
-  double voxel_size = 0.02;                          // metres: the accuracy knob
-  glm::dvec3 volume_min{-1.0, -0.1, -1.0};           // capture volume
+  double voxel_size = 0.02;                 // metres: the accuracy knob
+  glm::dvec3 volume_min{-1.0, -0.1, -1.0};  // capture volume
   glm::dvec3 volume_max{1.0, 1.9, 1.0};
-  double valid_region_step = 0.08;                   // coarse step of the valid-region search
+  double valid_region_step = 0.08;  // coarse step of the valid-region search
   // Coarse-to-fine: cells of 2^levels voxels are classified inside, outside
   // or boundary against every silhouette and only boundary cells are split;
   // 0 samples every grid point (the dense reference).
@@ -39,7 +39,8 @@ struct HullOptions {
 
 // Sets the capture volume and scales the valid-region search to it (40
 // steps across its diagonal at most).
-void setCaptureVolume(HullOptions& options, const glm::dvec3& volume_min, const glm::dvec3& volume_max);
+void setCaptureVolume(HullOptions& options, const glm::dvec3& volume_min,
+                      const glm::dvec3& volume_max);
 
 struct HullStats {
   glm::dvec3 region_min{0.0}, region_max{0.0};
@@ -58,6 +59,7 @@ std::vector<float> silhouetteSignedDistance(const HullView& view);
 // The mesh's vertex_keys name the grid edge each vertex sits on, on the
 // lattice of the capture volume: the same edge has the same key in every
 // frame.
-Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options, HullStats* stats = nullptr);
+Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options,
+                     HullStats* stats = nullptr);
 
 }  // namespace holofuse::fusion

@@ -165,8 +165,8 @@ class StreamDecoder {
   bool in_payload_ = false;
   Frame current_;
   size_t payload_filled_ = 0;
-  uint64_t stream_offset_ = 0;        // bytes committed so far
-  uint64_t frame_start_offset_ = 0;   // stream offset of current frame
+  uint64_t stream_offset_ = 0;       // bytes committed so far
+  uint64_t frame_start_offset_ = 0;  // stream offset of current frame
   std::vector<Frame> ready_;
   size_t ready_head_ = 0;
 };

@@ -35,7 +35,7 @@ enum class Stage : uint16_t {
   kWrite = 14,
   kReplayRead = 15,    // a replay pod reads and checks a recorded frame (in place of 1-4)
   kServerDecode = 16,  // the server parses a PodFrame and decompresses its planes
-  kRefine = 17,        // the server moves the hull's vertices by photo-consistency (off unless asked)
+  kRefine = 17,  // the server moves the hull's vertices by photo-consistency (off unless asked)
 };
 constexpr uint16_t kFirstStage = 1;
 constexpr uint16_t kLastStage = 17;
@@ -109,8 +109,8 @@ struct Calibration {
   uint32_t camera_id = 0;
   uint32_t width = 0, height = 0;
   double fx = 0, fy = 0, cx = 0, cy = 0, skew = 0;
-  std::vector<double> distortion;     // OpenCV order k1 k2 p1 p2 k3 ...
-  std::array<double, 9> rotation{};   // world to camera, row major
+  std::vector<double> distortion;    // OpenCV order k1 k2 p1 p2 k3 ...
+  std::array<double, 9> rotation{};  // world to camera, row major
   std::array<double, 3> translation{};
 };
 
@@ -214,7 +214,8 @@ Status readPayload(std::span<const uint8_t> payload, MeshFrame& m, size_t base_o
 Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, Heartbeat& m, size_t base_offset = 0);
 // A Stats of minor 1 or later must hold the pods' arrivals; one of 1.0 has none.
-Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offset = 0, uint8_t minor = kVersionMinor);
+Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offset = 0,
+                   uint8_t minor = kVersionMinor);
 Status readPayload(std::span<const uint8_t> payload, Bye& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, ErrorMessage& m, size_t base_offset = 0);
 
@@ -233,7 +234,8 @@ void writePayloadAt(WireWriter& w, const Message& m, uint8_t minor) {
 
 // minor pins the encoding to an older minor: its header and its fields.
 template <typename Message>
-Bytes encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0, uint8_t minor = kVersionMinor) {
+Bytes encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0,
+                  uint8_t minor = kVersionMinor) {
   FrameBuilder builder(Message::kType, sequence, payload_hint);
   builder.setMinor(minor);
   writePayloadAt(builder.writer(), m, minor);
@@ -243,7 +245,8 @@ Bytes encodeFrame(const Message& m, uint64_t sequence, size_t payload_hint = 0, 
 // The same frame for sending: bulk ranges (planes, Draco bytes) are
 // borrowed, not copied, when keep_alive owns them; one CRC pass remains.
 template <typename Message>
-OutgoingFrame encodeOutgoing(const Message& m, uint64_t sequence, std::shared_ptr<const void> keep_alive = nullptr,
+OutgoingFrame encodeOutgoing(const Message& m, uint64_t sequence,
+                             std::shared_ptr<const void> keep_alive = nullptr,
                              uint8_t minor = kVersionMinor) {
   // Room for every field and the small planes that are copied, so the own
   // buffer never grows while it is written.
@@ -259,8 +262,9 @@ template <typename Message>
 Status decodeFrame(const Frame& frame, Message& m) {
   if (frame.header.type != static_cast<uint16_t>(Message::kType)) {
     return Status(StatusCode::kUnexpectedMessage,
-                  std::string("expected ") + messageTypeName(static_cast<uint16_t>(Message::kType)) +
-                      ", got " + messageTypeName(frame.header.type));
+                  std::string("expected ") +
+                      messageTypeName(static_cast<uint16_t>(Message::kType)) + ", got " +
+                      messageTypeName(frame.header.type));
   }
   // A message whose fields depend on the minor reads the frame's.
   if constexpr (requires { readPayload(frame.payload(), m, kHeaderSize, frame.header.minor); }) {

@@ -67,7 +67,8 @@ class RecordWriter {
   Status append(RecordKind kind, uint32_t stream, uint64_t frame_id, uint64_t time_ns,
                 std::span<const uint8_t> payload);
   // The same for a frame held as parts (no flattening copy).
-  Status append(RecordKind kind, uint32_t stream, uint64_t frame_id, uint64_t time_ns, const OutgoingFrame& frame);
+  Status append(RecordKind kind, uint32_t stream, uint64_t frame_id, uint64_t time_ns,
+                const OutgoingFrame& frame);
   // Writes the index and the tail and syncs the file to disk. Also done by
   // the destructor (errors then go to stderr).
   Status close();
@@ -82,7 +83,8 @@ class RecordWriter {
  private:
   Status appendParts(RecordKind kind, uint32_t stream, uint64_t frame_id, uint64_t time_ns,
                      const std::vector<std::span<const uint8_t>>& payload, uint64_t payload_size);
-  Status writeAll(std::span<const std::span<const uint8_t>> parts, uint64_t total, const char* what);
+  Status writeAll(std::span<const std::span<const uint8_t>> parts, uint64_t total,
+                  const char* what);
 
   int fd_ = -1;
   std::string path_;
@@ -97,9 +99,9 @@ struct RecordScan {
   uint16_t format_major = 0, format_minor = 0;
   uint64_t created_unix_ns = 0;
   uint64_t file_size = 0;
-  bool index_found = false;   // the tail and index checked: no scan needed
-  std::string index_note;     // why the index was rebuilt, if it was
-  uint64_t good_end = 0;      // end of the last record that checks
+  bool index_found = false;  // the tail and index checked: no scan needed
+  std::string index_note;    // why the index was rebuilt, if it was
+  uint64_t good_end = 0;     // end of the last record that checks
   // Set when bytes good_end..file_size are not whole records: an incomplete
   // record (a crash mid-write) or corruption, said in words.
   std::optional<std::string> tail_problem;

@@ -56,7 +56,9 @@ class ServerLink {
   void close(const std::string& reason, int timeout_ms = 500);
 
   uint64_t connects() const { return connects_; }
-  uint64_t bytesOut() const { return bytes_out_closed_ + (connection_ ? connection_->bytesOut() : 0); }
+  uint64_t bytesOut() const {
+    return bytes_out_closed_ + (connection_ ? connection_->bytesOut() : 0);
+  }
   uint64_t bytesIn() const { return bytes_in_closed_ + (connection_ ? connection_->bytesIn() : 0); }
   uint64_t framesDropped() const {
     return dropped_closed_ + (connection_ ? connection_->framesDropped() : 0);

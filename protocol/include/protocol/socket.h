@@ -24,8 +24,8 @@ StatusOr<Endpoint> parseEndpoint(const std::string& text);
 struct IoResult {
   size_t bytes = 0;
   bool would_block = false;
-  bool closed = false;   // orderly shutdown by the peer (read returned 0)
-  int error = 0;         // errno for a hard error, 0 otherwise
+  bool closed = false;  // orderly shutdown by the peer (read returned 0)
+  int error = 0;        // errno for a hard error, 0 otherwise
 };
 
 class Socket {

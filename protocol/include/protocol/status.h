@@ -10,14 +10,14 @@ namespace holofuse::protocol {
 
 enum class StatusCode : uint16_t {
   kOk = 0,
-  kTruncated = 1,           // more bytes were needed than the input holds
+  kTruncated = 1,  // more bytes were needed than the input holds
   kBadMagic = 2,
   kUnsupportedVersion = 3,
-  kTooLarge = 4,            // a length or count above a cap
+  kTooLarge = 4,  // a length or count above a cap
   kBadChecksum = 5,
-  kMalformed = 6,           // a value out of its allowed range
+  kMalformed = 6,  // a value out of its allowed range
   kReservedNonZero = 7,
-  kUnexpectedMessage = 8,   // a valid message at the wrong moment
+  kUnexpectedMessage = 8,  // a valid message at the wrong moment
   kIoError = 9,
   kClosed = 10,
   kTimeout = 11,
@@ -60,12 +60,12 @@ class [[nodiscard]] StatusOr {
   std::optional<T> value_;
 };
 
-#define HOLOFUSE_RETURN_IF_ERROR(expr)  \
-  do {                                  \
-    auto holofuse_status_ = (expr);     \
-    if (!holofuse_status_.isOk()) {     \
-      return holofuse_status_;          \
-    }                                   \
+#define HOLOFUSE_RETURN_IF_ERROR(expr) \
+  do {                                 \
+    auto holofuse_status_ = (expr);    \
+    if (!holofuse_status_.isOk()) {    \
+      return holofuse_status_;         \
+    }                                  \
   } while (0)
 
 }  // namespace holofuse::protocol

@@ -27,8 +27,8 @@ struct ClientOptions {
   // Finish (report written, exit 0) when the server says Bye: the end of a
   // replay, after every frame it sent has been read.
   bool exit_when_server_leaves = false;
-  uint64_t frames = 0;              // stop after this many rendered frames; 0 = until signalled
-  std::string view = "orbit";       // "orbit" or "pod:N"
+  uint64_t frames = 0;         // stop after this many rendered frames; 0 = until signalled
+  std::string view = "orbit";  // "orbit" or "pod:N"
   double orbit_degrees_per_frame = 2.0;
   // A viewpoint jump (the viewpoint-jump scene): from rendered frame
   // jump_at_frame on, the user camera is turned this many degrees around
@@ -36,19 +36,21 @@ struct ClientOptions {
   double jump_degrees = 0;
   uint64_t jump_at_frame = 0;
   uint32_t width = 320, height = 240;
-  std::string device;               // Vulkan device selector (VulkanContext)
+  std::string device;  // Vulkan device selector (VulkanContext)
   BlendSettings blend;
   bool half_precision_vertices = false;  // Renderer::setHalfPrecisionVertices
-  int exclude_camera = -1;          // leave this camera out of the blend
+  int exclude_camera = -1;               // leave this camera out of the blend
   bool write_frames = true;
-  Budget budget;                    // per-stage ms; violations are flagged in the reports
+  Budget budget;  // per-stage ms; violations are flagged in the reports
   // Judges each written frame against the truth from the user camera at
   // its frame id (main: the synthetic scene the pods render, with
   // --truth-scene); unset: frames are not judged. Runs after the frame is
   // written, outside every stage's time.
   // None: nothing to judge by (no subject in the true view). An exception
   // leaves the frame unjudged, with a warning.
-  std::function<std::optional<FrameQuality>(const Image8& picture, const Camera& view, uint64_t frame_id)> judge;
+  std::function<std::optional<FrameQuality>(const Image8& picture, const Camera& view,
+                                            uint64_t frame_id)>
+      judge;
 };
 
 int runClient(const ClientOptions& options);
@@ -61,16 +63,17 @@ int runClient(const ClientOptions& options);
 // novel views (ids from 1000).
 inline constexpr uint32_t kOrbitCameraId = 1000;
 
-std::optional<Camera> userCamera(const ClientOptions& options, const std::map<uint32_t, Camera>& cameras,
-                                 const Bounds& bounds, size_t frame_index);
+std::optional<Camera> userCamera(const ClientOptions& options,
+                                 const std::map<uint32_t, Camera>& cameras, const Bounds& bounds,
+                                 size_t frame_index);
 
 // The pods' images a TextureBundle carries, decoded and each back in its
 // whole frame (pods send their foreground's rectangle), with the
 // calibration of its camera, and the feather map where one came (protocol
 // 1.2). An error names the camera and what is wrong: no calibration, a
 // plane that does not decode, images of the wrong size.
-protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& bundle,
-                                                          const std::map<uint32_t, Camera>& cameras);
+protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(
+    const protocol::TextureBundle& bundle, const std::map<uint32_t, Camera>& cameras);
 
 // The compressed bytes of a bundle's feather planes: what the feather maps
 // add to the client link.

@@ -47,8 +47,8 @@ double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_receiv
 // Per-stage budgets in ms (stage names of report.json, and "end_to_end"),
 // read from a JSON object {"hull": 40, "end_to_end": 300, ...}. A p95 over
 // its budget is a violation; a budgeted stage with no sample in the run is
-// reported as not measured (budget_unmeasured), never as within. Unknown names and non-numbers are refused with
-// the valid names listed.
+// reported as not measured (budget_unmeasured), never as within. Unknown names and non-numbers are
+// refused with the valid names listed.
 using Budget = std::map<std::string, double>;
 protocol::StatusOr<Budget> loadBudget(const std::string& path);
 // A command line's --budget FILE (none when path is empty): false after
@@ -85,7 +85,9 @@ class LatencyReport {
   const std::vector<FrameRecord>& frames() const { return frames_; }
   // The server's account of every pod's frames (Stats since 1.1), the
   // latest received: it covers frames no client rendered too.
-  void setServerArrivals(std::vector<protocol::PodArrivals> arrivals) { server_arrivals_ = std::move(arrivals); }
+  void setServerArrivals(std::vector<protocol::PodArrivals> arrivals) {
+    server_arrivals_ = std::move(arrivals);
+  }
   // Per pod, its RFC 3550 jitter of PodFrame arrival at the server, ms:
   // the server's over every frame when it sent it, else computed here over
   // the frames behind rendered meshes.
@@ -94,8 +96,10 @@ class LatencyReport {
   // The report as JSON text, and as a self-contained HTML page (latency
   // budget as stacked bars, GPU passes, bytes per link, per-pod jitter,
   // budget violations flagged).
-  std::string toJson(const std::map<std::string, std::string>& settings, const Budget& budget = {}) const;
-  std::string toHtml(const std::map<std::string, std::string>& settings, const Budget& budget = {}) const;
+  std::string toJson(const std::map<std::string, std::string>& settings,
+                     const Budget& budget = {}) const;
+  std::string toHtml(const std::map<std::string, std::string>& settings,
+                     const Budget& budget = {}) const;
 
  private:
   struct Violation {
@@ -109,7 +113,8 @@ class LatencyReport {
   bool stageMeasured(const std::string& name) const;
   double stagePercentile(const std::string& name, double p) const;
   std::map<uint16_t, std::vector<double>> stage_ms_;
-  std::map<uint16_t, std::vector<std::pair<double, double>>> transit_ms_;  // per pod: sent, received
+  std::map<uint16_t, std::vector<std::pair<double, double>>>
+      transit_ms_;  // per pod: sent, received
   std::vector<protocol::PodArrivals> server_arrivals_;
   std::map<std::string, std::vector<double>> gpu_ms_;
   std::vector<double> judge_ms_;

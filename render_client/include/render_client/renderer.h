@@ -19,13 +19,13 @@ namespace holofuse::render {
 
 struct BlendSettings {
   BlendMode mode = BlendMode::kNormal;
-  float alpha = 2.0f;                         // exponent of the normal weight
-  float depth_tolerance = 0.03f;              // metres behind the depth map still visible
-  glm::vec3 hole_color{0.5f, 0.5f, 0.5f};     // surface that no camera sees
-  std::vector<bool> camera_enabled;           // empty: all cameras take part
-  FieldParameters fields;                     // texture-field passes (holoportation, montage4d)
-  double lambda = 0.05;                       // montage4d: temporal rate at 30 fps (eq. 5)
-  double frame_interval_s = 1.0 / 30.0;       // montage4d: real time since the previous rendered frame
+  float alpha = 2.0f;                      // exponent of the normal weight
+  float depth_tolerance = 0.03f;           // metres behind the depth map still visible
+  glm::vec3 hole_color{0.5f, 0.5f, 0.5f};  // surface that no camera sees
+  std::vector<bool> camera_enabled;        // empty: all cameras take part
+  FieldParameters fields;                  // texture-field passes (holoportation, montage4d)
+  double lambda = 0.05;                    // montage4d: temporal rate at 30 fps (eq. 5)
+  double frame_interval_s = 1.0 / 30.0;    // montage4d: real time since the previous rendered frame
   // The per-fragment test of paper 004 (Li, Magnor, Seidel 2004, section
   // 4.4): mode fragment always takes it; the field modes multiply their
   // interpolated weights by it when fragment_test is set. A fragment is
@@ -45,22 +45,24 @@ struct BlendSettings {
 struct FieldSnapshot {
   uint32_t vertex_count = 0, camera_count = 0;
   std::vector<uint32_t> sights, trusted;
-  std::vector<float> depth_maps;  // [camera][y][x] of the pod images: camera-space depth, HOLOFUSE_NO_DEPTH where none
+  std::vector<float> depth_maps;  // [camera][y][x] of the pod images: camera-space depth,
+                                  // HOLOFUSE_NO_DEPTH where none
   // 1 where the vertex lies in the camera's dilated depth discontinuities;
   // computed only where it passes the depth test, 0 elsewhere.
   std::vector<uint32_t> discontinuities;
   uint32_t triangle_count = 0;
   std::vector<uint32_t> seams;           // [camera * triangle_count + triangle]: SeamRule bits
   std::vector<uint32_t> visible_counts;  // per camera: vertices seen and trusted
-  std::vector<float> distances;          // [camera * vertex_count + vertex]: geodesic distance (3e38: unreached)
-  float geodesic_scale = 0;              // distance that maps to gamma = 1
+  std::vector<float>
+      distances;  // [camera * vertex_count + vertex]: geodesic distance (3e38: unreached)
+  float geodesic_scale = 0;  // distance that maps to gamma = 1
   std::vector<float> weights;
 };
 
 struct ViewImages {
   Camera camera;
-  Image8 color;    // RGB
-  Image8 mask;     // grey, 255 foreground
+  Image8 color;  // RGB
+  Image8 mask;   // grey, 255 foreground
   // grey: distance to the silhouette's edge in pixels, 255 and beyond as
   // 255 (the pod's feather map); empty when none was sent (every pixel of
   // the mask weighs alike).
@@ -74,7 +76,8 @@ glm::mat4 worldToClip(const Camera& camera, double near_plane = 0.05, double far
 
 // Near and far planes that hold the box [lo, hi] as seen by camera, so any
 // scene scale (millimetres to kilometres) keeps its depth precision.
-std::pair<double, double> depthRange(const Camera& camera, const glm::dvec3& lo, const glm::dvec3& hi);
+std::pair<double, double> depthRange(const Camera& camera, const glm::dvec3& lo,
+                                     const glm::dvec3& hi);
 
 // What half-precision vertex storage keeps of a position or normal: each
 // component rounded to the nearest half, and halves too small to be normal
@@ -152,7 +155,7 @@ class Renderer {
   Buffer vertex_buffer_, index_buffer_;
   uint32_t index_count_ = 0;
   bool half_vertices_ = false, uploaded_half_ = false;  // asked for; what the vertex buffer holds
-  glm::dvec3 bounds_min_{-1.0}, bounds_max_{1.0};  // of the current mesh
+  glm::dvec3 bounds_min_{-1.0}, bounds_max_{1.0};       // of the current mesh
   // Pod views
   // The cameras that take part: those whose mask has foreground (all of
   // them when none has). A camera that sees none of the subject has every
@@ -162,9 +165,9 @@ class Renderer {
   std::vector<Camera> cameras_;
   std::vector<uint32_t> active_;
   std::vector<Camera> view_cameras_;  // every view given to setViews
-  std::vector<bool> subject_seen_;  // per view given to setViews: its mask has foreground
+  std::vector<bool> subject_seen_;    // per view given to setViews: its mask has foreground
   Image images_;
-  Image feathers_;  // one R8 layer per camera (config.h binding FEATHERS)
+  Image feathers_;     // one R8 layer per camera (config.h binding FEATHERS)
   Buffer depth_maps_;  // [camera][y][x] camera-space depth (config.h binding DEPTHS)
   Buffer staging_;
   bool depth_maps_stale_ = true;
@@ -183,7 +186,7 @@ class Renderer {
   // mesh's vertices to the previous mesh's.
   Buffer temporal_, carry_;
   uint32_t temporal_stride_ = 0;
-  uint32_t temporal_half_ = 0;  // the half holding the previous frame's field
+  uint32_t temporal_half_ = 0;               // the half holding the previous frame's field
   Mesh previous_surface_, current_surface_;  // positions and keys only
   bool carry_pending_ = false;
   bool carry_is_identity_ = false;
@@ -194,8 +197,8 @@ class Renderer {
     return p.geodesic_radius > 0 ? p.geodesic_radius : std::max(1, p.geodesic_rings) * mean_edge_;
   }
   // Texture-field buffers (config.h bindings 4 on).
-  Buffer discontinuities_, sights_, trusted_, weights_, seams_, visible_counts_, adjacency_, rings_, distances_, fans_,
-      worklist_, worklist_counts_, sight_bits_;
+  Buffer discontinuities_, sights_, trusted_, weights_, seams_, visible_counts_, adjacency_, rings_,
+      distances_, fans_, worklist_, worklist_counts_, sight_bits_;
   uint32_t triangle_count_ = 0;
   std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
   // Output

@@ -35,9 +35,9 @@ static_assert(sizeof(GeodesicFan) == 32);
 std::vector<GeodesicFan> geodesicFans(const Mesh& mesh, const std::vector<uint32_t>& adjacency);
 
 struct FieldParameters {
-  float relative_jump = 0.03f;           // discontinuity: relative depth step
-  int dilation_px = -1;                  // discontinuity: eps; -1: paper 000's 4 px at 2048 wide, scaled
-                                         // (reference::scaledDilationPx)
+  float relative_jump = 0.03f;  // discontinuity: relative depth step
+  int dilation_px = -1;         // discontinuity: eps; -1: paper 000's 4 px at 2048 wide, scaled
+                                // (reference::scaledDilationPx)
   float relative_depth_tolerance = 0.015f;
   // The majority vote's delta; 0: no vote, every visible view trusted.
   // Paper 000's vote (delta = 0.15) rejects a view whose colour disagrees;
@@ -99,7 +99,8 @@ struct ComputePush {
   uint32_t temporal_stride;
 };
 static_assert(sizeof(ComputePush) == 64);
-static_assert(HOLOFUSE_COMPUTE_PUSH_OFFSET + sizeof(ComputePush) <= 128, "lavapipe allows 128 bytes");
+static_assert(HOLOFUSE_COMPUTE_PUSH_OFFSET + sizeof(ComputePush) <= 128,
+              "lavapipe allows 128 bytes");
 
 // The largest geodesic reach in rings (k) the packed ring field holds.
 constexpr int kMaxGeodesicRings = 64;
@@ -128,8 +129,8 @@ class TextureFieldPasses {
   // Stage 1: clears depth_maps ([camera][y][x] float bits) to
   // HOLOFUSE_NO_DEPTH and rasterises every triangle into every camera's
   // map; a barrier makes them readable to compute and fragment shaders.
-  void recordDepthMaps(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t triangle_count, uint32_t camera_count,
-                       uint32_t width, uint32_t height, VkBuffer depth_maps);
+  void recordDepthMaps(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t triangle_count,
+                       uint32_t camera_count, uint32_t width, uint32_t height, VkBuffer depth_maps);
   // Records stages 2 to 4 and the Holoportation field for the bound set,
   // with a barrier between dependent dispatches and one at the end that
   // makes the weights visible to the vertex shader.
@@ -140,14 +141,15 @@ class TextureFieldPasses {
     VkBuffer worklist_counts;  // indirect dispatch sizes, set to empty lists
     VkBuffer seams;            // zero where the mode computes no seams (holoportation)
   };
-  void record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count, uint32_t triangle_count,
-              uint32_t camera_count, uint32_t width, uint32_t height, const FieldParameters& parameters,
-              const ResetBuffers& reset);
+  void record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
+              uint32_t triangle_count, uint32_t camera_count, uint32_t width, uint32_t height,
+              const FieldParameters& parameters, const ResetBuffers& reset);
 
   // Stages 8 to 10 of Montage4D for one rendered view (per frame, after the
   // per-mesh passes): target, temporal and normalised fields.
-  void recordMontage(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count, uint32_t camera_count,
-                     const FieldParameters& parameters, float geodesic_scale, uint32_t temporal_stride);
+  void recordMontage(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
+                     uint32_t camera_count, const FieldParameters& parameters, float geodesic_scale,
+                     uint32_t temporal_stride);
 
   // GPU milliseconds of each pass in the last recorded run (after the
   // submission finished), in pass order, named as in stageNames(); -1 for
@@ -156,7 +158,9 @@ class TextureFieldPasses {
   std::vector<double> lastTimesMs() const;
   static const std::vector<std::string>& stageNames();
   // Which half of the ping-pong buffers holds the final distances.
-  static uint32_t finalDistanceHalf(const FieldParameters& p) { return static_cast<uint32_t>(p.geodesic_iterations) % 2; }
+  static uint32_t finalDistanceHalf(const FieldParameters& p) {
+    return static_cast<uint32_t>(p.geodesic_iterations) % 2;
+  }
 
  private:
   VkPipeline create(const uint32_t* code, size_t bytes);
@@ -164,15 +168,17 @@ class TextureFieldPasses {
 
   VulkanContext& ctx_;
   VkPipelineLayout layout_;
-  VkPipeline depth_raster_ = VK_NULL_HANDLE, discontinuity_ = VK_NULL_HANDLE, visibility_ = VK_NULL_HANDLE,
-             seams_ = VK_NULL_HANDLE, global_visibility_ = VK_NULL_HANDLE, geodesic_seed_ = VK_NULL_HANDLE,
+  VkPipeline depth_raster_ = VK_NULL_HANDLE, discontinuity_ = VK_NULL_HANDLE,
+             visibility_ = VK_NULL_HANDLE, seams_ = VK_NULL_HANDLE,
+             global_visibility_ = VK_NULL_HANDLE, geodesic_seed_ = VK_NULL_HANDLE,
              geodesic_distance_ = VK_NULL_HANDLE, montage_ = VK_NULL_HANDLE, vote_ = VK_NULL_HANDLE,
              field_ = VK_NULL_HANDLE;
   VkQueryPool queries_ = VK_NULL_HANDLE;
   double timestamp_period_ns_ = 1.0;
   bool recorded_ = false;
-  bool field_stamp_pending_ = false;  // record() ran for montage4d: recordMontage writes the last stamp
-  bool geodesics_recorded_ = false;   // the last record() ran the seams and geodesics
+  bool field_stamp_pending_ =
+      false;  // record() ran for montage4d: recordMontage writes the last stamp
+  bool geodesics_recorded_ = false;  // the last record() ran the seams and geodesics
 };
 
 }  // namespace holofuse::render

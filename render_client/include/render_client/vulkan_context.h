@@ -13,10 +13,11 @@ namespace holofuse::render {
 
 // Vulkan failures are programmer or platform errors at this level: they
 // throw with the call, the result code and the place.
-#define HOLOFUSE_VK_CHECK(call)                                                              \
-  do {                                                                                       \
-    const VkResult holofuse_vk_result_ = (call);                                             \
-    if (holofuse_vk_result_ != VK_SUCCESS) ::holofuse::render::vkFail(#call, holofuse_vk_result_, __FILE__, __LINE__); \
+#define HOLOFUSE_VK_CHECK(call)                                                   \
+  do {                                                                            \
+    const VkResult holofuse_vk_result_ = (call);                                  \
+    if (holofuse_vk_result_ != VK_SUCCESS)                                        \
+      ::holofuse::render::vkFail(#call, holofuse_vk_result_, __FILE__, __LINE__); \
   } while (0)
 
 [[noreturn]] void vkFail(const char* call, VkResult result, const char* file, int line);
@@ -60,8 +61,9 @@ class VulkanContext {
 
   Buffer createBuffer(VkDeviceSize size, VkBufferUsageFlags usage);
   void destroy(Buffer& buffer);
-  Image createImage(uint32_t width, uint32_t height, uint32_t layers, VkFormat format, VkImageUsageFlags usage,
-                    VkImageAspectFlags aspect, bool array_view, uint32_t mip_levels = 1);
+  Image createImage(uint32_t width, uint32_t height, uint32_t layers, VkFormat format,
+                    VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array_view,
+                    uint32_t mip_levels = 1);
   void destroy(Image& image);
   VkShaderModule createShader(const uint32_t* code, size_t bytes);
 
@@ -90,9 +92,10 @@ class VulkanContext {
 
 // One image layout transition (all layers, mip levels first_level onwards,
 // count levels) as a pipeline barrier.
-void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect, VkImageLayout from,
-                     VkImageLayout to, VkAccessFlags src_access, VkAccessFlags dst_access,
-                     VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage, uint32_t first_level = 0,
+void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect,
+                     VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
+                     VkAccessFlags dst_access, VkPipelineStageFlags src_stage,
+                     VkPipelineStageFlags dst_stage, uint32_t first_level = 0,
                      uint32_t level_count = VK_REMAINING_MIP_LEVELS);
 
 }  // namespace holofuse::render

@@ -13,8 +13,8 @@ namespace {
 
 // Where the ray o + t d meets triangle (a, b, c): barycentrics of b and c
 // (Moller-Trumbore), or false when it misses the triangle's plane.
-bool rayBarycentrics(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& a, const glm::dvec3& b,
-                     const glm::dvec3& c, double& u, double& v) {
+bool rayBarycentrics(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& a,
+                     const glm::dvec3& b, const glm::dvec3& c, double& u, double& v) {
   const glm::dvec3 e1 = b - a, e2 = c - a, p = glm::cross(d, e2);
   const double det = glm::dot(e1, p);
   if (std::abs(det) < 1e-300) return false;
@@ -26,7 +26,8 @@ bool rayBarycentrics(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3&
 
 // Where p lands in the pod's image as texture coordinates, with its depth
 // along the pod's axis; false behind the pod or off the image.
-bool textureCoordinates(const Camera& camera, const glm::dvec3& p, double& u, double& v, double& depth) {
+bool textureCoordinates(const Camera& camera, const glm::dvec3& p, double& u, double& v,
+                        double& depth) {
   const auto pixel = camera.project(p);
   if (!pixel || pixel->z <= 1e-6) return false;
   u = pixel->x / camera.width;
@@ -59,10 +60,12 @@ glm::dvec4 sampleBilinear(const PodView& view, double u, double v) {
   // coverage: the foreground's colours only.
   const glm::dvec4 sum = bilinear(view.color.width, view.color.height, u, v, [&](size_t i) {
     const double a = view.mask.pixels[i] / 255.0;
-    return glm::dvec4(a * view.color.pixels[3 * i] / 255.0, a * view.color.pixels[3 * i + 1] / 255.0,
+    return glm::dvec4(a * view.color.pixels[3 * i] / 255.0,
+                      a * view.color.pixels[3 * i + 1] / 255.0,
                       a * view.color.pixels[3 * i + 2] / 255.0, a);
   });
-  return sum.a > 1e-6 ? glm::dvec4(glm::dvec3(sum) / sum.a, sum.a) : glm::dvec4(0.0, 0.0, 0.0, sum.a);
+  return sum.a > 1e-6 ? glm::dvec4(glm::dvec3(sum) / sum.a, sum.a)
+                      : glm::dvec4(0.0, 0.0, 0.0, sum.a);
 }
 
 double sampleFeather(const PodView& view, double u, double v) {
@@ -73,23 +76,30 @@ double sampleFeather(const PodView& view, double u, double v) {
     throw std::invalid_argument("reference blend: camera " + std::to_string(view.camera.id) +
                                 "'s feather map is not one grey plane the size of its mask");
   }
-  return bilinear(view.mask.width, view.mask.height, u, v, [&](size_t i) {
-           return glm::dvec4(sent ? view.feather.pixels[i] : (view.mask.pixels[i] != 0 ? 255.0 : 0.0));
-         }).x;
+  return bilinear(view.mask.width, view.mask.height, u, v,
+                  [&](size_t i) {
+                    return glm::dvec4(sent ? view.feather.pixels[i]
+                                           : (view.mask.pixels[i] != 0 ? 255.0 : 0.0));
+                  })
+      .x;
 }
 
-double sightAndFeather(const PodView& view, double u, double v, double depth, double stored_depth, double mask,
-                       const BlendOptions& options) {
+double sightAndFeather(const PodView& view, double u, double v, double depth, double stored_depth,
+                       double mask, const BlendOptions& options) {
   if (mask < 0.5) return 0.0;
-  if (depth > stored_depth * (1.0 + options.relative_depth_tolerance) + options.depth_slack) return 0.0;
+  if (depth > stored_depth * (1.0 + options.relative_depth_tolerance) + options.depth_slack)
+    return 0.0;
   if (!(options.feather_width_px > 0)) return 1.0;
   return std::clamp(sampleFeather(view, u, v) / options.feather_width_px, 0.0, 1.0);
 }
 
-Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std::vector<std::vector<double>>& weights,
-                 const Camera& user, const BlendOptions& options, BlendPaths* paths) {
+Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views,
+                 const std::vector<std::vector<double>>& weights, const Camera& user,
+                 const BlendOptions& options, BlendPaths* paths) {
   BlendPaths counted;
-  auto enabled = [&](size_t i) { return options.camera_enabled.empty() || options.camera_enabled.at(i); };
+  auto enabled = [&](size_t i) {
+    return options.camera_enabled.empty() || options.camera_enabled.at(i);
+  };
   std::vector<int32_t> triangle_of;
   (void)rasterizeDepth(mesh, user, 0.05, &triangle_of);
   // Each pod's depth map, for the fallback's occlusion test; a pod whose
@@ -98,7 +108,8 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std:
   std::vector<bool> sees_subject;
   for (const auto& view : views) {
     maps.push_back(rasterizeDepth(mesh, view.camera));
-    sees_subject.push_back(std::any_of(view.mask.pixels.begin(), view.mask.pixels.end(), [](uint8_t m) { return m != 0; }));
+    sees_subject.push_back(std::any_of(view.mask.pixels.begin(), view.mask.pixels.end(),
+                                       [](uint8_t m) { return m != 0; }));
   }
   Image8 out(user.width, user.height, 4, 0);
   for (uint32_t y = 0; y < user.height; ++y) {
@@ -106,21 +117,25 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std:
       const size_t pixel = static_cast<size_t>(y) * user.width + x;
       const int32_t t = triangle_of[pixel];
       if (t < 0) continue;
-      const uint32_t ia = mesh.indices[3 * t], ib = mesh.indices[3 * t + 1], ic = mesh.indices[3 * t + 2];
+      const uint32_t ia = mesh.indices[3 * t], ib = mesh.indices[3 * t + 1],
+                     ic = mesh.indices[3 * t + 2];
       double bu = 0, bv = 0;
-      if (!rayBarycentrics(user.center(), user.rayDirection(x + 0.5, y + 0.5), glm::dvec3(mesh.positions[ia]),
-                           glm::dvec3(mesh.positions[ib]), glm::dvec3(mesh.positions[ic]), bu, bv)) {
+      if (!rayBarycentrics(user.center(), user.rayDirection(x + 0.5, y + 0.5),
+                           glm::dvec3(mesh.positions[ia]), glm::dvec3(mesh.positions[ib]),
+                           glm::dvec3(mesh.positions[ic]), bu, bv)) {
         continue;
       }
       const double ba = 1.0 - bu - bv;
       auto interpolate = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
         return ba * a + bu * b + bv * c;
       };
-      const glm::dvec3 p = interpolate(glm::dvec3(mesh.positions[ia]), glm::dvec3(mesh.positions[ib]),
-                                       glm::dvec3(mesh.positions[ic]));
+      const glm::dvec3 p =
+          interpolate(glm::dvec3(mesh.positions[ia]), glm::dvec3(mesh.positions[ib]),
+                      glm::dvec3(mesh.positions[ic]));
       glm::dvec3 n(0.0);
       if (mesh.normals.size() == mesh.positions.size()) {
-        n = interpolate(glm::dvec3(mesh.normals[ia]), glm::dvec3(mesh.normals[ib]), glm::dvec3(mesh.normals[ic]));
+        n = interpolate(glm::dvec3(mesh.normals[ia]), glm::dvec3(mesh.normals[ib]),
+                        glm::dvec3(mesh.normals[ic]));
         const double length = glm::length(n);
         n = length > 1e-12 && std::isfinite(length) ? n / length : glm::dvec3(0.0);
       }
@@ -137,19 +152,25 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std:
         // Paper 004 eqs. 2 to 4, summed in the log domain against the
         // largest weight (as the shader does), the view term over 2^beta.
         const double eye_distance = glm::length(user.center() - p);
-        const glm::dvec3 d_v = eye_distance > 1e-20 ? (user.center() - p) / eye_distance : glm::dvec3(0.0);
+        const glm::dvec3 d_v =
+            eye_distance > 1e-20 ? (user.center() - p) / eye_distance : glm::dvec3(0.0);
         double largest = -std::numeric_limits<double>::infinity();
         for (size_t i = 0; i < views.size(); ++i) {
           double u = 0, v = 0, depth = 0;
-          if (!enabled(i) || !sees_subject[i] || !textureCoordinates(views[i].camera, p, u, v, depth)) continue;
+          if (!enabled(i) || !sees_subject[i] ||
+              !textureCoordinates(views[i].camera, p, u, v, depth))
+            continue;
           const glm::dvec4 texel = sampleBilinear(views[i], u, v);
-          const double sight = sightAndFeather(views[i], u, v, depth, storedDepth(i, u, v), texel.a, options);
+          const double sight =
+              sightAndFeather(views[i], u, v, depth, storedDepth(i, u, v), texel.a, options);
           const double camera_distance = glm::length(views[i].camera.center() - p);
-          const glm::dvec3 d_k =
-              camera_distance > 1e-20 ? (views[i].camera.center() - p) / camera_distance : glm::dvec3(0.0);
+          const glm::dvec3 d_k = camera_distance > 1e-20
+                                     ? (views[i].camera.center() - p) / camera_distance
+                                     : glm::dvec3(0.0);
           const double obliqueness = std::min(glm::dot(d_k, n), 1.0);
           const double direction = std::min(0.5 * (glm::dot(d_k, d_v) + 1.0), 1.0);
-          if (!(sight > 0) || !(obliqueness > 0) || (!(direction > 0) && options.beta > 0)) continue;
+          if (!(sight > 0) || !(obliqueness > 0) || (!(direction > 0) && options.beta > 0))
+            continue;
           const double log_w = std::log(sight) + options.alpha * std::log(obliqueness) +
                                (options.beta > 0 ? options.beta * std::log(direction) : 0.0);
           if (!std::isfinite(log_w)) continue;
@@ -168,12 +189,14 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std:
       for (size_t i = 0; i < weights.size() && !options.fragment_mode; ++i) {
         double w = ba * weights[i][ia] + bu * weights[i][ib] + bv * weights[i][ic];
         double u = 0, v = 0, depth = 0;
-        if (!enabled(i) || !(w > 0) || !textureCoordinates(views[i].camera, p, u, v, depth)) continue;
+        if (!enabled(i) || !(w > 0) || !textureCoordinates(views[i].camera, p, u, v, depth))
+          continue;
         const glm::dvec4 texel = sampleBilinear(views[i], u, v);
         // Never the pod's background; with the per-fragment test, also not
         // behind its depth map, and feathered towards its silhouette's edge.
-        w *= options.fragment_test ? sightAndFeather(views[i], u, v, depth, storedDepth(i, u, v), texel.a, options)
-                                   : (texel.a < 0.5 ? 0.0 : 1.0);
+        w *= options.fragment_test
+                 ? sightAndFeather(views[i], u, v, depth, storedDepth(i, u, v), texel.a, options)
+                 : (texel.a < 0.5 ? 0.0 : 1.0);
         if (!(w > 0)) continue;
         sum += w * glm::dvec3(texel);
         total += w;
@@ -187,8 +210,10 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std:
         for (size_t i = 0; i < views.size(); ++i) {
           const Camera& camera = views[i].camera;
           double u = 0, v = 0, depth = 0;
-          if (!enabled(i) || !sees_subject[i] || !textureCoordinates(camera, p, u, v, depth)) continue;
-          if (depth > storedDepth(i, u, v) + options.depth_tolerance) continue;  // occluded from pod i
+          if (!enabled(i) || !sees_subject[i] || !textureCoordinates(camera, p, u, v, depth))
+            continue;
+          if (depth > storedDepth(i, u, v) + options.depth_tolerance)
+            continue;  // occluded from pod i
           const glm::dvec4 texel = sampleBilinear(views[i], u, v);
           if (texel.a < 0.5) continue;
           const double c = glm::dot(n, glm::normalize(camera.center() - p));
@@ -200,7 +225,8 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std:
       const glm::dvec3 colour = total > 1e-8 ? sum / total : options.hole_color;
       ++(by_fields ? counted.fields : total > 1e-8 ? counted.fallback : counted.holes);
       for (int k = 0; k < 3; ++k) {
-        out.pixels[4 * pixel + k] = static_cast<uint8_t>(std::lround(std::clamp(colour[k], 0.0, 1.0) * 255.0));
+        out.pixels[4 * pixel + k] =
+            static_cast<uint8_t>(std::lround(std::clamp(colour[k], 0.0, 1.0) * 255.0));
       }
       out.pixels[4 * pixel + 3] = 255;
     }

@@ -5,7 +5,8 @@
 
 namespace holofuse::render::reference {
 
-std::vector<uint8_t> dilatedDiscontinuities(const DepthMap& map, const DiscontinuityOptions& options) {
+std::vector<uint8_t> dilatedDiscontinuities(const DepthMap& map,
+                                            const DiscontinuityOptions& options) {
   const int w = static_cast<int>(map.width), h = static_cast<int>(map.height);
   std::vector<uint8_t> edge(static_cast<size_t>(w) * h, 0);
   for (int y = 0; y < h; ++y) {
@@ -24,7 +25,8 @@ std::vector<uint8_t> dilatedDiscontinuities(const DepthMap& map, const Discontin
       }
     }
   }
-  const int r = options.dilation_px == kDilationScaledToWidth ? scaledDilationPx(w) : std::max(0, options.dilation_px);
+  const int r = options.dilation_px == kDilationScaledToWidth ? scaledDilationPx(w)
+                                                              : std::max(0, options.dilation_px);
   std::vector<uint8_t> dilated(edge.size(), 0);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {

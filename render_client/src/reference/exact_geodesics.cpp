@@ -2,12 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <glm/glm.hpp>
 #include <limits>
 #include <numbers>
 #include <queue>
 #include <unordered_map>
-
-#include <glm/glm.hpp>
 
 namespace holofuse::render::reference {
 namespace {
@@ -148,7 +147,8 @@ class BeamCaster {
     } else if (!past_right) {
       stack_.push_back({c, beam.b, g, pc, beam.pb, right, left});  // c lies clockwise of every ray
     } else {
-      stack_.push_back({beam.a, c, g, beam.pa, pc, right, left});  // c lies counter-clockwise of every ray
+      stack_.push_back(
+          {beam.a, c, g, beam.pa, pc, right, left});  // c lies counter-clockwise of every ray
     }
   }
 
@@ -172,7 +172,8 @@ std::vector<uint8_t> bendVertices(const Mesh& mesh) {
       const glm::dvec3 eu = glm::dvec3(mesh.positions[u]) - glm::dvec3(mesh.positions[p]);
       const glm::dvec3 ew = glm::dvec3(mesh.positions[w]) - glm::dvec3(mesh.positions[p]);
       const double lu = glm::length(eu), lw = glm::length(ew);
-      if (lu > 0 && lw > 0) angle_sum[p] += std::acos(std::clamp(glm::dot(eu, ew) / (lu * lw), -1.0, 1.0));
+      if (lu > 0 && lw > 0)
+        angle_sum[p] += std::acos(std::clamp(glm::dot(eu, ew) / (lu * lw), -1.0, 1.0));
     }
   }
   for (const auto& [key, uses] : edge_uses) {
@@ -184,7 +185,8 @@ std::vector<uint8_t> bendVertices(const Mesh& mesh) {
   return bend;
 }
 
-std::vector<double> exactGeodesic(const Mesh& mesh, const std::vector<uint8_t>& is_source, double max_distance) {
+std::vector<double> exactGeodesic(const Mesh& mesh, const std::vector<uint8_t>& is_source,
+                                  double max_distance) {
   const size_t n = mesh.vertexCount();
   const Topology topology(mesh);
   const std::vector<uint8_t> bend = bendVertices(mesh);

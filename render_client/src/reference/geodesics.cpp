@@ -76,10 +76,12 @@ std::vector<double> approximateGeodesic(const Mesh& mesh, const std::vector<uint
       const uint32_t v[3] = {mesh.indices[3 * t], mesh.indices[3 * t + 1], mesh.indices[3 * t + 2]};
       for (int k = 0; k < 3; ++k) {
         const uint32_t c = v[k];
-        if (!options.region.empty() && !options.region[c]) continue;  // never updated, as on the GPU
+        if (!options.region.empty() && !options.region[c])
+          continue;  // never updated, as on the GPU
         for (int j = 1; j < 3; ++j) {
           const uint32_t w = v[(k + j) % 3];
-          if (ring[w] < options.max_rings && std::isfinite(distance[w])) next_ring[c] = std::min(next_ring[c], ring[w] + 1);
+          if (ring[w] < options.max_rings && std::isfinite(distance[w]))
+            next_ring[c] = std::min(next_ring[c], ring[w] + 1);
         }
       }
     }
@@ -97,7 +99,8 @@ std::vector<double> approximateGeodesic(const Mesh& mesh, const std::vector<uint
             next_source[c] = from;
           }
         };
-        const double ab = edgeLength(mesh, a, b), ac = edgeLength(mesh, a, c), bc = edgeLength(mesh, b, c);
+        const double ab = edgeLength(mesh, a, b), ac = edgeLength(mesh, a, c),
+                     bc = edgeLength(mesh, b, c);
         if (source_of[a] == source_of[b]) {
           offer(unfoldedDistance(ab, ac, bc, distance[a], distance[b]), source_of[a]);
         } else {
@@ -147,12 +150,13 @@ std::vector<double> edgeGraphDistance(const Mesh& mesh, const std::vector<uint8_
   return distance;
 }
 
-std::vector<double> normalizedGeodesic(const Mesh& mesh, const std::vector<double>& distance, int max_rings,
-                                       double max_distance) {
+std::vector<double> normalizedGeodesic(const Mesh& mesh, const std::vector<double>& distance,
+                                       int max_rings, double max_distance) {
   if (!(max_distance > 0)) max_distance = std::max(1, max_rings) * meanEdgeLength(mesh);
   std::vector<double> gamma(distance.size(), 1.0);
   for (size_t v = 0; v < distance.size(); ++v) {
-    if (std::isfinite(distance[v]) && max_distance > 0) gamma[v] = std::clamp(distance[v] / max_distance, 0.0, 1.0);
+    if (std::isfinite(distance[v]) && max_distance > 0)
+      gamma[v] = std::clamp(distance[v] / max_distance, 0.0, 1.0);
   }
   return gamma;
 }

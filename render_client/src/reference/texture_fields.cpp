@@ -11,7 +11,9 @@ glm::dvec3 unitOrZero(const glm::dvec3& v) {
   return (std::isfinite(len) && len > 0) ? v / len : glm::dvec3(0.0);
 }
 
-Field zeros(size_t cameras, size_t vertices) { return Field(cameras, std::vector<double>(vertices, 0.0)); }
+Field zeros(size_t cameras, size_t vertices) {
+  return Field(cameras, std::vector<double>(vertices, 0.0));
+}
 
 }  // namespace
 
@@ -37,8 +39,9 @@ Field holoportationField(const Mesh& mesh, const std::vector<Camera>& cameras,
 }
 
 Field montageTargetField(const Mesh& mesh, const std::vector<Camera>& cameras,
-                         const std::vector<std::vector<uint8_t>>& visible, const std::vector<double>& global_visibility,
-                         const Field& geodesic, const glm::dvec3& user_eye, double beta) {
+                         const std::vector<std::vector<uint8_t>>& visible,
+                         const std::vector<double>& global_visibility, const Field& geodesic,
+                         const glm::dvec3& user_eye, double beta) {
   Field field = zeros(cameras.size(), mesh.vertexCount());
   for (size_t i = 0; i < cameras.size(); ++i) {
     const glm::dvec3 center = cameras[i].center();
@@ -46,8 +49,10 @@ Field montageTargetField(const Mesh& mesh, const std::vector<Camera>& cameras,
     for (size_t v = 0; v < mesh.vertexCount(); ++v) {
       if (!visible[i][v]) continue;
       const glm::dvec3 p(mesh.positions[v]);
-      const double gamma = std::isfinite(geodesic[i][v]) ? std::clamp(geodesic[i][v], 0.0, 1.0) : 0.0;
-      field[i][v] = g * gamma * clampedPower(glm::dot(unitOrZero(p - user_eye), unitOrZero(p - center)), beta);
+      const double gamma =
+          std::isfinite(geodesic[i][v]) ? std::clamp(geodesic[i][v], 0.0, 1.0) : 0.0;
+      field[i][v] = g * gamma *
+                    clampedPower(glm::dot(unitOrZero(p - user_eye), unitOrZero(p - center)), beta);
     }
   }
   return field;
@@ -72,7 +77,8 @@ void temporalUpdate(Field& temporal, const Field& target, double lambda,
   }
 }
 
-BlendWeights normalizeFields(const Field& temporal, const Field& geodesic, const Field& normal_weighted) {
+BlendWeights normalizeFields(const Field& temporal, const Field& geodesic,
+                             const Field& normal_weighted) {
   const size_t cameras = temporal.size();
   const size_t vertices = cameras ? temporal[0].size() : 0;
   BlendWeights out;

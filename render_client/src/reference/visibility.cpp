@@ -71,10 +71,13 @@ glm::dvec3 sampleLevel(const Pyramid& p, int l, double u, double v) {
 }
 
 double linearize(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
-double labF(double t) { return t > 216.0 / 24389.0 ? std::cbrt(t) : (24389.0 / 27.0 * t + 16.0) / 116.0; }
+double labF(double t) {
+  return t > 216.0 / 24389.0 ? std::cbrt(t) : (24389.0 / 27.0 * t + 16.0) / 116.0;
+}
 
 glm::dvec3 labOf(const glm::dvec3& rgb) {
-  const double r = linearize(rgb.x / 255.0), g = linearize(rgb.y / 255.0), b = linearize(rgb.z / 255.0);
+  const double r = linearize(rgb.x / 255.0), g = linearize(rgb.y / 255.0),
+               b = linearize(rgb.z / 255.0);
   // sRGB (D65) to XYZ, normalised by the D65 white.
   const double x = (0.4124564 * r + 0.3575761 * g + 0.1804375 * b) / 0.95047;
   const double y = (0.2126729 * r + 0.7151522 * g + 0.0721750 * b) / 1.0;
@@ -89,7 +92,8 @@ glm::dvec3 srgbToLab(const uint8_t* rgb) { return labOf(glm::dvec3(rgb[0], rgb[1
 
 std::vector<std::vector<Sight>> vertexSights(const Mesh& mesh, const std::vector<PodView>& views,
                                              const VisibilityOptions& options) {
-  std::vector<std::vector<Sight>> sights(views.size(), std::vector<Sight>(mesh.vertexCount(), Sight::kBehind));
+  std::vector<std::vector<Sight>> sights(views.size(),
+                                         std::vector<Sight>(mesh.vertexCount(), Sight::kBehind));
   for (size_t i = 0; i < views.size(); ++i) {
     const Camera& cam = views[i].camera;
     const DepthMap depth = rasterizeDepth(mesh, cam);
@@ -160,8 +164,9 @@ std::vector<std::vector<uint8_t>> majorityVote(const Mesh& mesh, const std::vect
   return trusted;
 }
 
-std::vector<std::vector<uint8_t>> finalVisibility(const std::vector<std::vector<Sight>>& sights,
-                                                  const std::vector<std::vector<uint8_t>>& trusted) {
+std::vector<std::vector<uint8_t>> finalVisibility(
+    const std::vector<std::vector<Sight>>& sights,
+    const std::vector<std::vector<uint8_t>>& trusted) {
   std::vector<std::vector<uint8_t>> visible(sights.size());
   for (size_t i = 0; i < sights.size(); ++i) {
     visible[i].resize(sights[i].size());
@@ -172,9 +177,11 @@ std::vector<std::vector<uint8_t>> finalVisibility(const std::vector<std::vector<
   return visible;
 }
 
-std::vector<std::vector<uint8_t>> seamTriangles(const Mesh& mesh, const std::vector<std::vector<Sight>>& sights,
+std::vector<std::vector<uint8_t>> seamTriangles(const Mesh& mesh,
+                                                const std::vector<std::vector<Sight>>& sights,
                                                 const std::vector<std::vector<uint8_t>>& trusted) {
-  std::vector<std::vector<uint8_t>> seams(sights.size(), std::vector<uint8_t>(mesh.triangleCount(), 0));
+  std::vector<std::vector<uint8_t>> seams(sights.size(),
+                                          std::vector<uint8_t>(mesh.triangleCount(), 0));
   for (size_t i = 0; i < sights.size(); ++i) {
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
       int in_view = 0, occluded = 0, seen = 0, seen_trusted = 0;

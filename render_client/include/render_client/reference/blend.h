@@ -23,10 +23,12 @@
 namespace holofuse::render::reference {
 
 struct BlendOptions {
-  double alpha = 2.0;            // exponent of the normal weight (mode fragment's obliqueness too)
-  double depth_tolerance = 0.03; // metres behind a pod's depth map still visible to the normal blend
+  double alpha = 2.0;  // exponent of the normal weight (mode fragment's obliqueness too)
+  double depth_tolerance =
+      0.03;  // metres behind a pod's depth map still visible to the normal blend
   glm::dvec3 hole_color{0.5, 0.5, 0.5};
-  std::vector<bool> camera_enabled;  // per view; empty: every camera (BlendSettings::camera_enabled)
+  std::vector<bool>
+      camera_enabled;  // per view; empty: every camera (BlendSettings::camera_enabled)
   // Paper 004's per-fragment test (render::BlendSettings): visible within
   // relative_depth_tolerance of the depth plus depth_slack metres of the
   // pod's depth map and inside its mask; feather weight min(1, feather /
@@ -56,14 +58,15 @@ double sampleFeather(const PodView& view, double u, double v);
 // Paper 004's V_k * F_k of a point at depth (along the pod's axis) that
 // lands at (u, v) in the pod's image, given the pod's depth map there and
 // its colour and mask sampled there.
-double sightAndFeather(const PodView& view, double u, double v, double depth, double stored_depth, double mask,
-                       const BlendOptions& options);
+double sightAndFeather(const PodView& view, double u, double v, double depth, double stored_depth,
+                       double mask, const BlendOptions& options);
 
 // The user's view, width x height of the user camera, RGBA: alpha 255
 // where the mesh covers the pixel, 0 (and black) elsewhere. weights:
 // [camera][vertex] normalised per-vertex fields of holoportation or
 // montage4d; empty for mode normal (the normal-weighted blend everywhere).
-Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views, const std::vector<std::vector<double>>& weights,
-                 const Camera& user, const BlendOptions& options = {}, BlendPaths* paths = nullptr);
+Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views,
+                 const std::vector<std::vector<double>>& weights, const Camera& user,
+                 const BlendOptions& options = {}, BlendPaths* paths = nullptr);
 
 }  // namespace holofuse::render::reference

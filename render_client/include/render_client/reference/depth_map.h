@@ -30,12 +30,13 @@ int scaledDilationPx(int image_width);
 
 struct DiscontinuityOptions {
   int dilation_px = kDilationScaledToWidth;  // eps in pixels, or scaled from the paper's
-  double relative_jump = 0.03;   // a neighbour this much farther (relative) is a discontinuity
+  double relative_jump = 0.03;  // a neighbour this much farther (relative) is a discontinuity
 };
 
 // 1 where a pixel lies within dilation_px of a depth discontinuity in
-// both x and y (the square window of radius eps, separable on the GPU): a surface pixel whose 4-neighbour is empty or differs in
-// depth by more than relative_jump times the nearer depth.
-std::vector<uint8_t> dilatedDiscontinuities(const DepthMap& map, const DiscontinuityOptions& options = {});
+// both x and y (the square window of radius eps, separable on the GPU): a surface pixel whose
+// 4-neighbour is empty or differs in depth by more than relative_jump times the nearer depth.
+std::vector<uint8_t> dilatedDiscontinuities(const DepthMap& map,
+                                            const DiscontinuityOptions& options = {});
 
 }  // namespace holofuse::render::reference

@@ -28,7 +28,8 @@ namespace holofuse::render::reference {
 // Distance over the surface from the nearest source vertex to every vertex,
 // +infinity beyond max_distance (and where the surface does not connect).
 // Edges with more than two triangles are treated as boundaries.
-std::vector<double> exactGeodesic(const Mesh& mesh, const std::vector<uint8_t>& is_source, double max_distance);
+std::vector<double> exactGeodesic(const Mesh& mesh, const std::vector<uint8_t>& is_source,
+                                  double max_distance);
 
 // Vertices where a shortest path may bend: angle sum above 2 pi, or on a
 // boundary.

@@ -46,7 +46,7 @@ double unfoldedDistance(double ab, double ac, double bc, double da, double db);
 // gamma of eq. 4: distance / max_distance, clamped to [0, 1]; 1 where the
 // seams are out of reach. max_distance <= 0 picks max_rings mean edge
 // lengths.
-std::vector<double> normalizedGeodesic(const Mesh& mesh, const std::vector<double>& distance, int max_rings,
-                                       double max_distance = 0.0);
+std::vector<double> normalizedGeodesic(const Mesh& mesh, const std::vector<double>& distance,
+                                       int max_rings, double max_distance = 0.0);
 
 }  // namespace holofuse::render::reference

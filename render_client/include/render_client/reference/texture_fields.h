@@ -29,8 +29,9 @@ Field holoportationField(const Mesh& mesh, const std::vector<Camera>& cameras,
 // paper's exponent is named alpha; here it is the view weight's exponent,
 // beta, as in mode fragment: BlendSettings::beta.)
 Field montageTargetField(const Mesh& mesh, const std::vector<Camera>& cameras,
-                         const std::vector<std::vector<uint8_t>>& visible, const std::vector<double>& global_visibility,
-                         const Field& geodesic, const glm::dvec3& user_eye, double beta);
+                         const std::vector<std::vector<uint8_t>>& visible,
+                         const std::vector<double>& global_visibility, const Field& geodesic,
+                         const glm::dvec3& user_eye, double beta);
 
 // The per-frame lambda for a frame interval of dt seconds, so that the
 // field decays by as much per second as lambda_reference does per frame at
@@ -48,8 +49,8 @@ void temporalUpdate(Field& temporal, const Field& target, double lambda,
                     const std::vector<std::vector<uint8_t>>& visible = {});
 
 struct BlendWeights {
-  Field weight;               // normalised per vertex: sums to 1 where not a hole
-  std::vector<uint8_t> hole;  // 1 where no camera contributes
+  Field weight;                   // normalised per vertex: sums to 1 where not a hole
+  std::vector<uint8_t> hole;      // 1 where no camera contributes
   std::vector<uint8_t> fallback;  // 1 where the normal-weighted field was used
 };
 
@@ -58,6 +59,7 @@ struct BlendWeights {
 // normal-weighted field instead; where that is zero too, the vertex is a
 // hole. A camera's distances reach only the vertices it sees: elsewhere its
 // gamma is 1, as far from its seams.
-BlendWeights normalizeFields(const Field& temporal, const Field& geodesic, const Field& normal_weighted);
+BlendWeights normalizeFields(const Field& temporal, const Field& geodesic,
+                             const Field& normal_weighted);
 
 }  // namespace holofuse::render::reference

@@ -26,16 +26,17 @@ struct PodView {
 // Why a vertex is or is not seen by a camera, in test order.
 enum class Sight : uint8_t {
   kVisible = 0,
-  kBehind,          // behind the camera
-  kOutsideImage,    // projects outside the image
-  kBackground,      // projects onto the pod's background (mask 0)
-  kOccluded,        // behind the camera's depth map
-  kDiscontinuity,   // inside the dilated depth discontinuities
+  kBehind,         // behind the camera
+  kOutsideImage,   // projects outside the image
+  kBackground,     // projects onto the pod's background (mask 0)
+  kOccluded,       // behind the camera's depth map
+  kDiscontinuity,  // inside the dilated depth discontinuities
 };
 
 struct VisibilityOptions {
   DiscontinuityOptions discontinuity;
-  double relative_depth_tolerance = 0.015;  // a vertex this far (relative) behind the depth map is occluded
+  double relative_depth_tolerance =
+      0.015;  // a vertex this far (relative) behind the depth map is occluded
 };
 
 // sights[i][v]: camera i, vertex v.
@@ -47,8 +48,9 @@ std::vector<std::vector<Sight>> vertexSights(const Mesh& mesh, const std::vector
 glm::dvec3 srgbToLab(const uint8_t* rgb);
 
 struct VoteOptions {
-  double delta = 0.15;  // Lab distance (scaled by 1/100) under which two views agree; 0: trust every view
-  int levels = 3;       // mip levels searched, coarsest first
+  double delta =
+      0.15;  // Lab distance (scaled by 1/100) under which two views agree; 0: trust every view
+  int levels = 3;  // mip levels searched, coarsest first
 };
 
 // trusted[i][v]: camera i's colour at vertex v agrees with at least
@@ -65,14 +67,15 @@ std::vector<std::vector<uint8_t>> finalVisibility(const std::vector<std::vector<
                                                   const std::vector<std::vector<uint8_t>>& trusted);
 
 enum SeamRule : uint8_t {
-  kSeamOcclusion = 1,  // some but not all vertices occluded in the dilated depth map
-  kSeamVote = 2,       // seen vertices disagree in the vote
-  kSeamFieldOfView = 4 // some but not all vertices outside the image or on the background
+  kSeamOcclusion = 1,   // some but not all vertices occluded in the dilated depth map
+  kSeamVote = 2,        // seen vertices disagree in the vote
+  kSeamFieldOfView = 4  // some but not all vertices outside the image or on the background
 };
 
 // seams[i][t]: the SeamRule bits that make triangle t a seam for camera i
 // (0: not a seam).
-std::vector<std::vector<uint8_t>> seamTriangles(const Mesh& mesh, const std::vector<std::vector<Sight>>& sights,
+std::vector<std::vector<uint8_t>> seamTriangles(const Mesh& mesh,
+                                                const std::vector<std::vector<Sight>>& sights,
                                                 const std::vector<std::vector<uint8_t>>& trusted);
 
 // g^i: visible vertex count of each view divided by the largest count (the
