@@ -12,8 +12,6 @@
 
 namespace holofuse::capture {
 
-using protocol::Status;
-using protocol::StatusCode;
 namespace fs = std::filesystem;
 
 namespace {
@@ -23,7 +21,7 @@ Status malformed(const std::string& where, const std::string& what) {
 }
 
 // JSON from a file; a syntax error is named with its line and column.
-protocol::StatusOr<nlohmann::json> readJson(const fs::path& file) {
+StatusOr<nlohmann::json> readJson(const fs::path& file) {
   std::ifstream in(file);
   if (!in) return Status(StatusCode::kIoError, file.string() + ": cannot open");
   std::stringstream buffer;
@@ -44,16 +42,16 @@ protocol::StatusOr<nlohmann::json> readJson(const fs::path& file) {
 }
 
 // A number at a JSON path, or a message naming the path.
-protocol::StatusOr<double> number(const nlohmann::json& object, const std::string& key,
-                                  const std::string& where) {
+StatusOr<double> number(const nlohmann::json& object, const std::string& key,
+                        const std::string& where) {
   if (!object.is_object() || !object.contains(key))
     return malformed(where, "missing \"" + key + "\"");
   if (!object[key].is_number()) return malformed(where + "." + key, "expected a number");
   return object[key].get<double>();
 }
 
-protocol::StatusOr<std::vector<double>> numbers(const nlohmann::json& value, size_t count,
-                                                const std::string& where) {
+StatusOr<std::vector<double>> numbers(const nlohmann::json& value, size_t count,
+                                      const std::string& where) {
   std::vector<double> out;
   auto flat = [&](const nlohmann::json& v, auto&& self) -> bool {
     if (v.is_number()) {
@@ -171,7 +169,7 @@ void numberCamerasByName(CaptureDescription& d) {
 
 // ----------------------------------------------------------- holofuse JSON
 
-protocol::StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder) {
+StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder) {
   const fs::path file = fs::path(folder) / "capture.json";
   auto json = readJson(file);
   if (!json.isOk()) return json.status();
@@ -294,7 +292,7 @@ namespace {
 
 // Lines of a COLMAP text file without comments and blank lines, with their
 // line numbers.
-protocol::StatusOr<std::vector<std::pair<size_t, std::string>>> colmapLines(const fs::path& file) {
+StatusOr<std::vector<std::pair<size_t, std::string>>> colmapLines(const fs::path& file) {
   std::ifstream in(file);
   if (!in) return Status(StatusCode::kIoError, file.string() + ": cannot open");
   std::vector<std::pair<size_t, std::string>> lines;
@@ -364,7 +362,7 @@ bool parseDouble(const std::string& text, double& value) {
 
 }  // namespace
 
-protocol::StatusOr<CaptureDescription> readColmapCapture(const std::string& folder) {
+StatusOr<CaptureDescription> readColmapCapture(const std::string& folder) {
   fs::path model_dir;
   for (const char* sub : {"", "sparse", "sparse/0"}) {
     const fs::path candidate = fs::path(folder) / sub;
@@ -459,7 +457,7 @@ protocol::StatusOr<CaptureDescription> readColmapCapture(const std::string& fold
 
 // -------------------------------------------------------------------- NeRF
 
-protocol::StatusOr<CaptureDescription> readNerfCapture(const std::string& folder) {
+StatusOr<CaptureDescription> readNerfCapture(const std::string& folder) {
   const fs::path file = fs::path(folder) / "transforms.json";
   auto json = readJson(file);
   if (!json.isOk()) return json.status();
@@ -553,8 +551,7 @@ protocol::StatusOr<CaptureDescription> readNerfCapture(const std::string& folder
   return d;
 }
 
-protocol::StatusOr<CaptureDescription> readCapture(const std::string& folder,
-                                                   CaptureFormat format) {
+StatusOr<CaptureDescription> readCapture(const std::string& folder, CaptureFormat format) {
   if (!fs::is_directory(folder)) return Status(StatusCode::kIoError, folder + ": not a folder");
   switch (format) {
     case CaptureFormat::kHolofuse:

@@ -8,11 +8,8 @@
 namespace holofuse::capture {
 
 using protocol::RecordKind;
-using protocol::Status;
-using protocol::StatusCode;
 
-protocol::StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes,
-                                                    const std::string& what) {
+StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes, const std::string& what) {
   protocol::StreamDecoder decoder;
   decoder.feed(bytes);
   if (!decoder.status().isOk())
@@ -26,8 +23,7 @@ protocol::StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes
   return frame;
 }
 
-protocol::StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame,
-                                                  const Camera& camera) {
+StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame, const Camera& camera) {
   protocol::PodFrame pod;
   HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, pod));
   PodImagesFull out;
@@ -66,7 +62,7 @@ protocol::StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame,
   return out;
 }
 
-protocol::StatusOr<Dataset> Dataset::open(const std::string& path) {
+StatusOr<Dataset> Dataset::open(const std::string& path) {
   namespace fs = std::filesystem;
   std::string file = path;
   if (fs::is_directory(path)) {
@@ -117,7 +113,7 @@ protocol::StatusOr<Dataset> Dataset::open(const std::string& path) {
   return dataset;
 }
 
-protocol::StatusOr<protocol::Calibration> Dataset::readCalibration(uint32_t camera_id) const {
+StatusOr<protocol::Calibration> Dataset::readCalibration(uint32_t camera_id) const {
   const auto it = cameras_.find(camera_id);
   if (it == cameras_.end() || !it->second.calibration) {
     std::string have;
@@ -139,7 +135,7 @@ protocol::StatusOr<protocol::Calibration> Dataset::readCalibration(uint32_t came
   return calibration;
 }
 
-protocol::StatusOr<protocol::Frame> Dataset::readFrame(const protocol::RecordInfo& record) const {
+StatusOr<protocol::Frame> Dataset::readFrame(const protocol::RecordInfo& record) const {
   auto bytes = reader_.read(record);
   if (!bytes.isOk()) return bytes.status();
   return parseWholeFrame(*bytes, reader_.path() + ": the " + protocol::recordKindName(record.kind) +

@@ -20,8 +20,6 @@
 
 namespace holofuse::capture {
 
-using protocol::Status;
-using protocol::StatusCode;
 namespace fs = std::filesystem;
 
 namespace {
@@ -32,8 +30,7 @@ struct LoadedImage {
   std::optional<Image8> alpha_mask;
 };
 
-protocol::StatusOr<cv::Mat> readAny(const std::string& file, const Camera& camera,
-                                    const char* what) {
+StatusOr<cv::Mat> readAny(const std::string& file, const Camera& camera, const char* what) {
   if (!fs::exists(file))
     return Status(StatusCode::kIoError, file + ": " + what + " file is missing");
   cv::Mat m = cv::imread(file, cv::IMREAD_UNCHANGED);
@@ -53,7 +50,7 @@ protocol::StatusOr<cv::Mat> readAny(const std::string& file, const Camera& camer
   return m;
 }
 
-protocol::StatusOr<LoadedImage> readColor(const std::string& file, const Camera& camera) {
+StatusOr<LoadedImage> readColor(const std::string& file, const Camera& camera) {
   auto m = readAny(file, camera, "image");
   if (!m.isOk()) return m.status();
   LoadedImage out;
@@ -89,7 +86,7 @@ protocol::StatusOr<LoadedImage> readColor(const std::string& file, const Camera&
 
 // A mask file: 8-bit grey or RGB(A), zero meaning background (COLMAP's
 // convention), non-zero in any colour channel meaning the subject.
-protocol::StatusOr<Image8> readMask(const std::string& file, const Camera& camera) {
+StatusOr<Image8> readMask(const std::string& file, const Camera& camera) {
   auto m = readAny(file, camera, "mask");
   if (!m.isOk()) return m.status();
   cv::Mat grey;
@@ -153,8 +150,8 @@ struct Box {
   glm::dvec3 min{0.0}, max{0.0};
 };
 
-protocol::StatusOr<Box> estimateCaptureVolume(const std::vector<Camera>& cameras,
-                                              const std::vector<Image8>& masks) {
+StatusOr<Box> estimateCaptureVolume(const std::vector<Camera>& cameras,
+                                    const std::vector<Image8>& masks) {
   // The point nearest to every optical axis (least squares).
   glm::dmat3 a(0.0);
   glm::dvec3 b(0.0);
@@ -260,9 +257,9 @@ Image8 segmentByBrightness(const Image8& color, const ImportOptions& options) {
   return fromMat(filled);
 }
 
-protocol::StatusOr<ImportSummary> importCapture(
-    const CaptureDescription& capture, const std::string& out_folder, const ImportOptions& options,
-    const std::function<void(const ImportProgress&)>& progress) {
+StatusOr<ImportSummary> importCapture(const CaptureDescription& capture,
+                                      const std::string& out_folder, const ImportOptions& options,
+                                      const std::function<void(const ImportProgress&)>& progress) {
   const auto start = std::chrono::steady_clock::now();
   // "out/" and "out" are the same folder; the temporary one sits beside it.
   fs::path normal = fs::path(out_folder).lexically_normal();
@@ -326,7 +323,7 @@ protocol::StatusOr<ImportSummary> importCapture(
   summary.frames = capture.frames.size();
   ImportProgress status;
   status.total = capture.cameras.size() * capture.frames.size();
-  auto prepare = [&](size_t f, size_t c) -> protocol::StatusOr<PreparedView> {
+  auto prepare = [&](size_t f, size_t c) -> StatusOr<PreparedView> {
     const CaptureFrame& frame = capture.frames[f];
     auto color = readColor(frame.images[c], capture.cameras[c].camera);
     if (!color.isOk()) return color.status();

@@ -31,9 +31,8 @@ namespace {
 
 // The recorded PodFrame with this replay's id, capture time and stamps;
 // its planes are borrowed from the recorded bytes, never re-encoded.
-protocol::StatusOr<protocol::SharedFrame> restamp(const Dataset& dataset,
-                                                  const protocol::RecordInfo& record,
-                                                  uint64_t frame_id, uint32_t camera_id) {
+StatusOr<protocol::SharedFrame> restamp(const Dataset& dataset, const protocol::RecordInfo& record,
+                                        uint64_t frame_id, uint32_t camera_id) {
   const uint64_t t0 = monotonicNs();
   auto frame = dataset.readFrame(record);
   if (!frame.isOk()) return frame.status();
@@ -41,11 +40,11 @@ protocol::StatusOr<protocol::SharedFrame> restamp(const Dataset& dataset,
   protocol::PodFrame pod;
   HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(*owned, pod));
   if (pod.camera_id != camera_id) {
-    return protocol::Status(protocol::StatusCode::kMalformed,
-                            dataset.records().path() + ": the record at byte " +
-                                std::to_string(record.offset) + " is filed under camera " +
-                                std::to_string(camera_id) + " but holds camera " +
-                                std::to_string(pod.camera_id));
+    return Status(StatusCode::kMalformed, dataset.records().path() + ": the record at byte " +
+                                              std::to_string(record.offset) +
+                                              " is filed under camera " +
+                                              std::to_string(camera_id) + " but holds camera " +
+                                              std::to_string(pod.camera_id));
   }
   pod.frame_id = frame_id;
   pod.capture_time_ns = t0;

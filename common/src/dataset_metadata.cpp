@@ -18,10 +18,8 @@ protocol::Bytes encodeDatasetMetadata(const DatasetMetadata& m) {
   return protocol::Bytes(text.begin(), text.end());
 }
 
-protocol::StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes& bytes,
-                                                          const std::string& where) {
-  using protocol::Status;
-  using protocol::StatusCode;
+StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes& bytes,
+                                                const std::string& where) {
   DatasetMetadata m;
   try {
     const auto j = nlohmann::json::parse(bytes.begin(), bytes.end());

@@ -10,8 +10,6 @@ namespace holofuse {
 
 using protocol::Codec;
 using protocol::PixelFormat;
-using protocol::Status;
-using protocol::StatusCode;
 
 namespace {
 
@@ -92,7 +90,7 @@ protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, Codec
   return plane;
 }
 
-protocol::StatusOr<Image8> decodePlane(const protocol::Plane& plane) {
+StatusOr<Image8> decodePlane(const protocol::Plane& plane) {
   const std::string which = "plane (kind " + std::to_string(static_cast<int>(plane.kind)) + ", " +
                             std::to_string(plane.width) + "x" + std::to_string(plane.height) + ")";
   uint32_t channels = 0;

@@ -5,9 +5,9 @@
 
 namespace holofuse {
 
-protocol::Status writePng(const std::string& path, const Image8& image) {
+Status writePng(const std::string& path, const Image8& image) {
   if (image.empty() || (image.channels != 1 && image.channels != 3 && image.channels != 4)) {
-    return {protocol::StatusCode::kMalformed,
+    return {StatusCode::kMalformed,
             path + ": cannot write an image with " + std::to_string(image.channels) + " channels"};
   }
   const cv::Mat mat(static_cast<int>(image.height), static_cast<int>(image.width),
@@ -22,10 +22,10 @@ protocol::Status writePng(const std::string& path, const Image8& image) {
   try {
     written = cv::imwrite(path, ordered, {cv::IMWRITE_PNG_COMPRESSION, 1});
   } catch (const cv::Exception& e) {
-    return {protocol::StatusCode::kIoError, path + ": " + e.what()};
+    return {StatusCode::kIoError, path + ": " + e.what()};
   }
-  if (!written) return {protocol::StatusCode::kIoError, path + ": could not be written"};
-  return protocol::Status::ok();
+  if (!written) return {StatusCode::kIoError, path + ": could not be written"};
+  return Status::ok();
 }
 
 }  // namespace holofuse

@@ -9,9 +9,6 @@
 
 namespace holofuse {
 
-using protocol::Status;
-using protocol::StatusCode;
-
 namespace {
 
 int addFloat3Attribute(draco::Mesh& dm, draco::GeometryAttribute::Type type,
@@ -28,8 +25,7 @@ int addFloat3Attribute(draco::Mesh& dm, draco::GeometryAttribute::Type type,
 
 }  // namespace
 
-protocol::StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh,
-                                                     const DracoOptions& options) {
+StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions& options) {
   draco::Mesh dm;
   dm.set_num_points(static_cast<uint32_t>(mesh.positions.size()));
   addFloat3Attribute(dm, draco::GeometryAttribute::POSITION, mesh.positions);
@@ -67,7 +63,7 @@ protocol::StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh,
   return std::vector<uint8_t>(buffer.data(), buffer.data() + buffer.size());
 }
 
-protocol::StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size) {
+StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size) {
   draco::DecoderBuffer buffer;
   buffer.Init(reinterpret_cast<const char*>(data), size);
   draco::Decoder decoder;

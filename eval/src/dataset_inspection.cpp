@@ -17,9 +17,6 @@
 
 namespace holofuse::eval {
 
-using protocol::Status;
-using protocol::StatusCode;
-
 namespace {
 
 std::string utcTime(uint64_t unix_ns) {
@@ -145,7 +142,7 @@ fusion::HullOptions hullOptionsFor(const capture::Dataset& dataset, double fallb
   return options;
 }
 
-protocol::StatusOr<VerifyReport> verifyDataset(const std::string& dir) {
+StatusOr<VerifyReport> verifyDataset(const std::string& dir) {
   namespace fs = std::filesystem;
   VerifyReport report;
   const std::string pods =
@@ -174,9 +171,8 @@ protocol::StatusOr<VerifyReport> verifyDataset(const std::string& dir) {
   return report;
 }
 
-protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir,
-                                                   const std::string& sheet_png,
-                                                   double voxel_size) {
+StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::string& sheet_png,
+                                         double voxel_size) {
   auto dataset = capture::Dataset::open(dir);
   if (!dataset.isOk()) return dataset.status();
   DatasetSummary summary;

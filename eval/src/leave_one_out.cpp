@@ -20,11 +20,11 @@
 #include "common/mesh_codec.h"
 #include "eval/dataset_inspection.h"
 #include "eval/geometry_metrics.h"
-#include "eval/metrics.h"
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/hull_error.h"
 #include "fusion_server/photo_refine.h"
 #include "fusion_server/visual_hull.h"
+#include "metrics/image_metrics.h"
 #include "protocol/clock.h"
 #include "render_client/client.h"
 #include "render_client/reference/depth_map.h"
@@ -34,6 +34,27 @@
 #include "result_json.h"
 
 namespace holofuse::eval {
+
+using metrics::compareInMask;
+using metrics::ErrorImage;
+using metrics::errorImage;
+using metrics::errorMapPicture;
+using metrics::ErrorRegion;
+using metrics::errorRegionName;
+using metrics::flicker;
+using metrics::ImageQuality;
+using metrics::kErrorRegionCount;
+using metrics::kOutsideRegions;
+using metrics::kPsnrCap;
+using metrics::luminance;
+using metrics::PictureAgreement;
+using metrics::pictureAgreement;
+using metrics::psnrFromMse;
+using metrics::RegionErrors;
+using metrics::regionErrors;
+using metrics::regionsPicture;
+using metrics::seamVisibility;
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -100,7 +121,7 @@ const fusion::PodImages& receivePodFrame(const protocol::Bytes& wire, const Came
       parsedFrame(wire, source + ": camera " + std::to_string(reported.id));
   const auto t0 = Clock::now();
   protocol::PodFrame pod;
-  protocol::Status status = protocol::decodeFrame(parsed, pod);
+  Status status = protocol::decodeFrame(parsed, pod);
   auto images = status.isOk()
                     ? fusion::podImagesOf(pod, wire.size(), reported, protocol::monotonicNs())
                     : status;
@@ -148,7 +169,7 @@ void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions&
   for (const Camera& camera : reported) cameras[camera.id] = camera;
   const auto t0 = Clock::now();
   protocol::TextureBundle bundle;
-  protocol::Status status = protocol::decodeFrame(bundle_frame, bundle);
+  Status status = protocol::decodeFrame(bundle_frame, bundle);
   auto views = status.isOk() ? render::viewsOfBundle(bundle, cameras) : status;
   frame.feather_bytes += status.isOk() ? render::featherBytes(bundle) : 0;
   protocol::MeshFrame mesh_frame;
@@ -288,7 +309,7 @@ void saveImage(const fs::path& path, const Image8& image) {
       for (int c = 0; c < 3; ++c) rgb.pixels[p * 3 + c] = image.pixels[p * 4 + c];
     }
   }
-  const protocol::Status written = writePng(path.string(), rgb);
+  const Status written = writePng(path.string(), rgb);
   if (!written.isOk()) throw std::runtime_error(written.message());
 }
 

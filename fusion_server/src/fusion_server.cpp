@@ -17,8 +17,6 @@ namespace holofuse::fusion {
 using protocol::Frame;
 using protocol::MessageType;
 using protocol::monotonicNs;
-using protocol::Status;
-using protocol::StatusCode;
 
 FusionServer::FusionServer(ServerOptions options)
     : options_(std::move(options)),

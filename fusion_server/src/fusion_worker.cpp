@@ -14,8 +14,8 @@ using protocol::kSourceServer;
 using protocol::monotonicNs;
 using protocol::Stage;
 
-protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
-                                          const Camera& camera, uint64_t now_ns) {
+StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
+                                const Camera& camera, uint64_t now_ns) {
   PodImages images;
   images.camera_id = pod.camera_id;
   images.capture_time_ns = pod.capture_time_ns;
@@ -43,13 +43,12 @@ protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_
     if (!cropFits(pod.offset_x, pod.offset_y, plane.width, plane.height, camera.width,
                   camera.height) ||
         (pod.planes.front().width != plane.width || pod.planes.front().height != plane.height)) {
-      return protocol::Status(protocol::StatusCode::kMalformed,
-                              "plane " + std::to_string(static_cast<int>(plane.kind)) + " is " +
-                                  std::to_string(plane.width) + "x" + std::to_string(plane.height) +
-                                  " at (" + std::to_string(pod.offset_x) + ", " +
-                                  std::to_string(pod.offset_y) + "), calibration says " +
-                                  std::to_string(camera.width) + "x" +
-                                  std::to_string(camera.height));
+      return Status(StatusCode::kMalformed,
+                    "plane " + std::to_string(static_cast<int>(plane.kind)) + " is " +
+                        std::to_string(plane.width) + "x" + std::to_string(plane.height) + " at (" +
+                        std::to_string(pod.offset_x) + ", " + std::to_string(pod.offset_y) +
+                        "), calibration says " + std::to_string(camera.width) + "x" +
+                        std::to_string(camera.height));
     }
     auto image = decodePlane(plane);
     if (!image.isOk()) return image.status();
@@ -68,8 +67,8 @@ protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_
     }
   }
   if (images.color.channels != 3 || images.mask.channels != 1 || images.feather.channels != 1) {
-    return protocol::Status(protocol::StatusCode::kMalformed,
-                            "PodFrame needs an RGB colour, a grey mask and a grey feather plane");
+    return Status(StatusCode::kMalformed,
+                  "PodFrame needs an RGB colour, a grey mask and a grey feather plane");
   }
   images.offset_x = pod.offset_x;
   images.offset_y = pod.offset_y;

@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
   // is reported like a full disk, instead of the signal ending the server.
   signal(SIGXFSZ, SIG_IGN);
   fusion::FusionServer server(options);
-  const protocol::Status started = server.start();
+  const Status started = server.start();
   if (!started.isOk()) {
     std::fprintf(stderr, "[server] cannot start: %s\n", started.toString().c_str());
     return 1;

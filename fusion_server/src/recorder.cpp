@@ -9,10 +9,8 @@
 namespace holofuse::fusion {
 
 using protocol::RecordKind;
-using protocol::Status;
-using protocol::StatusCode;
 
-protocol::StatusOr<Recorder> Recorder::open(const std::string& dir, bool record_fused) {
+StatusOr<Recorder> Recorder::open(const std::string& dir, bool record_fused) {
   namespace fs = std::filesystem;
   std::error_code error;
   fs::create_directories(dir, error);

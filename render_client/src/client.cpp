@@ -141,13 +141,12 @@ uint64_t featherBytes(const protocol::TextureBundle& bundle) {
   return bytes;
 }
 
-protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(
-    const protocol::TextureBundle& bundle, const std::map<uint32_t, Camera>& cameras) {
+StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& bundle,
+                                                const std::map<uint32_t, Camera>& cameras) {
   std::vector<ViewImages> views;
   for (const auto& image : bundle.images) {
     auto malformed = [&](const std::string& what) {
-      return protocol::Status(protocol::StatusCode::kMalformed,
-                              "camera " + std::to_string(image.camera_id) + what);
+      return Status(StatusCode::kMalformed, "camera " + std::to_string(image.camera_id) + what);
     };
     auto cam = cameras.find(image.camera_id);
     if (cam == cameras.end()) return malformed(" has no calibration");
@@ -421,7 +420,7 @@ int runClient(const ClientOptions& options) {
           const fs::path path = out_dir / record.file;
           const fs::path partial =
               path.parent_path() / (path.stem().string() + ".partial.png");  // PNG by its name
-          const protocol::Status written = writePng(partial.string(), picture);
+          const Status written = writePng(partial.string(), picture);
           std::error_code renamed;
           if (written.isOk()) fs::rename(partial, path, renamed);
           if (!written.isOk()) std::fprintf(stderr, "[client] %s\n", written.message().c_str());

@@ -31,9 +31,7 @@ double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_receiv
   return jitter.ms();
 }
 
-protocol::StatusOr<Budget> loadBudget(const std::string& path) {
-  using protocol::Status;
-  using protocol::StatusCode;
+StatusOr<Budget> loadBudget(const std::string& path) {
   std::ifstream in(path);
   if (!in) return Status(StatusCode::kIoError, path + ": cannot be read");
   std::set<std::string> names = {"end_to_end"};
@@ -318,7 +316,7 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
   const std::vector<QualitySummary> judged = quality();
   if (!judged.empty()) {
     // The quality table: every written frame against the scene's true image
-    // from the same view, inside its true mask (eval/metrics.h's measures).
+    // from the same view, inside its true mask (metrics/image_metrics.h's measures).
     std::vector<std::vector<std::string>> rows;
     for (const auto& q : judged) {
       const bool db = q.measure == "psnr_db";

@@ -8,7 +8,7 @@
 #include "capture_node/synthetic_scene.h"
 #include "common/command_line.h"
 #include "common/shutdown.h"
-#include "eval/metrics.h"
+#include "metrics/image_metrics.h"
 #include "render_client/client.h"
 
 int main(int argc, char** argv) {
@@ -99,7 +99,7 @@ int main(int argc, char** argv) {
     options.judge = [scene = capture::SyntheticScene(scene_options)](
                         const Image8& picture, const Camera& view, uint64_t frame_id) {
       const capture::RenderedView truth = scene.render(view, frame_id);
-      const eval::ImageQuality q = eval::compareInMask(picture, truth.color, truth.mask);
+      const metrics::ImageQuality q = metrics::compareInMask(picture, truth.color, truth.mask);
       // Nothing of the subject in view: nothing to judge (PSNR would be the cap).
       return q.pixels == 0 ? std::nullopt : std::optional(render::FrameQuality{q.psnr_db, q.ssim});
     };

@@ -179,21 +179,22 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
     // inside the masks in one region, their squared errors adding up.
     size_t region_pixels = 0;
     double region_squared = 0;
-    for (size_t r = 0; r < holofuse::eval::kErrorRegionCount; ++r) {
+    for (size_t r = 0; r < holofuse::metrics::kErrorRegionCount; ++r) {
       region_pixels += m.regions.pixels[r];
       region_squared += m.regions.squared_error[r];
     }
     EXPECT_EQ(3 * region_pixels, values_sum) << mode;
     EXPECT_NEAR(region_squared, squared_sum, 1e-6 * squared_sum) << mode;
-    EXPECT_GT(m.regions.pixels[static_cast<size_t>(holofuse::eval::ErrorRegion::kSilhouetteBorder)],
-              0u)
+    EXPECT_GT(
+        m.regions.pixels[static_cast<size_t>(holofuse::metrics::ErrorRegion::kSilhouetteBorder)],
+        0u)
         << mode;
-    EXPECT_GT(m.regions.pixels[static_cast<size_t>(holofuse::eval::ErrorRegion::kElsewhere)], 0u)
+    EXPECT_GT(m.regions.pixels[static_cast<size_t>(holofuse::metrics::ErrorRegion::kElsewhere)], 0u)
         << mode;
     if (mode == "normal") continue;
     // The shares of the difference from normal sum to one, in the report too.
     const auto shares = regionSharesAgainstNormal(scene.modes, mode);
-    ASSERT_EQ(shares.size(), holofuse::eval::kErrorRegionCount) << mode;
+    ASSERT_EQ(shares.size(), holofuse::metrics::kErrorRegionCount) << mode;
     double share_sum = 0;
     for (const auto& [region, share] : shares) {
       share_sum += share;

@@ -11,9 +11,9 @@
 #include <string>
 
 #include "eval/leave_one_out.h"
-#include "eval/metrics.h"
+#include "metrics/image_metrics.h"
 
-namespace holofuse::eval {
+namespace holofuse::metrics {
 namespace {
 
 constexpr int kW = 64, kH = 48;
@@ -342,12 +342,20 @@ TEST(Metrics, PictureAgreementBoundsWhatTheDifferingPixelsCanGain) {
 }
 
 }  // namespace
-}  // namespace holofuse::eval
+}  // namespace holofuse::metrics
 
 #include "eval/geometry_metrics.h"
 
 namespace holofuse::eval {
 namespace {
+
+using metrics::compareInMask;
+using metrics::ErrorRegion;
+using metrics::ImageQuality;
+using metrics::kOutsideRegions;
+using metrics::psnrFromMse;
+using metrics::RegionErrors;
+using metrics::regionErrors;
 
 Mesh pointsAt(std::initializer_list<glm::vec3> points) {
   Mesh mesh;

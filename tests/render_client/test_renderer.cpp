@@ -168,7 +168,7 @@ TEST(ClientBundle, FeatherMapsArePlacedLikeTheColourAndAWrongOneIsRefused) {
             {{&color, PlaneKind::kColor}, {&mask, PlaneKind::kMask}, {wrong, PlaneKind::kFeather}}),
         cameras);
     ASSERT_FALSE(refused.isOk());
-    EXPECT_EQ(refused.status().code(), protocol::StatusCode::kMalformed);
+    EXPECT_EQ(refused.status().code(), StatusCode::kMalformed);
     const std::string message = refused.status().message();
     EXPECT_NE(message.find("camera " + std::to_string(camera.id)), std::string::npos) << message;
     EXPECT_NE(message.find("feather map is " + std::to_string(wrong->width) + "x" +

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "common/camera.h"
-#include "protocol/status.h"
 
 namespace holofuse::capture {
 
@@ -48,19 +48,19 @@ void numberCamerasByName(CaptureDescription& description);
 // The holofuse capture JSON (docs/datasets.md, "Import real captures"): per camera K,
 // distortion, R, t, image size; per frame the image (and optional mask)
 // file of each camera.
-protocol::StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder);
+StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder);
 
 // COLMAP text: cameras.txt and images.txt at the root, in sparse/ or in
 // sparse/0/; images in images/, masks (when present) in masks/<image
 // name>.png with zero meaning background. One frame.
-protocol::StatusOr<CaptureDescription> readColmapCapture(const std::string& folder);
+StatusOr<CaptureDescription> readColmapCapture(const std::string& folder);
 
 // transforms.json (instant-ngp / nerfstudio / Blender): camera-to-world
 // matrices in OpenGL axes (x right, y up, z backwards), converted here to
 // OpenCV's (x right, y down, z forwards); intrinsics from fl_x/fl_y/cx/cy
 // or camera_angle_x. Each frame entry is one camera of a static capture.
-protocol::StatusOr<CaptureDescription> readNerfCapture(const std::string& folder);
+StatusOr<CaptureDescription> readNerfCapture(const std::string& folder);
 
-protocol::StatusOr<CaptureDescription> readCapture(const std::string& folder, CaptureFormat format);
+StatusOr<CaptureDescription> readCapture(const std::string& folder, CaptureFormat format);
 
 }  // namespace holofuse::capture

@@ -34,7 +34,7 @@ class Dataset {
  public:
   // Opens DIR/pods.hfr (or a .hfr file named directly), refusing a newer
   // format by version and a folder without a recording by name.
-  static protocol::StatusOr<Dataset> open(const std::string& path);
+  static StatusOr<Dataset> open(const std::string& path);
 
   const protocol::RecordReader& records() const { return reader_; }
   const std::map<uint32_t, DatasetCamera>& cameras() const { return cameras_; }
@@ -49,10 +49,10 @@ class Dataset {
   const std::optional<DatasetMetadata>& metadata() const { return metadata_; }
 
   // A camera's first recorded calibration, decoded; errors name the camera.
-  protocol::StatusOr<protocol::Calibration> readCalibration(uint32_t camera_id) const;
+  StatusOr<protocol::Calibration> readCalibration(uint32_t camera_id) const;
 
   // Reads a record and parses it as a whole, checked protocol frame.
-  protocol::StatusOr<protocol::Frame> readFrame(const protocol::RecordInfo& record) const;
+  StatusOr<protocol::Frame> readFrame(const protocol::RecordInfo& record) const;
 
  private:
   protocol::RecordReader reader_;
@@ -70,12 +70,10 @@ struct PodImagesFull {
   std::vector<protocol::Codec> codecs;  // per plane, in the frame's order
 };
 // Checks the planes against the camera before decompressing anything.
-protocol::StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame,
-                                                  const Camera& camera);
+StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame, const Camera& camera);
 
 // Parses bytes holding exactly one protocol frame (header checked, CRC
 // checked); what names the source in errors.
-protocol::StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes,
-                                                    const std::string& what);
+StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes, const std::string& what);
 
 }  // namespace holofuse::capture

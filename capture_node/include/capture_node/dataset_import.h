@@ -12,9 +12,9 @@
 #include <optional>
 #include <string>
 
+#include "base/status.h"
 #include "capture_node/capture_formats.h"
 #include "common/image.h"
-#include "protocol/status.h"
 
 namespace holofuse::capture {
 
@@ -48,7 +48,7 @@ struct ImportSummary {
 Image8 segmentByBrightness(const Image8& color, const ImportOptions& options);
 
 // Writes the dataset into out_dir (which must not exist or be empty).
-protocol::StatusOr<ImportSummary> importCapture(
+StatusOr<ImportSummary> importCapture(
     const CaptureDescription& capture, const std::string& out_dir, const ImportOptions& options,
     const std::function<void(const ImportProgress&)>& progress = {});
 

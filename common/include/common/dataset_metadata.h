@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "protocol/bytes.h"
-#include "protocol/status.h"
 
 namespace holofuse {
 
@@ -25,7 +25,7 @@ struct DatasetMetadata {
 
 protocol::Bytes encodeDatasetMetadata(const DatasetMetadata& metadata);
 // Unknown keys are ignored (a newer writer may add some).
-protocol::StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes& bytes,
-                                                          const std::string& where);
+StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes& bytes,
+                                                const std::string& where);
 
 }  // namespace holofuse

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "common/image.h"
 #include "protocol/messages.h"
-#include "protocol/status.h"
 
 namespace holofuse {
 
@@ -33,6 +33,6 @@ std::optional<protocol::Codec> imageCodecFromName(const std::string& name);
 // Decodes a plane from untrusted bytes. Safe on any input: the declared
 // size is capped and checked, LZ4 runs in its safe mode, and any mismatch is
 // an error naming the plane.
-protocol::StatusOr<Image8> decodePlane(const protocol::Plane& plane);
+StatusOr<Image8> decodePlane(const protocol::Plane& plane);
 
 }  // namespace holofuse

@@ -4,12 +4,12 @@
 
 #include <string>
 
+#include "base/status.h"
 #include "common/image.h"
-#include "protocol/status.h"
 
 namespace holofuse {
 
 // Fails with a message naming the path when the file cannot be written.
-protocol::Status writePng(const std::string& path, const Image8& image);
+Status writePng(const std::string& path, const Image8& image);
 
 }  // namespace holofuse

@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "base/status.h"
 #include "common/mesh.h"
-#include "protocol/status.h"
 
 namespace holofuse {
 
@@ -16,11 +16,10 @@ struct DracoOptions {
   int speed = 7;  // Draco's encoding/decoding speed, 0 (smallest) .. 10 (fastest)
 };
 
-protocol::StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh,
-                                                     const DracoOptions& options = {});
+StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions& options = {});
 
 // Decodes untrusted Draco bytes; the result is validated (indices in range,
 // finite positions) and normals are recomputed when absent.
-protocol::StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size);
+StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size);
 
 }  // namespace holofuse

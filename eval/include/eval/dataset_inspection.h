@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "capture_node/dataset.h"
 #include "fusion_server/visual_hull.h"
-#include "protocol/status.h"
 
 namespace holofuse::eval {
 
@@ -31,7 +31,7 @@ struct VerifyReport {
 
 // Checks DIR/pods.hfr and, when present, DIR/fused.hfr. A folder that is
 // not a dataset, or a newer format, is an error status.
-protocol::StatusOr<VerifyReport> verifyDataset(const std::string& dir);
+StatusOr<VerifyReport> verifyDataset(const std::string& dir);
 
 struct CameraSummary {
   uint32_t id = 0;
@@ -52,8 +52,7 @@ struct DatasetSummary {
 // mask dimmed outside, the hull's silhouette outlined) to sheet_png. The
 // hull is carved in the dataset's capture volume at its voxel size (or at
 // voxel_size when positive).
-protocol::StatusOr<DatasetSummary> describeDataset(const std::string& dir,
-                                                   const std::string& sheet_png,
-                                                   double voxel_size = 0.0);
+StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::string& sheet_png,
+                                         double voxel_size = 0.0);
 
 }  // namespace holofuse::eval

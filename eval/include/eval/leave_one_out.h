@@ -21,7 +21,7 @@
 #include "capture_node/scene_library.h"
 #include "common/depth_raster.h"
 #include "common/mesh_codec.h"
-#include "eval/metrics.h"
+#include "metrics/image_metrics.h"
 #include "protocol/messages.h"
 #include "render_client/blend_mode.h"
 #include "render_client/latency_report.h"
@@ -111,7 +111,7 @@ struct ModeResult {
   double ms_per_new_mesh = 0;  // median wall time of a render that follows a new mesh
   std::map<std::string, double> gpu_passes_ms;  // medians of the field passes' timestamps
   double ms_per_new_mesh_p95 = 0;               // the 95th percentile of ms_per_new_mesh's renders
-  RegionErrors regions;  // the squared error over every image, by where it sits
+  metrics::RegionErrors regions;  // the squared error over every image, by where it sits
 };
 
 // The share of the squared-error difference between normal and the mode
@@ -175,7 +175,7 @@ inline std::string budgetedStagesText() {
 // run): the share of the compared pixels where they differ by more than 2
 // grey levels, holoportation's squared error there as a share of its
 // whole, and what montage4d's mean PSNR would gain on holoportation's if
-// its pictures were exact on every differing pixel (metrics.h
+// its pictures were exact on every differing pixel (metrics/image_metrics.h
 // PictureAgreement): how much of the picture montage4d's fields change at
 // these settings, and the most those changes could gain.
 struct ModeAgreement {

@@ -52,7 +52,7 @@ class FusionServer {
   ~FusionServer();
 
   // Binds the port (or says why not).
-  protocol::Status start();
+  Status start();
   uint16_t port() const { return listener_.localPort(); }
   // Serves until stopRequested(); says Bye to everyone on the way out.
   int run();
@@ -69,12 +69,12 @@ class FusionServer {
 
   void acceptAll();
   // Handles one frame; a non-ok status closes that peer.
-  protocol::Status handle(Peer& peer, const protocol::Frame& frame);
-  protocol::Status handleHello(Peer& peer, const protocol::Frame& frame);
-  protocol::Status handlePodFrame(Peer& peer, const protocol::Frame& frame);
+  Status handle(Peer& peer, const protocol::Frame& frame);
+  Status handleHello(Peer& peer, const protocol::Frame& frame);
+  Status handlePodFrame(Peer& peer, const protocol::Frame& frame);
   void dispatchReadyGroups();
   void fanOut();
-  void closePeer(size_t index, const protocol::Status& why);
+  void closePeer(size_t index, const Status& why);
   std::set<uint32_t> expectedPods() const;
   // Lossless mode: false while this pod is ahead of fusion (not read).
   bool readable(const Peer& peer);

@@ -63,8 +63,8 @@ struct GroupJob {
 // force) and its stamps with the send stage ending at now_ns (its arrival)
 // and the server_decode stage from then to the end of its decoding. An
 // error names the plane that does not fit or the plane that is missing.
-protocol::StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
-                                          const Camera& camera, uint64_t now_ns);
+StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
+                                const Camera& camera, uint64_t now_ns);
 
 // The group's silhouettes and feather maps as whole images, for the hull.
 std::vector<HullView> hullViewsOf(const FrameGroup& group);

@@ -21,7 +21,7 @@ constexpr const char* kFusedRecordFile = "fused.hfr";
 class Recorder {
  public:
   // Creates dir if needed; refuses a dir that already holds a recording.
-  static protocol::StatusOr<Recorder> open(const std::string& dir, bool record_fused);
+  static StatusOr<Recorder> open(const std::string& dir, bool record_fused);
 
   void recordPodMessage(protocol::RecordKind kind, uint32_t camera_id, uint64_t frame_id,
                         const protocol::Frame& frame);

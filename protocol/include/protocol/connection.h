@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "protocol/frame.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
-#include "protocol/status.h"
 
 namespace holofuse::protocol {
 

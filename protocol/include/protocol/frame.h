@@ -7,8 +7,8 @@
 #include <span>
 #include <vector>
 
+#include "base/status.h"
 #include "protocol/bytes.h"
-#include "protocol/status.h"
 #include "protocol/wire.h"
 
 namespace holofuse::protocol {

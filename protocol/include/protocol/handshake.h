@@ -1,8 +1,8 @@
 // Version negotiation of SPEC.md section 4, shared by both ends.
 #pragma once
 
+#include "base/status.h"
 #include "protocol/messages.h"
-#include "protocol/status.h"
 
 namespace holofuse::protocol {
 

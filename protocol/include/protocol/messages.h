@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "protocol/frame.h"
-#include "protocol/status.h"
 #include "protocol/wire.h"
 
 namespace holofuse::protocol {

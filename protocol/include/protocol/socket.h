@@ -7,7 +7,7 @@
 #include <span>
 #include <string>
 
-#include "protocol/status.h"
+#include "base/status.h"
 
 namespace holofuse::protocol {
 

@@ -9,8 +9,8 @@
 #include <string_view>
 #include <vector>
 
+#include "base/status.h"
 #include "protocol/bytes.h"
-#include "protocol/status.h"
 
 namespace holofuse::protocol {
 

@@ -10,11 +10,11 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "common/camera.h"
 #include "common/mesh.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
-#include "protocol/status.h"
 #include "render_client/latency_report.h"
 #include "render_client/renderer.h"
 
@@ -72,8 +72,8 @@ std::optional<Camera> userCamera(const ClientOptions& options,
 // calibration of its camera, and the feather map where one came (protocol
 // 1.2). An error names the camera and what is wrong: no calibration, a
 // plane that does not decode, images of the wrong size.
-protocol::StatusOr<std::vector<ViewImages>> viewsOfBundle(
-    const protocol::TextureBundle& bundle, const std::map<uint32_t, Camera>& cameras);
+StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& bundle,
+                                                const std::map<uint32_t, Camera>& cameras);
 
 // The compressed bytes of a bundle's feather planes: what the feather maps
 // add to the client link.

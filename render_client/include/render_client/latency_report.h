@@ -10,12 +10,12 @@
 #include <utility>
 #include <vector>
 
+#include "base/status.h"
 #include "protocol/messages.h"
-#include "protocol/status.h"
 
 namespace holofuse::render {
 
-// A written frame's quality against the truth (eval/metrics.h's measures).
+// A written frame's quality against the truth (metrics/image_metrics.h's measures).
 struct FrameQuality {
   double psnr_db = 0, ssim = 0;
 };
@@ -50,7 +50,7 @@ double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_receiv
 // reported as not measured (budget_unmeasured), never as within. Unknown names and non-numbers are
 // refused with the valid names listed.
 using Budget = std::map<std::string, double>;
-protocol::StatusOr<Budget> loadBudget(const std::string& path);
+StatusOr<Budget> loadBudget(const std::string& path);
 // A command line's --budget FILE (none when path is empty): false after
 // saying on stderr what is wrong with the file.
 bool loadBudgetFlag(const std::string& path, Budget& budget);

@@ -1,12 +1,16 @@
-// Status and StatusOr: how code that handles untrusted bytes reports failure.
+// Status and StatusOr: how code that handles outside data (bytes off the
+// network, files, flags) reports failure, as a value. The bottom of the
+// layers: everything may use it, it uses nothing of the project.
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <optional>
 #include <string>
 #include <utility>
 
-namespace holofuse::protocol {
+namespace holofuse {
 
 enum class StatusCode : uint16_t {
   kOk = 0,
@@ -50,12 +54,28 @@ class [[nodiscard]] StatusOr {
 
   bool isOk() const { return value_.has_value(); }
   const Status& status() const { return status_; }
-  T& value() { return *value_; }
-  const T& value() const { return *value_; }
-  T* operator->() { return &*value_; }
-  T& operator*() { return *value_; }
+  // The value; asking for it when there is none is a broken contract,
+  // which aborts with the status rather than read an empty optional.
+  T& value() {
+    checkHasValue();
+    return *value_;
+  }
+  const T& value() const {
+    checkHasValue();
+    return *value_;
+  }
+  T* operator->() { return &value(); }
+  const T* operator->() const { return &value(); }
+  T& operator*() { return value(); }
+  const T& operator*() const { return value(); }
 
  private:
+  void checkHasValue() const {
+    if (value_.has_value()) return;
+    std::fprintf(stderr, "StatusOr: value() of an error: %s\n", status_.toString().c_str());
+    std::abort();
+  }
+
   Status status_;
   std::optional<T> value_;
 };
@@ -68,4 +88,14 @@ class [[nodiscard]] StatusOr {
     }                                  \
   } while (0)
 
-}  // namespace holofuse::protocol
+// lhs = the value of expr, or return its status from the function.
+#define HOLOFUSE_ASSIGN_OR_RETURN(lhs, expr) \
+  HOLOFUSE_ASSIGN_OR_RETURN_IMPL(HOLOFUSE_STATUS_CONCAT(holofuse_or_, __LINE__), lhs, expr)
+#define HOLOFUSE_STATUS_CONCAT_INNER(a, b) a##b
+#define HOLOFUSE_STATUS_CONCAT(a, b) HOLOFUSE_STATUS_CONCAT_INNER(a, b)
+#define HOLOFUSE_ASSIGN_OR_RETURN_IMPL(or_value, lhs, expr) \
+  auto or_value = (expr);                                   \
+  if (!or_value.isOk()) return or_value.status();           \
+  lhs = std::move(or_value.value())
+
+}  // namespace holofuse

@@ -1,4 +1,4 @@
-#include "eval/metrics.h"
+#include "metrics/image_metrics.h"
 
 #include <algorithm>
 #include <array>
@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace holofuse::eval {
+namespace holofuse::metrics {
 namespace {
 
 constexpr int kRadius = 5;  // 11 x 11 window
@@ -331,4 +331,4 @@ Image8 regionsPicture(const Image8& regions) {
   return out;
 }
 
-}  // namespace holofuse::eval
+}  // namespace holofuse::metrics

@@ -1,6 +1,6 @@
-#include "protocol/status.h"
+#include "base/status.h"
 
-namespace holofuse::protocol {
+namespace holofuse {
 
 const char* statusCodeName(StatusCode code) {
   switch (code) {
@@ -37,4 +37,4 @@ std::string Status::toString() const {
   return std::string(statusCodeName(code_)) + ": " + message_;
 }
 
-}  // namespace holofuse::protocol
+}  // namespace holofuse

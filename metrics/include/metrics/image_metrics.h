@@ -40,7 +40,7 @@
 
 #include "common/image.h"
 
-namespace holofuse::eval {
+namespace holofuse::metrics {
 
 constexpr double kPsnrCap = 100.0;  // dB, for identical images
 
@@ -135,4 +135,4 @@ RegionErrors regionErrors(const Image8& rendered, const Image8& truth, const Ima
 Image8 errorMapPicture(const Image8& rendered, const Image8& truth, const Image8& mask);
 Image8 regionsPicture(const Image8& regions);
 
-}  // namespace holofuse::eval
+}  // namespace holofuse::metrics
