@@ -3,7 +3,6 @@
 // relays the client's progress, and stops everything cleanly when the
 // client has its frames or on Ctrl-C, leaving no process behind.
 #include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -15,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "base/process.h"
 #include "capture_node/dataset.h"
 #include "capture_node/replay_pod.h"
 #include "capture_node/scene_library.h"
@@ -27,33 +27,21 @@ namespace {
 volatile sig_atomic_t g_interrupted = 0;
 void onSignal(int) { g_interrupted = 1; }
 
+// Starts a child of the loop: its output into log_path (the client's
+// stdout stays the terminal, for its progress line), Ctrl-C left to the
+// launcher, which decides when children stop. -1, said why, when it cannot
+// start.
 pid_t spawn(const std::vector<std::string>& args, const std::string& log_path) {
-  const pid_t pid = fork();
-  if (pid != 0) return pid;
-  // Child: own stdout stays the terminal for the client; pods and server log
-  // to files so the progress line stays readable.
-  signal(SIGINT, SIG_IGN);  // the launcher decides when children stop
-  if (!log_path.empty()) {
-    std::FILE* log = std::fopen(log_path.c_str(), "w");
-    if (log != nullptr) {
-      dup2(fileno(log), STDERR_FILENO);
-      if (args[0].find("render_client") == std::string::npos) dup2(fileno(log), STDOUT_FILENO);
-    }
+  holofuse::SpawnOptions options;
+  options.log_path = log_path;
+  options.stdout_to_log = args[0].find("render_client") == std::string::npos;
+  options.ignore_interrupt = true;
+  auto pid = holofuse::spawnProcess(args, options);
+  if (!pid.isOk()) {
+    std::fprintf(stderr, "[loop] %s\n", pid.status().message().c_str());
+    return -1;
   }
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  execv(argv[0], argv.data());
-  std::perror(("cannot start " + args[0]).c_str());
-  _exit(127);
-}
-
-bool waitFor(pid_t pid, int timeout_ms, int* status) {
-  for (int waited = 0; waited <= timeout_ms; waited += 20) {
-    if (waitpid(pid, status, WNOHANG) == pid) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return false;
+  return *pid;
 }
 
 // A flag of the shared table (common/command_line.h) the launcher takes
@@ -97,13 +85,8 @@ void appendForwarded(const std::vector<ForwardedSetting>& settings, holofuse::Lo
 
 void stop(pid_t pid, const char* what) {
   if (pid <= 0) return;
-  int status = 0;
-  if (waitpid(pid, &status, WNOHANG) == pid) return;
-  kill(pid, SIGTERM);
-  if (!waitFor(pid, 3000, &status)) {
-    std::fprintf(stderr, "[loop] %s (pid %d) ignored SIGTERM for 3 s; killing it\n", what, pid);
-    kill(pid, SIGKILL);
-    waitpid(pid, &status, 0);
+  if (holofuse::stopProcess(pid, 3000).killed) {
+    std::fprintf(stderr, "[loop] %s (pid %d) ignored SIGTERM for 3 s; killed it\n", what, pid);
   }
 }
 
@@ -308,13 +291,13 @@ int main(int argc, char** argv) {
     server_args.insert(server_args.end(), {"--wait-for-clients", "1"});
   }
   const pid_t server = spawn(server_args, (fs::path(out) / "logs" / "server.log").string());
+  if (server < 0) return 1;
   std::string bound;
   for (int i = 0; i < 250 && bound.empty(); ++i) {
     std::ifstream in(port_file);
     std::getline(in, bound);
     if (bound.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    int status;
-    if (waitpid(server, &status, WNOHANG) == server) {
+    if (holofuse::pollProcess(server)) {
       std::fprintf(stderr, "[loop] fusion_server exited at start-up; see %s/logs/server.log\n",
                    out.c_str());
       return 1;
@@ -347,6 +330,12 @@ int main(int argc, char** argv) {
     if (replay.empty()) appendForwarded(forwarded, holofuse::kToPods, pod_args);
     pod_pids.push_back(
         spawn(pod_args, (fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log")).string()));
+    if (pod_pids.back() < 0) {
+      pod_pids.pop_back();
+      for (const pid_t pod : pod_pids) stop(pod, "capture_node");
+      stop(server, "fusion_server");
+      return 1;
+    }
   }
   std::vector<std::string> client_args = {bin_dir + "/render_client",
                                           "--server",
@@ -379,29 +368,39 @@ int main(int argc, char** argv) {
   const bool replay_ends = !replay.empty() && !loop;
   if (replay_ends) client_args.push_back("--exit-when-server-leaves");
   const pid_t client = spawn(client_args, (fs::path(out) / "logs" / "client.log").string());
-  int client_status = 0, server_status = 0;
+  if (client < 0) {
+    for (const pid_t pod : pod_pids) stop(pod, "capture_node");
+    stop(server, "fusion_server");
+    return 1;
+  }
+  int client_exit = 0;
   bool client_done = false, server_done = false, failed = false;
   std::vector<bool> pod_done(pod_pids.size(), false);
   uint64_t waited_after_server_ms = 0;
   while (!g_interrupted && !client_done && !failed) {
-    client_done = waitFor(client, 100, &client_status);
-    if (client_done) break;
+    if (const auto code = holofuse::waitProcess(client, 100)) {
+      client_exit = *code;
+      client_done = true;
+      break;
+    }
     // A pod that fails (a replay pod that cannot read its dataset) would
     // leave the others waiting for it: stop everything and say why.
     for (size_t i = 0; i < pod_pids.size() && !failed; ++i) {
-      int status = 0;
-      if (pod_done[i] || waitpid(pod_pids[i], &status, WNOHANG) != pod_pids[i]) continue;
+      if (pod_done[i]) continue;
+      const auto code = holofuse::pollProcess(pod_pids[i]);
+      if (!code) continue;
       pod_done[i] = true;
-      if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+      if (*code != 0) {
         std::fprintf(stderr, "\n[loop] capture_node %zu failed; the end of %s/logs/pod%zu.log:\n",
                      i, out.c_str(), i);
         printLogTail(fs::path(out) / "logs" / ("pod" + std::to_string(i) + ".log"));
         failed = true;
       }
     }
-    if (!server_done && waitpid(server, &server_status, WNOHANG) == server) {
+    const auto server_code = server_done ? std::nullopt : holofuse::pollProcess(server);
+    if (server_code) {
       server_done = true;
-      if (!replay_ends || !WIFEXITED(server_status) || WEXITSTATUS(server_status) != 0) {
+      if (!replay_ends || *server_code != 0) {
         std::fprintf(stderr, "\n[loop] fusion_server stopped; the end of %s/logs/server.log:\n",
                      out.c_str());
         printLogTail(fs::path(out) / "logs" / "server.log");
@@ -425,9 +424,7 @@ int main(int argc, char** argv) {
     if (!pod_done[i]) stop(pod_pids[i], "capture_node");
   }
   if (!server_done) stop(server, "fusion_server");
-  const bool ok =
-      !failed &&
-      (client_done ? (WIFEXITED(client_status) && WEXITSTATUS(client_status) == 0) : true);
+  const bool ok = !failed && (client_done ? client_exit == 0 : true);
   if (!ok && !failed) {
     // Say why right here: the end of the client's log.
     std::fprintf(stderr, "[loop] render_client failed; the end of %s/logs/client.log:\n",

@@ -1,12 +1,6 @@
 #include "eval/sweep.h"
 
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -14,6 +8,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "base/process.h"
 #include "capture_node/dataset.h"
 #include "capture_node/scene_library.h"
 #include "common/command_line.h"
@@ -204,24 +199,16 @@ std::vector<std::string> liveArguments(const SweepOptions& options, const std::s
 }
 
 // Runs a program with its output into log: its exit status, or -1 when it
-// could not start.
+// could not start (said why on stderr).
 int runLogged(const std::vector<std::string>& command, const fs::path& log) {
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
-                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
-  std::vector<char*> argv;
-  for (const auto& part : command) argv.push_back(const_cast<char*>(part.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  const int spawned = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (spawned != 0) return -1;
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  SpawnOptions options;
+  options.log_path = log.string();
+  const auto pid = spawnProcess(command, options);
+  if (!pid.isOk()) {
+    std::fprintf(stderr, "[sweep] %s\n", pid.status().message().c_str());
+    return -1;
   }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return waitProcess(*pid, -1).value_or(-1);
 }
 
 nlohmann::json liveJson(const LiveMeasure& live, int frames_asked) {

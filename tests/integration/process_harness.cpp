@@ -1,7 +1,6 @@
 #include "process_harness.h"
 
-#include <signal.h>
-#include <sys/wait.h>
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -9,32 +8,25 @@
 #include <fstream>
 #include <thread>
 
+#include "base/process.h"
+
 namespace holofuse::test {
 
 pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
-  const pid_t pid = fork();
-  if (pid != 0) return pid;
-  std::FILE* f = std::fopen(log.c_str(), "w");
-  if (f != nullptr) {
-    dup2(fileno(f), STDOUT_FILENO);
-    dup2(fileno(f), STDERR_FILENO);
+  SpawnOptions options;
+  options.log_path = log.string();
+  auto pid = spawnProcess(args, options);
+  if (!pid.isOk()) {
+    ADD_FAILURE() << pid.status().message();
+    return -1;
   }
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  execv(argv[0], argv.data());
-  _exit(127);
+  return *pid;
 }
 
 int waitExit(pid_t pid, int timeout_s) {
-  int status = 0;
-  for (int i = 0; i < timeout_s * 20; ++i) {
-    if (waitpid(pid, &status, WNOHANG) == pid)
-      return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  kill(pid, SIGKILL);
-  waitpid(pid, &status, 0);
+  if (pid < 0) return -1;
+  if (const auto code = waitProcess(pid, 1000 * timeout_s)) return *code;
+  stopProcess(pid, 0);
   return -1;
 }
 

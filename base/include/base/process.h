@@ -1,0 +1,53 @@
+// Child processes, the one way every program and test starts them: the
+// launcher its pods, server and client, the sweep its live runs, the
+// integration tests the real executables.
+#pragma once
+
+#include <sys/types.h>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "base/status.h"
+
+namespace holofuse {
+
+struct SpawnOptions {
+  // Where the child's output goes ("" : where the parent's goes).
+  std::string log_path;
+  // false: only its stderr goes to the log, its stdout stays the parent's
+  // (a program whose progress the user watches).
+  bool stdout_to_log = true;
+  // The child ignores SIGINT: a Ctrl-C at the terminal reaches the parent,
+  // which decides when its children stop.
+  bool ignore_interrupt = false;
+};
+
+// Starts args[0] with args: its pid, or an error naming the program and
+// why it did not start (no such file, not executable, the log not
+// writable); a program that cannot start is never a running child.
+StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args,
+                             const SpawnOptions& options = {});
+
+// How a waited-for process ended: its exit code, or 128 + the signal that
+// killed it (as a shell reports it).
+int exitCodeOf(int wait_status);
+
+// Its exit code once it has ended (and is reaped); nullopt while it runs.
+std::optional<int> pollProcess(pid_t pid);
+
+// Waits for it to end: its exit code, or nullopt when it still runs after
+// timeout_ms (negative: no limit).
+std::optional<int> waitProcess(pid_t pid, int timeout_ms);
+
+struct StoppedProcess {
+  int exit_code = 0;
+  bool killed = false;  // it ignored SIGTERM for the grace period and got SIGKILL
+};
+
+// SIGTERM, then SIGKILL after grace_ms; reaped either way. A process that
+// had already ended is only reaped.
+StoppedProcess stopProcess(pid_t pid, int grace_ms);
+
+}  // namespace holofuse

@@ -1,0 +1,123 @@
+#include "base/process.h"
+
+#include <fcntl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <csignal>
+#include <cstring>
+#include <thread>
+
+namespace holofuse {
+
+StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args, const SpawnOptions& options) {
+  if (args.empty() || args[0].empty()) return Status(StatusCode::kMalformed, "no program to start");
+  int log_fd = -1;
+  if (!options.log_path.empty()) {
+    log_fd = ::open(options.log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (log_fd < 0) {
+      return Status(StatusCode::kIoError, "cannot start " + args[0] + ": its log " +
+                                              options.log_path + ": " + std::strerror(errno));
+    }
+  }
+  // The child reports a failed exec through this pipe; a successful exec
+  // closes it (close-on-exec), so the parent reads nothing.
+  int report[2];
+  if (::pipe2(report, O_CLOEXEC) != 0) {
+    const int error = errno;
+    if (log_fd >= 0) ::close(log_fd);
+    return Status(StatusCode::kIoError, "cannot start " + args[0] + ": " + std::strerror(error));
+  }
+  // Everything the child touches is made before fork: between fork and
+  // exec only async-signal-safe calls.
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    if (options.ignore_interrupt) ::signal(SIGINT, SIG_IGN);
+    if (log_fd >= 0) {
+      ::dup2(log_fd, STDERR_FILENO);
+      if (options.stdout_to_log) ::dup2(log_fd, STDOUT_FILENO);
+    }
+    ::execv(argv[0], argv.data());
+    const int error = errno;
+    [[maybe_unused]] const ssize_t written = ::write(report[1], &error, sizeof(error));
+    ::_exit(127);
+  }
+  const int fork_error = errno;
+  ::close(report[1]);
+  if (log_fd >= 0) ::close(log_fd);
+  if (pid < 0) {
+    ::close(report[0]);
+    return Status(StatusCode::kIoError,
+                  "cannot start " + args[0] + ": " + std::strerror(fork_error));
+  }
+  int exec_error = 0;
+  ssize_t got = 0;
+  do {
+    got = ::read(report[0], &exec_error, sizeof(exec_error));
+  } while (got < 0 && errno == EINTR);
+  ::close(report[0]);
+  if (got == static_cast<ssize_t>(sizeof(exec_error))) {
+    int status = 0;
+    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
+    return Status(StatusCode::kIoError,
+                  "cannot start " + args[0] + ": " + std::strerror(exec_error));
+  }
+  return pid;
+}
+
+int exitCodeOf(int wait_status) {
+  if (WIFEXITED(wait_status)) return WEXITSTATUS(wait_status);
+  if (WIFSIGNALED(wait_status)) return 128 + WTERMSIG(wait_status);
+  return -1;
+}
+
+std::optional<int> pollProcess(pid_t pid) {
+  int status = 0;
+  pid_t got = 0;
+  do {
+    got = ::waitpid(pid, &status, WNOHANG);
+  } while (got < 0 && errno == EINTR);
+  if (got == pid) return exitCodeOf(status);
+  return std::nullopt;
+}
+
+std::optional<int> waitProcess(pid_t pid, int timeout_ms) {
+  if (timeout_ms < 0) {
+    int status = 0;
+    while (::waitpid(pid, &status, 0) < 0) {
+      if (errno != EINTR) return -1;  // not our child: nothing to wait for
+    }
+    return exitCodeOf(status);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+  for (;;) {
+    if (const auto code = pollProcess(pid)) return code;
+    if (std::chrono::steady_clock::now() >= deadline) return std::nullopt;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
+StoppedProcess stopProcess(pid_t pid, int grace_ms) {
+  StoppedProcess stopped;
+  if (const auto code = pollProcess(pid)) {
+    stopped.exit_code = *code;
+    return stopped;
+  }
+  ::kill(pid, SIGTERM);
+  if (const auto code = waitProcess(pid, grace_ms)) {
+    stopped.exit_code = *code;
+    return stopped;
+  }
+  ::kill(pid, SIGKILL);
+  stopped.killed = true;
+  stopped.exit_code = waitProcess(pid, -1).value_or(-1);
+  return stopped;
+}
+
+}  // namespace holofuse

@@ -1,0 +1,102 @@
+// The one way the project starts child processes: output where asked, exit
+// codes as a shell reports them, a program that cannot start named as an
+// error, and a stop that ends even a child that ignores SIGTERM.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "base/process.h"
+
+namespace holofuse {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path logIn(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("holofuse_process_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  return dir / name;
+}
+
+std::string contents(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+TEST(Process, OutputGoesToTheLogAndTheExitCodeComesBack) {
+  const fs::path log = logIn("both.log");
+  SpawnOptions options;
+  options.log_path = log.string();
+  const auto pid =
+      spawnProcess({"/bin/sh", "-c", "echo to-stdout; echo to-stderr >&2; exit 3"}, options);
+  ASSERT_TRUE(pid.isOk()) << pid.status().message();
+  EXPECT_EQ(waitProcess(*pid, -1), 3);
+  const std::string text = contents(log);
+  EXPECT_NE(text.find("to-stdout"), std::string::npos) << text;
+  EXPECT_NE(text.find("to-stderr"), std::string::npos) << text;
+}
+
+TEST(Process, StdoutCanStayTheParentsWhileStderrIsLogged) {
+  const fs::path log = logIn("stderr.log");
+  SpawnOptions options;
+  options.log_path = log.string();
+  options.stdout_to_log = false;
+  const auto pid =
+      spawnProcess({"/bin/sh", "-c", "echo to-stdout >/dev/null; echo to-stderr >&2"}, options);
+  ASSERT_TRUE(pid.isOk());
+  EXPECT_EQ(waitProcess(*pid, -1), 0);
+  EXPECT_EQ(contents(log), "to-stderr\n");
+}
+
+TEST(Process, AProgramThatCannotStartIsAnErrorThatNamesIt) {
+  const auto missing = spawnProcess({"/nonexistent/holofuse_program", "--flag"});
+  ASSERT_FALSE(missing.isOk());
+  EXPECT_NE(missing.status().message().find("/nonexistent/holofuse_program"), std::string::npos);
+  EXPECT_NE(missing.status().message().find("No such file"), std::string::npos)
+      << missing.status().message();
+  SpawnOptions unwritable;
+  unwritable.log_path = "/nonexistent/folder/log.txt";
+  const auto no_log = spawnProcess({"/bin/true"}, unwritable);
+  ASSERT_FALSE(no_log.isOk());
+  EXPECT_NE(no_log.status().message().find("/nonexistent/folder/log.txt"), std::string::npos);
+  EXPECT_FALSE(spawnProcess({}).isOk());
+}
+
+TEST(Process, AnIgnoredInterruptLeavesTheChildRunning) {
+  SpawnOptions ignoring;
+  ignoring.ignore_interrupt = true;
+  const auto kept = spawnProcess({"/bin/sh", "-c", "kill -INT $$; exit 7"}, ignoring);
+  ASSERT_TRUE(kept.isOk());
+  EXPECT_EQ(waitProcess(*kept, -1), 7);
+  const auto interrupted = spawnProcess({"/bin/sh", "-c", "kill -INT $$; exit 7"});
+  ASSERT_TRUE(interrupted.isOk());
+  EXPECT_EQ(waitProcess(*interrupted, -1), 128 + SIGINT);
+}
+
+TEST(Process, StopEndsAChildAndKillsOneThatIgnoresTerm) {
+  const auto polite = spawnProcess({"/bin/sleep", "100"});
+  ASSERT_TRUE(polite.isOk());
+  EXPECT_FALSE(pollProcess(*polite)) << "sleep 100 is still running";
+  const StoppedProcess stopped = stopProcess(*polite, 60000);
+  EXPECT_FALSE(stopped.killed);
+  EXPECT_EQ(stopped.exit_code, 128 + SIGTERM);
+  // An ignored signal stays ignored across fork and exec: this sleep
+  // ignores TERM from its first instruction.
+  const auto previous = std::signal(SIGTERM, SIG_IGN);
+  const auto stubborn = spawnProcess({"/bin/sleep", "100"});
+  std::signal(SIGTERM, previous);
+  ASSERT_TRUE(stubborn.isOk());
+  const StoppedProcess killed = stopProcess(*stubborn, 200);
+  EXPECT_TRUE(killed.killed);
+  EXPECT_EQ(killed.exit_code, 128 + SIGKILL);
+}
+
+}  // namespace
+}  // namespace holofuse
