@@ -227,8 +227,11 @@ std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
   for (int held : heldOutCameras(static_cast<int>(views.size()), options.held_out_cameras)) {
     std::vector<fusion::HullView> others = views;
     others.erase(others.begin() + held);
-    std::vector<Image8> other_colors = colors;
-    other_colors.erase(other_colors.begin() + held);
+    std::vector<Image8> other_colors;
+    if (!colors.empty()) {
+      other_colors = colors;
+      other_colors.erase(other_colors.begin() + held);
+    }
     const Mesh mesh = refined(
         options.hull_without_held_out ? fusion::carveVisualHull(others, hull_options) : hull,
         others, other_colors, options, hull_options.voxel_size);
@@ -250,12 +253,18 @@ std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
 Mesh refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
                   const std::vector<fusion::HullView>& views, Mesh carved,
                   const fusion::HullOptions& hull_options, FrameData& frame) {
-  const std::vector<Image8> colors = fusion::colorsInFrame(group);
-  const auto t0 = Clock::now();
-  Mesh mesh = refined(carved, views, colors, options, hull_options.voxel_size);
-  frame.refine_ms = msSince(t0);
+  const bool refining = options.refine_voxels > 0;
+  // The colours in whole frames only for the refinement, which reads them.
+  const std::vector<Image8> colors =
+      refining ? fusion::colorsInFrame(group) : std::vector<Image8>{};
+  std::optional<Mesh> mesh;
+  if (refining) {
+    const auto t0 = Clock::now();
+    mesh = refined(carved, views, colors, options, hull_options.voxel_size);
+    frame.refine_ms = msSince(t0);
+  }
   frame.mesh_without = meshesForHeldOut(options, views, colors, carved, hull_options);
-  return mesh;
+  return mesh ? std::move(*mesh) : std::move(carved);
 }
 
 FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene& scene,

@@ -109,23 +109,20 @@ std::vector<Image8> colorsInFrame(const FrameGroup& group) {
   return colors;
 }
 
-Mesh refineHull(const Mesh& hull, const std::vector<HullView>& views, const FrameGroup& group,
-                const FusionSettings& settings, PhotoRefineStats* stats) {
-  if (!(settings.refine.depth_voxels > 0)) return hull;
-  PhotoRefineOptions refine = settings.refine;
-  refine.voxel_size = settings.hull.voxel_size;
-  return refineByPhotoConsistency(hull, views, colorsInFrame(group), refine, stats);
-}
-
 FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   const std::vector<HullView> views = hullViewsOf(job.group);
   const uint64_t t0 = monotonicNs();
   const Mesh hull = carveVisualHull(views, settings.hull);
   const uint64_t t1 = monotonicNs();
-  const bool refining = settings.refine.depth_voxels > 0;
-  const Mesh refined = refining ? refineHull(hull, views, job.group, settings) : Mesh{};
-  const uint64_t t2 = refining ? monotonicNs() : 0;
-  FusedOutput out = packageFused(job, settings, refining ? refined : hull, t0, t1, t2);
+  std::optional<Mesh> refined;
+  uint64_t t2 = 0;
+  if (settings.refine.depth_voxels > 0) {
+    PhotoRefineOptions refine = settings.refine;
+    refine.voxel_size = settings.hull.voxel_size;  // this frame's, under an error target
+    refined = refineByPhotoConsistency(hull, views, colorsInFrame(job.group), refine);
+    t2 = monotonicNs();
+  }
+  FusedOutput out = packageFused(job, settings, refined ? *refined : hull, t0, t1, t2);
   // Measured after the frame is on its way (not part of the hull's time):
   // it only steers the next frame's voxel, which is the carved hull's.
   if (settings.hull_error_target > 0) out.silhouette_error = silhouetteError(hull, views);

@@ -71,11 +71,6 @@ std::vector<HullView> hullViewsOf(const FrameGroup& group);
 // The group's colour images as whole images, in hullViewsOf's order.
 std::vector<Image8> colorsInFrame(const FrameGroup& group);
 
-// The carved hull refined as settings.refine says (the hull itself when
-// refinement is off), the hull's voxel being settings.hull.voxel_size.
-Mesh refineHull(const Mesh& hull, const std::vector<HullView>& views, const FrameGroup& group,
-                const FusionSettings& settings, PhotoRefineStats* stats = nullptr);
-
 // The whole fusion of one group, callable without the thread (tests).
 FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings);
 
