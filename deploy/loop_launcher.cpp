@@ -44,6 +44,19 @@ pid_t spawn(const std::vector<std::string>& args, const std::string& log_path) {
   return *pid;
 }
 
+// args as one command line for /bin/sh, each word single-quoted, so that
+// a folder with spaces or quotes in its name stays one word.
+std::string shellCommand(const std::vector<std::string>& args) {
+  std::string command;
+  for (const std::string& arg : args) {
+    if (!command.empty()) command += ' ';
+    command += '\'';
+    for (const char c : arg) command += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    command += '\'';
+  }
+  return command;
+}
+
 // A flag of the shared table (common/command_line.h) the launcher takes
 // and passes on, with its help and range, so it refuses what the process
 // would; passed on only when given, so each process keeps its own default
@@ -354,11 +367,12 @@ int main(int argc, char** argv) {
     client_args.insert(client_args.end(),
                        {"--jump-degrees", std::to_string(preset->view_jump_degrees)});
   }
-  if (quality) {
-    client_args.insert(client_args.end(),
-                       {"--truth-scene", scene, "--truth-fps", std::to_string(fps)});
-    if (!seed.empty()) client_args.insert(client_args.end(), {"--truth-seed", seed});
-    if (!noise.empty()) client_args.insert(client_args.end(), {"--truth-noise", noise});
+  if (quality) {  // the judge knows the truth the pods film; the client does not
+    std::vector<std::string> judge = {bin_dir + "/holofuse_judge", "--scene", scene, "--fps",
+                                      std::to_string(fps)};
+    if (!seed.empty()) judge.insert(judge.end(), {"--seed", seed});
+    if (!noise.empty()) judge.insert(judge.end(), {"--noise", noise});
+    client_args.insert(client_args.end(), {"--judge", shellCommand(judge)});
   }
   appendForwarded(forwarded, holofuse::kToClient, client_args);
   if (!budget.empty()) {

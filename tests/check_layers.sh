@@ -11,9 +11,8 @@ layers=(
   "base"
   "protocol"
   "common"
-  "metrics capture_node"
-  "fusion_server"
-  "render_client"
+  "metrics"
+  "capture_node fusion_server render_client"
   "eval"
   "deploy"
 )

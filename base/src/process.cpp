@@ -8,18 +8,38 @@
 #include <chrono>
 #include <csignal>
 #include <cstring>
+#include <initializer_list>
 #include <thread>
 
 namespace holofuse {
 
-StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args, const SpawnOptions& options) {
+namespace {
+
+void closeAll(std::initializer_list<int> fds) {
+  for (const int fd : fds)
+    if (fd >= 0) ::close(fd);
+}
+
+}  // namespace
+
+StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args, const SpawnOptions& options,
+                             ChildPipes* pipes) {
   if (args.empty() || args[0].empty()) return Status(StatusCode::kMalformed, "no program to start");
+  int to_child[2] = {-1, -1}, from_child[2] = {-1, -1};
+  if (pipes != nullptr &&
+      (::pipe2(to_child, O_CLOEXEC) != 0 || ::pipe2(from_child, O_CLOEXEC) != 0)) {
+    const int error = errno;
+    closeAll({to_child[0], to_child[1], from_child[0], from_child[1]});
+    return Status(StatusCode::kIoError, "cannot start " + args[0] + ": " + std::strerror(error));
+  }
   int log_fd = -1;
   if (!options.log_path.empty()) {
     log_fd = ::open(options.log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
     if (log_fd < 0) {
+      const int error = errno;
+      closeAll({to_child[0], to_child[1], from_child[0], from_child[1]});
       return Status(StatusCode::kIoError, "cannot start " + args[0] + ": its log " +
-                                              options.log_path + ": " + std::strerror(errno));
+                                              options.log_path + ": " + std::strerror(error));
     }
   }
   // The child reports a failed exec through this pipe; a successful exec
@@ -27,7 +47,7 @@ StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args, const SpawnOp
   int report[2];
   if (::pipe2(report, O_CLOEXEC) != 0) {
     const int error = errno;
-    if (log_fd >= 0) ::close(log_fd);
+    closeAll({log_fd, to_child[0], to_child[1], from_child[0], from_child[1]});
     return Status(StatusCode::kIoError, "cannot start " + args[0] + ": " + std::strerror(error));
   }
   // Everything the child touches is made before fork: between fork and
@@ -42,6 +62,10 @@ StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args, const SpawnOp
       ::dup2(log_fd, STDERR_FILENO);
       if (options.stdout_to_log) ::dup2(log_fd, STDOUT_FILENO);
     }
+    if (pipes != nullptr) {  // dup2 clears close-on-exec on the copies
+      ::dup2(to_child[0], STDIN_FILENO);
+      ::dup2(from_child[1], STDOUT_FILENO);
+    }
     ::execv(argv[0], argv.data());
     const int error = errno;
     [[maybe_unused]] const ssize_t written = ::write(report[1], &error, sizeof(error));
@@ -49,9 +73,9 @@ StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args, const SpawnOp
   }
   const int fork_error = errno;
   ::close(report[1]);
-  if (log_fd >= 0) ::close(log_fd);
+  closeAll({log_fd, to_child[0], from_child[1]});  // the child's ends
   if (pid < 0) {
-    ::close(report[0]);
+    closeAll({report[0], to_child[1], from_child[0]});
     return Status(StatusCode::kIoError,
                   "cannot start " + args[0] + ": " + std::strerror(fork_error));
   }
@@ -65,9 +89,11 @@ StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args, const SpawnOp
     int status = 0;
     while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
     }
+    closeAll({to_child[1], from_child[0]});
     return Status(StatusCode::kIoError,
                   "cannot start " + args[0] + ": " + std::strerror(exec_error));
   }
+  if (pipes != nullptr) *pipes = {to_child[1], from_child[0]};
   return pid;
 }
 

@@ -28,4 +28,26 @@ Status writePng(const std::string& path, const Image8& image) {
   return Status::ok();
 }
 
+StatusOr<Image8> readPng(const std::string& path) {
+  cv::Mat stored;
+  try {
+    stored = cv::imread(path, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    return Status(StatusCode::kIoError, path + ": " + e.what());
+  }
+  if (stored.empty()) return Status(StatusCode::kIoError, path + ": missing, or not an image");
+  if (stored.depth() != CV_8U || stored.channels() == 2 || stored.channels() > 4) {
+    return Status(StatusCode::kMalformed, path + ": not an 8-bit grey, RGB or RGBA image");
+  }
+  cv::Mat ordered;
+  if (stored.channels() == 1) ordered = stored;
+  if (stored.channels() == 3) cv::cvtColor(stored, ordered, cv::COLOR_BGR2RGB);
+  if (stored.channels() == 4) cv::cvtColor(stored, ordered, cv::COLOR_BGRA2RGBA);
+  Image8 image(static_cast<uint32_t>(ordered.cols), static_cast<uint32_t>(ordered.rows),
+               static_cast<uint32_t>(ordered.channels()));
+  cv::Mat target(ordered.rows, ordered.cols, ordered.type(), image.pixels.data());
+  ordered.copyTo(target);
+  return image;
+}
+
 }  // namespace holofuse

@@ -19,6 +19,7 @@
 #include "common/shutdown.h"
 #include "protocol/clock.h"
 #include "protocol/server_link.h"
+#include "render_client/frame_judge.h"
 #include "render_client/latency_report.h"
 
 namespace holofuse::render {
@@ -219,6 +220,15 @@ int runClient(const ClientOptions& options) {
     std::fprintf(stderr, "[client] Vulkan start-up failed: %s\n", e.what());
     return 1;
   }
+  std::optional<FrameJudge> judge;
+  if (!options.judge_command.empty()) {
+    auto started = FrameJudge::start(options.judge_command);
+    if (!started.isOk()) {
+      std::fprintf(stderr, "[client] --judge: %s\n", started.status().message().c_str());
+      return 2;
+    }
+    judge.emplace(std::move(started.value()));
+  }
   std::fprintf(stderr, "[client] rendering on %s, mode %s\n", context->deviceName().c_str(),
                blendModeName(options.blend.mode).c_str());
   if (options.jump_degrees != 0) {
@@ -414,6 +424,7 @@ int runClient(const ClientOptions& options) {
         char name[64];
         std::snprintf(name, sizeof(name), "frame_%06zu.png", report.framesRendered());
         record.file = std::string("frames/") + name;
+        bool frame_written = false;
         if (options.write_frames) {
           // Written aside and renamed: whoever watches frames/ (a viewer,
           // a test) never reads half a picture.
@@ -423,19 +434,23 @@ int runClient(const ClientOptions& options) {
           const Status written = writePng(partial.string(), picture);
           std::error_code renamed;
           if (written.isOk()) fs::rename(partial, path, renamed);
+          frame_written = written.isOk() && !renamed;
           if (!written.isOk()) std::fprintf(stderr, "[client] %s\n", written.message().c_str());
           if (renamed)
             std::fprintf(stderr, "[client] %s: %s\n", path.c_str(), renamed.message().c_str());
         }
         const uint64_t t4 = monotonicNs();
-        if (options.judge) {
+        if (judge && frame_written) {
           const uint64_t judge_start = monotonicNs();
-          try {
-            record.quality = options.judge(picture, *user, mesh_frame.frame_id);
-          } catch (const std::exception& e) {  // e.g. a pod view of another size than the picture
-            if (!judge_failed) std::fprintf(stderr, "[client] frames not judged: %s\n", e.what());
-            judge_failed = true;
-          }
+          auto answer =
+              judge->judge({(out_dir / record.file).string(), mesh_frame.frame_id, *user});
+          const std::string error = answer.isOk() ? answer->error : answer.status().message();
+          if (answer.isOk() && error.empty()) record.quality = answer->quality;
+          // e.g. a pod view of another size than the picture; a judge gone
+          // stays gone, and the frames render on unjudged.
+          if (!error.empty() && !judge_failed)
+            std::fprintf(stderr, "[client] frames not judged: %s\n", error.c_str());
+          judge_failed = judge_failed || !error.empty();
           report.addJudgeMs(static_cast<double>(monotonicNs() - judge_start) / 1e6);
         }
         stamps.push_back({static_cast<uint16_t>(Stage::kUpload), kSourceClient, t1, t2});

@@ -1,14 +1,9 @@
 // render_client: headless Vulkan renderer of the fused stream. See
 // its --help for the flags.
 #include <cstdio>
-#include <optional>
 
-#include "capture_node/pod.h"
-#include "capture_node/scene_library.h"
-#include "capture_node/synthetic_scene.h"
 #include "common/command_line.h"
 #include "common/shutdown.h"
-#include "metrics/image_metrics.h"
 #include "render_client/client.h"
 
 int main(int argc, char** argv) {
@@ -60,50 +55,12 @@ int main(int argc, char** argv) {
   std::string budget_file;
   app.add_option("--budget", budget_file,
                  "JSON of per-stage ms budgets (stage names of report.json, end_to_end)");
-  std::string truth_scene;
-  CLI::Option* truth_scene_option = app.add_option(
-      "--truth-scene", truth_scene,
-      "the synthetic scene the pods render: judge each written frame against its true image from "
-      "the "
-      "same view (PSNR, SSIM in report.json and report.html); costs client time after each frame");
-  double truth_fps = capture::PodOptions{}.fps;
-  app.add_option("--truth-fps", truth_fps,
-                 "with --truth-scene: the pods' --fps (their frame ids' clock)")
-      ->check(CLI::Range(0.1, 240.0))
-      ->needs(truth_scene_option);
-  // The pods' own flags of the same names change what they render; the
-  // truth must change with them.
-  std::optional<uint64_t> truth_seed;
-  std::optional<double> truth_noise;
-  app.add_option("--truth-seed", truth_seed,
-                 "with --truth-scene: the pods' --seed (their motion and texture)")
-      ->needs(truth_scene_option);
-  app.add_option("--truth-noise", truth_noise, "with --truth-scene: the pods' --noise, grey levels")
-      ->check(sharedFlag("--noise").check())
-      ->needs(truth_scene_option);
+  app.add_option("--judge", options.judge_command,
+                 "a shell command that starts a live judge (eval's holofuse_judge): each written "
+                 "frame is judged against the truth from its view (PSNR, SSIM in report.json and "
+                 "report.html); costs client time after each frame");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   options.blend.fragment_test = fragment_test == "on";
-  if (!truth_scene.empty()) {
-    const capture::ScenePreset* preset = capture::findScene(truth_scene);
-    if (preset == nullptr) {
-      std::fprintf(stderr, "--truth-scene '%s': unknown; valid scenes: %s\n", truth_scene.c_str(),
-                   capture::sceneNames().c_str());
-      return 2;
-    }
-    // The scene as the pods render it (capture_node --scene), seen from
-    // the user camera at the frame's time.
-    capture::SceneOptions scene_options = preset->scene;
-    scene_options.frames_per_second = truth_fps;  // as capture_node sets it from its --fps
-    if (truth_seed) scene_options.seed = *truth_seed;
-    if (truth_noise) scene_options.noise_amplitude = *truth_noise;
-    options.judge = [scene = capture::SyntheticScene(scene_options)](
-                        const Image8& picture, const Camera& view, uint64_t frame_id) {
-      const capture::RenderedView truth = scene.render(view, frame_id);
-      const metrics::ImageQuality q = metrics::compareInMask(picture, truth.color, truth.mask);
-      // Nothing of the subject in view: nothing to judge (PSNR would be the cap).
-      return q.pixels == 0 ? std::nullopt : std::optional(render::FrameQuality{q.psnr_db, q.ssim});
-    };
-  }
   if (list_devices) {
     try {
       const auto devices = render::VulkanContext::listDevices();

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
 #include "common/image_io.h"
@@ -47,6 +48,32 @@ TEST(WritePng, LeavesTheImageAndWritesItsChannelsInOrder) {
     }
   }
   EXPECT_FALSE(writePng((dir / "missing" / "x.png").string(), gradient(3)).isOk());
+  fs::remove_all(dir);
+}
+
+// The live judge reads the client's frames back: every channel count comes
+// back as it was written, and a file that is not a picture is named.
+TEST(ReadPng, ReturnsWhatWritePngWroteAndNamesABadFile) {
+  const fs::path dir = fs::temp_directory_path() / ("holofuse_png_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  for (uint32_t channels : {1u, 3u, 4u}) {
+    const Image8 original = gradient(channels);
+    const std::string path = (dir / ("image" + std::to_string(channels) + ".png")).string();
+    ASSERT_TRUE(writePng(path, original).isOk());
+    const auto read = readPng(path);
+    ASSERT_TRUE(read.isOk()) << read.status().message();
+    EXPECT_EQ(read->channels, channels);
+    EXPECT_EQ(read->width, original.width);
+    EXPECT_EQ(read->height, original.height);
+    EXPECT_EQ(read->pixels, original.pixels) << channels << " channels";
+  }
+  const fs::path garbage = dir / "garbage.png";
+  { std::ofstream(garbage) << "not a picture"; }
+  const auto bad = readPng(garbage.string());
+  ASSERT_FALSE(bad.isOk());
+  EXPECT_NE(bad.status().message().find(garbage.string()), std::string::npos)
+      << bad.status().message();
+  EXPECT_FALSE(readPng((dir / "missing.png").string()).isOk());
   fs::remove_all(dir);
 }
 

@@ -134,9 +134,10 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
         }
       }
     }
-    // The client judged the frame against the same truth (the launcher's
-    // --quality): its PSNR is the one recomputed here from
-    // the PNG, and from pod 0's own pose, its image in the blend, it is high.
+    // The judge the launcher's --quality gives the client (holofuse_judge)
+    // judged the frame against the same truth: its PSNR is the one
+    // recomputed here from the PNG, and from pod 0's own pose, its image in
+    // the blend, it is high.
     const double psnr = 10 * std::log10(255.0 * 255.0 * static_cast<double>(values) / squared);
     ASSERT_TRUE(frame["psnr_db"].is_number()) << frame.dump();
     EXPECT_NEAR(frame["psnr_db"].get<double>(), psnr, 1e-6) << frame["file"];

@@ -24,11 +24,21 @@ struct SpawnOptions {
   bool ignore_interrupt = false;
 };
 
+// A child's stdin and stdout as pipes to the parent (spawnProcess's last
+// argument): to_child is written, from_child read; both close-on-exec in
+// the parent, and the parent closes them.
+struct ChildPipes {
+  int to_child = -1;
+  int from_child = -1;
+};
+
 // Starts args[0] with args: its pid, or an error naming the program and
 // why it did not start (no such file, not executable, the log not
-// writable); a program that cannot start is never a running child.
-StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args,
-                             const SpawnOptions& options = {});
+// writable); a program that cannot start is never a running child. With
+// pipes, the child's stdin and stdout are pipes to the parent (its stdout
+// then never goes to the log), filled in only when the child started.
+StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args, const SpawnOptions& options = {},
+                             ChildPipes* pipes = nullptr);
 
 // How a waited-for process ended: its exit code, or 128 + the signal that
 // killed it (as a shell reports it).

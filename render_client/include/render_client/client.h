@@ -4,7 +4,6 @@
 #pragma once
 
 #include <cstdint>
-#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -42,15 +41,11 @@ struct ClientOptions {
   int exclude_camera = -1;               // leave this camera out of the blend
   bool write_frames = true;
   Budget budget;  // per-stage ms; violations are flagged in the reports
-  // Judges each written frame against the truth from the user camera at
-  // its frame id (main: the synthetic scene the pods render, with
-  // --truth-scene); unset: frames are not judged. Runs after the frame is
-  // written, outside every stage's time.
-  // None: nothing to judge by (no subject in the true view). An exception
-  // leaves the frame unjudged, with a warning.
-  std::function<std::optional<FrameQuality>(const Image8& picture, const Camera& view,
-                                            uint64_t frame_id)>
-      judge;
+  // A shell command that starts the live judge (render_client/frame_judge.h;
+  // the launcher's --quality gives eval's holofuse_judge): each written
+  // frame is judged against the truth from its view, after it is written,
+  // outside every stage's time. Empty: frames are not judged.
+  std::string judge_command;
 };
 
 int runClient(const ClientOptions& options);

@@ -1,0 +1,81 @@
+// holofuse_judge: the live loop's judge (render_client/frame_judge.h).
+// Reads one request a line on stdin (a frame the client wrote, its view,
+// its frame id), renders the synthetic scene the pods film from that view
+// at that time, and answers the frame's PSNR and SSIM inside the true mask
+// on stdout, a line each. The launcher's --quality starts it for the
+// client; it ends when its stdin does.
+#include <cstdio>
+#include <iostream>
+#include <optional>
+#include <string>
+
+#include "capture_node/pod.h"
+#include "capture_node/scene_library.h"
+#include "capture_node/synthetic_scene.h"
+#include "common/command_line.h"
+#include "common/image_io.h"
+#include "metrics/image_metrics.h"
+#include "render_client/frame_judge.h"
+
+namespace {
+
+using namespace holofuse;
+
+render::JudgeAnswer judgeFrame(const capture::SyntheticScene& scene,
+                               const render::JudgeRequest& request) {
+  auto picture = readPng(request.picture);
+  if (!picture.isOk()) return {std::nullopt, picture.status().message()};
+  if (picture->width != request.view.width || picture->height != request.view.height) {
+    return {std::nullopt, request.picture + " is " + std::to_string(picture->width) + "x" +
+                              std::to_string(picture->height) + ", its view " +
+                              std::to_string(request.view.width) + "x" +
+                              std::to_string(request.view.height)};
+  }
+  const capture::RenderedView truth = scene.render(request.view, request.frame_id);
+  const metrics::ImageQuality q = metrics::compareInMask(*picture, truth.color, truth.mask);
+  // Nothing of the subject in view: nothing to judge (PSNR would be the cap).
+  if (q.pixels == 0) return {};
+  return {render::FrameQuality{q.psnr_db, q.ssim}, ""};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string scene_name;
+  double fps = capture::PodOptions{}.fps;
+  std::optional<uint64_t> seed;
+  std::optional<double> noise;
+  CLI::App app{
+      "holofuse judge: judges the client's frames against the synthetic scene the pods film "
+      "(requests on stdin, answers on stdout, a line of JSON each)"};
+  app.add_option("--scene", scene_name, "the pods' --scene: " + capture::sceneNames())->required();
+  app.add_option("--fps", fps, "the pods' --fps (their frame ids' clock)")
+      ->check(CLI::Range(0.1, 240.0));
+  // The pods' own flags of the same names change what they render; the
+  // truth must change with them.
+  app.add_option("--seed", seed, "the pods' --seed (their motion and texture)");
+  app.add_option("--noise", noise, "the pods' --noise, grey levels")
+      ->check(sharedFlag("--noise").check());
+  HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  const capture::ScenePreset* preset = capture::findScene(scene_name);
+  if (preset == nullptr) {
+    std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene_name.c_str(),
+                 capture::sceneNames().c_str());
+    return 2;
+  }
+  // The scene as the pods render it (capture_node --scene).
+  capture::SceneOptions scene_options = preset->scene;
+  scene_options.frames_per_second = fps;  // as capture_node sets it from its --fps
+  if (seed) scene_options.seed = *seed;
+  if (noise) scene_options.noise_amplitude = *noise;
+  const capture::SyntheticScene scene(scene_options);
+  std::string line;
+  while (std::getline(std::cin, line)) {
+    const auto request = render::decodeJudgeRequest(line);
+    const render::JudgeAnswer answer =
+        request.isOk() ? judgeFrame(scene, *request)
+                       : render::JudgeAnswer{std::nullopt, request.status().message()};
+    std::cout << render::encodeJudgeAnswer(answer) << std::endl;  // flushed: the client waits
+  }
+  return 0;
+}
