@@ -13,8 +13,8 @@
 
 #include "bench_timing.h"
 #include "capture_node/pod.h"
-#include "capture_node/synthetic_scene.h"
 #include "fusion_server/visual_hull.h"
+#include "scene/synthetic_scene.h"
 
 using namespace holofuse;
 using bench::Clock;
@@ -30,8 +30,8 @@ static std::vector<uint64_t> sortedKeys(const Mesh& mesh) {
 
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::max(2, std::atoi(argv[1])) : 4;
-  const capture::SyntheticScene scene;
-  const auto cameras = capture::SyntheticScene::cameraRig(8, 320, 240);
+  const scene::SyntheticScene scene;
+  const auto cameras = scene::SyntheticScene::cameraRig(8, 320, 240);
   std::vector<std::vector<fusion::HullView>> groups;
   for (int f = 0; f < frames; ++f) {
     std::vector<fusion::HullView> views;

@@ -24,8 +24,8 @@ struct Input {
 
 const Input& input() {
   static const Input kInput = [] {
-    const capture::SyntheticScene scene;
-    const auto cam = capture::SyntheticScene::cameraRig(4, 320, 240)[0];
+    const scene::SyntheticScene scene;
+    const auto cam = scene::SyntheticScene::cameraRig(4, 320, 240)[0];
     capture::PodCapture capture =
         capture::capturePodFrame(scene, cam, scene.backgroundPlate(cam), 10, 0);
     Input in;
@@ -118,8 +118,8 @@ void BM_FeedAndDecodePodFrame(benchmark::State& state) {
 // sent. Compare the two rows' times and bytes.
 void BM_EncodePodCapture(benchmark::State& state) {
   static const capture::PodCapture kCaptured = [] {
-    const capture::SyntheticScene scene;
-    const auto cam = capture::SyntheticScene::cameraRig(4, 320, 240)[0];
+    const scene::SyntheticScene scene;
+    const auto cam = scene::SyntheticScene::cameraRig(4, 320, 240)[0];
     return capture::capturePodFrame(scene, cam, scene.backgroundPlate(cam), 10, 0);
   }();
   const int margin = static_cast<int>(state.range(0));

@@ -15,13 +15,13 @@
 
 #include "bench_timing.h"
 #include "capture_node/segmentation.h"
-#include "capture_node/synthetic_scene.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/reference/geodesics.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
 #include "render_client/temporal_carry.h"
+#include "scene/synthetic_scene.h"
 
 using namespace holofuse;
 using bench::Clock;
@@ -30,8 +30,8 @@ using bench::ms;
 
 int main(int argc, char** argv) {
   const int meshes = argc > 1 ? std::max(2, std::atoi(argv[1])) : 4;
-  const capture::SyntheticScene scene;
-  const auto cameras = capture::SyntheticScene::cameraRig(4, 320, 240);
+  const scene::SyntheticScene scene;
+  const auto cameras = scene::SyntheticScene::cameraRig(4, 320, 240);
   render::VulkanContext context;
   std::printf("device: %s; 4 cameras at 320x240, output 320x240, %d meshes per mode and round\n",
               context.deviceName().c_str(), meshes);
@@ -399,7 +399,7 @@ int main(int argc, char** argv) {
       const uint32_t height = width * 3 / 4;
       std::vector<render::reference::DepthMap> maps;
       std::vector<render::ViewImages> pod_views;
-      for (const auto& cam : capture::SyntheticScene::cameraRig(4, width, height)) {
+      for (const auto& cam : scene::SyntheticScene::cameraRig(4, width, height)) {
         const auto truth = scene.render(cam, 10 + meshes);
         pod_views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
         maps.push_back(render::reference::rasterizeDepth(mesh, cam));
@@ -462,7 +462,7 @@ int main(int argc, char** argv) {
   // and discontinuities. 8 pods where 4 see the subject and 4 have empty
   // masks, against the 4 alone and against 8 that all see it.
   {
-    const auto ring8 = capture::SyntheticScene::cameraRig(8, 320, 240);
+    const auto ring8 = scene::SyntheticScene::cameraRig(8, 320, 240);
     const Mesh subject = scene.truthMesh(10 + meshes, 0.02);
     auto perMesh = [&](int count, bool odd_empty) {
       std::vector<render::ViewImages> chosen;

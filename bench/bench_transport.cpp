@@ -96,8 +96,8 @@ Result run(int pods, const protocol::PodFrame& message, int frames_per_pod) {
 }  // namespace
 
 int main() {
-  const capture::SyntheticScene scene;
-  const auto cam = capture::SyntheticScene::cameraRig(4, 320, 240)[0];
+  const scene::SyntheticScene scene;
+  const auto cam = scene::SyntheticScene::cameraRig(4, 320, 240)[0];
   capture::PodCapture capture =
       capture::capturePodFrame(scene, cam, scene.backgroundPlate(cam), 10, 0);
   const auto frame =

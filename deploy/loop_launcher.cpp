@@ -17,10 +17,10 @@
 #include "base/process.h"
 #include "capture_node/dataset.h"
 #include "capture_node/replay_pod.h"
-#include "capture_node/scene_library.h"
 #include "common/command_line.h"
 #include "render_client/blend_mode.h"
 #include "render_client/latency_report.h"
+#include "scene/scene_library.h"
 
 namespace {
 
@@ -133,7 +133,7 @@ int main(int argc, char** argv) {
   app.add_option("--view", view, "client view: orbit or pod:N");
   app.add_option(
       "--scene", scene,
-      "named synthetic scene (its camera count unless --pods): " + holofuse::capture::sceneNames());
+      "named synthetic scene (its camera count unless --pods): " + holofuse::scene::sceneNames());
   // Passed on only when given, so the pods keep the scene's own otherwise.
   std::optional<uint64_t> seed_value;
   std::optional<double> noise_value;
@@ -260,10 +260,10 @@ int main(int argc, char** argv) {
     if (dataset->frameIds() == 1) loop = true;
     if (!app.count("--frames") && !loop) frames = 0;  // the client renders until the replay ends
   }
-  const holofuse::capture::ScenePreset* preset = holofuse::capture::findScene(scene);
+  const holofuse::scene::ScenePreset* preset = holofuse::scene::findScene(scene);
   if (preset == nullptr) {
     std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene.c_str(),
-                 holofuse::capture::sceneNames().c_str());
+                 holofuse::scene::sceneNames().c_str());
     return 2;
   }
   if (app.count("--scene") && !app.count("--pods") && replay.empty()) pods = preset->cameras;

@@ -4,10 +4,10 @@
 
 #include "capture_node/pod.h"
 #include "capture_node/replay_pod.h"
-#include "capture_node/scene_library.h"
 #include "common/command_line.h"
 #include "common/image_codec.h"
 #include "common/shutdown.h"
+#include "scene/scene_library.h"
 
 int main(int argc, char** argv) {
   using namespace holofuse;
@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
       app.add_option("--fps", options.fps, "frames per second")->check(CLI::Range(0.1, 240.0)),
       app.add_option("--frames", options.frames,
                      "stop after this many frames (0: run until signalled)"),
-      app.add_option("--scene", scene_name, "named synthetic scene: " + capture::sceneNames()),
+      app.add_option("--scene", scene_name, "named synthetic scene: " + scene::sceneNames()),
       app.add_option("--seed", options.scene.seed, "scene seed"),
       addSharedFlag(app, "--noise", options.scene.noise_amplitude),
       addSharedFlag(app, "--crop-margin", options.crop_margin),
@@ -61,13 +61,13 @@ int main(int argc, char** argv) {
     installStopSignals();
     return capture::runReplayPod(replay_options);
   }
-  const capture::ScenePreset* preset = capture::findScene(scene_name);
+  const scene::ScenePreset* preset = scene::findScene(scene_name);
   if (preset == nullptr) {
     std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene_name.c_str(),
-                 capture::sceneNames().c_str());
+                 scene::sceneNames().c_str());
     return 2;
   }
-  const capture::SceneOptions given = options.scene;
+  const scene::SceneOptions given = options.scene;
   options.scene = preset->scene;
   if (app.count("--seed")) options.scene.seed = given.seed;
   if (app.count("--noise")) options.scene.noise_amplitude = given.noise_amplitude;

@@ -3,20 +3,20 @@
 #include <array>
 #include <cstdio>
 
-#include "capture_node/scene_library.h"
 #include "capture_node/segmentation.h"
 #include "common/image_codec.h"
 #include "common/shutdown.h"
 #include "protocol/clock.h"
 #include "protocol/server_link.h"
+#include "scene/scene_library.h"
 
 namespace holofuse::capture {
 
 using protocol::monotonicNs;
 using protocol::Stage;
 
-PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, const Image8& plate,
-                           uint64_t frame_id, uint16_t source) {
+PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& camera,
+                           const Image8& plate, uint64_t frame_id, uint16_t source) {
   PodCapture capture;
   capture.frame_id = frame_id;
   const uint64_t t0 = monotonicNs();
@@ -74,12 +74,14 @@ protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id,
 }
 
 int runPod(const PodOptions& options) {
-  const SyntheticScene scene(options.scene);
-  const auto cameras = SyntheticScene::cameraRig(options.pods, options.width, options.height);
+  const scene::SyntheticScene scene(options.scene);
+  const auto cameras =
+      scene::SyntheticScene::cameraRig(options.pods, options.width, options.height);
   const Camera& camera = cameras.at(options.pod_id);
   const Image8 plate = scene.backgroundPlate(camera);
-  const Camera reported = reportedCalibration(camera, options.calibration_error_degrees,
-                                              options.calibration_error_metres, options.scene.seed);
+  const Camera reported =
+      scene::reportedCalibration(camera, options.calibration_error_degrees,
+                                 options.calibration_error_metres, options.scene.seed);
   std::fprintf(stderr,
                "[pod-%u] %ux%u at %g fps; colour %s at LZ4 acceleration %d, crop margin %d, LZ4HC "
                "level %d\n",

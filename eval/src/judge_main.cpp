@@ -10,18 +10,18 @@
 #include <string>
 
 #include "capture_node/pod.h"
-#include "capture_node/scene_library.h"
-#include "capture_node/synthetic_scene.h"
 #include "common/command_line.h"
 #include "common/image_io.h"
 #include "metrics/image_metrics.h"
 #include "render_client/frame_judge.h"
+#include "scene/scene_library.h"
+#include "scene/synthetic_scene.h"
 
 namespace {
 
 using namespace holofuse;
 
-render::JudgeAnswer judgeFrame(const capture::SyntheticScene& scene,
+render::JudgeAnswer judgeFrame(const scene::SyntheticScene& scene,
                                const render::JudgeRequest& request) {
   auto picture = readPng(request.picture);
   if (!picture.isOk()) return {std::nullopt, picture.status().message()};
@@ -31,7 +31,7 @@ render::JudgeAnswer judgeFrame(const capture::SyntheticScene& scene,
                               std::to_string(request.view.width) + "x" +
                               std::to_string(request.view.height)};
   }
-  const capture::RenderedView truth = scene.render(request.view, request.frame_id);
+  const scene::RenderedView truth = scene.render(request.view, request.frame_id);
   const metrics::ImageQuality q = metrics::compareInMask(*picture, truth.color, truth.mask);
   // Nothing of the subject in view: nothing to judge (PSNR would be the cap).
   if (q.pixels == 0) return {};
@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "holofuse judge: judges the client's frames against the synthetic scene the pods film "
       "(requests on stdin, answers on stdout, a line of JSON each)"};
-  app.add_option("--scene", scene_name, "the pods' --scene: " + capture::sceneNames())->required();
+  app.add_option("--scene", scene_name, "the pods' --scene: " + scene::sceneNames())->required();
   app.add_option("--fps", fps, "the pods' --fps (their frame ids' clock)")
       ->check(CLI::Range(0.1, 240.0));
   // The pods' own flags of the same names change what they render; the
@@ -57,18 +57,18 @@ int main(int argc, char** argv) {
   app.add_option("--noise", noise, "the pods' --noise, grey levels")
       ->check(sharedFlag("--noise").check());
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
-  const capture::ScenePreset* preset = capture::findScene(scene_name);
+  const scene::ScenePreset* preset = scene::findScene(scene_name);
   if (preset == nullptr) {
     std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene_name.c_str(),
-                 capture::sceneNames().c_str());
+                 scene::sceneNames().c_str());
     return 2;
   }
   // The scene as the pods render it (capture_node --scene).
-  capture::SceneOptions scene_options = preset->scene;
+  scene::SceneOptions scene_options = preset->scene;
   scene_options.frames_per_second = fps;  // as capture_node sets it from its --fps
   if (seed) scene_options.seed = *seed;
   if (noise) scene_options.noise_amplitude = *noise;
-  const capture::SyntheticScene scene(scene_options);
+  const scene::SyntheticScene scene(scene_options);
   std::string line;
   while (std::getline(std::cin, line)) {
     const auto request = render::decodeJudgeRequest(line);

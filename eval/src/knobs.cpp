@@ -7,9 +7,9 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "capture_node/scene_library.h"
 #include "common/command_line.h"
 #include "common/image_codec.h"
+#include "scene/scene_library.h"
 
 namespace holofuse::eval {
 namespace {
@@ -205,7 +205,7 @@ std::vector<Knob> makeKnobs() {
 
 int camerasOf(const EvalOptions& o) {
   if (o.cameras != 0 || o.scenes.empty()) return o.cameras;
-  const capture::ScenePreset* scene = capture::findScene(o.scenes.front());
+  const scene::ScenePreset* scene = scene::findScene(o.scenes.front());
   return scene != nullptr ? scene->cameras : 0;
 }
 

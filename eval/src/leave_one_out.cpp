@@ -82,7 +82,7 @@ struct FrameData {
   std::vector<Image8>
       true_colors;                 // per camera: its whole image, which leave-one-out compares with
   std::vector<Image8> true_masks;  // per camera
-  std::vector<capture::RenderedView> novel_truth;  // per novel pose (SceneInput::novel_poses)
+  std::vector<scene::RenderedView> novel_truth;  // per novel pose (SceneInput::novel_poses)
   double hull_ms = 0;
   double refine_ms = 0;  // the hull's photo-consistency refinement (EvalOptions::refine_voxels)
   // The codecs on the frame's way, per stage (codecStages()): the slowest
@@ -267,7 +267,7 @@ Mesh refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
   return mesh ? std::move(*mesh) : std::move(carved);
 }
 
-FrameData prepareFrame(const EvalOptions& options, const capture::SyntheticScene& scene,
+FrameData prepareFrame(const EvalOptions& options, const scene::SyntheticScene& scene,
                        const std::vector<Camera>& truth, const std::vector<Camera>& reported,
                        const std::vector<Image8>& plates, uint64_t frame_id) {
   FrameData frame;
@@ -765,15 +765,15 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
 
 std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
                                         const std::function<void(const std::string&)>& progress) {
-  std::vector<const capture::ScenePreset*> presets;
+  std::vector<const scene::ScenePreset*> presets;
   if (options.scenes.empty() && options.datasets.empty()) {
-    for (const auto& preset : capture::sceneLibrary()) presets.push_back(&preset);
+    for (const auto& preset : scene::sceneLibrary()) presets.push_back(&preset);
   }
   for (const auto& name : options.scenes) {
-    const capture::ScenePreset* preset = capture::findScene(name);
+    const scene::ScenePreset* preset = scene::findScene(name);
     if (preset == nullptr) {
       throw std::invalid_argument("unknown scene '" + name +
-                                  "'; valid scenes: " + capture::sceneNames());
+                                  "'; valid scenes: " + scene::sceneNames());
     }
     presets.push_back(preset);
   }
@@ -801,19 +801,19 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     if (options.camera_kept)
       results.push_back(cameraKeptRow(options, context, input, results.back(), progress));
   }
-  for (const capture::ScenePreset* preset : presets) {
-    capture::SceneOptions scene_options = preset->scene;
+  for (const scene::ScenePreset* preset : presets) {
+    scene::SceneOptions scene_options = preset->scene;
     scene_options.frames_per_second = options.fps;
-    const capture::SyntheticScene scene(scene_options);
+    const scene::SyntheticScene scene(scene_options);
     const int camera_count = options.cameras > 0 ? options.cameras : preset->cameras;
     const std::vector<Camera> truth =
-        capture::SyntheticScene::cameraRig(camera_count, options.width, options.height);
+        scene::SyntheticScene::cameraRig(camera_count, options.width, options.height);
     SceneInput input;
     std::vector<Image8> plates;
     for (const Camera& camera : truth) {
-      input.reported.push_back(
-          capture::reportedCalibration(camera, preset->calibration_error_degrees,
-                                       preset->calibration_error_metres, scene_options.seed));
+      input.reported.push_back(scene::reportedCalibration(camera, preset->calibration_error_degrees,
+                                                          preset->calibration_error_metres,
+                                                          scene_options.seed));
       plates.push_back(scene.backgroundPlate(camera));
     }
     EvalOptions scene_eval = options;
@@ -860,7 +860,7 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
       // blended; the scene renders the truth there.
       SceneInput novel = input;
       for (int k : heldOutCameras(camera_count, options.held_out_cameras)) {
-        novel.novel_poses.push_back(capture::SyntheticScene::ringPose(
+        novel.novel_poses.push_back(scene::SyntheticScene::ringPose(
             360.0 * k / camera_count + degrees, static_cast<uint32_t>(1000 + k), options.width,
             options.height));
       }

@@ -16,7 +16,7 @@ int main(int argc, char** argv) {
   std::string size = "320x240";
   CLI::App app{
       "holofuse eval: leave-one-camera-out quality (RMSE, PSNR, SSIM, flicker) per scene and mode"};
-  app.add_option("--scenes", options.scenes, "scenes (default: all): " + capture::sceneNames())
+  app.add_option("--scenes", options.scenes, "scenes (default: all): " + scene::sceneNames())
       ->delimiter(',');
   app.add_option("--modes", modes,
                  "blending modes (default: all): normal, holoportation, montage4d, fragment")
@@ -89,9 +89,9 @@ int main(int argc, char** argv) {
   options.width = w;
   options.height = h;
   for (const auto& scene : options.scenes) {
-    if (capture::findScene(scene) == nullptr) {
+    if (scene::findScene(scene) == nullptr) {
       std::fprintf(stderr, "--scenes: unknown scene '%s'; valid scenes: %s\n", scene.c_str(),
-                   capture::sceneNames().c_str());
+                   scene::sceneNames().c_str());
       return 2;
     }
   }

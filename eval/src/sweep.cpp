@@ -10,12 +10,12 @@
 
 #include "base/process.h"
 #include "capture_node/dataset.h"
-#include "capture_node/scene_library.h"
 #include "common/command_line.h"
 #include "common/html_report.h"
 #include "common/image_codec.h"
 #include "eval/dataset_inspection.h"
 #include "result_json.h"
+#include "scene/scene_library.h"
 
 namespace holofuse::eval {
 namespace {

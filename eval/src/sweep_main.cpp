@@ -19,7 +19,7 @@ int main(int argc, char** argv) {
       "holofuse sweep: quality against time and bytes, one knob at a time around the defaults"};
   app.add_option("--knob", knob_texts, "NAME=v1,v2,... (repeatable); knobs: " + eval::knobNames())
       ->required();
-  auto* scene_flag = app.add_option("--scene", scene, "scene: " + capture::sceneNames());
+  auto* scene_flag = app.add_option("--scene", scene, "scene: " + scene::sceneNames());
   std::string dataset;
   app.add_option("--dataset", dataset,
                  "a dataset folder (recorded or imported) to sweep instead of a scene; live points "
@@ -59,9 +59,9 @@ int main(int argc, char** argv) {
   // The live loop's launcher lies next to this executable.
   options.loop_program =
       (std::filesystem::canonical("/proc/self/exe").parent_path() / "holofuse_loop").string();
-  if (dataset.empty() && capture::findScene(scene) == nullptr) {
+  if (dataset.empty() && scene::findScene(scene) == nullptr) {
     std::fprintf(stderr, "--scene: unknown scene '%s'; valid scenes: %s\n", scene.c_str(),
-                 capture::sceneNames().c_str());
+                 scene::sceneNames().c_str());
     return 2;
   }
   if (!modes.empty()) {

@@ -17,7 +17,7 @@
 #include "capture_node/capture_formats.h"
 #include "capture_node/dataset.h"
 #include "capture_node/dataset_import.h"
-#include "capture_node/synthetic_scene.h"
+#include "scene/synthetic_scene.h"
 
 namespace holofuse::capture {
 namespace {
@@ -54,7 +54,7 @@ class ImportTest : public ::testing::Test {
              ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(root_);
     fs::create_directories(root_);
-    cameras_ = SyntheticScene::cameraRig(4, 160, 120);
+    cameras_ = scene::SyntheticScene::cameraRig(4, 160, 120);
     cameras_[1].skew = 3.5;  // a real K with skew
     for (const auto& c : cameras_) views_.push_back(scene_.render(c, 30));
   }
@@ -171,9 +171,9 @@ class ImportTest : public ::testing::Test {
   }
 
   fs::path root_;
-  SyntheticScene scene_;
+  scene::SyntheticScene scene_;
   std::vector<Camera> cameras_;
-  std::vector<RenderedView> views_;
+  std::vector<scene::RenderedView> views_;
   std::vector<std::string> names_ = {"cam2", "cam10", "cam11", "cam1"};
 };
 

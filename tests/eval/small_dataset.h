@@ -10,8 +10,8 @@
 #include <string>
 
 #include "capture_node/dataset_import.h"
-#include "capture_node/synthetic_scene.h"
 #include "common/image_io.h"
+#include "scene/synthetic_scene.h"
 
 namespace holofuse::eval::test {
 
@@ -24,11 +24,11 @@ inline void writeSmallDataset(const std::filesystem::path& dir, int cameras, uin
   const fs::path source = dir.string() + ".source";
   fs::remove_all(source);
   fs::create_directories(source);
-  const capture::SyntheticScene scene;
+  const scene::SyntheticScene scene;
   capture::CaptureDescription capture;
   capture.source = "synthetic test capture";
   capture::CaptureFrame frame;
-  const auto rig = capture::SyntheticScene::cameraRig(cameras, width, height);
+  const auto rig = scene::SyntheticScene::cameraRig(cameras, width, height);
   for (const Camera& camera : rig) {
     const std::string name = "cam" + std::to_string(camera.id);
     const auto view = scene.render(camera, 30);

@@ -12,22 +12,22 @@
 #include <thread>
 
 #include "capture_node/segmentation.h"
-#include "capture_node/synthetic_scene.h"
 #include "common/image_codec.h"
 #include "common/mesh_codec.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/hull_error.h"
 #include "fusion_server/visual_hull.h"
+#include "scene/synthetic_scene.h"
 
 namespace holofuse::fusion {
 namespace {
 
 std::vector<HullView> syntheticViews(int count, uint64_t frame_id, uint32_t w = 240,
                                      uint32_t h = 180) {
-  const capture::SyntheticScene scene;
+  const scene::SyntheticScene scene;
   std::vector<HullView> views;
-  for (const auto& cam : capture::SyntheticScene::cameraRig(count, w, h)) {
+  for (const auto& cam : scene::SyntheticScene::cameraRig(count, w, h)) {
     const auto view = scene.render(cam, frame_id);
     views.push_back({cam, view.mask, capture::featherMap(view.mask)});
   }
@@ -330,7 +330,7 @@ TEST(FrameSync, ADeadPodDoesNotStallWhenItIsNoLongerExpected) {
 // would count twice for the pod's jitter, with times the pod chose).
 TEST(FusionWorker, TheServerStampsTheSendStageItself) {
   const auto views = syntheticViews(1, 3, 64, 48);
-  const capture::SyntheticScene scene;
+  const scene::SyntheticScene scene;
   const Image8 color = scene.render(views[0].camera, 3).color;
   protocol::PodFrame pod;
   pod.frame_id = 3;
@@ -360,7 +360,7 @@ TEST(FusionWorker, FusesAGroupIntoDecodableFrames) {
   GroupJob job;
   job.group.frame_id = 3;
   job.group.complete = false;
-  const capture::SyntheticScene scene;
+  const scene::SyntheticScene scene;
   for (size_t i = 0; i < 3; ++i) {  // camera 3 is missing
     PodImages pod;
     pod.camera_id = static_cast<uint32_t>(i);

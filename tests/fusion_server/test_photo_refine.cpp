@@ -9,13 +9,13 @@
 #include <stdexcept>
 
 #include "capture_node/segmentation.h"
-#include "capture_node/synthetic_scene.h"
 #include "common/depth_raster.h"
 #include "common/mesh_codec.h"
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/photo_refine.h"
 #include "fusion_server/visual_hull.h"
 #include "protocol/frame.h"
+#include "scene/synthetic_scene.h"
 
 namespace holofuse::fusion {
 namespace {
@@ -29,9 +29,9 @@ struct Capture {
 };
 
 Capture syntheticCapture(int cameras, uint32_t w = 240, uint32_t h = 180) {
-  const capture::SyntheticScene scene;
+  const scene::SyntheticScene scene;
   Capture capture;
-  for (const auto& camera : capture::SyntheticScene::cameraRig(cameras, w, h)) {
+  for (const auto& camera : scene::SyntheticScene::cameraRig(cameras, w, h)) {
     const auto view = scene.render(camera, kFrame);
     capture.views.push_back({camera, view.mask, capture::featherMap(view.mask)});
     capture.colors.push_back(view.color);
@@ -54,7 +54,7 @@ PhotoRefineOptions refineOptions(double voxels) {
 
 // Mean distance of the mesh's vertices from the subject's true surface.
 double meanDistanceToTruth(const Mesh& mesh) {
-  const capture::SyntheticScene scene;
+  const scene::SyntheticScene scene;
   const double t = scene.timeOf(kFrame);
   double sum = 0;
   for (const auto& p : mesh.positions) sum += std::abs(scene.signedDistance(glm::dvec3(p), t));

@@ -14,7 +14,6 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "capture_node/synthetic_scene.h"
 #include "common/image_codec.h"
 #include "common/marching_cubes.h"
 #include "common/mesh_codec.h"
@@ -22,6 +21,7 @@
 #include "protocol/clock.h"
 #include "protocol/connection.h"
 #include "protocol/messages.h"
+#include "scene/synthetic_scene.h"
 
 namespace {
 
@@ -83,9 +83,9 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
   protocol::Hello hello;
   ASSERT_TRUE(protocol::decodeFrame(receive(c), hello).isOk());
   c.sendMessage(protocol::HelloAck{});
-  const Camera camera = capture::SyntheticScene::cameraRig(1, 64, 48)[0];
+  const Camera camera = scene::SyntheticScene::cameraRig(1, 64, 48)[0];
   c.sendMessage(toCalibration(camera));
-  const capture::SyntheticScene scene;
+  const scene::SyntheticScene scene;
   const auto truth = scene.render(camera, 5);
   std::vector<uint8_t> color_bytes, mask_bytes;
   auto bundleFor = [&](uint64_t id, const Image8& color) {

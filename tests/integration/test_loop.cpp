@@ -16,7 +16,6 @@
 #include <thread>
 
 #include "browser_check.h"
-#include "capture_node/synthetic_scene.h"
 #include "common/camera.h"
 #include "common/image_codec.h"
 #include "process_harness.h"
@@ -24,6 +23,7 @@
 #include "protocol/messages.h"
 #include "protocol/server_link.h"
 #include "protocol/socket.h"
+#include "scene/synthetic_scene.h"
 
 namespace {
 
@@ -101,12 +101,12 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   // From pod 0's pose the rendered coverage must sit on the true silhouette
   // of the scene the pods render: seed 5, no sensor noise (the launcher
   // passes both to the pods and to the client's truth).
-  holofuse::capture::SceneOptions scene_options;
+  holofuse::scene::SceneOptions scene_options;
   scene_options.frames_per_second = fps;
   scene_options.seed = 5;
   scene_options.noise_amplitude = 0;
-  const holofuse::capture::SyntheticScene scene(scene_options);
-  const auto camera = holofuse::capture::SyntheticScene::cameraRig(4, 200, 150)[0];
+  const holofuse::scene::SyntheticScene scene(scene_options);
+  const auto camera = holofuse::scene::SyntheticScene::cameraRig(4, 200, 150)[0];
   // Frames the server had to fuse without a pod (a pod still starting, say)
   // carry fewer cameras; the truth check applies to complete ones, and most
   // frames must be complete.
@@ -378,7 +378,7 @@ TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
     hello.role = holofuse::protocol::Role::kPod;
     hello.id = 1;
     hello.name = "crooked";
-    holofuse::Camera camera = holofuse::capture::SyntheticScene::cameraRig(1, 96, 72)[0];
+    holofuse::Camera camera = holofuse::scene::SyntheticScene::cameraRig(1, 96, 72)[0];
     camera.id = 1;
     holofuse::protocol::PodFrame frame;
     frame.frame_id = 1;

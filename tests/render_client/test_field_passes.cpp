@@ -10,7 +10,6 @@
 #include <string>
 
 #include "capture_node/segmentation.h"
-#include "capture_node/synthetic_scene.h"
 #include "common/marching_cubes.h"
 #include "render_client/reference/blend.h"
 #include "render_client/reference/geodesics.h"
@@ -18,6 +17,7 @@
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
 #include "render_client/temporal_carry.h"
+#include "scene/synthetic_scene.h"
 
 namespace holofuse::render {
 namespace {
@@ -34,9 +34,9 @@ struct Scene {
 };
 
 Scene syntheticScene(int cameras, uint32_t w, uint32_t h, uint64_t frame) {
-  const capture::SyntheticScene scene;
+  const scene::SyntheticScene scene;
   Scene s{"synthetic " + std::to_string(cameras) + " cameras", scene.truthMesh(frame, 0.015), {}};
-  for (const auto& cam : capture::SyntheticScene::cameraRig(cameras, w, h)) {
+  for (const auto& cam : scene::SyntheticScene::cameraRig(cameras, w, h)) {
     const auto truth = scene.render(cam, frame);
     s.views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
   }
@@ -801,7 +801,7 @@ TEST(Montage4DMode, TheTemporalFieldFollowsEachCameraWhenAnotherLeavesTheArrays)
   settings.lambda = 0.0;
   // Halfway between cameras 1 and 2 (the ring's poses are 90 degrees
   // apart): both have a positive view weight on what they both see.
-  const Camera eye = capture::SyntheticScene::ringPose(135.0, 99, 96, 72);
+  const Camera eye = scene::SyntheticScene::ringPose(135.0, 99, 96, 72);
   renderer.render(eye, settings);
   const FieldSnapshot before = renderer.readFields();
   std::vector<ViewImages> without = views;
@@ -864,7 +864,7 @@ TEST(Montage4DMode, TheTemporalFieldFollowsCameraIdsWhenAPodIsMissing) {
   BlendSettings settings = overlappingMontage();
   settings.fields.geodesic_radius = 1e-6f;
   settings.lambda = 0.0;  // frozen: the weights stay what they were
-  const Camera eye = capture::SyntheticScene::ringPose(135.0, 99, 96, 72);
+  const Camera eye = scene::SyntheticScene::ringPose(135.0, 99, 96, 72);
   renderer.render(eye, settings);
   const FieldSnapshot before = renderer.readFields();
   const std::vector<ViewImages> missing_first(views.begin() + 1, views.end());  // cameras 1, 2, 3

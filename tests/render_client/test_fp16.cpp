@@ -7,10 +7,10 @@
 #include <cmath>
 
 #include "capture_node/segmentation.h"
-#include "capture_node/synthetic_scene.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
+#include "scene/synthetic_scene.h"
 
 namespace holofuse::render::reference {
 namespace {
@@ -18,10 +18,10 @@ namespace {
 // The synthetic subject seen by a ring of `count` pods at frame 6, as
 // views of type View ({camera, colour, mask}), and their cameras.
 template <typename View>
-std::pair<std::vector<View>, std::vector<Camera>> ring(const capture::SyntheticScene& scene,
+std::pair<std::vector<View>, std::vector<Camera>> ring(const scene::SyntheticScene& scene,
                                                        int count, uint32_t width, uint32_t height) {
   std::pair<std::vector<View>, std::vector<Camera>> out;
-  for (const auto& cam : capture::SyntheticScene::cameraRig(count, width, height)) {
+  for (const auto& cam : scene::SyntheticScene::cameraRig(count, width, height)) {
     const auto truth = scene.render(cam, 6);
     out.first.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
     out.second.push_back(cam);
@@ -30,7 +30,7 @@ std::pair<std::vector<View>, std::vector<Camera>> ring(const capture::SyntheticS
 }
 
 TEST(Fp16Storage, PositionAndNormalRoundingChangesTheFieldsLittle) {
-  const capture::SyntheticScene scene;
+  const scene::SyntheticScene scene;
   const Mesh full = scene.truthMesh(6, 0.015);
   Mesh half = full;
   double position_error = 0, normal_error = 0;
@@ -86,7 +86,7 @@ TEST(Fp16Storage, PositionAndNormalRoundingChangesTheFieldsLittle) {
 // picture changes by a fraction of a grey level, stated here.
 TEST(Fp16Storage, HalfPrecisionVerticesOnTheGpuAreTheRoundedMeshBitForBit) {
   static VulkanContext context;
-  const capture::SyntheticScene scene;
+  const scene::SyntheticScene scene;
   const auto [views, cameras] = ring<ViewImages>(scene, 4, 160, 120);
   auto rounded = [](Mesh mesh) {
     for (size_t v = 0; v < mesh.vertexCount(); ++v) {

@@ -6,11 +6,11 @@
 #include <numeric>
 
 #include "capture_node/segmentation.h"
-#include "capture_node/synthetic_scene.h"
 #include "common/marching_cubes.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
+#include "scene/synthetic_scene.h"
 
 namespace holofuse::render::reference {
 namespace {
@@ -277,10 +277,10 @@ TEST(ReferenceFields, ExtremeParametersStayFiniteAndBounded) {
 }
 
 TEST(ReferencePipeline, SyntheticSceneVisibilityFollowsTheTruthMask) {
-  const capture::SyntheticScene scene;
+  const scene::SyntheticScene scene;
   const Mesh mesh = scene.truthMesh(3, 0.02);
   std::vector<PodView> views;
-  for (const auto& cam : capture::SyntheticScene::cameraRig(4, 120, 90)) {
+  for (const auto& cam : scene::SyntheticScene::cameraRig(4, 120, 90)) {
     const auto truth = scene.render(cam, 3);
     views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
   }

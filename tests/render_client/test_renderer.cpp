@@ -5,20 +5,20 @@
 #include <cmath>
 
 #include "capture_node/segmentation.h"
-#include "capture_node/synthetic_scene.h"
 #include "common/image_codec.h"
 #include "render_client/client.h"
 #include "render_client/latency_report.h"
 #include "render_client/renderer.h"
+#include "scene/synthetic_scene.h"
 
 namespace holofuse::render {
 namespace {
 
 struct Fixture {
-  capture::SyntheticScene scene;
-  std::vector<Camera> cameras = capture::SyntheticScene::cameraRig(4, 200, 150);
+  scene::SyntheticScene scene;
+  std::vector<Camera> cameras = scene::SyntheticScene::cameraRig(4, 200, 150);
   std::vector<ViewImages> views;
-  std::vector<capture::RenderedView> truth;
+  std::vector<scene::RenderedView> truth;
   Mesh mesh;
   explicit Fixture(uint64_t frame) {
     mesh = scene.truthMesh(frame, 0.012);
@@ -124,7 +124,7 @@ TEST(Renderer, EmptyMeshGivesAnEmptyPictureAndMismatchedViewsAreRefused) {
 // one (a 1.1 server's) gives none, and a feather map of another size or
 // format is refused naming the camera and both sizes.
 TEST(ClientBundle, FeatherMapsArePlacedLikeTheColourAndAWrongOneIsRefused) {
-  const Camera camera = capture::SyntheticScene::cameraRig(1, 40, 30)[0];
+  const Camera camera = scene::SyntheticScene::cameraRig(1, 40, 30)[0];
   const std::map<uint32_t, Camera> cameras = {{camera.id, camera}};
   Image8 color(12, 10, 3, 90), mask(12, 10, 1, 255), feather(12, 10, 1, 7);
   std::vector<std::vector<uint8_t>> storage(4);
@@ -181,7 +181,7 @@ TEST(ClientBundle, FeatherMapsArePlacedLikeTheColourAndAWrongOneIsRefused) {
 
 TEST(UserCamera, AViewpointJumpTurnsTheViewAroundTheRingAtItsFrame) {
   std::map<uint32_t, Camera> pods;
-  for (const auto& cam : capture::SyntheticScene::cameraRig(8, 64, 48)) pods[cam.id] = cam;
+  for (const auto& cam : scene::SyntheticScene::cameraRig(8, 64, 48)) pods[cam.id] = cam;
   Bounds bounds;
   bounds.min = glm::vec3(-0.3f, 0.0f, -0.3f);
   bounds.max = glm::vec3(0.3f, 1.8f, 0.3f);

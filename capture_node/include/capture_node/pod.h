@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <string>
 
-#include "capture_node/synthetic_scene.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
+#include "scene/synthetic_scene.h"
 
 namespace holofuse::capture {
 
@@ -20,7 +20,7 @@ struct PodOptions {
   double fps = 10.0;
   uint64_t frames = 0;  // stop after this many frames sent; 0 = until signalled
   protocol::Codec color_codec = protocol::Codec::kLz4PlanarDelta;
-  SceneOptions scene;
+  scene::SceneOptions scene;
   // The calibration the pod reports is off by this much (scene presets).
   double calibration_error_degrees = 0.0;
   double calibration_error_metres = 0.0;
@@ -32,16 +32,16 @@ struct PodOptions {
 // Everything a pod produces for one frame, before it goes on the wire.
 struct PodCapture {
   uint64_t frame_id = 0;
-  RenderedView view;  // colour and the true mask
-  Image8 mask;        // the segmented mask (what is sent)
+  scene::RenderedView view;  // colour and the true mask
+  Image8 mask;               // the segmented mask (what is sent)
   Image8 feather;
   std::vector<protocol::StageStamp> stamps;
   uint64_t capture_time_ns = 0;
 };
 
 // Renders, segments and feathers one frame, recording stage stamps.
-PodCapture capturePodFrame(const SyntheticScene& scene, const Camera& camera, const Image8& plate,
-                           uint64_t frame_id, uint16_t source);
+PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& camera,
+                           const Image8& plate, uint64_t frame_id, uint16_t source);
 
 // Compresses a capture into a PodFrame ready to send (the compressed planes
 // are borrowed by the frame, not copied), appending the encode stamp. With

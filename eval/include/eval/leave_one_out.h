@@ -18,7 +18,6 @@
 #include <vector>
 
 #include "capture_node/pod.h"
-#include "capture_node/scene_library.h"
 #include "common/depth_raster.h"
 #include "common/mesh_codec.h"
 #include "metrics/image_metrics.h"
@@ -27,6 +26,7 @@
 #include "render_client/latency_report.h"
 #include "render_client/renderer.h"
 #include "render_client/texture_field_passes.h"
+#include "scene/scene_library.h"
 
 namespace holofuse::eval {
 

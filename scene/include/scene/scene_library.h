@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
-#include "capture_node/synthetic_scene.h"
 #include "common/camera.h"
+#include "scene/synthetic_scene.h"
 
-namespace holofuse::capture {
+namespace holofuse::scene {
 
 struct ScenePreset {
   std::string name;
@@ -34,4 +34,4 @@ std::string sceneNames();
 // deterministically from the seed and the camera id.
 Camera reportedCalibration(const Camera& truth, double degrees, double metres, uint64_t seed);
 
-}  // namespace holofuse::capture
+}  // namespace holofuse::scene

@@ -15,7 +15,7 @@
 #include "common/image.h"
 #include "common/mesh.h"
 
-namespace holofuse::capture {
+namespace holofuse::scene {
 
 struct SceneOptions {
   uint64_t seed = 1;
@@ -72,4 +72,4 @@ class SyntheticScene {
   SceneOptions options_;
 };
 
-}  // namespace holofuse::capture
+}  // namespace holofuse::scene

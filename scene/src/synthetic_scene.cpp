@@ -1,4 +1,4 @@
-#include "capture_node/synthetic_scene.h"
+#include "scene/synthetic_scene.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include "common/marching_cubes.h"
 
-namespace holofuse::capture {
+namespace holofuse::scene {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
@@ -339,4 +339,4 @@ Mesh SyntheticScene::truthMesh(uint64_t frame_id, double spacing) const {
   return marchingCubes(grid);
 }
 
-}  // namespace holofuse::capture
+}  // namespace holofuse::scene

@@ -1,9 +1,9 @@
-#include "capture_node/scene_library.h"
+#include "scene/scene_library.h"
 
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 
-namespace holofuse::capture {
+namespace holofuse::scene {
 namespace {
 
 std::vector<ScenePreset> makeLibrary() {
@@ -84,4 +84,4 @@ Camera reportedCalibration(const Camera& truth, double degrees, double metres, u
   return reported;
 }
 
-}  // namespace holofuse::capture
+}  // namespace holofuse::scene
