@@ -13,7 +13,7 @@
 
 #include "bench_timing.h"
 #include "capture_node/pod.h"
-#include "fusion_server/visual_hull.h"
+#include "hull/visual_hull.h"
 #include "scene/synthetic_scene.h"
 
 using namespace holofuse;
@@ -32,9 +32,9 @@ int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::max(2, std::atoi(argv[1])) : 4;
   const scene::SyntheticScene scene;
   const auto cameras = scene::SyntheticScene::cameraRig(8, 320, 240);
-  std::vector<std::vector<fusion::HullView>> groups;
+  std::vector<std::vector<hull::HullView>> groups;
   for (int f = 0; f < frames; ++f) {
-    std::vector<fusion::HullView> views;
+    std::vector<hull::HullView> views;
     for (const auto& camera : cameras) {
       capture::PodCapture pod =
           capture::capturePodFrame(scene, camera, scene.backgroundPlate(camera),
@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
   std::printf("%8s %-13s %10s %16s %12s %10s\n", "voxel", "hull", "ms", "points sampled",
               "triangles", "same mesh");
   for (double voxel : {0.02, 0.01}) {
-    fusion::HullOptions options;
+    hull::HullOptions options;
     options.voxel_size = voxel;
     const glm::dvec3 volume = options.volume_max - options.volume_min;
     const double volume_points = std::ceil(volume.x / voxel + 1) * std::ceil(volume.y / voxel + 1) *
@@ -60,22 +60,22 @@ int main(int argc, char** argv) {
       for (const auto& views : groups) {
         // The dense grid over the whole capture volume: what the valid
         // region saves (timed once per frame, after the warm-up).
-        fusion::HullOptions whole = options;
+        hull::HullOptions whole = options;
         whole.hierarchy_levels = 0;
         whole.valid_region = false;
         Mesh whole_mesh;
         if (repeat == 1) {
           const auto t0 = Clock::now();
-          whole_mesh = fusion::carveVisualHull(views, whole);
+          whole_mesh = hull::carveVisualHull(views, whole);
           whole_ms.push_back(bench::ms(t0, Clock::now()));
         }
         Mesh meshes[2];
         for (int hierarchical = 0; hierarchical < 2; ++hierarchical) {
-          fusion::HullOptions o = options;
+          hull::HullOptions o = options;
           if (!hierarchical) o.hierarchy_levels = 0;
-          fusion::HullStats stats;
+          hull::HullStats stats;
           const auto t0 = Clock::now();
-          meshes[hierarchical] = fusion::carveVisualHull(views, o, &stats);
+          meshes[hierarchical] = hull::carveVisualHull(views, o, &stats);
           const double elapsed = bench::ms(t0, Clock::now());
           if (repeat == 0) continue;
           ms[hierarchical].push_back(elapsed);

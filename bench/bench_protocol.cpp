@@ -144,7 +144,7 @@ BENCHMARK(BM_DecodePodFrame);
 BENCHMARK(BM_FeedAndDecodePodFrame);
 BENCHMARK(BM_EncodePodCapture)
     ->ArgName("crop_margin")
-    ->Arg(capture::kFullFrame)
+    ->Arg(kFullFrame)
     ->Arg(8)
     ->Unit(benchmark::kMicrosecond);
 

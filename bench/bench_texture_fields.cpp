@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "bench_timing.h"
-#include "capture_node/segmentation.h"
+#include "common/segmentation.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/reference/geodesics.h"
 #include "render_client/reference/texture_fields.h"
@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
         std::vector<render::ViewImages> views;
         for (const auto& cam : cameras) {
           const auto truth = scene.render(cam, 10 + m);
-          views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
+          views.push_back({cam, truth.color, truth.mask, featherMap(truth.mask)});
         }
         renderer.setMesh(mesh);
         renderer.setViews(views);
@@ -134,7 +134,7 @@ int main(int argc, char** argv) {
   std::vector<render::reference::PodView> views;
   for (const auto& cam : cameras) {
     const auto truth = scene.render(cam, 10 + meshes);
-    views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
+    views.push_back({cam, truth.color, truth.mask, featherMap(truth.mask)});
   }
   // Each CPU stage timed alone, best of three (the machine is noisy).
   std::map<std::string, double> cpu;
@@ -401,7 +401,7 @@ int main(int argc, char** argv) {
       std::vector<render::ViewImages> pod_views;
       for (const auto& cam : scene::SyntheticScene::cameraRig(4, width, height)) {
         const auto truth = scene.render(cam, 10 + meshes);
-        pod_views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
+        pod_views.push_back({cam, truth.color, truth.mask, featherMap(truth.mask)});
         maps.push_back(render::reference::rasterizeDepth(mesh, cam));
       }
       double cpu_ms = 1e30;
@@ -469,7 +469,7 @@ int main(int argc, char** argv) {
       for (int i = 0; i < 8; i += count == 4 ? 2 : 1) {
         const auto truth = scene.render(ring8[static_cast<size_t>(i)], 10 + meshes);
         render::ViewImages view{ring8[static_cast<size_t>(i)], truth.color, truth.mask,
-                                capture::featherMap(truth.mask)};
+                                featherMap(truth.mask)};
         if (odd_empty && i % 2 == 1) std::fill(view.mask.pixels.begin(), view.mask.pixels.end(), 0);
         chosen.push_back(std::move(view));
       }

@@ -11,7 +11,7 @@ layers=(
   "base"
   "protocol"
   "common"
-  "scene metrics"
+  "scene hull metrics"
   "capture_node fusion_server render_client"
   "eval"
   "deploy"

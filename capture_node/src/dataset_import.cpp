@@ -11,9 +11,9 @@
 
 #include "capture_node/dataset.h"
 #include "capture_node/pod.h"
-#include "capture_node/segmentation.h"
 #include "common/dataset_metadata.h"
-#include "opencv_image.h"
+#include "common/opencv_image.h"
+#include "common/segmentation.h"
 #include "protocol/connection.h"
 #include "protocol/messages.h"
 #include "protocol/record_file.h"

@@ -3,8 +3,9 @@
 #include <array>
 #include <cstdio>
 
-#include "capture_node/segmentation.h"
 #include "common/image_codec.h"
+#include "common/pod_frame_codec.h"
+#include "common/segmentation.h"
 #include "common/shutdown.h"
 #include "protocol/clock.h"
 #include "protocol/server_link.h"
@@ -36,41 +37,10 @@ PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& cam
 protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id,
                                        protocol::Codec color_codec, int crop_margin,
                                        int lz4_acceleration, int lz4_hc_level) {
-  const uint64_t t0 = monotonicNs();
-  // The compressed planes live as long as the frame that borrows them.
-  auto storage = std::make_shared<std::array<std::vector<uint8_t>, 3>>();
-  auto& [color_bytes, mask_bytes, feather_bytes] = *storage;
-  protocol::PodFrame frame;
-  frame.frame_id = capture.frame_id;
-  frame.camera_id = camera_id;
-  frame.capture_time_ns = capture.capture_time_ns;
-  const Image8* color = &capture.view.color;
-  const Image8* mask = &capture.mask;
-  const Image8* feather = &capture.feather;
-  Image8 cropped[3];
-  if (crop_margin >= 0) {
-    // No foreground: one background pixel says so.
-    PixelRect rect = foregroundRect(capture.mask, static_cast<uint32_t>(crop_margin));
-    if (rect.empty()) rect = {0, 0, 1, 1};
-    cropped[0] = cropImage(capture.view.color, rect);
-    cropped[1] = cropImage(capture.mask, rect);
-    cropped[2] = cropImage(capture.feather, rect);
-    color = &cropped[0];
-    mask = &cropped[1];
-    feather = &cropped[2];
-    frame.offset_x = rect.x;
-    frame.offset_y = rect.y;
-  }
-  frame.planes.push_back(encodePlane(*color, protocol::PlaneKind::kColor, color_codec, color_bytes,
-                                     lz4_acceleration, lz4_hc_level));
-  frame.planes.push_back(encodePlane(*mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4,
-                                     mask_bytes, lz4_acceleration, lz4_hc_level));
-  frame.planes.push_back(encodePlane(*feather, protocol::PlaneKind::kFeather, protocol::Codec::kLz4,
-                                     feather_bytes, lz4_acceleration, lz4_hc_level));
-  capture.stamps.push_back({static_cast<uint16_t>(Stage::kPodEncode),
-                            static_cast<uint16_t>(camera_id), t0, monotonicNs()});
-  frame.stamps = capture.stamps;
-  return protocol::encodeOutgoing(frame, protocol::nextSequence(), storage);
+  const PodPlanes planes{capture.frame_id, capture.capture_time_ns, &capture.view.color,
+                         &capture.mask, &capture.feather};
+  return holofuse::encodePodFrame(planes, capture.stamps, camera_id, color_codec, crop_margin,
+                                  lz4_acceleration, lz4_hc_level);
 }
 
 int runPod(const PodOptions& options) {

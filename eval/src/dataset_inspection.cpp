@@ -12,8 +12,8 @@
 #include "capture_node/dataset.h"
 #include "common/image_codec.h"
 #include "common/image_io.h"
-#include "eval/geometry_metrics.h"
-#include "fusion_server/visual_hull.h"
+#include "hull/visual_hull.h"
+#include "metrics/geometry_metrics.h"
 
 namespace holofuse::eval {
 
@@ -132,11 +132,11 @@ Image8 meshSilhouette(const Mesh& mesh, const Camera& camera) {
 
 }  // namespace
 
-fusion::HullOptions hullOptionsFor(const capture::Dataset& dataset, double fallback_voxel) {
-  fusion::HullOptions options;
+hull::HullOptions hullOptionsFor(const capture::Dataset& dataset, double fallback_voxel) {
+  hull::HullOptions options;
   options.voxel_size = fallback_voxel;
   if (const auto& m = dataset.metadata(); m && m->voxel_size > 0) {
-    fusion::setCaptureVolume(options, m->volume_min, m->volume_max);
+    hull::setCaptureVolume(options, m->volume_min, m->volume_max);
     options.voxel_size = m->voxel_size;
   }
   return options;
@@ -205,7 +205,7 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
   if (!found) return Status(StatusCode::kMalformed, dir + ": no frame id is held by every camera");
   summary.inspected_frame_id = frame_id;
 
-  std::vector<fusion::HullView> views;
+  std::vector<hull::HullView> views;
   std::vector<capture::PodImagesFull> images;
   for (const auto& [id, cam] : dataset->cameras()) {
     CameraSummary c;
@@ -241,10 +241,10 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
     images.push_back(std::move(*decoded));
     summary.cameras.push_back(c);
   }
-  fusion::HullOptions hull_options = hullOptionsFor(*dataset, fusion::HullOptions{}.voxel_size);
+  hull::HullOptions hull_options = hullOptionsFor(*dataset, hull::HullOptions{}.voxel_size);
   if (voxel_size > 0) hull_options.voxel_size = voxel_size;
   voxel_size = hull_options.voxel_size;
-  const Mesh hull = fusion::carveVisualHull(views, hull_options);
+  const Mesh hull = hull::carveVisualHull(views, hull_options);
   char voxel_text[32];
   std::snprintf(voxel_text, sizeof(voxel_text), "%.2f mm", voxel_size * 1000);
   t += "frame " + std::to_string(frame_id) + ": visual hull of " +
@@ -255,7 +255,7 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
   std::vector<cv::Mat> tiles;
   for (size_t i = 0; i < views.size(); ++i) {
     CameraSummary& c = summary.cameras[i];
-    c.silhouette_iou = silhouetteIoU(hull, views[i].camera, views[i].mask);
+    c.silhouette_iou = metrics::silhouetteIoU(hull, views[i].camera, views[i].mask);
     char line[256];
     std::snprintf(line, sizeof(line), "%-7u %4ux%-7u %-8zu %-10s %-15.3f %s\n", c.id, c.width,
                   c.height, c.frames, megabytes(static_cast<uint64_t>(c.megabytes * 1e6)).c_str(),

@@ -19,11 +19,11 @@
 #include "common/image_io.h"
 #include "common/mesh_codec.h"
 #include "eval/dataset_inspection.h"
-#include "eval/geometry_metrics.h"
 #include "fusion_server/fusion_worker.h"
-#include "fusion_server/hull_error.h"
 #include "fusion_server/photo_refine.h"
-#include "fusion_server/visual_hull.h"
+#include "hull/hull_error.h"
+#include "hull/visual_hull.h"
+#include "metrics/geometry_metrics.h"
 #include "metrics/image_metrics.h"
 #include "protocol/clock.h"
 #include "render_client/client.h"
@@ -98,7 +98,7 @@ struct FrameData {
   size_t client_link_bytes =
       0;                     // MeshFrame, TextureBundle and Stats, as the server sends each client
   size_t feather_bytes = 0;  // of them, the pods' feather maps (protocol 1.2)
-  fusion::HullStats hull_stats;
+  hull::HullStats hull_stats;
 };
 
 // One whole protocol frame from bytes that must hold one (this process
@@ -203,7 +203,7 @@ std::vector<int> heldOutCameras(int cameras, int limit) {
 
 // The hull refined as the server refines it (EvalOptions::refine_voxels;
 // the hull itself when off).
-Mesh refined(const Mesh& hull, const std::vector<fusion::HullView>& views,
+Mesh refined(const Mesh& hull, const std::vector<hull::HullView>& views,
              const std::vector<Image8>& colors, const EvalOptions& options, double voxel_size) {
   if (!(options.refine_voxels > 0)) return hull;
   fusion::PhotoRefineOptions refine;
@@ -219,22 +219,22 @@ Mesh refined(const Mesh& hull, const std::vector<fusion::HullView>& views,
 // 000's protocol lets shape the hull, nothing of a held-out image shapes
 // what it is compared with. Through Draco, as a client receives a mesh.
 std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
-                                     const std::vector<fusion::HullView>& views,
+                                     const std::vector<hull::HullView>& views,
                                      const std::vector<Image8>& colors, const Mesh& hull,
-                                     const fusion::HullOptions& hull_options) {
+                                     const hull::HullOptions& hull_options) {
   std::map<int, Mesh> meshes;
   if (!options.hull_without_held_out && !(options.refine_voxels > 0)) return meshes;
   for (int held : heldOutCameras(static_cast<int>(views.size()), options.held_out_cameras)) {
-    std::vector<fusion::HullView> others = views;
+    std::vector<hull::HullView> others = views;
     others.erase(others.begin() + held);
     std::vector<Image8> other_colors;
     if (!colors.empty()) {
       other_colors = colors;
       other_colors.erase(other_colors.begin() + held);
     }
-    const Mesh mesh = refined(
-        options.hull_without_held_out ? fusion::carveVisualHull(others, hull_options) : hull,
-        others, other_colors, options, hull_options.voxel_size);
+    const Mesh mesh =
+        refined(options.hull_without_held_out ? hull::carveVisualHull(others, hull_options) : hull,
+                others, other_colors, options, hull_options.voxel_size);
     auto bytes = encodeDraco(mesh, options.draco);
     auto decoded = bytes.isOk() ? decodeDraco(bytes->data(), bytes->size()) : bytes.status();
     if (!decoded.isOk()) {
@@ -251,8 +251,8 @@ std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
 // the meshes the held-out cameras are compared with: the mesh the frame
 // sends.
 Mesh refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
-                  const std::vector<fusion::HullView>& views, Mesh carved,
-                  const fusion::HullOptions& hull_options, FrameData& frame) {
+                  const std::vector<hull::HullView>& views, Mesh carved,
+                  const hull::HullOptions& hull_options, FrameData& frame) {
   const bool refining = options.refine_voxels > 0;
   // The colours in whole frames only for the refinement, which reads them.
   const std::vector<Image8> colors =
@@ -293,14 +293,14 @@ FrameData prepareFrame(const EvalOptions& options, const scene::SyntheticScene& 
   frame.codec_ms["pod_encode"] = slowest_pod_ms;
   // The silhouettes back in whole frames before the hull's clock starts, as
   // in the server.
-  const std::vector<fusion::HullView> hull_views = fusion::hullViewsOf(group);
+  const std::vector<hull::HullView> hull_views = fusion::hullViewsOf(group);
   const auto t0 = Clock::now();
   // The true surface at the hull's voxel size, when asked for.
-  fusion::HullOptions hull_options;
+  hull::HullOptions hull_options;
   hull_options.voxel_size = options.voxel_size;
   Mesh hull = options.geometry == "truth"
                   ? scene.truthMesh(frame_id, options.voxel_size)
-                  : fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
+                  : hull::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
   frame.hull_ms = msSince(t0);
   if (options.geometry != "truth")
     hull = refineCarved(options, group, hull_views, std::move(hull), hull_options, frame);
@@ -634,9 +634,9 @@ std::vector<std::vector<std::string>> linkRows(const std::vector<SceneResult>& r
 
 // The first frame's hull against the masks the server carved from.
 double silhouetteErrorMm(const FrameData& frame) {
-  std::vector<fusion::HullView> views;
+  std::vector<hull::HullView> views;
   for (const auto& view : frame.views) views.push_back({view.camera, view.mask, {}});
-  const fusion::SilhouetteError error = fusion::silhouetteError(frame.mesh, views);
+  const hull::SilhouetteError error = hull::silhouetteError(frame.mesh, views);
   return error.valid ? 1000.0 * error.mean_m : -1.0;
 }
 
@@ -698,7 +698,7 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
   if (cameras.size() < 2)
     throw std::invalid_argument(dir + ": leave-one-camera-out needs at least 2 cameras");
   input.reported = cameras;
-  fusion::HullOptions hull_options = hullOptionsFor(*dataset, options.voxel_size);
+  hull::HullOptions hull_options = hullOptionsFor(*dataset, options.voxel_size);
   if (!options.voxel_from_dataset) hull_options.voxel_size = options.voxel_size;
   // The frame ids every camera holds, in order; each camera's record in
   // camera order (the first, should a camera repeat an id).
@@ -728,17 +728,17 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
       frame.true_masks.push_back(
           placeInFrame(pod.mask, pod.offset_x, pod.offset_y, cam.width, cam.height));
     }
-    const std::vector<fusion::HullView> hull_views = fusion::hullViewsOf(group);
+    const std::vector<hull::HullView> hull_views = fusion::hullViewsOf(group);
     const auto t0 = Clock::now();
     Mesh hull;
     if (options.hull_error_target > 0 && input.frames.empty()) {
       // The error target picks the voxel on the first frame; the rest follow it.
-      fusion::HullForTarget found = fusion::carveToErrorTarget(
+      hull::HullForTarget found = hull::carveToErrorTarget(
           hull_views, hull_options, options.hull_error_target, &frame.hull_stats);
       hull = std::move(found.mesh);
       hull_options.voxel_size = found.voxel_size;
     } else {
-      hull = fusion::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
+      hull = hull::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
     }
     frame.hull_ms = msSince(t0);
     hull = refineCarved(options, group, hull_views, std::move(hull), hull_options, frame);
@@ -756,7 +756,7 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
   result.voxel_mm = 1000.0 * hull_options.voxel_size;
   for (size_t i = 0; i < cameras.size(); ++i) {
     result.silhouette_iou.push_back(
-        silhouetteIoU(input.frames[0].mesh, cameras[i], input.frames[0].true_masks[i]));
+        metrics::silhouetteIoU(input.frames[0].mesh, cameras[i], input.frames[0].true_masks[i]));
   }
   return input;
 }
@@ -819,16 +819,16 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     EvalOptions scene_eval = options;
     if (options.hull_error_target > 0 && options.geometry == "hull") {
       // The error target picks the voxel on the first frame; the rest follow it.
-      std::vector<fusion::HullView> views;
+      std::vector<hull::HullView> views;
       for (size_t i = 0; i < truth.size(); ++i) {
         capture::PodCapture capture = capture::capturePodFrame(
             scene, truth[i], plates[i], options.first_frame, static_cast<uint16_t>(i));
         views.push_back({input.reported[i], capture.mask, capture.feather});
       }
-      fusion::HullOptions hull_options;
+      hull::HullOptions hull_options;
       hull_options.voxel_size = options.voxel_size;
       scene_eval.voxel_size =
-          fusion::carveToErrorTarget(views, hull_options, options.hull_error_target).voxel_size;
+          hull::carveToErrorTarget(views, hull_options, options.hull_error_target).voxel_size;
     }
     SceneResult result;
     result.name = preset->name;
@@ -844,10 +844,10 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     result.silhouette_error_mm = silhouetteErrorMm(input.frames[0]);
     {
       const Mesh truth_surface = scene.truthMesh(options.first_frame, 0.01);
-      result.chamfer_mm = 1000.0 * chamferDistance(input.frames[0].mesh, truth_surface);
+      result.chamfer_mm = 1000.0 * metrics::chamferDistance(input.frames[0].mesh, truth_surface);
       for (size_t i = 0; i < truth.size(); ++i) {
         result.silhouette_iou.push_back(
-            silhouetteIoU(input.frames[0].mesh, truth[i], input.frames[0].true_masks[i]));
+            metrics::silhouetteIoU(input.frames[0].mesh, truth[i], input.frames[0].true_masks[i]));
       }
     }
     evaluateModes(options, context, input, result, progress);

@@ -77,20 +77,20 @@ StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_byt
   return images;
 }
 
-std::vector<HullView> hullViewsOf(const FrameGroup& group) {
-  std::vector<HullView> views;
+std::vector<hull::HullView> hullViewsOf(const FrameGroup& group) {
+  std::vector<hull::HullView> views;
   for (const auto& [camera_id, pod] : group.pods) {
     // The hull samples whole silhouettes: a rectangle goes back into its
     // frame, in the calibration stored with the images (a newer one may
     // have other sizes).
     const bool whole = pod.offset_x == 0 && pod.offset_y == 0 &&
                        pod.mask.width == pod.camera.width && pod.mask.height == pod.camera.height;
-    views.push_back(whole ? HullView{pod.camera, pod.mask, pod.feather}
-                          : HullView{pod.camera,
-                                     placeInFrame(pod.mask, pod.offset_x, pod.offset_y,
-                                                  pod.camera.width, pod.camera.height),
-                                     placeInFrame(pod.feather, pod.offset_x, pod.offset_y,
-                                                  pod.camera.width, pod.camera.height)});
+    views.push_back(whole ? hull::HullView{pod.camera, pod.mask, pod.feather}
+                          : hull::HullView{pod.camera,
+                                           placeInFrame(pod.mask, pod.offset_x, pod.offset_y,
+                                                        pod.camera.width, pod.camera.height),
+                                           placeInFrame(pod.feather, pod.offset_x, pod.offset_y,
+                                                        pod.camera.width, pod.camera.height)});
   }
   return views;
 }
@@ -110,9 +110,9 @@ std::vector<Image8> colorsInFrame(const FrameGroup& group) {
 }
 
 FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
-  const std::vector<HullView> views = hullViewsOf(job.group);
+  const std::vector<hull::HullView> views = hullViewsOf(job.group);
   const uint64_t t0 = monotonicNs();
-  const Mesh hull = carveVisualHull(views, settings.hull);
+  const Mesh hull = hull::carveVisualHull(views, settings.hull);
   const uint64_t t1 = monotonicNs();
   std::optional<Mesh> refined;
   uint64_t t2 = 0;
@@ -125,7 +125,7 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
   FusedOutput out = packageFused(job, settings, refined ? *refined : hull, t0, t1, t2);
   // Measured after the frame is on its way (not part of the hull's time):
   // it only steers the next frame's voxel, which is the carved hull's.
-  if (settings.hull_error_target > 0) out.silhouette_error = silhouetteError(hull, views);
+  if (settings.hull_error_target > 0) out.silhouette_error = hull::silhouetteError(hull, views);
   return out;
 }
 

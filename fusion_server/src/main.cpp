@@ -65,8 +65,8 @@ int main(int argc, char** argv) {
                    volume.c_str());
       return 2;
     }
-    fusion::setCaptureVolume(options.fusion.hull, glm::dvec3(v[0], v[1], v[2]),
-                             glm::dvec3(v[3], v[4], v[5]));
+    hull::setCaptureVolume(options.fusion.hull, glm::dvec3(v[0], v[1], v[2]),
+                           glm::dvec3(v[3], v[4], v[5]));
   }
   if (options.record_fused && options.record_dir.empty()) {
     std::fprintf(stderr, "--record-fused needs --record DIR\n");

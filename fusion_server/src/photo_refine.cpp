@@ -38,7 +38,7 @@ uint8_t maskAt(const Image8& mask, const glm::dvec3& pixel) {
 
 }  // namespace
 
-Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<HullView>& views,
+Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<hull::HullView>& views,
                               const std::vector<Image8>& colors, const PhotoRefineOptions& options,
                               PhotoRefineStats* stats) {
   if (colors.size() != views.size())

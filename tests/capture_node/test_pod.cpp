@@ -2,8 +2,8 @@
 #include <gtest/gtest.h>
 
 #include "capture_node/pod.h"
-#include "capture_node/segmentation.h"
 #include "common/image_codec.h"
+#include "common/segmentation.h"
 #include "scene/scene_library.h"
 #include "scene/synthetic_scene.h"
 

@@ -344,11 +344,12 @@ TEST(Metrics, PictureAgreementBoundsWhatTheDifferingPixelsCanGain) {
 }  // namespace
 }  // namespace holofuse::metrics
 
-#include "eval/geometry_metrics.h"
+#include "metrics/geometry_metrics.h"
 
 namespace holofuse::eval {
 namespace {
 
+using metrics::chamferDistance;
 using metrics::compareInMask;
 using metrics::ErrorRegion;
 using metrics::ImageQuality;

@@ -8,12 +8,12 @@
 #include <optional>
 #include <stdexcept>
 
-#include "capture_node/segmentation.h"
 #include "common/depth_raster.h"
 #include "common/mesh_codec.h"
+#include "common/segmentation.h"
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/photo_refine.h"
-#include "fusion_server/visual_hull.h"
+#include "hull/visual_hull.h"
 #include "protocol/frame.h"
 #include "scene/synthetic_scene.h"
 
@@ -24,7 +24,7 @@ constexpr uint64_t kFrame = 12;
 constexpr double kVoxel = 0.02;
 
 struct Capture {
-  std::vector<HullView> views;
+  std::vector<hull::HullView> views;
   std::vector<Image8> colors;
 };
 
@@ -33,16 +33,16 @@ Capture syntheticCapture(int cameras, uint32_t w = 240, uint32_t h = 180) {
   Capture capture;
   for (const auto& camera : scene::SyntheticScene::cameraRig(cameras, w, h)) {
     const auto view = scene.render(camera, kFrame);
-    capture.views.push_back({camera, view.mask, capture::featherMap(view.mask)});
+    capture.views.push_back({camera, view.mask, featherMap(view.mask)});
     capture.colors.push_back(view.color);
   }
   return capture;
 }
 
 Mesh carve(const Capture& capture) {
-  HullOptions options;
+  hull::HullOptions options;
   options.voxel_size = kVoxel;
-  return carveVisualHull(capture.views, options);
+  return hull::carveVisualHull(capture.views, options);
 }
 
 PhotoRefineOptions refineOptions(double voxels) {

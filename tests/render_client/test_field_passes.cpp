@@ -9,8 +9,8 @@
 #include <memory>
 #include <string>
 
-#include "capture_node/segmentation.h"
 #include "common/marching_cubes.h"
+#include "common/segmentation.h"
 #include "render_client/reference/blend.h"
 #include "render_client/reference/geodesics.h"
 #include "render_client/reference/texture_fields.h"
@@ -38,7 +38,7 @@ Scene syntheticScene(int cameras, uint32_t w, uint32_t h, uint64_t frame) {
   Scene s{"synthetic " + std::to_string(cameras) + " cameras", scene.truthMesh(frame, 0.015), {}};
   for (const auto& cam : scene::SyntheticScene::cameraRig(cameras, w, h)) {
     const auto truth = scene.render(cam, frame);
-    s.views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
+    s.views.push_back({cam, truth.color, truth.mask, featherMap(truth.mask)});
   }
   return s;
 }

@@ -6,7 +6,7 @@
 
 #include <cmath>
 
-#include "capture_node/segmentation.h"
+#include "common/segmentation.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
@@ -23,7 +23,7 @@ std::pair<std::vector<View>, std::vector<Camera>> ring(const scene::SyntheticSce
   std::pair<std::vector<View>, std::vector<Camera>> out;
   for (const auto& cam : scene::SyntheticScene::cameraRig(count, width, height)) {
     const auto truth = scene.render(cam, 6);
-    out.first.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
+    out.first.push_back({cam, truth.color, truth.mask, featherMap(truth.mask)});
     out.second.push_back(cam);
   }
   return out;

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <numeric>
 
-#include "capture_node/segmentation.h"
 #include "common/marching_cubes.h"
+#include "common/segmentation.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
@@ -282,7 +282,7 @@ TEST(ReferencePipeline, SyntheticSceneVisibilityFollowsTheTruthMask) {
   std::vector<PodView> views;
   for (const auto& cam : scene::SyntheticScene::cameraRig(4, 120, 90)) {
     const auto truth = scene.render(cam, 3);
-    views.push_back({cam, truth.color, truth.mask, capture::featherMap(truth.mask)});
+    views.push_back({cam, truth.color, truth.mask, featherMap(truth.mask)});
   }
   const auto sights = vertexSights(mesh, views);
   const auto trusted = majorityVote(mesh, views, sights);

@@ -4,8 +4,8 @@
 
 #include <cmath>
 
-#include "capture_node/segmentation.h"
 #include "common/image_codec.h"
+#include "common/segmentation.h"
 #include "render_client/client.h"
 #include "render_client/latency_report.h"
 #include "render_client/renderer.h"
@@ -24,8 +24,7 @@ struct Fixture {
     mesh = scene.truthMesh(frame, 0.012);
     for (const auto& cam : cameras) {
       truth.push_back(scene.render(cam, frame));
-      views.push_back(
-          {cam, truth.back().color, truth.back().mask, capture::featherMap(truth.back().mask)});
+      views.push_back({cam, truth.back().color, truth.back().mask, featherMap(truth.back().mask)});
     }
   }
 };

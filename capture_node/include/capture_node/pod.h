@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <string>
 
+#include "common/pod_frame_codec.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
 #include "scene/synthetic_scene.h"
@@ -43,13 +44,8 @@ struct PodCapture {
 PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& camera,
                            const Image8& plate, uint64_t frame_id, uint16_t source);
 
-// Compresses a capture into a PodFrame ready to send (the compressed planes
-// are borrowed by the frame, not copied), appending the encode stamp. With
-// crop_margin >= 0 only the foreground's bounding rectangle grown by that
-// many pixels is sent, with its offset (paper 004: model only what the
-// scene requires); kFullFrame sends every pixel. lz4_acceleration is LZ4's
-// (1 = default).
-constexpr int kFullFrame = -1;
+// The capture as the PodFrame it sends (common/pod_frame_codec.h), the
+// encode stamp appended to its stamps.
 protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id,
                                        protocol::Codec color_codec, int crop_margin = kFullFrame,
                                        int lz4_acceleration = 1, int lz4_hc_level = 0);

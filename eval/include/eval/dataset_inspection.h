@@ -10,13 +10,13 @@
 
 #include "base/status.h"
 #include "capture_node/dataset.h"
-#include "fusion_server/visual_hull.h"
+#include "hull/visual_hull.h"
 
 namespace holofuse::eval {
 
 // The hull settings a dataset asks for (its capture volume and voxel
 // size), else the defaults with fallback_voxel.
-fusion::HullOptions hullOptionsFor(const capture::Dataset& dataset, double fallback_voxel);
+hull::HullOptions hullOptionsFor(const capture::Dataset& dataset, double fallback_voxel);
 
 enum class VerifyVerdict {
   kClean = 0,           // every record checks and the index is in place

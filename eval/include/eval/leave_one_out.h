@@ -73,9 +73,9 @@ struct EvalOptions {
   // A dataset carves at the voxel size it was recorded or imported with
   // unless a voxel is given (--voxel, the sweep's voxel knob).
   bool voxel_from_dataset = true;
-  // Silhouette error, metres (fusion::silhouetteError): when set, each
+  // Silhouette error, metres (hull::silhouetteError): when set, each
   // scene's voxel is the coarsest from voxel_size down that meets it on the
-  // first frame (fusion::carveToErrorTarget).
+  // first frame (hull::carveToErrorTarget).
   double hull_error_target = 0;
   DracoOptions draco;  // position bits etc.
   protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;

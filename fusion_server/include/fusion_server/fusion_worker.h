@@ -14,16 +14,16 @@
 #include "common/camera.h"
 #include "common/mesh_codec.h"
 #include "fusion_server/frame_sync.h"
-#include "fusion_server/hull_error.h"
 #include "fusion_server/photo_refine.h"
-#include "fusion_server/visual_hull.h"
+#include "hull/hull_error.h"
+#include "hull/visual_hull.h"
 #include "protocol/connection.h"
 
 namespace holofuse::fusion {
 
 struct FusionSettings {
-  HullOptions hull;
-  // Metres of silhouette error (fusion::silhouetteError) the hull's voxel
+  hull::HullOptions hull;
+  // Metres of silhouette error (hull::silhouetteError) the hull's voxel
   // follows from frame to frame, starting from hull.voxel_size and never
   // coarser; 0: the voxel is fixed.
   double hull_error_target = 0;
@@ -47,7 +47,7 @@ struct FusedOutput {
       stats_v1_0;  // the same Stats for a peer that agreed on 1.0 (no pod arrivals)
   size_t triangles = 0;
   double voxel_size = 0;
-  SilhouetteError silhouette_error;  // measured only under an error target
+  hull::SilhouetteError silhouette_error;  // measured only under an error target
 };
 
 struct GroupJob {
@@ -67,7 +67,7 @@ StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_byt
                                 const Camera& camera, uint64_t now_ns);
 
 // The group's silhouettes and feather maps as whole images, for the hull.
-std::vector<HullView> hullViewsOf(const FrameGroup& group);
+std::vector<hull::HullView> hullViewsOf(const FrameGroup& group);
 // The group's colour images as whole images, in hullViewsOf's order.
 std::vector<Image8> colorsInFrame(const FrameGroup& group);
 
@@ -100,7 +100,7 @@ class FusionWorker {
   void run();
 
   FusionSettings settings_;
-  std::optional<VoxelController> voxel_;  // under an error target
+  std::optional<hull::VoxelController> voxel_;  // under an error target
   int wake_fd_;
   std::mutex mutex_;
   std::condition_variable cv_;

@@ -10,7 +10,7 @@
 
 #include "common/image.h"
 #include "common/mesh.h"
-#include "fusion_server/visual_hull.h"
+#include "hull/visual_hull.h"
 
 namespace holofuse::fusion {
 
@@ -39,7 +39,7 @@ struct PhotoRefineStats {
 // views[i].camera and .mask as carved; colors[i]: camera i's whole RGB
 // image. Returns the mesh with moved vertices and fresh normals; the
 // triangles, their order and the vertex keys are the hull's.
-Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<HullView>& views,
+Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<hull::HullView>& views,
                               const std::vector<Image8>& colors, const PhotoRefineOptions& options,
                               PhotoRefineStats* stats = nullptr);
 

@@ -4,7 +4,7 @@
 
 #include "common/image.h"
 
-namespace holofuse::capture {
+namespace holofuse {
 
 struct SegmentationOptions {
   // Sum of absolute channel differences to count as foreground. The
@@ -26,4 +26,4 @@ Image8 segmentForeground(const Image8& frame, const Image8& plate,
 // fade a camera out towards its silhouette border.
 Image8 featherMap(const Image8& mask);
 
-}  // namespace holofuse::capture
+}  // namespace holofuse

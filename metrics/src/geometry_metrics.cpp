@@ -1,13 +1,13 @@
-#include "eval/geometry_metrics.h"
+#include "metrics/geometry_metrics.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <unordered_map>
 
-#include "render_client/reference/depth_map.h"
+#include "common/depth_raster.h"
 
-namespace holofuse::eval {
+namespace holofuse::metrics {
 namespace {
 
 // The point of segment ab nearest to p (a point when a == b).
@@ -131,14 +131,14 @@ double chamferDistance(const Mesh& a, const Mesh& b) {
 }
 
 double silhouetteIoU(const Mesh& mesh, const Camera& camera, const Image8& mask) {
-  const render::reference::DepthMap map = render::reference::rasterizeDepth(mesh, camera);
+  const DepthMap map = rasterizeDepth(mesh, camera);
   size_t both = 0, either = 0;
   for (size_t i = 0; i < map.depth.size() && i < mask.pixels.size(); ++i) {
-    const bool drawn = map.depth[i] != render::reference::kNoDepth, truth = mask.pixels[i] != 0;
+    const bool drawn = map.depth[i] != kNoDepth, truth = mask.pixels[i] != 0;
     both += drawn && truth;
     either += drawn || truth;
   }
   return either ? static_cast<double>(both) / static_cast<double>(either) : 1.0;
 }
 
-}  // namespace holofuse::eval
+}  // namespace holofuse::metrics

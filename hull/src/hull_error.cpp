@@ -1,4 +1,4 @@
-#include "fusion_server/hull_error.h"
+#include "hull/hull_error.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include "common/depth_raster.h"
 
-namespace holofuse::fusion {
+namespace holofuse::hull {
 namespace {
 
 // 0 on the outline of `inside` (a pixel inside with a 4-neighbour outside,
@@ -152,4 +152,4 @@ bool VoxelController::observe(const SilhouetteError& error) {
   return voxel_ != before;
 }
 
-}  // namespace holofuse::fusion
+}  // namespace holofuse::hull

@@ -15,7 +15,7 @@
 #include "common/image.h"
 #include "common/mesh.h"
 
-namespace holofuse::fusion {
+namespace holofuse::hull {
 
 struct HullView {
   Camera camera;
@@ -62,4 +62,4 @@ std::vector<float> silhouetteSignedDistance(const HullView& view);
 Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options,
                      HullStats* stats = nullptr);
 
-}  // namespace holofuse::fusion
+}  // namespace holofuse::hull

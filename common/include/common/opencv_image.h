@@ -1,11 +1,12 @@
-// Image8 seen as a cv::Mat (no copy) and back, for the pod's OpenCV code.
+// Image8 seen as a cv::Mat (no copy) and back, for the OpenCV code of the
+// segmentation and the importers.
 #pragma once
 
 #include <opencv2/core.hpp>
 
 #include "common/image.h"
 
-namespace holofuse::capture {
+namespace holofuse {
 
 // The image's own pixels; writing through the Mat writes the image.
 inline cv::Mat wrap(Image8& image) {
@@ -25,4 +26,4 @@ inline Image8 fromMat(const cv::Mat& m) {
   return out;
 }
 
-}  // namespace holofuse::capture
+}  // namespace holofuse

@@ -1,4 +1,4 @@
-#include "fusion_server/visual_hull.h"
+#include "hull/visual_hull.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 
 #include "common/marching_cubes.h"
 
-namespace holofuse::fusion {
+namespace holofuse::hull {
 namespace {
 
 struct Rect {
@@ -350,4 +350,4 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   return mesh;
 }
 
-}  // namespace holofuse::fusion
+}  // namespace holofuse::hull

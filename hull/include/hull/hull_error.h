@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "common/mesh.h"
-#include "fusion_server/visual_hull.h"
+#include "hull/visual_hull.h"
 
-namespace holofuse::fusion {
+namespace holofuse::hull {
 
 struct SilhouetteError {
   // Symmetric mean distance between the outline of the mesh seen from a
@@ -74,4 +74,4 @@ class VoxelController {
   int since_floor_ = 0;
 };
 
-}  // namespace holofuse::fusion
+}  // namespace holofuse::hull

@@ -9,7 +9,7 @@
 #include "common/image.h"
 #include "common/mesh.h"
 
-namespace holofuse::eval {
+namespace holofuse::metrics {
 
 // Mean of (mean distance from a's vertices to b's surface) and (b's
 // vertices to a's), metres; +infinity when either mesh has no vertices. The
@@ -22,4 +22,4 @@ double chamferDistance(const Mesh& a, const Mesh& b);
 // The mesh rasterised from the camera against the mask (non-zero = subject).
 double silhouetteIoU(const Mesh& mesh, const Camera& camera, const Image8& mask);
 
-}  // namespace holofuse::eval
+}  // namespace holofuse::metrics

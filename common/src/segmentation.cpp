@@ -1,10 +1,10 @@
-#include "capture_node/segmentation.h"
+#include "common/segmentation.h"
 
 #include <opencv2/imgproc.hpp>
 
-#include "opencv_image.h"
+#include "common/opencv_image.h"
 
-namespace holofuse::capture {
+namespace holofuse {
 
 Image8 segmentForeground(const Image8& frame, const Image8& plate,
                          const SegmentationOptions& options) {
@@ -33,4 +33,4 @@ Image8 featherMap(const Image8& mask) {
   return feather;
 }
 
-}  // namespace holofuse::capture
+}  // namespace holofuse
