@@ -15,9 +15,9 @@
 #include <vector>
 
 #include "base/process.h"
-#include "capture_node/dataset.h"
 #include "capture_node/replay_pod.h"
 #include "common/command_line.h"
+#include "dataset/dataset.h"
 #include "render_client/blend_mode.h"
 #include "render_client/latency_report.h"
 #include "scene/scene_library.h"
@@ -212,7 +212,7 @@ int main(int argc, char** argv) {
   }
   if (!replay.empty()) {
     // The dataset decides the cameras and the image size.
-    auto dataset = holofuse::capture::Dataset::open(replay);
+    auto dataset = holofuse::dataset::Dataset::open(replay);
     if (!dataset.isOk()) {
       std::fprintf(stderr, "--replay: %s\n", dataset.status().message().c_str());
       return 2;

@@ -12,6 +12,7 @@ layers=(
   "protocol"
   "common"
   "scene hull metrics"
+  "dataset"
   "capture_node fusion_server render_client"
   "eval"
   "deploy"

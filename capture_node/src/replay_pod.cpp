@@ -6,8 +6,8 @@
 #include <memory>
 #include <thread>
 
-#include "capture_node/dataset.h"
 #include "common/shutdown.h"
+#include "dataset/dataset.h"
 #include "protocol/clock.h"
 #include "protocol/server_link.h"
 
@@ -31,8 +31,9 @@ namespace {
 
 // The recorded PodFrame with this replay's id, capture time and stamps;
 // its planes are borrowed from the recorded bytes, never re-encoded.
-StatusOr<protocol::SharedFrame> restamp(const Dataset& dataset, const protocol::RecordInfo& record,
-                                        uint64_t frame_id, uint32_t camera_id) {
+StatusOr<protocol::SharedFrame> restamp(const dataset::Dataset& dataset,
+                                        const dataset::RecordInfo& record, uint64_t frame_id,
+                                        uint32_t camera_id) {
   const uint64_t t0 = monotonicNs();
   auto frame = dataset.readFrame(record);
   if (!frame.isOk()) return frame.status();
@@ -58,7 +59,7 @@ StatusOr<protocol::SharedFrame> restamp(const Dataset& dataset, const protocol::
 
 int runReplayPod(const ReplayOptions& options) {
   const std::string name = "replay-pod-" + std::to_string(options.pod_id);
-  auto dataset = Dataset::open(options.dataset);
+  auto dataset = dataset::Dataset::open(options.dataset);
   if (!dataset.isOk()) {
     std::fprintf(stderr, "[%s] %s\n", name.c_str(), dataset.status().message().c_str());
     return 2;
@@ -73,7 +74,7 @@ int runReplayPod(const ReplayOptions& options) {
     return 2;
   }
   const protocol::Calibration calibration_message = *calibration;
-  const DatasetCamera& camera = dataset->cameras().at(options.pod_id);
+  const dataset::DatasetCamera& camera = dataset->cameras().at(options.pod_id);
 
   protocol::Hello hello;
   hello.role = protocol::Role::kPod;
@@ -104,7 +105,7 @@ int runReplayPod(const ReplayOptions& options) {
   uint64_t last_report = start, sent = 0, bytes = 0;
   for (uint64_t loop = 0; !stopRequested(); ++loop) {
     for (size_t i = 0; i < total && !stopRequested(); ++i) {
-      const protocol::RecordInfo& record = camera.frames[i];
+      const dataset::RecordInfo& record = camera.frames[i];
       // Pace: the recorded receive time (scaled), or the server's accept
       // rate (nothing queued beyond what the socket holds).
       const uint64_t due =

@@ -11,14 +11,14 @@
 #include <optional>
 #include <stdexcept>
 
-#include "capture_node/dataset.h"
 #include "capture_node/pod.h"
 #include "common/depth_raster.h"
 #include "common/html_report.h"
 #include "common/image_codec.h"
 #include "common/image_io.h"
 #include "common/mesh_codec.h"
-#include "eval/dataset_inspection.h"
+#include "dataset/dataset.h"
+#include "dataset/inspection.h"
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/photo_refine.h"
 #include "hull/hull_error.h"
@@ -105,7 +105,7 @@ struct FrameData {
 // made or recorded them): the transport's parsing, which no codec stage of
 // the loop counts.
 protocol::Frame parsedFrame(const protocol::Bytes& wire, const std::string& what) {
-  auto frame = capture::parseWholeFrame(wire, what);
+  auto frame = dataset::parseWholeFrame(wire, what);
   if (!frame.isOk()) throw std::runtime_error(frame.status().message());
   return std::move(*frame);
 }
@@ -686,7 +686,7 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
 // images are compared inside; there is no true surface.
 SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
                             SceneResult& result) {
-  auto dataset = capture::Dataset::open(dir);
+  auto dataset = dataset::Dataset::open(dir);
   if (!dataset.isOk()) throw std::invalid_argument(dataset.status().message());
   SceneInput input;
   std::vector<Camera> cameras;
@@ -698,18 +698,18 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
   if (cameras.size() < 2)
     throw std::invalid_argument(dir + ": leave-one-camera-out needs at least 2 cameras");
   input.reported = cameras;
-  hull::HullOptions hull_options = hullOptionsFor(*dataset, options.voxel_size);
+  hull::HullOptions hull_options = dataset::hullOptionsFor(*dataset, options.voxel_size);
   if (!options.voxel_from_dataset) hull_options.voxel_size = options.voxel_size;
   // The frame ids every camera holds, in order; each camera's record in
   // camera order (the first, should a camera repeat an id).
-  std::map<uint64_t, std::map<uint32_t, protocol::RecordInfo>> by_id;
+  std::map<uint64_t, std::map<uint32_t, dataset::RecordInfo>> by_id;
   for (const auto& [id, cam] : dataset->cameras()) {
     for (const auto& r : cam.frames) by_id[r.frame_id].try_emplace(id, r);
   }
   for (const auto& [frame_id, by_camera] : by_id) {
     if (by_camera.size() != cameras.size()) continue;
     if (static_cast<int>(input.frames.size()) >= options.frames) break;
-    std::vector<protocol::RecordInfo> records;
+    std::vector<dataset::RecordInfo> records;
     for (const auto& [id, r] : by_camera) records.push_back(r);
     FrameData frame;
     frame.frame_id = frame_id;

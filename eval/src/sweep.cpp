@@ -9,11 +9,11 @@
 #include <stdexcept>
 
 #include "base/process.h"
-#include "capture_node/dataset.h"
 #include "common/command_line.h"
 #include "common/html_report.h"
 #include "common/image_codec.h"
-#include "eval/dataset_inspection.h"
+#include "dataset/dataset.h"
+#include "dataset/inspection.h"
 #include "result_json.h"
 #include "scene/scene_library.h"
 
@@ -416,9 +416,9 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options,
   SweepOptions swept = options;
   if (!swept.base.datasets.empty() && swept.base.voxel_from_dataset) {
     // The dataset's own voxel is the default point's, by number.
-    auto dataset = capture::Dataset::open(swept.base.datasets.front());
+    auto dataset = dataset::Dataset::open(swept.base.datasets.front());
     if (!dataset.isOk()) throw std::invalid_argument(dataset.status().message());
-    swept.base.voxel_size = hullOptionsFor(*dataset, swept.base.voxel_size).voxel_size;
+    swept.base.voxel_size = dataset::hullOptionsFor(*dataset, swept.base.voxel_size).voxel_size;
     swept.base.voxel_from_dataset = false;
   }
   for (auto& [name, values] : swept.knobs) {

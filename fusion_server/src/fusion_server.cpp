@@ -36,7 +36,7 @@ Status FusionServer::start() {
   listener_ = std::move(*listener);
   wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   if (!options_.record_dir.empty()) {
-    auto recorder = Recorder::open(options_.record_dir, options_.record_fused);
+    auto recorder = dataset::Recorder::open(options_.record_dir, options_.record_fused);
     if (!recorder.isOk()) return recorder.status();
     recorder_ = std::move(*recorder);
   }
@@ -171,8 +171,7 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   // What the fusion takes, as it arrived (a late frame is not fused, so a
   // replay must not fuse it either).
   if (added == FrameSync::Added::kAccepted && recorder_) {
-    recorder_->recordPodMessage(protocol::RecordKind::kPodFrame, pod.camera_id, pod.frame_id,
-                                frame);
+    recorder_->recordPodMessage(dataset::RecordKind::kPodFrame, pod.camera_id, pod.frame_id, frame);
   }
   return Status::ok();
 }
@@ -207,7 +206,7 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
       }
       cameras_[calibration.camera_id] = fromCalibration(calibration);
       if (recorder_)
-        recorder_->recordPodMessage(protocol::RecordKind::kCalibration, calibration.camera_id, 0,
+        recorder_->recordPodMessage(dataset::RecordKind::kCalibration, calibration.camera_id, 0,
                                     frame);
       auto bytes = std::make_shared<const protocol::OutgoingFrame>(frame.bytes);
       calibration_frames_[calibration.camera_id] = bytes;
@@ -269,7 +268,8 @@ void FusionServer::fanOut() {
   }
   for (auto& out : worker_->takeOutputs()) {
     ++groups_fused_;
-    if (recorder_) recorder_->recordFused(out);
+    if (recorder_)
+      recorder_->recordFused(out.frame_id, *out.mesh_frame, *out.texture_bundle, *out.stats);
     for (auto& peer : peers_) {
       if (!peer.greeted || peer.role != protocol::Role::kClient) continue;
       // Bundle and Stats first: the client renders when the mesh arrives.

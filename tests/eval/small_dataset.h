@@ -9,8 +9,8 @@
 #include <filesystem>
 #include <string>
 
-#include "capture_node/dataset_import.h"
 #include "common/image_io.h"
+#include "dataset/import.h"
 #include "scene/synthetic_scene.h"
 
 namespace holofuse::eval::test {
@@ -25,9 +25,9 @@ inline void writeSmallDataset(const std::filesystem::path& dir, int cameras, uin
   fs::remove_all(source);
   fs::create_directories(source);
   const scene::SyntheticScene scene;
-  capture::CaptureDescription capture;
+  dataset::CaptureDescription capture;
   capture.source = "synthetic test capture";
-  capture::CaptureFrame frame;
+  dataset::CaptureFrame frame;
   const auto rig = scene::SyntheticScene::cameraRig(cameras, width, height);
   for (const Camera& camera : rig) {
     const std::string name = "cam" + std::to_string(camera.id);
@@ -40,9 +40,9 @@ inline void writeSmallDataset(const std::filesystem::path& dir, int cameras, uin
     frame.masks.push_back(mask.string());
   }
   capture.frames.push_back(frame);
-  capture::ImportOptions options;
+  dataset::ImportOptions options;
   options.voxel_size = voxel;
-  const auto imported = capture::importCapture(capture, dir.string(), options);
+  const auto imported = dataset::importCapture(capture, dir.string(), options);
   ASSERT_TRUE(imported.isOk()) << imported.status().toString();
   fs::remove_all(source);
 }

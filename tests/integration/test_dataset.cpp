@@ -17,10 +17,10 @@
 #include <sstream>
 #include <thread>
 
-#include "capture_node/dataset.h"
+#include "dataset/dataset.h"
+#include "dataset/record_file.h"
 #include "process_harness.h"
 #include "protocol/messages.h"
-#include "protocol/record_file.h"
 
 namespace holofuse {
 namespace {
@@ -35,14 +35,14 @@ const std::string kBin = HOLOFUSE_BIN_DIR;
 // frame id -> the Draco bytes of the fused mesh, from a fused.hfr.
 std::map<uint64_t, protocol::Bytes> fusedMeshes(const fs::path& file) {
   std::map<uint64_t, protocol::Bytes> meshes;
-  auto reader = protocol::RecordReader::open(file.string());
+  auto reader = dataset::RecordReader::open(file.string());
   EXPECT_TRUE(reader.isOk()) << reader.status().toString();
   if (!reader.isOk()) return meshes;
   for (const auto& r : reader->records()) {
-    if (r.kind != static_cast<uint16_t>(protocol::RecordKind::kMeshFrame)) continue;
+    if (r.kind != static_cast<uint16_t>(dataset::RecordKind::kMeshFrame)) continue;
     auto bytes = reader->read(r);
     EXPECT_TRUE(bytes.isOk());
-    auto frame = capture::parseWholeFrame(*bytes, file.string());
+    auto frame = dataset::parseWholeFrame(*bytes, file.string());
     EXPECT_TRUE(frame.isOk()) << frame.status().toString();
     protocol::MeshFrame mesh;
     EXPECT_TRUE(protocol::decodeFrame(*frame, mesh).isOk());
@@ -55,7 +55,7 @@ std::map<uint64_t, protocol::Bytes> fusedMeshes(const fs::path& file) {
 // camera -> every PodFrame's planes (kind and compressed bytes) in order.
 std::map<uint32_t, std::vector<protocol::Bytes>> recordedPlanes(const fs::path& dir) {
   std::map<uint32_t, std::vector<protocol::Bytes>> planes;
-  auto dataset = capture::Dataset::open(dir.string());
+  auto dataset = dataset::Dataset::open(dir.string());
   EXPECT_TRUE(dataset.isOk()) << dataset.status().toString();
   if (!dataset.isOk()) return planes;
   for (const auto& [id, camera] : dataset->cameras()) {
@@ -118,7 +118,7 @@ TEST_F(DatasetLoop, TheLiveLoopRecordsWholeCheckedProtocolFrames) {
   EXPECT_NE(text.find("every record's CRC32C matches"), std::string::npos) << text;
   EXPECT_NE(text.find("verdict: OK"), std::string::npos) << text;
 
-  auto dataset = capture::Dataset::open(recording_.string());
+  auto dataset = dataset::Dataset::open(recording_.string());
   ASSERT_TRUE(dataset.isOk()) << dataset.status().toString();
   ASSERT_EQ(dataset->cameras().size(), 2u);
   for (const auto& [id, camera] : dataset->cameras()) {
@@ -170,7 +170,7 @@ TEST_F(DatasetLoop, EvalScoresARecordingLeaveOneCameraOut) {
   // are the recorded ones, and the server's packing of the same hull is
   // what the live server recorded (MeshFrame, TextureBundle, Stats), up to
   // the stamps and notes inside.
-  auto dataset = capture::Dataset::open(recording_.string());
+  auto dataset = dataset::Dataset::open(recording_.string());
   ASSERT_TRUE(dataset.isOk()) << dataset.status().toString();
   std::map<uint64_t, std::map<uint32_t, size_t>>
       pod_bytes;  // frame id -> camera -> bytes on the wire
@@ -195,7 +195,7 @@ TEST_F(DatasetLoop, EvalScoresARecordingLeaveOneCameraOut) {
   // so the live recording may lack one of the two).
   ASSERT_EQ(replay(root_ / "eval_replay"), 0) << readFile(root_ / "eval_replay.log");
   auto fused =
-      protocol::RecordReader::open((root_ / "eval_replay" / "record" / "fused.hfr").string());
+      dataset::RecordReader::open((root_ / "eval_replay" / "record" / "fused.hfr").string());
   ASSERT_TRUE(fused.isOk()) << fused.status().toString();
   std::map<uint64_t, double> client_link;  // frame id -> bytes the server sent for it
   for (const auto& r : fused->records()) client_link[r.frame_id] += r.payload_length;
@@ -231,7 +231,7 @@ TEST_F(DatasetLoop, ReplayFusesTheSameMeshesBitForBitAndSendsTheRecordedImages) 
   ASSERT_EQ(replay(first), 0) << readFile(first.string() + ".log");
   ASSERT_EQ(replay(second), 0) << readFile(second.string() + ".log");
 
-  auto dataset = capture::Dataset::open(recording_.string());
+  auto dataset = dataset::Dataset::open(recording_.string());
   ASSERT_TRUE(dataset.isOk());
   const auto a = fusedMeshes(first / "record" / "fused.hfr");
   const auto b = fusedMeshes(second / "record" / "fused.hfr");
@@ -313,7 +313,7 @@ TEST(DatasetRecorder, AKilledRecorderKeepsEveryWholeRecordAndStillReplays) {
       std::string::npos)
       << text;
   EXPECT_NE(text.find("every record's CRC32C matches"), std::string::npos) << text;
-  auto reader = protocol::RecordReader::open(file.string());
+  auto reader = dataset::RecordReader::open(file.string());
   ASSERT_TRUE(reader.isOk());
   EXPECT_GE(reader->records().size(), 4u);
   EXPECT_TRUE(reader->verifyAll().isOk());
@@ -380,7 +380,7 @@ TEST(DatasetRecorder, ARecordingThatRunsOutOfSpaceIsReportedAndServingGoesOn) {
   EXPECT_NE(log.find("file size limit reached"), std::string::npos) << log;
   EXPECT_EQ(readJson(out / "client" / "report.json")["frames_rendered"].get<int>(), 24);
   // What was written before the failure is whole and checks.
-  auto reader = protocol::RecordReader::open((recording / "pods.hfr").string());
+  auto reader = dataset::RecordReader::open((recording / "pods.hfr").string());
   ASSERT_TRUE(reader.isOk()) << reader.status().toString();
   EXPECT_GE(reader->records().size(), 3u);
   EXPECT_LE(fs::file_size(recording / "pods.hfr"), 600u * 1024u);
@@ -404,7 +404,7 @@ TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
   const fs::path dir = out / "one";
   fs::create_directories(dir);
   {
-    auto writer = protocol::RecordWriter::create((dir / "pods.hfr").string(), 0);
+    auto writer = dataset::RecordWriter::create((dir / "pods.hfr").string(), 0);
     ASSERT_TRUE(writer.isOk());
     protocol::Calibration calibration;
     calibration.camera_id = 0;
@@ -413,7 +413,7 @@ TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
     calibration.fx = calibration.fy = 50;
     calibration.rotation = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     const protocol::Bytes bytes = protocol::encodeOutgoing(calibration, 1).flatten();
-    ASSERT_TRUE(writer->append(protocol::RecordKind::kCalibration, 0, 0, 0, bytes).isOk());
+    ASSERT_TRUE(writer->append(dataset::RecordKind::kCalibration, 0, 0, 0, bytes).isOk());
     ASSERT_TRUE(writer->close().isOk());
   }
   p = spawn({kBin + "/capture_node", "--server", "127.0.0.1:1", "--pod-id", "7", "--replay",
@@ -432,7 +432,7 @@ TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
 
   // A damaged byte: verify names the record and its offset, exit 1.
   std::string bytes = readFile(dir / "pods.hfr");
-  const size_t damaged = protocol::kRecordFileHeaderSize + protocol::kRecordHeaderSize + 5;
+  const size_t damaged = dataset::kRecordFileHeaderSize + dataset::kRecordHeaderSize + 5;
   bytes[damaged] = static_cast<char>(bytes[damaged] ^ 0x10);
   std::ofstream(dir / "pods.hfr", std::ios::binary | std::ios::trunc) << bytes;
   p = spawn({kBin + "/holofuse_dataset", "verify", dir.string()}, out / "d.log");
@@ -464,7 +464,7 @@ TEST(RealCapture, TheMiddleburyTempleImportsReplaysAndEvaluates) {
   EXPECT_NE(readFile(out / "import.log").find("imported 16 camera(s) x 1 frame(s)"),
             std::string::npos)
       << readFile(out / "import.log");
-  auto dataset = capture::Dataset::open(dataset_dir.string());
+  auto dataset = dataset::Dataset::open(dataset_dir.string());
   ASSERT_TRUE(dataset.isOk());
   ASSERT_TRUE(dataset->metadata().has_value());
   // The capture volume holds the benchmark's tight bounding box (its

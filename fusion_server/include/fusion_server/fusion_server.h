@@ -14,9 +14,9 @@
 
 #include "common/arrival_jitter.h"
 #include "common/camera.h"
+#include "dataset/recorder.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
-#include "fusion_server/recorder.h"
 #include "protocol/connection.h"
 #include "protocol/socket.h"
 
@@ -92,7 +92,7 @@ class FusionServer {
   std::unique_ptr<FusionWorker> worker_;
   uint32_t next_session_ = 1;
   uint64_t groups_fused_ = 0;
-  std::optional<Recorder> recorder_;
+  std::optional<dataset::Recorder> recorder_;
   bool clients_arrived_ = false;  // wait_for_clients reached once
 };
 

@@ -11,13 +11,15 @@
 #include <fstream>
 #include <random>
 
+#include "dataset/record_file.h"
 #include "protocol/crc32c.h"
-#include "protocol/record_file.h"
 
-namespace holofuse::protocol {
+namespace holofuse::dataset {
 namespace {
 
 namespace fs = std::filesystem;
+using protocol::Bytes;
+using protocol::crc32c;
 
 class RecordFileTest : public ::testing::Test {
  protected:
@@ -371,4 +373,4 @@ TEST_F(RecordFileTest, AWriterKilledMidStreamLosesOnlyItsLastRecord) {
 }
 
 }  // namespace
-}  // namespace holofuse::protocol
+}  // namespace holofuse::dataset

@@ -14,12 +14,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "capture_node/capture_formats.h"
-#include "capture_node/dataset.h"
-#include "capture_node/dataset_import.h"
+#include "dataset/capture_formats.h"
+#include "dataset/dataset.h"
+#include "dataset/import.h"
 #include "scene/synthetic_scene.h"
 
-namespace holofuse::capture {
+namespace holofuse::dataset {
 namespace {
 
 namespace fs = std::filesystem;
@@ -459,4 +459,4 @@ TEST_F(ImportTest, BadInputIsNamedAndLeavesNoDataset) {
 }
 
 }  // namespace
-}  // namespace holofuse::capture
+}  // namespace holofuse::dataset

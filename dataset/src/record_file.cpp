@@ -1,4 +1,4 @@
-#include "protocol/record_file.h"
+#include "dataset/record_file.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -15,7 +15,13 @@
 #include "protocol/frame.h"
 #include "protocol/wire.h"
 
-namespace holofuse::protocol {
+namespace holofuse::dataset {
+
+using protocol::Bytes;
+using protocol::crc32c;
+using protocol::OutgoingFrame;
+using protocol::WireReader;
+using protocol::WireWriter;
 namespace {
 
 constexpr uint8_t kFileMagic[8] = {'H', 'F', 'R', 'E', 'C', '\r', '\n', 0x1A};
@@ -516,4 +522,4 @@ Status RecordReader::verifyAll() const {
   return Status::ok();
 }
 
-}  // namespace holofuse::protocol
+}  // namespace holofuse::dataset

@@ -7,14 +7,14 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "capture_node/dataset_import.h"
 #include "common/command_line.h"
-#include "eval/dataset_inspection.h"
+#include "dataset/import.h"
+#include "dataset/inspection.h"
 
 namespace {
 
 // One line, redrawn in place on a terminal, every 10% otherwise.
-void printProgress(const holofuse::capture::ImportProgress& p) {
+void printProgress(const holofuse::dataset::ImportProgress& p) {
   static size_t last_decile = 0;
   const bool tty = isatty(STDERR_FILENO) != 0;
   const size_t decile = p.total ? 10 * p.done / p.total : 10;
@@ -48,12 +48,12 @@ int main(int argc, char** argv) {
   auto* import =
       app.add_subcommand("import", "convert a real multi-view capture into a dataset that replays");
   std::string source, format, out;
-  capture::ImportOptions import_options;
+  dataset::ImportOptions import_options;
   double threshold = -1, import_voxel = -1;
   import->add_option("source", source, "capture folder")->required();
   import
       ->add_option("--format", format,
-                   std::string("capture format: ") + capture::captureFormatNames())
+                   std::string("capture format: ") + dataset::captureFormatNames())
       ->required();
   import->add_option("--out", out, "dataset folder to create (must not exist or be empty)")
       ->required();
@@ -70,22 +70,22 @@ int main(int argc, char** argv) {
       ->check(holofuse::sharedFlag("--voxel").check());
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (import->parsed()) {
-    const auto chosen = capture::captureFormatFromName(format);
+    const auto chosen = dataset::captureFormatFromName(format);
     if (!chosen) {
       std::fprintf(stderr, "--format '%s': unknown; valid formats: %s\n", format.c_str(),
-                   capture::captureFormatNames());
+                   dataset::captureFormatNames());
       return 2;
     }
     if (threshold >= 0) import_options.threshold = threshold;
     if (import_voxel > 0) import_options.voxel_size = import_voxel;
-    auto description = capture::readCapture(source, *chosen);
+    auto description = dataset::readCapture(source, *chosen);
     if (!description.isOk()) {
       std::fprintf(stderr, "dataset import: %s\n", description.status().message().c_str());
       return 2;
     }
     std::fprintf(stderr, "[import] %s: %zu cameras, %zu frame(s)\n", description->source.c_str(),
                  description->cameras.size(), description->frames.size());
-    auto summary = capture::importCapture(*description, out, import_options, printProgress);
+    auto summary = dataset::importCapture(*description, out, import_options, printProgress);
     if (!summary.isOk()) {
       std::fprintf(stderr, "dataset import: %s (nothing was written to %s)\n",
                    summary.status().message().c_str(), out.c_str());
@@ -100,7 +100,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (verify->parsed()) {
-    auto report = eval::verifyDataset(dir);
+    auto report = dataset::verifyDataset(dir);
     if (!report.isOk()) {
       std::fprintf(stderr, "dataset verify: %s\n", report.status().message().c_str());
       return 2;
@@ -109,7 +109,7 @@ int main(int argc, char** argv) {
     return static_cast<int>(report->verdict);
   }
   if (sheet.empty()) sheet = (std::filesystem::path(dir) / "contact_sheet.png").string();
-  auto summary = eval::describeDataset(dir, sheet, info->count("--voxel") ? voxel : 0.0);
+  auto summary = dataset::describeDataset(dir, sheet, info->count("--voxel") ? voxel : 0.0);
   if (!summary.isOk()) {
     std::fprintf(stderr, "dataset info: %s\n", summary.status().message().c_str());
     return 2;

@@ -13,8 +13,10 @@
 #include "protocol/bytes.h"
 
 namespace holofuse::protocol {
-
 class OutgoingFrame;
+}  // namespace holofuse::protocol
+
+namespace holofuse::dataset {
 
 constexpr uint16_t kRecordFormatMajor = 1;
 constexpr uint16_t kRecordFormatMinor = 1;
@@ -68,7 +70,7 @@ class RecordWriter {
                 std::span<const uint8_t> payload);
   // The same for a frame held as parts (no flattening copy).
   Status append(RecordKind kind, uint32_t stream, uint64_t frame_id, uint64_t time_ns,
-                const OutgoingFrame& frame);
+                const protocol::OutgoingFrame& frame);
   // Writes the index and the tail and syncs the file to disk. Also done by
   // the destructor (errors then go to stderr).
   Status close();
@@ -125,7 +127,7 @@ class RecordReader {
   const RecordScan& scan() const { return scan_; }
   const std::string& path() const { return path_; }
   // Reads one record's payload and checks its CRCs.
-  StatusOr<Bytes> read(const RecordInfo& record) const;
+  StatusOr<protocol::Bytes> read(const RecordInfo& record) const;
   // Reads every record and checks its CRCs (the index says where records
   // are, not that their bytes are intact); returns the first failure.
   Status verifyAll() const;
@@ -142,4 +144,4 @@ class RecordReader {
   std::vector<RecordInfo> records_;
 };
 
-}  // namespace holofuse::protocol
+}  // namespace holofuse::dataset

@@ -1,4 +1,4 @@
-#include "capture_node/capture_formats.h"
+#include "dataset/capture_formats.h"
 
 #include <algorithm>
 #include <cctype>
@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-namespace holofuse::capture {
+namespace holofuse::dataset {
 
 namespace fs = std::filesystem;
 
@@ -564,4 +564,4 @@ StatusOr<CaptureDescription> readCapture(const std::string& folder, CaptureForma
   return Status(StatusCode::kMalformed, "unknown capture format");
 }
 
-}  // namespace holofuse::capture
+}  // namespace holofuse::dataset

@@ -1,4 +1,4 @@
-#include "fusion_server/recorder.h"
+#include "dataset/recorder.h"
 
 #include <cstdio>
 #include <filesystem>
@@ -6,9 +6,7 @@
 
 #include "protocol/clock.h"
 
-namespace holofuse::fusion {
-
-using protocol::RecordKind;
+namespace holofuse::dataset {
 
 StatusOr<Recorder> Recorder::open(const std::string& dir, bool record_fused) {
   namespace fs = std::filesystem;
@@ -20,16 +18,15 @@ StatusOr<Recorder> Recorder::open(const std::string& dir, bool record_fused) {
   Recorder recorder;
   recorder.dir_ = dir;
   const uint64_t created = protocol::realtimeNs();
-  auto pods = protocol::RecordWriter::create((fs::path(dir) / kPodsRecordFile).string(), created);
+  auto pods = RecordWriter::create((fs::path(dir) / kDatasetPodsFile).string(), created);
   if (!pods.isOk()) return pods.status();
   recorder.pods_ = std::move(*pods);
   if (record_fused) {
-    auto fused =
-        protocol::RecordWriter::create((fs::path(dir) / kFusedRecordFile).string(), created);
+    auto fused = RecordWriter::create((fs::path(dir) / kDatasetFusedFile).string(), created);
     if (!fused.isOk()) {
       // Leave no empty pods.hfr behind to block the next attempt.
       (void)recorder.pods_.close();
-      fs::remove(fs::path(dir) / kPodsRecordFile, error);
+      fs::remove(fs::path(dir) / kDatasetPodsFile, error);
       return fused.status();
     }
     recorder.fused_ = std::move(*fused);
@@ -42,8 +39,8 @@ StatusOr<Recorder> Recorder::open(const std::string& dir, bool record_fused) {
 }
 
 template <typename Payload>
-void Recorder::append(protocol::RecordWriter& writer, RecordKind kind, uint32_t stream,
-                      uint64_t frame_id, const Payload& payload) {
+void Recorder::append(RecordWriter& writer, RecordKind kind, uint32_t stream, uint64_t frame_id,
+                      const Payload& payload) {
   if (writer.failure()) return;  // already reported
   const Status s =
       writer.append(kind, stream, frame_id, protocol::monotonicNs() - start_ns_, payload);
@@ -59,13 +56,13 @@ void Recorder::recordPodMessage(RecordKind kind, uint32_t camera_id, uint64_t fr
   if (kind == RecordKind::kPodFrame) ++pod_frames_;
 }
 
-void Recorder::recordFused(const FusedOutput& output) {
+void Recorder::recordFused(uint64_t frame_id, const protocol::OutgoingFrame& mesh_frame,
+                           const protocol::OutgoingFrame& texture_bundle,
+                           const protocol::OutgoingFrame& stats) {
   if (!fused_) return;
-  append(*fused_, RecordKind::kMeshFrame, protocol::kServerStream, output.frame_id,
-         *output.mesh_frame);
-  append(*fused_, RecordKind::kTextureBundle, protocol::kServerStream, output.frame_id,
-         *output.texture_bundle);
-  append(*fused_, RecordKind::kStats, protocol::kServerStream, output.frame_id, *output.stats);
+  append(*fused_, RecordKind::kMeshFrame, kServerStream, frame_id, mesh_frame);
+  append(*fused_, RecordKind::kTextureBundle, kServerStream, frame_id, texture_bundle);
+  append(*fused_, RecordKind::kStats, kServerStream, frame_id, stats);
 }
 
 void Recorder::maybeReportProgress(uint64_t now_ns, uint64_t interval_ns) {
@@ -79,7 +76,7 @@ void Recorder::maybeReportProgress(uint64_t now_ns, uint64_t interval_ns) {
 }
 
 void Recorder::close() {
-  for (protocol::RecordWriter* w : {&pods_, fused_ ? &*fused_ : nullptr}) {
+  for (RecordWriter* w : {&pods_, fused_ ? &*fused_ : nullptr}) {
     if (w == nullptr || !w->isOpen()) continue;
     const uint64_t records = w->records();
     const Status s = w->close();
@@ -93,4 +90,4 @@ void Recorder::close() {
   }
 }
 
-}  // namespace holofuse::fusion
+}  // namespace holofuse::dataset

@@ -13,10 +13,10 @@
 #include <string>
 
 #include "base/status.h"
-#include "capture_node/capture_formats.h"
 #include "common/image.h"
+#include "dataset/capture_formats.h"
 
-namespace holofuse::capture {
+namespace holofuse::dataset {
 
 struct ImportOptions {
   // Segmentation when a camera has no mask: background subtraction against
@@ -52,4 +52,4 @@ StatusOr<ImportSummary> importCapture(
     const CaptureDescription& capture, const std::string& out_dir, const ImportOptions& options,
     const std::function<void(const ImportProgress&)>& progress = {});
 
-}  // namespace holofuse::capture
+}  // namespace holofuse::dataset

@@ -9,14 +9,14 @@
 #include <vector>
 
 #include "base/status.h"
-#include "capture_node/dataset.h"
+#include "dataset/dataset.h"
 #include "hull/visual_hull.h"
 
-namespace holofuse::eval {
+namespace holofuse::dataset {
 
 // The hull settings a dataset asks for (its capture volume and voxel
 // size), else the defaults with fallback_voxel.
-hull::HullOptions hullOptionsFor(const capture::Dataset& dataset, double fallback_voxel);
+hull::HullOptions hullOptionsFor(const Dataset& dataset, double fallback_voxel);
 
 enum class VerifyVerdict {
   kClean = 0,           // every record checks and the index is in place
@@ -55,4 +55,4 @@ struct DatasetSummary {
 StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::string& sheet_png,
                                          double voxel_size = 0.0);
 
-}  // namespace holofuse::eval
+}  // namespace holofuse::dataset

@@ -11,13 +11,13 @@
 #include <vector>
 
 #include "common/camera.h"
-#include "common/dataset_metadata.h"
 #include "common/image.h"
+#include "dataset/metadata.h"
+#include "dataset/record_file.h"
 #include "protocol/frame.h"
 #include "protocol/messages.h"
-#include "protocol/record_file.h"
 
-namespace holofuse::capture {
+namespace holofuse::dataset {
 
 constexpr const char* kDatasetPodsFile = "pods.hfr";
 constexpr const char* kDatasetFusedFile = "fused.hfr";
@@ -25,8 +25,8 @@ constexpr const char* kDatasetFusedFile = "fused.hfr";
 // One camera's records in a dataset.
 struct DatasetCamera {
   uint32_t id = 0;
-  std::optional<protocol::RecordInfo> calibration;  // the first one recorded
-  std::vector<protocol::RecordInfo> frames;         // PodFrames in recorded order
+  std::optional<RecordInfo> calibration;  // the first one recorded
+  std::vector<RecordInfo> frames;         // PodFrames in recorded order
   uint64_t frame_bytes = 0;
 };
 
@@ -36,7 +36,7 @@ class Dataset {
   // format by version and a folder without a recording by name.
   static StatusOr<Dataset> open(const std::string& path);
 
-  const protocol::RecordReader& records() const { return reader_; }
+  const RecordReader& records() const { return reader_; }
   const std::map<uint32_t, DatasetCamera>& cameras() const { return cameras_; }
   // Over every camera: the first and last PodFrame ids and receive times.
   uint64_t firstFrameId() const { return first_id_; }
@@ -52,10 +52,10 @@ class Dataset {
   StatusOr<protocol::Calibration> readCalibration(uint32_t camera_id) const;
 
   // Reads a record and parses it as a whole, checked protocol frame.
-  StatusOr<protocol::Frame> readFrame(const protocol::RecordInfo& record) const;
+  StatusOr<protocol::Frame> readFrame(const RecordInfo& record) const;
 
  private:
-  protocol::RecordReader reader_;
+  RecordReader reader_;
   std::map<uint32_t, DatasetCamera> cameras_;
   uint64_t first_id_ = 0, last_id_ = 0, first_time_ = 0, last_time_ = 0;
   size_t frame_ids_ = 0;
@@ -76,4 +76,4 @@ StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame, const Came
 // checked); what names the source in errors.
 StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes, const std::string& what);
 
-}  // namespace holofuse::capture
+}  // namespace holofuse::dataset

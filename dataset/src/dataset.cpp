@@ -1,13 +1,11 @@
-#include "capture_node/dataset.h"
+#include "dataset/dataset.h"
 
 #include <filesystem>
 #include <set>
 
 #include "common/image_codec.h"
 
-namespace holofuse::capture {
-
-using protocol::RecordKind;
+namespace holofuse::dataset {
 
 StatusOr<protocol::Frame> parseWholeFrame(const protocol::Bytes& bytes, const std::string& what) {
   protocol::StreamDecoder decoder;
@@ -72,7 +70,7 @@ StatusOr<Dataset> Dataset::open(const std::string& path) {
                     path + ": not a holofuse dataset (no " + kDatasetPodsFile + " in it)");
     }
   }
-  auto reader = protocol::RecordReader::open(file);
+  auto reader = RecordReader::open(file);
   if (!reader.isOk()) return reader.status();
   Dataset dataset;
   dataset.reader_ = std::move(*reader);
@@ -135,11 +133,11 @@ StatusOr<protocol::Calibration> Dataset::readCalibration(uint32_t camera_id) con
   return calibration;
 }
 
-StatusOr<protocol::Frame> Dataset::readFrame(const protocol::RecordInfo& record) const {
+StatusOr<protocol::Frame> Dataset::readFrame(const RecordInfo& record) const {
   auto bytes = reader_.read(record);
   if (!bytes.isOk()) return bytes.status();
-  return parseWholeFrame(*bytes, reader_.path() + ": the " + protocol::recordKindName(record.kind) +
+  return parseWholeFrame(*bytes, reader_.path() + ": the " + recordKindName(record.kind) +
                                      " record at byte " + std::to_string(record.offset));
 }
 
-}  // namespace holofuse::capture
+}  // namespace holofuse::dataset

@@ -12,7 +12,7 @@
 #include "base/status.h"
 #include "common/camera.h"
 
-namespace holofuse::capture {
+namespace holofuse::dataset {
 
 struct CaptureCamera {
   std::string name;  // as the source names it (pod ids follow natural name order)
@@ -63,4 +63,4 @@ StatusOr<CaptureDescription> readNerfCapture(const std::string& folder);
 
 StatusOr<CaptureDescription> readCapture(const std::string& folder, CaptureFormat format);
 
-}  // namespace holofuse::capture
+}  // namespace holofuse::dataset

@@ -1,4 +1,4 @@
-#include "capture_node/dataset_import.h"
+#include "dataset/import.h"
 
 #include <unistd.h>
 
@@ -9,16 +9,16 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "capture_node/dataset.h"
-#include "capture_node/pod.h"
-#include "common/dataset_metadata.h"
 #include "common/opencv_image.h"
+#include "common/pod_frame_codec.h"
 #include "common/segmentation.h"
+#include "dataset/dataset.h"
+#include "dataset/metadata.h"
+#include "dataset/record_file.h"
 #include "protocol/connection.h"
 #include "protocol/messages.h"
-#include "protocol/record_file.h"
 
-namespace holofuse::capture {
+namespace holofuse::dataset {
 
 namespace fs = std::filesystem;
 
@@ -398,19 +398,19 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& capture,
     fs::remove_all(partial);
     return s;
   };
-  auto writer = protocol::RecordWriter::create(
+  auto writer = RecordWriter::create(
       (fs::path(partial) / kDatasetPodsFile).string(),
       static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
                                 std::chrono::system_clock::now().time_since_epoch())
                                 .count()));
   if (!writer.isOk()) return fail(writer.status());
-  Status s = writer->append(protocol::RecordKind::kDatasetInfo, protocol::kServerStream, 0, 0,
+  Status s = writer->append(RecordKind::kDatasetInfo, kServerStream, 0, 0,
                             encodeDatasetMetadata(metadata));
   if (!s.isOk()) return fail(s);
   for (const auto& camera : cameras) {
     const protocol::OutgoingFrame calibration =
         protocol::encodeOutgoing(toCalibration(camera), protocol::nextSequence());
-    s = writer->append(protocol::RecordKind::kCalibration, camera.id, 0, 0, calibration);
+    s = writer->append(RecordKind::kCalibration, camera.id, 0, 0, calibration);
     if (!s.isOk()) return fail(s);
   }
   const uint64_t interval_ns = static_cast<uint64_t>(1e9 / capture.fps);
@@ -425,15 +425,12 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& capture,
         view = std::move(*prepared);
       }
       (view.mask_given ? summary.masks_given : summary.masks_segmented) += 1;
-      PodCapture pod;
-      pod.frame_id = f + 1;
-      pod.view.color = std::move(view.color);
-      pod.mask = std::move(view.mask);
-      pod.feather = featherMap(pod.mask);
+      const Image8 feather = featherMap(view.mask);
+      std::vector<protocol::StageStamp> stamps;
       const protocol::OutgoingFrame frame =
-          encodePodFrame(pod, cameras[c].id, protocol::Codec::kLz4PlanarDelta, options.crop_margin);
-      s = writer->append(protocol::RecordKind::kPodFrame, cameras[c].id, f + 1, f * interval_ns,
-                         frame);
+          encodePodFrame({f + 1, 0, &view.color, &view.mask, &feather}, stamps, cameras[c].id,
+                         protocol::Codec::kLz4PlanarDelta, options.crop_margin);
+      s = writer->append(RecordKind::kPodFrame, cameras[c].id, f + 1, f * interval_ns, frame);
       if (!s.isOk()) return fail(s);
       ++status.done;
       status.megabytes = static_cast<double>(writer->bytes()) / 1e6;
@@ -454,4 +451,4 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& capture,
   return summary;
 }
 
-}  // namespace holofuse::capture
+}  // namespace holofuse::dataset

@@ -1,4 +1,4 @@
-#include "eval/dataset_inspection.h"
+#include "dataset/inspection.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,13 +9,13 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
-#include "capture_node/dataset.h"
 #include "common/image_codec.h"
 #include "common/image_io.h"
+#include "dataset/dataset.h"
 #include "hull/visual_hull.h"
 #include "metrics/geometry_metrics.h"
 
-namespace holofuse::eval {
+namespace holofuse::dataset {
 
 namespace {
 
@@ -36,9 +36,9 @@ std::string megabytes(uint64_t bytes) {
 
 // One file's findings; worsens the verdict.
 Status verifyFile(const std::string& file, VerifyReport& report) {
-  auto reader = protocol::RecordReader::open(file);
+  auto reader = RecordReader::open(file);
   if (!reader.isOk()) return reader.status();
-  const protocol::RecordScan& scan = reader->scan();
+  const RecordScan& scan = reader->scan();
   std::string& t = report.text;
   t += file + ": recording format " + std::to_string(scan.format_major) + "." +
        std::to_string(scan.format_minor) + ", created " + utcTime(scan.created_unix_ns) + ", " +
@@ -52,8 +52,8 @@ Status verifyFile(const std::string& file, VerifyReport& report) {
   std::map<std::string, size_t> kinds;
   std::set<uint32_t> streams;
   for (const auto& r : reader->records()) {
-    ++kinds[protocol::recordKindName(r.kind)];
-    if (r.stream != protocol::kServerStream) streams.insert(r.stream);
+    ++kinds[recordKindName(r.kind)];
+    if (r.stream != kServerStream) streams.insert(r.stream);
   }
   std::string kind_text;
   for (const auto& [name, n] : kinds)
@@ -132,7 +132,7 @@ Image8 meshSilhouette(const Mesh& mesh, const Camera& camera) {
 
 }  // namespace
 
-hull::HullOptions hullOptionsFor(const capture::Dataset& dataset, double fallback_voxel) {
+hull::HullOptions hullOptionsFor(const Dataset& dataset, double fallback_voxel) {
   hull::HullOptions options;
   options.voxel_size = fallback_voxel;
   if (const auto& m = dataset.metadata(); m && m->voxel_size > 0) {
@@ -146,13 +146,13 @@ StatusOr<VerifyReport> verifyDataset(const std::string& dir) {
   namespace fs = std::filesystem;
   VerifyReport report;
   const std::string pods =
-      fs::is_directory(dir) ? (fs::path(dir) / capture::kDatasetPodsFile).string() : dir;
+      fs::is_directory(dir) ? (fs::path(dir) / kDatasetPodsFile).string() : dir;
   if (!fs::exists(pods)) {
     return Status(StatusCode::kIoError,
-                  dir + ": not a holofuse dataset (no " + capture::kDatasetPodsFile + " in it)");
+                  dir + ": not a holofuse dataset (no " + kDatasetPodsFile + " in it)");
   }
   HOLOFUSE_RETURN_IF_ERROR(verifyFile(pods, report));
-  const fs::path fused = fs::path(dir) / capture::kDatasetFusedFile;
+  const fs::path fused = fs::path(dir) / kDatasetFusedFile;
   if (fs::is_directory(dir) && fs::exists(fused))
     HOLOFUSE_RETURN_IF_ERROR(verifyFile(fused.string(), report));
   switch (report.verdict) {
@@ -173,7 +173,7 @@ StatusOr<VerifyReport> verifyDataset(const std::string& dir) {
 
 StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::string& sheet_png,
                                          double voxel_size) {
-  auto dataset = capture::Dataset::open(dir);
+  auto dataset = Dataset::open(dir);
   if (!dataset.isOk()) return dataset.status();
   DatasetSummary summary;
   std::string& t = summary.text;
@@ -206,7 +206,7 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
   summary.inspected_frame_id = frame_id;
 
   std::vector<hull::HullView> views;
-  std::vector<capture::PodImagesFull> images;
+  std::vector<PodImagesFull> images;
   for (const auto& [id, cam] : dataset->cameras()) {
     CameraSummary c;
     c.id = id;
@@ -217,16 +217,15 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
     const Camera camera = fromCalibration(*calibration);
     c.width = camera.width;
     c.height = camera.height;
-    const auto record =
-        std::find_if(cam.frames.begin(), cam.frames.end(),
-                     [&](const protocol::RecordInfo& r) { return r.frame_id == frame_id; });
+    const auto record = std::find_if(cam.frames.begin(), cam.frames.end(),
+                                     [&](const RecordInfo& r) { return r.frame_id == frame_id; });
     if (record == cam.frames.end()) {
       return Status(StatusCode::kMalformed, dir + ": camera " + std::to_string(id) +
                                                 " lacks frame " + std::to_string(frame_id));
     }
     auto frame = dataset->readFrame(*record);
     if (!frame.isOk()) return frame.status();
-    auto decoded = capture::decodePodImages(*frame, camera);
+    auto decoded = decodePodImages(*frame, camera);
     if (!decoded.isOk()) {
       return Status(decoded.status().code(), dir + ": camera " + std::to_string(id) + " frame " +
                                                  std::to_string(frame_id) + ": " +
@@ -304,4 +303,4 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
   return summary;
 }
 
-}  // namespace holofuse::eval
+}  // namespace holofuse::dataset

@@ -12,7 +12,7 @@
 #include "base/status.h"
 #include "protocol/bytes.h"
 
-namespace holofuse {
+namespace holofuse::dataset {
 
 struct DatasetMetadata {
   std::string source;  // "recording", "colmap /path", ...
@@ -28,4 +28,4 @@ protocol::Bytes encodeDatasetMetadata(const DatasetMetadata& metadata);
 StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes& bytes,
                                                 const std::string& where);
 
-}  // namespace holofuse
+}  // namespace holofuse::dataset

@@ -9,23 +9,24 @@
 #include <optional>
 #include <string>
 
-#include "fusion_server/fusion_worker.h"
+#include "base/status.h"
+#include "dataset/dataset.h"
+#include "dataset/record_file.h"
 #include "protocol/frame.h"
-#include "protocol/record_file.h"
 
-namespace holofuse::fusion {
-
-constexpr const char* kPodsRecordFile = "pods.hfr";
-constexpr const char* kFusedRecordFile = "fused.hfr";
+namespace holofuse::dataset {
 
 class Recorder {
  public:
   // Creates dir if needed; refuses a dir that already holds a recording.
   static StatusOr<Recorder> open(const std::string& dir, bool record_fused);
 
-  void recordPodMessage(protocol::RecordKind kind, uint32_t camera_id, uint64_t frame_id,
+  void recordPodMessage(RecordKind kind, uint32_t camera_id, uint64_t frame_id,
                         const protocol::Frame& frame);
-  void recordFused(const FusedOutput& output);
+  // One fused frame as the server sent it to clients of its own minor.
+  void recordFused(uint64_t frame_id, const protocol::OutgoingFrame& mesh_frame,
+                   const protocol::OutgoingFrame& texture_bundle,
+                   const protocol::OutgoingFrame& stats);
   // A progress line (frames, MB, rate) at most every interval_ns.
   void maybeReportProgress(uint64_t now_ns, uint64_t interval_ns = 2000000000ull);
   // Writes the indexes; prints what was recorded.
@@ -33,15 +34,15 @@ class Recorder {
 
  private:
   template <typename Payload>
-  void append(protocol::RecordWriter& writer, protocol::RecordKind kind, uint32_t stream,
-              uint64_t frame_id, const Payload& payload);
+  void append(RecordWriter& writer, RecordKind kind, uint32_t stream, uint64_t frame_id,
+              const Payload& payload);
 
   std::string dir_;
-  protocol::RecordWriter pods_;
-  std::optional<protocol::RecordWriter> fused_;
+  RecordWriter pods_;
+  std::optional<RecordWriter> fused_;
   uint64_t start_ns_ = 0;
   uint64_t last_report_ns_ = 0;
   uint64_t pod_frames_ = 0;
 };
 
-}  // namespace holofuse::fusion
+}  // namespace holofuse::dataset

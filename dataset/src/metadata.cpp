@@ -1,9 +1,9 @@
-#include "common/dataset_metadata.h"
+#include "dataset/metadata.h"
 
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-namespace holofuse {
+namespace holofuse::dataset {
 
 protocol::Bytes encodeDatasetMetadata(const DatasetMetadata& m) {
   nlohmann::json j;
@@ -53,4 +53,4 @@ StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes& bytes,
   return m;
 }
 
-}  // namespace holofuse
+}  // namespace holofuse::dataset
