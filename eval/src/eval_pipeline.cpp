@@ -1,0 +1,216 @@
+#include "eval_pipeline.h"
+
+#include <algorithm>
+#include <optional>
+#include <stdexcept>
+
+#include "capture_node/pod.h"
+#include "common/image_codec.h"
+#include "common/mesh_codec.h"
+#include "dataset/dataset.h"
+#include "fusion_server/photo_refine.h"
+#include "protocol/clock.h"
+#include "render_client/client.h"
+
+namespace holofuse::eval {
+namespace {
+
+// One whole protocol frame from bytes that must hold one (this process
+// made or recorded them): the transport's parsing, which no codec stage of
+// the loop counts.
+protocol::Frame parsedFrame(const protocol::Bytes& wire, const std::string& what) {
+  auto frame = dataset::parseWholeFrame(wire, what);
+  if (!frame.isOk()) throw std::runtime_error(frame.status().message());
+  return std::move(*frame);
+}
+
+// The hull refined as the server refines it (EvalOptions::refine_voxels;
+// the hull itself when off).
+Mesh refined(const Mesh& hull, const std::vector<hull::HullView>& views,
+             const std::vector<Image8>& colors, const EvalOptions& options, double voxel_size) {
+  if (!(options.refine_voxels > 0)) return hull;
+  fusion::PhotoRefineOptions refine;
+  refine.depth_voxels = options.refine_voxels;
+  refine.voxel_size = voxel_size;
+  return fusion::refineByPhotoConsistency(hull, views, colors, refine);
+}
+
+// For each camera held out, the mesh its image is compared with where that
+// is not the frame's: the hull carved without its silhouette
+// (EvalOptions::hull_without_held_out), and refined without its colour
+// (EvalOptions::refine_voxels), so that beyond its silhouette, which paper
+// 000's protocol lets shape the hull, nothing of a held-out image shapes
+// what it is compared with. Through Draco, as a client receives a mesh.
+std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
+                                     const std::vector<hull::HullView>& views,
+                                     const std::vector<Image8>& colors, const Mesh& hull,
+                                     const hull::HullOptions& hull_options) {
+  std::map<int, Mesh> meshes;
+  if (!options.hull_without_held_out && !(options.refine_voxels > 0)) return meshes;
+  for (int held : heldOutCameras(static_cast<int>(views.size()), options.held_out_cameras)) {
+    std::vector<hull::HullView> others = views;
+    others.erase(others.begin() + held);
+    std::vector<Image8> other_colors;
+    if (!colors.empty()) {
+      other_colors = colors;
+      other_colors.erase(other_colors.begin() + held);
+    }
+    const Mesh mesh =
+        refined(options.hull_without_held_out ? hull::carveVisualHull(others, hull_options) : hull,
+                others, other_colors, options, hull_options.voxel_size);
+    auto bytes = encodeDraco(mesh, options.draco);
+    auto decoded = bytes.isOk() ? decodeDraco(bytes->data(), bytes->size()) : bytes.status();
+    if (!decoded.isOk()) {
+      throw std::runtime_error("the hull without camera " +
+                               std::to_string(views[static_cast<size_t>(held)].camera.id) + ": " +
+                               decoded.status().message());
+    }
+    meshes[held] = std::move(*decoded);
+  }
+  return meshes;
+}
+
+}  // namespace
+
+const fusion::PodImages& receivePodFrame(const protocol::Bytes& wire, const Camera& reported,
+                                         const std::string& source, fusion::FrameGroup& group,
+                                         FrameData& frame) {
+  const protocol::Frame parsed =
+      parsedFrame(wire, source + ": camera " + std::to_string(reported.id));
+  const auto t0 = Clock::now();
+  protocol::PodFrame pod;
+  Status status = protocol::decodeFrame(parsed, pod);
+  auto images = status.isOk()
+                    ? fusion::podImagesOf(pod, wire.size(), reported, protocol::monotonicNs())
+                    : status;
+  const double decode_ms = msSince(t0);
+  frame.codec_ms["server_decode"] += decode_ms;
+  frame.per_pod_ms["server_decode"].push_back(decode_ms);
+  if (!images.isOk()) {
+    throw std::runtime_error(source + ": camera " + std::to_string(reported.id) + ": " +
+                             images.status().message());
+  }
+  frame.pod_link_bytes += wire.size();
+  return group.pods[pod.camera_id] = std::move(*images);
+}
+
+void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions& options,
+                  const std::vector<Camera>& reported, FrameData& frame) {
+  fusion::FusionSettings settings;
+  settings.hull.voxel_size = options.voxel_size;
+  settings.draco = options.draco;
+  settings.image_codec = options.image_codec;
+  settings.lz4_acceleration = options.lz4_acceleration;
+  settings.lz4_hc_level = options.lz4_hc_level;
+  settings.pods_expected = static_cast<uint32_t>(reported.size());
+  fusion::GroupJob job;
+  job.group = std::move(group);  // the decoded images move on; the caller is done with them
+  job.group.complete = true;
+  // The Stats carry each pod's arrivals as the loop's do, so their bytes
+  // are the loop's (no network here: no jitter).
+  for (const auto& [id, pod] : job.group.pods)
+    job.pod_arrivals.push_back({static_cast<uint16_t>(id), 1, 0});
+  const uint64_t hull_end_ns = protocol::monotonicNs();
+  const fusion::FusedOutput fused =
+      fusion::packageFused(job, settings, hull, hull_end_ns, hull_end_ns);
+  const protocol::Bytes mesh_wire = fused.mesh_frame->flatten(),
+                        bundle_wire = fused.texture_bundle->flatten();
+  const protocol::Bytes stats_wire = fused.stats->flatten();
+  frame.client_link_bytes += mesh_wire.size() + bundle_wire.size() + stats_wire.size();
+  const protocol::Frame bundle_frame = parsedFrame(bundle_wire, "texture bundle");
+  const protocol::Frame mesh_frame_parsed = parsedFrame(mesh_wire, "mesh frame");
+  std::map<uint32_t, Camera> cameras;
+  for (const Camera& camera : reported) cameras[camera.id] = camera;
+  const auto t0 = Clock::now();
+  protocol::TextureBundle bundle;
+  Status status = protocol::decodeFrame(bundle_frame, bundle);
+  auto views = status.isOk() ? render::viewsOfBundle(bundle, cameras) : status;
+  frame.feather_bytes += status.isOk() ? render::featherBytes(bundle) : 0;
+  protocol::MeshFrame mesh_frame;
+  status = protocol::decodeFrame(mesh_frame_parsed, mesh_frame);
+  auto mesh = status.isOk() ? decodeDraco(mesh_frame.mesh.data(), mesh_frame.mesh.size()) : status;
+  frame.codec_ms["decode"] += msSince(t0);
+  if (!views.isOk()) throw std::runtime_error("the client's images: " + views.status().message());
+  if (mesh_frame.mesh.empty()) {
+    // The server sends no Draco bytes when encoding failed, and says why in the Stats.
+    protocol::Stats stats;
+    status = protocol::decodeFrame(parsedFrame(stats_wire, "stats"), stats);
+    throw std::runtime_error("the server's mesh: " +
+                             (status.isOk() ? stats.note : status.message()));
+  }
+  if (!mesh.isOk()) throw std::runtime_error("the client's mesh: " + mesh.status().message());
+  // The server's encoding, from the stamps it put in the frames it sent.
+  frame.codec_ms["mesh_encode"] +=
+      protocol::stampedMs(mesh_frame.stamps, protocol::Stage::kMeshEncode);
+  frame.codec_ms["image_encode"] +=
+      protocol::stampedMs(bundle.stamps, protocol::Stage::kImageEncode);
+  frame.mesh = std::move(*mesh);
+  frame.views = std::move(*views);
+}
+
+std::vector<int> heldOutCameras(int cameras, int limit) {
+  std::vector<int> ids;
+  const int count = limit > 0 ? std::min(limit, cameras) : cameras;
+  for (int k = 0; k < count; ++k) ids.push_back(k * cameras / count);
+  return ids;
+}
+
+Mesh refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
+                  const std::vector<hull::HullView>& views, Mesh carved,
+                  const hull::HullOptions& hull_options, FrameData& frame) {
+  const bool refining = options.refine_voxels > 0;
+  // The colours in whole frames only for the refinement, which reads them.
+  const std::vector<Image8> colors =
+      refining ? fusion::colorsInFrame(group) : std::vector<Image8>{};
+  std::optional<Mesh> mesh;
+  if (refining) {
+    const auto t0 = Clock::now();
+    mesh = refined(carved, views, colors, options, hull_options.voxel_size);
+    frame.refine_ms = msSince(t0);
+  }
+  frame.mesh_without = meshesForHeldOut(options, views, colors, carved, hull_options);
+  return mesh ? std::move(*mesh) : std::move(carved);
+}
+
+FrameData prepareFrame(const EvalOptions& options, const scene::SyntheticScene& scene,
+                       const std::vector<Camera>& truth, const std::vector<Camera>& reported,
+                       const std::vector<Image8>& plates, uint64_t frame_id) {
+  FrameData frame;
+  frame.frame_id = frame_id;
+  fusion::FrameGroup group;
+  group.frame_id = frame_id;
+  double slowest_pod_ms = 0;
+  for (size_t i = 0; i < truth.size(); ++i) {
+    capture::PodCapture capture =
+        capture::capturePodFrame(scene, truth[i], plates[i], frame_id, static_cast<uint16_t>(i));
+    frame.true_colors.push_back(capture.view.color);
+    frame.true_masks.push_back(capture.view.mask);
+    const protocol::Bytes wire =
+        capture::encodePodFrame(capture, static_cast<uint32_t>(i), options.image_codec,
+                                options.crop_margin, options.lz4_acceleration, options.lz4_hc_level)
+            .flatten();
+    // As the pod stamps it: its planes' encoding, not the frame's packing.
+    const double encode_ms = protocol::stampedMs(capture.stamps, protocol::Stage::kPodEncode);
+    slowest_pod_ms = std::max(slowest_pod_ms, encode_ms);
+    frame.per_pod_ms["pod_encode"].push_back(encode_ms);
+    receivePodFrame(wire, reported[i], "pod", group, frame);
+  }
+  frame.codec_ms["pod_encode"] = slowest_pod_ms;
+  // The silhouettes back in whole frames before the hull's clock starts, as
+  // in the server.
+  const std::vector<hull::HullView> hull_views = fusion::hullViewsOf(group);
+  const auto t0 = Clock::now();
+  // The true surface at the hull's voxel size, when asked for.
+  hull::HullOptions hull_options;
+  hull_options.voxel_size = options.voxel_size;
+  Mesh hull = options.geometry == "truth"
+                  ? scene.truthMesh(frame_id, options.voxel_size)
+                  : hull::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
+  frame.hull_ms = msSince(t0);
+  if (options.geometry != "truth")
+    hull = refineCarved(options, group, hull_views, std::move(hull), hull_options, frame);
+  sendToClient(std::move(group), hull, options, reported, frame);
+  return frame;
+}
+
+}  // namespace holofuse::eval

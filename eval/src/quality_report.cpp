@@ -1,0 +1,532 @@
+// quality.json, quality.md and quality.html of an evaluation: the tables
+// and charts of every scene and mode, with the settings they ran with.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "common/html_report.h"
+#include "eval/leave_one_out.h"
+#include "metrics/image_metrics.h"
+#include "render_client/latency_report.h"
+#include "result_json.h"
+
+namespace holofuse::eval {
+namespace {
+
+namespace fs = std::filesystem;
+
+using metrics::ErrorRegion;
+using metrics::errorRegionName;
+using metrics::kErrorRegionCount;
+using metrics::psnrFromMse;
+using metrics::RegionErrors;
+
+// What the verdict tables' "pictures differ on" column says.
+constexpr const char* kPicturesDifferMeaning =
+    "Pictures differ on: the share of the compared pixels where montage4d's picture differs from "
+    "holoportation's "
+    "by more than 2 grey levels, and (in brackets) the PSNR gain montage4d would have if exact on "
+    "every one of them: "
+    "the most that what its fields change could gain, at these settings (other settings change "
+    "other pixels).";
+
+// Per scene (novel-view and camera-kept rows share their scene's frames):
+// bytes per frame on each link and the codecs' ms, as report cells.
+std::vector<std::vector<std::string>> linkRows(const std::vector<SceneResult>& results) {
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& scene : results) {
+    if (scene.novel_view_degrees != 0 || scene.camera_kept) continue;
+    char cells[5][32];
+    std::snprintf(cells[0], sizeof(cells[0]), "%.1f", scene.pod_link_bytes_per_frame / 1000.0);
+    std::snprintf(cells[1], sizeof(cells[1]), "%.1f", scene.bytes_per_frame / 1000.0);
+    std::snprintf(cells[2], sizeof(cells[2]), "%.1f", scene.feather_bytes_per_frame / 1000.0);
+    std::snprintf(cells[3], sizeof(cells[3]), "%.1f", scene.codec_ms);
+    std::snprintf(cells[4], sizeof(cells[4]), "%.1f", scene.codec_ms_p95);
+    rows.push_back({scene.name, cells[0], cells[1], cells[2], cells[3], cells[4]});
+  }
+  return rows;
+}
+
+}  // namespace
+
+std::vector<std::string> latencyStages() {
+  std::vector<std::string> stages = {"hull", "refine"};
+  stages.insert(stages.end(), codecStages().begin(), codecStages().end());
+  stages.push_back("client render");
+  return stages;
+}
+
+std::vector<double> latencyParts(const SceneResult& scene, const ModeResult& mode, bool p95) {
+  std::vector<double> parts = {p95 ? scene.hull_ms_p95 : scene.hull_ms,
+                               p95 ? scene.refine_ms_p95 : scene.refine_ms};
+  const auto& codec_ms = p95 ? scene.codec_stage_ms_p95 : scene.codec_stage_ms;
+  for (const std::string& stage : codecStages())
+    parts.push_back(codec_ms.count(stage) ? codec_ms.at(stage) : 0.0);
+  parts.push_back(p95 ? mode.ms_per_new_mesh_p95 : mode.ms_per_new_mesh);
+  return parts;
+}
+
+void writeQualityReports(const EvalOptions& options, const std::vector<SceneResult>& results,
+                         const std::string& out_dir) {
+  fs::create_directories(out_dir);
+  nlohmann::json json;
+  json["settings"] = {
+      {"frames", options.frames},
+      {"first_frame", options.first_frame},
+      {"size", std::to_string(options.width) + "x" + std::to_string(options.height)},
+      {"scene_fps", options.fps},
+      {"held_out_cameras", options.held_out_cameras},
+      {"geometry", options.geometry},
+      {"voxel_size", options.voxel_size},
+      {"hull_error_target_mm", 1000.0 * options.hull_error_target},
+      {"refine_voxels", options.refine_voxels},
+      {"crop_margin", options.crop_margin},
+      {"hull_without_held_out", options.hull_without_held_out},
+      {"metrics",
+       "RMSE and PSNR over RGB inside the true mask; SSIM on luminance (Wang 2004, "
+       "11x11 Gaussian sigma 1.5, K1 0.01, K2 0.03), mean over windows centred in the mask; "
+       "flicker: mean |change of the error image| between frames, grey levels (null: no two frames "
+       "compared); "
+       "seam_visibility: RMS gradient of the luminance error image over the pixels seam "
+       "triangles cover, grey levels per pixel"}};
+  for (const auto& scene : results) {
+    nlohmann::json& s = json["scenes"][scene.name];
+    s = sceneResultJson(scene);
+    const Verdict v = montageVerdict(scene);
+    s["montage4d_against_holoportation"] = {
+        {"psnr_gain_db", v.psnr_gain_db},
+        {"ssim_gain", v.ssim_gain},
+        {"flicker_ratio", measuredJson(v.flicker_ratio)},
+        {"target_met", v.met},
+        {"short_of", v.why},
+        {"is_a_target",
+         scene.name != "clean" && scene.novel_view_degrees == 0 && !scene.camera_kept}};
+    if (v.agreement.measured) {
+      s["montage4d_against_holoportation"]["pictures"] = s["montage_agreement"];
+    }
+  }
+
+  // The layout of paper 000 Table 2: per scene, per mode RMSE, PSNR, SSIM
+  // and rate; then flicker and seams, which it does not measure.
+  std::vector<std::string> modes;
+  for (auto mode : options.modes) modes.push_back(render::blendModeName(mode));
+  std::ofstream md(fs::path(out_dir) / "quality.md");
+  md << "# Leave-one-camera-out quality\n\n"
+     << "Geometry: " << (options.geometry == "truth" ? "the true surface" : "the visual hull")
+     << ". " << options.frames << " frames per scene from frame " << options.first_frame << ", "
+     << options.width << "x" << options.height
+     << "; each camera rendered from its reported pose without its own image"
+     << (options.hull_without_held_out ? " and with a hull carved without its silhouette" : "")
+     << ", compared with its "
+        "true image inside its true mask (rows \"(camera kept)\": with its own image; \"+D deg\": "
+        "novel poses, every "
+        "camera blended).\n\n";
+  char cell[256];
+  // One table per group of columns, a column per mode and measure.
+  auto modeTable = [&](const std::vector<std::string>& measures,
+                       const std::function<std::vector<std::string>(const ModeResult&)>& cells) {
+    md << "| Scene |";
+    for (const auto& mode : modes) {
+      for (const auto& measure : measures) md << " " << mode << " " << measure << " |";
+    }
+    md << "\n|---|";
+    for (size_t i = 0; i < modes.size() * measures.size(); ++i) md << "---:|";
+    md << "\n";
+    for (const auto& scene : results) {
+      md << "| " << scene.name << " |";
+      for (const auto& mode : modes) {
+        const auto it = scene.modes.find(mode);
+        for (size_t i = 0; i < measures.size(); ++i) {
+          md << " " << (it == scene.modes.end() ? std::string() : cells(it->second).at(i)) << " |";
+        }
+      }
+      md << "\n";
+    }
+  };
+  modeTable({"RMSE", "PSNR", "SSIM", "fps"}, [&](const ModeResult& m) -> std::vector<std::string> {
+    char v[4][32];
+    std::snprintf(v[0], sizeof(v[0]), "%.2f%%", m.rmse_percent);
+    std::snprintf(v[1], sizeof(v[1]), "%.2f dB", m.psnr_db);
+    std::snprintf(v[2], sizeof(v[2]), "%.4f", m.ssim);
+    std::snprintf(v[3], sizeof(v[3]), "%.1f",
+                  m.ms_per_new_mesh > 0 ? 1000.0 / m.ms_per_new_mesh : 0.0);
+    return {v[0], v[1], v[2], v[3]};
+  });
+  md << "\nfps: one render after a new mesh (field passes included), this machine's Vulkan device; "
+        "paper 000's is "
+        "the average over every frame.\n\n## Flicker and seams\n\n";
+  modeTable({"flicker", "seams"}, [&](const ModeResult& m) -> std::vector<std::string> {
+    return {measuredText(m.flicker, "%.2f"), measuredText(m.seam_visibility, "%.2f")};
+  });
+  md << "\nflicker: mean frame-to-frame change of the error image, grey levels (n/a: no two frames "
+        "compared). seams: "
+        "seam visibility, the RMS gradient of the luminance error along the pixels seam triangles "
+        "cover (grey levels "
+        "per pixel; lower is less visible; n/a: no seam in view).\n\n";
+  md << "## Where the errors differ\n\nPSNR per region over every image (the squared error "
+        "pooled), and the share of "
+        "the squared-error difference from normal that each region carries (the shares sum to "
+        "100%; a negative "
+        "one goes against the whole picture's difference); the row \"pixels\" gives each region's "
+        "share of the "
+        "compared pixels. Regions: within 3 px of the true mask's edge (border), of a depth jump "
+        "of the "
+        "mesh seen from the pose (occlusion), on seam triangles (seam), elsewhere; pictures with "
+        "--save-images "
+        "(*_error.png, *_regions.png).\n\n"
+     << "| Scene | mode |";
+  for (size_t r = 0; r < kErrorRegionCount; ++r)
+    md << " " << errorRegionName(static_cast<ErrorRegion>(r)) << " |";
+  md << "\n|---|---|";
+  for (size_t r = 0; r < kErrorRegionCount; ++r) md << "---|";
+  md << "\n";
+  for (const auto& scene : results) {
+    if (scene.modes.empty()) continue;
+    const RegionErrors& any =
+        scene.modes.begin()->second.regions;  // every mode compares the same pixels
+    double all_pixels = 0;
+    for (size_t count : any.pixels) all_pixels += static_cast<double>(count);
+    md << "| " << scene.name << " | pixels |";
+    for (size_t count : any.pixels) {
+      std::snprintf(cell, sizeof(cell), " %.1f%% |",
+                    all_pixels > 0 ? 100.0 * static_cast<double>(count) / all_pixels : 0.0);
+      md << cell;
+    }
+    md << "\n";
+    for (const auto& mode : modes) {
+      const auto it = scene.modes.find(mode);
+      if (it == scene.modes.end()) continue;
+      const auto shares = regionSharesAgainstNormal(scene.modes, mode);
+      md << "| " << scene.name << " | " << mode << " |";
+      for (size_t r = 0; r < kErrorRegionCount; ++r) {
+        const char* name = errorRegionName(static_cast<ErrorRegion>(r));
+        const double samples = 3.0 * static_cast<double>(it->second.regions.pixels[r]);
+        if (samples == 0) {
+          md << " n/a |";
+          continue;
+        }
+        std::snprintf(cell, sizeof(cell), " %.2f dB",
+                      psnrFromMse(it->second.regions.squared_error[r] / samples));
+        md << cell;
+        if (shares.count(name)) {
+          std::snprintf(cell, sizeof(cell), " (%+.0f%%)", 100.0 * shares.at(name));
+          md << cell;
+        }
+        md << " |";
+      }
+      md << "\n";
+    }
+  }
+  md << "\n## Geometry\n\nThe surface the client received against the truth (first frame; Chamfer "
+        "from each mesh's "
+        "vertices to the other's triangles, truth by marching cubes at 1 cm; IoU of its silhouette "
+        "in each true mask; "
+        "silhouette error: mean distance between its outline and each segmented mask's, what the "
+        "voxel controls and "
+        "`--hull-error-mm` targets).\n\n"
+        "| Scene | voxel mm | triangles | hull ms | cells visited | dense grid points | Chamfer mm "
+        "| silhouette error mm "
+        "| IoU mean | IoU worst |\n"
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const auto& scene : results) {
+    double mean_iou = 0, worst_iou = 1;
+    for (double v : scene.silhouette_iou) {
+      mean_iou += v / static_cast<double>(scene.silhouette_iou.size());
+      worst_iou = std::min(worst_iou, v);
+    }
+    char chamfer[32] = "n/a (no true surface)";
+    if (scene.chamfer_mm >= 0) std::snprintf(chamfer, sizeof(chamfer), "%.1f", scene.chamfer_mm);
+    char silhouette[32] = "n/a";
+    if (scene.silhouette_error_mm >= 0)
+      std::snprintf(silhouette, sizeof(silhouette), "%.2f", scene.silhouette_error_mm);
+    std::snprintf(
+        cell, sizeof(cell), "| %s | %.1f | %.0f | %.1f | %.0f | %.0f | %s | %s | %.3f | %.3f |\n",
+        scene.name.c_str(), scene.voxel_mm, scene.triangles, scene.hull_ms, scene.cells_visited,
+        scene.dense_grid_points, chamfer, silhouette, mean_iou, worst_iou);
+    md << cell;
+  }
+  md << "\n## Links and codecs\n\nBytes per frame as the loop sends them (the pods' rectangles "
+        "with their "
+        "feather maps; the server's Draco mesh and images to one client), and the codecs' ms per "
+        "frame: "
+     << kCodecsMeaning << ". " << kNoJitterHere
+     << "\n\n| Scene | pods to server KB | server to client KB | of which feather maps KB | codecs "
+        "ms p50 | p95 |\n"
+     << "|---|---:|---:|---:|---:|---:|\n";
+  for (const auto& row : linkRows(results)) {
+    md << "|";
+    for (const auto& cell : row) md << " " << cell << " |";
+    md << "\n";
+  }
+  md << "\n"
+     << "## montage4d against holoportation\n\nTarget on every scene but clean: at least +0.5 dB "
+        "PSNR, higher SSIM, "
+        "and less flicker after a viewpoint jump. "
+     << kPicturesDifferMeaning
+     << "\n\n| Scene | PSNR gain | SSIM gain | flicker ratio | pictures differ on | verdict |\n"
+        "|---|---:|---:|---:|---:|---|\n";
+  std::vector<std::vector<std::string>> verdict_rows;
+  for (const auto& scene : results) {
+    const Verdict v = montageVerdict(scene);
+    if (scene.modes.count("holoportation") == 0 || scene.modes.count("montage4d") == 0) continue;
+    char gains[2][32];
+    std::snprintf(gains[0], sizeof(gains[0]), "%+.2f dB", v.psnr_gain_db);
+    std::snprintf(gains[1], sizeof(gains[1]), "%+.4f", v.ssim_gain);
+    const std::string flicker_ratio = measuredText(v.flicker_ratio, "%.2f");
+    const bool novel = scene.novel_view_degrees != 0;
+    const bool target = scene.name != "clean" && !novel && !scene.camera_kept;
+    const std::string verdict =
+        novel ? std::string("novel view (all pods blended): outside the target's protocol")
+        : scene.camera_kept
+            ? std::string(
+                  "camera kept in the blend (paper 000 Table 2's reach): outside the "
+                  "target's protocol")
+        : !target ? std::string("baseline, not a target")
+        : v.met   ? std::string("met")
+                  : "MISSED: " + v.why;
+    char differ[48] = "n/a";
+    if (v.agreement.measured) {
+      std::snprintf(differ, sizeof(differ), "%.1f%% (%+.2f dB)", 100 * v.agreement.differing_share,
+                    v.agreement.gain_bound_db);
+    }
+    verdict_rows.push_back({(target && !v.met ? "!" : "") + scene.name, gains[0], gains[1],
+                            flicker_ratio, differ, verdict});
+    std::snprintf(cell, sizeof(cell), "| %s | %+.2f dB | %+.4f | %s | %s | ", scene.name.c_str(),
+                  v.psnr_gain_db, v.ssim_gain, flicker_ratio.c_str(), differ);
+    md << cell << verdict << " |\n";
+  }
+
+  // Paper 000 Table 3's layout: per scene, the GPU passes of a new mesh
+  // (timestamps, medians) as rows and the modes as columns, then the wall
+  // clock of that render. normal mode runs no field passes.
+  std::vector<std::pair<std::string, std::vector<std::vector<std::string>>>> stage_tables;
+  for (const auto& scene : results) {
+    if (scene.novel_view_degrees != 0 || scene.camera_kept)
+      continue;                       // the same renders as the scene's own row
+    std::vector<std::string> stages;  // in pipeline order
+    for (const auto& stage : render::TextureFieldPasses::stageNames()) {
+      for (const auto& mode : modes) {
+        const auto it = scene.modes.find(mode);
+        if (it != scene.modes.end() && it->second.gpu_passes_ms.count(stage) &&
+            std::find(stages.begin(), stages.end(), stage) == stages.end()) {
+          stages.push_back(stage);
+        }
+      }
+    }
+    auto row = [&](const std::string& label,
+                   const std::function<double(const ModeResult&)>& value) {
+      std::vector<std::string> cells = {label};
+      for (const auto& mode : modes) {
+        const auto it = scene.modes.find(mode);
+        const double v = it == scene.modes.end() ? -1.0 : value(it->second);
+        std::snprintf(cell, sizeof(cell), "%.2f", v);
+        cells.push_back(v >= 0 ? cell : "-");
+      }
+      return cells;
+    };
+    std::vector<std::vector<std::string>> table;
+    for (const auto& stage : stages) {
+      table.push_back(row(stage, [&](const ModeResult& m) {
+        const auto it = m.gpu_passes_ms.find(stage);
+        return it == m.gpu_passes_ms.end() ? -1.0 : it->second;
+      }));
+    }
+    table.push_back(row("field passes, total", [](const ModeResult& m) {
+      double total = 0;
+      for (const auto& [stage, ms] : m.gpu_passes_ms) total += ms;
+      return m.gpu_passes_ms.empty() ? -1.0 : total;
+    }));
+    table.push_back(row("render after a new mesh (wall clock)",
+                        [](const ModeResult& m) { return m.ms_per_new_mesh; }));
+    stage_tables.emplace_back(scene.name, std::move(table));
+  }
+  md << "\n## Time per stage of a new mesh (paper 000 Table 3 layout)\n\nGPU ms per field pass "
+        "(timestamps, medians; "
+        "on a CPU device such as lavapipe the boundaries are approximate), then the wall clock of "
+        "the whole render "
+        "after a new mesh. `-`: the mode runs no such pass.\n";
+  for (const auto& [name, table] : stage_tables) {
+    md << "\n" << name << "\n\n| stage |";
+    for (const auto& mode : modes) md << " " << mode << " |";
+    md << "\n|---|";
+    for (size_t i = 0; i < modes.size(); ++i) md << "---:|";
+    md << "\n";
+    for (const auto& cells : table) {
+      md << "|";
+      for (const auto& c : cells) md << " " << c << " |";
+      md << "\n";
+    }
+  }
+
+  // The budget (options.budget): each scene's hull and each mode's render,
+  // at p95, against it.
+  std::vector<std::vector<std::string>> budget_rows;
+  nlohmann::json violations = nlohmann::json::array();
+  for (const auto& scene : results) {
+    if (scene.novel_view_degrees != 0 || scene.camera_kept) continue;
+    for (const BudgetCheck& check : checkBudget(options.budget, scene, modes)) {
+      char value[2][32];
+      std::snprintf(value[0], sizeof(value[0]), "%.1f", check.p95_ms);
+      std::snprintf(value[1], sizeof(value[1]), "%.1f", check.budget_ms);
+      budget_rows.push_back(
+          {(check.over() ? "!" : "") + scene.name, check.mode, check.stage, value[0], value[1]});
+      if (check.over()) {
+        violations.push_back({{"scene", scene.name},
+                              {"mode", check.mode},
+                              {"stage", check.stage},
+                              {"p95_ms", check.p95_ms},
+                              {"budget_ms", check.budget_ms}});
+      }
+    }
+  }
+  // A budget's stages the evaluation does not time (end_to_end, the
+  // transport, the pods' rendering...) are named, not passed over in silence.
+  std::string unchecked;
+  nlohmann::json unchecked_stages = nlohmann::json::array();
+  const std::vector<std::string> budgeted = budgetedStages();
+  for (const auto& [stage, ms] : options.budget) {
+    if (std::find(budgeted.begin(), budgeted.end(), stage) != budgeted.end()) continue;
+    unchecked += (unchecked.empty() ? "" : ", ") + stage;
+    unchecked_stages.push_back(stage);
+  }
+  const std::string unchecked_text =
+      unchecked.empty()
+          ? ""
+          : " Not timed here, so not checked (the live loop's report checks them): " + unchecked +
+                ".";
+  if (!options.budget.empty()) {
+    json["budget_ms"] = options.budget;
+    json["budget_unchecked"] = unchecked_stages;
+    md << "\n## Budget\n\np95 against the budget of each stage the evaluation times as the loop "
+          "does ("
+       << budgetedStagesText() << ")." << unchecked_text
+       << (violations.empty()
+               ? " Nothing is over budget.\n"
+               : "\n\n| Scene | mode | stage | p95 ms | budget ms |\n|---|---|---|---:|---:|\n");
+    for (const auto& v : violations) {
+      std::snprintf(cell, sizeof(cell), "| %s | %s | %s | %.1f | %.1f |\n",
+                    v["scene"].get<std::string>().c_str(), v["mode"].get<std::string>().c_str(),
+                    v["stage"].get<std::string>().c_str(), v["p95_ms"].get<double>(),
+                    v["budget_ms"].get<double>());
+      md << cell;
+    }
+    json["budget_violations"] = violations;
+  }
+  std::ofstream(fs::path(out_dir) / "quality.json") << json.dump(2) << "\n";
+
+  // The same for people, with charts.
+  std::vector<std::string> scene_names;
+  for (const auto& scene : results) scene_names.push_back(scene.name);
+  auto metric = [&](double ModeResult::*field) {
+    std::vector<html::Series> series;
+    for (const auto& mode : modes) {
+      html::Series s{mode, {}};
+      for (const auto& scene : results) {
+        const auto it = scene.modes.find(mode);
+        // Negative means not measured (no seam in view, no frame pair):
+        // drawn as "n/a", not as a 0 that would look best.
+        const double value = it == scene.modes.end() ? -1.0 : it->second.*field;
+        s.values.push_back(value < 0 ? std::nan("") : value);
+      }
+      series.push_back(std::move(s));
+    }
+    return series;
+  };
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& scene : results) {
+    for (const auto& mode : modes) {
+      const auto it = scene.modes.find(mode);
+      if (it == scene.modes.end()) continue;
+      const ModeResult& m = it->second;
+      char v[4][32];
+      std::snprintf(v[0], sizeof(v[0]), "%.2f%%", m.rmse_percent);
+      std::snprintf(v[1], sizeof(v[1]), "%.2f dB", m.psnr_db);
+      std::snprintf(v[2], sizeof(v[2]), "%.4f", m.ssim);
+      std::snprintf(v[3], sizeof(v[3]), "%.1f", m.ms_per_new_mesh);
+      rows.push_back({scene.name, mode, v[0], v[1], v[2], measuredText(m.flicker, "%.2f"),
+                      measuredText(m.seam_visibility, "%.2f"), v[3], std::to_string(m.images)});
+    }
+  }
+  std::string body =
+      "<p>" +
+      html::escape(
+          std::to_string(options.frames) + " frames per scene from frame " +
+          std::to_string(options.first_frame) + ", " + std::to_string(options.width) + "x" +
+          std::to_string(options.height) +
+          "; each camera rendered from its reported pose without its own image, "
+          "compared with its true image inside its true mask (rows \"(camera kept)\": with its own "
+          "image; \"+D deg\": novel poses, every camera blended).") +
+      "</p>\n";
+  body += html::barChart("PSNR by scene", scene_names, metric(&ModeResult::psnr_db), "dB");
+  body +=
+      html::barChart("SSIM by scene", scene_names, metric(&ModeResult::ssim), "luminance, masked");
+  body += html::barChart("Flicker by scene", scene_names, metric(&ModeResult::flicker),
+                         "grey levels per frame");
+  body +=
+      html::barChart("Seam visibility by scene", scene_names, metric(&ModeResult::seam_visibility),
+                     "RMS error gradient along seams, grey levels per pixel");
+  body += html::barChart("Client time per new mesh", scene_names,
+                         metric(&ModeResult::ms_per_new_mesh), "ms");
+  body +=
+      "<h2>All numbers</h2>\n" + html::table({"scene", "mode", "RMSE", "PSNR", "SSIM", "flicker",
+                                              "seam visibility", "ms per new mesh", "images"},
+                                             rows);
+  body +=
+      "<h2>Links and codecs</h2>\n<p>Bytes per frame as the loop sends them, and the codecs' ms "
+      "per frame: " +
+      html::escape(kCodecsMeaning) + ". " + html::escape(kNoJitterHere) + "</p>\n" +
+      html::table({"scene", "pods to server KB", "server to client KB", "of which feather maps KB",
+                   "codecs ms p50", "p95"},
+                  linkRows(results));
+  body +=
+      "<h2>montage4d against holoportation</h2>\n<p>Target on every scene but clean: at least +0.5 "
+      "dB PSNR, "
+      "higher SSIM, and less flicker after a viewpoint jump. Misses are flagged. " +
+      html::escape(kPicturesDifferMeaning) + "</p>\n" +
+      html::table({"scene", "PSNR gain", "SSIM gain", "flicker ratio",
+                   "pictures differ on (gain if exact there)", "verdict"},
+                  verdict_rows);
+  // The latency budget of a new mesh per scene: the server's hull, the
+  // codecs on the frame's way, and each mode's render, p50 and p95 over
+  // the frames (transport is not simulated).
+  if (!budget_rows.empty() || !options.budget.empty()) {
+    body +=
+        "<h2>Budget</h2>\n<p>p95 against the budget of each stage the evaluation times as the loop "
+        "does "
+        "(" +
+        budgetedStagesText() + "); over-budget rows are flagged." + html::escape(unchecked_text) +
+        "</p>\n" + html::table({"scene", "mode", "stage", "p95 ms", "budget ms"}, budget_rows);
+  }
+  body +=
+      "<h2>Latency of a new mesh by stage</h2>\n<p>p50 and p95 over the renders: the hull, the "
+      "codecs by stage (" +
+      std::string(kCodecsMeaning) + ") and the client's render. Transport is not simulated.</p>\n";
+  for (const auto& scene : results) {
+    if (scene.novel_view_degrees != 0 || scene.camera_kept) continue;
+    std::vector<html::StackRow> stack;
+    for (const auto& mode : modes) {
+      const auto it = scene.modes.find(mode);
+      if (it == scene.modes.end()) continue;
+      for (const bool p95 : {false, true}) {
+        stack.push_back({mode + (p95 ? " p95" : " p50"), latencyParts(scene, it->second, p95)});
+      }
+    }
+    body += html::stackedBars("Latency of a new mesh: " + scene.name, latencyStages(), stack, "ms");
+  }
+  body +=
+      "<h2>Time per stage of a new mesh (paper 000 Table 3 layout)</h2>\n<p>GPU ms per field pass "
+      "(timestamps, "
+      "medians; approximate on a CPU device), then the wall clock of the render after a new "
+      "mesh.</p>\n";
+  std::vector<std::string> stage_header = {"stage"};
+  stage_header.insert(stage_header.end(), modes.begin(), modes.end());
+  for (const auto& [name, table] : stage_tables)
+    body += "<h3>" + html::escape(name) + "</h3>\n" + html::table(stage_header, table);
+  std::ofstream(fs::path(out_dir) / "quality.html")
+      << html::page("holofuse leave-one-camera-out quality", body);
+}
+
+}  // namespace holofuse::eval
