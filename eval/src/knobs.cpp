@@ -2,6 +2,7 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -16,13 +17,9 @@ namespace {
 
 // Parses a number in [lo, hi]; "" or an error naming the value.
 std::string parseNumber(const std::string& text, double lo, double hi, double& out) {
-  size_t used = 0;
-  try {
-    out = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || text.empty() || !(out >= lo && out <= hi)) {
+  const char* end = text.data() + text.size();
+  const auto [stop, error] = std::from_chars(text.data(), end, out);
+  if (error != std::errc() || stop != end || text.empty() || !(out >= lo && out <= hi)) {
     char range[96];
     std::snprintf(range, sizeof(range), "a number in [%g, %g]", lo, hi);
     return "'" + text + "' is not " + range;

@@ -369,15 +369,19 @@ int runClient(const ClientOptions& options) {
         for (const auto& stamp : bundle->second.stamps) {
           if (stamp.stage == static_cast<uint16_t>(Stage::kImageEncode)) stamps.push_back(stamp);
         }
-        try {
-          renderer->setMesh(*mesh);
-          renderer->setViews(bundle->second.views);
-          report.addViewsWithoutSubject(renderer->camerasWithoutSubject());
-        } catch (const std::exception& e) {
-          skip(mesh_frame.frame_id, e.what());
+        // What came off the network, checked before the renderer takes it
+        // (it throws on what these refuse).
+        Status usable = checkMesh(*mesh, options.half_precision_vertices);
+        if (usable.isOk()) usable = checkViews(bundle->second.views);
+        if (usable.isOk()) usable = checkRenderable(mesh->positions.size(), options.blend);
+        if (!usable.isOk()) {
+          skip(mesh_frame.frame_id, usable.message());
           bundles.erase(bundle);
           continue;
         }
+        renderer->setMesh(*mesh);
+        renderer->setViews(bundle->second.views);
+        report.addViewsWithoutSubject(renderer->camerasWithoutSubject());
         const uint64_t t2 = monotonicNs();
         auto user = userCamera(options, cameras, meshBounds(*mesh), report.framesRendered());
         if (!user) {
@@ -401,15 +405,7 @@ int runClient(const ClientOptions& options) {
           }
         }
         const uint64_t field_runs = renderer->fieldPasses();
-        Image8 picture;
-        try {
-          picture = renderer->render(*user, blend);
-        } catch (const std::invalid_argument&
-                     e) {  // a mesh or setting this mode cannot take: skip the frame
-          skip(mesh_frame.frame_id, e.what());
-          bundles.erase(bundle);
-          continue;
-        }
+        const Image8 picture = renderer->render(*user, blend);
         const uint64_t t3 = monotonicNs();
         if (renderer->fieldPasses() != field_runs) {
           const auto times = renderer->fieldTimesMs();

@@ -236,6 +236,68 @@ std::pair<double, double> depthRange(const Camera& camera, const glm::dvec3& lo,
 
 // Storage buffers the field passes clear with vkCmdFillBuffer (worklists,
 // seams) also need to be transfer destinations.
+Status checkMesh(const Mesh& mesh, bool half_precision) {
+  if (!half_precision) return Status::ok();
+  // A half holds magnitudes up to 65504: past that a position would become
+  // infinite.
+  constexpr float kHalfMax = 65504.0f;
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    const glm::vec3& p = mesh.positions[v];
+    if (!(std::abs(p.x) <= kHalfMax && std::abs(p.y) <= kHalfMax && std::abs(p.z) <= kHalfMax)) {
+      char text[160];
+      std::snprintf(text, sizeof(text),
+                    "vertex %zu at (%g, %g, %g) is outside half precision's range (|x| <= 65504)",
+                    v, p.x, p.y, p.z);
+      return Status(StatusCode::kMalformed, text);
+    }
+  }
+  return Status::ok();
+}
+
+Status checkViews(const std::vector<ViewImages>& views) {
+  if (views.size() > HOLOFUSE_MAX_CAMERAS) {
+    return Status(StatusCode::kMalformed, std::to_string(views.size()) + " cameras, more than " +
+                                              std::to_string(HOLOFUSE_MAX_CAMERAS));
+  }
+  if (views.empty()) return Status::ok();
+  const uint32_t w = views[0].camera.width, h = views[0].camera.height;
+  for (const auto& view : views) {
+    if (view.camera.width != w || view.camera.height != h || view.color.width != w ||
+        view.color.height != h || view.mask.width != w || view.mask.height != h ||
+        view.color.channels != 3 || view.mask.channels != 1) {
+      return Status(StatusCode::kMalformed, "camera " + std::to_string(view.camera.id) +
+                                                " images do not match " + std::to_string(w) + "x" +
+                                                std::to_string(h));
+    }
+    const bool feather_sent = !view.feather.pixels.empty();
+    if (feather_sent &&
+        (view.feather.width != w || view.feather.height != h || view.feather.channels != 1)) {
+      return Status(StatusCode::kMalformed, "camera " + std::to_string(view.camera.id) +
+                                                " feather map is not " + std::to_string(w) + "x" +
+                                                std::to_string(h) + " grey");
+    }
+  }
+  return Status::ok();
+}
+
+Status checkRenderable(size_t mesh_vertices, const BlendSettings& settings) {
+  if (settings.mode != BlendMode::kMontage4D) return Status::ok();
+  // The geodesic passes pack an entry's ring and nearest seam vertex in
+  // one word (shaders/config.h).
+  const int rings = settings.fields.geodesic_rings;
+  if (rings < 0 || rings > kMaxGeodesicRings) {
+    return Status(StatusCode::kMalformed, "geodesic rings k = " + std::to_string(rings) +
+                                              " is outside 0.." +
+                                              std::to_string(kMaxGeodesicRings));
+  }
+  if (mesh_vertices > HOLOFUSE_MAX_FIELD_VERTICES) {
+    return Status(StatusCode::kMalformed, "a mesh of " + std::to_string(mesh_vertices) +
+                                              " vertices is over montage4d's " +
+                                              std::to_string(HOLOFUSE_MAX_FIELD_VERTICES));
+  }
+  return Status::ok();
+}
+
 VkBufferUsageFlags Renderer::usageOf(const Buffer& buffer) const {
   if (&buffer == &worklist_counts_) return kWorklistUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT;
   const bool filled = &buffer == &worklist_ || &buffer == &seams_;
@@ -404,19 +466,9 @@ glm::vec3 halfPrecision(const glm::vec3& v) {
 
 void Renderer::setMesh(const Mesh& mesh) {
   if (!half_vertices_) return uploadMesh(mesh, false);
-  // A half holds magnitudes up to 65504: past that a position would become
-  // infinite. Refused before anything changes, so the previous mesh stays.
-  constexpr float kHalfMax = 65504.0f;
-  for (size_t v = 0; v < mesh.positions.size(); ++v) {
-    const glm::vec3& p = mesh.positions[v];
-    if (!(std::abs(p.x) <= kHalfMax && std::abs(p.y) <= kHalfMax && std::abs(p.z) <= kHalfMax)) {
-      char text[160];
-      std::snprintf(text, sizeof(text),
-                    "vertex %zu at (%g, %g, %g) is outside half precision's range (|x| <= 65504)",
-                    v, p.x, p.y, p.z);
-      throw std::invalid_argument(text);
-    }
-  }
+  // Refused before anything changes, so the previous mesh stays.
+  if (const Status usable = checkMesh(mesh, true); !usable.isOk())
+    throw std::invalid_argument(usable.message());
   // Everything the CPU derives from the mesh (unfolded triangles, bounds,
   // the temporal carry) comes from the rounded values too, so that the
   // passes see one mesh: the one half precision stores.
@@ -495,24 +547,9 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
     view_cameras_.clear();
     return;
   }
-  if (views.size() > HOLOFUSE_MAX_CAMERAS) throw std::invalid_argument("more than 16 cameras");
+  if (const Status usable = checkViews(views); !usable.isOk())
+    throw std::invalid_argument(usable.message());
   const uint32_t w = views[0].camera.width, h = views[0].camera.height;
-  for (const auto& view : views) {
-    if (view.camera.width != w || view.camera.height != h || view.color.width != w ||
-        view.color.height != h || view.mask.width != w || view.mask.height != h ||
-        view.color.channels != 3 || view.mask.channels != 1) {
-      throw std::invalid_argument("camera " + std::to_string(view.camera.id) +
-                                  " images do not match " + std::to_string(w) + "x" +
-                                  std::to_string(h));
-    }
-    const bool feather_sent = !view.feather.pixels.empty();
-    if (feather_sent &&
-        (view.feather.width != w || view.feather.height != h || view.feather.channels != 1)) {
-      throw std::invalid_argument("camera " + std::to_string(view.camera.id) +
-                                  " feather map is not " + std::to_string(w) + "x" +
-                                  std::to_string(h) + " grey");
-    }
-  }
   subject_seen_.clear();
   view_cameras_.clear();
   for (const auto& view : views) {
@@ -914,23 +951,13 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     u.cameras[i].flags = glm::ivec4(enabled ? 1 : 0, empty ? 1 : 0, 0, 0);
   }
   const bool have_views = !cameras_.empty();
+  if (const Status usable = checkRenderable(vertex_count_, settings); have_views && !usable.isOk())
+    throw std::invalid_argument(usable.message());
   const bool montage = have_views && settings.mode == BlendMode::kMontage4D;
   const bool want_fields = have_views && (settings.mode == BlendMode::kHoloportation || montage);
   FieldParameters parameters = settings.fields;
   parameters.alpha = settings.alpha;
   if (montage) {
-    // The geodesic passes pack an entry's ring and nearest seam vertex in
-    // one word (shaders/config.h).
-    if (parameters.geodesic_rings < 0 || parameters.geodesic_rings > kMaxGeodesicRings) {
-      throw std::invalid_argument(
-          "geodesic rings k = " + std::to_string(parameters.geodesic_rings) + " is outside 0.." +
-          std::to_string(kMaxGeodesicRings));
-    }
-    if (vertex_count_ > HOLOFUSE_MAX_FIELD_VERTICES) {
-      throw std::invalid_argument("a mesh of " + std::to_string(vertex_count_) +
-                                  " vertices is over montage4d's " +
-                                  std::to_string(HOLOFUSE_MAX_FIELD_VERTICES));
-    }
     parameters.geodesics = true;
     parameters.field_per_view = true;
     prepareTemporal();

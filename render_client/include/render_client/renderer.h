@@ -8,6 +8,7 @@
 #include <memory>
 #include <vector>
 
+#include "base/status.h"
 #include "common/camera.h"
 #include "common/image.h"
 #include "common/mesh.h"
@@ -87,6 +88,22 @@ std::pair<double, double> depthRange(const Camera& camera, const glm::dvec3& lo,
 constexpr float kSmallestNormalHalf = 6.103515625e-05f;  // 2^-14
 glm::vec3 halfPrecision(const glm::vec3& v);
 
+// What the renderer refuses, as errors its caller checks first: meshes,
+// images and settings that came from outside (the network, a file, a flag)
+// are checked with these and skipped by name, never thrown. Renderer's
+// setMesh, setViews and render throw std::invalid_argument on the same
+// conditions: a caller that did not check broke their contract.
+//
+// A mesh half precision cannot hold (a coordinate past 65504) when
+// half_precision is on.
+Status checkMesh(const Mesh& mesh, bool half_precision);
+// Views of one image size with colour, mask and (when sent) feather maps
+// of that size, at most HOLOFUSE_MAX_CAMERAS of them.
+Status checkViews(const std::vector<ViewImages>& views);
+// Settings the mode can take for a mesh of that many vertices (montage4d's
+// geodesic rings and its vertex limit).
+Status checkRenderable(size_t mesh_vertices, const BlendSettings& settings);
+
 class Renderer {
  public:
   Renderer(VulkanContext& context, uint32_t width, uint32_t height);
@@ -105,8 +122,8 @@ class Renderer {
   // Bytes allocated for the vertices on the GPU (room for the largest mesh
   // so far, with a margin).
   uint64_t vertexBufferBytes() const { return vertex_buffer_.size; }
-  // All views must share one image size (the pods' calibration). Throws
-  // std::invalid_argument otherwise.
+  // All views must share one image size (the pods' calibration): see
+  // checkViews.
   void setViews(const std::vector<ViewImages>& views);
   // Renders the user's view. Depth maps are refreshed first if stale.
   Image8 render(const Camera& user_camera, const BlendSettings& settings);
