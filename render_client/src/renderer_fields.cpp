@@ -1,0 +1,194 @@
+// The texture fields read back (the tests' snapshots) and carried from
+// mesh to mesh (temporal smoothing, Du et al. 2019 eq. 5).
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <cstring>
+#include <glm/gtc/packing.hpp>
+#include <limits>
+#include <stdexcept>
+#include <type_traits>
+
+#include "render_client/reference/texture_fields.h"
+#include "render_client/renderer.h"
+#include "render_client/temporal_carry.h"
+#include "renderer_gpu.h"
+
+namespace holofuse::render {
+
+FieldSnapshot Renderer::readFields() const {
+  FieldSnapshot s = readActiveFields();
+  if (active_.size() == subject_seen_.size()) return s;
+  // Back to the views' indexing: a camera left out for its empty mask sees
+  // every vertex on its background (or behind it, or outside its image),
+  // trusts none, has no seams, no distances, no weight.
+  const size_t views = subject_seen_.size(), vertices = s.vertex_count,
+               triangles = s.triangle_count;
+  const size_t pixels = size_t{images_.width} * images_.height;
+  FieldSnapshot out = s;
+  out.camera_count = static_cast<uint32_t>(views);
+  out.sights.assign(views * vertices, 0);
+  out.trusted.assign(views * vertices, 0);
+  out.discontinuities.assign(views * vertices, 0);
+  out.depth_maps.assign(views * pixels, HOLOFUSE_NO_DEPTH);
+  out.seams.assign(views * triangles, 0);
+  out.visible_counts.assign(views, 0);
+  out.distances.assign(s.distances.empty() ? 0 : views * vertices, HOLOFUSE_FAR);
+  out.weights.assign(s.weights.size(), 0.0f);
+  std::vector<bool> left_out(views, true);
+  for (size_t j = 0; j < active_.size(); ++j) {
+    const size_t i = active_[j];
+    left_out[i] = false;
+    std::copy_n(s.sights.begin() + j * vertices, vertices, out.sights.begin() + i * vertices);
+    std::copy_n(s.trusted.begin() + j * vertices, vertices, out.trusted.begin() + i * vertices);
+    std::copy_n(s.discontinuities.begin() + j * vertices, vertices,
+                out.discontinuities.begin() + i * vertices);
+    if (s.depth_maps.size() >= (j + 1) * pixels) {
+      std::copy_n(s.depth_maps.begin() + j * pixels, pixels, out.depth_maps.begin() + i * pixels);
+    }
+    std::copy_n(s.seams.begin() + j * triangles, triangles, out.seams.begin() + i * triangles);
+    out.visible_counts[i] = s.visible_counts[j];
+    if (!s.distances.empty())
+      std::copy_n(s.distances.begin() + j * vertices, vertices,
+                  out.distances.begin() + i * vertices);
+    for (size_t v = 0; v < vertices && !s.weights.empty(); ++v) {
+      out.weights[v * HOLOFUSE_MAX_CAMERAS + i] = s.weights[v * HOLOFUSE_MAX_CAMERAS + j];
+    }
+  }
+  for (size_t i = 0; i < views; ++i) {
+    if (!left_out[i]) continue;
+    for (size_t v = 0; v < vertices; ++v) {
+      const glm::dvec3 p(current_surface_.positions[v]);
+      const auto pixel = view_cameras_[i].project(p);
+      const bool inside = pixel && pixel->x >= 0 && pixel->y >= 0 &&
+                          pixel->x < view_cameras_[i].width && pixel->y < view_cameras_[i].height;
+      out.sights[i * vertices + v] = !pixel   ? HOLOFUSE_SIGHT_BEHIND
+                                     : inside ? HOLOFUSE_SIGHT_BACKGROUND
+                                              : HOLOFUSE_SIGHT_OUTSIDE_IMAGE;
+    }
+  }
+  return out;
+}
+
+FieldSnapshot Renderer::readActiveFields() const {
+  FieldSnapshot s;
+  s.vertex_count = vertex_count_;
+  s.camera_count = static_cast<uint32_t>(cameras_.size());
+  const size_t per_vertex = size_t{s.vertex_count} * s.camera_count;
+  auto copy = [](const Buffer& b, auto& out, size_t n) {
+    using T = typename std::remove_reference_t<decltype(out)>::value_type;
+    out.resize(n);
+    if (n * sizeof(T) <= b.size) std::memcpy(out.data(), b.mapped, n * sizeof(T));
+  };
+  copy(sights_, s.sights, per_vertex);
+  copy(trusted_, s.trusted, per_vertex);
+  std::vector<uint32_t> camera_bits;  // per vertex, bit i for camera i
+  copy(discontinuities_, camera_bits, s.vertex_count);
+  s.discontinuities.assign(per_vertex, 0);
+  for (size_t i = 0; i < s.camera_count; ++i) {
+    for (size_t v = 0; v < camera_bits.size(); ++v)
+      s.discontinuities[i * s.vertex_count + v] = (camera_bits[v] >> i) & 1u;
+  }
+  copy(depth_maps_, s.depth_maps, size_t{images_.width} * images_.height * images_.layers);
+  copy(weights_, s.weights, size_t{s.vertex_count} * HOLOFUSE_MAX_CAMERAS);
+  s.triangle_count = triangle_count_;
+  s.geodesic_scale = static_cast<float>(geodesicScale(field_parameters_));
+  // Per triangle, a bit per camera for each rule (compute_common.glsl):
+  // back to [camera][triangle] SeamRule bits.
+  std::vector<uint32_t> rule_bits;
+  copy(seams_, rule_bits, size_t{triangle_count_} * 2);
+  s.seams.assign(size_t{triangle_count_} * s.camera_count, 0);
+  for (size_t t = 0; 2 * t + 1 < rule_bits.size(); ++t) {
+    const uint32_t occlusion = rule_bits[2 * t] & 0xffffu, vote = rule_bits[2 * t] >> 16,
+                   field_of_view = rule_bits[2 * t + 1];
+    for (size_t i = 0; i < s.camera_count; ++i) {
+      s.seams[i * triangle_count_ + t] = ((occlusion >> i) & 1u) * HOLOFUSE_SEAM_OCCLUSION |
+                                         ((vote >> i) & 1u) * HOLOFUSE_SEAM_VOTE |
+                                         ((field_of_view >> i) & 1u) * HOLOFUSE_SEAM_FIELD_OF_VIEW;
+    }
+  }
+  copy(visible_counts_, s.visible_counts, s.camera_count);
+  std::vector<float> both;
+  copy(distances_, both, 2 * per_vertex);
+  const size_t half = TextureFieldPasses::finalDistanceHalf(field_parameters_);
+  if (both.size() == 2 * per_vertex)
+    s.distances.assign(both.begin() + half * per_vertex, both.begin() + (half + 1) * per_vertex);
+  return s;
+}
+
+void Renderer::remapTemporal(const std::vector<uint32_t>& camera_ids) {
+  // The slots' cameras until now: cameras_ still holds them.
+  std::vector<int> old_slot(camera_ids.size(), -1);
+  bool same = camera_ids.size() == cameras_.size();
+  for (size_t j = 0; j < camera_ids.size(); ++j) {
+    for (size_t k = 0; k < cameras_.size(); ++k) {
+      if (cameras_[k].id == camera_ids[j]) old_slot[j] = static_cast<int>(k);
+    }
+    same = same && old_slot[j] == static_cast<int>(j);
+  }
+  if (temporal_stride_ == 0 || same) return;
+  // The latest field (the half a render reads as the previous one) follows
+  // each camera, by its id, to its new slot: a camera that left the arrays
+  // or a pod missing from a bundle moves the others. A camera that joins
+  // starts from 0, as one that comes back into view does (eq. 5 gated by
+  // visibility).
+  auto* field = static_cast<float*>(temporal_.mapped) + size_t{temporal_half_} * temporal_stride_;
+  float slots[HOLOFUSE_MAX_CAMERAS];
+  for (size_t v = 0; v < temporal_stride_ / HOLOFUSE_MAX_CAMERAS; ++v) {
+    float* vertex = field + v * HOLOFUSE_MAX_CAMERAS;
+    std::copy_n(vertex, HOLOFUSE_MAX_CAMERAS, slots);
+    std::fill_n(vertex, HOLOFUSE_MAX_CAMERAS, 0.0f);
+    for (size_t j = 0; j < camera_ids.size(); ++j) {
+      if (old_slot[j] >= 0) vertex[j] = slots[old_slot[j]];
+    }
+  }
+}
+
+void Renderer::prepareTemporal() {
+  // Room for this mesh and the previous one in each half; growing keeps the
+  // previous half's contents.
+  const uint32_t needed =
+      std::max<uint32_t>(
+          1, std::max<uint32_t>(vertex_count_,
+                                static_cast<uint32_t>(previous_surface_.vertexCount()))) *
+      HOLOFUSE_MAX_CAMERAS;
+  if (needed > temporal_stride_) {
+    const uint32_t stride = needed * 3 / 2;
+    Buffer grown =
+        ctx_.createBuffer(VkDeviceSize{stride} * 2 * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    if (temporal_stride_ > 0) {
+      std::memcpy(static_cast<float*>(grown.mapped) + temporal_half_ * stride,
+                  static_cast<const float*>(temporal_.mapped) + temporal_half_ * temporal_stride_,
+                  temporal_stride_ * 4);
+    }
+    vkDeviceWaitIdle(ctx_.device());
+    ctx_.destroy(temporal_);
+    temporal_ = grown;
+    temporal_stride_ = stride;
+    writeDescriptors();
+  }
+  if (carry_.size < VkDeviceSize{std::max(vertex_count_, 1u)} * 4) {
+    vkDeviceWaitIdle(ctx_.device());
+    ctx_.destroy(carry_);
+    carry_ = ctx_.createBuffer(VkDeviceSize{std::max(vertex_count_, 1u)} * 4 * 3 / 2,
+                               VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    writeDescriptors();
+    carry_is_identity_ = false;
+    carry_pending_ = true;
+  }
+  auto* carry = static_cast<int32_t*>(carry_.mapped);
+  if (carry_pending_) {
+    // A new mesh: follow vertices by key, else by the nearest previous
+    // vertex within two mean edges, else start fresh.
+    const CarryMap map = carryAcross(previous_surface_, current_surface_, 2.0 * mean_edge_);
+    std::memcpy(carry, map.previous.data(), map.previous.size() * 4);
+    carry_pending_ = false;
+    carry_is_identity_ = false;
+  } else if (!carry_is_identity_) {
+    for (uint32_t v = 0; v < vertex_count_; ++v) carry[v] = static_cast<int32_t>(v);
+    carry_is_identity_ = true;
+  }
+}
+
+}  // namespace holofuse::render
