@@ -199,8 +199,13 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  holofuse::render::Budget checked_budget;
-  if (!holofuse::render::loadBudgetFlag(budget, checked_budget)) return 2;
+  holofuse::protocol::Budget checked_budget;
+  auto loaded_budget = holofuse::protocol::loadBudgetFlag(budget);
+  if (!loaded_budget.isOk()) {
+    std::fprintf(stderr, "%s\n", loaded_budget.status().message().c_str());
+    return 2;
+  }
+  checked_budget = *loaded_budget;
   double speed_factor = 1.0;
   if (!holofuse::capture::parseReplaySpeed(speed, speed_factor)) {
     std::fprintf(stderr, "--speed '%s': expected a factor in (0, 1000] or max\n", speed.c_str());

@@ -11,6 +11,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "base/statistics.h"
 #include "capture_node/pod.h"
 #include "common/depth_raster.h"
 #include "common/image_io.h"
@@ -50,9 +51,9 @@ namespace {
 namespace fs = std::filesystem;
 
 // Medians and 95th percentiles as the live loop's report takes them
-// (render::percentile, interpolated), so the two reports compare.
-double median(const std::vector<double>& v) { return render::percentile(v, 50); }
-double percentile95(const std::vector<double>& v) { return render::percentile(v, 95); }
+// (base/statistics.h, interpolated), so the two reports compare.
+double median(const std::vector<double>& v) { return percentile(v, 50); }
+double percentile95(const std::vector<double>& v) { return percentile(v, 95); }
 
 // RGB like the true images (a render's alpha is not part of the comparison).
 void saveImage(const fs::path& path, const Image8& image) {

@@ -60,7 +60,12 @@ int main(int argc, char** argv) {
       "--budget", budget_file,
       "JSON of per-stage ms budgets (" + eval::budgetedStagesText() + " are checked at p95)");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
-  if (!render::loadBudgetFlag(budget_file, options.budget)) return 2;
+  auto loaded_budget = protocol::loadBudgetFlag(budget_file);
+  if (!loaded_budget.isOk()) {
+    std::fprintf(stderr, "%s\n", loaded_budget.status().message().c_str());
+    return 2;
+  }
+  options.budget = *loaded_budget;
   if (const std::string error = knob_flags.apply(options); !error.empty()) {
     std::fprintf(stderr, "holofuse eval: %s\n", error.c_str());
     return 2;

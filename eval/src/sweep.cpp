@@ -374,7 +374,7 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options,
   return sweepPoints(swept, progress);
 }
 
-PointBudget checkPointBudget(const render::Budget& budget, const SweepPoint& point,
+PointBudget checkPointBudget(const protocol::Budget& budget, const SweepPoint& point,
                              const std::string& mode) {
   PointBudget out;
   out.checks = checkBudget(budget, point.result, {mode});

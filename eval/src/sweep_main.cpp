@@ -50,7 +50,12 @@ int main(int argc, char** argv) {
                  "JSON of per-stage ms budgets; each point's p95 of " + eval::budgetedStagesText() +
                      " is checked and the points over are flagged");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
-  if (!render::loadBudgetFlag(budget_file, options.base.budget)) return 2;
+  auto loaded_budget = protocol::loadBudgetFlag(budget_file);
+  if (!loaded_budget.isOk()) {
+    std::fprintf(stderr, "%s\n", loaded_budget.status().message().c_str());
+    return 2;
+  }
+  options.base.budget = *loaded_budget;
   if (dataset.empty()) {
     options.base.scenes = {scene};
   } else {

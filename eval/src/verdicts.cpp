@@ -72,7 +72,7 @@ std::map<std::string, double> regionSharesAgainstNormal(
   return shares;
 }
 
-std::vector<BudgetCheck> checkBudget(const render::Budget& budget, const SceneResult& scene,
+std::vector<BudgetCheck> checkBudget(const protocol::Budget& budget, const SceneResult& scene,
                                      const std::vector<std::string>& modes) {
   std::vector<BudgetCheck> checks;
   auto check = [&](const std::string& mode, const std::string& stage, double p95) {

@@ -7,72 +7,10 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "common/arrival_jitter.h"
+#include "base/statistics.h"
 #include "common/html_report.h"
 
 namespace holofuse::render {
-
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const double rank = std::clamp(p, 0.0, 100.0) / 100.0 * static_cast<double>(values.size() - 1);
-  const size_t lo = static_cast<size_t>(rank);
-  const size_t hi = std::min(lo + 1, values.size() - 1);
-  return values[lo] + (rank - static_cast<double>(lo)) * (values[hi] - values[lo]);
-}
-
-double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_received) {
-  // In order of arrival, as RFC 3550 (and the server) takes them.
-  std::sort(sent_and_received.begin(), sent_and_received.end(), [](const auto& a, const auto& b) {
-    return a.second != b.second ? a.second < b.second : a.first < b.first;
-  });
-  ArrivalJitter jitter;
-  for (const auto& [sent, received] : sent_and_received) jitter.add(sent, received);
-  return jitter.ms();
-}
-
-StatusOr<Budget> loadBudget(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return Status(StatusCode::kIoError, path + ": cannot be read");
-  std::set<std::string> names = {"end_to_end"};
-  std::string valid = "end_to_end";
-  for (uint16_t stage : protocol::stagesInPipelineOrder()) {
-    names.insert(protocol::stageName(stage));
-    valid += ", " + protocol::stageName(stage);
-  }
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    return Status(StatusCode::kMalformed, path + ": not JSON (" + e.what() + ")");
-  }
-  if (!j.is_object())
-    return Status(StatusCode::kMalformed, path + ": expected an object of stage -> ms");
-  Budget budget;
-  for (const auto& [name, value] : j.items()) {
-    if (names.count(name) == 0) {
-      return Status(StatusCode::kMalformed,
-                    path + ": unknown stage '" + name + "'; valid: " + valid);
-    }
-    if (!value.is_number() || !(value.get<double>() > 0)) {
-      return Status(StatusCode::kMalformed,
-                    path + ": budget of '" + name + "' must be a positive number of ms");
-    }
-    budget[name] = value.get<double>();
-  }
-  return budget;
-}
-
-bool loadBudgetFlag(const std::string& path, Budget& budget) {
-  if (path.empty()) return true;
-  auto loaded = loadBudget(path);
-  if (!loaded.isOk()) {
-    std::fprintf(stderr, "--budget: %s\n", loaded.status().message().c_str());
-    return false;
-  }
-  budget = *loaded;
-  return true;
-}
 
 void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
   for (const auto& s : stamps) {

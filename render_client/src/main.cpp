@@ -81,7 +81,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "--size %s\n", error.c_str());
     return 2;
   }
-  if (!render::loadBudgetFlag(budget_file, options.budget)) return 2;
+  auto loaded_budget = protocol::loadBudgetFlag(budget_file);
+  if (!loaded_budget.isOk()) {
+    std::fprintf(stderr, "%s\n", loaded_budget.status().message().c_str());
+    return 2;
+  }
+  options.budget = *loaded_budget;
   if (!isViewName(options.view)) {
     std::fprintf(stderr, "--view '%s': expected orbit or pod:N\n", options.view.c_str());
     return 2;

@@ -10,8 +10,9 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "base/arrival_jitter.h"
+#include "base/statistics.h"
 #include "browser_check.h"
-#include "common/arrival_jitter.h"
 #include "common/html_report.h"
 #include "eval/leave_one_out.h"
 #include "eval/sweep.h"
@@ -101,7 +102,7 @@ TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
   EXPECT_DOUBLE_EQ(quality[0].worst, 20.0);
   EXPECT_DOUBLE_EQ(quality[1].worst, 0.5);
   // replay_read: a stage this (live) run never stamped.
-  const render::Budget budget = {{"hull", 30.0}, {"end_to_end", 500.0}, {"replay_read", 0.001}};
+  const protocol::Budget budget = {{"hull", 30.0}, {"end_to_end", 500.0}, {"replay_read", 0.001}};
   const fs::path dir = scratch("loop");
   std::ofstream(dir / "report.html") << report.toHtml({{"mode", "montage4d"}}, budget);
   // Latency stages, GPU passes, bytes per link, jitter.
@@ -260,18 +261,17 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
 
 TEST(LoopReport, JitterFollowsRfc3550) {
   // Constant transit: no jitter, whatever the send times.
-  EXPECT_DOUBLE_EQ(render::interarrivalJitter({{0, 5}, {10, 15}, {25, 30}, {31, 36}}), 0.0);
+  EXPECT_DOUBLE_EQ(interarrivalJitter({{0, 5}, {10, 15}, {25, 30}, {31, 36}}), 0.0);
   // Transit alternating 2 and 3 ms: |D| = 1 each step, J -> 1 as 1 - (15/16)^n.
   std::vector<std::pair<double, double>> alternating;
   for (int k = 0; k < 200; ++k) alternating.emplace_back(k * 100.0, k * 100.0 + 2 + k % 2);
-  EXPECT_NEAR(render::interarrivalJitter(alternating), 1.0 - std::pow(15.0 / 16.0, 199), 1e-9);
+  EXPECT_NEAR(interarrivalJitter(alternating), 1.0 - std::pow(15.0 / 16.0, 199), 1e-9);
   // The order of the list does not matter: packets are taken in order of
   // arrival. Sent at 0, 10, 20, the third overtakes the second: arrivals
   // 2 (transit 2), 23 (transit 3, sent 20), 24 (transit 14, sent 10).
   std::vector<std::pair<double, double>> shuffled = {{10, 24}, {0, 2}, {20, 23}};
   const double after_second = 1.0 / 16.0;
-  EXPECT_NEAR(render::interarrivalJitter(shuffled), after_second + (11.0 - after_second) / 16.0,
-              1e-12);
+  EXPECT_NEAR(interarrivalJitter(shuffled), after_second + (11.0 - after_second) / 16.0, 1e-12);
   // A sender that comes back (another connection, maybe another clock):
   // its first transit is not a change from the last one's.
   ArrivalJitter jitter;
@@ -291,19 +291,19 @@ TEST(LoopReport, BudgetFilesAreCheckedAndNamed) {
   std::ofstream(dir / "unknown.json") << R"({"hul": 40})";
   std::ofstream(dir / "negative.json") << R"({"hull": -1})";
   std::ofstream(dir / "broken.json") << R"({"hull": )";
-  auto good = render::loadBudget((dir / "good.json").string());
+  auto good = protocol::loadBudget((dir / "good.json").string());
   ASSERT_TRUE(good.isOk());
   EXPECT_DOUBLE_EQ(good->at("end_to_end"), 300.0);
-  const auto unknown = render::loadBudget((dir / "unknown.json").string());
+  const auto unknown = protocol::loadBudget((dir / "unknown.json").string());
   ASSERT_FALSE(unknown.isOk());
   EXPECT_NE(unknown.status().message().find("unknown stage 'hul'"), std::string::npos);
   EXPECT_NE(unknown.status().message().find("sync_wait"), std::string::npos)
       << "lists the valid names";
-  EXPECT_FALSE(render::loadBudget((dir / "negative.json").string()).isOk());
-  const auto broken = render::loadBudget((dir / "broken.json").string());
+  EXPECT_FALSE(protocol::loadBudget((dir / "negative.json").string()).isOk());
+  const auto broken = protocol::loadBudget((dir / "broken.json").string());
   ASSERT_FALSE(broken.isOk());
   EXPECT_NE(broken.status().message().find("broken.json"), std::string::npos);
-  EXPECT_FALSE(render::loadBudget((dir / "missing.json").string()).isOk());
+  EXPECT_FALSE(protocol::loadBudget((dir / "missing.json").string()).isOk());
   fs::remove_all(dir);
 }
 

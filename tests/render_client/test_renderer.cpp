@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "base/statistics.h"
 #include "common/image_codec.h"
 #include "common/segmentation.h"
 #include "render_client/client.h"

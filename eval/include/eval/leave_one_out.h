@@ -97,7 +97,7 @@ struct EvalOptions {
   // scene and mode whose p95 goes over the budget of a stage the evaluation
   // times the way the live loop does: "hull", the codec stages
   // (codecStages()) and "render".
-  render::Budget budget;
+  protocol::Budget budget;
 };
 
 struct ModeResult {
@@ -245,7 +245,7 @@ struct BudgetCheck {
 };
 // Every stage of budget the evaluation times (budgetedStagesText()) for the
 // scene's hull and codecs and each of modes' render.
-std::vector<BudgetCheck> checkBudget(const render::Budget& budget, const SceneResult& scene,
+std::vector<BudgetCheck> checkBudget(const protocol::Budget& budget, const SceneResult& scene,
                                      const std::vector<std::string>& modes);
 
 // A metric that may not have been measured (negative), for a table cell:

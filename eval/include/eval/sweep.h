@@ -68,7 +68,7 @@ struct PointBudget {
   std::vector<BudgetCheck> checks;
   std::vector<std::string> unchecked;
 };
-PointBudget checkPointBudget(const render::Budget& budget, const SweepPoint& point,
+PointBudget checkPointBudget(const protocol::Budget& budget, const SweepPoint& point,
                              const std::string& mode);
 
 // Validates every knob and value before running anything (std::invalid_argument;

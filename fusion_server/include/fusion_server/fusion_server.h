@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "common/arrival_jitter.h"
+#include "base/arrival_jitter.h"
 #include "common/camera.h"
 #include "dataset/recorder.h"
 #include "fusion_server/frame_sync.h"

@@ -12,6 +12,7 @@
 
 #include "base/status.h"
 #include "protocol/messages.h"
+#include "protocol/stage_budget.h"
 
 namespace holofuse::render {
 
@@ -36,24 +37,7 @@ struct FrameRecord {
   std::optional<FrameQuality> quality;
 };
 
-// p in [0, 100]; linear interpolation between order statistics. 0 for none.
-double percentile(std::vector<double> values, double p);
-
-// Interarrival jitter of RFC 3550 (common/arrival_jitter.h) over packets
-// taken in order of arrival (the client learns of them out of order); in
-// the unit of the times given.
-double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_received);
-
-// Per-stage budgets in ms (stage names of report.json, and "end_to_end"),
-// read from a JSON object {"hull": 40, "end_to_end": 300, ...}. A p95 over
-// its budget is a violation; a budgeted stage with no sample in the run is
-// reported as not measured (budget_unmeasured), never as within. Unknown names and non-numbers are
-// refused with the valid names listed.
-using Budget = std::map<std::string, double>;
-StatusOr<Budget> loadBudget(const std::string& path);
-// A command line's --budget FILE (none when path is empty): false after
-// saying on stderr what is wrong with the file.
-bool loadBudgetFlag(const std::string& path, Budget& budget);
+using protocol::Budget;
 
 class LatencyReport {
  public:
