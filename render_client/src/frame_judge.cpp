@@ -1,5 +1,6 @@
 #include "render_client/frame_judge.h"
 
+#include <poll.h>
 #include <unistd.h>
 
 #include <array>
@@ -89,21 +90,26 @@ StatusOr<JudgeAnswer> decodeJudgeAnswer(const std::string& line) {
   });
 }
 
-StatusOr<FrameJudge> FrameJudge::start(const std::string& command) {
+StatusOr<FrameJudge> FrameJudge::start(const std::string& command, int answer_timeout_ms) {
   if (command.empty()) return Status(StatusCode::kMalformed, "no judge command");
   ChildPipes pipes;
   // Through the shell, so the launcher can quote its words; the judge
   // ends when its stdin does, and the shell with it.
   auto pid = spawnProcess({"/bin/sh", "-c", command}, {}, &pipes);
   if (!pid.isOk()) return pid.status();
-  return FrameJudge(*pid, pipes.to_child, pipes.from_child, command);
+  return FrameJudge(*pid, pipes.to_child, pipes.from_child, command, answer_timeout_ms);
 }
 
-FrameJudge::FrameJudge(pid_t pid, int to_judge, int from_judge, std::string command)
-    : pid_(pid), to_judge_(to_judge), from_judge_(from_judge), command_(std::move(command)) {}
+FrameJudge::FrameJudge(pid_t pid, int to_judge, int from_judge, std::string command, int timeout_ms)
+    : pid_(pid),
+      timeout_ms_(timeout_ms),
+      to_judge_(to_judge),
+      from_judge_(from_judge),
+      command_(std::move(command)) {}
 
 FrameJudge::FrameJudge(FrameJudge&& other) noexcept
     : pid_(std::exchange(other.pid_, -1)),
+      timeout_ms_(other.timeout_ms_),
       to_judge_(std::exchange(other.to_judge_, -1)),
       from_judge_(std::exchange(other.from_judge_, -1)),
       command_(std::move(other.command_)),
@@ -138,6 +144,10 @@ StatusOr<JudgeAnswer> FrameJudge::judge(const JudgeRequest& request) {
       if (!decoded.isOk()) return gone(decoded.status().message());
       return decoded;
     }
+    pollfd readable{from_judge_, POLLIN, 0};
+    const int ready = ::poll(&readable, 1, timeout_ms_);
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready == 0) return gone("did not answer within " + std::to_string(timeout_ms_) + " ms");
     std::array<char, 4096> chunk;
     const ssize_t n = ::read(from_judge_, chunk.data(), chunk.size());
     if (n < 0 && errno == EINTR) continue;

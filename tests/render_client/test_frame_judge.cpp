@@ -86,6 +86,18 @@ TEST(FrameJudge, AJudgeThatEndsOrTalksNonsenseIsAnErrorForGood) {
       << nonsense.status().message();
 }
 
+// The client renders on when its judge hangs: a judge that reads and never
+// answers is gone once the answer is overdue, and stays gone.
+TEST(FrameJudge, AJudgeThatNeverAnswersIsGoneAfterItsTimeout) {
+  auto silent = FrameJudge::start("cat >/dev/null", 200);
+  ASSERT_TRUE(silent.isOk());
+  const auto answer = silent->judge({"frame.png", 1, someView()});
+  ASSERT_FALSE(answer.isOk());
+  EXPECT_NE(answer.status().message().find("did not answer within 200 ms"), std::string::npos)
+      << answer.status().message();
+  EXPECT_FALSE(silent->judge({"frame.png", 2, someView()}).isOk()) << "gone stays gone";
+}
+
 TEST(FrameJudge, AJudgeThatCannotStartIsNamed) {
   EXPECT_FALSE(FrameJudge::start("").isOk());
   // The shell starts; the program it names does not: the first frame says so.

@@ -43,21 +43,25 @@ StatusOr<JudgeAnswer> decodeJudgeAnswer(const std::string& line);
 // command line, its stderr the client's.
 class FrameJudge {
  public:
-  // An error when the command cannot start.
-  static StatusOr<FrameJudge> start(const std::string& command);
+  // An error when the command cannot start. A judge that takes longer
+  // than answer_timeout_ms over one frame counts as gone: the client must
+  // not hang on it.
+  static StatusOr<FrameJudge> start(const std::string& command, int answer_timeout_ms = 30000);
   FrameJudge(FrameJudge&& other) noexcept;
   FrameJudge& operator=(FrameJudge&&) = delete;
   FrameJudge(const FrameJudge&) = delete;
   // Closes its stdin, so it ends, and reaps it.
   ~FrameJudge();
 
-  // The frame's answer; an error when the judge is gone (it exited, or
-  // wrote something that is not an answer), after which every call fails.
+  // The frame's answer; an error when the judge is gone (it exited, wrote
+  // something that is not an answer, or did not answer in time), after
+  // which every call fails.
   StatusOr<JudgeAnswer> judge(const JudgeRequest& request);
 
  private:
-  FrameJudge(pid_t pid, int to_judge, int from_judge, std::string command);
+  FrameJudge(pid_t pid, int to_judge, int from_judge, std::string command, int timeout_ms);
   pid_t pid_ = -1;
+  int timeout_ms_ = 0;
   int to_judge_ = -1, from_judge_ = -1;
   std::string command_;
   std::string pending_;  // read past the last answer's newline
