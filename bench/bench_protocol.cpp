@@ -29,7 +29,8 @@ const Input& input() {
     capture::PodCapture capture =
         capture::capturePodFrame(scene, cam, scene.backgroundPlate(cam), 10, 0);
     Input in;
-    in.frame = capture::encodePodFrame(capture, 0, protocol::Codec::kLz4PlanarDelta).flatten();
+    in.frame = capture::encodePodFrame(capture, 0, {protocol::Codec::kLz4PlanarDelta, kFullFrame})
+                   .flatten();
     protocol::StreamDecoder decoder;
     decoder.feed(in.frame);
     static protocol::Frame frame = decoder.takeFrame();
@@ -129,7 +130,7 @@ void BM_EncodePodCapture(benchmark::State& state) {
     capture::PodCapture capture = kCaptured;  // the encoder appends a stamp and borrows the planes
     state.ResumeTiming();
     const auto frame =
-        capture::encodePodFrame(capture, 0, protocol::Codec::kLz4PlanarDelta, margin);
+        capture::encodePodFrame(capture, 0, {protocol::Codec::kLz4PlanarDelta, margin});
     wire_bytes = frame.size();
     benchmark::DoNotOptimize(wire_bytes);
   }

@@ -101,7 +101,7 @@ int main() {
   capture::PodCapture capture =
       capture::capturePodFrame(scene, cam, scene.backgroundPlate(cam), 10, 0);
   const auto frame =
-      capture::encodePodFrame(capture, 0, protocol::Codec::kLz4PlanarDelta).flatten();
+      capture::encodePodFrame(capture, 0, {protocol::Codec::kLz4PlanarDelta, kFullFrame}).flatten();
   protocol::StreamDecoder decoder;
   decoder.feed(frame);
   const protocol::Frame decoded = decoder.takeFrame();

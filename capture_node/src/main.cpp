@@ -12,13 +12,14 @@
 int main(int argc, char** argv) {
   using namespace holofuse;
   capture::PodOptions options;
-  std::string server, size = "320x240", codec = "lz4-delta", scene_name = "clean";
+  std::string server, size = "320x240", scene_name = "clean";
   CLI::App app{"holofuse capture_node: a synthetic camera pod streaming to a fusion server"};
   app.add_option("--server", server, "fusion server HOST:PORT")->required();
   app.add_option("--pod-id", options.pod_id, "this pod's camera index (0-based)")->required();
   // What a synthetic pod makes and how it encodes it: a replay pod sends
   // the recorded bytes as they are, so these are refused with --replay.
-  const std::vector<CLI::Option*> synthetic = {
+  const SettingFlags<PodEncoding> encoding_flags(app, podEncodingFlags());
+  std::vector<CLI::Option*> synthetic = {
       app.add_option("--pods", options.pods, "cameras on the ring (1..16)")
           ->check(CLI::Range(1, 16)),
       app.add_option("--size", size, "image size WxH"),
@@ -27,11 +28,9 @@ int main(int argc, char** argv) {
                      "stop after this many frames (0: run until signalled)"),
       app.add_option("--scene", scene_name, "named synthetic scene: " + scene::sceneNames()),
       app.add_option("--seed", options.scene.seed, "scene seed"),
-      addSharedFlag(app, "--noise", options.scene.noise_amplitude),
-      addSharedFlag(app, "--crop-margin", options.crop_margin),
-      addSharedFlag(app, "--codec", codec),
-      addSharedFlag(app, "--lz4-acceleration", options.lz4_acceleration),
-      addSharedFlag(app, "--lz4-hc-level", options.lz4_hc_level)};
+      app.add_option("--noise", options.scene.noise_amplitude, scene::kNoiseHelp)
+          ->check(CLI::Range(0.0, scene::kMaxNoise))};
+  for (CLI::Option* option : encoding_flags.options()) synthetic.push_back(option);
   std::string replay, speed = "1";
   bool loop = false;
   CLI::Option* replay_option =
@@ -87,7 +86,7 @@ int main(int argc, char** argv) {
   options.width = w;
   options.height = h;
   options.scene.frames_per_second = options.fps;
-  options.color_codec = *imageCodecFromName(codec);
+  encoding_flags.apply(options.encoding);
   installStopSignals();
   return capture::runPod(options);
 }

@@ -35,12 +35,10 @@ PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& cam
 }
 
 protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id,
-                                       protocol::Codec color_codec, int crop_margin,
-                                       int lz4_acceleration, int lz4_hc_level) {
+                                       const PodEncoding& encoding) {
   const PodPlanes planes{capture.frame_id, capture.capture_time_ns, &capture.view.color,
                          &capture.mask, &capture.feather};
-  return holofuse::encodePodFrame(planes, capture.stamps, camera_id, color_codec, crop_margin,
-                                  lz4_acceleration, lz4_hc_level);
+  return holofuse::encodePodFrame(planes, capture.stamps, camera_id, encoding);
 }
 
 int runPod(const PodOptions& options) {
@@ -56,8 +54,9 @@ int runPod(const PodOptions& options) {
                "[pod-%u] %ux%u at %g fps; colour %s at LZ4 acceleration %d, crop margin %d, LZ4HC "
                "level %d\n",
                options.pod_id, options.width, options.height, options.fps,
-               imageCodecName(options.color_codec).c_str(), options.lz4_acceleration,
-               options.crop_margin, options.lz4_hc_level);
+               imageCodecName(options.encoding.color_codec).c_str(),
+               options.encoding.lz4_acceleration, options.encoding.crop_margin,
+               options.encoding.lz4_hc_level);
 
   protocol::Hello hello;
   hello.role = protocol::Role::kPod;
@@ -95,8 +94,7 @@ int runPod(const PodOptions& options) {
     PodCapture capture =
         capturePodFrame(scene, camera, plate, frame_id, static_cast<uint16_t>(options.pod_id));
     link.send(std::make_shared<const protocol::OutgoingFrame>(
-        encodePodFrame(capture, camera.id, options.color_codec, options.crop_margin,
-                       options.lz4_acceleration, options.lz4_hc_level)));
+        encodePodFrame(capture, camera.id, options.encoding)));
     link.poll(0, received);
     received.clear();
     ++sent;

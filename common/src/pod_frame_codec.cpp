@@ -9,13 +9,27 @@
 
 namespace holofuse {
 
+const std::vector<Setting<PodEncoding>>& podEncodingFlags() {
+  static const std::vector<Setting<PodEncoding>> flags = [] {
+    std::vector<Setting<PodEncoding>> all = imageEncodingSettings<PodEncoding>(
+        "--codec", "colour codec",
+        [](PodEncoding& e) -> protocol::Codec& { return e.color_codec; });
+    all.push_back(numberSetting<PodEncoding>(
+        "--crop-margin",
+        "send only the foreground's rectangle grown by this many pixels (-1: whole images)", -1,
+        4096, [](PodEncoding& e) -> int& { return e.crop_margin; }));
+    return all;
+  }();
+  return flags;
+}
+
 using protocol::monotonicNs;
 using protocol::Stage;
 
 protocol::OutgoingFrame encodePodFrame(const PodPlanes& planes,
                                        std::vector<protocol::StageStamp>& stamps,
-                                       uint32_t camera_id, protocol::Codec color_codec,
-                                       int crop_margin, int lz4_acceleration, int lz4_hc_level) {
+                                       uint32_t camera_id, const PodEncoding& encoding) {
+  const auto [color_codec, crop_margin, lz4_acceleration, lz4_hc_level] = encoding;
   const uint64_t t0 = monotonicNs();
   // The compressed planes live as long as the frame that borrows them.
   auto storage = std::make_shared<std::array<std::vector<uint8_t>, 3>>();

@@ -429,7 +429,7 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& capture,
       std::vector<protocol::StageStamp> stamps;
       const protocol::OutgoingFrame frame =
           encodePodFrame({f + 1, 0, &view.color, &view.mask, &feather}, stamps, cameras[c].id,
-                         protocol::Codec::kLz4PlanarDelta, options.crop_margin);
+                         PodEncoding{protocol::Codec::kLz4PlanarDelta, options.crop_margin});
       s = writer->append(RecordKind::kPodFrame, cameras[c].id, f + 1, f * interval_ns, frame);
       if (!s.isOk()) return fail(s);
       ++status.done;

@@ -10,6 +10,7 @@
 #include "common/command_line.h"
 #include "dataset/import.h"
 #include "dataset/inspection.h"
+#include "hull/visual_hull.h"
 
 namespace {
 
@@ -44,7 +45,7 @@ int main(int argc, char** argv) {
   info->add_option("dir", dir, "dataset folder")->required();
   info->add_option("--sheet", sheet, "contact sheet PNG (default DIR/contact_sheet.png)");
   info->add_option("--voxel", voxel, "hull voxel size in metres (default: the dataset's)")
-      ->check(holofuse::sharedFlag("--voxel").check());
+      ->check(CLI::Range(holofuse::hull::kMinVoxel, holofuse::hull::kMaxVoxel));
   auto* import =
       app.add_subcommand("import", "convert a real multi-view capture into a dataset that replays");
   std::string source, format, out;
@@ -67,7 +68,7 @@ int main(int argc, char** argv) {
   import->add_option("--close-px", import_options.close_px, "closing radius after thresholding")
       ->check(CLI::Range(0, 100));
   import->add_option("--voxel", import_voxel, "hull voxel size for replays (default: volume / 96)")
-      ->check(holofuse::sharedFlag("--voxel").check());
+      ->check(CLI::Range(holofuse::hull::kMinVoxel, holofuse::hull::kMaxVoxel));
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (import->parsed()) {
     const auto chosen = dataset::captureFormatFromName(format);

@@ -24,13 +24,12 @@ protocol::Frame parsedFrame(const protocol::Bytes& wire, const std::string& what
   return std::move(*frame);
 }
 
-// The hull refined as the server refines it (EvalOptions::refine_voxels;
+// The hull refined as the server refines it (the fusion's refine settings;
 // the hull itself when off).
 Mesh refined(const Mesh& hull, const std::vector<hull::HullView>& views,
              const std::vector<Image8>& colors, const EvalOptions& options, double voxel_size) {
-  if (!(options.refine_voxels > 0)) return hull;
-  fusion::PhotoRefineOptions refine;
-  refine.depth_voxels = options.refine_voxels;
+  fusion::PhotoRefineOptions refine = options.loop.fusion.refine;
+  if (!(refine.depth_voxels > 0)) return hull;
   refine.voxel_size = voxel_size;
   return fusion::refineByPhotoConsistency(hull, views, colors, refine);
 }
@@ -38,7 +37,7 @@ Mesh refined(const Mesh& hull, const std::vector<hull::HullView>& views,
 // For each camera held out, the mesh its image is compared with where that
 // is not the frame's: the hull carved without its silhouette
 // (EvalOptions::hull_without_held_out), and refined without its colour
-// (EvalOptions::refine_voxels), so that beyond its silhouette, which paper
+// (the fusion's refine settings), so that beyond its silhouette, which paper
 // 000's protocol lets shape the hull, nothing of a held-out image shapes
 // what it is compared with. Through Draco, as a client receives a mesh.
 std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
@@ -46,7 +45,8 @@ std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
                                      const std::vector<Image8>& colors, const Mesh& hull,
                                      const hull::HullOptions& hull_options) {
   std::map<int, Mesh> meshes;
-  if (!options.hull_without_held_out && !(options.refine_voxels > 0)) return meshes;
+  if (!options.hull_without_held_out && !(options.loop.fusion.refine.depth_voxels > 0))
+    return meshes;
   for (int held : heldOutCameras(static_cast<int>(views.size()), options.held_out_cameras)) {
     std::vector<hull::HullView> others = views;
     others.erase(others.begin() + held);
@@ -58,7 +58,7 @@ std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
     const Mesh mesh =
         refined(options.hull_without_held_out ? hull::carveVisualHull(others, hull_options) : hull,
                 others, other_colors, options, hull_options.voxel_size);
-    auto bytes = encodeDraco(mesh, options.draco);
+    auto bytes = encodeDraco(mesh, options.loop.fusion.draco);
     auto decoded = bytes.isOk() ? decodeDraco(bytes->data(), bytes->size()) : bytes.status();
     if (!decoded.isOk()) {
       throw std::runtime_error("the hull without camera " +
@@ -96,12 +96,7 @@ const fusion::PodImages& receivePodFrame(const protocol::Bytes& wire, const Came
 
 void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions& options,
                   const std::vector<Camera>& reported, FrameData& frame) {
-  fusion::FusionSettings settings;
-  settings.hull.voxel_size = options.voxel_size;
-  settings.draco = options.draco;
-  settings.image_codec = options.image_codec;
-  settings.lz4_acceleration = options.lz4_acceleration;
-  settings.lz4_hc_level = options.lz4_hc_level;
+  fusion::FusionSettings settings = options.loop.fusion;
   settings.pods_expected = static_cast<uint32_t>(reported.size());
   fusion::GroupJob job;
   job.group = std::move(group);  // the decoded images move on; the caller is done with them
@@ -158,7 +153,7 @@ std::vector<int> heldOutCameras(int cameras, int limit) {
 Mesh refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
                   const std::vector<hull::HullView>& views, Mesh carved,
                   const hull::HullOptions& hull_options, FrameData& frame) {
-  const bool refining = options.refine_voxels > 0;
+  const bool refining = options.loop.fusion.refine.depth_voxels > 0;
   // The colours in whole frames only for the refinement, which reads them.
   const std::vector<Image8> colors =
       refining ? fusion::colorsInFrame(group) : std::vector<Image8>{};
@@ -186,9 +181,7 @@ FrameData prepareFrame(const EvalOptions& options, const scene::SyntheticScene& 
     frame.true_colors.push_back(capture.view.color);
     frame.true_masks.push_back(capture.view.mask);
     const protocol::Bytes wire =
-        capture::encodePodFrame(capture, static_cast<uint32_t>(i), options.image_codec,
-                                options.crop_margin, options.lz4_acceleration, options.lz4_hc_level)
-            .flatten();
+        capture::encodePodFrame(capture, static_cast<uint32_t>(i), options.loop.pods).flatten();
     // As the pod stamps it: its planes' encoding, not the frame's packing.
     const double encode_ms = protocol::stampedMs(capture.stamps, protocol::Stage::kPodEncode);
     slowest_pod_ms = std::max(slowest_pod_ms, encode_ms);
@@ -202,9 +195,9 @@ FrameData prepareFrame(const EvalOptions& options, const scene::SyntheticScene& 
   const auto t0 = Clock::now();
   // The true surface at the hull's voxel size, when asked for.
   hull::HullOptions hull_options;
-  hull_options.voxel_size = options.voxel_size;
+  hull_options.voxel_size = options.loop.fusion.hull.voxel_size;
   Mesh hull = options.geometry == "truth"
-                  ? scene.truthMesh(frame_id, options.voxel_size)
+                  ? scene.truthMesh(frame_id, hull_options.voxel_size)
                   : hull::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
   frame.hull_ms = msSince(t0);
   if (options.geometry != "truth")

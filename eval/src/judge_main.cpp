@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
   // truth must change with them.
   app.add_option("--seed", seed, "the pods' --seed (their motion and texture)");
   app.add_option("--noise", noise, "the pods' --noise, grey levels")
-      ->check(sharedFlag("--noise").check());
+      ->check(CLI::Range(0.0, scene::kMaxNoise));
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   const scene::ScenePreset* preset = scene::findScene(scene_name);
   if (preset == nullptr) {

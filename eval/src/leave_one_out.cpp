@@ -233,16 +233,10 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context,
       const Camera& pose = novel ? input.novel_poses[static_cast<size_t>(held)]
                                  : input.reported[static_cast<size_t>(held)];
       render::Renderer renderer(context, pose.width, pose.height);
-      renderer.setHalfPrecisionVertices(options.half_precision_vertices);
-      render::BlendSettings settings;
+      renderer.setHalfPrecisionVertices(options.loop.render.half_precision_vertices);
+      render::BlendSettings settings = options.loop.render.blend;
       settings.mode = mode;
       settings.frame_interval_s = 1.0 / options.fps;
-      settings.alpha = options.alpha;
-      settings.lambda = options.lambda;
-      settings.fields = options.fields;
-      settings.beta = options.beta;
-      settings.feather_width_px = options.feather_width_px;
-      settings.fragment_test = options.fragment_test;
       std::optional<ErrorImage> previous;
       for (int f = 0; f < frame_count; ++f) {
         const FrameData& frame = input.frames[static_cast<size_t>(f)];
@@ -280,9 +274,10 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context,
         }
         auto cached = region_cache.find(key);
         if (cached == region_cache.end()) {
-          cached =
-              region_cache.emplace(key, viewRegions(mesh, pose, others, truth_mask, options.fields))
-                  .first;
+          cached = region_cache
+                       .emplace(key, viewRegions(mesh, pose, others, truth_mask,
+                                                 options.loop.render.blend.fields))
+                       .first;
         }
         const ViewRegions& regions = cached->second;
         m.regions.add(regionErrors(picture, truth_color, regions.regions));
@@ -411,7 +406,7 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
 }
 
 // A dataset (recorded or imported): its cameras' images and masks, the
-// hull carved in its capture volume at its voxel size (options.voxel_size
+// hull carved in its capture volume at its voxel size (options.loop.fusion.hull.voxel_size
 // when the dataset names none or a voxel was given), through Draco. Its masks are the truth the
 // images are compared inside; there is no true surface.
 SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
@@ -428,8 +423,9 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
   if (cameras.size() < 2)
     throw std::invalid_argument(dir + ": leave-one-camera-out needs at least 2 cameras");
   input.reported = cameras;
-  hull::HullOptions hull_options = dataset::hullOptionsFor(*dataset, options.voxel_size);
-  if (!options.voxel_from_dataset) hull_options.voxel_size = options.voxel_size;
+  hull::HullOptions hull_options =
+      dataset::hullOptionsFor(*dataset, options.loop.fusion.hull.voxel_size);
+  if (!options.voxel_from_dataset) hull_options.voxel_size = options.loop.fusion.hull.voxel_size;
   // The frame ids every camera holds, in order; each camera's record in
   // camera order (the first, should a camera repeat an id).
   std::map<uint64_t, std::map<uint32_t, dataset::RecordInfo>> by_id;
@@ -461,10 +457,10 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
     const std::vector<hull::HullView> hull_views = fusion::hullViewsOf(group);
     const auto t0 = Clock::now();
     Mesh hull;
-    if (options.hull_error_target > 0 && input.frames.empty()) {
+    if (options.loop.fusion.hull_error_target > 0 && input.frames.empty()) {
       // The error target picks the voxel on the first frame; the rest follow it.
       hull::HullForTarget found = hull::carveToErrorTarget(
-          hull_views, hull_options, options.hull_error_target, &frame.hull_stats);
+          hull_views, hull_options, options.loop.fusion.hull_error_target, &frame.hull_stats);
       hull = std::move(found.mesh);
       hull_options.voxel_size = found.voxel_size;
     } else {
@@ -547,7 +543,7 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
       plates.push_back(scene.backgroundPlate(camera));
     }
     EvalOptions scene_eval = options;
-    if (options.hull_error_target > 0 && options.geometry == "hull") {
+    if (options.loop.fusion.hull_error_target > 0 && options.geometry == "hull") {
       // The error target picks the voxel on the first frame; the rest follow it.
       std::vector<hull::HullView> views;
       for (size_t i = 0; i < truth.size(); ++i) {
@@ -556,13 +552,14 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
         views.push_back({input.reported[i], capture.mask, capture.feather});
       }
       hull::HullOptions hull_options;
-      hull_options.voxel_size = options.voxel_size;
-      scene_eval.voxel_size =
-          hull::carveToErrorTarget(views, hull_options, options.hull_error_target).voxel_size;
+      hull_options.voxel_size = options.loop.fusion.hull.voxel_size;
+      scene_eval.loop.fusion.hull.voxel_size =
+          hull::carveToErrorTarget(views, hull_options, options.loop.fusion.hull_error_target)
+              .voxel_size;
     }
     SceneResult result;
     result.name = preset->name;
-    result.voxel_mm = 1000.0 * scene_eval.voxel_size;
+    result.voxel_mm = 1000.0 * scene_eval.loop.fusion.hull.voxel_size;
     result.stresses = preset->stresses;
     result.cameras = camera_count;
     result.view_jump_degrees = preset->view_jump_degrees;

@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
                "write rendered, true and mask PNGs of every comparison");
   // Every setting a sweep turns, under the live loop's flag names (--size
   // is eval's own, above).
-  const eval::KnobFlags knob_flags(app, {"size"});
+  const SettingFlags<eval::EvalOptions> setting_flags(app, eval::evalFlags());
   app.add_option("--novel-views", options.novel_view_degrees,
                  "synthetic scenes: also render this many degrees around the ring from the chosen "
                  "cameras' poses, "
@@ -66,10 +66,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   options.budget = *loaded_budget;
-  if (const std::string error = knob_flags.apply(options); !error.empty()) {
-    std::fprintf(stderr, "holofuse eval: %s\n", error.c_str());
-    return 2;
-  }
+  setting_flags.apply(options);
   for (size_t k = 0; k < options.novel_view_degrees.size(); ++k) {
     const double degrees = options.novel_view_degrees[k];
     if (std::count(options.novel_view_degrees.begin(), options.novel_view_degrees.begin() + k,

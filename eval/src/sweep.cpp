@@ -33,7 +33,6 @@ fs::path pointPath(const std::string& out_dir, const std::string& knob, const st
 nlohmann::json runSettings(const EvalOptions& run) {
   std::vector<std::string> modes;
   for (const auto mode : run.modes) modes.push_back(render::blendModeName(mode));
-  const render::FieldParameters& f = run.fields;
   nlohmann::json settings = {
       {"scenes", run.scenes},
       {"datasets", run.datasets},
@@ -47,30 +46,16 @@ nlohmann::json runSettings(const EvalOptions& run) {
       {"camera_kept", run.camera_kept},
       {"device", run.device},
       {"geometry", run.geometry},
-      {"voxel_size", run.voxel_size},
-      {"hull_error_target", run.hull_error_target},
-      {"refine_voxels", run.refine_voxels},
-      {"draco", {run.draco.position_bits, run.draco.normal_bits, run.draco.speed}},
-      {"image_codec", static_cast<int>(run.image_codec)},
-      {"lz4_acceleration", run.lz4_acceleration},
-      {"lz4_hc_level", run.lz4_hc_level},
-      {"crop_margin", run.crop_margin},
       {"cameras", camerasOf(run)},  // the scene's own count by number: the same run
-      {"fields",
-       {f.relative_jump, f.dilation_px, f.relative_depth_tolerance, f.vote_delta, f.vote_levels,
-        f.geodesic_rings, f.geodesic_iterations, f.geodesic_radius}},
-      {"alpha", run.alpha},
-      {"lambda", run.lambda},
-      {"beta", run.beta},
-      {"feather_width_px", run.feather_width_px},
-      {"fragment_test", run.fragment_test},
-      {"half_precision_vertices", run.half_precision_vertices},
       // How bytes and codec times were counted, and the metrics'
       // definitions: points measured before a change differ here.
       {"links", "the loop's own encoding and decoding"},
       {"metrics",
        "SSIM over the mask's pixels per window; p50/p95 interpolated; Chamfer to triangles; "
        "codec stages per pod frame"}};
+  // Every setting of the loop's programs, under its flag.
+  for (const Setting<LoopSettings>& setting : loopFlags())
+    settings["loop"][setting.flag] = setting.get(run.loop);
   // A dataset's own voxel, or the one given.
   if (!run.datasets.empty()) settings["voxel_from_dataset"] = run.voxel_from_dataset;
   return settings;
@@ -361,7 +346,8 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options,
     // The dataset's own voxel is the default point's, by number.
     auto dataset = dataset::Dataset::open(swept.base.datasets.front());
     if (!dataset.isOk()) throw std::invalid_argument(dataset.status().message());
-    swept.base.voxel_size = dataset::hullOptionsFor(*dataset, swept.base.voxel_size).voxel_size;
+    swept.base.loop.fusion.hull.voxel_size =
+        dataset::hullOptionsFor(*dataset, swept.base.loop.fusion.hull.voxel_size).voxel_size;
     swept.base.voxel_from_dataset = false;
   }
   for (auto& [name, values] : swept.knobs) {

@@ -4,33 +4,23 @@
 #include <cstdio>
 
 #include "common/command_line.h"
-#include "common/image_codec.h"
 #include "common/shutdown.h"
 #include "fusion_server/fusion_server.h"
 
 int main(int argc, char** argv) {
   using namespace holofuse;
   fusion::ServerOptions options;
-  std::string listen = "127.0.0.1:7300", image_codec = "lz4-delta";
+  std::string listen = "127.0.0.1:7300";
   CLI::App app{"holofuse fusion_server: visual hull fusion and fan-out"};
   app.add_option("--listen", listen, "HOST:PORT to listen on (port 0: any free port)");
   app.add_option("--pods", options.pods, "cameras expected (1..16)")->check(CLI::Range(1, 16));
   app.add_option("--sync-deadline-ms", options.sync_deadline_ms,
                  "wait this long for a frame's slowest pod")
       ->check(CLI::Range(1.0, 10000.0));
-  addSharedFlag(app, "--voxel", options.fusion.hull.voxel_size);
-  double hull_error_mm = 0;
-  addSharedFlag(app, "--hull-error-mm", hull_error_mm);
-  addSharedFlag(app, "--refine-voxels", options.fusion.refine.depth_voxels);
+  const SettingFlags<fusion::FusionSettings> fusion_flags(app, fusion::fusionFlags());
   std::string volume;
   app.add_option("--volume", volume,
                  "capture volume min and max corners x0,y0,z0,x1,y1,z1 in metres (a dataset's)");
-  addSharedFlag(app, "--draco-bits", options.fusion.draco.position_bits);
-  app.add_option("--draco-speed", options.fusion.draco.speed, "Draco speed 0 (small) .. 10 (fast)")
-      ->check(CLI::Range(0, 10));
-  addSharedFlag(app, "--image-codec", image_codec);
-  addSharedFlag(app, "--lz4-acceleration", options.fusion.lz4_acceleration);
-  addSharedFlag(app, "--lz4-hc-level", options.fusion.lz4_hc_level);
   app.add_option("--client-queue", options.client_queue_frames,
                  "frames queued per client before dropping the oldest")
       ->check(CLI::Range(1, 1024));
@@ -53,7 +43,7 @@ int main(int argc, char** argv) {
       "--exit-when-pods-done", options.exit_when_pods_done,
       "stop once every pod has left and its frames are fused and delivered (end of a replay)");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
-  options.fusion.hull_error_target = hull_error_mm / 1000.0;
+  fusion_flags.apply(options.fusion);
   if (!volume.empty()) {
     double v[6];
     char tail = 0;
@@ -78,7 +68,6 @@ int main(int argc, char** argv) {
     return 2;
   }
   options.listen = *endpoint;
-  options.fusion.image_codec = *imageCodecFromName(image_codec);
   installStopSignals();
   // A recording that reaches a file size limit gets EFBIG from write() and
   // is reported like a full disk, instead of the signal ending the server.

@@ -215,7 +215,7 @@ int runClient(const ClientOptions& options) {
   try {
     context = std::make_unique<VulkanContext>(options.device);
     renderer = std::make_unique<Renderer>(*context, options.width, options.height);
-    renderer->setHalfPrecisionVertices(options.half_precision_vertices);
+    renderer->setHalfPrecisionVertices(options.render.half_precision_vertices);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "[client] Vulkan start-up failed: %s\n", e.what());
     return 1;
@@ -230,7 +230,7 @@ int runClient(const ClientOptions& options) {
     judge.emplace(std::move(started.value()));
   }
   std::fprintf(stderr, "[client] rendering on %s, mode %s\n", context->deviceName().c_str(),
-               blendModeName(options.blend.mode).c_str());
+               blendModeName(options.render.blend.mode).c_str());
   if (options.jump_degrees != 0) {
     std::fprintf(stderr, "[client] the view jumps %g degrees at rendered frame %llu\n",
                  options.jump_degrees, static_cast<unsigned long long>(options.jump_at_frame));
@@ -371,9 +371,9 @@ int runClient(const ClientOptions& options) {
         }
         // What came off the network, checked before the renderer takes it
         // (it throws on what these refuse).
-        Status usable = checkMesh(*mesh, options.half_precision_vertices);
+        Status usable = checkMesh(*mesh, options.render.half_precision_vertices);
         if (usable.isOk()) usable = checkViews(bundle->second.views);
-        if (usable.isOk()) usable = checkRenderable(mesh->positions.size(), options.blend);
+        if (usable.isOk()) usable = checkRenderable(mesh->positions.size(), options.render.blend);
         if (!usable.isOk()) {
           skip(mesh_frame.frame_id, usable.message());
           bundles.erase(bundle);
@@ -389,7 +389,7 @@ int runClient(const ClientOptions& options) {
           bundles.erase(bundle);
           continue;
         }
-        BlendSettings blend = options.blend;
+        BlendSettings blend = options.render.blend;
         // Eq. 5's lambda is rescaled by the real interval between rendered
         // frames (clamped: a stall must not make the field jump).
         const uint64_t now_ns = monotonicNs();
@@ -498,28 +498,17 @@ int runClient(const ClientOptions& options) {
   report.setSuperseded(frames_superseded);
   // What the frames were rendered with, so that a report can be matched
   // with the sweep point it was meant to reproduce.
-  auto number = [](double v) {
-    char text[32];
-    std::snprintf(text, sizeof(text), "%g", v);
-    return std::string(text);
-  };
-  const FieldParameters& fields = options.blend.fields;
   std::map<std::string, std::string> settings = {
-      {"mode", blendModeName(options.blend.mode)},
+      {"mode", blendModeName(options.render.blend.mode)},
       {"view", options.view},
       {"size", std::to_string(options.width) + "x" + std::to_string(options.height)},
-      {"device", context->deviceName()},
-      {"alpha", number(options.blend.alpha)},
-      {"lambda", number(options.blend.lambda)},
-      {"beta", number(options.blend.beta)},
-      {"feather_width", number(options.blend.feather_width_px)},
-      {"fragment_test", options.blend.fragment_test ? "on" : "off"},
-      {"dilation", number(fields.dilation_px)},
-      {"vote_delta", number(fields.vote_delta)},
-      {"geodesic_rings", number(fields.geodesic_rings)},
-      {"geodesic_passes", number(fields.geodesic_iterations)},
-      {"geodesic_radius", number(fields.geodesic_radius)},
-      {"vertex_precision", options.half_precision_vertices ? "fp16" : "fp32"}};
+      {"device", context->deviceName()}};
+  // Every rendering setting under its flag's name ("--vote-delta": vote_delta).
+  for (const Setting<RenderSettings>& setting : renderFlags()) {
+    std::string name = setting.flag.substr(2);
+    std::replace(name.begin(), name.end(), '-', '_');
+    settings[name] = setting.get(options.render);
+  }
   const fs::path report_path = out_dir / "report.json";
   std::ofstream(report_path) << report.toJson(settings, options.budget);
   std::ofstream(out_dir / "report.html") << report.toHtml(settings, options.budget);

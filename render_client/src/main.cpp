@@ -28,24 +28,7 @@ int main(int argc, char** argv) {
   app.add_option("--jump-at", options.jump_at_frame,
                  "the rendered frame the jump happens at (default: half of --frames, else 30)");
   app.add_option("--mode", mode, "blending mode")->check(CLI::IsMember(render::blendModeNames()));
-  addSharedFlag(app, "--alpha", options.blend.alpha);
-  addSharedFlag(app, "--lambda", options.blend.lambda);
-  app.add_option("--depth-tolerance", options.blend.depth_tolerance,
-                 "occlusion test tolerance, metres")
-      ->check(CLI::Range(0.0, 10.0));
-  addSharedFlag(app, "--dilation", options.blend.fields.dilation_px);
-  addSharedFlag(app, "--geodesic-radius", options.blend.fields.geodesic_radius);
-  static_assert(render::kMaxGeodesicRings == 64,
-                "the range of --geodesic-rings in common/command_line.h");
-  addSharedFlag(app, "--geodesic-rings", options.blend.fields.geodesic_rings);
-  addSharedFlag(app, "--geodesic-passes", options.blend.fields.geodesic_iterations);
-  addSharedFlag(app, "--vote-delta", options.blend.fields.vote_delta);
-  addSharedFlag(app, "--beta", options.blend.beta);
-  addSharedFlag(app, "--feather-width", options.blend.feather_width_px);
-  std::string fragment_test = options.blend.fragment_test ? "on" : "off";
-  addSharedFlag(app, "--fragment-test", fragment_test);
-  std::string vertex_precision = "fp32";
-  addSharedFlag(app, "--vertex-precision", vertex_precision);
+  const SettingFlags<render::RenderSettings> render_flags(app, render::renderFlags());
   app.add_option("--exclude-camera", options.exclude_camera,
                  "leave this pod camera out of the blend");
   app.add_option("--device", options.device,
@@ -60,7 +43,7 @@ int main(int argc, char** argv) {
                  "frame is judged against the truth from its view (PSNR, SSIM in report.json and "
                  "report.html); costs client time after each frame");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
-  options.blend.fragment_test = fragment_test == "on";
+  render_flags.apply(options.render);
   if (list_devices) {
     try {
       const auto devices = render::VulkanContext::listDevices();
@@ -111,8 +94,7 @@ int main(int argc, char** argv) {
   }
   options.width = w;
   options.height = h;
-  options.blend.mode = *render::blendModeFromName(mode);
-  options.half_precision_vertices = vertex_precision == "fp16";
+  options.render.blend.mode = *render::blendModeFromName(mode);
   installStopSignals();
   return render::runClient(options);
 }

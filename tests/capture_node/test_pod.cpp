@@ -55,7 +55,7 @@ TEST(Pod, EncodedFrameCarriesStampsAndDecodablePlanes) {
   const scene::SyntheticScene scene;
   const auto cam = scene::SyntheticScene::cameraRig(4, 160, 120)[3];
   PodCapture capture = capturePodFrame(scene, cam, scene.backgroundPlate(cam), 42, 3);
-  const auto outgoing = encodePodFrame(capture, 3, protocol::Codec::kLz4PlanarDelta);
+  const auto outgoing = encodePodFrame(capture, 3, {protocol::Codec::kLz4PlanarDelta, kFullFrame});
   // The planes are borrowed, not copied: the frame is several parts.
   EXPECT_GT(outgoing.parts().size(), 1u);
   const auto bytes = outgoing.flatten();
@@ -88,7 +88,7 @@ TEST(Pod, SendsOnlyTheForegroundRectangleWithItsOffset) {
   PodCapture capture = capturePodFrame(scene, cam, scene.backgroundPlate(cam), 7, 1);
   const PixelRect rect = foregroundRect(capture.mask, 8);
   ASSERT_FALSE(rect.empty());
-  const auto bytes = encodePodFrame(capture, 1, protocol::Codec::kLz4PlanarDelta, 8).flatten();
+  const auto bytes = encodePodFrame(capture, 1, {protocol::Codec::kLz4PlanarDelta, 8}).flatten();
   protocol::StreamDecoder decoder;
   decoder.feed(bytes);
   ASSERT_TRUE(decoder.hasFrame());
@@ -105,7 +105,8 @@ TEST(Pod, SendsOnlyTheForegroundRectangleWithItsOffset) {
   ASSERT_TRUE(color.isOk());
   EXPECT_EQ(color->pixels, cropImage(capture.view.color, rect).pixels);
   // Smaller on the wire than the whole frame.
-  const auto whole = encodePodFrame(capture, 1, protocol::Codec::kLz4PlanarDelta).flatten();
+  const auto whole =
+      encodePodFrame(capture, 1, {protocol::Codec::kLz4PlanarDelta, kFullFrame}).flatten();
   EXPECT_LT(bytes.size(), whole.size());
 }
 

@@ -217,9 +217,9 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
 TEST(LeaveOneOut, CroppedPodImagesGiveTheSameHullAndPicturesAsWholeOnes) {
   EvalOptions options = tiny();
   options.scenes = {"clean"};
-  options.crop_margin = -1;
+  options.loop.pods.crop_margin = -1;
   const SceneResult whole = runLeaveOneOut(options).at(0);
-  options.crop_margin = 8;
+  options.loop.pods.crop_margin = 8;
   const SceneResult cropped = runLeaveOneOut(options).at(0);
   EXPECT_EQ(cropped.triangles, whole.triangles);
   EXPECT_DOUBLE_EQ(cropped.chamfer_mm, whole.chamfer_mm);

@@ -473,28 +473,36 @@ TEST(Sweep, EveryKnobIsAFlagOfTheLiveLoopAndOfEval) {
 // naming the flag.
 TEST(Sweep, EvalFlagsSetWhatTheKnobsSet) {
   CLI::App app;
-  const KnobFlags flags(app, {"size"});
+  const SettingFlags<EvalOptions> flags(app, evalFlags());
   EXPECT_EQ(app.get_option_no_throw("--size"), nullptr) << "eval's own";
   app.parse(
       "--vote-delta 0.3 --dilation 2 --geodesic-rings 7 --voxel 0.04 --hull-error-mm 1.5 --lambda "
-      "0.2",
+      "0.2 --lz4-hc-level 3",
       false);
   EvalOptions options;
-  ASSERT_EQ(flags.apply(options), "");
-  EXPECT_FLOAT_EQ(options.fields.vote_delta, 0.3f);
-  EXPECT_EQ(options.fields.dilation_px, 2);
-  EXPECT_EQ(options.fields.geodesic_rings, 7);
-  EXPECT_DOUBLE_EQ(options.voxel_size, 0.04);
+  flags.apply(options);
+  const render::BlendSettings& blend = options.loop.render.blend;
+  EXPECT_FLOAT_EQ(blend.fields.vote_delta, 0.3f);
+  EXPECT_EQ(blend.fields.dilation_px, 2);
+  EXPECT_EQ(blend.fields.geodesic_rings, 7);
+  EXPECT_DOUBLE_EQ(options.loop.fusion.hull.voxel_size, 0.04);
   EXPECT_FALSE(options.voxel_from_dataset) << "a voxel given overrides a dataset's own";
-  EXPECT_DOUBLE_EQ(options.hull_error_target, 0.0015);
-  EXPECT_DOUBLE_EQ(options.lambda, 0.2);
-  EXPECT_EQ(options.alpha, EvalOptions{}.alpha) << "a flag not given leaves its setting alone";
+  EXPECT_DOUBLE_EQ(options.loop.fusion.hull_error_target, 0.0015);
+  EXPECT_DOUBLE_EQ(blend.lambda, 0.2);
+  EXPECT_EQ(options.loop.fusion.lz4_hc_level, 3);
+  EXPECT_EQ(options.loop.pods.lz4_hc_level, 3) << "one flag for the pods and the server";
+  EXPECT_EQ(blend.alpha, EvalOptions{}.loop.render.blend.alpha)
+      << "a flag not given leaves its setting alone";
   CLI::App bad_app;
-  const KnobFlags bad(bad_app, {"size"});
-  bad_app.parse("--dilation 65", false);
-  const std::string error = bad.apply(options);
-  EXPECT_NE(error.find("--dilation"), std::string::npos) << error;
-  EXPECT_NE(error.find("65"), std::string::npos) << error;
+  const SettingFlags<EvalOptions> bad(bad_app, evalFlags());
+  try {
+    bad_app.parse("--dilation 65", false);
+    ADD_FAILURE() << "--dilation 65 was taken";
+  } catch (const CLI::ValidationError& e) {
+    const std::string error = e.what();
+    EXPECT_NE(error.find("--dilation"), std::string::npos) << error;
+    EXPECT_NE(error.find("65"), std::string::npos) << error;
+  }
 }
 
 // A dataset carves at the voxel it was imported with unless one is given,
@@ -545,13 +553,12 @@ TEST(Sweep, ADatasetIsSweptAroundItsOwnSettings) {
 }
 
 // A value the live loop takes, the sweep takes, and the reverse: a knob
-// of a shared flag has that flag's range or choices.
+// of a loop flag has that flag's range or choices.
 TEST(Sweep, KnobsTakeExactlyWhatTheirLoopFlagTakes) {
   int shared = 0;
   for (const Knob& knob : sweepKnobs()) {
-    const auto flag = std::find_if(sharedFlags().begin(), sharedFlags().end(),
-                                   [&](const SharedFlag& f) { return knob.loop_flag == f.flag; });
-    if (flag == sharedFlags().end()) continue;
+    const Setting<LoopSettings>* flag = findSetting(loopFlags(), knob.loop_flag);
+    if (flag == nullptr) continue;
     ++shared;
     EvalOptions options;
     if (!flag->choices.empty()) {
@@ -587,12 +594,13 @@ TEST(Sweep, KnobsTakeExactlyWhatTheirLoopFlagTakes) {
 TEST(Sweep, KnobsChangeWhatTheyName) {
   EvalOptions options;
   EXPECT_EQ(findKnob("voxel")->apply(options, "0.03"), "");
-  EXPECT_DOUBLE_EQ(options.voxel_size, 0.03);
+  EXPECT_DOUBLE_EQ(options.loop.fusion.hull.voxel_size, 0.03);
   EXPECT_EQ(findKnob("K")->apply(options, "12"), "");
-  EXPECT_EQ(options.fields.geodesic_iterations, 12);
+  EXPECT_EQ(options.loop.render.blend.fields.geodesic_iterations, 12);
   EXPECT_NE(findKnob("K")->apply(options, "12.5"), "") << "passes are whole";
   EXPECT_EQ(findKnob("image-codec")->apply(options, "raw"), "");
-  EXPECT_EQ(options.image_codec, protocol::Codec::kRaw);
+  EXPECT_EQ(options.loop.fusion.image_codec, protocol::Codec::kRaw);
+  EXPECT_EQ(options.loop.pods.color_codec, protocol::Codec::kRaw) << "pods and server alike";
   EXPECT_EQ(findKnob("size")->apply(options, "640x480"), "");
   EXPECT_EQ(findKnob("size")->current(options), "640x480");
   EXPECT_EQ(findKnob("nonsense"), nullptr);

@@ -20,14 +20,11 @@ struct PodOptions {
   uint32_t width = 320, height = 240;
   double fps = 10.0;
   uint64_t frames = 0;  // stop after this many frames sent; 0 = until signalled
-  protocol::Codec color_codec = protocol::Codec::kLz4PlanarDelta;
   scene::SceneOptions scene;
   // The calibration the pod reports is off by this much (scene presets).
   double calibration_error_degrees = 0.0;
   double calibration_error_metres = 0.0;
-  int lz4_acceleration = 1;  // LZ4's (1 = default; higher: faster, larger)
-  int lz4_hc_level = 0;      // 0: LZ4's fast mode; 1-12: LZ4HC (common/image_codec.h)
-  int crop_margin = 8;  // pixels around the foreground's rectangle; kFullFrame sends whole images
+  PodEncoding encoding;
 };
 
 // Everything a pod produces for one frame, before it goes on the wire.
@@ -47,8 +44,7 @@ PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& cam
 // The capture as the PodFrame it sends (common/pod_frame_codec.h), the
 // encode stamp appended to its stamps.
 protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id,
-                                       protocol::Codec color_codec, int crop_margin = kFullFrame,
-                                       int lz4_acceleration = 1, int lz4_hc_level = 0);
+                                       const PodEncoding& encoding);
 
 // Runs until stopped (signal, frame count) or the server refuses the
 // version. Returns the process exit code.

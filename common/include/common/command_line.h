@@ -5,12 +5,12 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
-#include <stdexcept>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
 
-#include "common/image_codec.h"
+#include "common/settings.h"
 
 #define HOLOFUSE_PARSE_FLAGS(app, argc, argv) \
   try {                                       \
@@ -21,138 +21,57 @@
 
 namespace holofuse {
 
-// The processes of the live loop a launcher flag is passed on to.
-enum LoopProcess : unsigned { kToServer = 1, kToPods = 2, kToClient = 4 };
-
-// A flag of a process that the live-loop launcher, eval or the sweep also
-// take: its name, help and values, defined once, so that the launcher and
-// the sweep's knobs refuse exactly what that process would, and whom the
-// launcher passes it to, under the same name (the pods' own name where it
-// differs).
-struct SharedFlag {
-  const char* flag;
-  const char* description;
-  double min = 0, max = 0;           // a number in [min, max], unless choices are given
-  std::vector<std::string> choices;  // or one of these
-  unsigned passed_to = 0;            // LoopProcess bits; 0: not a launcher flag
-  const char* pods_name = nullptr;   // the pods' name for it, if not flag
-
-  CLI::Validator check() const {
-    return choices.empty() ? CLI::Validator(CLI::Range(min, max))
-                           : CLI::Validator(CLI::IsMember(choices));
+// A table's settings as flags of app (but those in except): each refuses
+// at parse time, naming itself, what its set() refuses; apply() then sets
+// the given ones on a struct.
+template <typename S>
+class SettingFlags {
+ public:
+  SettingFlags(CLI::App& app, const std::vector<Setting<S>>& table,
+               const std::vector<std::string>& except = {}) {
+    for (const Setting<S>& setting : table) {
+      if (std::find(except.begin(), except.end(), setting.flag) != except.end()) continue;
+      auto given = std::make_unique<Given>(Given{setting, nullptr, {}});
+      CLI::Validator valid(
+          [set = setting.set](std::string& text) {
+            S scratch{};
+            return set(scratch, text);
+          },
+          setting.choices.empty() ? "" : "one of " + joined(setting.choices));
+      given->option = app.add_option(setting.flag, given->value, setting.help)->check(valid);
+      given_.push_back(std::move(given));
+    }
   }
-};
+  bool given(const std::string& flag) const {
+    for (const auto& g : given_) {
+      if (g->setting.flag == flag) return g->option->count() > 0;
+    }
+    return false;
+  }
+  std::vector<CLI::Option*> options() const {
+    std::vector<CLI::Option*> all;
+    for (const auto& g : given_) all.push_back(g->option);
+    return all;
+  }
+  void apply(S& settings) const {
+    for (const auto& g : given_) {
+      if (g->option->count() > 0) g->setting.set(settings, g->value);
+    }
+  }
 
-inline const std::vector<SharedFlag>& sharedFlags() {
-  static const std::vector<SharedFlag> flags = {
-      // fusion_server
-      {"--voxel", "hull voxel size in metres", 0.0001, 0.5, {}, kToServer},
-      {"--hull-error-mm",
-       "hull error target in mm of silhouette error: the coarsest voxel from --voxel down that "
-       "meets it (the server follows it frame by frame; eval picks it per scene on the first "
-       "frame; 0: the voxel "
-       "is fixed)",
-       0,
-       1000,
-       {}},
-      {"--refine-voxels",
-       "photo-consistency refinement: hull voxels the hull's vertices may move inward where the "
-       "pods that see them disagree in colour (0: none)",
-       0,
-       64,
-       {},
-       kToServer},
-      {"--draco-bits", "Draco position quantisation bits", 4, 24, {}, kToServer},
-      {"--image-codec", "colour codec of the images sent on", 0, 0, imageCodecNames(),
-       kToServer | kToPods, "--codec"},
-      // capture_node (and fusion_server for the LZ4 settings)
-      {"--codec", "colour codec", 0, 0, imageCodecNames()},
-      // (the launcher passes it on itself: to the pods and to the client's truth)
-      {"--noise", "synthetic pods' sensor noise, grey levels (default: the scene's)", 0, 64, {}},
-      {"--crop-margin",
-       "send only the foreground's rectangle grown by this many pixels (-1: whole images)",
-       -1,
-       4096,
-       {},
-       kToPods},
-      {"--lz4-acceleration",
-       "LZ4 acceleration (1 = default; higher: faster, larger)",
-       1,
-       65537,
-       {},
-       kToServer | kToPods},
-      {"--lz4-hc-level",
-       "LZ4HC level: 0 = LZ4's fast mode (at --lz4-acceleration), 1-12 slower and smaller",
-       0,
-       kMaxLz4HcLevel,
-       {},
-       kToServer | kToPods},
-      // render_client
-      {"--alpha",
-       "exponent of the normal weight max(0, n . d_i) (normal, holoportation, fragment, "
-       "montage4d's fallback)",
-       0,
-       1000,
-       {},
-       kToClient},
-      {"--lambda", "montage4d: temporal rate per frame at 30 fps (eq. 5)", 0, 1, {}, kToClient},
-      {"--dilation",
-       "eps: depth discontinuities dilated by this many pixels (-1: paper's 4 px at 2048 wide, "
-       "scaled)",
-       -1,
-       64,
-       {},
-       kToClient},
-      {"--vote-delta",
-       "majority vote: Lab distance / 100 under which two views agree (eq. 3; 0: no vote, the "
-       "default; paper 000: 0.15)",
-       0,
-       10,
-       {},
-       kToClient},
-      {"--geodesic-rings",
-       "montage4d: k, the geodesic reach in triangle rings",
-       1,
-       64,
-       {},
-       kToClient},
-      {"--geodesic-passes", "montage4d: K, the geodesic Jacobi passes", 1, 200, {}, kToClient},
-      {"--geodesic-radius",
-       "montage4d: metres from a seam where gamma reaches 1 (0: k mean edge lengths)",
-       0,
-       1000,
-       {},
-       kToClient},
-      {"--vertex-precision",
-       "vertex positions and normals on the GPU: fp32, or fp16 in half the memory",
-       0,
-       0,
-       {"fp32", "fp16"},
-       kToClient},
-      {"--beta",
-       "exponent of the view weight: (d_k . d_v + 1) in fragment (paper 004 eq. 4), max(0, v . "
-       "v_i) in montage4d (paper 000 eq. 4)",
-       0,
-       1000,
-       {},
-       kToClient},
-      {"--feather-width",
-       "pixels over which a pod's weight ramps from its silhouette's edge to 1 (paper 004's "
-       "feather weight; 0: none)",
-       0,
-       1000,
-       {},
-       kToClient},
-      {"--fragment-test",
-       "holoportation and montage4d: also test each fragment against every pod's depth map and "
-       "mask and feather it (paper 004), on or off",
-       0,
-       0,
-       {"on", "off"},
-       kToClient},
+ private:
+  static std::string joined(const std::vector<std::string>& names) {
+    std::string text;
+    for (const auto& name : names) text += (text.empty() ? "" : ", ") + name;
+    return text;
+  }
+  struct Given {
+    Setting<S> setting;
+    CLI::Option* option;
+    std::string value;
   };
-  return flags;
-}
+  std::vector<std::unique_ptr<Given>> given_;  // stable addresses: CLI11 writes into value
+};
 
 // An image size "WxH" with each side in 16..max_side: "" and width and
 // height set, or what is wrong with the text.
@@ -173,20 +92,6 @@ inline std::string parseImageSize(const std::string& text, unsigned& width, unsi
 inline bool isViewName(const std::string& view) {
   return view == "orbit" || (view.rfind("pod:", 0) == 0 && view.size() > 4 &&
                              view.find_first_not_of("0123456789", 4) == std::string::npos);
-}
-
-inline const SharedFlag& sharedFlag(std::string_view flag) {
-  for (const SharedFlag& f : sharedFlags()) {
-    if (flag == f.flag) return f;
-  }
-  throw std::logic_error("no shared flag " + std::string(flag));
-}
-
-// Adds a shared flag bound to value, with its help and range.
-template <typename T>
-CLI::Option* addSharedFlag(CLI::App& app, std::string_view flag, T& value) {
-  const SharedFlag& f = sharedFlag(flag);
-  return app.add_option(f.flag, value, f.description)->check(f.check());
 }
 
 }  // namespace holofuse

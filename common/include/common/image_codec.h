@@ -9,6 +9,7 @@
 
 #include "base/status.h"
 #include "common/image.h"
+#include "common/settings.h"
 #include "protocol/messages.h"
 
 namespace holofuse {
@@ -29,6 +30,25 @@ protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, proto
 const std::vector<std::string>& imageCodecNames();
 std::string imageCodecName(protocol::Codec codec);
 std::optional<protocol::Codec> imageCodecFromName(const std::string& name);
+
+// The image encoding settings of whoever encodes images (the pods, the
+// server): the colour codec under codec_flag, codec(settings) its field,
+// and the LZ4 settings, S's lz4_acceleration and lz4_hc_level.
+template <typename S, typename CodecField>
+std::vector<Setting<S>> imageEncodingSettings(const std::string& codec_flag,
+                                              const std::string& codec_help, CodecField codec) {
+  return {choiceSetting<S>(
+              codec_flag, codec_help, imageCodecNames(),
+              [=](S& s, const std::string& name) { codec(s) = *imageCodecFromName(name); },
+              [=](const S& s) { return imageCodecName(codec(const_cast<S&>(s))); }),
+          numberSetting<S>("--lz4-acceleration",
+                           "LZ4 acceleration (1 = default; higher: faster, larger)", 1, 65537,
+                           [](S& s) -> int& { return s.lz4_acceleration; }),
+          numberSetting<S>(
+              "--lz4-hc-level",
+              "LZ4HC level: 0 = LZ4's fast mode (at --lz4-acceleration), 1-12 slower and smaller",
+              0, kMaxLz4HcLevel, [](S& s) -> int& { return s.lz4_hc_level; })};
+}
 
 // Decodes a plane from untrusted bytes. Safe on any input: the declared
 // size is capped and checked, LZ4 runs in its safe mode, and any mismatch is

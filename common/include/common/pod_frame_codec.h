@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "common/image.h"
+#include "common/settings.h"
 #include "protocol/frame.h"
 #include "protocol/messages.h"
 
@@ -22,18 +23,29 @@ struct PodPlanes {
   const Image8* feather = nullptr;  // featherMap of the mask
 };
 
-// Compresses the planes into a PodFrame ready to send (the compressed
-// planes are owned by the frame), appending the pod_encode stage to stamps,
-// which the frame carries. With crop_margin >= 0 only the foreground's
-// bounding rectangle grown by that many pixels is sent, with its offset
-// (paper 004, Li, Magnor, Seidel 2004: model only what the scene requires); kFullFrame
+constexpr int kFullFrame = -1;
+
+// How a pod encodes its frames: the pod's settings, which eval and the
+// launcher embed. With crop_margin >= 0 only the foreground's bounding
+// rectangle grown by that many pixels is sent, with its offset (paper 004,
+// Li, Magnor, Seidel 2004: model only what the scene requires); kFullFrame
 // sends every pixel. lz4_acceleration and lz4_hc_level as in
 // common/image_codec.h.
-constexpr int kFullFrame = -1;
+struct PodEncoding {
+  protocol::Codec color_codec = protocol::Codec::kLz4PlanarDelta;
+  int crop_margin = 8;
+  int lz4_acceleration = 1;  // LZ4's (1 = default; higher: faster, larger)
+  int lz4_hc_level = 0;      // 0: LZ4's fast mode; 1-12: LZ4HC
+};
+
+// The pods' flags of PodEncoding (common/settings.h).
+const std::vector<Setting<PodEncoding>>& podEncodingFlags();
+
+// Compresses the planes into a PodFrame ready to send (the compressed
+// planes are owned by the frame), appending the pod_encode stage to stamps,
+// which the frame carries.
 protocol::OutgoingFrame encodePodFrame(const PodPlanes& planes,
                                        std::vector<protocol::StageStamp>& stamps,
-                                       uint32_t camera_id, protocol::Codec color_codec,
-                                       int crop_margin = kFullFrame, int lz4_acceleration = 1,
-                                       int lz4_hc_level = 0);
+                                       uint32_t camera_id, const PodEncoding& encoding);
 
 }  // namespace holofuse

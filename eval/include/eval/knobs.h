@@ -5,17 +5,11 @@
 #pragma once
 
 #include <functional>
-#include <memory>
 #include <string>
-#include <utility>
 #include <vector>
 
+#include "common/settings.h"
 #include "eval/leave_one_out.h"
-
-namespace CLI {
-class App;
-class Option;
-}  // namespace CLI
 
 namespace holofuse::eval {
 
@@ -40,21 +34,9 @@ std::string knobNames();
 // The pods a run has: its own count, or its scene's (cameras 0).
 int camerasOf(const EvalOptions& options);
 
-// Every knob but those named in except as a flag of app under its loop
-// flag's name, with the knob's help; after parsing, apply() sets the given
-// ones on options ("" or "--flag: what is wrong").
-class KnobFlags {
- public:
-  KnobFlags(CLI::App& app, const std::vector<std::string>& except = {});
-  std::string apply(EvalOptions& options) const;
-
- private:
-  struct Given {
-    const Knob* knob = nullptr;
-    CLI::Option* option = nullptr;
-    std::string value;
-  };
-  std::vector<std::unique_ptr<Given>> flags_;  // stable addresses: CLI11 writes into value
-};
+// Eval's flags of the settings it shares with the live loop (loopFlags(),
+// on EvalOptions::loop; a voxel given overrides a dataset's own) and
+// --pods, a synthetic scene's camera count; every knob but size is one.
+const std::vector<Setting<EvalOptions>>& evalFlags();
 
 }  // namespace holofuse::eval

@@ -20,6 +20,7 @@
 #include "capture_node/pod.h"
 #include "common/depth_raster.h"
 #include "common/mesh_codec.h"
+#include "eval/loop_settings.h"
 #include "metrics/image_metrics.h"
 #include "protocol/messages.h"
 #include "render_client/blend_mode.h"
@@ -60,39 +61,22 @@ struct EvalOptions {
   // compared with its true image. Off by default, as in paper 000's
   // cross-validation, where every sensor shapes the mesh.
   bool hull_without_held_out = false;
-  double refine_voxels =
-      0;                // hull voxels its vertices may move inward by photo-consistency (0: none)
-  std::string out_dir;  // where save_images writes
+  std::string out_dir;       // where save_images writes
   bool save_images = false;  // rendered, true image and mask per image compared
   std::string device;        // Vulkan device selector ("" picks a GPU if any)
   // "hull": the fusion server's visual hull (what the loop sees); "truth":
   // the scene's true surface, to tell blending errors from geometry errors.
   std::string geometry = "hull";
-  // The knobs a sweep turns; the defaults are the live loop's.
-  double voxel_size = 0.02;  // hull accuracy, metres
+  // The live loop's own settings, which the sweep's knobs turn: the pods'
+  // encoding, the server's fusion (loop.fusion.hull.voxel_size, the hull
+  // error target: each scene's voxel is then the coarsest from the voxel
+  // down that meets it on the first frame, hull::carveToErrorTarget), the
+  // client's rendering (its mode aside: modes above).
+  LoopSettings loop;
   // A dataset carves at the voxel size it was recorded or imported with
   // unless a voxel is given (--voxel, the sweep's voxel knob).
   bool voxel_from_dataset = true;
-  // Silhouette error, metres (hull::silhouetteError): when set, each
-  // scene's voxel is the coarsest from voxel_size down that meets it on the
-  // first frame (hull::carveToErrorTarget).
-  double hull_error_target = 0;
-  DracoOptions draco;  // position bits etc.
-  protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
-  int lz4_acceleration = 1;
-  int lz4_hc_level = 0;  // 0: LZ4's fast mode; 1-12: LZ4HC, pods and server alike
-  // Pods send the foreground's rectangle grown by this many pixels
-  // (capture::kFullFrame, -1: whole images), as the loop's pods do.
-  int crop_margin = capture::PodOptions{}.crop_margin;
-  int cameras = 0;                 // 0: the scene's own count
-  render::FieldParameters fields;  // eps, k, K
-  float alpha = 2.0f;
-  double lambda = 0.05;
-  // The per-fragment test and feathering (render::BlendSettings).
-  float beta = render::BlendSettings{}.beta;
-  float feather_width_px = render::BlendSettings{}.feather_width_px;
-  bool fragment_test = render::BlendSettings{}.fragment_test;
-  bool half_precision_vertices = false;  // Renderer::setHalfPrecisionVertices
+  int cameras = 0;  // 0: the scene's own count
   // Per-stage ms budgets (render::loadBudget's file); the reports flag each
   // scene and mode whose p95 goes over the budget of a stage the evaluation
   // times the way the live loop does: "hull", the codec stages

@@ -13,6 +13,7 @@
 
 #include "common/camera.h"
 #include "common/mesh_codec.h"
+#include "common/settings.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/photo_refine.h"
 #include "hull/hull_error.h"
@@ -36,6 +37,10 @@ struct FusionSettings {
   int lz4_hc_level = 0;      // 0: LZ4's fast mode; 1-12: LZ4HC (common/image_codec.h)
   uint32_t pods_expected = 0;
 };
+
+// The server's flags of FusionSettings (common/settings.h); eval and the
+// launcher take the same.
+const std::vector<Setting<FusionSettings>>& fusionFlags();
 
 struct FusedOutput {
   uint64_t frame_id = 0;

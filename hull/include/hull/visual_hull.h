@@ -23,6 +23,9 @@ struct HullView {
   Image8 feather;  // distance inside the silhouette, pixels (0 outside)
 };
 
+// The voxel sizes a flag takes, metres.
+inline constexpr double kMinVoxel = 0.0001, kMaxVoxel = 0.5;
+
 struct HullOptions {
   double voxel_size = 0.02;                 // metres: the accuracy knob
   glm::dvec3 volume_min{-1.0, -0.1, -1.0};  // capture volume

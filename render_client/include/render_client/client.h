@@ -35,10 +35,9 @@ struct ClientOptions {
   double jump_degrees = 0;
   uint64_t jump_at_frame = 0;
   uint32_t width = 320, height = 240;
-  std::string device;  // Vulkan device selector (VulkanContext)
-  BlendSettings blend;
-  bool half_precision_vertices = false;  // Renderer::setHalfPrecisionVertices
-  int exclude_camera = -1;               // leave this camera out of the blend
+  std::string device;       // Vulkan device selector (VulkanContext)
+  RenderSettings render;    // render.blend.mode: the blending mode
+  int exclude_camera = -1;  // leave this camera out of the blend
   bool write_frames = true;
   Budget budget;  // per-stage ms; violations are flagged in the reports
   // A shell command that starts the live judge (render_client/frame_judge.h;

@@ -12,6 +12,7 @@
 #include "common/camera.h"
 #include "common/image.h"
 #include "common/mesh.h"
+#include "common/settings.h"
 #include "render_client/blend_mode.h"
 #include "render_client/texture_field_passes.h"
 #include "render_client/vulkan_context.h"
@@ -40,6 +41,17 @@ struct BlendSettings {
   // 004 eq. 4, its 5) and max(0, v . v_i) in montage4d's target field.
   float beta = 5.0f;
 };
+
+// The client's rendering settings, which eval and the launcher embed.
+struct RenderSettings {
+  BlendSettings blend;
+  bool half_precision_vertices = false;  // Renderer::setHalfPrecisionVertices
+};
+
+// The client's flags of RenderSettings (common/settings.h); eval and the
+// launcher take the same. The mode is not among them: eval and the sweep
+// run several.
+const std::vector<Setting<RenderSettings>>& renderFlags();
 
 // What the texture-field passes computed, read back for tests, indexed
 // [camera * vertex_count + vertex] (weights: [vertex * 16 + camera]).

@@ -17,10 +17,15 @@
 
 namespace holofuse::scene {
 
+// The --noise flag of the pods, the judge and the launcher.
+inline constexpr double kMaxNoise = 64;
+inline constexpr const char* kNoiseHelp =
+    "synthetic pods' sensor noise, grey levels (default: the scene's)";
+
 struct SceneOptions {
   uint64_t seed = 1;
   double frames_per_second = 10.0;  // scene time = frame id / this
-  double noise_amplitude = 2.0;     // sensor noise, grey levels
+  double noise_amplitude = 2.0;     // sensor noise, grey levels (0..kMaxNoise)
   double gain_spread = 1.0;         // scales how far each camera's colour gain is from 1
   double specular = 0.0;            // strength of a white specular highlight (view dependent)
   double motion_speed = 1.0;        // scales the animation's clock

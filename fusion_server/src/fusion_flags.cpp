@@ -1,0 +1,35 @@
+#include "common/image_codec.h"
+#include "fusion_server/fusion_worker.h"
+
+namespace holofuse::fusion {
+
+const std::vector<Setting<FusionSettings>>& fusionFlags() {
+  using S = FusionSettings;
+  static const std::vector<Setting<S>> flags = [] {
+    std::vector<Setting<S>> all = {
+        numberSetting<S>("--voxel", "hull voxel size in metres", hull::kMinVoxel, hull::kMaxVoxel,
+                         [](S& s) -> double& { return s.hull.voxel_size; }),
+        numberSetting<S>(
+            "--hull-error-mm",
+            "hull error target in mm of silhouette error: the coarsest voxel from --voxel down "
+            "that meets it (the server follows it frame by frame; eval picks it per scene on the "
+            "first frame; 0: the voxel is fixed)",
+            0, 1000, [](S& s) -> double& { return s.hull_error_target; }, 1000.0),
+        numberSetting<S>("--refine-voxels",
+                         "photo-consistency refinement: hull voxels the hull's vertices may move "
+                         "inward where the pods that see them disagree in colour (0: none)",
+                         0, 64, [](S& s) -> double& { return s.refine.depth_voxels; }),
+        numberSetting<S>("--draco-bits", "Draco position quantisation bits", 4, 24,
+                         [](S& s) -> int& { return s.draco.position_bits; }),
+        numberSetting<S>("--draco-speed", "Draco speed 0 (small) .. 10 (fast)", 0, 10,
+                         [](S& s) -> int& { return s.draco.speed; })};
+    for (Setting<S>& setting :
+         imageEncodingSettings<S>("--image-codec", "colour codec of the images sent on",
+                                  [](S& s) -> protocol::Codec& { return s.image_codec; }))
+      all.push_back(std::move(setting));
+    return all;
+  }();
+  return flags;
+}
+
+}  // namespace holofuse::fusion
