@@ -1,0 +1,460 @@
+// The render client's loop: frames off the server link, decoded and checked,
+// rendered, written, judged and stamped, then the report.
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+
+#include "common/image_io.h"
+#include "common/mesh_codec.h"
+#include "common/shutdown.h"
+#include "protocol/clock.h"
+#include "protocol/server_link.h"
+#include "render_client/client.h"
+#include "render_client/frame_judge.h"
+#include "render_client/latency_report.h"
+
+namespace holofuse::render {
+
+using protocol::kSourceClient;
+using protocol::monotonicNs;
+using protocol::Stage;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct PendingBundle {
+  std::vector<ViewImages> views;
+  std::vector<protocol::StageStamp> stamps;
+  uint64_t bytes = 0;
+  uint64_t feather_bytes = 0;  // of bytes, the feather maps' compressed planes
+};
+
+struct FrameStats {
+  protocol::Stats stats;
+  uint64_t bytes = 0;  // the Stats frame's own size
+};
+
+// The fan-out stage ends when the client receives the frame.
+void endFanout(std::vector<protocol::StageStamp>& stamps, uint64_t receive_ns) {
+  for (auto& stamp : stamps) {
+    if (stamp.stage == static_cast<uint16_t>(Stage::kFanout) && stamp.end_ns == 0)
+      stamp.end_ns = receive_ns;
+  }
+}
+
+// A mesh with its bundle, decoded, checked and on the GPU, ready to render.
+struct ReadyMesh {
+  protocol::MeshFrame frame;
+  std::map<uint64_t, PendingBundle>::iterator bundle;
+  std::vector<protocol::StageStamp> stamps;
+  Camera user;
+  double decode_ms = 0;
+  uint64_t wire_bytes = 0;
+  uint64_t decoded_ns = 0, uploaded_ns = 0;
+};
+
+class ClientLoop {
+ public:
+  ClientLoop(const ClientOptions& options, VulkanContext& context, Renderer& renderer,
+             std::optional<FrameJudge> judge)
+      : options_(options),
+        out_dir_(options.out_dir),
+        context_(context),
+        renderer_(renderer),
+        judge_(std::move(judge)),
+        tty_(isatty(STDOUT_FILENO)) {}
+
+  bool done() const { return options_.frames != 0 && report_.framesRendered() >= options_.frames; }
+
+  // One poll's frames. When frames arrive faster than this client renders,
+  // only the newest mesh of a batch is rendered: older ones would only add
+  // latency.
+  void receive(std::vector<protocol::Frame>& received) {
+    size_t newest_mesh = received.size();
+    for (size_t k = 0; k < received.size(); ++k) {
+      if (typeOf(received[k]) == protocol::MessageType::kMeshFrame) newest_mesh = k;
+    }
+    for (size_t k = 0; k < received.size() && !done(); ++k) {
+      const uint64_t receive_ns = monotonicNs();
+      switch (typeOf(received[k])) {
+        case protocol::MessageType::kCalibration:
+          onCalibration(received[k]);
+          break;
+        case protocol::MessageType::kStats:
+          onStats(received[k]);
+          break;
+        case protocol::MessageType::kTextureBundle:
+          onBundle(received[k], receive_ns);
+          break;
+        case protocol::MessageType::kMeshFrame:
+          if (k != newest_mesh) {
+            ++superseded_;
+          } else if (auto ready = prepareMesh(received[k], receive_ns)) {
+            renderAndRecord(*ready);
+          }
+          break;
+        default:
+          break;
+      }
+    }
+  }
+
+  void printProgress() {
+    const uint64_t now = monotonicNs();
+    if (now - last_progress_ns_ <= 1000000000ull || report_.framesRendered() == 0) return;
+    last_progress_ns_ = now;
+    const auto& last = report_.frames().back();
+    std::printf(
+        "%sframes %zu%s | %5.1f fps | end-to-end p50 %6.1f ms p95 %6.1f ms | cameras %u/%u%s",
+        tty_ ? "\r" : "", report_.framesRendered(),
+        options_.frames ? ("/" + std::to_string(options_.frames)).c_str() : "", report_.fps(),
+        report_.endToEndPercentile(50), report_.endToEndPercentile(95), last.cameras_present,
+        last.cameras_expected, tty_ ? "   " : "\n");
+    std::fflush(stdout);
+  }
+
+  void sayReplayOver() const {
+    std::printf("%s[client] the server said goodbye: the replay is over\n", tty_ ? "\n" : "");
+  }
+
+  // report.json and report.html, and the summary line.
+  void writeReport() {
+    report_.setSuperseded(superseded_);
+    // What the frames were rendered with, so that a report can be matched
+    // with the sweep point it was meant to reproduce.
+    std::map<std::string, std::string> settings = {
+        {"mode", blendModeName(options_.render.blend.mode)},
+        {"view", options_.view},
+        {"size", std::to_string(options_.width) + "x" + std::to_string(options_.height)},
+        {"device", context_.deviceName()}};
+    // Every rendering setting under its flag's name ("--vote-delta": vote_delta).
+    for (const Setting<RenderSettings>& setting : renderFlags()) {
+      std::string name = setting.flag.substr(2);
+      std::replace(name.begin(), name.end(), '-', '_');
+      settings[name] = setting.get(options_.render);
+    }
+    const fs::path report_path = out_dir_ / "report.json";
+    std::ofstream(report_path) << report_.toJson(settings, options_.budget);
+    std::ofstream(out_dir_ / "report.html") << report_.toHtml(settings, options_.budget);
+    std::string quality;
+    for (const auto& q : report_.quality()) {
+      char text[96];
+      std::snprintf(text, sizeof(text), q.measure == "psnr_db" ? ", PSNR %.2f dB" : ", SSIM %.3f",
+                    q.mean);
+      quality += text;
+    }
+    if (!quality.empty()) quality += " against the truth (mean)";
+    std::printf(
+        "%s[client] %zu frames, %.1f fps, end-to-end p50 %.1f ms p95 %.1f ms p99 %.1f ms%s; "
+        "report: %s\n",
+        tty_ ? "\n" : "", report_.framesRendered(), report_.fps(), report_.endToEndPercentile(50),
+        report_.endToEndPercentile(95), report_.endToEndPercentile(99), quality.c_str(),
+        report_path.c_str());
+  }
+
+ private:
+  static protocol::MessageType typeOf(const protocol::Frame& frame) {
+    return static_cast<protocol::MessageType>(frame.header.type);
+  }
+
+  void skip(uint64_t frame_id, const std::string& why) {
+    std::fprintf(stderr, "[client] frame %llu skipped, keeping the previous picture: %s\n",
+                 static_cast<unsigned long long>(frame_id), why.c_str());
+    report_.noteSkipped("frame " + std::to_string(frame_id) + ": " + why);
+  }
+
+  void onCalibration(const protocol::Frame& frame) {
+    protocol::Calibration calibration;
+    const auto s = protocol::decodeFrame(frame, calibration);
+    if (!s.isOk()) {
+      std::fprintf(stderr, "[client] bad Calibration ignored: %s\n", s.toString().c_str());
+      return;
+    }
+    cameras_[calibration.camera_id] = fromCalibration(calibration);
+  }
+
+  void onStats(const protocol::Frame& frame) {
+    protocol::Stats st;
+    if (!protocol::decodeFrame(frame, st).isOk()) return;
+    if (st.pod_arrivals) report_.setServerArrivals(*st.pod_arrivals);
+    const uint64_t id = st.frame_id;
+    stats_[id] = FrameStats{std::move(st), frame.bytes.size()};
+    while (stats_.size() > 64) stats_.erase(stats_.begin());
+  }
+
+  void onBundle(const protocol::Frame& frame, uint64_t receive_ns) {
+    protocol::TextureBundle bundle;
+    const uint64_t t0 = monotonicNs();
+    auto s = protocol::decodeFrame(frame, bundle);
+    if (!s.isOk()) {
+      skip(0, "TextureBundle: " + s.toString());
+      return;
+    }
+    PendingBundle pending;
+    pending.bytes = frame.bytes.size();
+    pending.feather_bytes = featherBytes(bundle);
+    pending.stamps = bundle.stamps;
+    endFanout(pending.stamps, receive_ns);
+    auto views = viewsOfBundle(bundle, cameras_);
+    if (!views.isOk()) {
+      skip(bundle.frame_id, views.status().message());
+      failed_bundles_.insert(bundle.frame_id);
+      while (failed_bundles_.size() > 64) failed_bundles_.erase(failed_bundles_.begin());
+      return;
+    }
+    pending.views = std::move(*views);
+    pending.stamps.push_back(
+        {static_cast<uint16_t>(Stage::kDecode), kSourceClient, t0, monotonicNs()});
+    bundles_[bundle.frame_id] = std::move(pending);
+    while (bundles_.size() > 4) bundles_.erase(bundles_.begin());
+  }
+
+  // Decodes a mesh, pairs it with its bundle, checks both (what came off
+  // the network, before the renderer takes it: it throws on what these
+  // refuse) and uploads them; none, said why, when the frame is skipped.
+  std::optional<ReadyMesh> prepareMesh(const protocol::Frame& frame, uint64_t receive_ns) {
+    ReadyMesh ready;
+    const uint64_t t0 = monotonicNs();
+    auto s = protocol::decodeFrame(frame, ready.frame);
+    if (!s.isOk()) {
+      skip(0, "MeshFrame: " + s.toString());
+      return std::nullopt;
+    }
+    const uint64_t id = ready.frame.frame_id;
+    ready.bundle = bundles_.find(id);
+    if (ready.bundle == bundles_.end()) {
+      if (failed_bundles_.count(id) == 0) skip(id, "its texture bundle was dropped on the way");
+      return std::nullopt;
+    }
+    auto mesh = decodeDraco(ready.frame.mesh.data(), ready.frame.mesh.size());
+    Status usable = !mesh.isOk() ? mesh.status()
+                    : mesh->triangleCount() == 0
+                        ? Status(StatusCode::kMalformed, "mesh with no triangles")
+                        : Status::ok();
+    ready.decoded_ns = monotonicNs();
+    const PendingBundle& bundle = ready.bundle->second;
+    if (usable.isOk()) usable = checkMesh(*mesh, options_.render.half_precision_vertices);
+    if (usable.isOk()) usable = checkViews(bundle.views);
+    if (usable.isOk()) usable = checkRenderable(mesh->positions.size(), options_.render.blend);
+    if (!usable.isOk()) {
+      skip(id, usable.message());
+      bundles_.erase(ready.bundle);
+      return std::nullopt;
+    }
+    ready.stamps = ready.frame.stamps;
+    endFanout(ready.stamps, receive_ns);
+    // Decode of this frame: the bundle's and the mesh's together.
+    ready.decode_ms = static_cast<double>(ready.decoded_ns - t0) / 1e6 +
+                      protocol::stampedMs(bundle.stamps, Stage::kDecode);
+    for (const auto& stamp : bundle.stamps) {
+      if (stamp.stage == static_cast<uint16_t>(Stage::kImageEncode)) ready.stamps.push_back(stamp);
+    }
+    renderer_.setMesh(*mesh);
+    renderer_.setViews(bundle.views);
+    report_.addViewsWithoutSubject(renderer_.camerasWithoutSubject());
+    ready.uploaded_ns = monotonicNs();
+    auto user = userCamera(options_, cameras_, meshBounds(*mesh), report_.framesRendered());
+    if (!user) {
+      skip(id, "view '" + options_.view + "' names no calibrated camera");
+      bundles_.erase(ready.bundle);
+      return std::nullopt;
+    }
+    ready.user = *user;
+    ready.wire_bytes = frame.bytes.size();
+    return ready;
+  }
+
+  // The blend for the next rendered frame: eq. 5's lambda is rescaled by
+  // the real interval between rendered frames (clamped: a stall must not
+  // make the field jump); an excluded camera is left out.
+  BlendSettings nextBlend(const std::vector<ViewImages>& views) {
+    BlendSettings blend = options_.render.blend;
+    const uint64_t now_ns = monotonicNs();
+    blend.frame_interval_s =
+        last_render_ns_ == 0
+            ? 1.0 / 30.0
+            : std::clamp(static_cast<double>(now_ns - last_render_ns_) / 1e9, 1e-3, 0.5);
+    last_render_ns_ = now_ns;
+    if (options_.exclude_camera >= 0) {
+      for (const auto& view : views)
+        blend.camera_enabled.push_back(static_cast<int>(view.camera.id) != options_.exclude_camera);
+    }
+    return blend;
+  }
+
+  // Written aside and renamed: whoever watches frames/ (a viewer, a test)
+  // never reads half a picture. Whether it was written.
+  bool writeFrame(const Image8& picture, const std::string& file) const {
+    if (!options_.write_frames) return false;
+    const fs::path path = out_dir_ / file;
+    const fs::path partial =
+        path.parent_path() / (path.stem().string() + ".partial.png");  // PNG by its name
+    const Status written = writePng(partial.string(), picture);
+    std::error_code renamed;
+    if (written.isOk()) fs::rename(partial, path, renamed);
+    if (!written.isOk()) std::fprintf(stderr, "[client] %s\n", written.message().c_str());
+    if (renamed) std::fprintf(stderr, "[client] %s: %s\n", path.c_str(), renamed.message().c_str());
+    return written.isOk() && !renamed;
+  }
+
+  // The live judge's verdict on a written frame, outside every stage's
+  // time; a judge gone stays gone, and the frames render on unjudged.
+  void judgeFrame(const ReadyMesh& ready, FrameRecord& record) {
+    const uint64_t judge_start = monotonicNs();
+    auto answer =
+        judge_->judge({(out_dir_ / record.file).string(), ready.frame.frame_id, ready.user});
+    const std::string error = answer.isOk() ? answer->error : answer.status().message();
+    if (answer.isOk() && error.empty()) record.quality = answer->quality;
+    // e.g. a pod view of another size than the picture
+    if (!error.empty() && !judge_failed_)
+      std::fprintf(stderr, "[client] frames not judged: %s\n", error.c_str());
+    judge_failed_ = judge_failed_ || !error.empty();
+    report_.addJudgeMs(static_cast<double>(monotonicNs() - judge_start) / 1e6);
+  }
+
+  void renderAndRecord(ReadyMesh& ready) {
+    const PendingBundle& bundle = ready.bundle->second;
+    const BlendSettings blend = nextBlend(bundle.views);
+    const uint64_t field_runs = renderer_.fieldPasses();
+    const Image8 picture = renderer_.render(ready.user, blend);
+    const uint64_t rendered_ns = monotonicNs();
+    if (renderer_.fieldPasses() != field_runs) {
+      const auto times = renderer_.fieldTimesMs();
+      const auto& names = TextureFieldPasses::stageNames();
+      for (size_t s = 0; s < times.size() && s < names.size(); ++s) {
+        if (times[s] >= 0) report_.addGpuPass(names[s], times[s]);  // -1: not in this mode
+      }
+    }
+    FrameRecord record;
+    record.frame_id = ready.frame.frame_id;
+    char name[64];
+    std::snprintf(name, sizeof(name), "frame_%06zu.png", report_.framesRendered());
+    record.file = std::string("frames/") + name;
+    const bool written = writeFrame(picture, record.file);
+    const uint64_t written_ns = monotonicNs();
+    if (judge_ && written) judgeFrame(ready, record);
+    auto& stamps = ready.stamps;
+    stamps.push_back({static_cast<uint16_t>(Stage::kUpload), kSourceClient, ready.decoded_ns,
+                      ready.uploaded_ns});
+    stamps.push_back(
+        {static_cast<uint16_t>(Stage::kRender), kSourceClient, ready.uploaded_ns, rendered_ns});
+    stamps.push_back(
+        {static_cast<uint16_t>(Stage::kWrite), kSourceClient, rendered_ns, written_ns});
+    report_.addStamps(stamps);
+    report_.addStage(static_cast<uint16_t>(Stage::kDecode), ready.decode_ms);
+    record.end_to_end_ms = static_cast<double>(written_ns - ready.frame.capture_time_ns) / 1e6;
+    record.client_bytes = ready.wire_bytes + bundle.bytes;
+    record.feather_bytes = bundle.feather_bytes;
+    auto st = stats_.find(ready.frame.frame_id);
+    if (st != stats_.end()) {
+      record.client_bytes += st->second.bytes;
+      record.cameras_expected = st->second.stats.cameras_expected;
+      record.cameras_present =
+          static_cast<uint32_t>(__builtin_popcountll(st->second.stats.cameras_present));
+      record.pod_bytes = st->second.stats.pod_bytes;
+      record.note = st->second.stats.note;
+      stats_.erase(stats_.begin(), std::next(st));
+    } else {
+      record.cameras_present = static_cast<uint32_t>(bundle.views.size());
+      record.cameras_expected = record.cameras_present;
+    }
+    report_.addFrame(record, written_ns);
+    bundles_.erase(bundles_.begin(), std::next(ready.bundle));
+  }
+
+  const ClientOptions& options_;
+  const fs::path out_dir_;
+  VulkanContext& context_;
+  Renderer& renderer_;
+  std::optional<FrameJudge> judge_;
+  const bool tty_;
+  std::map<uint32_t, Camera> cameras_;
+  std::map<uint64_t, PendingBundle> bundles_;
+  std::map<uint64_t, FrameStats> stats_;
+  std::set<uint64_t> failed_bundles_;  // ids already reported as skipped
+  LatencyReport report_;
+  uint64_t last_progress_ns_ = 0;
+  uint64_t superseded_ = 0;      // meshes skipped because a newer one was already there
+  bool judge_failed_ = false;    // warned once
+  uint64_t last_render_ns_ = 0;  // for the temporal field's real frame interval
+};
+
+}  // namespace
+
+int runClient(const ClientOptions& options) {
+  const fs::path out_dir(options.out_dir);
+  std::error_code ec;
+  fs::create_directories(out_dir / "frames", ec);
+  if (ec) {
+    std::fprintf(stderr, "[client] cannot create %s: %s\n", (out_dir / "frames").c_str(),
+                 ec.message().c_str());
+    return 1;
+  }
+  std::unique_ptr<VulkanContext> context;
+  std::unique_ptr<Renderer> renderer;
+  try {
+    context = std::make_unique<VulkanContext>(options.device);
+    renderer = std::make_unique<Renderer>(*context, options.width, options.height);
+    renderer->setHalfPrecisionVertices(options.render.half_precision_vertices);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "[client] Vulkan start-up failed: %s\n", e.what());
+    return 1;
+  }
+  std::optional<FrameJudge> judge;
+  if (!options.judge_command.empty()) {
+    auto started = FrameJudge::start(options.judge_command);
+    if (!started.isOk()) {
+      std::fprintf(stderr, "[client] --judge: %s\n", started.status().message().c_str());
+      return 2;
+    }
+    judge.emplace(std::move(started.value()));
+  }
+  std::fprintf(stderr, "[client] rendering on %s, mode %s\n", context->deviceName().c_str(),
+               blendModeName(options.render.blend.mode).c_str());
+  if (options.jump_degrees != 0) {
+    std::fprintf(stderr, "[client] the view jumps %g degrees at rendered frame %llu\n",
+                 options.jump_degrees, static_cast<unsigned long long>(options.jump_at_frame));
+  }
+
+  protocol::Hello hello;
+  hello.role = protocol::Role::kClient;
+  hello.id = options.client_id;
+  hello.nonce = protocol::realtimeNs();
+  hello.name = "client-" + std::to_string(options.client_id);
+  protocol::LinkOptions link_options;
+  link_options.log_name = "client";
+  link_options.limits.max_queued_droppable = 16;
+  protocol::ServerLink link(options.server, hello, link_options);
+
+  ClientLoop loop(options, *context, *renderer, std::move(judge));
+  std::vector<protocol::Frame> received;
+  while (!stopRequested() && !loop.done()) {
+    link.poll(50, received);
+    if (link.fatalError()) {
+      std::fprintf(stderr, "[client] giving up: %s\n", link.fatalError()->toString().c_str());
+      return 2;
+    }
+    loop.receive(received);
+    received.clear();
+    loop.printProgress();
+    // Bye follows everything the server sent on the stream: all of it has
+    // been rendered by now.
+    if (options.exit_when_server_leaves && link.serverSaidBye()) {
+      loop.sayReplayOver();
+      break;
+    }
+  }
+  link.close(stopRequested() ? "client stopped by signal" : "client rendered its frames");
+  loop.writeReport();
+  return 0;
+}
+
+}  // namespace holofuse::render
