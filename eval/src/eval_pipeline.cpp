@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <optional>
-#include <stdexcept>
 
 #include "capture_node/pod.h"
 #include "common/image_codec.h"
@@ -18,10 +17,13 @@ namespace {
 // One whole protocol frame from bytes that must hold one (this process
 // made or recorded them): the transport's parsing, which no codec stage of
 // the loop counts.
-protocol::Frame parsedFrame(const protocol::Bytes& wire, const std::string& what) {
-  auto frame = dataset::parseWholeFrame(wire, what);
-  if (!frame.isOk()) throw std::runtime_error(frame.status().message());
-  return std::move(*frame);
+StatusOr<protocol::Frame> parsedFrame(const protocol::Bytes& wire, const std::string& what) {
+  return dataset::parseWholeFrame(wire, what);
+}
+
+// status with what prefixed to its message.
+Status within(const std::string& what, const Status& status) {
+  return Status(status.code(), what + ": " + status.message());
 }
 
 // The hull refined as the server refines it (the fusion's refine settings;
@@ -40,10 +42,10 @@ Mesh refined(const Mesh& hull, const std::vector<hull::HullView>& views,
 // (the fusion's refine settings), so that beyond its silhouette, which paper
 // 000's protocol lets shape the hull, nothing of a held-out image shapes
 // what it is compared with. Through Draco, as a client receives a mesh.
-std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
-                                     const std::vector<hull::HullView>& views,
-                                     const std::vector<Image8>& colors, const Mesh& hull,
-                                     const hull::HullOptions& hull_options) {
+StatusOr<std::map<int, Mesh>> meshesForHeldOut(const EvalOptions& options,
+                                               const std::vector<hull::HullView>& views,
+                                               const std::vector<Image8>& colors, const Mesh& hull,
+                                               const hull::HullOptions& hull_options) {
   std::map<int, Mesh> meshes;
   if (!options.hull_without_held_out && !(options.loop.fusion.refine.depth_voxels > 0))
     return meshes;
@@ -61,9 +63,9 @@ std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
     auto bytes = encodeDraco(mesh, options.loop.fusion.draco);
     auto decoded = bytes.isOk() ? decodeDraco(bytes->data(), bytes->size()) : bytes.status();
     if (!decoded.isOk()) {
-      throw std::runtime_error("the hull without camera " +
-                               std::to_string(views[static_cast<size_t>(held)].camera.id) + ": " +
-                               decoded.status().message());
+      return within(
+          "the hull without camera " + std::to_string(views[static_cast<size_t>(held)].camera.id),
+          decoded.status());
     }
     meshes[held] = std::move(*decoded);
   }
@@ -72,11 +74,12 @@ std::map<int, Mesh> meshesForHeldOut(const EvalOptions& options,
 
 }  // namespace
 
-const fusion::PodImages& receivePodFrame(const protocol::Bytes& wire, const Camera& reported,
-                                         const std::string& source, fusion::FrameGroup& group,
-                                         FrameData& frame) {
-  const protocol::Frame parsed =
-      parsedFrame(wire, source + ": camera " + std::to_string(reported.id));
+StatusOr<const fusion::PodImages*> receivePodFrame(const protocol::Bytes& wire,
+                                                   const Camera& reported,
+                                                   const std::string& source,
+                                                   fusion::FrameGroup& group, FrameData& frame) {
+  const std::string what = source + ": camera " + std::to_string(reported.id);
+  HOLOFUSE_ASSIGN_OR_RETURN(const protocol::Frame parsed, parsedFrame(wire, what));
   const auto t0 = Clock::now();
   protocol::PodFrame pod;
   Status status = protocol::decodeFrame(parsed, pod);
@@ -86,16 +89,13 @@ const fusion::PodImages& receivePodFrame(const protocol::Bytes& wire, const Came
   const double decode_ms = msSince(t0);
   frame.codec_ms["server_decode"] += decode_ms;
   frame.per_pod_ms["server_decode"].push_back(decode_ms);
-  if (!images.isOk()) {
-    throw std::runtime_error(source + ": camera " + std::to_string(reported.id) + ": " +
-                             images.status().message());
-  }
+  if (!images.isOk()) return within(what, images.status());
   frame.pod_link_bytes += wire.size();
-  return group.pods[pod.camera_id] = std::move(*images);
+  return &(group.pods[pod.camera_id] = std::move(*images));
 }
 
-void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions& options,
-                  const std::vector<Camera>& reported, FrameData& frame) {
+Status sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions& options,
+                    const std::vector<Camera>& reported, FrameData& frame) {
   fusion::FusionSettings settings = options.loop.fusion;
   settings.pods_expected = static_cast<uint32_t>(reported.size());
   fusion::GroupJob job;
@@ -112,8 +112,10 @@ void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions&
                         bundle_wire = fused.texture_bundle->flatten();
   const protocol::Bytes stats_wire = fused.stats->flatten();
   frame.client_link_bytes += mesh_wire.size() + bundle_wire.size() + stats_wire.size();
-  const protocol::Frame bundle_frame = parsedFrame(bundle_wire, "texture bundle");
-  const protocol::Frame mesh_frame_parsed = parsedFrame(mesh_wire, "mesh frame");
+  HOLOFUSE_ASSIGN_OR_RETURN(const protocol::Frame bundle_frame,
+                            parsedFrame(bundle_wire, "texture bundle"));
+  HOLOFUSE_ASSIGN_OR_RETURN(const protocol::Frame mesh_frame_parsed,
+                            parsedFrame(mesh_wire, "mesh frame"));
   std::map<uint32_t, Camera> cameras;
   for (const Camera& camera : reported) cameras[camera.id] = camera;
   const auto t0 = Clock::now();
@@ -125,15 +127,16 @@ void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions&
   status = protocol::decodeFrame(mesh_frame_parsed, mesh_frame);
   auto mesh = status.isOk() ? decodeDraco(mesh_frame.mesh.data(), mesh_frame.mesh.size()) : status;
   frame.codec_ms["decode"] += msSince(t0);
-  if (!views.isOk()) throw std::runtime_error("the client's images: " + views.status().message());
+  if (!views.isOk()) return within("the client's images", views.status());
   if (mesh_frame.mesh.empty()) {
     // The server sends no Draco bytes when encoding failed, and says why in the Stats.
+    HOLOFUSE_ASSIGN_OR_RETURN(const protocol::Frame stats_frame, parsedFrame(stats_wire, "stats"));
     protocol::Stats stats;
-    status = protocol::decodeFrame(parsedFrame(stats_wire, "stats"), stats);
-    throw std::runtime_error("the server's mesh: " +
-                             (status.isOk() ? stats.note : status.message()));
+    status = protocol::decodeFrame(stats_frame, stats);
+    return Status(StatusCode::kMalformed,
+                  "the server's mesh: " + (status.isOk() ? stats.note : status.message()));
   }
-  if (!mesh.isOk()) throw std::runtime_error("the client's mesh: " + mesh.status().message());
+  if (!mesh.isOk()) return within("the client's mesh", mesh.status());
   // The server's encoding, from the stamps it put in the frames it sent.
   frame.codec_ms["mesh_encode"] +=
       protocol::stampedMs(mesh_frame.stamps, protocol::Stage::kMeshEncode);
@@ -141,6 +144,7 @@ void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions&
       protocol::stampedMs(bundle.stamps, protocol::Stage::kImageEncode);
   frame.mesh = std::move(*mesh);
   frame.views = std::move(*views);
+  return Status::ok();
 }
 
 std::vector<int> heldOutCameras(int cameras, int limit) {
@@ -150,9 +154,9 @@ std::vector<int> heldOutCameras(int cameras, int limit) {
   return ids;
 }
 
-Mesh refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
-                  const std::vector<hull::HullView>& views, Mesh carved,
-                  const hull::HullOptions& hull_options, FrameData& frame) {
+StatusOr<Mesh> refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
+                            const std::vector<hull::HullView>& views, Mesh carved,
+                            const hull::HullOptions& hull_options, FrameData& frame) {
   const bool refining = options.loop.fusion.refine.depth_voxels > 0;
   // The colours in whole frames only for the refinement, which reads them.
   const std::vector<Image8> colors =
@@ -163,13 +167,15 @@ Mesh refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
     mesh = refined(carved, views, colors, options, hull_options.voxel_size);
     frame.refine_ms = msSince(t0);
   }
-  frame.mesh_without = meshesForHeldOut(options, views, colors, carved, hull_options);
+  HOLOFUSE_ASSIGN_OR_RETURN(frame.mesh_without,
+                            meshesForHeldOut(options, views, colors, carved, hull_options));
   return mesh ? std::move(*mesh) : std::move(carved);
 }
 
-FrameData prepareFrame(const EvalOptions& options, const scene::SyntheticScene& scene,
-                       const std::vector<Camera>& truth, const std::vector<Camera>& reported,
-                       const std::vector<Image8>& plates, uint64_t frame_id) {
+StatusOr<FrameData> prepareFrame(const EvalOptions& options, const scene::SyntheticScene& scene,
+                                 const std::vector<Camera>& truth,
+                                 const std::vector<Camera>& reported,
+                                 const std::vector<Image8>& plates, uint64_t frame_id) {
   FrameData frame;
   frame.frame_id = frame_id;
   fusion::FrameGroup group;
@@ -186,7 +192,7 @@ FrameData prepareFrame(const EvalOptions& options, const scene::SyntheticScene& 
     const double encode_ms = protocol::stampedMs(capture.stamps, protocol::Stage::kPodEncode);
     slowest_pod_ms = std::max(slowest_pod_ms, encode_ms);
     frame.per_pod_ms["pod_encode"].push_back(encode_ms);
-    receivePodFrame(wire, reported[i], "pod", group, frame);
+    HOLOFUSE_RETURN_IF_ERROR(receivePodFrame(wire, reported[i], "pod", group, frame).status());
   }
   frame.codec_ms["pod_encode"] = slowest_pod_ms;
   // The silhouettes back in whole frames before the hull's clock starts, as
@@ -200,9 +206,11 @@ FrameData prepareFrame(const EvalOptions& options, const scene::SyntheticScene& 
                   ? scene.truthMesh(frame_id, hull_options.voxel_size)
                   : hull::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
   frame.hull_ms = msSince(t0);
-  if (options.geometry != "truth")
-    hull = refineCarved(options, group, hull_views, std::move(hull), hull_options, frame);
-  sendToClient(std::move(group), hull, options, reported, frame);
+  if (options.geometry != "truth") {
+    HOLOFUSE_ASSIGN_OR_RETURN(
+        hull, refineCarved(options, group, hull_views, std::move(hull), hull_options, frame));
+  }
+  HOLOFUSE_RETURN_IF_ERROR(sendToClient(std::move(group), hull, options, reported, frame));
   return frame;
 }
 

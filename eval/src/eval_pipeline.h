@@ -63,17 +63,18 @@ struct FrameData {
 // The server's side of one pod frame (protocol bytes, as sent or
 // recorded), decoded as fusion_server decodes it, into the frame's group.
 // source names where the bytes came from in errors. Returns what the
-// group now holds for that camera.
-const fusion::PodImages& receivePodFrame(const protocol::Bytes& wire, const Camera& reported,
-                                         const std::string& source, fusion::FrameGroup& group,
-                                         FrameData& frame);
+// group now holds for that camera, or what is wrong with the bytes.
+StatusOr<const fusion::PodImages*> receivePodFrame(const protocol::Bytes& wire,
+                                                   const Camera& reported,
+                                                   const std::string& source,
+                                                   fusion::FrameGroup& group, FrameData& frame);
 
 // The server's packing of the group's hull for clients (Draco, the images
 // re-encoded) and the client's decoding of it: the frame's mesh and views
 // are what a client of the live loop renders, its client-link bytes and
 // codec times what the loop spends.
-void sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions& options,
-                  const std::vector<Camera>& reported, FrameData& frame);
+Status sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOptions& options,
+                    const std::vector<Camera>& reported, FrameData& frame);
 
 // The cameras held out of a scene of that many: limit of them (0: all),
 // spread evenly by index.
@@ -82,16 +83,17 @@ std::vector<int> heldOutCameras(int cameras, int limit);
 // What follows the carving in the server, timed as its refine stage, and
 // the meshes the held-out cameras are compared with: the mesh the frame
 // sends.
-Mesh refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
-                  const std::vector<hull::HullView>& views, Mesh carved,
-                  const hull::HullOptions& hull_options, FrameData& frame);
+StatusOr<Mesh> refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
+                            const std::vector<hull::HullView>& views, Mesh carved,
+                            const hull::HullOptions& hull_options, FrameData& frame);
 
 // One frame of a synthetic scene through the loop's whole path: the pods'
 // capture and encoding from the true cameras (reporting the reported
 // ones), the server's decoding, carving and refinement, its packing for
 // clients and the client's decoding, with the truth it is judged by.
-FrameData prepareFrame(const EvalOptions& options, const scene::SyntheticScene& scene,
-                       const std::vector<Camera>& truth, const std::vector<Camera>& reported,
-                       const std::vector<Image8>& plates, uint64_t frame_id);
+StatusOr<FrameData> prepareFrame(const EvalOptions& options, const scene::SyntheticScene& scene,
+                                 const std::vector<Camera>& truth,
+                                 const std::vector<Camera>& reported,
+                                 const std::vector<Image8>& plates, uint64_t frame_id);
 
 }  // namespace holofuse::eval

@@ -56,8 +56,10 @@ double median(const std::vector<double>& v) { return percentile(v, 50); }
 double percentile95(const std::vector<double>& v) { return percentile(v, 95); }
 
 // RGB like the true images (a render's alpha is not part of the comparison).
-void saveImage(const fs::path& path, const Image8& image) {
-  fs::create_directories(path.parent_path());
+Status saveImage(const fs::path& path, const Image8& image) {
+  std::error_code ec;
+  fs::create_directories(path.parent_path(), ec);
+  if (ec) return Status(StatusCode::kIoError, path.parent_path().string() + ": " + ec.message());
   Image8 rgb = image;
   if (image.channels == 4) {
     rgb = Image8(image.width, image.height, 3);
@@ -65,8 +67,7 @@ void saveImage(const fs::path& path, const Image8& image) {
       for (int c = 0; c < 3; ++c) rgb.pixels[p * 3 + c] = image.pixels[p * 4 + c];
     }
   }
-  const Status written = writePng(path.string(), rgb);
-  if (!written.isOk()) throw std::runtime_error(written.message());
+  return writePng(path.string(), rgb);
 }
 
 // A row's name as a folder name a shell takes unquoted: "clean (camera
@@ -131,37 +132,94 @@ ViewRegions viewRegions(const Mesh& mesh, const Camera& pose,
   return out;
 }
 
-// A scene to evaluate, from the synthetic library or from a dataset: the
-// poses to render from, and every frame as the client would receive it.
+// A scene to evaluate, from the synthetic library or from a dataset: its
+// cameras' reported poses, and every frame as the client would receive it.
 struct SceneInput {
   std::vector<Camera> reported;
   std::vector<FrameData> frames;
-  // Novel views instead of held-out cameras: every camera takes part and
-  // frames[f].novel_truth[j] is the truth at novel_poses[j].
-  std::vector<Camera> novel_poses;
-  // The held-out camera's own image stays in the blend (EvalOptions::camera_kept).
-  bool camera_kept = false;
 };
 
-// Every mode, every held-out camera, every frame of one scene.
-void evaluateModes(const EvalOptions& options, render::VulkanContext& context,
-                   const SceneInput& input, SceneResult& result,
-                   const std::function<void(const std::string&)>& progress) {
+// One view a row of the evaluation renders on every frame and compares
+// with its truth.
+struct ViewSequence {
+  Camera pose;  // rendered from, at its size, to compare pixel for pixel
+  // Before the scene's viewpoint jump, the pose rendered from instead (and
+  // nothing compared): the jump then lands on pose.
+  std::optional<Camera> pose_before_jump;
+  // The camera whose image takes no part (not in the blend, the vote, the
+  // seams or the global visibility), and whose hull without it is used
+  // where one was carved; -1: every camera takes part.
+  int left_out = -1;
+  // The truth: camera truth's true image, or novel pose truth's
+  // (FrameData::novel_truth).
+  int truth = 0;
+  bool novel_truth = false;
+  std::string name;  // "camera 3", "novel 1": image file names and progress
+};
+
+// What one row renders and compares with: one sequence per view.
+struct EvaluationPlan {
+  std::string what;  // "held out camera", "camera kept", "novel view": for progress lines
+  std::vector<ViewSequence> sequences;
+};
+
+std::pair<const Image8&, const Image8&> truthOf(const FrameData& frame,
+                                                const ViewSequence& sequence) {
+  const size_t k = static_cast<size_t>(sequence.truth);
+  if (sequence.novel_truth) return {frame.novel_truth[k].color, frame.novel_truth[k].mask};
+  return {frame.true_colors[k], frame.true_masks[k]};
+}
+
+// Leave-one-camera-out (or, with keep_camera, each chosen camera's pose
+// with its image kept in): the chosen cameras' poses, each compared with
+// its own image; under a viewpoint jump of jump_degrees along the ring,
+// the first half of the frames render from the camera the jump starts at.
+EvaluationPlan cameraPlan(const EvalOptions& options, const SceneInput& input, double jump_degrees,
+                          bool keep_camera) {
   const int camera_count = static_cast<int>(input.reported.size());
-  const int frame_count = static_cast<int>(input.frames.size());
   // A jump of this many cameras along the ring is the preset's angle.
-  const int jump = static_cast<int>(std::lround(result.view_jump_degrees / 360.0 * camera_count));
-  const int jump_frame = jump != 0 ? frame_count / 2 : 0;
+  const int jump = static_cast<int>(std::lround(jump_degrees / 360.0 * camera_count));
+  EvaluationPlan plan;
+  plan.what = keep_camera ? "camera kept" : "held out camera";
+  for (int held : heldOutCameras(camera_count, options.held_out_cameras)) {
+    ViewSequence sequence;
+    sequence.pose = input.reported[static_cast<size_t>(held)];
+    if (jump != 0) {
+      sequence.pose_before_jump = input.reported[static_cast<size_t>(
+          ((held + jump) % camera_count + camera_count) % camera_count)];
+    }
+    sequence.left_out = keep_camera ? -1 : held;
+    sequence.truth = held;
+    sequence.name = "camera" + std::to_string(held);
+    plan.sequences.push_back(std::move(sequence));
+  }
+  return plan;
+}
+
+// Novel views: each pose seen with every camera blended, compared with the
+// scene's truth there (frames' novel_truth, in poses' order).
+EvaluationPlan novelPlan(const std::vector<Camera>& poses) {
+  EvaluationPlan plan;
+  plan.what = "novel view";
+  for (size_t j = 0; j < poses.size(); ++j) {
+    ViewSequence sequence;
+    sequence.pose = poses[j];
+    sequence.truth = static_cast<int>(j);
+    sequence.novel_truth = true;
+    sequence.name = "novel" + std::to_string(j);
+    plan.sequences.push_back(std::move(sequence));
+  }
+  return plan;
+}
+
+// Every mode, every sequence of the plan, every frame of one scene.
+Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
+                     const SceneInput& input, const EvaluationPlan& plan, SceneResult& result,
+                     const std::function<void(const std::string&)>& progress) {
+  const int frame_count = static_cast<int>(input.frames.size());
+  const int jump_frame = frame_count / 2;  // for sequences with a pose before the jump
   // Seam pixels and error regions per (sequence, frame), shared by the modes.
   std::map<std::pair<int, int>, ViewRegions> region_cache;
-  const bool novel = !input.novel_poses.empty();
-  // The truth a sequence's frame is compared with.
-  auto truthOf = [&](int held, int f) -> std::pair<const Image8&, const Image8&> {
-    const FrameData& frame = input.frames[static_cast<size_t>(f)];
-    const size_t k = static_cast<size_t>(held);
-    if (novel) return {frame.novel_truth[k].color, frame.novel_truth[k].mask};
-    return {frame.true_colors[k], frame.true_masks[k]};
-  };
   // holoportation's and montage4d's pictures per (sequence, frame), to
   // compare with each other when both modes run.
   const auto runs = [&](render::BlendMode mode) {
@@ -177,7 +235,8 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context,
   size_t compared = 0, pixels = 0, differing = 0;
   auto comparePictures = [&](const std::pair<int, int>& key, render::BlendMode mode,
                              const Image8& picture) {
-    const auto [truth_color, truth_mask] = truthOf(key.first, key.second);
+    const auto [truth_color, truth_mask] = truthOf(input.frames[static_cast<size_t>(key.second)],
+                                                   plan.sequences[static_cast<size_t>(key.first)]);
     const PixelRect rect = foregroundRect(truth_mask);
     if (!first_mode) first_mode = mode;
     if (rect.empty()) {
@@ -221,17 +280,9 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context,
     const auto mode_start = Clock::now();
     double seam_sum = 0;
     size_t seam_images = 0;
-    const std::vector<int> evaluated =
-        novel ? std::vector<int>{} : heldOutCameras(camera_count, options.held_out_cameras);
-    std::vector<int> sequences = evaluated;
-    if (novel) {
-      for (size_t j = 0; j < input.novel_poses.size(); ++j)
-        sequences.push_back(static_cast<int>(j));
-    }
-    for (int held : sequences) {
-      // Rendered at the held-out camera's own size, to compare pixel for pixel.
-      const Camera& pose = novel ? input.novel_poses[static_cast<size_t>(held)]
-                                 : input.reported[static_cast<size_t>(held)];
+    for (int s = 0; s < static_cast<int>(plan.sequences.size()); ++s) {
+      const ViewSequence& sequence = plan.sequences[static_cast<size_t>(s)];
+      const Camera& pose = sequence.pose;
       render::Renderer renderer(context, pose.width, pose.height);
       renderer.setHalfPrecisionVertices(options.loop.render.half_precision_vertices);
       render::BlendSettings settings = options.loop.render.blend;
@@ -240,34 +291,29 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context,
       std::optional<ErrorImage> previous;
       for (int f = 0; f < frame_count; ++f) {
         const FrameData& frame = input.frames[static_cast<size_t>(f)];
-        // Leave-one-out proper may carve without the held-out camera too; a
-        // kept camera or a novel pose has no camera to leave out.
-        const auto without =
-            novel || input.camera_kept ? frame.mesh_without.end() : frame.mesh_without.find(held);
+        // Leave-one-out proper may carve without the held-out camera too.
+        const auto without = sequence.left_out >= 0 ? frame.mesh_without.find(sequence.left_out)
+                                                    : frame.mesh_without.end();
         const Mesh& mesh = without != frame.mesh_without.end() ? without->second : frame.mesh;
         renderer.setMesh(mesh);
-        // The held-out image takes no part at all: not in the blend, the
-        // vote, the seams or the global visibility (unless kept on purpose).
         std::vector<render::ViewImages> others = frame.views;
-        if (!novel && !input.camera_kept) others.erase(others.begin() + held);
+        if (sequence.left_out >= 0) others.erase(others.begin() + sequence.left_out);
         renderer.setViews(others);
-        const bool before_jump = !novel && f < jump_frame;
-        const int view =
-            before_jump ? ((held + jump) % camera_count + camera_count) % camera_count : held;
+        const bool before_jump = sequence.pose_before_jump && f < jump_frame;
         const auto t0 = Clock::now();
         const Image8 picture =
-            renderer.render(novel ? pose : input.reported[static_cast<size_t>(view)], settings);
+            renderer.render(before_jump ? *sequence.pose_before_jump : pose, settings);
         mesh_ms.push_back(msSince(t0));
         const auto times = renderer.fieldTimesMs();
-        for (size_t s = 0; s < times.size(); ++s) {
-          if (times[s] >= 0)
-            passes[render::TextureFieldPasses::stageNames()[s]].push_back(
-                times[s]);  // -1: no such pass
+        for (size_t t = 0; t < times.size(); ++t) {
+          if (times[t] >= 0)
+            passes[render::TextureFieldPasses::stageNames()[t]].push_back(
+                times[t]);  // -1: no such pass
         }
         if (before_jump) continue;  // not at the held-out pose yet: nothing to compare with
-        const auto [truth_color, truth_mask] = truthOf(held, f);
+        const auto [truth_color, truth_mask] = truthOf(frame, sequence);
         const ImageQuality q = compareInMask(picture, truth_color, truth_mask);
-        const auto key = std::make_pair(held, f);
+        const auto key = std::make_pair(s, f);
         if (compare_pictures &&
             (mode == render::BlendMode::kHoloportation || mode == render::BlendMode::kMontage4D)) {
           comparePictures(key, mode, picture);
@@ -299,22 +345,22 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context,
         if (options.save_images) {
           const fs::path dir =
               fs::path(options.out_dir) / "images" / folderName(result.name) / mode_name;
-          const std::string stem = "frame" + std::to_string(frame.frame_id) +
-                                   (novel ? "_novel" : "_camera") + std::to_string(held);
-          saveImage(dir / (stem + "_rendered.png"), picture);
-          saveImage(dir / (stem + "_true.png"), truth_color);
-          saveImage(dir / (stem + "_mask.png"), truth_mask);
-          saveImage(dir / (stem + "_error.png"), errorMapPicture(picture, truth_color, truth_mask));
-          saveImage(dir / (stem + "_regions.png"), regionsPicture(regions.regions));
+          const std::string stem = "frame" + std::to_string(frame.frame_id) + "_" + sequence.name;
+          for (const auto& [suffix, image] :
+               {std::pair<const char*, Image8>{"_rendered.png", picture},
+                {"_true.png", truth_color},
+                {"_mask.png", truth_mask},
+                {"_error.png", errorMapPicture(picture, truth_color, truth_mask)},
+                {"_regions.png", regionsPicture(regions.regions)}}) {
+            HOLOFUSE_RETURN_IF_ERROR(saveImage(dir / (stem + suffix), image));
+          }
         }
       }
       if (progress) {
-        progress(result.name + " / " + mode_name +
-                 (novel               ? ": novel view "
-                  : input.camera_kept ? ": camera kept "
-                                      : ": held out camera ") +
-                 std::to_string(held) + " of " +
-                 std::to_string(novel ? static_cast<int>(sequences.size()) : camera_count) + ", " +
+        // Leave-one-out counts its cameras; novel views their poses.
+        const size_t of = sequence.novel_truth ? plan.sequences.size() : input.reported.size();
+        progress(result.name + " / " + mode_name + ": " + plan.what + " " +
+                 std::to_string(sequence.truth) + " of " + std::to_string(of) + ", " +
                  std::to_string(frame_count) + " frames, " +
                  std::to_string(static_cast<int>(msSince(mode_start) / 1000)) + " s so far");
       }
@@ -339,21 +385,21 @@ void evaluateModes(const EvalOptions& options, render::VulkanContext& context,
     agreement.gain_bound_db =
         (best_montage_psnr - holoportation_psnr) / static_cast<double>(compared);
   }
+  return Status::ok();
 }
 
 // The leave-one-out row's scene again, with each held-out camera's image
 // kept in the blend: what the camera's own pose scores when its image
 // takes part.
-SceneResult cameraKeptRow(const EvalOptions& options, render::VulkanContext& context,
-                          const SceneInput& input, const SceneResult& leave_one_out,
-                          const std::function<void(const std::string&)>& progress) {
-  SceneInput kept = input;
-  kept.camera_kept = true;
+StatusOr<SceneResult> cameraKeptRow(const EvalOptions& options, render::VulkanContext& context,
+                                    const SceneInput& input, const SceneResult& leave_one_out,
+                                    const std::function<void(const std::string&)>& progress) {
   SceneResult row = leave_one_out;
   row.modes.clear();
   row.name = leave_one_out.name + " (camera kept)";
   row.camera_kept = true;
-  evaluateModes(options, context, kept, row, progress);
+  const EvaluationPlan plan = cameraPlan(options, input, row.view_jump_degrees, true);
+  HOLOFUSE_RETURN_IF_ERROR(evaluateModes(options, context, input, plan, row, progress));
   return row;
 }
 
@@ -409,19 +455,20 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
 // hull carved in its capture volume at its voxel size (options.loop.fusion.hull.voxel_size
 // when the dataset names none or a voxel was given), through Draco. Its masks are the truth the
 // images are compared inside; there is no true surface.
-SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
-                            SceneResult& result) {
+StatusOr<SceneInput> loadDatasetScene(const EvalOptions& options, const std::string& dir,
+                                      SceneResult& result) {
   auto dataset = dataset::Dataset::open(dir);
-  if (!dataset.isOk()) throw std::invalid_argument(dataset.status().message());
+  if (!dataset.isOk()) return dataset.status();
   SceneInput input;
   std::vector<Camera> cameras;
   for (const auto& [id, cam] : dataset->cameras()) {
-    auto calibration = dataset->readCalibration(id);
-    if (!calibration.isOk()) throw std::invalid_argument(calibration.status().message());
-    cameras.push_back(fromCalibration(*calibration));
+    HOLOFUSE_ASSIGN_OR_RETURN(const protocol::Calibration calibration,
+                              dataset->readCalibration(id));
+    cameras.push_back(fromCalibration(calibration));
   }
-  if (cameras.size() < 2)
-    throw std::invalid_argument(dir + ": leave-one-camera-out needs at least 2 cameras");
+  if (cameras.size() < 2) {
+    return Status(StatusCode::kMalformed, dir + ": leave-one-camera-out needs at least 2 cameras");
+  }
   input.reported = cameras;
   hull::HullOptions hull_options =
       dataset::hullOptionsFor(*dataset, options.loop.fusion.hull.voxel_size);
@@ -443,11 +490,12 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
     group.frame_id = frame_id;
     for (size_t c = 0; c < records.size(); ++c) {
       auto recorded = dataset->readFrame(records[c]);
-      if (!recorded.isOk()) throw std::invalid_argument(recorded.status().message());
+      if (!recorded.isOk()) return recorded.status();
       // The pods' encoding is not timed: the recording was made. The truth
       // is the recorded image and mask, back in their whole frame.
-      const fusion::PodImages& pod =
-          receivePodFrame(recorded->bytes, cameras[c], dir, group, frame);
+      HOLOFUSE_ASSIGN_OR_RETURN(const fusion::PodImages* received,
+                                receivePodFrame(recorded->bytes, cameras[c], dir, group, frame));
+      const fusion::PodImages& pod = *received;
       const Camera& cam = cameras[c];
       frame.true_colors.push_back(
           placeInFrame(pod.color, pod.offset_x, pod.offset_y, cam.width, cam.height));
@@ -467,12 +515,13 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
       hull = hull::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
     }
     frame.hull_ms = msSince(t0);
-    hull = refineCarved(options, group, hull_views, std::move(hull), hull_options, frame);
-    sendToClient(std::move(group), hull, options, cameras, frame);
+    HOLOFUSE_ASSIGN_OR_RETURN(
+        hull, refineCarved(options, group, hull_views, std::move(hull), hull_options, frame));
+    HOLOFUSE_RETURN_IF_ERROR(sendToClient(std::move(group), hull, options, cameras, frame));
     input.frames.push_back(std::move(frame));
   }
   if (input.frames.empty())
-    throw std::invalid_argument(dir + ": no frame id is held by every camera");
+    return Status(StatusCode::kMalformed, dir + ": no frame id is held by every camera");
   result.name = "dataset:" + fs::path(dir).lexically_normal().filename().string();
   if (result.name == "dataset:")
     result.name = "dataset:" + fs::path(dir).lexically_normal().parent_path().filename().string();
@@ -487,45 +536,60 @@ SceneInput loadDatasetScene(const EvalOptions& options, const std::string& dir,
   return input;
 }
 
-}  // namespace
+Status invalid(const std::string& message) { return Status(StatusCode::kMalformed, message); }
 
-std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
-                                        const std::function<void(const std::string&)>& progress) {
+// The scenes options name (the whole library when none and no dataset),
+// or what is wrong with the options.
+StatusOr<std::vector<const scene::ScenePreset*>> checkedScenes(const EvalOptions& options) {
   std::vector<const scene::ScenePreset*> presets;
   if (options.scenes.empty() && options.datasets.empty()) {
     for (const auto& preset : scene::sceneLibrary()) presets.push_back(&preset);
   }
   for (const auto& name : options.scenes) {
     const scene::ScenePreset* preset = scene::findScene(name);
-    if (preset == nullptr) {
-      throw std::invalid_argument("unknown scene '" + name +
-                                  "'; valid scenes: " + scene::sceneNames());
-    }
+    if (preset == nullptr)
+      return invalid("unknown scene '" + name + "'; valid scenes: " + scene::sceneNames());
     presets.push_back(preset);
   }
-  if (options.frames < 1) throw std::invalid_argument("--frames must be at least 1");
-  if (options.geometry != "hull" && options.geometry != "truth") {
-    throw std::invalid_argument("geometry '" + options.geometry + "': expected hull or truth");
+  if (options.frames < 1) return invalid("--frames must be at least 1");
+  if (options.geometry != "hull" && options.geometry != "truth")
+    return invalid("geometry '" + options.geometry + "': expected hull or truth");
+  if (options.geometry == "truth" && options.hull_without_held_out)
+    return invalid("--hull-without-held-out carves the hull again: it needs --geometry hull");
+  if (options.geometry == "truth" && !options.datasets.empty())
+    return invalid("--geometry truth needs a synthetic scene: a dataset has no true surface");
+  return presets;
+}
+
+}  // namespace
+
+StatusOr<std::vector<SceneResult>> runLeaveOneOut(
+    const EvalOptions& options, const std::function<void(const std::string&)>& progress) {
+  HOLOFUSE_ASSIGN_OR_RETURN(const std::vector<const scene::ScenePreset*> presets,
+                            checkedScenes(options));
+  // (The Vulkan context throws when no device answers: said here as an
+  // error naming the device asked for.)
+  std::optional<render::VulkanContext> started;
+  try {
+    started.emplace(options.device);
+  } catch (const std::exception& e) {
+    return Status(StatusCode::kIoError, "Vulkan device '" + options.device + "': " + e.what());
   }
-  if (options.geometry == "truth" && options.hull_without_held_out) {
-    throw std::invalid_argument(
-        "--hull-without-held-out carves the hull again: it needs --geometry hull");
-  }
-  if (options.geometry == "truth" && !options.datasets.empty()) {
-    throw std::invalid_argument(
-        "--geometry truth needs a synthetic scene: a dataset has no true surface");
-  }
-  render::VulkanContext context(options.device);
+  render::VulkanContext& context = *started;
   std::vector<SceneResult> results;
   for (const auto& dir : options.datasets) {
     SceneResult result;
-    const SceneInput input = loadDatasetScene(options, dir, result);
+    HOLOFUSE_ASSIGN_OR_RETURN(const SceneInput input, loadDatasetScene(options, dir, result));
     summariseFrames(input, result);
     result.silhouette_error_mm = silhouetteErrorMm(input.frames[0]);
-    evaluateModes(options, context, input, result, progress);
+    HOLOFUSE_RETURN_IF_ERROR(evaluateModes(options, context, input,
+                                           cameraPlan(options, input, 0, false), result, progress));
     results.push_back(std::move(result));
-    if (options.camera_kept)
-      results.push_back(cameraKeptRow(options, context, input, results.back(), progress));
+    if (options.camera_kept) {
+      HOLOFUSE_ASSIGN_OR_RETURN(SceneResult kept,
+                                cameraKeptRow(options, context, input, results.back(), progress));
+      results.push_back(std::move(kept));
+    }
   }
   for (const scene::ScenePreset* preset : presets) {
     scene::SceneOptions scene_options = preset->scene;
@@ -564,8 +628,10 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
     result.cameras = camera_count;
     result.view_jump_degrees = preset->view_jump_degrees;
     for (int f = 0; f < options.frames; ++f) {
-      input.frames.push_back(prepareFrame(scene_eval, scene, truth, input.reported, plates,
-                                          options.first_frame + static_cast<uint64_t>(f)));
+      HOLOFUSE_ASSIGN_OR_RETURN(FrameData frame,
+                                prepareFrame(scene_eval, scene, truth, input.reported, plates,
+                                             options.first_frame + static_cast<uint64_t>(f)));
+      input.frames.push_back(std::move(frame));
     }
     summariseFrames(input, result);
     result.silhouette_error_mm = silhouetteErrorMm(input.frames[0]);
@@ -577,22 +643,28 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
             metrics::silhouetteIoU(input.frames[0].mesh, truth[i], input.frames[0].true_masks[i]));
       }
     }
-    evaluateModes(options, context, input, result, progress);
+    HOLOFUSE_RETURN_IF_ERROR(evaluateModes(
+        options, context, input, cameraPlan(options, input, result.view_jump_degrees, false),
+        result, progress));
     const SceneResult leave_one_out = result;
     results.push_back(std::move(result));
-    if (options.camera_kept)
-      results.push_back(cameraKeptRow(options, context, input, leave_one_out, progress));
+    if (options.camera_kept) {
+      HOLOFUSE_ASSIGN_OR_RETURN(SceneResult kept,
+                                cameraKeptRow(options, context, input, leave_one_out, progress));
+      results.push_back(std::move(kept));
+    }
     for (double degrees : options.novel_view_degrees) {
       // The same frames, seen from beside the chosen pods with all of them
       // blended; the scene renders the truth there.
       SceneInput novel = input;
+      std::vector<Camera> poses;
       for (int k : heldOutCameras(camera_count, options.held_out_cameras)) {
-        novel.novel_poses.push_back(scene::SyntheticScene::ringPose(
-            360.0 * k / camera_count + degrees, static_cast<uint32_t>(1000 + k), options.width,
-            options.height));
+        poses.push_back(scene::SyntheticScene::ringPose(360.0 * k / camera_count + degrees,
+                                                        static_cast<uint32_t>(1000 + k),
+                                                        options.width, options.height));
       }
       for (FrameData& frame : novel.frames) {
-        for (const Camera& pose : novel.novel_poses)
+        for (const Camera& pose : poses)
           frame.novel_truth.push_back(scene.render(pose, frame.frame_id));
       }
       SceneResult row = leave_one_out;
@@ -602,7 +674,8 @@ std::vector<SceneResult> runLeaveOneOut(const EvalOptions& options,
       row.name = preset->name + suffix;
       row.novel_view_degrees = degrees;
       row.view_jump_degrees = 0;
-      evaluateModes(options, context, novel, row, progress);
+      HOLOFUSE_RETURN_IF_ERROR(
+          evaluateModes(options, context, novel, novelPlan(poses), row, progress));
       results.push_back(std::move(row));
     }
   }

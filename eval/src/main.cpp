@@ -110,12 +110,22 @@ int main(int argc, char** argv) {
       std::printf("[eval] %s\n", line.c_str());
       std::fflush(stdout);
     });
-    eval::writeQualityReports(options, results, options.out_dir);
+    if (!results.isOk()) {
+      std::fprintf(stderr, "[eval] %s\n", results.status().message().c_str());
+      return 1;
+    }
+    if (const Status written = eval::writeQualityReports(options, *results, options.out_dir);
+        !written.isOk()) {
+      std::fprintf(stderr, "[eval] %s\n", written.message().c_str());
+      return 1;
+    }
     std::printf("[eval] %zu scenes in %.0f s; wrote %s/quality.json and quality.md\n",
-                results.size(),
+                results->size(),
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
                 options.out_dir.c_str());
   } catch (const std::exception& e) {
+    // The device failing mid-run (the renderer throws on a Vulkan error):
+    // not the evaluation's input, and nothing of it can go on.
     std::fprintf(stderr, "[eval] %s\n", e.what());
     return 1;
   }

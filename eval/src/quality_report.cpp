@@ -6,7 +6,9 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
+#include "base/text_file.h"
 #include "common/html_report.h"
 #include "eval/leave_one_out.h"
 #include "metrics/image_metrics.h"
@@ -69,9 +71,11 @@ std::vector<double> latencyParts(const SceneResult& scene, const ModeResult& mod
   return parts;
 }
 
-void writeQualityReports(const EvalOptions& options, const std::vector<SceneResult>& results,
-                         const std::string& out_dir) {
-  fs::create_directories(out_dir);
+Status writeQualityReports(const EvalOptions& options, const std::vector<SceneResult>& results,
+                           const std::string& out_dir) {
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec) return Status(StatusCode::kIoError, out_dir + ": " + ec.message());
   nlohmann::json json;
   json["settings"] = {
       {"frames", options.frames},
@@ -113,7 +117,7 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   // and rate; then flicker and seams, which it does not measure.
   std::vector<std::string> modes;
   for (auto mode : options.modes) modes.push_back(render::blendModeName(mode));
-  std::ofstream md(fs::path(out_dir) / "quality.md");
+  std::ostringstream md;
   md << "# Leave-one-camera-out quality\n\n"
      << "Geometry: " << (options.geometry == "truth" ? "the true surface" : "the visual hull")
      << ". " << options.frames << " frames per scene from frame " << options.first_frame << ", "
@@ -415,7 +419,9 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
     }
     json["budget_violations"] = violations;
   }
-  std::ofstream(fs::path(out_dir) / "quality.json") << json.dump(2) << "\n";
+  HOLOFUSE_RETURN_IF_ERROR(writeTextFile((fs::path(out_dir) / "quality.md").string(), md.str()));
+  HOLOFUSE_RETURN_IF_ERROR(
+      writeTextFile((fs::path(out_dir) / "quality.json").string(), json.dump(2) + "\n"));
 
   // The same for people, with charts.
   std::vector<std::string> scene_names;
@@ -525,8 +531,8 @@ void writeQualityReports(const EvalOptions& options, const std::vector<SceneResu
   stage_header.insert(stage_header.end(), modes.begin(), modes.end());
   for (const auto& [name, table] : stage_tables)
     body += "<h3>" + html::escape(name) + "</h3>\n" + html::table(stage_header, table);
-  std::ofstream(fs::path(out_dir) / "quality.html")
-      << html::page("holofuse leave-one-camera-out quality", body);
+  return writeTextFile((fs::path(out_dir) / "quality.html").string(),
+                       html::page("holofuse leave-one-camera-out quality", body));
 }
 
 }  // namespace holofuse::eval

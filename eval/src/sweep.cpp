@@ -6,9 +6,9 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
-#include <stdexcept>
 
 #include "base/process.h"
+#include "base/text_file.h"
 #include "common/command_line.h"
 #include "common/image_codec.h"
 #include "dataset/dataset.h"
@@ -21,6 +21,10 @@ namespace holofuse::eval {
 namespace {
 
 namespace fs = std::filesystem;
+
+// A sweep asked for something it cannot do (a knob, a value, a point file
+// of another run): the command line's fault, exit status 2.
+Status invalid(const std::string& message) { return Status(StatusCode::kMalformed, message); }
 
 fs::path pointPath(const std::string& out_dir, const std::string& knob, const std::string& value) {
   return fs::path(out_dir) / "points" / (knob + "=" + value + ".json");
@@ -83,12 +87,13 @@ PlannedPoint planPoint(const SweepOptions& options, const Knob& knob, const std:
 
 // A finished point's file, refused by name when it was measured under
 // other settings than this run's (the file stays as it is).
-nlohmann::json readPoint(const PlannedPoint& plan) {
+StatusOr<nlohmann::json> readPoint(const PlannedPoint& plan) {
   std::ifstream in(plan.path);
   const auto json = nlohmann::json::parse(in, nullptr, false);
-  if (json.is_discarded() || !json.is_object() || !json.contains("result")) {
-    throw std::invalid_argument(plan.path.string() +
-                                " is not a finished sweep point; remove it to measure it again");
+  if (json.is_discarded() || !json.is_object() || !json.contains("result") ||
+      !json.contains("scene") || !json.at("scene").is_string()) {
+    return invalid(plan.path.string() +
+                   " is not a finished sweep point; remove it to measure it again");
   }
   const nlohmann::json now = runSettings(plan.run);
   const nlohmann::json then = json.value("settings", nlohmann::json::object());
@@ -100,9 +105,8 @@ nlohmann::json readPoint(const PlannedPoint& plan) {
                    " (now " + value.dump() + ")";
   }
   if (!differences.empty()) {
-    throw std::invalid_argument(plan.path.string() +
-                                " was measured under other settings: " + differences +
-                                "; give another --out, or remove the file to measure it again");
+    return invalid(plan.path.string() + " was measured under other settings: " + differences +
+                   "; give another --out, or remove the file to measure it again");
   }
   return json;
 }
@@ -172,34 +176,9 @@ int runLogged(const std::vector<std::string>& command, const fs::path& log) {
   return waitProcess(*pid, -1).value_or(-1);
 }
 
-// The point's live run, as the loop's report gives it; an error names the
-// log when the loop fails or renders fewer frames than asked.
-LiveMeasure runLive(const SweepOptions& options, const std::string& knob, const std::string& value,
-                    bool is_default) {
-  const fs::path dir =
-      fs::path(options.out_dir) / "live" / (is_default ? "default" : knob + "=" + value);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  std::vector<std::string> command = {options.loop_program};
-  for (auto& argument : liveArguments(options, knob, value)) command.push_back(std::move(argument));
-  command.insert(command.end(),
-                 {"--frames", std::to_string(options.live_frames), "--out", dir.string()});
-  const fs::path log = dir / "loop.log";
-  const int status = runLogged(command, log);
-  const fs::path report_path = dir / "report.json";
-  std::ifstream in(report_path);
-  const auto report = nlohmann::json::parse(in, nullptr, false);
-  if (status != 0 || report.is_discarded() || !report.contains("latency_ms")) {
-    throw std::runtime_error("the live run of " + knob + "=" + value + " failed (exit status " +
-                             std::to_string(status) + "); see " + log.string());
-  }
-  LiveMeasure live;
-  live.frames = report.value("frames_rendered", 0);
-  if (live.frames != options.live_frames) {
-    throw std::runtime_error("the live run of " + knob + "=" + value + " rendered " +
-                             std::to_string(live.frames) + " of " +
-                             std::to_string(options.live_frames) + " frames; see " + log.string());
-  }
+// The numbers a live run's report.json gives (nlohmann throws on a field
+// it lacks).
+void readLiveReport(const nlohmann::json& report, LiveMeasure& live) {
   const auto& e2e = report.at("latency_ms").at("end_to_end");
   live.end_to_end_ms_p50 = e2e.at("p50").get<double>();
   live.end_to_end_ms_p95 = e2e.at("p95").get<double>();
@@ -209,36 +188,71 @@ LiveMeasure runLive(const SweepOptions& options, const std::string& knob, const 
     if (numbers.value("samples", 0) > 0) live.stage_ms_p95[stage] = numbers.at("p95").get<double>();
   }
   live.jitter_ms = report.value("jitter_ms", std::map<std::string, double>{});
+}
+
+// The point's live run, as the loop's report gives it; an error names the
+// log when the loop fails or renders fewer frames than asked.
+StatusOr<LiveMeasure> runLive(const SweepOptions& options, const std::string& knob,
+                              const std::string& value, bool is_default) {
+  const fs::path dir =
+      fs::path(options.out_dir) / "live" / (is_default ? "default" : knob + "=" + value);
+  std::error_code ec;
+  fs::remove_all(dir, ec);
+  fs::create_directories(dir, ec);
+  if (ec) return Status(StatusCode::kIoError, dir.string() + ": " + ec.message());
+  std::vector<std::string> command = {options.loop_program};
+  for (auto& argument : liveArguments(options, knob, value)) command.push_back(std::move(argument));
+  command.insert(command.end(),
+                 {"--frames", std::to_string(options.live_frames), "--out", dir.string()});
+  const fs::path log = dir / "loop.log";
+  const int status = runLogged(command, log);
+  const fs::path report_path = dir / "report.json";
+  std::ifstream in(report_path);
+  const auto report = nlohmann::json::parse(in, nullptr, false);
+  const std::string run = "the live run of " + knob + "=" + value;
+  if (status != 0 || report.is_discarded() || !report.contains("latency_ms")) {
+    return Status(StatusCode::kIoError, run + " failed (exit status " + std::to_string(status) +
+                                            "); see " + log.string());
+  }
+  LiveMeasure live;
+  live.frames = report.value("frames_rendered", 0);
+  if (live.frames != options.live_frames) {
+    return Status(StatusCode::kIoError, run + " rendered " + std::to_string(live.frames) + " of " +
+                                            std::to_string(options.live_frames) + " frames; see " +
+                                            log.string());
+  }
+  // (The loop's own report: a field it lacks is a report of another
+  // version, named as such.)
+  try {
+    readLiveReport(report, live);
+  } catch (const nlohmann::json::exception& e) {
+    return Status(StatusCode::kIoError,
+                  report_path.string() + " is not a report this sweep reads: " + e.what());
+  }
   live.report = report_path.string();
   return live;
 }
 
 // A point is on disk whole or not at all: a write that fails (a full
 // disk) leaves the point as it was and stops the sweep, naming the file.
-void writePoint(const fs::path& path, const nlohmann::json& file) {
-  const fs::path partial = path.string() + ".partial";
-  std::ofstream out(partial);
-  out << file.dump(2);
-  out.close();
-  if (!out) {
-    std::error_code ignored;
-    fs::remove(partial, ignored);
-    throw std::runtime_error(partial.string() +
-                             ": cannot be written (disk full?); the points before it are kept");
-  }
-  fs::rename(partial, path);
+Status writePoint(const fs::path& path, const nlohmann::json& file) {
+  const Status written = writeTextFile(path.string(), file.dump(2));
+  if (written.isOk()) return written;
+  return Status(written.code(), written.message() + "; the points before it are kept");
 }
 
-std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
-                                    const std::function<void(const std::string&)>& progress) {
+StatusOr<std::vector<SweepPoint>> sweepPoints(
+    const SweepOptions& options, const std::function<void(const std::string&)>& progress) {
   // Points already on disk must match this run before any work starts.
   for (const auto& [name, values] : options.knobs) {
     for (const auto& value : values) {
       const PlannedPoint plan = planPoint(options, *findKnob(name), value);
-      if (fs::exists(plan.path)) (void)readPoint(plan);
+      if (fs::exists(plan.path)) HOLOFUSE_RETURN_IF_ERROR(readPoint(plan).status());
     }
   }
-  fs::create_directories(fs::path(options.out_dir) / "points");
+  std::error_code ec;
+  fs::create_directories(fs::path(options.out_dir) / "points", ec);
+  if (ec) return Status(StatusCode::kIoError, options.out_dir + ": " + ec.message());
   std::vector<SweepPoint> points;
   size_t done = 0, total = 0;
   for (const auto& [name, values] : options.knobs) total += values.size();
@@ -252,11 +266,18 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
       point.is_default = plan.is_default;
       nlohmann::json file;
       if (fs::exists(plan.path)) {
-        file = readPoint(plan);
-        point.result = sceneResultFromJson(file.at("scene").get<std::string>(), file.at("result"));
+        HOLOFUSE_ASSIGN_OR_RETURN(file, readPoint(plan));
+        try {
+          point.result =
+              sceneResultFromJson(file.at("scene").get<std::string>(), file.at("result"));
+        } catch (const nlohmann::json::exception& e) {
+          return invalid(plan.path.string() + " holds no result this sweep reads (" + e.what() +
+                         "); remove it to measure it again");
+        }
         point.resumed = true;
       } else {
-        point.result = runLeaveOneOut(plan.run).at(0);
+        HOLOFUSE_ASSIGN_OR_RETURN(std::vector<SceneResult> results, runLeaveOneOut(plan.run));
+        point.result = std::move(results.at(0));
         file = {{"knob", name},
                 {"value", value},
                 {"scene", point.result.name},
@@ -264,7 +285,7 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
                 {"result", sceneResultJson(point.result)}};
         // Written before the live run, which an interruption or a failed
         // loop must not take the leave-one-out result down with.
-        writePoint(plan.path, file);
+        HOLOFUSE_RETURN_IF_ERROR(writePoint(plan.path, file));
       }
       // A live run is kept with its point, and reused when it rendered the
       // frames this run asks for.
@@ -279,9 +300,9 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
             progress("running " + name + "=" + value + " live for " +
                      std::to_string(options.live_frames) + " frames");
           }
-          point.live = runLive(options, name, value, plan.is_default);
+          HOLOFUSE_ASSIGN_OR_RETURN(point.live, runLive(options, name, value, plan.is_default));
           file["live"] = liveJson(*point.live, options.live_frames);
-          writePoint(plan.path, file);
+          HOLOFUSE_RETURN_IF_ERROR(writePoint(plan.path, file));
         }
       }
       ++done;
@@ -310,33 +331,31 @@ std::vector<SweepPoint> sweepPoints(const SweepOptions& options,
 
 }  // namespace
 
-std::vector<SweepPoint> runSweep(const SweepOptions& options,
-                                 const std::function<void(const std::string&)>& progress) {
-  if (options.knobs.empty()) throw std::invalid_argument("no --knob given; knobs: " + knobNames());
+StatusOr<std::vector<SweepPoint>> runSweep(
+    const SweepOptions& options, const std::function<void(const std::string&)>& progress) {
+  if (options.knobs.empty()) return invalid("no --knob given; knobs: " + knobNames());
   if (options.base.scenes.size() + options.base.datasets.size() != 1) {
-    throw std::invalid_argument("a sweep runs on exactly one scene or one dataset");
+    return invalid("a sweep runs on exactly one scene or one dataset");
   }
   // Every knob and value is checked before the first (long) point runs.
   std::set<std::string> named;
   for (const auto& [name, values] : options.knobs) {
     const Knob* knob = findKnob(name);
-    if (knob == nullptr)
-      throw std::invalid_argument("unknown knob '" + name + "'; knobs: " + knobNames());
+    if (knob == nullptr) return invalid("unknown knob '" + name + "'; knobs: " + knobNames());
     if (!named.insert(name).second) {
-      throw std::invalid_argument("knob '" + name +
-                                  "' is given twice; list all its values in one --knob " + name +
-                                  "=v1,v2,...");
+      return invalid("knob '" + name + "' is given twice; list all its values in one --knob " +
+                     name + "=v1,v2,...");
     }
-    if (values.empty()) throw std::invalid_argument("knob '" + name + "' has no values");
+    if (values.empty()) return invalid("knob '" + name + "' has no values");
     if (knob->synthetic_only && !options.base.datasets.empty()) {
-      throw std::invalid_argument("knob '" + name +
-                                  "' needs a synthetic scene: a dataset's cameras and image size "
-                                  "are the recorded ones");
+      return invalid("knob '" + name +
+                     "' needs a synthetic scene: a dataset's cameras and image size "
+                     "are the recorded ones");
     }
     for (const auto& value : values) {
       EvalOptions probe = options.base;
       const std::string error = knob->apply(probe, value);
-      if (!error.empty()) throw std::invalid_argument("knob " + name + ": " + error);
+      if (!error.empty()) return invalid("knob " + name + ": " + error);
     }
   }
   // The report places the default against the other values: a knob swept
@@ -345,7 +364,7 @@ std::vector<SweepPoint> runSweep(const SweepOptions& options,
   if (!swept.base.datasets.empty() && swept.base.voxel_from_dataset) {
     // The dataset's own voxel is the default point's, by number.
     auto dataset = dataset::Dataset::open(swept.base.datasets.front());
-    if (!dataset.isOk()) throw std::invalid_argument(dataset.status().message());
+    if (!dataset.isOk()) return invalid(dataset.status().message());
     swept.base.loop.fusion.hull.voxel_size =
         dataset::hullOptionsFor(*dataset, swept.base.loop.fusion.hull.voxel_size).voxel_size;
     swept.base.voxel_from_dataset = false;

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <optional>
 
 #include "common/command_line.h"
 #include "eval/sweep.h"
@@ -107,20 +108,29 @@ int main(int argc, char** argv) {
     }
     options.knobs.emplace_back(text.substr(0, eq), values);
   }
+  std::optional<StatusOr<std::vector<eval::SweepPoint>>> swept;
   try {
-    const auto points = eval::runSweep(options, [](const std::string& line) {
+    swept = eval::runSweep(options, [](const std::string& line) {
       std::printf("[sweep] %s\n", line.c_str());
       std::fflush(stdout);
     });
-    eval::writeSweepReports(options, points);
-    std::printf("[sweep] %zu points; wrote %s/sweep.json, sweep.md and sweep.html\n", points.size(),
-                options.out_dir.c_str());
-  } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "[sweep] %s\n", e.what());
-    return 2;
   } catch (const std::exception& e) {
+    // The device failing mid-run (the renderer throws on a Vulkan error);
+    // the points finished before it stay on disk.
     std::fprintf(stderr, "[sweep] %s\n", e.what());
     return 1;
   }
+  const auto& points = *swept;
+  if (!points.isOk()) {
+    std::fprintf(stderr, "[sweep] %s\n", points.status().message().c_str());
+    // What was asked for is wrong (2), or a run or a write failed (1).
+    return points.status().code() == StatusCode::kMalformed ? 2 : 1;
+  }
+  if (const Status written = eval::writeSweepReports(options, *points); !written.isOk()) {
+    std::fprintf(stderr, "[sweep] %s\n", written.message().c_str());
+    return 1;
+  }
+  std::printf("[sweep] %zu points; wrote %s/sweep.json, sweep.md and sweep.html\n", points->size(),
+              options.out_dir.c_str());
   return 0;
 }

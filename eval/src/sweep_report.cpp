@@ -7,6 +7,7 @@
 #include <fstream>
 #include <set>
 
+#include "base/text_file.h"
 #include "common/html_report.h"
 #include "eval/sweep.h"
 #include "result_json.h"
@@ -32,7 +33,7 @@ std::string sweptSubject(const SweepOptions& options) {
   return options.base.datasets.empty() ? options.base.scenes.at(0) : options.base.datasets.at(0);
 }
 
-void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint>& points) {
+Status writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint>& points) {
   const std::string mode = primaryMode(options.base);
   nlohmann::json json;
   json[options.base.datasets.empty() ? "scene" : "dataset"] = sweptSubject(options);
@@ -252,10 +253,12 @@ void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint
                        "pipeline ms", "live end-to-end ms", "live jitter ms (worst pod)",
                        "KB/frame to client", "pods KB/frame", "front", "over budget"},
                       rows);
-  std::ofstream(fs::path(options.out_dir) / "sweep.json") << json.dump(2) << "\n";
-  std::ofstream(fs::path(options.out_dir) / "sweep.md") << md;
-  std::ofstream(fs::path(options.out_dir) / "sweep.html")
-      << html::page("holofuse sweep: " + sweptSubject(options) + ", quality of " + mode, body);
+  const fs::path out(options.out_dir);
+  HOLOFUSE_RETURN_IF_ERROR(writeTextFile((out / "sweep.json").string(), json.dump(2) + "\n"));
+  HOLOFUSE_RETURN_IF_ERROR(writeTextFile((out / "sweep.md").string(), md));
+  return writeTextFile(
+      (out / "sweep.html").string(),
+      html::page("holofuse sweep: " + sweptSubject(options) + ", quality of " + mode, body));
 }
 
 }  // namespace holofuse::eval

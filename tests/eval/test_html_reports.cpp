@@ -157,7 +157,7 @@ TEST(HtmlReports, QualityPageChartsEveryMetric) {
                     {"image_encode", 10.0}, {"pod_encode", 5.0},
                     {"end_to_end", 1.0},    {"upload", 0.001}};  // the last two: not timed by eval
   const fs::path dir = scratch("quality");
-  eval::writeQualityReports(options, {scene}, dir.string());
+  ASSERT_TRUE(eval::writeQualityReports(options, {scene}, dir.string()).isOk());
   EXPECT_EQ(chartsRendered(dir / "quality.html"), 6)
       << "PSNR, SSIM, flicker, seam visibility, time, the latency stack";
   std::ifstream in(dir / "quality.html");
@@ -228,7 +228,7 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   }
   const fs::path dir = scratch("sweep");
   options.out_dir = dir.string();
-  eval::writeSweepReports(options, points);
+  ASSERT_TRUE(eval::writeSweepReports(options, points).isOk());
   EXPECT_EQ(chartsRendered(dir / "sweep.html"), 11)
       << "four plots and the latency stack for each of two knobs, and the live end-to-end plot of "
          "the knob run live";

@@ -32,7 +32,7 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
   options.save_images = true;
   options.out_dir = (fs::temp_directory_path() / "holofuse_eval_test").string();
   fs::remove_all(options.out_dir);
-  const auto results = runLeaveOneOut(options);
+  const auto results = runLeaveOneOut(options).value();
   ASSERT_EQ(results.size(), 1u);
   const SceneResult& scene = results[0];
   EXPECT_EQ(scene.cameras, 4);
@@ -82,7 +82,7 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
   for (double iou : scene.silhouette_iou) EXPECT_GT(iou, 0.6);
   EXPECT_LT(scene.cells_visited, scene.dense_grid_points)
       << "the hierarchical hull samples less than the dense grid";
-  writeQualityReports(options, results, options.out_dir);
+  ASSERT_TRUE(writeQualityReports(options, results, options.out_dir).isOk());
   std::ifstream json_file(fs::path(options.out_dir) / "quality.json");
   const auto json = nlohmann::json::parse(json_file);
   EXPECT_DOUBLE_EQ(json["scenes"]["few-cameras"]["modes"]["montage4d"]["psnr_db"].get<double>(),
@@ -218,9 +218,9 @@ TEST(LeaveOneOut, CroppedPodImagesGiveTheSameHullAndPicturesAsWholeOnes) {
   EvalOptions options = tiny();
   options.scenes = {"clean"};
   options.loop.pods.crop_margin = -1;
-  const SceneResult whole = runLeaveOneOut(options).at(0);
+  const SceneResult whole = runLeaveOneOut(options).value().at(0);
   options.loop.pods.crop_margin = 8;
-  const SceneResult cropped = runLeaveOneOut(options).at(0);
+  const SceneResult cropped = runLeaveOneOut(options).value().at(0);
   EXPECT_EQ(cropped.triangles, whole.triangles);
   EXPECT_DOUBLE_EQ(cropped.chamfer_mm, whole.chamfer_mm);
   for (const auto& [mode, m] : whole.modes) {
@@ -238,20 +238,20 @@ TEST(LeaveOneOut, TheHullCanBeCarvedWithoutTheHeldOutCameraToo) {
   EvalOptions options = tiny();
   options.scenes = {"few-cameras"};
   options.modes = {render::BlendMode::kNormal};
-  const SceneResult shaped = runLeaveOneOut(options).at(0);
+  const SceneResult shaped = runLeaveOneOut(options).value().at(0);
   options.hull_without_held_out = true;
-  const SceneResult strict = runLeaveOneOut(options).at(0);
+  const SceneResult strict = runLeaveOneOut(options).value().at(0);
   EXPECT_NE(strict.modes.at("normal").psnr_db, shaped.modes.at("normal").psnr_db);
   EXPECT_EQ(strict.modes.at("normal").images, shaped.modes.at("normal").images);
   EXPECT_EQ(strict.triangles, shaped.triangles) << "the scene's hull is the loop's";
   EXPECT_DOUBLE_EQ(strict.chamfer_mm, shaped.chamfer_mm);
   options.out_dir = (fs::temp_directory_path() / "holofuse_eval_strict").string();
-  writeQualityReports(options, {strict}, options.out_dir);
+  ASSERT_TRUE(writeQualityReports(options, {strict}, options.out_dir).isOk());
   std::ifstream in(fs::path(options.out_dir) / "quality.json");
   EXPECT_EQ(nlohmann::json::parse(in)["settings"]["hull_without_held_out"], true);
   fs::remove_all(options.out_dir);
   options.geometry = "truth";  // nothing to carve again
-  EXPECT_THROW(runLeaveOneOut(options), std::invalid_argument);
+  EXPECT_FALSE(runLeaveOneOut(options).isOk());
 }
 
 TEST(LeaveOneOut, AViewpointJumpComparesOnlyTheFramesAtTheHeldOutPose) {
@@ -259,7 +259,7 @@ TEST(LeaveOneOut, AViewpointJumpComparesOnlyTheFramesAtTheHeldOutPose) {
   options.scenes = {"viewpoint-jump"};
   options.frames = 4;
   options.modes = {render::BlendMode::kNormal};
-  const auto results = runLeaveOneOut(options);
+  const auto results = runLeaveOneOut(options).value();
   EXPECT_EQ(results.at(0).modes.at("normal").images, 2u) << "two frames before the jump, two after";
 }
 
@@ -268,12 +268,12 @@ TEST(LeaveOneOut, TheTrueSurfaceScoresAboveTheHullSoGeometryErrorsShow) {
   options.scenes = {"few-cameras"};
   options.frames = 1;
   options.modes = {render::BlendMode::kNormal};
-  const double hull = runLeaveOneOut(options).at(0).modes.at("normal").psnr_db;
+  const double hull = runLeaveOneOut(options).value().at(0).modes.at("normal").psnr_db;
   options.geometry = "truth";
-  const double truth = runLeaveOneOut(options).at(0).modes.at("normal").psnr_db;
+  const double truth = runLeaveOneOut(options).value().at(0).modes.at("normal").psnr_db;
   EXPECT_GT(truth, hull + 1.0) << "hull " << hull << " dB, true surface " << truth << " dB";
   options.geometry = "mesh-of-dreams";
-  EXPECT_THROW(runLeaveOneOut(options), std::invalid_argument);
+  EXPECT_FALSE(runLeaveOneOut(options).isOk());
 }
 
 // Novel views: every pod blended, the truth rendered by the scene at the
@@ -286,7 +286,7 @@ TEST(LeaveOneOut, NovelViewsBesideAPodScoreAboveViewsBetweenPods) {
   options.frames = 1;
   options.modes = {render::BlendMode::kNormal};
   options.novel_view_degrees = {5, 45};
-  const auto results = runLeaveOneOut(options);
+  const auto results = runLeaveOneOut(options).value();
   ASSERT_EQ(results.size(), 3u);
   EXPECT_EQ(results[0].name, "few-cameras");
   EXPECT_EQ(results[1].name, "few-cameras +5 deg");
@@ -317,7 +317,7 @@ TEST(LeaveOneOut, KeepingTheCameraInTheBlendAddsARowThatScoresAboveLeaveOneOut) 
   options.save_images = true;
   options.out_dir = (fs::temp_directory_path() / "holofuse_eval_kept_images").string();
   fs::remove_all(options.out_dir);
-  const auto results = runLeaveOneOut(options);
+  const auto results = runLeaveOneOut(options).value();
   ASSERT_EQ(results.size(), 2u);
   EXPECT_FALSE(results[0].camera_kept);
   // Its images go to a folder a shell takes unquoted.
@@ -330,7 +330,7 @@ TEST(LeaveOneOut, KeepingTheCameraInTheBlendAddsARowThatScoresAboveLeaveOneOut) 
                kept = results[1].modes.at("montage4d").psnr_db;
   EXPECT_GT(kept, left_out + 3.0) << left_out << " / " << kept;
   const fs::path out = fs::temp_directory_path() / "holofuse_eval_kept_test";
-  writeQualityReports(options, results, out.string());
+  ASSERT_TRUE(writeQualityReports(options, results, out.string()).isOk());
   std::ifstream json_file(out / "quality.json");
   const auto json = nlohmann::json::parse(json_file);
   EXPECT_TRUE(json["scenes"]["few-cameras (camera kept)"].value("camera_kept", false));
@@ -345,12 +345,12 @@ TEST(LeaveOneOut, KeepingTheCameraInTheBlendAddsARowThatScoresAboveLeaveOneOut) 
 TEST(LeaveOneOut, UnknownScenesListTheValidOnes) {
   EvalOptions options = tiny();
   options.scenes = {"sunny-beach"};
-  try {
-    runLeaveOneOut(options);
-    FAIL() << "an unknown scene must be refused";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("sunny-beach"), std::string::npos);
-    EXPECT_NE(std::string(e.what()).find("calibration-error"), std::string::npos);
+  {
+    const auto refused = runLeaveOneOut(options);
+    ASSERT_FALSE(refused.isOk()) << "an unknown scene must be refused";
+    const std::string what = refused.isOk() ? "" : refused.status().message();
+    EXPECT_NE(what.find("sunny-beach"), std::string::npos);
+    EXPECT_NE(what.find("calibration-error"), std::string::npos);
   }
 }
 

@@ -86,27 +86,26 @@ TEST(Sweep, BadKnobsAndValuesAreRefusedBeforeAnyWork) {
   fs::remove_all(dir);
   SweepOptions options = tinySweep(dir.string());
   options.knobs = {{"alpha", {"1", "2"}}, {"brightness", {"3"}}};
-  try {
-    runSweep(options);
-    FAIL() << "unknown knob accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("brightness"), std::string::npos);
-    EXPECT_NE(std::string(e.what()).find("draco-bits"), std::string::npos) << "lists the knobs";
+  {
+    const auto refused = runSweep(options);
+    ASSERT_FALSE(refused.isOk()) << "unknown knob accepted";
+    const std::string what = refused.isOk() ? "" : refused.status().message();
+    EXPECT_NE(what.find("brightness"), std::string::npos);
+    EXPECT_NE(what.find("draco-bits"), std::string::npos) << "lists the knobs";
   }
   options.knobs = {{"alpha", {"1"}}, {"size", {"320x"}}};
-  try {
-    runSweep(options);
-    FAIL() << "bad value accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("size: '320x'"), std::string::npos);
+  {
+    const auto refused = runSweep(options);
+    ASSERT_FALSE(refused.isOk()) << "bad value accepted";
+    const std::string what = refused.isOk() ? "" : refused.status().message();
+    EXPECT_NE(what.find("size: '320x'"), std::string::npos);
   }
   options.knobs = {{"alpha", {"1", "4"}}, {"K", {"20"}}, {"alpha", {"5"}}};
-  try {
-    runSweep(options);
-    FAIL() << "a knob given twice accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("knob 'alpha' is given twice"), std::string::npos)
-        << e.what();
+  {
+    const auto refused = runSweep(options);
+    ASSERT_FALSE(refused.isOk()) << "a knob given twice accepted";
+    const std::string what = refused.isOk() ? "" : refused.status().message();
+    EXPECT_NE(what.find("knob 'alpha' is given twice"), std::string::npos) << what;
   }
   EXPECT_FALSE(fs::exists(dir / "points")) << "nothing ran, nothing written";
 }
@@ -116,7 +115,7 @@ TEST(Sweep, AnInterruptedSweepKeepsFinishedPointsAndResumes) {
   fs::remove_all(dir);
   SweepOptions options = tinySweep(dir.string());
   options.knobs = {{"alpha", {"1", "2", "8"}}, {"K", {"12"}}};
-  const auto first = runSweep(options);
+  const auto first = runSweep(options).value();
   ASSERT_EQ(first.size(), 5u) << "K swept without its default gets it";
   for (size_t i = 0; i < 4; ++i) EXPECT_FALSE(first[i].resumed);
   EXPECT_TRUE(first[1].is_default) << "alpha 2 is the default";
@@ -131,7 +130,7 @@ TEST(Sweep, AnInterruptedSweepKeepsFinishedPointsAndResumes) {
   // partial one did.
   fs::remove(dir / "points" / "alpha=8.json");
   std::ofstream(dir / "points" / "alpha=8.json.partial") << "{\"knob\": \"alp";
-  const auto second = runSweep(options);
+  const auto second = runSweep(options).value();
   ASSERT_EQ(second.size(), 3u);
   EXPECT_TRUE(second[0].resumed);
   EXPECT_TRUE(second[1].resumed);
@@ -139,7 +138,7 @@ TEST(Sweep, AnInterruptedSweepKeepsFinishedPointsAndResumes) {
   EXPECT_DOUBLE_EQ(second[0].result.modes.at("normal").psnr_db,
                    first[0].result.modes.at("normal").psnr_db);
   EXPECT_DOUBLE_EQ(second[0].result.bytes_per_frame, first[0].result.bytes_per_frame);
-  writeSweepReports(options, second);
+  ASSERT_TRUE(writeSweepReports(options, second).isOk());
   std::ifstream in(dir / "sweep.json");
   const auto json = nlohmann::json::parse(in);
   EXPECT_EQ(json["knobs"]["alpha"]["points"].size(), 3u);
@@ -160,7 +159,7 @@ TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
   options.knobs = {{"draco-bits", {"8"}}};
   options.live_frames = 3;
   options.loop_program = std::string(HOLOFUSE_BIN_DIR) + "/holofuse_loop";
-  const auto points = runSweep(options);
+  const auto points = runSweep(options).value();
   ASSERT_EQ(points.size(), 2u) << "the default joins";
   for (const auto& p : points) {
     ASSERT_TRUE(p.live.has_value()) << p.value;
@@ -184,7 +183,7 @@ TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
   EXPECT_NE(eleven.find("Draco 11 bits"), std::string::npos) << eleven;
   EXPECT_NE(readText(dir / "live" / "default" / "loop.log").find("4 pods at 96x72"),
             std::string::npos);
-  writeSweepReports(options, points);
+  ASSERT_TRUE(writeSweepReports(options, points).isOk());
   std::ifstream in(dir / "sweep.json");
   const auto json = nlohmann::json::parse(in);
   for (const auto& p : json["knobs"]["draco-bits"]["points"]) {
@@ -200,7 +199,7 @@ TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
            "latency stack";
   }
 
-  const auto again = runSweep(options);
+  const auto again = runSweep(options).value();
   EXPECT_TRUE(again[0].resumed && again[1].resumed);
   EXPECT_DOUBLE_EQ(again[0].live->end_to_end_ms_p50, points[0].live->end_to_end_ms_p50)
       << "kept, not run again";
@@ -212,7 +211,7 @@ TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
   const std::string loop = options.loop_program;
   options.knobs = {{"draco-bits", {"14"}}};
   options.loop_program = (dir / "no-such-loop").string();
-  EXPECT_THROW(runSweep(options), std::runtime_error);
+  EXPECT_FALSE(runSweep(options).isOk());
   {
     std::ifstream kept_in(dir / "points" / "draco-bits=14.json");
     const auto kept = nlohmann::json::parse(kept_in);
@@ -220,18 +219,18 @@ TEST(Sweep, LivePointsRunTheLoopWithTheirOwnSettings) {
     EXPECT_FALSE(kept.contains("live"));
   }
   options.loop_program = loop;
-  const auto mended = runSweep(options);
+  const auto mended = runSweep(options).value();
   ASSERT_EQ(mended.size(), 2u);
   EXPECT_TRUE(mended[0].resumed) << "the leave-one-out run is not repeated";
   ASSERT_TRUE(mended[0].live.has_value());
   EXPECT_EQ(mended[0].live->frames, 3);
   options.live_frames = 4;  // asks for another live run, which cannot start
   options.loop_program = (dir / "no-such-loop").string();
-  try {
-    runSweep(options);
-    ADD_FAILURE() << "a live run that cannot start must fail the sweep";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("loop.log"), std::string::npos) << e.what();
+  {
+    const auto refused = runSweep(options);
+    EXPECT_FALSE(refused.isOk()) << "a live run that cannot start must fail the sweep";
+    const std::string what = refused.isOk() ? "" : refused.status().message();
+    EXPECT_NE(what.find("loop.log"), std::string::npos) << what;
   }
   fs::remove_all(dir);
 }
@@ -241,7 +240,7 @@ TEST(Sweep, PointsMeasuredUnderOtherSettingsAreRefusedNotMixedIn) {
   fs::remove_all(dir);
   SweepOptions options = tinySweep(dir.string());
   options.knobs = {{"alpha", {"1"}}};
-  const auto first = runSweep(options);
+  const auto first = runSweep(options).value();
   ASSERT_EQ(first.size(), 2u) << "alpha=1 and the default";
   const std::string measured = [&] {
     std::ifstream in(dir / "points" / "alpha=1.json");
@@ -251,11 +250,10 @@ TEST(Sweep, PointsMeasuredUnderOtherSettingsAreRefusedNotMixedIn) {
   // run's, and nothing runs or changes on disk.
   options.base.width = 128;
   options.base.height = 96;
-  try {
-    runSweep(options);
-    FAIL() << "a point from another image size was reused";
-  } catch (const std::invalid_argument& e) {
-    const std::string what = e.what();
+  {
+    const auto refused = runSweep(options);
+    ASSERT_FALSE(refused.isOk()) << "a point from another image size was reused";
+    const std::string what = refused.isOk() ? "" : refused.status().message();
     EXPECT_NE(
         what.find(
             "alpha=1.json was measured under other settings: size \"96x72\" (now \"128x96\")"),
@@ -268,7 +266,7 @@ TEST(Sweep, PointsMeasuredUnderOtherSettingsAreRefusedNotMixedIn) {
   // Back to the settings it was measured under: resumed.
   options.base.width = 96;
   options.base.height = 72;
-  const auto again = runSweep(options);
+  const auto again = runSweep(options).value();
   ASSERT_EQ(again.size(), 2u);
   EXPECT_TRUE(again[0].resumed && again[1].resumed);
   fs::remove_all(dir);
@@ -293,7 +291,7 @@ TEST(Sweep, TheDefaultIsDominatedOnlyByAPointNoWorseOnEveryCost) {
       1.3e6);                                    // as good and as fast to render, but more to send
   add("alpha", "1", false, 19.7, 30, 5, 1.2e6);  // better, at no cost
   add("alpha", "2", true, 19.5, 30, 5, 1.2e6);
-  writeSweepReports(options, points);
+  ASSERT_TRUE(writeSweepReports(options, points).isOk());
   std::ifstream in(dir / "sweep.json");
   const auto json = nlohmann::json::parse(in);
   EXPECT_EQ(json["knobs"]["draco-bits"]["default_verdict"],
@@ -516,22 +514,22 @@ TEST(Sweep, ADatasetIsSweptAroundItsOwnSettings) {
   EvalOptions eval = tinySweep("").base;
   eval.scenes.clear();
   eval.datasets = {capture.string()};
-  EXPECT_DOUBLE_EQ(runLeaveOneOut(eval).at(0).voxel_mm, 30.0) << "the dataset's own voxel";
+  EXPECT_DOUBLE_EQ(runLeaveOneOut(eval).value().at(0).voxel_mm, 30.0) << "the dataset's own voxel";
   ASSERT_EQ(findKnob("voxel")->apply(eval, "0.05"), "");
-  EXPECT_DOUBLE_EQ(runLeaveOneOut(eval).at(0).voxel_mm, 50.0) << "the voxel given";
+  EXPECT_DOUBLE_EQ(runLeaveOneOut(eval).value().at(0).voxel_mm, 50.0) << "the voxel given";
 
   SweepOptions options = tinySweep((dir / "sweep").string());
   options.base.scenes.clear();
   options.base.datasets = {capture.string()};
   options.knobs = {{"voxel", {"0.05"}}};
-  const auto points = runSweep(options);
+  const auto points = runSweep(options).value();
   ASSERT_EQ(points.size(), 2u) << "the value asked for and the default";
   EXPECT_EQ(points[0].result.name, "dataset:capture");
   EXPECT_DOUBLE_EQ(points[0].result.voxel_mm, 50.0);
   EXPECT_TRUE(points[1].is_default);
   EXPECT_EQ(points[1].value, "0.03") << "the dataset's voxel is the default";
   EXPECT_DOUBLE_EQ(points[1].result.voxel_mm, 30.0);
-  writeSweepReports(options, points);
+  ASSERT_TRUE(writeSweepReports(options, points).isOk());
   std::ifstream in(dir / "sweep" / "sweep.json");
   const auto json = nlohmann::json::parse(in);
   EXPECT_EQ(json["dataset"], capture.string());
@@ -541,12 +539,11 @@ TEST(Sweep, ADatasetIsSweptAroundItsOwnSettings) {
       << "a dataset's point runs live as a replay";
   for (const char* knob : {"cameras", "size"}) {
     options.knobs = {{knob, {knob == std::string("size") ? "64x48" : "3"}}};
-    try {
-      (void)runSweep(options);
-      ADD_FAILURE() << knob << " was taken for a dataset";
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("needs a synthetic scene"), std::string::npos)
-          << e.what();
+    {
+      const auto refused = runSweep(options);
+      EXPECT_FALSE(refused.isOk()) << knob << " was taken for a dataset";
+      const std::string what = refused.isOk() ? "" : refused.status().message();
+      EXPECT_NE(what.find("needs a synthetic scene"), std::string::npos) << what;
     }
   }
   fs::remove_all(dir);

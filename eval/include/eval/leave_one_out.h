@@ -212,13 +212,15 @@ std::vector<std::string> latencyStages();
 std::vector<double> latencyParts(const SceneResult& scene, const ModeResult& mode, bool p95);
 
 // progress(text) is called with one line per finished held-out sequence.
-std::vector<SceneResult> runLeaveOneOut(
+// An error names what is wrong with the options, or the dataset, file and
+// record that cannot be read.
+StatusOr<std::vector<SceneResult>> runLeaveOneOut(
     const EvalOptions& options, const std::function<void(const std::string&)>& progress = {});
 
 // quality.json (scene -> mode -> metric, with the settings) and quality.md
 // (paper 000 Table 2 layout, plus flicker and the montage4d verdict).
-void writeQualityReports(const EvalOptions& options, const std::vector<SceneResult>& results,
-                         const std::string& out_dir);
+Status writeQualityReports(const EvalOptions& options, const std::vector<SceneResult>& results,
+                           const std::string& out_dir);
 
 // One budgeted stage of a scene (and mode, "-" for the server's and the
 // codecs' stages) at p95 against its budget.

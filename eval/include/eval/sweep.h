@@ -71,13 +71,14 @@ struct PointBudget {
 PointBudget checkPointBudget(const protocol::Budget& budget, const SweepPoint& point,
                              const std::string& mode);
 
-// Validates every knob and value before running anything (std::invalid_argument;
-// a knob given twice is refused). A knob whose values leave out its default
+// Validates every knob and value before running anything (an error of
+// code kMalformed, as is a point on disk measured under other settings; a
+// knob given twice is refused). A knob whose values leave out its default
 // gets the default as one more point, so that the report can place it.
 // A live run that fails, or renders fewer frames than asked, is an error
-// naming its log (std::runtime_error); the points before it stay on disk.
-std::vector<SweepPoint> runSweep(const SweepOptions& options,
-                                 const std::function<void(const std::string&)>& progress = {});
+// naming its log; the points before it stay on disk.
+StatusOr<std::vector<SweepPoint>> runSweep(
+    const SweepOptions& options, const std::function<void(const std::string&)>& progress = {});
 
 // The scene or dataset folder a sweep runs on.
 std::string sweptSubject(const SweepOptions& options);
@@ -118,6 +119,6 @@ std::vector<size_t> paretoFront(const std::vector<TradePoint>& points);
 
 // sweep.json, sweep.md and sweep.html (table, Pareto plots per knob, and
 // whether the default sits on the front or which point dominates it).
-void writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint>& points);
+Status writeSweepReports(const SweepOptions& options, const std::vector<SweepPoint>& points);
 
 }  // namespace holofuse::eval
