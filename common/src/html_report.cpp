@@ -235,6 +235,27 @@ std::string scatterChart(const std::string& title, const std::string& x_label,
   return svg + "</svg></figure>\n";
 }
 
+std::string table(const Table& t) { return table(t.header, t.rows); }
+
+std::string markdownTable(const Table& t) {
+  auto line = [](const std::vector<std::string>& cells, bool flaggable) {
+    std::string out = "|";
+    for (size_t c = 0; c < cells.size(); ++c) {
+      const bool flagged = flaggable && c == 0 && !cells[c].empty() && cells[c][0] == '!';
+      out += " " + (flagged ? cells[c].substr(1) : cells[c]) + " |";
+    }
+    return out + "\n";
+  };
+  std::string out = line(t.header, false) + "|";
+  for (size_t c = 0; c < t.header.size(); ++c) {
+    const char align = c < t.align.size() ? t.align[c] : (c == 0 ? 'l' : 'r');
+    out += align == 'l' ? "---|" : "---:|";
+  }
+  out += "\n";
+  for (const auto& row : t.rows) out += line(row, true);
+  return out;
+}
+
 std::string table(const std::vector<std::string>& header,
                   const std::vector<std::vector<std::string>>& rows) {
   std::string out = "<table><thead><tr>";

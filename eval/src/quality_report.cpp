@@ -132,23 +132,20 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
   // One table per group of columns, a column per mode and measure.
   auto modeTable = [&](const std::vector<std::string>& measures,
                        const std::function<std::vector<std::string>(const ModeResult&)>& cells) {
-    md << "| Scene |";
+    html::Table table{{"Scene"}, {}, ""};
     for (const auto& mode : modes) {
-      for (const auto& measure : measures) md << " " << mode << " " << measure << " |";
+      for (const auto& measure : measures) table.header.push_back(mode + " " + measure);
     }
-    md << "\n|---|";
-    for (size_t i = 0; i < modes.size() * measures.size(); ++i) md << "---:|";
-    md << "\n";
     for (const auto& scene : results) {
-      md << "| " << scene.name << " |";
+      std::vector<std::string> row = {scene.name};
       for (const auto& mode : modes) {
         const auto it = scene.modes.find(mode);
-        for (size_t i = 0; i < measures.size(); ++i) {
-          md << " " << (it == scene.modes.end() ? std::string() : cells(it->second).at(i)) << " |";
-        }
+        for (size_t i = 0; i < measures.size(); ++i)
+          row.push_back(it == scene.modes.end() ? std::string() : cells(it->second).at(i));
       }
-      md << "\n";
+      table.rows.push_back(std::move(row));
     }
+    md << html::markdownTable(table);
   };
   modeTable({"RMSE", "PSNR", "SSIM", "fps"}, [&](const ModeResult& m) -> std::vector<std::string> {
     char v[4][32];
@@ -180,61 +177,60 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
         "of the "
         "mesh seen from the pose (occlusion), on seam triangles (seam), elsewhere; pictures with "
         "--save-images "
-        "(*_error.png, *_regions.png).\n\n"
-     << "| Scene | mode |";
+        "(*_error.png, *_regions.png).\n\n";
+  html::Table regions{{"Scene", "mode"}, {}, std::string(2 + kErrorRegionCount, 'l')};
   for (size_t r = 0; r < kErrorRegionCount; ++r)
-    md << " " << errorRegionName(static_cast<ErrorRegion>(r)) << " |";
-  md << "\n|---|---|";
-  for (size_t r = 0; r < kErrorRegionCount; ++r) md << "---|";
-  md << "\n";
+    regions.header.push_back(errorRegionName(static_cast<ErrorRegion>(r)));
   for (const auto& scene : results) {
     if (scene.modes.empty()) continue;
     const RegionErrors& any =
         scene.modes.begin()->second.regions;  // every mode compares the same pixels
     double all_pixels = 0;
     for (size_t count : any.pixels) all_pixels += static_cast<double>(count);
-    md << "| " << scene.name << " | pixels |";
+    std::vector<std::string> pixels = {scene.name, "pixels"};
     for (size_t count : any.pixels) {
-      std::snprintf(cell, sizeof(cell), " %.1f%% |",
+      std::snprintf(cell, sizeof(cell), "%.1f%%",
                     all_pixels > 0 ? 100.0 * static_cast<double>(count) / all_pixels : 0.0);
-      md << cell;
+      pixels.push_back(cell);
     }
-    md << "\n";
+    regions.rows.push_back(std::move(pixels));
     for (const auto& mode : modes) {
       const auto it = scene.modes.find(mode);
       if (it == scene.modes.end()) continue;
       const auto shares = regionSharesAgainstNormal(scene.modes, mode);
-      md << "| " << scene.name << " | " << mode << " |";
+      std::vector<std::string> row = {scene.name, mode};
       for (size_t r = 0; r < kErrorRegionCount; ++r) {
         const char* name = errorRegionName(static_cast<ErrorRegion>(r));
         const double samples = 3.0 * static_cast<double>(it->second.regions.pixels[r]);
         if (samples == 0) {
-          md << " n/a |";
+          row.push_back("n/a");
           continue;
         }
-        std::snprintf(cell, sizeof(cell), " %.2f dB",
+        std::snprintf(cell, sizeof(cell), "%.2f dB",
                       psnrFromMse(it->second.regions.squared_error[r] / samples));
-        md << cell;
+        std::string text = cell;
         if (shares.count(name)) {
           std::snprintf(cell, sizeof(cell), " (%+.0f%%)", 100.0 * shares.at(name));
-          md << cell;
+          text += cell;
         }
-        md << " |";
+        row.push_back(std::move(text));
       }
-      md << "\n";
+      regions.rows.push_back(std::move(row));
     }
   }
+  md << html::markdownTable(regions);
   md << "\n## Geometry\n\nThe surface the client received against the truth (first frame; Chamfer "
         "from each mesh's "
         "vertices to the other's triangles, truth by marching cubes at 1 cm; IoU of its silhouette "
         "in each true mask; "
         "silhouette error: mean distance between its outline and each segmented mask's, what the "
         "voxel controls and "
-        "`--hull-error-mm` targets).\n\n"
-        "| Scene | voxel mm | triangles | hull ms | cells visited | dense grid points | Chamfer mm "
-        "| silhouette error mm "
-        "| IoU mean | IoU worst |\n"
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        "`--hull-error-mm` targets).\n\n";
+  html::Table geometry{
+      {"Scene", "voxel mm", "triangles", "hull ms", "cells visited", "dense grid points",
+       "Chamfer mm", "silhouette error mm", "IoU mean", "IoU worst"},
+      {},
+      ""};
   for (const auto& scene : results) {
     double mean_iou = 0, worst_iou = 1;
     for (double v : scene.silhouette_iou) {
@@ -246,33 +242,36 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
     char silhouette[32] = "n/a";
     if (scene.silhouette_error_mm >= 0)
       std::snprintf(silhouette, sizeof(silhouette), "%.2f", scene.silhouette_error_mm);
-    std::snprintf(
-        cell, sizeof(cell), "| %s | %.1f | %.0f | %.1f | %.0f | %.0f | %s | %s | %.3f | %.3f |\n",
-        scene.name.c_str(), scene.voxel_mm, scene.triangles, scene.hull_ms, scene.cells_visited,
-        scene.dense_grid_points, chamfer, silhouette, mean_iou, worst_iou);
-    md << cell;
+    char v[6][32];
+    std::snprintf(v[0], sizeof(v[0]), "%.1f", scene.voxel_mm);
+    std::snprintf(v[1], sizeof(v[1]), "%.0f", scene.triangles);
+    std::snprintf(v[2], sizeof(v[2]), "%.1f", scene.hull_ms);
+    std::snprintf(v[3], sizeof(v[3]), "%.0f", scene.cells_visited);
+    std::snprintf(v[4], sizeof(v[4]), "%.0f", scene.dense_grid_points);
+    std::snprintf(v[5], sizeof(v[5]), "%.3f", mean_iou);
+    std::snprintf(cell, sizeof(cell), "%.3f", worst_iou);
+    geometry.rows.push_back(
+        {scene.name, v[0], v[1], v[2], v[3], v[4], chamfer, silhouette, v[5], cell});
   }
+  md << html::markdownTable(geometry);
   md << "\n## Links and codecs\n\nBytes per frame as the loop sends them (the pods' rectangles "
         "with their "
         "feather maps; the server's Draco mesh and images to one client), and the codecs' ms per "
         "frame: "
-     << kCodecsMeaning << ". " << kNoJitterHere
-     << "\n\n| Scene | pods to server KB | server to client KB | of which feather maps KB | codecs "
-        "ms p50 | p95 |\n"
-     << "|---|---:|---:|---:|---:|---:|\n";
-  for (const auto& row : linkRows(results)) {
-    md << "|";
-    for (const auto& cell : row) md << " " << cell << " |";
-    md << "\n";
-  }
-  md << "\n"
+     << kCodecsMeaning << ". " << kNoJitterHere << "\n\n";
+  const html::Table links{{"Scene", "pods to server KB", "server to client KB",
+                           "of which feather maps KB", "codecs ms p50", "p95"},
+                          linkRows(results),
+                          ""};
+  md << html::markdownTable(links) << "\n"
      << "## montage4d against holoportation\n\nTarget on every scene but clean: at least +0.5 dB "
         "PSNR, higher SSIM, "
         "and less flicker after a viewpoint jump. "
-     << kPicturesDifferMeaning
-     << "\n\n| Scene | PSNR gain | SSIM gain | flicker ratio | pictures differ on | verdict |\n"
-        "|---|---:|---:|---:|---:|---|\n";
-  std::vector<std::vector<std::string>> verdict_rows;
+     << kPicturesDifferMeaning << "\n\n";
+  html::Table verdicts{{"Scene", "PSNR gain", "SSIM gain", "flicker ratio",
+                        "pictures differ on (gain if exact there)", "verdict"},
+                       {},
+                       "lrrrrl"};
   for (const auto& scene : results) {
     const Verdict v = montageVerdict(scene);
     if (scene.modes.count("holoportation") == 0 || scene.modes.count("montage4d") == 0) continue;
@@ -296,17 +295,17 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
       std::snprintf(differ, sizeof(differ), "%.1f%% (%+.2f dB)", 100 * v.agreement.differing_share,
                     v.agreement.gain_bound_db);
     }
-    verdict_rows.push_back({(target && !v.met ? "!" : "") + scene.name, gains[0], gains[1],
-                            flicker_ratio, differ, verdict});
-    std::snprintf(cell, sizeof(cell), "| %s | %+.2f dB | %+.4f | %s | %s | ", scene.name.c_str(),
-                  v.psnr_gain_db, v.ssim_gain, flicker_ratio.c_str(), differ);
-    md << cell << verdict << " |\n";
+    verdicts.rows.push_back({(target && !v.met ? "!" : "") + scene.name, gains[0], gains[1],
+                             flicker_ratio, differ, verdict});
   }
+  md << html::markdownTable(verdicts);
 
   // Paper 000 Table 3's layout: per scene, the GPU passes of a new mesh
   // (timestamps, medians) as rows and the modes as columns, then the wall
   // clock of that render. normal mode runs no field passes.
-  std::vector<std::pair<std::string, std::vector<std::vector<std::string>>>> stage_tables;
+  std::vector<std::pair<std::string, html::Table>> stage_tables;
+  std::vector<std::string> stage_header = {"stage"};
+  stage_header.insert(stage_header.end(), modes.begin(), modes.end());
   for (const auto& scene : results) {
     if (scene.novel_view_degrees != 0 || scene.camera_kept)
       continue;                       // the same renders as the scene's own row
@@ -331,20 +330,20 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
       }
       return cells;
     };
-    std::vector<std::vector<std::string>> table;
+    html::Table table{stage_header, {}, ""};
     for (const auto& stage : stages) {
-      table.push_back(row(stage, [&](const ModeResult& m) {
+      table.rows.push_back(row(stage, [&](const ModeResult& m) {
         const auto it = m.gpu_passes_ms.find(stage);
         return it == m.gpu_passes_ms.end() ? -1.0 : it->second;
       }));
     }
-    table.push_back(row("field passes, total", [](const ModeResult& m) {
+    table.rows.push_back(row("field passes, total", [](const ModeResult& m) {
       double total = 0;
       for (const auto& [stage, ms] : m.gpu_passes_ms) total += ms;
       return m.gpu_passes_ms.empty() ? -1.0 : total;
     }));
-    table.push_back(row("render after a new mesh (wall clock)",
-                        [](const ModeResult& m) { return m.ms_per_new_mesh; }));
+    table.rows.push_back(row("render after a new mesh (wall clock)",
+                             [](const ModeResult& m) { return m.ms_per_new_mesh; }));
     stage_tables.emplace_back(scene.name, std::move(table));
   }
   md << "\n## Time per stage of a new mesh (paper 000 Table 3 layout)\n\nGPU ms per field pass "
@@ -352,18 +351,8 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
         "on a CPU device such as lavapipe the boundaries are approximate), then the wall clock of "
         "the whole render "
         "after a new mesh. `-`: the mode runs no such pass.\n";
-  for (const auto& [name, table] : stage_tables) {
-    md << "\n" << name << "\n\n| stage |";
-    for (const auto& mode : modes) md << " " << mode << " |";
-    md << "\n|---|";
-    for (size_t i = 0; i < modes.size(); ++i) md << "---:|";
-    md << "\n";
-    for (const auto& cells : table) {
-      md << "|";
-      for (const auto& c : cells) md << " " << c << " |";
-      md << "\n";
-    }
-  }
+  for (const auto& [name, table] : stage_tables)
+    md << "\n" << name << "\n\n" << html::markdownTable(table);
 
   // The budget (options.budget): each scene's hull and each mode's render,
   // at p95, against it.
@@ -407,16 +396,12 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
     md << "\n## Budget\n\np95 against the budget of each stage the evaluation times as the loop "
           "does ("
        << budgetedStagesText() << ")." << unchecked_text
-       << (violations.empty()
-               ? " Nothing is over budget.\n"
-               : "\n\n| Scene | mode | stage | p95 ms | budget ms |\n|---|---|---|---:|---:|\n");
-    for (const auto& v : violations) {
-      std::snprintf(cell, sizeof(cell), "| %s | %s | %s | %.1f | %.1f |\n",
-                    v["scene"].get<std::string>().c_str(), v["mode"].get<std::string>().c_str(),
-                    v["stage"].get<std::string>().c_str(), v["p95_ms"].get<double>(),
-                    v["budget_ms"].get<double>());
-      md << cell;
+       << (violations.empty() ? " Nothing is over budget.\n" : "\n\n");
+    html::Table over{{"Scene", "mode", "stage", "p95 ms", "budget ms"}, {}, "lll"};
+    for (const auto& row : budget_rows) {
+      if (row[0][0] == '!') over.rows.push_back(row);
     }
+    if (!over.rows.empty()) md << html::markdownTable(over);
     json["budget_violations"] = violations;
   }
   HOLOFUSE_RETURN_IF_ERROR(writeTextFile((fs::path(out_dir) / "quality.md").string(), md.str()));
@@ -484,17 +469,12 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
       "<h2>Links and codecs</h2>\n<p>Bytes per frame as the loop sends them, and the codecs' ms "
       "per frame: " +
       html::escape(kCodecsMeaning) + ". " + html::escape(kNoJitterHere) + "</p>\n" +
-      html::table({"scene", "pods to server KB", "server to client KB", "of which feather maps KB",
-                   "codecs ms p50", "p95"},
-                  linkRows(results));
+      html::table(links);
   body +=
       "<h2>montage4d against holoportation</h2>\n<p>Target on every scene but clean: at least +0.5 "
       "dB PSNR, "
       "higher SSIM, and less flicker after a viewpoint jump. Misses are flagged. " +
-      html::escape(kPicturesDifferMeaning) + "</p>\n" +
-      html::table({"scene", "PSNR gain", "SSIM gain", "flicker ratio",
-                   "pictures differ on (gain if exact there)", "verdict"},
-                  verdict_rows);
+      html::escape(kPicturesDifferMeaning) + "</p>\n" + html::table(verdicts);
   // The latency budget of a new mesh per scene: the server's hull, the
   // codecs on the frame's way, and each mode's render, p50 and p95 over
   // the frames (transport is not simulated).
@@ -527,10 +507,8 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
       "(timestamps, "
       "medians; approximate on a CPU device), then the wall clock of the render after a new "
       "mesh.</p>\n";
-  std::vector<std::string> stage_header = {"stage"};
-  stage_header.insert(stage_header.end(), modes.begin(), modes.end());
   for (const auto& [name, table] : stage_tables)
-    body += "<h3>" + html::escape(name) + "</h3>\n" + html::table(stage_header, table);
+    body += "<h3>" + html::escape(name) + "</h3>\n" + html::table(table);
   return writeTextFile((fs::path(out_dir) / "quality.html").string(),
                        html::page("holofuse leave-one-camera-out quality", body));
 }

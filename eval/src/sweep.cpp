@@ -295,7 +295,8 @@ StatusOr<std::vector<SweepPoint>> sweepPoints(
         if (kept != file.end() && kept->value("frames_asked", 0) == options.live_frames &&
             kept->contains("stage_ms_p95")) {
           point.live = liveFromJson(*kept);
-        } else {
+        }
+        if (!point.live) {
           if (progress) {
             progress("running " + name + "=" + value + " live for " +
                      std::to_string(options.live_frames) + " frames");
@@ -398,28 +399,23 @@ PointBudget checkPointBudget(const protocol::Budget& budget, const SweepPoint& p
   return out;
 }
 
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(LiveMeasure, frames, end_to_end_ms_p50,
+                                                end_to_end_ms_p95, fps, stage_ms_p95, jitter_ms,
+                                                report)
+
 nlohmann::json liveJson(const LiveMeasure& live, int frames_asked) {
-  return {{"frames_asked", frames_asked},
-          {"frames", live.frames},
-          {"end_to_end_ms_p50", live.end_to_end_ms_p50},
-          {"end_to_end_ms_p95", live.end_to_end_ms_p95},
-          {"fps", live.fps},
-          {"stage_ms_p95", live.stage_ms_p95},
-          {"jitter_ms", live.jitter_ms},
-          {"report", live.report}};
+  nlohmann::json j = live;
+  j["frames_asked"] = frames_asked;
+  return j;
 }
 
-// A live run kept in a point's file.
-LiveMeasure liveFromJson(const nlohmann::json& j) {
-  LiveMeasure live;
-  live.frames = j.at("frames").get<int>();
-  live.end_to_end_ms_p50 = j.at("end_to_end_ms_p50").get<double>();
-  live.end_to_end_ms_p95 = j.at("end_to_end_ms_p95").get<double>();
-  live.fps = j.at("fps").get<double>();
-  live.stage_ms_p95 = j.at("stage_ms_p95").get<std::map<std::string, double>>();
-  live.jitter_ms = j.value("jitter_ms", std::map<std::string, double>{});
-  live.report = j.at("report").get<std::string>();
-  return live;
+std::optional<LiveMeasure> liveFromJson(const nlohmann::json& j) {
+  // (nlohmann throws on a field of the wrong type: a damaged file.)
+  try {
+    return j.get<LiveMeasure>();
+  } catch (const nlohmann::json::exception&) {
+    return std::nullopt;
+  }
 }
 
 // The worst pod's jitter of a live run, or -1 without one.

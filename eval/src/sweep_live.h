@@ -12,8 +12,9 @@
 namespace holofuse::eval {
 
 nlohmann::json liveJson(const LiveMeasure& live, int frames_asked);
-// A live run kept in a point's file.
-LiveMeasure liveFromJson(const nlohmann::json& j);
+// A live run kept in a point's file; none when the file's is damaged (it
+// is then run again).
+std::optional<LiveMeasure> liveFromJson(const nlohmann::json& j);
 // The worst pod's jitter of a live run, or -1 without one.
 double worstJitterMs(const std::optional<LiveMeasure>& live);
 // The live loop's flags for a point: the scene, the mode, every knob the

@@ -112,12 +112,11 @@ Status writeSweepReports(const SweepOptions& options, const std::vector<SweepPoi
     }
     nlohmann::json& k = json["knobs"][name];
     k["default_verdict"] = verdict;
-    md +=
-        "## " + name +
-        "\n\n| value | PSNR dB | SSIM | flicker | Chamfer mm | client ms | pipeline ms | live "
-        "end-to-end ms | "
-        "live jitter ms (worst pod) | KB/frame to client | pods KB/frame | front | over budget |\n"
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n";
+    html::Table knob_table{{"value", "PSNR dB", "SSIM", "flicker", "Chamfer mm", "client ms",
+                            "pipeline ms", "live end-to-end ms", "live jitter ms (worst pod)",
+                            "KB/frame to client", "pods KB/frame", "front", "over budget"},
+                           {},
+                           "lrrrrrrrrrrll"};
     for (size_t i = 0; i < mine.size(); ++i) {
       const SweepPoint& p = *mine[i];
       const ModeResult& m = p.result.modes.at(mode);
@@ -186,12 +185,11 @@ Status writeSweepReports(const SweepOptions& options, const std::vector<SweepPoi
                                             cells[5],
                                             onFront(i) ? "yes" : "",
                                             over};
-      std::string line = "|";
-      for (const auto& cell : row) line += " " + cell + " |";
-      md += line + "\n";
+      knob_table.rows.push_back(row);
       rows.push_back(row);
       rows.back().insert(rows.back().begin(), (over.empty() ? "" : "!") + name);  // "!": flagged
     }
+    md += "## " + name + "\n\n" + html::markdownTable(knob_table);
     const std::string live = liveCommand(options, name, "VALUE");
     md += "\n" + verdict + ". A value in the live loop: `" + live + "`.\n\n";
     auto plot = [&](const std::vector<TradePoint>& trade, const std::string& title,

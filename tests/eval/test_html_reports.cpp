@@ -259,6 +259,23 @@ TEST(HtmlReports, SweepPagePlotsEachKnobsTrade) {
   fs::remove_all(dir);
 }
 
+// One table, two forms: the Markdown and the HTML carry the same cells,
+// a flagged row loses its "!" in both, and Markdown aligns as asked.
+TEST(HtmlReports, ATableIsWrittenOnceAsMarkdownAndAsHtml) {
+  const html::Table t{{"scene", "PSNR", "verdict"},
+                      {{"clean", "30.1 dB", "met"}, {"!busy", "<28 dB", "MISSED"}},
+                      "lrl"};
+  const std::string md = html::markdownTable(t);
+  EXPECT_EQ(md,
+            "| scene | PSNR | verdict |\n|---|---:|---|\n| clean | 30.1 dB | met |\n"
+            "| busy | <28 dB | MISSED |\n");
+  const std::string page = html::table(t);
+  EXPECT_NE(page.find("<tr class=\"flagged\"><td>busy</td>"), std::string::npos) << page;
+  EXPECT_NE(page.find("<td>&lt;28 dB</td>"), std::string::npos) << "HTML escapes, Markdown not";
+  EXPECT_EQ(html::markdownTable({{"a", "b"}, {}, ""}), "| a | b |\n|---|---:|\n")
+      << "by default the first column is text, the rest numbers";
+}
+
 TEST(LoopReport, JitterFollowsRfc3550) {
   // Constant transit: no jitter, whatever the send times.
   EXPECT_DOUBLE_EQ(interarrivalJitter({{0, 5}, {10, 15}, {25, 30}, {31, 36}}), 0.0);

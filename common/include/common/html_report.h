@@ -42,10 +42,23 @@ struct Point {
 std::string scatterChart(const std::string& title, const std::string& x_label,
                          const std::string& y_label, const std::vector<Point>& points);
 
-// A table; cells are escaped. Rows whose first cell starts with "!" are
-// flagged (shown red, the "!" dropped).
+// A table of a report, built once and written as HTML (table) or as
+// Markdown (markdownTable). Rows whose first cell starts with "!" are
+// flagged: shown red in HTML, the "!" dropped in both.
+struct Table {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+  // Markdown's alignment per column, 'l' or 'r'; columns past its end are
+  // right-aligned (numbers), and an empty one left-aligns the first only.
+  std::string align;
+};
+
+// Cells are escaped.
+std::string table(const Table& table);
 std::string table(const std::vector<std::string>& header,
                   const std::vector<std::vector<std::string>>& rows);
+// A GitHub-flavoured Markdown pipe table (cells as they are).
+std::string markdownTable(const Table& table);
 
 std::string page(const std::string& title, const std::string& body);
 
