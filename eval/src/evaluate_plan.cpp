@@ -1,0 +1,342 @@
+// Rendering and scoring an evaluation plan: each mode renders each view of
+// the plan on every frame and is compared with the view's truth (paper 000
+// section 5.1's leave-one-out, or novel poses against a synthetic truth).
+#include "evaluate_plan.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <optional>
+
+#include "base/statistics.h"
+#include "common/depth_raster.h"
+#include "common/image_io.h"
+#include "metrics/image_metrics.h"
+#include "render_client/reference/depth_map.h"
+#include "render_client/reference/visibility.h"
+#include "render_client/renderer.h"
+#include "render_client/texture_field_passes.h"
+
+namespace holofuse::eval {
+
+using metrics::compareInMask;
+using metrics::ErrorImage;
+using metrics::errorImage;
+using metrics::errorMapPicture;
+using metrics::flicker;
+using metrics::ImageQuality;
+using metrics::kPsnrCap;
+using metrics::PictureAgreement;
+using metrics::pictureAgreement;
+using metrics::psnrFromMse;
+using metrics::regionErrors;
+using metrics::regionsPicture;
+using metrics::seamVisibility;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// Medians and 95th percentiles as the live loop's report takes them
+// (base/statistics.h, interpolated), so the two reports compare.
+
+// RGB like the true images (a render's alpha is not part of the comparison).
+Status saveImage(const fs::path& path, const Image8& image) {
+  std::error_code ec;
+  fs::create_directories(path.parent_path(), ec);
+  if (ec) return Status(StatusCode::kIoError, path.parent_path().string() + ": " + ec.message());
+  Image8 rgb = image;
+  if (image.channels == 4) {
+    rgb = Image8(image.width, image.height, 3);
+    for (size_t p = 0; p < static_cast<size_t>(image.width) * image.height; ++p) {
+      for (int c = 0; c < 3; ++c) rgb.pixels[p * 3 + c] = image.pixels[p * 4 + c];
+    }
+  }
+  return writePng(path.string(), rgb);
+}
+
+// A row's name as a folder name a shell takes unquoted: "clean (camera
+// kept)" -> "clean_camera_kept", "dataset:temple" -> "dataset-temple",
+// "clean +45 deg" -> "clean_+45_deg".
+std::string folderName(const std::string& name) {
+  std::string folder;
+  for (char c : name) {
+    if (c == ':') {
+      folder += '-';
+    } else if (c == ' ') {
+      if (!folder.empty() && folder.back() != '_') folder += '_';
+    } else if (c != '(' && c != ')') {
+      folder += c;
+    }
+  }
+  return folder;
+}
+
+// The pixels of a view that a seam triangle covers, the same for every
+// mode so their seam visibility compares: triangles the rules of paper 000
+// section 4.3 (the CPU reference) mark for a camera that looks within 60
+// degrees of the view's direction, the cameras any blend leans on there,
+// and always for the nearest camera (and any within a degree of it): with
+// 4 pods 90 degrees apart no other pod is within 60 degrees of a held-out
+// one, yet the two beside it carry the whole blend. (The seams of every
+// camera together cover most of the subject.)
+struct ViewRegions {
+  Image8 seams;    // one channel, 255 on a seam triangle
+  Image8 regions;  // eval::errorRegions of the truth's mask
+};
+ViewRegions viewRegions(const Mesh& mesh, const Camera& pose,
+                        const std::vector<render::ViewImages>& views, const Image8& truth_mask,
+                        const render::FieldParameters& fields) {
+  std::vector<render::reference::PodView> pods;
+  for (const auto& view : views) pods.push_back({view.camera, view.color, view.mask, view.feather});
+  const auto sights = render::reference::vertexSights(mesh, pods);
+  render::reference::VoteOptions vote;
+  vote.delta = fields.vote_delta;
+  vote.levels = fields.vote_levels;
+  const auto trusted = render::reference::majorityVote(mesh, pods, sights, vote);
+  const auto seams = render::reference::seamTriangles(mesh, sights, trusted);
+  std::vector<uint8_t> seam(mesh.triangleCount(), 0);
+  double nearest = -1;  // the largest cosine between a camera's direction and the view's
+  for (const auto& pod : pods)
+    nearest = std::max(nearest, glm::dot(pod.camera.forward(), pose.forward()));
+  const double one_degree = glm::radians(1.0);
+  const double lowest =
+      std::min(0.5, std::cos(std::acos(std::clamp(nearest, -1.0, 1.0)) + one_degree));
+  for (size_t i = 0; i < seams.size(); ++i) {
+    if (glm::dot(pods[i].camera.forward(), pose.forward()) < lowest) continue;
+    for (size_t t = 0; t < seam.size() && t < seams[i].size(); ++t) seam[t] |= seams[i][t] != 0;
+  }
+  std::vector<int32_t> triangle_of;
+  const DepthMap depth = rasterizeDepth(mesh, pose, 0.05, &triangle_of);
+  ViewRegions out;
+  out.seams = Image8(pose.width, pose.height, 1, 0);
+  for (size_t p = 0; p < triangle_of.size(); ++p) {
+    if (triangle_of[p] >= 0 && seam[static_cast<size_t>(triangle_of[p])]) out.seams.pixels[p] = 255;
+  }
+  out.regions = errorRegions(truth_mask, depth, out.seams, 3, fields.relative_jump);
+  return out;
+}
+
+}  // namespace
+
+std::pair<const Image8&, const Image8&> truthOf(const FrameData& frame,
+                                                const ViewSequence& sequence) {
+  const size_t k = static_cast<size_t>(sequence.truth);
+  if (sequence.novel_truth) return {frame.novel_truth[k].color, frame.novel_truth[k].mask};
+  return {frame.true_colors[k], frame.true_masks[k]};
+}
+
+EvaluationPlan cameraPlan(const EvalOptions& options, const SceneInput& input, double jump_degrees,
+                          bool keep_camera) {
+  const int camera_count = static_cast<int>(input.reported.size());
+  // A jump of this many cameras along the ring is the preset's angle.
+  const int jump = static_cast<int>(std::lround(jump_degrees / 360.0 * camera_count));
+  EvaluationPlan plan;
+  plan.what = keep_camera ? "camera kept" : "held out camera";
+  for (int held : heldOutCameras(camera_count, options.held_out_cameras)) {
+    ViewSequence sequence;
+    sequence.pose = input.reported[static_cast<size_t>(held)];
+    if (jump != 0) {
+      sequence.pose_before_jump = input.reported[static_cast<size_t>(
+          ((held + jump) % camera_count + camera_count) % camera_count)];
+    }
+    sequence.left_out = keep_camera ? -1 : held;
+    sequence.truth = held;
+    sequence.name = "camera" + std::to_string(held);
+    plan.sequences.push_back(std::move(sequence));
+  }
+  return plan;
+}
+
+EvaluationPlan novelPlan(const std::vector<Camera>& poses) {
+  EvaluationPlan plan;
+  plan.what = "novel view";
+  for (size_t j = 0; j < poses.size(); ++j) {
+    ViewSequence sequence;
+    sequence.pose = poses[j];
+    sequence.truth = static_cast<int>(j);
+    sequence.novel_truth = true;
+    sequence.name = "novel" + std::to_string(j);
+    plan.sequences.push_back(std::move(sequence));
+  }
+  return plan;
+}
+
+Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
+                     const SceneInput& input, const EvaluationPlan& plan, SceneResult& result,
+                     const std::function<void(const std::string&)>& progress) {
+  const int frame_count = static_cast<int>(input.frames.size());
+  const int jump_frame = frame_count / 2;  // for sequences with a pose before the jump
+  // Seam pixels and error regions per (sequence, frame), shared by the modes.
+  std::map<std::pair<int, int>, ViewRegions> region_cache;
+  // holoportation's and montage4d's pictures per (sequence, frame), to
+  // compare with each other when both modes run.
+  const auto runs = [&](render::BlendMode mode) {
+    return std::find(options.modes.begin(), options.modes.end(), mode) != options.modes.end();
+  };
+  const bool compare_pictures =
+      runs(render::BlendMode::kHoloportation) && runs(render::BlendMode::kMontage4D);
+  // The first of the two to run keeps its pictures, cut to the truth's
+  // rectangle (all that is compared), until the second renders the same view.
+  std::map<std::pair<int, int>, Image8> first_pictures;
+  std::optional<render::BlendMode> first_mode;
+  double holoportation_psnr = 0, best_montage_psnr = 0, error = 0, error_differing = 0;
+  size_t compared = 0, pixels = 0, differing = 0;
+  auto comparePictures = [&](const std::pair<int, int>& key, render::BlendMode mode,
+                             const Image8& picture) {
+    const auto [truth_color, truth_mask] = truthOf(input.frames[static_cast<size_t>(key.second)],
+                                                   plan.sequences[static_cast<size_t>(key.first)]);
+    const PixelRect rect = foregroundRect(truth_mask);
+    if (!first_mode) first_mode = mode;
+    if (rect.empty()) {
+      // Nothing to compare: both modes score the cap (compareInMask), and so
+      // does the best, so the means cover the same images as the modes'.
+      if (mode != *first_mode) {
+        holoportation_psnr += kPsnrCap;
+        best_montage_psnr += kPsnrCap;
+        ++compared;
+      }
+      return;
+    }
+    if (mode == *first_mode) {
+      first_pictures[key] = cropImage(picture, rect);
+      return;
+    }
+    const auto first = first_pictures.find(key);
+    if (first == first_pictures.end()) return;
+    const Image8 second = cropImage(picture, rect);
+    const bool holoportation_first = *first_mode == render::BlendMode::kHoloportation;
+    const PictureAgreement a = pictureAgreement(
+        holoportation_first ? first->second : second, holoportation_first ? second : first->second,
+        cropImage(truth_color, rect), cropImage(truth_mask, rect));
+    first_pictures.erase(first);
+    // The mean PSNR over images, as the modes' scores are.
+    holoportation_psnr += psnrFromMse(a.a_squared_error / (3.0 * static_cast<double>(a.pixels)));
+    best_montage_psnr += a.bestPsnrOfB();
+    ++compared;
+    pixels += a.pixels;
+    differing += a.differing;
+    error += a.a_squared_error;
+    error_differing += a.a_squared_error_differing;
+  };
+  for (render::BlendMode mode : options.modes) {
+    const std::string mode_name = render::blendModeName(mode);
+    ModeResult& m = result.modes[mode_name];
+    std::vector<double> mesh_ms;
+    std::map<std::string, std::vector<double>> passes;
+    double flicker_sum = 0;
+    size_t flicker_pairs = 0;
+    const auto mode_start = Clock::now();
+    double seam_sum = 0;
+    size_t seam_images = 0;
+    for (int s = 0; s < static_cast<int>(plan.sequences.size()); ++s) {
+      const ViewSequence& sequence = plan.sequences[static_cast<size_t>(s)];
+      const Camera& pose = sequence.pose;
+      render::Renderer renderer(context, pose.width, pose.height);
+      renderer.setHalfPrecisionVertices(options.loop.render.half_precision_vertices);
+      render::BlendSettings settings = options.loop.render.blend;
+      settings.mode = mode;
+      settings.frame_interval_s = 1.0 / options.fps;
+      std::optional<ErrorImage> previous;
+      for (int f = 0; f < frame_count; ++f) {
+        const FrameData& frame = input.frames[static_cast<size_t>(f)];
+        // Leave-one-out proper may carve without the held-out camera too.
+        const auto without = sequence.left_out >= 0 ? frame.mesh_without.find(sequence.left_out)
+                                                    : frame.mesh_without.end();
+        const Mesh& mesh = without != frame.mesh_without.end() ? without->second : frame.mesh;
+        renderer.setMesh(mesh);
+        std::vector<render::ViewImages> others = frame.views;
+        if (sequence.left_out >= 0) others.erase(others.begin() + sequence.left_out);
+        renderer.setViews(others);
+        const bool before_jump = sequence.pose_before_jump && f < jump_frame;
+        const auto t0 = Clock::now();
+        const Image8 picture =
+            renderer.render(before_jump ? *sequence.pose_before_jump : pose, settings);
+        mesh_ms.push_back(msSince(t0));
+        const auto times = renderer.fieldTimesMs();
+        for (size_t t = 0; t < times.size(); ++t) {
+          if (times[t] >= 0)
+            passes[render::TextureFieldPasses::stageNames()[t]].push_back(
+                times[t]);  // -1: no such pass
+        }
+        if (before_jump) continue;  // not at the held-out pose yet: nothing to compare with
+        const auto [truth_color, truth_mask] = truthOf(frame, sequence);
+        const ImageQuality q = compareInMask(picture, truth_color, truth_mask);
+        const auto key = std::make_pair(s, f);
+        if (compare_pictures &&
+            (mode == render::BlendMode::kHoloportation || mode == render::BlendMode::kMontage4D)) {
+          comparePictures(key, mode, picture);
+        }
+        auto cached = region_cache.find(key);
+        if (cached == region_cache.end()) {
+          cached = region_cache
+                       .emplace(key, viewRegions(mesh, pose, others, truth_mask,
+                                                 options.loop.render.blend.fields))
+                       .first;
+        }
+        const ViewRegions& regions = cached->second;
+        m.regions.add(regionErrors(picture, truth_color, regions.regions));
+        const double seams = seamVisibility(picture, truth_color, truth_mask, regions.seams);
+        if (seams >= 0) {
+          seam_sum += seams;
+          ++seam_images;
+        }
+        m.rmse_percent += q.rmse_percent;
+        m.psnr_db += q.psnr_db;
+        m.ssim += q.ssim;
+        ++m.images;
+        ErrorImage error = errorImage(picture, truth_color, truth_mask);
+        if (previous) {
+          flicker_sum += flicker(*previous, error);
+          ++flicker_pairs;
+        }
+        previous = std::move(error);
+        if (options.save_images) {
+          const fs::path dir =
+              fs::path(options.out_dir) / "images" / folderName(result.name) / mode_name;
+          const std::string stem = "frame" + std::to_string(frame.frame_id) + "_" + sequence.name;
+          for (const auto& [suffix, image] :
+               {std::pair<const char*, Image8>{"_rendered.png", picture},
+                {"_true.png", truth_color},
+                {"_mask.png", truth_mask},
+                {"_error.png", errorMapPicture(picture, truth_color, truth_mask)},
+                {"_regions.png", regionsPicture(regions.regions)}}) {
+            HOLOFUSE_RETURN_IF_ERROR(saveImage(dir / (stem + suffix), image));
+          }
+        }
+      }
+      if (progress) {
+        // Leave-one-out counts its cameras; novel views their poses.
+        const size_t of = sequence.novel_truth ? plan.sequences.size() : input.reported.size();
+        progress(result.name + " / " + mode_name + ": " + plan.what + " " +
+                 std::to_string(sequence.truth) + " of " + std::to_string(of) + ", " +
+                 std::to_string(frame_count) + " frames, " +
+                 std::to_string(static_cast<int>(msSince(mode_start) / 1000)) + " s so far");
+      }
+    }
+    if (m.images > 0) {
+      m.seam_visibility = seam_images ? seam_sum / static_cast<double>(seam_images) : -1.0;
+      m.rmse_percent /= static_cast<double>(m.images);
+      m.psnr_db /= static_cast<double>(m.images);
+      m.ssim /= static_cast<double>(m.images);
+    }
+    m.flicker = flicker_pairs ? flicker_sum / static_cast<double>(flicker_pairs) : -1.0;
+    m.ms_per_new_mesh = median(mesh_ms);
+    m.ms_per_new_mesh_p95 = percentile95(mesh_ms);
+    for (const auto& [pass, values] : passes) m.gpu_passes_ms[pass] = median(values);
+  }
+  if (compared > 0) {
+    ModeAgreement& agreement = result.montage_agreement;
+    agreement.measured = true;
+    agreement.differing_share =
+        pixels ? static_cast<double>(differing) / static_cast<double>(pixels) : 0.0;
+    agreement.holoportation_error_share = error > 0 ? error_differing / error : 0.0;
+    agreement.gain_bound_db =
+        (best_montage_psnr - holoportation_psnr) / static_cast<double>(compared);
+  }
+  return Status::ok();
+}
+
+}  // namespace holofuse::eval
