@@ -167,6 +167,36 @@ void numberCamerasByName(CaptureDescription& d) {
   d = std::move(sorted);
 }
 
+StatusOr<CaptureDescription> withoutCameras(const CaptureDescription& d,
+                                            const std::vector<std::string>& names) {
+  for (const std::string& name : names) {
+    const bool known = std::any_of(d.cameras.begin(), d.cameras.end(),
+                                   [&](const CaptureCamera& c) { return c.name == name; });
+    if (!known) {
+      std::string all;
+      for (const auto& c : d.cameras) all += (all.empty() ? "" : ", ") + c.name;
+      return Status(StatusCode::kMalformed,
+                    d.source + ": no camera named \"" + name + "\" to exclude; cameras: " + all);
+    }
+  }
+  CaptureDescription kept = d;
+  kept.cameras.clear();
+  for (auto& frame : kept.frames) {
+    frame.images.clear();
+    frame.masks.clear();
+  }
+  for (size_t c = 0; c < d.cameras.size(); ++c) {
+    if (std::find(names.begin(), names.end(), d.cameras[c].name) != names.end()) continue;
+    kept.cameras.push_back(d.cameras[c]);
+    kept.cameras.back().camera.id = static_cast<uint32_t>(kept.cameras.size() - 1);
+    for (size_t f = 0; f < d.frames.size(); ++f) {
+      kept.frames[f].images.push_back(d.frames[f].images[c]);
+      kept.frames[f].masks.push_back(d.frames[f].masks[c]);
+    }
+  }
+  return kept;
+}
+
 // ----------------------------------------------------------- holofuse JSON
 
 StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder) {

@@ -50,7 +50,23 @@ StatusOr<cv::Mat> readAny(const std::string& file, const Camera& camera, const c
   return m;
 }
 
-StatusOr<LoadedImage> readColor(const std::string& file, const Camera& camera) {
+// The subject where value is above threshold (a share of 255), without
+// the specks a noisy background leaves: components under 1% of the largest.
+cv::Mat binaryMask(const cv::Mat& value, double threshold) {
+  cv::Mat mask;
+  cv::threshold(value, mask, threshold * 255.0, 255, cv::THRESH_BINARY);
+  cv::Mat labels, stats, centroids;
+  const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8);
+  int largest = 0;
+  for (int k = 1; k < count; ++k) largest = std::max(largest, stats.at<int>(k, cv::CC_STAT_AREA));
+  for (int k = 1; k < count; ++k) {
+    if (stats.at<int>(k, cv::CC_STAT_AREA) * 100 < largest) mask.setTo(0, labels == k);
+  }
+  return mask;
+}
+
+StatusOr<LoadedImage> readColor(const std::string& file, const Camera& camera,
+                                double mask_threshold) {
   auto m = readAny(file, camera, "image");
   if (!m.isOk()) return m.status();
   LoadedImage out;
@@ -71,9 +87,7 @@ StatusOr<LoadedImage> readColor(const std::string& file, const Camera& camera) {
       cv::Mat alpha3;
       cv::cvtColor(alpha, alpha3, cv::COLOR_GRAY2RGB);
       cv::multiply(rgb, alpha3, rgb, 1.0 / 255.0);
-      cv::Mat mask;
-      cv::threshold(alpha, mask, 127, 255, cv::THRESH_BINARY);
-      out.alpha_mask = fromMat(mask);
+      out.alpha_mask = fromMat(binaryMask(alpha, mask_threshold));
       break;
     }
     default:
@@ -84,22 +98,21 @@ StatusOr<LoadedImage> readColor(const std::string& file, const Camera& camera) {
   return out;
 }
 
-// A mask file: 8-bit grey or RGB(A), zero meaning background (COLMAP's
-// convention), non-zero in any colour channel meaning the subject.
-StatusOr<Image8> readMask(const std::string& file, const Camera& camera) {
+// A mask file: grey or RGB(A), 1, 8 or 16 bits (16 read as 8), dark
+// meaning background (COLMAP's convention), any colour channel above the
+// threshold meaning the subject (ImportOptions::mask_threshold).
+StatusOr<Image8> readMask(const std::string& file, const Camera& camera, double threshold) {
   auto m = readAny(file, camera, "mask");
   if (!m.isOk()) return m.status();
-  cv::Mat grey;
+  cv::Mat brightest;
   if (m->channels() == 1) {
-    grey = *m;
+    brightest = *m;
   } else {
     std::vector<cv::Mat> channels;
     cv::split(*m, channels);
-    grey = channels[0] | channels[1] | channels[2];  // alpha is not a colour
+    brightest = cv::max(cv::max(channels[0], channels[1]), channels[2]);  // alpha is not a colour
   }
-  cv::Mat mask;
-  cv::threshold(grey, mask, 0, 255, cv::THRESH_BINARY);
-  return fromMat(mask);
+  return fromMat(binaryMask(brightest, threshold));
 }
 
 // Pinhole remap: for each pixel of the undistorted image (same K, skew
@@ -145,7 +158,10 @@ struct PreparedView {
 };
 
 // A box around the subject: points of a coarse grid inside the region every
-// camera sees that project inside every camera's (dilated) mask.
+// camera sees that project inside every camera's (dilated) mask; where no
+// point does and there are four cameras or more, inside all masks but one,
+// so that one camera with a wrong mask is named by its health
+// (camera_health.h) instead of failing the import.
 struct Box {
   glm::dvec3 min{0.0}, max{0.0};
 };
@@ -183,21 +199,26 @@ StatusOr<Box> estimateCaptureVolume(const std::vector<Camera>& cameras,
   const double step = 2 * radius / kSteps;
   Box box{glm::dvec3(1e300), glm::dvec3(-1e300)};
   size_t inside = 0;
-  for (int i = 0; i <= kSteps; ++i) {
-    for (int j = 0; j <= kSteps; ++j) {
-      for (int k = 0; k <= kSteps; ++k) {
-        const glm::dvec3 p = centre - glm::dvec3(radius) + step * glm::dvec3(i, j, k);
-        bool all = true;
-        for (size_t c = 0; c < cameras.size() && all; ++c) {
-          const auto q = cameras[c].project(p);
-          all = q && q->x >= 0 && q->y >= 0 && q->x < cameras[c].width &&
+  const size_t most_misses = cameras.size() >= 4 ? 1 : 0;
+  for (size_t allowed = 0; allowed <= most_misses && inside == 0; ++allowed) {
+    for (int i = 0; i <= kSteps; ++i) {
+      for (int j = 0; j <= kSteps; ++j) {
+        for (int k = 0; k <= kSteps; ++k) {
+          const glm::dvec3 p = centre - glm::dvec3(radius) + step * glm::dvec3(i, j, k);
+          size_t misses = 0;
+          for (size_t c = 0; c < cameras.size() && misses <= allowed; ++c) {
+            const auto q = cameras[c].project(p);
+            const bool seen =
+                q && q->x >= 0 && q->y >= 0 && q->x < cameras[c].width &&
                 q->y < cameras[c].height &&
                 dilated[c].at<uint8_t>(static_cast<int>(q->y), static_cast<int>(q->x)) != 0;
+            misses += !seen;
+          }
+          if (misses > allowed) continue;
+          ++inside;
+          box.min = glm::min(box.min, p);
+          box.max = glm::max(box.max, p);
         }
-        if (!all) continue;
-        ++inside;
-        box.min = glm::min(box.min, p);
-        box.max = glm::max(box.max, p);
       }
     }
   }
@@ -257,10 +278,17 @@ Image8 segmentByBrightness(const Image8& color, const ImportOptions& options) {
   return fromMat(filled);
 }
 
-StatusOr<ImportSummary> importCapture(const CaptureDescription& capture,
+StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
                                       const std::string& out_folder, const ImportOptions& options,
                                       const std::function<void(const ImportProgress&)>& progress) {
   const auto start = std::chrono::steady_clock::now();
+  if (!(options.mask_threshold > 0 && options.mask_threshold < 1)) {
+    return Status(StatusCode::kMalformed, "mask threshold " +
+                                              std::to_string(options.mask_threshold) +
+                                              ": expected a share of the range in (0, 1)");
+  }
+  HOLOFUSE_ASSIGN_OR_RETURN(const CaptureDescription capture,
+                            withoutCameras(source, options.exclude_cameras));
   // "out/" and "out" are the same folder; the temporary one sits beside it.
   fs::path normal = fs::path(out_folder).lexically_normal();
   if (normal.filename().empty()) normal = normal.parent_path();
@@ -309,7 +337,7 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& capture,
     pinhole.distortion.clear();
     cameras.push_back(pinhole);
     if (c.background) {
-      auto plate = readColor(*c.background, c.camera);
+      auto plate = readColor(*c.background, c.camera, options.mask_threshold);
       if (!plate.isOk()) return plate.status();
       plates.push_back(undistort.back() ? undistort.back()->apply(plate->color, cv::INTER_LINEAR)
                                         : plate->color);
@@ -325,12 +353,12 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& capture,
   status.total = capture.cameras.size() * capture.frames.size();
   auto prepare = [&](size_t f, size_t c) -> StatusOr<PreparedView> {
     const CaptureFrame& frame = capture.frames[f];
-    auto color = readColor(frame.images[c], capture.cameras[c].camera);
+    auto color = readColor(frame.images[c], capture.cameras[c].camera, options.mask_threshold);
     if (!color.isOk()) return color.status();
     PreparedView view;
     std::optional<Image8> mask;
     if (frame.masks[c]) {
-      auto read = readMask(*frame.masks[c], capture.cameras[c].camera);
+      auto read = readMask(*frame.masks[c], capture.cameras[c].camera, options.mask_threshold);
       if (!read.isOk()) return read.status();
       mask = std::move(*read);
     } else if (color->alpha_mask) {
@@ -386,6 +414,16 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& capture,
   metadata.segmentation = segmentation;
   summary.volume = "min " + formatVec(box->min) + " max " + formatVec(box->max) + ", voxel " +
                    std::to_string(metadata.voxel_size);
+  // Whether each camera's mask agrees with the others', in the volume and
+  // at the voxel a replay carves with.
+  hull::HullOptions hull_options;
+  hull::setCaptureVolume(hull_options, box->min, box->max);
+  hull_options.voxel_size = metadata.voxel_size;
+  std::vector<hull::HullView> first_views;
+  for (size_t c = 0; c < cameras.size(); ++c)
+    first_views.push_back({cameras[c], first_masks[c], featherMap(first_masks[c])});
+  summary.health = cameraHealth(first_views, hull_options);
+  summary.camera_names = metadata.camera_names;
 
   // Written under a temporary name, renamed when whole.
   const std::string partial = out_dir + ".partial-" + std::to_string(::getpid());

@@ -11,6 +11,7 @@
 
 #include "common/image_codec.h"
 #include "common/image_io.h"
+#include "dataset/camera_health.h"
 #include "dataset/dataset.h"
 #include "hull/visual_hull.h"
 #include "metrics/geometry_metrics.h"
@@ -82,7 +83,7 @@ Status verifyFile(const std::string& file, VerifyReport& report) {
 // A camera's tile: the image, dimmed where its mask says background, and
 // the hull's silhouette border drawn over it.
 cv::Mat tile(const Image8& color, const Image8& mask, const Image8& hull_mask,
-             const std::string& label) {
+             const std::string& label, bool marked) {
   cv::Mat image(static_cast<int>(color.height), static_cast<int>(color.width), CV_8UC3,
                 const_cast<uint8_t*>(color.pixels.data()));
   cv::Mat out = image.clone();
@@ -99,6 +100,12 @@ cv::Mat tile(const Image8& color, const Image8& mask, const Image8& hull_mask,
   cv::drawContours(out, contours, -1, cv::Scalar(255, 0, 255), 1);  // RGB order: magenta
   cv::putText(out, label, cv::Point(6, 18), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 0),
               1, cv::LINE_AA);
+  if (marked) {  // a camera set apart from the rest (camera_health.h): a red frame, and why
+    const int border = std::max(3, out.cols / 60);
+    cv::rectangle(out, cv::Rect(0, 0, out.cols, out.rows), cv::Scalar(255, 0, 0), 2 * border);
+    cv::putText(out, "CHECK", cv::Point(6, out.rows - 10), cv::FONT_HERSHEY_SIMPLEX, 0.8,
+                cv::Scalar(255, 0, 0), 2, cv::LINE_AA);
+  }
   return out;
 }
 
@@ -251,9 +258,11 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
   if (const auto& m = dataset->metadata()) t += " (" + m->source + ")";
   t += "\n";
   t += "camera  size        frames   data       silhouette IoU  codecs\n";
+  const std::vector<CameraHealth> health = cameraHealth(views, hull_options);
   std::vector<cv::Mat> tiles;
   for (size_t i = 0; i < views.size(); ++i) {
     CameraSummary& c = summary.cameras[i];
+    c.health = health[i];
     c.silhouette_iou = metrics::silhouetteIoU(hull, views[i].camera, views[i].mask);
     char line[256];
     std::snprintf(line, sizeof(line), "%-7u %4ux%-7u %-8zu %-10s %-15.3f %s\n", c.id, c.width,
@@ -262,9 +271,16 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
     t += line;
     char label[64];
     std::snprintf(label, sizeof(label), "camera %u  IoU %.3f", c.id, c.silhouette_iou);
-    tiles.push_back(
-        tile(images[i].color, images[i].mask, meshSilhouette(hull, views[i].camera), label));
+    tiles.push_back(tile(images[i].color, images[i].mask, meshSilhouette(hull, views[i].camera),
+                         label, !health[i].concern.empty()));
   }
+  std::vector<std::string> names;
+  for (const CameraSummary& c : summary.cameras) {
+    const auto& m = dataset->metadata();
+    names.push_back(m && c.id < m->camera_names.size() ? m->camera_names[c.id]
+                                                       : "camera " + std::to_string(c.id));
+  }
+  t += cameraHealthText(names, health, "the contact sheet " + sheet_png);
   // The sheet: tiles scaled to one height, in rows of up to four.
   const int tile_height = 240;
   const int columns = static_cast<int>(std::min<size_t>(4, tiles.size()));

@@ -67,6 +67,16 @@ int main(int argc, char** argv) {
                    "the subject is darker than the background");
   import->add_option("--close-px", import_options.close_px, "closing radius after thresholding")
       ->check(CLI::Range(0, 100));
+  import
+      ->add_option("--mask-threshold", import_options.mask_threshold,
+                   "a mask pixel is the subject above this share of its range (brightest colour "
+                   "channel, grey or alpha), so masks saved through video or JPEG keep their "
+                   "shape")
+      ->check(CLI::Range(0.001, 0.999));
+  import
+      ->add_option("--exclude-cameras", import_options.exclude_cameras,
+                   "leave these cameras out, by their names in the source (comma separated)")
+      ->delimiter(',');
   import->add_option("--voxel", import_voxel, "hull voxel size for replays (default: volume / 96)")
       ->check(CLI::Range(holofuse::hull::kMinVoxel, holofuse::hull::kMaxVoxel));
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
@@ -98,6 +108,9 @@ int main(int argc, char** argv) {
         "capture volume %s\n",
         summary->cameras, summary->frames, out.c_str(), summary->megabytes, summary->masks_given,
         summary->masks_segmented, summary->volume.c_str());
+    std::printf("%s", dataset::cameraHealthText(summary->camera_names, summary->health,
+                                                "./holofuse dataset info " + out)
+                          .c_str());
     return 0;
   }
   if (verify->parsed()) {

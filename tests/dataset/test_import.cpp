@@ -17,6 +17,7 @@
 #include "dataset/capture_formats.h"
 #include "dataset/dataset.h"
 #include "dataset/import.h"
+#include "dataset/inspection.h"
 #include "scene/synthetic_scene.h"
 
 namespace holofuse::dataset {
@@ -355,6 +356,104 @@ TEST_F(ImportTest, MissingMasksAreSegmented) {
   ASSERT_TRUE(summary.isOk()) << summary.status().toString();
   EXPECT_EQ(summary->masks_segmented, 4u);
   expectDatasetMatches(root_ / "out", 0.9);
+}
+
+// Masks as they are stored: saved through a video or JPEG step they carry
+// faint noise in the background and soft values in the subject, as 8-bit
+// RGB or 16-bit grey. Each is binarised at half its range, so that no
+// camera comes out as almost all foreground, and none is flagged.
+TEST_F(ImportTest, NoisyAndSixteenBitMasksKeepTheirShape) {
+  const fs::path src = root_ / "src";
+  writeImages(src / "images", ".png");
+  fs::create_directories(src / "masks");
+  cv::RNG rng(7);
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    const cv::Mat truth = toMat(views_[i].mask);
+    const fs::path file = src / "masks" / (name(i) + ".png");
+    if (i == 2) {  // 16-bit grey: the subject at 60000 of 65535, the rest at 900
+      cv::Mat deep(truth.size(), CV_16UC1, cv::Scalar(900));
+      deep.setTo(cv::Scalar(60000), truth != 0);
+      ASSERT_TRUE(cv::imwrite(file.string(), deep));
+      continue;
+    }
+    cv::Mat noisy(truth.size(), CV_8UC3);
+    rng.fill(noisy, cv::RNG::UNIFORM, cv::Scalar::all(0), cv::Scalar::all(40));
+    cv::Mat subject(truth.size(), CV_8UC3);
+    rng.fill(subject, cv::RNG::UNIFORM, cv::Scalar::all(200), cv::Scalar::all(256));
+    subject.copyTo(noisy, truth != 0);
+    ASSERT_TRUE(cv::imwrite(file.string(), noisy));
+  }
+  std::ofstream(src / "capture.json") << holofuseJson(".png", true).dump(2);
+  auto capture = readCapture(src.string(), CaptureFormat::kHolofuse);
+  ASSERT_TRUE(capture.isOk()) << capture.status().toString();
+  auto summary = importCapture(*capture, (root_ / "out").string(), {});
+  ASSERT_TRUE(summary.isOk()) << summary.status().toString();
+  expectDatasetMatches(root_ / "out", 0.999);
+  ASSERT_EQ(summary->health.size(), 4u);
+  for (size_t c = 0; c < 4; ++c) {
+    EXPECT_EQ(summary->health[c].concern, "") << summary->camera_names[c];
+    EXPECT_GT(summary->health[c].agreement, 0.8) << summary->camera_names[c];
+    EXPECT_LT(summary->health[c].coverage, 0.5) << summary->camera_names[c];
+  }
+}
+
+// A camera whose mask is wrong is named, with why and what to do, in the
+// import's summary and in `dataset info` (its tile marked); left out with
+// --exclude-cameras, the rest import clean.
+TEST_F(ImportTest, ACameraApartFromTheRestIsNamedAndCanBeLeftOut) {
+  const fs::path src = root_ / "src";
+  writeImages(src / "images", ".png");
+  writeMasks(src / "masks", ".png", false);
+  // cam10 (pod 2): a disc in a corner, which carves away what the others
+  // see; cam11 (pod 3): all foreground, which carves nothing.
+  cv::Mat disc = cv::Mat::zeros(static_cast<int>(cameras_[1].height),
+                                static_cast<int>(cameras_[1].width), CV_8UC1);
+  cv::circle(disc, cv::Point(12, 12), 8, cv::Scalar(255), cv::FILLED);
+  ASSERT_TRUE(cv::imwrite((src / "masks" / "cam10.png").string(), disc));
+  const cv::Mat full(disc.size(), CV_8UC1, cv::Scalar(255));
+  ASSERT_TRUE(cv::imwrite((src / "masks" / "cam11.png").string(), full));
+  std::ofstream(src / "capture.json") << holofuseJson(".png", true).dump(2);
+  auto capture = readCapture(src.string(), CaptureFormat::kHolofuse);
+  ASSERT_TRUE(capture.isOk()) << capture.status().toString();
+  auto summary = importCapture(*capture, (root_ / "out").string(), {});
+  ASSERT_TRUE(summary.isOk()) << summary.status().toString();
+  ASSERT_EQ(summary->camera_names, (std::vector<std::string>{"cam1", "cam2", "cam10", "cam11"}));
+  EXPECT_EQ(summary->health[0].concern, "");
+  EXPECT_EQ(summary->health[1].concern, "");
+  EXPECT_NE(summary->health[2].concern.find("carves away what the others see"), std::string::npos)
+      << summary->health[2].concern;
+  EXPECT_NE(summary->health[3].concern.find("covers 100% of the frame"), std::string::npos)
+      << summary->health[3].concern;
+  const std::string text =
+      cameraHealthText(summary->camera_names, summary->health, "./holofuse dataset info out");
+  EXPECT_NE(text.find("CHECK camera 2 \"cam10\""), std::string::npos) << text;
+  EXPECT_NE(text.find("--exclude-cameras cam10"), std::string::npos) << text;
+  EXPECT_EQ(text.find("CHECK camera 0"), std::string::npos) << text;
+
+  auto info = describeDataset((root_ / "out").string(), (root_ / "sheet.png").string());
+  ASSERT_TRUE(info.isOk()) << info.status().toString();
+  EXPECT_NE(info->cameras[2].health.concern, "");
+  EXPECT_NE(info->text.find("CHECK camera 3 \"cam11\""), std::string::npos) << info->text;
+  EXPECT_TRUE(fs::exists(root_ / "sheet.png"));
+
+  ImportOptions options;
+  options.exclude_cameras = {"cam10", "cam11"};
+  auto kept = importCapture(*capture, (root_ / "kept").string(), options);
+  ASSERT_TRUE(kept.isOk()) << kept.status().toString();
+  EXPECT_EQ(kept->cameras, 2u);
+  EXPECT_EQ(kept->camera_names, (std::vector<std::string>{"cam1", "cam2"}));
+  for (const CameraHealth& h : kept->health) EXPECT_EQ(h.concern, "");
+  auto dataset = Dataset::open((root_ / "kept").string());
+  ASSERT_TRUE(dataset.isOk());
+  EXPECT_EQ(dataset->cameras().size(), 2u);
+
+  options.exclude_cameras = {"cam99"};
+  auto unknown = importCapture(*capture, (root_ / "unknown").string(), options);
+  ASSERT_FALSE(unknown.isOk());
+  EXPECT_NE(unknown.status().message().find("no camera named \"cam99\""), std::string::npos)
+      << unknown.status().message();
+  EXPECT_NE(unknown.status().message().find("cam10"), std::string::npos) << "lists those it has";
+  EXPECT_FALSE(fs::exists(root_ / "unknown"));
 }
 
 TEST_F(ImportTest, BadInputIsNamedAndLeavesNoDataset) {

@@ -45,6 +45,12 @@ bool naturalLess(const std::string& a, const std::string& b);
 // follow).
 void numberCamerasByName(CaptureDescription& description);
 
+// The capture without the cameras named (by their names in the source),
+// the rest numbered 0..N-1 in their order; an error names a camera the
+// capture does not have, and lists those it has.
+StatusOr<CaptureDescription> withoutCameras(const CaptureDescription& description,
+                                            const std::vector<std::string>& names);
+
 // The holofuse capture JSON (docs/datasets.md, "Import real captures"): per camera K,
 // distortion, R, t, image size; per frame the image (and optional mask)
 // file of each camera.

@@ -11,9 +11,11 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "base/status.h"
 #include "common/image.h"
+#include "dataset/camera_health.h"
 #include "dataset/capture_formats.h"
 
 namespace holofuse::dataset {
@@ -28,6 +30,14 @@ struct ImportOptions {
   int close_px = 5;                  // morphological closing radius after thresholding
   std::optional<double> voxel_size;  // default: the capture volume's longest side / 96
   int crop_margin = 8;               // as pods send: the foreground rectangle grown by this
+  // A mask pixel is the subject where its brightest colour channel (or
+  // grey level, or an RGBA image's alpha) is above this share of its full
+  // range: masks saved through a video or JPEG step carry faint noise in
+  // the background and soft edges. Specks of subject far smaller than the
+  // subject are then dropped.
+  double mask_threshold = 0.5;
+  // Cameras left out, by their names in the source.
+  std::vector<std::string> exclude_cameras;
 };
 
 struct ImportProgress {
@@ -41,6 +51,10 @@ struct ImportSummary {
   double megabytes = 0;
   size_t masks_given = 0, masks_segmented = 0;
   std::string volume;  // "min (x, y, z) max (x, y, z), voxel v"
+  // The first frame's masks against each other (camera_health.h), per
+  // camera in pod id order, with the cameras' names.
+  std::vector<std::string> camera_names;
+  std::vector<CameraHealth> health;
 };
 
 // Brightness threshold segmentation with clean-up (open 1 px, close

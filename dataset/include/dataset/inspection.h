@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "base/status.h"
+#include "dataset/camera_health.h"
 #include "dataset/dataset.h"
 #include "hull/visual_hull.h"
 
@@ -40,6 +41,7 @@ struct CameraSummary {
   double megabytes = 0;
   std::string codecs;         // of the planes, "colour lz4-delta, mask lz4, ..."
   double silhouette_iou = 0;  // the hull carved from every camera, against this camera's mask
+  CameraHealth health;        // its mask against the others' (camera_health.h)
 };
 
 struct DatasetSummary {
