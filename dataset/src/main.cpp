@@ -1,7 +1,7 @@
 // holofuse_dataset: checks and describes datasets (recordings and imports).
 //   holofuse_dataset verify DIR     exit 0 clean, 3 incomplete tail, 1 corrupt, 2 unusable
 //   holofuse_dataset info DIR [--sheet PNG] [--voxel M]
-//   holofuse_dataset import SRC --format holofuse|colmap|nerf --out DIR [segmentation flags]
+//   holofuse_dataset import SRC --format F --out DIR [segmentation flags]
 #include <unistd.h>
 
 #include <cstdio>

@@ -1,10 +1,14 @@
 // Readers of real multi-view captures on disk: the holofuse capture JSON,
-// COLMAP text models and NeRF-style transforms.json. Each turns a folder
-// into a CaptureDescription (cameras in OpenCV axes, world to camera, and
-// the image and mask files of every frame) without reading any image; a
-// malformed file is named with its line (text) or JSON path.
+// COLMAP models (text or binary), NeRF-style transforms.json, OpenCV
+// FileStorage calibrations, 3x4 projection matrices, Middlebury's
+// *_par.txt and CMU Panoptic's calibration JSON. Each turns a folder into
+// a CaptureDescription (cameras in OpenCV axes, world to camera, pixel
+// centres at +0.5, and the image and mask files of every frame); a
+// malformed file is named with its line (text), byte (binary) or JSON
+// path.
 #pragma once
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -33,10 +37,19 @@ struct CaptureDescription {
   double fps = 10.0;
 };
 
-enum class CaptureFormat { kHolofuse, kColmap, kNerf };
-// "holofuse", "colmap", "nerf"; nullopt for anything else.
+enum class CaptureFormat {
+  kHolofuse,
+  kColmap,
+  kNerf,
+  kOpencv,
+  kProjections,
+  kMiddlebury,
+  kPanoptic
+};
+// "holofuse", "colmap", "nerf", "opencv", "projections", "middlebury",
+// "panoptic"; nullopt for anything else.
 std::optional<CaptureFormat> captureFormatFromName(const std::string& name);
-const char* captureFormatNames();  // "holofuse, colmap, nerf"
+const char* captureFormatNames();  // the names above, comma separated
 
 // Natural order: digit runs compare as numbers ("cam2" < "cam10").
 bool naturalLess(const std::string& a, const std::string& b);
@@ -56,9 +69,10 @@ StatusOr<CaptureDescription> withoutCameras(const CaptureDescription& descriptio
 // file of each camera.
 StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder);
 
-// COLMAP text: cameras.txt and images.txt at the root, in sparse/ or in
-// sparse/0/; images in images/, masks (when present) in masks/<image
-// name>.png with zero meaning background. One frame.
+// COLMAP: cameras.txt and images.txt, or cameras.bin and images.bin, at
+// the root, in sparse/ or in sparse/0/; images in images/, masks (when
+// present) in masks/<image name>.png with zero meaning background. One
+// frame.
 StatusOr<CaptureDescription> readColmapCapture(const std::string& folder);
 
 // transforms.json (instant-ngp / nerfstudio / Blender): camera-to-world
@@ -66,6 +80,38 @@ StatusOr<CaptureDescription> readColmapCapture(const std::string& folder);
 // OpenCV's (x right, y down, z forwards); intrinsics from fl_x/fl_y/cx/cy
 // or camera_angle_x. Each frame entry is one camera of a static capture.
 StatusOr<CaptureDescription> readNerfCapture(const std::string& folder);
+
+// OpenCV FileStorage (YAML, XML or JSON), in either layout rigs use:
+// intri.yml and extri.yml (EasyMocap, ZJU-MoCap: "names", then K_<name>,
+// dist_<name>, and Rot_<name> or the Rodrigues R_<name>, T_<name>), or one
+// file per camera (camera_matrix, distortion_coefficients, R, T, optional
+// image_width and image_height). Images in images/<name>/ (one per frame)
+// or images/<name>.<ext>; masks likewise under masks/, mask/ or
+// mask_cihp/.
+StatusOr<CaptureDescription> readOpencvCapture(const std::string& folder);
+
+// One 3x4 projection matrix P per image (the ETH course's `.pa`, `.P`, DTU's
+// pos_NNN.txt), decomposed into K, R and t; pixel = (u/w, v/w) with the
+// first pixel's centre at 0. Images beside the matrices or in images/,
+// with the matrix file's stem or, for pos_NNN, the one image numbered NNN.
+StatusOr<CaptureDescription> readProjectionCapture(const std::string& folder);
+
+// Middlebury multi-view's <name>_par.txt: a count, then per image its file
+// name, K (9 numbers), R (9) and t (3); images beside it.
+StatusOr<CaptureDescription> readMiddleburyCapture(const std::string& folder);
+
+// CMU Panoptic's calibration_<sequence>.json: per camera its name, type,
+// resolution, K, distCoef, R and t. Cameras whose images are present
+// (<type>Imgs/<name>/, one per frame, or images/<name>/) are kept.
+StatusOr<CaptureDescription> readPanopticCapture(const std::string& folder);
+
+// P = K [R | t] from a row-major 3x4 P by RQ decomposition of its left 3x3
+// (Hartley and Zisserman, "Multiple View Geometry", 2004, section 6.2.4):
+// K upper triangular with positive focal lengths and K33 = 1, R a
+// rotation (determinant +1); P's scale and sign are free, so a P with a
+// negative scale is negated first. Refused, naming `where`: a value that
+// is not finite, or a singular left 3x3. Width and height are left 0.
+StatusOr<Camera> cameraFromProjection(const std::array<double, 12>& p, const std::string& where);
 
 StatusOr<CaptureDescription> readCapture(const std::string& folder, CaptureFormat format);
 

@@ -1,0 +1,235 @@
+#include "capture_parse.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+namespace holofuse::dataset::capture {
+
+Status malformed(const std::string& where, const std::string& what) {
+  return Status(StatusCode::kMalformed, where + ": " + what);
+}
+
+StatusOr<nlohmann::json> readJson(const fs::path& file) {
+  std::ifstream in(file);
+  if (!in) return Status(StatusCode::kIoError, file.string() + ": cannot open");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    const size_t at = std::min(e.byte == 0 ? 0 : e.byte - 1, text.size());
+    const size_t line =
+        1 + static_cast<size_t>(
+                std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+    const size_t line_start = text.rfind('\n', at == 0 ? 0 : at - 1);
+    const size_t column = line_start == std::string::npos ? at + 1 : at - line_start;
+    return malformed(file.string() + ":" + std::to_string(line) + ":" + std::to_string(column),
+                     "not valid JSON (" + std::string(e.what()) + ")");
+  }
+}
+
+StatusOr<double> number(const nlohmann::json& object, const std::string& key,
+                        const std::string& where) {
+  if (!object.is_object() || !object.contains(key))
+    return malformed(where, "missing \"" + key + "\"");
+  if (!object[key].is_number()) return malformed(where + "." + key, "expected a number");
+  return object[key].get<double>();
+}
+
+StatusOr<std::vector<double>> numbers(const nlohmann::json& value, size_t count,
+                                      const std::string& where) {
+  std::vector<double> out;
+  auto flat = [&](const nlohmann::json& v, auto&& self) -> bool {
+    if (v.is_number()) {
+      out.push_back(v.get<double>());
+      return true;
+    }
+    if (!v.is_array()) return false;
+    for (const auto& e : v) {
+      if (!self(e, self)) return false;
+    }
+    return true;
+  };
+  if (!flat(value, flat) || out.size() != count) {
+    return malformed(where, "expected " + std::to_string(count) + " numbers");
+  }
+  for (double x : out) {
+    if (!std::isfinite(x)) return malformed(where, "holds a value that is not finite");
+  }
+  return out;
+}
+
+Status checkCamera(const Camera& c, const std::string& where) {
+  if (c.width == 0 || c.height == 0 || c.width > 16384 || c.height > 16384) {
+    return malformed(where, "image size " + std::to_string(c.width) + "x" +
+                                std::to_string(c.height) + " outside 1..16384");
+  }
+  if (!(c.fx > 0) || !(c.fy > 0) || !std::isfinite(c.cx) || !std::isfinite(c.cy) ||
+      !std::isfinite(c.skew)) {
+    return malformed(where, "focal lengths must be positive and every intrinsic finite");
+  }
+  for (int k = 0; k < 3; ++k) {
+    if (!std::isfinite(c.translation[k])) return malformed(where, "t is not finite");
+  }
+  const glm::dmat3 should_be_identity = glm::transpose(c.rotation) * c.rotation;
+  double error = std::abs(glm::determinant(c.rotation) - 1.0);
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) error += std::abs(should_be_identity[i][j] - (i == j ? 1.0 : 0.0));
+  }
+  if (!(error < 1e-3)) return malformed(where, "R is not a rotation (orthonormal, determinant 1)");
+  return Status::ok();
+}
+
+uint32_t imageSide(double value) {
+  if (!(value >= 0)) return 0;
+  return static_cast<uint32_t>(std::min(value, 16385.0));
+}
+
+glm::dmat3 rowMajor(const std::vector<double>& m) {
+  glm::dmat3 r;
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 3; ++col) r[col][row] = m[static_cast<size_t>(3 * row + col)];
+  }
+  return r;
+}
+
+Status intrinsicsFromK(const std::vector<double>& k, Camera& c, const std::string& where) {
+  if (k.size() != 9 || k[3] != 0 || k[6] != 0 || k[7] != 0 || k[8] != 1) {
+    return malformed(where, "expected K = [[fx, skew, cx], [0, fy, cy], [0, 0, 1]]");
+  }
+  c.fx = k[0];
+  c.skew = k[1];
+  c.cx = k[2];
+  c.fy = k[4];
+  c.cy = k[5];
+  return Status::ok();
+}
+
+void pixelCentresFromZero(Camera& c) {
+  c.cx += 0.5;
+  c.cy += 0.5;
+}
+
+std::string relativeTo(const fs::path& folder, const std::string& file) {
+  const fs::path p(file);
+  return p.is_absolute() ? p.string() : (folder / p).lexically_normal().string();
+}
+
+std::vector<std::string> words(const std::string& line) {
+  std::istringstream in(line);
+  std::vector<std::string> out;
+  for (std::string w; in >> w;) out.push_back(w);
+  return out;
+}
+
+bool parseDouble(const std::string& text, double& value) {
+  char* end = nullptr;
+  value = std::strtod(text.c_str(), &end);
+  return end != text.c_str() && *end == '\0' && std::isfinite(value);
+}
+
+StatusOr<std::vector<std::pair<size_t, std::string>>> contentLines(const fs::path& file) {
+  std::ifstream in(file);
+  if (!in) return Status(StatusCode::kIoError, file.string() + ": cannot open");
+  std::vector<std::pair<size_t, std::string>> lines;
+  std::string line;
+  for (size_t n = 1; std::getline(in, line); ++n) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const size_t first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#') continue;
+    lines.emplace_back(n, line);
+  }
+  return lines;
+}
+
+bool isImageFile(const fs::path& file) {
+  std::string ext = file.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" ||
+         ext == ".bmp" || ext == ".exr" || ext == ".pgm" || ext == ".ppm";
+}
+
+std::vector<fs::path> imagesIn(const fs::path& folder) {
+  std::vector<fs::path> out;
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(folder, error)) {
+    if (entry.is_regular_file() && isImageFile(entry.path())) out.push_back(entry.path());
+  }
+  std::sort(out.begin(), out.end(), [](const fs::path& a, const fs::path& b) {
+    return naturalLess(a.filename().string(), b.filename().string());
+  });
+  return out;
+}
+
+StatusOr<std::pair<uint32_t, uint32_t>> imageSize(const fs::path& file) {
+  const cv::Mat image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+  if (image.empty()) return Status(StatusCode::kIoError, file.string() + ": cannot read the image");
+  return std::make_pair(static_cast<uint32_t>(image.cols), static_cast<uint32_t>(image.rows));
+}
+
+std::optional<std::string> maskFor(const fs::path& image,
+                                   const std::vector<fs::path>& mask_folders) {
+  const std::string name = image.filename().string(), stem = image.stem().string();
+  for (const fs::path& folder : mask_folders) {
+    for (const std::string& candidate : {name, stem + ".png", name + ".png"}) {
+      const fs::path mask = folder / candidate;
+      if (fs::is_regular_file(mask)) return mask.string();
+    }
+  }
+  return std::nullopt;
+}
+
+CameraImages cameraImages(const fs::path& root, const std::string& name,
+                          const std::vector<fs::path>& mask_roots) {
+  CameraImages out;
+  if (fs::is_directory(root / name)) {
+    std::vector<fs::path> mask_folders;
+    for (const fs::path& m : mask_roots) mask_folders.push_back(m / name);
+    for (const fs::path& image : imagesIn(root / name)) {
+      out.images.push_back(image.string());
+      out.masks.push_back(maskFor(image, mask_folders));
+    }
+    return out;
+  }
+  for (const fs::path& image : imagesIn(root)) {
+    if (image.stem().string() != name) continue;
+    out.images.push_back(image.string());
+    out.masks.push_back(maskFor(image, mask_roots));
+    break;
+  }
+  return out;
+}
+
+StatusOr<std::vector<CaptureFrame>> framesByIndex(const std::vector<CaptureCamera>& cameras,
+                                                  const std::vector<CameraImages>& images,
+                                                  const std::string& where) {
+  if (cameras.empty()) return malformed(where, "holds no camera");
+  const size_t count = images[0].images.size();
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    if (images[c].images.empty()) {
+      return malformed(where, "camera \"" + cameras[c].name + "\" has no image");
+    }
+    if (images[c].images.size() != count) {
+      return malformed(where, "camera \"" + cameras[c].name + "\" has " +
+                                  std::to_string(images[c].images.size()) + " frames, camera \"" +
+                                  cameras[0].name + "\" has " + std::to_string(count) +
+                                  " (frames are matched by index)");
+    }
+  }
+  std::vector<CaptureFrame> frames(count);
+  for (size_t f = 0; f < count; ++f) {
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      frames[f].images.push_back(images[c].images[f]);
+      frames[f].masks.push_back(images[c].masks[f]);
+    }
+  }
+  return frames;
+}
+
+}  // namespace holofuse::dataset::capture
