@@ -19,6 +19,7 @@
 #include "common/command_line.h"
 #include "dataset/dataset.h"
 #include "eval/loop_settings.h"
+#include "protocol/messages.h"
 #include "render_client/blend_mode.h"
 #include "render_client/latency_report.h"
 #include "scene/scene_library.h"
@@ -135,7 +136,8 @@ int readReplay(CLI::App& app, LoopPlan& plan) {
 // (0 after --help).
 std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
   CLI::App app{"holofuse loop: pods -> fusion server -> render client on localhost"};
-  app.add_option("--pods", plan.pods, "camera pods (1..16)")->check(CLI::Range(1, 16));
+  app.add_option("--pods", plan.pods, "camera pods (1..128)")
+      ->check(CLI::Range(1, static_cast<int>(holofuse::protocol::kMaxCameras)));
   app.add_option("--frames", plan.frames, "frames the client renders before everything stops")
       ->check(CLI::Range(1, 1000000));
   app.add_option("--size", plan.size, "pod image and output size WxH");

@@ -21,15 +21,18 @@
 
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
-layout(location = 2) in vec4 in_weights[4];
+layout(location = 2) flat in uint in_triangle;
+layout(location = 3) in vec3 in_barycentric;
 layout(location = 0) out vec4 out_color;
 // The depth maps of the compute passes (depth_raster.comp.glsl).
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DEPTHS) readonly buffer DepthMaps { uint depth_bits[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_INDICES) readonly buffer Indices { uint indices[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_BEST_VIEWS) readonly buffer BestViews { uvec2 best_views[]; };
 
 // Where p lands in camera i: texture coordinates in [0, 1] and the
 // camera-space depth; false behind the camera or off its image.
 bool projectInto(int i, vec3 p, out vec2 uv, out float depth) {
-  vec4 clip = blend.cameras[i].world_to_clip * vec4(p, 1.0);
+  vec4 clip = cameras[i].world_to_clip * vec4(p, 1.0);
   depth = clip.w;
   uv = vec2(0.0);
   if (clip.w <= 1e-6) return false;
@@ -39,7 +42,7 @@ bool projectInto(int i, vec3 p, out vec2 uv, out float depth) {
 
 // Camera i's depth map at the pixel uv falls in.
 float storedDepth(int i, vec2 uv) {
-  vec2 size = blend.cameras[i].size.xy;
+  vec2 size = cameras[i].size.xy;
   ivec2 pixel = clamp(ivec2(uv * size), ivec2(0), ivec2(size) - 1);
   return uintBitsToFloat(depth_bits[(i * int(size.y) + pixel.y) * int(size.x) + pixel.x]);
 }
@@ -50,7 +53,7 @@ float storedDepth(int i, vec2 uv) {
 // 8-bit image rounds the result to 8 bits (for the feather map, a whole
 // pixel of distance: 6% of an 8-pixel ramp).
 ivec3 bilinearTap(int i, vec2 uv, int k, out float weight) {
-  ivec2 size = ivec2(blend.cameras[i].size.xy);
+  ivec2 size = ivec2(cameras[i].size.xy);
   vec2 texel = uv * vec2(size) - 0.5;
   ivec2 base = ivec2(floor(texel));
   vec2 f = texel - vec2(base);
@@ -103,7 +106,7 @@ float sightAndFeather(int i, vec2 uv, float depth, float mask) {
 bool imagedBy(int i, out vec2 uv, out float depth) {
   uv = vec2(0.0);
   depth = 0.0;
-  if (blend.cameras[i].flags.x == 0 || blend.cameras[i].flags.y != 0) return false;
+  if (cameras[i].flags.x == 0 || cameras[i].flags.y != 0) return false;
   return projectInto(i, in_position, uv, depth);
 }
 
@@ -113,7 +116,7 @@ vec4 blendNormal(vec3 n, inout float total) {
   vec3 sum = vec3(0.0);
   total = 0.0;
   for (int i = 0; i < blend.counts.x; ++i) {
-    CameraGpu cam = blend.cameras[i];
+    CameraGpu cam = cameras[i];
     vec2 uv;
     float depth;
     if (!imagedBy(i, uv, depth)) continue;
@@ -143,7 +146,7 @@ vec4 blendFragment(vec3 n, inout float total) {
   float eye_distance = length(to_eye);
   vec3 d_v = eye_distance > 1e-20 ? to_eye / eye_distance : vec3(0.0);
   for (int i = 0; i < blend.counts.x; ++i) {
-    CameraGpu cam = blend.cameras[i];
+    CameraGpu cam = cameras[i];
     vec2 uv;
     float depth;
     if (!imagedBy(i, uv, depth)) continue;
@@ -172,26 +175,45 @@ vec4 blendFragment(vec3 n, inout float total) {
 }
 
 // Blend with the interpolated per-vertex texture fields.
+// Camera i's weight among vertex v's best views (0 when not among them).
+float bestViewWeight(uint v, uint i, uint k_max) {
+  for (uint k = 0u; k < k_max; ++k) {
+    uvec2 entry = best_views[v * k_max + k];
+    if (entry.x == HOLOFUSE_NO_VIEW) break;
+    if (entry.x == i) return uintBitsToFloat(entry.y);
+  }
+  return 0.0;
+}
+
 vec4 blendFields(inout float total) {
   vec3 sum = vec3(0.0);
   total = 0.0;
   bool fragment_test = blend.fragment_test.w > 0.5;
-  for (int i = 0; i < blend.counts.x; ++i) {
-    CameraGpu cam = blend.cameras[i];
-    float w = in_weights[i / 4][i % 4];
-    if (cam.flags.x == 0 || !(w > 0.0)) continue;
-    vec2 uv;
-    float depth;
-    if (!projectInto(i, in_position, uv, depth)) continue;
-    vec4 texel = sampleForeground(i, uv);
-    // Weights are per vertex; near a silhouette a fragment of a visible
-    // triangle can still land on the pod's background: never sample that.
-    // With the per-fragment test, the fragment is also tested against the
-    // camera's depth map and feathered towards its silhouette's edge.
-    w *= fragment_test ? sightAndFeather(i, uv, depth, texel.a) : (texel.a < 0.5 ? 0.0 : 1.0);
-    if (!(w > 0.0)) continue;
-    sum += w * texel.rgb;
-    total += w;
+  uint k_max = uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS));
+  uint corners[3] = uint[3](indices[3u * in_triangle], indices[3u * in_triangle + 1u], indices[3u * in_triangle + 2u]);
+  // Each camera among the corners' best views once: its weight
+  // interpolated over the triangle (0 at a corner that does not keep it).
+  for (uint j = 0u; j < 3u; ++j) {
+    for (uint k = 0u; k < k_max; ++k) {
+      uvec2 entry = best_views[corners[j] * k_max + k];
+      uint i = entry.x;
+      if (i == HOLOFUSE_NO_VIEW) break;
+      bool listed_before = false;
+      for (uint e = 0u; e < j; ++e) listed_before = listed_before || bestViewWeight(corners[e], i, k_max) > 0.0;
+      if (listed_before) continue;
+      float w = in_barycentric[j] * uintBitsToFloat(entry.y);
+      for (uint e = j + 1u; e < 3u; ++e) w += in_barycentric[e] * bestViewWeight(corners[e], i, k_max);
+      CameraGpu cam = cameras[i];
+      if (cam.flags.x == 0 || !(w > 0.0)) continue;
+      vec2 uv;
+      float depth;
+      if (!projectInto(int(i), in_position, uv, depth)) continue;
+      vec4 texel = sampleForeground(int(i), uv);
+      w *= fragment_test ? sightAndFeather(int(i), uv, depth, texel.a) : (texel.a < 0.5 ? 0.0 : 1.0);
+      if (!(w > 0.0)) continue;
+      sum += w * texel.rgb;
+      total += w;
+    }
   }
   return vec4(total > 1e-8 ? sum / total : vec3(0.0), 1.0);
 }

@@ -3,34 +3,33 @@
 #include "config.h"
 #include "cameras.glsl"
 #include "vertices.glsl"
-// The user's view of the fused mesh; world position, normal and the
-// per-vertex texture-field weights (16 cameras as 4 vec4) go on to the
-// blend, interpolated over the triangle (paper 000 eq. 1). The vertices
-// come from the storage buffer the compute passes read (full or half
-// precision), indexed by the draw's vertex index.
+// The user's view of the fused mesh; world position and normal go on to
+// the blend, interpolated over the triangle, with the triangle's index and
+// the fragment's barycentric coordinates, from which the blend weighs each
+// corner's best views (paper 000 eq. 1). The draw is not indexed: corner c
+// is vertex indices[c] of triangle c / 3, so every corner knows its
+// triangle. The vertices come from the storage buffer the compute passes
+// read (full or half precision).
 
 layout(push_constant) uniform Push {
   mat4 world_to_clip;
 } push;
 
-layout(std430, set = 0, binding = HOLOFUSE_BINDING_WEIGHTS) readonly buffer Weights { float weights[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_INDICES) readonly buffer Indices { uint indices[]; };
 
 layout(location = 0) out vec3 out_position;
 layout(location = 1) out vec3 out_normal;
-layout(location = 2) out vec4 out_weights[4];
+layout(location = 2) flat out uint out_triangle;
+layout(location = 3) out vec3 out_barycentric;
 
 void main() {
-  vec3 in_position = vertexPosition(uint(gl_VertexIndex));
-  vec3 in_normal = vertexNormal(uint(gl_VertexIndex));
+  uint corner = uint(gl_VertexIndex);
+  uint v = indices[corner];
+  vec3 in_position = vertexPosition(v);
   gl_Position = push.world_to_clip * vec4(in_position, 1.0);
   out_position = in_position;
-  out_normal = in_normal;
-  for (int k = 0; k < 4; ++k) out_weights[k] = vec4(0.0);
-  if (blend.counts.y == HOLOFUSE_MODE_HOLOPORTATION || blend.counts.y == HOLOFUSE_MODE_MONTAGE4D) {
-    uint base = uint(gl_VertexIndex) * HOLOFUSE_MAX_CAMERAS;
-    for (int k = 0; k < 4; ++k) {
-      out_weights[k] = vec4(weights[base + 4 * k], weights[base + 4 * k + 1], weights[base + 4 * k + 2],
-                            weights[base + 4 * k + 3]);
-    }
-  }
+  out_normal = vertexNormal(v);
+  out_triangle = corner / 3u;
+  uint k = corner % 3u;
+  out_barycentric = vec3(k == 0u ? 1.0 : 0.0, k == 1u ? 1.0 : 0.0, k == 2u ? 1.0 : 0.0);
 }

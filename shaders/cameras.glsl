@@ -1,5 +1,6 @@
-// The pod cameras and blend parameters (C++ mirror: BlendUniforms in
-// render_client/src/renderer.cpp, with static_asserts on the layout).
+// The pod cameras and blend parameters (C++ mirrors: CameraGpu and
+// BlendUniforms in render_client/src/renderer_gpu.h, with static_asserts
+// on the layout).
 struct CameraGpu {
   mat4 world_to_clip;  // w of the result is the camera-space depth
   vec4 center;         // xyz: camera centre in world space
@@ -7,8 +8,9 @@ struct CameraGpu {
   ivec4 flags;         // x: 1 if the camera takes part; y: 1 if its mask is empty (nothing to rasterise)
 };
 
-layout(set = 0, binding = HOLOFUSE_BINDING_CAMERAS) uniform Blend {
-  CameraGpu cameras[HOLOFUSE_MAX_CAMERAS];
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_CAMERAS) readonly buffer Cameras { CameraGpu cameras[]; };
+
+layout(set = 0, binding = HOLOFUSE_BINDING_BLEND) uniform Blend {
   // x: camera count, y: mode, z: cameras left out for an empty mask, w: 1
   // for half-precision vertices (vertices.glsl)
   ivec4 counts;
@@ -23,7 +25,12 @@ layout(set = 0, binding = HOLOFUSE_BINDING_CAMERAS) uniform Blend {
   // field modes take the test too.
   vec4 fragment_test;
   vec4 view_weight;    // x: beta, the exponent of (d_k . d_v + 1) (paper 004 eq. 4)
+  // x: best views kept per vertex (HOLOFUSE_BINDING_BEST_VIEWS), y: words
+  // of a per-camera bit set
+  ivec4 views;
 } blend;
+
+uint cameraWords() { return uint(blend.views.y); }
 
 layout(set = 0, binding = HOLOFUSE_BINDING_IMAGES) uniform sampler2DArray images;  // rgb + mask in a, with mips
 layout(set = 0, binding = HOLOFUSE_BINDING_FEATHERS) uniform sampler2DArray feathers;  // r: distance / 255

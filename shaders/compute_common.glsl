@@ -26,13 +26,13 @@ layout(push_constant) uniform Push {
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DEPTHS) buffer DepthMaps { uint depth_bits[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DISCONTINUITIES) buffer Discontinuities { uint discontinuities[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_SIGHTS) buffer Sights { uint sights[]; };
-layout(std430, set = 0, binding = HOLOFUSE_BINDING_SIGHT_BITS) buffer SightBits { uvec2 sight_bits[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_SIGHT_BITS) buffer SightBits { uint sight_bits[]; };
+uint sightWord(uint v, uint set, uint word) { return sight_bits[(v * HOLOFUSE_SIGHT_BIT_SETS + set) * cameraWords() + word]; }
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_TRUSTED) buffer Trusted { uint trusted[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WEIGHTS) buffer Weights { float weights[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_INDICES) readonly buffer Indices { uint indices[]; };
-// Per triangle, a bit per camera for each seam rule: x: occlusion | vote
-// << 16, y: field of view.
-layout(std430, set = 0, binding = HOLOFUSE_BINDING_SEAMS) buffer Seams { uvec2 seams[]; };
+// Per triangle, a bit per camera for each seam rule: [triangle][rule][word].
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_SEAMS) buffer Seams { uint seams[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_VISIBLE_COUNTS) buffer VisibleCounts { uint visible_counts[]; };
 // adjacency[v] .. adjacency[v + 1] index the triangle list that follows
 // the vertex_count + 1 offsets.
@@ -60,6 +60,7 @@ struct Fan {
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_FANS) readonly buffer Fans { Fan fans[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST) buffer Worklist { uint worklist[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST_COUNTS) buffer WorklistCounts { uint worklist_counts[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_BEST_VIEWS) buffer BestViews { uvec2 best_views[]; };
 
 float storedDepth(uint camera, ivec2 pixel) {
   return uintBitsToFloat(depth_bits[(camera * push.height + uint(pixel.y)) * push.width + uint(pixel.x)]);
@@ -69,10 +70,47 @@ float storedDepth(uint camera, ivec2 pixel) {
 // Pixel coordinates (x right, y down, centres at .5) and depth of p in
 // camera i; depth <= 0 means behind the camera.
 vec3 projectToCamera(uint i, vec3 p) {
-  vec4 clip = blend.cameras[i].world_to_clip * vec4(p, 1.0);
+  vec4 clip = cameras[i].world_to_clip * vec4(p, 1.0);
   if (clip.w <= 1e-9) return vec3(-1.0, -1.0, 0.0);
   vec2 ndc = clip.xy / clip.w;
-  return vec3((ndc * 0.5 + 0.5) * blend.cameras[i].size.xy, clip.w);
+  return vec3((ndc * 0.5 + 0.5) * cameras[i].size.xy, clip.w);
+}
+
+// The vertex's best views for the blend, from its normalised weights
+// [v * camera_count + i]: the blend.views.x largest (ties to the lower
+// camera), renormalised to sum 1 where any weight was left out, so that a
+// vertex that keeps every weighted camera keeps its weights bit for bit.
+// A vertex, not a fragment, pays for the camera count.
+void keepBestViews(uint v) {
+  uint k_max = uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS));
+  uint best[HOLOFUSE_MAX_BEST_VIEWS];
+  float best_weight[HOLOFUSE_MAX_BEST_VIEWS];
+  uint kept = 0u;
+  bool dropped = false;
+  uint base = v * push.camera_count;
+  for (uint i = 0u; i < push.camera_count; ++i) {
+    float w = weights[base + i];
+    if (!(w > 0.0)) continue;
+    dropped = dropped || kept == k_max;  // this one or the list's last is left out
+    if (kept == k_max && !(w > best_weight[kept - 1u])) continue;
+    // Insertion into the list sorted by weight, descending; equal weights
+    // keep camera order (i grows).
+    uint at = kept < k_max ? kept : k_max - 1u;
+    while (at > 0u && w > best_weight[at - 1u]) {
+      best[at] = best[at - 1u];
+      best_weight[at] = best_weight[at - 1u];
+      --at;
+    }
+    best[at] = i;
+    best_weight[at] = w;
+    if (kept < k_max) ++kept;
+  }
+  float kept_total = 0.0;
+  for (uint k = 0u; k < kept; ++k) kept_total += best_weight[k];
+  for (uint k = 0u; k < k_max; ++k) {
+    float w = k < kept ? (dropped ? best_weight[k] / kept_total : best_weight[k]) : 0.0;
+    best_views[v * k_max + k] = uvec2(k < kept ? best[k] : HOLOFUSE_NO_VIEW, floatBitsToUint(w));
+  }
 }
 
 // Offsets of the half a ping-pong pass reads and the half it writes, in the

@@ -2,7 +2,18 @@
 #ifndef HOLOFUSE_SHADER_CONFIG_H
 #define HOLOFUSE_SHADER_CONFIG_H
 
-#define HOLOFUSE_MAX_CAMERAS 16
+// Cameras one render takes. Per-camera data lives in storage buffers sized
+// by the cameras present; this bounds only the per-invocation arrays of the
+// vote and the global visibility's shared counts.
+#define HOLOFUSE_MAX_CAMERAS 128
+// Per-camera bit sets are arrays of 32-bit words: ceil(cameras / 32) words.
+#define HOLOFUSE_MAX_CAMERA_WORDS (HOLOFUSE_MAX_CAMERAS / 32)
+// The blend takes each vertex's best views only (Holoportation's N-best
+// views, Orts-Escolano et al. 2016; the k nearest cameras of unstructured
+// lumigraph rendering, Buehler et al. 2001): its cost per fragment follows
+// this, not the camera count.
+#define HOLOFUSE_MAX_BEST_VIEWS 16
+#define HOLOFUSE_NO_VIEW 0xffffffffu
 // Blending modes (render_client/include/render_client/blend_mode.h).
 #define HOLOFUSE_MODE_NORMAL 0
 #define HOLOFUSE_MODE_HOLOPORTATION 1
@@ -27,12 +38,13 @@
 #define HOLOFUSE_SIGHT_DISCONTINUITY 5
 
 // Descriptor bindings of the one set shared by the blend and compute passes.
-#define HOLOFUSE_BINDING_CAMERAS 0
+#define HOLOFUSE_BINDING_BLEND 0  // the blend parameters (uniform)
 #define HOLOFUSE_BINDING_DEPTHS 1
 #define HOLOFUSE_BINDING_IMAGES 2
 #define HOLOFUSE_BINDING_VERTICES 3
-// per vertex: bit i if in camera i's dilated discontinuities (computed only
-// where visibility's depth test can pass, else 0)
+// per vertex, [vertex][word]: bit i if in camera i's dilated
+// discontinuities (computed only where visibility's depth test can pass,
+// else 0)
 #define HOLOFUSE_BINDING_DISCONTINUITIES 4
 #define HOLOFUSE_BINDING_SIGHTS 5
 #define HOLOFUSE_BINDING_TRUSTED 6
@@ -44,7 +56,7 @@
 #define HOLOFUSE_BINDING_RINGS \
   12  // [2][camera][vertex] ping-pong: ring count and nearest seam vertex, packed
 #define HOLOFUSE_BINDING_DISTANCES 13  // [2][camera][vertex] ping-pong
-#define HOLOFUSE_BINDING_TEMPORAL 14   // [2][vertex][16]: previous and current temporal field
+#define HOLOFUSE_BINDING_TEMPORAL 14   // [2][vertex][camera]: previous and current temporal field
 #define HOLOFUSE_BINDING_CARRY 15      // per vertex: its vertex in the previous mesh, -1 for none
 #define HOLOFUSE_BINDING_FANS \
   16  // per (vertex, triangle) in ADJACENCY order: the triangle unfolded
@@ -52,18 +64,24 @@
   17  // geodesics: [slot][camera * vertex] lists, then [slot][...] marks
 #define HOLOFUSE_BINDING_WORKLIST_COUNTS \
   18  // per Jacobi pass: dispatch groups x, y, z, then the list length
-// per vertex, a bit per camera (the seams and the count read one word pair
-// instead of every camera's sight and vote): x: hidden (occluded or in the
-// dilated discontinuities) | in view (visible or hidden) << 16; y: seen |
-// seen and trusted << 16. Written by the vote pass.
+// Per vertex, four sets of a bit per camera, [vertex][set][word] (the
+// seams and the count read these instead of every camera's sight and
+// vote); written by the vote pass.
 #define HOLOFUSE_BINDING_SIGHT_BITS 19
-#if HOLOFUSE_MAX_CAMERAS > 16
-#error "the sight bits hold 16 cameras per half word"
-#endif
+#define HOLOFUSE_BITS_HIDDEN 0u   // occluded or in the dilated discontinuities
+#define HOLOFUSE_BITS_IN_VIEW 1u  // visible or hidden
+#define HOLOFUSE_BITS_SEEN 2u
+#define HOLOFUSE_BITS_TRUSTED 3u  // seen and trusted by the vote
+#define HOLOFUSE_SIGHT_BIT_SETS 4u
 // The pods' feather maps (paper 004: distance to the silhouette's edge in
 // pixels, 255 and more as 255), one layer per camera as the images.
 #define HOLOFUSE_BINDING_FEATHERS 20
-#define HOLOFUSE_BINDING_COUNT 21
+// The cameras (CameraGpu, cameras.glsl), one entry per camera.
+#define HOLOFUSE_BINDING_CAMERAS 21
+// Per vertex, its best views: [vertex][best_views] pairs (camera,
+// weight bits), the camera HOLOFUSE_NO_VIEW where fewer have weight.
+#define HOLOFUSE_BINDING_BEST_VIEWS 22
+#define HOLOFUSE_BINDING_COUNT 23
 
 // Geodesic worklists and their marks rotate through three slots of storage:
 // the one a pass reads (clearing each mark as it goes), the one it appends
@@ -88,5 +106,11 @@
 #define HOLOFUSE_SEAM_OCCLUSION 1u
 #define HOLOFUSE_SEAM_VOTE 2u
 #define HOLOFUSE_SEAM_FIELD_OF_VIEW 4u
+// The seams buffer holds per triangle one set of camera bits per rule,
+// [triangle][rule][word], in this order.
+#define HOLOFUSE_SEAM_SET_OCCLUSION 0u
+#define HOLOFUSE_SEAM_SET_VOTE 1u
+#define HOLOFUSE_SEAM_SET_FIELD_OF_VIEW 2u
+#define HOLOFUSE_SEAM_SETS 3u
 
 #endif

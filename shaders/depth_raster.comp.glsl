@@ -20,14 +20,14 @@ void main() {
   uint t = gl_GlobalInvocationID.x;
   uint camera = gl_GlobalInvocationID.y;
   if (t >= push.triangle_count || camera >= push.camera_count) return;
-  if (blend.cameras[camera].flags.y != 0) return;  // sees none of the subject: its map stays empty
+  if (cameras[camera].flags.y != 0) return;  // sees none of the subject: its map stays empty
   vec3 q[3];
   for (uint k = 0u; k < 3u; ++k) {
-    vec4 clip = blend.cameras[camera].world_to_clip * vec4(vertexPosition(indices[3u * t + k]), 1.0);
+    vec4 clip = cameras[camera].world_to_clip * vec4(vertexPosition(indices[3u * t + k]), 1.0);
     // Behind the near plane (or not a number): the whole triangle is
     // skipped, as the reference does.
     if (!(clip.z >= 0.0) || !(clip.w > 0.0)) return;
-    q[k] = vec3((clip.xy / clip.w * 0.5 + 0.5) * blend.cameras[camera].size.xy, clip.w);
+    q[k] = vec3((clip.xy / clip.w * 0.5 + 0.5) * cameras[camera].size.xy, clip.w);
   }
   float area = (q[1].x - q[0].x) * (q[2].y - q[0].y) - (q[2].x - q[0].x) * (q[1].y - q[0].y);
   if (!(abs(area) > 1e-12)) return;

@@ -70,10 +70,11 @@ void main() {
   if (v >= push.vertex_count) return;
   vec3 p = vertexPosition(v);
   int eps = max(push.dilation, 0);
-  uint bits = 0u;
+  uint bits[HOLOFUSE_MAX_CAMERA_WORDS];
+  for (uint word = 0u; word < HOLOFUSE_MAX_CAMERA_WORDS; ++word) bits[word] = 0u;
   for (uint i = 0u; i < push.camera_count; ++i) {
     vec3 q = projectToCamera(i, p);
-    vec2 size = blend.cameras[i].size.xy;
+    vec2 size = cameras[i].size.xy;
     if (!(q.z > 0.0 && q.x >= 0.0 && q.y >= 0.0 && q.x < size.x && q.y < size.y)) continue;
     ivec2 pixel = ivec2(q.xy);
     float depth = storedDepth(i, pixel);
@@ -96,7 +97,8 @@ void main() {
     } else {
       near = windowHasDiscontinuity(i, pixel, eps);
     }
-    if (near) bits |= 1u << i;
+    if (near) bits[i / 32u] |= 1u << (i % 32u);
   }
-  discontinuities[v] = bits;
+  uint words = cameraWords();
+  for (uint word = 0u; word < words; ++word) discontinuities[v * words + word] = bits[word];
 }

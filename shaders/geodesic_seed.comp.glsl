@@ -17,16 +17,19 @@ void main() {
   if (v >= push.vertex_count) return;
   // Every camera at once: the cameras for which some triangle around v is
   // a seam, by any rule.
-  uint sources = 0u;
-  for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
-    uvec2 rules = seams[adjacency[push.vertex_count + 1u + k]];
-    sources |= (rules.x & 0xffffu) | (rules.x >> 16) | rules.y;
-  }
+  uint words = cameraWords();
   uint half_size = push.camera_count * push.vertex_count;
-  for (uint camera = 0u; camera < push.camera_count; ++camera) {
-    bool source = ((sources >> camera) & 1u) != 0u;
-    uint index = camera * push.vertex_count + v;
-    rings[index] = rings[half_size + index] = source ? packRing(0u, v) : packRing(HOLOFUSE_NO_RING, HOLOFUSE_NO_SOURCE);
-    distances[index] = distances[half_size + index] = source ? 0.0 : HOLOFUSE_FAR;
+  for (uint word = 0u; word < words; ++word) {
+    uint sources = 0u;
+    for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
+      uint at = adjacency[push.vertex_count + 1u + k] * HOLOFUSE_SEAM_SETS * words + word;
+      sources |= seams[at] | seams[at + words] | seams[at + 2u * words];
+    }
+    for (uint camera = word * 32u; camera < min(push.camera_count, word * 32u + 32u); ++camera) {
+      bool source = ((sources >> (camera % 32u)) & 1u) != 0u;
+      uint index = camera * push.vertex_count + v;
+      rings[index] = rings[half_size + index] = source ? packRing(0u, v) : packRing(HOLOFUSE_NO_RING, HOLOFUSE_NO_SOURCE);
+      distances[index] = distances[half_size + index] = source ? 0.0 : HOLOFUSE_FAR;
+    }
   }
 }

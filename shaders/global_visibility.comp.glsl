@@ -17,15 +17,20 @@ shared uint group_counts[HOLOFUSE_MAX_CAMERAS];
 void main() {
   uint v = gl_GlobalInvocationID.x;
   uint local = gl_LocalInvocationID.x;
-  if (local < HOLOFUSE_MAX_CAMERAS) group_counts[local] = 0u;
+  for (uint i = local; i < push.camera_count; i += HOLOFUSE_VERTEX_GROUP) group_counts[i] = 0u;
   barrier();
   if (v < push.vertex_count) {
-    uint seen_and_trusted = sight_bits[v].y >> 16;
-    while (seen_and_trusted != 0u) {
-      atomicAdd(group_counts[findLSB(seen_and_trusted)], 1u);
-      seen_and_trusted &= seen_and_trusted - 1u;
+    uint words = cameraWords();
+    for (uint word = 0u; word < words; ++word) {
+      uint seen_and_trusted = sightWord(v, HOLOFUSE_BITS_TRUSTED, word);
+      while (seen_and_trusted != 0u) {
+        atomicAdd(group_counts[32u * word + findLSB(seen_and_trusted)], 1u);
+        seen_and_trusted &= seen_and_trusted - 1u;
+      }
     }
   }
   barrier();
-  if (local < push.camera_count && group_counts[local] != 0u) atomicAdd(visible_counts[local], group_counts[local]);
+  for (uint i = local; i < push.camera_count; i += HOLOFUSE_VERTEX_GROUP) {
+    if (group_counts[i] != 0u) atomicAdd(visible_counts[i], group_counts[i]);
+  }
 }

@@ -19,18 +19,16 @@ void main() {
   // The fields go straight to the weights and are normalised there: a
   // private array of HOLOFUSE_MAX_CAMERAS floats spills to memory on a CPU
   // device (as in montage_field.comp.glsl).
-  uint at = v * HOLOFUSE_MAX_CAMERAS;
+  uint at = v * push.camera_count;
   float sum = 0.0;
-  for (uint i = 0u; i < HOLOFUSE_MAX_CAMERAS; ++i) {
+  for (uint i = 0u; i < push.camera_count; ++i) {
     weights[at + i] = 0.0;
-    if (i >= push.camera_count) continue;
     uint index = i * push.vertex_count + v;
     if (sights[index] != HOLOFUSE_SIGHT_VISIBLE || trusted[index] == 0u) continue;
-    if (blend.cameras[i].flags.x == 0) continue;
-    vec3 d = blend.cameras[i].center.xyz - p;
+    if (cameras[i].flags.x == 0) continue;
+    vec3 d = cameras[i].center.xyz - p;
     float dl = length(d);
     float c = dl > 0.0 ? dot(n, d / dl) : 0.0;
-    // max(0, c)^alpha, 0 for NaN, never Inf.
     float w = c > 0.0 ? pow(min(c, 1.0), max(push.alpha, 0.0)) : 0.0;
     w = (isnan(w) || isinf(w)) ? 0.0 : w;
     weights[at + i] = w;
@@ -39,4 +37,5 @@ void main() {
   for (uint i = 0u; i < push.camera_count; ++i) {
     weights[at + i] = sum > 1e-12 ? weights[at + i] / sum : 0.0;
   }
+  keepBestViews(v);
 }

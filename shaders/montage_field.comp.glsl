@@ -51,7 +51,7 @@ void main() {
   // Each camera's field and normal weight go straight to their buffers and
   // are read back for the normalisation: private arrays of
   // HOLOFUSE_MAX_CAMERAS floats spill to memory on a CPU device.
-  uint fields_at = current_half + v * HOLOFUSE_MAX_CAMERAS, weights_at = v * HOLOFUSE_MAX_CAMERAS;
+  uint fields_at = current_half + v * push.camera_count, weights_at = v * push.camera_count;
   // Cameras left out of the arrays for an empty mask see no vertex: gamma 1
   // each (blend.counts.z of them).
   float field_sum = 0.0, normal_sum = 0.0, gamma_sum = float(max(blend.counts.z, 0));
@@ -60,15 +60,15 @@ void main() {
     float d = distances[push.parity * push.camera_count * push.vertex_count + index];
     float gamma = (d >= HOLOFUSE_FAR || !(push.geodesic_scale > 0.0)) ? 1.0 : clamp(d / push.geodesic_scale, 0.0, 1.0);
     gamma_sum += gamma;
-    bool seen = sights[index] == HOLOFUSE_SIGHT_VISIBLE && trusted[index] != 0u && blend.cameras[i].flags.x != 0;
+    bool seen = sights[index] == HOLOFUSE_SIGHT_VISIBLE && trusted[index] != 0u && cameras[i].flags.x != 0;
     float target = 0.0, normal = 0.0;
     if (seen) {
-      vec3 c = blend.cameras[i].center.xyz;
+      vec3 c = cameras[i].center.xyz;
       float g = best > 0u ? float(visible_counts[i]) / float(best) : 0.0;
       target = g * gamma * guardedPower(dot(view, unitOrZero(p - c)), blend.view_weight.x);
       normal = guardedPower(dot(n, unitOrZero(c - p)), blend.params.x);
     }
-    float previous = from >= 0 ? temporal[previous_half + uint(from) * HOLOFUSE_MAX_CAMERAS + i] : target;
+    float previous = from >= 0 ? temporal[previous_half + uint(from) * push.camera_count + i] : target;
     if (isnan(previous) || isinf(previous)) previous = target;
     float field = seen ? (1.0 - lambda) * previous + lambda * target : 0.0;
     temporal[fields_at + i] = field;
@@ -76,14 +76,11 @@ void main() {
     field_sum += field;
     normal_sum += normal;
   }
-  for (uint i = push.camera_count; i < HOLOFUSE_MAX_CAMERAS; ++i) {
-    temporal[fields_at + i] = 0.0;
-    weights[weights_at + i] = 0.0;
-  }
   bool use_field = gamma_sum >= 1.0 && field_sum > 1e-12;
   for (uint i = 0u; i < push.camera_count; ++i) {
     float w = use_field ? temporal[fields_at + i] / field_sum
                         : (normal_sum > 1e-12 ? weights[weights_at + i] / normal_sum : 0.0);
     weights[weights_at + i] = (isnan(w) || isinf(w)) ? 0.0 : w;
   }
+  keepBestViews(v);
 }

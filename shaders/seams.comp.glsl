@@ -20,13 +20,26 @@ layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
 void main() {
   uint t = gl_GlobalInvocationID.x;
   if (t >= push.triangle_count) return;
-  uvec2 a = sight_bits[indices[3u * t]], b = sight_bits[indices[3u * t + 1u]], c = sight_bits[indices[3u * t + 2u]];
-  // Per camera bit: some but not all corners hidden / in view; some corner
-  // seen and trusted while another seen corner is not.
-  uvec2 any_bits = a | b | c, all_bits = a & b & c;
-  uint some_not_all = any_bits.x & ~all_bits.x;
-  uint occlusion = some_not_all & 0xffffu, field_of_view = some_not_all >> 16;
-  uint untrusted = ((a.y & ~(a.y >> 16)) | (b.y & ~(b.y >> 16)) | (c.y & ~(c.y >> 16))) & 0xffffu;
-  uint vote = (any_bits.y >> 16) & untrusted;
-  seams[t] = uvec2(occlusion | (vote << 16), field_of_view);
+  uint corners[3] = uint[3](indices[3u * t], indices[3u * t + 1u], indices[3u * t + 2u]);
+  uint words = cameraWords();
+  for (uint word = 0u; word < words; ++word) {
+    uint any_hidden = 0u, all_hidden = ~0u, any_in_view = 0u, all_in_view = ~0u;
+    uint any_trusted = 0u, untrusted = 0u;
+    for (uint k = 0u; k < 3u; ++k) {
+      uint hidden = sightWord(corners[k], HOLOFUSE_BITS_HIDDEN, word);
+      uint in_view = sightWord(corners[k], HOLOFUSE_BITS_IN_VIEW, word);
+      uint seen = sightWord(corners[k], HOLOFUSE_BITS_SEEN, word);
+      uint trusted = sightWord(corners[k], HOLOFUSE_BITS_TRUSTED, word);
+      any_hidden |= hidden;
+      all_hidden &= hidden;
+      any_in_view |= in_view;
+      all_in_view &= in_view;
+      any_trusted |= trusted;
+      untrusted |= seen & ~trusted;
+    }
+    uint at = t * HOLOFUSE_SEAM_SETS * words + word;
+    seams[at + HOLOFUSE_SEAM_SET_OCCLUSION * words] = any_hidden & ~all_hidden;
+    seams[at + HOLOFUSE_SEAM_SET_VOTE * words] = any_trusted & untrusted;
+    seams[at + HOLOFUSE_SEAM_SET_FIELD_OF_VIEW * words] = any_in_view & ~all_in_view;
+  }
 }

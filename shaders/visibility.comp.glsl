@@ -15,7 +15,7 @@ void main() {
   for (uint i = 0u; i < push.camera_count; ++i) {
     vec3 q = projectToCamera(i, p);
     uint sight;
-    vec2 size = blend.cameras[i].size.xy;
+    vec2 size = cameras[i].size.xy;
     if (q.z <= 0.0) {
       sight = HOLOFUSE_SIGHT_BEHIND;
     } else if (!(q.x >= 0.0 && q.y >= 0.0 && q.x < size.x && q.y < size.y)) {
@@ -28,7 +28,7 @@ void main() {
         sight = HOLOFUSE_SIGHT_BACKGROUND;
       } else if (q.z > stored * (1.0 + push.depth_tolerance)) {
         sight = HOLOFUSE_SIGHT_OCCLUDED;
-      } else if (((discontinuities[v] >> i) & 1u) != 0u) {
+      } else if (((discontinuities[v * cameraWords() + i / 32u] >> (i % 32u)) & 1u) != 0u) {
         sight = HOLOFUSE_SIGHT_DISCONTINUITY;
       } else {
         sight = HOLOFUSE_SIGHT_VISIBLE;

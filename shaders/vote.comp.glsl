@@ -30,18 +30,21 @@ void main() {
   uint seen[HOLOFUSE_MAX_CAMERAS];
   vec2 uv[HOLOFUSE_MAX_CAMERAS];
   uint count = 0u;
-  uvec2 bits = uvec2(0u);
+  // [set][word], HOLOFUSE_MAX_CAMERA_WORDS words a set (config.h's sight bit sets).
+  uint bits[HOLOFUSE_SIGHT_BIT_SETS * HOLOFUSE_MAX_CAMERA_WORDS];
+  for (uint k = 0u; k < HOLOFUSE_SIGHT_BIT_SETS * HOLOFUSE_MAX_CAMERA_WORDS; ++k) bits[k] = 0u;
   for (uint i = 0u; i < push.camera_count; ++i) {
     trusted[i * push.vertex_count + v] = 0u;
     uint s = sights[i * push.vertex_count + v];
     bool hidden = s == HOLOFUSE_SIGHT_OCCLUDED || s == HOLOFUSE_SIGHT_DISCONTINUITY;
-    if (hidden) bits.x |= 1u << i;
-    if (hidden || s == HOLOFUSE_SIGHT_VISIBLE) bits.x |= 1u << (i + 16u);
+    uint word = i / 32u, bit = 1u << (i % 32u);
+    if (hidden) bits[HOLOFUSE_BITS_HIDDEN * HOLOFUSE_MAX_CAMERA_WORDS + word] |= bit;
+    if (hidden || s == HOLOFUSE_SIGHT_VISIBLE) bits[HOLOFUSE_BITS_IN_VIEW * HOLOFUSE_MAX_CAMERA_WORDS + word] |= bit;
     if (s != HOLOFUSE_SIGHT_VISIBLE) continue;
-    bits.y |= 1u << i;
+    bits[HOLOFUSE_BITS_SEEN * HOLOFUSE_MAX_CAMERA_WORDS + word] |= bit;
     vec3 q = projectToCamera(i, p);
     seen[count] = i;
-    uv[count] = q.xy * blend.cameras[i].size.zw;
+    uv[count] = q.xy * cameras[i].size.zw;
     ++count;
   }
   uint needed = count / 2u;  // floor(X / 2)
@@ -64,7 +67,12 @@ void main() {
   }
   for (uint a = 0u; a < count; ++a) {
     trusted[seen[a] * push.vertex_count + v] = ok[a] ? 1u : 0u;
-    if (ok[a]) bits.y |= 1u << (seen[a] + 16u);
+    if (ok[a]) bits[HOLOFUSE_BITS_TRUSTED * HOLOFUSE_MAX_CAMERA_WORDS + seen[a] / 32u] |= 1u << (seen[a] % 32u);
   }
-  sight_bits[v] = bits;
+  uint words = cameraWords();
+  for (uint set = 0u; set < HOLOFUSE_SIGHT_BIT_SETS; ++set) {
+    for (uint word = 0u; word < words; ++word) {
+      sight_bits[(v * HOLOFUSE_SIGHT_BIT_SETS + set) * words + word] = bits[set * HOLOFUSE_MAX_CAMERA_WORDS + word];
+    }
+  }
 }

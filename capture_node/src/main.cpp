@@ -7,6 +7,7 @@
 #include "common/command_line.h"
 #include "common/image_codec.h"
 #include "common/shutdown.h"
+#include "protocol/messages.h"
 #include "scene/scene_library.h"
 
 int main(int argc, char** argv) {
@@ -20,8 +21,8 @@ int main(int argc, char** argv) {
   // the recorded bytes as they are, so these are refused with --replay.
   const SettingFlags<PodEncoding> encoding_flags(app, podEncodingFlags());
   std::vector<CLI::Option*> synthetic = {
-      app.add_option("--pods", options.pods, "cameras on the ring (1..16)")
-          ->check(CLI::Range(1, 16)),
+      app.add_option("--pods", options.pods, "cameras on the ring (1..128)")
+          ->check(CLI::Range(1, static_cast<int>(protocol::kMaxCameras))),
       app.add_option("--size", size, "image size WxH"),
       app.add_option("--fps", options.fps, "frames per second")->check(CLI::Range(0.1, 240.0)),
       app.add_option("--frames", options.frames,

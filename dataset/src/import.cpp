@@ -299,10 +299,10 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
   if (capture.cameras.empty() || capture.frames.empty()) {
     return Status(StatusCode::kMalformed, capture.source + ": no camera or no frame to import");
   }
-  if (capture.cameras.size() > 16) {
-    return Status(StatusCode::kTooLarge, capture.source + ": " +
-                                             std::to_string(capture.cameras.size()) +
-                                             " cameras; the loop serves at most 16");
+  if (capture.cameras.size() > protocol::kMaxCameras) {
+    return Status(StatusCode::kTooLarge,
+                  capture.source + ": " + std::to_string(capture.cameras.size()) +
+                      " cameras; the loop serves at most " + std::to_string(protocol::kMaxCameras));
   }
   if (fs::exists(out_dir) && !(fs::is_directory(out_dir) && fs::is_empty(out_dir))) {
     return Status(StatusCode::kIoError, out_dir + ": exists and is not empty; choose a new folder");

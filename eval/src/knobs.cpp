@@ -5,6 +5,7 @@
 
 #include "common/command_line.h"
 #include "common/image_codec.h"
+#include "protocol/messages.h"
 #include "scene/scene_library.h"
 
 namespace holofuse::eval {
@@ -35,9 +36,9 @@ std::vector<Setting<EvalOptions>> makeEvalFlags() {
   }
   // Leave-one-out needs a camera left to blend: 2 at least, where the
   // loop's --pods takes 1.
-  Setting<EvalOptions> cameras =
-      numberSetting<EvalOptions>("--pods", "pods on the ring (default: the scene's)", 2, 16,
-                                 [](EvalOptions& o) -> int& { return o.cameras; });
+  Setting<EvalOptions> cameras = numberSetting<EvalOptions>(
+      "--pods", "pods on the ring (default: the scene's)", 2,
+      static_cast<int>(protocol::kMaxCameras), [](EvalOptions& o) -> int& { return o.cameras; });
   cameras.get = [](const EvalOptions& o) { return formatNumber(camerasOf(o)); };
   flags.push_back(std::move(cameras));
   return flags;

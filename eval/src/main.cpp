@@ -8,6 +8,7 @@
 #include "common/command_line.h"
 #include "eval/knobs.h"
 #include "eval/leave_one_out.h"
+#include "protocol/messages.h"
 
 int main(int argc, char** argv) {
   using namespace holofuse;
@@ -30,7 +31,7 @@ int main(int argc, char** argv) {
   app.add_option("--size", size, "camera and output size WxH");
   app.add_option("--held-out", options.held_out_cameras,
                  "held-out cameras per scene, evenly spread (0: all)")
-      ->check(CLI::Range(0, 16));
+      ->check(CLI::Range(0, static_cast<int>(protocol::kMaxCameras)));
   app.add_option("--out", options.out_dir, "output folder (quality.json, quality.md, images/)")
       ->required();
   app.add_flag("--save-images", options.save_images,

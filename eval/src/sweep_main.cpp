@@ -7,6 +7,7 @@
 
 #include "common/command_line.h"
 #include "eval/sweep.h"
+#include "protocol/messages.h"
 
 int main(int argc, char** argv) {
   using namespace holofuse;
@@ -31,7 +32,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember(render::blendModeNames()));
   app.add_option("--frames", options.base.frames, "frames per point")->check(CLI::Range(1, 1000));
   app.add_option("--held-out", options.base.held_out_cameras, "held-out cameras per point (0: all)")
-      ->check(CLI::Range(0, 16));
+      ->check(CLI::Range(0, static_cast<int>(protocol::kMaxCameras)));
   app.add_option("--out", options.out_dir,
                  "output folder (points/, sweep.json, sweep.md, sweep.html)")
       ->required();

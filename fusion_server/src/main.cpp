@@ -6,6 +6,7 @@
 #include "common/command_line.h"
 #include "common/shutdown.h"
 #include "fusion_server/fusion_server.h"
+#include "protocol/messages.h"
 
 int main(int argc, char** argv) {
   using namespace holofuse;
@@ -13,7 +14,8 @@ int main(int argc, char** argv) {
   std::string listen = "127.0.0.1:7300";
   CLI::App app{"holofuse fusion_server: visual hull fusion and fan-out"};
   app.add_option("--listen", listen, "HOST:PORT to listen on (port 0: any free port)");
-  app.add_option("--pods", options.pods, "cameras expected (1..16)")->check(CLI::Range(1, 16));
+  app.add_option("--pods", options.pods, "cameras expected (1..128)")
+      ->check(CLI::Range(1, static_cast<int>(protocol::kMaxCameras)));
   app.add_option("--sync-deadline-ms", options.sync_deadline_ms,
                  "wait this long for a frame's slowest pod")
       ->check(CLI::Range(1.0, 10000.0));

@@ -56,9 +56,10 @@ glm::mat4 Renderer::clipFor(const Camera& camera) const {
 }
 
 void Renderer::drawMesh(VkCommandBuffer cmd) {
+  // Not indexed: the vertex stage reads indices[corner] itself, so that
+  // each corner knows its triangle (shaders/blend.vert.glsl).
   if (index_count_ == 0) return;
-  vkCmdBindIndexBuffer(cmd, index_buffer_.buffer, 0, VK_INDEX_TYPE_UINT32);
-  vkCmdDrawIndexed(cmd, index_count_, 1, 0, 0, 0);
+  vkCmdDraw(cmd, index_count_, 1, 0, 0);
 }
 
 void Renderer::renderDepthMaps(VkCommandBuffer cmd) {
@@ -82,11 +83,15 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
       glm::vec4(settings.fields.relative_depth_tolerance, static_cast<float>(fragmentDepthSlack()),
                 std::max(settings.feather_width_px, 0.0f), settings.fragment_test ? 1.0f : 0.0f);
   u.view_weight = glm::vec4(std::max(settings.beta, 0.0f), 0.0f, 0.0f, 0.0f);
+  u.views = glm::ivec4(std::clamp(settings.fields.best_views, 1, HOLOFUSE_MAX_BEST_VIEWS),
+                       static_cast<int>(cameraWords(cameras_.size())), 0, 0);
+  auto* gpu_cameras = static_cast<CameraGpu*>(camera_buffer_.mapped);
   for (size_t i = 0; i < cameras_.size(); ++i) {
     const Camera& c = cameras_[i];
-    u.cameras[i].world_to_clip = clipFor(c);
-    u.cameras[i].center = glm::vec4(glm::vec3(c.center()), 1.0f);
-    u.cameras[i].size = glm::vec4(c.width, c.height, 1.0f / c.width, 1.0f / c.height);
+    CameraGpu& gpu = gpu_cameras[i];
+    gpu.world_to_clip = clipFor(c);
+    gpu.center = glm::vec4(glm::vec3(c.center()), 1.0f);
+    gpu.size = glm::vec4(c.width, c.height, 1.0f / c.width, 1.0f / c.height);
     const uint32_t view = active_[i];  // camera_enabled is by the views' index
     const bool enabled = settings.camera_enabled.empty() ||
                          (view < settings.camera_enabled.size() && settings.camera_enabled[view]);
@@ -94,7 +99,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     // camera does, else it is not among cameras_). Its depth map and
     // discontinuity test find no surface: every vertex is on its background.
     const bool empty = view < subject_seen_.size() && !subject_seen_[view];
-    u.cameras[i].flags = glm::ivec4(enabled ? 1 : 0, empty ? 1 : 0, 0, 0);
+    gpu.flags = glm::ivec4(enabled ? 1 : 0, empty ? 1 : 0, 0, 0);
   }
   const bool have_views = !cameras_.empty();
   if (const Status usable = checkRenderable(vertex_count_, settings); have_views && !usable.isOk())

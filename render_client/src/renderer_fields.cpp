@@ -1,5 +1,6 @@
 // The texture fields read back (the tests' snapshots) and carried from
 // mesh to mesh (temporal smoothing, Du et al. 2019 eq. 5).
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstddef>
@@ -35,7 +36,10 @@ FieldSnapshot Renderer::readFields() const {
   out.seams.assign(views * triangles, 0);
   out.visible_counts.assign(views, 0);
   out.distances.assign(s.distances.empty() ? 0 : views * vertices, HOLOFUSE_FAR);
-  out.weights.assign(s.weights.size(), 0.0f);
+  out.weights.assign(s.weights.empty() ? 0 : views * vertices, 0.0f);
+  for (uint32_t& camera : out.best_cameras) {
+    if (camera != HOLOFUSE_NO_VIEW) camera = active_[camera];
+  }
   std::vector<bool> left_out(views, true);
   for (size_t j = 0; j < active_.size(); ++j) {
     const size_t i = active_[j];
@@ -53,7 +57,7 @@ FieldSnapshot Renderer::readFields() const {
       std::copy_n(s.distances.begin() + j * vertices, vertices,
                   out.distances.begin() + i * vertices);
     for (size_t v = 0; v < vertices && !s.weights.empty(); ++v) {
-      out.weights[v * HOLOFUSE_MAX_CAMERAS + i] = s.weights[v * HOLOFUSE_MAX_CAMERAS + j];
+      out.weights[v * views + i] = s.weights[v * active_.size() + j];
     }
   }
   for (size_t i = 0; i < views; ++i) {
@@ -83,29 +87,44 @@ FieldSnapshot Renderer::readActiveFields() const {
   };
   copy(sights_, s.sights, per_vertex);
   copy(trusted_, s.trusted, per_vertex);
-  std::vector<uint32_t> camera_bits;  // per vertex, bit i for camera i
-  copy(discontinuities_, camera_bits, s.vertex_count);
+  const size_t words = cameraWords(s.camera_count);
+  auto bit = [](const std::vector<uint32_t>& bits, size_t word, size_t i) {
+    return (bits[word + i / 32] >> (i % 32)) & 1u;
+  };
+  std::vector<uint32_t> camera_bits;  // [vertex][word], bit i for camera i
+  copy(discontinuities_, camera_bits, s.vertex_count * words);
   s.discontinuities.assign(per_vertex, 0);
   for (size_t i = 0; i < s.camera_count; ++i) {
-    for (size_t v = 0; v < camera_bits.size(); ++v)
-      s.discontinuities[i * s.vertex_count + v] = (camera_bits[v] >> i) & 1u;
+    for (size_t v = 0; v < s.vertex_count; ++v)
+      s.discontinuities[i * s.vertex_count + v] = bit(camera_bits, v * words, i);
   }
   copy(depth_maps_, s.depth_maps, size_t{images_.width} * images_.height * images_.layers);
-  copy(weights_, s.weights, size_t{s.vertex_count} * HOLOFUSE_MAX_CAMERAS);
+  copy(weights_, s.weights, per_vertex);
+  s.best_views =
+      static_cast<uint32_t>(std::clamp(field_parameters_.best_views, 1, HOLOFUSE_MAX_BEST_VIEWS));
+  std::vector<uint32_t> best;  // (camera, weight bits) pairs
+  copy(best_views_, best, size_t{s.vertex_count} * s.best_views * 2);
+  for (size_t k = 0; 2 * k + 1 < best.size(); ++k) {
+    s.best_cameras.push_back(best[2 * k]);
+    float w = 0;
+    std::memcpy(&w, &best[2 * k + 1], 4);
+    s.best_weights.push_back(w);
+  }
   s.triangle_count = triangle_count_;
   s.geodesic_scale = static_cast<float>(geodesicScale(field_parameters_));
-  // Per triangle, a bit per camera for each rule (compute_common.glsl):
-  // back to [camera][triangle] SeamRule bits.
+  // Per triangle, a bit set per rule (config.h's seam sets): back to
+  // [camera][triangle] SeamRule bits.
   std::vector<uint32_t> rule_bits;
-  copy(seams_, rule_bits, size_t{triangle_count_} * 2);
+  copy(seams_, rule_bits, size_t{triangle_count_} * HOLOFUSE_SEAM_SETS * words);
   s.seams.assign(size_t{triangle_count_} * s.camera_count, 0);
-  for (size_t t = 0; 2 * t + 1 < rule_bits.size(); ++t) {
-    const uint32_t occlusion = rule_bits[2 * t] & 0xffffu, vote = rule_bits[2 * t] >> 16,
-                   field_of_view = rule_bits[2 * t + 1];
+  for (size_t t = 0; t < triangle_count_ && !rule_bits.empty(); ++t) {
+    const size_t at = t * HOLOFUSE_SEAM_SETS * words;
     for (size_t i = 0; i < s.camera_count; ++i) {
-      s.seams[i * triangle_count_ + t] = ((occlusion >> i) & 1u) * HOLOFUSE_SEAM_OCCLUSION |
-                                         ((vote >> i) & 1u) * HOLOFUSE_SEAM_VOTE |
-                                         ((field_of_view >> i) & 1u) * HOLOFUSE_SEAM_FIELD_OF_VIEW;
+      s.seams[i * triangle_count_ + t] =
+          bit(rule_bits, at + HOLOFUSE_SEAM_SET_OCCLUSION * words, i) * HOLOFUSE_SEAM_OCCLUSION |
+          bit(rule_bits, at + HOLOFUSE_SEAM_SET_VOTE * words, i) * HOLOFUSE_SEAM_VOTE |
+          bit(rule_bits, at + HOLOFUSE_SEAM_SET_FIELD_OF_VIEW * words, i) *
+              HOLOFUSE_SEAM_FIELD_OF_VIEW;
     }
   }
   copy(visible_counts_, s.visible_counts, s.camera_count);
@@ -132,27 +151,44 @@ void Renderer::remapTemporal(const std::vector<uint32_t>& camera_ids) {
   // each camera, by its id, to its new slot: a camera that left the arrays
   // or a pod missing from a bundle moves the others. A camera that joins
   // starts from 0, as one that comes back into view does (eq. 5 gated by
-  // visibility).
-  auto* field = static_cast<float*>(temporal_.mapped) + size_t{temporal_half_} * temporal_stride_;
-  float slots[HOLOFUSE_MAX_CAMERAS];
-  for (size_t v = 0; v < temporal_stride_ / HOLOFUSE_MAX_CAMERAS; ++v) {
-    float* vertex = field + v * HOLOFUSE_MAX_CAMERAS;
-    std::copy_n(vertex, HOLOFUSE_MAX_CAMERAS, slots);
-    std::fill_n(vertex, HOLOFUSE_MAX_CAMERAS, 0.0f);
+  // visibility). The layout has one slot per camera, so a new camera count
+  // lays the buffer out again.
+  const size_t old_slots = std::max<uint32_t>(temporal_slots_, 1),
+               new_slots = std::max<size_t>(camera_ids.size(), 1);
+  const size_t vertices = temporal_stride_ / old_slots;
+  const float* field =
+      static_cast<const float*>(temporal_.mapped) + size_t{temporal_half_} * temporal_stride_;
+  std::vector<float> moved(vertices * new_slots, 0.0f);
+  for (size_t v = 0; v < vertices; ++v) {
     for (size_t j = 0; j < camera_ids.size(); ++j) {
-      if (old_slot[j] >= 0) vertex[j] = slots[old_slot[j]];
+      if (old_slot[j] >= 0) moved[v * new_slots + j] = field[v * old_slots + old_slot[j]];
     }
   }
+  if (moved.size() > temporal_stride_) {
+    vkDeviceWaitIdle(ctx_.device());
+    ctx_.destroy(temporal_);
+    temporal_stride_ = static_cast<uint32_t>(moved.size());
+    temporal_ = ctx_.createBuffer(VkDeviceSize{temporal_stride_} * 2 * 4,
+                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    writeDescriptors();
+  }
+  float* latest = static_cast<float*>(temporal_.mapped) + size_t{temporal_half_} * temporal_stride_;
+  std::fill_n(latest, temporal_stride_, 0.0f);
+  std::copy(moved.begin(), moved.end(), latest);
+  temporal_slots_ = static_cast<uint32_t>(new_slots);
 }
 
 void Renderer::prepareTemporal() {
   // Room for this mesh and the previous one in each half; growing keeps the
   // previous half's contents.
+  // One slot per camera of cameras_ (remapTemporal keeps the layout so).
+  const uint32_t slots = std::max<uint32_t>(static_cast<uint32_t>(cameras_.size()), 1);
+  if (temporal_stride_ == 0) temporal_slots_ = slots;
   const uint32_t needed =
       std::max<uint32_t>(
           1, std::max<uint32_t>(vertex_count_,
                                 static_cast<uint32_t>(previous_surface_.vertexCount()))) *
-      HOLOFUSE_MAX_CAMERAS;
+      slots;
   if (needed > temporal_stride_) {
     const uint32_t stride = needed * 3 / 2;
     Buffer grown =

@@ -5,23 +5,26 @@
 
 #include <vulkan/vulkan.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <glm/glm.hpp>
 
+#include "protocol/messages.h"
 #include "render_client/vulkan_context.h"
 #include "shaders/config.h"
 
 namespace holofuse::render {
 
-// std140 mirror of the Blend uniform block in shaders/cameras.glsl.
+// Mirror of CameraGpu in shaders/cameras.glsl (one entry of the cameras'
+// storage buffer; std430 and std140 lay it out alike).
 struct CameraGpu {
   glm::mat4 world_to_clip;
   glm::vec4 center;
   glm::vec4 size;
   glm::ivec4 flags;
 };
+// std140 mirror of the Blend uniform block in shaders/cameras.glsl.
 struct BlendUniforms {
-  CameraGpu cameras[HOLOFUSE_MAX_CAMERAS];
   glm::ivec4 counts;
   glm::vec4 params;
   glm::vec4 hole_color;
@@ -30,12 +33,19 @@ struct BlendUniforms {
   glm::vec4
       fragment_test;  // relative and absolute depth tolerance, feather width, 1 for the field modes
   glm::vec4 view_weight;  // x: beta
+  glm::ivec4 views;       // x: best views per vertex, y: words of a per-camera bit set
 };
 static_assert(sizeof(CameraGpu) == 112);
-static_assert(offsetof(BlendUniforms, counts) == 112 * HOLOFUSE_MAX_CAMERAS);
-static_assert(offsetof(BlendUniforms, params) == 112 * HOLOFUSE_MAX_CAMERAS + 16);
-static_assert(offsetof(BlendUniforms, fragment_test) == 112 * HOLOFUSE_MAX_CAMERAS + 80);
-static_assert(sizeof(BlendUniforms) == 112 * HOLOFUSE_MAX_CAMERAS + 112);
+static_assert(HOLOFUSE_MAX_CAMERAS == protocol::kMaxCameras, "one camera limit for the loop");
+static_assert(offsetof(BlendUniforms, params) == 16);
+static_assert(offsetof(BlendUniforms, fragment_test) == 80);
+static_assert(offsetof(BlendUniforms, views) == 112);
+static_assert(sizeof(BlendUniforms) == 128);
+
+// Words of a per-camera bit set (config.h): 32 cameras a word.
+inline uint32_t cameraWords(size_t cameras) {
+  return static_cast<uint32_t>(std::max<size_t>(cameras, 1) + 31) / 32;
+}
 
 inline constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 // Geodesic worklists are cleared by transfer commands every mesh.

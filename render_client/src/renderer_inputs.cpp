@@ -64,6 +64,12 @@ Status checkViews(const std::vector<ViewImages>& views) {
 }
 
 Status checkRenderable(size_t mesh_vertices, const BlendSettings& settings) {
+  const int best = settings.fields.best_views;
+  if (best < 1 || best > HOLOFUSE_MAX_BEST_VIEWS) {
+    return Status(StatusCode::kMalformed, "best views per vertex " + std::to_string(best) +
+                                              " is outside 1.." +
+                                              std::to_string(HOLOFUSE_MAX_BEST_VIEWS));
+  }
   if (settings.mode != BlendMode::kMontage4D) return Status::ok();
   // The geodesic passes pack an entry's ring and nearest seam vertex in
   // one word (shaders/config.h).

@@ -184,13 +184,15 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
       createFramebuffer(ctx_.device(), blend_pass_, color_.view, depth_.view, width, height);
   readback_ = ctx_.createBuffer(VkDeviceSize{width} * height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   uniforms_ = ctx_.createBuffer(sizeof(BlendUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+  camera_buffer_ = ctx_.createBuffer(sizeof(CameraGpu) * HOLOFUSE_MAX_CAMERAS,
+                                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   // Every binding of the shared set must hold a buffer before the first
   // descriptor write: start small, grow with the mesh.
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
-  for (Buffer* b :
-       {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &adjacency_, &rings_,
-        &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_, &sight_bits_}) {
+  for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &adjacency_,
+                    &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_,
+                    &worklist_counts_, &sight_bits_, &best_views_}) {
     *b = ctx_.createBuffer(16, usageOf(*b));
   }
   visible_counts_ =
@@ -209,9 +211,10 @@ Renderer::~Renderer() {
   ctx_.destroy(depth_);
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
+  ctx_.destroy(camera_buffer_);
   for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &visible_counts_,
                     &adjacency_, &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_,
-                    &worklist_counts_, &sight_bits_}) {
+                    &worklist_counts_, &sight_bits_, &best_views_}) {
     ctx_.destroy(*b);
   }
   field_passes_pipelines_.reset();
@@ -232,7 +235,7 @@ void Renderer::createPipelines() {
   for (uint32_t b = 0; b < bindings.size(); ++b) {
     bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr};
   }
-  bindings[HOLOFUSE_BINDING_CAMERAS].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  bindings[HOLOFUSE_BINDING_BLEND].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
   bindings[HOLOFUSE_BINDING_IMAGES].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   bindings[HOLOFUSE_BINDING_FEATHERS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   VkDescriptorSetLayoutCreateInfo set_info{};
@@ -324,18 +327,23 @@ void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
 }
 
 void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
-  const VkDeviceSize per_vertex =
-      VkDeviceSize{std::max(vertex_count_, 1u)} * std::max(images_.layers, 1u) * 4;
-  const VkDeviceSize weights = VkDeviceSize{std::max(vertex_count_, 1u)} * HOLOFUSE_MAX_CAMERAS * 4;
+  // Everything per camera is sized by the cameras present, bit sets by
+  // their words.
+  const VkDeviceSize vertices = std::max(vertex_count_, 1u);
+  const VkDeviceSize cameras = std::max(images_.layers, 1u);
+  const VkDeviceSize words = cameraWords(images_.layers);
+  const VkDeviceSize per_vertex = vertices * cameras * 4;
+  const VkDeviceSize best =
+      vertices * std::clamp(parameters.best_views, 1, HOLOFUSE_MAX_BEST_VIEWS) * 8;
   bool changed = false;
-  const VkDeviceSize one_per_vertex = VkDeviceSize{std::max(vertex_count_, 1u)} * 4;
   const VkDeviceSize rule_bits =
-      VkDeviceSize{std::max(triangle_count_, 1u)} * 8;  // seams: a uvec2 per triangle
-  for (auto [buffer, size] : {std::pair{&discontinuities_, one_per_vertex},
-                              {&sight_bits_, 2 * one_per_vertex},
+      VkDeviceSize{std::max(triangle_count_, 1u)} * HOLOFUSE_SEAM_SETS * words * 4;
+  for (auto [buffer, size] : {std::pair{&discontinuities_, vertices * words * 4},
+                              {&sight_bits_, vertices * HOLOFUSE_SIGHT_BIT_SETS * words * 4},
                               {&sights_, per_vertex},
                               {&trusted_, per_vertex},
-                              {&weights_, weights},
+                              {&weights_, per_vertex},
+                              {&best_views_, best},
                               {&seams_, rule_bits},
                               {&rings_, 2 * per_vertex},
                               {&distances_, 2 * per_vertex},
@@ -391,8 +399,14 @@ void Renderer::writeDescriptors() {
       writes[b].pBufferInfo = &storage[b - HOLOFUSE_BINDING_VERTICES];
     }
   }
-  writes[HOLOFUSE_BINDING_CAMERAS].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-  writes[HOLOFUSE_BINDING_CAMERAS].pBufferInfo = &ubo;
+  writes[HOLOFUSE_BINDING_BLEND].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  writes[HOLOFUSE_BINDING_BLEND].pBufferInfo = &ubo;
+  VkDescriptorBufferInfo camera_info{camera_buffer_.buffer, 0, VK_WHOLE_SIZE};
+  writes[HOLOFUSE_BINDING_CAMERAS].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  writes[HOLOFUSE_BINDING_CAMERAS].pBufferInfo = &camera_info;
+  VkDescriptorBufferInfo best_info{best_views_.buffer, 0, VK_WHOLE_SIZE};
+  writes[HOLOFUSE_BINDING_BEST_VIEWS].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  writes[HOLOFUSE_BINDING_BEST_VIEWS].pBufferInfo = &best_info;
   VkDescriptorBufferInfo depth_maps{depth_maps_.buffer, 0, VK_WHOLE_SIZE};
   writes[HOLOFUSE_BINDING_DEPTHS].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
   writes[HOLOFUSE_BINDING_DEPTHS].pBufferInfo = &depth_maps;

@@ -70,7 +70,7 @@ Outcome checkRender(Renderer& renderer, const Camera& user, const BlendSettings&
   for (uint32_t v = 0; v < fields.vertex_count; ++v) {
     float sum = 0;
     for (uint32_t i = 0; i < fields.camera_count; ++i) {
-      const float w = fields.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+      const float w = fields.weights[v * fields.camera_count + i];
       EXPECT_TRUE(std::isfinite(w) && w >= 0.0f && w <= 1.0f)
           << "vertex " << v << " camera " << i << ": " << w;
       sum += w;

@@ -83,10 +83,13 @@ Scene ghostSphere(double radius = 0.5) {
 // 128x96 of which camera 3 sees none of the subject (the GPU skips its depth
 // map, the reference does not; the results must agree), and a sphere seen
 // by 8 cameras, one of them a ghost.
+// A rig past 32 cameras too, so that every per-camera bit set spans two
+// words.
 Scene fieldPassScene(int index) {
   Scene scene = index == 0   ? syntheticScene(4, 160, 120, 4)
                 : index == 1 ? syntheticScene(7, 128, 96, 11)
-                             : ghostSphere();
+                : index == 2 ? ghostSphere()
+                             : syntheticScene(40, 64, 48, 7);
   if (index == 1) {
     std::fill(scene.views[3].mask.pixels.begin(), scene.views[3].mask.pixels.end(), 0);
     scene.name += ", camera 3 seeing none of the subject";
@@ -304,7 +307,7 @@ TEST_P(FieldPasses, Stage8HoloportationWeightsMatchTheReference) {
   for (size_t v = 0; v < run_.vertices; ++v) {
     if (run_.weights.hole[v]) continue;
     for (size_t i = 0; i < run_.n; ++i) {
-      const float w = run_.gpu.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+      const float w = run_.gpu.weights[v * run_.gpu.camera_count + i];
       ASSERT_TRUE(std::isfinite(w) && w >= 0.0f && w <= 1.0f) << "vertex " << v << " camera " << i;
       weight_error += std::abs(w - run_.weights.weight[i][v]);
       ++weighted;
@@ -315,7 +318,7 @@ TEST_P(FieldPasses, Stage8HoloportationWeightsMatchTheReference) {
   EXPECT_LT(weight_error / weighted, 5e-4);  // measured within 8.5e-5 on average
 }
 
-INSTANTIATE_TEST_SUITE_P(ThreeScenes, FieldPasses, ::testing::Values(0, 1, 2));
+INSTANTIATE_TEST_SUITE_P(FourScenes, FieldPasses, ::testing::Values(0, 1, 2, 3));
 
 // Stage 2: the GPU evaluates the dilated discontinuities only at the pixel
 // each vertex projects to, where visibility reads them. Per (camera,
@@ -396,7 +399,7 @@ TEST_P(DiscontinuityPass, FlagsEachVertexAsTheDilatedMapDoes) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(ThreeScenes, DiscontinuityPass, ::testing::Values(0, 1, 2));
+INSTANTIATE_TEST_SUITE_P(FourScenes, DiscontinuityPass, ::testing::Values(0, 1, 2, 3));
 
 // Stage 11, the fragment blend (eq. 1), against its CPU reference fed the
 // GPU's own per-vertex weights, on the three scenes in every mode (mode
@@ -409,7 +412,11 @@ class BlendPass : public ::testing::TestWithParam<int> {};
 TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
   Scene scene = GetParam() == 0   ? syntheticScene(4, 160, 120, 4)
                 : GetParam() == 2 ? ghostSphere()
+                : GetParam() == 4 ? syntheticScene(40, 96, 72, 7)
                                   : syntheticScene(7, 128, 96, 11);
+  // 40 cameras, each vertex blending its 3 best: the selection and the
+  // renormalisation are exercised, not only passed through.
+  const int best_views = GetParam() == 4 ? 3 : FieldParameters{}.best_views;
   std::vector<bool> enabled;  // every camera
   if (GetParam() == 3) {
     // A pod that sees none of the subject, and one the user turned off.
@@ -442,6 +449,7 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
     settings.hole_color = {1.0f, 0.0f, 1.0f};
     settings.camera_enabled = enabled;
     settings.fragment_test = fragment_test;
+    settings.fields.best_views = best_views;
     const Image8 gpu = renderer.render(user, settings);
     const FieldSnapshot fields = renderer.readFields();
     std::vector<std::vector<double>> weights;
@@ -449,8 +457,27 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
       weights.assign(scene.views.size(), std::vector<double>(scene.mesh.vertexCount()));
       for (size_t i = 0; i < weights.size(); ++i) {
         for (size_t v = 0; v < weights[i].size(); ++v)
-          weights[i][v] = fields.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+          weights[i][v] = fields.weights[v * fields.camera_count + i];
       }
+      // The GPU's best views are the reference's selection of its weights.
+      const auto best = reference::keepBestViews(weights, best_views);
+      ASSERT_EQ(fields.best_views, static_cast<uint32_t>(best_views));
+      size_t mismatches = 0, truncated = 0;
+      for (size_t v = 0; v < weights[0].size(); ++v) {
+        size_t weighted = 0;
+        for (size_t i = 0; i < weights.size(); ++i) weighted += weights[i][v] > 0;
+        truncated += weighted > static_cast<size_t>(best_views);
+        std::vector<double> gpu_best(weights.size(), 0.0);
+        for (int k = 0; k < best_views; ++k) {
+          const uint32_t camera = fields.best_cameras[v * best_views + k];
+          if (camera != HOLOFUSE_NO_VIEW)
+            gpu_best[camera] = fields.best_weights[v * best_views + k];
+        }
+        for (size_t i = 0; i < weights.size(); ++i)
+          mismatches += std::abs(gpu_best[i] - best[i][v]) > 1e-5;
+      }
+      EXPECT_EQ(mismatches, 0u);
+      if (GetParam() == 4) EXPECT_GT(truncated, 100u) << "the scene must need the selection";
     }
     reference::BlendOptions options;
     options.alpha = settings.alpha;
@@ -463,6 +490,7 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
     options.depth_slack = renderer.fragmentDepthSlack();
     options.feather_width_px = settings.feather_width_px;
     options.beta = settings.beta;
+    options.best_views = best_views;
     reference::BlendPaths paths;
     const Image8 cpu =
         reference::blendView(scene.mesh, scene.views, weights, user, options, &paths);
@@ -507,7 +535,7 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(ThreeScenes, BlendPass, ::testing::Values(0, 1, 2, 3));
+INSTANTIATE_TEST_SUITE_P(FiveScenes, BlendPass, ::testing::Values(0, 1, 2, 3, 4));
 
 TEST(HoloportationMode, ReproducesThePodImageAndComputesFieldsOncePerMesh) {
   const Scene scene = syntheticScene(4, 200, 150, 6);
@@ -710,7 +738,7 @@ double meanWeightError(const FieldSnapshot& gpu, const reference::BlendWeights& 
   double error = 0;
   for (size_t v = 0; v < vertices; ++v) {
     for (size_t i = 0; i < n; ++i)
-      error += std::abs(gpu.weights[v * HOLOFUSE_MAX_CAMERAS + i] - cpu.weight[i][v]);
+      error += std::abs(gpu.weights[v * gpu.camera_count + i] - cpu.weight[i][v]);
   }
   return error / static_cast<double>(n * vertices);
 }
@@ -814,18 +842,18 @@ TEST(Montage4DMode, TheTemporalFieldFollowsEachCameraWhenAnotherLeavesTheArrays)
   const size_t vertices = scene.mesh.vertexCount();
   size_t compared = 0, kept = 0;
   for (size_t v = 0; v < vertices; ++v) {
-    EXPECT_EQ(after.weights[v * HOLOFUSE_MAX_CAMERAS + 1], 0.0f);
+    EXPECT_EQ(after.weights[v * after.camera_count + 1], 0.0f);
     EXPECT_EQ(after.sights[1 * vertices + v] == 0, false)
         << "a camera with an empty mask sees nothing";
     double others = 0;
-    for (size_t i : {0, 2, 3}) others += before.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+    for (size_t i : {0, 2, 3}) others += before.weights[v * before.camera_count + i];
     // Only where camera 1 took part and another camera still does.
-    if (!(before.weights[v * HOLOFUSE_MAX_CAMERAS + 1] > 0.05f) || !(others > 0.05)) continue;
+    if (!(before.weights[v * before.camera_count + 1] > 0.05f) || !(others > 0.05)) continue;
     ++compared;
     bool same = true;
     for (size_t i : {0, 2, 3}) {
-      const double expected = before.weights[v * HOLOFUSE_MAX_CAMERAS + i] / others;
-      same = same && std::abs(after.weights[v * HOLOFUSE_MAX_CAMERAS + i] - expected) < 1e-4;
+      const double expected = before.weights[v * before.camera_count + i] / others;
+      same = same && std::abs(after.weights[v * after.camera_count + i] - expected) < 1e-4;
     }
     kept += same;
   }
@@ -842,10 +870,10 @@ TEST(Montage4DMode, TheTemporalFieldFollowsEachCameraWhenAnotherLeavesTheArrays)
     // (a vertex only camera 1 sees falls back to the normal weighting).
     if (back.sights[1 * vertices + v] != 0 || back.trusted[1 * vertices + v] == 0) continue;
     double others = 0;
-    for (size_t i : {0, 2, 3}) others += after.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+    for (size_t i : {0, 2, 3}) others += after.weights[v * after.camera_count + i];
     if (!(others > 0.99)) continue;
     ++seen_again;
-    still_zero += back.weights[v * HOLOFUSE_MAX_CAMERAS + 1] == 0.0f;
+    still_zero += back.weights[v * back.camera_count + 1] == 0.0f;
   }
   ASSERT_GT(seen_again, 20u);
   // Measured 73%, 0% without the remapping; the rest fall back to the
@@ -875,14 +903,14 @@ TEST(Montage4DMode, TheTemporalFieldFollowsCameraIdsWhenAPodIsMissing) {
   size_t compared = 0, kept = 0;
   for (size_t v = 0; v < scene.mesh.vertexCount(); ++v) {
     double others = 0;
-    for (size_t i : {1, 2, 3}) others += before.weights[v * HOLOFUSE_MAX_CAMERAS + i];
+    for (size_t i : {1, 2, 3}) others += before.weights[v * before.camera_count + i];
     // Where cameras 1 to 3 share a vertex and camera 0 had no part.
-    if (!(others > 0.999) || before.weights[v * HOLOFUSE_MAX_CAMERAS + 2] < 0.05f) continue;
+    if (!(others > 0.999) || before.weights[v * before.camera_count + 2] < 0.05f) continue;
     ++compared;
     bool same = true;
     for (size_t i : {1, 2, 3}) {
-      same = same && std::abs(after.weights[v * HOLOFUSE_MAX_CAMERAS + i - 1] -
-                              before.weights[v * HOLOFUSE_MAX_CAMERAS + i]) < 1e-4;
+      same = same && std::abs(after.weights[v * after.camera_count + i - 1] -
+                              before.weights[v * before.camera_count + i]) < 1e-4;
     }
     kept += same;
   }
@@ -934,10 +962,9 @@ TEST(Montage4DMode, FieldsMatchTheReferenceAndAViewpointJumpFadesIn) {
       // normal-weighted fallback until its field builds up.
       if (cpu_first.fallback[v] || cpu_first.hole[v] || cpu_second.fallback[v]) continue;
       for (size_t i = 0; i < n; ++i) {
-        moved += std::abs(second.weights[v * HOLOFUSE_MAX_CAMERAS + i] -
-                          first.weights[v * HOLOFUSE_MAX_CAMERAS + i]);
-        total_change +=
-            std::abs(snapped.weight[i][v] - first.weights[v * HOLOFUSE_MAX_CAMERAS + i]);
+        moved += std::abs(second.weights[v * second.camera_count + i] -
+                          first.weights[v * first.camera_count + i]);
+        total_change += std::abs(snapped.weight[i][v] - first.weights[v * first.camera_count + i]);
       }
     }
     temporal = saved;
@@ -957,8 +984,8 @@ TEST(Montage4DMode, FieldsMatchTheReferenceAndAViewpointJumpFadesIn) {
   size_t weighted_before = 0;
   double camera1_after = 0;
   for (size_t v = 0; v < vertices; ++v) {
-    weighted_before += second.weights[v * HOLOFUSE_MAX_CAMERAS + 1] > 0;
-    camera1_after += third.weights[v * HOLOFUSE_MAX_CAMERAS + 1];
+    weighted_before += second.weights[v * second.camera_count + 1] > 0;
+    camera1_after += third.weights[v * third.camera_count + 1];
   }
   EXPECT_GT(weighted_before, 100u);
   EXPECT_EQ(camera1_after, 0.0);

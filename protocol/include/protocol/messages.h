@@ -44,6 +44,11 @@ std::string stageName(uint16_t stage);
 // Every known stage id in the order a frame passes them (reports list them so).
 const std::vector<uint16_t>& stagesInPipelineOrder();
 
+// Cameras one loop serves: pods, the server's frame groups, the client's
+// views, eval and imports all take up to this many (the renderer's
+// HOLOFUSE_MAX_CAMERAS is the same).
+constexpr uint32_t kMaxCameras = 128;
+
 constexpr uint16_t kSourceServer = 0xFFFF;
 constexpr uint16_t kSourceClient = 0xFFFE;
 constexpr size_t kMaxStamps = 1024;

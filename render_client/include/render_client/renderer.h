@@ -54,7 +54,8 @@ struct RenderSettings {
 const std::vector<Setting<RenderSettings>>& renderFlags();
 
 // What the texture-field passes computed, read back for tests, indexed
-// [camera * vertex_count + vertex] (weights: [vertex * 16 + camera]).
+// [camera * vertex_count + vertex] (weights: [vertex * camera_count +
+// camera]; best views: [vertex * best_views + rank]).
 struct FieldSnapshot {
   uint32_t vertex_count = 0, camera_count = 0;
   std::vector<uint32_t> sights, trusted;
@@ -70,6 +71,11 @@ struct FieldSnapshot {
       distances;  // [camera * vertex_count + vertex]: geodesic distance (3e38: unreached)
   float geodesic_scale = 0;  // distance that maps to gamma = 1
   std::vector<float> weights;
+  // Each vertex's best views for the blend, by rank: the camera
+  // (HOLOFUSE_NO_VIEW past the last) and its weight.
+  uint32_t best_views = 0;
+  std::vector<uint32_t> best_cameras;
+  std::vector<float> best_weights;
 };
 
 struct ViewImages {
@@ -215,6 +221,7 @@ class Renderer {
   // mesh's vertices to the previous mesh's.
   Buffer temporal_, carry_;
   uint32_t temporal_stride_ = 0;
+  uint32_t temporal_slots_ = 0;              // cameras per vertex in the temporal buffer's layout
   uint32_t temporal_half_ = 0;               // the half holding the previous frame's field
   Mesh previous_surface_, current_surface_;  // positions and keys only
   bool carry_pending_ = false;
@@ -227,13 +234,14 @@ class Renderer {
   }
   // Texture-field buffers (config.h bindings 4 on).
   Buffer discontinuities_, sights_, trusted_, weights_, seams_, visible_counts_, adjacency_, rings_,
-      distances_, fans_, worklist_, worklist_counts_, sight_bits_;
+      distances_, fans_, worklist_, worklist_counts_, sight_bits_, best_views_;
   uint32_t triangle_count_ = 0;
   std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
   // Output
   Image color_, depth_;
   VkFramebuffer output_framebuffer_ = VK_NULL_HANDLE;
   Buffer readback_, uniforms_;
+  Buffer camera_buffer_;  // CameraGpu per camera (config.h binding CAMERAS)
   // Pipelines
   VkRenderPass blend_pass_ = VK_NULL_HANDLE;
   VkPipelineLayout blend_layout_ = VK_NULL_HANDLE;

@@ -47,6 +47,10 @@ struct FieldParameters {
   float vote_delta = 0.0f;
   int vote_levels = 3;
   float alpha = 2.0f;
+  // The views each vertex keeps for the blend (1 to HOLOFUSE_MAX_BEST_VIEWS):
+  // its largest field weights, renormalised where any is left out. The
+  // blend's cost per fragment grows with this, not with the camera count.
+  int best_views = 8;
   // Seams, the global visibility and the geodesic distance from the seams
   // (docs/design.md section 6, steps 5 to 7): run only when a mode needs them (montage4d); the
   // Holoportation baseline does not pay for them.

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "common/depth_raster.h"
+#include "render_client/reference/texture_fields.h"
 
 namespace holofuse::render::reference {
 namespace {
@@ -94,8 +95,10 @@ double sightAndFeather(const PodView& view, double u, double v, double depth, do
 }
 
 Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views,
-                 const std::vector<std::vector<double>>& weights, const Camera& user,
+                 const std::vector<std::vector<double>>& all_weights, const Camera& user,
                  const BlendOptions& options, BlendPaths* paths) {
+  const std::vector<std::vector<double>> weights =
+      options.best_views > 0 ? keepBestViews(all_weights, options.best_views) : all_weights;
   BlendPaths counted;
   auto enabled = [&](size_t i) {
     return options.camera_enabled.empty() || options.camera_enabled.at(i);

@@ -108,4 +108,26 @@ BlendWeights normalizeFields(const Field& temporal, const Field& geodesic,
   return out;
 }
 
+Field keepBestViews(const Field& weights, int count) {
+  const size_t cameras = weights.size();
+  const size_t vertices = cameras ? weights[0].size() : 0;
+  const size_t keep = static_cast<size_t>(std::max(count, 1));
+  Field out = zeros(cameras, vertices);
+  std::vector<size_t> order;
+  for (size_t v = 0; v < vertices; ++v) {
+    order.clear();
+    for (size_t i = 0; i < cameras; ++i) {
+      if (weights[i][v] > 0) order.push_back(i);
+    }
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return weights[a][v] > weights[b][v]; });
+    const bool dropped = order.size() > keep;
+    if (dropped) order.resize(keep);
+    double kept = 0;
+    for (size_t i : order) kept += weights[i][v];
+    for (size_t i : order) out[i][v] = dropped ? weights[i][v] / kept : weights[i][v];
+  }
+  return out;
+}
+
 }  // namespace holofuse::render::reference

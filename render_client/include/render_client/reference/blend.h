@@ -38,6 +38,9 @@ struct BlendOptions {
   double relative_depth_tolerance = 0.015, depth_slack = 0.0;
   double feather_width_px = 8.0;
   double beta = 5.0;
+  // The field modes blend each vertex's best views only (keepBestViews of
+  // texture_fields.h); 0: every weighted camera.
+  int best_views = 0;
 };
 
 // How many covered pixels took each way: the interpolated fields, the

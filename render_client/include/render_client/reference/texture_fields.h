@@ -62,4 +62,11 @@ struct BlendWeights {
 BlendWeights normalizeFields(const Field& temporal, const Field& geodesic,
                              const Field& normal_weighted);
 
+// The blend's best views (shaders/compute_common.glsl keepBestViews): at
+// each vertex the `count` largest weights of `weights` ([camera][vertex]),
+// equal weights kept in camera order, the rest 0; a vertex that lost any
+// weight has the kept ones renormalised to their sum, one that lost none
+// keeps them as they were.
+Field keepBestViews(const Field& weights, int count);
+
 }  // namespace holofuse::render::reference
