@@ -58,6 +58,7 @@ std::vector<Knob> makeKnobs() {
                                                        {"beta", "--beta"},
                                                        {"feather-width", "--feather-width"},
                                                        {"fragment-test", "--fragment-test"},
+                                                       {"best-views", "--best-views"},
                                                        {"cameras", "--pods"},
                                                        {"dilation", "--dilation"},
                                                        {"delta", "--vote-delta"},

@@ -273,8 +273,12 @@ void FusionServer::fanOut() {
     for (auto& peer : peers_) {
       if (!peer.greeted || peer.role != protocol::Role::kClient) continue;
       // Bundle and Stats first: the client renders when the mesh arrives.
-      peer.connection->send(peer.minor >= 2 ? out.texture_bundle : out.texture_bundle_v1_1);
-      peer.connection->send(peer.minor >= 1 ? out.stats : out.stats_v1_0);
+      peer.connection->send(peer.minor >= 3   ? out.texture_bundle
+                            : peer.minor == 2 ? out.texture_bundle_v1_2
+                                              : out.texture_bundle_v1_1);
+      peer.connection->send(peer.minor >= 3   ? out.stats
+                            : peer.minor >= 1 ? out.stats_v1_2
+                                              : out.stats_v1_0);
       peer.connection->send(out.mesh_frame);
     }
   }

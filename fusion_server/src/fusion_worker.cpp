@@ -137,7 +137,7 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   std::vector<protocol::StageStamp> stamps;
   uint64_t capture_time = UINT64_MAX;
   uint64_t pod_bytes = 0;
-  uint64_t present = 0;
+  uint64_t present = 0;  // bits of cameras 0..63, as 1.0 to 1.2 read them
   for (const auto& [camera_id, pod] : group.pods) {
     stamps.insert(stamps.end(), pod.stamps.begin(), pod.stamps.end());
     capture_time = std::min(capture_time, pod.capture_time_ns);
@@ -206,13 +206,14 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   stats.frame_id = group.frame_id;
   stats.cameras_expected = settings.pods_expected;
   stats.cameras_present = present;
+  stats.cameras_present_count = static_cast<uint32_t>(group.pods.size());
   stats.late_frames = job.late_frames;
   stats.dropped_groups = job.dropped_groups;
   stats.pod_bytes = pod_bytes;
   if (!group.complete) {
     std::string missing;
-    for (uint32_t i = 0; i < std::min<uint32_t>(settings.pods_expected, 64); ++i) {
-      if (!(present >> i & 1)) missing += (missing.empty() ? "" : ",") + std::to_string(i);
+    for (uint32_t i = 0; i < settings.pods_expected; ++i) {
+      if (!group.pods.count(i)) missing += (missing.empty() ? "" : ",") + std::to_string(i);
     }
     // A group that went out because its pods left (end of a replay) may
     // still hold every camera.
@@ -229,6 +230,10 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   out.texture_bundle = share(protocol::encodeOutgoing(bundle, bundle_sequence, storage));
   out.texture_bundle_v1_1 =
       share(protocol::encodeOutgoing(bundle_v1_1, bundle_sequence, storage, 1));
+  out.texture_bundle_v1_2 =
+      bundle.images.size() > protocol::kMaxCamerasBefore13
+          ? share(protocol::encodeOutgoing(bundle, bundle_sequence, storage, 2))
+          : out.texture_bundle;
   auto draco_bytes =
       draco.isOk() ? std::make_shared<const std::vector<uint8_t>>(std::move(*draco)) : nullptr;
   if (draco_bytes) mesh_frame.mesh = *draco_bytes;
@@ -238,6 +243,7 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   const uint64_t stats_sequence = protocol::nextSequence();
   stats.pod_arrivals = job.pod_arrivals;
   out.stats = share(protocol::encodeOutgoing(stats, stats_sequence));
+  out.stats_v1_2 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 2));
   out.stats_v1_0 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 0));
   out.triangles = mesh.triangleCount();
   return out;

@@ -315,11 +315,13 @@ Status readPayload(std::span<const uint8_t> payload, MeshFrame& m, size_t base_o
   return finish(r);
 }
 
-void writePayload(WireWriter& w, const TextureBundle& m) {
+void writePayload(WireWriter& w, const TextureBundle& m, uint8_t minor) {
   w.u64(m.frame_id);
   writeStamps(w, m.stamps);
-  w.u8(static_cast<uint8_t>(m.images.size()));
-  for (const auto& image : m.images) {
+  const size_t count = std::min(m.images.size(), maxCamerasIn(minor));
+  w.u8(static_cast<uint8_t>(count));
+  for (size_t k = 0; k < count; ++k) {
+    const auto& image = m.images[k];
     w.u32(image.camera_id);
     w.u32(image.offset_x);
     w.u32(image.offset_y);
@@ -327,14 +329,15 @@ void writePayload(WireWriter& w, const TextureBundle& m) {
   }
 }
 
-Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t base_offset) {
+Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t base_offset,
+                   uint8_t minor) {
   WireReader r(payload, base_offset);
   m.frame_id = r.u64("texture_bundle.frame_id");
   readStamps(r, m.stamps);
   const uint8_t n = r.u8("texture_bundle.image_count");
-  if (n > kMaxImages) {
+  if (n > maxCamerasIn(minor)) {
     r.failValue("texture_bundle.image_count", StatusCode::kTooLarge,
-                std::to_string(n) + " above cap " + std::to_string(kMaxImages));
+                std::to_string(n) + " above cap " + std::to_string(maxCamerasIn(minor)));
   }
   m.images.resize(r.ok() ? n : 0);
   for (auto& image : m.images) {
@@ -366,13 +369,15 @@ void writePayload(WireWriter& w, const Stats& m, uint8_t minor) {
   if (minor >= 1) {
     const std::vector<PodArrivals> none;
     const auto& arrivals = m.pod_arrivals ? *m.pod_arrivals : none;
-    w.u16(static_cast<uint16_t>(std::min(arrivals.size(), kMaxStatsPods)));
-    for (size_t k = 0; k < arrivals.size() && k < kMaxStatsPods; ++k) {
+    const size_t count = std::min(arrivals.size(), maxCamerasIn(minor));
+    w.u16(static_cast<uint16_t>(count));
+    for (size_t k = 0; k < count; ++k) {
       w.u16(arrivals[k].pod);
       w.u64(arrivals[k].frames);
       w.u32(arrivals[k].jitter_us);
     }
   }
+  if (minor >= 3) w.u32(m.cameras_present_count.value_or(0));
 }
 
 Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offset, uint8_t minor) {
@@ -389,9 +394,9 @@ Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offse
   if (minor >= 1) {
     const uint16_t n = r.u16("stats.pod_arrivals.count");
     constexpr size_t kBytesPerPod = 14;
-    if (n > kMaxStatsPods) {
+    if (n > maxCamerasIn(minor)) {
       r.failValue("stats.pod_arrivals.count", StatusCode::kTooLarge,
-                  std::to_string(n) + " above cap " + std::to_string(kMaxStatsPods));
+                  std::to_string(n) + " above cap " + std::to_string(maxCamerasIn(minor)));
       return finish(r);
     }
     if (!r.ok() || static_cast<size_t>(n) * kBytesPerPod > r.remaining()) {
@@ -405,6 +410,8 @@ Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offse
       a.jitter_us = r.u32("stats.pod_arrivals.jitter_us");
     }
   }
+  m.cameras_present_count.reset();
+  if (minor >= 3) m.cameras_present_count = r.u32("stats.cameras_present_count");
   return finish(r);
 }
 

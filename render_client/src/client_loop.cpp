@@ -357,8 +357,9 @@ class ClientLoop {
     if (st != stats_.end()) {
       record.client_bytes += st->second.bytes;
       record.cameras_expected = st->second.stats.cameras_expected;
-      record.cameras_present =
-          static_cast<uint32_t>(__builtin_popcountll(st->second.stats.cameras_present));
+      const protocol::Stats& stats = st->second.stats;
+      record.cameras_present = stats.cameras_present_count.value_or(
+          static_cast<uint32_t>(__builtin_popcountll(stats.cameras_present)));
       record.pod_bytes = st->second.stats.pod_bytes;
       record.note = st->second.stats.note;
       stats_.erase(stats_.begin(), std::next(st));

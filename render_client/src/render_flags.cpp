@@ -21,6 +21,12 @@ const std::vector<Setting<RenderSettings>>& renderFlags() {
                        "majority vote: Lab distance / 100 under which two views agree (eq. 3; 0: "
                        "no vote, the default; paper 000: 0.15)",
                        0, 10, [](S& s) -> float& { return s.blend.fields.vote_delta; }),
+      numberSetting<S>("--best-views",
+                       "holoportation and montage4d: cameras each vertex blends, its largest "
+                       "field weights (the blend's cost per pixel follows this, not the camera "
+                       "count)",
+                       1, HOLOFUSE_MAX_BEST_VIEWS,
+                       [](S& s) -> int& { return s.blend.fields.best_views; }),
       numberSetting<S>("--geodesic-rings", "montage4d: k, the geodesic reach in triangle rings", 1,
                        kMaxGeodesicRings,
                        [](S& s) -> int& { return s.blend.fields.geodesic_rings; }),

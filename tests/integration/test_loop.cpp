@@ -165,6 +165,50 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   EXPECT_NE(page.find("<h2>Quality against the truth</h2>"), std::string::npos);
 }
 
+// A rig past the 16 cameras the loop once held and past the 32 of one bit
+// word: every pod is heard, every frame fuses all 32, and the blend of
+// each vertex's best views shows the subject.
+TEST(Loop, ThirtyTwoPodsAreAllFusedAndBlended) {
+  const fs::path out = freshDir("loop32");
+  const pid_t loop = spawn({kBin + "/holofuse_loop",
+                            "--pods",
+                            "32",
+                            "--frames",
+                            "3",
+                            "--fps",
+                            "2",
+                            "--size",
+                            "96x72",
+                            "--view",
+                            "pod:0",
+                            "--seed",
+                            "5",
+                            "--noise",
+                            "0",
+                            "--quality",
+                            "--mode",
+                            "montage4d",
+                            "--out",
+                            out.string()},
+                           out / "loop.log");
+  ASSERT_EQ(waitExit(loop, 240), 0) << "see " << (out / "loop.log");
+  const auto report = readJson(out / "report.json");
+  ASSERT_EQ(report["frames_rendered"], 3);
+  ASSERT_EQ(report["pod_frames_at_server"].size(), 32u) << report["pod_frames_at_server"].dump();
+  for (int pod = 0; pod < 32; ++pod) {
+    EXPECT_GT(report["pod_frames_at_server"]["pod_" + std::to_string(pod)].get<int>(), 0) << pod;
+  }
+  int complete = 0;
+  for (const auto& frame : report["frames"]) {
+    complete += frame["cameras_present"] == 32;
+    // Measured 16.6-17.4 dB, SSIM 0.68-0.69 from pod 0's pose at 96x72
+    // (the blend of its 8 best views on a hull of 32 coarse silhouettes).
+    EXPECT_GT(frame["psnr_db"].get<double>(), 13.0) << frame.dump();
+    EXPECT_GT(frame["ssim"].get<double>(), 0.5) << frame.dump();
+  }
+  EXPECT_GE(complete, 1) << report["frames"].dump();
+}
+
 TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
   const fs::path out = freshDir("kill");
   pid_t server = 0;
@@ -228,9 +272,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     // header minor, and the plane kinds of the bundle's one image
     std::vector<std::pair<uint8_t, std::vector<holofuse::protocol::PlaneKind>>> bundles;
   };
-  static_assert(holofuse::protocol::kVersionMinor == 2, "a client of each minor");
-  std::vector<Client> clients(3);
-  for (uint8_t minor = 0; minor < 3; ++minor) clients[minor].max_minor = minor;
+  static_assert(holofuse::protocol::kVersionMinor == 3, "a client of each minor");
+  std::vector<Client> clients(4);
+  for (uint8_t minor = 0; minor < 4; ++minor) clients[minor].max_minor = minor;
   for (Client& c : clients) {
     holofuse::protocol::Hello hello;
     hello.role = holofuse::protocol::Role::kClient;
@@ -278,10 +322,14 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   for (size_t k = 1; k < clients.size(); ++k) {
     uint64_t last_count = 0;
     for (const auto& [minor, stats] : clients[k].stats) {
-      // Stats last changed in 1.1: 1.1 and 1.2 peers get one frame, under
-      // the server's minor (SPEC.md section 3).
-      EXPECT_EQ(minor, holofuse::protocol::kVersionMinor)
+      // Stats changed in 1.1 and 1.3: 1.1 and 1.2 peers get the 1.2
+      // frame, 1.3 peers the server's (SPEC.md section 3).
+      EXPECT_EQ(minor, clients[k].max_minor >= 3 ? 3 : 2)
           << "client of 1." << int(clients[k].max_minor);
+      EXPECT_EQ(stats.cameras_present_count.has_value(), clients[k].max_minor >= 3);
+      if (stats.cameras_present_count) {
+        EXPECT_EQ(*stats.cameras_present_count, 1u);
+      }
       ASSERT_TRUE(stats.pod_arrivals.has_value()) << "frame " << stats.frame_id;
       ASSERT_EQ(stats.pod_arrivals->size(), 1u);
       const auto& arrivals = stats.pod_arrivals->front();
@@ -298,14 +346,16 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
                                                PlaneKind::kFeather};
   for (const Client& c : clients) {
     for (const auto& [minor, kinds] : c.bundles) {
-      EXPECT_EQ(minor, std::min<uint8_t>(std::max<uint8_t>(c.max_minor, 1), 2))
+      // 1.3 changed only how many images a bundle may hold: with one, 1.2
+      // and 1.3 peers get the same frame, under the server's minor.
+      EXPECT_EQ(minor, c.max_minor >= 2 ? holofuse::protocol::kVersionMinor : 1)
           << "client of 1." << int(c.max_minor);
       EXPECT_EQ(kinds, c.max_minor >= 2 ? with_feather : images)
           << "client of 1." << int(c.max_minor);
     }
   }
   const std::string log = readFile(out / "server.log");
-  for (const char* version : {"protocol 1.0", "protocol 1.1", "protocol 1.2"}) {
+  for (const char* version : {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3"}) {
     EXPECT_NE(log.find(version), std::string::npos) << version << "\n" << log;
   }
 }

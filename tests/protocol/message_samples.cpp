@@ -115,6 +115,7 @@ Stats sampleStats() {
   m.pod_bytes = 65536;
   m.note = "proceeded without camera(s) 2";
   m.pod_arrivals = {{{0, 120, 1500}, {1, 119, 2250}, {3, 118, 0}}};
+  m.cameras_present_count = 3;
   return m;
 }
 

@@ -373,6 +373,7 @@ TEST(Framing, StatsCarriesPodArrivalsSinceMinor1) {
 
   auto payloadWith = [](uint16_t count, int pods) {
     FrameBuilder builder(MessageType::kStats, 0);
+    builder.setMinor(2);  // 1.1 and 1.2: at most 64 pods, no camera count after them
     writePayload(builder.writer(), testing::sampleStats(), 0);  // the 1.0 fields
     builder.writer().u16(count);
     for (int k = 0; k < pods; ++k) {
@@ -390,6 +391,45 @@ TEST(Framing, StatsCarriesPodArrivalsSinceMinor1) {
   EXPECT_NE(s.message().find("stats.pod_arrivals.count"), std::string::npos) << s.toString();
   ASSERT_TRUE(decodeFrame(decodeOne(payloadWith(2, 2)), m).isOk());
   EXPECT_EQ(m.pod_arrivals->at(1), (PodArrivals{1, 10, 500}));
+}
+
+// 1.3 takes every camera a loop serves: bundles and Stats' arrivals of up
+// to 128, and Stats counts the cameras present past its 64 bits. A peer of
+// 1.2 gets the first 64, as it can read them.
+TEST(Framing, MinorThreeCarriesUpTo128Cameras) {
+  Stats many = testing::sampleStats();
+  many.pod_arrivals.emplace();
+  for (uint16_t pod = 0; pod < kMaxCameras; ++pod) many.pod_arrivals->push_back({pod, 7, 100});
+  many.cameras_present_count = kMaxCameras;
+  Stats m;
+  ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(many, 0)), m).isOk());
+  EXPECT_EQ(m.pod_arrivals->size(), size_t{kMaxCameras});
+  EXPECT_EQ(m.cameras_present_count, kMaxCameras);
+  ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(many, 0, 0, 2)), m).isOk());
+  EXPECT_EQ(m.pod_arrivals->size(), kMaxCamerasBefore13);
+  EXPECT_FALSE(m.cameras_present_count.has_value());
+
+  TextureBundle bundle;
+  bundle.frame_id = 9;
+  for (uint32_t camera = 0; camera < 100; ++camera) {
+    BundleImage image;
+    image.camera_id = camera;
+    image.planes = testing::samplePodFrame().planes;
+    bundle.images.push_back(image);
+  }
+  TextureBundle back;
+  ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(bundle, 0)), back).isOk());
+  ASSERT_EQ(back.images.size(), 100u);
+  EXPECT_EQ(back.images[99].camera_id, 99u);
+  ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(bundle, 0, 0, 2)), back).isOk());
+  EXPECT_EQ(back.images.size(), kMaxCamerasBefore13);
+  // A 1.2 header claiming more than 64 images is refused by name.
+  FrameBuilder claimed(MessageType::kTextureBundle, 0);
+  claimed.setMinor(2);
+  writePayload(claimed.writer(), bundle, 3);
+  const Status s = decodeFrame(decodeOne(std::move(claimed).finish()), back);
+  EXPECT_EQ(s.code(), StatusCode::kTooLarge) << s.toString();
+  EXPECT_NE(s.message().find("texture_bundle.image_count"), std::string::npos) << s.toString();
 }
 
 TEST(Framing, ByteByByteFeedingGivesTheSameFrames) {
@@ -470,7 +510,7 @@ TEST(Golden, EveryTypeMatchesItsVectorInEveryMinor) {
     EXPECT_EQ(golden, sample.frame) << "wire format of " << sample.name << " changed";
   }
   // And the reader takes each minor's file as that minor's message.
-  for (const char* version : {"1.0", "1.1", "1.2"}) {
+  for (const char* version : {"1.0", "1.1", "1.2", "1.3"}) {
     std::ifstream in(dir / ("stats.v" + std::string(version) + ".bin"), std::ios::binary);
     const Bytes bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     Stats m;
@@ -481,6 +521,7 @@ TEST(Golden, EveryTypeMatchesItsVectorInEveryMinor) {
     } else {
       EXPECT_EQ(m.pod_arrivals, testing::sampleStats().pod_arrivals);
     }
+    EXPECT_EQ(m.cameras_present_count.has_value(), std::string(version) == "1.3") << version;
   }
 }
 

@@ -477,7 +477,9 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
           mismatches += std::abs(gpu_best[i] - best[i][v]) > 1e-5;
       }
       EXPECT_EQ(mismatches, 0u);
-      if (GetParam() == 4) EXPECT_GT(truncated, 100u) << "the scene must need the selection";
+      if (GetParam() == 4) {
+        EXPECT_GT(truncated, 100u) << "the scene must need the selection";
+      }
     }
     reference::BlendOptions options;
     options.alpha = settings.alpha;

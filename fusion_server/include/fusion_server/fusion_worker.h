@@ -48,6 +48,10 @@ struct FusedOutput {
   // The same images without the pods' feather maps, under a 1.1 header,
   // for a peer that agreed on 1.1 or 1.0.
   protocol::SharedFrame texture_bundle_v1_1;
+  // For a peer that agreed on 1.2, which takes 64 cameras: the first 64
+  // images under a 1.2 header where there are more (else texture_bundle),
+  // and the Stats of 1.2 (the first 64 pods' arrivals, no count).
+  protocol::SharedFrame texture_bundle_v1_2, stats_v1_2;
   protocol::SharedFrame
       stats_v1_0;  // the same Stats for a peer that agreed on 1.0 (no pod arrivals)
   size_t triangles = 0;

@@ -53,8 +53,12 @@ constexpr uint16_t kSourceServer = 0xFFFF;
 constexpr uint16_t kSourceClient = 0xFFFE;
 constexpr size_t kMaxStamps = 1024;
 constexpr size_t kMaxPlanes = 8;
-constexpr size_t kMaxImages = 64;
-constexpr size_t kMaxStatsPods = 64;  // cameras_present has a bit per pod
+// Images of a TextureBundle and pods of a Stats' arrivals a message of that
+// minor may hold: 64 before 1.3, every camera since.
+constexpr size_t kMaxCamerasBefore13 = 64;
+inline size_t maxCamerasIn(uint8_t minor) {
+  return minor >= 3 ? size_t{kMaxCameras} : kMaxCamerasBefore13;
+}
 constexpr size_t kMaxDistortion = 8;
 constexpr uint32_t kMaxPlaneBytes = 256u << 20;
 constexpr uint32_t kMaxImageSide = 16384;  // width and height of any plane
@@ -180,8 +184,11 @@ struct Stats {
   uint64_t pod_bytes = 0;
   std::string note;
   // Since 1.1: read from a 1.1 Stats (absent when read from a 1.0 one);
-  // written as the encoding's minor asks.
+  // written as the encoding's minor asks (before 1.3, the first 64).
   std::optional<std::vector<PodArrivals>> pod_arrivals;
+  // Since 1.3: the cameras the group held, whatever their ids
+  // (cameras_present's bits end at camera 63); absent before.
+  std::optional<uint32_t> cameras_present_count;
 };
 
 struct Bye {
@@ -201,10 +208,11 @@ void writePayload(WireWriter& w, const HelloAck& m);
 void writePayload(WireWriter& w, const Calibration& m);
 void writePayload(WireWriter& w, const PodFrame& m);
 void writePayload(WireWriter& w, const MeshFrame& m);
-void writePayload(WireWriter& w, const TextureBundle& m);
+// Before 1.3, the first 64 images only.
+void writePayload(WireWriter& w, const TextureBundle& m, uint8_t minor = kVersionMinor);
 void writePayload(WireWriter& w, const Heartbeat& m);
 // The fields of the given minor: from 1.1 on the pods' arrivals (an empty
-// list when m has none), before that not.
+// list when m has none), before that not; from 1.3 the cameras present.
 void writePayload(WireWriter& w, const Stats& m, uint8_t minor = kVersionMinor);
 void writePayload(WireWriter& w, const Bye& m);
 void writePayload(WireWriter& w, const ErrorMessage& m);
@@ -216,7 +224,8 @@ Status readPayload(std::span<const uint8_t> payload, HelloAck& m, size_t base_of
 Status readPayload(std::span<const uint8_t> payload, Calibration& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, PodFrame& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, MeshFrame& m, size_t base_offset = 0);
-Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t base_offset = 0,
+                   uint8_t minor = kVersionMinor);
 Status readPayload(std::span<const uint8_t> payload, Heartbeat& m, size_t base_offset = 0);
 // A Stats of minor 1 or later must hold the pods' arrivals; one of 1.0 has none.
 Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offset = 0,
