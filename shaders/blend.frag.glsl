@@ -110,12 +110,38 @@ bool imagedBy(int i, out vec2 uv, out float depth) {
   return projectInto(i, in_position, uv, depth);
 }
 
+// The cameras this fragment weighs where the mode keeps per-vertex lists
+// (config.h binding BEST_VIEWS: the field modes' best views, and modes
+// normal and fragment's candidates when blend.views.z is 1): those its
+// triangle's corners keep, each once. Elsewhere every camera.
+uint corners[3];
+uint listed[3 * HOLOFUSE_MAX_BEST_VIEWS];
+uint listed_count = 0u;
+
+void gatherListedViews() {
+  uint k_max = uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS));
+  for (uint j = 0u; j < 3u; ++j) corners[j] = indices[3u * in_triangle + j];
+  for (uint j = 0u; j < 3u; ++j) {
+    for (uint k = 0u; k < k_max; ++k) {
+      uint i = best_views[corners[j] * k_max + k].x;
+      if (i == HOLOFUSE_NO_VIEW) break;
+      bool seen_before = false;
+      for (uint e = 0u; e < listed_count; ++e) seen_before = seen_before || listed[e] == i;
+      if (!seen_before) listed[listed_count++] = i;
+    }
+  }
+}
+
+uint viewCount(bool from_lists) { return from_lists ? listed_count : uint(blend.counts.x); }
+int viewAt(bool from_lists, uint u) { return int(from_lists ? listed[u] : u); }
+
 // Normal-weighted blend with the per-fragment occlusion test (mode normal,
 // and the fallback of the others).
-vec4 blendNormal(vec3 n, inout float total) {
+vec4 blendNormal(vec3 n, bool from_lists, inout float total) {
   vec3 sum = vec3(0.0);
   total = 0.0;
-  for (int i = 0; i < blend.counts.x; ++i) {
+  for (uint u = 0u; u < viewCount(from_lists); ++u) {
+    int i = viewAt(from_lists, u);
     CameraGpu cam = cameras[i];
     vec2 uv;
     float depth;
@@ -138,14 +164,15 @@ vec4 blendNormal(vec3 n, inout float total) {
 // up to the flags' limits neither overflow nor underflow to all zero; the
 // view term is (d_k . d_v + 1)^beta over 2^beta, a factor every camera
 // shares, so that it stays within [0, 1].
-vec4 blendFragment(vec3 n, inout float total) {
+vec4 blendFragment(vec3 n, bool from_lists, inout float total) {
   vec3 sum = vec3(0.0);
   total = 0.0;
   float largest = -3.0e38;
   vec3 to_eye = blend.user_eye.xyz - in_position;
   float eye_distance = length(to_eye);
   vec3 d_v = eye_distance > 1e-20 ? to_eye / eye_distance : vec3(0.0);
-  for (int i = 0; i < blend.counts.x; ++i) {
+  for (uint u = 0u; u < viewCount(from_lists); ++u) {
+    int i = viewAt(from_lists, u);
     CameraGpu cam = cameras[i];
     vec2 uv;
     float depth;
@@ -185,35 +212,27 @@ float bestViewWeight(uint v, uint i, uint k_max) {
   return 0.0;
 }
 
+// The field modes: each listed camera's weight interpolated over the
+// triangle (0 at a corner that does not keep it).
 vec4 blendFields(inout float total) {
   vec3 sum = vec3(0.0);
   total = 0.0;
   bool fragment_test = blend.fragment_test.w > 0.5;
   uint k_max = uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS));
-  uint corners[3] = uint[3](indices[3u * in_triangle], indices[3u * in_triangle + 1u], indices[3u * in_triangle + 2u]);
-  // Each camera among the corners' best views once: its weight
-  // interpolated over the triangle (0 at a corner that does not keep it).
-  for (uint j = 0u; j < 3u; ++j) {
-    for (uint k = 0u; k < k_max; ++k) {
-      uvec2 entry = best_views[corners[j] * k_max + k];
-      uint i = entry.x;
-      if (i == HOLOFUSE_NO_VIEW) break;
-      bool listed_before = false;
-      for (uint e = 0u; e < j; ++e) listed_before = listed_before || bestViewWeight(corners[e], i, k_max) > 0.0;
-      if (listed_before) continue;
-      float w = in_barycentric[j] * uintBitsToFloat(entry.y);
-      for (uint e = j + 1u; e < 3u; ++e) w += in_barycentric[e] * bestViewWeight(corners[e], i, k_max);
-      CameraGpu cam = cameras[i];
-      if (cam.flags.x == 0 || !(w > 0.0)) continue;
-      vec2 uv;
-      float depth;
-      if (!projectInto(int(i), in_position, uv, depth)) continue;
-      vec4 texel = sampleForeground(int(i), uv);
-      w *= fragment_test ? sightAndFeather(int(i), uv, depth, texel.a) : (texel.a < 0.5 ? 0.0 : 1.0);
-      if (!(w > 0.0)) continue;
-      sum += w * texel.rgb;
-      total += w;
-    }
+  for (uint u = 0u; u < listed_count; ++u) {
+    uint i = listed[u];
+    float w = 0.0;
+    for (uint j = 0u; j < 3u; ++j) w += in_barycentric[j] * bestViewWeight(corners[j], i, k_max);
+    CameraGpu cam = cameras[i];
+    if (cam.flags.x == 0 || !(w > 0.0)) continue;
+    vec2 uv;
+    float depth;
+    if (!projectInto(int(i), in_position, uv, depth)) continue;
+    vec4 texel = sampleForeground(int(i), uv);
+    w *= fragment_test ? sightAndFeather(int(i), uv, depth, texel.a) : (texel.a < 0.5 ? 0.0 : 1.0);
+    if (!(w > 0.0)) continue;
+    sum += w * texel.rgb;
+    total += w;
   }
   return vec4(total > 1e-8 ? sum / total : vec3(0.0), 1.0);
 }
@@ -223,14 +242,19 @@ void main() {
   vec3 n = len > 1e-12 ? in_normal / len : vec3(0.0);
   float total = 0.0;
   vec4 color = vec4(0.0);
+  bool field_mode = blend.counts.y == HOLOFUSE_MODE_HOLOPORTATION || blend.counts.y == HOLOFUSE_MODE_MONTAGE4D;
+  bool candidates = blend.views.z != 0;  // modes normal and fragment with more cameras than K
+  if (field_mode || candidates) gatherListedViews();
   if (blend.counts.y == HOLOFUSE_MODE_FRAGMENT) {
-    color = blendFragment(n, total);
-  } else if (blend.counts.y != HOLOFUSE_MODE_NORMAL) {
+    color = blendFragment(n, candidates, total);
+  } else if (field_mode) {
     color = blendFields(total);
   }
   // Where no weight reaches the fragment (every camera culled by the
   // dilated discontinuities, the vote or the per-fragment test), the
-  // normal-weighted blend fills in (docs/design.md section 6, step 10).
-  if (!(total > 1e-8)) color = blendNormal(n, total);
+  // normal-weighted blend fills in (docs/design.md section 6, step 10);
+  // in the field modes from every camera, their lists holding only
+  // cameras with weight.
+  if (!(total > 1e-8)) color = blendNormal(n, candidates, total);
   out_color = total > 1e-8 ? color : vec4(blend.hole_color.rgb, 1.0);
 }

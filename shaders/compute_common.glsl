@@ -76,13 +76,35 @@ vec3 projectToCamera(uint i, vec3 p) {
   return vec3((ndc * 0.5 + 0.5) * cameras[i].size.xy, clip.w);
 }
 
+// Inserts camera i with `score` into a list sorted by score, descending,
+// of at most k_max entries; equal scores keep camera order (callers go
+// through the cameras in order). Returns whether an entry was left out
+// (this one or the list's last).
+bool insertRanked(inout uint best[HOLOFUSE_MAX_BEST_VIEWS], inout float best_score[HOLOFUSE_MAX_BEST_VIEWS],
+                  inout uint kept, uint k_max, uint i, float score) {
+  bool full = kept == k_max;
+  if (full && !(score > best_score[kept - 1u])) return true;
+  uint at = full ? k_max - 1u : kept;
+  while (at > 0u && score > best_score[at - 1u]) {
+    best[at] = best[at - 1u];
+    best_score[at] = best_score[at - 1u];
+    --at;
+  }
+  best[at] = i;
+  best_score[at] = score;
+  if (!full) ++kept;
+  return full;
+}
+
+uint bestViewsPerVertex() { return uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS)); }
+
 // The vertex's best views for the blend, from its normalised weights
 // [v * camera_count + i]: the blend.views.x largest (ties to the lower
 // camera), renormalised to sum 1 where any weight was left out, so that a
 // vertex that keeps every weighted camera keeps its weights bit for bit.
 // A vertex, not a fragment, pays for the camera count.
 void keepBestViews(uint v) {
-  uint k_max = uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS));
+  uint k_max = bestViewsPerVertex();
   uint best[HOLOFUSE_MAX_BEST_VIEWS];
   float best_weight[HOLOFUSE_MAX_BEST_VIEWS];
   uint kept = 0u;
@@ -90,20 +112,7 @@ void keepBestViews(uint v) {
   uint base = v * push.camera_count;
   for (uint i = 0u; i < push.camera_count; ++i) {
     float w = weights[base + i];
-    if (!(w > 0.0)) continue;
-    dropped = dropped || kept == k_max;  // this one or the list's last is left out
-    if (kept == k_max && !(w > best_weight[kept - 1u])) continue;
-    // Insertion into the list sorted by weight, descending; equal weights
-    // keep camera order (i grows).
-    uint at = kept < k_max ? kept : k_max - 1u;
-    while (at > 0u && w > best_weight[at - 1u]) {
-      best[at] = best[at - 1u];
-      best_weight[at] = best_weight[at - 1u];
-      --at;
-    }
-    best[at] = i;
-    best_weight[at] = w;
-    if (kept < k_max) ++kept;
+    if (w > 0.0) dropped = insertRanked(best, best_weight, kept, k_max, i, w) || dropped;
   }
   float kept_total = 0.0;
   for (uint k = 0u; k < kept; ++k) kept_total += best_weight[k];

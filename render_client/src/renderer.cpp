@@ -83,8 +83,16 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
       glm::vec4(settings.fields.relative_depth_tolerance, static_cast<float>(fragmentDepthSlack()),
                 std::max(settings.feather_width_px, 0.0f), settings.fragment_test ? 1.0f : 0.0f);
   u.view_weight = glm::vec4(std::max(settings.beta, 0.0f), 0.0f, 0.0f, 0.0f);
-  u.views = glm::ivec4(std::clamp(settings.fields.best_views, 1, HOLOFUSE_MAX_BEST_VIEWS),
-                       static_cast<int>(cameraWords(cameras_.size())), 0, 0);
+  const int best_views = std::clamp(settings.fields.best_views, 1, HOLOFUSE_MAX_BEST_VIEWS);
+  // Modes normal and fragment weigh each pod per fragment: past K cameras,
+  // each vertex's K candidates (recordCandidates), so that a fragment's
+  // cost follows K.
+  const bool candidates =
+      !cameras_.empty() &&
+      (settings.mode == BlendMode::kNormal || settings.mode == BlendMode::kFragment) &&
+      cameras_.size() > static_cast<size_t>(best_views);
+  u.views =
+      glm::ivec4(best_views, static_cast<int>(cameraWords(cameras_.size())), candidates ? 1 : 0, 0);
   auto* gpu_cameras = static_cast<CameraGpu*>(camera_buffer_.mapped);
   for (size_t i = 0; i < cameras_.size(); ++i) {
     const Camera& c = cameras_[i];
@@ -120,7 +128,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   const bool settings_changed =
       settings.camera_enabled != field_cameras_ || !(parameters == field_parameters_);
   const bool run_fields = want_fields && (fields_stale_ || depth_maps_stale_ || settings_changed);
-  if (run_fields) ensureFieldBuffers(parameters);
+  if (run_fields || candidates) ensureFieldBuffers(parameters);
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
     if (run_fields) field_passes_pipelines_->beginTiming(cmd);
     if (have_views && depth_maps_stale_) renderDepthMaps(cmd);
@@ -131,6 +139,11 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
           static_cast<uint32_t>(cameras_.size()), images_.width, images_.height, parameters,
           {visible_counts_.buffer, worklist_.buffer, worklist_counts_.buffer, seams_.buffer});
       ++field_passes_;
+    }
+    if (candidates) {
+      field_passes_pipelines_->recordCandidates(cmd, descriptor_set_, vertex_count_,
+                                                static_cast<uint32_t>(cameras_.size()),
+                                                images_.width, images_.height);
     }
     // (A measurement stop before stage 6, the field, skips the per-view field too.)
     if (montage && (parameters.last_stage < 0 || parameters.last_stage >= 6)) {

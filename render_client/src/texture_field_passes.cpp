@@ -14,6 +14,7 @@
 #include "shaders/holoportation_field_comp_spv.h"
 #include "shaders/montage_field_comp_spv.h"
 #include "shaders/seams_comp_spv.h"
+#include "shaders/view_candidates_comp_spv.h"
 #include "shaders/visibility_comp_spv.h"
 #include "shaders/vote_comp_spv.h"
 
@@ -86,6 +87,7 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
   geodesic_distance_ = create(k_geodesic_distance_comp_spv, sizeof(k_geodesic_distance_comp_spv));
   montage_ = create(k_montage_field_comp_spv, sizeof(k_montage_field_comp_spv));
   field_ = create(k_holoportation_field_comp_spv, sizeof(k_holoportation_field_comp_spv));
+  candidates_ = create(k_view_candidates_comp_spv, sizeof(k_view_candidates_comp_spv));
   VkQueryPoolCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
   info.queryType = VK_QUERY_TYPE_TIMESTAMP;
@@ -105,6 +107,25 @@ const std::vector<std::string>& TextureFieldPasses::stageNames() {
                                                   "geodesics",
                                                   "field"};
   return kNames;
+}
+
+void TextureFieldPasses::recordCandidates(VkCommandBuffer cmd, VkDescriptorSet set,
+                                          uint32_t vertex_count, uint32_t camera_count,
+                                          uint32_t width, uint32_t height) {
+  ComputePush push{};
+  push.vertex_count = vertex_count;
+  push.camera_count = camera_count;
+  push.width = width;  // of the depth maps
+  push.height = height;
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set, 0, nullptr);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, candidates_);
+  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET,
+                     sizeof(push), &push);
+  if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
+  computeBarrier(cmd,
+                 VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT |
+                     VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
 }
 
 void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set,
@@ -130,8 +151,8 @@ void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set,
     if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
     computeBarrier(
         cmd,
-        VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT |
-            VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+        VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
+            VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
         VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
   }
   if (field_stamp_pending_)
@@ -194,8 +215,9 @@ std::vector<double> TextureFieldPasses::lastTimesMs() const {
 }
 
 TextureFieldPasses::~TextureFieldPasses() {
-  for (VkPipeline p : {depth_raster_, discontinuity_, visibility_, vote_, seams_,
-                       global_visibility_, geodesic_seed_, geodesic_distance_, montage_, field_}) {
+  for (VkPipeline p :
+       {depth_raster_, discontinuity_, visibility_, vote_, seams_, global_visibility_,
+        geodesic_seed_, geodesic_distance_, montage_, field_, candidates_}) {
     vkDestroyPipeline(ctx_.device(), p, nullptr);
   }
   vkDestroyQueryPool(ctx_.device(), queries_, nullptr);
@@ -352,8 +374,8 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
   for (int r = 0; r < repeats(6); ++r) {
     if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
     computeBarrier(cmd,
-                   VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT |
-                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
+                       VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
   }
   stamp(cmd, 7);

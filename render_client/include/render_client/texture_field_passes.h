@@ -155,6 +155,12 @@ class TextureFieldPasses {
                      uint32_t camera_count, const FieldParameters& parameters, float geodesic_scale,
                      uint32_t temporal_stride);
 
+  // Modes normal and fragment with more cameras than best views: each
+  // vertex's candidate cameras for the rendered view (after the depth
+  // maps; shaders/view_candidates.comp.glsl).
+  void recordCandidates(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
+                        uint32_t camera_count, uint32_t width, uint32_t height);
+
   // GPU milliseconds of each pass in the last recorded run (after the
   // submission finished), in pass order, named as in stageNames(); -1 for
   // a pass the run's mode does not have (holoportation: seams and
@@ -176,7 +182,7 @@ class TextureFieldPasses {
              visibility_ = VK_NULL_HANDLE, seams_ = VK_NULL_HANDLE,
              global_visibility_ = VK_NULL_HANDLE, geodesic_seed_ = VK_NULL_HANDLE,
              geodesic_distance_ = VK_NULL_HANDLE, montage_ = VK_NULL_HANDLE, vote_ = VK_NULL_HANDLE,
-             field_ = VK_NULL_HANDLE;
+             field_ = VK_NULL_HANDLE, candidates_ = VK_NULL_HANDLE;
   VkQueryPool queries_ = VK_NULL_HANDLE;
   double timestamp_period_ns_ = 1.0;
   bool recorded_ = false;

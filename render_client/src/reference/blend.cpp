@@ -54,6 +54,60 @@ glm::dvec4 bilinear(uint32_t width, uint32_t height, double u, double v, Fetch f
          (texel(x0, y0 + 1) * (1 - fx) + texel(x0 + 1, y0 + 1) * fx) * fy;
 }
 
+glm::dvec3 unitOrZero(const glm::dvec3& v) {
+  const double l = glm::length(v);
+  return l > 1e-30 && std::isfinite(l) ? v / l : glm::dvec3(0.0);
+}
+
+// Modes normal and fragment past best_views cameras: the cameras each
+// vertex's fragments weigh, as shaders/view_candidates.comp.glsl picks
+// them: those that see the vertex first, then by the mode's weight
+// without the per-fragment terms, the first best_views.
+std::vector<std::vector<size_t>> viewCandidates(const Mesh& mesh, const std::vector<PodView>& views,
+                                                const std::vector<DepthMap>& maps,
+                                                const std::vector<bool>& takes_part,
+                                                const Camera& user, const BlendOptions& options) {
+  std::vector<std::vector<size_t>> out(mesh.vertexCount());
+  const double alpha = std::max(options.alpha, 0.0), beta = std::max(options.beta, 0.0);
+  std::vector<std::pair<double, size_t>> ranked;
+  for (size_t v = 0; v < mesh.vertexCount(); ++v) {
+    const glm::dvec3 p(mesh.positions[v]);
+    const glm::dvec3 n = mesh.normals.size() == mesh.positions.size()
+                             ? unitOrZero(glm::dvec3(mesh.normals[v]))
+                             : glm::dvec3(0.0);
+    const glm::dvec3 d_v = unitOrZero(user.center() - p);
+    ranked.clear();
+    for (size_t i = 0; i < views.size(); ++i) {
+      if (!takes_part[i]) continue;
+      const Camera& camera = views[i].camera;
+      const glm::dvec3 d_k = unitOrZero(camera.center() - p);
+      const double obliqueness = std::clamp(glm::dot(d_k, n), 0.0, 1.0);
+      double score = obliqueness;
+      if (options.fragment_mode && obliqueness > 0) {
+        const double direction = std::clamp(0.5 * (glm::dot(d_k, d_v) + 1.0), 0.0, 1.0);
+        const double log_w = alpha * std::log(obliqueness) +
+                             (beta > 0 ? beta * std::log(std::max(direction, 1e-30)) : 0.0);
+        score = std::exp(log_w / (1 + alpha + beta));
+        if (!std::isfinite(score)) score = 0;
+      }
+      const auto pixel = camera.project(p);
+      if (pixel && pixel->z > 0 && pixel->x >= 0 && pixel->y >= 0 && pixel->x < camera.width &&
+          pixel->y < camera.height) {
+        const uint32_t px = static_cast<uint32_t>(pixel->x), py = static_cast<uint32_t>(pixel->y);
+        const bool seen = views[i].mask.pixels[size_t{py} * camera.width + px] != 0 &&
+                          pixel->z <= maps[i].at(px, py) + options.depth_tolerance;
+        if (seen) score += 2.0;
+      }
+      ranked.emplace_back(score, i);
+    }
+    std::stable_sort(ranked.begin(), ranked.end(),
+                     [](const auto& a, const auto& b) { return a.first > b.first; });
+    for (size_t k = 0; k < ranked.size() && k < static_cast<size_t>(options.best_views); ++k)
+      out[v].push_back(ranked[k].second);
+  }
+  return out;
+}
+
 }  // namespace
 
 glm::dvec4 sampleBilinear(const PodView& view, double u, double v) {
@@ -114,6 +168,24 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views,
     sees_subject.push_back(std::any_of(view.mask.pixels.begin(), view.mask.pixels.end(),
                                        [](uint8_t m) { return m != 0; }));
   }
+  // The cameras the GPU's arrays hold: those that see the subject (all of
+  // them when none does), and of them the enabled ones weigh.
+  const bool any_sees =
+      std::any_of(sees_subject.begin(), sees_subject.end(), [](bool b) { return b; });
+  std::vector<bool> takes_part(views.size());
+  size_t active = 0;
+  for (size_t i = 0; i < views.size(); ++i) {
+    active += !any_sees || sees_subject[i];
+    takes_part[i] = enabled(i) && sees_subject[i];
+  }
+  const bool per_fragment_mode = options.fragment_mode || weights.empty();
+  const bool candidates = per_fragment_mode && options.best_views > 0 &&
+                          active > static_cast<size_t>(options.best_views);
+  const std::vector<std::vector<size_t>> listed =
+      candidates ? viewCandidates(mesh, views, maps, takes_part, user, options)
+                 : std::vector<std::vector<size_t>>();
+  std::vector<size_t> every(views.size()), order;
+  for (size_t i = 0; i < views.size(); ++i) every[i] = i;
   Image8 out(user.width, user.height, 4, 0);
   for (uint32_t y = 0; y < user.height; ++y) {
     for (uint32_t x = 0; x < user.width; ++x) {
@@ -129,6 +201,14 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views,
         continue;
       }
       const double ba = 1.0 - bu - bv;
+      // The cameras this pixel weighs: its corners' candidates, each once.
+      order.clear();
+      for (const uint32_t corner : {ia, ib, ic}) {
+        for (size_t i : candidates ? listed[corner] : std::vector<size_t>()) {
+          if (std::find(order.begin(), order.end(), i) == order.end()) order.push_back(i);
+        }
+      }
+      const std::vector<size_t>& weighed = candidates ? order : every;
       auto interpolate = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
         return ba * a + bu * b + bv * c;
       };
@@ -158,7 +238,7 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views,
         const glm::dvec3 d_v =
             eye_distance > 1e-20 ? (user.center() - p) / eye_distance : glm::dvec3(0.0);
         double largest = -std::numeric_limits<double>::infinity();
-        for (size_t i = 0; i < views.size(); ++i) {
+        for (size_t i : weighed) {
           double u = 0, v = 0, depth = 0;
           if (!enabled(i) || !sees_subject[i] ||
               !textureCoordinates(views[i].camera, p, u, v, depth))
@@ -210,7 +290,7 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views,
       if (!by_fields) {
         sum = glm::dvec3(0.0);
         total = 0;
-        for (size_t i = 0; i < views.size(); ++i) {
+        for (size_t i : weighed) {
           const Camera& camera = views[i].camera;
           double u = 0, v = 0, depth = 0;
           if (!enabled(i) || !sees_subject[i] || !textureCoordinates(camera, p, u, v, depth))
