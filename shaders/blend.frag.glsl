@@ -28,6 +28,7 @@ layout(location = 0) out vec4 out_color;
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DEPTHS) readonly buffer DepthMaps { uint depth_bits[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_INDICES) readonly buffer Indices { uint indices[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_BEST_VIEWS) readonly buffer BestViews { uvec2 best_views[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_CANDIDATES) readonly buffer Candidates { uvec2 candidates[]; };
 
 // Where p lands in camera i: texture coordinates in [0, 1] and the
 // camera-space depth; false behind the camera or off its image.
@@ -110,30 +111,58 @@ bool imagedBy(int i, out vec2 uv, out float depth) {
   return projectInto(i, in_position, uv, depth);
 }
 
-// The cameras this fragment weighs where the mode keeps per-vertex lists
-// (config.h binding BEST_VIEWS: the field modes' best views, and modes
-// normal and fragment's candidates when blend.views.z is 1): those its
-// triangle's corners keep, each once. Elsewhere every camera.
+// The cameras this fragment weighs from per-vertex lists, each once: those
+// its triangle's corners keep. listed: the field modes' best views
+// (config.h binding BEST_VIEWS) with each camera's weight interpolated
+// over the triangle (0 at a corner that does not keep it); picked: the
+// candidates of the per-fragment blends (binding CANDIDATES), when
+// blend.views.z is 1 (more cameras than best views; else every camera).
 uint corners[3];
 uint listed[3 * HOLOFUSE_MAX_BEST_VIEWS];
+float listed_weight[3 * HOLOFUSE_MAX_BEST_VIEWS];
 uint listed_count = 0u;
+uint picked[3 * HOLOFUSE_MAX_BEST_VIEWS];
+uint picked_count = 0u;
 
-void gatherListedViews() {
-  uint k_max = uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS));
+void gatherCorners() {
   for (uint j = 0u; j < 3u; ++j) corners[j] = indices[3u * in_triangle + j];
+}
+
+// One read per corner and rank: each camera's weight is summed as it is met.
+void gatherBestViews() {
+  uint k_max = uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS));
   for (uint j = 0u; j < 3u; ++j) {
     for (uint k = 0u; k < k_max; ++k) {
-      uint i = best_views[corners[j] * k_max + k].x;
-      if (i == HOLOFUSE_NO_VIEW) break;
-      bool seen_before = false;
-      for (uint e = 0u; e < listed_count; ++e) seen_before = seen_before || listed[e] == i;
-      if (!seen_before) listed[listed_count++] = i;
+      uvec2 entry = best_views[corners[j] * k_max + k];
+      if (entry.x == HOLOFUSE_NO_VIEW) break;
+      float w = in_barycentric[j] * uintBitsToFloat(entry.y);
+      uint at = 0u;
+      while (at < listed_count && listed[at] != entry.x) ++at;
+      if (at == listed_count) {
+        listed[listed_count] = entry.x;
+        listed_weight[listed_count++] = w;
+      } else {
+        listed_weight[at] += w;
+      }
     }
   }
 }
 
-uint viewCount(bool from_lists) { return from_lists ? listed_count : uint(blend.counts.x); }
-int viewAt(bool from_lists, uint u) { return int(from_lists ? listed[u] : u); }
+void gatherCandidates() {
+  uint k_max = uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS));
+  for (uint j = 0u; j < 3u; ++j) {
+    for (uint k = 0u; k < k_max; ++k) {
+      uint i = candidates[corners[j] * k_max + k].x;
+      if (i == HOLOFUSE_NO_VIEW) break;
+      uint at = 0u;
+      while (at < picked_count && picked[at] != i) ++at;
+      if (at == picked_count) picked[picked_count++] = i;
+    }
+  }
+}
+
+uint viewCount(bool from_lists) { return from_lists ? picked_count : uint(blend.counts.x); }
+int viewAt(bool from_lists, uint u) { return int(from_lists ? picked[u] : u); }
 
 // Normal-weighted blend with the per-fragment occlusion test (mode normal,
 // and the fallback of the others).
@@ -202,27 +231,15 @@ vec4 blendFragment(vec3 n, bool from_lists, inout float total) {
 }
 
 // Blend with the interpolated per-vertex texture fields.
-// Camera i's weight among vertex v's best views (0 when not among them).
-float bestViewWeight(uint v, uint i, uint k_max) {
-  for (uint k = 0u; k < k_max; ++k) {
-    uvec2 entry = best_views[v * k_max + k];
-    if (entry.x == HOLOFUSE_NO_VIEW) break;
-    if (entry.x == i) return uintBitsToFloat(entry.y);
-  }
-  return 0.0;
-}
-
 // The field modes: each listed camera's weight interpolated over the
-// triangle (0 at a corner that does not keep it).
+// triangle.
 vec4 blendFields(inout float total) {
   vec3 sum = vec3(0.0);
   total = 0.0;
   bool fragment_test = blend.fragment_test.w > 0.5;
-  uint k_max = uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS));
   for (uint u = 0u; u < listed_count; ++u) {
     uint i = listed[u];
-    float w = 0.0;
-    for (uint j = 0u; j < 3u; ++j) w += in_barycentric[j] * bestViewWeight(corners[j], i, k_max);
+    float w = listed_weight[u];
     CameraGpu cam = cameras[i];
     if (cam.flags.x == 0 || !(w > 0.0)) continue;
     vec2 uv;
@@ -243,8 +260,10 @@ void main() {
   float total = 0.0;
   vec4 color = vec4(0.0);
   bool field_mode = blend.counts.y == HOLOFUSE_MODE_HOLOPORTATION || blend.counts.y == HOLOFUSE_MODE_MONTAGE4D;
-  bool candidates = blend.views.z != 0;  // modes normal and fragment with more cameras than K
-  if (field_mode || candidates) gatherListedViews();
+  bool candidates = blend.views.z != 0;  // more cameras than K
+  gatherCorners();
+  if (field_mode) gatherBestViews();
+  if (candidates && !field_mode) gatherCandidates();
   if (blend.counts.y == HOLOFUSE_MODE_FRAGMENT) {
     color = blendFragment(n, candidates, total);
   } else if (field_mode) {
@@ -252,9 +271,10 @@ void main() {
   }
   // Where no weight reaches the fragment (every camera culled by the
   // dilated discontinuities, the vote or the per-fragment test), the
-  // normal-weighted blend fills in (docs/design.md section 6, step 10);
-  // in the field modes from every camera, their lists holding only
-  // cameras with weight.
-  if (!(total > 1e-8)) color = blendNormal(n, candidates, total);
+  // normal-weighted blend fills in (docs/design.md section 6, step 10).
+  if (!(total > 1e-8)) {
+    if (candidates && field_mode) gatherCandidates();
+    color = blendNormal(n, candidates, total);
+  }
   out_color = total > 1e-8 ? color : vec4(blend.hole_color.rgb, 1.0);
 }

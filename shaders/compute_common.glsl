@@ -61,6 +61,7 @@ layout(std430, set = 0, binding = HOLOFUSE_BINDING_FANS) readonly buffer Fans { 
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST) buffer Worklist { uint worklist[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST_COUNTS) buffer WorklistCounts { uint worklist_counts[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_BEST_VIEWS) buffer BestViews { uvec2 best_views[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_CANDIDATES) buffer Candidates { uvec2 candidates[]; };
 
 float storedDepth(uint camera, ivec2 pixel) {
   return uintBitsToFloat(depth_bits[(camera * push.height + uint(pixel.y)) * push.width + uint(pixel.x)]);
@@ -74,6 +75,12 @@ vec3 projectToCamera(uint i, vec3 p) {
   if (clip.w <= 1e-9) return vec3(-1.0, -1.0, 0.0);
   vec2 ndc = clip.xy / clip.w;
   return vec3((ndc * 0.5 + 0.5) * cameras[i].size.xy, clip.w);
+}
+
+// v / |v|, or 0 for a vector too short, infinite or NaN.
+vec3 unitOrZero(vec3 v) {
+  float l = length(v);
+  return (l > 1e-30 && !isinf(l) && !isnan(l)) ? v / l : vec3(0.0);
 }
 
 // Inserts camera i with `score` into a list sorted by score, descending,

@@ -81,7 +81,11 @@
 // Per vertex, its best views: [vertex][best_views] pairs (camera,
 // weight bits), the camera HOLOFUSE_NO_VIEW where fewer have weight.
 #define HOLOFUSE_BINDING_BEST_VIEWS 22
-#define HOLOFUSE_BINDING_COUNT 23
+// Past best_views cameras, per vertex the cameras the per-fragment blends
+// weigh (mode normal, mode fragment, the field modes' fallback):
+// [vertex][best_views] pairs (camera, rank score), as BEST_VIEWS.
+#define HOLOFUSE_BINDING_CANDIDATES 23
+#define HOLOFUSE_BINDING_COUNT 24
 
 // Geodesic worklists and their marks rotate through three slots of storage:
 // the one a pass reads (clearing each mark as it goes), the one it appends

@@ -31,11 +31,6 @@ float guardedPower(float c, float alpha) {
   return (isnan(w) || isinf(w)) ? 0.0 : w;
 }
 
-vec3 unitOrZero(vec3 v) {
-  float l = length(v);
-  return (l > 1e-30 && !isinf(l) && !isnan(l)) ? v / l : vec3(0.0);
-}
-
 void main() {
   uint v = gl_GlobalInvocationID.x;
   if (v >= push.vertex_count) return;

@@ -3,24 +3,20 @@
 #include "config.h"
 #include "cameras.glsl"
 #include "compute_common.glsl"
-// Modes normal and fragment weigh each pod per fragment; with more cameras
-// than best views, each vertex first picks the cameras its fragments will
-// weigh, so that a fragment tests blend.views.x cameras per corner, not
-// every camera. A camera that sees the vertex (in front, inside its image
+// Modes normal and fragment weigh each pod per fragment, as the field
+// modes' fallback does; with more cameras than best views, each vertex
+// first picks the cameras its fragments will weigh, so that a fragment
+// tests blend.views.x cameras per corner, not every camera. A camera that sees the vertex (in front, inside its image
 // and mask, not behind its depth map by more than the normal blend's
 // tolerance) ranks above one that does not; among them, by the weight the
 // mode gives: max(0, n . d_k) for normal (its order is that of the power
 // alpha), and for fragment paper 004's max(0, d_k . n)^alpha (d_k . d_v +
 // 1)^beta (Li, Magnor, Seidel 2004, eq. 4) without its per-fragment V_k F_k,
 // mapped into [0, 1] by exp(log w / (1 + alpha + beta)), which keeps the
-// order. Runs per rendered view (d_v follows the eye). CPU reference:
-// reference::blendView's candidates.
+// order. The normal ranking (every mode but fragment) does not depend on
+// the view: it runs once per mesh and settings; mode fragment's per
+// rendered view (d_v follows the eye). CPU reference: reference::blendView's candidates.
 layout(local_size_x = HOLOFUSE_VERTEX_GROUP) in;
-
-vec3 unitOrZero(vec3 v) {
-  float l = length(v);
-  return (l > 1e-30 && !isinf(l) && !isnan(l)) ? v / l : vec3(0.0);
-}
 
 void main() {
   uint v = gl_GlobalInvocationID.x;
@@ -56,7 +52,7 @@ void main() {
     insertRanked(best, best_score, kept, k_max, i, seen ? score + 2.0 : score);
   }
   for (uint k = 0u; k < k_max; ++k) {
-    best_views[v * k_max + k] = uvec2(k < kept ? best[k] : HOLOFUSE_NO_VIEW,
+    candidates[v * k_max + k] = uvec2(k < kept ? best[k] : HOLOFUSE_NO_VIEW,
                                       floatBitsToUint(k < kept ? best_score[k] : 0.0));
   }
 }

@@ -87,10 +87,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   // Modes normal and fragment weigh each pod per fragment: past K cameras,
   // each vertex's K candidates (recordCandidates), so that a fragment's
   // cost follows K.
-  const bool candidates =
-      !cameras_.empty() &&
-      (settings.mode == BlendMode::kNormal || settings.mode == BlendMode::kFragment) &&
-      cameras_.size() > static_cast<size_t>(best_views);
+  const bool candidates = cameras_.size() > static_cast<size_t>(best_views);
   u.views =
       glm::ivec4(best_views, static_cast<int>(cameraWords(cameras_.size())), candidates ? 1 : 0, 0);
   auto* gpu_cameras = static_cast<CameraGpu*>(camera_buffer_.mapped);
@@ -128,7 +125,18 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   const bool settings_changed =
       settings.camera_enabled != field_cameras_ || !(parameters == field_parameters_);
   const bool run_fields = want_fields && (fields_stale_ || depth_maps_stale_ || settings_changed);
-  if (run_fields || candidates) ensureFieldBuffers(parameters);
+  // The normal ranking (every mode but fragment) does not depend on the
+  // view: once per mesh, views and settings; mode fragment's per view.
+  const CandidateKey key{settings.mode == BlendMode::kFragment, best_views,
+                         settings.depth_tolerance, settings.camera_enabled};
+  const bool run_candidates =
+      candidates && (settings.mode == BlendMode::kFragment || candidates_stale_ ||
+                     depth_maps_stale_ || !(key == candidate_key_));
+  if (run_candidates) {
+    candidate_key_ = key;
+    candidates_stale_ = false;
+  }
+  if (run_fields || run_candidates) ensureFieldBuffers(parameters);
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
     if (run_fields) field_passes_pipelines_->beginTiming(cmd);
     if (have_views && depth_maps_stale_) renderDepthMaps(cmd);
@@ -140,7 +148,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
           {visible_counts_.buffer, worklist_.buffer, worklist_counts_.buffer, seams_.buffer});
       ++field_passes_;
     }
-    if (candidates) {
+    if (run_candidates) {
       field_passes_pipelines_->recordCandidates(cmd, descriptor_set_, vertex_count_,
                                                 static_cast<uint32_t>(cameras_.size()),
                                                 images_.width, images_.height);

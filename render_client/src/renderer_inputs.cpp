@@ -168,6 +168,7 @@ void Renderer::uploadMesh(const Mesh& mesh, bool half) {
   fan_data_ = geodesicFans(mesh, adjacency_data_);
   depth_maps_stale_ = true;
   fields_stale_ = true;
+  candidates_stale_ = true;
 }
 
 void Renderer::setViews(const std::vector<ViewImages>& views) {
@@ -249,6 +250,7 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
   // Depth maps depend on the camera poses as well as the mesh.
   depth_maps_stale_ = true;
   fields_stale_ = true;
+  candidates_stale_ = true;
 }
 
 void Renderer::generateMips(VkCommandBuffer cmd) {

@@ -192,7 +192,7 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
   for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &adjacency_,
                     &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_,
-                    &worklist_counts_, &sight_bits_, &best_views_}) {
+                    &worklist_counts_, &sight_bits_, &best_views_, &candidates_}) {
     *b = ctx_.createBuffer(16, usageOf(*b));
   }
   visible_counts_ =
@@ -214,7 +214,7 @@ Renderer::~Renderer() {
   ctx_.destroy(camera_buffer_);
   for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &visible_counts_,
                     &adjacency_, &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_,
-                    &worklist_counts_, &sight_bits_, &best_views_}) {
+                    &worklist_counts_, &sight_bits_, &best_views_, &candidates_}) {
     ctx_.destroy(*b);
   }
   field_passes_pipelines_.reset();
@@ -344,6 +344,7 @@ void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
                               {&trusted_, per_vertex},
                               {&weights_, per_vertex},
                               {&best_views_, best},
+                              {&candidates_, best},
                               {&seams_, rule_bits},
                               {&rings_, 2 * per_vertex},
                               {&distances_, 2 * per_vertex},
@@ -407,6 +408,9 @@ void Renderer::writeDescriptors() {
   VkDescriptorBufferInfo best_info{best_views_.buffer, 0, VK_WHOLE_SIZE};
   writes[HOLOFUSE_BINDING_BEST_VIEWS].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
   writes[HOLOFUSE_BINDING_BEST_VIEWS].pBufferInfo = &best_info;
+  VkDescriptorBufferInfo candidate_info{candidates_.buffer, 0, VK_WHOLE_SIZE};
+  writes[HOLOFUSE_BINDING_CANDIDATES].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  writes[HOLOFUSE_BINDING_CANDIDATES].pBufferInfo = &candidate_info;
   VkDescriptorBufferInfo depth_maps{depth_maps_.buffer, 0, VK_WHOLE_SIZE};
   writes[HOLOFUSE_BINDING_DEPTHS].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
   writes[HOLOFUSE_BINDING_DEPTHS].pBufferInfo = &depth_maps;

@@ -210,6 +210,17 @@ class Renderer {
   uint64_t depth_map_passes_ = 0;
   uint64_t field_passes_ = 0;
   uint32_t vertex_count_ = 0;
+  // What the candidates were last picked for (they are picked again for a
+  // new mesh or views, or when these change; mode fragment's every view).
+  struct CandidateKey {
+    bool fragment_ranking = false;
+    int best_views = 0;
+    float depth_tolerance = -1;
+    std::vector<bool> camera_enabled;
+    bool operator==(const CandidateKey&) const = default;
+  };
+  CandidateKey candidate_key_;
+  bool candidates_stale_ = true;
   // The settings the fields were last computed with: they are recomputed
   // when a new mesh or new images arrive or these change.
   std::vector<bool> field_cameras_;
@@ -234,7 +245,7 @@ class Renderer {
   }
   // Texture-field buffers (config.h bindings 4 on).
   Buffer discontinuities_, sights_, trusted_, weights_, seams_, visible_counts_, adjacency_, rings_,
-      distances_, fans_, worklist_, worklist_counts_, sight_bits_, best_views_;
+      distances_, fans_, worklist_, worklist_counts_, sight_bits_, best_views_, candidates_;
   uint32_t triangle_count_ = 0;
   std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
   // Output

@@ -59,7 +59,7 @@ glm::dvec3 unitOrZero(const glm::dvec3& v) {
   return l > 1e-30 && std::isfinite(l) ? v / l : glm::dvec3(0.0);
 }
 
-// Modes normal and fragment past best_views cameras: the cameras each
+// The per-fragment blends past best_views cameras: the cameras each
 // vertex's fragments weigh, as shaders/view_candidates.comp.glsl picks
 // them: those that see the vertex first, then by the mode's weight
 // without the per-fragment terms, the first best_views.
@@ -178,9 +178,10 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views,
     active += !any_sees || sees_subject[i];
     takes_part[i] = enabled(i) && sees_subject[i];
   }
-  const bool per_fragment_mode = options.fragment_mode || weights.empty();
-  const bool candidates = per_fragment_mode && options.best_views > 0 &&
-                          active > static_cast<size_t>(options.best_views);
+  // Past best_views cameras the per-fragment blends (normal, fragment, the
+  // field modes' fallback) weigh each corner's candidates only.
+  const bool candidates =
+      options.best_views > 0 && active > static_cast<size_t>(options.best_views);
   const std::vector<std::vector<size_t>> listed =
       candidates ? viewCandidates(mesh, views, maps, takes_part, user, options)
                  : std::vector<std::vector<size_t>>();
