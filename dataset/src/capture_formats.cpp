@@ -41,6 +41,29 @@ const char* captureFormatNames() {
   return "holofuse, colmap, nerf, opencv, projections, middlebury, panoptic";
 }
 
+bool isVideoFile(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+  return ext == ".mp4" || ext == ".avi" || ext == ".mkv" || ext == ".mov" || ext == ".webm";
+}
+
+std::string videoFrameName(const std::string& video, size_t index) {
+  return video + "#" + std::to_string(index);
+}
+
+std::optional<VideoFrameName> parseVideoFrameName(const std::string& name) {
+  const size_t hash = name.rfind('#');
+  if (hash == std::string::npos || hash + 1 == name.size()) return std::nullopt;
+  const std::string digits = name.substr(hash + 1);
+  if (digits.size() > 12 ||
+      !std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); }))
+    return std::nullopt;
+  VideoFrameName out{name.substr(0, hash), static_cast<size_t>(std::stoull(digits))};
+  if (!isVideoFile(out.video)) return std::nullopt;
+  return out;
+}
+
 bool naturalLess(const std::string& a, const std::string& b) {
   size_t i = 0, j = 0;
   while (i < a.size() && j < b.size()) {

@@ -163,6 +163,7 @@ StatusOr<CaptureDescription> describe(const std::string& source, const fs::path&
                                       const std::vector<CameraImages>& images) {
   CaptureDescription d;
   d.source = source;
+  d.fps = videoFrameRate(images).value_or(d.fps);
   auto frames = framesByIndex(cameras, images, where.string());
   if (!frames.isOk()) return frames.status();
   d.cameras = std::move(cameras);

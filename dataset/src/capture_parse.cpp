@@ -5,6 +5,7 @@
 #include <fstream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
 #include <sstream>
 
 namespace holofuse::dataset::capture {
@@ -168,6 +169,14 @@ std::vector<fs::path> imagesIn(const fs::path& folder) {
 }
 
 StatusOr<std::pair<uint32_t, uint32_t>> imageSize(const fs::path& file) {
+  if (const auto frame = parseVideoFrameName(file.string())) {
+    cv::VideoCapture reader(frame->video);
+    const double w = reader.isOpened() ? reader.get(cv::CAP_PROP_FRAME_WIDTH) : 0.0,
+                 h = reader.isOpened() ? reader.get(cv::CAP_PROP_FRAME_HEIGHT) : 0.0;
+    if (!(w >= 1 && h >= 1))
+      return Status(StatusCode::kIoError, frame->video + ": cannot read the video");
+    return std::make_pair(imageSide(w), imageSide(h));
+  }
   const cv::Mat image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
   if (image.empty()) return Status(StatusCode::kIoError, file.string() + ": cannot read the image");
   return std::make_pair(static_cast<uint32_t>(image.cols), static_cast<uint32_t>(image.rows));
@@ -197,6 +206,27 @@ CameraImages cameraImages(const fs::path& root, const std::string& name,
     }
     return out;
   }
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(root, error)) {
+    const fs::path& video = entry.path();
+    if (!entry.is_regular_file() || video.stem().string() != name || !isVideoFile(video.string()))
+      continue;
+    // The container's frame count; a frame that will not decode is named
+    // at import.
+    cv::VideoCapture reader(video.string());
+    const double count = reader.isOpened() ? reader.get(cv::CAP_PROP_FRAME_COUNT) : 0.0;
+    std::optional<std::string> mask_video;
+    for (const fs::path& m : mask_roots) {
+      const fs::path candidate = m / video.filename();
+      if (fs::is_regular_file(candidate)) mask_video = candidate.string();
+    }
+    for (size_t f = 0; f < static_cast<size_t>(std::max(count, 0.0)); ++f) {
+      out.images.push_back(videoFrameName(video.string(), f));
+      out.masks.push_back(mask_video ? std::optional(videoFrameName(*mask_video, f))
+                                     : std::nullopt);
+    }
+    return out;
+  }
   for (const fs::path& image : imagesIn(root)) {
     if (image.stem().string() != name) continue;
     out.images.push_back(image.string());
@@ -204,6 +234,15 @@ CameraImages cameraImages(const fs::path& root, const std::string& name,
     break;
   }
   return out;
+}
+
+std::optional<double> videoFrameRate(const std::vector<CameraImages>& images) {
+  if (images.empty() || images[0].images.empty()) return std::nullopt;
+  const auto frame = parseVideoFrameName(images[0].images[0]);
+  if (!frame) return std::nullopt;
+  cv::VideoCapture reader(frame->video);
+  const double fps = reader.isOpened() ? reader.get(cv::CAP_PROP_FPS) : 0.0;
+  return fps > 0 && fps <= 1000 ? std::optional(fps) : std::nullopt;
 }
 
 StatusOr<std::vector<CaptureFrame>> framesByIndex(const std::vector<CaptureCamera>& cameras,

@@ -79,10 +79,15 @@ std::optional<std::string> maskFor(const fs::path& image,
                                    const std::vector<fs::path>& mask_folders);
 
 // A camera's images under `root`: the folder root/<name>/ of frames (masks
-// in <mask root>/<name>/), or one image root/<name>.<ext> (masks in the
-// mask roots); empty when there is neither.
+// in <mask root>/<name>/), a video root/<name>.mp4 (or .avi, .mkv, .mov,
+// .webm; masks a video of the same name in a mask root), or one image
+// root/<name>.<ext> (masks in the mask roots); empty when there is none.
 CameraImages cameraImages(const fs::path& root, const std::string& name,
                           const std::vector<fs::path>& mask_roots);
+
+// The frame rate of the capture's videos, where its first camera's images
+// are frames of one; nullopt otherwise.
+std::optional<double> videoFrameRate(const std::vector<CameraImages>& images);
 
 // Frames by index from each camera's images; every camera must hold the
 // same number, or the message names the camera that differs.

@@ -6,8 +6,10 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "common/opencv_image.h"
 #include "common/pod_frame_codec.h"
@@ -30,10 +32,56 @@ struct LoadedImage {
   std::optional<Image8> alpha_mask;
 };
 
+// The videos an import reads, each open at the frame it reads next: the
+// import goes through each camera's frames in order, so each read is the
+// next one and seeks are rare.
+class VideoFrames {
+ public:
+  StatusOr<cv::Mat> read(const VideoFrameName& frame, const char* what) {
+    auto& open = open_[frame.video];
+    if (!open.reader.isOpened()) {
+      if (!fs::exists(frame.video))
+        return Status(StatusCode::kIoError, frame.video + ": " + what + " video is missing");
+      if (!open.reader.open(frame.video))
+        return Status(StatusCode::kMalformed, frame.video + ": cannot open the " + what + " video");
+      open.next = 0;
+    }
+    if (open.next != frame.index)
+      open.reader.set(cv::CAP_PROP_POS_FRAMES, static_cast<double>(frame.index));
+    cv::Mat m;
+    if (!open.reader.read(m) || m.empty()) {
+      return Status(StatusCode::kMalformed, frame.video + ": frame " + std::to_string(frame.index) +
+                                                " of the " + what + " video cannot be decoded");
+    }
+    open.next = frame.index + 1;
+    return m;
+  }
+  void close() { open_.clear(); }
+
+ private:
+  struct Open {
+    cv::VideoCapture reader;
+    size_t next = 0;
+  };
+  std::map<std::string, Open> open_;
+};
+
+VideoFrames& videoFrames() {
+  static VideoFrames frames;
+  return frames;
+}
+
 StatusOr<cv::Mat> readAny(const std::string& file, const Camera& camera, const char* what) {
-  if (!fs::exists(file))
-    return Status(StatusCode::kIoError, file + ": " + what + " file is missing");
-  cv::Mat m = cv::imread(file, cv::IMREAD_UNCHANGED);
+  cv::Mat m;
+  if (const auto frame = parseVideoFrameName(file)) {
+    auto decoded = videoFrames().read(*frame, what);
+    if (!decoded.isOk()) return decoded.status();
+    m = std::move(*decoded);
+  } else {
+    if (!fs::exists(file))
+      return Status(StatusCode::kIoError, file + ": " + what + " file is missing");
+    m = cv::imread(file, cv::IMREAD_UNCHANGED);
+  }
   if (m.empty())
     return Status(StatusCode::kMalformed,
                   file + ": cannot decode the " + what + " (corrupt, or not a PNG or JPEG)");
@@ -281,6 +329,10 @@ Image8 segmentByBrightness(const Image8& color, const ImportOptions& options) {
 StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
                                       const std::string& out_folder, const ImportOptions& options,
                                       const std::function<void(const ImportProgress&)>& progress) {
+  // Whichever way the import ends, the videos it opened are closed.
+  struct CloseVideos {
+    ~CloseVideos() { videoFrames().close(); }
+  } close_videos;
   const auto start = std::chrono::steady_clock::now();
   if (!(options.mask_threshold > 0 && options.mask_threshold < 1)) {
     return Status(StatusCode::kMalformed, "mask threshold " +
@@ -317,13 +369,18 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
                         std::to_string(frame.images.size()) + " images for " +
                         std::to_string(capture.cameras.size()) + " cameras");
     }
+    // A video frame's file is the video (its frames are checked as read).
+    auto fileOf = [](const std::string& name) {
+      const auto frame = parseVideoFrameName(name);
+      return frame ? frame->video : name;
+    };
     for (size_t c = 0; c < frame.images.size(); ++c) {
-      if (!fs::exists(frame.images[c])) {
+      if (!fs::exists(fileOf(frame.images[c]))) {
         return Status(StatusCode::kIoError, frame.images[c] + ": image of camera \"" +
                                                 capture.cameras[c].name + "\" in frame " +
                                                 std::to_string(f) + " is missing");
       }
-      if (frame.masks[c] && !fs::exists(*frame.masks[c])) {
+      if (frame.masks[c] && !fs::exists(fileOf(*frame.masks[c]))) {
         return Status(StatusCode::kIoError, *frame.masks[c] + ": mask file is missing");
       }
     }

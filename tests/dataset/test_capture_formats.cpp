@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iomanip>
 #include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "dataset/capture_formats.h"
 #include "dataset/import.h"
@@ -249,6 +250,49 @@ TEST_F(CaptureFormats, OpencvIntriAndExtriWithAFolderOfFramesPerCamera) {
   fs::remove(src / "images" / "cam10" / "000001.png");
   const std::string message = failure(src, CaptureFormat::kOpencv);
   EXPECT_NE(message.find("camera \"cam10\" has 1 frames"), std::string::npos) << message;
+}
+
+// A capture as one video per camera (ZJU-MoCap's and Panoptic's layout),
+// masks as videos too: read with OpenCV's FFmpeg reader, frames matched by
+// index; a camera whose video is a frame short is named with both counts.
+TEST_F(CaptureFormats, OneVideoPerCameraWithMaskVideos) {
+  const fs::path src = root_ / "src";
+  fs::create_directories(src / "images");
+  fs::create_directories(src / "mask");
+  auto writeVideo = [&](const fs::path& file, const cv::Mat& frame, int frames) {
+    // FFV1: lossless, so the masks and colours come back as written.
+    cv::VideoWriter writer(file.string(), cv::VideoWriter::fourcc('F', 'F', 'V', '1'), 15,
+                           frame.size());
+    ASSERT_TRUE(writer.isOpened()) << file;
+    for (int f = 0; f < frames; ++f) writer << frame;
+  };
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    writeVideo(src / "images" / (name(i) + ".mkv"), toMat(views_[i].color), 3);
+    cv::Mat mask;
+    cv::cvtColor(toMat(views_[i].mask), mask, cv::COLOR_GRAY2BGR);
+    writeVideo(src / "mask" / (name(i) + ".mkv"), mask, 3);
+  }
+  cv::FileStorage intri((src / "intri.yml").string(), cv::FileStorage::WRITE);
+  cv::FileStorage extri((src / "extri.yml").string(), cv::FileStorage::WRITE);
+  intri << "names"
+        << "[";
+  for (size_t i = 0; i < cameras_.size(); ++i) intri << name(i);
+  intri << "]";
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    intri << "K_" + name(i) << opencvK(cameras_[i]);
+    extri << "Rot_" + name(i) << rotationOf(cameras_[i]);
+    extri << "T_" + name(i) << translationOf(cameras_[i]);
+  }
+  intri.release();
+  extri.release();
+  auto capture = readCapture(src.string(), CaptureFormat::kOpencv);
+  ASSERT_TRUE(capture.isOk()) << capture.status().toString();
+  EXPECT_DOUBLE_EQ(capture->fps, 15.0) << "the videos' frame rate";
+  importAndMatch(src, CaptureFormat::kOpencv, 12, "", 3);
+
+  writeVideo(src / "images" / "cam10.mkv", toMat(views_[1].color), 2);
+  const std::string message = failure(src, CaptureFormat::kOpencv);
+  EXPECT_NE(message.find("camera \"cam10\" has 2 frames"), std::string::npos) << message;
 }
 
 // OpenCV's calibration sample: one file per camera, YAML or XML.

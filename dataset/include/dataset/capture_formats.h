@@ -51,6 +51,17 @@ enum class CaptureFormat {
 std::optional<CaptureFormat> captureFormatFromName(const std::string& name);
 const char* captureFormatNames();  // the names above, comma separated
 
+// A frame of a video file as a CaptureFrame names it: "<video>#<index>"
+// (0-based); the import decodes it with OpenCV's video reader (FFmpeg).
+std::string videoFrameName(const std::string& video, size_t index);
+struct VideoFrameName {
+  std::string video;
+  size_t index = 0;
+};
+// nullopt for a name that is not a video file's frame.
+std::optional<VideoFrameName> parseVideoFrameName(const std::string& name);
+bool isVideoFile(const std::string& path);  // by extension: mp4, avi, mkv, mov, webm
+
 // Natural order: digit runs compare as numbers ("cam2" < "cam10").
 bool naturalLess(const std::string& a, const std::string& b);
 
