@@ -8,8 +8,8 @@
 #define HOLOFUSE_MAX_CAMERAS 128
 // Per-camera bit sets are arrays of 32-bit words: ceil(cameras / 32) words.
 #define HOLOFUSE_MAX_CAMERA_WORDS (HOLOFUSE_MAX_CAMERAS / 32)
-// The blend takes each vertex's best views only (Holoportation's N-best
-// views, Orts-Escolano et al. 2016; the k nearest cameras of unstructured
+// The blend takes each vertex's best views only (the N best views of
+// Volino and Hilton 2013, paper 001; the k nearest cameras of unstructured
 // lumigraph rendering, Buehler et al. 2001): its cost per fragment follows
 // this, not the camera count.
 #define HOLOFUSE_MAX_BEST_VIEWS 16
