@@ -9,6 +9,7 @@
 #include <limits>
 #include <stdexcept>
 #include <type_traits>
+#include <utility>
 
 #include "render_client/reference/texture_fields.h"
 #include "render_client/renderer.h"
@@ -402,18 +403,17 @@ void Renderer::writeDescriptors() {
   }
   writes[HOLOFUSE_BINDING_BLEND].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
   writes[HOLOFUSE_BINDING_BLEND].pBufferInfo = &ubo;
-  VkDescriptorBufferInfo camera_info{camera_buffer_.buffer, 0, VK_WHOLE_SIZE};
-  writes[HOLOFUSE_BINDING_CAMERAS].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-  writes[HOLOFUSE_BINDING_CAMERAS].pBufferInfo = &camera_info;
-  VkDescriptorBufferInfo best_info{best_views_.buffer, 0, VK_WHOLE_SIZE};
-  writes[HOLOFUSE_BINDING_BEST_VIEWS].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-  writes[HOLOFUSE_BINDING_BEST_VIEWS].pBufferInfo = &best_info;
-  VkDescriptorBufferInfo candidate_info{candidates_.buffer, 0, VK_WHOLE_SIZE};
-  writes[HOLOFUSE_BINDING_CANDIDATES].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-  writes[HOLOFUSE_BINDING_CANDIDATES].pBufferInfo = &candidate_info;
-  VkDescriptorBufferInfo depth_maps{depth_maps_.buffer, 0, VK_WHOLE_SIZE};
-  writes[HOLOFUSE_BINDING_DEPTHS].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-  writes[HOLOFUSE_BINDING_DEPTHS].pBufferInfo = &depth_maps;
+  // The storage buffers outside the run above, by binding.
+  const std::array<std::pair<uint32_t, VkDescriptorBufferInfo>, 4> others = {
+      std::pair{HOLOFUSE_BINDING_DEPTHS,
+                VkDescriptorBufferInfo{depth_maps_.buffer, 0, VK_WHOLE_SIZE}},
+      {HOLOFUSE_BINDING_CAMERAS, {camera_buffer_.buffer, 0, VK_WHOLE_SIZE}},
+      {HOLOFUSE_BINDING_BEST_VIEWS, {best_views_.buffer, 0, VK_WHOLE_SIZE}},
+      {HOLOFUSE_BINDING_CANDIDATES, {candidates_.buffer, 0, VK_WHOLE_SIZE}}};
+  for (const auto& [binding, info] : others) {
+    writes[binding].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    writes[binding].pBufferInfo = &info;
+  }
   writes[HOLOFUSE_BINDING_IMAGES].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   writes[HOLOFUSE_BINDING_IMAGES].pImageInfo = &image_info;
   writes[HOLOFUSE_BINDING_FEATHERS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;

@@ -445,16 +445,21 @@ TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
   fs::remove_all(out);
 }
 
-// The small real capture the team develops against (not in the
-// repository: skipped when absent).
-TEST(RealCapture, TheMiddleburyTempleImportsReplaysAndEvaluates) {
+// A real capture the team develops against, in $HOLOFUSE_DATASETS or
+// ../shared/datasets (not in the repository: the tests skip without it).
+fs::path realCapture(const std::string& name) {
   const char* env = std::getenv("HOLOFUSE_DATASETS");
-  const fs::path src =
-      fs::path(env != nullptr ? env : HOLOFUSE_SHARED_DATASETS) / "middlebury-temple-colmap";
-  if (!fs::exists(src / "sparse" / "cameras.txt")) {
-    GTEST_SKIP() << "no real capture at " << src
-                 << " (../shared/datasets is not part of the repository)";
-  }
+  return fs::path(env != nullptr ? env : HOLOFUSE_SHARED_DATASETS) / name;
+}
+
+#define HOLOFUSE_SKIP_WITHOUT(src, marker)       \
+  if (!fs::exists((src) / (marker)))             \
+  GTEST_SKIP() << "no real capture at " << (src) \
+               << " (../shared/datasets is not part of the repository)"
+
+TEST(RealCapture, TheMiddleburyTempleImportsReplaysAndEvaluates) {
+  const fs::path src = realCapture("middlebury-temple-colmap");
+  HOLOFUSE_SKIP_WITHOUT(src, "sparse/cameras.txt");
   const fs::path out = freshDir("temple");
   const fs::path dataset_dir = out / "temple";
   pid_t p = spawn({kBin + "/holofuse_dataset", "import", src.string(), "--format", "colmap",
@@ -523,13 +528,8 @@ TEST(RealCapture, TheMiddleburyTempleImportsReplaysAndEvaluates) {
 // masks agrees with every camera's own mask; all 18 cameras evaluate in
 // every mode and replay.
 TEST(RealCapture, TheEthStatueImportsFromItsProjectionMatrices) {
-  const char* env = std::getenv("HOLOFUSE_DATASETS");
-  const fs::path src =
-      fs::path(env != nullptr ? env : HOLOFUSE_SHARED_DATASETS) / "eth-david-statue-projections";
-  if (!fs::exists(src / "david_00.pa")) {
-    GTEST_SKIP() << "no real capture at " << src
-                 << " (../shared/datasets is not part of the repository)";
-  }
+  const fs::path src = realCapture("eth-david-statue-projections");
+  HOLOFUSE_SKIP_WITHOUT(src, "david_00.pa");
   const fs::path out = freshDir("statue");
   const fs::path dataset_dir = out / "statue";
   pid_t p = spawn({kBin + "/holofuse_dataset", "import", src.string(), "--format", "projections",
