@@ -168,6 +168,7 @@ StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder) {
     return malformed(where, "expected a non-empty \"cameras\" array");
   }
   std::map<std::string, size_t> by_name;
+  std::vector<CameraImages> videos;
   for (size_t i = 0; i < root["cameras"].size(); ++i) {
     const nlohmann::json& c = root["cameras"][i];
     const std::string at = where + ": cameras[" + std::to_string(i) + "]";
@@ -208,11 +209,41 @@ StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder) {
         return malformed(at + ".background", "expected a file name");
       cam.background = relativeTo(folder, c["background"].get<std::string>());
     }
+    for (const char* key : {"video", "mask_video"}) {
+      if (c.contains(key) && !c[key].is_string())
+        return malformed(at + "." + key, "expected a file name");
+    }
+    if (c.contains("video")) {
+      const std::string video = relativeTo(folder, c["video"].get<std::string>());
+      const std::optional<std::string> mask_video =
+          c.contains("mask_video")
+              ? std::optional(relativeTo(folder, c["mask_video"].get<std::string>()))
+              : std::nullopt;
+      videos.push_back(videoImages(video, mask_video));
+      if (videos.back().images.empty()) return malformed(at + ".video", video + ": cannot read");
+    }
     by_name[cam.name] = i;
     d.cameras.push_back(std::move(cam));
   }
+  // One video per camera instead of frames: paired by their timestamps.
+  if (!videos.empty()) {
+    if (videos.size() != d.cameras.size() || root.contains("frames")) {
+      return malformed(where,
+                       "either every camera names a \"video\" and there are no "
+                       "\"frames\", or none does (" +
+                           std::to_string(videos.size()) + " of " +
+                           std::to_string(d.cameras.size()) + " do)");
+    }
+    auto matched = matchFrames(d.cameras, videos, where);
+    if (!matched.isOk()) return matched.status();
+    if (!root.contains("fps") && matched->fps) d.fps = *matched->fps;
+    d.frames = std::move(matched->frames);
+    d.frame_matching = std::move(matched->matching);
+    numberCamerasByName(d);
+    return d;
+  }
   if (!root.contains("frames") || !root["frames"].is_array() || root["frames"].empty()) {
-    return malformed(where, "expected a non-empty \"frames\" array");
+    return malformed(where, "expected a non-empty \"frames\" array (or a \"video\" per camera)");
   }
   for (size_t f = 0; f < root["frames"].size(); ++f) {
     const nlohmann::json& frame = root["frames"][f];

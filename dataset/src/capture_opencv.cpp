@@ -163,11 +163,12 @@ StatusOr<CaptureDescription> describe(const std::string& source, const fs::path&
                                       const std::vector<CameraImages>& images) {
   CaptureDescription d;
   d.source = source;
-  d.fps = videoFrameRate(images).value_or(d.fps);
-  auto frames = framesByIndex(cameras, images, where.string());
-  if (!frames.isOk()) return frames.status();
+  auto matched = matchFrames(cameras, images, where.string());
+  if (!matched.isOk()) return matched.status();
+  d.fps = matched->fps.value_or(d.fps);
+  d.frame_matching = std::move(matched->matching);
   d.cameras = std::move(cameras);
-  d.frames = std::move(*frames);
+  d.frames = std::move(matched->frames);
   numberCamerasByName(d);
   return d;
 }

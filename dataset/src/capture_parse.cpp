@@ -2,11 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
+#include <limits>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 #include <sstream>
+
+#include "common/image_io.h"
 
 namespace holofuse::dataset::capture {
 
@@ -177,9 +180,7 @@ StatusOr<std::pair<uint32_t, uint32_t>> imageSize(const fs::path& file) {
       return Status(StatusCode::kIoError, frame->video + ": cannot read the video");
     return std::make_pair(imageSide(w), imageSide(h));
   }
-  const cv::Mat image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
-  if (image.empty()) return Status(StatusCode::kIoError, file.string() + ": cannot read the image");
-  return std::make_pair(static_cast<uint32_t>(image.cols), static_cast<uint32_t>(image.rows));
+  return readImageSize(file.string());
 }
 
 std::optional<std::string> maskFor(const fs::path& image,
@@ -192,6 +193,22 @@ std::optional<std::string> maskFor(const fs::path& image,
     }
   }
   return std::nullopt;
+}
+
+CameraImages videoImages(const std::string& video, const std::optional<std::string>& mask_video) {
+  // Every frame's time stamp, by demuxing the whole video once (a
+  // container's frame count is an estimate); a frame that will not decode
+  // is named at import.
+  CameraImages out;
+  cv::VideoCapture reader(video);
+  if (reader.isOpened()) out.stated_fps = reader.get(cv::CAP_PROP_FPS);
+  while (reader.isOpened() && reader.grab())
+    out.times_s.push_back(reader.get(cv::CAP_PROP_POS_MSEC) / 1000.0);
+  for (size_t f = 0; f < out.times_s.size(); ++f) {
+    out.images.push_back(videoFrameName(video, f));
+    out.masks.push_back(mask_video ? std::optional(videoFrameName(*mask_video, f)) : std::nullopt);
+  }
+  return out;
 }
 
 CameraImages cameraImages(const fs::path& root, const std::string& name,
@@ -211,20 +228,12 @@ CameraImages cameraImages(const fs::path& root, const std::string& name,
     const fs::path& video = entry.path();
     if (!entry.is_regular_file() || video.stem().string() != name || !isVideoFile(video.string()))
       continue;
-    // The container's frame count; a frame that will not decode is named
-    // at import.
-    cv::VideoCapture reader(video.string());
-    const double count = reader.isOpened() ? reader.get(cv::CAP_PROP_FRAME_COUNT) : 0.0;
     std::optional<std::string> mask_video;
     for (const fs::path& m : mask_roots) {
       const fs::path candidate = m / video.filename();
       if (fs::is_regular_file(candidate)) mask_video = candidate.string();
     }
-    for (size_t f = 0; f < static_cast<size_t>(std::max(count, 0.0)); ++f) {
-      out.images.push_back(videoFrameName(video.string(), f));
-      out.masks.push_back(mask_video ? std::optional(videoFrameName(*mask_video, f))
-                                     : std::nullopt);
-    }
+    out = videoImages(video.string(), mask_video);
     return out;
   }
   for (const fs::path& image : imagesIn(root)) {
@@ -236,24 +245,13 @@ CameraImages cameraImages(const fs::path& root, const std::string& name,
   return out;
 }
 
-std::optional<double> videoFrameRate(const std::vector<CameraImages>& images) {
-  if (images.empty() || images[0].images.empty()) return std::nullopt;
-  const auto frame = parseVideoFrameName(images[0].images[0]);
-  if (!frame) return std::nullopt;
-  cv::VideoCapture reader(frame->video);
-  const double fps = reader.isOpened() ? reader.get(cv::CAP_PROP_FPS) : 0.0;
-  return fps > 0 && fps <= 1000 ? std::optional(fps) : std::nullopt;
-}
+namespace {
 
 StatusOr<std::vector<CaptureFrame>> framesByIndex(const std::vector<CaptureCamera>& cameras,
                                                   const std::vector<CameraImages>& images,
                                                   const std::string& where) {
-  if (cameras.empty()) return malformed(where, "holds no camera");
   const size_t count = images[0].images.size();
   for (size_t c = 0; c < cameras.size(); ++c) {
-    if (images[c].images.empty()) {
-      return malformed(where, "camera \"" + cameras[c].name + "\" has no image");
-    }
     if (images[c].images.size() != count) {
       return malformed(where, "camera \"" + cameras[c].name + "\" has " +
                                   std::to_string(images[c].images.size()) + " frames, camera \"" +
@@ -269,6 +267,103 @@ StatusOr<std::vector<CaptureFrame>> framesByIndex(const std::vector<CaptureCamer
     }
   }
   return frames;
+}
+
+// The median gap between a video's frames; 0 for fewer than two.
+double frameInterval(const std::vector<double>& times) {
+  if (times.size() < 2) return 0.0;
+  std::vector<double> gaps;
+  for (size_t f = 1; f < times.size(); ++f) gaps.push_back(times[f] - times[f - 1]);
+  std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2),
+                   gaps.end());
+  return gaps[gaps.size() / 2];
+}
+
+std::string seconds(double s) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3f s", s);
+  return text;
+}
+
+StatusOr<MatchedFrames> framesByTime(const std::vector<CaptureCamera>& cameras,
+                                     const std::vector<CameraImages>& images,
+                                     const std::string& where) {
+  size_t slowest = 0;
+  for (size_t c = 1; c < cameras.size(); ++c) {
+    if (frameInterval(images[c].times_s) > frameInterval(images[slowest].times_s)) slowest = c;
+  }
+  const std::vector<double>& times = images[slowest].times_s;
+  const double interval = frameInterval(times);
+  // With one frame each there is nothing to match but the one.
+  const double tolerance = interval > 0 ? interval / 2 : std::numeric_limits<double>::infinity();
+  MatchedFrames out;
+  // The stated rate where the container has one: its time stamps are
+  // rounded (Matroska's to milliseconds).
+  const double stated = images[slowest].stated_fps;
+  if (stated > 0 && stated <= 1000) {
+    out.fps = stated;
+  } else if (interval > 0) {
+    out.fps = 1.0 / interval;
+  }
+  std::vector<std::string> dropped;
+  for (const double t : times) {
+    CaptureFrame frame;
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      const std::vector<double>& own = images[c].times_s;
+      const auto after = std::lower_bound(own.begin(), own.end(), t);
+      size_t nearest = static_cast<size_t>(after - own.begin());
+      if (after == own.end() || (after != own.begin() && t - *(after - 1) < *after - t)) --nearest;
+      if (std::abs(own[nearest] - t) > tolerance) {
+        if (dropped.size() < 3) {
+          dropped.push_back(seconds(t) + " (camera \"" + cameras[c].name + "\", " +
+                            parseVideoFrameName(images[c].images[0])->video +
+                            ", has no frame within " + seconds(tolerance) + ")");
+        } else if (dropped.size() == 3) {
+          dropped.push_back("...");
+        }
+        frame.images.clear();
+        break;
+      }
+      frame.images.push_back(images[c].images[nearest]);
+      frame.masks.push_back(images[c].masks[nearest]);
+    }
+    if (!frame.images.empty()) out.frames.push_back(std::move(frame));
+  }
+  if (out.frames.empty()) {
+    return malformed(where, "no time of camera \"" + cameras[slowest].name +
+                                "\"'s video has a frame of every other camera within " +
+                                seconds(tolerance) + ": " + dropped.front());
+  }
+  out.matching = "frames matched by the videos' timestamps to camera \"" + cameras[slowest].name +
+                 "\"'s" +
+                 (out.fps ? " (" + std::to_string(static_cast<int>(std::lround(*out.fps))) + " fps)"
+                          : std::string());
+  const size_t lost = times.size() - out.frames.size();
+  if (lost > 0) {
+    out.matching += "; " + std::to_string(lost) + " of its " + std::to_string(times.size()) +
+                    " times dropped, where a camera has no frame: ";
+    for (size_t k = 0; k < dropped.size(); ++k) out.matching += (k ? ", " : "") + dropped[k];
+  }
+  return out;
+}
+
+}  // namespace
+
+StatusOr<MatchedFrames> matchFrames(const std::vector<CaptureCamera>& cameras,
+                                    const std::vector<CameraImages>& images,
+                                    const std::string& where) {
+  if (cameras.empty()) return malformed(where, "holds no camera");
+  bool videos = true;
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    if (images[c].images.empty()) {
+      return malformed(where, "camera \"" + cameras[c].name + "\" has no image");
+    }
+    videos = videos && images[c].times_s.size() == images[c].images.size();
+  }
+  if (videos) return framesByTime(cameras, images, where);
+  auto frames = framesByIndex(cameras, images, where);
+  if (!frames.isOk()) return frames.status();
+  return MatchedFrames{std::move(*frames), "frames matched by index", std::nullopt};
 }
 
 }  // namespace holofuse::dataset::capture

@@ -71,12 +71,20 @@ StatusOr<std::pair<uint32_t, uint32_t>> imageSize(const fs::path& file);
 struct CameraImages {
   std::vector<std::string> images;
   std::vector<std::optional<std::string>> masks;
+  // A video's frames: each one's presentation time in seconds, as the
+  // container stamps it; empty for image files.
+  std::vector<double> times_s;
+  double stated_fps = 0;  // the video's frame rate as its container states it; 0: none
 };
 
 // The mask of `image` in any of `mask_folders`: the same file name, the
 // same stem as PNG, or COLMAP's `<image name>.png`.
 std::optional<std::string> maskFor(const fs::path& image,
                                    const std::vector<fs::path>& mask_folders);
+
+// A video's frames (masks the frames of mask_video, when given), each with
+// its time stamp; empty when the video cannot be read.
+CameraImages videoImages(const std::string& video, const std::optional<std::string>& mask_video);
 
 // A camera's images under `root`: the folder root/<name>/ of frames (masks
 // in <mask root>/<name>/), a video root/<name>.mp4 (or .avi, .mkv, .mov,
@@ -85,14 +93,21 @@ std::optional<std::string> maskFor(const fs::path& image,
 CameraImages cameraImages(const fs::path& root, const std::string& name,
                           const std::vector<fs::path>& mask_roots);
 
-// The frame rate of the capture's videos, where its first camera's images
-// are frames of one; nullopt otherwise.
-std::optional<double> videoFrameRate(const std::vector<CameraImages>& images);
-
-// Frames by index from each camera's images; every camera must hold the
-// same number, or the message names the camera that differs.
-StatusOr<std::vector<CaptureFrame>> framesByIndex(const std::vector<CaptureCamera>& cameras,
-                                                  const std::vector<CameraImages>& images,
-                                                  const std::string& where);
+// The capture's frames from each camera's images, and how they were
+// matched (CaptureDescription::frame_matching). Where every camera is a
+// video, by the videos' timestamps: the frames of the camera with the
+// lowest rate set the times, each other camera contributes its frame
+// nearest in time, and a time where some camera has none within half a
+// frame interval is dropped and reported by camera and video; the
+// capture's rate is that camera's. Otherwise by index: every camera must
+// hold the same number, or the message names the camera that differs.
+struct MatchedFrames {
+  std::vector<CaptureFrame> frames;
+  std::string matching;
+  std::optional<double> fps;
+};
+StatusOr<MatchedFrames> matchFrames(const std::vector<CaptureCamera>& cameras,
+                                    const std::vector<CameraImages>& images,
+                                    const std::string& where);
 
 }  // namespace holofuse::dataset::capture

@@ -7,10 +7,10 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "common/image_io.h"
 #include "common/opencv_image.h"
 #include "common/pod_frame_codec.h"
 #include "common/segmentation.h"
@@ -71,20 +71,36 @@ VideoFrames& videoFrames() {
   return frames;
 }
 
+// A picture file (through OpenImageIO: 8- or 16-bit PNG, TIFF, JPEG,
+// OpenEXR...) or a video frame, as float display values in [0, 1] with the
+// channels in R, G, B(, A) order, checked against the camera's size.
 StatusOr<cv::Mat> readAny(const std::string& file, const Camera& camera, const char* what) {
   cv::Mat m;
   if (const auto frame = parseVideoFrameName(file)) {
     auto decoded = videoFrames().read(*frame, what);
     if (!decoded.isOk()) return decoded.status();
-    m = std::move(*decoded);
+    if (decoded->channels() == 3) cv::cvtColor(*decoded, *decoded, cv::COLOR_BGR2RGB);
+    decoded->convertTo(m, CV_32F, decoded->depth() == CV_16U ? 1.0 / 65535.0 : 1.0 / 255.0);
   } else {
     if (!fs::exists(file))
       return Status(StatusCode::kIoError, file + ": " + what + " file is missing");
-    m = cv::imread(file, cv::IMREAD_UNCHANGED);
+    auto stored = readImageValues(file);
+    if (!stored.isOk()) {
+      std::string reason = stored.status().message();  // "<file>: <why>"
+      if (reason.rfind(file + ": ", 0) == 0) reason.erase(0, file.size() + 2);
+      return Status(StatusCode::kMalformed,
+                    file + ": cannot decode the " + std::string(what) + " (" + reason + ")");
+    }
+    if (stored->channels > 4) {
+      return Status(StatusCode::kMalformed, file + ": " + std::to_string(stored->channels) +
+                                                " channels (grey, RGB or RGBA are read)");
+    }
+    m = cv::Mat(static_cast<int>(stored->height), static_cast<int>(stored->width),
+                CV_32FC(static_cast<int>(stored->channels)), stored->values.data())
+            .clone();
   }
   if (m.empty())
-    return Status(StatusCode::kMalformed,
-                  file + ": cannot decode the " + what + " (corrupt, or not a PNG or JPEG)");
+    return Status(StatusCode::kMalformed, file + ": cannot decode the " + std::string(what));
   if (m.cols != static_cast<int>(camera.width) || m.rows != static_cast<int>(camera.height)) {
     return Status(StatusCode::kMalformed,
                   file + ": the " + std::string(what) + " is " + std::to_string(m.cols) + "x" +
@@ -92,17 +108,23 @@ StatusOr<cv::Mat> readAny(const std::string& file, const Camera& camera, const c
                       std::to_string(camera.id) + " says " + std::to_string(camera.width) + "x" +
                       std::to_string(camera.height));
   }
-  if (m.depth() == CV_16U) m.convertTo(m, CV_8U, 1.0 / 257.0);
-  if (m.depth() != CV_8U)
-    return Status(StatusCode::kMalformed, file + ": only 8- and 16-bit images are supported");
   return m;
 }
 
-// The subject where value is above threshold (a share of 255), without
-// the specks a noisy background leaves: components under 1% of the largest.
+// Float values in [0, 1] as 8-bit, rounded.
+cv::Mat toEightBit(const cv::Mat& values) {
+  cv::Mat out;
+  values.convertTo(out, CV_8U, 255.0);
+  return out;
+}
+
+// The subject where value (one channel in [0, 1]) is above threshold,
+// without the specks a noisy background leaves: components under 1% of
+// the largest.
 cv::Mat binaryMask(const cv::Mat& value, double threshold) {
   cv::Mat mask;
-  cv::threshold(value, mask, threshold * 255.0, 255, cv::THRESH_BINARY);
+  cv::threshold(value, mask, threshold, 255, cv::THRESH_BINARY);
+  mask.convertTo(mask, CV_8U);
   cv::Mat labels, stats, centroids;
   const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8);
   int largest = 0;
@@ -124,17 +146,16 @@ StatusOr<LoadedImage> readColor(const std::string& file, const Camera& camera,
       cv::cvtColor(*m, rgb, cv::COLOR_GRAY2RGB);
       break;
     case 3:
-      cv::cvtColor(*m, rgb, cv::COLOR_BGR2RGB);
+      rgb = *m;
       break;
     case 4: {
       // RGBA (NeRF's synthetic sets): alpha is the mask, colour over black.
       std::vector<cv::Mat> channels;
       cv::split(*m, channels);
-      cv::Mat alpha = channels[3];
-      cv::cvtColor(*m, rgb, cv::COLOR_BGRA2RGB);
-      cv::Mat alpha3;
-      cv::cvtColor(alpha, alpha3, cv::COLOR_GRAY2RGB);
-      cv::multiply(rgb, alpha3, rgb, 1.0 / 255.0);
+      const cv::Mat alpha = channels[3];
+      channels.pop_back();
+      for (cv::Mat& c : channels) c = c.mul(alpha);
+      cv::merge(channels, rgb);
       out.alpha_mask = fromMat(binaryMask(alpha, mask_threshold));
       break;
     }
@@ -142,12 +163,12 @@ StatusOr<LoadedImage> readColor(const std::string& file, const Camera& camera,
       return Status(StatusCode::kMalformed,
                     file + ": " + std::to_string(m->channels()) + " channels");
   }
-  out.color = fromMat(rgb);
+  out.color = fromMat(toEightBit(rgb));
   return out;
 }
 
-// A mask file: grey or RGB(A), 1, 8 or 16 bits (16 read as 8), dark
-// meaning background (COLMAP's convention), any colour channel above the
+// A mask file: grey or RGB(A), 1, 8 or 16 bits or float, dark meaning
+// background (COLMAP's convention), any colour channel above the
 // threshold meaning the subject (ImportOptions::mask_threshold).
 StatusOr<Image8> readMask(const std::string& file, const Camera& camera, double threshold) {
   auto m = readAny(file, camera, "mask");

@@ -313,7 +313,7 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
   png.height = static_cast<uint32_t>(sheet.rows);
   png.channels = 3;
   png.pixels.assign(sheet.data, sheet.data + sheet.total() * 3);
-  HOLOFUSE_RETURN_IF_ERROR(writePng(sheet_png, png));
+  HOLOFUSE_RETURN_IF_ERROR(writeImage(sheet_png, png));
   t +=
       "contact sheet (image, mask dimmed outside, hull silhouette in magenta): " + sheet_png + "\n";
   return summary;

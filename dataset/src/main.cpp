@@ -96,6 +96,8 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "[import] %s: %zu cameras, %zu frame(s)\n", description->source.c_str(),
                  description->cameras.size(), description->frames.size());
+    if (!description->frame_matching.empty())
+      std::fprintf(stderr, "[import] %s\n", description->frame_matching.c_str());
     auto summary = dataset::importCapture(*description, out, import_options, printProgress);
     if (!summary.isOk()) {
       std::fprintf(stderr, "dataset import: %s (nothing was written to %s)\n",

@@ -13,6 +13,7 @@
 #include "base/statistics.h"
 #include "common/depth_raster.h"
 #include "common/image_io.h"
+#include "eval/view_maps.h"
 #include "metrics/image_metrics.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/reference/visibility.h"
@@ -54,7 +55,7 @@ Status saveImage(const fs::path& path, const Image8& image) {
       for (int c = 0; c < 3; ++c) rgb.pixels[p * 3 + c] = image.pixels[p * 4 + c];
     }
   }
-  return writePng(path.string(), rgb);
+  return writeImage(path.string(), rgb);
 }
 
 // A row's name as a folder name a shell takes unquoted: "clean (camera
@@ -83,8 +84,9 @@ std::string folderName(const std::string& name) {
 // one, yet the two beside it carry the whole blend. (The seams of every
 // camera together cover most of the subject.)
 struct ViewRegions {
-  Image8 seams;    // one channel, 255 on a seam triangle
-  Image8 regions;  // eval::errorRegions of the truth's mask
+  Image8 seams;                      // one channel, 255 on a seam triangle
+  Image8 regions;                    // eval::errorRegions of the truth's mask
+  std::vector<int32_t> triangle_of;  // per pixel, the visible triangle (-1: none)
 };
 ViewRegions viewRegions(const Mesh& mesh, const Camera& pose,
                         const std::vector<render::ViewImages>& views, const Image8& truth_mask,
@@ -116,6 +118,7 @@ ViewRegions viewRegions(const Mesh& mesh, const Camera& pose,
     if (triangle_of[p] >= 0 && seam[static_cast<size_t>(triangle_of[p])]) out.seams.pixels[p] = 255;
   }
   out.regions = errorRegions(truth_mask, depth, out.seams, 3, fields.relative_jump);
+  out.triangle_of = std::move(triangle_of);
   return out;
 }
 
@@ -304,6 +307,20 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
                 {"_error.png", errorMapPicture(picture, truth_color, truth_mask)},
                 {"_regions.png", regionsPicture(regions.regions)}}) {
             HOLOFUSE_RETURN_IF_ERROR(saveImage(dir / (stem + suffix), image));
+          }
+          // The same in float, and whose image weighs where (field modes).
+          const FloatMap error_map = signedErrorMap(picture, truth_color, truth_mask);
+          HOLOFUSE_RETURN_IF_ERROR(writeFloatImage((dir / (stem + "_error.exr")).string(),
+                                                   pose.width, pose.height, error_map.channels,
+                                                   error_map.values));
+          std::vector<uint32_t> camera_ids;
+          for (const auto& view : others) camera_ids.push_back(view.camera.id);
+          const FloatMap weight_map = viewWeightMap(mesh, pose, regions.triangle_of,
+                                                    renderer.readFields().weights, camera_ids);
+          if (!weight_map.channels.empty()) {
+            HOLOFUSE_RETURN_IF_ERROR(writeFloatImage((dir / (stem + "_weights.exr")).string(),
+                                                     pose.width, pose.height, weight_map.channels,
+                                                     weight_map.values));
           }
         }
       }

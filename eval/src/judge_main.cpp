@@ -23,7 +23,7 @@ using namespace holofuse;
 
 render::JudgeAnswer judgeFrame(const scene::SyntheticScene& scene,
                                const render::JudgeRequest& request) {
-  auto picture = readPng(request.picture);
+  auto picture = readImage(request.picture);
   if (!picture.isOk()) return {std::nullopt, picture.status().message()};
   if (picture->width != request.view.width || picture->height != request.view.height) {
     return {std::nullopt, request.picture + " is " + std::to_string(picture->width) + "x" +

@@ -177,7 +177,8 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
         "of the "
         "mesh seen from the pose (occlusion), on seam triangles (seam), elsewhere; pictures with "
         "--save-images "
-        "(*_error.png, *_regions.png).\n\n";
+        "(*_error.png, *_regions.png; float maps *_error.exr and, in the field modes, "
+        "*_weights.exr).\n\n";
   html::Table regions{{"Scene", "mode"}, {}, std::string(2 + kErrorRegionCount, 'l')};
   for (size_t r = 0; r < kErrorRegionCount; ++r)
     regions.header.push_back(errorRegionName(static_cast<ErrorRegion>(r)));

@@ -297,7 +297,7 @@ class ClientLoop {
     const fs::path path = out_dir_ / file;
     const fs::path partial =
         path.parent_path() / (path.stem().string() + ".partial.png");  // PNG by its name
-    const Status written = writePng(partial.string(), picture);
+    const Status written = writeImage(partial.string(), picture);
     std::error_code renamed;
     if (written.isOk()) fs::rename(partial, path, renamed);
     if (!written.isOk()) std::fprintf(stderr, "[client] %s\n", written.message().c_str());

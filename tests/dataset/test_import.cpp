@@ -2,8 +2,10 @@
 // distortion is undone, names sorted naturally, masks read as stored or
 // segmented when missing, a camera apart from the rest named; bad input
 // is named and leaves nothing behind.
+#include <cmath>
 #include <fstream>
 
+#include "common/image_io.h"
 #include "dataset/capture_formats.h"
 #include "dataset/import.h"
 #include "dataset/inspection.h"
@@ -148,6 +150,96 @@ TEST_F(ImportTest, NoisyAndSixteenBitMasksKeepTheirShape) {
     EXPECT_EQ(summary->health[c].concern, "") << summary->camera_names[c];
     EXPECT_GT(summary->health[c].agreement, 0.8) << summary->camera_names[c];
     EXPECT_LT(summary->health[c].coverage, 0.5) << summary->camera_names[c];
+  }
+}
+
+// Pictures as cameras and tools store them, through OpenImageIO: 16-bit
+// PNG and TIFF, linear float OpenEXR and JPEG colour; 1-bit PNG, 16-bit
+// TIFF and float EXR masks. Each imports as its 8-bit self: colour within
+// a grey level of the file's own decoded values (EXR's linear light
+// encoded back to sRGB), and every mask exact.
+TEST_F(ImportTest, PicturesOfAnyDepthAndFormatImportAsTheirEightBitSelves) {
+  const fs::path src = root_ / "src";
+  fs::create_directories(src / "images");
+  fs::create_directories(src / "masks");
+  const std::string image_ext[4] = {".png", ".tif", ".exr", ".jpg"};
+  const std::string mask_ext[4] = {".png", ".tif", ".exr", ".png"};
+  auto linear = [](uint8_t v) {  // sRGB's decoding (IEC 61966-2-1)
+    const double e = v / 255.0;
+    return static_cast<float>(e <= 0.04045 ? e / 12.92 : std::pow((e + 0.055) / 1.055, 2.4));
+  };
+  nlohmann::json j = holofuseJson(".png", true);
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    const Image8& color = views_[i].color;
+    const Image8& mask = views_[i].mask;
+    const fs::path image_file = src / "images" / (name(i) + image_ext[i]);
+    const fs::path mask_file = src / "masks" / (name(i) + mask_ext[i]);
+    j["frames"][0]["images"][name(i)] = "images/" + image_file.filename().string();
+    j["frames"][0]["masks"][name(i)] = "masks/" + mask_file.filename().string();
+    const cv::Mat eight = toMat(color);
+    if (i == 0 || i == 1) {  // 16 bits a channel, written by OpenCV
+      cv::Mat deep;
+      eight.convertTo(deep, CV_16U, 257.0);
+      ASSERT_TRUE(cv::imwrite(image_file.string(), deep));
+    } else if (i == 2) {
+      std::vector<float> values(color.pixels.size());
+      for (size_t k = 0; k < values.size(); ++k) values[k] = linear(color.pixels[k]);
+      ASSERT_TRUE(
+          writeFloatImage(image_file.string(), color.width, color.height, {"R", "G", "B"}, values)
+              .isOk());
+    } else {
+      ASSERT_TRUE(cv::imwrite(image_file.string(), eight, {cv::IMWRITE_JPEG_QUALITY, 97}));
+    }
+    const cv::Mat truth = toMat(mask);
+    if (i == 0) {
+      ASSERT_TRUE(cv::imwrite(mask_file.string(), truth, {cv::IMWRITE_PNG_BILEVEL, 1}));
+    } else if (i == 1) {
+      cv::Mat deep;
+      truth.convertTo(deep, CV_16U, 257.0);
+      ASSERT_TRUE(cv::imwrite(mask_file.string(), deep));
+    } else if (i == 2) {
+      std::vector<float> values(mask.pixels.size());
+      for (size_t k = 0; k < values.size(); ++k) values[k] = mask.pixels[k] ? 0.8f : 0.02f;
+      ASSERT_TRUE(
+          writeFloatImage(mask_file.string(), mask.width, mask.height, {"Y"}, values).isOk());
+    } else {
+      ASSERT_TRUE(cv::imwrite(mask_file.string(), truth));
+    }
+  }
+  std::ofstream(src / "capture.json") << j.dump(2);
+  auto capture = readCapture(src.string(), CaptureFormat::kHolofuse);
+  ASSERT_TRUE(capture.isOk()) << capture.status().toString();
+  auto summary = importCapture(*capture, (root_ / "out").string(), {});
+  ASSERT_TRUE(summary.isOk()) << summary.status().toString();
+  expectDatasetMatches(root_ / "out", 0.999);
+  auto dataset = Dataset::open((root_ / "out").string());
+  ASSERT_TRUE(dataset.isOk());
+  const size_t source_of[4] = {3, 0, 1, 2};  // pod id -> index in cameras_, as in the fixture
+  for (const auto& [id, cam] : dataset->cameras()) {
+    const size_t i = source_of[id];
+    auto pod = dataset->readFrame(cam.frames[0]);
+    ASSERT_TRUE(pod.isOk());
+    auto images = decodePodImages(*pod, cameras_[i]);
+    ASSERT_TRUE(images.isOk()) << images.status().toString();
+    // JPEG's own loss is the file's: compare with what OpenCV decodes of it.
+    Image8 expected = views_[i].color;
+    if (image_ext[i] == ".jpg") {
+      cv::Mat decoded = cv::imread((src / "images" / (name(i) + ".jpg")).string());
+      cv::cvtColor(decoded, decoded, cv::COLOR_BGR2RGB);
+      std::copy(decoded.datastart, decoded.dataend, expected.pixels.begin());
+    }
+    int largest = 0;
+    size_t count = 0;
+    for (size_t p = 0; p < images->mask.pixels.size(); ++p) {
+      if (!images->mask.pixels[p] || !views_[i].mask.pixels[p]) continue;
+      for (size_t c = 0; c < 3; ++c) {
+        largest = std::max(largest,
+                           std::abs(images->color.pixels[p * 3 + c] - expected.pixels[p * 3 + c]));
+        ++count;
+      }
+    }
+    ASSERT_GT(count, 0u) << image_ext[i];
+    EXPECT_LE(largest, 1) << image_ext[i] << ": the import adds no loss of its own";
   }
 }
 

@@ -33,8 +33,8 @@ inline void writeSmallDataset(const std::filesystem::path& dir, int cameras, uin
     const std::string name = "cam" + std::to_string(camera.id);
     const auto view = scene.render(camera, 30);
     const fs::path image = source / (name + ".png"), mask = source / (name + "_mask.png");
-    ASSERT_TRUE(writePng(image.string(), view.color).isOk());
-    ASSERT_TRUE(writePng(mask.string(), view.mask).isOk());
+    ASSERT_TRUE(writeImage(image.string(), view.color).isOk());
+    ASSERT_TRUE(writeImage(mask.string(), view.mask).isOk());
     capture.cameras.push_back({name, camera, std::nullopt});
     frame.images.push_back(image.string());
     frame.masks.push_back(mask.string());

@@ -1,6 +1,7 @@
 // The leave-one-camera-out runner end to end on a tiny configuration (real
 // pods' capture code, hull, Draco, lavapipe), its reports, its bad input,
 // and the verdict rule.
+#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -14,6 +15,23 @@
 
 namespace holofuse::eval {
 namespace {
+
+// An EXR's channel names and float values, read as any EXR viewer would.
+struct FloatFile {
+  std::vector<std::string> channels;
+  std::vector<float> values;
+};
+FloatFile readFloatFile(const std::string& path) {
+  FloatFile file;
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) return file;
+  const OIIO::ImageSpec& spec = in->spec();
+  file.channels = spec.channelnames;
+  file.values.resize(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, file.values.data()))
+    file.values.clear();
+  return file;
+}
 
 namespace fs = std::filesystem;
 
@@ -172,6 +190,57 @@ TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
       EXPECT_EQ(dark_outside, outside) << stem;
       EXPECT_EQ(region_inside, inside) << stem;
       EXPECT_GT(lit_error, 0u) << stem;
+      // The float maps beside them, as an EXR reader opens them: the signed
+      // error is the PNGs' difference over 255 inside the mask and 0
+      // outside; in the field modes the other cameras' weights lie in
+      // [0, 1] and sum to at most one (zero where no field reaches and the
+      // blend falls back on the normal weights), exactly one somewhere.
+      const FloatFile error_exr = readFloatFile(stem.string() + "error.exr");
+      ASSERT_EQ(error_exr.channels, (std::vector<std::string>{"error.R", "error.G", "error.B"}));
+      ASSERT_EQ(error_exr.values.size(), static_cast<size_t>(mask.rows * mask.cols * 3));
+      size_t wrong = 0;
+      for (int y = 0; y < mask.rows; ++y) {
+        for (int x = 0; x < mask.cols; ++x) {
+          for (int c = 0; c < 3; ++c) {  // OpenCV's blue first
+            const double expected =
+                mask.at<uint8_t>(y, x) == 0
+                    ? 0.0
+                    : (rendered.at<cv::Vec3b>(y, x)[2 - c] - truth.at<cv::Vec3b>(y, x)[2 - c]) /
+                          255.0;
+            wrong += std::abs(error_exr.values[(y * mask.cols + x) * 3 + c] - expected) > 1e-6;
+          }
+        }
+      }
+      EXPECT_EQ(wrong, 0u) << stem;
+      const fs::path weights_file = stem.string() + "weights.exr";
+      if (mode == "normal") {
+        EXPECT_FALSE(fs::exists(weights_file)) << "mode normal has no per-vertex fields";
+        continue;
+      }
+      if (mode == "fragment" && !fs::exists(weights_file)) continue;
+      const FloatFile weights = readFloatFile(weights_file.string());
+      ASSERT_FALSE(weights.channels.empty()) << weights_file;
+      for (const std::string& name : weights.channels) {
+        EXPECT_EQ(name.rfind("weight.camera", 0), 0u) << name;
+        EXPECT_NE(name, "weight.camera0") << "camera 0 is the one left out";
+      }
+      const size_t k = weights.channels.size();
+      size_t seen = 0, whole = 0, out_of_range = 0;
+      for (size_t p = 0; p * k < weights.values.size(); ++p) {
+        double sum = 0;
+        for (size_t c = 0; c < k; ++c) {
+          const float w = weights.values[p * k + c];
+          out_of_range += !(w >= 0.0f && w <= 1.0f + 1e-5f);
+          sum += w;
+        }
+        if (sum <= 0) continue;
+        ++seen;
+        whole += std::abs(sum - 1.0) < 1e-3;
+        out_of_range += sum > 1.0 + 1e-3;
+      }
+      EXPECT_EQ(out_of_range, 0u) << weights_file;
+      EXPECT_GT(seen, 0u) << weights_file;
+      EXPECT_GT(whole, 0u) << weights_file;
     }
     EXPECT_NEAR(psnr_sum / images, m.psnr_db, 1e-9)
         << mode << ": the saved images give the reported PSNR";

@@ -14,6 +14,9 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -21,6 +24,7 @@
 #include "dataset/record_file.h"
 #include "process_harness.h"
 #include "protocol/messages.h"
+#include "scene/synthetic_scene.h"
 
 namespace holofuse {
 namespace {
@@ -442,6 +446,80 @@ TEST(DatasetRecorder, BadDatasetsAndCamerasAreNamed) {
                       ": the calibration record at byte 32: payload CRC32C mismatch"),
             std::string::npos)
       << readFile(out / "d.log");
+  fs::remove_all(out);
+}
+
+// A capture as rigs store it, one video per camera (masks as videos
+// beside them) named in a holofuse capture.json: imported by the real
+// tool with its frames paired by the videos' timestamps, it is a moving
+// sequence, not a still, and replays through the network path frame by
+// frame, each fused from that instant's images.
+TEST(ImportedVideos, AMultiFrameCaptureImportsAndReplaysFrameByFrame) {
+  const fs::path out = freshDir("videos");
+  const fs::path src = out / "capture";
+  fs::create_directories(src / "videos");
+  const scene::SyntheticScene scene;
+  const auto cameras = scene::SyntheticScene::cameraRig(4, 160, 120);
+  const int frames = 4;
+  nlohmann::json capture = {{"format", "holofuse-capture"}, {"version", 1}};
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    const Camera& c = cameras[i];
+    const std::string name = "cam" + std::to_string(i);
+    const cv::Size size(static_cast<int>(c.width), static_cast<int>(c.height));
+    // FFV1 in Matroska: lossless, as a rig's intermediate files often are.
+    const int ffv1 = cv::VideoWriter::fourcc('F', 'F', 'V', '1');
+    cv::VideoWriter colour((src / "videos" / (name + ".mkv")).string(), ffv1, 10, size);
+    cv::VideoWriter masks((src / "videos" / (name + "_mask.mkv")).string(), ffv1, 10, size);
+    ASSERT_TRUE(colour.isOpened() && masks.isOpened());
+    for (int f = 0; f < frames; ++f) {
+      const auto view = scene.render(c, static_cast<uint64_t>(30 + 3 * f));
+      cv::Mat rgb(size, CV_8UC3, const_cast<uint8_t*>(view.color.pixels.data())), bgr;
+      cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+      colour << bgr;
+      cv::Mat grey(size, CV_8UC1, const_cast<uint8_t*>(view.mask.pixels.data())), mask;
+      cv::cvtColor(grey, mask, cv::COLOR_GRAY2BGR);
+      masks << mask;
+    }
+    nlohmann::json r = nlohmann::json::array();
+    for (int row = 0; row < 3; ++row)
+      r.push_back({c.rotation[0][row], c.rotation[1][row], c.rotation[2][row]});
+    capture["cameras"].push_back({{"name", name},
+                                  {"width", c.width},
+                                  {"height", c.height},
+                                  {"K", {{c.fx, c.skew, c.cx}, {0, c.fy, c.cy}, {0, 0, 1}}},
+                                  {"R", r},
+                                  {"t", {c.translation.x, c.translation.y, c.translation.z}},
+                                  {"video", "videos/" + name + ".mkv"},
+                                  {"mask_video", "videos/" + name + "_mask.mkv"}});
+  }
+  std::ofstream(src / "capture.json") << capture.dump(2);
+
+  const fs::path dataset_dir = out / "dataset";
+  pid_t p = spawn({kBin + "/holofuse_dataset", "import", src.string(), "--format", "holofuse",
+                   "--out", dataset_dir.string()},
+                  out / "import.log");
+  ASSERT_EQ(waitExit(p, 120), 0) << readFile(out / "import.log");
+  const std::string log = readFile(out / "import.log");
+  EXPECT_NE(log.find("imported 4 camera(s) x 4 frame(s)"), std::string::npos) << log;
+  EXPECT_NE(log.find("frames matched by the videos' timestamps"), std::string::npos) << log;
+  EXPECT_NE(log.find("masks 16 from the source"), std::string::npos) << log;
+  auto dataset = dataset::Dataset::open(dataset_dir.string());
+  ASSERT_TRUE(dataset.isOk()) << dataset.status().toString();
+  ASSERT_TRUE(dataset->metadata().has_value());
+  EXPECT_FALSE(dataset->metadata()->still);
+  EXPECT_EQ(dataset->frameIds(), 4u);
+
+  const fs::path replay = out / "replay";
+  p = spawn({kBin + "/holofuse_loop", "--replay", dataset_dir.string(), "--speed", "max", "--out",
+             replay.string(), "--record", (replay / "record").string(), "--record-fused"},
+            out / "replay.log");
+  ASSERT_EQ(waitExit(p, 240), 0) << readFile(out / "replay.log");
+  const auto meshes = fusedMeshes(replay / "record" / "fused.hfr");
+  ASSERT_EQ(meshes.size(), 4u) << "every frame of the videos fused";
+  std::set<protocol::Bytes> distinct;
+  for (const auto& [id, bytes] : meshes) distinct.insert(bytes);
+  EXPECT_EQ(distinct.size(), 4u) << "the subject moves: each frame its own hull";
+  EXPECT_GT(readJson(replay / "report.json")["frames_rendered"].get<int>(), 0);
   fs::remove_all(out);
 }
 

@@ -35,6 +35,10 @@ struct CaptureDescription {
   std::vector<CaptureCamera> cameras;
   std::vector<CaptureFrame> frames;
   double fps = 10.0;
+  // How the cameras' images were paired into frames, for the person
+  // importing: by index, or by the videos' timestamps with what was
+  // dropped; empty for formats that list their frames.
+  std::string frame_matching;
 };
 
 enum class CaptureFormat {
