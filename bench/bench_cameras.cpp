@@ -8,6 +8,12 @@
 // the hull, about 0 for the blend of each vertex's best views). Then one
 // leave-one-out eval of 128 cameras through holofuse_eval. The machine is
 // shared and noisy: read the exponents, not the milliseconds.
+//
+// Usage: bench_cameras [meshes per count, 3] [pod image width, 160]. A
+// smaller pod image (same output) tells the per-view blend's work from
+// the memory its N images occupy: the blend reads K cameras per fragment,
+// but N images of texture, and at 160x120 and 128 cameras those outgrow
+// the CPU's caches on a software device.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -53,11 +59,13 @@ double fittedExponent(const std::vector<int>& cameras, const std::vector<double>
 int main(int argc, char** argv) {
   const int meshes = argc > 1 ? std::max(2, std::atoi(argv[1])) : 3;
   constexpr uint32_t kWidth = 160, kHeight = 120;
+  const uint32_t pod_width = argc > 2 ? static_cast<uint32_t>(std::atoi(argv[2])) : kWidth;
+  const uint32_t pod_height = pod_width * 3 / 4;
   const std::vector<int> counts = {8, 16, 32, 64, 128};
   const scene::SyntheticScene scene;
   render::VulkanContext context;
   std::printf("device: %s; cameras on the ring at %ux%u, output %ux%u, %d meshes per count\n\n",
-              context.deviceName().c_str(), kWidth, kHeight, kWidth, kHeight, meshes);
+              context.deviceName().c_str(), pod_width, pod_height, kWidth, kHeight, meshes);
   std::vector<Mesh> surfaces;
   for (int m = 0; m < meshes; ++m) surfaces.push_back(scene.truthMesh(40 + m, 0.015));
   const std::vector<std::string> columns = {"holoportation mesh",
@@ -72,7 +80,7 @@ int main(int argc, char** argv) {
   for (const auto& c : columns) std::printf(" %18s", c.c_str());
   std::printf("   (median ms)\n");
   for (int n : counts) {
-    const auto rig = scene::SyntheticScene::cameraRig(n, kWidth, kHeight);
+    const auto rig = scene::SyntheticScene::cameraRig(n, pod_width, pod_height);
     std::vector<render::ViewImages> views;
     std::vector<hull::HullView> silhouettes;
     for (const auto& camera : rig) {
