@@ -19,6 +19,7 @@
 #include "common/command_line.h"
 #include "dataset/dataset.h"
 #include "eval/loop_settings.h"
+#include "protocol/auth.h"
 #include "protocol/messages.h"
 #include "render_client/blend_mode.h"
 #include "render_client/latency_report.h"
@@ -76,6 +77,9 @@ struct LoopPlan {
   // those that differ from its defaults.
   holofuse::eval::LoopSettings settings;
   std::vector<std::string> dataset_server_args;  // a replay's capture volume and voxel
+  // A fresh key for this run only (mode 0600, removed at the end): the
+  // loop is authenticated like a rig, and no other process can join it.
+  std::string key_file;
   const holofuse::scene::ScenePreset* preset = nullptr;
 };
 
@@ -262,7 +266,9 @@ std::vector<std::string> serverCommand(const LoopPlan& plan, const std::string& 
                                    "--pods",
                                    std::to_string(plan.pods),
                                    "--port-file",
-                                   port_file};
+                                   port_file,
+                                   "--key-file",
+                                   plan.key_file};
   append(args, holofuse::eval::serverArguments(plan.settings));
   if (!plan.record.empty()) {
     append(args, {"--record", plan.record});
@@ -278,8 +284,13 @@ std::vector<std::string> serverCommand(const LoopPlan& plan, const std::string& 
 }
 
 std::vector<std::string> podCommand(const LoopPlan& plan, int pod, const std::string& endpoint) {
-  std::vector<std::string> args = {plan.bin_dir + "/capture_node", "--server", endpoint, "--pod-id",
-                                   std::to_string(pod)};
+  std::vector<std::string> args = {plan.bin_dir + "/capture_node",
+                                   "--server",
+                                   endpoint,
+                                   "--pod-id",
+                                   std::to_string(pod),
+                                   "--key-file",
+                                   plan.key_file};
   if (!plan.replay.empty()) {
     // A replay pod sends the recorded bytes as they are: the codec
     // settings reach only the server's images to clients.
@@ -299,6 +310,8 @@ std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& 
   std::vector<std::string> args = {plan.bin_dir + "/render_client",
                                    "--server",
                                    endpoint,
+                                   "--key-file",
+                                   plan.key_file,
                                    "--out",
                                    plan.out,
                                    "--frames",
@@ -459,6 +472,18 @@ int main(int argc, char** argv) {
   fs::create_directories(logs);
   const std::string port_file = (logs / "server.port").string();
   fs::remove(port_file);
+  plan.key_file = (logs / "loop.key").string();
+  fs::remove(plan.key_file);
+  if (const holofuse::Status made = holofuse::protocol::KeyRing::writeNew(plan.key_file);
+      !made.isOk()) {
+    std::fprintf(stderr, "[loop] cannot make this run's key: %s\n", made.message().c_str());
+    return 1;
+  }
+  // The key is this run's only: gone when the launcher returns.
+  struct RemoveKey {
+    std::string path;
+    ~RemoveKey() { std::filesystem::remove(path); }
+  } remove_key{plan.key_file};
 
   struct sigaction sa {};
   sa.sa_handler = onSignal;

@@ -28,6 +28,8 @@ const char* statusCodeName(StatusCode code) {
       return "closed";
     case StatusCode::kTimeout:
       return "timeout";
+    case StatusCode::kUnauthenticated:
+      return "unauthenticated";
   }
   return "unknown";
 }

@@ -42,7 +42,11 @@ int main(int argc, char** argv) {
       "--speed", speed,
       "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
   app.add_flag("--loop", loop, "with --replay: start over at the end");
+  PeerKeyFlags key_flags(app, "pod");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  const auto key = key_flags.load(protocol::Role::kPod, options.pod_id);
+  if (!key) return 2;
+  options.key = *key;
   auto endpoint = protocol::parseEndpoint(server);
   if (!endpoint.isOk()) {
     std::fprintf(stderr, "--server: %s\n", endpoint.status().message().c_str());
@@ -53,6 +57,7 @@ int main(int argc, char** argv) {
     replay_options.dataset = replay;
     replay_options.pod_id = options.pod_id;
     replay_options.loop = loop;
+    replay_options.key = options.key;
     if (!capture::parseReplaySpeed(speed, replay_options.speed)) {
       std::fprintf(stderr, "--speed '%s': expected a factor in (0, 1000] or max\n", speed.c_str());
       return 2;

@@ -65,6 +65,7 @@ int runPod(const PodOptions& options) {
   hello.name = "pod-" + std::to_string(options.pod_id);
   protocol::LinkOptions link_options;
   link_options.log_name = hello.name;
+  link_options.key = options.key;
   protocol::ServerLink link(options.server, hello, link_options);
 
   const uint64_t period_ns = static_cast<uint64_t>(1e9 / options.fps);

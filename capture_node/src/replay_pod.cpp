@@ -83,6 +83,7 @@ int runReplayPod(const ReplayOptions& options) {
   hello.name = name;
   protocol::LinkOptions link_options;
   link_options.log_name = name;
+  link_options.key = options.key;
   protocol::ServerLink link(options.server, hello, link_options);
   std::vector<protocol::Frame> received;
   auto pump = [&](int timeout_ms) {

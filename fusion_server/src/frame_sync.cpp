@@ -3,21 +3,34 @@
 namespace holofuse::fusion {
 
 FrameSync::Added FrameSync::add(uint64_t frame_id, PodImages images, uint64_t now_ns) {
+  const uint32_t camera = images.camera_id;
+  // After a start-over, the clock left behind stays refused: a pod still on
+  // it must not start the sync over again.
+  if (abandoned_ &&
+      (frame_id > *abandoned_ ? frame_id - *abandoned_ : *abandoned_ - frame_id) <= kMaxIdJump)
+    return Added::kImplausible;
   if (last_emitted_) {
     if (frame_id > *last_emitted_ && frame_id - *last_emitted_ > kMaxIdJump)
       return Added::kImplausible;
     if (frame_id<*last_emitted_&& * last_emitted_ - frame_id> kMaxIdJump) {
-      // Every pod's clock went back (or the first ids seen were bogus):
+      behind_.insert(camera);
+      last_id_from_[camera] = frame_id;
+      if (2 * behind_.size() < last_id_from_.size()) return Added::kImplausible;
+      // Most pods' clocks went back (or the first ids seen were bogus):
       // start over rather than calling every frame late forever.
+      abandoned_ = *last_emitted_;
       last_emitted_.reset();
       pending_.clear();
       last_id_from_.clear();
+      behind_.clear();
       ++clock_resets_;
     } else if (frame_id <= *last_emitted_) {
+      behind_.erase(camera);
       ++late_frames_;
       return Added::kLate;
     }
   }
+  behind_.erase(camera);
   last_id_from_[images.camera_id] = frame_id;
   auto [it, inserted] = pending_.try_emplace(frame_id);
   if (inserted) {
@@ -31,6 +44,11 @@ FrameSync::Added FrameSync::add(uint64_t frame_id, PodImages images, uint64_t no
     ++overflowed_groups_;
   }
   return Added::kAccepted;
+}
+
+void FrameSync::forgetPod(uint32_t camera_id) {
+  last_id_from_.erase(camera_id);
+  behind_.erase(camera_id);
 }
 
 std::vector<FrameGroup> FrameSync::takeReady(const std::set<uint32_t>& expected, uint64_t now_ns) {

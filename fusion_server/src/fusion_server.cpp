@@ -18,6 +18,13 @@ using protocol::Frame;
 using protocol::MessageType;
 using protocol::monotonicNs;
 
+namespace {
+
+// Whatever a peer may send before it is admitted: a Hello, an Auth.
+constexpr uint32_t kMaxPayloadBeforeAdmission = 256;
+
+}  // namespace
+
 FusionServer::FusionServer(ServerOptions options)
     : options_(std::move(options)),
       sync_(options_.lossless ? FrameSync::lossless()
@@ -75,10 +82,11 @@ void FusionServer::acceptAll() {
     protocol::Socket socket = listener_.acceptOne(&name);
     if (!socket.valid()) return;
     protocol::ConnectionLimits limits;
-    limits.max_payload = options_.max_payload;
     limits.max_queued_droppable = options_.client_queue_frames;
+    limits.max_payload = std::min(options_.max_payload, kMaxPayloadBeforeAdmission);
     Peer peer;
     peer.connection = std::make_unique<protocol::Connection>(std::move(socket), name, limits);
+    peer.accepted_ns = monotonicNs();
     peers_.push_back(std::move(peer));
   }
 }
@@ -87,51 +95,104 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
   protocol::Hello hello;
   HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, hello));
   auto ack = protocol::negotiate(hello);
-  if (!ack.isOk()) {
-    peer.connection->sendMessage(
-        protocol::ErrorMessage{static_cast<uint16_t>(ack.status().code()), ack.status().message()});
-    return ack.status();
-  }
+  if (!ack.isOk()) return ack.status();
+  const std::string who = protocol::identityName(hello.role, hello.id);
   if (hello.role == protocol::Role::kPod && hello.id >= static_cast<uint32_t>(options_.pods)) {
-    const Status s(StatusCode::kMalformed, "pod id " + std::to_string(hello.id) + " outside 0.." +
-                                               std::to_string(options_.pods - 1));
-    peer.connection->sendMessage(
-        protocol::ErrorMessage{static_cast<uint16_t>(s.code()), s.message()});
-    return s;
+    return Status(StatusCode::kMalformed, "pod id " + std::to_string(hello.id) + " outside 0.." +
+                                              std::to_string(options_.pods - 1));
   }
+  if (!options_.keys) return admit(peer, hello, *ack);
+  if (ack->minor < 4) {
+    return Status(StatusCode::kUnauthenticated,
+                  who + " speaks protocol 1." + std::to_string(ack->minor) +
+                      ", which has no authentication; this server requires it (1.4 or "
+                      "later, or a server started with --no-auth)");
+  }
+  const std::vector<uint8_t>* key = options_.keys->keyFor(hello.role, hello.id);
+  if (key == nullptr) {
+    return Status(StatusCode::kUnauthenticated, "no key for " + who + " in the server's key file");
+  }
+  Peer::PendingAuth pending{hello, *ack, protocol::randomAuthBytes(), key};
+  protocol::Auth challenge;
+  challenge.step = protocol::AuthStep::kChallenge;
+  challenge.value = pending.challenge;
+  // Under the agreed version, which both MACs cover.
+  peer.connection->send(std::make_shared<const protocol::OutgoingFrame>(
+      protocol::encodeOutgoing(challenge, protocol::nextSequence(), nullptr, ack->minor)));
+  peer.pending = std::move(pending);
+  return Status::ok();
+}
+
+Status FusionServer::handleAuthAnswer(Peer& peer, const Frame& frame) {
+  protocol::Auth answer;
+  HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, answer));
+  const Peer::PendingAuth pending = *peer.pending;
+  peer.pending.reset();
+  const std::string who = protocol::identityName(pending.hello.role, pending.hello.id);
+  const auto expected =
+      protocol::authMac(*pending.key, protocol::AuthStep::kResponse, pending.hello,
+                        pending.ack.major, pending.ack.minor, pending.challenge);
+  if (answer.step != protocol::AuthStep::kResponse || !protocol::sameMac(expected, answer.value)) {
+    return Status(StatusCode::kUnauthenticated,
+                  "authentication failed for " + who +
+                      ": the answer does not match its key (a wrong key, or an answer "
+                      "replayed from another connection)");
+  }
+  protocol::Auth proof;
+  proof.step = protocol::AuthStep::kProof;
+  proof.value = protocol::authMac(*pending.key, protocol::AuthStep::kProof, pending.hello,
+                                  pending.ack.major, pending.ack.minor, pending.challenge);
+  peer.connection->send(std::make_shared<const protocol::OutgoingFrame>(
+      protocol::encodeOutgoing(proof, protocol::nextSequence(), nullptr, pending.ack.minor)));
+  return admit(peer, pending.hello, pending.ack);
+}
+
+Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::HelloAck ack) {
   if (hello.role == protocol::Role::kPod) {
-    // A pod that reconnects may still have a half-open old connection: the
-    // new one replaces it.
-    for (size_t i = 0; i < peers_.size(); ++i) {
-      Peer& other = peers_[i];
-      if (&other != &peer && other.greeted && other.role == protocol::Role::kPod &&
-          other.id == hello.id) {
-        std::fprintf(stderr, "[server] pod %u connected again; dropping its old connection %s\n",
-                     hello.id, other.connection->peerName().c_str());
-        other.replaced = true;
+    for (Peer& other : peers_) {
+      if (&other == &peer || !other.greeted || other.role != protocol::Role::kPod ||
+          other.id != hello.id || other.replaced)
+        continue;
+      if (!options_.keys) {
+        // Without keys anyone can claim any id: a live pod is never
+        // replaced, and a pod whose old link is half open gets in once
+        // that link's idle timeout closes it.
+        return Status(StatusCode::kUnexpectedMessage,
+                      "pod " + std::to_string(hello.id) + " is already connected (" +
+                          other.connection->peerName() +
+                          "); without authentication a live pod is not replaced");
       }
+      // It proved it holds the pod's key: a reconnect of the pod itself,
+      // whose old connection may still be half open.
+      std::fprintf(stderr, "[server] pod %u authenticated again; dropping its old connection %s\n",
+                   hello.id, other.connection->peerName().c_str());
+      other.replaced = true;
     }
   }
-  ack->session_id = next_session_++;
-  ack->server_time_ns = monotonicNs();
-  ack->heartbeat_interval_ms = options_.heartbeat_interval_ms;
-  ack->idle_timeout_ms = options_.idle_timeout_ms;
+  ack.session_id = next_session_++;
+  ack.server_time_ns = monotonicNs();
+  ack.heartbeat_interval_ms = options_.heartbeat_interval_ms;
+  ack.idle_timeout_ms = options_.idle_timeout_ms;
   peer.greeted = true;
+  peer.connection->setMaxPayload(options_.max_payload);
   if (hello.role == protocol::Role::kPod) {
     departed_pods_.erase(hello.id);
     // A pod back on a new connection may send from another clock: its first
-    // transit starts afresh rather than counting the offset as jitter.
+    // transit starts afresh rather than counting the offset as jitter, and
+    // its frame ids are judged afresh too.
     if (auto known = pod_arrivals_.find(hello.id); known != pod_arrivals_.end())
       known->second.restart();
+    sync_.forgetPod(hello.id);
   }
   peer.role = hello.role;
   peer.id = hello.id;
-  peer.minor = ack->minor;
+  peer.minor = ack.minor;
   peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
                                std::to_string(hello.id) + " (" + peer.connection->peerName() + ")");
-  peer.connection->sendMessage(*ack);
-  std::fprintf(stderr, "[server] %s joined, protocol %u.%u\n", peer.connection->peerName().c_str(),
-               ack->major, ack->minor);
+  peer.connection->sendMessage(ack);
+  std::fprintf(stderr, "[server] %s joined, protocol %u.%u%s\n",
+               peer.connection->peerName().c_str(), ack.major, ack.minor,
+               options_.keys ? ", authenticated" : "");
   if (peer.role == protocol::Role::kClient) {
     for (const auto& [id, bytes] : calibration_frames_) peer.connection->send(bytes);
   }
@@ -160,9 +221,18 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
   // server_decode's, and the latency budget must not count it twice.
   const FrameSync::Added added = sync_.add(pod.frame_id, std::move(*images), monotonicNs());
   if (added == FrameSync::Added::kImplausible) {
-    return Status(StatusCode::kMalformed,
-                  "field 'pod_frame.frame_id': " + std::to_string(pod.frame_id) +
-                      " is implausibly far ahead of the frames being fused");
+    // Another clock than the rig's: the frame is dropped, the pod kept (its
+    // ids are its own business until most pods agree; frame_sync.h).
+    const uint64_t refused = ++implausible_frames_[pod.camera_id];
+    if (refused == 1 || refused % 100 == 0) {
+      std::fprintf(stderr,
+                   "[server] %s: frame id %llu is far from the frames being fused; dropped "
+                   "(%llu so far; does it run on another clock?)\n",
+                   peer.connection->peerName().c_str(),
+                   static_cast<unsigned long long>(pod.frame_id),
+                   static_cast<unsigned long long>(refused));
+    }
+    return Status::ok();
   }
   // Every frame a pod sends counts for its jitter, also one that arrives too
   // late to be fused: the link's behaviour, not the fusion's. A frame refused
@@ -178,6 +248,21 @@ Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
 
 Status FusionServer::handle(Peer& peer, const Frame& frame) {
   const auto type = static_cast<MessageType>(frame.header.type);
+  if (!peer.greeted && peer.pending) {
+    if (type == MessageType::kBye) {
+      protocol::Bye bye;
+      (void)protocol::decodeFrame(frame, bye);
+      return Status(StatusCode::kUnauthenticated,
+                    protocol::identityName(peer.pending->hello.role, peer.pending->hello.id) +
+                        " gave up authenticating: " + bye.reason);
+    }
+    if (type != MessageType::kAuth) {
+      return Status(StatusCode::kUnauthenticated,
+                    std::string("expected the answer to our challenge, got ") +
+                        protocol::messageTypeName(frame.header.type));
+    }
+    return handleAuthAnswer(peer, frame);
+  }
   if (!peer.greeted) {
     if (type != MessageType::kHello) {
       return Status(
@@ -367,6 +452,12 @@ int FusionServer::run() {
           now - peer.connection->lastReceiveNs() > uint64_t{options_.idle_timeout_ms} * 1000000) {
         status = Status(StatusCode::kTimeout,
                         "heard nothing for " + std::to_string(options_.idle_timeout_ms) + " ms");
+      }
+      if (status.isOk() && !peer.greeted &&
+          now - peer.accepted_ns > uint64_t{options_.handshake_timeout_ms} * 1000000) {
+        status = Status(StatusCode::kTimeout, "no handshake within " +
+                                                  std::to_string(options_.handshake_timeout_ms) +
+                                                  " ms of connecting");
       }
       if (status.isOk() && peer.greeted && !peer.connection->wantsWrite() &&
           now - peer.connection->lastSendNs() >

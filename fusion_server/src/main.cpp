@@ -6,6 +6,7 @@
 #include "common/command_line.h"
 #include "common/shutdown.h"
 #include "fusion_server/fusion_server.h"
+#include "protocol/auth.h"
 #include "protocol/messages.h"
 
 int main(int argc, char** argv) {
@@ -44,7 +45,31 @@ int main(int argc, char** argv) {
   app.add_flag(
       "--exit-when-pods-done", options.exit_when_pods_done,
       "stop once every pod has left and its frames are fused and delivered (end of a replay)");
+  std::string key_file, new_key;
+  bool no_auth = false;
+  app.add_option("--key-file", key_file,
+                 "the keys pods and clients authenticate with (default: $HOLOFUSE_KEY_FILE); "
+                 "SECURITY.md");
+  app.add_flag("--no-auth", no_auth,
+               "serve without authentication: every peer is trusted, so loopback only");
+  app.add_option("--handshake-timeout-ms", options.handshake_timeout_ms,
+                 "close a peer that has not finished its handshake after this long")
+      ->check(CLI::Range(100, 60000));
+  app.add_option("--new-key", new_key,
+                 "write a fresh random key file (mode 0600) to this path and exit");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  if (!new_key.empty()) {
+    const Status written = protocol::KeyRing::writeNew(new_key);
+    if (!written.isOk()) {
+      std::fprintf(stderr, "--new-key: %s\n", written.message().c_str());
+      return 2;
+    }
+    std::printf(
+        "wrote a new key to %s (mode 0600); give it to the server, pods and clients "
+        "with --key-file\n",
+        new_key.c_str());
+    return 0;
+  }
   fusion_flags.apply(options.fusion);
   if (!volume.empty()) {
     double v[6];
@@ -70,6 +95,32 @@ int main(int argc, char** argv) {
     return 2;
   }
   options.listen = *endpoint;
+  const std::string key_path = protocol::keyFilePath(key_file);
+  if (no_auth) {
+    if (!protocol::isLoopback(options.listen)) {
+      std::fprintf(stderr,
+                   "--no-auth serves only loopback (127.0.0.1 or ::1), not %s: every peer would be "
+                   "trusted; give a --key-file instead\n",
+                   listen.c_str());
+      return 2;
+    }
+    std::fprintf(stderr,
+                 "[server] no authentication (--no-auth): any local process may join; loopback "
+                 "only\n");
+  } else if (key_path.empty()) {
+    std::fprintf(
+        stderr,
+        "[server] no key: give --key-file PATH (make one with fusion_server --new-key "
+        "PATH) or set HOLOFUSE_KEY_FILE; or --no-auth to serve loopback unauthenticated\n");
+    return 2;
+  } else {
+    auto keys = protocol::KeyRing::load(key_path);
+    if (!keys.isOk()) {
+      std::fprintf(stderr, "[server] cannot start: %s\n", keys.status().message().c_str());
+      return 2;
+    }
+    options.keys = std::move(*keys);
+  }
   installStopSignals();
   // A recording that reaches a file size limit gets EFBIG from write() and
   // is reported like a full disk, instead of the signal ending the server.

@@ -212,6 +212,22 @@ Status readPayload(std::span<const uint8_t> payload, HelloAck& m, size_t base_of
   return finish(r);
 }
 
+void writePayload(WireWriter& w, const Auth& m) {
+  w.u8(static_cast<uint8_t>(m.step));
+  w.raw(m.value);
+}
+
+Status readPayload(std::span<const uint8_t> payload, Auth& m, size_t base_offset) {
+  WireReader r(payload, base_offset);
+  const uint8_t step = r.u8("auth.step");
+  if (r.ok() && (step < 1 || step > 3))
+    r.failValue("auth.step", StatusCode::kMalformed, "unknown step " + std::to_string(step));
+  m.step = static_cast<AuthStep>(step);
+  const auto value = r.raw("auth.value", kAuthBytes);
+  if (r.ok()) std::copy(value.begin(), value.end(), m.value.begin());
+  return finish(r);
+}
+
 void writePayload(WireWriter& w, const Calibration& m) {
   w.u32(m.camera_id);
   w.u32(m.width);

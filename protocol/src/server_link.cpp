@@ -39,6 +39,9 @@ void ServerLink::tryConnect() {
   connection_ =
       std::make_unique<Connection>(std::move(*socket), server_.toString(), options_.limits);
   acked_ = false;
+  challenge_.reset();
+  server_proved_ = false;
+  hello_.nonce = randomNonce();  // fresh per connection: an old proof is worth nothing
   hello_.send_time_ns = now;
   connection_->sendMessage(hello_);
 }
@@ -69,13 +72,34 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
       const Status decoded = decodeFrame(frame, error);
       const Status why(static_cast<StatusCode>(error.code),
                        decoded.isOk() ? "server refused: " + error.message : decoded.message());
-      if (error.code == static_cast<uint16_t>(StatusCode::kUnsupportedVersion)) fatal_ = why;
+      // A version or a key the server refuses stays refused on retry.
+      if (error.code == static_cast<uint16_t>(StatusCode::kUnsupportedVersion) ||
+          error.code == static_cast<uint16_t>(StatusCode::kUnauthenticated))
+        fatal_ = why;
       fail(why);
+      return;
+    }
+    if (type == MessageType::kAuth) {
+      const Status s = handleAuth(frame);
+      if (!s.isOk()) {
+        // Tell the server why, so its log says it too.
+        connection_->sendMessage(Bye{s.message()});
+        connection_->drain(100);
+        fatal_ = s;
+        fail(s);
+      }
       return;
     }
     HelloAck ack;
     Status s = decodeFrame(frame, ack);
     if (s.isOk()) s = checkAck(hello_, ack);
+    if (s.isOk() && !options_.key.empty() && !server_proved_) {
+      s = Status(StatusCode::kUnauthenticated,
+                 "the server did not authenticate (it runs with --no-auth?); this " +
+                     identityName(hello_.role, hello_.id) +
+                     " holds a key and joins only a server that proves it holds it too");
+      fatal_ = s;
+    }
     if (!s.isOk()) {
       if (s.code() == StatusCode::kUnsupportedVersion) fatal_ = s;
       fail(s);
@@ -110,6 +134,39 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
     default:
       received.push_back(std::move(frame));
   }
+}
+
+Status ServerLink::handleAuth(const Frame& frame) {
+  Auth auth;
+  HOLOFUSE_RETURN_IF_ERROR(decodeFrame(frame, auth));
+  if (auth.step == AuthStep::kChallenge) {
+    // The challenge goes out under the agreed version, which the MACs cover.
+    challenge_major_ = frame.header.major;
+    challenge_minor_ = frame.header.minor;
+    if (options_.key.empty()) {
+      return Status(StatusCode::kUnauthenticated,
+                    "the server requires a key: give --key-file PATH or set HOLOFUSE_KEY_FILE");
+    }
+    if (challenge_) return Status(StatusCode::kUnexpectedMessage, "a second challenge");
+    challenge_ = auth.value;
+    Auth answer;
+    answer.step = AuthStep::kResponse;
+    answer.value = authMac(options_.key, AuthStep::kResponse, hello_, challenge_major_,
+                           challenge_minor_, auth.value);
+    connection_->sendMessage(answer);
+    return Status::ok();
+  }
+  if (auth.step == AuthStep::kProof && challenge_) {
+    const AuthBytes expected = authMac(options_.key, AuthStep::kProof, hello_, challenge_major_,
+                                       challenge_minor_, *challenge_);
+    if (!sameMac(expected, auth.value)) {
+      return Status(StatusCode::kUnauthenticated,
+                    "the server's proof does not match our key: it holds another key");
+    }
+    server_proved_ = true;
+    return Status::ok();
+  }
+  return Status(StatusCode::kUnexpectedMessage, "Auth out of order");
 }
 
 void ServerLink::poll(int timeout_ms, std::vector<Frame>& received) {

@@ -235,4 +235,9 @@ void setBufferSizes(const Socket& socket, int send_bytes, int receive_bytes) {
   setsockopt(socket.fd(), SOL_SOCKET, SO_RCVBUF, &receive_bytes, sizeof(receive_bytes));
 }
 
+bool isLoopback(const Endpoint& endpoint) {
+  const std::string& h = endpoint.host;
+  return h == "localhost" || h == "::1" || h == "[::1]" || h.rfind("127.", 0) == 0;
+}
+
 }  // namespace holofuse::protocol

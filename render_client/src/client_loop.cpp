@@ -432,6 +432,7 @@ int runClient(const ClientOptions& options) {
   hello.name = "client-" + std::to_string(options.client_id);
   protocol::LinkOptions link_options;
   link_options.log_name = "client";
+  link_options.key = options.key;
   link_options.limits.max_queued_droppable = 16;
   protocol::ServerLink link(options.server, hello, link_options);
 

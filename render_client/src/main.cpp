@@ -42,8 +42,12 @@ int main(int argc, char** argv) {
                  "a shell command that starts a live judge (eval's holofuse_judge): each written "
                  "frame is judged against the truth from its view (PSNR, SSIM in report.json and "
                  "report.html); costs client time after each frame");
+  PeerKeyFlags key_flags(app, "client");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   render_flags.apply(options.render);
+  const auto key = key_flags.load(protocol::Role::kClient, options.client_id);
+  if (!key) return 2;
+  options.key = *key;
   if (list_devices) {
     try {
       const auto devices = render::VulkanContext::listDevices();

@@ -90,6 +90,41 @@ TEST(FrameSync, ABogusFrameIdCannotMakeEveryoneLate) {
   EXPECT_EQ(sync.add(501, imagesOf(0), 202), FrameSync::Added::kAccepted);
 }
 
+// A pod on another clock, behind or ahead, loses its own frames only:
+// three pods on the rig's ids keep being fused and none of them is late;
+// when half the pods go back (the rig restarted), the sync starts over, and a
+// pod still on the old clock cannot start it over again.
+TEST(FrameSync, OnePodsClockNeverDecidesTheOthers) {
+  FrameSync sync(10);
+  const std::set<uint32_t> all = {0, 1, 2, 3};
+  uint64_t now = 0;
+  for (uint64_t id = 1000000; id < 1000005; ++id) {
+    for (uint32_t pod = 0; pod < 3; ++pod)
+      EXPECT_EQ(sync.add(id, imagesOf(pod), ++now), FrameSync::Added::kAccepted);
+    if (id > 1000000) {  // once the rig's clock is set by a group gone out
+      EXPECT_EQ(sync.add(id - 900000, imagesOf(3), ++now), FrameSync::Added::kImplausible)
+          << "far behind, alone";
+      EXPECT_EQ(sync.add(id + 900000, imagesOf(3), ++now), FrameSync::Added::kImplausible)
+          << "far ahead";
+    }
+    now += 20;
+    ASSERT_EQ(sync.takeReady(all, now).size(), 1u);
+  }
+  EXPECT_EQ(sync.clockResets(), 0u);
+  EXPECT_EQ(sync.lateFrames(), 0u);
+  // The rig restarts: pods 0, 1 and 2 come back with small ids. With pod
+  // 3 still behind, pod 0 makes half of the pods: the sync starts over.
+  EXPECT_EQ(sync.add(10, imagesOf(0), ++now), FrameSync::Added::kAccepted);
+  EXPECT_EQ(sync.clockResets(), 1u);
+  EXPECT_EQ(sync.add(10, imagesOf(1), ++now), FrameSync::Added::kAccepted);
+  EXPECT_EQ(sync.add(10, imagesOf(2), ++now), FrameSync::Added::kAccepted);
+  EXPECT_EQ(sync.add(1000006, imagesOf(3), ++now), FrameSync::Added::kImplausible)
+      << "the clock left behind";
+  now += 20;
+  ASSERT_EQ(sync.takeReady(all, now).size(), 1u);
+  EXPECT_EQ(sync.clockResets(), 1u);
+}
+
 TEST(FrameSync, ADeadPodDoesNotStallWhenItIsNoLongerExpected) {
   FrameSync sync(1000000);
   sync.add(9, imagesOf(0), 0);

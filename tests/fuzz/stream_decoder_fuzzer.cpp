@@ -67,6 +67,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         (void)decodeFrame(frame, m);
         break;
       }
+      case MessageType::kAuth: {
+        Auth m;
+        (void)decodeFrame(frame, m);
+        break;
+      }
       default:
         break;
     }

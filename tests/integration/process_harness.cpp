@@ -9,10 +9,30 @@
 #include <thread>
 
 #include "base/process.h"
+#include "protocol/auth.h"
 
 namespace holofuse::test {
 
+const std::string& testKeyFile() {
+  // One fresh key per test process, in the environment every program it
+  // starts inherits: the loops under test authenticate as a real rig does.
+  static const std::string path = [] {
+    const fs::path file =
+        fs::temp_directory_path() / ("holofuse_test_" + std::to_string(getpid()) + ".key");
+    fs::remove(file);
+    const Status made = protocol::KeyRing::writeNew(file.string());
+    if (!made.isOk()) ADD_FAILURE() << made.message();
+    ::setenv("HOLOFUSE_KEY_FILE", file.string().c_str(), 1);
+    return file.string();
+  }();
+  static const struct Remove {
+    ~Remove() { fs::remove(path); }
+  } remove;
+  return path;
+}
+
 pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
+  testKeyFile();
   SpawnOptions options;
   options.log_path = log.string();
   auto pid = spawnProcess(args, options);

@@ -15,6 +15,10 @@ namespace fs = std::filesystem;
 
 // Starts args[0] with args; stdout and stderr go to log.
 pid_t spawn(const std::vector<std::string>& args, const fs::path& log);
+
+// This test process's key file, made on first use and named in
+// $HOLOFUSE_KEY_FILE, so every program spawn() starts authenticates with it.
+const std::string& testKeyFile();
 // The exit code, 128 + signal when killed, or -1 after timeout_s (the
 // process is then killed).
 int waitExit(pid_t pid, int timeout_s);

@@ -74,7 +74,7 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
     dup2(fileno(log), STDERR_FILENO);
     const std::string bin = std::string(HOLOFUSE_BIN_DIR) + "/render_client";
     execl(bin.c_str(), bin.c_str(), "--server", endpoint.c_str(), "--out", out.c_str(), "--frames",
-          "2", "--size", "64x48", "--view", "pod:0", static_cast<char*>(nullptr));
+          "2", "--size", "64x48", "--view", "pod:0", "--no-auth", static_cast<char*>(nullptr));
     _exit(127);
   }
   pollfd p{listener->fd(), POLLIN, 0};

@@ -44,8 +44,9 @@ uint16_t freePort() {
   return listener.isOk() ? listener->localPort() : 0;  // closed again on return
 }
 
-std::string startServer(const fs::path& out, int pods, pid_t* pid) {
-  return holofuse::test::startServer(kBin, out, pods, pid);
+std::string startServer(const fs::path& out, int pods, pid_t* pid,
+                        const std::vector<std::string>& extra = {}) {
+  return holofuse::test::startServer(kBin, out, pods, pid, extra);
 }
 
 TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
@@ -256,14 +257,16 @@ TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
 // feather map to the TextureBundle's images. The server sends each client
 // the minor it agreed on: a 1.0 client the 1.0 Stats under a 1.0 header,
 // 1.0 and 1.1 clients the bundle without feather maps, a 1.2 client both.
+// Minors before 1.4 have no authentication: only a server started with
+// --no-auth (loopback only) serves them.
 TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   const fs::path out = freshDir("minor");
   pid_t server = 0;
-  const std::string endpoint = startServer(out, 1, &server);
+  const std::string endpoint = startServer(out, 1, &server, {"--no-auth"});
   auto parsed = holofuse::protocol::parseEndpoint(endpoint);
   ASSERT_TRUE(parsed.isOk()) << "the server did not report its port";
   const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods",
-                           "1", "--size", "96x72", "--fps", "10"},
+                           "1", "--size", "96x72", "--fps", "10", "--no-auth"},
                           out / "pod.log");
   struct Client {
     uint8_t max_minor;
@@ -272,9 +275,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     // header minor, and the plane kinds of the bundle's one image
     std::vector<std::pair<uint8_t, std::vector<holofuse::protocol::PlaneKind>>> bundles;
   };
-  static_assert(holofuse::protocol::kVersionMinor == 3, "a client of each minor");
-  std::vector<Client> clients(4);
-  for (uint8_t minor = 0; minor < 4; ++minor) clients[minor].max_minor = minor;
+  static_assert(holofuse::protocol::kVersionMinor == 4, "a client of each minor");
+  std::vector<Client> clients(5);
+  for (uint8_t minor = 0; minor < 5; ++minor) clients[minor].max_minor = minor;
   for (Client& c : clients) {
     holofuse::protocol::Hello hello;
     hello.role = holofuse::protocol::Role::kClient;
@@ -324,7 +327,7 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     for (const auto& [minor, stats] : clients[k].stats) {
       // Stats changed in 1.1 and 1.3: 1.1 and 1.2 peers get the 1.2
       // frame, 1.3 peers the server's (SPEC.md section 3).
-      EXPECT_EQ(minor, clients[k].max_minor >= 3 ? 3 : 2)
+      EXPECT_EQ(minor, clients[k].max_minor >= 3 ? holofuse::protocol::kVersionMinor : 2)
           << "client of 1." << int(clients[k].max_minor);
       EXPECT_EQ(stats.cameras_present_count.has_value(), clients[k].max_minor >= 3);
       if (stats.cameras_present_count) {
@@ -355,7 +358,8 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     }
   }
   const std::string log = readFile(out / "server.log");
-  for (const char* version : {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3"}) {
+  for (const char* version :
+       {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3", "protocol 1.4"}) {
     EXPECT_NE(log.find(version), std::string::npos) << version << "\n" << log;
   }
 }
@@ -419,15 +423,22 @@ TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
                                                      1,   0,   0,   0,   0xFF, 0xFF, 0xFF, 0xFF};
   iovec hpart{header, sizeof(header)};
   huge->writeVector(&hpart, 1);
-  // A third claims to be pod 1 and sends a rectangle whose offset would
-  // wrap a 32-bit sum: refused before anything is decompressed.
-  auto crooked = holofuse::protocol::connectTcp(*parsed, 1000);
-  ASSERT_TRUE(crooked.isOk());
+  // A third is pod 1, authenticated with the rig's key, and sends a
+  // rectangle whose offset would wrap a 32-bit sum: refused before
+  // anything is decompressed.
+  holofuse::protocol::Hello hello;
+  hello.role = holofuse::protocol::Role::kPod;
+  hello.id = 1;
+  hello.name = "crooked";
+  auto key = holofuse::protocol::loadPeerKey(holofuse::test::testKeyFile(), hello.role, hello.id);
+  ASSERT_TRUE(key.isOk()) << key.status().message();
+  holofuse::protocol::LinkOptions link_options;
+  link_options.key = *key;
+  holofuse::protocol::ServerLink crooked(*parsed, hello, link_options);
+  std::vector<holofuse::protocol::Frame> ignored;
+  while (!crooked.ready() && !crooked.fatalError()) crooked.poll(50, ignored);
+  ASSERT_TRUE(crooked.ready()) << crooked.fatalError()->message();
   {
-    holofuse::protocol::Hello hello;
-    hello.role = holofuse::protocol::Role::kPod;
-    hello.id = 1;
-    hello.name = "crooked";
     holofuse::Camera camera = holofuse::scene::SyntheticScene::cameraRig(1, 96, 72)[0];
     camera.id = 1;
     holofuse::protocol::PodFrame frame;
@@ -438,12 +449,10 @@ TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
     std::vector<uint8_t> storage;
     frame.planes.push_back(holofuse::encodePlane(tiny, holofuse::protocol::PlaneKind::kColor,
                                                  holofuse::protocol::Codec::kRaw, storage));
-    for (const auto& bytes : {holofuse::protocol::encodeFrame(hello, 1),
-                              holofuse::protocol::encodeFrame(holofuse::toCalibration(camera), 2),
-                              holofuse::protocol::encodeFrame(frame, 3)}) {
-      iovec piece{const_cast<uint8_t*>(bytes.data()), bytes.size()};
-      crooked->writeVector(&piece, 1);
-    }
+    crooked.sendMessage(holofuse::toCalibration(camera));
+    crooked.sendMessage(frame);
+    // Until both have left (the server closes the link on the second).
+    while (crooked.ready() && crooked.queuedFrames() > 0) crooked.poll(50, ignored);
   }
   ASSERT_EQ(waitExit(client, 120), 0) << readFile(out / "client.log");
   kill(pod, SIGTERM);

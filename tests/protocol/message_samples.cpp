@@ -125,16 +125,24 @@ std::vector<Sample> allSamples(uint8_t minor) {
   hello.max_minor = minor;
   HelloAck ack = sampleHelloAck();
   ack.minor = minor;
-  return {{"hello", encodeFrame(hello, 1, 0, minor)},
-          {"hello_ack", encodeFrame(ack, 2, 0, minor)},
-          {"calibration", encodeFrame(sampleCalibration(), 3, 0, minor)},
-          {"pod_frame", encodeFrame(samplePodFrame(), 4, 0, minor)},
-          {"mesh_frame", encodeFrame(sampleMeshFrame(), 5, 0, minor)},
-          {"texture_bundle", encodeFrame(sampleTextureBundle(minor), 6, 0, minor)},
-          {"heartbeat", encodeFrame(Heartbeat{777}, 7, 0, minor)},
-          {"stats", encodeFrame(sampleStats(), 8, 0, minor)},  // 1.0: without the arrivals
-          {"bye", encodeFrame(Bye{"done"}, 9, 0, minor)},
-          {"error", encodeFrame(ErrorMessage{3, "version 2.0 not supported"}, 10, 0, minor)}};
+  std::vector<Sample> samples = {
+      {"hello", encodeFrame(hello, 1, 0, minor)},
+      {"hello_ack", encodeFrame(ack, 2, 0, minor)},
+      {"calibration", encodeFrame(sampleCalibration(), 3, 0, minor)},
+      {"pod_frame", encodeFrame(samplePodFrame(), 4, 0, minor)},
+      {"mesh_frame", encodeFrame(sampleMeshFrame(), 5, 0, minor)},
+      {"texture_bundle", encodeFrame(sampleTextureBundle(minor), 6, 0, minor)},
+      {"heartbeat", encodeFrame(Heartbeat{777}, 7, 0, minor)},
+      {"stats", encodeFrame(sampleStats(), 8, 0, minor)},  // 1.0: without the arrivals
+      {"bye", encodeFrame(Bye{"done"}, 9, 0, minor)},
+      {"error", encodeFrame(ErrorMessage{3, "version 2.0 not supported"}, 10, 0, minor)}};
+  if (minor >= 4) {  // Auth came with 1.4
+    Auth auth;
+    auth.step = AuthStep::kResponse;
+    for (size_t i = 0; i < auth.value.size(); ++i) auth.value[i] = static_cast<uint8_t>(7 * i + 1);
+    samples.push_back({"auth", encodeFrame(auth, 11, 0, minor)});
+  }
+  return samples;
 }
 
 }  // namespace holofuse::protocol::testing

@@ -248,6 +248,11 @@ TEST(Messages, EveryTruncationFailsCleanly) {
           s = decodeFrame(cut, m);
           break;
         }
+        case MessageType::kAuth: {
+          Auth m;
+          s = decodeFrame(cut, m);
+          break;
+        }
         default:
           FAIL();
       }

@@ -25,6 +25,7 @@ enum class StatusCode : uint16_t {
   kIoError = 9,
   kClosed = 10,
   kTimeout = 11,
+  kUnauthenticated = 12,  // no key, a wrong key, or a replayed answer
 };
 
 const char* statusCodeName(StatusCode code);

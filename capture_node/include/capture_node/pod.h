@@ -25,6 +25,7 @@ struct PodOptions {
   double calibration_error_degrees = 0.0;
   double calibration_error_metres = 0.0;
   PodEncoding encoding;
+  std::vector<uint8_t> key;  // authenticates pod pod_id (protocol/auth.h); empty: none
 };
 
 // Everything a pod produces for one frame, before it goes on the wire.

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "protocol/socket.h"
 
@@ -19,6 +20,7 @@ struct ReplayOptions {
   uint32_t pod_id = 0;
   double speed = 1.0;  // 1: the recorded pace; 0: as fast as the server accepts
   bool loop = false;
+  std::vector<uint8_t> key;  // authenticates pod pod_id (protocol/auth.h); empty: none
 };
 
 // Parses --speed: a positive factor, or "max". Empty optional: invalid.

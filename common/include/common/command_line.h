@@ -6,11 +6,13 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "common/settings.h"
+#include "protocol/auth.h"
 
 #define HOLOFUSE_PARSE_FLAGS(app, argc, argv) \
   try {                                       \
@@ -93,5 +95,34 @@ inline bool isViewName(const std::string& view) {
   return view == "orbit" || (view.rfind("pod:", 0) == 0 && view.size() > 4 &&
                              view.find_first_not_of("0123456789", 4) == std::string::npos);
 }
+
+// A pod's or client's --key-file and --no-auth (SECURITY.md).
+// Keep it alive and in place until parsed: CLI11 writes into it.
+class PeerKeyFlags {
+ public:
+  PeerKeyFlags(CLI::App& app, const std::string& who) {
+    app.add_option(
+        "--key-file", key_file_,
+        "the key this " + who + " authenticates with (default: $HOLOFUSE_KEY_FILE); SECURITY.md");
+    app.add_flag("--no-auth", no_auth_,
+                 "join a server that runs without authentication (ignores HOLOFUSE_KEY_FILE)")
+        ->excludes("--key-file");
+  }
+  // After parsing: the key of (role, id) (empty with --no-auth or no key
+  // file), or nullopt after saying what is wrong with the file.
+  std::optional<std::vector<uint8_t>> load(protocol::Role role, uint32_t id) const {
+    if (no_auth_) return std::vector<uint8_t>{};
+    auto key = protocol::loadPeerKey(key_file_, role, id);
+    if (!key.isOk()) {
+      std::fprintf(stderr, "--key-file: %s\n", key.status().message().c_str());
+      return std::nullopt;
+    }
+    return *key;
+  }
+
+ private:
+  std::string key_file_;
+  bool no_auth_ = false;
+};
 
 }  // namespace holofuse

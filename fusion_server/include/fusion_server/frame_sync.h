@@ -50,17 +50,24 @@ class FrameSync {
 
   enum class Added { kAccepted, kLate, kImplausible };
   // Frame ids further than this from the last fused one are not a late or
-  // early frame but a different clock: far ahead is refused (one pod must
-  // not push everyone else into lateness), far behind starts over.
+  // early frame but a different clock. Far ahead is refused (one pod must
+  // not push everyone else into lateness). Far behind is refused too,
+  // unless half the pods seen or more are far behind as well: then the rig's
+  // clock went back and the sync starts over. So one pod's ids, ahead or
+  // behind, never decide what the others' frames are; and after a start
+  // over, ids near the clock left behind stay refused.
   static constexpr uint64_t kMaxIdJump = 100000;
 
   // Adds a pod's frame. kLate (counted) when its group has already gone
-  // out; kImplausible when its id is far ahead of what is being fused.
+  // out; kImplausible when its id is far from what is being fused.
   Added add(uint64_t frame_id, PodImages images, uint64_t now_ns);
   // Groups ready at now_ns given the pods currently expected, oldest first.
   std::vector<FrameGroup> takeReady(const std::set<uint32_t>& expected, uint64_t now_ns);
   // Time until the oldest pending group's deadline (for the poll timeout).
   std::optional<uint64_t> nextDeadline() const;
+
+  // A pod that reconnected: its ids are judged afresh.
+  void forgetPod(uint32_t camera_id);
 
   size_t pendingGroups() const { return pending_.size(); }
   // Pending groups that already hold a frame of this camera.
@@ -78,6 +85,8 @@ class FrameSync {
   std::map<uint64_t, FrameGroup> pending_;
   std::optional<uint64_t> last_emitted_;
   std::map<uint32_t, uint64_t> last_id_from_;  // per camera: the id of its latest frame
+  std::set<uint32_t> behind_;          // cameras whose latest frame was far behind the clock
+  std::optional<uint64_t> abandoned_;  // the clock a start-over left behind
   uint64_t late_frames_ = 0;
   uint64_t overflowed_groups_ = 0;
   uint64_t clock_resets_ = 0;

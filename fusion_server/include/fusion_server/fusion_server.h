@@ -17,6 +17,7 @@
 #include "dataset/recorder.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
+#include "protocol/auth.h"
 #include "protocol/connection.h"
 #include "protocol/socket.h"
 
@@ -44,6 +45,12 @@ struct ServerOptions {
   // Pods are not read until this many clients have joined, so a replay's
   // first frames reach the client too.
   int wait_for_clients = 0;
+  // The keys peers authenticate with (protocol/auth.h); none: --no-auth,
+  // every peer is trusted (loopback only, main.cpp checks).
+  std::optional<protocol::KeyRing> keys;
+  // A peer that has not finished its handshake (Hello, and the challenge
+  // when there are keys) by then is closed.
+  uint32_t handshake_timeout_ms = 2000;
 };
 
 class FusionServer {
@@ -65,12 +72,25 @@ class FusionServer {
     uint32_t id = 0;
     bool replaced = false;  // a newer connection of the same pod took over
     uint8_t minor = 0;      // agreed in the handshake: the fields this peer is sent
+    uint64_t accepted_ns = 0;
+    // Between Hello and the answer to our challenge: what was claimed, the
+    // version agreed and the challenge sent.
+    struct PendingAuth {
+      protocol::Hello hello;
+      protocol::HelloAck ack;
+      protocol::AuthBytes challenge;
+      const std::vector<uint8_t>* key = nullptr;
+    };
+    std::optional<PendingAuth> pending;
   };
 
   void acceptAll();
   // Handles one frame; a non-ok status closes that peer.
   Status handle(Peer& peer, const protocol::Frame& frame);
   Status handleHello(Peer& peer, const protocol::Frame& frame);
+  Status handleAuthAnswer(Peer& peer, const protocol::Frame& frame);
+  // The peer is who it says (or there is no authentication): it joins.
+  Status admit(Peer& peer, const protocol::Hello& hello, protocol::HelloAck ack);
   Status handlePodFrame(Peer& peer, const protocol::Frame& frame);
   void dispatchReadyGroups();
   void fanOut();
@@ -81,6 +101,7 @@ class FusionServer {
   bool podsDone();
 
   ServerOptions options_;
+  std::map<uint32_t, uint64_t> implausible_frames_;  // per pod: frames far off the rig's ids
   protocol::Socket listener_;
   int wake_fd_ = -1;
   std::vector<Peer> peers_;

@@ -59,6 +59,7 @@ class Connection {
   // a reset, and a reset discards whatever the kernel had not yet sent.
   void closeGracefully(int timeout_ms);
 
+  void setMaxPayload(uint32_t max_payload) { decoder_.setMaxPayload(max_payload); }
   bool hasFrame() const { return decoder_.hasFrame(); }
   Frame takeFrame() { return decoder_.takeFrame(); }
 

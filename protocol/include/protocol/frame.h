@@ -18,7 +18,7 @@ constexpr uint8_t kVersionMajor = 1;
 // 1.1: Stats carries each pod's arrivals; 1.2: a TextureBundle's images
 // carry each pod's feather map; 1.3: up to 128 cameras (bundles and Stats'
 // arrivals, which 1.2 capped at 64; Stats counts the cameras present).
-constexpr uint8_t kVersionMinor = 3;
+constexpr uint8_t kVersionMinor = 4;
 constexpr size_t kHeaderSize = 28;
 constexpr uint16_t kFlagDroppable = 0x0001;
 constexpr uint16_t kKnownFlags = kFlagDroppable;
@@ -27,7 +27,7 @@ constexpr uint32_t kDefaultMaxPayload = 64u << 20;
 enum class MessageType : uint16_t {
   kHello = 1,
   kHelloAck = 2,
-  kAuth = 3,
+  kAuth = 3,  // since 1.4
   kCalibration = 4,
   kPodFrame = 5,
   kMeshFrame = 6,
@@ -138,6 +138,9 @@ Status verifyCrc(const Frame& frame, uint64_t stream_offset);
 class StreamDecoder {
  public:
   explicit StreamDecoder(uint32_t max_payload = kDefaultMaxPayload) : max_payload_(max_payload) {}
+  // The cap for frames whose header is still to come (a server raises it
+  // once a peer has been admitted).
+  void setMaxPayload(uint32_t max_payload) { max_payload_ = max_payload; }
 
   // Where the next bytes from the socket should go (read straight into the
   // frame's own buffer, so a payload is never copied on receipt).

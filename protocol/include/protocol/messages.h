@@ -113,6 +113,17 @@ struct HelloAck {
   uint32_t idle_timeout_ms = 5000;
 };
 
+// Since 1.4: the HMAC-SHA256 challenge of SPEC.md section 4
+// (protocol/auth.h). One type, three steps: the server's challenge, the
+// peer's answer, the server's proof that it holds the key too.
+enum class AuthStep : uint8_t { kChallenge = 1, kResponse = 2, kProof = 3 };
+constexpr size_t kAuthBytes = 32;
+struct Auth {
+  static constexpr MessageType kType = MessageType::kAuth;
+  AuthStep step = AuthStep::kChallenge;
+  std::array<uint8_t, kAuthBytes> value{};  // the challenge nonce, or a MAC
+};
+
 struct Calibration {
   static constexpr MessageType kType = MessageType::kCalibration;
   uint32_t camera_id = 0;
@@ -205,6 +216,7 @@ struct ErrorMessage {
 // Payload encoders.
 void writePayload(WireWriter& w, const Hello& m);
 void writePayload(WireWriter& w, const HelloAck& m);
+void writePayload(WireWriter& w, const Auth& m);
 void writePayload(WireWriter& w, const Calibration& m);
 void writePayload(WireWriter& w, const PodFrame& m);
 void writePayload(WireWriter& w, const MeshFrame& m);
@@ -221,6 +233,7 @@ void writePayload(WireWriter& w, const ErrorMessage& m);
 // (a newer minor's fields). base_offset positions errors in the stream.
 Status readPayload(std::span<const uint8_t> payload, Hello& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, HelloAck& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, Auth& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, Calibration& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, PodFrame& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, MeshFrame& m, size_t base_offset = 0);

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "protocol/auth.h"
 #include "protocol/connection.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
@@ -23,6 +24,11 @@ struct LinkOptions {
   uint32_t idle_timeout_ms = 5000;
   ConnectionLimits limits;
   std::string log_name = "link";  // prefix of log lines
+  // The key of our identity (protocol/auth.h); empty: none. With a key the
+  // link answers the server's challenge and accepts only a server that
+  // proves it holds the key too; without one it can join only a server
+  // started with --no-auth.
+  std::vector<uint8_t> key;
 };
 
 class ServerLink {
@@ -69,12 +75,18 @@ class ServerLink {
   void tryConnect();
   void fail(const Status& why);
   void handle(Frame frame, std::vector<Frame>& received);
+  // The server's Auth before its HelloAck: answer its challenge, check its
+  // proof. An error is fatal: a key does not become right by retrying.
+  Status handleAuth(const Frame& frame);
 
   Endpoint server_;
   Hello hello_;
   LinkOptions options_;
   std::unique_ptr<Connection> connection_;
   bool acked_ = false;
+  std::optional<AuthBytes> challenge_;                 // the server's, on this connection
+  uint8_t challenge_major_ = 0, challenge_minor_ = 0;  // the version it came under
+  bool server_proved_ = false;
   bool connected_event_ = false;
   bool server_said_bye_ = false;
   std::optional<Status> fatal_;

@@ -20,6 +20,10 @@ struct Endpoint {
 // Parses "HOST:PORT" (port 0..65535; "[::1]:PORT" for IPv6).
 StatusOr<Endpoint> parseEndpoint(const std::string& text);
 
+// Whether the endpoint's host is this machine's loopback only (127.0.0.0/8,
+// ::1, localhost): what a server without authentication may bind.
+bool isLoopback(const Endpoint& endpoint);
+
 // Outcome of one non-blocking read or write.
 struct IoResult {
   size_t bytes = 0;

@@ -22,6 +22,7 @@ namespace holofuse::render {
 struct ClientOptions {
   protocol::Endpoint server;
   uint32_t client_id = 0;
+  std::vector<uint8_t> key;  // authenticates client client_id (protocol/auth.h); empty: none
   std::string out_dir = "out";
   // Finish (report written, exit 0) when the server says Bye: the end of a
   // replay, after every frame it sent has been read.

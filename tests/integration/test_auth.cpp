@@ -1,0 +1,270 @@
+// Trust no peer (SECURITY.md): real servers, pods and clients on loopback.
+// Only a peer that proves it holds its identity's key joins; a wrong key,
+// no key and an answer replayed from another connection are refused by
+// name before any frame is parsed; a pod is not replaced but by a peer
+// holding its key; a peer that never finishes its handshake is closed.
+#include <gtest/gtest.h>
+#include <poll.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "process_harness.h"
+#include "protocol/auth.h"
+#include "protocol/connection.h"
+#include "protocol/socket.h"
+
+namespace holofuse {
+namespace {
+
+namespace fs = std::filesystem;
+using test::freshDir;
+using test::readFile;
+using test::spawn;
+using test::waitExit;
+
+const std::string kBin = HOLOFUSE_BIN_DIR;
+
+std::string serverOn(const fs::path& out, int pods, pid_t* pid,
+                     const std::vector<std::string>& extra = {}) {
+  return test::startServer(kBin, out, pods, pid, extra);
+}
+
+// The next frame from c, or an empty frame when the peer closed or took
+// longer than timeout_ms (a failed test, never a pass).
+protocol::Frame nextFrame(protocol::Connection& c, Status* closed = nullptr,
+                          int timeout_ms = 10000) {
+  for (int waited = 0; waited < timeout_ms; waited += 50) {
+    if (c.hasFrame()) return c.takeFrame();
+    pollfd p{c.fd(), POLLIN, 0};
+    ::poll(&p, 1, 50);
+    const Status s = c.onReadable();
+    if (c.hasFrame()) return c.takeFrame();
+    if (!s.isOk()) {
+      if (closed) *closed = s;
+      return {};
+    }
+  }
+  return {};
+}
+
+void flush(protocol::Connection& c) {
+  while (c.wantsWrite()) {
+    pollfd p{c.fd(), POLLOUT, 0};
+    ::poll(&p, 1, 100);
+    if (!c.onWritable().isOk()) return;
+  }
+}
+
+TEST(Auth, WrongMissingAndReplayedAnswersAreRefusedByName) {
+  const fs::path out = freshDir("auth");
+  pid_t server = 0;
+  const std::string endpoint = serverOn(out, 2, &server);
+  ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
+
+  // A pod with another key: refused, both sides say why, and it stops.
+  const fs::path other_key = out / "other.key";
+  ASSERT_TRUE(protocol::KeyRing::writeNew(other_key.string()).isOk());
+  const pid_t wrong = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0",
+                             "--pods", "2", "--size", "64x48", "--key-file", other_key.string()},
+                            out / "wrong.log");
+  EXPECT_NE(waitExit(wrong, 60), 0) << readFile(out / "wrong.log");
+  EXPECT_NE(readFile(out / "wrong.log").find("authentication failed for pod 0"), std::string::npos)
+      << readFile(out / "wrong.log");
+
+  // A client without a key: told to give one; the server's log says it gave up.
+  const pid_t keyless = spawn({kBin + "/render_client", "--server", endpoint, "--out",
+                               (out / "keyless").string(), "--frames", "1", "--no-auth"},
+                              out / "keyless.log");
+  EXPECT_NE(waitExit(keyless, 60), 0) << readFile(out / "keyless.log");
+  EXPECT_NE(readFile(out / "keyless.log").find("the server requires a key"), std::string::npos)
+      << readFile(out / "keyless.log");
+
+  // An answer recorded on one connection, replayed on another with the same
+  // Hello: the server's challenge is new, so the old answer fails.
+  auto key = protocol::loadPeerKey(test::testKeyFile(), protocol::Role::kPod, 1);
+  ASSERT_TRUE(key.isOk()) << key.status().message();
+  auto parsed = protocol::parseEndpoint(endpoint);
+  ASSERT_TRUE(parsed.isOk());
+  protocol::Hello hello;
+  hello.role = protocol::Role::kPod;
+  hello.id = 1;
+  hello.nonce = 42;
+  protocol::AuthBytes recorded{};
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    auto socket = protocol::connectTcp(*parsed, 1000);
+    ASSERT_TRUE(socket.isOk());
+    protocol::Connection c(std::move(*socket), "by hand");
+    c.sendMessage(hello);
+    flush(c);
+    const protocol::Frame challenge_frame = nextFrame(c);
+    protocol::Auth challenge;
+    ASSERT_TRUE(protocol::decodeFrame(challenge_frame, challenge).isOk());
+    ASSERT_EQ(challenge.step, protocol::AuthStep::kChallenge);
+    protocol::Auth answer;
+    answer.step = protocol::AuthStep::kResponse;
+    answer.value = attempt == 0 ? protocol::authMac(*key, protocol::AuthStep::kResponse, hello,
+                                                    challenge_frame.header.major,
+                                                    challenge_frame.header.minor, challenge.value)
+                                : recorded;
+    recorded = answer.value;
+    c.sendMessage(answer);
+    flush(c);
+    const protocol::Frame reply = nextFrame(c);
+    if (attempt == 0) {
+      protocol::Auth proof;
+      ASSERT_TRUE(protocol::decodeFrame(reply, proof).isOk()) << "the server proves its key";
+      EXPECT_TRUE(protocol::sameMac(
+          proof.value,
+          protocol::authMac(*key, protocol::AuthStep::kProof, hello, challenge_frame.header.major,
+                            challenge_frame.header.minor, challenge.value)));
+      protocol::HelloAck ack;
+      EXPECT_TRUE(protocol::decodeFrame(nextFrame(c), ack).isOk()) << "then admits the pod";
+    } else {
+      protocol::ErrorMessage error;
+      ASSERT_TRUE(protocol::decodeFrame(reply, error).isOk()) << "refused, with the reason";
+      EXPECT_EQ(error.code, static_cast<uint16_t>(StatusCode::kUnauthenticated));
+      EXPECT_NE(error.message.find("replayed"), std::string::npos) << error.message;
+    }
+  }
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  const std::string log = readFile(out / "server.log");
+  EXPECT_NE(log.find("authentication failed for pod 0"), std::string::npos) << log;
+  EXPECT_NE(log.find("client 0 gave up authenticating: the server requires a key"),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("authentication failed for pod 1"), std::string::npos) << log;
+  EXPECT_EQ(log.find("pod 0 (127.0.0.1"), std::string::npos) << "pod 0 never joined\n" << log;
+}
+
+// Per-pod keys: pod 0's identity is its own key. A peer holding pod 1's
+// key that says it is pod 0 is refused while the real pod 0 keeps serving
+// the client, which renders every frame it asked for.
+TEST(Auth, APodIsBoundToItsKeyAndCannotBeReplaced) {
+  const fs::path out = freshDir("auth_bound");
+  std::string ring_text;
+  int made = 0;
+  for (const char* identity : {"pod:0", "pod:1", "client:*"}) {
+    const fs::path one = out / ("made" + std::to_string(made++) + ".key");
+    ASSERT_TRUE(protocol::KeyRing::writeNew(one.string(), identity).isOk());
+    std::ifstream in(one);
+    for (std::string line; std::getline(in, line);)
+      if (!line.empty() && line[0] != '#') ring_text += line + "\n";
+  }
+  // The server holds every key; each peer only its own line.
+  const fs::path ring = out / "rig.key";
+  { std::ofstream(ring) << ring_text; }
+  fs::permissions(ring, fs::perms::owner_read | fs::perms::owner_write);
+  std::istringstream lines(ring_text);
+  std::vector<fs::path> own;
+  for (std::string line; std::getline(lines, line);) {
+    own.push_back(out / ("own" + std::to_string(own.size()) + ".key"));
+    { std::ofstream(own.back()) << line << "\n"; }
+    fs::permissions(own.back(), fs::perms::owner_read | fs::perms::owner_write);
+  }
+  pid_t server = 0;
+  const std::string endpoint = serverOn(out, 1, &server, {"--key-file", ring.string()});
+  ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
+  const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods",
+                           "1", "--size", "64x48", "--fps", "10", "--key-file", own[0].string()},
+                          out / "pod.log");
+  const pid_t client =
+      spawn({kBin + "/render_client", "--server", endpoint, "--out", (out / "client").string(),
+             "--frames", "6", "--size", "64x48", "--key-file", own[2].string()},
+            out / "client.log");
+  // The impostor: a pod 1 gone bad, with pod 1's key, claiming pod 0.
+  const std::string pod1_hex = ring_text.substr(ring_text.find("pod:1 ") + 6, 64);
+  const fs::path stolen = out / "impostor.key";
+  { std::ofstream(stolen) << "pod:0 " << pod1_hex << "\n"; }
+  fs::permissions(stolen, fs::perms::owner_read | fs::perms::owner_write);
+  const pid_t impostor = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0",
+                                "--pods", "1", "--size", "64x48", "--key-file", stolen.string()},
+                               out / "impostor.log");
+  EXPECT_NE(waitExit(impostor, 60), 0) << readFile(out / "impostor.log");
+  EXPECT_NE(readFile(out / "impostor.log").find("authentication failed for pod 0"),
+            std::string::npos)
+      << readFile(out / "impostor.log");
+  ASSERT_EQ(waitExit(client, 120), 0) << readFile(out / "client.log");
+  kill(pod, SIGTERM);
+  waitExit(pod, 10);
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  std::ifstream report(out / "client" / "report.json");
+  EXPECT_EQ(nlohmann::json::parse(report)["frames_rendered"].get<int>(), 6);
+  const std::string log = readFile(out / "server.log");
+  EXPECT_NE(log.find("authentication failed for pod 0"), std::string::npos) << log;
+  EXPECT_EQ(log.find("dropping its old connection"), std::string::npos) << log;
+}
+
+// A server that will not start: without a key (unless --no-auth), with
+// --no-auth on an interface other than loopback, or with a key file that
+// others may read.
+TEST(Auth, AServerWithoutAKeyOrWithAnOpenKeyFileDoesNotStart) {
+  const fs::path out = freshDir("auth_start");
+  const std::string server = kBin + "/fusion_server";
+  EXPECT_EQ(
+      waitExit(spawn({"/usr/bin/env", "-u", "HOLOFUSE_KEY_FILE", server, "--listen", "127.0.0.1:0"},
+                     out / "nokey.log"),
+               30),
+      2);
+  EXPECT_NE(readFile(out / "nokey.log").find("no key: give --key-file PATH"), std::string::npos)
+      << readFile(out / "nokey.log");
+  EXPECT_EQ(waitExit(spawn({server, "--listen", "0.0.0.0:0", "--no-auth"}, out / "open.log"), 30),
+            2);
+  EXPECT_NE(readFile(out / "open.log").find("--no-auth serves only loopback"), std::string::npos)
+      << readFile(out / "open.log");
+  const fs::path readable = out / "readable.key";
+  ASSERT_TRUE(protocol::KeyRing::writeNew(readable.string()).isOk());
+  ::chmod(readable.c_str(), 0644);
+  EXPECT_EQ(waitExit(spawn({server, "--listen", "127.0.0.1:0", "--key-file", readable.string()},
+                           out / "readable.log"),
+                     30),
+            2);
+  EXPECT_NE(readFile(out / "readable.log").find("readable by others (mode 0644)"),
+            std::string::npos)
+      << readFile(out / "readable.log");
+}
+
+// Before its handshake a peer may send 256 bytes a frame and has the
+// handshake deadline to finish: a header claiming 60 MiB is refused at
+// once, and a peer that says nothing is closed at the deadline, each
+// named in the log, while nothing of theirs is ever allocated or parsed.
+TEST(Limits, BeforeItsHandshakeAPeerGetsAFewBytesAndALittleTime) {
+  const fs::path out = freshDir("limits");
+  pid_t server = 0;
+  const std::string endpoint = serverOn(out, 1, &server, {"--handshake-timeout-ms", "300"});
+  ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
+  auto parsed = protocol::parseEndpoint(endpoint);
+  ASSERT_TRUE(parsed.isOk());
+  auto silent = protocol::connectTcp(*parsed, 1000);
+  ASSERT_TRUE(silent.isOk());
+  auto huge = protocol::connectTcp(*parsed, 1000);
+  ASSERT_TRUE(huge.isOk());
+  protocol::Connection greedy(std::move(*huge), "huge");
+  uint8_t header[protocol::kHeaderSize] = {'H', 'F', 'U', 'S', 1, 4, 1,    0,
+                                           0,   0,   0,   0,   0, 0, 0xC0, 0x03};  // payload 60 MiB
+  ASSERT_EQ(::write(greedy.fd(), header, sizeof(header)), static_cast<ssize_t>(sizeof(header)));
+  protocol::ErrorMessage refusal;  // the reason, then the close
+  ASSERT_TRUE(protocol::decodeFrame(nextFrame(greedy), refusal).isOk());
+  EXPECT_NE(refusal.message.find("above cap 256"), std::string::npos) << refusal.message;
+  Status greedy_closed;
+  EXPECT_TRUE(nextFrame(greedy, &greedy_closed).bytes.empty());
+  EXPECT_FALSE(greedy_closed.isOk()) << "closed for its header";
+  protocol::Connection quiet(std::move(*silent), "silent");
+  Status quiet_closed;
+  EXPECT_TRUE(nextFrame(quiet, &quiet_closed).bytes.empty());
+  EXPECT_FALSE(quiet_closed.isOk()) << "closed at the deadline";
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  const std::string log = readFile(out / "server.log");
+  EXPECT_NE(log.find("no handshake within 300 ms"), std::string::npos) << log;
+  EXPECT_NE(log.find("above cap 256"), std::string::npos) << log;
+}
+
+}  // namespace
+}  // namespace holofuse
