@@ -4,7 +4,9 @@
 #include <sys/eventfd.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 
 #include "common/image_codec.h"
@@ -79,8 +81,21 @@ std::set<uint32_t> FusionServer::expectedPods() const {
 void FusionServer::acceptAll() {
   for (;;) {
     std::string name;
-    protocol::Socket socket = listener_.acceptOne(&name);
-    if (!socket.valid()) return;
+    int error = 0;
+    protocol::Socket socket = listener_.acceptOne(&name, &error);
+    if (!socket.valid()) {
+      if (error == EMFILE || error == ENFILE || error == ENOBUFS || error == ENOMEM) {
+        accept_paused_until_ns_ = monotonicNs() + 100'000'000ull;
+        if (accept_pauses_++ % 100 == 0) {
+          std::fprintf(stderr,
+                       "[server] cannot accept (%s) with %zu peers connected: not accepting for "
+                       "100 ms (%llu pauses so far)\n",
+                       std::strerror(error), peers_.size(),
+                       static_cast<unsigned long long>(accept_pauses_));
+        }
+      }
+      return;
+    }
     protocol::ConnectionLimits limits;
     limits.max_queued_droppable = options_.client_queue_frames;
     limits.max_payload = std::min(options_.max_payload, kMaxPayloadBeforeAdmission);
@@ -272,8 +287,20 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
     return handleHello(peer, frame);
   }
   switch (type) {
-    case MessageType::kHeartbeat:
+    case MessageType::kHeartbeat: {
+      const uint64_t now = monotonicNs();
+      const bool early =
+          now - peer.last_heartbeat_ns < uint64_t{options_.min_heartbeat_interval_ms} * 1000000;
+      peer.last_heartbeat_ns = now;
+      peer.early_heartbeats = early ? peer.early_heartbeats + 1 : 0;
+      if (peer.early_heartbeats > 10) {
+        return Status(StatusCode::kTooLarge,
+                      "heartbeats closer together than " +
+                          std::to_string(options_.min_heartbeat_interval_ms) + " ms, " +
+                          std::to_string(peer.early_heartbeats) + " in a row");
+      }
       return Status::ok();
+    }
     case MessageType::kBye: {
       protocol::Bye bye;
       (void)protocol::decodeFrame(frame, bye);
@@ -284,6 +311,14 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
         return Status(StatusCode::kUnexpectedMessage, "Calibration from a client");
       protocol::Calibration calibration;
       HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, calibration));
+      if (calibration.width > options_.max_image_side ||
+          calibration.height > options_.max_image_side) {
+        return Status(StatusCode::kTooLarge, "calibration of pod " + std::to_string(peer.id) +
+                                                 ": " + std::to_string(calibration.width) + "x" +
+                                                 std::to_string(calibration.height) +
+                                                 " is above --max-image-side " +
+                                                 std::to_string(options_.max_image_side));
+      }
       if (calibration.camera_id != peer.id) {
         return Status(StatusCode::kMalformed,
                       "field 'calibration.camera_id': " + std::to_string(calibration.camera_id) +
@@ -410,7 +445,8 @@ int FusionServer::run() {
       }
     }
     std::vector<pollfd> fds;
-    fds.push_back({listener_.fd(), POLLIN, 0});
+    const bool accepting = monotonicNs() >= accept_paused_until_ns_;
+    fds.push_back({listener_.fd(), static_cast<short>(accepting ? POLLIN : 0), 0});
     fds.push_back({wake_fd_, POLLIN, 0});
     std::vector<bool> reading;
     for (const auto& peer : peers_) {
@@ -437,7 +473,7 @@ int FusionServer::run() {
       const short revents = fds[i + 2].revents;
       Status status = Status::ok();
       if (revents & (POLLIN | POLLHUP | POLLERR)) {
-        status = peer.connection->onReadable();
+        status = peer.connection->onReadable(options_.read_budget_bytes);
         while (peer.connection->hasFrame()) {
           const Status handled = handle(peer, peer.connection->takeFrame());
           if (!handled.isOk()) {

@@ -55,6 +55,15 @@ int main(int argc, char** argv) {
   app.add_option("--handshake-timeout-ms", options.handshake_timeout_ms,
                  "close a peer that has not finished its handshake after this long")
       ->check(CLI::Range(100, 60000));
+  app.add_option("--read-budget-bytes", options.read_budget_bytes,
+                 "bytes read from one peer per turn of the loop, so no peer starves the others")
+      ->check(CLI::Range(size_t{65536}, size_t{1} << 30));
+  app.add_option("--min-heartbeat-interval-ms", options.min_heartbeat_interval_ms,
+                 "close a peer whose heartbeats come closer together than this")
+      ->check(CLI::Range(1, 10000));
+  app.add_option("--max-image-side", options.max_image_side,
+                 "the largest image width or height a pod's calibration may claim")
+      ->check(CLI::Range(16, static_cast<int>(protocol::kMaxImageSide)));
   app.add_option("--new-key", new_key,
                  "write a fresh random key file (mode 0600) to this path and exit");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)

@@ -105,8 +105,8 @@ Status Connection::onWritable() {
   return Status::ok();
 }
 
-Status Connection::onReadable() {
-  for (;;) {
+Status Connection::onReadable(size_t budget) {
+  for (size_t read = 0; read < budget;) {
     auto into = decoder_.writableSpan();
     if (!decoder_.status().isOk()) {
       return Status(decoder_.status().code(),
@@ -120,12 +120,14 @@ Status Connection::onReadable() {
     if (r.closed) return Status(StatusCode::kClosed, peer_name_ + " closed the connection");
     if (r.would_block) return Status::ok();
     last_receive_ns_ = monotonicNs();
+    read += r.bytes;
     decoder_.commit(r.bytes);
     if (!decoder_.status().isOk()) {
       return Status(decoder_.status().code(),
                     "from " + peer_name_ + ": " + decoder_.status().message());
     }
   }
+  return Status::ok();
 }
 
 void Connection::drain(int timeout_ms) {

@@ -129,14 +129,17 @@ IoResult Socket::writeVector(const iovec* parts, int count) {
   }
 }
 
-Socket Socket::acceptOne(std::string* peer) {
+Socket Socket::acceptOne(std::string* peer, int* error) {
   sockaddr_storage addr{};
   socklen_t len = sizeof(addr);
   int fd;
   do {
     fd = ::accept4(fd_, reinterpret_cast<sockaddr*>(&addr), &len, SOCK_NONBLOCK | SOCK_CLOEXEC);
   } while (fd < 0 && errno == EINTR);
-  if (fd < 0) return Socket();
+  if (fd < 0) {
+    if (error != nullptr) *error = errno;
+    return Socket();
+  }
   setNoDelay(fd);
   if (peer != nullptr) {
     char host[NI_MAXHOST] = {};

@@ -64,11 +64,15 @@ std::string readFile(const fs::path& p) {
 }
 
 std::string startServer(const std::string& bin_dir, const fs::path& out, int pods, pid_t* pid,
-                        const std::vector<std::string>& extra) {
+                        const std::vector<std::string>& extra,
+                        const std::vector<std::string>& wrapper) {
   const fs::path port_file = out / "port";
-  std::vector<std::string> args = {
-      bin_dir + "/fusion_server", "--listen",    "127.0.0.1:0",     "--pods",
-      std::to_string(pods),       "--port-file", port_file.string()};
+  std::vector<std::string> args = wrapper;
+  for (const std::string& arg :
+       {bin_dir + "/fusion_server", std::string("--listen"), std::string("127.0.0.1:0"),
+        std::string("--pods"), std::to_string(pods), std::string("--port-file"),
+        port_file.string()})
+    args.push_back(arg);
   args.insert(args.end(), extra.begin(), extra.end());
   *pid = spawn(args, out / "server.log");
   std::string port;

@@ -28,6 +28,7 @@ std::string readFile(const fs::path& p);
 // A fusion_server for `pods` pods on a free port (extra flags appended);
 // returns "127.0.0.1:PORT", or empty when it did not report its port.
 std::string startServer(const std::string& bin_dir, const fs::path& out, int pods, pid_t* pid,
-                        const std::vector<std::string>& extra = {});
+                        const std::vector<std::string>& extra = {},
+                        const std::vector<std::string>& wrapper = {});
 
 }  // namespace holofuse::test

@@ -10,8 +10,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 
 #include "process_harness.h"
 #include "protocol/auth.h"
@@ -58,6 +60,53 @@ void flush(protocol::Connection& c) {
     ::poll(&p, 1, 100);
     if (!c.onWritable().isOk()) return;
   }
+}
+
+// The honest client rendered all its frames; then pod and server stop.
+void expectEveryFrameRenderedThenStop(const fs::path& out, pid_t client, pid_t pod, pid_t server,
+                                      int frames) {
+  ASSERT_EQ(waitExit(client, 120), 0) << readFile(out / "client.log");
+  kill(pod, SIGTERM);
+  waitExit(pod, 10);
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  std::ifstream report(out / "client" / "report.json");
+  EXPECT_EQ(nlohmann::json::parse(report)["frames_rendered"].get<int>(), frames);
+}
+
+// A peer admitted by hand (Hello, the answer to the challenge, HelloAck)
+// with this test process's key: what the tests below then send is theirs
+// to choose, byte for byte. Empty when the server did not admit it.
+std::unique_ptr<protocol::Connection> admittedByHand(const std::string& endpoint,
+                                                     protocol::Role role, uint32_t id) {
+  auto parsed = protocol::parseEndpoint(endpoint);
+  auto key = protocol::loadPeerKey(test::testKeyFile(), role, id);
+  if (!parsed.isOk() || !key.isOk()) return nullptr;
+  auto socket = protocol::connectTcp(*parsed, 1000);
+  if (!socket.isOk()) return nullptr;
+  auto c = std::make_unique<protocol::Connection>(std::move(*socket), "by hand");
+  protocol::Hello hello;
+  hello.role = role;
+  hello.id = id;
+  hello.nonce = protocol::randomNonce();
+  c->sendMessage(hello);
+  flush(*c);
+  const protocol::Frame challenge_frame = nextFrame(*c);
+  protocol::Auth challenge;
+  if (!protocol::decodeFrame(challenge_frame, challenge).isOk()) return nullptr;
+  protocol::Auth answer;
+  answer.step = protocol::AuthStep::kResponse;
+  answer.value =
+      protocol::authMac(*key, protocol::AuthStep::kResponse, hello, challenge_frame.header.major,
+                        challenge_frame.header.minor, challenge.value);
+  c->sendMessage(answer);
+  flush(*c);
+  protocol::Auth proof;
+  protocol::HelloAck ack;
+  if (!protocol::decodeFrame(nextFrame(*c), proof).isOk() ||
+      !protocol::decodeFrame(nextFrame(*c), ack).isOk())
+    return nullptr;
+  return c;
 }
 
 TEST(Auth, WrongMissingAndReplayedAnswersAreRefusedByName) {
@@ -140,6 +189,7 @@ TEST(Auth, WrongMissingAndReplayedAnswersAreRefusedByName) {
       << log;
   EXPECT_NE(log.find("authentication failed for pod 1"), std::string::npos) << log;
   EXPECT_EQ(log.find("pod 0 (127.0.0.1"), std::string::npos) << "pod 0 never joined\n" << log;
+  fs::remove_all(out);
 }
 
 // Per-pod keys: pod 0's identity is its own key. A peer holding pod 1's
@@ -189,16 +239,11 @@ TEST(Auth, APodIsBoundToItsKeyAndCannotBeReplaced) {
   EXPECT_NE(readFile(out / "impostor.log").find("authentication failed for pod 0"),
             std::string::npos)
       << readFile(out / "impostor.log");
-  ASSERT_EQ(waitExit(client, 120), 0) << readFile(out / "client.log");
-  kill(pod, SIGTERM);
-  waitExit(pod, 10);
-  kill(server, SIGTERM);
-  EXPECT_EQ(waitExit(server, 10), 0);
-  std::ifstream report(out / "client" / "report.json");
-  EXPECT_EQ(nlohmann::json::parse(report)["frames_rendered"].get<int>(), 6);
+  expectEveryFrameRenderedThenStop(out, client, pod, server, 6);
   const std::string log = readFile(out / "server.log");
   EXPECT_NE(log.find("authentication failed for pod 0"), std::string::npos) << log;
   EXPECT_EQ(log.find("dropping its old connection"), std::string::npos) << log;
+  fs::remove_all(out);
 }
 
 // A server that will not start: without a key (unless --no-auth), with
@@ -228,6 +273,7 @@ TEST(Auth, AServerWithoutAKeyOrWithAnOpenKeyFileDoesNotStart) {
   EXPECT_NE(readFile(out / "readable.log").find("readable by others (mode 0644)"),
             std::string::npos)
       << readFile(out / "readable.log");
+  fs::remove_all(out);
 }
 
 // Before its handshake a peer may send 256 bytes a frame and has the
@@ -264,6 +310,79 @@ TEST(Limits, BeforeItsHandshakeAPeerGetsAFewBytesAndALittleTime) {
   const std::string log = readFile(out / "server.log");
   EXPECT_NE(log.find("no handshake within 300 ms"), std::string::npos) << log;
   EXPECT_NE(log.find("above cap 256"), std::string::npos) << log;
+  fs::remove_all(out);
+}
+
+// No peer's traffic starves the others: an admitted peer flooding
+// heartbeats is closed for it, a pod whose calibration claims a huge image
+// is refused before anything of that size exists, and a client beside
+// them renders every frame it asked for.
+TEST(FairService, AFloodingPeerIsClosedAndTheOthersAreStillServed) {
+  const fs::path out = freshDir("fair");
+  pid_t server = 0;
+  const std::string endpoint = serverOn(out, 3, &server);
+  ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
+  const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods",
+                           "3", "--size", "64x48", "--fps", "10"},
+                          out / "pod.log");
+  const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out",
+                              (out / "client").string(), "--frames", "6", "--size", "64x48"},
+                             out / "client.log");
+  auto flooder = admittedByHand(endpoint, protocol::Role::kPod, 1);
+  ASSERT_NE(flooder, nullptr) << readFile(out / "server.log");
+  for (int i = 0; i < 5000; ++i) flooder->sendMessage(protocol::Heartbeat{1});
+  flush(*flooder);
+  protocol::ErrorMessage refusal;
+  ASSERT_TRUE(protocol::decodeFrame(nextFrame(*flooder), refusal).isOk());
+  EXPECT_NE(refusal.message.find("heartbeats closer together than 50 ms"), std::string::npos)
+      << refusal.message;
+  auto giant = admittedByHand(endpoint, protocol::Role::kPod, 2);
+  ASSERT_NE(giant, nullptr) << readFile(out / "server.log");
+  protocol::Calibration calibration;
+  calibration.camera_id = 2;
+  calibration.width = calibration.height = 9362;
+  calibration.fx = calibration.fy = 5000;
+  calibration.cx = calibration.cy = 4681;
+  calibration.rotation = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  giant->sendMessage(calibration);
+  flush(*giant);
+  ASSERT_TRUE(protocol::decodeFrame(nextFrame(*giant), refusal).isOk());
+  EXPECT_NE(refusal.message.find("9362x9362 is above --max-image-side 4096"), std::string::npos)
+      << refusal.message;
+  expectEveryFrameRenderedThenStop(out, client, pod, server, 6);
+  fs::remove_all(out);
+}
+
+// Out of file descriptors, the server says so, stops polling its listener
+// for a moment instead of spinning on it, and admits a peer again once
+// descriptors are free.
+TEST(FairService, OutOfDescriptorsTheServerPausesAcceptingAndRecovers) {
+  const fs::path out = freshDir("emfile");
+  pid_t server = 0;
+  const std::string endpoint =
+      test::startServer(kBin, out, 1, &server, {}, {"/usr/bin/prlimit", "--nofile=32"});
+  ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
+  auto parsed = protocol::parseEndpoint(endpoint);
+  ASSERT_TRUE(parsed.isOk());
+  std::vector<protocol::Socket> crowd;
+  for (int i = 0; i < 40; ++i) {
+    auto socket = protocol::connectTcp(*parsed, 1000);
+    if (socket.isOk()) crowd.push_back(std::move(*socket));
+  }
+  // The log line is the event to wait for.
+  for (int i = 0;
+       i < 200 && readFile(out / "server.log").find("cannot accept") == std::string::npos; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_NE(readFile(out / "server.log").find("cannot accept (Too many open files)"),
+            std::string::npos)
+      << readFile(out / "server.log");
+  crowd.clear();  // descriptors free again: the crowd's are closed at the deadline
+  auto late = admittedByHand(endpoint, protocol::Role::kClient, 0);
+  EXPECT_NE(late, nullptr) << "admitted once descriptors are free\n"
+                           << readFile(out / "server.log");
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  fs::remove_all(out);
 }
 
 }  // namespace

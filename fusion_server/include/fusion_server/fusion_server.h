@@ -51,6 +51,14 @@ struct ServerOptions {
   // A peer that has not finished its handshake (Hello, and the challenge
   // when there are keys) by then is closed.
   uint32_t handshake_timeout_ms = 2000;
+  // Fair service (SECURITY.md): bytes read from one peer per turn of the
+  // loop; heartbeats closer together than this are refused (a peer sends
+  // one only after heartbeat_interval_ms of sending nothing else); and the
+  // largest image side a pod's calibration may claim, which bounds every
+  // plane the server decompresses for it.
+  size_t read_budget_bytes = 4u << 20;
+  uint32_t min_heartbeat_interval_ms = 50;
+  uint32_t max_image_side = 4096;
 };
 
 class FusionServer {
@@ -73,6 +81,8 @@ class FusionServer {
     bool replaced = false;  // a newer connection of the same pod took over
     uint8_t minor = 0;      // agreed in the handshake: the fields this peer is sent
     uint64_t accepted_ns = 0;
+    uint64_t last_heartbeat_ns = 0;
+    uint32_t early_heartbeats = 0;  // in a row, each closer than the floor
     // Between Hello and the answer to our challenge: what was claimed, the
     // version agreed and the challenge sent.
     struct PendingAuth {
@@ -102,6 +112,10 @@ class FusionServer {
 
   ServerOptions options_;
   std::map<uint32_t, uint64_t> implausible_frames_;  // per pod: frames far off the rig's ids
+  // Out of descriptors: the listener is not polled until then, so it
+  // cannot spin, and the backlog holds the connections meanwhile.
+  uint64_t accept_paused_until_ns_ = 0;
+  uint64_t accept_pauses_ = 0;
   protocol::Socket listener_;
   int wake_fd_ = -1;
   std::vector<Peer> peers_;

@@ -49,9 +49,12 @@ class Connection {
   // Writes as much as the socket takes. An error status means the
   // connection is dead.
   Status onWritable();
-  // Reads until the socket would block. Complete frames go to the inbox.
-  // An error status (malformed stream, EOF, I/O error) means close it.
-  Status onReadable();
+  // Reads until the socket would block, or budget bytes have been read
+  // this call (the rest waits in the kernel for the next: one peer's flood
+  // cannot take a whole turn of a server's loop). Complete frames go to
+  // the inbox. An error status (malformed stream, EOF, I/O error) means
+  // close it.
+  Status onReadable(size_t budget = SIZE_MAX);
   // Writes for up to timeout_ms until the queue is empty (used before close).
   void drain(int timeout_ms);
   // An orderly close within timeout_ms: drain, send FIN, then read (and

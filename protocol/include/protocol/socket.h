@@ -53,7 +53,10 @@ class Socket {
   IoResult writeVector(const iovec* parts, int count);
   // Accepts one pending connection (non-blocking, TCP_NODELAY set), or an
   // invalid Socket when none is pending.
-  Socket acceptOne(std::string* peer);
+  // The next pending connection, or an invalid Socket; error (when given)
+  // gets accept's errno then (EAGAIN: none pending; EMFILE: out of
+  // descriptors, and the connection waits in the backlog).
+  Socket acceptOne(std::string* peer, int* error = nullptr);
   // The local port (after binding to port 0).
   uint16_t localPort() const;
 
