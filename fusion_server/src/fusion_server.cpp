@@ -4,6 +4,7 @@
 #include <sys/eventfd.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -24,6 +25,18 @@ namespace {
 
 // Whatever a peer may send before it is admitted: a Hello, an Auth.
 constexpr uint32_t kMaxPayloadBeforeAdmission = 256;
+// After admission, every message but a pod's PodFrames: Calibration,
+// Heartbeat, Bye and types this build does not know.
+constexpr uint32_t kMaxControlPayload = 64u << 10;
+
+// The largest PodFrame a pod of this calibration can need: colour (3
+// bytes a pixel), mask, feather and depth (2) planes at LZ4's worst case
+// (n + n/255 + 16 each), and room for the fields and 1024 stage stamps.
+uint32_t podFrameCap(const protocol::Calibration& c, uint32_t max_payload) {
+  const uint64_t pixels = uint64_t{c.width} * c.height;
+  const uint64_t planes = 7 * pixels + 7 * pixels / 255 + 4 * 16;
+  return static_cast<uint32_t>(std::min<uint64_t>(max_payload, planes + (64u << 10)));
+}
 
 }  // namespace
 
@@ -189,7 +202,7 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
   ack.heartbeat_interval_ms = options_.heartbeat_interval_ms;
   ack.idle_timeout_ms = options_.idle_timeout_ms;
   peer.greeted = true;
-  peer.connection->setMaxPayload(options_.max_payload);
+  peer.connection->setMaxPayload(std::min(options_.max_payload, kMaxControlPayload));
   if (hello.role == protocol::Role::kPod) {
     departed_pods_.erase(hello.id);
     // A pod back on a new connection may send from another clock: its first
@@ -325,6 +338,8 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
                           " from pod " + std::to_string(peer.id));
       }
       cameras_[calibration.camera_id] = fromCalibration(calibration);
+      peer.connection->setTypeCap(MessageType::kPodFrame,
+                                  podFrameCap(calibration, options_.max_payload));
       if (recorder_)
         recorder_->recordPodMessage(dataset::RecordKind::kCalibration, calibration.camera_id, 0,
                                     frame);

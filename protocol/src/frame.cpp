@@ -240,7 +240,11 @@ void StreamDecoder::feed(std::span<const uint8_t> data) {
 
 void StreamDecoder::onHeaderComplete() {
   FrameHeader header;
-  status_ = parseHeader(std::span<const uint8_t>(header_bytes_, kHeaderSize), max_payload_,
+  // The type's own cap where it has one: parseHeader checks the length
+  // against what this stream allows for it.
+  const uint16_t type = static_cast<uint16_t>(header_bytes_[6] | (header_bytes_[7] << 8));
+  const uint32_t cap = type < kTypeCaps && type_caps_[type] != 0 ? type_caps_[type] : max_payload_;
+  status_ = parseHeader(std::span<const uint8_t>(header_bytes_, kHeaderSize), cap,
                         frame_start_offset_, header);
   if (!status_.isOk()) return;
   // The length passed the cap: only now is the buffer sized.

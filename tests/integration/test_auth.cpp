@@ -314,7 +314,8 @@ TEST(Limits, BeforeItsHandshakeAPeerGetsAFewBytesAndALittleTime) {
 }
 
 // No peer's traffic starves the others: an admitted peer flooding
-// heartbeats is closed for it, a pod whose calibration claims a huge image
+// heartbeats is closed for it, one claiming a huge frame is refused at its
+// header, a pod whose calibration claims a huge image
 // is refused before anything of that size exists, and a client beside
 // them renders every frame it asked for.
 TEST(FairService, AFloodingPeerIsClosedAndTheOthersAreStillServed) {
@@ -335,6 +336,21 @@ TEST(FairService, AFloodingPeerIsClosedAndTheOthersAreStillServed) {
   protocol::ErrorMessage refusal;
   ASSERT_TRUE(protocol::decodeFrame(nextFrame(*flooder), refusal).isOk());
   EXPECT_NE(refusal.message.find("heartbeats closer together than 50 ms"), std::string::npos)
+      << refusal.message;
+  // Admitted is not trusted with memory: a header claiming 60 MiB of
+  // anything but a PodFrame its calibration allows is refused at the header.
+  auto claimer = admittedByHand(endpoint, protocol::Role::kClient, 7);
+  ASSERT_NE(claimer, nullptr) << readFile(out / "server.log");
+  const uint8_t header[protocol::kHeaderSize] = {'H', 'F', 'U', 'S', 1, 4, 7,    0,
+                                                 0,   0,   0,   0,   0, 0, 0xC0, 0x03};
+  ASSERT_EQ(::write(claimer->fd(), header, sizeof(header)), static_cast<ssize_t>(sizeof(header)));
+  // A client is sent the rig's frames too: its refusal is the Error among them.
+  protocol::Frame reply = nextFrame(*claimer);
+  while (!reply.bytes.empty() &&
+         reply.header.type != static_cast<uint16_t>(protocol::MessageType::kError))
+    reply = nextFrame(*claimer);
+  ASSERT_TRUE(protocol::decodeFrame(reply, refusal).isOk());
+  EXPECT_NE(refusal.message.find("62914560 bytes above cap 65536"), std::string::npos)
       << refusal.message;
   auto giant = admittedByHand(endpoint, protocol::Role::kPod, 2);
   ASSERT_NE(giant, nullptr) << readFile(out / "server.log");

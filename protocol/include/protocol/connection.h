@@ -63,6 +63,9 @@ class Connection {
   void closeGracefully(int timeout_ms);
 
   void setMaxPayload(uint32_t max_payload) { decoder_.setMaxPayload(max_payload); }
+  void setTypeCap(MessageType type, uint32_t cap) {
+    decoder_.setTypeCap(static_cast<uint16_t>(type), cap);
+  }
   bool hasFrame() const { return decoder_.hasFrame(); }
   Frame takeFrame() { return decoder_.takeFrame(); }
 

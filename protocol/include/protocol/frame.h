@@ -2,6 +2,7 @@
 // frame in place, and the incremental stream decoder for untrusted input.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -141,6 +142,13 @@ class StreamDecoder {
   // The cap for frames whose header is still to come (a server raises it
   // once a peer has been admitted).
   void setMaxPayload(uint32_t max_payload) { max_payload_ = max_payload; }
+  // A cap of its own for one message type (ids below kTypeCaps), above or
+  // below max_payload: a server lets a pod's PodFrames be as large as its
+  // calibration allows, and everything else small. 0: max_payload.
+  static constexpr size_t kTypeCaps = 16;
+  void setTypeCap(uint16_t type, uint32_t cap) {
+    if (type < kTypeCaps) type_caps_[type] = cap;
+  }
 
   // Where the next bytes from the socket should go (read straight into the
   // frame's own buffer, so a payload is never copied on receipt).
@@ -163,6 +171,7 @@ class StreamDecoder {
   void onFrameComplete();
 
   uint32_t max_payload_;
+  std::array<uint32_t, kTypeCaps> type_caps_{};
   Status status_;
   uint8_t header_bytes_[kHeaderSize] = {};
   size_t header_filled_ = 0;
