@@ -61,7 +61,6 @@ int runPod(const PodOptions& options) {
   protocol::Hello hello;
   hello.role = protocol::Role::kPod;
   hello.id = options.pod_id;
-  hello.nonce = protocol::realtimeNs() ^ (uint64_t{options.pod_id} << 48);
   hello.name = "pod-" + std::to_string(options.pod_id);
   protocol::LinkOptions link_options;
   link_options.log_name = hello.name;

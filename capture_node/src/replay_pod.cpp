@@ -79,7 +79,6 @@ int runReplayPod(const ReplayOptions& options) {
   protocol::Hello hello;
   hello.role = protocol::Role::kPod;
   hello.id = options.pod_id;
-  hello.nonce = protocol::realtimeNs() ^ (uint64_t{options.pod_id} << 48);
   hello.name = name;
   protocol::LinkOptions link_options;
   link_options.log_name = name;

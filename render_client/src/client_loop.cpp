@@ -428,7 +428,6 @@ int runClient(const ClientOptions& options) {
   protocol::Hello hello;
   hello.role = protocol::Role::kClient;
   hello.id = options.client_id;
-  hello.nonce = protocol::realtimeNs();
   hello.name = "client-" + std::to_string(options.client_id);
   protocol::LinkOptions link_options;
   link_options.log_name = "client";

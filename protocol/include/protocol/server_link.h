@@ -80,7 +80,7 @@ class ServerLink {
   Status handleAuth(const Frame& frame);
 
   Endpoint server_;
-  Hello hello_;
+  Hello hello_;  // its nonce is drawn afresh for every connection (tryConnect)
   LinkOptions options_;
   std::unique_ptr<Connection> connection_;
   bool acked_ = false;
