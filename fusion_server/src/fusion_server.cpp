@@ -38,6 +38,13 @@ uint32_t podFrameCap(const protocol::Calibration& c, uint32_t max_payload) {
   return static_cast<uint32_t>(std::min<uint64_t>(max_payload, planes + (64u << 10)));
 }
 
+// The decoder and the worker both write the one wake descriptor.
+void drainWake(int wake_fd) {
+  uint64_t counter = 0;
+  while (::read(wake_fd, &counter, sizeof(counter)) > 0) {
+  }
+}
+
 }  // namespace
 
 FusionServer::FusionServer(ServerOptions options)
@@ -48,6 +55,7 @@ FusionServer::FusionServer(ServerOptions options)
 }
 
 FusionServer::~FusionServer() {
+  decoder_.reset();
   worker_.reset();
   if (wake_fd_ >= 0) ::close(wake_fd_);
 }
@@ -63,6 +71,7 @@ Status FusionServer::start() {
     recorder_ = std::move(*recorder);
   }
   worker_ = std::make_unique<FusionWorker>(options_.fusion, wake_fd_, options_.lossless);
+  decoder_ = std::make_unique<PodDecoder>(options_.decode_threads, wake_fd_);
   if (!options_.port_file.empty()) {
     std::ofstream(options_.port_file) << port() << "\n";
   }
@@ -88,7 +97,23 @@ std::set<uint32_t> FusionServer::expectedPods() const {
   for (uint32_t id = 0; id < static_cast<uint32_t>(options_.pods); ++id) {
     if (departed_pods_.count(id) == 0) ids.insert(id);
   }
+  // A pod that left with frames still decoding is waited for until they
+  // are in: its last frames are fused like the others.
+  for (uint32_t id : decoder_->podsInFlight()) ids.insert(id);
   return ids;
+}
+
+void FusionServer::refuseConnection(protocol::Socket socket, const std::string& name,
+                                    const std::string& why) {
+  if (refused_connections_++ % 100 == 0) {
+    std::fprintf(stderr, "[server] refusing %s: %s (%llu refused so far)\n", name.c_str(),
+                 why.c_str(), static_cast<unsigned long long>(refused_connections_));
+  }
+  // One try at telling it why, without waiting on a peer that may not read.
+  protocol::Connection refused(std::move(socket), name);
+  refused.sendMessage(
+      protocol::ErrorMessage{static_cast<uint16_t>(StatusCode::kTooLarge), "refused: " + why});
+  (void)refused.onWritable();
 }
 
 void FusionServer::acceptAll() {
@@ -109,11 +134,41 @@ void FusionServer::acceptAll() {
       }
       return;
     }
+    // Caps on connections (SECURITY.md): in all, in the handshake, and in
+    // the handshake from one address, so strangers cannot crowd out a rig.
+    const std::string address = name.substr(0, name.rfind(':'));
+    size_t handshaking = 0, from_address = 0;
+    for (const Peer& peer : peers_) {
+      if (peer.greeted) continue;
+      ++handshaking;
+      const std::string& other = peer.connection->address();
+      from_address += other == address;
+    }
+    if (peers_.size() >= options_.max_connections) {
+      refuseConnection(std::move(socket), name,
+                       std::to_string(peers_.size()) + " connections already (--max-connections)");
+      continue;
+    }
+    if (handshaking >= options_.max_handshaking) {
+      refuseConnection(std::move(socket), name,
+                       std::to_string(handshaking) +
+                           " connections already in their handshake (--max-handshaking)");
+      continue;
+    }
+    if (from_address >= options_.max_handshaking_per_address) {
+      refuseConnection(std::move(socket), name,
+                       std::to_string(from_address) + " connections from " + address +
+                           " already in their handshake (--max-handshaking-per-address)");
+      continue;
+    }
     protocol::ConnectionLimits limits;
     limits.max_queued_droppable = options_.client_queue_frames;
     limits.max_payload = std::min(options_.max_payload, kMaxPayloadBeforeAdmission);
+    limits.max_queued_bytes = options_.max_peer_buffered_bytes;
     Peer peer;
     peer.connection = std::make_unique<protocol::Connection>(std::move(socket), name, limits);
+    peer.connection->setAddress(address);
+    peer.serial = next_serial_++;
     peer.accepted_ns = monotonicNs();
     peers_.push_back(std::move(peer));
   }
@@ -227,54 +282,83 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
   return Status::ok();
 }
 
-Status FusionServer::handlePodFrame(Peer& peer, const Frame& frame) {
-  const uint64_t arrival =
-      monotonicNs();  // before the decoding, which podImagesOf stamps from here
-  protocol::PodFrame pod;
-  HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, pod));
-  if (pod.camera_id != peer.id) {
-    return Status(StatusCode::kMalformed,
-                  "field 'pod_frame.camera_id': " + std::to_string(pod.camera_id) +
-                      " from the pod that said it is " + std::to_string(peer.id));
-  }
-  auto cam = cameras_.find(pod.camera_id);
+Status FusionServer::handlePodFrame(Peer& peer, Frame frame) {
+  auto cam = cameras_.find(peer.id);
   if (cam == cameras_.end()) {
     return Status(StatusCode::kUnexpectedMessage, "PodFrame before Calibration");
   }
-  auto images = podImagesOf(pod, frame.bytes.size(), cam->second, arrival);
-  if (!images.isOk()) return images.status();
-  const double sent_ms = static_cast<double>(images->sent_ns) / 1e6;
-  const double arrival_ms = static_cast<double>(images->arrival_ns) / 1e6;
+  // Stamped before the decoding, which starts the server_decode stage here
+  // (waiting for a decoder thread is part of it).
+  PodDecodeJob job{peer.serial, peer.id, std::move(frame), cam->second, monotonicNs()};
+  decoder_->submit(std::move(job));
+  return Status::ok();
+}
+
+void FusionServer::takeDecodedFrames() {
+  for (DecodedPodFrame& decoded : decoder_->takeDecoded()) {
+    if (decoded.status.isOk()) {
+      syncDecoded(std::move(decoded.frame), decoded.pod, decoded.frame_id,
+                  std::move(decoded.images));
+      continue;
+    }
+    // Refused as malformed: its connection is closed (if still open), and
+    // it counts for nothing.
+    for (size_t i = 0; i < peers_.size(); ++i) {
+      if (peers_[i].serial == decoded.connection) {
+        closePeer(i, decoded.status);
+        break;
+      }
+    }
+  }
+}
+
+void FusionServer::syncDecoded(Frame frame, uint32_t pod, uint64_t frame_id, PodImages images) {
+  const double sent_ms = static_cast<double>(images.sent_ns) / 1e6;
+  const double arrival_ms = static_cast<double>(images.arrival_ns) / 1e6;
   // The group waits from the first frame decoded: its decoding is
   // server_decode's, and the latency budget must not count it twice.
-  const FrameSync::Added added = sync_.add(pod.frame_id, std::move(*images), monotonicNs());
+  const FrameSync::Added added = sync_.add(frame_id, std::move(images), monotonicNs());
   if (added == FrameSync::Added::kImplausible) {
     // Another clock than the rig's: the frame is dropped, the pod kept (its
     // ids are its own business until most pods agree; frame_sync.h).
-    const uint64_t refused = ++implausible_frames_[pod.camera_id];
+    const uint64_t refused = ++implausible_frames_[pod];
     if (refused == 1 || refused % 100 == 0) {
       std::fprintf(stderr,
-                   "[server] %s: frame id %llu is far from the frames being fused; dropped "
+                   "[server] pod %u: frame id %llu is far from the frames being fused; dropped "
                    "(%llu so far; does it run on another clock?)\n",
-                   peer.connection->peerName().c_str(),
-                   static_cast<unsigned long long>(pod.frame_id),
+                   pod, static_cast<unsigned long long>(frame_id),
                    static_cast<unsigned long long>(refused));
     }
-    return Status::ok();
+    return;
   }
   // Every frame a pod sends counts for its jitter, also one that arrives too
   // late to be fused: the link's behaviour, not the fusion's. A frame refused
   // as malformed does not count.
-  if (sent_ms > 0) pod_arrivals_[pod.camera_id].add(sent_ms, arrival_ms);
+  if (sent_ms > 0) pod_arrivals_[pod].add(sent_ms, arrival_ms);
   // What the fusion takes, as it arrived (a late frame is not fused, so a
   // replay must not fuse it either).
   if (added == FrameSync::Added::kAccepted && recorder_) {
-    recorder_->recordPodMessage(dataset::RecordKind::kPodFrame, pod.camera_id, pod.frame_id, frame);
+    recorder_->recordPodMessage(dataset::RecordKind::kPodFrame, pod, frame_id, frame);
   }
-  return Status::ok();
 }
 
-Status FusionServer::handle(Peer& peer, const Frame& frame) {
+void FusionServer::enforceBufferedBytes() {
+  size_t total = 0, most = 0, holder = 0;
+  for (size_t i = 0; i < peers_.size(); ++i) {
+    const size_t bytes = peers_[i].connection->bufferedBytes();
+    total += bytes;
+    if (bytes > most) most = bytes, holder = i;
+  }
+  if (total <= options_.max_buffered_bytes) return;
+  closePeer(holder, Status(StatusCode::kTooLarge,
+                           "the server's buffers are full (" + std::to_string(total >> 20) +
+                               " MiB of --max-buffered-bytes " +
+                               std::to_string(options_.max_buffered_bytes >> 20) +
+                               " MiB) and this peer holds the most, " + std::to_string(most >> 20) +
+                               " MiB"));
+}
+
+Status FusionServer::handle(Peer& peer, Frame frame) {
   const auto type = static_cast<MessageType>(frame.header.type);
   if (!peer.greeted && peer.pending) {
     if (type == MessageType::kBye) {
@@ -353,7 +437,7 @@ Status FusionServer::handle(Peer& peer, const Frame& frame) {
     case MessageType::kPodFrame:
       if (peer.role != protocol::Role::kPod)
         return Status(StatusCode::kUnexpectedMessage, "PodFrame from a client");
-      return handlePodFrame(peer, frame);
+      return handlePodFrame(peer, std::move(frame));
     case MessageType::kHello:
       return Status(StatusCode::kUnexpectedMessage, "second Hello");
     default:
@@ -398,9 +482,6 @@ void FusionServer::dispatchReadyGroups() {
 }
 
 void FusionServer::fanOut() {
-  uint64_t counter = 0;
-  while (::read(wake_fd_, &counter, sizeof(counter)) > 0) {
-  }
   for (auto& out : worker_->takeOutputs()) {
     ++groups_fused_;
     if (recorder_)
@@ -428,6 +509,9 @@ bool FusionServer::readable(const Peer& peer) {
     if (clients < options_.wait_for_clients) return false;
     clients_arrived_ = true;  // from now on pods are read whoever comes and goes
   }
+  // Backpressure on a pod whose frames are still being decoded: they
+  // wait in its socket, and its bounded queue drops the oldest.
+  if (decoder_->inFlight(peer.id) >= options_.max_frames_in_flight) return false;
   if (!options_.lossless) return true;
   // Frames wait in the pod's socket, and the pod's sends block, until
   // fusion has caught up: nothing is dropped and memory stays bounded.
@@ -438,7 +522,8 @@ bool FusionServer::readable(const Peer& peer) {
 bool FusionServer::podsDone() {
   // Every configured pod joined and left (not just the first ones).
   if (departed_pods_.size() < static_cast<size_t>(options_.pods)) return false;
-  if (sync_.pendingGroups() > 0 || worker_->queuedJobs() > 0) return false;
+  if (decoder_->inFlight() > 0 || sync_.pendingGroups() > 0 || worker_->queuedJobs() > 0)
+    return false;
   for (const auto& peer : peers_) {
     if (!peer.greeted) continue;
     if (peer.role == protocol::Role::kPod || peer.connection->wantsWrite()) return false;
@@ -450,6 +535,7 @@ int FusionServer::run() {
   std::string bye_reason = "server shutting down";
   while (!stopRequested()) {
     if (options_.exit_when_pods_done && podsDone()) {
+      drainWake(wake_fd_);
       fanOut();
       if (podsDone()) {
         std::fprintf(
@@ -520,8 +606,11 @@ int FusionServer::run() {
       }
       if (!status.isOk()) closePeer(i, status);
     }
+    if (fds[1].revents & POLLIN) drainWake(wake_fd_);
+    takeDecodedFrames();
     dispatchReadyGroups();
-    if (fds[1].revents & POLLIN) fanOut();
+    fanOut();
+    enforceBufferedBytes();
     if (recorder_) recorder_->maybeReportProgress(monotonicNs());
     for (size_t i = peers_.size(); i-- > 0;) {
       if (!peers_[i].connection->wantsWrite()) continue;

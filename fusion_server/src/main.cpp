@@ -64,6 +64,27 @@ int main(int argc, char** argv) {
   app.add_option("--max-image-side", options.max_image_side,
                  "the largest image width or height a pod's calibration may claim")
       ->check(CLI::Range(16, static_cast<int>(protocol::kMaxImageSide)));
+  app.add_option("--decode-threads", options.decode_threads,
+                 "threads that decompress pods' frames, off the loop that reads every peer")
+      ->check(CLI::Range(1, 64));
+  app.add_option("--max-frames-in-flight", options.max_frames_in_flight,
+                 "a pod's frames read and not yet decoded before it is not read")
+      ->check(CLI::Range(size_t{1}, size_t{1024}));
+  app.add_option("--max-connections", options.max_connections,
+                 "connections at once; one more is refused")
+      ->check(CLI::Range(size_t{1}, size_t{65536}));
+  app.add_option("--max-handshaking", options.max_handshaking,
+                 "connections at once that have not finished their handshake")
+      ->check(CLI::Range(size_t{1}, size_t{65536}));
+  app.add_option("--max-handshaking-per-address", options.max_handshaking_per_address,
+                 "connections from one address that have not finished their handshake")
+      ->check(CLI::Range(size_t{1}, size_t{65536}));
+  app.add_option("--max-peer-buffered-bytes", options.max_peer_buffered_bytes,
+                 "bytes one peer may hold in the server, coming in and queued to go out")
+      ->check(CLI::Range(size_t{1} << 20, size_t{1} << 40));
+  app.add_option("--max-buffered-bytes", options.max_buffered_bytes,
+                 "bytes all peers together may hold; past it the peer holding most is closed")
+      ->check(CLI::Range(size_t{1} << 20, size_t{1} << 40));
   app.add_option("--new-key", new_key,
                  "write a fresh random key file (mode 0600) to this path and exit");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)

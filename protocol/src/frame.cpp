@@ -273,4 +273,10 @@ void StreamDecoder::onFrameComplete() {
 
 Frame StreamDecoder::takeFrame() { return std::move(ready_[ready_head_++]); }
 
+size_t StreamDecoder::bufferedBytes() const {
+  size_t bytes = in_payload_ ? current_.bytes.capacity() : 0;
+  for (size_t i = ready_head_; i < ready_.size(); ++i) bytes += ready_[i].bytes.capacity();
+  return bytes;
+}
+
 }  // namespace holofuse::protocol

@@ -375,8 +375,9 @@ TEST(FairService, AFloodingPeerIsClosedAndTheOthersAreStillServed) {
 TEST(FairService, OutOfDescriptorsTheServerPausesAcceptingAndRecovers) {
   const fs::path out = freshDir("emfile");
   pid_t server = 0;
-  const std::string endpoint =
-      test::startServer(kBin, out, 1, &server, {}, {"/usr/bin/prlimit", "--nofile=32"});
+  const std::string endpoint = test::startServer(
+      kBin, out, 1, &server, {"--max-handshaking", "100", "--max-handshaking-per-address", "100"},
+      {"/usr/bin/prlimit", "--nofile=32"});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   auto parsed = protocol::parseEndpoint(endpoint);
   ASSERT_TRUE(parsed.isOk());
@@ -396,6 +397,49 @@ TEST(FairService, OutOfDescriptorsTheServerPausesAcceptingAndRecovers) {
   auto late = admittedByHand(endpoint, protocol::Role::kClient, 0);
   EXPECT_NE(late, nullptr) << "admitted once descriptors are free\n"
                            << readFile(out / "server.log");
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  fs::remove_all(out);
+}
+
+// Strangers that connect and say nothing take handshake slots: past the
+// cap for one address the next is refused at once, told why, and the log
+// names the flag; a peer from that address gets in once the crowd's
+// handshake deadline has closed it.
+TEST(Limits, PastTheHandshakeCapForOneAddressAConnectionIsRefusedByName) {
+  const fs::path out = freshDir("caps");
+  pid_t server = 0;
+  const std::string endpoint = serverOn(
+      out, 1, &server, {"--max-handshaking-per-address", "4", "--handshake-timeout-ms", "1000"});
+  ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
+  auto parsed = protocol::parseEndpoint(endpoint);
+  ASSERT_TRUE(parsed.isOk());
+  std::vector<std::unique_ptr<protocol::Connection>> crowd;
+  for (int i = 0; i < 4; ++i) {
+    auto socket = protocol::connectTcp(*parsed, 1000);
+    ASSERT_TRUE(socket.isOk());
+    crowd.push_back(std::make_unique<protocol::Connection>(std::move(*socket), "crowd"));
+  }
+  // The server accepts in order: the crowd holds the 4 slots by the time
+  // the fifth is accepted.
+  auto fifth = protocol::connectTcp(*parsed, 1000);
+  ASSERT_TRUE(fifth.isOk());
+  protocol::Connection refused(std::move(*fifth), "fifth");
+  const protocol::Frame error = nextFrame(refused);
+  ASSERT_EQ(error.header.type, static_cast<uint16_t>(protocol::MessageType::kError))
+      << readFile(out / "server.log");
+  protocol::ErrorMessage said;
+  ASSERT_TRUE(protocol::decodeFrame(error, said).isOk());
+  EXPECT_NE(said.message.find("--max-handshaking-per-address"), std::string::npos) << said.message;
+  EXPECT_NE(readFile(out / "server.log").find("already in their handshake"), std::string::npos);
+  // The crowd is closed at its deadline; then the address is welcome again.
+  for (auto& c : crowd) {
+    Status closed;
+    EXPECT_EQ(nextFrame(*c, &closed).bytes.size(), 0u);
+    EXPECT_FALSE(closed.isOk()) << "closed by the server, not still open after 10 s";
+  }
+  auto late = admittedByHand(endpoint, protocol::Role::kClient, 0);
+  EXPECT_NE(late, nullptr) << readFile(out / "server.log");
   kill(server, SIGTERM);
   EXPECT_EQ(waitExit(server, 10), 0);
   fs::remove_all(out);

@@ -17,6 +17,7 @@
 #include "dataset/recorder.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
+#include "fusion_server/pod_decoder.h"
 #include "protocol/auth.h"
 #include "protocol/connection.h"
 #include "protocol/socket.h"
@@ -59,6 +60,21 @@ struct ServerOptions {
   size_t read_budget_bytes = 4u << 20;
   uint32_t min_heartbeat_interval_ms = 50;
   uint32_t max_image_side = 4096;
+  // Pods' frames are decompressed on this many threads, off the loop.
+  int decode_threads = 1;
+  // Limits before allocation (SECURITY.md). Frames of one pod read and not
+  // yet decoded: at this many the pod is not read (TCP holds the rest).
+  size_t max_frames_in_flight = 4;
+  // Connections in all; of them, not yet through the handshake; and of
+  // those, from one address. A connection past a cap is closed at once.
+  size_t max_connections = 256;
+  size_t max_handshaking = 64;
+  size_t max_handshaking_per_address = 16;
+  // Bytes one peer may hold (frames coming in and queued to go out), and
+  // all peers together; past the global cap the peer holding most is
+  // closed.
+  size_t max_peer_buffered_bytes = 256u << 20;
+  size_t max_buffered_bytes = 1024u << 20;
 };
 
 class FusionServer {
@@ -75,6 +91,7 @@ class FusionServer {
  private:
   struct Peer {
     std::unique_ptr<protocol::Connection> connection;
+    uint64_t serial = 0;  // names the connection to the pod decoder
     bool greeted = false;
     protocol::Role role = protocol::Role::kPod;
     uint32_t id = 0;
@@ -96,12 +113,18 @@ class FusionServer {
 
   void acceptAll();
   // Handles one frame; a non-ok status closes that peer.
-  Status handle(Peer& peer, const protocol::Frame& frame);
+  Status handle(Peer& peer, protocol::Frame frame);
   Status handleHello(Peer& peer, const protocol::Frame& frame);
   Status handleAuthAnswer(Peer& peer, const protocol::Frame& frame);
   // The peer is who it says (or there is no authentication): it joins.
   Status admit(Peer& peer, const protocol::Hello& hello, protocol::HelloAck ack);
-  Status handlePodFrame(Peer& peer, const protocol::Frame& frame);
+  Status handlePodFrame(Peer& peer, protocol::Frame frame);
+  // A refused connection is told why and closed before it is a peer.
+  void refuseConnection(protocol::Socket socket, const std::string& name, const std::string& why);
+  void takeDecodedFrames();
+  void syncDecoded(protocol::Frame frame, uint32_t pod, uint64_t frame_id, PodImages images);
+  // Past the global cap on buffered bytes: the peer holding most goes.
+  void enforceBufferedBytes();
   void dispatchReadyGroups();
   void fanOut();
   void closePeer(size_t index, const Status& why);
@@ -125,6 +148,9 @@ class FusionServer {
   std::map<uint32_t, protocol::SharedFrame> calibration_frames_;
   FrameSync sync_;
   std::unique_ptr<FusionWorker> worker_;
+  std::unique_ptr<PodDecoder> decoder_;
+  uint64_t next_serial_ = 1;
+  uint64_t refused_connections_ = 0;
   uint32_t next_session_ = 1;
   uint64_t groups_fused_ = 0;
   std::optional<dataset::Recorder> recorder_;

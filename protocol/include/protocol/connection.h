@@ -36,6 +36,9 @@ class Connection {
   int fd() const { return socket_.fd(); }
   const std::string& peerName() const { return peer_name_; }
   void setPeerName(std::string name) { peer_name_ = std::move(name); }
+  // The peer's host address alone, for caps per address.
+  const std::string& address() const { return address_; }
+  void setAddress(std::string address) { address_ = std::move(address); }
 
   // Queues an encoded frame. The flags in its header say whether it may be
   // dropped.
@@ -75,6 +78,9 @@ class Connection {
   uint64_t bytesOut() const { return bytes_out_; }
   uint64_t framesDropped() const { return frames_dropped_; }
   size_t queuedFrames() const { return queue_.size(); }
+  // What this peer holds in the process's memory: frames coming in and
+  // frames queued to go out (a fanned-out frame counts for every peer).
+  size_t bufferedBytes() const { return decoder_.bufferedBytes() + queued_bytes_; }
 
  private:
   struct Outgoing {
@@ -87,6 +93,7 @@ class Connection {
 
   Socket socket_;
   std::string peer_name_;
+  std::string address_;
   ConnectionLimits limits_;
   StreamDecoder decoder_;
   std::deque<Outgoing> queue_;

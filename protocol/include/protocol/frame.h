@@ -165,6 +165,10 @@ class StreamDecoder {
 
   const Status& status() const { return status_; }
   uint64_t bytesConsumed() const { return stream_offset_; }
+  // Memory held for frames not yet taken: the one being received (its
+  // whole declared payload, allocated once the header passed the cap) and
+  // the complete ones waiting.
+  size_t bufferedBytes() const;
 
  private:
   void onHeaderComplete();
