@@ -141,8 +141,7 @@ void FusionServer::acceptAll() {
     for (const Peer& peer : peers_) {
       if (peer.greeted) continue;
       ++handshaking;
-      const std::string& other = peer.connection->address();
-      from_address += other == address;
+      from_address += peer.connection->address() == address;
     }
     if (peers_.size() >= options_.max_connections) {
       refuseConnection(std::move(socket), name,

@@ -52,7 +52,7 @@ void PodDecoder::submit(PodDecodeJob job) {
   ++in_flight_total_;
   {
     std::lock_guard lock(mutex_);
-    jobs_.push_back(std::move(job));
+    jobs_.emplace_back(next_submitted_++, std::move(job));
   }
   cv_.notify_one();
 }
@@ -61,7 +61,9 @@ std::vector<DecodedPodFrame> PodDecoder::takeDecoded() {
   std::vector<DecodedPodFrame> out;
   {
     std::lock_guard lock(mutex_);
-    out.swap(decoded_);
+    for (auto it = decoded_.begin(); it != decoded_.end() && it->first == next_released_;
+         it = decoded_.erase(it), ++next_released_)
+      out.push_back(std::move(it->second));
   }
   for (const auto& frame : out) {
     --in_flight_total_;
@@ -83,7 +85,7 @@ std::set<uint32_t> PodDecoder::podsInFlight() const {
 
 void PodDecoder::run() {
   for (;;) {
-    PodDecodeJob job;
+    std::pair<uint64_t, PodDecodeJob> job;
     {
       std::unique_lock lock(mutex_);
       cv_.wait(lock, [this] { return stop_ || !jobs_.empty(); });
@@ -91,10 +93,10 @@ void PodDecoder::run() {
       job = std::move(jobs_.front());
       jobs_.pop_front();
     }
-    DecodedPodFrame decoded = decodePodFrame(std::move(job));
+    DecodedPodFrame decoded = decodePodFrame(std::move(job.second));
     {
       std::lock_guard lock(mutex_);
-      decoded_.push_back(std::move(decoded));
+      decoded_.emplace(job.first, std::move(decoded));
     }
     const uint64_t one = 1;
     if (::write(wake_fd_, &one, sizeof(one)) < 0) {

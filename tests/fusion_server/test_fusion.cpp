@@ -1,5 +1,6 @@
 // Frame sync deadlines, and whole fusions of a group.
 #include <gtest/gtest.h>
+#include <poll.h>
 #include <sys/eventfd.h>
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 #include "common/segmentation.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
+#include "fusion_server/pod_decoder.h"
 #include "hull/hull_error.h"
 #include "hull/synthetic_views.h"
 #include "hull/visual_hull.h"
@@ -135,6 +137,49 @@ TEST(FrameSync, ADeadPodDoesNotStallWhenItIsNoLongerExpected) {
 // The send stage is the server's: it runs from the pod's encode end to the
 // arrival, and a send stamp the pod put in its own frame is not kept (it
 // would count twice for the pod's jitter, with times the pod chose).
+// Frames come out of the decoder in the order they went in, however many
+// threads decode them: a pod's ids must reach the sync as they grew.
+TEST(PodDecoder, FramesComeOutInTheOrderTheyWentInOnAnyThread) {
+  const int wake = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  ASSERT_GE(wake, 0);
+  constexpr int kFrames = 64;
+  std::vector<DecodedPodFrame> out;
+  {
+    PodDecoder decoder(4, wake);
+    for (int i = 0; i < kFrames; ++i) {
+      protocol::PodFrame pod;
+      pod.camera_id = static_cast<uint32_t>(i % 3);
+      pod.frame_id = static_cast<uint64_t>(i);
+      protocol::StreamDecoder stream;
+      stream.feed(protocol::encodeOutgoing(pod, static_cast<uint64_t>(i)).flatten());
+      ASSERT_TRUE(stream.hasFrame());
+      // Pod 0's frames are its own; the others claim another id and are
+      // refused, so results are quick and slow in turn.
+      decoder.submit({static_cast<uint64_t>(i), 0, stream.takeFrame(), Camera{}, 0});
+    }
+    EXPECT_EQ(decoder.inFlight(), static_cast<size_t>(kFrames));
+    while (out.size() < kFrames) {
+      pollfd p{wake, POLLIN, 0};
+      ASSERT_GT(::poll(&p, 1, 10000), 0) << "the decoder went quiet after " << out.size();
+      uint64_t counter = 0;
+      while (::read(wake, &counter, sizeof(counter)) > 0) {
+      }
+      for (auto& decoded : decoder.takeDecoded()) out.push_back(std::move(decoded));
+    }
+    EXPECT_EQ(decoder.inFlight(), 0u);
+    EXPECT_TRUE(decoder.podsInFlight().empty());
+  }
+  ::close(wake);
+  for (int i = 0; i < kFrames; ++i) {
+    EXPECT_EQ(out[i].connection, static_cast<uint64_t>(i));
+    EXPECT_FALSE(out[i].status.isOk());
+    if (i % 3 != 0) {
+      EXPECT_NE(out[i].status.message().find("pod_frame.camera_id"), std::string::npos)
+          << out[i].status.message();
+    }
+  }
+}
+
 TEST(FusionWorker, TheServerStampsTheSendStageItself) {
   const auto views = syntheticViews(1, 3, 64, 48);
   const scene::SyntheticScene scene;

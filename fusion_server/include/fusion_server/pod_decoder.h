@@ -50,6 +50,9 @@ class PodDecoder {
   PodDecoder& operator=(const PodDecoder&) = delete;
 
   void submit(PodDecodeJob job);
+  // The frames decoded so far, in the order they were submitted whatever
+  // thread finished first: a pod's ids only grow on the wire, and the
+  // lossless sync and the recording rely on seeing them so.
   std::vector<DecodedPodFrame> takeDecoded();
 
   // Frames submitted and not yet taken, counted by the submitting thread
@@ -66,8 +69,10 @@ class PodDecoder {
   int wake_fd_;
   std::mutex mutex_;
   std::condition_variable cv_;
-  std::deque<PodDecodeJob> jobs_;
-  std::vector<DecodedPodFrame> decoded_;
+  std::deque<std::pair<uint64_t, PodDecodeJob>> jobs_;  // by submission number
+  std::map<uint64_t, DecodedPodFrame> decoded_;
+  uint64_t next_submitted_ = 0;
+  uint64_t next_released_ = 0;
   bool stop_ = false;
   std::vector<std::thread> threads_;
   std::map<uint32_t, size_t> in_flight_;
