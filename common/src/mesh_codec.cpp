@@ -23,7 +23,106 @@ int addFloat3Attribute(draco::Mesh& dm, draco::GeometryAttribute::Type type,
   return id;
 }
 
+// A reader over the Draco bitstream's first bytes, failing (not reading
+// past the end) on a short buffer.
+class DracoHeaderReader {
+ public:
+  DracoHeaderReader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
+  bool byte(uint8_t& out) {
+    if (at_ >= size_) return false;
+    out = data_[at_++];
+    return true;
+  }
+  bool skip(size_t n) {
+    if (size_ - at_ < n) return false;
+    at_ += n;
+    return true;
+  }
+  // LEB128, at most 5 bytes for 32 bits (the spec's varUI32).
+  bool varint(uint32_t& out) {
+    uint64_t value = 0;
+    for (int shift = 0; shift < 35; shift += 7) {
+      uint8_t b = 0;
+      if (!byte(b)) return false;
+      value |= uint64_t{b & 0x7Fu} << shift;
+      if ((b & 0x80) == 0) {
+        if (value > UINT32_MAX) return false;
+        out = static_cast<uint32_t>(value);
+        return true;
+      }
+    }
+    return false;
+  }
+  // One metadata element and its sub-elements (spec 4.4-4.6), skipped.
+  bool skipMetadataElement(int depth) {
+    if (depth > 32) return false;
+    uint32_t entries = 0;
+    if (!varint(entries)) return false;
+    for (uint32_t i = 0; i < entries; ++i) {
+      uint8_t n = 0;
+      if (!byte(n) || !skip(n) || !byte(n) || !skip(n)) return false;
+    }
+    uint32_t subs = 0;
+    if (!varint(subs)) return false;
+    for (uint32_t i = 0; i < subs; ++i) {
+      uint8_t n = 0;
+      if (!byte(n) || !skip(n) || !skipMetadataElement(depth + 1)) return false;
+    }
+    return true;
+  }
+
+ private:
+  const uint8_t* data_;
+  size_t size_;
+  size_t at_ = 0;
+};
+
 }  // namespace
+
+StatusOr<DracoCounts> readDracoCounts(const uint8_t* data, size_t size) {
+  // Draco bitstream specification 2.2: the header (section 3.2), optional
+  // metadata (4) and the connectivity header (6.1 sequential, 7.1
+  // edgebreaker), which states the counts the decoder allocates for.
+  DracoHeaderReader in(data, size);
+  const Status truncated(StatusCode::kMalformed, "draco mesh: header truncated");
+  uint8_t magic[5] = {};
+  for (uint8_t& b : magic)
+    if (!in.byte(b)) return truncated;
+  if (std::string(magic, magic + 5) != "DRACO")
+    return Status(StatusCode::kMalformed, "draco mesh: no DRACO signature");
+  uint8_t major = 0, minor = 0, type = 0, method = 0, flags_lo = 0, flags_hi = 0;
+  if (!in.byte(major) || !in.byte(minor) || !in.byte(type) || !in.byte(method) ||
+      !in.byte(flags_lo) || !in.byte(flags_hi))
+    return truncated;
+  if (major != 2 || minor != 2) {
+    return Status(StatusCode::kMalformed,
+                  "draco mesh: bitstream " + std::to_string(major) + "." + std::to_string(minor) +
+                      "; only 2.2 (what Draco 1.4 and later write) is read");
+  }
+  if (type != 1) return Status(StatusCode::kMalformed, "draco mesh: not a triangle mesh");
+  const uint16_t flags = static_cast<uint16_t>(flags_lo | (flags_hi << 8));
+  if (flags & 0x8000) {
+    uint32_t attribute_metadata = 0;
+    if (!in.varint(attribute_metadata)) return truncated;
+    for (uint32_t i = 0; i < attribute_metadata; ++i) {
+      uint32_t id = 0;
+      if (!in.varint(id) || !in.skipMetadataElement(0)) return truncated;
+    }
+    if (!in.skipMetadataElement(0)) return truncated;
+  }
+  DracoCounts counts;
+  if (method == 0) {
+    if (!in.varint(counts.faces) || !in.varint(counts.vertices)) return truncated;
+  } else if (method == 1) {
+    uint8_t traversal = 0;
+    if (!in.byte(traversal) || !in.varint(counts.vertices) || !in.varint(counts.faces))
+      return truncated;
+  } else {
+    return Status(StatusCode::kMalformed,
+                  "draco mesh: unknown encoder method " + std::to_string(method));
+  }
+  return counts;
+}
 
 StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions& options) {
   draco::Mesh dm;
@@ -63,7 +162,16 @@ StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions&
   return std::vector<uint8_t>(buffer.data(), buffer.data() + buffer.size());
 }
 
-StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size) {
+StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& limits) {
+  auto counts = readDracoCounts(data, size);
+  if (!counts.isOk()) return counts.status();
+  if (counts->vertices > limits.max_vertices || counts->faces > limits.max_faces) {
+    return Status(StatusCode::kTooLarge, "draco mesh: " + std::to_string(counts->vertices) +
+                                             " vertices and " + std::to_string(counts->faces) +
+                                             " faces, above the caps of " +
+                                             std::to_string(limits.max_vertices) + " and " +
+                                             std::to_string(limits.max_faces));
+  }
   draco::DecoderBuffer buffer;
   buffer.Init(reinterpret_cast<const char*>(data), size);
   draco::Decoder decoder;

@@ -42,6 +42,10 @@ int main(int argc, char** argv) {
                  "a shell command that starts a live judge (eval's holofuse_judge): each written "
                  "frame is judged against the truth from its view (PSNR, SSIM in report.json and "
                  "report.html); costs client time after each frame");
+  app.add_option("--max-mesh-vertices", options.mesh_limits.max_vertices,
+                 "a received mesh stating more vertices is skipped before it is decoded");
+  app.add_option("--max-mesh-faces", options.mesh_limits.max_faces,
+                 "a received mesh stating more faces is skipped before it is decoded");
   PeerKeyFlags key_flags(app, "client");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   render_flags.apply(options.render);

@@ -249,5 +249,67 @@ TEST(ImageRects, ForegroundRectCropAndPlaceRoundTrip) {
   EXPECT_TRUE(cropFits(16, 8, 80, 64, 96, 72));
 }
 
+// The counts Draco would allocate for, read before it runs: they must be
+// the mesh's own for both of the encoder's methods, and a forged header
+// must be refused by the cap, not by running out of memory.
+TEST(MeshCodec, CountsAreReadFromTheHeaderForBothEncoderMethods) {
+  const auto grid = sampleGrid({-0.5, -0.5, -0.5}, 0.05, 21, 21, 21,
+                               [](const glm::dvec3& p) { return 0.4 - glm::length(p); });
+  const Mesh mesh = marchingCubes(grid);
+  for (int speed : {7, 10}) {  // 7: edgebreaker, 10: sequential
+    DracoOptions options;
+    options.speed = speed;
+    auto bytes = encodeDraco(mesh, options);
+    ASSERT_TRUE(bytes.isOk());
+    auto counts = readDracoCounts(bytes->data(), bytes->size());
+    ASSERT_TRUE(counts.isOk()) << counts.status().toString();
+    EXPECT_EQ(counts->faces, mesh.triangleCount()) << "speed " << speed;
+    EXPECT_EQ(counts->vertices, mesh.vertexCount()) << "speed " << speed;
+
+    DracoLimits tight;
+    tight.max_faces = static_cast<uint32_t>(mesh.triangleCount()) - 1;
+    auto refused = decodeDraco(bytes->data(), bytes->size(), tight);
+    ASSERT_FALSE(refused.isOk());
+    EXPECT_EQ(refused.status().code(), StatusCode::kTooLarge);
+    EXPECT_NE(refused.status().message().find(std::to_string(mesh.triangleCount()) + " faces"),
+              std::string::npos)
+        << refused.status().toString();
+    DracoLimits exact;
+    exact.max_faces = static_cast<uint32_t>(mesh.triangleCount());
+    exact.max_vertices = static_cast<uint32_t>(mesh.vertexCount());
+    EXPECT_TRUE(decodeDraco(bytes->data(), bytes->size(), exact).isOk());
+  }
+}
+
+TEST(MeshCodec, AForgedFaceCountIsRefusedBeforeDecoding) {
+  Mesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  mesh.indices = {0, 1, 2};
+  auto bytes = encodeDraco(mesh, losslessSequential());
+  ASSERT_TRUE(bytes.isOk());
+  // Sequential connectivity starts right after the 11-byte header with
+  // num_faces as a varint; 1 face fits one byte. Claim 2^28 - 1 faces.
+  std::vector<uint8_t> forged(bytes->begin(), bytes->begin() + 11);
+  ASSERT_EQ((*bytes)[11], 1);
+  for (uint8_t b : {0xFF, 0xFF, 0xFF, 0x7F}) forged.push_back(b);
+  forged.insert(forged.end(), bytes->begin() + 12, bytes->end());
+  auto refused = decodeDraco(forged.data(), forged.size());
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().message().find("268435455 faces, above the caps"), std::string::npos)
+      << refused.status().toString();
+
+  auto truncated = decodeDraco(bytes->data(), 9);
+  ASSERT_FALSE(truncated.isOk());
+  EXPECT_NE(truncated.status().message().find("header truncated"), std::string::npos)
+      << truncated.status().toString();
+  std::vector<uint8_t> unsigned_bytes(bytes->begin(), bytes->end());
+  unsigned_bytes[0] = 'd';
+  EXPECT_NE(decodeDraco(unsigned_bytes.data(), unsigned_bytes.size())
+                .status()
+                .message()
+                .find("no DRACO signature"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace holofuse

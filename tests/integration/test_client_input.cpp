@@ -160,9 +160,23 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
   c.send(bundleFor(5, truth.color));
   c.send(meshFor(5, *out_of_range));
   EXPECT_TRUE(sendAndWaitFor(c, log, "frame 5 skipped"));
-  // Frame 6: good again.
+  // Frame 6: a mesh whose connectivity header claims 2^28 - 1 faces
+  // (sequential Draco starts it right after the 11-byte header): refused
+  // by the cap before Draco allocates for them.
+  auto sequential = encodeDraco(good, as_given);
+  ASSERT_TRUE(sequential.isOk());
+  size_t count_end = 11;
+  while ((*sequential)[count_end] & 0x80) ++count_end;
+  std::vector<uint8_t> forged(sequential->begin(), sequential->begin() + 11);
+  for (uint8_t b : {0xFF, 0xFF, 0xFF, 0x7F}) forged.push_back(b);
+  forged.insert(forged.end(), sequential->begin() + static_cast<long>(count_end) + 1,
+                sequential->end());
   c.send(bundleFor(6, truth.color));
-  c.send(meshFor(6, *draco));
+  c.send(meshFor(6, forged));
+  EXPECT_TRUE(sendAndWaitFor(c, log, "frame 6 skipped"));
+  // Frame 7: good again.
+  c.send(bundleFor(7, truth.color));
+  c.send(meshFor(7, *draco));
   c.drain(2000);
   int status = 0;
   for (int i = 0; i < 600 && waitpid(client, &status, WNOHANG) != client; ++i) {
@@ -176,7 +190,7 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
   const auto report = nlohmann::json::parse(in);
   EXPECT_EQ(report["frames_rendered"], 2);
   EXPECT_EQ(report["frames"][0]["frame_id"], 0);
-  EXPECT_EQ(report["frames"][1]["frame_id"], 6);
+  EXPECT_EQ(report["frames"][1]["frame_id"], 7);
   const std::string skipped = report["frames_skipped"].dump();
   EXPECT_NE(skipped.find("frame 1: draco mesh"), std::string::npos) << skipped;
   EXPECT_NE(skipped.find("frame 2: camera 0 images are not 64x48"), std::string::npos) << skipped;
@@ -186,6 +200,10 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
   EXPECT_NE(skipped.find("is not finite"), std::string::npos) << skipped;
   EXPECT_NE(skipped.find("frame 5: draco mesh: face"), std::string::npos) << skipped;
   EXPECT_NE(skipped.find("out of range"), std::string::npos) << skipped;
+  EXPECT_NE(skipped.find("frame 6: draco mesh: " + std::to_string(good.vertexCount()) +
+                         " vertices and 268435455 faces, above the caps"),
+            std::string::npos)
+      << skipped;
   // The bad frames wrote no picture and left the previous one as it was;
   // the good frame after them has its own.
   EXPECT_EQ(readFile(first_picture), first_bytes);

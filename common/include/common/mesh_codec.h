@@ -18,8 +18,24 @@ struct DracoOptions {
 
 StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions& options = {});
 
-// Decodes untrusted Draco bytes; the result is validated (indices in range,
-// finite positions) and normals are recomputed when absent.
-StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size);
+// What a Draco mesh says it holds, read from its header and connectivity
+// header (Draco bitstream 2.2) before anything is decoded.
+struct DracoCounts {
+  uint32_t vertices = 0;  // encoded vertices (edgebreaker) or points (sequential)
+  uint32_t faces = 0;
+};
+StatusOr<DracoCounts> readDracoCounts(const uint8_t* data, size_t size);
+
+// Caps checked against readDracoCounts before Draco allocates anything
+// (SECURITY.md). A decoded mesh has at most 3 points a face.
+struct DracoLimits {
+  uint32_t max_vertices = 1u << 21;
+  uint32_t max_faces = 1u << 22;
+};
+
+// Decodes untrusted Draco bytes: the counts are capped first, then the
+// result is validated (indices in range, finite positions) and normals are
+// recomputed when absent.
+StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& limits = {});
 
 }  // namespace holofuse

@@ -12,6 +12,7 @@
 #include "base/status.h"
 #include "common/camera.h"
 #include "common/mesh.h"
+#include "common/mesh_codec.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
 #include "render_client/latency_report.h"
@@ -46,6 +47,8 @@ struct ClientOptions {
   // frame is judged against the truth from its view, after it is written,
   // outside every stage's time. Empty: frames are not judged.
   std::string judge_command;
+  // Caps on a received mesh, checked before Draco allocates (SECURITY.md).
+  DracoLimits mesh_limits;
 };
 
 int runClient(const ClientOptions& options);
