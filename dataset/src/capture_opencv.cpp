@@ -2,6 +2,10 @@
 // intri.yml + extri.yml pair of EasyMocap and ZJU-MoCap, or one file per
 // camera as OpenCV's calibration sample writes it; and CMU Panoptic's
 // calibration JSON, which holds the same K, distortion, R and t per camera.
+#include <yaml-cpp/yaml.h>
+
+#include <charconv>
+#include <fstream>
 #include <glm/gtc/quaternion.hpp>
 #include <map>
 #include <opencv2/core.hpp>
@@ -20,50 +24,166 @@ std::vector<fs::path> maskRoots(const fs::path& root) {
   return {root / "masks", root / "mask", root / "mask_cihp"};
 }
 
-// A FileStorage file opened for reading; its parse errors (which carry
-// OpenCV's line number) become a message naming the file.
-StatusOr<cv::FileStorage> openStorage(const fs::path& file) {
-  cv::FileStorage storage;
-  try {
-    storage.open(file.string(), cv::FileStorage::READ);
-  } catch (const cv::Exception& e) {
-    return malformed(file.string(), "not a readable OpenCV FileStorage file (" + e.msg + ")");
+// OpenCV's YAML parser loops for ever on some malformed files (" t:d"
+// then ".cv-" on the next line, in OpenCV 4.6; found by fuzzing) and its
+// parsers take time exponential in how deeply sequences nest, so a
+// FileStorage file is read as a JSON tree by parsers that bound their
+// work: YAML by yaml-cpp, JSON by nlohmann-json, and only XML by OpenCV.
+// Before any of them the text is checked: no NUL byte, nesting at most
+// kMaxNesting (a calibration nests two or three levels).
+constexpr int kMaxNesting = 32;
+
+Status checkText(const std::string& text, const fs::path& file) {
+  int depth = 0;
+  size_t line = 1;
+  for (char c : text) {
+    if (c == '\n') ++line;
+    if (c == '\0') return malformed(file.string() + ":" + std::to_string(line), "holds a NUL byte");
+    if (c == '[' || c == '{') ++depth;
+    if (c == ']' || c == '}') depth = std::max(depth - 1, 0);
+    if (depth > kMaxNesting) {
+      return malformed(file.string() + ":" + std::to_string(line),
+                       "nests deeper than " + std::to_string(kMaxNesting) +
+                           " levels; a calibration needs three");
+    }
   }
-  if (!storage.isOpened()) return Status(StatusCode::kIoError, file.string() + ": cannot open");
-  return storage;
+  return Status::ok();
 }
 
-// The numbers of the matrix stored under `key`, row by row; nullopt when
-// the key is absent. One of `counts` values is expected.
-StatusOr<std::optional<std::vector<double>>> storedMatrix(const cv::FileStorage& storage,
+// A YAML scalar as OpenCV reads it: a number where it is one and was not
+// quoted, text otherwise.
+nlohmann::json yamlScalar(const YAML::Node& node) {
+  const std::string& text = node.Scalar();
+  if (node.Tag() == "!") return text;  // quoted
+  int64_t integer = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), integer);
+  if (error == std::errc() && end == text.data() + text.size() && !text.empty()) return integer;
+  double real = 0;
+  if (parseDouble(text, real)) return real;
+  return text;
+}
+
+StatusOr<nlohmann::json> fromYaml(const YAML::Node& node, const std::string& where) {
+  switch (node.Type()) {
+    case YAML::NodeType::Scalar:
+      return yamlScalar(node);
+    case YAML::NodeType::Sequence: {
+      nlohmann::json array = nlohmann::json::array();
+      for (const YAML::Node& child : node) {
+        auto value = fromYaml(child, where);
+        if (!value.isOk()) return value.status();
+        array.push_back(std::move(*value));
+      }
+      return array;
+    }
+    case YAML::NodeType::Map: {
+      nlohmann::json object = nlohmann::json::object();
+      for (const auto& entry : node) {
+        if (!entry.first.IsScalar()) return malformed(where, "a key that is not text");
+        auto value = fromYaml(entry.second, where);
+        if (!value.isOk()) return value.status();
+        object[entry.first.Scalar()] = std::move(*value);
+      }
+      return object;
+    }
+    default:
+      return nlohmann::json();
+  }
+}
+
+nlohmann::json fromFileNode(const cv::FileNode& node) {
+  if (node.isMap()) {
+    nlohmann::json object = nlohmann::json::object();
+    for (const std::string& key : node.keys()) object[key] = fromFileNode(node[key]);
+    return object;
+  }
+  if (node.isSeq()) {
+    nlohmann::json array = nlohmann::json::array();
+    for (const cv::FileNode& child : node) array.push_back(fromFileNode(child));
+    return array;
+  }
+  if (node.isInt()) return static_cast<int>(node);
+  if (node.isReal()) return node.real();
+  if (node.isString()) return node.string();
+  return nlohmann::json();
+}
+
+// A FileStorage file (YAML, JSON or XML) as a JSON tree; a parse error
+// names the file (and the line, where the parser gives one).
+StatusOr<nlohmann::json> readStorage(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return Status(StatusCode::kIoError, file.string() + ": cannot open");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  HOLOFUSE_RETURN_IF_ERROR(checkText(text, file));
+  const std::string ext = file.extension().string();
+  if (ext == ".json") return readJson(file);
+  if (ext == ".xml") {
+    try {
+      cv::FileStorage storage(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+      if (!storage.isOpened()) return malformed(file.string(), "not an OpenCV FileStorage file");
+      return fromFileNode(storage.root());
+    } catch (const std::exception& e) {
+      return malformed(file.string(),
+                       std::string("not an OpenCV FileStorage file (") + e.what() + ")");
+    }
+  }
+  // OpenCV heads its YAML with "%YAML:1.0", which YAML itself does not
+  // allow; the line is blanked so the parser's line numbers stay the file's.
+  if (text.rfind("%YAML", 0) == 0) text.replace(0, text.find('\n'), "");
+  try {
+    return fromYaml(YAML::Load(text), file.string());
+  } catch (const YAML::Exception& e) {
+    return malformed(file.string() + ":" + std::to_string(e.mark.line + 1),
+                     "not valid YAML (" + e.msg + ")");
+  }
+}
+
+// document[key], or null where the document is not a map or lacks it.
+const nlohmann::json& topLevel(const nlohmann::json& document, const std::string& key) {
+  static const nlohmann::json none;
+  if (!document.is_object()) return none;
+  auto it = document.find(key);
+  return it == document.end() ? none : *it;
+}
+
+// The numbers of the matrix stored under `key`, row by row: an OpenCV
+// matrix (rows, cols, dt, data) or a plain list; nullopt when the key is
+// absent. One of `counts` values is expected.
+StatusOr<std::optional<std::vector<double>>> storedMatrix(const nlohmann::json& document,
                                                           const std::string& key,
                                                           std::initializer_list<size_t> counts,
                                                           const std::string& where) {
-  const cv::FileNode node = storage[key];
-  if (node.empty()) return std::optional<std::vector<double>>();
-  cv::Mat m;
-  try {
-    if (node.isSeq()) {
-      std::vector<double> values;
-      node >> values;
-      m = cv::Mat(values, true);
-    } else {
-      node >> m;
+  const nlohmann::json& node = topLevel(document, key);
+  if (node.is_null()) return std::optional<std::vector<double>>();
+  const std::string at = where + ": " + key;
+  const nlohmann::json* data = &node;
+  if (node.is_object()) {
+    const nlohmann::json& rows = topLevel(node, "rows");
+    const nlohmann::json& cols = topLevel(node, "cols");
+    const nlohmann::json& dt = topLevel(node, "dt");
+    if (!rows.is_number_integer() || !cols.is_number_integer() || !node.contains("data"))
+      return malformed(at, "not a matrix (needs rows, cols and data)");
+    // One channel: OpenCV's type letter alone, or with a count of 1.
+    if (dt.is_string() && !dt.get<std::string>().empty() && dt.get<std::string>() != "d" &&
+        dt.get<std::string>() != "f" && dt.get<std::string>() != "i" &&
+        dt.get<std::string>().front() != '1')
+      return malformed(at, "not a one-channel matrix (dt " + dt.get<std::string>() + ")");
+    data = &node["data"];
+    const int64_t r = rows.get<int64_t>(), c = cols.get<int64_t>();
+    if (r < 0 || c < 0 || r > 64 || c > 64 || static_cast<size_t>(r * c) != data->size()) {
+      return malformed(at, "states " + std::to_string(r) + "x" + std::to_string(c) + " and holds " +
+                               std::to_string(data->size()) + " values");
     }
-  } catch (const cv::Exception& e) {
-    return malformed(where + ": " + key, "not a matrix (" + e.msg + ")");
   }
-  if (m.empty() || m.channels() != 1) return malformed(where + ": " + key, "not a matrix");
-  m.convertTo(m, CV_64F);
-  std::vector<double> values(m.begin<double>(), m.end<double>());
-  if (std::find(counts.begin(), counts.end(), values.size()) == counts.end()) {
-    return malformed(where + ": " + key, "holds " + std::to_string(values.size()) +
-                                             " numbers, not as many as expected");
+  std::vector<double> values;
+  for (size_t count : counts) {
+    auto these = numbers(*data, count, at);
+    if (these.isOk()) return std::optional(*these);
+    if (these.status().message().find("not finite") != std::string::npos) return these.status();
   }
-  for (double v : values) {
-    if (!std::isfinite(v)) return malformed(where + ": " + key, "holds a value that is not finite");
-  }
-  return std::optional(values);
+  std::string expected;
+  for (size_t count : counts) expected += (expected.empty() ? "" : " or ") + std::to_string(count);
+  return malformed(at, "expected " + expected + " numbers");
 }
 
 // OpenCV's distortion vector (k1 k2 p1 p2 [k3 [k4 k5 k6 ...]]) as the
@@ -93,7 +213,7 @@ struct CalibrationKeys {
   std::vector<std::string> k, distortion, rotation, translation, width, height;
 };
 
-StatusOr<std::vector<double>> firstMatrix(const cv::FileStorage& storage,
+StatusOr<std::vector<double>> firstMatrix(const nlohmann::json& storage,
                                           const std::vector<std::string>& keys,
                                           std::initializer_list<size_t> counts,
                                           const std::string& where, bool required) {
@@ -106,19 +226,19 @@ StatusOr<std::vector<double>> firstMatrix(const cv::FileStorage& storage,
   return malformed(where, "has no " + keys.front());
 }
 
-std::optional<double> storedNumber(const cv::FileStorage& storage,
+std::optional<double> storedNumber(const nlohmann::json& storage,
                                    const std::vector<std::string>& keys) {
   for (const std::string& key : keys) {
-    const cv::FileNode node = storage[key];
-    if (node.isInt() || node.isReal()) return static_cast<double>(node.real());
+    const nlohmann::json& node = topLevel(storage, key);
+    if (node.is_number()) return node.get<double>();
   }
   return std::nullopt;
 }
 
 // Fills `cam` from the intrinsic and extrinsic storages (the same file
 // for the one-file-per-camera layout).
-Status calibrationFrom(const cv::FileStorage& intrinsics, const std::string& intrinsics_where,
-                       const cv::FileStorage& extrinsics, const std::string& extrinsics_where,
+Status calibrationFrom(const nlohmann::json& intrinsics, const std::string& intrinsics_where,
+                       const nlohmann::json& extrinsics, const std::string& extrinsics_where,
                        const CalibrationKeys& keys, CaptureCamera& cam) {
   auto k = firstMatrix(intrinsics, keys.k, {9}, intrinsics_where, true);
   if (!k.isOk()) return k.status();
@@ -182,22 +302,22 @@ std::optional<fs::path> firstExisting(const fs::path& root, const std::string& s
 
 StatusOr<CaptureDescription> readIntriExtri(const fs::path& root, const fs::path& intri_file,
                                             const fs::path& extri_file) {
-  auto intri = openStorage(intri_file);
+  auto intri = readStorage(intri_file);
   if (!intri.isOk()) return intri.status();
-  auto extri = openStorage(extri_file);
+  auto extri = readStorage(extri_file);
   if (!extri.isOk()) return extri.status();
-  const cv::FileNode names = (*intri)["names"];
-  if (!names.isSeq() || names.size() == 0) {
+  const nlohmann::json& names = topLevel(*intri, "names");
+  if (!names.is_array() || names.empty()) {
     return malformed(intri_file.string(), "expected \"names\", the list of camera names");
   }
   std::vector<CaptureCamera> cameras;
   std::vector<CameraImages> images;
-  for (const cv::FileNode& node : names) {
+  for (const nlohmann::json& node : names) {
     CaptureCamera cam;
-    if (node.isString()) {
-      cam.name = node.string();
-    } else if (node.isInt()) {
-      cam.name = std::to_string(static_cast<int>(node));
+    if (node.is_string()) {
+      cam.name = node.get<std::string>();
+    } else if (node.is_number_integer()) {
+      cam.name = std::to_string(node.get<int64_t>());
     } else {
       return malformed(intri_file.string() + ": names", "a name is neither text nor a number");
     }
@@ -230,9 +350,10 @@ StatusOr<CaptureDescription> readCameraFiles(const fs::path& root) {
                              {"R", "rvec", "Rot"},     {"T", "tvec", "t"},
                              {"image_width", "width"}, {"image_height", "height"}};
   for (const fs::path& file : files) {
-    auto storage = openStorage(file);
+    auto storage = readStorage(file);
     if (!storage.isOk()) return storage.status();
-    if ((*storage)["camera_matrix"].empty() && (*storage)["K"].empty()) continue;
+    if (topLevel(*storage, "camera_matrix").is_null() && topLevel(*storage, "K").is_null())
+      continue;
     CaptureCamera cam;
     cam.name = file.stem().string();
     HOLOFUSE_RETURN_IF_ERROR(
@@ -286,7 +407,9 @@ StatusOr<CaptureDescription> readPanopticCapture(const std::string& folder) {
   const fs::path file = files[0];
   auto json = readJson(file);
   if (!json.isOk()) return json.status();
-  const nlohmann::json& list = (*json)["cameras"];
+  const nlohmann::json none;
+  const nlohmann::json& list =
+      json->is_object() && json->contains("cameras") ? (*json)["cameras"] : none;
   if (!list.is_array() || list.empty()) {
     return malformed(file.string(), "expected a non-empty \"cameras\" array");
   }

@@ -34,6 +34,10 @@ StatusOr<nlohmann::json> readJson(const fs::path& file) {
     const size_t column = line_start == std::string::npos ? at + 1 : at - line_start;
     return malformed(file.string() + ":" + std::to_string(line) + ":" + std::to_string(column),
                      "not valid JSON (" + std::string(e.what()) + ")");
+  } catch (const nlohmann::json::exception& e) {
+    // Well-formed text the parser still refuses: a number past a double's
+    // range (found by fuzzing).
+    return malformed(file.string(), "not valid JSON (" + std::string(e.what()) + ")");
   }
 }
 

@@ -201,7 +201,9 @@ StatusOr<CaptureDescription> readMiddleburyCapture(const std::string& folder) {
   if (lines->empty()) return malformed(file.string(), "is empty");
   double declared = 0;
   const auto first = words(lines->front().second);
-  if (first.size() != 1 || !parseDouble(first[0], declared) || declared < 1 ||
+  // A count beyond any file's lines is refused before it is converted (a
+  // double past size_t's range does not convert; found by fuzzing).
+  if (first.size() != 1 || !parseDouble(first[0], declared) || declared < 1 || declared > 1e9 ||
       declared != std::floor(declared)) {
     return malformed(file.string() + ":" + std::to_string(lines->front().first),
                      "expected the number of images");
