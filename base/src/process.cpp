@@ -7,7 +7,10 @@
 #include <cerrno>
 #include <chrono>
 #include <csignal>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <initializer_list>
 #include <thread>
 
@@ -144,6 +147,29 @@ StoppedProcess stopProcess(pid_t pid, int grace_ms) {
   stopped.killed = true;
   stopped.exit_code = waitProcess(pid, -1).value_or(-1);
   return stopped;
+}
+
+std::optional<ProcessUsage> processUsage(pid_t pid) {
+  const std::string dir = "/proc/" + std::to_string(pid);
+  std::ifstream status(dir + "/status");
+  if (!status) return std::nullopt;
+  ProcessUsage usage;
+  for (std::string line; std::getline(status, line);) {
+    const auto field = [&](const char* name, auto& value) {
+      if (line.rfind(name, 0) == 0)
+        value = static_cast<std::decay_t<decltype(value)>>(
+            std::strtoull(line.c_str() + std::strlen(name), nullptr, 10));
+    };
+    field("VmRSS:", usage.rss_kb);
+    field("VmHWM:", usage.peak_rss_kb);
+    field("Threads:", usage.threads);
+  }
+  std::error_code error;
+  for (std::filesystem::directory_iterator it(dir + "/fd", error), end; !error && it != end;
+       it.increment(error))
+    ++usage.descriptors;
+  if (error) return std::nullopt;
+  return usage;
 }
 
 }  // namespace holofuse

@@ -2,6 +2,7 @@
 
 #include <poll.h>
 #include <sys/eventfd.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -61,7 +62,10 @@ FusionServer::~FusionServer() {
 }
 
 Status FusionServer::start() {
-  auto listener = protocol::listenTcp(options_.listen);
+  // The kernel's largest accept queue: a burst of strangers must not fill
+  // it before the loop has accepted (and refused) them, or honest peers'
+  // connects time out behind them.
+  auto listener = protocol::listenTcp(options_.listen, SOMAXCONN);
   if (!listener.isOk()) return listener.status();
   listener_ = std::move(*listener);
   wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);

@@ -4,11 +4,15 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <condition_variable>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "base/process.h"
 
@@ -96,6 +100,42 @@ TEST(Process, StopEndsAChildAndKillsOneThatIgnoresTerm) {
   const StoppedProcess killed = stopProcess(*stubborn, 200);
   EXPECT_TRUE(killed.killed);
   EXPECT_EQ(killed.exit_code, 128 + SIGKILL);
+}
+
+// What a process holds, as the fault tests and the soak watch it: each
+// field moves with what it counts, and a process that is gone has none.
+TEST(Process, UsageCountsDescriptorsThreadsAndMemory) {
+  const auto before = processUsage(getpid());
+  ASSERT_TRUE(before.has_value());
+  EXPECT_GT(before->rss_kb, 0u);
+  EXPECT_GE(before->peak_rss_kb, before->rss_kb);
+  const int fd = ::dup(STDERR_FILENO);
+  ASSERT_GE(fd, 0);
+  std::vector<char> touched(64u << 20, 1);  // 64 MiB written: resident
+  bool release = false;
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::thread sleeper([&] {
+    std::unique_lock lock(mutex);
+    changed.wait(lock, [&] { return release; });
+  });
+  const auto during = processUsage(getpid());
+  {
+    std::lock_guard lock(mutex);
+    release = true;
+  }
+  changed.notify_all();
+  sleeper.join();
+  ::close(fd);
+  ASSERT_TRUE(during.has_value());
+  EXPECT_EQ(during->descriptors, before->descriptors + 1);
+  EXPECT_EQ(during->threads, before->threads + 1);
+  EXPECT_GE(during->rss_kb, before->rss_kb + 60u * 1024) << touched[touched.size() / 2];
+
+  const pid_t child = fork();
+  if (child == 0) _exit(0);
+  ASSERT_EQ(waitProcess(child, 10000), std::optional<int>(0));
+  EXPECT_FALSE(processUsage(child).has_value()) << "a process that is gone holds nothing";
 }
 
 }  // namespace

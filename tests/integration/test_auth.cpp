@@ -15,6 +15,7 @@
 #include <sstream>
 #include <thread>
 
+#include "peer_by_hand.h"
 #include "process_harness.h"
 #include "protocol/auth.h"
 #include "protocol/connection.h"
@@ -24,7 +25,10 @@ namespace holofuse {
 namespace {
 
 namespace fs = std::filesystem;
+using test::admittedByHand;
+using test::flush;
 using test::freshDir;
+using test::nextFrame;
 using test::readFile;
 using test::spawn;
 using test::waitExit;
@@ -34,32 +38,6 @@ const std::string kBin = HOLOFUSE_BIN_DIR;
 std::string serverOn(const fs::path& out, int pods, pid_t* pid,
                      const std::vector<std::string>& extra = {}) {
   return test::startServer(kBin, out, pods, pid, extra);
-}
-
-// The next frame from c, or an empty frame when the peer closed or took
-// longer than timeout_ms (a failed test, never a pass).
-protocol::Frame nextFrame(protocol::Connection& c, Status* closed = nullptr,
-                          int timeout_ms = 10000) {
-  for (int waited = 0; waited < timeout_ms; waited += 50) {
-    if (c.hasFrame()) return c.takeFrame();
-    pollfd p{c.fd(), POLLIN, 0};
-    ::poll(&p, 1, 50);
-    const Status s = c.onReadable();
-    if (c.hasFrame()) return c.takeFrame();
-    if (!s.isOk()) {
-      if (closed) *closed = s;
-      return {};
-    }
-  }
-  return {};
-}
-
-void flush(protocol::Connection& c) {
-  while (c.wantsWrite()) {
-    pollfd p{c.fd(), POLLOUT, 0};
-    ::poll(&p, 1, 100);
-    if (!c.onWritable().isOk()) return;
-  }
 }
 
 // The honest client rendered all its frames; then pod and server stop.
@@ -72,41 +50,6 @@ void expectEveryFrameRenderedThenStop(const fs::path& out, pid_t client, pid_t p
   EXPECT_EQ(waitExit(server, 10), 0);
   std::ifstream report(out / "client" / "report.json");
   EXPECT_EQ(nlohmann::json::parse(report)["frames_rendered"].get<int>(), frames);
-}
-
-// A peer admitted by hand (Hello, the answer to the challenge, HelloAck)
-// with this test process's key: what the tests below then send is theirs
-// to choose, byte for byte. Empty when the server did not admit it.
-std::unique_ptr<protocol::Connection> admittedByHand(const std::string& endpoint,
-                                                     protocol::Role role, uint32_t id) {
-  auto parsed = protocol::parseEndpoint(endpoint);
-  auto key = protocol::loadPeerKey(test::testKeyFile(), role, id);
-  if (!parsed.isOk() || !key.isOk()) return nullptr;
-  auto socket = protocol::connectTcp(*parsed, 1000);
-  if (!socket.isOk()) return nullptr;
-  auto c = std::make_unique<protocol::Connection>(std::move(*socket), "by hand");
-  protocol::Hello hello;
-  hello.role = role;
-  hello.id = id;
-  hello.nonce = protocol::randomNonce();
-  c->sendMessage(hello);
-  flush(*c);
-  const protocol::Frame challenge_frame = nextFrame(*c);
-  protocol::Auth challenge;
-  if (!protocol::decodeFrame(challenge_frame, challenge).isOk()) return nullptr;
-  protocol::Auth answer;
-  answer.step = protocol::AuthStep::kResponse;
-  answer.value =
-      protocol::authMac(*key, protocol::AuthStep::kResponse, hello, challenge_frame.header.major,
-                        challenge_frame.header.minor, challenge.value);
-  c->sendMessage(answer);
-  flush(*c);
-  protocol::Auth proof;
-  protocol::HelloAck ack;
-  if (!protocol::decodeFrame(nextFrame(*c), proof).isOk() ||
-      !protocol::decodeFrame(nextFrame(*c), ack).isOk())
-    return nullptr;
-  return c;
 }
 
 TEST(Auth, WrongMissingAndReplayedAnswersAreRefusedByName) {

@@ -5,6 +5,7 @@
 
 #include <sys/types.h>
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -59,5 +60,16 @@ struct StoppedProcess {
 // SIGTERM, then SIGKILL after grace_ms; reaped either way. A process that
 // had already ended is only reaped.
 StoppedProcess stopProcess(pid_t pid, int grace_ms);
+
+// What a running process holds, read from /proc/<pid>: resident memory
+// now and at its peak, open descriptors, threads; nullopt once it is gone.
+// The fault tests and the soak compare these with a baseline.
+struct ProcessUsage {
+  uint64_t rss_kb = 0;       // VmRSS
+  uint64_t peak_rss_kb = 0;  // VmHWM
+  int descriptors = 0;       // entries of /proc/<pid>/fd
+  int threads = 0;           // Threads
+};
+std::optional<ProcessUsage> processUsage(pid_t pid);
 
 }  // namespace holofuse
