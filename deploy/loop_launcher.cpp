@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -18,6 +19,7 @@
 #include "capture_node/replay_pod.h"
 #include "common/command_line.h"
 #include "dataset/dataset.h"
+#include "deploy/soak.h"
 #include "eval/loop_settings.h"
 #include "protocol/auth.h"
 #include "protocol/messages.h"
@@ -63,7 +65,10 @@ std::string shellCommand(const std::vector<std::string>& args) {
 // Everything the launcher was asked for, checked before any process
 // starts.
 struct LoopPlan {
-  int pods = 4, frames = 40, port = 0;
+  int pods = 4, frames = 40, port = 0, clients = 1;
+  // A soak (deploy/soak.h): the loop runs this long, its processes sampled
+  // every sample_seconds; 0: an ordinary run that ends with the frames.
+  double soak_minutes = 0, sample_seconds = 60, warmup_minutes = 2;
   double fps = 5.0;
   std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit",
               scene = "clean";
@@ -144,6 +149,19 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
       ->check(CLI::Range(1, static_cast<int>(holofuse::protocol::kMaxCameras)));
   app.add_option("--frames", plan.frames, "frames the client renders before everything stops")
       ->check(CLI::Range(1, 1000000));
+  app.add_option("--clients", plan.clients,
+                 "render clients; with more than one each writes into OUT/client<N>")
+      ->check(CLI::Range(1, 8));
+  app.add_option("--soak-minutes", plan.soak_minutes,
+                 "a soak: run this long (clients render until then), sample every process's "
+                 "memory, descriptors and threads, and judge them flat after the warm-up "
+                 "(OUT/soak.md, soak.html, soak.json)")
+      ->check(CLI::Range(0.0, 10080.0));
+  app.add_option("--sample-seconds", plan.sample_seconds, "with --soak-minutes: between samples")
+      ->check(CLI::Range(1.0, 3600.0));
+  app.add_option("--warmup-minutes", plan.warmup_minutes,
+                 "with --soak-minutes: samples before this are not judged")
+      ->check(CLI::Range(0.0, 10080.0));
   app.add_option("--size", plan.size, "pod image and output size WxH");
   app.add_option("--fps", plan.fps, "pod frame rate")->check(CLI::Range(0.5, 120.0));
   app.add_option("--out", plan.out, "output folder");
@@ -231,6 +249,15 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
                  plan.speed.c_str());
     return 2;
   }
+  if (plan.soak_minutes > 0 && !plan.replay.empty() && !plan.loop) {
+    std::fprintf(stderr, "--soak-minutes needs a loop that does not end: add --loop to --replay\n");
+    return 2;
+  }
+  if (plan.soak_minutes > 0 && plan.warmup_minutes >= plan.soak_minutes) {
+    std::fprintf(stderr, "--warmup-minutes %g leaves nothing of a %g-minute soak to judge\n",
+                 plan.warmup_minutes, plan.soak_minutes);
+    return 2;
+  }
   if (plan.record_fused && plan.record.empty()) {
     std::fprintf(stderr, "--record-fused needs --record DIR\n");
     return 2;
@@ -306,16 +333,25 @@ std::vector<std::string> podCommand(const LoopPlan& plan, int pod, const std::st
   return args;
 }
 
-std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& endpoint) {
+// Where client `index` writes: OUT itself when it is the only one.
+std::string clientOut(const LoopPlan& plan, int index) {
+  if (plan.clients == 1) return plan.out;
+  return (std::filesystem::path(plan.out) / ("client" + std::to_string(index))).string();
+}
+
+std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& endpoint,
+                                       int index) {
+  // A soak's clients render until it ends.
+  const int frames = plan.soak_minutes > 0 ? 1000000 : plan.frames;
   std::vector<std::string> args = {plan.bin_dir + "/render_client",
                                    "--server",
                                    endpoint,
                                    "--key-file",
                                    plan.key_file,
                                    "--out",
-                                   plan.out,
+                                   clientOut(plan, index),
                                    "--frames",
-                                   std::to_string(plan.frames),
+                                   std::to_string(frames),
                                    "--size",
                                    plan.size,
                                    "--mode",
@@ -358,11 +394,11 @@ void printLogTail(const std::filesystem::path& path) {
 
 // The running loop's processes.
 struct LoopProcesses {
-  pid_t server = -1, client = -1;
-  std::vector<pid_t> pods;
+  pid_t server = -1;
+  std::vector<pid_t> pods, clients;
 
   void stopAll() {
-    stop(client, "render_client");
+    for (const pid_t client : clients) stop(client, "render_client");
     for (const pid_t pod : pods) stop(pod, "capture_node");
     stop(server, "fusion_server");
   }
@@ -388,23 +424,23 @@ std::string awaitServerPort(LoopProcesses& processes, const std::string& port_fi
   return bound;
 }
 
-// Waits for the client to finish, a process to fail or Ctrl-C, then stops
-// what still runs. The launcher's exit code.
-int superviseLoop(const LoopPlan& plan, LoopProcesses& processes) {
-  namespace fs = std::filesystem;
-  const fs::path logs = fs::path(plan.out) / "logs";
-  int client_exit = 0;
-  bool client_done = false, server_done = false, failed = false;
-  std::vector<bool> pod_done(processes.pods.size(), false);
-  uint64_t waited_after_server_ms = 0;
-  while (!g_interrupted && !client_done && !failed) {
-    if (const auto code = holofuse::waitProcess(processes.client, 100)) {
-      client_exit = *code;
-      client_done = true;
-      break;
-    }
-    // A pod that fails (a replay pod that cannot read its dataset) would
-    // leave the others waiting for it: stop everything and say why.
+// Client i's log, beside the others'.
+std::filesystem::path clientLog(const LoopPlan& plan, size_t i) {
+  const std::filesystem::path logs = std::filesystem::path(plan.out) / "logs";
+  return logs /
+         (plan.clients == 1 ? std::string("client.log") : "client" + std::to_string(i) + ".log");
+}
+
+// Polls the pods and the server between waits: a pod that fails (a replay
+// pod that cannot read its dataset) or a server that stops while it should
+// not fails the run, said with the end of its log.
+struct Watch {
+  std::vector<bool> pod_done;
+  bool server_done = false, failed = false;
+
+  void check(const LoopPlan& plan, LoopProcesses& processes) {
+    const std::filesystem::path logs = std::filesystem::path(plan.out) / "logs";
+    pod_done.resize(processes.pods.size(), false);
     for (size_t i = 0; i < processes.pods.size() && !failed; ++i) {
       if (pod_done[i]) continue;
       const auto code = holofuse::pollProcess(processes.pods[i]);
@@ -427,39 +463,135 @@ int superviseLoop(const LoopPlan& plan, LoopProcesses& processes) {
         failed = true;
       }
     }
+  }
+
+  // Stops what still runs.
+  void stopRest(LoopProcesses& processes, const std::vector<bool>& client_done) {
+    for (size_t i = 0; i < processes.clients.size(); ++i)
+      if (!client_done[i]) stop(processes.clients[i], "render_client");
+    for (size_t i = 0; i < processes.pods.size(); ++i)
+      if (!pod_done[i]) stop(processes.pods[i], "capture_node");
+    if (!server_done) stop(processes.server, "fusion_server");
+  }
+};
+
+// Waits for the clients to finish, a process to fail or Ctrl-C, then
+// stops what still runs. The launcher's exit code.
+int superviseLoop(const LoopPlan& plan, LoopProcesses& processes) {
+  const size_t n = processes.clients.size();
+  std::vector<int> client_exit(n, 0);
+  std::vector<bool> client_done(n, false);
+  Watch watch;
+  uint64_t waited_after_server_ms = 0;
+  auto all_done = [&] {
+    return std::all_of(client_done.begin(), client_done.end(), [](bool done) { return done; });
+  };
+  while (!g_interrupted && !all_done() && !watch.failed) {
+    for (size_t i = 0; i < n; ++i) {
+      if (client_done[i]) continue;
+      if (const auto code = holofuse::waitProcess(processes.clients[i], 100 / n)) {
+        client_exit[i] = *code;
+        client_done[i] = true;
+      }
+    }
+    watch.check(plan, processes);
     // A replay ends when the server has fused and delivered everything and
-    // said goodbye; the client then finishes on its own.
-    if (server_done && !failed && (waited_after_server_ms += 100) > 60000) {
+    // said goodbye; the clients then finish on their own.
+    if (watch.server_done && !watch.failed && (waited_after_server_ms += 100) > 60000) {
       std::fprintf(stderr,
                    "\n[loop] the client did not finish within 60 s of the end of the replay\n");
-      failed = true;
+      watch.failed = true;
     }
   }
-  if (!client_done) {
-    std::printf("\n[loop] %s: stopping the client (it writes its report)\n",
-                failed ? "failed" : "interrupted");
-    stop(processes.client, "render_client");
+  if (!all_done()) {
+    std::printf("\n[loop] %s: stopping the client%s (each writes its report)\n",
+                watch.failed ? "failed" : "interrupted", n > 1 ? "s" : "");
   }
-  for (size_t i = 0; i < processes.pods.size(); ++i) {
-    if (!pod_done[i]) stop(processes.pods[i], "capture_node");
-  }
-  if (!server_done) stop(processes.server, "fusion_server");
-  const bool ok = !failed && (client_done ? client_exit == 0 : true);
-  if (!ok && !failed) {
-    // Say why right here: the end of the client's log.
-    std::fprintf(stderr, "[loop] render_client failed; the end of %s/client.log:\n", logs.c_str());
-    printLogTail(logs / "client.log");
+  watch.stopRest(processes, client_done);
+  bool ok = !watch.failed;
+  for (size_t i = 0; i < n && !watch.failed; ++i) {
+    if (client_done[i] && client_exit[i] != 0) {
+      // Say why right here: the end of the client's log.
+      std::fprintf(stderr, "[loop] render_client failed; the end of %s:\n",
+                   clientLog(plan, i).c_str());
+      printLogTail(clientLog(plan, i));
+      ok = false;
+    }
   }
   const std::string& out = plan.out;
   if (ok) {
-    std::printf(
-        "[loop] all processes stopped; frames in %s/frames, report in %s/report.json, logs in "
-        "%s/logs\n",
-        out.c_str(), out.c_str(), out.c_str());
+    std::printf("[loop] all processes stopped; frames and report.json in %s%s, logs in %s/logs\n",
+                out.c_str(), n > 1 ? "/client<N>" : "", out.c_str());
   } else {
     std::printf("[loop] all processes stopped; logs in %s/logs\n", out.c_str());
   }
   return ok ? 0 : 1;
+}
+
+// A soak: the loop runs for plan.soak_minutes while every process is
+// sampled each plan.sample_seconds, then stops and is judged
+// (deploy/soak.h). Ctrl-C ends it early with the samples so far.
+int superviseSoak(const LoopPlan& plan, LoopProcesses& processes) {
+  holofuse::deploy::SoakReport report;
+  std::vector<pid_t> pids = {processes.server};
+  report.processes = {"server"};
+  for (size_t i = 0; i < processes.pods.size(); ++i) {
+    pids.push_back(processes.pods[i]);
+    report.processes.push_back("pod " + std::to_string(i));
+  }
+  for (size_t i = 0; i < processes.clients.size(); ++i) {
+    pids.push_back(processes.clients[i]);
+    report.processes.push_back("client " + std::to_string(i));
+  }
+  char settings[256];
+  std::snprintf(settings, sizeof(settings),
+                "%d pods at %s and %.1f fps, %d clients in mode %s, %g minutes sampled every %g s",
+                plan.pods, plan.size.c_str(), plan.fps, plan.clients, plan.mode.c_str(),
+                plan.soak_minutes, plan.sample_seconds);
+  report.settings = settings;
+  report.warmup_minutes = plan.warmup_minutes;
+  Watch watch;
+  const auto start = std::chrono::steady_clock::now();
+  auto minutes = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60.0;
+  };
+  double next_sample = plan.sample_seconds / 60.0;
+  while (!g_interrupted && minutes() < plan.soak_minutes + 1e-9) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (minutes() < next_sample) continue;
+    next_sample += plan.sample_seconds / 60.0;
+    holofuse::deploy::SoakSample sample;
+    sample.minute = minutes();
+    for (pid_t pid : pids) {
+      // A process that ended is gone, not a zombie's numbers.
+      const bool ended = holofuse::pollProcess(pid).has_value();
+      sample.usage.push_back(ended ? std::nullopt : holofuse::processUsage(pid));
+    }
+    report.samples.push_back(sample);
+    uint64_t pods_kb = 0, clients_kb = 0;
+    for (size_t i = 1; i < pids.size(); ++i) {
+      const uint64_t kb = sample.usage[i] ? sample.usage[i]->rss_kb : 0;
+      (i <= processes.pods.size() ? pods_kb : clients_kb) += kb;
+    }
+    const auto& server = sample.usage[0];
+    std::printf(
+        "[soak] minute %.1f of %g: server %.1f MB, %d descriptors, %d threads; pods %.1f "
+        "MB in all; clients %.1f MB in all\n",
+        sample.minute, plan.soak_minutes, server ? server->rss_kb / 1024.0 : 0.0,
+        server ? server->descriptors : 0, server ? server->threads : 0, pods_kb / 1024.0,
+        clients_kb / 1024.0);
+    std::fflush(stdout);
+  }
+  report.verdict =
+      holofuse::deploy::judgeSoak(report.processes, report.samples, plan.warmup_minutes);
+  std::printf("[soak] stopping every process\n");
+  processes.stopAll();
+  const bool written = holofuse::deploy::writeSoakReport(report, plan.out);
+  std::printf("[soak] %s; report in %s/soak.md, soak.html, soak.json\n",
+              report.verdict.flat ? "flat after the warm-up" : "NOT flat", plan.out.c_str());
+  for (const std::string& problem : report.verdict.problems)
+    std::printf("[soak]   %s\n", problem.c_str());
+  return report.verdict.flat && written ? 0 : 1;
 }
 
 }  // namespace
@@ -514,10 +646,13 @@ int main(int argc, char** argv) {
     }
     processes.pods.push_back(pod);
   }
-  processes.client = spawn(clientCommand(plan, endpoint), (logs / "client.log").string());
-  if (processes.client < 0) {
-    processes.stopAll();
-    return 1;
+  for (int i = 0; i < plan.clients; ++i) {
+    const pid_t client = spawn(clientCommand(plan, endpoint, i), clientLog(plan, i).string());
+    if (client < 0) {
+      processes.stopAll();
+      return 1;
+    }
+    processes.clients.push_back(client);
   }
-  return superviseLoop(plan, processes);
+  return plan.soak_minutes > 0 ? superviseSoak(plan, processes) : superviseLoop(plan, processes);
 }

@@ -146,7 +146,7 @@ StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder) {
   if (!json.isOk()) return json.status();
   const nlohmann::json& root = *json;
   const std::string where = file.string();
-  if (!root.is_object() || root.value("format", "") != "holofuse-capture") {
+  if (!root.is_object() || !root.contains("format") || root["format"] != "holofuse-capture") {
     return malformed(where, "expected \"format\": \"holofuse-capture\"");
   }
   if (!root.contains("version") || !root["version"].is_number_integer())
@@ -284,7 +284,18 @@ StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder) {
 StatusOr<CaptureDescription> readCapture(const std::string& folder, CaptureFormat format) {
   if (!fs::is_directory(folder)) return Status(StatusCode::kIoError, folder + ": not a folder");
   for (const NamedFormat& f : kFormats) {
-    if (f.format == format) return f.read(folder);
+    if (f.format != format) continue;
+    // The readers check the types they read and name the path of a wrong
+    // one; a value of a type they did not expect where they did not check
+    // (a non-string "format", found by fuzzing) still becomes an error
+    // naming the folder, never an exception out of the import.
+    try {
+      return f.read(folder);
+    } catch (const nlohmann::json::exception& e) {
+      return malformed(folder, std::string("a JSON value of the wrong type (") + e.what() + ")");
+    } catch (const std::filesystem::filesystem_error& e) {
+      return Status(StatusCode::kIoError, folder + ": " + e.what());
+    }
   }
   return Status(StatusCode::kMalformed, "unknown capture format");
 }
