@@ -1,0 +1,200 @@
+// The loop across network namespaces joined by veth pairs, with an
+// impairing relay between them (this kernel has no netem qdisc; the relay
+// delays 20 +- 5 ms, caps the rate and stalls every link for a second
+// now and then): the pods and the client in one namespace, the server in
+// another, every byte between them through the relay. The loop renders
+// every frame, and its report shows the delay on both links. Skipped,
+// saying why, where namespaces are not permitted.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "base/process.h"
+#include "process_harness.h"
+
+namespace holofuse {
+namespace {
+
+namespace fs = std::filesystem;
+using test::freshDir;
+using test::readFile;
+using test::spawn;
+using test::waitExit;
+
+const std::string kBin = HOLOFUSE_BIN_DIR;
+
+// iproute2's ip, where Debian puts it (the spawner does not search PATH).
+std::string ipCommand() {
+  for (const char* path : {"/usr/sbin/ip", "/sbin/ip", "/usr/bin/ip", "/bin/ip"})
+    if (::access(path, X_OK) == 0) return path;
+  return "ip (package iproute2) not found";
+}
+
+// Two namespaces, each joined to this one by a veth pair with a /30 of
+// its own; removed (and with them the pairs) when this goes.
+class SplitNetwork {
+ public:
+  explicit SplitNetwork(const fs::path& logs) : logs_(logs) {
+    const int pid = ::getpid();
+    const int x = 200 + pid % 50, y = (pid / 50) % 256;
+    edge_ = "hfe" + std::to_string(pid);
+    core_ = "hfc" + std::to_string(pid);
+    const std::string net = "10." + std::to_string(x) + "." + std::to_string(y) + ".";
+    edge_host_ = net + "1";  // this namespace's end towards the edge
+    edge_ip_ = net + "2";
+    core_host_ = net + "5";
+    core_ip_ = net + "6";
+  }
+  ~SplitNetwork() { tearDown(); }
+
+  // Empty when the network is up; otherwise what failed.
+  std::string setUp() {
+    const std::string ip = ipCommand();
+    for (const auto& [ns, host, inside] :
+         {std::tuple{edge_, edge_host_, edge_ip_}, std::tuple{core_, core_host_, core_ip_}}) {
+      const std::string outer = ns + "a", inner = ns + "b";
+      for (const std::vector<std::string>& command : std::vector<std::vector<std::string>>{
+               {ip, "netns", "add", ns},
+               {ip, "link", "add", outer, "type", "veth", "peer", "name", inner, "netns", ns},
+               {ip, "addr", "add", host + "/30", "dev", outer},
+               {ip, "link", "set", outer, "up"},
+               {ip, "-n", ns, "addr", "add", inside + "/30", "dev", inner},
+               {ip, "-n", ns, "link", "set", inner, "up"},
+               {ip, "-n", ns, "link", "set", "lo", "up"}}) {
+        if (const std::string why = run(command); !why.empty()) return why;
+        if (command[2] == "add" && command[1] == "netns") made_.push_back(ns);
+      }
+    }
+    return "";
+  }
+
+  void tearDown() {
+    const std::string ip = ipCommand();
+    for (const std::string& ns : made_) run({ip, "netns", "del", ns});
+    made_.clear();
+  }
+
+  // The namespaces this machine has now.
+  std::string listed() { return run({ipCommand(), "netns", "list"}, true); }
+
+  std::vector<std::string> inEdge(std::vector<std::string> args) const {
+    args.insert(args.begin(), {ipCommand(), "netns", "exec", edge_});
+    return args;
+  }
+  std::vector<std::string> inCore(std::vector<std::string> args) const {
+    args.insert(args.begin(), {ipCommand(), "netns", "exec", core_});
+    return args;
+  }
+  const std::string& edgeHost() const { return edge_host_; }
+  const std::string& coreIp() const { return core_ip_; }
+  const std::string& coreHost() const { return core_host_; }
+  const std::string& edgeName() const { return edge_; }
+  const std::string& coreName() const { return core_; }
+
+ private:
+  // "" when the command succeeded (or, with output, what it printed).
+  std::string run(const std::vector<std::string>& command, bool output = false) {
+    const fs::path log = logs_ / "ip.log";
+    fs::remove(log);
+    SpawnOptions options;
+    options.log_path = log.string();
+    auto pid = spawnProcess(command, options);
+    if (!pid.isOk()) return pid.status().message();
+    const int code = waitProcess(*pid, 30000).value_or(-1);
+    const std::string said = readFile(log);
+    if (output) return said;
+    if (code == 0) return "";
+    std::string line;
+    for (const std::string& word : command) line += word + " ";
+    return line + "exited " + std::to_string(code) + ": " + said;
+  }
+
+  fs::path logs_;
+  std::string edge_, core_, edge_host_, edge_ip_, core_host_, core_ip_;
+  std::vector<std::string> made_;
+};
+
+std::string waitForPort(const fs::path& file) {
+  std::string port;
+  for (int i = 0; i < 200 && port.empty(); ++i) {
+    std::ifstream in(file);
+    std::getline(in, port);
+    if (port.empty()) usleep(50000);
+  }
+  return port;
+}
+
+TEST(Impairment, TheLoopRunsAcrossNamespacesThroughADelayingStallingRelay) {
+  const fs::path out = freshDir("impairment");
+  std::string why;
+  {
+    SplitNetwork network(out);
+    why = ::geteuid() != 0 ? "not root" : network.setUp();
+    if (!why.empty()) {
+      network.tearDown();
+      GTEST_SKIP() << "network namespaces are not permitted here (" << why
+                   << "); this test needs root and ip netns";
+    }
+    const pid_t server =
+        spawn(network.inCore({kBin + "/fusion_server", "--listen", network.coreIp() + ":0",
+                              "--pods", "2", "--port-file", (out / "server.port").string()}),
+              out / "server.log");
+    const std::string server_port = waitForPort(out / "server.port");
+    ASSERT_FALSE(server_port.empty()) << readFile(out / "server.log");
+    const pid_t relay = spawn({kBin + "/holofuse_relay", "--listen", network.edgeHost() + ":0",
+                               "--to", network.coreIp() + ":" + server_port, "--delay-ms", "20",
+                               "--jitter-ms", "5", "--rate-mbit", "50", "--stall-every-s", "2",
+                               "--stall-ms", "1000", "--port-file", (out / "relay.port").string()},
+                              out / "relay.log");
+    const std::string relay_port = waitForPort(out / "relay.port");
+    ASSERT_FALSE(relay_port.empty()) << readFile(out / "relay.log");
+    const std::string endpoint = network.edgeHost() + ":" + relay_port;
+    std::vector<pid_t> pods;
+    for (int i = 0; i < 2; ++i) {
+      pods.push_back(
+          spawn(network.inEdge({kBin + "/capture_node", "--server", endpoint, "--pod-id",
+                                std::to_string(i), "--pods", "2", "--size", "64x48", "--fps", "5"}),
+                out / ("pod" + std::to_string(i) + ".log")));
+    }
+    const pid_t client =
+        spawn(network.inEdge({kBin + "/render_client", "--server", endpoint, "--out",
+                              (out / "client").string(), "--frames", "16", "--size", "64x48"}),
+              out / "client.log");
+    const int client_exit = waitExit(client, 180);
+    for (pid_t pid : pods) kill(pid, SIGTERM);
+    for (pid_t pid : pods) waitExit(pid, 10);
+    kill(server, SIGTERM);
+    EXPECT_EQ(waitExit(server, 10), 0) << readFile(out / "server.log");
+    kill(relay, SIGTERM);
+    EXPECT_EQ(waitExit(relay, 10), 0) << readFile(out / "relay.log");
+    ASSERT_EQ(client_exit, 0) << readFile(out / "client.log");
+
+    const auto report = nlohmann::json::parse(readFile(out / "client" / "report.json"));
+    EXPECT_EQ(report["frames_rendered"].get<int>(), 16);
+    // Every byte crossed the relay: both links' stages carry its delay
+    // (20 ms less at most 5 of jitter) on top of loopback's fraction of a
+    // millisecond.
+    const auto& stages = report["latency_ms"]["stages"];
+    EXPECT_GE(stages["send"]["p50"].get<double>(), 15.0) << stages.dump();
+    EXPECT_GE(stages["fanout"]["p50"].get<double>(), 15.0) << stages.dump();
+    const std::string relayed = readFile(out / "relay.log");
+    EXPECT_NE(relayed.find("stall 1: holding every link for 1000 ms"), std::string::npos)
+        << relayed;
+    // The server's peers all came from the relay's end of the core pair.
+    EXPECT_NE(readFile(out / "server.log").find("pod 0 (" + network.coreHost() + ":"),
+              std::string::npos)
+        << readFile(out / "server.log");
+    network.tearDown();
+    const std::string left = network.listed();
+    EXPECT_EQ(left.find(network.edgeName()), std::string::npos) << left;
+    EXPECT_EQ(left.find(network.coreName()), std::string::npos) << left;
+  }
+  fs::remove_all(out);
+}
+
+}  // namespace
+}  // namespace holofuse
