@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <memory>
 
 namespace holofuse {
@@ -69,9 +70,23 @@ Status writePixels(const std::string& path, const OIIO::ImageSpec& spec, OIIO::T
   return Status::ok();
 }
 
+// An image is read from a regular file only: a name that leads to a device
+// (/dev/zero), a FIFO or a folder would have a reader wait or fill memory
+// for ever (a capture's calibration names its images; found by fuzzing).
+Status regularFile(const std::string& path) {
+  std::error_code error;
+  const auto status = std::filesystem::status(path, error);
+  if (error || !std::filesystem::exists(status))
+    return Status(StatusCode::kIoError, path + ": no such file");
+  if (!std::filesystem::is_regular_file(status))
+    return Status(StatusCode::kIoError, path + ": not a regular file");
+  return Status::ok();
+}
+
 }  // namespace
 
 StatusOr<ImageValues> readImageValues(const std::string& path) {
+  HOLOFUSE_RETURN_IF_ERROR(regularFile(path));
   // Alpha as stored: ours is coverage, or a mask beside straight colour,
   // never to be multiplied in by the reader.
   OIIO::ImageSpec config;
@@ -97,6 +112,7 @@ StatusOr<ImageValues> readImageValues(const std::string& path) {
 }
 
 StatusOr<std::pair<uint32_t, uint32_t>> readImageSize(const std::string& path) {
+  HOLOFUSE_RETURN_IF_ERROR(regularFile(path));
   auto in = OIIO::ImageInput::open(path);
   if (!in) return Status(StatusCode::kIoError, path + ": " + takeError(in.get()));
   const OIIO::ImageSpec& spec = in->spec();
