@@ -42,6 +42,7 @@ struct Direction {
   uint64_t line_free_ns = 0;     // when the rate-capped line has sent what it holds
   bool reading_done = false;     // `from` reached its end (or failed)
   bool shut = false;             // the end passed on to `to`
+  bool blocked = false;          // `to` took no more: wait for it to be writable
   uint64_t carried = 0;
 };
 
@@ -126,10 +127,13 @@ class Relay {
     was_stalled_ = now_stalled;
   }
 
+  // A socket is read while the direction from it holds less than the cap
+  // (past it TCP's window holds the sender back), and waited on for
+  // writing while the direction into it is blocked.
   short eventsFor(const Direction& reading, const Direction& writing) const {
     short events = 0;
     if (!reading.reading_done && reading.held_bytes < impair_.max_held_bytes) events |= POLLIN;
-    (void)writing;
+    if (writing.blocked) events |= POLLOUT;
     return events;
   }
 
@@ -139,7 +143,8 @@ class Relay {
     if (stalled(now)) next = std::min(next, stallEndsNs(now));
     for (const auto& link : links_) {
       for (const Direction* d : {&link->to_upstream, &link->to_peer}) {
-        if (!d->held.empty()) next = std::min(next, std::max(now, d->held.front().release_ns));
+        if (!d->held.empty() && !d->blocked)
+          next = std::min(next, std::max(now, d->held.front().release_ns));
       }
     }
     return static_cast<int>((next - now + 999'999) / 1'000'000);
@@ -211,19 +216,26 @@ class Relay {
 
   void writeDue(Link& link, Direction& d) {
     const uint64_t now = monotonicNs();
-    while (!link.broken && !d.held.empty() && d.held.front().release_ns <= now && !stalled(now)) {
+    while (!link.broken && !d.blocked && !d.held.empty() && d.held.front().release_ns <= now &&
+           !stalled(now)) {
       Held& front = d.held.front();
       const ssize_t n = ::send(d.to, front.bytes.data() + front.sent,
                                front.bytes.size() - front.sent, MSG_NOSIGNAL);
       if (n < 0) {
-        if (errno == EAGAIN || errno == EWOULDBLOCK) return;
+        if (errno == EAGAIN || errno == EWOULDBLOCK) {
+          d.blocked = true;
+          return;
+        }
         if (errno == EINTR) continue;
         link.broken = true;
         return;
       }
       front.sent += static_cast<size_t>(n);
       d.carried += static_cast<uint64_t>(n);
-      if (front.sent < front.bytes.size()) return;
+      if (front.sent < front.bytes.size()) {
+        d.blocked = true;  // the socket took part: its buffer is full
+        return;
+      }
       d.held_bytes -= front.bytes.size();
       d.held.pop_front();
     }
