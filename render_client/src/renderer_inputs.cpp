@@ -141,7 +141,10 @@ void Renderer::uploadMesh(const Mesh& mesh, bool half) {
       std::memcpy(words + i * 6, values, sizeof(values));
     }
   }
-  std::memcpy(index_buffer_.mapped, mesh.indices.data(), mesh.indices.size() * 4);
+  // An empty mesh has no index data to copy (memcpy from its null pointer
+  // is undefined even for 0 bytes; UBSan, ./holofuse test --sanitize).
+  if (!mesh.indices.empty())
+    std::memcpy(index_buffer_.mapped, mesh.indices.data(), mesh.indices.size() * 4);
   index_count_ = static_cast<uint32_t>(mesh.indices.size());
   const Bounds bounds = meshBounds(mesh);
   bounds_min_ = glm::dvec3(bounds.min);
