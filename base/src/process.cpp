@@ -1,6 +1,7 @@
 #include "base/process.h"
 
 #include <fcntl.h>
+#include <malloc.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -170,6 +171,12 @@ std::optional<ProcessUsage> processUsage(pid_t pid) {
     ++usage.descriptors;
   if (error) return std::nullopt;
   return usage;
+}
+
+void returnFreedBuffersToTheSystem() {
+  // Either setting also turns off glibc's dynamic adjustment of both.
+  mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 256 * 1024);
 }
 
 }  // namespace holofuse

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "base/process.h"
 #include "capture_node/pod.h"
 #include "capture_node/replay_pod.h"
 #include "common/command_line.h"
@@ -64,6 +65,7 @@ int main(int argc, char** argv) {
     }
     replay_options.server = *endpoint;
     installStopSignals();
+    returnFreedBuffersToTheSystem();
     return capture::runReplayPod(replay_options);
   }
   const scene::ScenePreset* preset = scene::findScene(scene_name);
@@ -94,5 +96,6 @@ int main(int argc, char** argv) {
   options.scene.frames_per_second = options.fps;
   encoding_flags.apply(options.encoding);
   installStopSignals();
+  returnFreedBuffersToTheSystem();
   return capture::runPod(options);
 }

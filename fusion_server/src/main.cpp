@@ -3,6 +3,7 @@
 #include <csignal>
 #include <cstdio>
 
+#include "base/process.h"
 #include "common/command_line.h"
 #include "common/shutdown.h"
 #include "fusion_server/fusion_server.h"
@@ -152,6 +153,7 @@ int main(int argc, char** argv) {
     options.keys = std::move(*keys);
   }
   installStopSignals();
+  returnFreedBuffersToTheSystem();
   // A recording that reaches a file size limit gets EFBIG from write() and
   // is reported like a full disk, instead of the signal ending the server.
   signal(SIGXFSZ, SIG_IGN);

@@ -2,6 +2,7 @@
 // its --help for the flags.
 #include <cstdio>
 
+#include "base/process.h"
 #include "common/command_line.h"
 #include "common/shutdown.h"
 #include "render_client/client.h"
@@ -104,5 +105,6 @@ int main(int argc, char** argv) {
   options.height = h;
   options.render.blend.mode = *render::blendModeFromName(mode);
   installStopSignals();
+  returnFreedBuffersToTheSystem();
   return render::runClient(options);
 }

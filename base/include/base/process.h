@@ -72,4 +72,12 @@ struct ProcessUsage {
 };
 std::optional<ProcessUsage> processUsage(pid_t pid);
 
+// For the long-running programs: buffers of 128 KiB and more (images,
+// meshes, frames) are mapped apart and unmapped when freed, and free memory
+// at the heap's top is returned from 256 KiB. glibc's default raises its
+// mapping threshold to the largest buffer freed so far, after which image
+// buffers come from the heap and a few in flight at the wrong moment pin
+// megabytes that a soak then reads as growth.
+void returnFreedBuffersToTheSystem();
+
 }  // namespace holofuse
