@@ -232,6 +232,14 @@ std::vector<float> silhouetteSignedDistance(const HullView& view) {
   return sd;
 }
 
+glm::u64vec3 keyLattice(const HullOptions& options) {
+  // The stride depends on the capture volume only (never on a frame's
+  // region): a region's first point + its size - 1 stays below
+  // ceil(extent / s) + 3 on every axis.
+  return glm::u64vec3(glm::ceil((options.volume_max - options.volume_min) / options.voxel_size)) +
+         glm::u64vec3(3);
+}
+
 Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options,
                      HullStats* stats) {
   if (views.empty()) return {};
@@ -330,10 +338,7 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   }
   Mesh mesh = marchingCubes(closed);
   // Local edge keys to keys on the capture volume's lattice.
-  // The stride depends on the capture volume only (never on this frame's
-  // region): first + n - 1 stays below ceil(extent / s) + 3 on every axis.
-  const glm::ivec3 lattice =
-      glm::ivec3(glm::ceil((options.volume_max - options.volume_min) / s)) + 3;
+  const glm::u64vec3 lattice = keyLattice(options);
   for (uint64_t& key : mesh.vertex_keys) {
     const uint64_t axis = key % 3, point = key / 3;
     const uint64_t x = point % n.x + first.x, y = (point / n.x) % n.y + first.y,

@@ -14,6 +14,11 @@ struct Mesh {
   // Identity of each vertex across frames where the extractor gives one
   // (marching cubes: the grid edge it sits on); empty otherwise.
   std::vector<uint64_t> vertex_keys;
+  // Texture coordinates per triangle corner (three per triangle, in the
+  // order of indices, [0,1] from the texture's top-left) where the mesh
+  // carries a texture atlas (common/texture_atlas.h); empty otherwise.
+  // Per corner, not per vertex: a vertex's triangles lie apart in an atlas.
+  std::vector<glm::vec2> corner_uvs;
 
   size_t vertexCount() const { return positions.size(); }
   size_t triangleCount() const { return indices.size() / 3; }

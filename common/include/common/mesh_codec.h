@@ -13,7 +13,8 @@ namespace holofuse {
 struct DracoOptions {
   int position_bits = 11;
   int normal_bits = 8;
-  int speed = 7;  // Draco's encoding/decoding speed, 0 (smallest) .. 10 (fastest)
+  int uv_bits = 16;  // texture coordinates of an atlas: 1/65536 of its side
+  int speed = 7;     // Draco's encoding/decoding speed, 0 (smallest) .. 10 (fastest)
 };
 
 StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions& options = {});

@@ -59,9 +59,13 @@ struct HullStats {
 // background outside. Sampled bilinearly by the carver.
 std::vector<float> silhouetteSignedDistance(const HullView& view);
 
+// The lattice of the capture volume that vertex keys are numbered on:
+// points per axis, x fastest; a key is (point index) * 3 + edge axis.
+glm::u64vec3 keyLattice(const HullOptions& options);
+
 // The mesh's vertex_keys name the grid edge each vertex sits on, on the
-// lattice of the capture volume: the same edge has the same key in every
-// frame.
+// lattice of the capture volume (keyLattice): the same edge has the same
+// key in every frame.
 Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options,
                      HullStats* stats = nullptr);
 

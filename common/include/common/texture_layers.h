@@ -1,0 +1,64 @@
+// Layered view-dependent texture maps (Volino and Hilton 2016, section
+// 3.1): per texel of a mesh's atlas, the colour from the l-th best camera
+// that sees that point of the surface, with the camera alongside so a
+// renderer knows whose view it is. The CPU reference.
+#pragma once
+
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <vector>
+
+#include "base/status.h"
+#include "common/camera.h"
+#include "common/image.h"
+#include "common/mesh.h"
+#include "common/texture_atlas.h"
+
+namespace holofuse {
+
+// A layer texel's camera byte where no camera sees the point.
+inline constexpr uint8_t kNoLayerCamera = 255;
+
+struct LayerView {
+  const Camera* camera = nullptr;
+  const Image8* color = nullptr;    // 3 or 4 channels, camera->width x height
+  const Image8* mask = nullptr;     // 255 foreground; nullptr: every pixel
+  const Image8* feather = nullptr;  // distance inside the silhouette, pixels; nullptr: none
+};
+
+struct LayerOptions {
+  int layers = 3;  // L
+  // A point is seen when its depth is within this of the camera's depth
+  // map (Volino and Hilton eq. 1); 0: the mesh's mean edge length, about
+  // a voxel of the hull.
+  double depth_tolerance = 0.0;
+  // Pixels this close to the silhouette's border rank lower, linearly to
+  // zero at the border (the feather weight of Li et al. 2004): a border
+  // pixel mixes subject and background.
+  double feather_ramp_px = 4.0;
+  glm::u8vec3 hole{128, 128, 128};  // where no camera sees the point
+};
+
+struct TextureLayers {
+  uint32_t texels = 0;
+  // L RGBA images, texels x texels: RGB the colour, A the index in the
+  // views of the camera it came from (kNoLayerCamera: none).
+  std::vector<Image8> layers;
+  uint64_t texels_covered = 0;  // texels of the mesh's triangles
+  uint64_t texels_seen = 0;     // of those, seen by at least one camera
+};
+
+// The atlas (TextureAtlas::layOut's cells, mesh.corner_uvs set) filled
+// from the views: every texel of a triangle's half square, its one-texel
+// border included so bilinear sampling reads the triangle's own colours
+// (Dong and Hollerer 2017, Fig. 4), is a point of the triangle; cameras
+// that see it (depth test, facing it, inside the mask) rank by the cosine
+// between the normal and the direction to the camera (Volino and Hilton
+// eq. 2), times the feather weight. Refused by name with more than 254
+// views or inputs that disagree.
+StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, const std::vector<AtlasCell>& cells,
+                                           uint32_t texels, uint32_t square_texels,
+                                           const std::vector<LayerView>& views,
+                                           const LayerOptions& options = {});
+
+}  // namespace holofuse
