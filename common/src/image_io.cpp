@@ -156,6 +156,25 @@ Status writeImage(const std::string& path, const Image8& image) {
   return writePixels(path, spec, OIIO::TypeDesc::UINT8, image.pixels.data());
 }
 
+StatusOr<std::vector<uint8_t>> encodePng(const Image8& image) {
+  HOLOFUSE_RETURN_IF_ERROR(checkImage8("png in memory", image));
+  OIIO::ImageSpec spec(static_cast<int>(image.width), static_cast<int>(image.height),
+                       static_cast<int>(image.channels), OIIO::TypeDesc::UINT8);
+  if (image.channels == 4) {
+    spec.alpha_channel = 3;
+    spec.attribute("oiio:UnassociatedAlpha", 1);
+  }
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput memory(bytes);
+  const std::string name = "memory.png";  // names the format; nothing is written there
+  auto out = OIIO::ImageOutput::create(name, &memory);
+  if (!out) return Status(StatusCode::kIoError, "png in memory: " + takeError(out.get()));
+  if (!out->open(name, spec) || !out->write_image(OIIO::TypeDesc::UINT8, image.pixels.data()) ||
+      !out->close())
+    return Status(StatusCode::kIoError, "png in memory: " + takeError(out.get()));
+  return std::vector<uint8_t>(bytes.begin(), bytes.end());
+}
+
 Status writeFloatImage(const std::string& path, uint32_t width, uint32_t height,
                        const std::vector<std::string>& channel_names,
                        const std::vector<float>& values) {

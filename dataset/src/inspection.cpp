@@ -178,6 +178,46 @@ StatusOr<VerifyReport> verifyDataset(const std::string& dir) {
   return report;
 }
 
+StatusOr<uint64_t> firstWholeFrame(const Dataset& dataset, const std::string& dir) {
+  // A camera that repeats an id counts once.
+  std::map<uint64_t, std::set<uint32_t>> cameras_per_id;
+  for (const auto& [id, cam] : dataset.cameras()) {
+    for (const auto& r : cam.frames) cameras_per_id[r.frame_id].insert(id);
+  }
+  for (const auto& [id, holders] : cameras_per_id) {
+    if (holders.size() == dataset.cameras().size()) return id;
+  }
+  return Status(StatusCode::kMalformed, dir + ": no frame id is held by every camera");
+}
+
+StatusOr<FrameViews> readFrameViews(const Dataset& dataset, const std::string& dir,
+                                    uint64_t frame_id) {
+  FrameViews out;
+  out.frame_id = frame_id;
+  for (const auto& [id, cam] : dataset.cameras()) {
+    auto calibration = dataset.readCalibration(id);
+    if (!calibration.isOk()) return calibration.status();
+    const Camera camera = fromCalibration(*calibration);
+    const auto record = std::find_if(cam.frames.begin(), cam.frames.end(),
+                                     [&](const RecordInfo& r) { return r.frame_id == frame_id; });
+    if (record == cam.frames.end()) {
+      return Status(StatusCode::kMalformed, dir + ": camera " + std::to_string(id) +
+                                                " lacks frame " + std::to_string(frame_id));
+    }
+    auto frame = dataset.readFrame(*record);
+    if (!frame.isOk()) return frame.status();
+    auto decoded = decodePodImages(*frame, camera);
+    if (!decoded.isOk()) {
+      return Status(decoded.status().code(), dir + ": camera " + std::to_string(id) + " frame " +
+                                                 std::to_string(frame_id) + ": " +
+                                                 decoded.status().message());
+    }
+    out.cameras.push_back(camera);
+    out.images.push_back(std::move(*decoded));
+  }
+  return out;
+}
+
 StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::string& sheet_png,
                                          double voxel_size) {
   auto dataset = Dataset::open(dir);
@@ -194,57 +234,28 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
        utcTime(scan.created_unix_ns) + "\n";
   if (scan.tail_problem) t += "note: " + *scan.tail_problem + "\n";
 
-  // The frame to look at: the first id every camera has (a camera that
-  // repeats an id counts once).
-  std::map<uint64_t, std::set<uint32_t>> cameras_per_id;
-  for (const auto& [id, cam] : dataset->cameras()) {
-    for (const auto& r : cam.frames) cameras_per_id[r.frame_id].insert(id);
-  }
-  uint64_t frame_id = 0;
-  bool found = false;
-  for (const auto& [id, holders] : cameras_per_id) {
-    if (holders.size() == dataset->cameras().size()) {
-      frame_id = id;
-      found = true;
-      break;
-    }
-  }
-  if (!found) return Status(StatusCode::kMalformed, dir + ": no frame id is held by every camera");
-  summary.inspected_frame_id = frame_id;
-
+  auto frame_id = firstWholeFrame(*dataset, dir);
+  if (!frame_id.isOk()) return frame_id.status();
+  summary.inspected_frame_id = *frame_id;
+  auto frame = readFrameViews(*dataset, dir, *frame_id);
+  if (!frame.isOk()) return frame.status();
   std::vector<hull::HullView> views;
-  std::vector<PodImagesFull> images;
-  for (const auto& [id, cam] : dataset->cameras()) {
+  const std::vector<PodImagesFull>& images = frame->images;
+  for (size_t i = 0; i < frame->cameras.size(); ++i) {
+    const Camera& camera = frame->cameras[i];
+    const auto& cam = dataset->cameras().at(camera.id);
     CameraSummary c;
-    c.id = id;
+    c.id = camera.id;
     c.frames = cam.frames.size();
     c.megabytes = static_cast<double>(cam.frame_bytes) / 1e6;
-    auto calibration = dataset->readCalibration(id);
-    if (!calibration.isOk()) return calibration.status();
-    const Camera camera = fromCalibration(*calibration);
     c.width = camera.width;
     c.height = camera.height;
-    const auto record = std::find_if(cam.frames.begin(), cam.frames.end(),
-                                     [&](const RecordInfo& r) { return r.frame_id == frame_id; });
-    if (record == cam.frames.end()) {
-      return Status(StatusCode::kMalformed, dir + ": camera " + std::to_string(id) +
-                                                " lacks frame " + std::to_string(frame_id));
-    }
-    auto frame = dataset->readFrame(*record);
-    if (!frame.isOk()) return frame.status();
-    auto decoded = decodePodImages(*frame, camera);
-    if (!decoded.isOk()) {
-      return Status(decoded.status().code(), dir + ": camera " + std::to_string(id) + " frame " +
-                                                 std::to_string(frame_id) + ": " +
-                                                 decoded.status().message());
-    }
     static const char* const kPlaneNames[] = {"colour", "mask", "feather"};
-    for (size_t p = 0; p < decoded->codecs.size(); ++p) {
+    for (size_t p = 0; p < images[i].codecs.size(); ++p) {
       c.codecs += (c.codecs.empty() ? "" : ", ") + std::string(p < 3 ? kPlaneNames[p] : "plane") +
-                  " " + imageCodecName(decoded->codecs[p]);
+                  " " + imageCodecName(images[i].codecs[p]);
     }
-    views.push_back({camera, decoded->mask, decoded->feather});
-    images.push_back(std::move(*decoded));
+    views.push_back({camera, images[i].mask, images[i].feather});
     summary.cameras.push_back(c);
   }
   hull::HullOptions hull_options = hullOptionsFor(*dataset, hull::HullOptions{}.voxel_size);
@@ -253,7 +264,7 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
   const Mesh hull = hull::carveVisualHull(views, hull_options);
   char voxel_text[32];
   std::snprintf(voxel_text, sizeof(voxel_text), "%.2f mm", voxel_size * 1000);
-  t += "frame " + std::to_string(frame_id) + ": visual hull of " +
+  t += "frame " + std::to_string(*frame_id) + ": visual hull of " +
        std::to_string(hull.triangleCount()) + " triangles at " + voxel_text + " voxels";
   if (const auto& m = dataset->metadata()) t += " (" + m->source + ")";
   t += "\n";

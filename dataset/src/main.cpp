@@ -2,14 +2,17 @@
 //   holofuse_dataset verify DIR     exit 0 clean, 3 incomplete tail, 1 corrupt, 2 unusable
 //   holofuse_dataset info DIR [--sheet PNG] [--voxel M]
 //   holofuse_dataset import SRC --format F --out DIR [segmentation flags]
+//   holofuse_dataset export DIR --out FILE.glb|FILE.obj [--frame ID] [--atlas-size N]
 #include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
 
 #include "common/command_line.h"
+#include "common/texture_atlas.h"
 #include "dataset/import.h"
 #include "dataset/inspection.h"
+#include "dataset/textured_export.h"
 #include "hull/visual_hull.h"
 
 namespace {
@@ -79,7 +82,39 @@ int main(int argc, char** argv) {
       ->delimiter(',');
   import->add_option("--voxel", import_voxel, "hull voxel size for replays (default: volume / 96)")
       ->check(CLI::Range(holofuse::hull::kMinVoxel, holofuse::hull::kMaxVoxel));
+  auto* export_command = app.add_subcommand(
+      "export", "one fused frame as a textured mesh (glTF binary, or OBJ + MTL + PNG)");
+  std::string export_out;
+  dataset::ExportOptions export_options;
+  uint64_t export_frame = 0;
+  export_command->add_option("dir", dir, "dataset folder")->required();
+  export_command
+      ->add_option("--out", export_out, "FILE.glb, or FILE.obj (FILE.mtl and FILE.png beside it)")
+      ->required();
+  export_command->add_option("--frame", export_frame,
+                             "frame id (default: the first frame every camera holds)");
+  export_command
+      ->add_option("--atlas-size", export_options.atlas_texels,
+                   "texels on a side of the atlas texture; grows (to 8192) when the hull needs")
+      ->check(CLI::Range(holofuse::kMinAtlasTexels, uint32_t{8192}));
+  export_command->add_option("--voxel", export_options.voxel_size, "hull voxel size in metres")
+      ->check(CLI::Range(holofuse::hull::kMinVoxel, holofuse::hull::kMaxVoxel));
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  if (export_command->parsed()) {
+    if (export_command->count("--frame")) export_options.frame_id = export_frame;
+    auto exported = dataset::exportTexturedFrame(dir, export_out, export_options);
+    if (!exported.isOk()) {
+      std::fprintf(stderr, "dataset export: %s\n", exported.status().message().c_str());
+      return 2;
+    }
+    std::printf(
+        "frame %llu: %zu vertices, %zu triangles, a %ux%u atlas (%.0f%% of its texels "
+        "seen by a camera)\n",
+        static_cast<unsigned long long>(exported->frame_id), exported->vertices,
+        exported->triangles, exported->texels, exported->texels, 100.0 * exported->seen_share);
+    for (const std::string& file : exported->files) std::printf("wrote %s\n", file.c_str());
+    return 0;
+  }
   if (import->parsed()) {
     const auto chosen = dataset::captureFormatFromName(format);
     if (!chosen) {

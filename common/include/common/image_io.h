@@ -41,6 +41,10 @@ StatusOr<Image8> readImage(const std::string& path);
 // cannot be written. Leaves image untouched.
 Status writeImage(const std::string& path, const Image8& image);
 
+// The image as PNG bytes (a file's worth, in memory): what a glTF binary
+// embeds.
+StatusOr<std::vector<uint8_t>> encodePng(const Image8& image);
+
 // Float data (not colour: errors, weights, depths) as 32-bit floats with
 // one named channel per value of a pixel, in a format that keeps them
 // (OpenEXR, TIFF). values holds width * height * channel_names.size().

@@ -34,6 +34,19 @@ struct VerifyReport {
 // not a dataset, or a newer format, is an error status.
 StatusOr<VerifyReport> verifyDataset(const std::string& dir);
 
+// The first frame id every camera holds.
+StatusOr<uint64_t> firstWholeFrame(const Dataset& dataset, const std::string& dir);
+
+// Every camera's calibration and decoded planes for one frame id, in
+// camera id order; dir names the dataset in errors.
+struct FrameViews {
+  uint64_t frame_id = 0;
+  std::vector<Camera> cameras;
+  std::vector<PodImagesFull> images;
+};
+StatusOr<FrameViews> readFrameViews(const Dataset& dataset, const std::string& dir,
+                                    uint64_t frame_id);
+
 struct CameraSummary {
   uint32_t id = 0;
   uint32_t width = 0, height = 0;
