@@ -84,4 +84,25 @@ std::string startServer(const std::string& bin_dir, const fs::path& out, int pod
   return port.empty() ? std::string() : "127.0.0.1:" + port;
 }
 
+bool waitFor(const std::function<bool()>& done, int limit_s) {
+  for (int i = 0; i < limit_s * 20; ++i) {
+    if (done()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return done();
+}
+
+size_t picturesIn(const fs::path& client_out) {
+  size_t n = 0;
+  std::error_code error;
+  for (fs::directory_iterator it(client_out / "frames", error), end; !error && it != end;
+       it.increment(error))
+    n += it->path().extension() == ".png";
+  return n;
+}
+
+bool logSays(const fs::path& log, const std::string& what) {
+  return readFile(log).find(what) != std::string::npos;
+}
+
 }  // namespace holofuse::test

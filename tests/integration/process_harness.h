@@ -6,6 +6,7 @@
 #include <sys/types.h>
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,22 @@ int waitExit(pid_t pid, int timeout_s);
 // An empty folder under the temporary directory, unique to this process.
 fs::path freshDir(const std::string& name);
 std::string readFile(const fs::path& p);
+// Polls until done() holds, for at most limit_s; false when it never did.
+// What a test waits for is an event (a line in a log, a picture written),
+// never a stretch of time.
+bool waitFor(const std::function<bool()>& done, int limit_s = 60);
+// The PNGs a render client has written under its --out folder.
+size_t picturesIn(const fs::path& client_out);
+bool logSays(const fs::path& log, const std::string& what);
+
+// Built with ASan or TSan: the programs run several times slower and hold
+// shadow memory and a quarantine of freed blocks, so a live rig's rate and
+// its resident sizes are not the program's own.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+inline constexpr bool kSanitized = true;
+#else
+inline constexpr bool kSanitized = false;
+#endif
 // A fusion_server for `pods` pods on a free port (extra flags appended);
 // returns "127.0.0.1:PORT", or empty when it did not report its port.
 std::string startServer(const std::string& bin_dir, const fs::path& out, int pods, pid_t* pid,
