@@ -63,4 +63,12 @@ std::unique_ptr<protocol::Connection> admittedByHand(const std::string& endpoint
   return c;
 }
 
+protocol::Frame nextError(protocol::Connection& c) {
+  protocol::Frame frame = nextFrame(c);
+  while (!frame.bytes.empty() &&
+         frame.header.type != static_cast<uint16_t>(protocol::MessageType::kError))
+    frame = nextFrame(c);
+  return frame;
+}
+
 }  // namespace holofuse::test

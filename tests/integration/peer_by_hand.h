@@ -19,6 +19,10 @@ namespace holofuse::test {
 protocol::Frame nextFrame(protocol::Connection& c, Status* closed = nullptr,
                           int timeout_ms = 10000);
 
+// The next Error frame, skipping whatever else the server sends before it
+// (heartbeats, a client's frames); empty when c closes first.
+protocol::Frame nextError(protocol::Connection& c);
+
 // Sends everything c has queued.
 void flush(protocol::Connection& c);
 

@@ -1,6 +1,7 @@
 #include "process_harness.h"
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -75,12 +76,17 @@ std::string startServer(const std::string& bin_dir, const fs::path& out, int pod
     args.push_back(arg);
   args.insert(args.end(), extra.begin(), extra.end());
   *pid = spawn(args, out / "server.log");
+  // The port file appears once the server listens (a sanitized server
+  // takes seconds to start); a server that ended will never write it.
   std::string port;
-  for (int i = 0; i < 100 && port.empty(); ++i) {
+  waitFor([&] {
     std::ifstream in(port_file);
     std::getline(in, port);
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
+    siginfo_t ended{};  // WNOWAIT: a test may still wait for its exit code
+    return !port.empty() ||
+           (waitid(P_PID, static_cast<id_t>(*pid), &ended, WEXITED | WNOHANG | WNOWAIT) == 0 &&
+            ended.si_pid == *pid);
+  });
   return port.empty() ? std::string() : "127.0.0.1:" + port;
 }
 
