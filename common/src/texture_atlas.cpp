@@ -1,5 +1,7 @@
 #include "common/texture_atlas.h"
 
+#include <lz4.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -89,6 +91,38 @@ uint32_t ceilSqrt(double value) {
   uint32_t side = static_cast<uint32_t>(std::ceil(std::sqrt(value)));
   while (double(side) * side < value) ++side;
   return std::max<uint32_t>(side, 1);
+}
+
+// Every triangle's cell and inner-triangle UVs from its square's slot.
+template <typename SlotOf>
+std::vector<AtlasCell> placeTriangles(Mesh& mesh, const SquareAssignment& assignment, uint32_t side,
+                                      uint32_t square_texels, uint32_t texels, SlotOf slot_of) {
+  const size_t triangles = mesh.triangleCount();
+  std::vector<AtlasCell> cells(triangles);
+  std::vector<glm::vec2> uvs(3 * triangles);
+  for (size_t t = 0; t < triangles; ++t) {
+    const uint32_t slot = slot_of(assignment.key_of_triangle[t]);
+    AtlasCell& cell = cells[t];
+    cell.x = (slot % side) * square_texels;
+    cell.y = (slot / side) * square_texels;
+    cell.odd = assignment.odd[t];
+    // The inner triangle's first corner goes to the vertex of the smallest
+    // key and the rest follow the winding: a receiver whose codec rotated
+    // the triangle's corners puts each texel on the same point.
+    int first = 0;
+    if (assignment.keyed) {
+      for (int k = 1; k < 3; ++k) {
+        if (mesh.vertex_keys[mesh.indices[3 * t + k]] <
+            mesh.vertex_keys[mesh.indices[3 * t + first]])
+          first = k;
+      }
+    }
+    const auto corners = innerTriangleTexels(cell, square_texels);
+    for (int k = 0; k < 3; ++k)
+      uvs[3 * t + (first + k) % 3] = glm::vec2(corners[k] / double(texels));
+  }
+  mesh.corner_uvs = std::move(uvs);
+  return cells;
 }
 
 }  // namespace
@@ -192,23 +226,17 @@ StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* st
     }
   }
 
-  const size_t triangles = mesh.triangleCount();
-  std::vector<AtlasCell> cells(triangles);
-  std::vector<glm::vec2> uvs(3 * triangles);
-  for (size_t t = 0; t < triangles; ++t) {
-    const uint32_t slot = slot_of_key.at(assignment.key_of_triangle[t]);
-    AtlasCell& cell = cells[t];
-    cell.x = (slot % side) * square_texels;
-    cell.y = (slot / side) * square_texels;
-    cell.odd = assignment.odd[t];
-    const auto corners = innerTriangleTexels(cell, square_texels);
-    for (int k = 0; k < 3; ++k) uvs[3 * t + k] = glm::vec2(corners[k] / double(texels));
-  }
-
-  mesh.corner_uvs = std::move(uvs);
+  std::vector<AtlasCell> cells = placeTriangles(mesh, assignment, side, square_texels, texels,
+                                                [&](uint64_t key) { return slot_of_key.at(key); });
   texels_ = texels;
   squares_per_side_ = side;
   square_texels_ = square_texels;
+  layout_ = AtlasLayout{texels, side, square_texels, glm::u64vec3(0), {}};
+  if (assignment.keyed) {
+    layout_.lattice = options_.lattice;
+    layout_.slots.reserve(keys.size());
+    for (const uint64_t key : keys) layout_.slots.push_back(slot_of_key.at(key));
+  }
   slot_of_key_ = assignment.keyed ? std::move(slot_of_key) : decltype(slot_of_key){};
   if (stats != nullptr) {
     stats->texels = texels;
@@ -219,6 +247,103 @@ StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* st
     stats->regridded = regrid;
   }
   return cells;
+}
+
+StatusOr<std::vector<AtlasCell>> applyAtlasLayout(Mesh& mesh, const AtlasLayout& layout) {
+  auto refuse = [](const std::string& what) {
+    return Status(StatusCode::kMalformed, "atlas layout: " + what);
+  };
+  if (!layout.keyed()) return refuse("no key lattice");
+  if (layout.squares_per_side == 0 || layout.square_texels < 6 ||
+      uint64_t{layout.squares_per_side} * layout.square_texels > layout.texels ||
+      layout.texels > kMaxAtlasTexels)
+    return refuse(std::to_string(layout.squares_per_side) + " squares of " +
+                  std::to_string(layout.square_texels) + " texels do not fit an atlas of " +
+                  std::to_string(layout.texels));
+  SquareAssignment assignment;
+  if (!keyByLatticeCell(mesh, layout.lattice, assignment))
+    return refuse("the mesh's vertex keys are not on the layout's lattice");
+  std::vector<uint64_t> keys = assignment.key_of_triangle;
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  if (keys.size() != layout.slots.size())
+    return refuse("the mesh makes " + std::to_string(keys.size()) + " squares, the layout has " +
+                  std::to_string(layout.slots.size()));
+  const uint64_t capacity = uint64_t{layout.squares_per_side} * layout.squares_per_side;
+  for (const uint32_t slot : layout.slots) {
+    if (slot >= capacity)
+      return refuse("slot " + std::to_string(slot) + " outside a grid of " +
+                    std::to_string(capacity));
+  }
+  auto cells = placeTriangles(mesh, assignment, layout.squares_per_side, layout.square_texels,
+                              layout.texels, [&](uint64_t key) {
+                                const auto at = std::lower_bound(keys.begin(), keys.end(), key);
+                                return layout.slots[static_cast<size_t>(at - keys.begin())];
+                              });
+  return cells;
+}
+
+std::vector<uint8_t> encodeAtlasSlots(const std::vector<uint32_t>& slots) {
+  std::vector<uint8_t> raw;
+  raw.reserve(slots.size() + 16);
+  uint32_t previous = 0;
+  for (const uint32_t slot : slots) {
+    const int64_t delta = int64_t{slot} - int64_t{previous};
+    uint64_t zigzag = static_cast<uint64_t>(delta >= 0 ? 2 * delta : -2 * delta - 1);
+    do {  // LEB128: seven bits a byte, the high bit says more follow
+      raw.push_back(static_cast<uint8_t>((zigzag & 0x7f) | (zigzag > 0x7f ? 0x80 : 0)));
+      zigzag >>= 7;
+    } while (zigzag != 0);
+    previous = slot;
+  }
+  std::vector<uint8_t> out(static_cast<size_t>(LZ4_compressBound(static_cast<int>(raw.size()))));
+  const int n = LZ4_compress_default(reinterpret_cast<const char*>(raw.data()),
+                                     reinterpret_cast<char*>(out.data()),
+                                     static_cast<int>(raw.size()), static_cast<int>(out.size()));
+  out.resize(static_cast<size_t>(std::max(n, 0)));
+  return out;
+}
+
+StatusOr<std::vector<uint32_t>> decodeAtlasSlots(std::span<const uint8_t> bytes, uint32_t count) {
+  // A grid holds at most (kMaxAtlasTexels / 6)^2 squares.
+  constexpr uint64_t kMaxSquares = uint64_t{kMaxAtlasTexels / 6} * (kMaxAtlasTexels / 6);
+  if (count > kMaxSquares)
+    return Status(StatusCode::kTooLarge, "atlas slots: " + std::to_string(count) +
+                                             " squares above cap " + std::to_string(kMaxSquares));
+  auto malformed = [&](const std::string& what) {
+    return Status(StatusCode::kMalformed, "atlas slots: " + std::to_string(bytes.size()) +
+                                              " bytes for " + std::to_string(count) +
+                                              " squares: " + what);
+  };
+  // A delta takes at most five bytes.
+  std::vector<uint8_t> raw(5 * size_t{count});
+  const int n = raw.empty() ? (bytes.size() == 1 && bytes[0] == 0 ? 0 : -1)
+                            : LZ4_decompress_safe(reinterpret_cast<const char*>(bytes.data()),
+                                                  reinterpret_cast<char*>(raw.data()),
+                                                  static_cast<int>(bytes.size()),
+                                                  static_cast<int>(raw.size()));
+  if (n < 0) return malformed("not an LZ4 block of at most 5 bytes a square");
+  std::vector<uint32_t> slots(count);
+  int64_t previous = 0;
+  size_t at = 0;
+  for (size_t i = 0; i < count; ++i) {
+    uint64_t zigzag = 0;
+    for (int shift = 0;; shift += 7) {
+      if (at >= static_cast<size_t>(n) || shift > 28)
+        return malformed("square " + std::to_string(i) + " cut short");
+      const uint8_t byte = raw[at++];
+      zigzag |= uint64_t{byte & 0x7fu} << shift;
+      if ((byte & 0x80) == 0) break;
+    }
+    const int64_t delta =
+        (zigzag & 1) ? -static_cast<int64_t>(zigzag >> 1) - 1 : static_cast<int64_t>(zigzag >> 1);
+    previous += delta;
+    if (previous < 0 || previous > int64_t{UINT32_MAX})
+      return malformed("slot " + std::to_string(i) + " outside 0..2^32");
+    slots[i] = static_cast<uint32_t>(previous);
+  }
+  if (at != static_cast<size_t>(n)) return malformed("bytes left after the last square");
+  return slots;
 }
 
 }  // namespace holofuse

@@ -58,6 +58,8 @@ Status checkInputs(const Mesh& mesh, const std::vector<AtlasCell>& cells, uint32
     return refuse(std::to_string(cells.size()) + " atlas cells for " +
                   std::to_string(mesh.triangleCount()) + " triangles");
   if (mesh.normals.size() != mesh.vertexCount()) return refuse("the mesh has no vertex normals");
+  if (mesh.corner_uvs.size() != mesh.indices.size())
+    return refuse("the mesh has no texture coordinates (TextureAtlas::layOut)");
   if (texels == 0 || square_texels == 0 || square_texels > texels)
     return refuse("an atlas of " + std::to_string(texels) + " texels with squares of " +
                   std::to_string(square_texels));
@@ -114,7 +116,10 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, const std::vector<A
   ranked.reserve(views.size());
   for (size_t t = 0; t < mesh.triangleCount(); ++t) {
     const AtlasCell& cell = cells[t];
-    const auto inner = innerTriangleTexels(cell, square_texels);
+    // The texels' points from the triangle's own coordinates (layOut put
+    // its inner triangle's corners there, in a receiver's order too).
+    std::array<glm::dvec2, 3> inner;
+    for (int k = 0; k < 3; ++k) inner[k] = glm::dvec2(mesh.corner_uvs[3 * t + k]) * double(texels);
     const uint32_t* corner = &mesh.indices[3 * t];
     for (uint32_t y = cell.y; y < cell.y + square_texels; ++y) {
       for (uint32_t x = cell.x; x < cell.x + square_texels; ++x) {

@@ -2,6 +2,7 @@
 // and the texture coordinates Draco carries with the mesh.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <map>
 #include <optional>
@@ -188,6 +189,96 @@ TEST(MeshCodec, AnAtlasTravelsWithTheMeshAndItsVerticesStayShared) {
   ASSERT_FALSE(refused.isOk());
   EXPECT_NE(refused.status().toString().find("outside [0,1]"), std::string::npos)
       << refused.status().toString();
+}
+
+// A receiver gets the layout, not the coordinates: from the decoded mesh's
+// vertex keys it finds every triangle's square and puts each corner where
+// the sender put that vertex, whatever order Draco gave triangles and
+// corners.
+TEST(AtlasLayout, AReceiverLaysTheDecodedMeshOutAgainFromItsKeys) {
+  TextureAtlas atlas(latticeOptions());
+  Mesh first = sphereOnLattice(glm::dvec3(0.0), 0.7);
+  ASSERT_TRUE(atlas.layOut(first).isOk());
+  // The second frame keeps most squares: its slots are not in key order.
+  Mesh mesh = sphereOnLattice(glm::dvec3(0.01, 0.0, 0.0), 0.7);
+  AtlasStats stats;
+  ASSERT_TRUE(atlas.layOut(mesh, &stats).isOk());
+  ASSERT_FALSE(stats.regridded);
+  ASSERT_GT(stats.keptFraction(), 0.5);
+  const AtlasLayout& sent = atlas.layout();
+  ASSERT_TRUE(sent.keyed());
+  ASSERT_EQ(sent.slots.size(), stats.squares_used);
+  ASSERT_FALSE(std::is_sorted(sent.slots.begin(), sent.slots.end()));
+
+  const std::vector<uint8_t> wire = encodeAtlasSlots(sent.slots);
+  EXPECT_LT(wire.size(), sent.slots.size())
+      << "a mostly kept layout compresses below a byte a square; kept " << stats.keptFraction();
+  auto slots = decodeAtlasSlots(wire, static_cast<uint32_t>(sent.slots.size()));
+  ASSERT_TRUE(slots.isOk()) << slots.status().toString();
+  EXPECT_EQ(*slots, sent.slots);
+
+  Mesh plain = mesh;
+  plain.corner_uvs.clear();
+  auto bytes = encodeDraco(plain);
+  ASSERT_TRUE(bytes.isOk());
+  auto received = decodeDraco(bytes->data(), bytes->size());
+  ASSERT_TRUE(received.isOk());
+  ASSERT_TRUE(received->corner_uvs.empty());
+  AtlasLayout layout = sent;
+  layout.slots = *slots;
+  auto cells = applyAtlasLayout(*received, layout);
+  ASSERT_TRUE(cells.isOk()) << cells.status().toString();
+  ASSERT_EQ(received->corner_uvs.size(), received->indices.size());
+  // Per triangle (named by its keys) and vertex key: the sender's UV.
+  std::map<std::pair<std::set<uint64_t>, uint64_t>, glm::vec2> sender;
+  for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+    std::set<uint64_t> keys;
+    for (int k = 0; k < 3; ++k) keys.insert(mesh.vertex_keys[mesh.indices[3 * t + k]]);
+    for (int k = 0; k < 3; ++k)
+      sender[{keys, mesh.vertex_keys[mesh.indices[3 * t + k]]}] = mesh.corner_uvs[3 * t + k];
+  }
+  size_t matched = 0;
+  for (size_t t = 0; t < received->triangleCount(); ++t) {
+    std::set<uint64_t> keys;
+    for (int k = 0; k < 3; ++k) keys.insert(received->vertex_keys[received->indices[3 * t + k]]);
+    for (int k = 0; k < 3; ++k) {
+      const auto found = sender.find({keys, received->vertex_keys[received->indices[3 * t + k]]});
+      ASSERT_NE(found, sender.end()) << "triangle " << t;
+      EXPECT_EQ(found->second, received->corner_uvs[3 * t + k]) << "triangle " << t;
+      ++matched;
+    }
+  }
+  EXPECT_EQ(matched, mesh.indices.size());
+
+  // What does not fit is refused by name, the mesh's coordinates untouched.
+  auto refusedWith = [&](AtlasLayout bad, const std::string& words) {
+    Mesh copy = *received;
+    copy.corner_uvs.clear();
+    auto result = applyAtlasLayout(copy, bad);
+    EXPECT_FALSE(result.isOk()) << words;
+    if (!result.isOk()) {
+      EXPECT_NE(result.status().toString().find(words), std::string::npos)
+          << result.status().toString();
+    }
+    EXPECT_TRUE(copy.corner_uvs.empty());
+  };
+  AtlasLayout fewer = layout;
+  fewer.slots.pop_back();
+  refusedWith(fewer, "squares, the layout has");
+  AtlasLayout outside = layout;
+  outside.slots[0] = layout.squares_per_side * layout.squares_per_side;
+  refusedWith(outside, "outside a grid");
+  AtlasLayout other_lattice = layout;
+  other_lattice.lattice = glm::u64vec3(kGrid / 2);
+  refusedWith(other_lattice, "not on the layout's lattice");
+  AtlasLayout too_big = layout;
+  too_big.square_texels = layout.texels;
+  refusedWith(too_big, "do not fit");
+  // Bytes that do not hold the stated count.
+  EXPECT_FALSE(decodeAtlasSlots(wire, static_cast<uint32_t>(sent.slots.size() + 1)).isOk());
+  std::vector<uint8_t> cut(wire.begin(), wire.begin() + static_cast<long>(wire.size() / 2));
+  EXPECT_FALSE(decodeAtlasSlots(cut, static_cast<uint32_t>(sent.slots.size())).isOk());
+  EXPECT_EQ(decodeAtlasSlots(wire, 0xffffffffu).status().code(), StatusCode::kTooLarge);
 }
 
 // A sphere painted by the direction from its centre, seen by a ring of

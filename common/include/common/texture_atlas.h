@@ -15,6 +15,7 @@
 #include <array>
 #include <cstdint>
 #include <glm/glm.hpp>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -51,6 +52,17 @@ struct AtlasStats {
   double keptFraction() const { return squares_used ? double(squares_kept) / squares_used : 0.0; }
 };
 
+// What a receiver needs to lay the same mesh out again from its vertex
+// keys (applyAtlasLayout), so that texture coordinates need not travel:
+// the grid, the key lattice, and each square's slot in the grid, squares in
+// ascending key order.
+struct AtlasLayout {
+  uint32_t texels = 0, squares_per_side = 0, square_texels = 0;
+  glm::u64vec3 lattice{0};
+  std::vector<uint32_t> slots;
+  bool keyed() const { return lattice.x > 0 && lattice.y > 0 && lattice.z > 0; }
+};
+
 // Where one triangle lies in the atlas: its square's top-left texel and
 // which half (even: top-left, odd: bottom-right, Algorithm 1).
 struct AtlasCell {
@@ -70,6 +82,10 @@ class TextureAtlas {
 
   uint32_t texels() const { return texels_; }
   uint32_t squareTexels() const { return square_texels_; }
+  // The last layOut's layout; not keyed (lattice zero) when the mesh's
+  // vertex keys were not the lattice's, and then its squares cannot be
+  // found again from the keys.
+  const AtlasLayout& layout() const { return layout_; }
 
  private:
   AtlasOptions options_;
@@ -77,7 +93,21 @@ class TextureAtlas {
   uint32_t squares_per_side_ = 0;
   uint32_t square_texels_ = 0;
   std::unordered_map<uint64_t, uint32_t> slot_of_key_;  // last frame's squares
+  AtlasLayout layout_;
 };
+
+// The layout a sender's TextureAtlas::layOut gave this mesh, applied to the
+// mesh as received (Draco may reorder triangles and vertices; the vertex
+// keys name the same squares): fills mesh.corner_uvs and returns the cells.
+// Refused by name when the keys do not make the layout's squares or the
+// layout does not fit its atlas.
+StatusOr<std::vector<AtlasCell>> applyAtlasLayout(Mesh& mesh, const AtlasLayout& layout);
+
+// The slots on the wire: each the difference from the one before, zigzag,
+// LEB128 (seven bits a byte), LZ4 (a kept layout is long runs of +1).
+// decode takes untrusted bytes and the count the message states.
+std::vector<uint8_t> encodeAtlasSlots(const std::vector<uint32_t>& slots);
+StatusOr<std::vector<uint32_t>> decodeAtlasSlots(std::span<const uint8_t> bytes, uint32_t count);
 
 // Corners of a triangle's inner triangle (Algorithm 2, the odd one a texel
 // further from the diagonal for bilinear sampling), in texels from the
