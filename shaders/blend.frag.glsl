@@ -11,6 +11,9 @@
 //   w_k = V_k * F_k * max(0, d_k . n)^alpha * (d_k . d_v + 1)^beta,
 //   V_k the per-fragment test with a tolerance that follows depth and the
 //   mesh's scale, F_k the pod's feather weight, d_v towards the user's eye;
+// mode layered (Volino and Hilton 2016, eqs. 3 and 4): per layer, the
+//   colour and camera the atlas holds at the fragment, weighed by
+//   w_j = max((d_j . n)(d_j . d_v), 0) (render::reference::blendLayers);
 // modes holoportation and montage4d: w_i are the per-vertex texture fields
 //   (eq. 2, or eqs. 4 and 5 normalised) computed by the compute passes and
 //   interpolated over the triangle, times V_k * F_k when the field modes
@@ -29,6 +32,9 @@ layout(std430, set = 0, binding = HOLOFUSE_BINDING_DEPTHS) readonly buffer Depth
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_INDICES) readonly buffer Indices { uint indices[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_BEST_VIEWS) readonly buffer BestViews { uvec2 best_views[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_CANDIDATES) readonly buffer Candidates { uvec2 candidates[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_CORNER_UVS) readonly buffer CornerUvs { vec2 corner_uvs[]; };
+layout(set = 0, binding = HOLOFUSE_BINDING_LAYERS) uniform sampler2DArray layers;
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_LAYER_CAMERAS) readonly buffer LayerCameras { vec4 layer_cameras[]; };
 
 // Where p lands in camera i: texture coordinates in [0, 1] and the
 // camera-space depth; false behind the camera or off its image.
@@ -254,12 +260,64 @@ vec4 blendFields(inout float total) {
   return vec4(total > 1e-8 ? sum / total : vec3(0.0), 1.0);
 }
 
+// Mode layered: the layers at the fragment's atlas coordinates. A layer's
+// camera is its nearest texel's; its colour bilinear over the taps of that
+// camera only, in float as the reference. Eq. 3 weighs each layer, eq. 4
+// normalises; where no weight is left the first layer's colour stands
+// (total 1), where no layer has a camera none (total 0).
+vec4 blendLayers(vec3 n, inout float total) {
+  vec2 uv = in_barycentric.x * corner_uvs[3u * in_triangle] +
+            in_barycentric.y * corner_uvs[3u * in_triangle + 1u] +
+            in_barycentric.z * corner_uvs[3u * in_triangle + 2u];
+  int texels = textureSize(layers, 0).x;
+  ivec2 nearest = clamp(ivec2(floor(uv * float(texels))), ivec2(0), ivec2(texels - 1));
+  vec2 at = uv * float(texels) - 0.5;
+  ivec2 base = ivec2(floor(at));
+  vec2 f = at - vec2(base);
+  vec3 to_eye = blend.user_eye.xyz - in_position;
+  vec3 d_v = length(to_eye) > 1e-20 ? normalize(to_eye) : vec3(0.0);
+  vec3 sum = vec3(0.0), first = vec3(0.0);
+  bool any = false;
+  total = 0.0;
+  for (int l = 0; l < int(blend.params.z); ++l) {
+    uint camera = uint(round(texelFetch(layers, ivec3(nearest, l), 0).a * 255.0));
+    if (camera == HOLOFUSE_NO_LAYER_CAMERA) continue;
+    vec3 colour = vec3(0.0);
+    float weight = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      ivec2 offset = ivec2(k & 1, k >> 1);
+      vec4 t = texelFetch(layers, ivec3(clamp(base + offset, ivec2(0), ivec2(texels - 1)), l), 0);
+      if (uint(round(t.a * 255.0)) != camera) continue;
+      float w = (offset.x == 1 ? f.x : 1.0 - f.x) * (offset.y == 1 ? f.y : 1.0 - f.y);
+      colour += w * t.rgb;
+      weight += w;
+    }
+    if (!(weight > 1e-12)) continue;
+    colour /= weight;
+    if (!any) first = colour;
+    any = true;
+    vec3 to_camera = layer_cameras[camera].xyz - in_position;
+    vec3 d_j = length(to_camera) > 1e-20 ? normalize(to_camera) : vec3(0.0);
+    float w = max(dot(d_j, n) * dot(d_j, d_v), 0.0);
+    sum += w * colour;
+    total += w;
+  }
+  if (total > 1e-8) return vec4(sum / total, 1.0);
+  total = any ? 1.0 : 0.0;
+  return vec4(first, 1.0);
+}
+
 void main() {
   float len = length(in_normal);
   vec3 n = len > 1e-12 ? in_normal / len : vec3(0.0);
   float total = 0.0;
   vec4 color = vec4(0.0);
   bool field_mode = blend.counts.y == HOLOFUSE_MODE_HOLOPORTATION || blend.counts.y == HOLOFUSE_MODE_MONTAGE4D;
+  if (blend.counts.y == HOLOFUSE_MODE_LAYERED) {
+    color = blendLayers(n, total);
+    out_color = total > 0.0 ? color : vec4(blend.hole_color.rgb, 1.0);
+    return;
+  }
   bool candidates = blend.views.z != 0;  // more cameras than K
   gatherCorners();
   if (field_mode) gatherBestViews();

@@ -19,6 +19,7 @@
 #define HOLOFUSE_MODE_HOLOPORTATION 1
 #define HOLOFUSE_MODE_MONTAGE4D 2
 #define HOLOFUSE_MODE_FRAGMENT 3
+#define HOLOFUSE_MODE_LAYERED 4
 
 // Push constants: the vertex stage's matrix, then the compute passes' block.
 #define HOLOFUSE_COMPUTE_PUSH_OFFSET 64
@@ -85,7 +86,17 @@
 // weigh (mode normal, mode fragment, the field modes' fallback):
 // [vertex][best_views] pairs (camera, rank score), as BEST_VIEWS.
 #define HOLOFUSE_BINDING_CANDIDATES 23
-#define HOLOFUSE_BINDING_COUNT 24
+// Mode layered (Volino and Hilton 2016): per corner, [triangle][3], its
+// texture coordinates in the atlas (vec2); the layers, one RGBA layer of
+// the image array each (colour, camera index / 255); per camera index,
+// its centre (vec4, xyz).
+#define HOLOFUSE_BINDING_CORNER_UVS 24
+#define HOLOFUSE_BINDING_LAYERS 25
+#define HOLOFUSE_BINDING_LAYER_CAMERAS 26
+#define HOLOFUSE_BINDING_COUNT 27
+// A layer texel's camera byte where no camera sees the point
+// (common/texture_layers.h kNoLayerCamera).
+#define HOLOFUSE_NO_LAYER_CAMERA 255u
 
 // Geodesic worklists and their marks rotate through three slots of storage:
 // the one a pass reads (clearing each mark as it goes), the one it appends

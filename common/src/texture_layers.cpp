@@ -176,4 +176,51 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, const std::vector<A
   return out;
 }
 
+Status checkLayeredViews(const LayeredViews& views) {
+  auto refuse = [](const std::string& what) {
+    return Status(StatusCode::kMalformed, "texture layers: " + what);
+  };
+  if (views.layers.empty() || views.layers.size() > kMaxRenderedLayers)
+    return refuse(std::to_string(views.layers.size()) + " layers, not 1.." +
+                  std::to_string(kMaxRenderedLayers));
+  const Image8& first = views.layers.front();
+  if (first.width == 0 || first.width != first.height || first.width > kMaxAtlasTexels)
+    return refuse("a layer of " + std::to_string(first.width) + "x" + std::to_string(first.height) +
+                  ", not a square of at most " + std::to_string(kMaxAtlasTexels));
+  if (views.camera_centers.size() >= kNoLayerCamera)
+    return refuse(std::to_string(views.camera_centers.size()) +
+                  " cameras; a layer names at most 254");
+  for (size_t l = 0; l < views.layers.size(); ++l) {
+    const Image8& layer = views.layers[l];
+    if (layer.width != first.width || layer.height != first.height || layer.channels != 4)
+      return refuse("layer " + std::to_string(l) + " is not RGBA " + std::to_string(first.width) +
+                    "x" + std::to_string(first.height));
+    for (size_t i = 3; i < layer.pixels.size(); i += 4) {
+      if (layer.pixels[i] != kNoLayerCamera && layer.pixels[i] >= views.camera_centers.size())
+        return refuse("layer " + std::to_string(l) + " names camera index " +
+                      std::to_string(layer.pixels[i]) + " of " +
+                      std::to_string(views.camera_centers.size()));
+    }
+  }
+  for (const glm::dvec3& centre : views.camera_centers) {
+    if (!std::isfinite(centre.x) || !std::isfinite(centre.y) || !std::isfinite(centre.z))
+      return refuse("a camera centre is not finite");
+  }
+  return Status();
+}
+
+Status checkLayerCoordinates(const Mesh& mesh) {
+  auto refuse = [](const std::string& what) {
+    return Status(StatusCode::kMalformed, "texture layers: " + what);
+  };
+  if (mesh.corner_uvs.size() != mesh.indices.size())
+    return refuse("the mesh has " + std::to_string(mesh.corner_uvs.size()) +
+                  " texture coordinates for " + std::to_string(mesh.indices.size()) + " corners");
+  for (const glm::vec2& uv : mesh.corner_uvs) {
+    if (!(uv.x >= 0.0f && uv.x <= 1.0f && uv.y >= 0.0f && uv.y <= 1.0f))
+      return refuse("a texture coordinate outside [0,1]");
+  }
+  return Status();
+}
+
 }  // namespace holofuse

@@ -51,6 +51,7 @@ StatusOr<PodImagesFull> decodePodImages(const protocol::Frame& frame, const Came
         out.feather = std::move(whole);
         break;
       case protocol::PlaneKind::kDepth:
+      case protocol::PlaneKind::kCamera:  // a texture layer's: not a pod's
         break;
     }
   }

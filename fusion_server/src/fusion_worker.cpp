@@ -62,8 +62,9 @@ StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_byt
       case protocol::PlaneKind::kFeather:
         images.feather = std::move(*image);
         break;
-      case protocol::PlaneKind::kDepth:
-        break;  // not used by the hull yet
+      case protocol::PlaneKind::kDepth:   // not used by the hull yet
+      case protocol::PlaneKind::kCamera:  // a texture layer's: not a pod's
+        break;
     }
   }
   if (images.color.channels != 3 || images.mask.channels != 1 || images.feather.channels != 1) {

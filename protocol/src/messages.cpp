@@ -68,7 +68,7 @@ void readPlanes(WireReader& r, std::vector<Plane>& planes) {
     p.height = r.u32("plane.height");
     p.raw_size = r.u32("plane.raw_size");
     if (!r.ok()) return;
-    if (kind < 1 || kind > 4) {
+    if (kind < 1 || kind > 5) {
       r.failValue("plane.kind", StatusCode::kMalformed, "unknown kind " + std::to_string(kind));
       return;
     }
@@ -116,8 +116,8 @@ const std::vector<uint16_t>& stagesInPipelineOrder() {
     for (Stage s :
          {Stage::kPodRender, Stage::kSegment, Stage::kFeather, Stage::kPodEncode,
           Stage::kReplayRead, Stage::kSend, Stage::kServerDecode, Stage::kSyncWait, Stage::kHull,
-          Stage::kRefine, Stage::kMeshEncode, Stage::kImageEncode, Stage::kFanout, Stage::kDecode,
-          Stage::kUpload, Stage::kRender, Stage::kWrite}) {
+          Stage::kRefine, Stage::kMeshEncode, Stage::kLayers, Stage::kImageEncode, Stage::kFanout,
+          Stage::kDecode, Stage::kUpload, Stage::kRender, Stage::kWrite}) {
       ids.push_back(static_cast<uint16_t>(s));
     }
     return ids;
@@ -129,7 +129,7 @@ std::string stageName(uint16_t stage) {
   static const char* const kNames[] = {
       "pod_render", "segment",     "feather",      "pod_encode",    "send",   "sync_wait",
       "hull",       "mesh_encode", "image_encode", "fanout",        "decode", "upload",
-      "render",     "write",       "replay_read",  "server_decode", "refine"};
+      "render",     "write",       "replay_read",  "server_decode", "refine", "layers"};
   if (stage >= kFirstStage && stage <= kLastStage) return kNames[stage - kFirstStage];
   return "stage_" + std::to_string(stage);
 }
@@ -343,6 +343,21 @@ void writePayload(WireWriter& w, const TextureBundle& m, uint8_t minor) {
     w.u32(image.offset_y);
     writePlanes(w, image.planes);
   }
+  if (minor < 5) return;
+  const BundleLayers* layers = m.layers ? &*m.layers : nullptr;
+  const size_t layer_count = layers ? std::min(layers->layers.size(), kMaxLayers) : 0;
+  w.u8(static_cast<uint8_t>(layer_count));
+  if (layer_count == 0) return;
+  w.u32(layers->texels);
+  w.u32(layers->squares_per_side);
+  w.u32(layers->square_texels);
+  for (const uint32_t side : layers->lattice) w.u32(side);
+  w.u32(layers->square_count);
+  w.bytes32(layers->slots);
+  const size_t cameras = std::min(layers->camera_ids.size(), size_t{kMaxCameras});
+  w.u8(static_cast<uint8_t>(cameras));
+  for (size_t k = 0; k < cameras; ++k) w.u32(layers->camera_ids[k]);
+  for (size_t l = 0; l < layer_count; ++l) writePlanes(w, layers->layers[l]);
 }
 
 Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t base_offset,
@@ -361,6 +376,34 @@ Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t ba
     image.offset_x = r.u32("texture_bundle.offset_x");
     image.offset_y = r.u32("texture_bundle.offset_y");
     readPlanes(r, image.planes);
+    if (!r.ok()) break;
+  }
+  if (minor < 5 || !r.ok()) return finish(r);
+  const uint8_t layer_count = r.u8("texture_bundle.layer_count");
+  if (layer_count > kMaxLayers) {
+    r.failValue("texture_bundle.layer_count", StatusCode::kTooLarge,
+                std::to_string(layer_count) + " above cap " + std::to_string(kMaxLayers));
+  }
+  if (layer_count == 0 || !r.ok()) return finish(r);
+  BundleLayers& layers = m.layers.emplace();
+  layers.texels = r.u32("texture_bundle.atlas_texels");
+  layers.squares_per_side = r.u32("texture_bundle.squares_per_side");
+  layers.square_texels = r.u32("texture_bundle.square_texels");
+  for (uint32_t& side : layers.lattice) side = r.u32("texture_bundle.lattice");
+  layers.square_count = r.u32("texture_bundle.square_count");
+  layers.slots = r.bytes32("texture_bundle.slots", kMaxPlaneBytes);
+  const uint8_t cameras = r.u8("texture_bundle.layer_camera_count");
+  if (cameras > kMaxCameras) {
+    r.failValue("texture_bundle.layer_camera_count", StatusCode::kTooLarge,
+                std::to_string(cameras) + " above cap " + std::to_string(kMaxCameras));
+  }
+  if (r.ok()) {
+    layers.camera_ids.resize(cameras);
+    for (uint32_t& id : layers.camera_ids) id = r.u32("texture_bundle.layer_camera_id");
+  }
+  layers.layers.resize(r.ok() ? layer_count : 0);
+  for (auto& planes : layers.layers) {
+    readPlanes(r, planes);
     if (!r.ok()) break;
   }
   return finish(r);

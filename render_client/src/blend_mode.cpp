@@ -7,6 +7,7 @@ std::optional<BlendMode> blendModeFromName(const std::string& name) {
   if (name == "holoportation") return BlendMode::kHoloportation;
   if (name == "montage4d") return BlendMode::kMontage4D;
   if (name == "fragment") return BlendMode::kFragment;
+  if (name == "layered") return BlendMode::kLayered;
   return std::nullopt;
 }
 
@@ -20,12 +21,14 @@ std::string blendModeName(BlendMode mode) {
       return "montage4d";
     case BlendMode::kFragment:
       return "fragment";
+    case BlendMode::kLayered:
+      return "layered";
   }
   return "unknown";
 }
 
 std::vector<std::string> blendModeNames() {
-  return {"normal", "holoportation", "montage4d", "fragment"};
+  return {"normal", "holoportation", "montage4d", "fragment", "layered"};
 }
 
 }  // namespace holofuse::render

@@ -76,7 +76,13 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   u.counts =
       glm::ivec4(static_cast<int>(cameras_.size()), static_cast<int>(settings.mode),
                  static_cast<int>(subject_seen_.size() - active_.size()), uploaded_half_ ? 1 : 0);
-  u.params = glm::vec4(settings.alpha, settings.depth_tolerance, 0, 0);
+  const bool layered = settings.mode == BlendMode::kLayered;
+  if (layered && (layer_count_ == 0 || (index_count_ > 0 && !mesh_has_uvs_)))
+    throw std::invalid_argument(layer_count_ == 0
+                                    ? "mode layered without texture layers (setLayers)"
+                                    : "mode layered with a mesh without texture coordinates");
+  u.params =
+      glm::vec4(settings.alpha, settings.depth_tolerance, static_cast<float>(layer_count_), 0);
   u.hole_color = glm::vec4(settings.hole_color, 1.0f);
   u.user_eye = glm::vec4(glm::vec3(user_camera.center()), 1.0f);
   u.fragment_test =
@@ -106,7 +112,8 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     const bool empty = view < subject_seen_.size() && !subject_seen_[view];
     gpu.flags = glm::ivec4(enabled ? 1 : 0, empty ? 1 : 0, 0, 0);
   }
-  const bool have_views = !cameras_.empty();
+  // Mode layered reads no camera image: no depth map, field or ranking.
+  const bool have_views = !cameras_.empty() && !layered;
   if (const Status usable = checkRenderable(vertex_count_, settings); have_views && !usable.isOk())
     throw std::invalid_argument(usable.message());
   const bool montage = have_views && settings.mode == BlendMode::kMontage4D;
@@ -170,7 +177,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     begin.clearValueCount = static_cast<uint32_t>(clears.size());
     begin.pClearValues = clears.data();
     vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
-    if (have_views) {
+    if (have_views || layered) {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_pipeline_);
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_layout_, 0, 1,
                               &descriptor_set_, 0, nullptr);

@@ -146,6 +146,18 @@ void Renderer::uploadMesh(const Mesh& mesh, bool half) {
   if (!mesh.indices.empty())
     std::memcpy(index_buffer_.mapped, mesh.indices.data(), mesh.indices.size() * 4);
   index_count_ = static_cast<uint32_t>(mesh.indices.size());
+  // Mode layered's atlas coordinates, one per corner, when the mesh has them.
+  mesh_has_uvs_ = !mesh.indices.empty() && mesh.corner_uvs.size() == mesh.indices.size();
+  if (mesh_has_uvs_) {
+    const VkDeviceSize uv_bytes = mesh.corner_uvs.size() * sizeof(glm::vec2);
+    if (corner_uvs_.size < uv_bytes) {
+      vkDeviceWaitIdle(ctx_.device());
+      ctx_.destroy(corner_uvs_);
+      corner_uvs_ = ctx_.createBuffer(uv_bytes * 3 / 2, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+      if (images_.image != VK_NULL_HANDLE) writeDescriptors();
+    }
+    std::memcpy(corner_uvs_.mapped, mesh.corner_uvs.data(), uv_bytes);
+  }
   const Bounds bounds = meshBounds(mesh);
   bounds_min_ = glm::dvec3(bounds.min);
   bounds_max_ = glm::dvec3(bounds.max);
@@ -254,6 +266,51 @@ void Renderer::setViews(const std::vector<ViewImages>& views) {
   depth_maps_stale_ = true;
   fields_stale_ = true;
   candidates_stale_ = true;
+}
+
+void Renderer::ensureLayerImage(uint32_t texels, uint32_t count) {
+  if (layers_.width == texels && layers_.layers == count) return;
+  vkDeviceWaitIdle(ctx_.device());
+  ctx_.destroy(layers_);
+  layers_ = ctx_.createImage(texels, texels, count, VK_FORMAT_R8G8B8A8_UNORM,
+                             VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                             VK_IMAGE_ASPECT_COLOR_BIT, true, 1);
+  writeDescriptors();
+}
+
+void Renderer::setLayers(const LayeredViews& layers) {
+  if (const Status usable = checkLayeredViews(layers); !usable.isOk())
+    throw std::invalid_argument(usable.message());
+  // The descriptor set is first written with the view resources: a client
+  // that receives only layers gets a one-pixel stand-in for the images.
+  if (images_.image == VK_NULL_HANDLE) ensureViewResources(1, 1, 1);
+  const uint32_t texels = layers.layers.front().width;
+  const uint32_t count = static_cast<uint32_t>(layers.layers.size());
+  ensureLayerImage(texels, count);
+  const VkDeviceSize layer_bytes = VkDeviceSize{texels} * texels * 4;
+  Buffer staging = ctx_.createBuffer(layer_bytes * count, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+  for (uint32_t l = 0; l < count; ++l)
+    std::memcpy(static_cast<uint8_t*>(staging.mapped) + l * layer_bytes,
+                layers.layers[l].pixels.data(), layer_bytes);
+  auto* centres = static_cast<glm::vec4*>(layer_cameras_.mapped);
+  for (size_t i = 0; i < layers.camera_centers.size(); ++i)
+    centres[i] = glm::vec4(glm::vec3(layers.camera_centers[i]), 1.0f);
+  ctx_.submitAndWait([&](VkCommandBuffer cmd) {
+    transitionImage(cmd, layers_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                    VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, count};
+    region.imageExtent = {texels, texels, 1};
+    vkCmdCopyBufferToImage(cmd, staging.buffer, layers_.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                           1, &region);
+    transitionImage(cmd, layers_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT,
+                    VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                    VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
+  });
+  ctx_.destroy(staging);
+  layer_count_ = count;
 }
 
 void Renderer::generateMips(VkCommandBuffer cmd) {

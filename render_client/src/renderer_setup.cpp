@@ -199,6 +199,17 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   visible_counts_ =
       ctx_.createBuffer(4 * HOLOFUSE_MAX_CAMERAS,
                         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  corner_uvs_ = ctx_.createBuffer(24, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  layer_cameras_ = ctx_.createBuffer(16 * kNoLayerCamera, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  // A layer to bind until the first layers arrive.
+  layers_ = ctx_.createImage(1, 1, 1, VK_FORMAT_R8G8B8A8_UNORM,
+                             VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                             VK_IMAGE_ASPECT_COLOR_BIT, true, 1);
+  ctx_.submitAndWait([&](VkCommandBuffer cmd) {
+    transitionImage(cmd, layers_, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, 0, VK_ACCESS_SHADER_READ_BIT,
+                    VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
+  });
 }
 
 Renderer::~Renderer() {
@@ -213,6 +224,9 @@ Renderer::~Renderer() {
   ctx_.destroy(readback_);
   ctx_.destroy(uniforms_);
   ctx_.destroy(camera_buffer_);
+  ctx_.destroy(corner_uvs_);
+  ctx_.destroy(layer_cameras_);
+  ctx_.destroy(layers_);
   for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &visible_counts_,
                     &adjacency_, &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_,
                     &worklist_counts_, &sight_bits_, &best_views_, &candidates_}) {
@@ -239,6 +253,7 @@ void Renderer::createPipelines() {
   bindings[HOLOFUSE_BINDING_BLEND].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
   bindings[HOLOFUSE_BINDING_IMAGES].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   bindings[HOLOFUSE_BINDING_FEATHERS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  bindings[HOLOFUSE_BINDING_LAYERS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   VkDescriptorSetLayoutCreateInfo set_info{};
   set_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
   set_info.bindingCount = static_cast<uint32_t>(bindings.size());
@@ -264,8 +279,8 @@ void Renderer::createPipelines() {
 
   std::array<VkDescriptorPoolSize, 3> sizes = {
       VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
-      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, HOLOFUSE_BINDING_COUNT - 3}};
+      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 3},
+      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, HOLOFUSE_BINDING_COUNT - 4}};
   VkDescriptorPoolCreateInfo pool_info{};
   pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
   pool_info.maxSets = 1;
@@ -370,6 +385,8 @@ void Renderer::writeDescriptors() {
                                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   VkDescriptorImageInfo feather_info{linear_sampler_, feathers_.view,
                                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo layers_info{linear_sampler_, layers_.view,
+                                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   // Storage buffers in binding order from HOLOFUSE_BINDING_VERTICES to
   // the sight bits.
   std::array<VkDescriptorBufferInfo, HOLOFUSE_BINDING_SIGHT_BITS + 1 - HOLOFUSE_BINDING_VERTICES>
@@ -404,12 +421,14 @@ void Renderer::writeDescriptors() {
   writes[HOLOFUSE_BINDING_BLEND].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
   writes[HOLOFUSE_BINDING_BLEND].pBufferInfo = &ubo;
   // The storage buffers outside the run above, by binding.
-  const std::array<std::pair<uint32_t, VkDescriptorBufferInfo>, 4> others = {
+  const std::array<std::pair<uint32_t, VkDescriptorBufferInfo>, 6> others = {
       std::pair{HOLOFUSE_BINDING_DEPTHS,
                 VkDescriptorBufferInfo{depth_maps_.buffer, 0, VK_WHOLE_SIZE}},
       {HOLOFUSE_BINDING_CAMERAS, {camera_buffer_.buffer, 0, VK_WHOLE_SIZE}},
       {HOLOFUSE_BINDING_BEST_VIEWS, {best_views_.buffer, 0, VK_WHOLE_SIZE}},
-      {HOLOFUSE_BINDING_CANDIDATES, {candidates_.buffer, 0, VK_WHOLE_SIZE}}};
+      {HOLOFUSE_BINDING_CANDIDATES, {candidates_.buffer, 0, VK_WHOLE_SIZE}},
+      {HOLOFUSE_BINDING_CORNER_UVS, {corner_uvs_.buffer, 0, VK_WHOLE_SIZE}},
+      {HOLOFUSE_BINDING_LAYER_CAMERAS, {layer_cameras_.buffer, 0, VK_WHOLE_SIZE}}};
   for (const auto& [binding, info] : others) {
     writes[binding].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
     writes[binding].pBufferInfo = &info;
@@ -418,6 +437,8 @@ void Renderer::writeDescriptors() {
   writes[HOLOFUSE_BINDING_IMAGES].pImageInfo = &image_info;
   writes[HOLOFUSE_BINDING_FEATHERS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   writes[HOLOFUSE_BINDING_FEATHERS].pImageInfo = &feather_info;
+  writes[HOLOFUSE_BINDING_LAYERS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  writes[HOLOFUSE_BINDING_LAYERS].pImageInfo = &layers_info;
   vkUpdateDescriptorSets(ctx_.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0,
                          nullptr);
 }

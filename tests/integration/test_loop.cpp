@@ -279,9 +279,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     // header minor, and the plane kinds of the bundle's one image
     std::vector<std::pair<uint8_t, std::vector<holofuse::protocol::PlaneKind>>> bundles;
   };
-  static_assert(holofuse::protocol::kVersionMinor == 4, "a client of each minor");
-  std::vector<Client> clients(5);
-  for (uint8_t minor = 0; minor < 5; ++minor) clients[minor].max_minor = minor;
+  static_assert(holofuse::protocol::kVersionMinor == 5, "a client of each minor");
+  std::vector<Client> clients(6);
+  for (uint8_t minor = 0; minor < 6; ++minor) clients[minor].max_minor = minor;
   for (Client& c : clients) {
     holofuse::protocol::Hello hello;
     hello.role = holofuse::protocol::Role::kClient;
@@ -362,8 +362,8 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     }
   }
   const std::string log = readFile(out / "server.log");
-  for (const char* version :
-       {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3", "protocol 1.4"}) {
+  for (const char* version : {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3",
+                              "protocol 1.4", "protocol 1.5"}) {
     EXPECT_NE(log.find(version), std::string::npos) << version << "\n" << log;
   }
 }

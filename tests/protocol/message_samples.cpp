@@ -105,6 +105,26 @@ TextureBundle sampleTextureBundle(uint8_t minor) {
   m.images[1].camera_id = 3;
   return m;
 }
+TextureBundle sampleLayeredBundle() {
+  TextureBundle m;
+  m.frame_id = 1000;
+  m.stamps = {{18, kSourceServer, 350, 390}, {9, kSourceServer, 400, 450}};
+  BundleLayers layers;
+  layers.texels = 64;
+  layers.squares_per_side = 8;
+  layers.square_texels = 8;
+  layers.lattice = {40, 41, 42};
+  layers.square_count = 5;
+  layers.slots = bytes(9, 91);
+  layers.camera_ids = {0, 2, 3};
+  for (int l = 0; l < 2; ++l) {
+    layers.layers.push_back({plane(PlaneKind::kColor, PixelFormat::kRgb8, colorBytes()),
+                             plane(PlaneKind::kCamera, PixelFormat::kGray8, maskBytes())});
+  }
+  m.layers = std::move(layers);
+  return m;
+}
+
 Stats sampleStats() {
   Stats m;
   m.frame_id = 1000;
@@ -136,6 +156,8 @@ std::vector<Sample> allSamples(uint8_t minor) {
       {"stats", encodeFrame(sampleStats(), 8, 0, minor)},  // 1.0: without the arrivals
       {"bye", encodeFrame(Bye{"done"}, 9, 0, minor)},
       {"error", encodeFrame(ErrorMessage{3, "version 2.0 not supported"}, 10, 0, minor)}};
+  if (minor >= 5)  // texture layers came with 1.5
+    samples.push_back({"texture_bundle_layers", encodeFrame(sampleLayeredBundle(), 12, 0, minor)});
   if (minor >= 4) {  // Auth came with 1.4
     Auth auth;
     auth.step = AuthStep::kResponse;

@@ -24,6 +24,7 @@ Calibration sampleCalibration();
 PodFrame samplePodFrame();
 MeshFrame sampleMeshFrame();
 TextureBundle sampleTextureBundle(uint8_t minor = kVersionMinor);
+TextureBundle sampleLayeredBundle();  // since 1.5
 Stats sampleStats();
 
 }  // namespace holofuse::protocol::testing

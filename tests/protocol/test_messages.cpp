@@ -118,6 +118,38 @@ TEST(Messages, EveryTypeRoundTrips) {
     ASSERT_EQ(m.images[1].planes.size(), 2u);
     EXPECT_EQ(m.images[1].planes[1].kind, PlaneKind::kFeather)
         << "since 1.2, each pod's feather map";
+    EXPECT_FALSE(m.layers.has_value()) << "images, no layers";
+  }
+  {
+    // Since 1.5: layers in place of images; a 1.4 reader of the same bytes
+    // skips them, a 1.4 encoding has none.
+    TextureBundle m;
+    const TextureBundle in = testing::sampleLayeredBundle();
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(in, 1)), m).isOk());
+    EXPECT_TRUE(m.images.empty());
+    ASSERT_TRUE(m.layers.has_value());
+    EXPECT_EQ(m.layers->texels, 64u);
+    EXPECT_EQ(m.layers->lattice, in.layers->lattice);
+    EXPECT_EQ(m.layers->square_count, 5u);
+    EXPECT_TRUE(std::equal(m.layers->slots.begin(), m.layers->slots.end(), in.layers->slots.begin(),
+                           in.layers->slots.end()));
+    EXPECT_EQ(m.layers->camera_ids, in.layers->camera_ids);
+    ASSERT_EQ(m.layers->layers.size(), 2u);
+    EXPECT_EQ(m.layers->layers[1][1].kind, PlaneKind::kCamera);
+    TextureBundle old;
+    const Frame as_1_4 = decodeOne(encodeFrame(in, 1, 0, 4));
+    ASSERT_TRUE(decodeFrame(as_1_4, old).isOk());
+    EXPECT_FALSE(old.layers.has_value());
+    // Layers past the cap are refused by name.
+    Frame frame = decodeOne(encodeFrame(in, 1));
+    TextureBundle probe;
+    // The layer count follows the (empty) images: frame id, stamps, image count.
+    const size_t at = 8 + 2 + 20 * in.stamps.size() + 1;
+    frame.bytes[kHeaderSize + at] = static_cast<uint8_t>(kMaxLayers + 1);
+    const Status status = decodeFrame(frame, probe);
+    EXPECT_EQ(status.code(), StatusCode::kTooLarge);
+    EXPECT_NE(status.toString().find("texture_bundle.layer_count"), std::string::npos)
+        << status.toString();
   }
   {
     Stats m;

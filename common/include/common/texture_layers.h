@@ -48,6 +48,23 @@ struct TextureLayers {
   uint64_t texels_seen = 0;     // of those, seen by at least one camera
 };
 
+// Texture layers as a renderer takes them (Volino and Hilton 2016 section
+// 3.2): L RGBA images of the atlas the mesh's corner_uvs point into, RGB
+// the colour and A the index of the camera in camera_centers
+// (kNoLayerCamera where none sees the point); eq. 3 weighs each layer by
+// its camera's direction.
+struct LayeredViews {
+  std::vector<Image8> layers;
+  std::vector<glm::dvec3> camera_centers;
+};
+
+// What a renderer refuses, by name: layers of different sizes or not RGBA,
+// more than kMaxRenderedLayers, a camera index past camera_centers; and
+// a mesh without a texture coordinate per corner or with one outside [0,1].
+inline constexpr size_t kMaxRenderedLayers = 16;
+Status checkLayeredViews(const LayeredViews& views);
+Status checkLayerCoordinates(const Mesh& mesh);
+
 // The atlas (TextureAtlas::layOut's cells, mesh.corner_uvs set) filled
 // from the views: every texel of a triangle's half square, its one-texel
 // border included so bilinear sampling reads the triangle's own colours

@@ -36,9 +36,10 @@ enum class Stage : uint16_t {
   kReplayRead = 15,    // a replay pod reads and checks a recorded frame (in place of 1-4)
   kServerDecode = 16,  // the server parses a PodFrame and decompresses its planes
   kRefine = 17,  // the server moves the hull's vertices by photo-consistency (off unless asked)
+  kLayers = 18,  // the server lays the mesh out in an atlas and fills the texture layers
 };
 constexpr uint16_t kFirstStage = 1;
-constexpr uint16_t kLastStage = 17;
+constexpr uint16_t kLastStage = 18;
 // Snake-case name of a stage id ("pod_render"), or "stage_<n>" for unknown ids.
 std::string stageName(uint16_t stage);
 // Every known stage id in the order a frame passes them (reports list them so).
@@ -75,7 +76,9 @@ struct StageStamp {
 // when none; a stamp still open or ending before it starts counts 0).
 double stampedMs(const std::vector<StageStamp>& stamps, Stage stage);
 
-enum class PlaneKind : uint8_t { kColor = 1, kMask = 2, kFeather = 3, kDepth = 4 };
+// kCamera (since 1.5): a texture layer's camera per texel, GRAY8, an index
+// into the layers' camera ids (BundleLayers), 255 where none sees it.
+enum class PlaneKind : uint8_t { kColor = 1, kMask = 2, kFeather = 3, kDepth = 4, kCamera = 5 };
 enum class Codec : uint8_t { kRaw = 0, kLz4 = 1, kLz4PlanarDelta = 2 };
 enum class PixelFormat : uint8_t { kRgb8 = 1, kGray8 = 2, kR16 = 3 };
 uint32_t bytesPerPixel(PixelFormat format);
@@ -91,6 +94,11 @@ struct Plane {
 };
 
 enum class Role : uint8_t { kPod = 1, kClient = 2 };
+
+// Hello's capability bits.
+// The client asks for texture layers instead of camera images (since 1.5;
+// a server of an older minor ignores it and sends images).
+constexpr uint64_t kCapabilityLayers = 1;
 
 struct Hello {
   static constexpr MessageType kType = MessageType::kHello;
@@ -164,11 +172,27 @@ struct BundleImage {
   std::vector<Plane> planes;
 };
 
+// Since 1.5: layered view-dependent texture maps (Volino and Hilton 2016)
+// in the frame's atlas (Dong and Hollerer 2017), in place of the camera
+// images for a client that asked (kCapabilityLayers). The atlas travels
+// as its layout (common/texture_atlas.h: the grid, the key lattice and
+// each square's slot); the receiver lays the mesh out from its vertex keys.
+constexpr size_t kMaxLayers = 16;
+struct BundleLayers {
+  uint32_t texels = 0, squares_per_side = 0, square_texels = 0;
+  std::array<uint32_t, 3> lattice{};
+  uint32_t square_count = 0;
+  std::span<const uint8_t> slots;          // encodeAtlasSlots
+  std::vector<uint32_t> camera_ids;        // what a camera plane's index names
+  std::vector<std::vector<Plane>> layers;  // per layer: colour (RGB) and camera (kCamera)
+};
+
 struct TextureBundle {
   static constexpr MessageType kType = MessageType::kTextureBundle;
   uint64_t frame_id = 0;
   std::vector<StageStamp> stamps;
   std::vector<BundleImage> images;
+  std::optional<BundleLayers> layers;  // since 1.5; absent before, or when images are sent
 };
 
 struct Heartbeat {

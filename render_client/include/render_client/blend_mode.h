@@ -1,6 +1,5 @@
 // Blending modes of docs/design.md section 6. Each mode is one value here, one
-// branch in shaders/blend.frag.glsl and one CPU reference; new modes
-// (layered) join the same list.
+// branch in shaders/blend.frag.glsl and one CPU reference.
 #pragma once
 
 #include <optional>
@@ -22,6 +21,10 @@ enum class BlendMode : int {
   // Paper 004 (Li, Magnor, Seidel 2004): per fragment, each pod weighted by
   // its visibility, feather weight, obliqueness and closeness to the view.
   kFragment = HOLOFUSE_MODE_FRAGMENT,
+  // Volino and Hilton 2016 (paper 001, eqs. 3 and 4): the server's texture
+  // layers in the frame's atlas, each weighed by its camera's direction
+  // against the normal and the user's eye; no camera images on the client.
+  kLayered = HOLOFUSE_MODE_LAYERED,
 };
 
 std::optional<BlendMode> blendModeFromName(const std::string& name);

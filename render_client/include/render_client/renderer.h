@@ -13,6 +13,7 @@
 #include "common/image.h"
 #include "common/mesh.h"
 #include "common/settings.h"
+#include "common/texture_layers.h"
 #include "render_client/blend_mode.h"
 #include "render_client/texture_field_passes.h"
 #include "render_client/vulkan_context.h"
@@ -143,7 +144,14 @@ class Renderer {
   // All views must share one image size (the pods' calibration): see
   // checkViews.
   void setViews(const std::vector<ViewImages>& views);
+  // Mode layered's input (checkLayeredViews; the mesh of setMesh, its
+  // corner_uvs pointing into these layers, passes checkLayerCoordinates): uploaded once, rendered
+  // from until the next call. Throws std::invalid_argument where the
+  // layers are refused.
+  void setLayers(const LayeredViews& layers);
   // Renders the user's view. Depth maps are refreshed first if stale.
+  // Mode layered reads the layers alone (no depth map, no camera image);
+  // it throws std::invalid_argument without layers or texture coordinates.
   Image8 render(const Camera& user_camera, const BlendSettings& settings);
 
   uint32_t width() const { return width_; }
@@ -248,6 +256,14 @@ class Renderer {
       distances_, fans_, worklist_, worklist_counts_, sight_bits_, best_views_, candidates_;
   uint32_t triangle_count_ = 0;
   std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
+  // Mode layered: the corners' atlas coordinates (binding CORNER_UVS), the
+  // layers (an RGBA array image, binding LAYERS) and their cameras'
+  // centres (binding LAYER_CAMERAS).
+  Buffer corner_uvs_, layer_cameras_;
+  Image layers_;
+  bool mesh_has_uvs_ = false;
+  uint32_t layer_count_ = 0;  // 0: no layers set
+  void ensureLayerImage(uint32_t texels, uint32_t count);
   // Output
   Image color_, depth_;
   VkFramebuffer output_framebuffer_ = VK_NULL_HANDLE;

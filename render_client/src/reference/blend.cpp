@@ -25,6 +25,49 @@ bool rayBarycentrics(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3&
   return std::isfinite(u) && std::isfinite(v);
 }
 
+// Each pixel of the user's view the mesh covers, with its triangle's
+// corners and the barycentrics of the pixel's ray on it (exact, so
+// perspective-correct as a rasteriser's interpolation).
+struct CoveredPixel {
+  size_t pixel = 0;
+  uint32_t ia = 0, ib = 0, ic = 0;
+  double ba = 0, bu = 0, bv = 0;
+  int32_t triangle = 0;
+};
+template <typename Visit>
+void forEachCoveredPixel(const Mesh& mesh, const Camera& user, Visit visit) {
+  std::vector<int32_t> triangle_of;
+  (void)rasterizeDepth(mesh, user, 0.05, &triangle_of);
+  for (uint32_t y = 0; y < user.height; ++y) {
+    for (uint32_t x = 0; x < user.width; ++x) {
+      CoveredPixel c;
+      c.pixel = static_cast<size_t>(y) * user.width + x;
+      c.triangle = triangle_of[c.pixel];
+      if (c.triangle < 0) continue;
+      const size_t t = static_cast<size_t>(c.triangle);
+      c.ia = mesh.indices[3 * t];
+      c.ib = mesh.indices[3 * t + 1];
+      c.ic = mesh.indices[3 * t + 2];
+      if (!rayBarycentrics(user.center(), user.rayDirection(x + 0.5, y + 0.5),
+                           glm::dvec3(mesh.positions[c.ia]), glm::dvec3(mesh.positions[c.ib]),
+                           glm::dvec3(mesh.positions[c.ic]), c.bu, c.bv)) {
+        continue;
+      }
+      c.ba = 1.0 - c.bu - c.bv;
+      visit(c);
+    }
+  }
+}
+
+// Colour in 0..1 into pixel of an RGBA picture, opaque.
+void writeOpaque(Image8& out, size_t pixel, const glm::dvec3& colour) {
+  for (int k = 0; k < 3; ++k) {
+    out.pixels[4 * pixel + k] =
+        static_cast<uint8_t>(std::lround(std::clamp(colour[k], 0.0, 1.0) * 255.0));
+  }
+  out.pixels[4 * pixel + 3] = 255;
+}
+
 // Where p lands in the pod's image as texture coordinates, with its depth
 // along the pod's axis; false behind the pod or off the image.
 bool textureCoordinates(const Camera& camera, const glm::dvec3& p, double& u, double& v,
@@ -157,8 +200,6 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views,
   auto enabled = [&](size_t i) {
     return options.camera_enabled.empty() || options.camera_enabled.at(i);
   };
-  std::vector<int32_t> triangle_of;
-  (void)rasterizeDepth(mesh, user, 0.05, &triangle_of);
   // Each pod's depth map, for the fallback's occlusion test; a pod whose
   // mask is empty takes no part in it.
   std::vector<DepthMap> maps;
@@ -188,133 +229,180 @@ Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views,
   std::vector<size_t> every(views.size()), order;
   for (size_t i = 0; i < views.size(); ++i) every[i] = i;
   Image8 out(user.width, user.height, 4, 0);
-  for (uint32_t y = 0; y < user.height; ++y) {
-    for (uint32_t x = 0; x < user.width; ++x) {
-      const size_t pixel = static_cast<size_t>(y) * user.width + x;
-      const int32_t t = triangle_of[pixel];
-      if (t < 0) continue;
-      const uint32_t ia = mesh.indices[3 * t], ib = mesh.indices[3 * t + 1],
-                     ic = mesh.indices[3 * t + 2];
-      double bu = 0, bv = 0;
-      if (!rayBarycentrics(user.center(), user.rayDirection(x + 0.5, y + 0.5),
-                           glm::dvec3(mesh.positions[ia]), glm::dvec3(mesh.positions[ib]),
-                           glm::dvec3(mesh.positions[ic]), bu, bv)) {
-        continue;
+  forEachCoveredPixel(mesh, user, [&](const CoveredPixel& covered) {
+    const size_t pixel = covered.pixel;
+    const uint32_t ia = covered.ia, ib = covered.ib, ic = covered.ic;
+    const double ba = covered.ba, bu = covered.bu, bv = covered.bv;
+    // The cameras this pixel weighs: its corners' candidates, each once.
+    order.clear();
+    for (const uint32_t corner : {ia, ib, ic}) {
+      for (size_t i : candidates ? listed[corner] : std::vector<size_t>()) {
+        if (std::find(order.begin(), order.end(), i) == order.end()) order.push_back(i);
       }
-      const double ba = 1.0 - bu - bv;
-      // The cameras this pixel weighs: its corners' candidates, each once.
-      order.clear();
-      for (const uint32_t corner : {ia, ib, ic}) {
-        for (size_t i : candidates ? listed[corner] : std::vector<size_t>()) {
-          if (std::find(order.begin(), order.end(), i) == order.end()) order.push_back(i);
-        }
-      }
-      const std::vector<size_t>& weighed = candidates ? order : every;
-      auto interpolate = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
-        return ba * a + bu * b + bv * c;
-      };
-      const glm::dvec3 p =
-          interpolate(glm::dvec3(mesh.positions[ia]), glm::dvec3(mesh.positions[ib]),
-                      glm::dvec3(mesh.positions[ic]));
-      glm::dvec3 n(0.0);
-      if (mesh.normals.size() == mesh.positions.size()) {
-        n = interpolate(glm::dvec3(mesh.normals[ia]), glm::dvec3(mesh.normals[ib]),
-                        glm::dvec3(mesh.normals[ic]));
-        const double length = glm::length(n);
-        n = length > 1e-12 && std::isfinite(length) ? n / length : glm::dvec3(0.0);
-      }
-      glm::dvec3 sum(0.0);
-      double total = 0;
-      // The pod's depth map where the point lands in its image.
-      auto storedDepth = [&](size_t i, double u, double v) {
-        const Camera& camera = views[i].camera;
-        const uint32_t px = std::min(static_cast<uint32_t>(u * camera.width), camera.width - 1);
-        const uint32_t py = std::min(static_cast<uint32_t>(v * camera.height), camera.height - 1);
-        return maps[i].at(px, py);
-      };
-      if (options.fragment_mode) {
-        // Paper 004 eqs. 2 to 4, summed in the log domain against the
-        // largest weight (as the shader does), the view term over 2^beta.
-        const double eye_distance = glm::length(user.center() - p);
-        const glm::dvec3 d_v =
-            eye_distance > 1e-20 ? (user.center() - p) / eye_distance : glm::dvec3(0.0);
-        double largest = -std::numeric_limits<double>::infinity();
-        for (size_t i : weighed) {
-          double u = 0, v = 0, depth = 0;
-          if (!enabled(i) || !sees_subject[i] ||
-              !textureCoordinates(views[i].camera, p, u, v, depth))
-            continue;
-          const glm::dvec4 texel = sampleBilinear(views[i], u, v);
-          const double sight =
-              sightAndFeather(views[i], u, v, depth, storedDepth(i, u, v), texel.a, options);
-          const double camera_distance = glm::length(views[i].camera.center() - p);
-          const glm::dvec3 d_k = camera_distance > 1e-20
-                                     ? (views[i].camera.center() - p) / camera_distance
-                                     : glm::dvec3(0.0);
-          const double obliqueness = std::min(glm::dot(d_k, n), 1.0);
-          const double direction = std::min(0.5 * (glm::dot(d_k, d_v) + 1.0), 1.0);
-          if (!(sight > 0) || !(obliqueness > 0) || (!(direction > 0) && options.beta > 0))
-            continue;
-          const double log_w = std::log(sight) + options.alpha * std::log(obliqueness) +
-                               (options.beta > 0 ? options.beta * std::log(direction) : 0.0);
-          if (!std::isfinite(log_w)) continue;
-          if (log_w > largest) {
-            const double rescale = std::exp(largest - log_w);
-            sum *= rescale;
-            total *= rescale;
-            largest = log_w;
-          }
-          const double w = std::exp(log_w - largest);
-          sum += w * glm::dvec3(texel);
-          total += w;
-        }
-      }
-      // The interpolated fields.
-      for (size_t i = 0; i < weights.size() && !options.fragment_mode; ++i) {
-        double w = ba * weights[i][ia] + bu * weights[i][ib] + bv * weights[i][ic];
+    }
+    const std::vector<size_t>& weighed = candidates ? order : every;
+    auto interpolate = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+      return ba * a + bu * b + bv * c;
+    };
+    const glm::dvec3 p = interpolate(glm::dvec3(mesh.positions[ia]), glm::dvec3(mesh.positions[ib]),
+                                     glm::dvec3(mesh.positions[ic]));
+    glm::dvec3 n(0.0);
+    if (mesh.normals.size() == mesh.positions.size()) {
+      n = interpolate(glm::dvec3(mesh.normals[ia]), glm::dvec3(mesh.normals[ib]),
+                      glm::dvec3(mesh.normals[ic]));
+      const double length = glm::length(n);
+      n = length > 1e-12 && std::isfinite(length) ? n / length : glm::dvec3(0.0);
+    }
+    glm::dvec3 sum(0.0);
+    double total = 0;
+    // The pod's depth map where the point lands in its image.
+    auto storedDepth = [&](size_t i, double u, double v) {
+      const Camera& camera = views[i].camera;
+      const uint32_t px = std::min(static_cast<uint32_t>(u * camera.width), camera.width - 1);
+      const uint32_t py = std::min(static_cast<uint32_t>(v * camera.height), camera.height - 1);
+      return maps[i].at(px, py);
+    };
+    if (options.fragment_mode) {
+      // Paper 004 eqs. 2 to 4, summed in the log domain against the
+      // largest weight (as the shader does), the view term over 2^beta.
+      const double eye_distance = glm::length(user.center() - p);
+      const glm::dvec3 d_v =
+          eye_distance > 1e-20 ? (user.center() - p) / eye_distance : glm::dvec3(0.0);
+      double largest = -std::numeric_limits<double>::infinity();
+      for (size_t i : weighed) {
         double u = 0, v = 0, depth = 0;
-        if (!enabled(i) || !(w > 0) || !textureCoordinates(views[i].camera, p, u, v, depth))
+        if (!enabled(i) || !sees_subject[i] || !textureCoordinates(views[i].camera, p, u, v, depth))
           continue;
         const glm::dvec4 texel = sampleBilinear(views[i], u, v);
-        // Never the pod's background; with the per-fragment test, also not
-        // behind its depth map, and feathered towards its silhouette's edge.
-        w *= options.fragment_test
-                 ? sightAndFeather(views[i], u, v, depth, storedDepth(i, u, v), texel.a, options)
-                 : (texel.a < 0.5 ? 0.0 : 1.0);
-        if (!(w > 0)) continue;
+        const double sight =
+            sightAndFeather(views[i], u, v, depth, storedDepth(i, u, v), texel.a, options);
+        const double camera_distance = glm::length(views[i].camera.center() - p);
+        const glm::dvec3 d_k = camera_distance > 1e-20
+                                   ? (views[i].camera.center() - p) / camera_distance
+                                   : glm::dvec3(0.0);
+        const double obliqueness = std::min(glm::dot(d_k, n), 1.0);
+        const double direction = std::min(0.5 * (glm::dot(d_k, d_v) + 1.0), 1.0);
+        if (!(sight > 0) || !(obliqueness > 0) || (!(direction > 0) && options.beta > 0)) continue;
+        const double log_w = std::log(sight) + options.alpha * std::log(obliqueness) +
+                             (options.beta > 0 ? options.beta * std::log(direction) : 0.0);
+        if (!std::isfinite(log_w)) continue;
+        if (log_w > largest) {
+          const double rescale = std::exp(largest - log_w);
+          sum *= rescale;
+          total *= rescale;
+          largest = log_w;
+        }
+        const double w = std::exp(log_w - largest);
         sum += w * glm::dvec3(texel);
         total += w;
       }
-      // Step 10: the normal-weighted blend, each pod tested against its
-      // depth map at this point.
-      const bool by_fields = total > 1e-8;
-      if (!by_fields) {
-        sum = glm::dvec3(0.0);
-        total = 0;
-        for (size_t i : weighed) {
-          const Camera& camera = views[i].camera;
-          double u = 0, v = 0, depth = 0;
-          if (!enabled(i) || !sees_subject[i] || !textureCoordinates(camera, p, u, v, depth))
-            continue;
-          if (depth > storedDepth(i, u, v) + options.depth_tolerance)
-            continue;  // occluded from pod i
-          const glm::dvec4 texel = sampleBilinear(views[i], u, v);
-          if (texel.a < 0.5) continue;
-          const double c = glm::dot(n, glm::normalize(camera.center() - p));
-          const double w = c > 0 ? std::pow(c, options.alpha) : 0.0;
-          sum += w * glm::dvec3(texel);
-          total += w;
-        }
-      }
-      const glm::dvec3 colour = total > 1e-8 ? sum / total : options.hole_color;
-      ++(by_fields ? counted.fields : total > 1e-8 ? counted.fallback : counted.holes);
-      for (int k = 0; k < 3; ++k) {
-        out.pixels[4 * pixel + k] =
-            static_cast<uint8_t>(std::lround(std::clamp(colour[k], 0.0, 1.0) * 255.0));
-      }
-      out.pixels[4 * pixel + 3] = 255;
     }
-  }
+    // The interpolated fields.
+    for (size_t i = 0; i < weights.size() && !options.fragment_mode; ++i) {
+      double w = ba * weights[i][ia] + bu * weights[i][ib] + bv * weights[i][ic];
+      double u = 0, v = 0, depth = 0;
+      if (!enabled(i) || !(w > 0) || !textureCoordinates(views[i].camera, p, u, v, depth)) continue;
+      const glm::dvec4 texel = sampleBilinear(views[i], u, v);
+      // Never the pod's background; with the per-fragment test, also not
+      // behind its depth map, and feathered towards its silhouette's edge.
+      w *= options.fragment_test
+               ? sightAndFeather(views[i], u, v, depth, storedDepth(i, u, v), texel.a, options)
+               : (texel.a < 0.5 ? 0.0 : 1.0);
+      if (!(w > 0)) continue;
+      sum += w * glm::dvec3(texel);
+      total += w;
+    }
+    // Step 10: the normal-weighted blend, each pod tested against its
+    // depth map at this point.
+    const bool by_fields = total > 1e-8;
+    if (!by_fields) {
+      sum = glm::dvec3(0.0);
+      total = 0;
+      for (size_t i : weighed) {
+        const Camera& camera = views[i].camera;
+        double u = 0, v = 0, depth = 0;
+        if (!enabled(i) || !sees_subject[i] || !textureCoordinates(camera, p, u, v, depth))
+          continue;
+        if (depth > storedDepth(i, u, v) + options.depth_tolerance)
+          continue;  // occluded from pod i
+        const glm::dvec4 texel = sampleBilinear(views[i], u, v);
+        if (texel.a < 0.5) continue;
+        const double c = glm::dot(n, glm::normalize(camera.center() - p));
+        const double w = c > 0 ? std::pow(c, options.alpha) : 0.0;
+        sum += w * glm::dvec3(texel);
+        total += w;
+      }
+    }
+    const glm::dvec3 colour = total > 1e-8 ? sum / total : options.hole_color;
+    ++(by_fields ? counted.fields : total > 1e-8 ? counted.fallback : counted.holes);
+    writeOpaque(out, pixel, colour);
+  });
+  if (paths != nullptr) *paths = counted;
+  return out;
+}
+
+Image8 blendLayers(const Mesh& mesh, const LayeredViews& layers, const Camera& user,
+                   const glm::dvec3& hole_color, BlendPaths* paths) {
+  Status usable = checkLayeredViews(layers);
+  if (usable.isOk()) usable = checkLayerCoordinates(mesh);
+  if (!usable.isOk()) throw std::invalid_argument(usable.message());
+  BlendPaths counted;
+  const int texels = static_cast<int>(layers.layers.front().width);
+  Image8 out(user.width, user.height, 4, 0);
+  forEachCoveredPixel(mesh, user, [&](const CoveredPixel& covered) {
+    const size_t pixel = covered.pixel, t = static_cast<size_t>(covered.triangle);
+    const uint32_t ia = covered.ia, ib = covered.ib, ic = covered.ic;
+    const double ba = covered.ba, bu = covered.bu, bv = covered.bv;
+    const glm::dvec3 p = ba * glm::dvec3(mesh.positions[ia]) + bu * glm::dvec3(mesh.positions[ib]) +
+                         bv * glm::dvec3(mesh.positions[ic]);
+    glm::dvec3 n(0.0);
+    if (mesh.normals.size() == mesh.positions.size()) {
+      n = unitOrZero(ba * glm::dvec3(mesh.normals[ia]) + bu * glm::dvec3(mesh.normals[ib]) +
+                     bv * glm::dvec3(mesh.normals[ic]));
+    }
+    const glm::dvec2 uv = ba * glm::dvec2(mesh.corner_uvs[3 * t]) +
+                          bu * glm::dvec2(mesh.corner_uvs[3 * t + 1]) +
+                          bv * glm::dvec2(mesh.corner_uvs[3 * t + 2]);
+    const glm::dvec3 d_v = unitOrZero(user.center() - p);
+    // The nearest texel names the layer's camera; the bilinear taps of
+    // that camera give its colour.
+    const int nx = std::clamp(static_cast<int>(std::floor(uv.x * texels)), 0, texels - 1);
+    const int ny = std::clamp(static_cast<int>(std::floor(uv.y * texels)), 0, texels - 1);
+    const double fx = uv.x * texels - 0.5, fy = uv.y * texels - 0.5;
+    const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
+    glm::dvec3 sum(0.0), first(0.0);
+    double total = 0;
+    bool any = false;
+    for (const Image8& layer : layers.layers) {
+      const uint8_t camera = layer.at(nx, ny)[3];
+      if (camera == kNoLayerCamera) continue;
+      glm::dvec3 colour(0.0);
+      double weight = 0;
+      for (int k = 0; k < 4; ++k) {
+        const int tx = std::clamp(x0 + (k & 1), 0, texels - 1);
+        const int ty = std::clamp(y0 + (k >> 1), 0, texels - 1);
+        const uint8_t* texel = layer.at(tx, ty);
+        if (texel[3] != camera) continue;
+        const double w =
+            ((k & 1) ? fx - x0 : 1.0 - (fx - x0)) * ((k >> 1) ? fy - y0 : 1.0 - (fy - y0));
+        colour += w * glm::dvec3(texel[0], texel[1], texel[2]) / 255.0;
+        weight += w;
+      }
+      if (!(weight > 1e-12)) continue;
+      colour /= weight;
+      if (!any) first = colour;
+      any = true;
+      // Eq. 3.
+      const glm::dvec3 d_j = unitOrZero(layers.camera_centers[camera] - p);
+      const double w = std::max(glm::dot(d_j, n) * glm::dot(d_j, d_v), 0.0);
+      sum += w * colour;
+      total += w;
+    }
+    // Eq. 4, normalised; the first layer where no weight is left.
+    const glm::dvec3 colour = total > 1e-8 ? sum / total : any ? first : hole_color;
+    ++(total > 1e-8 ? counted.fields : any ? counted.fallback : counted.holes);
+    writeOpaque(out, pixel, colour);
+  });
   if (paths != nullptr) *paths = counted;
   return out;
 }

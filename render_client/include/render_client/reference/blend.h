@@ -18,6 +18,7 @@
 #include "common/camera.h"
 #include "common/image.h"
 #include "common/mesh.h"
+#include "common/texture_layers.h"
 #include "render_client/reference/visibility.h"
 
 namespace holofuse::render::reference {
@@ -71,5 +72,21 @@ double sightAndFeather(const PodView& view, double u, double v, double depth, do
 Image8 blendView(const Mesh& mesh, const std::vector<PodView>& views,
                  const std::vector<std::vector<double>>& weights, const Camera& user,
                  const BlendOptions& options = {}, BlendPaths* paths = nullptr);
+
+// Mode layered (Volino and Hilton 2016, section 3.2, eqs. 3 and 4): per
+// pixel, each layer at the surface point's atlas coordinates (the mesh's
+// corner_uvs, interpolated perspective-correctly) gives a colour and the
+// camera it came from; layer j weighs
+//   w_j = max((d_j . n)(d_j . d_v), 0),
+// d_j towards its camera's centre and d_v towards the user's eye, and the
+// colour is sum_j w_j c_j / sum_j w_j. A layer's colour is bilinear over
+// the texels of the nearest texel's camera only (a texel of another
+// camera, or of none, never mixes in). Where every weight is 0 (the eye
+// behind every layer's camera) the first layer's colour stands; where no
+// layer has a camera, the hole colour. Checked with checkLayeredViews and
+// checkLayerCoordinates first (throws std::invalid_argument on what they
+// refuse).
+Image8 blendLayers(const Mesh& mesh, const LayeredViews& layers, const Camera& user,
+                   const glm::dvec3& hole_color, BlendPaths* paths = nullptr);
 
 }  // namespace holofuse::render::reference
