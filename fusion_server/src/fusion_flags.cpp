@@ -22,7 +22,16 @@ const std::vector<Setting<FusionSettings>>& fusionFlags() {
         numberSetting<S>("--draco-bits", "Draco position quantisation bits", 4, 24,
                          [](S& s) -> int& { return s.draco.position_bits; }),
         numberSetting<S>("--draco-speed", "Draco speed 0 (small) .. 10 (fast)", 0, 10,
-                         [](S& s) -> int& { return s.draco.speed; })};
+                         [](S& s) -> int& { return s.draco.speed; }),
+        numberSetting<S>("--layers",
+                         "texture layers L for the clients that ask for layers (mode layered)", 1,
+                         static_cast<double>(protocol::kMaxLayers),
+                         [](S& s) -> int& { return s.layers.layers; }),
+        numberSetting<S>("--atlas-size",
+                         "side of the layers' atlas in texels (it doubles up to 4096 when the mesh "
+                         "needs more)",
+                         kMinAtlasTexels, 4096,
+                         [](S& s) -> uint32_t& { return s.layers.atlas_texels; })};
     for (Setting<S>& setting :
          imageEncodingSettings<S>("--image-codec", "colour codec of the images sent on",
                                   [](S& s) -> protocol::Codec& { return s.image_codec; }))

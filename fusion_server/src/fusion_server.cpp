@@ -273,12 +273,14 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
   peer.role = hello.role;
   peer.id = hello.id;
   peer.minor = ack.minor;
+  peer.wants_layers = hello.role == protocol::Role::kClient && ack.minor >= 5 &&
+                      (hello.capabilities & protocol::kCapabilityLayers) != 0;
   peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
                                std::to_string(hello.id) + " (" + peer.connection->peerName() + ")");
   peer.connection->sendMessage(ack);
-  std::fprintf(stderr, "[server] %s joined, protocol %u.%u%s\n",
+  std::fprintf(stderr, "[server] %s joined, protocol %u.%u%s%s\n",
                peer.connection->peerName().c_str(), ack.major, ack.minor,
-               options_.keys ? ", authenticated" : "");
+               options_.keys ? ", authenticated" : "", peer.wants_layers ? ", texture layers" : "");
   if (peer.role == protocol::Role::kClient) {
     for (const auto& [id, bytes] : calibration_frames_) peer.connection->send(bytes);
   }
@@ -471,6 +473,9 @@ void FusionServer::closePeer(size_t index, const Status& why) {
 void FusionServer::dispatchReadyGroups() {
   for (auto& group : sync_.takeReady(expectedPods(), monotonicNs())) {
     if (group.pods.empty()) continue;
+    // Layers are built only while a client that asked for them is here.
+    worker_->setLayersWanted(std::any_of(
+        peers_.begin(), peers_.end(), [](const Peer& p) { return p.greeted && p.wants_layers; }));
     GroupJob job;
     job.group = std::move(group);
     job.late_frames = sync_.lateFrames();
@@ -492,7 +497,11 @@ void FusionServer::fanOut() {
     for (auto& peer : peers_) {
       if (!peer.greeted || peer.role != protocol::Role::kClient) continue;
       // Bundle and Stats first: the client renders when the mesh arrives.
-      peer.connection->send(peer.minor >= 3   ? out.texture_bundle
+      // A client that asked for layers gets the images of a frame whose
+      // layers were refused (the Stats' note says why).
+      peer.connection->send(peer.wants_layers && out.texture_bundle_layers
+                                ? out.texture_bundle_layers
+                            : peer.minor >= 3 ? out.texture_bundle
                             : peer.minor == 2 ? out.texture_bundle_v1_2
                                               : out.texture_bundle_v1_1);
       peer.connection->send(peer.minor >= 3   ? out.stats

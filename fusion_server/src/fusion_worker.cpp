@@ -110,7 +110,7 @@ std::vector<Image8> colorsInFrame(const FrameGroup& group) {
   return colors;
 }
 
-FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
+FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings, LayerStage* layers) {
   const std::vector<hull::HullView> views = hullViewsOf(job.group);
   const uint64_t t0 = monotonicNs();
   const Mesh hull = hull::carveVisualHull(views, settings.hull);
@@ -123,7 +123,7 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
     refined = refineByPhotoConsistency(hull, views, colorsInFrame(job.group), refine);
     t2 = monotonicNs();
   }
-  FusedOutput out = packageFused(job, settings, refined ? *refined : hull, t0, t1, t2);
+  FusedOutput out = packageFused(job, settings, refined ? *refined : hull, t0, t1, t2, layers);
   // Measured after the frame is on its way (not part of the hull's time):
   // it only steers the next frame's voxel, which is the carved hull's.
   if (settings.hull_error_target > 0) out.silhouette_error = hull::silhouetteError(hull, views);
@@ -131,7 +131,8 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings) {
 }
 
 FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
-                         uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns) {
+                         uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns,
+                         LayerStage* layers) {
   const FrameGroup& group = job.group;
   FusedOutput out;
   out.frame_id = group.frame_id;
@@ -189,6 +190,24 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   bundle.stamps = {{static_cast<uint16_t>(Stage::kImageEncode), kSourceServer, t2, t3},
                    {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0}};
   bundle_v1_1.stamps = bundle.stamps;
+  // Texture layers in place of the images, for the clients that asked:
+  // laid out, filled and compressed in their own stage.
+  std::optional<protocol::TextureBundle> layered;
+  if (layers != nullptr) {
+    layered.emplace();
+    layered->frame_id = group.frame_id;
+    const Status built = layers->build(group, mesh, settings.hull, settings.layers,
+                                       settings.image_codec, settings.lz4_acceleration,
+                                       settings.lz4_hc_level, *layered, *storage, &out.layer_stats);
+    const uint64_t t4 = monotonicNs();
+    if (built.isOk()) {
+      layered->stamps = {{static_cast<uint16_t>(Stage::kLayers), kSourceServer, t3, t4},
+                         {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t4, 0}};
+    } else {
+      out.layers_note = built.message();
+      layered.reset();
+    }
+  }
   stamps.push_back({static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0});
 
   protocol::MeshFrame mesh_frame;
@@ -222,6 +241,7 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
       stats.note = "proceeded without camera(s) " + missing + " after the sync deadline";
   }
   if (!draco.isOk()) stats.note += (stats.note.empty() ? "" : "; ") + draco.status().message();
+  if (!out.layers_note.empty()) stats.note += (stats.note.empty() ? "" : "; ") + out.layers_note;
 
   auto share = [](protocol::OutgoingFrame frame) {
     return std::make_shared<const protocol::OutgoingFrame>(std::move(frame));
@@ -231,6 +251,8 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   out.texture_bundle = share(protocol::encodeOutgoing(bundle, bundle_sequence, storage));
   out.texture_bundle_v1_1 =
       share(protocol::encodeOutgoing(bundle_v1_1, bundle_sequence, storage, 1));
+  if (layered)
+    out.texture_bundle_layers = share(protocol::encodeOutgoing(*layered, bundle_sequence, storage));
   out.texture_bundle_v1_2 =
       bundle.images.size() > protocol::kMaxCamerasBefore13
           ? share(protocol::encodeOutgoing(bundle, bundle_sequence, storage, 2))
@@ -305,7 +327,7 @@ void FusionWorker::run() {
     try {
       FusionSettings settings = settings_;
       if (voxel_) settings.hull.voxel_size = voxel_->voxel();
-      out = fuseGroup(job, settings);
+      out = fuseGroup(job, settings, layers_wanted_ ? &layer_stage_ : nullptr);
       if (voxel_ && voxel_->observe(out.silhouette_error)) {
         std::fprintf(stderr,
                      "[server] hull voxel %.1f -> %.1f mm: silhouette error %.2f mm against the "

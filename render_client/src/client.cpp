@@ -175,4 +175,53 @@ StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& b
   return views;
 }
 
+StatusOr<DecodedLayers> layersOfBundle(const protocol::BundleLayers& layers,
+                                       const std::map<uint32_t, Camera>& cameras) {
+  auto malformed = [](const std::string& what) {
+    return Status(StatusCode::kMalformed, "texture layers: " + what);
+  };
+  DecodedLayers out;
+  out.layout.texels = layers.texels;
+  out.layout.squares_per_side = layers.squares_per_side;
+  out.layout.square_texels = layers.square_texels;
+  out.layout.lattice = glm::u64vec3(layers.lattice[0], layers.lattice[1], layers.lattice[2]);
+  if (layers.texels < kMinAtlasTexels || layers.texels > kMaxAtlasTexels)
+    return malformed("an atlas of " + std::to_string(layers.texels) + " texels");
+  auto slots = decodeAtlasSlots(layers.slots, layers.square_count);
+  if (!slots.isOk()) return slots.status();
+  out.layout.slots = std::move(*slots);
+  for (const uint32_t id : layers.camera_ids) {
+    const auto camera = cameras.find(id);
+    if (camera == cameras.end())
+      return malformed("camera " + std::to_string(id) + " has no calibration");
+    out.views.camera_centers.push_back(camera->second.center());
+  }
+  for (size_t l = 0; l < layers.layers.size(); ++l) {
+    std::optional<Image8> colour, camera;
+    for (const protocol::Plane& plane : layers.layers[l]) {
+      if (plane.kind != protocol::PlaneKind::kColor && plane.kind != protocol::PlaneKind::kCamera)
+        continue;
+      if (plane.width != layers.texels || plane.height != layers.texels)
+        return malformed("layer " + std::to_string(l) + " has a " + std::to_string(plane.width) +
+                         "x" + std::to_string(plane.height) + " plane in an atlas of " +
+                         std::to_string(layers.texels));
+      auto decoded = decodePlane(plane);
+      if (!decoded.isOk())
+        return malformed("layer " + std::to_string(l) + ": " + decoded.status().message());
+      (plane.kind == protocol::PlaneKind::kColor ? colour : camera) = std::move(*decoded);
+    }
+    if (!colour || !camera || colour->channels != 3 || camera->channels != 1)
+      return malformed("layer " + std::to_string(l) +
+                       " needs an RGB colour and a grey camera plane");
+    Image8 layer(layers.texels, layers.texels, 4);
+    for (size_t i = 0, n = size_t{layers.texels} * layers.texels; i < n; ++i) {
+      for (int c = 0; c < 3; ++c) layer.pixels[4 * i + c] = colour->pixels[3 * i + c];
+      layer.pixels[4 * i + 3] = camera->pixels[i];
+    }
+    out.views.layers.push_back(std::move(layer));
+  }
+  if (Status usable = checkLayeredViews(out.views); !usable.isOk()) return usable;
+  return out;
+}
+
 }  // namespace holofuse::render

@@ -32,6 +32,7 @@ namespace fs = std::filesystem;
 
 struct PendingBundle {
   std::vector<ViewImages> views;
+  std::optional<DecodedLayers> layers;  // in place of views, for mode layered
   std::vector<protocol::StageStamp> stamps;
   uint64_t bytes = 0;
   uint64_t feather_bytes = 0;  // of bytes, the feather maps' compressed planes
@@ -204,13 +205,27 @@ class ClientLoop {
     pending.stamps = bundle.stamps;
     endFanout(pending.stamps, receive_ns);
     auto views = viewsOfBundle(bundle, cameras_);
-    if (!views.isOk()) {
-      skip(bundle.frame_id, views.status().message());
+    // Mode layered renders from layers only: a bundle of images (the
+    // server's layers were refused, or it speaks an older minor) is skipped.
+    const bool layered = options_.render.blend.mode == BlendMode::kLayered;
+    std::optional<StatusOr<DecodedLayers>> layers;
+    if (layered) {
+      layers.emplace(bundle.layers ? layersOfBundle(*bundle.layers, cameras_)
+                                   : StatusOr<DecodedLayers>(Status(
+                                         StatusCode::kMalformed,
+                                         "mode layered, and the bundle holds no texture layers")));
+    }
+    const Status usable = !views.isOk()                 ? views.status()
+                          : layers && !(*layers).isOk() ? (*layers).status()
+                                                        : Status::ok();
+    if (!usable.isOk()) {
+      skip(bundle.frame_id, usable.message());
       failed_bundles_.insert(bundle.frame_id);
       while (failed_bundles_.size() > 64) failed_bundles_.erase(failed_bundles_.begin());
       return;
     }
     pending.views = std::move(*views);
+    if (layers) pending.layers = std::move(**layers);
     pending.stamps.push_back(
         {static_cast<uint16_t>(Stage::kDecode), kSourceClient, t0, monotonicNs()});
     bundles_[bundle.frame_id] = std::move(pending);
@@ -241,6 +256,9 @@ class ClientLoop {
                         : Status::ok();
     ready.decoded_ns = monotonicNs();
     const PendingBundle& bundle = ready.bundle->second;
+    // The layers' atlas placed on the mesh as received, from its keys.
+    if (usable.isOk() && bundle.layers)
+      usable = applyAtlasLayout(*mesh, bundle.layers->layout).status();
     if (usable.isOk()) usable = checkMesh(*mesh, options_.render.half_precision_vertices);
     if (usable.isOk()) usable = checkViews(bundle.views);
     if (usable.isOk()) usable = checkRenderable(mesh->positions.size(), options_.render.blend);
@@ -255,10 +273,16 @@ class ClientLoop {
     ready.decode_ms = static_cast<double>(ready.decoded_ns - t0) / 1e6 +
                       protocol::stampedMs(bundle.stamps, Stage::kDecode);
     for (const auto& stamp : bundle.stamps) {
-      if (stamp.stage == static_cast<uint16_t>(Stage::kImageEncode)) ready.stamps.push_back(stamp);
+      if (stamp.stage == static_cast<uint16_t>(Stage::kImageEncode) ||
+          stamp.stage == static_cast<uint16_t>(Stage::kLayers))
+        ready.stamps.push_back(stamp);
     }
     renderer_.setMesh(*mesh);
-    renderer_.setViews(bundle.views);
+    if (bundle.layers) {
+      renderer_.setLayers(bundle.layers->views);
+    } else {
+      renderer_.setViews(bundle.views);
+    }
     report_.addViewsWithoutSubject(renderer_.camerasWithoutSubject());
     ready.uploaded_ns = monotonicNs();
     auto user = userCamera(options_, cameras_, meshBounds(*mesh), report_.framesRendered());
@@ -364,7 +388,8 @@ class ClientLoop {
       record.note = st->second.stats.note;
       stats_.erase(stats_.begin(), std::next(st));
     } else {
-      record.cameras_present = static_cast<uint32_t>(bundle.views.size());
+      record.cameras_present = static_cast<uint32_t>(
+          bundle.layers ? bundle.layers->views.camera_centers.size() : bundle.views.size());
       record.cameras_expected = record.cameras_present;
     }
     report_.addFrame(record, written_ns);
@@ -429,6 +454,9 @@ int runClient(const ClientOptions& options) {
   hello.role = protocol::Role::kClient;
   hello.id = options.client_id;
   hello.name = "client-" + std::to_string(options.client_id);
+  // Mode layered receives texture layers in place of the camera images.
+  if (options.render.blend.mode == BlendMode::kLayered)
+    hello.capabilities |= protocol::kCapabilityLayers;
   protocol::LinkOptions link_options;
   link_options.log_name = "client";
   link_options.key = options.key;

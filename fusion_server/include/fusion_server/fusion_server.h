@@ -95,8 +95,9 @@ class FusionServer {
     bool greeted = false;
     protocol::Role role = protocol::Role::kPod;
     uint32_t id = 0;
-    bool replaced = false;  // a newer connection of the same pod took over
-    uint8_t minor = 0;      // agreed in the handshake: the fields this peer is sent
+    bool replaced = false;      // a newer connection of the same pod took over
+    uint8_t minor = 0;          // agreed in the handshake: the fields this peer is sent
+    bool wants_layers = false;  // a client of 1.5 or later that asked for texture layers
     uint64_t accepted_ns = 0;
     uint64_t last_heartbeat_ns = 0;
     uint32_t early_heartbeats = 0;  // in a row, each closer than the floor

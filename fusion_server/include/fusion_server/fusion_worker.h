@@ -4,6 +4,7 @@
 // a newer group replaces a waiting one (counted as dropped).
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <deque>
 #include <map>
@@ -15,6 +16,7 @@
 #include "common/mesh_codec.h"
 #include "common/settings.h"
 #include "fusion_server/frame_sync.h"
+#include "fusion_server/layer_stage.h"
 #include "fusion_server/photo_refine.h"
 #include "hull/hull_error.h"
 #include "hull/visual_hull.h"
@@ -36,6 +38,8 @@ struct FusionSettings {
   int lz4_acceleration = 1;  // of the images sent to clients (1 = LZ4's default)
   int lz4_hc_level = 0;      // 0: LZ4's fast mode; 1-12: LZ4HC (common/image_codec.h)
   uint32_t pods_expected = 0;
+  // Texture layers for the clients that ask (protocol 1.5).
+  LayerSettings layers;
 };
 
 // The server's flags of FusionSettings (common/settings.h); eval and the
@@ -54,6 +58,13 @@ struct FusedOutput {
   protocol::SharedFrame texture_bundle_v1_2, stats_v1_2;
   protocol::SharedFrame
       stats_v1_0;  // the same Stats for a peer that agreed on 1.0 (no pod arrivals)
+  // For a client of 1.5 that asked for layers: the frame's texture layers
+  // in place of the images; null when no layers were built (none asked,
+  // or they were refused: layers_note says why, and such a client gets
+  // the images).
+  protocol::SharedFrame texture_bundle_layers;
+  std::string layers_note;
+  LayerStats layer_stats;
   size_t triangles = 0;
   double voxel_size = 0;
   hull::SilhouetteError silhouette_error;  // measured only under an error target
@@ -81,7 +92,10 @@ std::vector<hull::HullView> hullViewsOf(const FrameGroup& group);
 std::vector<Image8> colorsInFrame(const FrameGroup& group);
 
 // The whole fusion of one group, callable without the thread (tests).
-FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings);
+// layers: where the frame's texture layers are built too (the stage keeps
+// the atlas from frame to frame); null: no client asked for them.
+FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
+                      LayerStage* layers = nullptr);
 
 // What fuseGroup sends for a given mesh (carved from hull_start_ns to
 // hull_end_ns, refined from then to refine_end_ns; refine_end_ns 0: not
@@ -89,7 +103,8 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings);
 // re-encoded for clients, and the Stats. The evaluation packs its own
 // meshes with it, so that its bytes and codec times are the loop's.
 FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
-                         uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns = 0);
+                         uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns = 0,
+                         LayerStage* layers = nullptr);
 
 class FusionWorker {
  public:
@@ -104,6 +119,9 @@ class FusionWorker {
   uint64_t replacedJobs() const { return replaced_; }
   // Groups submitted and not yet fused (waiting or in progress).
   size_t queuedJobs();
+  // Whether a connected client asked for texture layers: the next groups
+  // build them (the server sets it as clients come and go).
+  void setLayersWanted(bool wanted) { layers_wanted_ = wanted; }
 
  private:
   void run();
@@ -115,6 +133,8 @@ class FusionWorker {
   std::condition_variable cv_;
   bool lossless_;
   std::deque<GroupJob> waiting_;
+  std::atomic<bool> layers_wanted_{false};
+  LayerStage layer_stage_;  // the worker thread's only
   bool busy_ = false;
   std::vector<FusedOutput> outputs_;
   bool stop_ = false;

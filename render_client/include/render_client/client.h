@@ -13,6 +13,8 @@
 #include "common/camera.h"
 #include "common/mesh.h"
 #include "common/mesh_codec.h"
+#include "common/texture_atlas.h"
+#include "common/texture_layers.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
 #include "render_client/latency_report.h"
@@ -72,6 +74,19 @@ std::optional<Camera> userCamera(const ClientOptions& options,
 // plane that does not decode, images of the wrong size.
 StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& bundle,
                                                 const std::map<uint32_t, Camera>& cameras);
+
+// A bundle's texture layers (protocol 1.5), decoded: RGBA layers (the
+// camera byte an index into camera_centers) and the atlas layout that
+// places the mesh in them (applyAtlasLayout, once the mesh arrives). An
+// error names what is wrong: a plane that does not decode or is not the
+// atlas's RGB or camera plane, a camera id without a calibration, slots
+// that do not decode.
+struct DecodedLayers {
+  LayeredViews views;
+  AtlasLayout layout;
+};
+StatusOr<DecodedLayers> layersOfBundle(const protocol::BundleLayers& layers,
+                                       const std::map<uint32_t, Camera>& cameras);
 
 // The compressed bytes of a bundle's feather planes: what the feather maps
 // add to the client link.

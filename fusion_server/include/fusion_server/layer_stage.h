@@ -1,0 +1,53 @@
+// The server's layer stage (protocol 1.5): the fused mesh laid out in the
+// frame's atlas (Dong and Hollerer 2017) and L texture layers filled from
+// the group's decoded images (Volino and Hilton 2016, section 3.1), for the
+// clients that asked for layers instead of camera images.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "base/status.h"
+#include "common/mesh.h"
+#include "common/texture_atlas.h"
+#include "common/texture_layers.h"
+#include "fusion_server/frame_sync.h"
+#include "hull/visual_hull.h"
+#include "protocol/messages.h"
+
+namespace holofuse::fusion {
+
+struct LayerSettings {
+  int layers = 3;                    // L (paper 001: three are enough)
+  uint32_t atlas_texels = 1024;      // side of the atlas
+  uint32_t atlas_max_texels = 4096;  // it grows up to this when the mesh needs it
+};
+
+// What one frame's layers took and hold.
+struct LayerStats {
+  AtlasStats atlas;
+  uint64_t texels_covered = 0, texels_seen = 0;
+};
+
+class LayerStage {
+ public:
+  // The group's mesh (its vertex keys on the lattice of hull) laid out and
+  // its layers built and encoded into bundle.layers, the encoded bytes in
+  // storage. Refused by name, bundle untouched, when the mesh's keys are
+  // not the lattice's or its triangles need more than the largest atlas.
+  // image_codec, lz4_acceleration and lz4_hc_level: the colour planes'.
+  Status build(const FrameGroup& group, const Mesh& mesh, const hull::HullOptions& hull,
+               const LayerSettings& settings, protocol::Codec image_codec, int lz4_acceleration,
+               int lz4_hc_level, protocol::TextureBundle& bundle,
+               std::deque<std::vector<uint8_t>>& storage, LayerStats* stats = nullptr);
+
+ private:
+  std::optional<TextureAtlas> atlas_;
+  glm::u64vec3 lattice_{0};
+  uint32_t atlas_texels_ = 0, atlas_max_texels_ = 0;
+};
+
+}  // namespace holofuse::fusion

@@ -1,0 +1,89 @@
+#include "fusion_server/layer_stage.h"
+
+#include "common/image_codec.h"
+#include "fusion_server/fusion_worker.h"
+
+namespace holofuse::fusion {
+
+Status LayerStage::build(const FrameGroup& group, const Mesh& mesh, const hull::HullOptions& hull,
+                         const LayerSettings& settings, protocol::Codec image_codec,
+                         int lz4_acceleration, int lz4_hc_level, protocol::TextureBundle& bundle,
+                         std::deque<std::vector<uint8_t>>& storage, LayerStats* stats) {
+  // The lattice follows the hull's voxel (an error target changes it): a
+  // new lattice names other patches, so the atlas starts afresh.
+  const glm::u64vec3 lattice = hull::keyLattice(hull);
+  if (!atlas_ || lattice != lattice_ || settings.atlas_texels != atlas_texels_ ||
+      settings.atlas_max_texels != atlas_max_texels_) {
+    AtlasOptions options;
+    options.texels = settings.atlas_texels;
+    options.max_texels = settings.atlas_max_texels;
+    options.lattice = lattice;
+    atlas_.emplace(options);
+    lattice_ = lattice;
+    atlas_texels_ = settings.atlas_texels;
+    atlas_max_texels_ = settings.atlas_max_texels;
+  }
+  Mesh laid = mesh;
+  AtlasStats atlas_stats;
+  HOLOFUSE_ASSIGN_OR_RETURN(const std::vector<AtlasCell> cells, atlas_->layOut(laid, &atlas_stats));
+  const AtlasLayout& layout = atlas_->layout();
+  if (!layout.keyed())
+    return Status(StatusCode::kMalformed,
+                  "texture layers: the mesh's vertex keys are not the hull's lattice");
+
+  // The whole images, in camera-id order: a layer texel's camera byte is
+  // an index into this order (BundleLayers::camera_ids).
+  const std::vector<hull::HullView> silhouettes = hullViewsOf(group);
+  const std::vector<Image8> colours = colorsInFrame(group);
+  std::vector<LayerView> views;
+  std::vector<uint32_t> camera_ids;
+  size_t k = 0;
+  for (const auto& [camera_id, pod] : group.pods) {
+    views.push_back({&silhouettes[k].camera, &colours[k], &silhouettes[k].mask,
+                     silhouettes[k].feather.empty() ? nullptr : &silhouettes[k].feather});
+    camera_ids.push_back(camera_id);
+    ++k;
+  }
+  LayerOptions options;
+  options.layers = settings.layers;
+  HOLOFUSE_ASSIGN_OR_RETURN(
+      const TextureLayers built,
+      buildTextureLayers(laid, cells, layout.texels, layout.square_texels, views, options));
+
+  protocol::BundleLayers out;
+  out.texels = layout.texels;
+  out.squares_per_side = layout.squares_per_side;
+  out.square_texels = layout.square_texels;
+  for (int axis = 0; axis < 3; ++axis)
+    out.lattice[axis] = static_cast<uint32_t>(layout.lattice[axis]);
+  out.square_count = static_cast<uint32_t>(layout.slots.size());
+  storage.push_back(encodeAtlasSlots(layout.slots));
+  out.slots = storage.back();
+  out.camera_ids = camera_ids;
+  for (const Image8& layer : built.layers) {
+    // RGB as the server sends colour; the camera byte as a plane of its own
+    // (runs of one camera compress well).
+    Image8 colour(layer.width, layer.height, 3), camera(layer.width, layer.height, 1);
+    for (size_t i = 0, n = size_t{layer.width} * layer.height; i < n; ++i) {
+      for (int c = 0; c < 3; ++c) colour.pixels[3 * i + c] = layer.pixels[4 * i + c];
+      camera.pixels[i] = layer.pixels[4 * i + 3];
+    }
+    std::vector<protocol::Plane> planes;
+    storage.emplace_back();
+    planes.push_back(encodePlane(colour, protocol::PlaneKind::kColor, image_codec, storage.back(),
+                                 lz4_acceleration, lz4_hc_level));
+    storage.emplace_back();
+    planes.push_back(encodePlane(camera, protocol::PlaneKind::kCamera, protocol::Codec::kLz4,
+                                 storage.back(), lz4_acceleration, lz4_hc_level));
+    out.layers.push_back(std::move(planes));
+  }
+  bundle.layers = std::move(out);
+  if (stats != nullptr) {
+    stats->atlas = atlas_stats;
+    stats->texels_covered = built.texels_covered;
+    stats->texels_seen = built.texels_seen;
+  }
+  return Status::ok();
+}
+
+}  // namespace holofuse::fusion
