@@ -57,6 +57,7 @@ struct FrameData {
   size_t client_link_bytes =
       0;                     // MeshFrame, TextureBundle and Stats, as the server sends each client
   size_t feather_bytes = 0;  // of them, the pods' feather maps (protocol 1.2)
+  size_t bundle_bytes = 0;   // of them, the TextureBundle of camera images
   hull::HullStats hull_stats;
 };
 

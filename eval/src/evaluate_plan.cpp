@@ -13,8 +13,12 @@
 #include "base/statistics.h"
 #include "common/depth_raster.h"
 #include "common/image_io.h"
+#include "common/texture_atlas.h"
 #include "eval/view_maps.h"
+#include "fusion_server/layer_stage.h"
 #include "metrics/image_metrics.h"
+#include "protocol/frame.h"
+#include "render_client/client.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
@@ -167,6 +171,41 @@ EvaluationPlan novelPlan(const std::vector<Camera>& poses) {
   return plan;
 }
 
+// Mode layered as the loop runs it: the server's layer stage builds the
+// frame's texture layers from views (its atlas kept from frame to frame
+// in stage), and the client decodes them and places the atlas on the mesh
+// from the layout. Returns the TextureBundle's bytes on the wire.
+StatusOr<size_t> layeredFrame(const EvalOptions& options, fusion::LayerStage& stage,
+                              const Mesh& mesh, const std::vector<render::ViewImages>& views,
+                              uint64_t frame_id, Mesh* placed, LayeredViews* layers) {
+  std::vector<LayerView> sources;
+  std::vector<uint32_t> camera_ids;
+  std::map<uint32_t, Camera> cameras;
+  for (const render::ViewImages& view : views) {
+    sources.push_back(
+        {&view.camera, &view.color, &view.mask, view.feather.empty() ? nullptr : &view.feather});
+    camera_ids.push_back(view.camera.id);
+    cameras[view.camera.id] = view.camera;
+  }
+  hull::HullOptions hull;  // the hull's lattice, as prepareFrame carves
+  hull.voxel_size = options.loop.fusion.hull.voxel_size;
+  const fusion::FusionSettings& fusion = options.loop.fusion;
+  protocol::TextureBundle bundle;
+  bundle.frame_id = frame_id;
+  std::deque<std::vector<uint8_t>> storage;
+  HOLOFUSE_RETURN_IF_ERROR(stage.build(mesh, sources, camera_ids, hull, fusion.layers,
+                                       fusion.image_codec, fusion.lz4_acceleration,
+                                       fusion.lz4_hc_level, bundle, storage));
+  const size_t bytes = protocol::encodeFrame(bundle, 0).size();
+  if (placed == nullptr) return bytes;
+  HOLOFUSE_ASSIGN_OR_RETURN(render::DecodedLayers decoded,
+                            render::layersOfBundle(*bundle.layers, cameras));
+  *placed = mesh;
+  HOLOFUSE_RETURN_IF_ERROR(applyAtlasLayout(*placed, decoded.layout).status());
+  *layers = std::move(decoded.views);
+  return bytes;
+}
+
 Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
                      const SceneInput& input, const EvaluationPlan& plan, SceneResult& result,
                      const std::function<void(const std::string&)>& progress) {
@@ -234,9 +273,35 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
     const auto mode_start = Clock::now();
     double seam_sum = 0;
     size_t seam_images = 0;
+    const bool layered = mode == render::BlendMode::kLayered;
+    std::vector<double> layers_ms;
+    // What the client link carries in this mode: the loop's frames, or for
+    // layers the mesh, the layers of every camera (as the live server
+    // builds them) and the stats.
+    m.client_bytes_per_frame = 0;
+    if (layered) {
+      fusion::LayerStage stage;
+      for (const FrameData& frame : input.frames) {
+        const auto t0 = Clock::now();
+        HOLOFUSE_ASSIGN_OR_RETURN(const size_t bytes,
+                                  layeredFrame(options, stage, frame.mesh, frame.views,
+                                               frame.frame_id, nullptr, nullptr));
+        layers_ms.push_back(msSince(t0));
+        m.client_bytes_per_frame +=
+            static_cast<double>(frame.client_link_bytes - frame.bundle_bytes + bytes) /
+            static_cast<double>(frame_count);
+      }
+    } else {
+      for (const FrameData& frame : input.frames)
+        m.client_bytes_per_frame +=
+            static_cast<double>(frame.client_link_bytes) / static_cast<double>(frame_count);
+    }
     for (int s = 0; s < static_cast<int>(plan.sequences.size()); ++s) {
       const ViewSequence& sequence = plan.sequences[static_cast<size_t>(s)];
       const Camera& pose = sequence.pose;
+      // Mode layered: the layers of the cameras this view may use, the
+      // atlas kept over the sequence's frames as the server keeps it.
+      fusion::LayerStage layer_stage;
       render::Renderer renderer(context, pose.width, pose.height);
       renderer.setHalfPrecisionVertices(options.loop.render.half_precision_vertices);
       render::BlendSettings settings = options.loop.render.blend;
@@ -249,10 +314,23 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
         const auto without = sequence.left_out >= 0 ? frame.mesh_without.find(sequence.left_out)
                                                     : frame.mesh_without.end();
         const Mesh& mesh = without != frame.mesh_without.end() ? without->second : frame.mesh;
-        renderer.setMesh(mesh);
         std::vector<render::ViewImages> others = frame.views;
         if (sequence.left_out >= 0) others.erase(others.begin() + sequence.left_out);
-        renderer.setViews(others);
+        if (layered) {
+          Mesh placed;
+          LayeredViews layers;
+          const auto built =
+              layeredFrame(options, layer_stage, mesh, others, frame.frame_id, &placed, &layers);
+          if (!built.isOk())
+            return Status(built.status().code(), result.name + ", frame " +
+                                                     std::to_string(frame.frame_id) + ": " +
+                                                     built.status().message());
+          renderer.setMesh(placed);
+          renderer.setLayers(layers);
+        } else {
+          renderer.setMesh(mesh);
+          renderer.setViews(others);
+        }
         const bool before_jump = sequence.pose_before_jump && f < jump_frame;
         const auto t0 = Clock::now();
         const Image8 picture =
@@ -342,6 +420,7 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
     m.flicker = flicker_pairs ? flicker_sum / static_cast<double>(flicker_pairs) : -1.0;
     m.ms_per_new_mesh = median(mesh_ms);
     m.ms_per_new_mesh_p95 = percentile95(mesh_ms);
+    m.layers_ms = layers_ms.empty() ? 0.0 : median(layers_ms);
     for (const auto& [pass, values] : passes) m.gpu_passes_ms[pass] = median(values);
   }
   if (compared > 0) {

@@ -9,6 +9,32 @@ Status LayerStage::build(const FrameGroup& group, const Mesh& mesh, const hull::
                          const LayerSettings& settings, protocol::Codec image_codec,
                          int lz4_acceleration, int lz4_hc_level, protocol::TextureBundle& bundle,
                          std::deque<std::vector<uint8_t>>& storage, LayerStats* stats) {
+  // The whole images, in camera-id order: a layer texel's camera byte is
+  // an index into this order (BundleLayers::camera_ids).
+  const std::vector<hull::HullView> silhouettes = hullViewsOf(group);
+  const std::vector<Image8> colours = colorsInFrame(group);
+  std::vector<LayerView> views;
+  std::vector<uint32_t> camera_ids;
+  size_t k = 0;
+  for (const auto& [camera_id, pod] : group.pods) {
+    views.push_back({&silhouettes[k].camera, &colours[k], &silhouettes[k].mask,
+                     silhouettes[k].feather.empty() ? nullptr : &silhouettes[k].feather});
+    camera_ids.push_back(camera_id);
+    ++k;
+  }
+  return build(mesh, views, camera_ids, hull, settings, image_codec, lz4_acceleration, lz4_hc_level,
+               bundle, storage, stats);
+}
+
+Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
+                         const std::vector<uint32_t>& camera_ids, const hull::HullOptions& hull,
+                         const LayerSettings& settings, protocol::Codec image_codec,
+                         int lz4_acceleration, int lz4_hc_level, protocol::TextureBundle& bundle,
+                         std::deque<std::vector<uint8_t>>& storage, LayerStats* stats) {
+  if (camera_ids.size() != views.size())
+    return Status(StatusCode::kMalformed, "texture layers: " + std::to_string(camera_ids.size()) +
+                                              " camera ids for " + std::to_string(views.size()) +
+                                              " views");
   // The lattice follows the hull's voxel (an error target changes it): a
   // new lattice names other patches, so the atlas starts afresh.
   const glm::u64vec3 lattice = hull::keyLattice(hull);
@@ -30,20 +56,6 @@ Status LayerStage::build(const FrameGroup& group, const Mesh& mesh, const hull::
   if (!layout.keyed())
     return Status(StatusCode::kMalformed,
                   "texture layers: the mesh's vertex keys are not the hull's lattice");
-
-  // The whole images, in camera-id order: a layer texel's camera byte is
-  // an index into this order (BundleLayers::camera_ids).
-  const std::vector<hull::HullView> silhouettes = hullViewsOf(group);
-  const std::vector<Image8> colours = colorsInFrame(group);
-  std::vector<LayerView> views;
-  std::vector<uint32_t> camera_ids;
-  size_t k = 0;
-  for (const auto& [camera_id, pod] : group.pods) {
-    views.push_back({&silhouettes[k].camera, &colours[k], &silhouettes[k].mask,
-                     silhouettes[k].feather.empty() ? nullptr : &silhouettes[k].feather});
-    camera_ids.push_back(camera_id);
-    ++k;
-  }
   LayerOptions options;
   options.layers = settings.layers;
   HOLOFUSE_ASSIGN_OR_RETURN(

@@ -34,11 +34,18 @@ struct LayerStats {
 
 class LayerStage {
  public:
-  // The group's mesh (its vertex keys on the lattice of hull) laid out and
-  // its layers built and encoded into bundle.layers, the encoded bytes in
-  // storage. Refused by name, bundle untouched, when the mesh's keys are
-  // not the lattice's or its triangles need more than the largest atlas.
-  // image_codec, lz4_acceleration and lz4_hc_level: the colour planes'.
+  // The mesh (its vertex keys on the lattice of hull) laid out and its
+  // layers built from views and encoded into bundle.layers, the encoded
+  // bytes in storage; camera_ids names each view on the wire. Refused by
+  // name, bundle untouched, when the mesh's keys are not the lattice's or
+  // its triangles need more than the largest atlas. image_codec,
+  // lz4_acceleration and lz4_hc_level: the colour planes'.
+  Status build(const Mesh& mesh, const std::vector<LayerView>& views,
+               const std::vector<uint32_t>& camera_ids, const hull::HullOptions& hull,
+               const LayerSettings& settings, protocol::Codec image_codec, int lz4_acceleration,
+               int lz4_hc_level, protocol::TextureBundle& bundle,
+               std::deque<std::vector<uint8_t>>& storage, LayerStats* stats = nullptr);
+  // The same from a group's decoded images, in camera-id order.
   Status build(const FrameGroup& group, const Mesh& mesh, const hull::HullOptions& hull,
                const LayerSettings& settings, protocol::Codec image_codec, int lz4_acceleration,
                int lz4_hc_level, protocol::TextureBundle& bundle,
