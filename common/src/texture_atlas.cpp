@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <string>
 #include <tuple>
@@ -72,6 +73,39 @@ bool keyByLatticeCell(const Mesh& mesh, const glm::u64vec3& lattice, SquareAssig
   return true;
 }
 
+// Charts: a triangle's square is its lattice cell's block of n^3 cells and
+// the dominant axis of its face normal (signed), so a block's surface
+// facing one way shares one square, projected orthographically along that
+// axis. Both sides of the wire compute the normal from the same decoded
+// positions, so they agree on every triangle's axis.
+bool keyByChart(const Mesh& mesh, const glm::u64vec3& lattice, uint32_t chart_cells,
+                SquareAssignment& out, std::vector<uint8_t>& axis_of_triangle) {
+  if (!keyByLatticeCell(mesh, lattice, out)) return false;
+  const uint64_t n = chart_cells;
+  const glm::u64vec3 blocks((lattice.x + n - 1) / n, (lattice.y + n - 1) / n,
+                            (lattice.z + n - 1) / n);
+  const size_t triangles = mesh.triangleCount();
+  axis_of_triangle.assign(triangles, 0);
+  for (size_t t = 0; t < triangles; ++t) {
+    const uint64_t cell = out.key_of_triangle[t] >> 16;
+    const glm::u64vec3 at(cell % lattice.x, (cell / lattice.x) % lattice.y,
+                          cell / (lattice.x * lattice.y));
+    const glm::u64vec3 block(at.x / n, at.y / n, at.z / n);
+    const glm::dvec3 a(mesh.positions[mesh.indices[3 * t]]),
+        b(mesh.positions[mesh.indices[3 * t + 1]]), c(mesh.positions[mesh.indices[3 * t + 2]]);
+    const glm::dvec3 n = glm::cross(b - a, c - a);
+    int axis = 0;
+    for (int k = 1; k < 3; ++k) {
+      if (std::abs(n[k]) > std::abs(n[axis])) axis = k;
+    }
+    const uint8_t code = static_cast<uint8_t>(2 * axis + (n[axis] < 0 ? 1 : 0));
+    axis_of_triangle[t] = code;
+    out.key_of_triangle[t] = (((block.z * blocks.y + block.y) * blocks.x + block.x) << 3) | code;
+    out.odd[t] = false;
+  }
+  return true;
+}
+
 SquareAssignment assignSquares(const Mesh& mesh, const glm::u64vec3& lattice) {
   SquareAssignment out;
   if (keyByLatticeCell(mesh, lattice, out)) return out;
@@ -125,6 +159,41 @@ std::vector<AtlasCell> placeTriangles(Mesh& mesh, const SquareAssignment& assign
   return cells;
 }
 
+// Charts' UVs: each triangle's corners projected along its chart's axis,
+// from the smallest projected coordinates of the chart's vertices, at
+// texel_metres a texel, inside the square's gutter.
+template <typename SlotOf>
+void placeCharts(Mesh& mesh, const SquareAssignment& assignment,
+                 const std::vector<uint8_t>& axis_of_triangle, uint32_t side,
+                 uint32_t square_texels, uint32_t texels, double texel_metres, SlotOf slot_of) {
+  const size_t triangles = mesh.triangleCount();
+  auto projected = [&](size_t t, int k) {
+    const int axis = axis_of_triangle[t] / 2;
+    const glm::dvec3 p(mesh.positions[mesh.indices[3 * t + k]]);
+    return glm::dvec2(p[(axis + 1) % 3], p[(axis + 2) % 3]);
+  };
+  std::unordered_map<uint64_t, glm::dvec2> chart_min;
+  for (size_t t = 0; t < triangles; ++t) {
+    auto [at, fresh] = chart_min.try_emplace(assignment.key_of_triangle[t],
+                                             glm::dvec2(std::numeric_limits<double>::max()));
+    for (int k = 0; k < 3; ++k) at->second = glm::min(at->second, projected(t, k));
+  }
+  const double inside = square_texels - 2.0 * kChartGutterTexels;
+  std::vector<glm::vec2> uvs(3 * triangles);
+  for (size_t t = 0; t < triangles; ++t) {
+    const uint64_t key = assignment.key_of_triangle[t];
+    const uint32_t slot = slot_of(key);
+    const glm::dvec2 corner(double(slot % side) * square_texels + kChartGutterTexels,
+                            double(slot / side) * square_texels + kChartGutterTexels);
+    for (int k = 0; k < 3; ++k) {
+      const glm::dvec2 local =
+          glm::clamp((projected(t, k) - chart_min.at(key)) / texel_metres, 0.0, inside);
+      uvs[3 * t + k] = glm::vec2((corner + local) / double(texels));
+    }
+  }
+  mesh.corner_uvs = std::move(uvs);
+}
+
 }  // namespace
 
 std::array<glm::dvec2, 3> innerTriangleTexels(const AtlasCell& cell, uint32_t square_texels) {
@@ -144,11 +213,6 @@ std::array<glm::dvec2, 3> innerTriangleTexels(const AtlasCell& cell, uint32_t sq
           corner + glm::dvec2(3 * p, w - p)};
 }
 
-bool texelInHalf(const AtlasCell& cell, uint32_t square_texels, uint32_t x, uint32_t y) {
-  const uint32_t diagonal = (x - cell.x) + (y - cell.y);  // texel centre u + v - 1
-  return cell.odd ? diagonal >= square_texels : diagonal < square_texels;
-}
-
 TextureAtlas::TextureAtlas(const AtlasOptions& options) : options_(options) {
   options_.texels = std::clamp(options_.texels, kMinAtlasTexels, kMaxAtlasTexels);
   options_.max_texels = std::clamp(options_.max_texels, options_.texels, kMaxAtlasTexels);
@@ -157,7 +221,23 @@ TextureAtlas::TextureAtlas(const AtlasOptions& options) : options_(options) {
 }
 
 StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* stats) {
-  const SquareAssignment assignment = assignSquares(mesh, options_.lattice);
+  const bool charts = options_.chart_cells > 0;
+  SquareAssignment assignment;
+  std::vector<uint8_t> axes;
+  if (charts) {
+    if (!(options_.cell_size > 0) || !(options_.texels_per_cell > 0))
+      return Status(StatusCode::kMalformed, "texture atlas: charts need the lattice's cell size");
+    if (!keyByChart(mesh, options_.lattice, options_.chart_cells, assignment, axes))
+      return Status(StatusCode::kMalformed,
+                    "texture atlas: charts need the mesh's vertex keys on the hull's lattice");
+  } else {
+    assignment = assignSquares(mesh, options_.lattice);
+  }
+  // A chart's square: its cells at the chosen density inside a gutter.
+  const uint32_t chart_texels =
+      charts ? static_cast<uint32_t>(std::ceil(options_.chart_cells * options_.texels_per_cell)) +
+                   2 * kChartGutterTexels
+             : 0;
   std::vector<uint64_t> keys = assignment.key_of_triangle;
   std::sort(keys.begin(), keys.end());
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
@@ -177,6 +257,13 @@ StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* st
     bool fits = false;
     for (const double headroom : {options_.headroom, 1.0}) {
       side = ceilSqrt(std::max<double>(squares, 1) * headroom);
+      if (charts) {
+        // The density is fixed: the texture is as large as its charts need.
+        texels = std::max<uint32_t>(side * chart_texels, kMinAtlasTexels);
+        fits = uint64_t{side} * chart_texels <= options_.max_texels;
+        if (fits) break;
+        continue;
+      }
       for (texels = options_.texels;
            texels / side < options_.min_square_texels && texels * 2 <= options_.max_texels;)
         texels *= 2;
@@ -184,6 +271,13 @@ StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* st
         fits = true;
         break;
       }
+    }
+    if (!fits && charts) {
+      return Status(StatusCode::kTooLarge,
+                    "texture atlas: " + std::to_string(squares) + " charts of " +
+                        std::to_string(chart_texels) + " texels need more than a " +
+                        std::to_string(options_.max_texels) +
+                        "-texel atlas (raise its largest size or lower the texels per cell)");
     }
     if (!fits) {
       return Status(StatusCode::kTooLarge,
@@ -195,7 +289,7 @@ StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* st
                                        (options_.max_texels / options_.min_square_texels)) +
                         " (raise the atlas's largest size or coarsen the mesh)");
     }
-    square_texels = texels / side;
+    square_texels = charts ? chart_texels : texels / side;
   }
 
   std::unordered_map<uint64_t, uint32_t> slot_of_key;
@@ -226,12 +320,20 @@ StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* st
     }
   }
 
-  std::vector<AtlasCell> cells = placeTriangles(mesh, assignment, side, square_texels, texels,
-                                                [&](uint64_t key) { return slot_of_key.at(key); });
+  const auto slot_of = [&](uint64_t key) { return slot_of_key.at(key); };
+  std::vector<AtlasCell> cells =
+      placeTriangles(mesh, assignment, side, square_texels, texels, slot_of);
+  const double texel_metres = charts ? options_.cell_size / options_.texels_per_cell : 0.0;
+  if (charts)
+    placeCharts(mesh, assignment, axes, side, square_texels, texels, texel_metres, slot_of);
   texels_ = texels;
   squares_per_side_ = side;
   square_texels_ = square_texels;
-  layout_ = AtlasLayout{texels, side, square_texels, glm::u64vec3(0), {}};
+  layout_ = AtlasLayout{texels, side, square_texels, glm::u64vec3(0), {}, 0, 0.0};
+  if (charts) {
+    layout_.chart_cells = options_.chart_cells;
+    layout_.texel_metres = texel_metres;
+  }
   if (assignment.keyed) {
     layout_.lattice = options_.lattice;
     layout_.slots.reserve(keys.size());
@@ -254,14 +356,22 @@ StatusOr<std::vector<AtlasCell>> applyAtlasLayout(Mesh& mesh, const AtlasLayout&
     return Status(StatusCode::kMalformed, "atlas layout: " + what);
   };
   if (!layout.keyed()) return refuse("no key lattice");
-  if (layout.squares_per_side == 0 || layout.square_texels < 6 ||
+  const bool charts = layout.chart_cells > 0;
+  if (charts && (!(layout.texel_metres > 0) || !std::isfinite(layout.texel_metres) ||
+                 layout.chart_cells > 64))
+    return refuse("charts of " + std::to_string(layout.chart_cells) + " cells at " +
+                  std::to_string(layout.texel_metres) + " m a texel");
+  if (layout.squares_per_side == 0 ||
+      layout.square_texels < (charts ? 2 * kChartGutterTexels + 1 : 6) ||
       uint64_t{layout.squares_per_side} * layout.square_texels > layout.texels ||
       layout.texels > kMaxAtlasTexels)
     return refuse(std::to_string(layout.squares_per_side) + " squares of " +
                   std::to_string(layout.square_texels) + " texels do not fit an atlas of " +
                   std::to_string(layout.texels));
   SquareAssignment assignment;
-  if (!keyByLatticeCell(mesh, layout.lattice, assignment))
+  std::vector<uint8_t> axes;
+  if (!(charts ? keyByChart(mesh, layout.lattice, layout.chart_cells, assignment, axes)
+               : keyByLatticeCell(mesh, layout.lattice, assignment)))
     return refuse("the mesh's vertex keys are not on the layout's lattice");
   std::vector<uint64_t> keys = assignment.key_of_triangle;
   std::sort(keys.begin(), keys.end());
@@ -275,11 +385,15 @@ StatusOr<std::vector<AtlasCell>> applyAtlasLayout(Mesh& mesh, const AtlasLayout&
       return refuse("slot " + std::to_string(slot) + " outside a grid of " +
                     std::to_string(capacity));
   }
+  const auto slot_of = [&](uint64_t key) {
+    const auto at = std::lower_bound(keys.begin(), keys.end(), key);
+    return layout.slots[static_cast<size_t>(at - keys.begin())];
+  };
   auto cells = placeTriangles(mesh, assignment, layout.squares_per_side, layout.square_texels,
-                              layout.texels, [&](uint64_t key) {
-                                const auto at = std::lower_bound(keys.begin(), keys.end(), key);
-                                return layout.slots[static_cast<size_t>(at - keys.begin())];
-                              });
+                              layout.texels, slot_of);
+  if (charts)
+    placeCharts(mesh, assignment, axes, layout.squares_per_side, layout.square_texels,
+                layout.texels, layout.texel_metres, slot_of);
   return cells;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "common/depth_raster.h"
@@ -32,42 +33,89 @@ glm::dvec3 sampleColor(const Image8& image, double x, double y) {
   return out;
 }
 
-// Barycentric coordinates of p in triangle abc, clamped onto the triangle:
-// a border texel takes the colour of the nearest edge's point, as the
-// paper's border triangles copy the edge's interpolants.
-glm::dvec3 clampedBarycentric(const glm::dvec2& p, const std::array<glm::dvec2, 3>& t) {
+// The point of triangle t nearest to p, as barycentrics, and its distance
+// (0 inside): a texel just outside a triangle's footprint (a border
+// texel bilinear sampling reads) takes the colour of the triangle's
+// nearest point, as the paper's border triangles copy the edge's values.
+double nearestOnTriangle(const glm::dvec2& p, const std::array<glm::dvec2, 3>& t, glm::dvec3& b) {
   const glm::dvec2 e0 = t[1] - t[0], e1 = t[2] - t[0], d = p - t[0];
   const double det = e0.x * e1.y - e1.x * e0.y;
-  if (std::abs(det) < 1e-12) return glm::dvec3(1.0 / 3.0);
-  const double b1 = (d.x * e1.y - e1.x * d.y) / det;
-  const double b2 = (e0.x * d.y - d.x * e0.y) / det;
-  glm::dvec3 b(1.0 - b1 - b2, b1, b2);
-  b = glm::max(b, glm::dvec3(0.0));
-  const double sum = b.x + b.y + b.z;
-  return sum > 0 ? b / sum : glm::dvec3(1.0 / 3.0);
+  if (std::abs(det) > 1e-12) {
+    const double b1 = (d.x * e1.y - e1.x * d.y) / det;
+    const double b2 = (e0.x * d.y - d.x * e0.y) / det;
+    if (b1 >= 0 && b2 >= 0 && b1 + b2 <= 1) {
+      b = glm::dvec3(1.0 - b1 - b2, b1, b2);
+      return 0.0;
+    }
+  }
+  // Outside (or degenerate): the nearest point of the three edges.
+  double best = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    const glm::dvec2 a = t[k], c = t[(k + 1) % 3], ac = c - a;
+    const double length2 = glm::dot(ac, ac);
+    const double s = length2 > 0 ? std::clamp(glm::dot(p - a, ac) / length2, 0.0, 1.0) : 0.0;
+    const double distance = glm::length(p - (a + s * ac));
+    if (distance < best) {
+      best = distance;
+      b = glm::dvec3(0.0);
+      b[k] = 1.0 - s;
+      b[(k + 1) % 3] = s;
+    }
+  }
+  return best;
 }
 
-Status checkInputs(const Mesh& mesh, const std::vector<AtlasCell>& cells, uint32_t texels,
-                   uint32_t square_texels, const std::vector<LayerView>& views) {
+// Which point of the surface each texel holds: the triangle whose atlas
+// footprint is nearest within reach, and the barycentrics of its nearest
+// point. A bilinear sample inside a footprint reads texels whose centres
+// lie under one texel away on each axis, so reach is sqrt(2) texels; a
+// texel between two footprints goes to the nearer (the layouts keep
+// triangles of different patches further apart than that).
+struct TexelSource {
+  int32_t triangle = -1;
+  double distance = std::numeric_limits<double>::infinity();
+  glm::dvec3 barycentric{0.0};
+};
+std::vector<TexelSource> texelSources(const Mesh& mesh, uint32_t texels, uint64_t& contested) {
+  constexpr double kReach = 1.41421356237;
+  std::vector<TexelSource> sources(size_t{texels} * texels);
+  for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+    std::array<glm::dvec2, 3> corners;
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+    for (int k = 0; k < 3; ++k) {
+      corners[k] = glm::dvec2(mesh.corner_uvs[3 * t + k]) * double(texels);
+      lo = glm::min(lo, corners[k]);
+      hi = glm::max(hi, corners[k]);
+    }
+    const int x0 = std::max(0, static_cast<int>(std::floor(lo.x - kReach)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(lo.y - kReach)));
+    const int x1 = std::min<int>(texels - 1, static_cast<int>(std::ceil(hi.x + kReach)));
+    const int y1 = std::min<int>(texels - 1, static_cast<int>(std::ceil(hi.y + kReach)));
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        glm::dvec3 b;
+        const double distance = nearestOnTriangle(glm::dvec2(x + 0.5, y + 0.5), corners, b);
+        TexelSource& source = sources[size_t(y) * texels + x];
+        if (distance == 0 && source.distance == 0) ++contested;  // two footprints overlap
+        if (distance > kReach || distance >= source.distance) continue;
+        source = {static_cast<int32_t>(t), distance, b};
+      }
+    }
+  }
+  return sources;
+}
+
+Status checkInputs(const Mesh& mesh, uint32_t texels, const std::vector<LayerView>& views) {
   auto refuse = [](const std::string& what) {
     return Status(StatusCode::kMalformed, "texture layers: " + what);
   };
   if (views.size() >= kNoLayerCamera)
     return refuse(std::to_string(views.size()) + " views; a layer names at most 254");
-  if (cells.size() != mesh.triangleCount())
-    return refuse(std::to_string(cells.size()) + " atlas cells for " +
-                  std::to_string(mesh.triangleCount()) + " triangles");
   if (mesh.normals.size() != mesh.vertexCount()) return refuse("the mesh has no vertex normals");
   if (mesh.corner_uvs.size() != mesh.indices.size())
     return refuse("the mesh has no texture coordinates (TextureAtlas::layOut)");
-  if (texels == 0 || square_texels == 0 || square_texels > texels)
-    return refuse("an atlas of " + std::to_string(texels) + " texels with squares of " +
-                  std::to_string(square_texels));
-  for (const AtlasCell& cell : cells) {
-    if (uint64_t{cell.x} + square_texels > texels || uint64_t{cell.y} + square_texels > texels)
-      return refuse("a square at " + std::to_string(cell.x) + "," + std::to_string(cell.y) +
-                    " outside the atlas");
-  }
+  if (texels == 0 || texels > kMaxAtlasTexels)
+    return refuse("an atlas of " + std::to_string(texels) + " texels");
   for (size_t i = 0; i < views.size(); ++i) {
     const LayerView& v = views[i];
     const std::string name = "view " + std::to_string(i);
@@ -86,11 +134,10 @@ Status checkInputs(const Mesh& mesh, const std::vector<AtlasCell>& cells, uint32
 
 }  // namespace
 
-StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, const std::vector<AtlasCell>& cells,
-                                           uint32_t texels, uint32_t square_texels,
+StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
                                            const std::vector<LayerView>& views,
                                            const LayerOptions& options) {
-  if (Status bad = checkInputs(mesh, cells, texels, square_texels, views); !bad.isOk()) return bad;
+  if (Status bad = checkInputs(mesh, texels, views); !bad.isOk()) return bad;
   const int layer_count = std::max(options.layers, 1);
   TextureLayers out;
   out.texels = texels;
@@ -114,62 +161,57 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, const std::vector<A
 
   std::vector<Ranked> ranked;
   ranked.reserve(views.size());
-  for (size_t t = 0; t < mesh.triangleCount(); ++t) {
-    const AtlasCell& cell = cells[t];
-    // The texels' points from the triangle's own coordinates (layOut put
-    // its inner triangle's corners there, in a receiver's order too).
-    std::array<glm::dvec2, 3> inner;
-    for (int k = 0; k < 3; ++k) inner[k] = glm::dvec2(mesh.corner_uvs[3 * t + k]) * double(texels);
-    const uint32_t* corner = &mesh.indices[3 * t];
-    for (uint32_t y = cell.y; y < cell.y + square_texels; ++y) {
-      for (uint32_t x = cell.x; x < cell.x + square_texels; ++x) {
-        if (!texelInHalf(cell, square_texels, x, y)) continue;
-        ++out.texels_covered;
-        const glm::dvec3 b = clampedBarycentric(glm::dvec2(x + 0.5, y + 0.5), inner);
-        glm::dvec3 point(0.0), normal(0.0);
-        for (int k = 0; k < 3; ++k) {
-          point += b[k] * glm::dvec3(mesh.positions[corner[k]]);
-          normal += b[k] * glm::dvec3(mesh.normals[corner[k]]);
-        }
-        const double length = glm::length(normal);
-        if (!(length > 0)) continue;
-        normal /= length;
-        ranked.clear();
-        for (size_t j = 0; j < views.size(); ++j) {
-          const LayerView& v = views[j];
-          const auto pixel = v.camera->project(point);
-          if (!pixel || !(pixel->x >= 0 && pixel->y >= 0 && pixel->x < v.camera->width &&
-                          pixel->y < v.camera->height))
-            continue;
-          const uint32_t px = static_cast<uint32_t>(pixel->x), py = static_cast<uint32_t>(pixel->y);
-          // Volino and Hilton eq. 1: the depth map sees this point.
-          if (!(std::abs(depths[j].at(px, py) - pixel->z) <= tolerance)) continue;
-          if (v.mask != nullptr && v.mask->at(px, py)[0] < 128) continue;
-          // Eq. 2 as a cosine: the point faces the camera.
-          const double facing = glm::dot(normal, glm::normalize(v.camera->center() - point));
-          if (!(facing > 0)) continue;
-          double feather = 1.0;
-          if (v.feather != nullptr && options.feather_ramp_px > 0)
-            feather = std::min(1.0, v.feather->at(px, py)[0] / options.feather_ramp_px);
-          if (!(feather > 0)) continue;
-          ranked.push_back({facing * feather, static_cast<uint8_t>(j)});
-        }
-        if (ranked.empty()) continue;
-        ++out.texels_seen;
-        const size_t keep = std::min<size_t>(ranked.size(), layer_count);
-        std::partial_sort(ranked.begin(), ranked.begin() + keep, ranked.end(),
-                          [](const Ranked& a, const Ranked& c) {
-                            return a.score > c.score || (a.score == c.score && a.view < c.view);
-                          });
-        for (size_t l = 0; l < keep; ++l) {
-          const LayerView& v = views[ranked[l].view];
-          const auto pixel = v.camera->project(point);
-          const glm::dvec3 colour = sampleColor(*v.color, pixel->x, pixel->y);
-          uint8_t* texel = out.layers[l].at(x, y);
-          for (int c = 0; c < 3; ++c)
-            texel[c] = static_cast<uint8_t>(std::clamp(std::lround(colour[c]), 0L, 255L));
-          texel[3] = ranked[l].view;
-        }
+  const std::vector<TexelSource> sources = texelSources(mesh, texels, out.texels_contested);
+  for (uint32_t y = 0; y < texels; ++y) {
+    for (uint32_t x = 0; x < texels; ++x) {
+      const TexelSource& source = sources[size_t{y} * texels + x];
+      if (source.triangle < 0) continue;
+      ++out.texels_covered;
+      const glm::dvec3& b = source.barycentric;
+      const uint32_t* corner = &mesh.indices[3 * size_t(source.triangle)];
+      glm::dvec3 point(0.0), normal(0.0);
+      for (int k = 0; k < 3; ++k) {
+        point += b[k] * glm::dvec3(mesh.positions[corner[k]]);
+        normal += b[k] * glm::dvec3(mesh.normals[corner[k]]);
+      }
+      const double length = glm::length(normal);
+      if (!(length > 0)) continue;
+      normal /= length;
+      ranked.clear();
+      for (size_t j = 0; j < views.size(); ++j) {
+        const LayerView& v = views[j];
+        const auto pixel = v.camera->project(point);
+        if (!pixel || !(pixel->x >= 0 && pixel->y >= 0 && pixel->x < v.camera->width &&
+                        pixel->y < v.camera->height))
+          continue;
+        const uint32_t px = static_cast<uint32_t>(pixel->x), py = static_cast<uint32_t>(pixel->y);
+        // Volino and Hilton eq. 1: the depth map sees this point.
+        if (!(std::abs(depths[j].at(px, py) - pixel->z) <= tolerance)) continue;
+        if (v.mask != nullptr && v.mask->at(px, py)[0] < 128) continue;
+        // Eq. 2 as a cosine: the point faces the camera.
+        const double facing = glm::dot(normal, glm::normalize(v.camera->center() - point));
+        if (!(facing > 0)) continue;
+        double feather = 1.0;
+        if (v.feather != nullptr && options.feather_ramp_px > 0)
+          feather = std::min(1.0, v.feather->at(px, py)[0] / options.feather_ramp_px);
+        if (!(feather > 0)) continue;
+        ranked.push_back({facing * feather, static_cast<uint8_t>(j)});
+      }
+      if (ranked.empty()) continue;
+      ++out.texels_seen;
+      const size_t keep = std::min<size_t>(ranked.size(), layer_count);
+      std::partial_sort(ranked.begin(), ranked.begin() + keep, ranked.end(),
+                        [](const Ranked& a, const Ranked& c) {
+                          return a.score > c.score || (a.score == c.score && a.view < c.view);
+                        });
+      for (size_t l = 0; l < keep; ++l) {
+        const LayerView& v = views[ranked[l].view];
+        const auto pixel = v.camera->project(point);
+        const glm::dvec3 colour = sampleColor(*v.color, pixel->x, pixel->y);
+        uint8_t* texel = out.layers[l].at(x, y);
+        for (int c = 0; c < 3; ++c)
+          texel[c] = static_cast<uint8_t>(std::clamp(std::lround(colour[c]), 0L, 255L));
+        texel[3] = ranked[l].view;
       }
     }
   }

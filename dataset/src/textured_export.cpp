@@ -57,8 +57,7 @@ StatusOr<ExportedMesh> exportTexturedFrame(const std::string& dir, const std::st
   if (!cells.isOk()) return cells.status();
   LayerOptions layer_options;
   layer_options.layers = 1;
-  auto layers = buildTextureLayers(mesh, *cells, atlas.texels(), atlas.squareTexels(), layer_views,
-                                   layer_options);
+  auto layers = buildTextureLayers(mesh, atlas.texels(), layer_views, layer_options);
   if (!layers.isOk()) return layers.status();
 
   ExportedMesh out;

@@ -27,11 +27,19 @@ const std::vector<Setting<FusionSettings>>& fusionFlags() {
                          "texture layers L for the clients that ask for layers (mode layered)", 1,
                          static_cast<double>(protocol::kMaxLayers),
                          [](S& s) -> int& { return s.layers.layers; }),
-        numberSetting<S>("--atlas-size",
-                         "side of the layers' atlas in texels (it doubles up to 4096 when the mesh "
-                         "needs more)",
-                         kMinAtlasTexels, 4096,
-                         [](S& s) -> uint32_t& { return s.layers.atlas_texels; })};
+        numberSetting<S>(
+            "--atlas-size",
+            "side of the layers' atlas in texels without charts (it doubles up to 4096 "
+            "when the mesh needs more)",
+            kMinAtlasTexels, 4096, [](S& s) -> uint32_t& { return s.layers.atlas_texels; }),
+        numberSetting<S>("--chart-cells",
+                         "layers' atlas: a chart per block of this many hull voxels a side and "
+                         "facing axis (0: a square per pair of triangles)",
+                         0, 16, [](S& s) -> uint32_t& { return s.layers.chart_cells; }),
+        numberSetting<S>("--texels-per-voxel",
+                         "layers' atlas with charts: texels a hull voxel spans (the layers' "
+                         "resolution)",
+                         0.25, 16, [](S& s) -> double& { return s.layers.texels_per_cell; })};
     for (Setting<S>& setting :
          imageEncodingSettings<S>("--image-codec", "colour codec of the images sent on",
                                   [](S& s) -> protocol::Codec& { return s.image_codec; }))

@@ -196,9 +196,15 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   if (layers != nullptr) {
     layered.emplace();
     layered->frame_id = group.frame_id;
-    const Status built = layers->build(group, mesh, settings.hull, settings.layers,
-                                       settings.image_codec, settings.lz4_acceleration,
-                                       settings.lz4_hc_level, *layered, *storage, &out.layer_stats);
+    // Charts are placed by positions: the mesh as every client decodes it.
+    StatusOr<Mesh> received =
+        draco.isOk() ? decodeDraco(draco->data(), draco->size()) : StatusOr<Mesh>(draco.status());
+    const Status built =
+        !received.isOk()
+            ? received.status()
+            : layers->build(group, *received, settings.hull, settings.layers, settings.image_codec,
+                            settings.lz4_acceleration, settings.lz4_hc_level, *layered, *storage,
+                            &out.layer_stats);
     const uint64_t t4 = monotonicNs();
     if (built.isOk()) {
       layered->stamps = {{static_cast<uint16_t>(Stage::kLayers), kSourceServer, t3, t4},

@@ -38,29 +38,29 @@ Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
   // The lattice follows the hull's voxel (an error target changes it): a
   // new lattice names other patches, so the atlas starts afresh.
   const glm::u64vec3 lattice = hull::keyLattice(hull);
-  if (!atlas_ || lattice != lattice_ || settings.atlas_texels != atlas_texels_ ||
-      settings.atlas_max_texels != atlas_max_texels_) {
+  if (!atlas_ || lattice != lattice_ || !(settings == settings_)) {
     AtlasOptions options;
     options.texels = settings.atlas_texels;
     options.max_texels = settings.atlas_max_texels;
     options.lattice = lattice;
+    options.chart_cells = settings.chart_cells;
+    options.texels_per_cell = settings.texels_per_cell;
+    options.cell_size = hull.voxel_size;
     atlas_.emplace(options);
     lattice_ = lattice;
-    atlas_texels_ = settings.atlas_texels;
-    atlas_max_texels_ = settings.atlas_max_texels;
+    settings_ = settings;
   }
   Mesh laid = mesh;
   AtlasStats atlas_stats;
-  HOLOFUSE_ASSIGN_OR_RETURN(const std::vector<AtlasCell> cells, atlas_->layOut(laid, &atlas_stats));
+  HOLOFUSE_RETURN_IF_ERROR(atlas_->layOut(laid, &atlas_stats).status());
   const AtlasLayout& layout = atlas_->layout();
   if (!layout.keyed())
     return Status(StatusCode::kMalformed,
                   "texture layers: the mesh's vertex keys are not the hull's lattice");
   LayerOptions options;
   options.layers = settings.layers;
-  HOLOFUSE_ASSIGN_OR_RETURN(
-      const TextureLayers built,
-      buildTextureLayers(laid, cells, layout.texels, layout.square_texels, views, options));
+  HOLOFUSE_ASSIGN_OR_RETURN(const TextureLayers built,
+                            buildTextureLayers(laid, layout.texels, views, options));
 
   protocol::BundleLayers out;
   out.texels = layout.texels;
@@ -68,6 +68,8 @@ Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
   out.square_texels = layout.square_texels;
   for (int axis = 0; axis < 3; ++axis)
     out.lattice[axis] = static_cast<uint32_t>(layout.lattice[axis]);
+  out.chart_cells = static_cast<uint8_t>(layout.chart_cells);
+  out.texel_metres = layout.texel_metres;
   out.square_count = static_cast<uint32_t>(layout.slots.size());
   storage.push_back(encodeAtlasSlots(layout.slots));
   out.slots = storage.back();

@@ -352,6 +352,8 @@ void writePayload(WireWriter& w, const TextureBundle& m, uint8_t minor) {
   w.u32(layers->squares_per_side);
   w.u32(layers->square_texels);
   for (const uint32_t side : layers->lattice) w.u32(side);
+  w.u8(layers->chart_cells);
+  w.f64(layers->texel_metres);
   w.u32(layers->square_count);
   w.bytes32(layers->slots);
   const size_t cameras = std::min(layers->camera_ids.size(), size_t{kMaxCameras});
@@ -390,6 +392,8 @@ Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t ba
   layers.squares_per_side = r.u32("texture_bundle.squares_per_side");
   layers.square_texels = r.u32("texture_bundle.square_texels");
   for (uint32_t& side : layers.lattice) side = r.u32("texture_bundle.lattice");
+  layers.chart_cells = r.u8("texture_bundle.chart_cells");
+  layers.texel_metres = r.f64("texture_bundle.texel_metres");
   layers.square_count = r.u32("texture_bundle.square_count");
   layers.slots = r.bytes32("texture_bundle.slots", kMaxPlaneBytes);
   const uint8_t cameras = r.u8("texture_bundle.layer_camera_count");

@@ -185,6 +185,8 @@ StatusOr<DecodedLayers> layersOfBundle(const protocol::BundleLayers& layers,
   out.layout.squares_per_side = layers.squares_per_side;
   out.layout.square_texels = layers.square_texels;
   out.layout.lattice = glm::u64vec3(layers.lattice[0], layers.lattice[1], layers.lattice[2]);
+  out.layout.chart_cells = layers.chart_cells;
+  out.layout.texel_metres = layers.texel_metres;
   if (layers.texels < kMinAtlasTexels || layers.texels > kMaxAtlasTexels)
     return malformed("an atlas of " + std::to_string(layers.texels) + " texels");
   auto slots = decodeAtlasSlots(layers.slots, layers.square_count);

@@ -36,6 +36,15 @@ AtlasOptions latticeOptions() {
   return options;
 }
 
+// Charts of 4^3 lattice cells at 3 texels a cell.
+AtlasOptions chartOptions() {
+  AtlasOptions options = latticeOptions();
+  options.chart_cells = 4;
+  options.texels_per_cell = 3.0;
+  options.cell_size = kSpacing;
+  return options;
+}
+
 double signedArea(const glm::vec2& a, const glm::vec2& b, const glm::vec2& c) {
   return 0.5 * ((b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y));
 }
@@ -281,6 +290,57 @@ TEST(AtlasLayout, AReceiverLaysTheDecodedMeshOutAgainFromItsKeys) {
   EXPECT_EQ(decodeAtlasSlots(wire, 0xffffffffu).status().code(), StatusCode::kTooLarge);
 }
 
+// Charts: a square per block of lattice cells and facing axis, the
+// triangles projected onto it at a fixed density, so the atlas's size
+// follows the surface's area, not its triangle count. Laid out on the
+// mesh as the receiver decodes it, the receiver's coordinates are the
+// sender's exactly; every corner lies inside its square's gutter.
+TEST(AtlasLayout, ChartsFollowTheSurfaceAndTravelAsTheirLayout) {
+  Mesh mesh = sphereOnLattice(glm::dvec3(0.0), 0.7);
+  auto bytes = encodeDraco(mesh);
+  ASSERT_TRUE(bytes.isOk());
+  Mesh sent = decodeDraco(bytes->data(), bytes->size()).value();
+  Mesh received = sent;
+  TextureAtlas charts(chartOptions()), squares(latticeOptions());
+  AtlasStats chart_stats, square_stats;
+  ASSERT_TRUE(charts.layOut(sent, &chart_stats).isOk());
+  Mesh by_squares = mesh;
+  ASSERT_TRUE(squares.layOut(by_squares, &square_stats).isOk());
+  EXPECT_LT(chart_stats.squares_used * 4, square_stats.squares_used)
+      << "a chart holds many triangles";
+  const uint32_t chart_texels = 4 * 3 + 2 * kChartGutterTexels;
+  EXPECT_EQ(chart_stats.square_texels, chart_texels);
+  EXPECT_EQ(chart_stats.texels, chart_stats.squares_per_side * chart_texels);
+  const AtlasLayout& layout = charts.layout();
+  EXPECT_EQ(layout.chart_cells, 4u);
+  EXPECT_DOUBLE_EQ(layout.texel_metres, kSpacing / 3.0);
+  ASSERT_TRUE(applyAtlasLayout(received, layout).isOk());
+  EXPECT_EQ(received.corner_uvs, sent.corner_uvs) << "the same decoded mesh, the same coordinates";
+  for (size_t t = 0; t < sent.triangleCount(); ++t) {
+    // All three corners in one square, inside its gutter.
+    const glm::dvec2 a = glm::dvec2(sent.corner_uvs[3 * t]) * double(layout.texels);
+    const glm::uvec2 square(glm::floor(a / double(chart_texels)));
+    for (int k = 0; k < 3; ++k) {
+      const glm::dvec2 at = glm::dvec2(sent.corner_uvs[3 * t + k]) * double(layout.texels);
+      const glm::dvec2 local = at - glm::dvec2(square) * double(chart_texels);
+      EXPECT_GE(local.x, kChartGutterTexels - 1e-4) << "triangle " << t;
+      EXPECT_GE(local.y, kChartGutterTexels - 1e-4) << "triangle " << t;
+      EXPECT_LE(local.x, chart_texels - kChartGutterTexels + 1e-4) << "triangle " << t;
+      EXPECT_LE(local.y, chart_texels - kChartGutterTexels + 1e-4) << "triangle " << t;
+    }
+  }
+  // A layout whose charts make no sense is refused by name.
+  AtlasLayout bad = layout;
+  bad.texel_metres = 0;
+  auto refused = applyAtlasLayout(received, bad);
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().toString().find("charts of 4 cells"), std::string::npos);
+  AtlasOptions no_size = chartOptions();
+  no_size.cell_size = 0;
+  Mesh copy = mesh;
+  EXPECT_FALSE(TextureAtlas(no_size).layOut(copy).isOk());
+}
+
 // A sphere painted by the direction from its centre, seen by a ring of
 // cameras: each camera's image is ray traced, so a texel's colour can be
 // checked against the paint at its point of the surface.
@@ -322,9 +382,10 @@ struct PaintedSphere {
 // The painted sphere's hull laid out in an atlas.
 struct LaidOut {
   Mesh mesh;
-  TextureAtlas atlas{latticeOptions()};
+  TextureAtlas atlas;
   std::optional<std::vector<AtlasCell>> cells;
-  explicit LaidOut(const PaintedSphere& scene) : mesh(sphereOnLattice(scene.centre, scene.radius)) {
+  explicit LaidOut(const PaintedSphere& scene, const AtlasOptions& options = latticeOptions())
+      : mesh(sphereOnLattice(scene.centre, scene.radius)), atlas(options) {
     auto laid = atlas.layOut(mesh);
     EXPECT_TRUE(laid.isOk()) << laid.status().toString();
     if (laid.isOk()) cells = std::move(*laid);
@@ -335,33 +396,46 @@ struct LaidOut {
 // camera that sees the point, its colour and its id; fewer cameras than
 // layers leave the deeper layers empty; what no camera sees is the hole
 // colour.
-TEST(TextureLayers, EachLayerHoldsTheNextMostDirectCameraThatSeesThePoint) {
+// Both layouts: a square per pair of triangles, and charts.
+class TextureLayers : public ::testing::TestWithParam<bool> {};
+
+TEST_P(TextureLayers, EachLayerHoldsTheNextMostDirectCameraThatSeesThePoint) {
   const PaintedSphere scene(4);
-  LaidOut laid(scene);
+  LaidOut laid(scene, GetParam() ? chartOptions() : latticeOptions());
   const Mesh& mesh = laid.mesh;
   const TextureAtlas& atlas = laid.atlas;
   const auto& cells = laid.cells;
   ASSERT_TRUE(cells.has_value());
   LayerOptions options;
   options.layers = 6;  // more than the 4 cameras
-  auto built = buildTextureLayers(mesh, *cells, atlas.texels(), atlas.squareTexels(), scene.views(),
-                                  options);
+  auto built = buildTextureLayers(mesh, atlas.texels(), scene.views(), options);
   ASSERT_TRUE(built.isOk()) << built.status().toString();
   ASSERT_EQ(built->layers.size(), 6u);
   EXPECT_GT(built->texels_seen, built->texels_covered / 2);
   EXPECT_LT(built->texels_seen, built->texels_covered) << "the poles face no camera";
   uint64_t checked = 0, holes = 0;
   double error = 0;
+  size_t inside = 0;
   for (size_t t = 0; t < mesh.triangleCount(); ++t) {
-    const AtlasCell& cell = (*cells)[t];
-    const auto inner = innerTriangleTexels(cell, atlas.squareTexels());
-    // The inner triangle's centroid: a point of triangle t.
-    const glm::dvec2 at = (inner[0] + inner[1] + inner[2]) / 3.0;
+    // The texel under the triangle's centroid in the atlas, when its centre
+    // lies inside the triangle's footprint: it holds a point of triangle t,
+    // at the centre's barycentrics.
+    std::array<glm::dvec2, 3> uv;
+    for (int k = 0; k < 3; ++k)
+      uv[k] = glm::dvec2(mesh.corner_uvs[3 * t + k]) * double(atlas.texels());
+    const glm::dvec2 at = (uv[0] + uv[1] + uv[2]) / 3.0;
     const uint32_t x = static_cast<uint32_t>(at.x), y = static_cast<uint32_t>(at.y);
+    const glm::dvec2 e0 = uv[1] - uv[0], e1 = uv[2] - uv[0],
+                     d = glm::dvec2(x + 0.5, y + 0.5) - uv[0];
+    const double det = e0.x * e1.y - e1.x * e0.y;
+    const double b1 = (d.x * e1.y - e1.x * d.y) / det, b2 = (e0.x * d.y - d.x * e0.y) / det;
+    const glm::dvec3 b(1 - b1 - b2, b1, b2);
+    if (!(b.x >= 0 && b.y >= 0 && b.z >= 0)) continue;
+    ++inside;
     glm::dvec3 point(0.0), normal(0.0);
     for (int k = 0; k < 3; ++k) {
-      point += glm::dvec3(mesh.positions[mesh.indices[3 * t + k]]) / 3.0;
-      normal += glm::dvec3(mesh.normals[mesh.indices[3 * t + k]]);
+      point += b[k] * glm::dvec3(mesh.positions[mesh.indices[3 * t + k]]);
+      normal += b[k] * glm::dvec3(mesh.normals[mesh.indices[3 * t + k]]);
     }
     normal = glm::normalize(normal);
     double previous = 2.0;
@@ -393,31 +467,37 @@ TEST(TextureLayers, EachLayerHoldsTheNextMostDirectCameraThatSeesThePoint) {
     }
     EXPECT_EQ(built->layers[4].at(x, y)[3], kNoLayerCamera) << "a fifth camera of four";
   }
-  ASSERT_GT(checked, mesh.triangleCount() / 2);
+  ASSERT_GT(inside, mesh.triangleCount() / 4);
+  ASSERT_GT(checked, inside / 2);
   EXPECT_GT(holes, 0u);
   // The hull is the sphere within a fraction of a voxel: the best camera's
   // colour is the paint at the point within a few levels.
   EXPECT_LT(error / checked, 6.0);
+  // Charts fold little of a sphere onto itself.
+  EXPECT_LT(built->texels_contested, built->texels_covered / 100);
 }
 
-TEST(TextureLayers, InputsThatDisagreeAreRefusedByName) {
+INSTANTIATE_TEST_SUITE_P(Layouts, TextureLayers, ::testing::Values(false, true),
+                         [](const auto& info) { return info.param ? "Charts" : "Squares"; });
+
+TEST(TextureLayersInputs, InputsThatDisagreeAreRefusedByName) {
   const PaintedSphere scene(2);
   LaidOut laid(scene);
   ASSERT_TRUE(laid.cells.has_value());
-  auto build = [&](const std::vector<AtlasCell>& cells, const std::vector<LayerView>& views) {
-    return buildTextureLayers(laid.mesh, cells, laid.atlas.texels(), laid.atlas.squareTexels(),
-                              views);
-  };
   auto views = scene.views();
   const Image8 small(10, 10, 3);
   views[1].color = &small;
-  auto refused = build(*laid.cells, views);
+  auto refused = buildTextureLayers(laid.mesh, laid.atlas.texels(), views);
   ASSERT_FALSE(refused.isOk());
   EXPECT_NE(refused.status().toString().find("view 1"), std::string::npos);
-  EXPECT_FALSE(build({laid.cells->begin(), laid.cells->end() - 1}, scene.views()).isOk());
+  Mesh bare = laid.mesh;
+  bare.corner_uvs.pop_back();
+  refused = buildTextureLayers(bare, laid.atlas.texels(), scene.views());
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().toString().find("texture coordinates"), std::string::npos);
   // An empty mesh: layers of holes, no error.
   Mesh empty;
-  auto none = buildTextureLayers(empty, {}, 64, 8, scene.views());
+  auto none = buildTextureLayers(empty, 64, scene.views());
   ASSERT_TRUE(none.isOk());
   EXPECT_EQ(none->texels_covered, 0u);
 }

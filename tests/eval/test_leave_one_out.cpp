@@ -336,8 +336,8 @@ TEST(LeaveOneOut, ModeLayeredScoresNearTheImagesFromLayersOfTheOtherCameras) {
   const ModeResult& normal = result.modes.at("normal");
   const ModeResult& layered = result.modes.at("layered");
   EXPECT_EQ(layered.images, normal.images);
-  // Measured at 160x120, 8 cameras, one held out: 0.16 dB and 0.018 SSIM
-  // below (the atlas's resampling of small images).
+  // Measured at 160x120, 8 cameras, one held out, charts at 3 texels a
+  // voxel: 0.15 dB and 0.025 SSIM below (the atlas resamples small images).
   EXPECT_NEAR(layered.psnr_db, normal.psnr_db, 0.6);
   EXPECT_NEAR(layered.ssim, normal.ssim, 0.03);
   EXPECT_GT(layered.layers_ms, 0.0);

@@ -114,6 +114,8 @@ TextureBundle sampleLayeredBundle() {
   layers.squares_per_side = 8;
   layers.square_texels = 8;
   layers.lattice = {40, 41, 42};
+  layers.chart_cells = 4;
+  layers.texel_metres = 0.0066;
   layers.square_count = 5;
   layers.slots = bytes(9, 91);
   layers.camera_ids = {0, 2, 3};

@@ -68,8 +68,7 @@ struct PaintedSphere {
     for (const auto& v : views) sources.push_back({&v.camera, &v.color, &v.mask, nullptr});
     LayerOptions layer_options;
     layer_options.layers = layers;
-    auto built = buildTextureLayers(mesh, *cells, atlas.texels(), atlas.squareTexels(), sources,
-                                    layer_options);
+    auto built = buildTextureLayers(mesh, atlas.texels(), sources, layer_options);
     EXPECT_TRUE(built.isOk()) << built.status().toString();
     LayeredViews out;
     out.layers = std::move(built->layers);

@@ -40,7 +40,20 @@ struct AtlasOptions {
   // keys are absent or not lattice edges: then squares follow triangle
   // order, as in the paper, and nothing is kept between frames.
   glm::u64vec3 lattice{0};
+  // Charts instead of a square per pair of triangles: 0 for the paper's
+  // squares; n for a square per block of n^3 lattice cells and dominant
+  // axis of the triangles' normals, the triangles projected onto the
+  // square orthographically at texels_per_cell texels a lattice cell (the
+  // texel density is a knob, not a consequence of the triangle count).
+  // Needs the lattice and cell_size (the lattice's spacing, metres).
+  uint32_t chart_cells = 0;
+  double texels_per_cell = 3.0;
+  double cell_size = 0.0;
 };
+
+// Texels between a chart's projected triangles and its square's edge: two
+// charts' footprints stay further apart than a bilinear sample reaches.
+inline constexpr uint32_t kChartGutterTexels = 2;
 
 struct AtlasStats {
   uint32_t texels = 0;            // side of the texture this frame
@@ -60,6 +73,8 @@ struct AtlasLayout {
   uint32_t texels = 0, squares_per_side = 0, square_texels = 0;
   glm::u64vec3 lattice{0};
   std::vector<uint32_t> slots;
+  uint32_t chart_cells = 0;  // AtlasOptions::chart_cells
+  double texel_metres = 0;   // charts: metres of surface a texel spans
   bool keyed() const { return lattice.x > 0 && lattice.y > 0 && lattice.z > 0; }
 };
 
@@ -113,9 +128,5 @@ StatusOr<std::vector<uint32_t>> decodeAtlasSlots(std::span<const uint8_t> bytes,
 // further from the diagonal for bilinear sampling), in texels from the
 // atlas's top-left corner.
 std::array<glm::dvec2, 3> innerTriangleTexels(const AtlasCell& cell, uint32_t square_texels);
-
-// Whether texel (x, y) of the triangle's square belongs to its half: the
-// texels a bilinear sample of its inner triangle reads, and its border.
-bool texelInHalf(const AtlasCell& cell, uint32_t square_texels, uint32_t x, uint32_t y);
 
 }  // namespace holofuse

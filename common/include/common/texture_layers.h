@@ -46,6 +46,9 @@ struct TextureLayers {
   std::vector<Image8> layers;
   uint64_t texels_covered = 0;  // texels of the mesh's triangles
   uint64_t texels_seen = 0;     // of those, seen by at least one camera
+  // Texels inside two triangles' footprints (a layout that folds the
+  // surface onto itself): each holds one of the points.
+  uint64_t texels_contested = 0;
 };
 
 // Texture layers as a renderer takes them (Volino and Hilton 2016 section
@@ -65,16 +68,16 @@ inline constexpr size_t kMaxRenderedLayers = 16;
 Status checkLayeredViews(const LayeredViews& views);
 Status checkLayerCoordinates(const Mesh& mesh);
 
-// The atlas (TextureAtlas::layOut's cells, mesh.corner_uvs set) filled
-// from the views: every texel of a triangle's half square, its one-texel
-// border included so bilinear sampling reads the triangle's own colours
-// (Dong and Hollerer 2017, Fig. 4), is a point of the triangle; cameras
-// that see it (depth test, facing it, inside the mask) rank by the cosine
-// between the normal and the direction to the camera (Volino and Hilton
-// eq. 2), times the feather weight. Refused by name with more than 254
-// views or inputs that disagree.
-StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, const std::vector<AtlasCell>& cells,
-                                           uint32_t texels, uint32_t square_texels,
+// The atlas the mesh's corner_uvs point into (a texels-square texture)
+// filled from the views: each texel holds the point of the surface whose
+// triangle's footprint in the atlas is nearest, within the reach of a
+// bilinear sample (border texels included, so sampling reads the
+// triangle's own colours: Dong and Hollerer 2017, Fig. 4); cameras that
+// see the point (depth test, facing it, inside the mask) rank by the
+// cosine between the normal and the direction to the camera (Volino and
+// Hilton eq. 2), times the feather weight. Refused by name with more than
+// 254 views or inputs that disagree.
+StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
                                            const std::vector<LayerView>& views,
                                            const LayerOptions& options = {});
 

@@ -95,13 +95,13 @@ struct ModeResult {
   double ms_per_new_mesh = 0;  // median wall time of a render that follows a new mesh
   std::map<std::string, double> gpu_passes_ms;  // medians of the field passes' timestamps
   double ms_per_new_mesh_p95 = 0;               // the 95th percentile of ms_per_new_mesh's renders
+  metrics::RegionErrors regions;  // the squared error over every image, by where it sits
   // Bytes a frame takes on the client link in this mode: the scene's
   // (mesh, images, stats) for the modes of camera images; for mode
   // layered the mesh, the texture layers built from every camera and the
   // stats.
   double client_bytes_per_frame = 0;
   double layers_ms = 0;  // mode layered: median of the server's layer builds (0: other modes)
-  metrics::RegionErrors regions;  // the squared error over every image, by where it sits
 };
 
 // The share of the squared-error difference between normal and the mode

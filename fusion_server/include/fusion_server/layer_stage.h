@@ -24,6 +24,12 @@ struct LayerSettings {
   int layers = 3;                    // L (paper 001: three are enough)
   uint32_t atlas_texels = 1024;      // side of the atlas
   uint32_t atlas_max_texels = 4096;  // it grows up to this when the mesh needs it
+  // Charts (AtlasOptions::chart_cells): blocks of this many lattice cells a
+  // side per chart, at texels_per_cell; 0: a square per pair of triangles
+  // at atlas_texels (Dong and Hollerer 2017).
+  uint32_t chart_cells = 4;
+  double texels_per_cell = 3.0;
+  bool operator==(const LayerSettings&) const = default;
 };
 
 // What one frame's layers took and hold.
@@ -34,7 +40,8 @@ struct LayerStats {
 
 class LayerStage {
  public:
-  // The mesh (its vertex keys on the lattice of hull) laid out and its
+  // The mesh (its vertex keys on the lattice of hull; with charts, the mesh
+  // as the client decodes it, whose positions place the charts) laid out and its
   // layers built from views and encoded into bundle.layers, the encoded
   // bytes in storage; camera_ids names each view on the wire. Refused by
   // name, bundle untouched, when the mesh's keys are not the lattice's or
@@ -54,7 +61,7 @@ class LayerStage {
  private:
   std::optional<TextureAtlas> atlas_;
   glm::u64vec3 lattice_{0};
-  uint32_t atlas_texels_ = 0, atlas_max_texels_ = 0;
+  LayerSettings settings_;  // the atlas's
 };
 
 }  // namespace holofuse::fusion

@@ -181,6 +181,10 @@ constexpr size_t kMaxLayers = 16;
 struct BundleLayers {
   uint32_t texels = 0, squares_per_side = 0, square_texels = 0;
   std::array<uint32_t, 3> lattice{};
+  // 0: a square per pair of triangles; n: charts of n^3 lattice cells per
+  // dominant axis, texel_metres of surface a texel.
+  uint8_t chart_cells = 0;
+  double texel_metres = 0;
   uint32_t square_count = 0;
   std::span<const uint8_t> slots;          // encodeAtlasSlots
   std::vector<uint32_t> camera_ids;        // what a camera plane's index names
