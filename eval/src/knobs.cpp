@@ -67,6 +67,10 @@ std::vector<Knob> makeKnobs() {
                                                        {"lz4-hc-level", "--lz4-hc-level"},
                                                        {"crop-margin", "--crop-margin"},
                                                        {"image-codec", "--image-codec"},
+                                                       {"layers", "--layers"},
+                                                       {"chart-cells", "--chart-cells"},
+                                                       {"texels-per-voxel", "--texels-per-voxel"},
+                                                       {"atlas-size", "--atlas-size"},
                                                        {"vertex-precision", "--vertex-precision"}};
   std::vector<Knob> knobs;
   for (const auto& [name, flag] : named) {

@@ -117,11 +117,16 @@ std::string primaryMode(const EvalOptions& options) {
   return options.modes.empty() ? "montage4d" : render::blendModeName(options.modes.back());
 }
 
+double clientBytes(const SceneResult& result, const ModeResult& mode) {
+  return mode.client_bytes_per_frame > 0 ? mode.client_bytes_per_frame : result.bytes_per_frame;
+}
+
 double pipelineMs(const SceneResult& result, const std::string& mode, bool p95) {
   const auto it = result.modes.find(mode);
+  // Mode layered adds the server's layer stage (its median in both).
   const double client = it == result.modes.end() ? 0.0
-                        : p95                    ? it->second.ms_per_new_mesh_p95
-                                                 : it->second.ms_per_new_mesh;
+                        : p95 ? it->second.ms_per_new_mesh_p95 + it->second.layers_ms
+                              : it->second.ms_per_new_mesh + it->second.layers_ms;
   return (p95 ? result.hull_ms_p95 + result.refine_ms_p95 + result.codec_ms_p95
               : result.hull_ms + result.refine_ms + result.codec_ms) +
          client;
@@ -314,7 +319,7 @@ StatusOr<std::vector<SweepPoint>> sweepPoints(
                       "[%zu/%zu] %s=%s%s: PSNR %.2f dB, SSIM %.4f, client %.0f ms, %.0f KB/frame",
                       done, total, name.c_str(), value.c_str(),
                       point.resumed ? " (already on disk)" : "", m.psnr_db, m.ssim,
-                      m.ms_per_new_mesh, point.result.bytes_per_frame / 1000.0);
+                      m.ms_per_new_mesh, clientBytes(point.result, m) / 1000.0);
         std::string text = line;
         if (point.live) {
           std::snprintf(line, sizeof(line), "; live end-to-end p50 %.0f ms, p95 %.0f ms, %.1f fps",

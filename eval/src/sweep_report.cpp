@@ -81,7 +81,7 @@ Status writeSweepReports(const SweepOptions& options, const std::vector<SweepPoi
       const Cost client = timeCost(m.ms_per_new_mesh, m.ms_per_new_mesh_p95);
       const Cost pipeline =
           timeCost(pipelineMs(p->result, mode), pipelineMs(p->result, mode, true));
-      const Cost bytes = bytesCost(p->result.bytes_per_frame);
+      const Cost bytes = bytesCost(clientBytes(p->result, m));
       const Cost pod_bytes = bytesCost(p->result.pod_link_bytes_per_frame);
       by_client.push_back({m.psnr_db, {client}});
       by_pipeline.push_back({m.psnr_db, {pipeline}});
@@ -149,7 +149,7 @@ Status writeSweepReports(const SweepOptions& options, const std::vector<SweepPoi
            {"client_ms_p95", m.ms_per_new_mesh_p95},
            {"pipeline_ms", pipelineMs(p.result, mode)},
            {"pipeline_ms_p95", pipelineMs(p.result, mode, true)},
-           {"bytes_per_frame", p.result.bytes_per_frame},
+           {"bytes_per_frame", clientBytes(p.result, m)},
            {"pod_link_bytes_per_frame", p.result.pod_link_bytes_per_frame},
            {"on_front", onFront(i)},
            {"budget_violations", violations},
@@ -163,7 +163,7 @@ Status writeSweepReports(const SweepOptions& options, const std::vector<SweepPoi
       std::snprintf(cells[1], sizeof(cells[1]), "%.4f", m.ssim);
       std::snprintf(cells[2], sizeof(cells[2]), "%.1f", m.ms_per_new_mesh);
       std::snprintf(cells[3], sizeof(cells[3]), "%.1f", pipelineMs(p.result, mode));
-      std::snprintf(cells[4], sizeof(cells[4]), "%.0f", p.result.bytes_per_frame / 1000.0);
+      std::snprintf(cells[4], sizeof(cells[4]), "%.0f", clientBytes(p.result, m) / 1000.0);
       std::snprintf(cells[5], sizeof(cells[5]), "%.0f", p.result.pod_link_bytes_per_frame / 1000.0);
       char live_cell[48] = "not run";
       if (p.live) {

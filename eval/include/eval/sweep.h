@@ -85,6 +85,10 @@ std::string sweptSubject(const SweepOptions& options);
 
 // The mode whose quality the trade-off plots (the last of the modes asked for).
 std::string primaryMode(const EvalOptions& options);
+// The bytes a frame takes to a client of the mode (texture layers for
+// mode layered, the scene's images otherwise; a result written before
+// the modes counted their own: the scene's).
+double clientBytes(const SceneResult& result, const ModeResult& mode);
 
 // Hull + codecs + client ms per new mesh: the per-frame work that moves
 // with the knobs; at p50, or at p95 (each part's p95, added).
