@@ -187,8 +187,18 @@ StatusOr<DecodedLayers> layersOfBundle(const protocol::BundleLayers& layers,
   out.layout.lattice = glm::u64vec3(layers.lattice[0], layers.lattice[1], layers.lattice[2]);
   out.layout.chart_cells = layers.chart_cells;
   out.layout.texel_metres = layers.texel_metres;
-  if (layers.texels < kMinAtlasTexels || layers.texels > kMaxAtlasTexels)
-    return malformed("an atlas of " + std::to_string(layers.texels) + " texels");
+  // The server's atlas grows to 4096 at most (fusion flags): past that a
+  // bundle would make the client hold gigabytes of layers.
+  if (layers.texels < kMinAtlasTexels || layers.texels > kMaxLayerAtlasTexels)
+    return malformed("an atlas of " + std::to_string(layers.texels) + " texels, not " +
+                     std::to_string(kMinAtlasTexels) + ".." + std::to_string(kMaxLayerAtlasTexels));
+  if (layers.squares_per_side == 0 ||
+      uint64_t{layers.squares_per_side} * layers.square_texels > layers.texels ||
+      layers.square_count > uint64_t{layers.squares_per_side} * layers.squares_per_side)
+    return malformed(std::to_string(layers.square_count) + " squares in a grid of " +
+                     std::to_string(layers.squares_per_side) + " a side of " +
+                     std::to_string(layers.square_texels) + " texels in " +
+                     std::to_string(layers.texels));
   auto slots = decodeAtlasSlots(layers.slots, layers.square_count);
   if (!slots.isOk()) return slots.status();
   out.layout.slots = std::move(*slots);

@@ -58,6 +58,18 @@ HOLOFUSE_FUZZ_TARGET(client_texture_bundle) {
   const protocol::Frame frame =
       frameAround(protocol::MessageType::kTextureBundle, minorOf(data[0]), {data + 1, size - 1});
   if (!protocol::decodeFrame(frame, bundle).isOk()) return 0;
+  if (bundle.layers) {
+    // Mode layered's side of the bundle (protocol 1.5).
+    auto layers = render::layersOfBundle(*bundle.layers, rig);
+    if (layers.isOk()) {
+      ++accepted()["client_texture_bundle_layers"];
+      require(checkLayeredViews(layers->views).isOk(), "accepted layers pass the renderer's check");
+      require(layers->views.camera_centers.size() == bundle.layers->camera_ids.size(),
+              "a centre for every layer camera");
+      require(layers->layout.slots.size() == bundle.layers->square_count,
+              "a slot for every square the bundle states");
+    }
+  }
   auto views = render::viewsOfBundle(bundle, rig);
   if (!views.isOk()) return 0;
   ++accepted()["client_texture_bundle"];

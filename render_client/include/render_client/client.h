@@ -81,6 +81,7 @@ StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& b
 // error names what is wrong: a plane that does not decode or is not the
 // atlas's RGB or camera plane, a camera id without a calibration, slots
 // that do not decode.
+inline constexpr uint32_t kMaxLayerAtlasTexels = 4096;
 struct DecodedLayers {
   LayeredViews views;
   AtlasLayout layout;
