@@ -283,7 +283,17 @@ void Renderer::setLayers(const LayeredViews& layers) {
     throw std::invalid_argument(usable.message());
   // The descriptor set is first written with the view resources: a client
   // that receives only layers gets a one-pixel stand-in for the images.
-  if (images_.image == VK_NULL_HANDLE) ensureViewResources(1, 1, 1);
+  if (images_.image == VK_NULL_HANDLE) {
+    ensureViewResources(1, 1, 1);
+    // Never uploaded, but bound: in the layout the descriptors name.
+    ctx_.submitAndWait([&](VkCommandBuffer cmd) {
+      for (const Image* image : {&images_, &feathers_}) {
+        transitionImage(cmd, *image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                        VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, 0, VK_ACCESS_SHADER_READ_BIT,
+                        VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
+      }
+    });
+  }
   const uint32_t texels = layers.layers.front().width;
   const uint32_t count = static_cast<uint32_t>(layers.layers.size());
   ensureLayerImage(texels, count);
