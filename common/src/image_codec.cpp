@@ -4,6 +4,7 @@
 #include <lz4hc.h>
 
 #include <algorithm>
+#include <stdexcept>
 #include <string>
 
 namespace holofuse {
@@ -85,6 +86,11 @@ protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, Codec
       lz4Into(filtered.data(), filtered.size(), storage, acceleration, hc_level);
       break;
     }
+    case Codec::kH264:
+    case Codec::kHevc:
+    case Codec::kAv1:
+      // A video frame depends on its stream's earlier frames.
+      throw std::logic_error("encodePlane: video is coded by a LayerVideoEncoder");
   }
   plane.data = storage;
   return plane;
@@ -136,6 +142,11 @@ StatusOr<Image8> decodePlane(const protocol::Plane& plane) {
       if (plane.codec == Codec::kLz4PlanarDelta) undoPlanarDelta(scratch, image);
       return image;
     }
+    case Codec::kH264:
+    case Codec::kHevc:
+    case Codec::kAv1:
+      return Status(StatusCode::kMalformed,
+                    which + ": a video frame decodes only in its stream (LayerVideoDecoder)");
   }
   return Status(StatusCode::kMalformed, which + ": unknown codec");
 }
@@ -153,6 +164,12 @@ std::string imageCodecName(Codec codec) {
       return "lz4";
     case Codec::kLz4PlanarDelta:
       return "lz4-delta";
+    case Codec::kH264:
+      return "h264";
+    case Codec::kHevc:
+      return "hevc";
+    case Codec::kAv1:
+      return "av1";
   }
   return "unknown codec " + std::to_string(static_cast<int>(codec));
 }

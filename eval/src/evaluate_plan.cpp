@@ -171,13 +171,22 @@ EvaluationPlan novelPlan(const std::vector<Camera>& poses) {
   return plan;
 }
 
+// What the server's layer stages cost for one frame.
+struct LayeredFrameCost {
+  size_t bytes = 0;  // the TextureBundle on the wire
+  double layers_ms = 0, video_ms = 0;
+};
+
 // Mode layered as the loop runs it: the server's layer stage builds the
-// frame's texture layers from views (its atlas kept from frame to frame
-// in stage), and the client decodes them and places the atlas on the mesh
-// from the layout. Returns the TextureBundle's bytes on the wire.
-StatusOr<size_t> layeredFrame(const EvalOptions& options, fusion::LayerStage& stage,
-                              const Mesh& mesh, const std::vector<render::ViewImages>& views,
-                              uint64_t frame_id, Mesh* placed, LayeredViews* layers) {
+// frame's texture layers from views (its atlas and video streams kept from
+// frame to frame in stage) and codes them (as video under --layer-video),
+// and the client decodes them (its video streams in streams) and places
+// the atlas on the mesh from the layout.
+StatusOr<LayeredFrameCost> layeredFrame(const EvalOptions& options, fusion::LayerStage& stage,
+                                        const Mesh& mesh,
+                                        const std::vector<render::ViewImages>& views,
+                                        uint64_t frame_id, render::LayerStreams* streams,
+                                        Mesh* placed, LayeredViews* layers) {
   std::vector<LayerView> sources;
   std::vector<uint32_t> camera_ids;
   std::map<uint32_t, Camera> cameras;
@@ -193,17 +202,27 @@ StatusOr<size_t> layeredFrame(const EvalOptions& options, fusion::LayerStage& st
   protocol::TextureBundle bundle;
   bundle.frame_id = frame_id;
   std::deque<std::vector<uint8_t>> storage;
-  HOLOFUSE_RETURN_IF_ERROR(stage.build(mesh, sources, camera_ids, hull, fusion.layers,
-                                       fusion.image_codec, fusion.lz4_acceleration,
-                                       fusion.lz4_hc_level, bundle, storage));
-  const size_t bytes = protocol::encodeFrame(bundle, 0).size();
-  if (placed == nullptr) return bytes;
+  LayeredFrameCost cost;
+  const auto t0 = Clock::now();
+  HOLOFUSE_RETURN_IF_ERROR(stage.build(mesh, sources, camera_ids, hull, fusion.layers));
+  if (isVideoCodec(fusion.layers.video.codec)) {
+    cost.layers_ms = msSince(t0);
+    const auto t1 = Clock::now();
+    HOLOFUSE_RETURN_IF_ERROR(stage.encodeVideo(false, bundle, storage));
+    cost.video_ms = msSince(t1);
+  } else {
+    stage.encodeLz4(fusion.image_codec, fusion.lz4_acceleration, fusion.lz4_hc_level, bundle,
+                    storage);
+    cost.layers_ms = msSince(t0);
+  }
+  cost.bytes = protocol::encodeFrame(bundle, 0).size();
+  if (placed == nullptr) return cost;
   HOLOFUSE_ASSIGN_OR_RETURN(render::DecodedLayers decoded,
-                            render::layersOfBundle(*bundle.layers, cameras));
+                            render::layersOfBundle(*bundle.layers, cameras, streams));
   *placed = mesh;
   HOLOFUSE_RETURN_IF_ERROR(applyAtlasLayout(*placed, decoded.layout).status());
   *layers = std::move(decoded.views);
-  return bytes;
+  return cost;
 }
 
 Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
@@ -274,7 +293,7 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
     double seam_sum = 0;
     size_t seam_images = 0;
     const bool layered = mode == render::BlendMode::kLayered;
-    std::vector<double> layers_ms;
+    std::vector<double> layers_ms, layer_video_ms;
     // What the client link carries in this mode: the loop's frames, or for
     // layers the mesh, the layers of every camera (as the live server
     // builds them) and the stats.
@@ -282,13 +301,13 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
     if (layered) {
       fusion::LayerStage stage;
       for (const FrameData& frame : input.frames) {
-        const auto t0 = Clock::now();
-        HOLOFUSE_ASSIGN_OR_RETURN(const size_t bytes,
+        HOLOFUSE_ASSIGN_OR_RETURN(const LayeredFrameCost cost,
                                   layeredFrame(options, stage, frame.mesh, frame.views,
-                                               frame.frame_id, nullptr, nullptr));
-        layers_ms.push_back(msSince(t0));
+                                               frame.frame_id, nullptr, nullptr, nullptr));
+        layers_ms.push_back(cost.layers_ms);
+        if (cost.video_ms > 0) layer_video_ms.push_back(cost.video_ms);
         m.client_bytes_per_frame +=
-            static_cast<double>(frame.client_link_bytes - frame.bundle_bytes + bytes) /
+            static_cast<double>(frame.client_link_bytes - frame.bundle_bytes + cost.bytes) /
             static_cast<double>(frame_count);
       }
     } else {
@@ -300,8 +319,10 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
       const ViewSequence& sequence = plan.sequences[static_cast<size_t>(s)];
       const Camera& pose = sequence.pose;
       // Mode layered: the layers of the cameras this view may use, the
-      // atlas kept over the sequence's frames as the server keeps it.
+      // atlas and video streams kept over the sequence's frames as the
+      // server and a client keep them.
       fusion::LayerStage layer_stage;
+      render::LayerStreams layer_streams;
       render::Renderer renderer(context, pose.width, pose.height);
       renderer.setHalfPrecisionVertices(options.loop.render.half_precision_vertices);
       render::BlendSettings settings = options.loop.render.blend;
@@ -319,8 +340,8 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
         if (layered) {
           Mesh placed;
           LayeredViews layers;
-          const auto built =
-              layeredFrame(options, layer_stage, mesh, others, frame.frame_id, &placed, &layers);
+          const auto built = layeredFrame(options, layer_stage, mesh, others, frame.frame_id,
+                                          &layer_streams, &placed, &layers);
           if (!built.isOk())
             return Status(built.status().code(), result.name + ", frame " +
                                                      std::to_string(frame.frame_id) + ": " +
@@ -421,6 +442,7 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
     m.ms_per_new_mesh = median(mesh_ms);
     m.ms_per_new_mesh_p95 = percentile95(mesh_ms);
     m.layers_ms = layers_ms.empty() ? 0.0 : median(layers_ms);
+    m.layer_video_ms = layer_video_ms.empty() ? 0.0 : median(layer_video_ms);
     for (const auto& [pass, values] : passes) m.gpu_passes_ms[pass] = median(values);
   }
   if (compared > 0) {

@@ -71,6 +71,8 @@ std::vector<Knob> makeKnobs() {
                                                        {"chart-cells", "--chart-cells"},
                                                        {"texels-per-voxel", "--texels-per-voxel"},
                                                        {"atlas-size", "--atlas-size"},
+                                                       {"layer-video", "--layer-video"},
+                                                       {"layer-video-crf", "--layer-video-crf"},
                                                        {"vertex-precision", "--vertex-precision"}};
   std::vector<Knob> knobs;
   for (const auto& [name, flag] : named) {

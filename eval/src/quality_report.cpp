@@ -168,15 +168,17 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
         "cover (grey levels "
         "per pixel; lower is less visible; n/a: no seam in view).\n\n## Client link and server "
         "layers\n\n";
-  modeTable({"KB/frame", "layers ms"}, [&](const ModeResult& m) -> std::vector<std::string> {
-    char v[2][32];
-    std::snprintf(v[0], sizeof(v[0]), "%.1f", m.client_bytes_per_frame / 1000.0);
-    std::snprintf(v[1], sizeof(v[1]), "%.1f", m.layers_ms);
-    return {v[0], m.layers_ms > 0 ? v[1] : "-"};
-  });
+  modeTable({"KB/frame", "layers ms", "video ms"},
+            [&](const ModeResult& m) -> std::vector<std::string> {
+              char v[3][32];
+              std::snprintf(v[0], sizeof(v[0]), "%.1f", m.client_bytes_per_frame / 1000.0);
+              std::snprintf(v[1], sizeof(v[1]), "%.1f", m.layers_ms);
+              std::snprintf(v[2], sizeof(v[2]), "%.1f", m.layer_video_ms);
+              return {v[0], m.layers_ms > 0 ? v[1] : "-", m.layer_video_ms > 0 ? v[2] : "-"};
+            });
   md << "\nKB/frame: what a client of the mode receives per frame (mesh, images or texture layers, "
-        "stats). layers ms: the server's layer stage (layout, layers, compression), median; `-`: "
-        "the mode sends camera images.\n\n";
+        "stats). layers ms: the server's layer stage (layout, layers, LZ4), median; video ms: its "
+        "video coding of the layers' colour (--layer-video), median; `-`: not in this mode.\n\n";
   md << "## Where the errors differ\n\nPSNR per region over every image (the squared error "
         "pooled), and the share of "
         "the squared-error difference from normal that each region carries (the shares sum to "

@@ -50,6 +50,7 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
                         {"ms_per_new_mesh_p95", m.ms_per_new_mesh_p95},
                         {"client_bytes_per_frame", m.client_bytes_per_frame},
                         {"layers_ms", m.layers_ms},
+                        {"layer_video_ms", m.layer_video_ms},
                         {"gpu_passes_ms", m.gpu_passes_ms}};
     for (size_t r = 0; r < kErrorRegionCount; ++r) {
       const double samples = 3.0 * static_cast<double>(m.regions.pixels[r]);
@@ -116,6 +117,7 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
     r.ms_per_new_mesh_p95 = m.value("ms_per_new_mesh_p95", r.ms_per_new_mesh);
     r.client_bytes_per_frame = m.value("client_bytes_per_frame", 0.0);
     r.layers_ms = m.value("layers_ms", 0.0);
+    r.layer_video_ms = m.value("layer_video_ms", 0.0);
     r.gpu_passes_ms = m.at("gpu_passes_ms").get<std::map<std::string, double>>();
     if (m.contains("regions")) {
       for (size_t k = 0; k < kErrorRegionCount; ++k) {

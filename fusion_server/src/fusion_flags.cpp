@@ -1,4 +1,5 @@
 #include "common/image_codec.h"
+#include "common/layer_video.h"
 #include "fusion_server/fusion_worker.h"
 
 namespace holofuse::fusion {
@@ -39,7 +40,34 @@ const std::vector<Setting<FusionSettings>>& fusionFlags() {
         numberSetting<S>("--texels-per-voxel",
                          "layers' atlas with charts: texels a hull voxel spans (the layers' "
                          "resolution)",
-                         0.25, 16, [](S& s) -> double& { return s.layers.texels_per_cell; })};
+                         0.25, 16, [](S& s) -> double& { return s.layers.texels_per_cell; }),
+        choiceSetting<S>(
+            "--layer-video",
+            "the layers' colour as video for the clients that decode it (protocol 1.6): "
+            "h264, hevc or av1; off: LZ4 as the images",
+            [] {
+              std::vector<std::string> names = layerVideoCodecNames();
+              names.push_back("off");
+              return names;
+            }(),
+            [](S& s, const std::string& name) {
+              s.layers.video.codec = layerVideoCodecFromName(name).value_or(protocol::Codec::kLz4);
+            },
+            [](const S& s) {
+              return isVideoCodec(s.layers.video.codec) ? layerVideoCodecName(s.layers.video.codec)
+                                                        : std::string("off");
+            }),
+        numberSetting<S>("--layer-video-crf",
+                         "the layers' video quality: lower is better and larger (H.264 and HEVC "
+                         "0-51, AV1 0-63)",
+                         0, 63, [](S& s) -> int& { return s.layers.video.crf; }),
+        numberSetting<S>("--layer-video-key-interval",
+                         "frames between the layers' video key frames at most", 1, 600,
+                         [](S& s) -> int& { return s.layers.video.key_interval; }),
+        onOffSetting<S>(
+            "--layer-video-444",
+            "the layers' video in 4:4:4 instead of 4:2:0 (colour kept at chart borders)",
+            [](S& s) -> bool& { return s.layers.video.full_chroma; })};
     for (Setting<S>& setting :
          imageEncodingSettings<S>("--image-codec", "colour codec of the images sent on",
                                   [](S& s) -> protocol::Codec& { return s.image_codec; }))

@@ -275,12 +275,18 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
   peer.minor = ack.minor;
   peer.wants_layers = hello.role == protocol::Role::kClient && ack.minor >= 5 &&
                       (hello.capabilities & protocol::kCapabilityLayers) != 0;
+  peer.wants_layer_video = peer.wants_layers && ack.minor >= 6 &&
+                           (hello.capabilities & protocol::kCapabilityLayerVideo) != 0 &&
+                           isVideoCodec(options_.fusion.layers.video.codec);
   peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
                                std::to_string(hello.id) + " (" + peer.connection->peerName() + ")");
   peer.connection->sendMessage(ack);
   std::fprintf(stderr, "[server] %s joined, protocol %u.%u%s%s\n",
                peer.connection->peerName().c_str(), ack.major, ack.minor,
-               options_.keys ? ", authenticated" : "", peer.wants_layers ? ", texture layers" : "");
+               options_.keys ? ", authenticated" : "",
+               peer.wants_layer_video ? ", texture layers as video"
+               : peer.wants_layers    ? ", texture layers"
+                                      : "");
   if (peer.role == protocol::Role::kClient) {
     for (const auto& [id, bytes] : calibration_frames_) peer.connection->send(bytes);
   }
@@ -473,9 +479,15 @@ void FusionServer::closePeer(size_t index, const Status& why) {
 void FusionServer::dispatchReadyGroups() {
   for (auto& group : sync_.takeReady(expectedPods(), monotonicNs())) {
     if (group.pods.empty()) continue;
-    // Layers are built only while a client that asked for them is here.
-    worker_->setLayersWanted(std::any_of(
-        peers_.begin(), peers_.end(), [](const Peer& p) { return p.greeted && p.wants_layers; }));
+    // Layers are built only while a client that asked for them is here,
+    // coded as each such client decodes them.
+    bool lz4 = false, video = false;
+    for (const Peer& p : peers_) {
+      if (!p.greeted || !p.wants_layers) continue;
+      (p.wants_layer_video ? video : lz4) = true;
+      if (p.wants_layer_video && !p.layer_video_in_step) worker_->requestLayerVideoKeyFrame();
+    }
+    worker_->setLayersWanted(lz4, video);
     GroupJob job;
     job.group = std::move(group);
     job.late_frames = sync_.lateFrames();
@@ -499,15 +511,31 @@ void FusionServer::fanOut() {
       // Bundle and Stats first: the client renders when the mesh arrives.
       // A client that asked for layers gets the images of a frame whose
       // layers were refused (the Stats' note says why).
-      peer.connection->send(peer.wants_layers && out.texture_bundle_layers
-                                ? out.texture_bundle_layers
-                            : peer.minor >= 3 ? out.texture_bundle
-                            : peer.minor == 2 ? out.texture_bundle_v1_2
-                                              : out.texture_bundle_v1_1);
+      protocol::SharedFrame bundle = peer.minor >= 3   ? out.texture_bundle
+                                     : peer.minor == 2 ? out.texture_bundle_v1_2
+                                                       : out.texture_bundle_v1_1;
+      if (peer.wants_layer_video) {
+        // Its stream is in step from a key frame on, until a frame of it
+        // does not reach the client (refused layers, a drop on a slow link).
+        if (out.texture_bundle_layer_video) {
+          bundle = out.texture_bundle_layer_video;
+          if (out.layer_stats.video_key_frame) peer.layer_video_in_step = true;
+        } else {
+          peer.layer_video_in_step = false;
+        }
+      } else if (peer.wants_layers && out.texture_bundle_layers) {
+        bundle = out.texture_bundle_layers;
+      }
+      peer.connection->send(bundle);
       peer.connection->send(peer.minor >= 3   ? out.stats
                             : peer.minor >= 1 ? out.stats_v1_2
                                               : out.stats_v1_0);
       peer.connection->send(out.mesh_frame);
+      if (peer.connection->framesDropped() != peer.frames_dropped_seen) {
+        peer.frames_dropped_seen = peer.connection->framesDropped();
+        peer.layer_video_in_step = false;
+      }
+      if (peer.wants_layer_video && !peer.layer_video_in_step) worker_->requestLayerVideoKeyFrame();
     }
   }
 }

@@ -110,7 +110,8 @@ std::vector<Image8> colorsInFrame(const FrameGroup& group) {
   return colors;
 }
 
-FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings, LayerStage* layers) {
+FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
+                      const LayerRequest& layers) {
   const std::vector<hull::HullView> views = hullViewsOf(job.group);
   const uint64_t t0 = monotonicNs();
   const Mesh hull = hull::carveVisualHull(views, settings.hull);
@@ -132,7 +133,7 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings, Layer
 
 FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
                          uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns,
-                         LayerStage* layers) {
+                         const LayerRequest& layers) {
   const FrameGroup& group = job.group;
   FusedOutput out;
   out.frame_id = group.frame_id;
@@ -191,28 +192,42 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
                    {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0}};
   bundle_v1_1.stamps = bundle.stamps;
   // Texture layers in place of the images, for the clients that asked:
-  // laid out, filled and compressed in their own stage.
-  std::optional<protocol::TextureBundle> layered;
-  if (layers != nullptr) {
-    layered.emplace();
-    layered->frame_id = group.frame_id;
+  // laid out and filled in their own stage, the video coded in its own.
+  std::optional<protocol::TextureBundle> layered, layer_video;
+  if (layers.stage != nullptr && (layers.lz4 || layers.video)) {
     // Charts are placed by positions: the mesh as every client decodes it.
     StatusOr<Mesh> received =
         draco.isOk() ? decodeDraco(draco->data(), draco->size()) : StatusOr<Mesh>(draco.status());
-    const Status built =
-        !received.isOk()
-            ? received.status()
-            : layers->build(group, *received, settings.hull, settings.layers, settings.image_codec,
-                            settings.lz4_acceleration, settings.lz4_hc_level, *layered, *storage,
-                            &out.layer_stats);
+    Status built = !received.isOk() ? received.status()
+                                    : layers.stage->build(group, *received, settings.hull,
+                                                          settings.layers, &out.layer_stats);
     const uint64_t t4 = monotonicNs();
-    if (built.isOk()) {
-      layered->stamps = {{static_cast<uint16_t>(Stage::kLayers), kSourceServer, t3, t4},
-                         {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t4, 0}};
-    } else {
-      out.layers_note = built.message();
-      layered.reset();
+    if (built.isOk() && layers.lz4) {
+      layered.emplace();
+      layered->frame_id = group.frame_id;
+      layers.stage->encodeLz4(settings.image_codec, settings.lz4_acceleration,
+                              settings.lz4_hc_level, *layered, *storage);
     }
+    const uint64_t t5 = monotonicNs();
+    if (built.isOk() && layers.video) {
+      layer_video.emplace();
+      layer_video->frame_id = group.frame_id;
+      built = layers.stage->encodeVideo(layers.video_key_frame, *layer_video, *storage,
+                                        &out.layer_stats);
+      if (built.isOk()) {
+        const uint64_t t6 = monotonicNs();
+        layer_video->stamps = {{static_cast<uint16_t>(Stage::kLayers), kSourceServer, t3, t4},
+                               {static_cast<uint16_t>(Stage::kLayerVideo), kSourceServer, t5, t6},
+                               {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t6, 0}};
+      } else {
+        layer_video.reset();
+      }
+    }
+    if (layered) {
+      layered->stamps = {{static_cast<uint16_t>(Stage::kLayers), kSourceServer, t3, t5},
+                         {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t5, 0}};
+    }
+    if (!built.isOk()) out.layers_note = built.message();
   }
   stamps.push_back({static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0});
 
@@ -259,6 +274,9 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
       share(protocol::encodeOutgoing(bundle_v1_1, bundle_sequence, storage, 1));
   if (layered)
     out.texture_bundle_layers = share(protocol::encodeOutgoing(*layered, bundle_sequence, storage));
+  if (layer_video)
+    out.texture_bundle_layer_video =
+        share(protocol::encodeOutgoing(*layer_video, bundle_sequence, storage));
   out.texture_bundle_v1_2 =
       bundle.images.size() > protocol::kMaxCamerasBefore13
           ? share(protocol::encodeOutgoing(bundle, bundle_sequence, storage, 2))
@@ -333,7 +351,9 @@ void FusionWorker::run() {
     try {
       FusionSettings settings = settings_;
       if (voxel_) settings.hull.voxel_size = voxel_->voxel();
-      out = fuseGroup(job, settings, layers_wanted_ ? &layer_stage_ : nullptr);
+      LayerRequest layers{&layer_stage_, layers_lz4_, layers_video_, false};
+      if (layers.video) layers.video_key_frame = video_key_frame_.exchange(false);
+      out = fuseGroup(job, settings, layers);
       if (voxel_ && voxel_->observe(out.silhouette_error)) {
         std::fprintf(stderr,
                      "[server] hull voxel %.1f -> %.1f mm: silhouette error %.2f mm against the "

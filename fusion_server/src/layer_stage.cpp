@@ -6,9 +6,7 @@
 namespace holofuse::fusion {
 
 Status LayerStage::build(const FrameGroup& group, const Mesh& mesh, const hull::HullOptions& hull,
-                         const LayerSettings& settings, protocol::Codec image_codec,
-                         int lz4_acceleration, int lz4_hc_level, protocol::TextureBundle& bundle,
-                         std::deque<std::vector<uint8_t>>& storage, LayerStats* stats) {
+                         const LayerSettings& settings, LayerStats* stats) {
   // The whole images, in camera-id order: a layer texel's camera byte is
   // an index into this order (BundleLayers::camera_ids).
   const std::vector<hull::HullView> silhouettes = hullViewsOf(group);
@@ -22,15 +20,14 @@ Status LayerStage::build(const FrameGroup& group, const Mesh& mesh, const hull::
     camera_ids.push_back(camera_id);
     ++k;
   }
-  return build(mesh, views, camera_ids, hull, settings, image_codec, lz4_acceleration, lz4_hc_level,
-               bundle, storage, stats);
+  return build(mesh, views, camera_ids, hull, settings, stats);
 }
 
 Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
                          const std::vector<uint32_t>& camera_ids, const hull::HullOptions& hull,
-                         const LayerSettings& settings, protocol::Codec image_codec,
-                         int lz4_acceleration, int lz4_hc_level, protocol::TextureBundle& bundle,
-                         std::deque<std::vector<uint8_t>>& storage, LayerStats* stats) {
+                         const LayerSettings& settings, LayerStats* stats) {
+  colours_.clear();
+  cameras_.clear();
   if (camera_ids.size() != views.size())
     return Status(StatusCode::kMalformed, "texture layers: " + std::to_string(camera_ids.size()) +
                                               " camera ids for " + std::to_string(views.size()) +
@@ -38,7 +35,7 @@ Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
   // The lattice follows the hull's voxel (an error target changes it): a
   // new lattice names other patches, so the atlas starts afresh.
   const glm::u64vec3 lattice = hull::keyLattice(hull);
-  if (!atlas_ || lattice != lattice_ || !(settings == settings_)) {
+  if (!atlas_ || lattice != lattice_ || !settings.sameAtlas(settings_)) {
     AtlasOptions options;
     options.texels = settings.atlas_texels;
     options.max_texels = settings.atlas_max_texels;
@@ -48,20 +45,43 @@ Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
     options.cell_size = hull.voxel_size;
     atlas_.emplace(options);
     lattice_ = lattice;
-    settings_ = settings;
   }
+  // Streams of other settings start again (at a key frame).
+  if (!(settings.video == settings_.video)) streams_.clear();
+  settings_ = settings;
   Mesh laid = mesh;
   AtlasStats atlas_stats;
   HOLOFUSE_RETURN_IF_ERROR(atlas_->layOut(laid, &atlas_stats).status());
-  const AtlasLayout& layout = atlas_->layout();
-  if (!layout.keyed())
+  if (!atlas_->layout().keyed())
     return Status(StatusCode::kMalformed,
                   "texture layers: the mesh's vertex keys are not the hull's lattice");
   LayerOptions options;
   options.layers = settings.layers;
   HOLOFUSE_ASSIGN_OR_RETURN(const TextureLayers built,
-                            buildTextureLayers(laid, layout.texels, views, options));
+                            buildTextureLayers(laid, atlas_->layout().texels, views, options));
+  // RGB as the server sends colour; the camera byte as a plane of its own
+  // (runs of one camera compress well, and it must arrive exact).
+  for (const Image8& layer : built.layers) {
+    Image8 colour(layer.width, layer.height, 3), camera(layer.width, layer.height, 1);
+    for (size_t i = 0, n = size_t{layer.width} * layer.height; i < n; ++i) {
+      for (int c = 0; c < 3; ++c) colour.pixels[3 * i + c] = layer.pixels[4 * i + c];
+      camera.pixels[i] = layer.pixels[4 * i + 3];
+    }
+    colours_.push_back(std::move(colour));
+    cameras_.push_back(std::move(camera));
+  }
+  camera_ids_ = camera_ids;
+  if (stats != nullptr) {
+    stats->atlas = atlas_stats;
+    stats->texels_covered = built.texels_covered;
+    stats->texels_seen = built.texels_seen;
+  }
+  return Status::ok();
+}
 
+protocol::BundleLayers LayerStage::layoutOnTheWire(
+    std::deque<std::vector<uint8_t>>& storage) const {
+  const AtlasLayout& layout = atlas_->layout();
   protocol::BundleLayers out;
   out.texels = layout.texels;
   out.squares_per_side = layout.squares_per_side;
@@ -73,30 +93,50 @@ Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
   out.square_count = static_cast<uint32_t>(layout.slots.size());
   storage.push_back(encodeAtlasSlots(layout.slots));
   out.slots = storage.back();
-  out.camera_ids = camera_ids;
-  for (const Image8& layer : built.layers) {
-    // RGB as the server sends colour; the camera byte as a plane of its own
-    // (runs of one camera compress well).
-    Image8 colour(layer.width, layer.height, 3), camera(layer.width, layer.height, 1);
-    for (size_t i = 0, n = size_t{layer.width} * layer.height; i < n; ++i) {
-      for (int c = 0; c < 3; ++c) colour.pixels[3 * i + c] = layer.pixels[4 * i + c];
-      camera.pixels[i] = layer.pixels[4 * i + 3];
-    }
+  out.camera_ids = camera_ids_;
+  return out;
+}
+
+void LayerStage::encodeLz4(protocol::Codec image_codec, int lz4_acceleration, int lz4_hc_level,
+                           protocol::TextureBundle& bundle,
+                           std::deque<std::vector<uint8_t>>& storage) const {
+  protocol::BundleLayers out = layoutOnTheWire(storage);
+  for (size_t l = 0; l < colours_.size(); ++l) {
     std::vector<protocol::Plane> planes;
     storage.emplace_back();
-    planes.push_back(encodePlane(colour, protocol::PlaneKind::kColor, image_codec, storage.back(),
-                                 lz4_acceleration, lz4_hc_level));
+    planes.push_back(encodePlane(colours_[l], protocol::PlaneKind::kColor, image_codec,
+                                 storage.back(), lz4_acceleration, lz4_hc_level));
     storage.emplace_back();
-    planes.push_back(encodePlane(camera, protocol::PlaneKind::kCamera, protocol::Codec::kLz4,
+    planes.push_back(encodePlane(cameras_[l], protocol::PlaneKind::kCamera, protocol::Codec::kLz4,
                                  storage.back(), lz4_acceleration, lz4_hc_level));
     out.layers.push_back(std::move(planes));
   }
   bundle.layers = std::move(out);
-  if (stats != nullptr) {
-    stats->atlas = atlas_stats;
-    stats->texels_covered = built.texels_covered;
-    stats->texels_seen = built.texels_seen;
+}
+
+Status LayerStage::encodeVideo(bool key_frame, protocol::TextureBundle& bundle,
+                               std::deque<std::vector<uint8_t>>& storage, LayerStats* stats) {
+  if (!isVideoCodec(settings_.video.codec))
+    return Status(StatusCode::kMalformed, "texture layers: video is off (--layer-video off)");
+  protocol::BundleLayers out = layoutOnTheWire(storage);
+  while (streams_.size() < colours_.size())
+    streams_.push_back(std::make_unique<LayerVideoEncoder>(settings_.video));
+  bool key = false;
+  for (size_t l = 0; l < colours_.size(); ++l) {
+    std::vector<protocol::Plane> planes;
+    const uint64_t keys_before = streams_[l]->keyFrames();
+    storage.emplace_back();
+    HOLOFUSE_ASSIGN_OR_RETURN(protocol::Plane colour,
+                              streams_[l]->encode(colours_[l], key_frame, storage.back()));
+    key = key || streams_[l]->keyFrames() > keys_before;
+    planes.push_back(colour);
+    storage.emplace_back();
+    planes.push_back(encodePlane(cameras_[l], protocol::PlaneKind::kCamera, protocol::Codec::kLz4,
+                                 storage.back()));
+    out.layers.push_back(std::move(planes));
   }
+  bundle.layers = std::move(out);
+  if (stats != nullptr) stats->video_key_frame = key;
   return Status::ok();
 }
 

@@ -52,7 +52,10 @@ void writePlanes(WireWriter& w, const std::vector<Plane>& planes) {
   }
 }
 
-void readPlanes(WireReader& r, std::vector<Plane>& planes) {
+// max_codec: the highest codec id the field may hold (video codecs only in
+// a 1.6 bundle's layers).
+void readPlanes(WireReader& r, std::vector<Plane>& planes,
+                Codec max_codec = Codec::kLz4PlanarDelta) {
   const uint8_t n = r.u8("planes.count");
   if (n > kMaxPlanes) {
     r.failValue("planes.count", StatusCode::kTooLarge,
@@ -72,7 +75,7 @@ void readPlanes(WireReader& r, std::vector<Plane>& planes) {
       r.failValue("plane.kind", StatusCode::kMalformed, "unknown kind " + std::to_string(kind));
       return;
     }
-    if (codec > 2) {
+    if (codec > static_cast<uint8_t>(max_codec)) {
       r.failValue("plane.codec", StatusCode::kMalformed, "unknown codec " + std::to_string(codec));
       return;
     }
@@ -113,11 +116,11 @@ Status finish(const WireReader& r) { return r.status(); }
 const std::vector<uint16_t>& stagesInPipelineOrder() {
   static const std::vector<uint16_t> order = [] {
     std::vector<uint16_t> ids;
-    for (Stage s :
-         {Stage::kPodRender, Stage::kSegment, Stage::kFeather, Stage::kPodEncode,
-          Stage::kReplayRead, Stage::kSend, Stage::kServerDecode, Stage::kSyncWait, Stage::kHull,
-          Stage::kRefine, Stage::kMeshEncode, Stage::kLayers, Stage::kImageEncode, Stage::kFanout,
-          Stage::kDecode, Stage::kUpload, Stage::kRender, Stage::kWrite}) {
+    for (Stage s : {Stage::kPodRender, Stage::kSegment, Stage::kFeather, Stage::kPodEncode,
+                    Stage::kReplayRead, Stage::kSend, Stage::kServerDecode, Stage::kSyncWait,
+                    Stage::kHull, Stage::kRefine, Stage::kMeshEncode, Stage::kLayers,
+                    Stage::kLayerVideo, Stage::kImageEncode, Stage::kFanout, Stage::kDecode,
+                    Stage::kUpload, Stage::kRender, Stage::kWrite}) {
       ids.push_back(static_cast<uint16_t>(s));
     }
     return ids;
@@ -127,9 +130,9 @@ const std::vector<uint16_t>& stagesInPipelineOrder() {
 
 std::string stageName(uint16_t stage) {
   static const char* const kNames[] = {
-      "pod_render", "segment",     "feather",      "pod_encode",    "send",   "sync_wait",
-      "hull",       "mesh_encode", "image_encode", "fanout",        "decode", "upload",
-      "render",     "write",       "replay_read",  "server_decode", "refine", "layers"};
+      "pod_render",  "segment",       "feather", "pod_encode", "send",       "sync_wait", "hull",
+      "mesh_encode", "image_encode",  "fanout",  "decode",     "upload",     "render",    "write",
+      "replay_read", "server_decode", "refine",  "layers",     "layer_video"};
   if (stage >= kFirstStage && stage <= kLastStage) return kNames[stage - kFirstStage];
   return "stage_" + std::to_string(stage);
 }
@@ -407,7 +410,7 @@ Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t ba
   }
   layers.layers.resize(r.ok() ? layer_count : 0);
   for (auto& planes : layers.layers) {
-    readPlanes(r, planes);
+    readPlanes(r, planes, minor >= 6 ? Codec::kAv1 : Codec::kLz4PlanarDelta);
     if (!r.ok()) break;
   }
   return finish(r);

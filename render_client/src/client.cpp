@@ -176,7 +176,8 @@ StatusOr<std::vector<ViewImages>> viewsOfBundle(const protocol::TextureBundle& b
 }
 
 StatusOr<DecodedLayers> layersOfBundle(const protocol::BundleLayers& layers,
-                                       const std::map<uint32_t, Camera>& cameras) {
+                                       const std::map<uint32_t, Camera>& cameras,
+                                       LayerStreams* streams) {
   auto malformed = [](const std::string& what) {
     return Status(StatusCode::kMalformed, "texture layers: " + what);
   };
@@ -217,7 +218,14 @@ StatusOr<DecodedLayers> layersOfBundle(const protocol::BundleLayers& layers,
         return malformed("layer " + std::to_string(l) + " has a " + std::to_string(plane.width) +
                          "x" + std::to_string(plane.height) + " plane in an atlas of " +
                          std::to_string(layers.texels));
-      auto decoded = decodePlane(plane);
+      StatusOr<Image8> decoded = Status(StatusCode::kMalformed, "no stream to decode video in");
+      if (!isVideoCodec(plane.codec)) {
+        decoded = decodePlane(plane);
+      } else if (streams != nullptr && plane.kind == protocol::PlaneKind::kColor) {
+        while (streams->decoders.size() <= l)
+          streams->decoders.push_back(std::make_unique<LayerVideoDecoder>());
+        decoded = streams->decoders[l]->decode(plane);
+      }
       if (!decoded.isOk())
         return malformed("layer " + std::to_string(l) + ": " + decoded.status().message());
       (plane.kind == protocol::PlaneKind::kColor ? colour : camera) = std::move(*decoded);

@@ -210,7 +210,7 @@ class ClientLoop {
     const bool layered = options_.render.blend.mode == BlendMode::kLayered;
     std::optional<StatusOr<DecodedLayers>> layers;
     if (layered) {
-      layers.emplace(bundle.layers ? layersOfBundle(*bundle.layers, cameras_)
+      layers.emplace(bundle.layers ? layersOfBundle(*bundle.layers, cameras_, &layer_streams_)
                                    : StatusOr<DecodedLayers>(Status(
                                          StatusCode::kMalformed,
                                          "mode layered, and the bundle holds no texture layers")));
@@ -274,7 +274,8 @@ class ClientLoop {
                       protocol::stampedMs(bundle.stamps, Stage::kDecode);
     for (const auto& stamp : bundle.stamps) {
       if (stamp.stage == static_cast<uint16_t>(Stage::kImageEncode) ||
-          stamp.stage == static_cast<uint16_t>(Stage::kLayers))
+          stamp.stage == static_cast<uint16_t>(Stage::kLayers) ||
+          stamp.stage == static_cast<uint16_t>(Stage::kLayerVideo))
         ready.stamps.push_back(stamp);
     }
     renderer_.setMesh(*mesh);
@@ -403,6 +404,7 @@ class ClientLoop {
   std::optional<FrameJudge> judge_;
   const bool tty_;
   std::map<uint32_t, Camera> cameras_;
+  LayerStreams layer_streams_;  // the layers' video, kept from bundle to bundle
   std::map<uint64_t, PendingBundle> bundles_;
   std::map<uint64_t, FrameStats> stats_;
   std::set<uint64_t> failed_bundles_;  // ids already reported as skipped
@@ -454,9 +456,10 @@ int runClient(const ClientOptions& options) {
   hello.role = protocol::Role::kClient;
   hello.id = options.client_id;
   hello.name = "client-" + std::to_string(options.client_id);
-  // Mode layered receives texture layers in place of the camera images.
+  // Mode layered receives texture layers in place of the camera images
+  // (their colour as video where the server codes it, since 1.6).
   if (options.render.blend.mode == BlendMode::kLayered)
-    hello.capabilities |= protocol::kCapabilityLayers;
+    hello.capabilities |= protocol::kCapabilityLayers | protocol::kCapabilityLayerVideo;
   protocol::LinkOptions link_options;
   link_options.log_name = "client";
   link_options.key = options.key;

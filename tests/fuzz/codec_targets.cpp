@@ -59,8 +59,10 @@ HOLOFUSE_FUZZ_TARGET(client_texture_bundle) {
       frameAround(protocol::MessageType::kTextureBundle, minorOf(data[0]), {data + 1, size - 1});
   if (!protocol::decodeFrame(frame, bundle).isOk()) return 0;
   if (bundle.layers) {
-    // Mode layered's side of the bundle (protocol 1.5).
-    auto layers = render::layersOfBundle(*bundle.layers, rig);
+    // Mode layered's side of the bundle (protocol 1.5; its video, 1.6,
+    // through fresh streams: each input stands alone).
+    render::LayerStreams streams;
+    auto layers = render::layersOfBundle(*bundle.layers, rig, &streams);
     if (layers.isOk()) {
       ++accepted()["client_texture_bundle_layers"];
       require(checkLayeredViews(layers->views).isOk(), "accepted layers pass the renderer's check");

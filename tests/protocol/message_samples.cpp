@@ -126,6 +126,17 @@ TextureBundle sampleLayeredBundle() {
   m.layers = std::move(layers);
   return m;
 }
+TextureBundle sampleLayerVideoBundle() {
+  TextureBundle m = sampleLayeredBundle();
+  // The stream's header (sequence 7, a key frame) and a few bytes of
+  // bitstream: the wire carries them as they are.
+  static const std::vector<uint8_t> frame = {7, 0, 0, 0, 1, 0, 0, 0, 1, 0x65, 0x88, 0x84};
+  for (auto& planes : m.layers->layers) {
+    planes[0].codec = Codec::kH264;
+    planes[0].data = frame;
+  }
+  return m;
+}
 
 Stats sampleStats() {
   Stats m;
@@ -160,6 +171,9 @@ std::vector<Sample> allSamples(uint8_t minor) {
       {"error", encodeFrame(ErrorMessage{3, "version 2.0 not supported"}, 10, 0, minor)}};
   if (minor >= 5)  // texture layers came with 1.5
     samples.push_back({"texture_bundle_layers", encodeFrame(sampleLayeredBundle(), 12, 0, minor)});
+  if (minor >= 6)  // the layers' video with 1.6
+    samples.push_back(
+        {"texture_bundle_layer_video", encodeFrame(sampleLayerVideoBundle(), 13, 0, minor)});
   if (minor >= 4) {  // Auth came with 1.4
     Auth auth;
     auth.step = AuthStep::kResponse;

@@ -25,6 +25,8 @@ PodFrame samplePodFrame();
 MeshFrame sampleMeshFrame();
 TextureBundle sampleTextureBundle(uint8_t minor = kVersionMinor);
 TextureBundle sampleLayeredBundle();  // since 1.5
+// Since 1.6: the layers' colour as frames of H.264 streams.
+TextureBundle sampleLayerVideoBundle();
 Stats sampleStats();
 
 }  // namespace holofuse::protocol::testing

@@ -152,6 +152,24 @@ TEST(Messages, EveryTypeRoundTrips) {
         << status.toString();
   }
   {
+    // Since 1.6: a layer's colour may be a video frame; a 1.5 reader has no
+    // such codec and refuses the plane by name.
+    TextureBundle m;
+    const TextureBundle in = testing::sampleLayerVideoBundle();
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(in, 1)), m).isOk());
+    ASSERT_TRUE(m.layers.has_value());
+    EXPECT_EQ(m.layers->layers[0][0].codec, Codec::kH264);
+    EXPECT_EQ(m.layers->layers[0][1].codec, Codec::kRaw);
+    TextureBundle old;
+    const Status status = decodeFrame(decodeOne(encodeFrame(in, 1, 0, 5)), old);
+    EXPECT_EQ(status.code(), StatusCode::kMalformed);
+    EXPECT_NE(status.toString().find("unknown codec 3"), std::string::npos) << status.toString();
+    // Images never carry video, whatever the minor.
+    TextureBundle images = testing::sampleTextureBundle();
+    images.images[0].planes[0].codec = Codec::kH264;
+    EXPECT_FALSE(decodeFrame(decodeOne(encodeFrame(images, 1)), old).isOk());
+  }
+  {
     Stats m;
     ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(testing::sampleStats(), 1)), m).isOk());
     EXPECT_EQ(m.cameras_present, 0xBu);

@@ -102,6 +102,9 @@ struct ModeResult {
   // stats.
   double client_bytes_per_frame = 0;
   double layers_ms = 0;  // mode layered: median of the server's layer builds (0: other modes)
+  // mode layered with --layer-video: median of the server's video coding
+  // of the layers (0: LZ4 layers, or other modes)
+  double layer_video_ms = 0;
 };
 
 // The share of the squared-error difference between normal and the mode

@@ -98,6 +98,11 @@ class FusionServer {
     bool replaced = false;      // a newer connection of the same pod took over
     uint8_t minor = 0;          // agreed in the handshake: the fields this peer is sent
     bool wants_layers = false;  // a client of 1.5 or later that asked for texture layers
+    // A client of 1.6 that asked for the layers' colour as video (and the
+    // server codes it); until it gets a key frame its stream is not in step.
+    bool wants_layer_video = false;
+    bool layer_video_in_step = false;
+    uint64_t frames_dropped_seen = 0;  // the connection's drops at the last fan-out
     uint64_t accepted_ns = 0;
     uint64_t last_heartbeat_ns = 0;
     uint32_t early_heartbeats = 0;  // in a row, each closer than the floor

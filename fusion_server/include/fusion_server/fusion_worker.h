@@ -63,6 +63,9 @@ struct FusedOutput {
   // or they were refused: layers_note says why, and such a client gets
   // the images).
   protocol::SharedFrame texture_bundle_layers;
+  // For a client of 1.6 that asked for video: the same layers with their
+  // colour as video frames (null when not wanted or refused).
+  protocol::SharedFrame texture_bundle_layer_video;
   std::string layers_note;
   LayerStats layer_stats;
   size_t triangles = 0;
@@ -91,11 +94,18 @@ std::vector<hull::HullView> hullViewsOf(const FrameGroup& group);
 // The group's colour images as whole images, in hullViewsOf's order.
 std::vector<Image8> colorsInFrame(const FrameGroup& group);
 
+// Which texture layers a frame needs: built in stage (which keeps the
+// atlas and the video streams from frame to frame; null: none asked), with
+// LZ4 colour (clients of 1.5) and as video (clients of 1.6 that decode it),
+// the video at a key frame when video_key_frame.
+struct LayerRequest {
+  LayerStage* stage = nullptr;
+  bool lz4 = false, video = false, video_key_frame = false;
+};
+
 // The whole fusion of one group, callable without the thread (tests).
-// layers: where the frame's texture layers are built too (the stage keeps
-// the atlas from frame to frame); null: no client asked for them.
 FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
-                      LayerStage* layers = nullptr);
+                      const LayerRequest& layers = {});
 
 // What fuseGroup sends for a given mesh (carved from hull_start_ns to
 // hull_end_ns, refined from then to refine_end_ns; refine_end_ns 0: not
@@ -104,7 +114,7 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
 // meshes with it, so that its bytes and codec times are the loop's.
 FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
                          uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns = 0,
-                         LayerStage* layers = nullptr);
+                         const LayerRequest& layers = {});
 
 class FusionWorker {
  public:
@@ -119,9 +129,16 @@ class FusionWorker {
   uint64_t replacedJobs() const { return replaced_; }
   // Groups submitted and not yet fused (waiting or in progress).
   size_t queuedJobs();
-  // Whether a connected client asked for texture layers: the next groups
-  // build them (the server sets it as clients come and go).
-  void setLayersWanted(bool wanted) { layers_wanted_ = wanted; }
+  // Whether a connected client asked for texture layers with LZ4 colour
+  // (lz4) or as video: the next groups build them (the server sets it as
+  // clients come and go).
+  void setLayersWanted(bool lz4, bool video) {
+    layers_lz4_ = lz4;
+    layers_video_ = video;
+  }
+  // A client joined the layers' video or missed one of its frames: the next
+  // layers start key frames.
+  void requestLayerVideoKeyFrame() { video_key_frame_ = true; }
 
  private:
   void run();
@@ -133,7 +150,7 @@ class FusionWorker {
   std::condition_variable cv_;
   bool lossless_;
   std::deque<GroupJob> waiting_;
-  std::atomic<bool> layers_wanted_{false};
+  std::atomic<bool> layers_lz4_{false}, layers_video_{false}, video_key_frame_{false};
   LayerStage layer_stage_;  // the worker thread's only
   bool busy_ = false;
   std::vector<FusedOutput> outputs_;

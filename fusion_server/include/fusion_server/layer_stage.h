@@ -6,11 +6,13 @@
 
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "base/status.h"
+#include "common/layer_video.h"
 #include "common/mesh.h"
 #include "common/texture_atlas.h"
 #include "common/texture_layers.h"
@@ -29,39 +31,60 @@ struct LayerSettings {
   // at atlas_texels (Dong and Hollerer 2017).
   uint32_t chart_cells = 4;
   double texels_per_cell = 3.0;
+  // The layers' colour as video, for the clients that decode it (protocol
+  // 1.6); video.codec kLz4 (or any image codec, the default): never as
+  // video, LZ4 as the images.
+  LayerVideoOptions video{.codec = protocol::Codec::kLz4};
   bool operator==(const LayerSettings&) const = default;
+  bool sameAtlas(const LayerSettings& other) const {
+    return layers == other.layers && atlas_texels == other.atlas_texels &&
+           atlas_max_texels == other.atlas_max_texels && chart_cells == other.chart_cells &&
+           texels_per_cell == other.texels_per_cell;
+  }
 };
 
 // What one frame's layers took and hold.
 struct LayerStats {
   AtlasStats atlas;
   uint64_t texels_covered = 0, texels_seen = 0;
+  bool video_key_frame = false;  // the video's frame was a key frame
 };
 
 class LayerStage {
  public:
   // The mesh (its vertex keys on the lattice of hull; with charts, the mesh
-  // as the client decodes it, whose positions place the charts) laid out and its
-  // layers built from views and encoded into bundle.layers, the encoded
-  // bytes in storage; camera_ids names each view on the wire. Refused by
-  // name, bundle untouched, when the mesh's keys are not the lattice's or
-  // its triangles need more than the largest atlas. image_codec,
-  // lz4_acceleration and lz4_hc_level: the colour planes'.
+  // as the client decodes it, whose positions place the charts) laid out
+  // and its layers built from views, kept for encodeLz4 and encodeVideo;
+  // camera_ids names each view on the wire. Refused by name, nothing kept,
+  // when the mesh's keys are not the lattice's or its triangles need more
+  // than the largest atlas.
   Status build(const Mesh& mesh, const std::vector<LayerView>& views,
                const std::vector<uint32_t>& camera_ids, const hull::HullOptions& hull,
-               const LayerSettings& settings, protocol::Codec image_codec, int lz4_acceleration,
-               int lz4_hc_level, protocol::TextureBundle& bundle,
-               std::deque<std::vector<uint8_t>>& storage, LayerStats* stats = nullptr);
+               const LayerSettings& settings, LayerStats* stats = nullptr);
   // The same from a group's decoded images, in camera-id order.
   Status build(const FrameGroup& group, const Mesh& mesh, const hull::HullOptions& hull,
-               const LayerSettings& settings, protocol::Codec image_codec, int lz4_acceleration,
-               int lz4_hc_level, protocol::TextureBundle& bundle,
-               std::deque<std::vector<uint8_t>>& storage, LayerStats* stats = nullptr);
+               const LayerSettings& settings, LayerStats* stats = nullptr);
+
+  // The built layers into bundle.layers, the encoded bytes in storage:
+  // colour planes in image_codec (lz4_acceleration, lz4_hc_level as the
+  // images'), the camera planes LZ4.
+  void encodeLz4(protocol::Codec image_codec, int lz4_acceleration, int lz4_hc_level,
+                 protocol::TextureBundle& bundle, std::deque<std::vector<uint8_t>>& storage) const;
+  // The same with each layer's colour as the next frame of that layer's
+  // video stream (settings.video), a key frame in every stream when
+  // key_frame (a receiver joined or missed a frame).
+  Status encodeVideo(bool key_frame, protocol::TextureBundle& bundle,
+                     std::deque<std::vector<uint8_t>>& storage, LayerStats* stats = nullptr);
 
  private:
+  protocol::BundleLayers layoutOnTheWire(std::deque<std::vector<uint8_t>>& storage) const;
   std::optional<TextureAtlas> atlas_;
   glm::u64vec3 lattice_{0};
-  LayerSettings settings_;  // the atlas's
+  LayerSettings settings_;  // of the atlas and the video streams
+  std::vector<uint32_t> camera_ids_;
+  // The last build's layers, colour and camera apart (RGB, GRAY8).
+  std::vector<Image8> colours_, cameras_;
+  std::vector<std::unique_ptr<LayerVideoEncoder>> streams_;  // one per layer index
 };
 
 }  // namespace holofuse::fusion

@@ -35,11 +35,12 @@ enum class Stage : uint16_t {
   kWrite = 14,
   kReplayRead = 15,    // a replay pod reads and checks a recorded frame (in place of 1-4)
   kServerDecode = 16,  // the server parses a PodFrame and decompresses its planes
-  kRefine = 17,  // the server moves the hull's vertices by photo-consistency (off unless asked)
-  kLayers = 18,  // the server lays the mesh out in an atlas and fills the texture layers
+  kRefine = 17,      // the server moves the hull's vertices by photo-consistency (off unless asked)
+  kLayers = 18,      // the server lays the mesh out in an atlas and fills the texture layers
+  kLayerVideo = 19,  // the server codes the layers' colour as video (since 1.6)
 };
 constexpr uint16_t kFirstStage = 1;
-constexpr uint16_t kLastStage = 18;
+constexpr uint16_t kLastStage = 19;
 // Snake-case name of a stage id ("pod_render"), or "stage_<n>" for unknown ids.
 std::string stageName(uint16_t stage);
 // Every known stage id in the order a frame passes them (reports list them so).
@@ -79,7 +80,10 @@ double stampedMs(const std::vector<StageStamp>& stamps, Stage stage);
 // kCamera (since 1.5): a texture layer's camera per texel, GRAY8, an index
 // into the layers' camera ids (BundleLayers), 255 where none sees it.
 enum class PlaneKind : uint8_t { kColor = 1, kMask = 2, kFeather = 3, kDepth = 4, kCamera = 5 };
-enum class Codec : uint8_t { kRaw = 0, kLz4 = 1, kLz4PlanarDelta = 2 };
+// kH264, kHevc, kAv1 (since 1.6): a texture layer's colour as one frame of
+// that layer's video stream (common/layer_video.h), only to a client that
+// asked for it (kCapabilityLayerVideo).
+enum class Codec : uint8_t { kRaw, kLz4, kLz4PlanarDelta, kH264, kHevc, kAv1 };
 enum class PixelFormat : uint8_t { kRgb8 = 1, kGray8 = 2, kR16 = 3 };
 uint32_t bytesPerPixel(PixelFormat format);
 
@@ -99,6 +103,9 @@ enum class Role : uint8_t { kPod = 1, kClient = 2 };
 // The client asks for texture layers instead of camera images (since 1.5;
 // a server of an older minor ignores it and sends images).
 constexpr uint64_t kCapabilityLayers = 1;
+// With kCapabilityLayers: the client decodes the layers' colour as video
+// (since 1.6; a server of 1.5 sends them with LZ4).
+constexpr uint64_t kCapabilityLayerVideo = 2;
 
 struct Hello {
   static constexpr MessageType kType = MessageType::kHello;

@@ -5,12 +5,14 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "base/status.h"
 #include "common/camera.h"
+#include "common/layer_video.h"
 #include "common/mesh.h"
 #include "common/mesh_codec.h"
 #include "common/texture_atlas.h"
@@ -86,8 +88,16 @@ struct DecodedLayers {
   LayeredViews views;
   AtlasLayout layout;
 };
+// The layers' video streams of one connection (protocol 1.6), a decoder
+// per layer index, kept from bundle to bundle.
+struct LayerStreams {
+  std::vector<std::unique_ptr<LayerVideoDecoder>> decoders;
+};
+// streams: where a layer's colour as video is decoded; null: a video plane
+// is refused by name.
 StatusOr<DecodedLayers> layersOfBundle(const protocol::BundleLayers& layers,
-                                       const std::map<uint32_t, Camera>& cameras);
+                                       const std::map<uint32_t, Camera>& cameras,
+                                       LayerStreams* streams = nullptr);
 
 // The compressed bytes of a bundle's feather planes: what the feather maps
 // add to the client link.
