@@ -123,20 +123,19 @@ Status LayerVideoEncoder::start(uint32_t width, uint32_t height) {
   const std::string crf = std::to_string(options_.crf);
   switch (options_.codec) {
     case protocol::Codec::kH264:
-      av_opt_set(c->priv_data, "preset", "veryfast", 0);
-      av_opt_set(c->priv_data, "tune", "zerolatency", 0);
-      av_opt_set(c->priv_data, "crf", crf.c_str(), 0);
-      av_opt_set(c->priv_data, "forced-idr", "1", 0);
-      // Predicted frames at the key frame's quality: every frame is shown
-      // once, as it comes, so none should be worse than another.
-      av_opt_set(c->priv_data, "x264-params", "ipratio=1.0", 0);
-      break;
     case protocol::Codec::kHevc:
+      // x264 and x265 take the same names for these.
       av_opt_set(c->priv_data, "preset", "veryfast", 0);
       av_opt_set(c->priv_data, "tune", "zerolatency", 0);
       av_opt_set(c->priv_data, "crf", crf.c_str(), 0);
       av_opt_set(c->priv_data, "forced-idr", "1", 0);
-      av_opt_set(c->priv_data, "x265-params", "log-level=error", 0);
+      if (options_.codec == protocol::Codec::kHevc) {
+        av_opt_set(c->priv_data, "x265-params", "log-level=error", 0);
+      } else {
+        // Predicted frames at the key frame's quality: every frame is shown
+        // once, as it comes, so none should be worse than another.
+        av_opt_set(c->priv_data, "x264-params", "ipratio=1.0", 0);
+      }
       break;
     default:
       // AV1 through libaom's real-time mode: SVT-AV1 (Debian 12's 1.4)
