@@ -226,12 +226,17 @@ struct LayerVideoDecoder::Codec {
   int scale_width = 0, scale_height = 0, scale_format = -1;
 };
 
-LayerVideoDecoder::LayerVideoDecoder() { quietLibraries(); }
+LayerVideoDecoder::LayerVideoDecoder(uint32_t max_side) : max_side_(max_side) { quietLibraries(); }
 LayerVideoDecoder::~LayerVideoDecoder() = default;
 
 StatusOr<Image8> LayerVideoDecoder::decode(const protocol::Plane& plane) {
   const CodecInfo* info = infoOf(plane.codec);
   if (info == nullptr) return Status(StatusCode::kMalformed, "layer video: not a video plane");
+  if (plane.width > max_side_ || plane.height > max_side_)
+    return Status(StatusCode::kTooLarge, "layer video: a " + std::to_string(plane.width) + "x" +
+                                             std::to_string(plane.height) +
+                                             " plane, above the stream's " +
+                                             std::to_string(max_side_) + " a side");
   if (plane.data.size() <= kHeaderBytes)
     return Status(
         StatusCode::kTruncated,
@@ -257,6 +262,10 @@ StatusOr<Image8> LayerVideoDecoder::decode(const protocol::Plane& plane) {
     codec->context.reset(avcodec_alloc_context3(decoder));
     codec->context->thread_type = FF_THREAD_SLICE;  // frame threads would hold frames back
     codec->context->flags |= AV_CODEC_FLAG_LOW_DELAY;
+    // A hostile stream's header may declare any size: the coded picture is
+    // the plane rounded up to 16 texels a side at most (the encoder's).
+    const int64_t side = roundUp16(max_side_);
+    codec->context->max_pixels = side * side;
     if (const int error = avcodec_open2(codec->context.get(), decoder, nullptr); error < 0)
       return Status(StatusCode::kIoError, std::string("layer video: the ") + info->name +
                                               " decoder did not open: " + avError(error));

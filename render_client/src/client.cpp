@@ -223,7 +223,7 @@ StatusOr<DecodedLayers> layersOfBundle(const protocol::BundleLayers& layers,
         decoded = decodePlane(plane);
       } else if (streams != nullptr && plane.kind == protocol::PlaneKind::kColor) {
         while (streams->decoders.size() <= l)
-          streams->decoders.push_back(std::make_unique<LayerVideoDecoder>());
+          streams->decoders.push_back(std::make_unique<LayerVideoDecoder>(kMaxLayerAtlasTexels));
         decoded = streams->decoders[l]->decode(plane);
       }
       if (!decoded.isOk())

@@ -150,6 +150,21 @@ TEST_P(LayerVideo, CorruptOrShortFramesAreRefusedByName) {
         << decoded.status().message();
   }
   {
+    // A stream whose pictures are larger than its receiver takes: refused
+    // before decoding, and a declared picture past the cap never decodes.
+    LayerVideoDecoder small(32);
+    auto decoded = small.decode(*plane);
+    ASSERT_FALSE(decoded.isOk());
+    EXPECT_EQ(decoded.status().code(), StatusCode::kTooLarge);
+    EXPECT_NE(decoded.status().message().find("above the stream's 32"), std::string::npos)
+        << decoded.status().message();
+    protocol::Plane claimed = *plane;
+    claimed.width = 16;
+    claimed.height = 16;
+    claimed.raw_size = 16 * 16 * 3;
+    EXPECT_FALSE(small.decode(claimed).isOk()) << "a 64x48 picture in a 32-texel stream";
+  }
+  {
     // A plane larger than the coded picture it carries.
     LayerVideoDecoder decoder;
     protocol::Plane larger = *plane;

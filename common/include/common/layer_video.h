@@ -73,7 +73,9 @@ class LayerVideoEncoder {
 // bitstream the decoder rejects; the stream then waits for a key frame.
 class LayerVideoDecoder {
  public:
-  LayerVideoDecoder();
+  // max_side: the largest plane side a stream may carry; a bitstream that
+  // declares a larger picture is refused before the decoder allocates it.
+  explicit LayerVideoDecoder(uint32_t max_side = 4096);
   ~LayerVideoDecoder();
   LayerVideoDecoder(const LayerVideoDecoder&) = delete;
   LayerVideoDecoder& operator=(const LayerVideoDecoder&) = delete;
@@ -84,6 +86,7 @@ class LayerVideoDecoder {
   struct Codec;
   std::unique_ptr<Codec> codec_;
   std::optional<uint32_t> last_sequence_;
+  uint32_t max_side_;
 };
 
 }  // namespace holofuse
