@@ -218,14 +218,15 @@ StatusOr<DecodedLayers> layersOfBundle(const protocol::BundleLayers& layers,
         return malformed("layer " + std::to_string(l) + " has a " + std::to_string(plane.width) +
                          "x" + std::to_string(plane.height) + " plane in an atlas of " +
                          std::to_string(layers.texels));
-      StatusOr<Image8> decoded = Status(StatusCode::kMalformed, "no stream to decode video in");
-      if (!isVideoCodec(plane.codec)) {
-        decoded = decodePlane(plane);
-      } else if (streams != nullptr && plane.kind == protocol::PlaneKind::kColor) {
+      const auto decode = [&]() -> StatusOr<Image8> {
+        if (!isVideoCodec(plane.codec)) return decodePlane(plane);
+        if (streams == nullptr || plane.kind != protocol::PlaneKind::kColor)
+          return Status(StatusCode::kMalformed, "no stream to decode video in");
         while (streams->decoders.size() <= l)
           streams->decoders.push_back(std::make_unique<LayerVideoDecoder>(kMaxLayerAtlasTexels));
-        decoded = streams->decoders[l]->decode(plane);
-      }
+        return streams->decoders[l]->decode(plane);
+      };
+      auto decoded = decode();
       if (!decoded.isOk())
         return malformed("layer " + std::to_string(l) + ": " + decoded.status().message());
       (plane.kind == protocol::PlaneKind::kColor ? colour : camera) = std::move(*decoded);
