@@ -517,9 +517,15 @@ void FusionServer::fanOut() {
       if (peer.wants_layer_video) {
         // Its stream is in step from a key frame on, until a frame of it
         // does not reach the client (refused layers, a drop on a slow link).
+        // Out of step, a predicted frame is one it cannot decode: it gets
+        // nothing until the key frame it asked for.
         if (out.texture_bundle_layer_video) {
-          bundle = out.texture_bundle_layer_video;
           if (out.layer_stats.video_key_frame) peer.layer_video_in_step = true;
+          if (!peer.layer_video_in_step) {
+            worker_->requestLayerVideoKeyFrame();
+            continue;
+          }
+          bundle = out.texture_bundle_layer_video;
         } else {
           peer.layer_video_in_step = false;
         }

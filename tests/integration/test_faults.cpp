@@ -68,11 +68,18 @@ pid_t startPod(const std::string& endpoint, int id, int pods, const fs::path& ou
 }
 
 pid_t startClient(const std::string& endpoint, const fs::path& out, const std::string& name,
-                  int frames) {
-  return spawn(
-      {kBin + "/render_client", "--server", endpoint, "--out", (out / name).string(), "--frames",
-       std::to_string(frames), "--size", std::to_string(kWidth) + "x" + std::to_string(kHeight)},
-      out / (name + ".log"));
+                  int frames, const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> argv = {kBin + "/render_client",
+                                   "--server",
+                                   endpoint,
+                                   "--out",
+                                   (out / name).string(),
+                                   "--frames",
+                                   std::to_string(frames),
+                                   "--size",
+                                   std::to_string(kWidth) + "x" + std::to_string(kHeight)};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  return spawn(argv, out / (name + ".log"));
 }
 
 void stopAll(const std::vector<pid_t>& pids) {
@@ -220,10 +227,17 @@ TEST(Faults, HostilePeersAllAtOnceLeaveTheServerSmallAndTheRigServed) {
 
 // The server on a port of the test's choosing, so a restart finds the
 // same address; waits for its "listening" line.
-pid_t serverOnPort(uint16_t port, const fs::path& out, int pods, const std::string& log) {
-  const pid_t pid = spawn({kBin + "/fusion_server", "--listen", "127.0.0.1:" + std::to_string(port),
-                           "--pods", std::to_string(pods), "--idle-timeout-ms", "2000"},
-                          out / log);
+pid_t serverOnPort(uint16_t port, const fs::path& out, int pods, const std::string& log,
+                   const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> argv = {kBin + "/fusion_server",
+                                   "--listen",
+                                   "127.0.0.1:" + std::to_string(port),
+                                   "--pods",
+                                   std::to_string(pods),
+                                   "--idle-timeout-ms",
+                                   "2000"};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  const pid_t pid = spawn(argv, out / log);
   EXPECT_TRUE(waitFor([&] { return logSays(out / log, "listening"); }, 30)) << readFile(out / log);
   return pid;
 }
@@ -354,6 +368,56 @@ TEST(Faults, AStoppedClientNeitherStallsTheOtherNorSwellsTheServer) {
   for (size_t i = 1; i < frames.size(); ++i)
     EXPECT_GT(frames[i]["frame_id"].get<uint64_t>(), frames[i - 1]["frame_id"].get<uint64_t>());
   stopAll({other});
+  stopAll(pods);
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  fs::remove_all(out);
+}
+
+// Layers as video (protocol 1.6): each frame predicts from the one before,
+// so a client that joins a running stream cannot decode what the others
+// are in the middle of. With key frames only on demand (600 frames, an
+// interval the run never reaches), a second layered client that joins late decodes every frame it
+// is sent from its first, because its arrival asked for a key frame; the
+// first client, in step all along, skips nothing after the join.
+TEST(Faults, ALayeredClientJoiningAVideoStreamLateDecodesFromItsFirstFrame) {
+  const fs::path out = freshDir("faults_layer_join");
+  const uint16_t port = freePort();
+  ASSERT_NE(port, 0);
+  const std::string endpoint = "127.0.0.1:" + std::to_string(port);
+  const pid_t server = serverOnPort(port, out, 2, "server.log",
+                                    {"--layer-video", "h264", "--layer-video-key-interval", "600"});
+  const std::vector<pid_t> pods = {startPod(endpoint, 0, 2, out), startPod(endpoint, 1, 2, out)};
+  const std::vector<std::string> layered = {"--mode", "layered"};
+  const pid_t first = startClient(endpoint, out, "first", 2000, layered);
+  ASSERT_TRUE(waitFor([&] { return picturesIn(out / "first") >= 4; }))
+      << readFile(out / "first.log") << readFile(out / "server.log");
+  // Frames fused before the server heard the first client carry no layers
+  // (it skips them, by name); none it is sent once in step is refused.
+  auto skips = [&](const std::string& name) {
+    const std::string log = readFile(out / (name + ".log"));
+    size_t count = 0;
+    for (size_t at = log.find("skipped"); at != std::string::npos; at = log.find("skipped", at + 1))
+      ++count;
+    return count;
+  };
+  const size_t first_skips = skips("first");
+  const pid_t late = startClient(endpoint, out, "late", 6, layered);
+  ASSERT_EQ(waitExit(late, 120), 0) << readFile(out / "late.log");
+  const auto report = nlohmann::json::parse(readFile(out / "late" / "report.json"));
+  EXPECT_EQ(report["frames_rendered"].get<int>(), 6);
+  EXPECT_TRUE(report["frames_skipped"].empty()) << report["frames_skipped"].dump();
+  EXPECT_EQ(readFile(out / "late.log").find("skipped"), std::string::npos)
+      << readFile(out / "late.log");
+  const size_t first_at_join = picturesIn(out / "first");
+  EXPECT_TRUE(waitFor([&] { return picturesIn(out / "first") >= first_at_join + 2; }))
+      << readFile(out / "first.log");
+  EXPECT_EQ(skips("first"), first_skips) << readFile(out / "first.log");
+  EXPECT_EQ(readFile(out / "first.log").find("key frame"), std::string::npos)
+      << readFile(out / "first.log");
+  EXPECT_TRUE(logSays(out / "server.log", "texture layers as video"))
+      << readFile(out / "server.log");
+  stopAll({first});
   stopAll(pods);
   kill(server, SIGTERM);
   EXPECT_EQ(waitExit(server, 10), 0);
