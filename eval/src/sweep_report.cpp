@@ -63,6 +63,28 @@ Status writeSweepReports(const SweepOptions& options, const std::vector<SweepPoi
       "network, "
       "so a point not run live has none.\n\n";
   std::string body;
+  // The other modes asked for, at the default point: what the swept
+  // mode's quality and bytes are to be read against (mode layered's
+  // targets are the camera images' picture and bytes, in mode normal).
+  const auto default_point =
+      std::find_if(points.begin(), points.end(), [](const SweepPoint& p) { return p.is_default; });
+  if (default_point != points.end() && default_point->result.modes.size() > 1) {
+    std::string beside;
+    for (const auto& [other, m] : default_point->result.modes) {
+      if (other == mode) continue;
+      char text[160];
+      std::snprintf(text, sizeof(text), "%s`%s` %.2f dB PSNR, SSIM %.4f, %.0f KB/frame to client",
+                    beside.empty() ? "" : "; ", other.c_str(), m.psnr_db, m.ssim,
+                    clientBytes(default_point->result, m) / 1000.0);
+      beside += text;
+      json["other_modes_at_default"][other] = {
+          {"psnr_db", m.psnr_db},
+          {"ssim", m.ssim},
+          {"bytes_per_frame", clientBytes(default_point->result, m)}};
+    }
+    md += "Beside it, at the default point: " + beside + ".\n\n";
+    body += "<p>Beside it, at the default point: " + html::escape(beside) + ".</p>\n";
+  }
   std::set<std::string> unchecked;  // budgeted stages some point could not hold against its budget
   std::vector<std::vector<std::string>> rows;
   for (const auto& [name, values] : options.knobs) {

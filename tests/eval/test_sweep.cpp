@@ -310,6 +310,42 @@ TEST(Sweep, TheDefaultIsDominatedOnlyByAPointNoWorseOnEveryCost) {
   fs::remove_all(dir);
 }
 
+// A sweep of mode layered is read against the camera images: with mode
+// normal asked for too, the report gives normal's quality and bytes at the
+// default point beside the knob's table (the images' 577 KB and 19.57 dB
+// here stand for what eval measures on clean).
+TEST(Sweep, TheOtherModesAreGivenBesideTheDefault) {
+  const fs::path dir = fs::temp_directory_path() / "holofuse_sweep_beside";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  SweepOptions options = tinySweep(dir.string());
+  options.base.modes = {render::BlendMode::kNormal, render::BlendMode::kLayered};
+  options.knobs = {{"layers", {"1", "3"}}};
+  std::vector<SweepPoint> points = {
+      test::sweepPoint("layers", "1", false, "layered", 19.2, 25, 5, 5.8e5),
+      test::sweepPoint("layers", "3", true, "layered", 19.3, 30, 5, 5.8e5)};
+  for (SweepPoint& p : points) {
+    p.result.modes.at("layered").client_bytes_per_frame = p.value == "1" ? 3.8e5 : 9.5e5;
+    ModeResult& normal = p.result.modes["normal"];
+    normal.psnr_db = 19.57;
+    normal.ssim = 0.6884;
+  }
+  ASSERT_TRUE(writeSweepReports(options, points).isOk());
+  std::ifstream in(dir / "sweep.json");
+  const auto json = nlohmann::json::parse(in);
+  EXPECT_EQ(json["quality_mode"], "layered");
+  ASSERT_TRUE(json["other_modes_at_default"].contains("normal")) << json.dump();
+  EXPECT_FALSE(json["other_modes_at_default"].contains("layered"));
+  EXPECT_DOUBLE_EQ(json["other_modes_at_default"]["normal"]["bytes_per_frame"].get<double>(), 5.8e5)
+      << "mode normal's link carries the scene's images";
+  EXPECT_DOUBLE_EQ(json["knobs"]["layers"]["points"][1]["bytes_per_frame"].get<double>(), 9.5e5);
+  EXPECT_NE(readText(dir / "sweep.md")
+                .find("at the default point: `normal` 19.57 dB PSNR, SSIM 0.6884, 580 KB/frame"),
+            std::string::npos)
+      << readText(dir / "sweep.md");
+  fs::remove_all(dir);
+}
+
 // Runs command; its output (stdout and stderr) and pclose's status (-1 when
 // it could not start).
 std::string run(const std::string& command, int* status) {
