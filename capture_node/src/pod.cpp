@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cstdio>
+#include <utility>
 
 #include "common/image_codec.h"
 #include "common/pod_frame_codec.h"
@@ -16,13 +17,15 @@ namespace holofuse::capture {
 using protocol::monotonicNs;
 using protocol::Stage;
 
-PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& camera,
-                           const Image8& plate, uint64_t frame_id, uint16_t source) {
+namespace {
+
+// Segments and feathers a rendered view, stamped from t0 (the capture).
+PodCapture silhouetteOf(scene::RenderedView view, const Image8& plate, uint64_t frame_id,
+                        uint16_t source, uint64_t t0) {
   PodCapture capture;
   capture.frame_id = frame_id;
-  const uint64_t t0 = monotonicNs();
   capture.capture_time_ns = t0;
-  capture.view = scene.render(camera, frame_id);
+  capture.view = std::move(view);
   const uint64_t t1 = monotonicNs();
   capture.mask = segmentForeground(capture.view.color, plate);
   const uint64_t t2 = monotonicNs();
@@ -32,6 +35,20 @@ PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& cam
                     {static_cast<uint16_t>(Stage::kSegment), source, t1, t2},
                     {static_cast<uint16_t>(Stage::kFeather), source, t2, t3}};
   return capture;
+}
+
+}  // namespace
+
+PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& camera,
+                           const Image8& plate, uint64_t frame_id, uint16_t source) {
+  const uint64_t t0 = monotonicNs();
+  return silhouetteOf(scene.render(camera, frame_id), plate, frame_id, source, t0);
+}
+
+PodCapture capturePodFrame(const scene::CameraRenderer& renderer, const Image8& plate,
+                           uint64_t frame_id, uint16_t source) {
+  const uint64_t t0 = monotonicNs();
+  return silhouetteOf(renderer.render(frame_id), plate, frame_id, source, t0);
 }
 
 protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id,
@@ -47,6 +64,7 @@ int runPod(const PodOptions& options) {
       scene::SyntheticScene::cameraRig(options.pods, options.width, options.height);
   const Camera& camera = cameras.at(options.pod_id);
   const Image8 plate = scene.backgroundPlate(camera);
+  const scene::CameraRenderer renderer(scene, camera);
   const Camera reported =
       scene::reportedCalibration(camera, options.calibration_error_degrees,
                                  options.calibration_error_metres, options.scene.seed);
@@ -92,7 +110,7 @@ int runPod(const PodOptions& options) {
     if (last_frame_id != 0 && frame_id > last_frame_id + 1) skipped += frame_id - last_frame_id - 1;
     last_frame_id = frame_id;
     PodCapture capture =
-        capturePodFrame(scene, camera, plate, frame_id, static_cast<uint16_t>(options.pod_id));
+        capturePodFrame(renderer, plate, frame_id, static_cast<uint16_t>(options.pod_id));
     link.send(std::make_shared<const protocol::OutgoingFrame>(
         encodePodFrame(capture, camera.id, options.encoding)));
     link.poll(0, received);

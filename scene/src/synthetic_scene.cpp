@@ -38,6 +38,34 @@ double capsuleDistance(const glm::dvec3& p, const Capsule& c) {
   return glm::length(pa - ba * h) - c.radius;
 }
 
+// Where the ray o + t d (d of any length) first enters capsule c, or a
+// negative t when it misses it or starts inside: the cylinder's side where
+// the entry falls between the ends, else the nearer end's sphere.
+double capsuleEntry(const glm::dvec3& o, const glm::dvec3& d, const Capsule& c) {
+  const glm::dvec3 ba = c.b - c.a, oa = o - c.a;
+  const double baba = glm::dot(ba, ba), bard = glm::dot(ba, d), baoa = glm::dot(ba, oa);
+  const double dd = glm::dot(d, d), rdoa = glm::dot(d, oa), oaoa = glm::dot(oa, oa);
+  const double r2 = c.radius * c.radius;
+  double y = -1;  // along the axis, in units of 1 / |ba|^2, where the side is entered
+  if (baba > 0) {
+    const double a = dd * baba - bard * bard;
+    const double b = baba * rdoa - baoa * bard;
+    const double k = baba * oaoa - baoa * baoa - r2 * baba;
+    const double h = b * b - a * k;
+    if (h < 0) return -1;  // misses the infinite cylinder, so the capsule too
+    if (a > 0) {
+      const double t = (-b - std::sqrt(h)) / a;
+      y = baoa + t * bard;
+      if (y > 0 && y < baba) return t;
+    }
+  }
+  const glm::dvec3 oc = y <= 0 ? oa : o - c.b;
+  const double b = glm::dot(d, oc), k = glm::dot(oc, oc) - r2;
+  const double h = b * b - dd * k;
+  if (h < 0 || k < 0) return -1;
+  return (-b - std::sqrt(h)) / dd;
+}
+
 int64_t cell(double v, double size) { return static_cast<int64_t>(std::floor(v / size)); }
 
 constexpr double kTorsoDepthScale = 1.45;  // the torso is flatter front to back
@@ -239,6 +267,56 @@ Image8 SyntheticScene::backgroundPlate(const Camera& camera) const {
   return plate;
 }
 
+glm::dvec3 SyntheticScene::shade(const glm::dvec3& p, const glm::dvec3& n, const glm::dvec3& dir,
+                                 const Pose& pose, int part, const glm::dvec3& gain) const {
+  // Lambertian: the colour of a surface point is the same from every
+  // camera up to that camera's gain.
+  glm::dvec3 color =
+      albedo(p, pose, part) * (0.35 + 0.65 * std::max(0.0, glm::dot(n, kLight))) * gain;
+  if (options_.specular > 0) {
+    // Blinn-Phong: where it shines depends on the camera, so views
+    // disagree about those pixels (what the vote has to catch).
+    const glm::dvec3 half = glm::normalize(kLight - dir);
+    color += options_.specular * std::pow(std::max(0.0, glm::dot(n, half)), 40.0) * gain;
+  }
+  return color;
+}
+
+void SyntheticScene::writePixel(RenderedView& view, const Camera& camera, uint64_t frame_id,
+                                uint32_t x, uint32_t y, const glm::dvec3& color, bool hit) const {
+  const uint64_t noise_key =
+      ((options_.seed * 1000003 + frame_id) * 64 + camera.id) * 0x100000000ull +
+      static_cast<uint64_t>(y) * camera.width + x;
+  uint8_t* px = view.color.at(x, y);
+  for (int k = 0; k < 3; ++k) {
+    const double noise = options_.noise_amplitude * (2 * hashToUnitInterval(noise_key * 3 + k) - 1);
+    px[k] = static_cast<uint8_t>(std::clamp(color[k] * 255.0 + noise + 0.5, 0.0, 255.0));
+  }
+  *view.mask.at(x, y) = hit ? 255 : 0;
+}
+
+SyntheticScene::PartRect SyntheticScene::projectedRect(const Camera& camera, const Pose& pose,
+                                                       int part) {
+  Capsule c = pose.parts[part];
+  if (part == kTorso) {
+    c.a = pose.body_origin + pose.body_to_world * c.a;
+    c.b = pose.body_origin + pose.body_to_world * c.b;
+  }
+  PartRect rect{static_cast<double>(camera.width), static_cast<double>(camera.height), -1, -1};
+  for (const glm::dvec3& end : {c.a, c.b}) {
+    const auto pixel = camera.project(end);
+    if (!pixel)
+      return {0, 0, static_cast<double>(camera.width), static_cast<double>(camera.height)};
+    const double margin =
+        c.radius * std::max(camera.fx, camera.fy) / std::max(pixel->z - c.radius, 1e-3) + 2;
+    rect.x0 = std::min(rect.x0, pixel->x - margin);
+    rect.y0 = std::min(rect.y0, pixel->y - margin);
+    rect.x1 = std::max(rect.x1, pixel->x + margin);
+    rect.y1 = std::max(rect.y1, pixel->y + margin);
+  }
+  return rect;
+}
+
 RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) const {
   const Pose pose = poseAt(timeOf(frame_id));
   const glm::dvec3 gain = cameraGain(camera.id);
@@ -250,26 +328,11 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
   // it: the rest is backdrop without tracing.
   double rx0 = camera.width, ry0 = camera.height, rx1 = -1, ry1 = -1;
   for (int i = 0; i < kPartCount; ++i) {
-    Capsule c = pose.parts[i];
-    if (i == kTorso) {
-      c.a = pose.body_origin + pose.body_to_world * c.a;
-      c.b = pose.body_origin + pose.body_to_world * c.b;
-    }
-    for (const glm::dvec3& end : {c.a, c.b}) {
-      const auto pixel = camera.project(end);
-      if (!pixel) {
-        rx0 = ry0 = 0;
-        rx1 = camera.width;
-        ry1 = camera.height;
-        continue;
-      }
-      const double margin =
-          c.radius * std::max(camera.fx, camera.fy) / std::max(pixel->z - c.radius, 1e-3) + 2;
-      rx0 = std::min(rx0, pixel->x - margin);
-      ry0 = std::min(ry0, pixel->y - margin);
-      rx1 = std::max(rx1, pixel->x + margin);
-      ry1 = std::max(ry1, pixel->y + margin);
-    }
+    const PartRect rect = projectedRect(camera, pose, i);
+    rx0 = std::min(rx0, rect.x0);
+    ry0 = std::min(ry0, rect.y0);
+    rx1 = std::max(rx1, rect.x1);
+    ry1 = std::max(ry1, rect.y1);
   }
   for (uint32_t y = 0; y < camera.height; ++y) {
     for (uint32_t x = 0; x < camera.width; ++x) {
@@ -303,27 +366,10 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
                                             distance(p - glm::dvec3(0, e, 0), pose, nullptr),
                                         distance(p + glm::dvec3(0, 0, e), pose, nullptr) -
                                             distance(p - glm::dvec3(0, 0, e), pose, nullptr)));
-          // Lambertian: the colour of a surface point is the same from
-          // every camera up to that camera's gain.
-          color = albedo(p, pose, part) * (0.35 + 0.65 * std::max(0.0, glm::dot(n, kLight))) * gain;
-          if (options_.specular > 0) {
-            // Blinn-Phong: where it shines depends on the camera, so views
-            // disagree about those pixels (what the vote has to catch).
-            const glm::dvec3 half = glm::normalize(kLight - dir);
-            color += options_.specular * std::pow(std::max(0.0, glm::dot(n, half)), 40.0) * gain;
-          }
+          color = shade(p, n, dir, pose, part, gain);
         }
       }
-      const uint64_t noise_key =
-          ((options_.seed * 1000003 + frame_id) * 64 + camera.id) * 0x100000000ull +
-          static_cast<uint64_t>(y) * camera.width + x;
-      uint8_t* px = view.color.at(x, y);
-      for (int k = 0; k < 3; ++k) {
-        const double noise =
-            options_.noise_amplitude * (2 * hashToUnitInterval(noise_key * 3 + k) - 1);
-        px[k] = static_cast<uint8_t>(std::clamp(color[k] * 255.0 + noise + 0.5, 0.0, 255.0));
-      }
-      *view.mask.at(x, y) = hit ? 255 : 0;
+      writePixel(view, camera, frame_id, x, y, color, hit);
     }
   }
   return view;
@@ -337,6 +383,86 @@ Mesh SyntheticScene::truthMesh(uint64_t frame_id, double spacing) const {
   const ScalarGrid grid = sampleGrid(
       lo, spacing, n.x, n.y, n.z, [&](const glm::dvec3& p) { return -distance(p, pose, nullptr); });
   return marchingCubes(grid);
+}
+
+CameraRenderer::CameraRenderer(const SyntheticScene& scene, const Camera& camera)
+    : scene_(scene), camera_(camera) {
+  rays_.reserve(static_cast<size_t>(camera.width) * camera.height);
+  backdrop_.reserve(rays_.capacity());
+  for (uint32_t y = 0; y < camera.height; ++y) {
+    for (uint32_t x = 0; x < camera.width; ++x) {
+      rays_.push_back(camera.rayDirection(x + 0.5, y + 0.5));
+      backdrop_.push_back(scene.backdrop(rays_.back()));
+    }
+  }
+}
+
+RenderedView CameraRenderer::render(uint64_t frame_id) const {
+  using Pose = SyntheticScene::Pose;
+  const Pose pose = scene_.poseAt(scene_.timeOf(frame_id));
+  const glm::dvec3 gain = scene_.cameraGain(camera_.id);
+  const glm::dvec3 origin = camera_.center();
+  const uint32_t width = camera_.width, height = camera_.height;
+  RenderedView view{Image8(width, height, 3), Image8(width, height, 1)};
+  // The tracer stops where the field is under 2e-4 m: each capsule grown
+  // by that much is what it stops on. The torso's field is its capsule's
+  // in body space with depth stretched by kTorsoDepthScale, divided by
+  // it, so there the ray is cast in that space against a capsule grown
+  // by 2e-4 times the scale (t is the same in both spaces).
+  constexpr double kStop = 2e-4;
+  std::array<Capsule, kPartCount> grown = pose.parts;
+  for (int i = 0; i < kPartCount; ++i)
+    grown[i].radius += kStop * (i == kTorso ? kTorsoDepthScale : 1.0);
+  const glm::dmat3 to_body = glm::transpose(pose.body_to_world);
+  const glm::dvec3 stretch(1, 1, kTorsoDepthScale);
+  const glm::dvec3 body_origin = stretch * (to_body * (origin - pose.body_origin));
+  std::array<SyntheticScene::PartRect, kPartCount> rects;
+  for (int i = 0; i < kPartCount; ++i) rects[i] = SyntheticScene::projectedRect(camera_, pose, i);
+  for (uint32_t y = 0; y < height; ++y) {
+    const double py = y + 0.5;
+    // The parts whose rectangles this row crosses.
+    int row_parts[kPartCount], row_count = 0;
+    for (int i = 0; i < kPartCount; ++i) {
+      if (py >= rects[i].y0 && py <= rects[i].y1) row_parts[row_count++] = i;
+    }
+    for (uint32_t x = 0; x < width; ++x) {
+      const size_t index = static_cast<size_t>(y) * width + x;
+      const glm::dvec3& dir = rays_[index];
+      glm::dvec3 color = backdrop_[index];
+      const double px = x + 0.5;
+      double entry = std::numeric_limits<double>::infinity();
+      int part = -1;
+      for (int k = 0; k < row_count; ++k) {
+        const int i = row_parts[k];
+        if (px < rects[i].x0 || px > rects[i].x1) continue;
+        const double t = i == kTorso
+                             ? capsuleEntry(body_origin, stretch * (to_body * dir), grown[i])
+                             : capsuleEntry(origin, dir, grown[i]);
+        if (t >= 0 && t < entry) {
+          entry = t;
+          part = i;
+        }
+      }
+      const bool hit = part >= 0;
+      if (hit) {
+        const glm::dvec3 p = origin + entry * dir;
+        // The field's gradient there: the hit capsule's, from its axis
+        // (for the torso, carried back from the stretched body space).
+        glm::dvec3 n;
+        const Capsule& c = pose.parts[part];
+        const glm::dvec3 q = part == kTorso ? stretch * pose.toBody(p) : p;
+        const glm::dvec3 ba = c.b - c.a;
+        const double baba = glm::dot(ba, ba);
+        const double h = baba > 0 ? std::clamp(glm::dot(q - c.a, ba) / baba, 0.0, 1.0) : 0.0;
+        n = q - c.a - ba * h;
+        if (part == kTorso) n = pose.body_to_world * (stretch * n);
+        n = glm::normalize(n);
+        color = scene_.shade(p, n, dir, pose, part, gain);
+      }
+      scene_.writePixel(view, camera_, frame_id, x, y, color, hit);
+    }
+  }
+  return view;
 }
 
 }  // namespace holofuse::scene

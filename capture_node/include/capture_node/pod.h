@@ -38,9 +38,13 @@ struct PodCapture {
   uint64_t capture_time_ns = 0;
 };
 
-// Renders, segments and feathers one frame, recording stage stamps.
+// Renders, segments and feathers one frame, recording stage stamps: with
+// the reference tracer (eval's inputs and truth), or with the closed-form
+// renderer of the pod's camera (the live pods, scene::CameraRenderer).
 PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& camera,
                            const Image8& plate, uint64_t frame_id, uint16_t source);
+PodCapture capturePodFrame(const scene::CameraRenderer& renderer, const Image8& plate,
+                           uint64_t frame_id, uint16_t source);
 
 // The capture as the PodFrame it sends (common/pod_frame_codec.h), the
 // encode stamp appended to its stamps.
