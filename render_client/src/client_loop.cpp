@@ -19,6 +19,7 @@
 #include "render_client/client.h"
 #include "render_client/frame_judge.h"
 #include "render_client/latency_report.h"
+#include "render_client/picture_writer.h"
 
 namespace holofuse::render {
 
@@ -71,7 +72,11 @@ class ClientLoop {
         context_(context),
         renderer_(renderer),
         judge_(std::move(judge)),
-        tty_(isatty(STDOUT_FILENO)) {}
+        tty_(isatty(STDOUT_FILENO)) {
+    // The judge reads each picture as soon as it is written: judged, the
+    // pictures are written on the render path.
+    if (options_.write_frames && !judge_) writer_.emplace();
+  }
 
   bool done() const { return options_.frames != 0 && report_.framesRendered() >= options_.frames; }
 
@@ -129,6 +134,10 @@ class ClientLoop {
   // report.json and report.html, and the summary line.
   void writeReport() {
     report_.setSuperseded(superseded_);
+    if (writer_) {
+      writer_->flush();
+      report_.setPicturesDropped(writer_->dropped());
+    }
     // What the frames were rendered with, so that a report can be matched
     // with the sweep point it was meant to reproduce.
     std::map<std::string, std::string> settings = {
@@ -316,18 +325,12 @@ class ClientLoop {
   }
 
   // Written aside and renamed: whoever watches frames/ (a viewer, a test)
-  // never reads half a picture. Whether it was written.
-  bool writeFrame(const Image8& picture, const std::string& file) const {
+  // never reads half a picture. Handed to the writer's thread, or written
+  // here when the judge reads it next; whether it was (or will be).
+  bool writeFrame(Image8 picture, const std::string& file) {
     if (!options_.write_frames) return false;
-    const fs::path path = out_dir_ / file;
-    const fs::path partial =
-        path.parent_path() / (path.stem().string() + ".partial.png");  // PNG by its name
-    const Status written = writeImage(partial.string(), picture);
-    std::error_code renamed;
-    if (written.isOk()) fs::rename(partial, path, renamed);
-    if (!written.isOk()) std::fprintf(stderr, "[client] %s\n", written.message().c_str());
-    if (renamed) std::fprintf(stderr, "[client] %s: %s\n", path.c_str(), renamed.message().c_str());
-    return written.isOk() && !renamed;
+    if (writer_) return writer_->submit(std::move(picture), out_dir_ / file);
+    return writePictureAtomically(picture, out_dir_ / file);
   }
 
   // The live judge's verdict on a written frame, outside every stage's
@@ -349,7 +352,7 @@ class ClientLoop {
     const PendingBundle& bundle = ready.bundle->second;
     const BlendSettings blend = nextBlend(bundle.views);
     const uint64_t field_runs = renderer_.fieldPasses();
-    const Image8 picture = renderer_.render(ready.user, blend);
+    Image8 picture = renderer_.render(ready.user, blend);
     const uint64_t rendered_ns = monotonicNs();
     if (renderer_.fieldPasses() != field_runs) {
       const auto times = renderer_.fieldTimesMs();
@@ -363,7 +366,8 @@ class ClientLoop {
     char name[64];
     std::snprintf(name, sizeof(name), "frame_%06zu.png", report_.framesRendered());
     record.file = std::string("frames/") + name;
-    const bool written = writeFrame(picture, record.file);
+    const bool written = writeFrame(std::move(picture), record.file);
+    if (!written) record.file.clear();  // not written, or dropped by a full writer queue
     const uint64_t written_ns = monotonicNs();
     if (judge_ && written) judgeFrame(ready, record);
     auto& stamps = ready.stamps;
@@ -409,6 +413,7 @@ class ClientLoop {
   std::map<uint64_t, FrameStats> stats_;
   std::set<uint64_t> failed_bundles_;  // ids already reported as skipped
   LatencyReport report_;
+  std::optional<PictureWriter> writer_;  // the pictures, off the render path
   uint64_t last_progress_ns_ = 0;
   uint64_t superseded_ = 0;      // meshes skipped because a newer one was already there
   bool judge_failed_ = false;    // warned once

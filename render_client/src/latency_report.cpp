@@ -180,6 +180,7 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   j["quality"] = quality;
   j["frames_skipped"] = skipped_;
   j["frames_superseded"] = superseded_;
+  j["pictures_dropped"] = pictures_dropped_;
   j["camera_views_without_subject"] = views_without_subject_;
   j["settings"] = settings;
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
@@ -220,6 +221,7 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
                                          format(endToEndPercentile(95), " ms") + " / " +
                                          format(endToEndPercentile(99), " ms")},
       {"meshes superseded (a newer one was waiting)", std::to_string(superseded_)},
+      {"pictures not written (the writer's queue was full)", std::to_string(pictures_dropped_)},
       {"frames skipped (bad input)", std::to_string(skipped_.size())}};
   for (const auto& [key, value] : settings) summary.push_back({key, value});
   body += html::table({"", "value"}, summary);

@@ -59,6 +59,9 @@ class LatencyReport {
   void noteSkipped(const std::string& why) { skipped_.push_back(why); }
   // Meshes not rendered because a newer one had already arrived.
   void setSuperseded(uint64_t count) { superseded_ = count; }
+  // Pictures not written because the writer's queue was full (their frames
+  // were rendered and are reported).
+  void setPicturesDropped(uint64_t count) { pictures_dropped_ = count; }
   // Camera views of rendered meshes that held none of the subject (left out
   // of every texture-field pass and of the blend).
   void addViewsWithoutSubject(size_t count) { views_without_subject_ += count; }
@@ -106,6 +109,7 @@ class LatencyReport {
   std::vector<uint64_t> written_ns_;
   std::vector<std::string> skipped_;
   uint64_t superseded_ = 0;
+  uint64_t pictures_dropped_ = 0;
   uint64_t views_without_subject_ = 0;
 };
 
