@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <map>
 
 #include "common/camera.h"
@@ -169,6 +170,99 @@ TEST(MeshCodec, DracoRoundTripIsWithinQuantisation) {
   for (const auto& p : back->positions) EXPECT_NEAR(glm::length(glm::dvec3(p)), 0.4, 0.011);
   EXPECT_LT(bytes->size(), mesh.vertexCount() * 24 / 4) << "quantisation must shrink the mesh";
   EXPECT_FALSE(decodeDraco(bytes->data(), bytes->size() / 3).isOk());
+}
+
+// The Holoportation coding (half floats through LZ4) on a keyed marching
+// cubes sphere with an atlas's corner coordinates: vertices and faces in
+// the same order, keys and indices exact, positions within a half's step
+// of their offset from the centre (2^-11 of 0.4 m: 0.2 mm), normals
+// within a half's step, corner coordinates within 1/65535.
+TEST(MeshCodec, Fp16Lz4RoundTripKeepsOrderKeysAndIndicesExactly) {
+  const auto grid = sampleGrid({0.5, 0.6, -0.7}, 0.05, 21, 21, 21, [](const glm::dvec3& p) {
+    return 0.4 - glm::length(p - glm::dvec3(1.0, 1.1, -0.2));
+  });
+  Mesh mesh = marchingCubes(grid);
+  ASSERT_EQ(mesh.vertex_keys.size(), mesh.vertexCount());
+  for (size_t c = 0; c < mesh.indices.size(); ++c)
+    mesh.corner_uvs.emplace_back((c % 97) / 96.0f, (c % 89) / 88.0f);
+  auto bytes = encodeFp16Lz4(mesh);
+  ASSERT_TRUE(bytes.isOk()) << bytes.status().toString();
+  const auto counts = readFp16Lz4Counts(bytes->data(), bytes->size());
+  ASSERT_TRUE(counts.isOk());
+  EXPECT_EQ(counts->vertices, mesh.vertexCount());
+  EXPECT_EQ(counts->faces, mesh.triangleCount());
+  auto back = decodeFp16Lz4(bytes->data(), bytes->size());
+  ASSERT_TRUE(back.isOk()) << back.status().toString();
+  EXPECT_EQ(back->indices, mesh.indices);
+  EXPECT_EQ(back->vertex_keys, mesh.vertex_keys);
+  ASSERT_EQ(back->positions.size(), mesh.positions.size());
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    EXPECT_LT(glm::length(back->positions[v] - mesh.positions[v]), 0.4f / 2048 * 1.8f) << v;
+    EXPECT_LT(glm::length(back->normals[v] - mesh.normals[v]), 2e-3f) << v;
+  }
+  ASSERT_EQ(back->corner_uvs.size(), mesh.corner_uvs.size());
+  for (size_t c = 0; c < mesh.corner_uvs.size(); ++c)
+    EXPECT_LE(glm::length(back->corner_uvs[c] - mesh.corner_uvs[c]), 1.0f / 65535) << c;
+  // Without normals they are computed from the faces, as Draco's decoder does.
+  Mesh bare = mesh;
+  bare.normals.clear();
+  bare.corner_uvs.clear();
+  bytes = encodeFp16Lz4(bare);
+  ASSERT_TRUE(bytes.isOk());
+  back = decodeFp16Lz4(bytes->data(), bytes->size());
+  ASSERT_TRUE(back.isOk());
+  EXPECT_TRUE(back->corner_uvs.empty());
+  ASSERT_EQ(back->normals.size(), mesh.vertexCount());
+  EXPECT_GT(glm::dot(back->normals[0], mesh.normals[0]), 0.99f);
+}
+
+// Untrusted bytes, each refused by name before it can allocate or reach
+// the renderer: short, not ours, counts past the caps, a raw size its
+// counts do not make, a raw size no LZ4 payload of that length expands
+// to, a corrupt block, a face past the vertices, a non-finite position.
+TEST(MeshCodec, Fp16Lz4RefusesWhatIsNotAWholeMeshByName) {
+  Mesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  mesh.indices = {0, 1, 2, 1, 3, 2};
+  auto good = encodeFp16Lz4(mesh);
+  ASSERT_TRUE(good.isOk());
+  auto says = [](const StatusOr<Mesh>& decoded, const std::string& what) {
+    ASSERT_FALSE(decoded.isOk()) << what;
+    EXPECT_NE(decoded.status().toString().find(what), std::string::npos)
+        << decoded.status().toString();
+  };
+  says(decodeFp16Lz4(good->data(), 20), "shorter than its 32-byte header");
+  std::vector<uint8_t> bytes = *good;
+  bytes[0] = 'X';
+  says(decodeFp16Lz4(bytes.data(), bytes.size()), "no HF16 magic");
+  DracoLimits tight;
+  tight.max_faces = 1;
+  says(decodeFp16Lz4(good->data(), good->size(), tight), "above the caps");
+  auto patched = [&](size_t offset, uint32_t value) {
+    std::vector<uint8_t> b = *good;
+    std::memcpy(b.data() + offset, &value, 4);
+    return b;
+  };
+  bytes = patched(12, 3);  // faces 2 -> 3, raw size unchanged
+  says(decodeFp16Lz4(bytes.data(), bytes.size()), "raw bytes where its counts make");
+  // A 32-byte header claiming a million vertices over a few bytes of payload.
+  bytes = patched(8, 1000000);
+  const uint32_t claimed = 1000000 * 6 + 2 * 12;
+  std::memcpy(bytes.data() + 28, &claimed, 4);
+  says(decodeFp16Lz4(bytes.data(), bytes.size()), "cannot hold");
+  bytes = *good;
+  for (size_t i = 32; i < bytes.size(); ++i) bytes[i] ^= 0xA5;
+  says(decodeFp16Lz4(bytes.data(), bytes.size()), "LZ4");
+  Mesh bad_face = mesh;
+  bad_face.indices[4] = 7;
+  auto encoded = encodeFp16Lz4(bad_face);
+  ASSERT_TRUE(encoded.isOk());
+  says(decodeFp16Lz4(encoded->data(), encoded->size()), "face 1 index 7 out of range");
+  Mesh far = mesh;
+  far.positions[3].z = 1e6f;  // past a half's range (65504) from the centre
+  encoded = encodeFp16Lz4(far);
+  ASSERT_TRUE(encoded.isOk());
+  says(decodeFp16Lz4(encoded->data(), encoded->size()), "is not finite");
 }
 
 // Bytes from a faulty server: Draco carries unquantised floats and its

@@ -39,4 +39,26 @@ struct DracoLimits {
 // recomputed when absent.
 StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& limits = {});
 
+// The open Holoportation stack's mesh coding: half-float positions and
+// normals and the indices as they are, through LZ4, with no prediction or
+// entropy coding: several times Draco's bytes in a fraction of its time
+// (bench_mesh_codec measures the trade). holofuse's meshes also carry
+// their vertex keys (exact) and an atlas's corner coordinates (16-bit
+// fixed point, Draco's default). Positions are halves of their offset
+// from the mesh's bounds centre (kept as floats): a step of 2^-11 of the
+// offset, under 0.5 mm on a 2 m subject, like Draco's 11 bits over its box.
+// Layout, little endian: "HF16", u8 version 1, u8 flags (1 normals, 2
+// vertex keys, 4 corner coordinates), u16 0, u32 vertices, u32 faces,
+// f32 x3 centre, u32 raw size, then one LZ4 block of the raw arrays in
+// this order: positions (u16 x3 a vertex), normals (u16 x3), keys (u64),
+// indices (u32 x3 a face), corner coordinates (u16 x2 a corner).
+StatusOr<std::vector<uint8_t>> encodeFp16Lz4(const Mesh& mesh);
+// The counts its header states, read before anything is decoded.
+StatusOr<DracoCounts> readFp16Lz4Counts(const uint8_t* data, size_t size);
+// Decodes untrusted bytes: the counts are capped and the stated raw size
+// checked against the counts and against what LZ4 can expand the payload
+// to before anything is allocated; then as decodeDraco's result (indices
+// in range, finite positions, normals recomputed when absent).
+StatusOr<Mesh> decodeFp16Lz4(const uint8_t* data, size_t size, const DracoLimits& limits = {});
+
 }  // namespace holofuse
