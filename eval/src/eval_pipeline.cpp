@@ -41,7 +41,7 @@ Mesh refined(const Mesh& hull, const std::vector<hull::HullView>& views,
 // (EvalOptions::hull_without_held_out), and refined without its colour
 // (the fusion's refine settings), so that beyond its silhouette, which paper
 // 000's protocol lets shape the hull, nothing of a held-out image shapes
-// what it is compared with. Through Draco, as a client receives a mesh.
+// what it is compared with. Through the mesh codec, as a client receives a mesh.
 StatusOr<std::map<int, Mesh>> meshesForHeldOut(const EvalOptions& options,
                                                const std::vector<hull::HullView>& views,
                                                const std::vector<Image8>& colors, const Mesh& hull,
@@ -60,8 +60,9 @@ StatusOr<std::map<int, Mesh>> meshesForHeldOut(const EvalOptions& options,
     const Mesh mesh =
         refined(options.hull_without_held_out ? hull::carveVisualHull(others, hull_options) : hull,
                 others, other_colors, options, hull_options.voxel_size);
-    auto bytes = encodeDraco(mesh, options.loop.fusion.draco);
-    auto decoded = bytes.isOk() ? decodeDraco(bytes->data(), bytes->size()) : bytes.status();
+    const protocol::MeshCodec codec = options.loop.fusion.mesh_codec;
+    auto bytes = encodeMesh(codec, mesh, options.loop.fusion.draco);
+    auto decoded = bytes.isOk() ? decodeMesh(codec, bytes->data(), bytes->size()) : bytes.status();
     if (!decoded.isOk()) {
       return within(
           "the hull without camera " + std::to_string(views[static_cast<size_t>(held)].camera.id),
@@ -126,11 +127,13 @@ Status sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOption
   frame.feather_bytes += status.isOk() ? render::featherBytes(bundle) : 0;
   protocol::MeshFrame mesh_frame;
   status = protocol::decodeFrame(mesh_frame_parsed, mesh_frame);
-  auto mesh = status.isOk() ? decodeDraco(mesh_frame.mesh.data(), mesh_frame.mesh.size()) : status;
+  auto mesh = status.isOk()
+                  ? decodeMesh(mesh_frame.codec, mesh_frame.mesh.data(), mesh_frame.mesh.size())
+                  : status;
   frame.codec_ms["decode"] += msSince(t0);
   if (!views.isOk()) return within("the client's images", views.status());
   if (mesh_frame.mesh.empty()) {
-    // The server sends no Draco bytes when encoding failed, and says why in the Stats.
+    // The server sends no mesh bytes when encoding failed, and says why in the Stats.
     HOLOFUSE_ASSIGN_OR_RETURN(const protocol::Frame stats_frame, parsedFrame(stats_wire, "stats"));
     protocol::Stats stats;
     status = protocol::decodeFrame(stats_frame, stats);

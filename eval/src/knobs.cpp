@@ -63,6 +63,7 @@ std::vector<Knob> makeKnobs() {
                                                        {"dilation", "--dilation"},
                                                        {"delta", "--vote-delta"},
                                                        {"draco-bits", "--draco-bits"},
+                                                       {"mesh-codec", "--mesh-codec"},
                                                        {"lz4-acceleration", "--lz4-acceleration"},
                                                        {"lz4-hc-level", "--lz4-hc-level"},
                                                        {"crop-margin", "--crop-margin"},

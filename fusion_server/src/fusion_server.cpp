@@ -12,6 +12,7 @@
 #include <fstream>
 
 #include "common/image_codec.h"
+#include "common/mesh_codec.h"
 #include "common/shutdown.h"
 #include "protocol/clock.h"
 #include "protocol/handshake.h"
@@ -83,13 +84,13 @@ Status FusionServer::start() {
   const FusionSettings& f = options_.fusion;
   std::fprintf(stderr,
                "[server] listening on %s:%u for %d pods; voxel %g m (error target %g mm, "
-               "refinement %g voxels), Draco %d "
-               "bits speed %d, "
+               "refinement %g voxels), meshes %s (Draco %d "
+               "bits speed %d), "
                "images to clients %s at LZ4 acceleration %d, LZ4HC level %d\n",
                options_.listen.host.c_str(), port(), options_.pods, f.hull.voxel_size,
-               1000.0 * f.hull_error_target, f.refine.depth_voxels, f.draco.position_bits,
-               f.draco.speed, imageCodecName(f.image_codec).c_str(), f.lz4_acceleration,
-               f.lz4_hc_level);
+               1000.0 * f.hull_error_target, f.refine.depth_voxels,
+               meshCodecName(f.mesh_codec).c_str(), f.draco.position_bits, f.draco.speed,
+               imageCodecName(f.image_codec).c_str(), f.lz4_acceleration, f.lz4_hc_level);
   return Status::ok();
 }
 
@@ -273,8 +274,13 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
   peer.role = hello.role;
   peer.id = hello.id;
   peer.minor = ack.minor;
-  peer.wants_layers = hello.role == protocol::Role::kClient && ack.minor >= 5 &&
-                      (hello.capabilities & protocol::kCapabilityLayers) != 0;
+  const bool asked_layers = hello.role == protocol::Role::kClient && ack.minor >= 5 &&
+                            (hello.capabilities & protocol::kCapabilityLayers) != 0;
+  // The layers are laid out on the mesh as a 1.7 client decodes it; one
+  // before 1.7 decodes the Draco spelling, whose positions differ.
+  const bool layers_fit =
+      ack.minor >= 7 || options_.fusion.mesh_codec == protocol::MeshCodec::kDraco;
+  peer.wants_layers = asked_layers && layers_fit;
   peer.wants_layer_video = peer.wants_layers && ack.minor >= 6 &&
                            (hello.capabilities & protocol::kCapabilityLayerVideo) != 0 &&
                            isVideoCodec(options_.fusion.layers.video.codec);
@@ -286,7 +292,9 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
                options_.keys ? ", authenticated" : "",
                peer.wants_layer_video ? ", texture layers as video"
                : peer.wants_layers    ? ", texture layers"
-                                      : "");
+               : asked_layers ? ", no texture layers (they are laid out on meshes it does not "
+                                "decode: --mesh-codec is not draco and it speaks 1.6 or older)"
+                              : "");
   if (peer.role == protocol::Role::kClient) {
     for (const auto& [id, bytes] : calibration_frames_) peer.connection->send(bytes);
   }
@@ -489,6 +497,9 @@ void FusionServer::dispatchReadyGroups() {
     }
     worker_->setLayersWanted(lz4, video);
     GroupJob job;
+    for (const Peer& p : peers_)
+      job.draco_for_older =
+          job.draco_for_older || (p.greeted && p.role == protocol::Role::kClient && p.minor < 7);
     job.group = std::move(group);
     job.late_frames = sync_.lateFrames();
     job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();
@@ -508,6 +519,10 @@ void FusionServer::fanOut() {
       recorder_->recordFused(out.frame_id, *out.mesh_frame, *out.texture_bundle, *out.stats);
     for (auto& peer : peers_) {
       if (!peer.greeted || peer.role != protocol::Role::kClient) continue;
+      // A client before 1.7 decodes Draco meshes only: none was made for
+      // a frame fused before it joined, and it gets none of that frame.
+      const protocol::SharedFrame& mesh = peer.minor >= 7 ? out.mesh_frame : out.mesh_frame_draco;
+      if (!mesh) continue;
       // Bundle and Stats first: the client renders when the mesh arrives.
       // A client that asked for layers gets the images of a frame whose
       // layers were refused (the Stats' note says why).
@@ -536,7 +551,7 @@ void FusionServer::fanOut() {
       peer.connection->send(peer.minor >= 3   ? out.stats
                             : peer.minor >= 1 ? out.stats_v1_2
                                               : out.stats_v1_0);
-      peer.connection->send(out.mesh_frame);
+      peer.connection->send(mesh);
       if (peer.connection->framesDropped() != peer.frames_dropped_seen) {
         peer.frames_dropped_seen = peer.connection->framesDropped();
         peer.layer_video_in_step = false;

@@ -156,7 +156,12 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   if (refine_end_ns != 0)
     stamps.push_back(
         {static_cast<uint16_t>(Stage::kRefine), kSourceServer, hull_end_ns, refine_end_ns});
-  auto draco = encodeDraco(mesh, settings.draco);
+  auto encoded = encodeMesh(settings.mesh_codec, mesh, settings.draco);
+  // Clients before 1.7 decode Draco only.
+  const bool draco_apart =
+      settings.mesh_codec != protocol::MeshCodec::kDraco && job.draco_for_older;
+  auto draco = draco_apart ? encodeDraco(mesh, settings.draco)
+                           : StatusOr<std::vector<uint8_t>>(std::vector<uint8_t>{});
   const uint64_t t2 = monotonicNs();
   stamps.push_back({static_cast<uint16_t>(Stage::kMeshEncode), kSourceServer, mesh_ready_ns, t2});
 
@@ -197,7 +202,8 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   if (layers.stage != nullptr && (layers.lz4 || layers.video)) {
     // Charts are placed by positions: the mesh as every client decodes it.
     StatusOr<Mesh> received =
-        draco.isOk() ? decodeDraco(draco->data(), draco->size()) : StatusOr<Mesh>(draco.status());
+        encoded.isOk() ? decodeMesh(settings.mesh_codec, encoded->data(), encoded->size())
+                       : StatusOr<Mesh>(encoded.status());
     Status built = !received.isOk() ? received.status()
                                     : layers.stage->build(group, *received, settings.hull,
                                                           settings.layers, &out.layer_stats);
@@ -261,7 +267,10 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
     if (!missing.empty())
       stats.note = "proceeded without camera(s) " + missing + " after the sync deadline";
   }
-  if (!draco.isOk()) stats.note += (stats.note.empty() ? "" : "; ") + draco.status().message();
+  if (!encoded.isOk())
+    stats.note += (stats.note.empty() ? "" : "; ") + encoded.status().message();
+  else if (!draco.isOk())
+    stats.note += (stats.note.empty() ? "" : "; ") + draco.status().message();
   if (!out.layers_note.empty()) stats.note += (stats.note.empty() ? "" : "; ") + out.layers_note;
 
   auto share = [](protocol::OutgoingFrame frame) {
@@ -281,11 +290,24 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
       bundle.images.size() > protocol::kMaxCamerasBefore13
           ? share(protocol::encodeOutgoing(bundle, bundle_sequence, storage, 2))
           : out.texture_bundle;
-  auto draco_bytes =
-      draco.isOk() ? std::make_shared<const std::vector<uint8_t>>(std::move(*draco)) : nullptr;
-  if (draco_bytes) mesh_frame.mesh = *draco_bytes;
-  out.mesh_frame =
-      share(protocol::encodeOutgoing(mesh_frame, protocol::nextSequence(), draco_bytes));
+  // The mesh bytes are borrowed by the frame, as the images are; one
+  // sequence number for both spellings.
+  const uint64_t mesh_sequence = protocol::nextSequence();
+  auto frameOf = [&](StatusOr<std::vector<uint8_t>>& bytes, protocol::MeshCodec codec) {
+    auto kept =
+        bytes.isOk() ? std::make_shared<const std::vector<uint8_t>>(std::move(*bytes)) : nullptr;
+    protocol::MeshFrame spelt = mesh_frame;
+    spelt.codec = codec;
+    if (kept) spelt.mesh = *kept;
+    return share(protocol::encodeOutgoing(spelt, mesh_sequence, kept));
+  };
+  out.mesh_frame = frameOf(encoded, settings.mesh_codec);
+  if (!draco_apart) {
+    out.mesh_frame_draco =
+        settings.mesh_codec == protocol::MeshCodec::kDraco ? out.mesh_frame : nullptr;
+  } else {
+    out.mesh_frame_draco = frameOf(draco, protocol::MeshCodec::kDraco);
+  }
   // One sequence number for both: it is one frame, spelt per minor.
   const uint64_t stats_sequence = protocol::nextSequence();
   stats.pod_arrivals = job.pod_arrivals;

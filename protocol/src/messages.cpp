@@ -315,7 +315,8 @@ void writePayload(WireWriter& w, const MeshFrame& m) {
   w.bytes32(m.mesh);
 }
 
-Status readPayload(std::span<const uint8_t> payload, MeshFrame& m, size_t base_offset) {
+Status readPayload(std::span<const uint8_t> payload, MeshFrame& m, size_t base_offset,
+                   uint8_t minor) {
   WireReader r(payload, base_offset);
   m.frame_id = r.u64("mesh_frame.frame_id");
   m.capture_time_ns = r.u64("mesh_frame.capture_time");
@@ -324,9 +325,11 @@ Status readPayload(std::span<const uint8_t> payload, MeshFrame& m, size_t base_o
   m.vertex_count = r.u32("mesh_frame.vertex_count");
   m.triangle_count = r.u32("mesh_frame.triangle_count");
   const uint8_t codec = r.u8("mesh_frame.codec");
-  if (r.ok() && codec != 1) {
+  const uint8_t known = minor >= 7 ? 2 : 1;  // fp16-lz4 since 1.7
+  if (r.ok() && (codec < 1 || codec > known)) {
     r.failValue("mesh_frame.codec", StatusCode::kMalformed,
-                "unknown mesh codec " + std::to_string(codec));
+                "unknown mesh codec " + std::to_string(codec) + " in a 1." + std::to_string(minor) +
+                    " frame");
   }
   m.codec = static_cast<MeshCodec>(codec);
   readStamps(r, m.stamps);

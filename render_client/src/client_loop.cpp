@@ -258,7 +258,8 @@ class ClientLoop {
       if (failed_bundles_.count(id) == 0) skip(id, "its texture bundle was dropped on the way");
       return std::nullopt;
     }
-    auto mesh = decodeDraco(ready.frame.mesh.data(), ready.frame.mesh.size(), options_.mesh_limits);
+    auto mesh = decodeMesh(ready.frame.codec, ready.frame.mesh.data(), ready.frame.mesh.size(),
+                           options_.mesh_limits);
     Status usable = !mesh.isOk() ? mesh.status()
                     : mesh->triangleCount() == 0
                         ? Status(StatusCode::kMalformed, "mesh with no triangles")

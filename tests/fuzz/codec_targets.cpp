@@ -88,21 +88,38 @@ HOLOFUSE_FUZZ_TARGET(client_texture_bundle) {
   return 0;
 }
 
+// What a client may take from a mesh decoder: whole triangles, indices
+// that name vertices, a finite position and normal for every vertex.
+void requireRenderable(const Mesh& mesh) {
+  require(mesh.indices.size() % 3 == 0, "three indices a triangle");
+  for (uint32_t index : mesh.indices)
+    require(index < mesh.vertexCount(), "every index names a vertex");
+  require(mesh.normals.size() == mesh.positions.size(), "a normal for every vertex");
+  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+    const glm::vec3& p = mesh.positions[i];
+    const glm::vec3& n = mesh.normals[i];
+    require(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z), "finite positions");
+    require(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z), "finite normals");
+  }
+  require(mesh.corner_uvs.empty() || mesh.corner_uvs.size() == mesh.indices.size(),
+          "texture coordinates, where there are some, for every corner");
+}
+
 // Draco bytes as a MeshFrame carries them to the client.
 HOLOFUSE_FUZZ_TARGET(draco_mesh) {
   auto mesh = decodeDraco(data, size);
   if (!mesh.isOk()) return 0;
   ++accepted()["draco_mesh"];
-  require(mesh->indices.size() % 3 == 0, "three indices a triangle");
-  for (uint32_t index : mesh->indices)
-    require(index < mesh->vertexCount(), "every index names a vertex");
-  require(mesh->normals.size() == mesh->positions.size(), "a normal for every vertex");
-  for (size_t i = 0; i < mesh->positions.size(); ++i) {
-    const glm::vec3& p = mesh->positions[i];
-    const glm::vec3& n = mesh->normals[i];
-    require(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z), "finite positions");
-    require(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z), "finite normals");
-  }
+  requireRenderable(*mesh);
+  return 0;
+}
+
+// Half floats through LZ4 (protocol 1.7's mesh codec 2), as a client gets them.
+HOLOFUSE_FUZZ_TARGET(fp16_lz4_mesh) {
+  auto mesh = decodeFp16Lz4(data, size);
+  if (!mesh.isOk()) return 0;
+  ++accepted()["fp16_lz4_mesh"];
+  requireRenderable(*mesh);
   return 0;
 }
 

@@ -214,6 +214,14 @@ void protocolSeeds(Corpus& corpus) {
   }
   corpus["draco_mesh"] = {{"edgebreaker", dracoOf(sphere(), 7)},
                           {"sequential", dracoOf(sphere(), 10)}};
+  // Keyed with normals as the server sends it, then with an atlas's corner
+  // coordinates and without normals.
+  Mesh atlas = sphere();
+  atlas.normals.clear();
+  for (size_t c = 0; c < atlas.indices.size(); ++c)
+    atlas.corner_uvs.emplace_back((c % 31) / 30.0f, (c % 17) / 16.0f);
+  corpus["fp16_lz4_mesh"] = {{"keyed", *encodeFp16Lz4(sphere())},
+                             {"atlas_without_normals", *encodeFp16Lz4(atlas)}};
 }
 
 // A recording as the server writes one: the dataset's description, each

@@ -18,6 +18,7 @@
 #include "browser_check.h"
 #include "common/camera.h"
 #include "common/image_codec.h"
+#include "common/mesh_codec.h"
 #include "process_harness.h"
 #include "protocol/frame.h"
 #include "protocol/messages.h"
@@ -174,6 +175,8 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
 // the client decodes the streams (a key frame when it joined, then
 // predicted frames), and its pictures from pod 0's pose are judged against
 // the truth as mode normal's are. (LZ4 layers: LeaveOneOut.ModeLayered...)
+// The meshes come as half floats through LZ4 (protocol 1.7), so the layers
+// are laid out on the mesh as that codec gives it back.
 TEST(Loop, ModeLayeredRendersFromTheServersTextureLayers) {
   const fs::path out = freshDir("loop_layered");
   const pid_t loop = spawn({kBin + "/holofuse_loop",
@@ -191,6 +194,8 @@ TEST(Loop, ModeLayeredRendersFromTheServersTextureLayers) {
                             "layered",
                             "--layer-video",
                             "h264",
+                            "--mesh-codec",
+                            "fp16-lz4",
                             "--quality",
                             "--seed",
                             "5",
@@ -207,8 +212,9 @@ TEST(Loop, ModeLayeredRendersFromTheServersTextureLayers) {
   EXPECT_EQ(stages["image_encode"]["samples"].get<int>(), 0) << "no camera images sent";
   EXPECT_GT(stages["layers"]["p50"].get<double>(), 0.0);
   EXPECT_EQ(stages["layer_video"]["samples"].get<int>(), 4) << "the layers coded as video";
-  EXPECT_NE(readFile(out / "logs" / "server.log").find("texture layers as video"),
-            std::string::npos);
+  const std::string server_log = readFile(out / "logs" / "server.log");
+  EXPECT_NE(server_log.find("texture layers as video"), std::string::npos) << server_log;
+  EXPECT_NE(server_log.find("meshes fp16-lz4"), std::string::npos) << server_log;
   int judged = 0;
   for (const auto& frame : report["frames"]) {
     if (frame["cameras_present"] != 4) continue;
@@ -316,11 +322,14 @@ TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
 // the minor it agreed on: a 1.0 client the 1.0 Stats under a 1.0 header,
 // 1.0 and 1.1 clients the bundle without feather maps, a 1.2 client both.
 // Minors before 1.4 have no authentication: only a server started with
-// --no-auth (loopback only) serves them.
+// --no-auth (loopback only) serves them. The server sends meshes as half
+// floats through LZ4 (1.7): clients of 1.7 get those, every older one the
+// same meshes in Draco.
 TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   const fs::path out = freshDir("minor");
   pid_t server = 0;
-  const std::string endpoint = startServer(out, 1, &server, {"--no-auth"});
+  const std::string endpoint =
+      startServer(out, 1, &server, {"--no-auth", "--mesh-codec", "fp16-lz4"});
   auto parsed = holofuse::protocol::parseEndpoint(endpoint);
   ASSERT_TRUE(parsed.isOk()) << "the server did not report its port";
   const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods",
@@ -332,10 +341,12 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     std::vector<std::pair<uint8_t, holofuse::protocol::Stats>> stats;  // header minor, message
     // header minor, and the plane kinds of the bundle's one image
     std::vector<std::pair<uint8_t, std::vector<holofuse::protocol::PlaneKind>>> bundles;
+    // frame id -> the mesh's codec and its vertices once decoded
+    std::map<uint64_t, std::pair<holofuse::protocol::MeshCodec, size_t>> meshes;
   };
-  static_assert(holofuse::protocol::kVersionMinor == 6, "a client of each minor");
-  std::vector<Client> clients(7);
-  for (uint8_t minor = 0; minor < 7; ++minor) clients[minor].max_minor = minor;
+  static_assert(holofuse::protocol::kVersionMinor == 7, "a client of each minor");
+  std::vector<Client> clients(8);
+  for (uint8_t minor = 0; minor < 8; ++minor) clients[minor].max_minor = minor;
   for (Client& c : clients) {
     holofuse::protocol::Hello hello;
     hello.role = holofuse::protocol::Role::kClient;
@@ -346,7 +357,7 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   }
   auto enough = [&] {
     return std::all_of(clients.begin(), clients.end(), [](const Client& c) {
-      return c.stats.size() >= 5 && c.bundles.size() >= 5;
+      return c.stats.size() >= 5 && c.bundles.size() >= 5 && c.meshes.size() >= 5;
     });
   };
   std::vector<holofuse::protocol::Frame> received;
@@ -357,8 +368,15 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
       for (const auto& frame : received) {
         holofuse::protocol::Stats stats;
         holofuse::protocol::TextureBundle bundle;
-        if (frame.header.type == static_cast<uint16_t>(holofuse::protocol::MessageType::kStats) &&
-            holofuse::protocol::decodeFrame(frame, stats).isOk()) {
+        holofuse::protocol::MeshFrame mesh;
+        if (frame.header.type ==
+                static_cast<uint16_t>(holofuse::protocol::MessageType::kMeshFrame) &&
+            holofuse::protocol::decodeFrame(frame, mesh).isOk()) {
+          auto decoded = holofuse::decodeMesh(mesh.codec, mesh.mesh.data(), mesh.mesh.size());
+          c.meshes[mesh.frame_id] = {mesh.codec, decoded.isOk() ? decoded->vertexCount() : 0};
+        } else if (frame.header.type ==
+                       static_cast<uint16_t>(holofuse::protocol::MessageType::kStats) &&
+                   holofuse::protocol::decodeFrame(frame, stats).isOk()) {
           c.stats.emplace_back(frame.header.minor, stats);
         } else if (frame.header.type ==
                        static_cast<uint16_t>(holofuse::protocol::MessageType::kTextureBundle) &&
@@ -415,9 +433,26 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
           << "client of 1." << int(c.max_minor);
     }
   }
+  // The same meshes in each client's codec: a frame two clients both got
+  // has the same vertices (codecs keep the order and count).
+  size_t shared = 0;
+  for (const Client& c : clients) {
+    for (const auto& [frame_id, mesh] : c.meshes) {
+      EXPECT_EQ(mesh.first, c.max_minor >= 7 ? holofuse::protocol::MeshCodec::kFp16Lz4
+                                             : holofuse::protocol::MeshCodec::kDraco)
+          << "client of 1." << int(c.max_minor);
+      EXPECT_GT(mesh.second, 0u) << "client of 1." << int(c.max_minor) << " frame " << frame_id;
+      const auto newest = clients.back().meshes.find(frame_id);
+      if (&c == &clients.back() || newest == clients.back().meshes.end()) continue;
+      EXPECT_EQ(mesh.second, newest->second.second) << "frame " << frame_id;
+      ++shared;
+    }
+  }
+  EXPECT_GT(shared, 0u) << "no frame reached both a Draco and a fp16-lz4 client";
   const std::string log = readFile(out / "server.log");
+  EXPECT_NE(log.find("meshes fp16-lz4"), std::string::npos) << log;
   for (const char* version : {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3",
-                              "protocol 1.4", "protocol 1.5"}) {
+                              "protocol 1.4", "protocol 1.5", "protocol 1.6", "protocol 1.7"}) {
     EXPECT_NE(log.find(version), std::string::npos) << version << "\n" << log;
   }
 }

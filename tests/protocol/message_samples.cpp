@@ -171,6 +171,11 @@ std::vector<Sample> allSamples(uint8_t minor) {
       {"error", encodeFrame(ErrorMessage{3, "version 2.0 not supported"}, 10, 0, minor)}};
   if (minor >= 5)  // texture layers came with 1.5
     samples.push_back({"texture_bundle_layers", encodeFrame(sampleLayeredBundle(), 12, 0, minor)});
+  if (minor >= 7) {  // meshes as half floats through LZ4 with 1.7
+    MeshFrame fp16 = sampleMeshFrame();
+    fp16.codec = MeshCodec::kFp16Lz4;
+    samples.push_back({"mesh_frame_fp16_lz4", encodeFrame(fp16, 14, 0, minor)});
+  }
   if (minor >= 6)  // the layers' video with 1.6
     samples.push_back(
         {"texture_bundle_layer_video", encodeFrame(sampleLayerVideoBundle(), 13, 0, minor)});

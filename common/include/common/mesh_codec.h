@@ -3,10 +3,13 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "base/status.h"
 #include "common/mesh.h"
+#include "protocol/messages.h"
 
 namespace holofuse {
 
@@ -60,5 +63,17 @@ StatusOr<DracoCounts> readFp16Lz4Counts(const uint8_t* data, size_t size);
 // to before anything is allocated; then as decodeDraco's result (indices
 // in range, finite positions, normals recomputed when absent).
 StatusOr<Mesh> decodeFp16Lz4(const uint8_t* data, size_t size, const DracoLimits& limits = {});
+
+// The codecs under their flag names ("draco", "fp16-lz4"), and by the
+// MeshFrame's codec: what the server sends (--mesh-codec) and what a
+// client decodes.
+std::vector<std::string> meshCodecNames();
+std::string meshCodecName(protocol::MeshCodec codec);
+std::optional<protocol::MeshCodec> meshCodecFromName(const std::string& name);
+StatusOr<std::vector<uint8_t>> encodeMesh(protocol::MeshCodec codec, const Mesh& mesh,
+                                          const DracoOptions& draco = {});
+StatusOr<DracoCounts> readMeshCounts(protocol::MeshCodec codec, const uint8_t* data, size_t size);
+StatusOr<Mesh> decodeMesh(protocol::MeshCodec codec, const uint8_t* data, size_t size,
+                          const DracoLimits& limits = {});
 
 }  // namespace holofuse

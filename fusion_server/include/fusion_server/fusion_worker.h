@@ -34,6 +34,9 @@ struct FusionSettings {
   // its voxel is the hull's of the frame.
   PhotoRefineOptions refine;
   DracoOptions draco;
+  // What the meshes go out as to clients of 1.7 (older ones get Draco):
+  // Draco, or half floats through LZ4 (the open Holoportation stack's).
+  protocol::MeshCodec mesh_codec = protocol::MeshCodec::kDraco;
   protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
   int lz4_acceleration = 1;  // of the images sent to clients (1 = LZ4's default)
   int lz4_hc_level = 0;      // 0: LZ4's fast mode; 1-12: LZ4HC (common/image_codec.h)
@@ -48,7 +51,10 @@ const std::vector<Setting<FusionSettings>>& fusionFlags();
 
 struct FusedOutput {
   uint64_t frame_id = 0;
-  protocol::SharedFrame mesh_frame, texture_bundle, stats;
+  // mesh_frame in FusionSettings::mesh_codec; mesh_frame_draco the same
+  // mesh in Draco for a client before 1.7 (mesh_frame itself when that is
+  // Draco; null when the job did not ask for it).
+  protocol::SharedFrame mesh_frame, mesh_frame_draco, texture_bundle, stats;
   // The same images without the pods' feather maps, under a 1.1 header,
   // for a peer that agreed on 1.1 or 1.0.
   protocol::SharedFrame texture_bundle_v1_1;
@@ -79,6 +85,9 @@ struct GroupJob {
   uint64_t dropped_groups = 0;
   std::vector<protocol::PodArrivals>
       pod_arrivals;  // every pod's so far, when the group was dispatched
+  // A client before 1.7 is connected: the mesh in Draco too, when the
+  // server's codec is another.
+  bool draco_for_older = false;
 };
 
 // A pod's frame as the fusion takes it: its planes decoded (the whole image
@@ -109,7 +118,7 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
 
 // What fuseGroup sends for a given mesh (carved from hull_start_ns to
 // hull_end_ns, refined from then to refine_end_ns; refine_end_ns 0: not
-// refined, no refine stage): the Draco MeshFrame, the TextureBundle of the pods' images
+// refined, no refine stage): the MeshFrame, the TextureBundle of the pods' images
 // re-encoded for clients, and the Stats. The evaluation packs its own
 // meshes with it, so that its bytes and codec times are the loop's.
 FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,

@@ -159,7 +159,8 @@ struct PodFrame {
   std::vector<Plane> planes;
 };
 
-enum class MeshCodec : uint8_t { kDraco = 1 };
+// 2 since 1.7: half floats through LZ4 (common/mesh_codec.h).
+enum class MeshCodec : uint8_t { kDraco = 1, kFp16Lz4 = 2 };
 
 struct MeshFrame {
   static constexpr MessageType kType = MessageType::kMeshFrame;
@@ -271,7 +272,9 @@ Status readPayload(std::span<const uint8_t> payload, HelloAck& m, size_t base_of
 Status readPayload(std::span<const uint8_t> payload, Auth& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, Calibration& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, PodFrame& m, size_t base_offset = 0);
-Status readPayload(std::span<const uint8_t> payload, MeshFrame& m, size_t base_offset = 0);
+// Codec 2 only from a frame of 1.7 or later.
+Status readPayload(std::span<const uint8_t> payload, MeshFrame& m, size_t base_offset = 0,
+                   uint8_t minor = kVersionMinor);
 Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t base_offset = 0,
                    uint8_t minor = kVersionMinor);
 Status readPayload(std::span<const uint8_t> payload, Heartbeat& m, size_t base_offset = 0);
