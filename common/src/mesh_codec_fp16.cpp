@@ -1,6 +1,7 @@
 // Half floats through LZ4: the open Holoportation stack's mesh coding
 // (layout in common/mesh_codec.h).
 #include <lz4.h>
+#include <meshoptimizer.h>
 
 #include <algorithm>
 #include <cmath>
@@ -78,9 +79,42 @@ StatusOr<Header> readHeader(const uint8_t* data, size_t size) {
   return h;
 }
 
+// The mesh in an order a GPU's post-transform vertex cache reuses well:
+// triangles by meshoptimizer's FIFO cache optimisation (a 16-entry cache;
+// its full optimiser took 3.5 ms at 8k vertices, this 0.8), vertices in
+// the order the triangles first use them. Draco's edgebreaker traverses
+// the surface and so orders it well; in marching cubes' cell order the
+// render took 56.6 ms against Draco's 47.2 in one bench loop (mode
+// normal, lavapipe), in this order 52.1 against 48.5. With an atlas's
+// corner coordinates, which follow the triangles, only the vertices move.
+Mesh inCacheOrder(const Mesh& mesh) {
+  const size_t n = mesh.vertexCount();
+  Mesh ordered = mesh;
+  // Indices past the vertices are the decoder's to refuse; nothing to order.
+  for (uint32_t index : mesh.indices)
+    if (index >= n) return ordered;
+  if (mesh.corner_uvs.empty()) {
+    meshopt_optimizeVertexCacheFifo(ordered.indices.data(), mesh.indices.data(),
+                                    mesh.indices.size(), n, 16);
+  }
+  std::vector<uint32_t> remap(n);
+  if (meshopt_optimizeVertexFetchRemap(remap.data(), ordered.indices.data(), ordered.indices.size(),
+                                       n) != n) {
+    return ordered;  // a vertex no triangle uses: the vertices stay as they are
+  }
+  for (uint32_t& index : ordered.indices) index = remap[index];
+  for (size_t v = 0; v < n; ++v) {
+    ordered.positions[remap[v]] = mesh.positions[v];
+    if (ordered.normals.size() == n) ordered.normals[remap[v]] = mesh.normals[v];
+    if (ordered.vertex_keys.size() == n) ordered.vertex_keys[remap[v]] = mesh.vertex_keys[v];
+  }
+  return ordered;
+}
+
 }  // namespace
 
-StatusOr<std::vector<uint8_t>> encodeFp16Lz4(const Mesh& mesh) {
+StatusOr<std::vector<uint8_t>> encodeFp16Lz4(const Mesh& unordered) {
+  const Mesh mesh = inCacheOrder(unordered);
   const size_t n = mesh.vertexCount(), faces = mesh.triangleCount();
   const bool normals = mesh.normals.size() == n && n > 0;
   const bool keys = mesh.vertex_keys.size() == n && n > 0;

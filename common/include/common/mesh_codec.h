@@ -50,6 +50,9 @@ StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& 
 // fixed point, Draco's default). Positions are halves of their offset
 // from the mesh's bounds centre (kept as floats): a step of 2^-11 of the
 // offset, under 0.5 mm on a 2 m subject, like Draco's 11 bits over its box.
+// Like Draco it reorders: triangles and vertices go out in the order a
+// GPU's vertex cache reuses best (meshoptimizer), the keys with their
+// vertices; with corner coordinates the triangles keep their order.
 // Layout, little endian: "HF16", u8 version 1, u8 flags (1 normals, 2
 // vertex keys, 4 corner coordinates), u16 0, u32 vertices, u32 faces,
 // f32 x3 centre, u32 raw size, then one LZ4 block of the raw arrays in
