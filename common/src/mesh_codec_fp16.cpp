@@ -241,32 +241,4 @@ StatusOr<Mesh> decodeFp16Lz4(const uint8_t* data, size_t size, const DracoLimits
   return mesh;
 }
 
-std::vector<std::string> meshCodecNames() { return {"draco", "fp16-lz4"}; }
-
-std::string meshCodecName(protocol::MeshCodec codec) {
-  return codec == protocol::MeshCodec::kFp16Lz4 ? "fp16-lz4" : "draco";
-}
-
-std::optional<protocol::MeshCodec> meshCodecFromName(const std::string& name) {
-  if (name == "draco") return protocol::MeshCodec::kDraco;
-  if (name == "fp16-lz4") return protocol::MeshCodec::kFp16Lz4;
-  return std::nullopt;
-}
-
-StatusOr<std::vector<uint8_t>> encodeMesh(protocol::MeshCodec codec, const Mesh& mesh,
-                                          const DracoOptions& draco) {
-  return codec == protocol::MeshCodec::kFp16Lz4 ? encodeFp16Lz4(mesh) : encodeDraco(mesh, draco);
-}
-
-StatusOr<DracoCounts> readMeshCounts(protocol::MeshCodec codec, const uint8_t* data, size_t size) {
-  return codec == protocol::MeshCodec::kFp16Lz4 ? readFp16Lz4Counts(data, size)
-                                                : readDracoCounts(data, size);
-}
-
-StatusOr<Mesh> decodeMesh(protocol::MeshCodec codec, const uint8_t* data, size_t size,
-                          const DracoLimits& limits) {
-  return codec == protocol::MeshCodec::kFp16Lz4 ? decodeFp16Lz4(data, size, limits)
-                                                : decodeDraco(data, size, limits);
-}
-
 }  // namespace holofuse

@@ -488,18 +488,18 @@ void FusionServer::dispatchReadyGroups() {
   for (auto& group : sync_.takeReady(expectedPods(), monotonicNs())) {
     if (group.pods.empty()) continue;
     // Layers are built only while a client that asked for them is here,
-    // coded as each such client decodes them.
+    // coded as each such client decodes them; the mesh in Draco too while
+    // a client before 1.7 is.
     bool lz4 = false, video = false;
+    GroupJob job;
     for (const Peer& p : peers_) {
-      if (!p.greeted || !p.wants_layers) continue;
+      if (!p.greeted || p.role != protocol::Role::kClient) continue;
+      job.draco_for_older = job.draco_for_older || p.minor < 7;
+      if (!p.wants_layers) continue;
       (p.wants_layer_video ? video : lz4) = true;
       if (p.wants_layer_video && !p.layer_video_in_step) worker_->requestLayerVideoKeyFrame();
     }
     worker_->setLayersWanted(lz4, video);
-    GroupJob job;
-    for (const Peer& p : peers_)
-      job.draco_for_older =
-          job.draco_for_older || (p.greeted && p.role == protocol::Role::kClient && p.minor < 7);
     job.group = std::move(group);
     job.late_frames = sync_.lateFrames();
     job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();
