@@ -25,6 +25,20 @@ using protocol::monotonicNs;
 
 namespace {
 
+// A peer's control messages of one kind (heartbeats, clock probes) that
+// come closer together than the floor, more than 10 in a row, close it:
+// answering them at any rate would let one peer take the loop.
+Status holdToFloor(uint64_t& last_ns, uint32_t& early_run, uint32_t floor_ms, const char* what) {
+  const uint64_t now = monotonicNs();
+  const bool early = now - last_ns < uint64_t{floor_ms} * 1000000;
+  last_ns = now;
+  early_run = early ? early_run + 1 : 0;
+  if (early_run <= 10) return Status::ok();
+  return Status(StatusCode::kTooLarge, std::string(what) + " closer together than " +
+                                           std::to_string(floor_ms) + " ms, " +
+                                           std::to_string(early_run) + " in a row");
+}
+
 // Whatever a peer may send before it is admitted: a Hello, an Auth.
 constexpr uint32_t kMaxPayloadBeforeAdmission = 256;
 // After admission, every message but a pod's PodFrames: Calibration,
@@ -274,6 +288,7 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
   peer.role = hello.role;
   peer.id = hello.id;
   peer.minor = ack.minor;
+  peer.clock = protocol::ClockSync(options_.clock);
   const bool asked_layers = hello.role == protocol::Role::kClient && ack.minor >= 5 &&
                             (hello.capabilities & protocol::kCapabilityLayers) != 0;
   // The layers are laid out on the mesh as a 1.7 client decodes it; one
@@ -301,6 +316,44 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
   return Status::ok();
 }
 
+Status FusionServer::handleClockProbe(Peer& peer, const Frame& frame) {
+  protocol::ClockProbe probe;
+  HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, probe));
+  if (probe.step == protocol::ProbeStep::kRequest) {
+    // Answered at once, like a heartbeat, and held to the same floor.
+    HOLOFUSE_RETURN_IF_ERROR(holdToFloor(peer.last_probe_ns, peer.early_probes,
+                                         options_.min_heartbeat_interval_ms, "clock probes"));
+    const uint64_t now = monotonicNs();
+    peer.connection->sendMessage(protocol::ClockSync::answer(probe, peer.read_ns, now));
+    return Status::ok();
+  }
+  const Status taken = peer.clock.onReply(probe, peer.read_ns);
+  const std::string& name = peer.connection->peerName();
+  if (!taken.isOk()) {
+    // The estimate keeps its good samples; the peer keeps being served.
+    std::fprintf(stderr, "[server] ignored a clock probe answer from %s: %s\n", name.c_str(),
+                 taken.message().c_str());
+    return Status::ok();
+  }
+  if (!peer.clock_told && peer.clock.samples() >= options_.clock.burst) {
+    peer.clock_told = true;
+    std::fprintf(stderr, "[server] %s's clock against ours: %s (round trip %.3f ms)\n",
+                 name.c_str(), peer.clock.describe().c_str(),
+                 static_cast<double>(peer.clock.roundTripNs()) / 1e6);
+  }
+  const uint64_t threshold_ns = static_cast<uint64_t>(options_.clock_drift_warn_ms * 1e6);
+  if (!peer.drift_warned && peer.clock.drifted(threshold_ns)) {
+    peer.drift_warned = true;
+    std::fprintf(stderr,
+                 "[server] warning: %s's clock moved %+.3f ms since its first estimate, more "
+                 "than --clock-drift-warn-ms %g beyond the estimates' uncertainty: discipline "
+                 "its host's clock (chrony or linuxptp, docs/runbook.md)\n",
+                 name.c_str(), static_cast<double>(peer.clock.driftNs()) / 1e6,
+                 options_.clock_drift_warn_ms);
+  }
+  return Status::ok();
+}
+
 Status FusionServer::handlePodFrame(Peer& peer, Frame frame) {
   auto cam = cameras_.find(peer.id);
   if (cam == cameras_.end()) {
@@ -308,7 +361,8 @@ Status FusionServer::handlePodFrame(Peer& peer, Frame frame) {
   }
   // Stamped before the decoding, which starts the server_decode stage here
   // (waiting for a decoder thread is part of it).
-  PodDecodeJob job{peer.serial, peer.id, std::move(frame), cam->second, monotonicNs()};
+  PodDecodeJob job{peer.serial, peer.id,       std::move(frame),
+                   cam->second, monotonicNs(), peer.clock.offsetNs()};
   decoder_->submit(std::move(job));
   return Status::ok();
 }
@@ -403,25 +457,16 @@ Status FusionServer::handle(Peer& peer, Frame frame) {
     return handleHello(peer, frame);
   }
   switch (type) {
-    case MessageType::kHeartbeat: {
-      const uint64_t now = monotonicNs();
-      const bool early =
-          now - peer.last_heartbeat_ns < uint64_t{options_.min_heartbeat_interval_ms} * 1000000;
-      peer.last_heartbeat_ns = now;
-      peer.early_heartbeats = early ? peer.early_heartbeats + 1 : 0;
-      if (peer.early_heartbeats > 10) {
-        return Status(StatusCode::kTooLarge,
-                      "heartbeats closer together than " +
-                          std::to_string(options_.min_heartbeat_interval_ms) + " ms, " +
-                          std::to_string(peer.early_heartbeats) + " in a row");
-      }
-      return Status::ok();
-    }
+    case MessageType::kHeartbeat:
+      return holdToFloor(peer.last_heartbeat_ns, peer.early_heartbeats,
+                         options_.min_heartbeat_interval_ms, "heartbeats");
     case MessageType::kBye: {
       protocol::Bye bye;
       (void)protocol::decodeFrame(frame, bye);
       return Status(StatusCode::kClosed, "said bye: " + bye.reason);
     }
+    case MessageType::kClockProbe:
+      return handleClockProbe(peer, frame);
     case MessageType::kCalibration: {
       if (peer.role != protocol::Role::kPod)
         return Status(StatusCode::kUnexpectedMessage, "Calibration from a client");
@@ -504,9 +549,17 @@ void FusionServer::dispatchReadyGroups() {
     job.late_frames = sync_.lateFrames();
     job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();
     for (const auto& [pod, jitter] : pod_arrivals_) {
-      job.pod_arrivals.push_back(
-          {static_cast<uint16_t>(pod), jitter.packets(),
-           static_cast<uint32_t>(std::min(jitter.ms() * 1000.0 + 0.5, 4.0e9))});
+      protocol::PodArrivals arrivals{
+          static_cast<uint16_t>(pod), jitter.packets(),
+          static_cast<uint32_t>(std::min(jitter.ms() * 1000.0 + 0.5, 4.0e9))};
+      for (const Peer& p : peers_) {
+        if (!p.greeted || p.replaced || p.role != protocol::Role::kPod || p.id != pod ||
+            !p.clock.known())
+          continue;
+        arrivals.clock_offset_ns = p.clock.offsetNs();
+        arrivals.clock_uncertainty_ns = std::max<uint64_t>(p.clock.uncertaintyNs(), 1);
+      }
+      job.pod_arrivals.push_back(arrivals);
     }
     worker_->submit(std::move(job));
   }
@@ -548,7 +601,8 @@ void FusionServer::fanOut() {
         bundle = out.texture_bundle_layers;
       }
       peer.connection->send(bundle);
-      peer.connection->send(peer.minor >= 3   ? out.stats
+      peer.connection->send(peer.minor >= 8   ? out.stats
+                            : peer.minor >= 3 ? out.stats_v1_7
                             : peer.minor >= 1 ? out.stats_v1_2
                                               : out.stats_v1_0);
       peer.connection->send(mesh);
@@ -636,6 +690,7 @@ int FusionServer::run() {
       Status status = Status::ok();
       if (revents & (POLLIN | POLLHUP | POLLERR)) {
         status = peer.connection->onReadable(options_.read_budget_bytes);
+        peer.read_ns = monotonicNs();
         while (peer.connection->hasFrame()) {
           const Status handled = handle(peer, peer.connection->takeFrame());
           if (!handled.isOk()) {
@@ -661,6 +716,9 @@ int FusionServer::run() {
           now - peer.connection->lastSendNs() >
               uint64_t{options_.heartbeat_interval_ms} * 1000000) {
         peer.connection->sendMessage(protocol::Heartbeat{now});
+      }
+      if (status.isOk() && peer.greeted && peer.minor >= 8) {  // ClockProbe came with 1.8
+        if (auto probe = peer.clock.probeDue(now)) peer.connection->sendMessage(*probe);
       }
       if (status.isOk() && peer.replaced) {
         status = Status(StatusCode::kClosed, "replaced by a newer connection of the same pod");

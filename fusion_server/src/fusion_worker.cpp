@@ -7,6 +7,7 @@
 
 #include "common/image_codec.h"
 #include "protocol/clock.h"
+#include "protocol/clock_sync.h"
 
 namespace holofuse::fusion {
 
@@ -15,21 +16,24 @@ using protocol::monotonicNs;
 using protocol::Stage;
 
 StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
-                                const Camera& camera, uint64_t now_ns) {
+                                const Camera& camera, uint64_t now_ns,
+                                int64_t pod_clock_offset_ns) {
   PodImages images;
   images.camera_id = pod.camera_id;
-  images.capture_time_ns = pod.capture_time_ns;
+  images.capture_time_ns = protocol::shiftedNs(pod.capture_time_ns, pod_clock_offset_ns);
   images.bytes = wire_bytes;
   // Sent when the pod finished its frame: a synthetic pod's encoding, a
   // replay pod's read of the recording. The send stage is the server's to
   // stamp: one a pod put in its frame is not kept.
-  uint64_t sent = pod.capture_time_ns;
+  uint64_t sent = images.capture_time_ns;
   for (const auto& s : pod.stamps) {
     if (s.stage == static_cast<uint16_t>(protocol::Stage::kSend)) continue;
-    images.stamps.push_back(s);
+    images.stamps.push_back({s.stage, s.source,
+                             protocol::shiftedNs(s.start_ns, pod_clock_offset_ns),
+                             protocol::shiftedNs(s.end_ns, pod_clock_offset_ns)});
     if (s.stage == static_cast<uint16_t>(protocol::Stage::kPodEncode) ||
         s.stage == static_cast<uint16_t>(protocol::Stage::kReplayRead)) {
-      sent = s.end_ns;
+      sent = images.stamps.back().end_ns;
     }
   }
   images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend),
@@ -312,6 +316,7 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   const uint64_t stats_sequence = protocol::nextSequence();
   stats.pod_arrivals = job.pod_arrivals;
   out.stats = share(protocol::encodeOutgoing(stats, stats_sequence));
+  out.stats_v1_7 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 7));
   out.stats_v1_2 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 2));
   out.stats_v1_0 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 0));
   out.triangles = mesh.triangleCount();

@@ -62,6 +62,13 @@ int main(int argc, char** argv) {
   app.add_option("--min-heartbeat-interval-ms", options.min_heartbeat_interval_ms,
                  "close a peer whose heartbeats come closer together than this")
       ->check(CLI::Range(1, 10000));
+  app.add_option("--clock-drift-warn-ms", options.clock_drift_warn_ms,
+                 "warn when a peer's clock moves this far from its first estimate, beyond the "
+                 "estimates' uncertainty (its host needs chrony or linuxptp)")
+      ->check(CLI::Range(0.001, 60000.0));
+  app.add_option("--clock-probe-interval-ms", options.clock.interval_ms,
+                 "between probes of each peer's clock (protocol 1.8)")
+      ->check(CLI::Range(10, 600000));
   app.add_option("--max-image-side", options.max_image_side,
                  "the largest image width or height a pod's calibration may claim")
       ->check(CLI::Range(16, static_cast<int>(protocol::kMaxImageSide)));

@@ -33,6 +33,8 @@ const char* messageTypeName(uint16_t type) {
       return "Bye";
     case MessageType::kError:
       return "Error";
+    case MessageType::kClockProbe:
+      return "ClockProbe";
   }
   return "unknown";
 }

@@ -444,6 +444,10 @@ void writePayload(WireWriter& w, const Stats& m, uint8_t minor) {
       w.u16(arrivals[k].pod);
       w.u64(arrivals[k].frames);
       w.u32(arrivals[k].jitter_us);
+      if (minor >= 8) {
+        w.u64(static_cast<uint64_t>(arrivals[k].clock_offset_ns));
+        w.u64(arrivals[k].clock_uncertainty_ns);
+      }
     }
   }
   if (minor >= 3) w.u32(m.cameras_present_count.value_or(0));
@@ -462,7 +466,7 @@ Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offse
   // Since 1.1: a 1.0 payload ends here.
   if (minor >= 1) {
     const uint16_t n = r.u16("stats.pod_arrivals.count");
-    constexpr size_t kBytesPerPod = 14;
+    const size_t kBytesPerPod = minor >= 8 ? 30 : 14;
     if (n > maxCamerasIn(minor)) {
       r.failValue("stats.pod_arrivals.count", StatusCode::kTooLarge,
                   std::to_string(n) + " above cap " + std::to_string(maxCamerasIn(minor)));
@@ -477,6 +481,10 @@ Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offse
       a.pod = r.u16("stats.pod_arrivals.pod");
       a.frames = r.u64("stats.pod_arrivals.frames");
       a.jitter_us = r.u32("stats.pod_arrivals.jitter_us");
+      if (minor >= 8) {
+        a.clock_offset_ns = static_cast<int64_t>(r.u64("stats.pod_arrivals.clock_offset"));
+        a.clock_uncertainty_ns = r.u64("stats.pod_arrivals.clock_uncertainty");
+      }
     }
   }
   m.cameras_present_count.reset();
@@ -501,6 +509,29 @@ Status readPayload(std::span<const uint8_t> payload, ErrorMessage& m, size_t bas
   WireReader r(payload, base_offset);
   m.code = r.u16("error.code");
   m.message = r.str("error.message");
+  return finish(r);
+}
+
+void writePayload(WireWriter& w, const ClockProbe& m) {
+  w.u8(static_cast<uint8_t>(m.step));
+  w.u64(m.origin_ns);
+  w.u64(m.receive_ns);
+  w.u64(m.transmit_ns);
+}
+
+Status readPayload(std::span<const uint8_t> payload, ClockProbe& m, size_t base_offset) {
+  WireReader r(payload, base_offset);
+  const uint8_t step = r.u8("clock_probe.step");
+  if (r.ok() && step != static_cast<uint8_t>(ProbeStep::kRequest) &&
+      step != static_cast<uint8_t>(ProbeStep::kReply)) {
+    r.failValue("clock_probe.step", StatusCode::kMalformed,
+                "unknown step " + std::to_string(step) + " (1 request, 2 reply)");
+    return finish(r);
+  }
+  m.step = static_cast<ProbeStep>(step);
+  m.origin_ns = r.u64("clock_probe.origin");
+  m.receive_ns = r.u64("clock_probe.receive");
+  m.transmit_ns = r.u64("clock_probe.transmit");
   return finish(r);
 }
 

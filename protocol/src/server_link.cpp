@@ -106,6 +106,8 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
       return;
     }
     acked_ = true;
+    agreed_minor_ = ack.minor;
+    clock_ = ClockSync(options_.clock);  // a new connection may reach another host
     connected_event_ = true;
     server_said_bye_ = false;
     ++connects_;
@@ -124,6 +126,20 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
   switch (type) {
     case MessageType::kHeartbeat:
       return;
+    case MessageType::kClockProbe: {
+      ClockProbe probe;
+      Status s = decodeFrame(frame, probe);
+      if (s.isOk() && probe.step == ProbeStep::kRequest) {
+        connection_->sendMessage(ClockSync::answer(probe, read_ns_, monotonicNs()));
+        return;
+      }
+      if (s.isOk()) s = clock_.onReply(probe, read_ns_);
+      // The estimate keeps its last good samples; a bad answer is only told.
+      if (!s.isOk())
+        std::fprintf(stderr, "[%s] ignored a clock probe from the server: %s\n",
+                     options_.log_name.c_str(), s.toString().c_str());
+      return;
+    }
     case MessageType::kBye: {
       Bye bye;
       (void)decodeFrame(frame, bye);
@@ -186,6 +202,7 @@ void ServerLink::poll(int timeout_ms, std::vector<Frame>& received) {
   const int rc = ::poll(&p, 1, timeout_ms);
   if (rc > 0 && (p.revents & (POLLIN | POLLHUP | POLLERR))) {
     const Status s = connection_->onReadable();
+    read_ns_ = monotonicNs();
     while (connection_ != nullptr && connection_->hasFrame())
       handle(connection_->takeFrame(), received);
     if (!s.isOk()) {
@@ -198,6 +215,9 @@ void ServerLink::poll(int timeout_ms, std::vector<Frame>& received) {
   if (acked_ && !connection_->wantsWrite() &&
       now - connection_->lastSendNs() >= uint64_t{heartbeat_interval_ms_} * 1000000ull) {
     connection_->sendMessage(Heartbeat{now});
+  }
+  if (acked_ && agreed_minor_ >= 8) {  // ClockProbe came with 1.8
+    if (auto probe = clock_.probeDue(now)) connection_->sendMessage(*probe);
   }
   if (connection_->wantsWrite()) {
     const Status s = connection_->onWritable();

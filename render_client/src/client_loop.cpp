@@ -66,8 +66,9 @@ struct ReadyMesh {
 class ClientLoop {
  public:
   ClientLoop(const ClientOptions& options, VulkanContext& context, Renderer& renderer,
-             std::optional<FrameJudge> judge)
+             std::optional<FrameJudge> judge, const protocol::ClockSync& server_clock)
       : options_(options),
+        server_clock_(server_clock),
         out_dir_(options.out_dir),
         context_(context),
         renderer_(renderer),
@@ -76,6 +77,7 @@ class ClientLoop {
     // The judge reads each picture as soon as it is written: judged, the
     // pictures are written on the render path.
     if (options_.write_frames && !judge_) writer_.emplace();
+    report_.setClockDriftWarnMs(options_.clock_drift_warn_ms);
   }
 
   bool done() const { return options_.frames != 0 && report_.framesRendered() >= options_.frames; }
@@ -89,7 +91,7 @@ class ClientLoop {
       if (typeOf(received[k]) == protocol::MessageType::kMeshFrame) newest_mesh = k;
     }
     for (size_t k = 0; k < received.size() && !done(); ++k) {
-      const uint64_t receive_ns = monotonicNs();
+      const uint64_t receive_ns = now();
       switch (typeOf(received[k])) {
         case protocol::MessageType::kCalibration:
           onCalibration(received[k]);
@@ -134,6 +136,21 @@ class ClientLoop {
   // report.json and report.html, and the summary line.
   void writeReport() {
     report_.setSuperseded(superseded_);
+    // This host's clock minus the server's: the estimate's sign turned.
+    LatencyReport::HostClock own;
+    own.host = "client";
+    own.measured = server_clock_.known();
+    if (own.measured) {
+      own.offset_ms = -static_cast<double>(server_clock_.offsetNs()) / 1e6;
+      own.uncertainty_ms = static_cast<double>(server_clock_.uncertaintyNs()) / 1e6;
+      own.first_offset_ms = -static_cast<double>(server_clock_.firstOffsetNs()) / 1e6;
+      own.first_uncertainty_ms = static_cast<double>(server_clock_.firstUncertaintyNs()) / 1e6;
+      own.drifted =
+          server_clock_.drifted(static_cast<uint64_t>(options_.clock_drift_warn_ms * 1e6));
+    }
+    report_.setClientClock(own);
+    for (const std::string& warning : report_.clockWarnings())
+      std::fprintf(stderr, "[client] warning: %s\n", warning.c_str());
     if (writer_) {
       writer_->flush();
       report_.setPicturesDropped(writer_->dropped());
@@ -202,7 +219,7 @@ class ClientLoop {
 
   void onBundle(const protocol::Frame& frame, uint64_t receive_ns) {
     protocol::TextureBundle bundle;
-    const uint64_t t0 = monotonicNs();
+    const uint64_t t0 = now();
     auto s = protocol::decodeFrame(frame, bundle);
     if (!s.isOk()) {
       skip(0, "TextureBundle: " + s.toString());
@@ -235,8 +252,7 @@ class ClientLoop {
     }
     pending.views = std::move(*views);
     if (layers) pending.layers = std::move(**layers);
-    pending.stamps.push_back(
-        {static_cast<uint16_t>(Stage::kDecode), kSourceClient, t0, monotonicNs()});
+    pending.stamps.push_back({static_cast<uint16_t>(Stage::kDecode), kSourceClient, t0, now()});
     bundles_[bundle.frame_id] = std::move(pending);
     while (bundles_.size() > 4) bundles_.erase(bundles_.begin());
   }
@@ -246,7 +262,7 @@ class ClientLoop {
   // refuse) and uploads them; none, said why, when the frame is skipped.
   std::optional<ReadyMesh> prepareMesh(const protocol::Frame& frame, uint64_t receive_ns) {
     ReadyMesh ready;
-    const uint64_t t0 = monotonicNs();
+    const uint64_t t0 = now();
     auto s = protocol::decodeFrame(frame, ready.frame);
     if (!s.isOk()) {
       skip(0, "MeshFrame: " + s.toString());
@@ -264,7 +280,7 @@ class ClientLoop {
                     : mesh->triangleCount() == 0
                         ? Status(StatusCode::kMalformed, "mesh with no triangles")
                         : Status::ok();
-    ready.decoded_ns = monotonicNs();
+    ready.decoded_ns = now();
     const PendingBundle& bundle = ready.bundle->second;
     // The layers' atlas placed on the mesh as received, from its keys.
     if (usable.isOk() && bundle.layers)
@@ -295,7 +311,7 @@ class ClientLoop {
       renderer_.setViews(bundle.views);
     }
     report_.addViewsWithoutSubject(renderer_.camerasWithoutSubject());
-    ready.uploaded_ns = monotonicNs();
+    ready.uploaded_ns = now();
     auto user = userCamera(options_, cameras_, meshBounds(*mesh), report_.framesRendered());
     if (!user) {
       skip(id, "view '" + options_.view + "' names no calibrated camera");
@@ -354,7 +370,7 @@ class ClientLoop {
     const BlendSettings blend = nextBlend(bundle.views);
     const uint64_t field_runs = renderer_.fieldPasses();
     Image8 picture = renderer_.render(ready.user, blend);
-    const uint64_t rendered_ns = monotonicNs();
+    const uint64_t rendered_ns = now();
     if (renderer_.fieldPasses() != field_runs) {
       const auto times = renderer_.fieldTimesMs();
       const auto& names = TextureFieldPasses::stageNames();
@@ -369,7 +385,7 @@ class ClientLoop {
     record.file = std::string("frames/") + name;
     const bool written = writeFrame(std::move(picture), record.file);
     if (!written) record.file.clear();  // not written, or dropped by a full writer queue
-    const uint64_t written_ns = monotonicNs();
+    const uint64_t written_ns = now();
     if (judge_ && written) judgeFrame(ready, record);
     auto& stamps = ready.stamps;
     stamps.push_back({static_cast<uint16_t>(Stage::kUpload), kSourceClient, ready.decoded_ns,
@@ -402,7 +418,13 @@ class ClientLoop {
     bundles_.erase(bundles_.begin(), std::next(ready.bundle));
   }
 
+  // This host's clock read on the server's, which every stamp of the frame
+  // is on (its own until the server's clock is measured, or from a server
+  // before 1.8).
+  uint64_t now() const { return server_clock_.toPeer(monotonicNs()); }
+
   const ClientOptions& options_;
+  const protocol::ClockSync& server_clock_;
   const fs::path out_dir_;
   VulkanContext& context_;
   Renderer& renderer_;
@@ -472,7 +494,7 @@ int runClient(const ClientOptions& options) {
   link_options.limits.max_queued_droppable = 16;
   protocol::ServerLink link(options.server, hello, link_options);
 
-  ClientLoop loop(options, *context, *renderer, std::move(judge));
+  ClientLoop loop(options, *context, *renderer, std::move(judge), link.clock());
   std::vector<protocol::Frame> received;
   while (!stopRequested() && !loop.done()) {
     link.poll(50, received);

@@ -26,6 +26,49 @@ void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
   }
 }
 
+void LatencyReport::setServerArrivals(std::vector<protocol::PodArrivals> arrivals) {
+  for (const auto& a : arrivals) {
+    if (a.clock_uncertainty_ns != 0) first_pod_clocks_.emplace(a.pod, a);
+  }
+  server_arrivals_ = std::move(arrivals);
+}
+
+std::vector<LatencyReport::HostClock> LatencyReport::hostClocks() const {
+  std::vector<HostClock> clocks;
+  if (client_clock_) clocks.push_back(*client_clock_);
+  for (const auto& a : server_arrivals_) {
+    HostClock clock;
+    clock.host = "pod " + std::to_string(a.pod);
+    const auto first = first_pod_clocks_.find(a.pod);
+    clock.measured = a.clock_uncertainty_ns != 0 && first != first_pod_clocks_.end();
+    if (clock.measured) {
+      clock.offset_ms = static_cast<double>(a.clock_offset_ns) / 1e6;
+      clock.uncertainty_ms = static_cast<double>(a.clock_uncertainty_ns) / 1e6;
+      clock.first_offset_ms = static_cast<double>(first->second.clock_offset_ns) / 1e6;
+      clock.first_uncertainty_ms = static_cast<double>(first->second.clock_uncertainty_ns) / 1e6;
+      clock.drifted = std::abs(clock.driftMs()) >
+                      clock_drift_warn_ms_ + clock.uncertainty_ms + clock.first_uncertainty_ms;
+    }
+    clocks.push_back(clock);
+  }
+  return clocks;
+}
+
+std::vector<std::string> LatencyReport::clockWarnings() const {
+  std::vector<std::string> warnings;
+  for (const HostClock& c : hostClocks()) {
+    if (!c.drifted) continue;
+    char text[256];
+    std::snprintf(text, sizeof text,
+                  "%s's clock moved %+.3f ms against the server's since its first estimate, "
+                  "more than %.3f ms beyond the estimates' uncertainty: discipline its host's "
+                  "clock (chrony or linuxptp, docs/runbook.md)",
+                  c.host.c_str(), c.driftMs(), clock_drift_warn_ms_);
+    warnings.push_back(text);
+  }
+  return warnings;
+}
+
 std::vector<LatencyReport::QualitySummary> LatencyReport::quality() const {
   std::vector<double> psnr, ssim;
   for (const auto& f : frames_) {
@@ -160,6 +203,25 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
     j["jitter_source"] =
         "client, over the pod frames behind rendered meshes (the server sent no arrivals)";
   }
+  // Every host's clock against the server's, which the stamps are on.
+  nlohmann::ordered_json clocks = nlohmann::ordered_json::object();
+  for (const HostClock& c : hostClocks()) {
+    std::string key = c.host;
+    std::replace(key.begin(), key.end(), ' ', '_');
+    if (!c.measured) {
+      clocks[key] = {{"measured", false}};
+      continue;
+    }
+    clocks[key] = {{"measured", true},
+                   {"offset_ms", c.offset_ms},
+                   {"uncertainty_ms", c.uncertainty_ms},
+                   {"drift_ms", c.driftMs()},
+                   {"drifted", c.drifted}};
+  }
+  j["clocks"] = {{"against", "the server's CLOCK_MONOTONIC, which every stamp is on"},
+                 {"drift_warn_ms", clock_drift_warn_ms_},
+                 {"hosts", clocks},
+                 {"warnings", clockWarnings()}};
   if (!budget.empty()) {
     j["budget_ms"] = budget;
     nlohmann::ordered_json over = nlohmann::ordered_json::array();
@@ -294,6 +356,30 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
                                ? "Arrival jitter per pod (at the server, every frame)"
                                : "Arrival jitter per pod (frames behind rendered meshes)",
                            pods, {series}, "ms");
+  }
+  const std::vector<HostClock> clocks = hostClocks();
+  if (!clocks.empty()) {
+    std::vector<std::vector<std::string>> rows;
+    auto ms3 = [](double v, bool sign) {
+      char text[32];
+      std::snprintf(text, sizeof text, sign ? "%+.3f ms" : "%.3f ms", v);
+      return std::string(text);
+    };
+    for (const HostClock& c : clocks) {
+      if (!c.measured) {
+        rows.push_back({c.host, "not measured (a peer before protocol 1.8)", "", "", ""});
+        continue;
+      }
+      rows.push_back({(c.drifted ? "!" : "") + c.host, ms3(c.offset_ms, true),
+                      ms3(c.uncertainty_ms, false), ms3(c.driftMs(), true),
+                      c.drifted ? "DRIFTED" : "steady"});
+    }
+    body +=
+        "<h2>Clocks against the server's</h2>\n<p>Every stamp above is on the server's "
+        "clock: each host's times are moved by its offset, estimated from NTP-style probes "
+        "(the smallest round trip of the last eight). A clock that moves more than " +
+        ms3(clock_drift_warn_ms_, false) + " beyond the estimates' uncertainty is flagged.</p>\n" +
+        html::table({"host", "offset", "uncertainty", "drift", "state"}, rows);
   }
   if (!budget.empty()) {
     std::vector<std::vector<std::string>> rows;

@@ -19,6 +19,10 @@ int main(int argc, char** argv) {
                  "stop after this many rendered frames (0: until signalled)");
   app.add_flag("--exit-when-server-leaves", options.exit_when_server_leaves,
                "finish when the server says goodbye (the end of a replay)");
+  app.add_option("--clock-drift-warn-ms", options.clock_drift_warn_ms,
+                 "the report warns when a host's clock moves this far against the server's "
+                 "from its first estimate, beyond the estimates' uncertainty")
+      ->check(CLI::Range(0.001, 60000.0));
   app.add_option("--size", size, "output size WxH");
   app.add_option("--view", options.view, "user camera: orbit, or pod:N to sit at pod camera N");
   app.add_option("--orbit-speed", options.orbit_degrees_per_frame,

@@ -161,7 +161,11 @@ void protocolSeeds(Corpus& corpus) {
   stats.cameras_present = 0xF;
   stats.cameras_present_count = 4;
   stats.note = "all present";
-  stats.pod_arrivals = {{{0, 10, 100}, {1, 12, 90}, {2, 11, 80}, {3, 13, 70}}};
+  // Since 1.8 with each pod's clock against the server's (pod 3: not measured).
+  stats.pod_arrivals = {{{0, 10, 100, 2500, 40000},
+                         {1, 12, 90, -5'000'000'000, 120000},
+                         {2, 11, 80, 0, 1},
+                         {3, 13, 70, 0, 0}}};
 
   const std::vector<std::pair<std::string, Bytes>> frames = {
       {"hello", encodeFrame(hello, 1)},
@@ -174,7 +178,9 @@ void protocolSeeds(Corpus& corpus) {
       {"heartbeat", encodeFrame(Heartbeat{123}, 8)},
       {"stats", encodeFrame(stats, 9)},
       {"bye", encodeFrame(Bye{"stopping"}, 10)},
-      {"error", encodeFrame(ErrorMessage{6, "plane 1 is 9x9"}, 11)}};
+      {"error", encodeFrame(ErrorMessage{6, "plane 1 is 9x9"}, 11)},
+      {"clock_probe",
+       encodeFrame(ClockProbe{ProbeStep::kReply, 1'000'000, 5'001'000'000, 5'001'050'000}, 12)}};
   Bytes pod_session, client_session;
   for (const auto& [name, frame] : frames) {
     corpus["message_" + name].push_back(

@@ -62,6 +62,8 @@ void decodeAny(const Frame& frame) {
       return decode(Bye{});
     case MessageType::kError:
       return decode(ErrorMessage{});
+    case MessageType::kClockProbe:
+      return decode(ClockProbe{});
   }
 }
 
@@ -102,5 +104,6 @@ HOLOFUSE_MESSAGE_FUZZ_TARGET(message_heartbeat, Heartbeat)
 HOLOFUSE_MESSAGE_FUZZ_TARGET(message_stats, Stats)
 HOLOFUSE_MESSAGE_FUZZ_TARGET(message_bye, Bye)
 HOLOFUSE_MESSAGE_FUZZ_TARGET(message_error, ErrorMessage)
+HOLOFUSE_MESSAGE_FUZZ_TARGET(message_clock_probe, ClockProbe)
 
 }  // namespace holofuse::fuzz

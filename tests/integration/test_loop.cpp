@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -344,9 +345,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     // frame id -> the mesh's codec and its vertices once decoded
     std::map<uint64_t, std::pair<holofuse::protocol::MeshCodec, size_t>> meshes;
   };
-  static_assert(holofuse::protocol::kVersionMinor == 7, "a client of each minor");
-  std::vector<Client> clients(8);
-  for (uint8_t minor = 0; minor < 8; ++minor) clients[minor].max_minor = minor;
+  static_assert(holofuse::protocol::kVersionMinor == 8, "a client of each minor");
+  std::vector<Client> clients(9);
+  for (uint8_t minor = 0; minor < 9; ++minor) clients[minor].max_minor = minor;
   for (Client& c : clients) {
     holofuse::protocol::Hello hello;
     hello.role = holofuse::protocol::Role::kClient;
@@ -401,10 +402,14 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   for (size_t k = 1; k < clients.size(); ++k) {
     uint64_t last_count = 0;
     for (const auto& [minor, stats] : clients[k].stats) {
-      // Stats changed in 1.1 and 1.3: 1.1 and 1.2 peers get the 1.2
-      // frame, 1.3 peers the server's (SPEC.md section 3).
-      EXPECT_EQ(minor, clients[k].max_minor >= 3 ? holofuse::protocol::kVersionMinor : 2)
-          << "client of 1." << int(clients[k].max_minor);
+      // Stats changed in 1.1, 1.3 and 1.8: 1.1 and 1.2 peers get the 1.2
+      // frame, 1.3 to 1.7 peers the 1.7 one, 1.8 peers the server's
+      // (SPEC.md section 3), with the pod's clock.
+      const uint8_t max = clients[k].max_minor;
+      EXPECT_EQ(minor, max >= 8   ? holofuse::protocol::kVersionMinor
+                       : max >= 3 ? 7
+                                  : 2)
+          << "client of 1." << int(max);
       EXPECT_EQ(stats.cameras_present_count.has_value(), clients[k].max_minor >= 3);
       if (stats.cameras_present_count) {
         EXPECT_EQ(*stats.cameras_present_count, 1u);
@@ -415,10 +420,21 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
       EXPECT_EQ(arrivals.pod, 0);
       EXPECT_GE(arrivals.frames, last_count) << "a running count";
       EXPECT_LT(arrivals.jitter_us, 1000000u) << "under a second on loopback";
+      // One host: the pod's clock is the server's, within the estimate's
+      // uncertainty once measured (only 1.8 frames carry it).
+      if (max < 8) {
+        EXPECT_EQ(arrivals.clock_uncertainty_ns, 0u);
+      }
+      if (arrivals.clock_uncertainty_ns != 0) {
+        EXPECT_LE(static_cast<uint64_t>(std::llabs(arrivals.clock_offset_ns)),
+                  arrivals.clock_uncertainty_ns);
+      }
       last_count = arrivals.frames;
     }
     EXPECT_GE(last_count, 5u);
   }
+  // The 1.8 client's last Stats carry the pod's clock as measured.
+  EXPECT_NE(clients[8].stats.back().second.pod_arrivals->front().clock_uncertainty_ns, 0u);
   using holofuse::protocol::PlaneKind;
   const std::vector<PlaneKind> images = {PlaneKind::kColor, PlaneKind::kMask};
   const std::vector<PlaneKind> with_feather = {PlaneKind::kColor, PlaneKind::kMask,
@@ -451,8 +467,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   EXPECT_GT(shared, 0u) << "no frame reached both a Draco and a fp16-lz4 client";
   const std::string log = readFile(out / "server.log");
   EXPECT_NE(log.find("meshes fp16-lz4"), std::string::npos) << log;
-  for (const char* version : {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3",
-                              "protocol 1.4", "protocol 1.5", "protocol 1.6", "protocol 1.7"}) {
+  for (const char* version :
+       {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3", "protocol 1.4",
+        "protocol 1.5", "protocol 1.6", "protocol 1.7", "protocol 1.8"}) {
     EXPECT_NE(log.find(version), std::string::npos) << version << "\n" << log;
   }
 }

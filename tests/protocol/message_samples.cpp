@@ -147,7 +147,9 @@ Stats sampleStats() {
   m.dropped_groups = 1;
   m.pod_bytes = 65536;
   m.note = "proceeded without camera(s) 2";
-  m.pod_arrivals = {{{0, 120, 1500}, {1, 119, 2250}, {3, 118, 0}}};
+  // Clock offsets since 1.8: pod 1 on a host 5 s ahead, pod 3 not measured.
+  m.pod_arrivals = {
+      {{0, 120, 1500, -42000, 31000}, {1, 119, 2250, 5'000'012'345, 84000}, {3, 118, 0, 0, 0}}};
   m.cameras_present_count = 3;
   return m;
 }
@@ -179,6 +181,12 @@ std::vector<Sample> allSamples(uint8_t minor) {
   if (minor >= 6)  // the layers' video with 1.6
     samples.push_back(
         {"texture_bundle_layer_video", encodeFrame(sampleLayerVideoBundle(), 13, 0, minor)});
+  if (minor >= 8) {  // clock probes came with 1.8
+    ClockProbe request{ProbeStep::kRequest, 68'131'090'000'000, 0, 0};
+    ClockProbe reply{ProbeStep::kReply, 68'131'090'000'000, 73'131'090'150'000, 73'131'090'190'000};
+    samples.push_back({"clock_probe_request", encodeFrame(request, 15, 0, minor)});
+    samples.push_back({"clock_probe_reply", encodeFrame(reply, 16, 0, minor)});
+  }
   if (minor >= 4) {  // Auth came with 1.4
     Auth auth;
     auth.step = AuthStep::kResponse;

@@ -19,6 +19,7 @@
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/pod_decoder.h"
 #include "protocol/auth.h"
+#include "protocol/clock_sync.h"
 #include "protocol/connection.h"
 #include "protocol/socket.h"
 
@@ -60,6 +61,11 @@ struct ServerOptions {
   size_t read_budget_bytes = 4u << 20;
   uint32_t min_heartbeat_interval_ms = 50;
   uint32_t max_image_side = 4096;
+  // Each peer's clock is probed (protocol/clock_sync.h); the log warns when
+  // one moves more than this from its first estimate, beyond the
+  // estimates' uncertainty (its host's clock is not disciplined).
+  double clock_drift_warn_ms = 1.0;
+  protocol::ClockSyncOptions clock;
   // Pods' frames are decompressed on this many threads, off the loop.
   int decode_threads = 1;
   // Limits before allocation (SECURITY.md). Frames of one pod read and not
@@ -106,6 +112,13 @@ class FusionServer {
     uint64_t accepted_ns = 0;
     uint64_t last_heartbeat_ns = 0;
     uint32_t early_heartbeats = 0;  // in a row, each closer than the floor
+    uint64_t last_probe_ns = 0;     // the peer's last clock probe request
+    uint32_t early_probes = 0;      // in a row, each closer than the floor
+    uint64_t read_ns = 0;           // when the frames being handled were read
+    // The peer's clock against ours (peers of 1.8 or later answer probes).
+    protocol::ClockSync clock;
+    bool clock_told = false;    // its first estimate is in the log
+    bool drift_warned = false;  // its drift past the threshold is in the log
     // Between Hello and the answer to our challenge: what was claimed, the
     // version agreed and the challenge sent.
     struct PendingAuth {
@@ -125,6 +138,7 @@ class FusionServer {
   // The peer is who it says (or there is no authentication): it joins.
   Status admit(Peer& peer, const protocol::Hello& hello, protocol::HelloAck ack);
   Status handlePodFrame(Peer& peer, protocol::Frame frame);
+  Status handleClockProbe(Peer& peer, const protocol::Frame& frame);
   // A refused connection is told why and closed before it is a peer.
   void refuseConnection(protocol::Socket socket, const std::string& name, const std::string& why);
   void takeDecodedFrames();

@@ -64,6 +64,8 @@ struct FusedOutput {
   protocol::SharedFrame texture_bundle_v1_2, stats_v1_2;
   protocol::SharedFrame
       stats_v1_0;  // the same Stats for a peer that agreed on 1.0 (no pod arrivals)
+  // For a peer of 1.3 to 1.7: the Stats of 1.7, without the pods' clocks.
+  protocol::SharedFrame stats_v1_7;
   // For a client of 1.5 that asked for layers: the frame's texture layers
   // in place of the images; null when no layers were built (none asked,
   // or they were refused: layers_note says why, and such a client gets
@@ -93,10 +95,14 @@ struct GroupJob {
 // A pod's frame as the fusion takes it: its planes decoded (the whole image
 // or the rectangle the pod sent, checked against camera, the calibration in
 // force) and its stamps with the send stage ending at now_ns (its arrival)
-// and the server_decode stage from then to the end of its decoding. An
-// error names the plane that does not fit or the plane that is missing.
+// and the server_decode stage from then to the end of its decoding. The
+// pod's times (its stamps and capture time) come onto the server's clock:
+// pod_clock_offset_ns is the pod's clock minus the server's
+// (protocol/clock_sync.h; 0 on one host). An error names the plane that
+// does not fit or the plane that is missing.
 StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
-                                const Camera& camera, uint64_t now_ns);
+                                const Camera& camera, uint64_t now_ns,
+                                int64_t pod_clock_offset_ns = 0);
 
 // The group's silhouettes and feather maps as whole images, for the hull.
 std::vector<hull::HullView> hullViewsOf(const FrameGroup& group);

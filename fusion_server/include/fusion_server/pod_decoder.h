@@ -26,6 +26,7 @@ struct PodDecodeJob {
   protocol::Frame frame;
   Camera camera;  // the calibration in force when it arrived
   uint64_t arrival_ns = 0;
+  int64_t clock_offset_ns = 0;  // the pod's clock minus ours, as estimated at arrival
 };
 
 struct DecodedPodFrame {

@@ -19,8 +19,8 @@ constexpr uint8_t kVersionMajor = 1;
 // 1.1: Stats carries each pod's arrivals; 1.2: a TextureBundle's images
 // carry each pod's feather map; 1.3: up to 128 cameras (bundles and Stats'
 // arrivals, which 1.2 capped at 64; Stats counts the cameras present); the
-// later minors, to 1.7 (meshes as half floats through LZ4): SPEC.md section 3.
-constexpr uint8_t kVersionMinor = 7;
+// later minors, to 1.8 (clock probes between hosts): SPEC.md section 3.
+constexpr uint8_t kVersionMinor = 8;
 constexpr size_t kHeaderSize = 28;
 constexpr uint16_t kFlagDroppable = 0x0001;
 constexpr uint16_t kKnownFlags = kFlagDroppable;
@@ -38,6 +38,7 @@ enum class MessageType : uint16_t {
   kStats = 9,
   kBye = 10,
   kError = 11,
+  kClockProbe = 12,  // since 1.8
 };
 
 const char* messageTypeName(uint16_t type);

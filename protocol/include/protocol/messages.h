@@ -218,6 +218,13 @@ struct PodArrivals {
   uint16_t pod = 0;
   uint64_t frames = 0;     // PodFrames received from this pod so far
   uint32_t jitter_us = 0;  // RFC 3550 interarrival jitter over them, microseconds
+  // Since 1.8: the pod's clock minus the server's as the server estimates
+  // it (protocol/clock_sync.h), and half the round trip of the sample it
+  // came from: the true offset lies within offset +- uncertainty. An
+  // uncertainty of 0 means not measured (a pod before 1.8, or no answer
+  // yet); the pod's stamps are then taken as they are.
+  int64_t clock_offset_ns = 0;
+  uint64_t clock_uncertainty_ns = 0;
   bool operator==(const PodArrivals&) const = default;
 };
 
@@ -236,6 +243,21 @@ struct Stats {
   // Since 1.3: the cameras the group held, whatever their ids
   // (cameras_present's bits end at camera 63); absent before.
   std::optional<uint32_t> cameras_present_count;
+};
+
+// Since 1.8: one exchange of NTP's four timestamps (RFC 5905 section 8).
+// The requester sends origin (its clock); the responder copies it and adds
+// receive (its clock when the request arrived) and transmit (its clock when
+// it answers). With the requester's arrival time the pair gives the
+// responder's offset and the round trip (protocol/clock_sync.h).
+enum class ProbeStep : uint8_t { kRequest = 1, kReply = 2 };
+struct ClockProbe {
+  static constexpr MessageType kType = MessageType::kClockProbe;
+  ProbeStep step = ProbeStep::kRequest;
+  uint64_t origin_ns = 0;
+  uint64_t receive_ns = 0;   // 0 in a request
+  uint64_t transmit_ns = 0;  // 0 in a request
+  bool operator==(const ClockProbe&) const = default;
 };
 
 struct Bye {
@@ -260,10 +282,12 @@ void writePayload(WireWriter& w, const MeshFrame& m);
 void writePayload(WireWriter& w, const TextureBundle& m, uint8_t minor = kVersionMinor);
 void writePayload(WireWriter& w, const Heartbeat& m);
 // The fields of the given minor: from 1.1 on the pods' arrivals (an empty
-// list when m has none), before that not; from 1.3 the cameras present.
+// list when m has none), before that not; from 1.3 the cameras present;
+// from 1.8 each pod's clock offset.
 void writePayload(WireWriter& w, const Stats& m, uint8_t minor = kVersionMinor);
 void writePayload(WireWriter& w, const Bye& m);
 void writePayload(WireWriter& w, const ErrorMessage& m);
+void writePayload(WireWriter& w, const ClockProbe& m);
 
 // Payload decoders: read the fields this build knows, ignore trailing bytes
 // (a newer minor's fields). base_offset positions errors in the stream.
@@ -283,6 +307,7 @@ Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offse
                    uint8_t minor = kVersionMinor);
 Status readPayload(std::span<const uint8_t> payload, Bye& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, ErrorMessage& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, ClockProbe& m, size_t base_offset = 0);
 
 // A whole frame for message m: one copy of the payload into the frame
 // buffer (reserved up front from payload_hint), then one CRC pass.

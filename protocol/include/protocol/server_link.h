@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "protocol/auth.h"
+#include "protocol/clock_sync.h"
 #include "protocol/connection.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
@@ -29,6 +30,8 @@ struct LinkOptions {
   // proves it holds the key too; without one it can join only a server
   // started with --no-auth.
   std::vector<uint8_t> key;
+  // Probes of the server's clock (a server of 1.8 or later answers them).
+  ClockSyncOptions clock;
 };
 
 class ServerLink {
@@ -61,6 +64,12 @@ class ServerLink {
   // timeout_ms for everything queued to leave and the server to close.
   void close(const std::string& reason, int timeout_ms = 500);
 
+  // The server's clock against ours on this connection (not known before
+  // the first answer, nor from a server before 1.8).
+  const ClockSync& clock() const { return clock_; }
+  // The version agreed in the last handshake.
+  uint8_t agreedMinor() const { return agreed_minor_; }
+
   uint64_t connects() const { return connects_; }
   uint64_t bytesOut() const {
     return bytes_out_closed_ + (connection_ ? connection_->bytesOut() : 0);
@@ -84,6 +93,9 @@ class ServerLink {
   LinkOptions options_;
   std::unique_ptr<Connection> connection_;
   bool acked_ = false;
+  uint8_t agreed_minor_ = 0;
+  ClockSync clock_;
+  uint64_t read_ns_ = 0;                               // when the frames being handled were read
   std::optional<AuthBytes> challenge_;                 // the server's, on this connection
   uint8_t challenge_major_ = 0, challenge_minor_ = 0;  // the version it came under
   bool server_proved_ = false;

@@ -32,6 +32,9 @@ struct ClientOptions {
   // Finish (report written, exit 0) when the server says Bye: the end of a
   // replay, after every frame it sent has been read.
   bool exit_when_server_leaves = false;
+  // The report warns when a host's clock moves this far from its first
+  // estimate against the server's, beyond the estimates' uncertainty.
+  double clock_drift_warn_ms = 1.0;
   uint64_t frames = 0;         // stop after this many rendered frames; 0 = until signalled
   std::string view = "orbit";  // "orbit" or "pod:N"
   double orbit_degrees_per_frame = 2.0;

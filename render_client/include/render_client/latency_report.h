@@ -72,9 +72,28 @@ class LatencyReport {
   const std::vector<FrameRecord>& frames() const { return frames_; }
   // The server's account of every pod's frames (Stats since 1.1), the
   // latest received: it covers frames no client rendered too.
-  void setServerArrivals(std::vector<protocol::PodArrivals> arrivals) {
-    server_arrivals_ = std::move(arrivals);
-  }
+  // Since 1.8 they carry each pod's clock against the server's: the
+  // first estimate seen per pod is kept to tell drift.
+  void setServerArrivals(std::vector<protocol::PodArrivals> arrivals);
+  // One host's clock against the server's (protocol/clock_sync.h): pods'
+  // as the server measures them, the client's as it measures the server.
+  struct HostClock {
+    std::string host;  // "client", "pod 3"
+    bool measured = false;
+    double offset_ms = 0, uncertainty_ms = 0;  // the host's clock minus the server's
+    double first_offset_ms = 0, first_uncertainty_ms = 0;
+    // Moved further than the threshold from the first estimate, beyond
+    // both estimates' uncertainty.
+    bool drifted = false;
+    double driftMs() const { return offset_ms - first_offset_ms; }
+  };
+  // The client's own clock against the server's, its first estimate once
+  // known, and the drift threshold the report warns at.
+  void setClientClock(const HostClock& clock) { client_clock_ = clock; }
+  void setClockDriftWarnMs(double ms) { clock_drift_warn_ms_ = ms; }
+  std::vector<HostClock> hostClocks() const;
+  // One line per drifted clock, naming the host and the move.
+  std::vector<std::string> clockWarnings() const;
   // Per pod, its RFC 3550 jitter of PodFrame arrival at the server, ms:
   // the server's over every frame when it sent it, else computed here over
   // the frames behind rendered meshes.
@@ -103,6 +122,9 @@ class LatencyReport {
   std::map<uint16_t, std::vector<std::pair<double, double>>>
       transit_ms_;  // per pod: sent, received
   std::vector<protocol::PodArrivals> server_arrivals_;
+  std::map<uint16_t, protocol::PodArrivals> first_pod_clocks_;  // per pod, its first estimate
+  std::optional<HostClock> client_clock_;
+  double clock_drift_warn_ms_ = 1.0;
   std::map<std::string, std::vector<double>> gpu_ms_;
   std::vector<double> judge_ms_;
   std::vector<FrameRecord> frames_;
