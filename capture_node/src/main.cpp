@@ -44,10 +44,12 @@ int main(int argc, char** argv) {
       "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
   app.add_flag("--loop", loop, "with --replay: start over at the end");
   PeerKeyFlags key_flags(app, "pod");
+  const ProtocolFlag protocol_flag(app, "pod");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   const auto key = key_flags.load(protocol::Role::kPod, options.pod_id);
   if (!key) return 2;
   options.key = *key;
+  options.max_minor = protocol_flag.maxMinor();
   auto endpoint = protocol::parseEndpoint(server);
   if (!endpoint.isOk()) {
     std::fprintf(stderr, "--server: %s\n", endpoint.status().message().c_str());
@@ -59,6 +61,7 @@ int main(int argc, char** argv) {
     replay_options.pod_id = options.pod_id;
     replay_options.loop = loop;
     replay_options.key = options.key;
+    replay_options.max_minor = options.max_minor;
     if (!capture::parseReplaySpeed(speed, replay_options.speed)) {
       std::fprintf(stderr, "--speed '%s': expected a factor in (0, 1000] or max\n", speed.c_str());
       return 2;

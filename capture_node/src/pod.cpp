@@ -80,6 +80,7 @@ int runPod(const PodOptions& options) {
   hello.role = protocol::Role::kPod;
   hello.id = options.pod_id;
   hello.name = "pod-" + std::to_string(options.pod_id);
+  hello.max_minor = options.max_minor;
   protocol::LinkOptions link_options;
   link_options.log_name = hello.name;
   link_options.key = options.key;

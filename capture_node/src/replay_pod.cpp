@@ -80,6 +80,7 @@ int runReplayPod(const ReplayOptions& options) {
   hello.role = protocol::Role::kPod;
   hello.id = options.pod_id;
   hello.name = name;
+  hello.max_minor = options.max_minor;
   protocol::LinkOptions link_options;
   link_options.log_name = name;
   link_options.key = options.key;

@@ -195,7 +195,7 @@ void FusionServer::acceptAll() {
 Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
   protocol::Hello hello;
   HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, hello));
-  auto ack = protocol::negotiate(hello);
+  auto ack = protocol::negotiate(hello, options_.max_minor);
   if (!ack.isOk()) return ack.status();
   const std::string who = protocol::identityName(hello.role, hello.id);
   if (hello.role == protocol::Role::kPod && hello.id >= static_cast<uint32_t>(options_.pods)) {

@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
   app.add_flag(
       "--exit-when-pods-done", options.exit_when_pods_done,
       "stop once every pod has left and its frames are fused and delivered (end of a replay)");
+  const ProtocolFlag protocol_flag(app, "server");
   std::string key_file, new_key;
   bool no_auth = false;
   app.add_option("--key-file", key_file,
@@ -134,6 +135,14 @@ int main(int argc, char** argv) {
   }
   options.listen = *endpoint;
   const std::string key_path = protocol::keyFilePath(key_file);
+  options.max_minor = protocol_flag.maxMinor();
+  if (!no_auth && options.max_minor < 4) {
+    std::fprintf(stderr,
+                 "--protocol 1.%u has no authentication (it came with 1.4): give --no-auth, or "
+                 "1.4 or later\n",
+                 options.max_minor);
+    return 2;
+  }
   if (no_auth) {
     if (!protocol::isLoopback(options.listen)) {
       std::fprintf(stderr,

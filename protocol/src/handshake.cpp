@@ -1,6 +1,7 @@
 #include "protocol/handshake.h"
 
 #include <algorithm>
+#include <cstdio>
 
 namespace holofuse::protocol {
 namespace {
@@ -14,15 +15,16 @@ std::string range(uint8_t min_major, uint8_t min_minor, uint8_t max_major, uint8
 
 }  // namespace
 
-StatusOr<HelloAck> negotiate(const Hello& hello) {
+StatusOr<HelloAck> negotiate(const Hello& hello, uint8_t max_minor) {
+  max_minor = std::min(max_minor, kVersionMinor);
   const uint32_t lo = std::max(packed(hello.min_major, hello.min_minor), packed(kVersionMajor, 0));
   const uint32_t hi =
-      std::min(packed(hello.max_major, hello.max_minor), packed(kVersionMajor, kVersionMinor));
+      std::min(packed(hello.max_major, hello.max_minor), packed(kVersionMajor, max_minor));
   if (lo > hi) {
-    return Status(
-        StatusCode::kUnsupportedVersion,
-        "peer speaks " + range(hello.min_major, hello.min_minor, hello.max_major, hello.max_minor) +
-            ", this server speaks " + range(kVersionMajor, 0, kVersionMajor, kVersionMinor));
+    return Status(StatusCode::kUnsupportedVersion,
+                  "peer speaks " +
+                      range(hello.min_major, hello.min_minor, hello.max_major, hello.max_minor) +
+                      ", this server speaks " + range(kVersionMajor, 0, kVersionMajor, max_minor));
   }
   HelloAck ack;
   ack.major = static_cast<uint8_t>(hi >> 8);
@@ -41,6 +43,18 @@ Status checkAck(const Hello& offered, const HelloAck& ack) {
             range(offered.min_major, offered.min_minor, offered.max_major, offered.max_minor));
   }
   return Status::ok();
+}
+
+StatusOr<uint8_t> parseProtocolVersion(const std::string& text) {
+  unsigned major = 0, minor = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%u.%u%c", &major, &minor, &tail) != 2 || major != kVersionMajor ||
+      minor > kVersionMinor) {
+    return Status(StatusCode::kUnsupportedVersion,
+                  "'" + text + "' is not a protocol this build speaks: 1.0 to " +
+                      std::to_string(kVersionMajor) + "." + std::to_string(kVersionMinor));
+  }
+  return static_cast<uint8_t>(minor);
 }
 
 }  // namespace holofuse::protocol

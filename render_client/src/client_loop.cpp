@@ -484,6 +484,7 @@ int runClient(const ClientOptions& options) {
   hello.role = protocol::Role::kClient;
   hello.id = options.client_id;
   hello.name = "client-" + std::to_string(options.client_id);
+  hello.max_minor = options.max_minor;
   // Mode layered receives texture layers in place of the camera images
   // (their colour as video where the server codes it, since 1.6).
   if (options.render.blend.mode == BlendMode::kLayered)

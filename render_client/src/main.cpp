@@ -52,11 +52,13 @@ int main(int argc, char** argv) {
   app.add_option("--max-mesh-faces", options.mesh_limits.max_faces,
                  "a received mesh stating more faces is skipped before it is decoded");
   PeerKeyFlags key_flags(app, "client");
+  const ProtocolFlag protocol_flag(app, "client");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   render_flags.apply(options.render);
   const auto key = key_flags.load(protocol::Role::kClient, options.client_id);
   if (!key) return 2;
   options.key = *key;
+  options.max_minor = protocol_flag.maxMinor();
   if (list_devices) {
     try {
       const auto devices = render::VulkanContext::listDevices();

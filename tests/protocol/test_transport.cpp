@@ -215,5 +215,31 @@ TEST(Handshake, PicksTheHighestCommonVersionAndRefusesOtherMajors) {
   EXPECT_FALSE(checkAck(hello, wrong).isOk());
 }
 
+// A server standing in for an older release (--protocol 1.4) agrees on at
+// most that minor, and refuses a peer that needs a newer one by name.
+TEST(Handshake, AServerHeldToAnOlderMinorAgreesOnItAndNoNewer) {
+  Hello newest;
+  auto ack = negotiate(newest, 4);
+  ASSERT_TRUE(ack.isOk());
+  EXPECT_EQ(ack->minor, 4);
+  EXPECT_TRUE(checkAck(newest, *ack).isOk());
+  Hello old;
+  old.max_minor = 2;
+  EXPECT_EQ(negotiate(old, 4)->minor, 2);
+  Hello needs_new;
+  needs_new.min_minor = 6;
+  const auto refused = negotiate(needs_new, 4);
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().message().find("this server speaks 1.0..1.4"), std::string::npos)
+      << refused.status().message();
+  EXPECT_EQ(*parseProtocolVersion("1.4"), 4);
+  EXPECT_EQ(*parseProtocolVersion("1." + std::to_string(kVersionMinor)), kVersionMinor);
+  for (const char* bad : {"2.0", "1.", "1.99", "1.4x", "four"}) {
+    const auto parsed = parseProtocolVersion(bad);
+    ASSERT_FALSE(parsed.isOk()) << bad;
+    EXPECT_NE(parsed.status().message().find(bad), std::string::npos) << parsed.status().message();
+  }
+}
+
 }  // namespace
 }  // namespace holofuse::protocol

@@ -26,6 +26,7 @@ struct PodOptions {
   double calibration_error_metres = 0.0;
   PodEncoding encoding;
   std::vector<uint8_t> key;  // authenticates pod pod_id (protocol/auth.h); empty: none
+  uint8_t max_minor = protocol::kVersionMinor;  // the newest protocol offered (--protocol)
 };
 
 // Everything a pod produces for one frame, before it goes on the wire.

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "protocol/frame.h"
 #include "protocol/socket.h"
 
 namespace holofuse::capture {
@@ -21,6 +22,7 @@ struct ReplayOptions {
   double speed = 1.0;  // 1: the recorded pace; 0: as fast as the server accepts
   bool loop = false;
   std::vector<uint8_t> key;  // authenticates pod pod_id (protocol/auth.h); empty: none
+  uint8_t max_minor = protocol::kVersionMinor;  // the newest protocol offered (--protocol)
 };
 
 // Parses --speed: a positive factor, or "max". Empty optional: invalid.

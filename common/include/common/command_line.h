@@ -13,6 +13,7 @@
 
 #include "common/settings.h"
 #include "protocol/auth.h"
+#include "protocol/handshake.h"
 
 #define HOLOFUSE_PARSE_FLAGS(app, argc, argv) \
   try {                                       \
@@ -123,6 +124,32 @@ class PeerKeyFlags {
  private:
   std::string key_file_;
   bool no_auth_ = false;
+};
+
+// --protocol 1.N: the newest protocol minor this program speaks. By default
+// the newest this build knows; an older one makes it stand in for that
+// release, as during a rolling upgrade (SPEC.md section 3: the version is
+// negotiated per connection). Keep it alive until parsed.
+class ProtocolFlag {
+ public:
+  ProtocolFlag(CLI::App& app, const std::string& who) {
+    app.add_option("--protocol", text_,
+                   "the newest protocol this " + who + " speaks, 1.0 to 1." +
+                       std::to_string(protocol::kVersionMinor) +
+                       " (default: the newest; an older one stands in for that release during a "
+                       "rolling upgrade)")
+        ->check([](const std::string& text) {
+          const auto minor = protocol::parseProtocolVersion(text);
+          return minor.isOk() ? std::string() : minor.status().message();
+        });
+  }
+  // After parsing: the minor.
+  uint8_t maxMinor() const {
+    return text_.empty() ? protocol::kVersionMinor : *protocol::parseProtocolVersion(text_);
+  }
+
+ private:
+  std::string text_;
 };
 
 }  // namespace holofuse

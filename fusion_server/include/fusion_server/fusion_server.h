@@ -65,6 +65,9 @@ struct ServerOptions {
   // one moves more than this from its first estimate, beyond the
   // estimates' uncertainty (its host's clock is not disciplined).
   double clock_drift_warn_ms = 1.0;
+  // The newest protocol minor agreed with any peer (--protocol): a server
+  // standing in for an older release during a rolling upgrade.
+  uint8_t max_minor = protocol::kVersionMinor;
   protocol::ClockSyncOptions clock;
   // Pods' frames are decompressed on this many threads, off the loop.
   int decode_threads = 1;

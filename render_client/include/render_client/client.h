@@ -35,6 +35,7 @@ struct ClientOptions {
   // The report warns when a host's clock moves this far from its first
   // estimate against the server's, beyond the estimates' uncertainty.
   double clock_drift_warn_ms = 1.0;
+  uint8_t max_minor = protocol::kVersionMinor;  // the newest protocol offered (--protocol)
   uint64_t frames = 0;         // stop after this many rendered frames; 0 = until signalled
   std::string view = "orbit";  // "orbit" or "pod:N"
   double orbit_degrees_per_frame = 2.0;
