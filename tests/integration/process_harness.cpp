@@ -13,6 +13,37 @@
 #include "protocol/auth.h"
 
 namespace holofuse::test {
+namespace {
+
+// Every process spawn() started in the running test. A test that ends
+// early (a failed ASSERT) must not leave its server and pods running into
+// the tests after it, taking their CPU: whatever still runs when a test
+// ends is stopped then, and said so.
+std::vector<pid_t>& spawnedInThisTest() {
+  static std::vector<pid_t> pids;
+  return pids;
+}
+
+class StopWhatTheTestLeft : public ::testing::EmptyTestEventListener {
+  void OnTestEnd(const ::testing::TestInfo& info) override {
+    for (const pid_t pid : spawnedInThisTest()) {
+      // -1: the test reaped it already; > 0: it had ended, reaped now.
+      if (::waitpid(pid, nullptr, WNOHANG) != 0) continue;
+      const StoppedProcess stopped = stopProcess(pid, 2000);
+      std::fprintf(stderr, "[harness] %s.%s left process %d running; stopped it%s\n",
+                   info.test_suite_name(), info.name(), static_cast<int>(pid),
+                   stopped.killed ? " (SIGKILL)" : "");
+    }
+    spawnedInThisTest().clear();
+  }
+};
+
+const bool kStopsLeftovers = [] {
+  ::testing::UnitTest::GetInstance()->listeners().Append(new StopWhatTheTestLeft);
+  return true;
+}();
+
+}  // namespace
 
 const std::string& testKeyFile() {
   // One fresh key per test process, in the environment every program it
@@ -41,6 +72,8 @@ pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
     ADD_FAILURE() << pid.status().message();
     return -1;
   }
+  (void)kStopsLeftovers;
+  spawnedInThisTest().push_back(*pid);
   return *pid;
 }
 
