@@ -1,7 +1,10 @@
 // holofuse_loop: starts the whole live loop on localhost as separate
 // processes (one fusion_server, N capture_node pods, one render_client),
 // relays the client's progress, and stops everything cleanly when the
-// client has its frames or on Ctrl-C, leaving no process behind.
+// client has its frames or on Ctrl-C, leaving no process behind. With
+// --netns each process runs in a network namespace of its own, every link
+// through an impairing relay (deploy/netns_rig.h): a rig of hosts on one
+// machine.
 #include <signal.h>
 #include <unistd.h>
 
@@ -10,6 +13,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <thread>
@@ -19,6 +24,7 @@
 #include "capture_node/replay_pod.h"
 #include "common/command_line.h"
 #include "dataset/dataset.h"
+#include "deploy/netns_rig.h"
 #include "deploy/soak.h"
 #include "eval/loop_settings.h"
 #include "protocol/auth.h"
@@ -39,7 +45,10 @@ void onSignal(int) { g_interrupted = 1; }
 pid_t spawn(const std::vector<std::string>& args, const std::string& log_path) {
   holofuse::SpawnOptions options;
   options.log_path = log_path;
-  options.stdout_to_log = args[0].find("render_client") == std::string::npos;
+  // (In a rig the program follows ip netns exec's words.)
+  options.stdout_to_log = std::none_of(args.begin(), args.end(), [](const std::string& word) {
+    return word.find("/render_client") != std::string::npos;
+  });
   options.ignore_interrupt = true;
   auto pid = holofuse::spawnProcess(args, options);
   if (!pid.isOk()) {
@@ -86,6 +95,12 @@ struct LoopPlan {
   // loop is authenticated like a rig, and no other process can join it.
   std::string key_file;
   const holofuse::scene::ScenePreset* preset = nullptr;
+  // A rig on this machine (--netns): a namespace per process, each link
+  // impaired by a relay; the server then listens on its namespace's
+  // address instead of loopback.
+  bool netns = false;
+  holofuse::deploy::RigLink link;
+  std::string listen_host = "127.0.0.1";
 };
 
 // What the processes would refuse, refused here: 0 and plan filled, or the
@@ -185,6 +200,17 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
                "judge every written frame against the synthetic scene's true image from the same "
                "view (PSNR, SSIM in the report); off by default: the client renders the truth "
                "between frames, which on a small machine delays the next ones");
+  app.add_flag("--netns", plan.netns,
+               "a rig on this machine: the server, each pod and each client in a network "
+               "namespace of its own, every link through a relay (needs root)");
+  app.add_option("--link-delay-ms", plan.link.delay_ms, "with --netns: each link's one-way delay")
+      ->check(CLI::Range(0.0, 10000.0));
+  app.add_option("--link-jitter-ms", plan.link.jitter_ms,
+                 "with --netns: each link's jitter around its delay (order kept)")
+      ->check(CLI::Range(0.0, 10000.0));
+  app.add_option("--link-rate-mbit", plan.link.rate_mbit,
+                 "with --netns: each link's rate cap each way (0: none)")
+      ->check(CLI::Range(0.0, 100000.0));
   app.add_option("--bin-dir", plan.bin_dir,
                  "folder of the executables (default: next to this one)");
   // Each process's settings, with its help and range, so that the launcher
@@ -258,6 +284,17 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
                  plan.warmup_minutes, plan.soak_minutes);
     return 2;
   }
+  for (const char* link : {"--link-delay-ms", "--link-jitter-ms", "--link-rate-mbit"}) {
+    if (!plan.netns && app.count(link)) {
+      std::fprintf(stderr, "%s shapes a rig's links: add --netns (./holofuse rig)\n", link);
+      return 2;
+    }
+  }
+  if (plan.link.jitter_ms > plan.link.delay_ms) {
+    std::fprintf(stderr, "--link-jitter-ms %g is more than the delay %g it varies\n",
+                 plan.link.jitter_ms, plan.link.delay_ms);
+    return 2;
+  }
   if (plan.record_fused && plan.record.empty()) {
     std::fprintf(stderr, "--record-fused needs --record DIR\n");
     return 2;
@@ -289,7 +326,7 @@ bool replayEnds(const LoopPlan& plan) { return !plan.replay.empty() && !plan.loo
 std::vector<std::string> serverCommand(const LoopPlan& plan, const std::string& port_file) {
   std::vector<std::string> args = {plan.bin_dir + "/fusion_server",
                                    "--listen",
-                                   "127.0.0.1:" + std::to_string(plan.port),
+                                   plan.listen_host + ":" + std::to_string(plan.port),
                                    "--pods",
                                    std::to_string(plan.pods),
                                    "--port-file",
@@ -530,6 +567,21 @@ int superviseLoop(const LoopPlan& plan, LoopProcesses& processes) {
   return ok ? 0 : 1;
 }
 
+// A rig's links as the first client's report measured them, beside what
+// they were set to.
+void printLinks(const LoopPlan& plan) {
+  std::ifstream in(std::filesystem::path(clientOut(plan, 0)) / "report.json");
+  const auto report = nlohmann::json::parse(in, nullptr, false);
+  if (report.is_discarded() || !report.contains("latency_ms")) return;
+  std::printf("[rig] one-way latency per link (p50 / p95), each set to %g +- %g ms:\n",
+              plan.link.delay_ms, plan.link.jitter_ms);
+  for (const auto& [link, ms] : report["latency_ms"]["links"].items()) {
+    std::printf("[rig]   %-24s %7.1f / %7.1f ms\n", link.c_str(), ms["p50"].get<double>(),
+                ms["p95"].get<double>());
+  }
+  std::printf("[rig] namespaces, links and relays removed\n");
+}
+
 // A soak: the loop runs for plan.soak_minutes while every process is
 // sampled each plan.sample_seconds, then stops and is judged
 // (deploy/soak.h). Ctrl-C ends it early with the samples so far.
@@ -624,15 +676,38 @@ int main(int argc, char** argv) {
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
 
+  // A rig: the namespaces and links first; they are gone when this returns,
+  // or, should the launcher be killed, when its reaper sees it end.
+  std::unique_ptr<holofuse::deploy::NetnsRig> rig;
+  if (plan.netns) {
+    auto built = holofuse::deploy::NetnsRig::build(
+        {plan.pods, plan.clients, plan.link, plan.bin_dir + "/holofuse_relay", logs.string()});
+    if (!built.isOk()) {
+      std::fprintf(stderr, "[rig] cannot build the rig: %s\n", built.status().message().c_str());
+      return 1;
+    }
+    rig = std::move(*built);
+    plan.listen_host = rig->serverAddress();
+    std::printf("[rig] %s\n", rig->describe().c_str());
+  }
   LoopProcesses processes;
-  processes.server = spawn(serverCommand(plan, port_file), (logs / "server.log").string());
+  const auto server_command = serverCommand(plan, port_file);
+  processes.server =
+      spawn(rig ? rig->inServer(server_command) : server_command, (logs / "server.log").string());
   if (processes.server < 0) return 1;
   const std::string bound = awaitServerPort(processes, port_file, plan.out);
   if (bound.empty()) {
     processes.stopAll();
     return 1;
   }
-  const std::string endpoint = "127.0.0.1:" + bound;
+  const std::string endpoint = plan.listen_host + ":" + bound;
+  if (rig) {
+    if (const holofuse::Status relays = rig->startRelays(bound); !relays.isOk()) {
+      std::fprintf(stderr, "[rig] %s\n", relays.message().c_str());
+      processes.stopAll();
+      return 1;
+    }
+  }
   const std::string source = plan.replay.empty()
                                  ? "scene " + plan.scene
                                  : "replay of " + plan.replay + " at speed " + plan.speed;
@@ -640,7 +715,8 @@ int main(int argc, char** argv) {
               source.c_str(), plan.pods, plan.size.c_str(), plan.fps, plan.out.c_str());
   std::fflush(stdout);
   for (int i = 0; i < plan.pods; ++i) {
-    const pid_t pod = spawn(podCommand(plan, i, endpoint),
+    const auto command = podCommand(plan, i, rig ? rig->podEndpoint(i) : endpoint);
+    const pid_t pod = spawn(rig ? rig->inPod(i, command) : command,
                             (logs / ("pod" + std::to_string(i) + ".log")).string());
     if (pod < 0) {
       processes.stopAll();
@@ -649,12 +725,17 @@ int main(int argc, char** argv) {
     processes.pods.push_back(pod);
   }
   for (int i = 0; i < plan.clients; ++i) {
-    const pid_t client = spawn(clientCommand(plan, endpoint, i), clientLog(plan, i).string());
+    const auto command = clientCommand(plan, rig ? rig->clientEndpoint(i) : endpoint, i);
+    const pid_t client =
+        spawn(rig ? rig->inClient(i, command) : command, clientLog(plan, i).string());
     if (client < 0) {
       processes.stopAll();
       return 1;
     }
     processes.clients.push_back(client);
   }
-  return plan.soak_minutes > 0 ? superviseSoak(plan, processes) : superviseLoop(plan, processes);
+  if (plan.soak_minutes > 0) return superviseSoak(plan, processes);
+  const int code = superviseLoop(plan, processes);
+  if (rig) printLinks(plan);
+  return code;
 }

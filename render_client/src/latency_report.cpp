@@ -178,6 +178,23 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
     gpu[name] = {{"p50", percentile(v, 50)}, {"p95", percentile(v, 95)}, {"samples", v.size()}};
   }
   j["latency_ms"]["gpu_passes"] = gpu;
+  // Per link, one way: each pod's frames to the server (its send stamps
+  // behind rendered meshes), and the server's frames to this client (the
+  // fan-out, from the server's send to the arrival here).
+  nlohmann::ordered_json links = nlohmann::ordered_json::object();
+  for (const auto& [pod, pairs] : transit_ms_) {
+    std::vector<double> ms;
+    for (const auto& [sent, received] : pairs) ms.push_back(received - sent);
+    links["pod_" + std::to_string(pod) + "_to_server"] = {
+        {"p50", percentile(ms, 50)}, {"p95", percentile(ms, 95)}, {"samples", ms.size()}};
+  }
+  if (const auto fanout = stage_ms_.find(static_cast<uint16_t>(protocol::Stage::kFanout));
+      fanout != stage_ms_.end()) {
+    links["server_to_client"] = {{"p50", percentile(fanout->second, 50)},
+                                 {"p95", percentile(fanout->second, 95)},
+                                 {"samples", fanout->second.size()}};
+  }
+  j["latency_ms"]["links"] = links;
   double pod_bytes = 0, client_bytes = 0, feather_bytes = 0;
   size_t incomplete = 0;
   for (const auto& f : frames_) {

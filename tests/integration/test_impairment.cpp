@@ -12,6 +12,9 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include "base/process.h"
 #include "process_harness.h"
@@ -193,6 +196,93 @@ TEST(Impairment, TheLoopRunsAcrossNamespacesThroughADelayingStallingRelay) {
     EXPECT_EQ(left.find(network.edgeName()), std::string::npos) << left;
     EXPECT_EQ(left.find(network.coreName()), std::string::npos) << left;
   }
+  fs::remove_all(out);
+}
+
+// The namespaces of this machine whose names start with prefix.
+std::vector<std::string> namespacesStartingWith(const std::string& prefix, const fs::path& logs) {
+  const fs::path log = logs / "netns.log";
+  const pid_t lister = spawn({ipCommand(), "netns", "list"}, log);
+  waitExit(lister, 30);
+  std::vector<std::string> found;
+  std::istringstream in(readFile(log));
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind(prefix, 0) == 0) found.push_back(line.substr(0, line.find(' ')));
+  return found;
+}
+
+bool rigPermitted(std::string& why) {
+  if (::geteuid() != 0) {
+    why = "not root";
+    return false;
+  }
+  if (ipCommand().find('/') != 0) {
+    why = ipCommand();
+    return false;
+  }
+  return true;
+}
+
+// ./holofuse rig: the demo across a namespace per process, each link
+// through a relay of 20 +- 2 ms. The report gives every link's one-way
+// latency, and each shows the delay; at the end nothing of the rig is left.
+TEST(Rig, TheDemoRunsAcrossANamespacePerHostAndItsLinksShowTheirDelay) {
+  std::string why;
+  if (!rigPermitted(why))
+    GTEST_SKIP() << "network namespaces are not permitted here (" << why
+                 << "); ./holofuse rig needs root and ip netns";
+  const fs::path out = freshDir("rig");
+  const pid_t launcher =
+      spawn({kBin + "/holofuse_loop", "--netns", "--pods", "2", "--frames", "8", "--size", "64x48",
+             "--link-delay-ms", "20", "--link-jitter-ms", "2", "--out", out.string()},
+            out / "launcher.log");
+  ASSERT_EQ(waitExit(launcher, 240), 0) << readFile(out / "launcher.log");
+  const auto report = nlohmann::json::parse(readFile(out / "report.json"));
+  EXPECT_EQ(report["frames_rendered"].get<int>(), 8);
+  const auto& links = report["latency_ms"]["links"];
+  for (const char* link : {"pod_0_to_server", "pod_1_to_server", "server_to_client"}) {
+    ASSERT_TRUE(links.contains(link)) << links.dump();
+    // The relay holds every byte at least the delay less the jitter;
+    // loopback and the bridge add a fraction of a millisecond.
+    EXPECT_GE(links[link]["p50"].get<double>(), 18.0) << link << ": " << links.dump();
+    EXPECT_GT(links[link]["samples"].get<int>(), 0) << link;
+  }
+  const std::string said = readFile(out / "launcher.log");
+  EXPECT_NE(said.find("[rig]   pod_1_to_server"), std::string::npos) << said;
+  const std::string prefix = "hf" + std::to_string(launcher) + "-";
+  EXPECT_NE(said.find(prefix + "*"), std::string::npos) << said;
+  EXPECT_TRUE(namespacesStartingWith(prefix, out).empty()) << "left behind";
+  // The server's peers came through the switch: the relays' address.
+  EXPECT_NE(readFile(out / "logs" / "server.log").find(".1:"), std::string::npos);
+  fs::remove_all(out);
+}
+
+// A launcher killed outright (no handler runs) still leaves nothing: its
+// reaper stops the rig's processes (the client writes its report on the
+// way out) and deletes every namespace, and with them the links.
+TEST(Rig, AKilledLauncherLeavesNoNamespaceOrProcessBehind) {
+  std::string why;
+  if (!rigPermitted(why))
+    GTEST_SKIP() << "network namespaces are not permitted here (" << why
+                 << "); ./holofuse rig needs root and ip netns";
+  const fs::path out = freshDir("rig_killed");
+  const pid_t launcher = spawn({kBin + "/holofuse_loop", "--netns", "--pods", "2", "--frames",
+                                "100000", "--size", "64x48", "--out", out.string()},
+                               out / "launcher.log");
+  const std::string prefix = "hf" + std::to_string(launcher) + "-";
+  ASSERT_TRUE(test::waitFor([&] { return test::picturesIn(out) >= 2; }))
+      << readFile(out / "launcher.log");
+  EXPECT_EQ(namespacesStartingWith(prefix, out).size(), 5u) << "2 pods, server, client, switch";
+  ::kill(launcher, SIGKILL);
+  EXPECT_EQ(waitExit(launcher, 30), 128 + SIGKILL);
+  ASSERT_TRUE(test::waitFor([&] { return namespacesStartingWith(prefix, out).empty(); }))
+      << "the rig's namespaces outlived its launcher";
+  // Every process of the rig ended: the server and the client said so.
+  EXPECT_TRUE(test::logSays(out / "logs" / "server.log", "[server] stopped after fusing"))
+      << readFile(out / "logs" / "server.log");
+  EXPECT_TRUE(fs::exists(out / "report.json")) << "the client stopped in order";
+  for (const char* log : {"pod0.log", "pod1.log"})
+    EXPECT_TRUE(test::logSays(out / "logs" / log, "sent")) << readFile(out / "logs" / log);
   fs::remove_all(out);
 }
 
