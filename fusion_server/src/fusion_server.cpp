@@ -7,9 +7,12 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "common/image_codec.h"
 #include "common/mesh_codec.h"
@@ -649,6 +652,8 @@ bool FusionServer::podsDone() {
 int FusionServer::run() {
   std::string bye_reason = "server shutting down";
   while (!stopRequested()) {
+    if (!options_.health_file.empty() && monotonicNs() - health_written_ns_ >= 1'000'000'000ull)
+      writeHealth("serving");
     if (options_.exit_when_pods_done && podsDone()) {
       drainWake(wake_fd_);
       fanOut();
@@ -742,6 +747,7 @@ int FusionServer::run() {
     peer.connection->closeGracefully(options_.exit_when_pods_done ? 5000 : 100);
   }
   if (recorder_) recorder_->close();
+  if (!options_.health_file.empty()) writeHealth("stopped");
   std::fprintf(
       stderr,
       "[server] stopped after fusing %llu groups (%llu late pod frames, %llu groups dropped)\n",
@@ -749,6 +755,47 @@ int FusionServer::run() {
       static_cast<unsigned long long>(sync_.lateFrames()),
       static_cast<unsigned long long>(sync_.overflowedGroups() + worker_->replacedJobs()));
   return 0;
+}
+
+void FusionServer::writeHealth(const char* state) {
+  health_written_ns_ = monotonicNs();
+  size_t pods = 0, clients = 0;
+  for (const Peer& peer : peers_) {
+    if (!peer.greeted) continue;
+    (peer.role == protocol::Role::kPod ? pods : clients) += 1;
+  }
+  const std::string aside = options_.health_file + ".tmp";
+  {
+    std::ofstream out(aside);
+    out << "{\"state\": \"" << state << "\", \"port\": " << port() << ", \"pods\": " << pods
+        << ", \"pods_expected\": " << options_.pods << ", \"clients\": " << clients
+        << ", \"groups_fused\": " << groups_fused_ << "}\n";
+  }
+  std::rename(aside.c_str(), options_.health_file.c_str());
+}
+
+StatusOr<std::string> checkHealth(const std::string& path, uint32_t max_age_ms) {
+  std::error_code error;
+  const auto written = std::filesystem::last_write_time(path, error);
+  if (error) return Status(StatusCode::kIoError, path + ": " + error.message());
+  const auto age = std::chrono::duration_cast<std::chrono::milliseconds>(
+      std::filesystem::file_time_type::clock::now() - written);
+  if (age.count() > static_cast<int64_t>(max_age_ms)) {
+    return Status(StatusCode::kTimeout,
+                  path + " was last rewritten " + std::to_string(age.count()) + " ms ago (limit " +
+                      std::to_string(max_age_ms) + " ms): the server is stuck or gone");
+  }
+  std::ifstream in(path);
+  const auto health = nlohmann::json::parse(in, nullptr, false);
+  if (health.is_discarded() || !health.contains("state") || !health["state"].is_string())
+    return Status(StatusCode::kMalformed, path + " is not a server's health file");
+  const std::string state = health["state"].get<std::string>();
+  if (state != "serving") return Status(StatusCode::kClosed, "the server is " + state);
+  return "serving on port " + health.value("port", nlohmann::json(0)).dump() + ": " +
+         health.value("pods", nlohmann::json(0)).dump() + " of " +
+         health.value("pods_expected", nlohmann::json(0)).dump() + " pods, " +
+         health.value("clients", nlohmann::json(0)).dump() + " clients, " +
+         health.value("groups_fused", nlohmann::json(0)).dump() + " groups fused";
 }
 
 }  // namespace holofuse::fusion

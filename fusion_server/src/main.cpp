@@ -15,7 +15,8 @@ int main(int argc, char** argv) {
   fusion::ServerOptions options;
   std::string listen = "127.0.0.1:7300";
   CLI::App app{"holofuse fusion_server: visual hull fusion and fan-out"};
-  app.add_option("--listen", listen, "HOST:PORT to listen on (port 0: any free port)");
+  app.add_option("--listen", listen, "HOST:PORT to listen on (port 0: any free port)")
+      ->capture_default_str();
   app.add_option("--pods", options.pods, "cameras expected (1..128)")
       ->check(CLI::Range(1, static_cast<int>(protocol::kMaxCameras)));
   app.add_option("--sync-deadline-ms", options.sync_deadline_ms,
@@ -32,6 +33,16 @@ int main(int argc, char** argv) {
                  "close a silent peer after this long")
       ->check(CLI::Range(100, 600000));
   app.add_option("--port-file", options.port_file, "write the bound port to this file");
+  app.add_option("--health-file", options.health_file,
+                 "rewrite the server's state (JSON) into this file every second while serving");
+  std::string check_health;
+  uint32_t health_max_age_ms = 5000;
+  app.add_option("--check-health", check_health,
+                 "probe: exit 0 when this health file says serving and is fresh, else 1 saying "
+                 "why (liveness and readiness)");
+  app.add_option("--health-max-age-ms", health_max_age_ms,
+                 "with --check-health: the oldest a health file may be")
+      ->check(CLI::Range(100, 600000));
   app.add_option(
       "--record", options.record_dir,
       "record what the pods send (calibration and every frame, as received) into this folder");
@@ -97,6 +108,15 @@ int main(int argc, char** argv) {
   app.add_option("--new-key", new_key,
                  "write a fresh random key file (mode 0600) to this path and exit");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  if (!check_health.empty()) {
+    const auto health = fusion::checkHealth(check_health, health_max_age_ms);
+    if (!health.isOk()) {
+      std::fprintf(stderr, "unhealthy: %s\n", health.status().message().c_str());
+      return 1;
+    }
+    std::printf("healthy: %s\n", health->c_str());
+    return 0;
+  }
   if (!new_key.empty()) {
     const Status written = protocol::KeyRing::writeNew(new_key);
     if (!written.isOk()) {

@@ -34,7 +34,11 @@ struct ServerOptions {
   uint32_t idle_timeout_ms = 5000;
   uint32_t max_payload = protocol::kDefaultMaxPayload;
   FusionSettings fusion;
-  std::string port_file;      // when set, the bound port is written here (port 0 use)
+  std::string port_file;  // when set, the bound port is written here (port 0 use)
+  // When set, the server's state as JSON, rewritten every second while it
+  // serves (fusion_server --check-health reads it: liveness and readiness
+  // probes, docs/runbook.md).
+  std::string health_file;
   std::string record_dir;     // when set, what the pods send is recorded here
   bool record_fused = false;  // with record_dir: the fused output too
   // Replay as fast as the server accepts: every group waits for all its
@@ -155,6 +159,8 @@ class FusionServer {
   // Lossless mode: false while this pod is ahead of fusion (not read).
   bool readable(const Peer& peer);
   bool podsDone();
+  // health_file, rewritten whole (written aside, then renamed).
+  void writeHealth(const char* state);
 
   ServerOptions options_;
   std::map<uint32_t, uint64_t> implausible_frames_;  // per pod: frames far off the rig's ids
@@ -173,11 +179,18 @@ class FusionServer {
   std::unique_ptr<FusionWorker> worker_;
   std::unique_ptr<PodDecoder> decoder_;
   uint64_t next_serial_ = 1;
+  uint64_t health_written_ns_ = 0;
   uint64_t refused_connections_ = 0;
   uint32_t next_session_ = 1;
   uint64_t groups_fused_ = 0;
   std::optional<dataset::Recorder> recorder_;
   bool clients_arrived_ = false;  // wait_for_clients reached once
 };
+
+// The probe of a server's health file (ServerOptions::health_file): ok,
+// with a line that says what it serves, when the file was rewritten within
+// max_age_ms and says "serving"; else an error that says what is wrong (no
+// file, stale, stopped, unreadable).
+StatusOr<std::string> checkHealth(const std::string& path, uint32_t max_age_ms);
 
 }  // namespace holofuse::fusion

@@ -1,0 +1,282 @@
+// The deployment files of deploy/ checked against the programs they run.
+// What is exercised: the Kubernetes manifests at schema level (required
+// fields, selectors against labels, mounts against volumes, the Service's
+// port against the server's default, the probes against the server's health
+// file, Secrets mounted owner-only), every flag of every command line in
+// the manifests and the systemd units against that program's --help, the
+// units through systemd-analyze verify, and the container definition's
+// packages against the build's. Not exercised here: a cluster applying the
+// manifests, systemd starting the units, the image being built.
+#include <gtest/gtest.h>
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "base/process.h"
+
+namespace holofuse {
+namespace {
+
+namespace fs = std::filesystem;
+const fs::path kSource = HOLOFUSE_SOURCE_DIR;
+const std::string kBin = HOLOFUSE_BIN_DIR;
+
+std::string readFile(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// A command's exit code and what it printed (stdout, then stderr).
+std::pair<int, std::string> run(const std::vector<std::string>& args) {
+  const fs::path errors =
+      fs::temp_directory_path() / ("holofuse_deploy_stderr_" + std::to_string(getpid()));
+  SpawnOptions options;
+  options.log_path = errors.string();
+  ChildPipes pipes;
+  auto pid = spawnProcess(args, options, &pipes);
+  if (!pid.isOk()) return {-1, pid.status().message()};
+  ::close(pipes.to_child);
+  std::string said;
+  char buffer[4096];
+  for (ssize_t n; (n = ::read(pipes.from_child, buffer, sizeof buffer)) > 0;)
+    said.append(buffer, static_cast<size_t>(n));
+  ::close(pipes.from_child);
+  const int code = waitProcess(*pid, 60000).value_or(-1);
+  said += readFile(errors);
+  fs::remove(errors);
+  return {code, said};
+}
+
+// The flags a program's --help lists.
+const std::set<std::string>& flagsOf(const std::string& program) {
+  static std::map<std::string, std::set<std::string>> known;
+  auto& flags = known[program];
+  if (flags.empty()) {
+    const std::string help = run({kBin + "/" + program, "--help"}).second;
+    const std::regex flag("--[a-z0-9-]+");
+    for (auto it = std::sregex_iterator(help.begin(), help.end(), flag);
+         it != std::sregex_iterator(); ++it)
+      flags.insert(it->str());
+  }
+  return flags;
+}
+
+std::vector<YAML::Node> manifests() {
+  std::vector<YAML::Node> all;
+  for (const char* file : {"server.yaml", "pods.yaml", "clients.yaml"}) {
+    for (YAML::Node& doc : YAML::LoadAllFromFile((kSource / "deploy" / "k8s" / file).string()))
+      all.push_back(doc);
+  }
+  return all;
+}
+
+YAML::Node findKind(const std::vector<YAML::Node>& all, const std::string& kind,
+                    const std::string& name) {
+  for (const YAML::Node& doc : all)
+    if (doc["kind"].as<std::string>() == kind && doc["metadata"]["name"].as<std::string>() == name)
+      return doc;
+  ADD_FAILURE() << "no " << kind << " " << name << " in deploy/k8s";
+  return YAML::Node();
+}
+
+// Every key of `sub` is in `labels` with the same value.
+bool selects(const YAML::Node& sub, const YAML::Node& labels) {
+  if (!sub.IsMap() || sub.size() == 0) return false;
+  for (const auto& entry : sub) {
+    const std::string key = entry.first.as<std::string>();
+    if (!labels[key] || labels[key].as<std::string>() != entry.second.as<std::string>())
+      return false;
+  }
+  return true;
+}
+
+// A container's command line, words in order (a shell script is split on
+// blanks: its flags still show).
+std::vector<std::string> commandLine(const YAML::Node& container) {
+  std::vector<std::string> words;
+  for (const char* part : {"command", "args"}) {
+    if (!container[part]) continue;
+    for (const auto& word : container[part]) {
+      std::istringstream split(word.as<std::string>());
+      for (std::string w; split >> w;) words.push_back(w);
+    }
+  }
+  return words;
+}
+
+// Flags of `words` that program does not have.
+std::vector<std::string> unknownFlags(const std::vector<std::string>& words) {
+  std::string program;
+  std::vector<std::string> unknown;
+  for (const std::string& word : words) {
+    for (const char* name : {"fusion_server", "capture_node", "render_client"})
+      if (word.size() >= std::string(name).size() &&
+          word.compare(word.size() - std::string(name).size(), std::string::npos, name) == 0)
+        program = name;
+    if (word.rfind("--", 0) != 0 || program.empty()) continue;
+    if (flagsOf(program).count(word) == 0) unknown.push_back(program + " " + word);
+  }
+  return unknown;
+}
+
+TEST(Deploy, KubernetesManifestsHoldTheirFieldsAndTheirSelectorsMatchTheirLabels) {
+  const auto all = manifests();
+  std::set<std::string> kinds;
+  for (const YAML::Node& doc : all) {
+    ASSERT_TRUE(doc["apiVersion"] && doc["kind"] && doc["metadata"]["name"]) << YAML::Dump(doc);
+    const std::string kind = doc["kind"].as<std::string>();
+    kinds.insert(kind);
+    if (kind != "Deployment" && kind != "DaemonSet") continue;
+    const YAML::Node& pod = doc["spec"]["template"];
+    const std::string name = doc["metadata"]["name"].as<std::string>();
+    EXPECT_TRUE(selects(doc["spec"]["selector"]["matchLabels"], pod["metadata"]["labels"]))
+        << name << ": the selector does not select its own pods";
+    ASSERT_TRUE(pod["spec"]["containers"] && pod["spec"]["containers"].size() > 0) << name;
+    std::set<std::string> volumes;
+    for (const auto& volume : pod["spec"]["volumes"]) {
+      volumes.insert(volume["name"].as<std::string>());
+      // Keys owner-only: the programs refuse a group-readable key file.
+      if (volume["secret"]) {
+        ASSERT_TRUE(volume["secret"]["defaultMode"]) << name;
+        EXPECT_EQ(volume["secret"]["defaultMode"].as<int>(), 0400) << name;
+      }
+    }
+    for (const auto& container : pod["spec"]["containers"]) {
+      EXPECT_TRUE(container["name"] && container["image"]) << name;
+      for (const auto& mount : container["volumeMounts"])
+        EXPECT_EQ(volumes.count(mount["name"].as<std::string>()), 1u)
+            << name << " mounts " << mount["name"].as<std::string>() << ", which is no volume";
+      EXPECT_TRUE(unknownFlags(commandLine(container)).empty())
+          << name << ": " << ::testing::PrintToString(unknownFlags(commandLine(container)));
+    }
+  }
+  EXPECT_EQ(kinds, (std::set<std::string>{"ConfigMap", "DaemonSet", "Deployment", "Service"}));
+
+  // The server: one replica, its Service selects it on the port the server
+  // listens on by default, and both probes read the file it writes.
+  const YAML::Node server = findKind(all, "Deployment", "holofuse-server");
+  const YAML::Node service = findKind(all, "Service", "holofuse-server");
+  const YAML::Node& server_pod = server["spec"]["template"];
+  EXPECT_EQ(server["spec"]["replicas"].as<int>(), 1);
+  EXPECT_TRUE(selects(service["spec"]["selector"], server_pod["metadata"]["labels"]));
+  const std::string help = run({kBin + "/fusion_server", "--help"}).second;
+  std::smatch port;
+  ASSERT_TRUE(std::regex_search(help, port, std::regex(R"(--listen TEXT=[^:\s]+:(\d+))"))) << help;
+  const YAML::Node& container = server_pod["spec"]["containers"][0];
+  EXPECT_EQ(container["ports"][0]["containerPort"].as<std::string>(), port[1].str());
+  EXPECT_EQ(service["spec"]["ports"][0]["port"].as<std::string>(), port[1].str());
+  EXPECT_EQ(service["spec"]["ports"][0]["targetPort"].as<std::string>(),
+            container["ports"][0]["name"].as<std::string>());
+  const std::vector<std::string> words = commandLine(container);
+  const auto health = std::find(words.begin(), words.end(), "--health-file");
+  ASSERT_NE(health, words.end());
+  for (const char* probe : {"readinessProbe", "livenessProbe"}) {
+    const YAML::Node command = container[probe]["exec"]["command"];
+    ASSERT_TRUE(command) << probe;
+    EXPECT_EQ(command[1].as<std::string>(), "--check-health") << probe;
+    EXPECT_EQ(command[2].as<std::string>(), *(health + 1)) << probe << " reads another file";
+    EXPECT_TRUE(unknownFlags(commandLine(container[probe]["exec"])).empty()) << probe;
+  }
+
+  // The pods: pinned to capture nodes, on the node's network, reaching the
+  // server by its Service's name and port.
+  const YAML::Node pods = findKind(all, "DaemonSet", "holofuse-pod");
+  const YAML::Node& pod_spec = pods["spec"]["template"]["spec"];
+  EXPECT_TRUE(pod_spec["hostNetwork"].as<bool>());
+  EXPECT_EQ(pod_spec["nodeSelector"]["holofuse.io/capture"].as<std::string>(), "true");
+  const std::string pod_command = YAML::Dump(pod_spec["containers"][0]["args"]);
+  EXPECT_NE(pod_command.find("--server holofuse-server:" + port[1].str()), std::string::npos)
+      << pod_command;
+  const YAML::Node clients = findKind(all, "Deployment", "holofuse-client");
+  const auto client_words = commandLine(clients["spec"]["template"]["spec"]["containers"][0]);
+  const auto server_flag = std::find(client_words.begin(), client_words.end(), "--server");
+  ASSERT_NE(server_flag, client_words.end());
+  EXPECT_EQ(*(server_flag + 1), "holofuse-server:" + port[1].str());
+}
+
+// ExecStart= lines of a unit file, as words.
+std::vector<std::string> execStart(const fs::path& unit) {
+  std::istringstream in(readFile(unit));
+  std::vector<std::string> words;
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("ExecStart=", 0) != 0) continue;
+    std::istringstream split(line.substr(10));
+    for (std::string w; split >> w;) words.push_back(w);
+  }
+  return words;
+}
+
+TEST(Deploy, SystemdUnitsPassVerifyAndRunTheirProgramsFlags) {
+  const fs::path units = kSource / "deploy" / "systemd";
+  const std::vector<std::string> names = {"holofuse-server.service", "holofuse-pod@.service",
+                                          "holofuse-client@.service"};
+  for (const std::string& name : names) {
+    const auto words = execStart(units / name);
+    ASSERT_FALSE(words.empty()) << name;
+    EXPECT_TRUE(unknownFlags(words).empty())
+        << name << ": " << ::testing::PrintToString(unknownFlags(words));
+    const std::string text = readFile(units / name);
+    for (const char* key : {"Restart=on-failure", "LoadCredential=", "MemoryMax=", "[Install]"})
+      EXPECT_NE(text.find(key), std::string::npos) << name << " has no " << key;
+    EXPECT_NE(text.find("--key-file ${CREDENTIALS_DIRECTORY}/"), std::string::npos)
+        << name << ": the key comes from the credentials directory";
+  }
+  const char* analyze = "/usr/bin/systemd-analyze";
+  if (::access(analyze, X_OK) != 0)
+    GTEST_SKIP() << "systemd-analyze (Debian's systemd) is not installed: the units were not "
+                    "verified";
+  // verify checks that ExecStart's program exists: the units run the
+  // build's binaries here, from a folder of their own.
+  const fs::path dir = fs::temp_directory_path() / ("holofuse_units_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  for (const std::string& name : names) {
+    std::string text = readFile(units / name);
+    for (size_t at; (at = text.find("/usr/local/bin/")) != std::string::npos;)
+      text.replace(at, 15, kBin + "/");
+    std::ofstream(dir / name) << text;
+    const auto [code, said] = run({analyze, "verify", (dir / name).string()});
+    EXPECT_EQ(code, 0) << name << ": " << said;
+    EXPECT_EQ(said, "") << name;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(Deploy, TheContainerImageIsDebian12WithEveryPackageTheBuildUses) {
+  const std::string containerfile = readFile(kSource / "deploy" / "container" / "Containerfile");
+  EXPECT_NE(containerfile.find("FROM debian:12"), std::string::npos);
+  // ./holofuse's package list, less what only the tests and fuzzing use.
+  const std::string script = readFile(kSource / "holofuse");
+  const size_t from = script.find("packages=(");
+  ASSERT_NE(from, std::string::npos);
+  const std::string list =
+      script.substr(from + 10, script.find(')', script.find("chromium", from)) - from - 10);
+  const std::set<std::string> test_only = {"clang-format", "clang",        "libclang-rt-14-dev",
+                                           "iproute2",     "assimp-utils", "chromium"};
+  std::istringstream lines(list);
+  size_t checked = 0;
+  for (std::string line; std::getline(lines, line);) {
+    std::istringstream words(line.substr(0, line.find('#')));
+    for (std::string package; words >> package;) {
+      if (test_only.count(package)) continue;
+      ++checked;
+      EXPECT_NE(containerfile.find(" " + package + " "), std::string::npos)
+          << "the image lacks " << package;
+    }
+  }
+  EXPECT_GT(checked, 20u) << list;
+  EXPECT_NE(containerfile.find("EXPOSE 7300"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace holofuse
