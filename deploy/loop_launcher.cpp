@@ -572,14 +572,16 @@ int superviseLoop(const LoopPlan& plan, LoopProcesses& processes) {
 void printLinks(const LoopPlan& plan) {
   std::ifstream in(std::filesystem::path(clientOut(plan, 0)) / "report.json");
   const auto report = nlohmann::json::parse(in, nullptr, false);
-  if (report.is_discarded() || !report.contains("latency_ms")) return;
+  if (report.is_discarded() || !report.contains("latency_ms")) {
+    std::printf("[rig] no report.json from the client: no link was measured\n");
+    return;
+  }
   std::printf("[rig] one-way latency per link (p50 / p95), each set to %g +- %g ms:\n",
               plan.link.delay_ms, plan.link.jitter_ms);
   for (const auto& [link, ms] : report["latency_ms"]["links"].items()) {
     std::printf("[rig]   %-24s %7.1f / %7.1f ms\n", link.c_str(), ms["p50"].get<double>(),
                 ms["p95"].get<double>());
   }
-  std::printf("[rig] namespaces, links and relays removed\n");
 }
 
 // A soak: the loop runs for plan.soak_minutes while every process is
@@ -736,6 +738,14 @@ int main(int argc, char** argv) {
   }
   if (plan.soak_minutes > 0) return superviseSoak(plan, processes);
   const int code = superviseLoop(plan, processes);
-  if (rig) printLinks(plan);
+  if (rig) {
+    printLinks(plan);
+    if (const holofuse::Status gone = rig->tearDown(); gone.isOk()) {
+      std::printf("[rig] namespaces, links and relays removed\n");
+    } else {
+      std::fprintf(stderr, "[rig] %s\n", gone.message().c_str());
+      return 1;
+    }
+  }
   return code;
 }

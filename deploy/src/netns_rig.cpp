@@ -17,10 +17,16 @@ namespace holofuse::deploy {
 namespace {
 
 // Runs a command to its end: "" when it exited 0, else the command and
-// what it said. Its output goes to *output when asked for.
+// what it said (ip says why on stderr: "RTNETLINK answers: ..."). Its
+// stdout goes to *output when asked for.
 std::string run(const std::vector<std::string>& args, std::string* output = nullptr) {
+  char errors_path[] = "/tmp/holofuse_rig_ip_XXXXXX";
+  const int errors_fd = ::mkstemp(errors_path);
+  if (errors_fd >= 0) ::close(errors_fd);
+  SpawnOptions options;
+  options.log_path = errors_fd >= 0 ? errors_path : "";
   ChildPipes pipes;
-  auto pid = spawnProcess(args, {}, &pipes);
+  auto pid = spawnProcess(args, options, &pipes);
   if (!pid.isOk()) return pid.status().message();
   ::close(pipes.to_child);
   std::string said;
@@ -32,6 +38,11 @@ std::string run(const std::vector<std::string>& args, std::string* output = null
   ::close(pipes.from_child);
   const int code = waitProcess(*pid, 30000).value_or(-1);
   if (output) *output = said;
+  if (errors_fd >= 0) {
+    std::ifstream errors(errors_path);
+    said += std::string(std::istreambuf_iterator<char>(errors), std::istreambuf_iterator<char>());
+    ::unlink(errors_path);
+  }
   if (code == 0) return "";
   std::string line;
   for (const std::string& word : args) line += word + " ";
@@ -101,10 +112,17 @@ StatusOr<std::unique_ptr<NetnsRig>> NetnsRig::build(const RigPlan& plan) {
   int fds[2];
   if (::pipe2(fds, O_CLOEXEC) != 0) return Status(StatusCode::kIoError, "pipe2 failed");
   const pid_t reaper = ::fork();
-  if (reaper < 0) return Status(StatusCode::kIoError, "cannot fork the rig's reaper");
+  if (reaper < 0) {
+    ::close(fds[0]);
+    ::close(fds[1]);
+    return Status(StatusCode::kIoError, "cannot fork the rig's reaper");
+  }
   if (reaper == 0) {
-    // The reaper: deaf to the terminal's signals, it waits for the
-    // launcher's end of the pipe to close, then tears the rig down.
+    // The reaper: in a session of its own (a signal to the launcher's
+    // process group, Ctrl-\ or a job runner's SIGKILL, does not reach it)
+    // and deaf to the rest, it waits for the launcher's end of the pipe to
+    // close, then tears the rig down.
+    ::setsid();
     ::signal(SIGINT, SIG_IGN);
     ::signal(SIGTERM, SIG_IGN);
     ::signal(SIGHUP, SIG_IGN);
@@ -123,9 +141,15 @@ StatusOr<std::unique_ptr<NetnsRig>> NetnsRig::build(const RigPlan& plan) {
   return rig;
 }
 
-NetnsRig::~NetnsRig() {
+Status NetnsRig::tearDown() {
   if (reaper_pipe_ >= 0) ::close(reaper_pipe_);
-  if (reaper_ > 0) waitProcess(reaper_, -1);
+  reaper_pipe_ = -1;
+  if (reaper_ <= 0) return Status::ok();
+  const int code = waitProcess(reaper_, -1).value_or(-1);
+  reaper_ = -1;
+  if (code == 0) return Status::ok();
+  return Status(StatusCode::kIoError, "the rig's teardown failed (exit " + std::to_string(code) +
+                                          "); ip netns list names what is left");
 }
 
 Status NetnsRig::buildNetwork() {

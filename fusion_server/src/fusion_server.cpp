@@ -333,9 +333,12 @@ Status FusionServer::handleClockProbe(Peer& peer, const Frame& frame) {
   const Status taken = peer.clock.onReply(probe, peer.read_ns);
   const std::string& name = peer.connection->peerName();
   if (!taken.isOk()) {
-    // The estimate keeps its good samples; the peer keeps being served.
-    std::fprintf(stderr, "[server] ignored a clock probe answer from %s: %s\n", name.c_str(),
-                 taken.message().c_str());
+    // The estimate keeps its good samples; the peer keeps being served, and
+    // the log is not flooded.
+    if (peer.bad_probe_answers++ % 100 == 0)
+      std::fprintf(stderr, "[server] ignored clock probe answer %llu from %s: %s\n",
+                   static_cast<unsigned long long>(peer.bad_probe_answers), name.c_str(),
+                   taken.message().c_str());
     return Status::ok();
   }
   if (!peer.clock_told && peer.clock.samples() >= options_.clock.burst) {
@@ -364,8 +367,12 @@ Status FusionServer::handlePodFrame(Peer& peer, Frame frame) {
   }
   // Stamped before the decoding, which starts the server_decode stage here
   // (waiting for a decoder thread is part of it).
-  PodDecodeJob job{peer.serial, peer.id,       std::move(frame),
-                   cam->second, monotonicNs(), peer.clock.offsetNs()};
+  // A pod of 1.8 is probed; until its first answer its times cannot be
+  // placed on ours (an older pod is taken to share our clock).
+  std::optional<int64_t> offset = 0;
+  if (peer.minor >= 8)
+    offset = peer.clock.known() ? std::optional(peer.clock.offsetNs()) : std::nullopt;
+  PodDecodeJob job{peer.serial, peer.id, std::move(frame), cam->second, monotonicNs(), offset};
   decoder_->submit(std::move(job));
   return Status::ok();
 }
@@ -389,7 +396,7 @@ void FusionServer::takeDecodedFrames() {
 }
 
 void FusionServer::syncDecoded(Frame frame, uint32_t pod, uint64_t frame_id, PodImages images) {
-  const double sent_ms = static_cast<double>(images.sent_ns) / 1e6;
+  const double sent_ms = static_cast<double>(images.pod_sent_ns) / 1e6;
   const double arrival_ms = static_cast<double>(images.arrival_ns) / 1e6;
   // The group waits from the first frame decoded: its decoding is
   // server_decode's, and the latency budget must not count it twice.
@@ -771,7 +778,11 @@ void FusionServer::writeHealth(const char* state) {
         << ", \"pods_expected\": " << options_.pods << ", \"clients\": " << clients
         << ", \"groups_fused\": " << groups_fused_ << "}\n";
   }
-  std::rename(aside.c_str(), options_.health_file.c_str());
+  if (std::rename(aside.c_str(), options_.health_file.c_str()) != 0 && !health_failed_) {
+    health_failed_ = true;
+    std::fprintf(stderr, "[server] cannot write the health file %s: %s\n",
+                 options_.health_file.c_str(), std::strerror(errno));
+  }
 }
 
 StatusOr<std::string> checkHealth(const std::string& path, uint32_t max_age_ms) {

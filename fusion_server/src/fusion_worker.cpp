@@ -17,29 +17,37 @@ using protocol::Stage;
 
 StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
                                 const Camera& camera, uint64_t now_ns,
-                                int64_t pod_clock_offset_ns) {
+                                std::optional<int64_t> pod_clock_offset_ns) {
   PodImages images;
   images.camera_id = pod.camera_id;
-  images.capture_time_ns = protocol::shiftedNs(pod.capture_time_ns, pod_clock_offset_ns);
   images.bytes = wire_bytes;
   // Sent when the pod finished its frame: a synthetic pod's encoding, a
   // replay pod's read of the recording. The send stage is the server's to
   // stamp: one a pod put in its frame is not kept.
-  uint64_t sent = images.capture_time_ns;
+  uint64_t pod_sent = pod.capture_time_ns;
   for (const auto& s : pod.stamps) {
-    if (s.stage == static_cast<uint16_t>(protocol::Stage::kSend)) continue;
-    images.stamps.push_back({s.stage, s.source,
-                             protocol::shiftedNs(s.start_ns, pod_clock_offset_ns),
-                             protocol::shiftedNs(s.end_ns, pod_clock_offset_ns)});
     if (s.stage == static_cast<uint16_t>(protocol::Stage::kPodEncode) ||
         s.stage == static_cast<uint16_t>(protocol::Stage::kReplayRead)) {
-      sent = images.stamps.back().end_ns;
+      pod_sent = s.end_ns;
     }
   }
-  images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend),
-                           static_cast<uint16_t>(pod.camera_id), sent, now_ns});
-  images.sent_ns = sent;
+  images.pod_sent_ns = pod_sent;
   images.arrival_ns = now_ns;
+  if (pod_clock_offset_ns) {
+    images.capture_time_ns = protocol::shiftedNs(pod.capture_time_ns, *pod_clock_offset_ns);
+    for (const auto& s : pod.stamps) {
+      if (s.stage == static_cast<uint16_t>(protocol::Stage::kSend)) continue;
+      images.stamps.push_back({s.stage, s.source,
+                               protocol::shiftedNs(s.start_ns, *pod_clock_offset_ns),
+                               protocol::shiftedNs(s.end_ns, *pod_clock_offset_ns)});
+    }
+    images.sent_ns = protocol::shiftedNs(pod_sent, *pod_clock_offset_ns);
+    images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend),
+                             static_cast<uint16_t>(pod.camera_id), images.sent_ns, now_ns});
+  } else {
+    images.capture_time_ns = now_ns;
+    images.sent_ns = now_ns;
+  }
   images.camera = camera;  // the calibration these images belong to
   for (const auto& plane : pod.planes) {
     // Checked against the calibration before anything is decompressed: the

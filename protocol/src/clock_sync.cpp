@@ -40,6 +40,15 @@ Status ClockSync::onReply(const ClockProbe& reply, uint64_t now_ns) {
   // In signed 128-bit arithmetic: two hosts' monotonic clocks may be days
   // apart, and the differences of u64 times must not wrap.
   const __int128 sum = (static_cast<__int128>(t2) - t1) + (static_cast<__int128>(t3) - t4);
+  // Monotonic clocks count from boot: two hosts' differ by years at most.
+  // An offset past 2^62 ns (146 years) is a peer's nonsense, and refusing
+  // it keeps every later sum and negation inside int64.
+  constexpr __int128 kMaxOffset = __int128{1} << 62;
+  if (sum / 2 > kMaxOffset || sum / 2 < -kMaxOffset) {
+    return Status(StatusCode::kMalformed, "clock probe reply puts the peer's clock " +
+                                              std::to_string(static_cast<double>(sum / 2) / 1e9) +
+                                              " s from ours");
+  }
   Sample sample{static_cast<int64_t>(sum / 2), (t4 - t1) - (t3 - t2)};
   window_.push_back(sample);
   if (window_.size() > options_.window) window_.pop_front();

@@ -57,16 +57,17 @@ std::pair<int, std::string> run(const std::vector<std::string>& args) {
   return {code, said};
 }
 
-// The flags a program's --help lists.
+// The flags a program's --help lists: each option's line starts with its
+// name (a flag named only in another's description does not count).
 const std::set<std::string>& flagsOf(const std::string& program) {
   static std::map<std::string, std::set<std::string>> known;
   auto& flags = known[program];
   if (flags.empty()) {
-    const std::string help = run({kBin + "/" + program, "--help"}).second;
-    const std::regex flag("--[a-z0-9-]+");
-    for (auto it = std::sregex_iterator(help.begin(), help.end(), flag);
-         it != std::sregex_iterator(); ++it)
-      flags.insert(it->str());
+    std::istringstream help(run({kBin + "/" + program, "--help"}).second);
+    const std::regex option(R"(^\s+(?:-\w,)?(--[a-z0-9-]+))");
+    std::smatch name;
+    for (std::string line; std::getline(help, line);)
+      if (std::regex_search(line, name, option)) flags.insert(name[1].str());
   }
   return flags;
 }
@@ -194,6 +195,12 @@ TEST(Deploy, KubernetesManifestsHoldTheirFieldsAndTheirSelectorsMatchTheirLabels
   const YAML::Node& pod_spec = pods["spec"]["template"]["spec"];
   EXPECT_TRUE(pod_spec["hostNetwork"].as<bool>());
   EXPECT_EQ(pod_spec["nodeSelector"]["holofuse.io/capture"].as<std::string>(), "true");
+  // A capture node holds the pods' keys, never the server's key ring.
+  for (const auto& volume : pod_spec["volumes"]) {
+    if (!volume["secret"]) continue;
+    EXPECT_NE(volume["secret"]["secretName"].as<std::string>(),
+              server_pod["spec"]["volumes"][0]["secret"]["secretName"].as<std::string>());
+  }
   const std::string pod_command = YAML::Dump(pod_spec["containers"][0]["args"]);
   EXPECT_NE(pod_command.find("--server holofuse-server:" + port[1].str()), std::string::npos)
       << pod_command;
@@ -204,13 +211,15 @@ TEST(Deploy, KubernetesManifestsHoldTheirFieldsAndTheirSelectorsMatchTheirLabels
   EXPECT_EQ(*(server_flag + 1), "holofuse-server:" + port[1].str());
 }
 
-// ExecStart= lines of a unit file, as words.
+// ExecStart= and ExecStartPost= lines of a unit file, as words.
 std::vector<std::string> execStart(const fs::path& unit) {
   std::istringstream in(readFile(unit));
   std::vector<std::string> words;
   for (std::string line; std::getline(in, line);) {
-    if (line.rfind("ExecStart=", 0) != 0) continue;
-    std::istringstream split(line.substr(10));
+    const size_t equals = line.find('=');
+    const std::string key = line.substr(0, equals);
+    if (key != "ExecStart" && key != "ExecStartPost") continue;
+    std::istringstream split(line.substr(equals + 1));
     for (std::string w; split >> w;) words.push_back(w);
   }
   return words;

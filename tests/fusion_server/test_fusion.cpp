@@ -205,6 +205,22 @@ TEST(FusionWorker, TheServerStampsTheSendStageItself) {
         return s.stage == static_cast<uint16_t>(protocol::Stage::kSend);
       });
   EXPECT_EQ(sends, 1);
+  // A pod whose clock reads 900 ns ahead of the server's: its times come
+  // onto the server's clock, the jitter keeps the pod's own send time.
+  auto shifted = podImagesOf(pod, 4096, views[0].camera, 5000, 900);
+  ASSERT_TRUE(shifted.isOk());
+  EXPECT_EQ(shifted->capture_time_ns, 100u);
+  EXPECT_EQ(shifted->sent_ns, 1100u);
+  EXPECT_EQ(shifted->pod_sent_ns, 2000u);
+  EXPECT_EQ(shifted->stamps.front().start_ns, 600u);
+  // Not measured yet: none of the pod's stamps, and its capture time is the
+  // arrival, the latest it can have been.
+  auto unplaced = podImagesOf(pod, 4096, views[0].camera, 5000, std::nullopt);
+  ASSERT_TRUE(unplaced.isOk());
+  EXPECT_EQ(unplaced->capture_time_ns, 5000u);
+  EXPECT_EQ(unplaced->pod_sent_ns, 2000u);
+  for (const auto& s : unplaced->stamps)
+    EXPECT_EQ(s.stage, static_cast<uint16_t>(protocol::Stage::kServerDecode)) << s.stage;
 }
 
 TEST(FusionWorker, FusesAGroupIntoDecodableFrames) {

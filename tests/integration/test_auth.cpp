@@ -294,7 +294,7 @@ TEST(FairService, AFloodingPeerIsClosedAndTheOthersAreStillServed) {
   EXPECT_NE(refusal.message.find("clock probes closer together than 50 ms"), std::string::npos)
       << refusal.message;
   EXPECT_TRUE(
-      test::logSays(out / "server.log", "ignored a clock probe answer from client 9 (127.0.0.1"))
+      test::logSays(out / "server.log", "ignored clock probe answer 1 from client 9 (127.0.0.1"))
       << readFile(out / "server.log");
   // Admitted is not trusted with memory: a header claiming 60 MiB of
   // anything but a PodFrame its calibration allows is refused at the header.

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -203,7 +204,7 @@ TEST(Impairment, TheLoopRunsAcrossNamespacesThroughADelayingStallingRelay) {
 std::vector<std::string> namespacesStartingWith(const std::string& prefix, const fs::path& logs) {
   const fs::path log = logs / "netns.log";
   const pid_t lister = spawn({ipCommand(), "netns", "list"}, log);
-  waitExit(lister, 30);
+  EXPECT_EQ(waitExit(lister, 30), 0) << readFile(log);
   std::vector<std::string> found;
   std::istringstream in(readFile(log));
   for (std::string line; std::getline(in, line);)
@@ -252,8 +253,14 @@ TEST(Rig, TheDemoRunsAcrossANamespacePerHostAndItsLinksShowTheirDelay) {
   const std::string prefix = "hf" + std::to_string(launcher) + "-";
   EXPECT_NE(said.find(prefix + "*"), std::string::npos) << said;
   EXPECT_TRUE(namespacesStartingWith(prefix, out).empty()) << "left behind";
-  // The server's peers came through the switch: the relays' address.
-  EXPECT_NE(readFile(out / "logs" / "server.log").find(".1:"), std::string::npos);
+  // The server's peers came through the switch: the relays' address, .1 of
+  // the rig's subnet, where the server listens on .2.
+  const std::string server_log = readFile(out / "logs" / "server.log");
+  std::smatch listen;
+  ASSERT_TRUE(
+      std::regex_search(server_log, listen, std::regex(R"(listening on (\d+\.\d+\.\d+\.)2:)")))
+      << server_log;
+  EXPECT_NE(server_log.find("pod 0 (" + listen[1].str() + "1:"), std::string::npos) << server_log;
   fs::remove_all(out);
 }
 

@@ -434,6 +434,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     EXPECT_GE(last_count, 5u);
   }
   // The 1.8 client's last Stats carry the pod's clock as measured.
+  ASSERT_FALSE(clients[8].stats.empty());
+  ASSERT_TRUE(clients[8].stats.back().second.pod_arrivals.has_value());
+  ASSERT_FALSE(clients[8].stats.back().second.pod_arrivals->empty());
   EXPECT_NE(clients[8].stats.back().second.pod_arrivals->front().clock_uncertainty_ns, 0u);
   using holofuse::protocol::PlaneKind;
   const std::vector<PlaneKind> images = {PlaneKind::kColor, PlaneKind::kMask};

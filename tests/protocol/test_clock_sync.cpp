@@ -97,6 +97,14 @@ TEST(ClockSync, RefusesAnswersThatAreNotOursOrImpossible) {
   const auto third = sync.probeDue(300 * kMs);
   ASSERT_TRUE(third.has_value());
   EXPECT_FALSE(sync.onReply(*third, 301 * kMs).isOk());
+  // An offset past 2^62 ns is nonsense, refused before any arithmetic on it.
+  const auto fourth = sync.probeDue(2400 * kMs);  // the third timed out
+  ASSERT_TRUE(fourth.has_value());
+  s = sync.onReply(ClockSync::answer(*fourth, uint64_t{1} << 63, (uint64_t{1} << 63) + 10),
+                   2401 * kMs);
+  EXPECT_EQ(s.code(), StatusCode::kMalformed);
+  EXPECT_NE(s.message().find("s from ours"), std::string::npos) << s.message();
+  EXPECT_FALSE(sync.known());
 }
 
 TEST(ClockSync, WarnsOfDriftOnlyBeyondTheEstimatesUncertainty) {

@@ -48,8 +48,10 @@ class NetnsRig {
   // this process (hf<pid>-...); an error names the command that failed,
   // and whatever was built is gone again.
   static StatusOr<std::unique_ptr<NetnsRig>> build(const RigPlan& plan);
-  // Tears the rig down (through the reaper) and waits until it is gone.
-  ~NetnsRig();
+  // Tears the rig down (through the reaper) and waits until it is gone;
+  // an error when something could not be removed (the reaper said what).
+  Status tearDown();
+  ~NetnsRig() { (void)tearDown(); }
   NetnsRig(const NetnsRig&) = delete;
   NetnsRig& operator=(const NetnsRig&) = delete;
 

@@ -124,8 +124,9 @@ class FusionServer {
     uint64_t read_ns = 0;           // when the frames being handled were read
     // The peer's clock against ours (peers of 1.8 or later answer probes).
     protocol::ClockSync clock;
-    bool clock_told = false;    // its first estimate is in the log
-    bool drift_warned = false;  // its drift past the threshold is in the log
+    bool clock_told = false;         // its first estimate is in the log
+    bool drift_warned = false;       // its drift past the threshold is in the log
+    uint64_t bad_probe_answers = 0;  // logged the first and every 100th
     // Between Hello and the answer to our challenge: what was claimed, the
     // version agreed and the challenge sent.
     struct PendingAuth {
@@ -180,6 +181,7 @@ class FusionServer {
   std::unique_ptr<PodDecoder> decoder_;
   uint64_t next_serial_ = 1;
   uint64_t health_written_ns_ = 0;
+  bool health_failed_ = false;  // said once
   uint64_t refused_connections_ = 0;
   uint32_t next_session_ = 1;
   uint64_t groups_fused_ = 0;

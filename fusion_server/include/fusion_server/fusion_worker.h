@@ -98,11 +98,13 @@ struct GroupJob {
 // and the server_decode stage from then to the end of its decoding. The
 // pod's times (its stamps and capture time) come onto the server's clock:
 // pod_clock_offset_ns is the pod's clock minus the server's
-// (protocol/clock_sync.h; 0 on one host). An error names the plane that
+// (protocol/clock_sync.h; 0 on one host). Without it (a pod not measured
+// yet) the pod's stamps are left out and its capture time is taken as the
+// arrival, the latest it can have been. An error names the plane that
 // does not fit or the plane that is missing.
 StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
                                 const Camera& camera, uint64_t now_ns,
-                                int64_t pod_clock_offset_ns = 0);
+                                std::optional<int64_t> pod_clock_offset_ns = 0);
 
 // The group's silhouettes and feather maps as whole images, for the hull.
 std::vector<hull::HullView> hullViewsOf(const FrameGroup& group);

@@ -10,6 +10,7 @@
 #include <deque>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <thread>
 #include <vector>
@@ -26,7 +27,9 @@ struct PodDecodeJob {
   protocol::Frame frame;
   Camera camera;  // the calibration in force when it arrived
   uint64_t arrival_ns = 0;
-  int64_t clock_offset_ns = 0;  // the pod's clock minus ours, as estimated at arrival
+  // The pod's clock minus ours as estimated at arrival; none while a pod of
+  // 1.8 or later is not measured yet (its times cannot be placed).
+  std::optional<int64_t> clock_offset_ns = 0;
 };
 
 struct DecodedPodFrame {
