@@ -99,9 +99,120 @@ struct LoopPlan {
   // impaired by a relay; the server then listens on its namespace's
   // address instead of loopback.
   bool netns = false;
-  holofuse::deploy::RigLink link;
+  holofuse::RigLink link;
   std::string listen_host = "127.0.0.1";
+  // A rig file (--rig, docs/rig-file.md): its pods and clients, each
+  // process reading its part, the launcher's flags given on top.
+  std::string rig_file;
+  std::optional<holofuse::RigFile> rig;
+  std::vector<std::string> given;  // the flags given to the launcher
+  std::vector<holofuse::RigLink> pod_links, client_links;
 };
+
+bool wasGiven(const LoopPlan& plan, const std::string& flag) {
+  return std::find(plan.given.begin(), plan.given.end(), flag) != plan.given.end();
+}
+
+// The value a rig file's part gives flag ("" when it gives none).
+std::string partValue(const std::vector<holofuse::RigOption>& part, const std::string& flag) {
+  for (const auto& option : part)
+    if ("--" + option.name == flag) return option.values.front();
+  return "";
+}
+
+// Whether the launcher passes its value of flag to a process whose rig
+// part is part: always without a rig; with one, when the flag was given
+// to the launcher (the command line wins) or the part does not set it
+// (the launcher's default, as without a rig).
+bool passes(const LoopPlan& plan, const std::vector<holofuse::RigOption>& part,
+            const std::string& flag) {
+  return !plan.rig || wasGiven(plan, flag) || partValue(part, flag).empty();
+}
+
+// A rig process's part, for passes(); empty without a rig.
+std::vector<holofuse::RigOption> podPart(const LoopPlan& plan, int pod) {
+  return plan.rig ? *plan.rig->podPart(static_cast<uint32_t>(pod))
+                  : std::vector<holofuse::RigOption>{};
+}
+std::vector<holofuse::RigOption> clientPart(const LoopPlan& plan, int client) {
+  return plan.rig ? *plan.rig->clientPart(
+                        plan.rig->clients.empty() ? 0 : plan.rig->clients.at(client).id)
+                  : std::vector<holofuse::RigOption>{};
+}
+
+// Reads --rig: the pods and clients are the file's, each link its own
+// (a --link-* flag sets every link's), and the settings the launcher
+// itself needs (the pods' size, rate and scene, the client's mode and
+// view) are pod 0's and client 0's where the flags do not give them. 0, or
+// the exit code after saying what is wrong.
+int readRig(LoopPlan& plan) {
+  auto rig = holofuse::RigFile::load(plan.rig_file);
+  if (!rig.isOk()) {
+    std::fprintf(stderr, "--rig: %s\n", rig.status().message().c_str());
+    return 2;
+  }
+  for (const char* flag : {"--pods", "--clients", "--replay"}) {
+    if (wasGiven(plan, flag)) {
+      std::fprintf(stderr, "%s: the rig file %s names the pods and clients; drop one of them\n",
+                   flag, plan.rig_file.c_str());
+      return 2;
+    }
+  }
+  plan.rig = std::move(*rig);
+  plan.rig_file = std::filesystem::absolute(plan.rig_file).string();
+  plan.rig->path = plan.rig_file;
+  plan.pods = static_cast<int>(plan.rig->pods.size());
+  plan.clients = std::max<int>(1, static_cast<int>(plan.rig->clients.size()));
+  if (plan.clients > 8) {
+    std::fprintf(stderr, "--rig: %s names %d clients; the launcher starts at most 8\n",
+                 plan.rig_file.c_str(), plan.clients);
+    return 2;
+  }
+  auto linkOf = [&](holofuse::RigLink link) {
+    if (wasGiven(plan, "--link-delay-ms")) link.delay_ms = plan.link.delay_ms;
+    if (wasGiven(plan, "--link-jitter-ms")) link.jitter_ms = plan.link.jitter_ms;
+    if (wasGiven(plan, "--link-rate-mbit")) link.rate_mbit = plan.link.rate_mbit;
+    return link;
+  };
+  plan.link = linkOf(plan.rig->link);
+  for (const auto& pod : plan.rig->pods) plan.pod_links.push_back(linkOf(pod.link));
+  for (const auto& client : plan.rig->clients) plan.client_links.push_back(linkOf(client.link));
+  std::vector<holofuse::RigLink> links = plan.pod_links;
+  links.insert(links.end(), plan.client_links.begin(), plan.client_links.end());
+  for (const auto& link : links) {
+    if (link.jitter_ms > link.delay_ms) {
+      std::fprintf(stderr, "--link-jitter-ms %g is more than a link's delay %g it varies\n",
+                   link.jitter_ms, link.delay_ms);
+      return 2;
+    }
+  }
+  const bool shaped = std::any_of(links.begin(), links.end(), [](const holofuse::RigLink& link) {
+    return link.delay_ms > 0 || link.rate_mbit > 0;
+  });
+  if (shaped && !plan.netns)
+    std::printf("[loop] the rig file's links take effect with --netns (./holofuse rig)\n");
+  const auto pod = podPart(plan, 0);
+  const auto client = clientPart(plan, 0);
+  for (auto [flag, value] : {std::pair{"--size", &plan.size},
+                             {"--scene", &plan.scene},
+                             {"--seed", &plan.seed},
+                             {"--noise", &plan.noise}}) {
+    if (!wasGiven(plan, flag) && !partValue(pod, flag).empty()) *value = partValue(pod, flag);
+  }
+  for (auto [flag, value] : {std::pair{"--mode", &plan.mode}, {"--view", &plan.view}}) {
+    if (!wasGiven(plan, flag) && !partValue(client, flag).empty()) *value = partValue(client, flag);
+  }
+  if (!wasGiven(plan, "--fps") && !partValue(pod, "--fps").empty()) {
+    double fps = 0;
+    if (const std::string error = holofuse::parseNumberIn(partValue(pod, "--fps"), 0.1, 240, fps);
+        !error.empty()) {
+      std::fprintf(stderr, "--rig: %s: pod 0's fps: %s\n", plan.rig_file.c_str(), error.c_str());
+      return 2;
+    }
+    plan.fps = fps;
+  }
+  return 0;
+}
 
 // What the processes would refuse, refused here: 0 and plan filled, or the
 // exit code after saying what is wrong.
@@ -211,6 +322,9 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
   app.add_option("--link-rate-mbit", plan.link.rate_mbit,
                  "with --netns: each link's rate cap each way (0: none)")
       ->check(CLI::Range(0.0, 100000.0));
+  app.add_option("--rig", plan.rig_file,
+                 "a rig file (YAML, docs/rig-file.md): its pods, clients and links, each "
+                 "process reading its part; flags given here override it");
   app.add_option("--bin-dir", plan.bin_dir,
                  "folder of the executables (default: next to this one)");
   // Each process's settings, with its help and range, so that the launcher
@@ -240,6 +354,11 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   setting_flags.apply(plan.settings);
+  for (const CLI::Option* option : app.get_options())
+    if (option->count() > 0) plan.given.push_back(option->get_name());
+  if (!plan.rig_file.empty()) {
+    if (const int code = readRig(plan); code != 0) return code;
+  }
   unsigned width = 0, height = 0;
   // A replay's pods keep the recorded size: --size is then the client's
   // output alone, which may be larger than a pod's image.
@@ -333,6 +452,7 @@ std::vector<std::string> serverCommand(const LoopPlan& plan, const std::string& 
                                    port_file,
                                    "--key-file",
                                    plan.key_file};
+  if (plan.rig) append(args, {"--rig", plan.rig_file});
   append(args, holofuse::eval::serverArguments(plan.settings));
   if (!plan.record.empty()) {
     append(args, {"--record", plan.record});
@@ -362,10 +482,16 @@ std::vector<std::string> podCommand(const LoopPlan& plan, int pod, const std::st
     if (plan.loop) args.push_back("--loop");
     return args;
   }
-  append(args, {"--pods", std::to_string(plan.pods), "--size", plan.size, "--fps",
-                std::to_string(plan.fps), "--scene", plan.scene});
-  if (!plan.seed.empty()) append(args, {"--seed", plan.seed});
-  if (!plan.noise.empty()) append(args, {"--noise", plan.noise});
+  append(args, {"--pods", std::to_string(plan.pods)});
+  const auto part = podPart(plan, pod);
+  if (plan.rig) append(args, {"--rig", plan.rig_file});
+  for (const auto& [flag, value] : {std::pair<std::string, std::string>{"--size", plan.size},
+                                    {"--fps", std::to_string(plan.fps)},
+                                    {"--scene", plan.scene},
+                                    {"--seed", plan.seed},
+                                    {"--noise", plan.noise}}) {
+    if (!value.empty() && passes(plan, part, flag)) append(args, {flag, value});
+  }
   append(args, holofuse::eval::podArguments(plan.settings));
   return args;
 }
@@ -388,13 +514,17 @@ std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& 
                                    "--out",
                                    clientOut(plan, index),
                                    "--frames",
-                                   std::to_string(frames),
-                                   "--size",
-                                   plan.size,
-                                   "--mode",
-                                   plan.mode,
-                                   "--view",
-                                   plan.view};
+                                   std::to_string(frames)};
+  if (plan.rig) {
+    const uint32_t id = plan.rig->clients.empty() ? 0 : plan.rig->clients.at(index).id;
+    append(args, {"--rig", plan.rig_file, "--client-id", std::to_string(id)});
+  }
+  const auto part = clientPart(plan, index);
+  for (const auto& [flag, value] : {std::pair<std::string, std::string>{"--size", plan.size},
+                                    {"--mode", plan.mode},
+                                    {"--view", plan.view}}) {
+    if (passes(plan, part, flag)) append(args, {flag, value});
+  }
   if (plan.replay.empty() && plan.preset->view_jump_degrees != 0) {
     // The scene's jump is the user's view's.
     append(args, {"--jump-degrees", std::to_string(plan.preset->view_jump_degrees)});
@@ -576,11 +706,17 @@ void printLinks(const LoopPlan& plan) {
     std::printf("[rig] no report.json from the client: no link was measured\n");
     return;
   }
-  std::printf("[rig] one-way latency per link (p50 / p95), each set to %g +- %g ms:\n",
-              plan.link.delay_ms, plan.link.jitter_ms);
+  std::printf("[rig] one-way latency per link, p50 / p95, beside what it is set to:\n");
   for (const auto& [link, ms] : report["latency_ms"]["links"].items()) {
-    std::printf("[rig]   %-24s %7.1f / %7.1f ms\n", link.c_str(), ms["p50"].get<double>(),
-                ms["p95"].get<double>());
+    int pod = -1;
+    const holofuse::RigLink& set = std::sscanf(link.c_str(), "pod_%d_to_server", &pod) == 1 &&
+                                           pod >= 0 && pod < static_cast<int>(plan.pod_links.size())
+                                       ? plan.pod_links[pod]
+                                   : link == "server_to_client" && !plan.client_links.empty()
+                                       ? plan.client_links[0]
+                                       : plan.link;
+    std::printf("[rig]   %-24s %7.1f / %7.1f ms   (set %g +- %g ms)\n", link.c_str(),
+                ms["p50"].get<double>(), ms["p95"].get<double>(), set.delay_ms, set.jitter_ms);
   }
 }
 
@@ -683,7 +819,8 @@ int main(int argc, char** argv) {
   std::unique_ptr<holofuse::deploy::NetnsRig> rig;
   if (plan.netns) {
     auto built = holofuse::deploy::NetnsRig::build(
-        {plan.pods, plan.clients, plan.link, plan.bin_dir + "/holofuse_relay", logs.string()});
+        {plan.pods, plan.clients, plan.link, plan.pod_links, plan.client_links,
+         plan.bin_dir + "/holofuse_relay", logs.string()});
     if (!built.isOk()) {
       std::fprintf(stderr, "[rig] cannot build the rig: %s\n", built.status().message().c_str());
       return 1;

@@ -17,7 +17,10 @@ int main(int argc, char** argv) {
   std::string server, size = "320x240", scene_name = "clean";
   CLI::App app{"holofuse capture_node: a synthetic camera pod streaming to a fusion server"};
   app.add_option("--server", server, "fusion server HOST:PORT")->required();
-  app.add_option("--pod-id", options.pod_id, "this pod's camera index (0-based)")->required();
+  app.add_option("--pod-id", options.pod_id,
+                 "this pod's camera index (0-based); with --rig, by default the rig's pod on "
+                 "this machine's host name")
+      ->required();
   // What a synthetic pod makes and how it encodes it: a replay pod sends
   // the recorded bytes as they are, so these are refused with --replay.
   const SettingFlags<PodEncoding> encoding_flags(app, podEncodingFlags());
@@ -45,6 +48,22 @@ int main(int argc, char** argv) {
   app.add_flag("--loop", loop, "with --replay: start over at the end");
   PeerKeyFlags key_flags(app, "pod");
   const ProtocolFlag protocol_flag(app, "pod");
+  // A capture PC that knows only its name finds its pod in the rig file.
+  addRigFlag(app, "capture_node", [&app](const RigFile& rig) -> StatusOr<std::vector<RigOption>> {
+    if (app.count("--pod-id") == 0) {
+      const auto pod = rig.podOnHost(hostName());
+      if (!pod.isOk())
+        return Status(pod.status().code(), pod.status().message() + "; or give --pod-id");
+      auto part = rig.podPart(*pod);
+      if (part.isOk())
+        part->push_back(
+            {"pod-id", {std::to_string(*pod)}, rig.path + " (pod on host " + hostName() + ")"});
+      return part;
+    }
+    const auto pod = givenId(app, "--pod-id", std::nullopt);
+    if (!pod.isOk()) return pod.status();
+    return rig.podPart(*pod);
+  });
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   const auto key = key_flags.load(protocol::Role::kPod, options.pod_id);
   if (!key) return 2;

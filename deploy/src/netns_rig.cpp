@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "base/process.h"
+#include "common/settings.h"
 
 namespace holofuse::deploy {
 namespace {
@@ -202,15 +203,16 @@ std::vector<std::string> NetnsRig::inClient(int client, std::vector<std::string>
 }
 
 Status NetnsRig::startRelays(const std::string& server_port) {
-  auto relay = [&](const std::string& name, int seed) -> StatusOr<std::string> {
+  auto relay = [&](const std::string& name, const RigLink& link,
+                   int seed) -> StatusOr<std::string> {
     const std::string port_file = plan_.log_dir + "/relay_" + name + ".port";
     std::remove(port_file.c_str());
     auto pid =
         spawnProcess(inNamespace(switch_, {plan_.relay_bin, "--listen", subnet_ + "1:0", "--to",
                                            server_ip_ + ":" + server_port, "--delay-ms",
-                                           std::to_string(plan_.link.delay_ms), "--jitter-ms",
-                                           std::to_string(plan_.link.jitter_ms), "--rate-mbit",
-                                           std::to_string(plan_.link.rate_mbit), "--seed",
+                                           std::to_string(link.delay_ms), "--jitter-ms",
+                                           std::to_string(link.jitter_ms), "--rate-mbit",
+                                           std::to_string(link.rate_mbit), "--seed",
                                            std::to_string(seed), "--port-file", port_file}),
                      SpawnOptions{plan_.log_dir + "/relay_" + name + ".log", true, true});
     if (!pid.isOk()) return pid.status();
@@ -227,12 +229,12 @@ Status NetnsRig::startRelays(const std::string& server_port) {
     return Status(StatusCode::kTimeout, "the relay of " + name + " did not report its port");
   };
   for (int i = 0; i < plan_.pods; ++i) {
-    auto endpoint = relay("pod" + std::to_string(i), i + 1);
+    auto endpoint = relay("pod" + std::to_string(i), plan_.podLink(i), i + 1);
     if (!endpoint.isOk()) return endpoint.status();
     pod_endpoints_.push_back(*endpoint);
   }
   for (int i = 0; i < plan_.clients; ++i) {
-    auto endpoint = relay("client" + std::to_string(i), 1000 + i);
+    auto endpoint = relay("client" + std::to_string(i), plan_.clientLink(i), 1000 + i);
     if (!endpoint.isOk()) return endpoint.status();
     client_endpoints_.push_back(*endpoint);
   }
@@ -240,17 +242,26 @@ Status NetnsRig::startRelays(const std::string& server_port) {
 }
 
 std::string NetnsRig::describe() const {
+  auto linkText = [](const RigLink& link) {
+    char text[96];
+    std::snprintf(text, sizeof text, "%g ms one way +- %g ms", link.delay_ms, link.jitter_ms);
+    return text + (link.rate_mbit > 0 ? ", " + formatNumber(link.rate_mbit) + " Mbit/s" : "");
+  };
+  std::string links;
+  if (plan_.pod_links.empty() && plan_.client_links.empty()) {
+    links = linkText(plan_.link);
+  } else {
+    for (int i = 0; i < plan_.pods; ++i)
+      links += (i ? "; pod " : "pod ") + std::to_string(i) + " " + linkText(plan_.podLink(i));
+    for (int i = 0; i < plan_.clients; ++i)
+      links += "; client " + std::to_string(i) + " " + linkText(plan_.clientLink(i));
+  }
   char text[256];
-  std::snprintf(
-      text, sizeof text,
-      "%d pods, the server and %d client%s in namespaces %s-*, each link through a "
-      "relay: %g ms one way +- %g ms%s",
-      plan_.pods, plan_.clients, plan_.clients > 1 ? "s" : "", prefix_.c_str(), plan_.link.delay_ms,
-      plan_.link.jitter_ms,
-      plan_.link.rate_mbit > 0
-          ? (", " + std::to_string(static_cast<int>(plan_.link.rate_mbit)) + " Mbit/s").c_str()
-          : "");
-  return text;
+  std::snprintf(text, sizeof text,
+                "%d pods, the server and %d client%s in namespaces %s-*, each link through a "
+                "relay: ",
+                plan_.pods, plan_.clients, plan_.clients > 1 ? "s" : "", prefix_.c_str());
+  return text + links;
 }
 
 }  // namespace holofuse::deploy

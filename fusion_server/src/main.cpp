@@ -107,6 +107,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(size_t{1} << 20, size_t{1} << 40));
   app.add_option("--new-key", new_key,
                  "write a fresh random key file (mode 0600) to this path and exit");
+  addRigFlag(app, "fusion_server", [](const RigFile& rig) -> StatusOr<std::vector<RigOption>> {
+    return rig.serverPart();
+  });
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   if (!check_health.empty()) {
     const auto health = fusion::checkHealth(check_health, health_max_age_ms);

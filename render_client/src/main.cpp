@@ -53,6 +53,11 @@ int main(int argc, char** argv) {
                  "a received mesh stating more faces is skipped before it is decoded");
   PeerKeyFlags key_flags(app, "client");
   const ProtocolFlag protocol_flag(app, "client");
+  addRigFlag(app, "render_client", [&](const RigFile& rig) -> StatusOr<std::vector<RigOption>> {
+    const auto client = givenId(app, "--client-id", options.client_id);
+    if (!client.isOk()) return client.status();
+    return rig.clientPart(*client);
+  });
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   render_flags.apply(options.render);
   const auto key = key_flags.load(protocol::Role::kClient, options.client_id);

@@ -4,9 +4,12 @@
 // port against the server's default, the probes against the server's health
 // file, Secrets mounted owner-only), every flag of every command line in
 // the manifests and the systemd units against that program's --help, the
-// units through systemd-analyze verify, and the container definition's
-// packages against the build's. Not exercised here: a cluster applying the
-// manifests, systemd starting the units, the image being built.
+// units through systemd-analyze verify, the container definition's
+// packages against the build's, and the rig files they read
+// (deploy/rig.yaml, the holofuse-rig ConfigMap): parsed, each part's flags
+// against its program's, each key file against the Secret mounted there.
+// Not exercised here: a cluster applying the manifests, systemd starting
+// the units, the image being built.
 #include <gtest/gtest.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
@@ -21,6 +24,7 @@
 #include <vector>
 
 #include "base/process.h"
+#include "common/rig_file.h"
 
 namespace holofuse {
 namespace {
@@ -74,7 +78,7 @@ const std::set<std::string>& flagsOf(const std::string& program) {
 
 std::vector<YAML::Node> manifests() {
   std::vector<YAML::Node> all;
-  for (const char* file : {"server.yaml", "pods.yaml", "clients.yaml"}) {
+  for (const char* file : {"rig.yaml", "server.yaml", "pods.yaml", "clients.yaml"}) {
     for (YAML::Node& doc : YAML::LoadAllFromFile((kSource / "deploy" / "k8s" / file).string()))
       all.push_back(doc);
   }
@@ -128,6 +132,53 @@ std::vector<std::string> unknownFlags(const std::vector<std::string>& words) {
     if (flagsOf(program).count(word) == 0) unknown.push_back(program + " " + word);
   }
   return unknown;
+}
+
+// Where path comes from in a pod spec: "configMap NAME/KEY" or "secret
+// NAME/KEY" of the volume mounted above it ("" when none is). A mounted
+// volume holds its ConfigMap's or Secret's keys as files.
+std::string mountedFrom(const YAML::Node& spec, const std::string& path) {
+  const YAML::Node& container = spec["containers"][0];
+  for (const auto& mount : container["volumeMounts"]) {
+    const std::string dir = mount["mountPath"].as<std::string>() + "/";
+    if (path.rfind(dir, 0) != 0) continue;
+    const std::string file = path.substr(dir.size());
+    for (const auto& volume : spec["volumes"]) {
+      if (volume["name"].as<std::string>() != mount["name"].as<std::string>()) continue;
+      if (volume["configMap"])
+        return "configMap " + volume["configMap"]["name"].as<std::string>() + "/" + file;
+      if (volume["secret"]) {
+        // A Secret with items holds only those.
+        if (volume["secret"]["items"]) {
+          bool listed = false;
+          for (const auto& item : volume["secret"]["items"])
+            listed = listed || item["path"].as<std::string>() == file;
+          if (!listed) return "";
+        }
+        return "secret " + volume["secret"]["secretName"].as<std::string>() + "/" + file;
+      }
+    }
+  }
+  return "";
+}
+
+std::vector<std::string> keyFiles(const std::vector<RigOption>& part) {
+  std::vector<std::string> keys;
+  for (const RigOption& option : part)
+    if (option.name == "key-file") keys.push_back(option.values.front());
+  return keys;
+}
+
+// Every flag of every part of a rig file is one its program has.
+void checkRigAgainstPrograms(const RigFile& rig) {
+  auto check = [](const std::string& program, const std::vector<RigOption>& part) {
+    for (const RigOption& option : part)
+      EXPECT_EQ(flagsOf(program).count("--" + option.name), 1u)
+          << option.where << ": " << program << " has no --" << option.name;
+  };
+  check("fusion_server", rig.serverPart());
+  for (const auto& pod : rig.pods) check("capture_node", *rig.podPart(pod.id));
+  for (const auto& client : rig.clients) check("render_client", *rig.clientPart(client.id));
 }
 
 TEST(Deploy, KubernetesManifestsHoldTheirFieldsAndTheirSelectorsMatchTheirLabels) {
@@ -201,14 +252,33 @@ TEST(Deploy, KubernetesManifestsHoldTheirFieldsAndTheirSelectorsMatchTheirLabels
     EXPECT_NE(volume["secret"]["secretName"].as<std::string>(),
               server_pod["spec"]["volumes"][0]["secret"]["secretName"].as<std::string>());
   }
-  const std::string pod_command = YAML::Dump(pod_spec["containers"][0]["args"]);
-  EXPECT_NE(pod_command.find("--server holofuse-server:" + port[1].str()), std::string::npos)
-      << pod_command;
+
+  // The rig file: every program reads it from the ConfigMap it mounts, it
+  // sends pods and clients to the Service, and every key file it names is
+  // in the Secret the reader mounts.
+  const YAML::Node rig_map = findKind(all, "ConfigMap", "holofuse-rig");
+  const auto rig = RigFile::parse(rig_map["data"]["rig.yaml"].as<std::string>(), "holofuse-rig");
+  ASSERT_TRUE(rig.isOk()) << rig.status().message();
+  EXPECT_EQ(rig->server_address, "holofuse-server:" + port[1].str());
   const YAML::Node clients = findKind(all, "Deployment", "holofuse-client");
-  const auto client_words = commandLine(clients["spec"]["template"]["spec"]["containers"][0]);
-  const auto server_flag = std::find(client_words.begin(), client_words.end(), "--server");
-  ASSERT_NE(server_flag, client_words.end());
-  EXPECT_EQ(*(server_flag + 1), "holofuse-server:" + port[1].str());
+  for (const YAML::Node& workload : {server, pods, clients}) {
+    const YAML::Node& spec = workload["spec"]["template"]["spec"];
+    const auto words = commandLine(spec["containers"][0]);
+    const auto rig_flag = std::find(words.begin(), words.end(), "--rig");
+    ASSERT_NE(rig_flag, words.end()) << workload["metadata"]["name"];
+    EXPECT_EQ(mountedFrom(spec, *(rig_flag + 1)), "configMap holofuse-rig/rig.yaml");
+  }
+  checkRigAgainstPrograms(*rig);
+  for (const std::string& key : keyFiles(rig->serverPart()))
+    EXPECT_EQ(mountedFrom(server_pod["spec"], key), "secret holofuse-keys/server.keys") << key;
+  for (const auto& pod : rig->pods)
+    for (const std::string& key : keyFiles(*rig->podPart(pod.id)))
+      EXPECT_EQ(mountedFrom(pod_spec, key),
+                "secret holofuse-pod-keys/pod-" + std::to_string(pod.id) + ".key");
+  for (const std::string& key : keyFiles(*rig->clientPart(0)))
+    EXPECT_EQ(mountedFrom(clients["spec"]["template"]["spec"], key),
+              "secret holofuse-keys/client-0.key");
+  EXPECT_EQ(keyFiles(rig->serverPart()).size() + keyFiles(*rig->clientPart(0)).size(), 2u);
 }
 
 // ExecStart= and ExecStartPost= lines of a unit file, as words.
@@ -229,9 +299,16 @@ TEST(Deploy, SystemdUnitsPassVerifyAndRunTheirProgramsFlags) {
   const fs::path units = kSource / "deploy" / "systemd";
   const std::vector<std::string> names = {"holofuse-server.service", "holofuse-pod@.service",
                                           "holofuse-client@.service"};
+  // The units read the rig file deploy/rig.yaml installs as.
+  const auto rig = RigFile::load((kSource / "deploy" / "rig.yaml").string());
+  ASSERT_TRUE(rig.isOk()) << rig.status().message();
+  checkRigAgainstPrograms(*rig);
   for (const std::string& name : names) {
     const auto words = execStart(units / name);
     ASSERT_FALSE(words.empty()) << name;
+    const auto rig_flag = std::find(words.begin(), words.end(), "--rig");
+    ASSERT_NE(rig_flag, words.end()) << name;
+    EXPECT_EQ(*(rig_flag + 1), "/etc/holofuse/rig.yaml") << name;
     EXPECT_TRUE(unknownFlags(words).empty())
         << name << ": " << ::testing::PrintToString(unknownFlags(words));
     const std::string text = readFile(units / name);

@@ -212,26 +212,21 @@ std::vector<std::string> namespacesStartingWith(const std::string& prefix, const
   return found;
 }
 
-bool rigPermitted(std::string& why) {
-  if (::geteuid() != 0) {
-    why = "not root";
-    return false;
-  }
-  if (ipCommand().find('/') != 0) {
-    why = ipCommand();
-    return false;
-  }
-  return true;
+// Why a rig of namespaces cannot be built here; "" when it can.
+std::string rigUnavailable() {
+  std::string why;
+  if (::geteuid() != 0) why = "not root";
+  if (why.empty() && ipCommand().find('/') != 0) why = ipCommand();
+  return why.empty() ? ""
+                     : "network namespaces are not permitted here (" + why +
+                           "); ./holofuse rig needs root and ip netns";
 }
 
 // ./holofuse rig: the demo across a namespace per process, each link
 // through a relay of 20 +- 2 ms. The report gives every link's one-way
 // latency, and each shows the delay; at the end nothing of the rig is left.
 TEST(Rig, TheDemoRunsAcrossANamespacePerHostAndItsLinksShowTheirDelay) {
-  std::string why;
-  if (!rigPermitted(why))
-    GTEST_SKIP() << "network namespaces are not permitted here (" << why
-                 << "); ./holofuse rig needs root and ip netns";
+  if (const std::string why = rigUnavailable(); !why.empty()) GTEST_SKIP() << why;
   const fs::path out = freshDir("rig");
   const pid_t launcher =
       spawn({kBin + "/holofuse_loop", "--netns", "--pods", "2", "--frames", "8", "--size", "64x48",
@@ -264,14 +259,56 @@ TEST(Rig, TheDemoRunsAcrossANamespacePerHostAndItsLinksShowTheirDelay) {
   fs::remove_all(out);
 }
 
+// A rig file gives each link its own: pod 0 is near (5 ms), pod 1 far
+// (45 ms), the client between (20 ms); the report tells them apart.
+TEST(Rig, ARigFileGivesEachLinkItsOwnDelay) {
+  if (const std::string why = rigUnavailable(); !why.empty()) GTEST_SKIP() << why;
+  const fs::path out = freshDir("rig_file_links");
+  const fs::path rig = out / "rig.yaml";
+  std::ofstream(rig) << R"(server:
+  address: fusion:7300
+link:
+  delay-ms: 20
+  jitter-ms: 1
+cameras:
+  size: 64x48
+pods:
+  - id: 0
+    host: capture-near
+    link: {delay-ms: 5}
+  - id: 1
+    host: capture-far
+    link: {delay-ms: 45}
+clients:
+  - id: 0
+    host: viewer
+)";
+  const pid_t launcher = spawn({kBin + "/holofuse_loop", "--netns", "--rig", rig.string(),
+                                "--frames", "8", "--out", (out / "run").string()},
+                               out / "launcher.log");
+  ASSERT_EQ(waitExit(launcher, 240), 0) << readFile(out / "launcher.log");
+  const auto report = nlohmann::json::parse(readFile(out / "run" / "report.json"));
+  const auto& links = report["latency_ms"]["links"];
+  auto p50 = [&](const char* link) { return links[link]["p50"].get<double>(); };
+  ASSERT_TRUE(links.contains("pod_0_to_server") && links.contains("pod_1_to_server") &&
+              links.contains("server_to_client"))
+      << links.dump();
+  // Each at least its delay less the jitter; the near pod's clearly less
+  // than the far one's, whatever a busy machine adds to both.
+  EXPECT_GE(p50("pod_0_to_server"), 4.0) << links.dump();
+  EXPECT_GE(p50("pod_1_to_server"), 44.0) << links.dump();
+  EXPECT_GE(p50("server_to_client"), 19.0) << links.dump();
+  EXPECT_LT(p50("pod_0_to_server") + 20.0, p50("pod_1_to_server")) << links.dump();
+  const std::string said = readFile(out / "launcher.log");
+  EXPECT_NE(said.find("pod 1 45 ms one way +- 1 ms"), std::string::npos) << said;
+  fs::remove_all(out);
+}
+
 // A launcher killed outright (no handler runs) still leaves nothing: its
 // reaper stops the rig's processes (the client writes its report on the
 // way out) and deletes every namespace, and with them the links.
 TEST(Rig, AKilledLauncherLeavesNoNamespaceOrProcessBehind) {
-  std::string why;
-  if (!rigPermitted(why))
-    GTEST_SKIP() << "network namespaces are not permitted here (" << why
-                 << "); ./holofuse rig needs root and ip netns";
+  if (const std::string why = rigUnavailable(); !why.empty()) GTEST_SKIP() << why;
   const fs::path out = freshDir("rig_killed");
   const pid_t launcher = spawn({kBin + "/holofuse_loop", "--netns", "--pods", "2", "--frames",
                                 "100000", "--size", "64x48", "--out", out.string()},

@@ -3,26 +3,149 @@
 // exit codes are 100 and up); --help prints the usage and exits 0.
 #pragma once
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
+#include <cctype>
 #include <cstdio>
+#include <functional>
+#include <iterator>
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "common/rig_file.h"
 #include "common/settings.h"
 #include "protocol/auth.h"
 #include "protocol/handshake.h"
 
-#define HOLOFUSE_PARSE_FLAGS(app, argc, argv) \
-  try {                                       \
-    (app).parse((argc), (argv));              \
-  } catch (const CLI::ParseError& e) {        \
-    return (app).exit(e) == 0 ? 0 : 2;        \
+#define HOLOFUSE_PARSE_FLAGS(app, argc, argv)     \
+  try {                                           \
+    (app).parse((argc), (argv));                  \
+  } catch (const CLI::ParseError& e) {            \
+    return ::holofuse::exitOnFlagError((app), e); \
   }
 
 namespace holofuse {
+
+// --rig FILE (docs/rig-file.md): the program reads its part of a rig file
+// as flags, through CLI11's configuration hook, so that a flag given on the
+// command line wins over the file and the file's values pass the same
+// checks as the flags'. A key the program has no flag for is refused with
+// the file and line it is on.
+class RigConfig : public CLI::Config {
+ public:
+  // The program's part, picked once the command line is read (a pod's by
+  // its --pod-id).
+  using Part = std::function<StatusOr<std::vector<RigOption>>(const RigFile&)>;
+
+  RigConfig(const CLI::App& app, std::string program, Part part)
+      : app_(app), program_(std::move(program)), part_(std::move(part)) {}
+
+  std::string to_config(const CLI::App*, bool, bool, std::string) const override { return ""; }
+
+  std::vector<CLI::ConfigItem> from_config(std::istream& in) const override {
+    const std::string path = app_.get_config_ptr()->as<std::string>();
+    const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    auto rig = RigFile::parse(text, path);
+    if (!rig.isOk()) throw CLI::ConfigError("--rig: " + rig.status().message());
+    auto part = part_(*rig);
+    if (!part.isOk()) throw CLI::ConfigError("--rig: " + part.status().message());
+    std::vector<CLI::ConfigItem> items;
+    std::vector<RigOption> read;
+    for (const RigOption& option : *part) {
+      const CLI::Option* flag = app_.get_option_no_throw("--" + option.name);
+      if (flag == nullptr || flag == app_.get_config_ptr())
+        throw CLI::ConfigError("--rig: " + option.where + ": '" + option.name + "' is not a " +
+                               program_ + " flag (" + program_ + " --help lists them)");
+      if (flag->count() > 0) continue;  // the command line's wins
+      items.push_back({{}, option.name, option.values});
+      read.push_back(option);
+    }
+    from_file_ = read;
+    if (!read.empty())
+      std::fprintf(stderr, "[%s] from the rig file %s: %s\n", program_.c_str(), path.c_str(),
+                   RigFile::describe(read).c_str());
+    return items;
+  }
+
+  // Where the values of the flags a message names came from in the rig
+  // file ("" when none did).
+  std::string whereFrom(const std::string& message) const {
+    std::string where;
+    for (const RigOption& option : from_file_) {
+      const std::string flag = "--" + option.name;
+      for (size_t at = message.find(flag); at != std::string::npos;
+           at = message.find(flag, at + 1)) {
+        const size_t end = at + flag.size();
+        if (end < message.size() &&
+            (std::isalnum(static_cast<unsigned char>(message[end])) || message[end] == '-'))
+          continue;
+        where += (where.empty() ? "" : "; ") + flag + " from " + option.where;
+        break;
+      }
+    }
+    return where;
+  }
+
+ private:
+  const CLI::App& app_;
+  std::string program_;
+  Part part_;
+  mutable std::vector<RigOption> from_file_;
+};
+
+// Adds --rig FILE to app for the program named program.
+inline void addRigFlag(CLI::App& app, const std::string& program, RigConfig::Part part) {
+  app.set_config("--rig", "",
+                 "read this " + program +
+                     "'s part of a rig file (YAML: hosts, pod ids, cameras, the server's "
+                     "address, key files, links; docs/rig-file.md); flags given here override "
+                     "it");
+  app.config_formatter(std::make_shared<RigConfig>(app, program, std::move(part)));
+}
+
+// What a flag error exits with (2; 0 after --help), after the message and,
+// when the value came from a rig file, where in it.
+inline int exitOnFlagError(const CLI::App& app, const CLI::ParseError& error) {
+  // (CLI11 reads only the configuration file: say which flag named it.)
+  if (error.get_name() == "FileError") {
+    std::fprintf(stderr, "--rig: %s\n", error.what());
+    return 2;
+  }
+  const int code = app.exit(error);
+  if (auto rig = std::dynamic_pointer_cast<RigConfig>(app.get_config_formatter())) {
+    if (const std::string where = rig->whereFrom(error.what()); !where.empty())
+      std::fprintf(stderr, "(%s)\n", where.c_str());
+  }
+  return code == 0 ? 0 : 2;
+}
+
+// This machine's name, as a rig file's hosts name it.
+inline std::string hostName() {
+  char name[256] = {};
+  ::gethostname(name, sizeof name - 1);
+  return name;
+}
+
+// The id a flag was given on the command line, for picking a rig file's
+// part, or an error that names the flag.
+inline StatusOr<uint32_t> givenId(const CLI::App& app, const std::string& flag,
+                                  std::optional<uint32_t> fallback) {
+  const CLI::Option* option = app.get_option(flag);
+  if (option->count() == 0) {
+    if (fallback) return *fallback;
+    return Status(StatusCode::kMalformed, "give " + flag + ": which of the rig's it is");
+  }
+  const std::string& text = option->results().front();
+  uint32_t id = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%u%c", &id, &tail) != 1)
+    return Status(StatusCode::kMalformed, flag + " '" + text + "' is not an id");
+  return id;
+}
 
 // A table's settings as flags of app (but those in except): each refuses
 // at parse time, naming itself, what its set() refuses; apply() then sets

@@ -21,21 +21,24 @@
 #include <vector>
 
 #include "base/status.h"
+#include "common/rig_file.h"
 
 namespace holofuse::deploy {
-
-struct RigLink {
-  double delay_ms = 0;   // one way
-  double jitter_ms = 0;  // uniform around the delay, order kept
-  double rate_mbit = 0;  // 0: no cap
-};
 
 struct RigPlan {
   int pods = 4;
   int clients = 1;
-  RigLink link;           // every link's (pods' and clients')
+  RigLink link;  // every link's, but those below
+  // Pod i's and client i's links, where a rig file gives them one each
+  // (empty: every link is link).
+  std::vector<RigLink> pod_links, client_links;
   std::string relay_bin;  // holofuse_relay
   std::string log_dir;    // relays' logs and the port files
+
+  const RigLink& podLink(int pod) const { return pod_links.empty() ? link : pod_links.at(pod); }
+  const RigLink& clientLink(int client) const {
+    return client_links.empty() ? link : client_links.at(client);
+  }
 };
 
 // iproute2's ip, where Debian puts it (the spawner does not search PATH);
