@@ -25,6 +25,7 @@
 #include "base/text_file.h"
 #include "bench_timing.h"
 #include "common/html_report.h"
+#include "loop_run.h"
 
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
@@ -57,19 +58,8 @@ struct ModeSummary {
   std::vector<std::pair<std::string, Numbers>> stages;  // medians over the runs
 };
 
-std::string programDir() {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string(".") : self.parent_path().string();
-}
-
-std::optional<Run> readRun(const fs::path& report_path, std::string* error) {
-  std::ifstream in(report_path);
-  const auto report = ordered_json::parse(in, nullptr, false);
-  if (report.is_discarded() || !report.contains("latency_ms")) {
-    *error = report_path.string() + ": no report";
-    return std::nullopt;
-  }
+std::optional<Run> readRun(const ordered_json& report, const fs::path& report_path,
+                           std::string* error) {
   Run run;
   try {
     run.fps = report.at("fps").get<double>();
@@ -202,7 +192,6 @@ int main(int argc, char** argv) {
     }
   }
 
-  const std::string loop = programDir() + "/holofuse_loop";
   std::vector<ModeSummary> results;
   const int total = static_cast<int>(modes.size()) * repeats;
   int done = 0;
@@ -211,25 +200,16 @@ int main(int argc, char** argv) {
     summary.mode = mode;
     for (int r = 0; r < repeats; ++r) {
       const fs::path dir = fs::path(out) / "runs" / (mode + "-" + std::to_string(r + 1));
-      std::error_code ec;
-      fs::remove_all(dir, ec);
-      fs::create_directories(dir, ec);
-      std::vector<std::string> command = {
-          loop, "--mode", mode, "--frames", std::to_string(frames), "--out", dir.string()};
+      std::vector<std::string> command = {"--mode", mode, "--frames", std::to_string(frames)};
       command.insert(command.end(), loop_flags.begin(), loop_flags.end());
       std::fprintf(stderr, "\r[bench loop] %d/%d: %s, run %d of %d   ", done + 1, total,
                    mode.c_str(), r + 1, repeats);
-      const fs::path log = dir / "loop.log";
-      SpawnOptions spawn;
-      spawn.log_path = log.string();
-      const auto pid = spawnProcess(command, spawn);
-      const int status = pid.isOk() ? waitProcess(*pid, -1).value_or(-1) : -1;
       std::string error;
-      const auto run = readRun(dir / "report.json", &error);
-      if (status != 0 || !run) {
-        std::fprintf(stderr, "\n[bench loop] %s run %d failed (exit %d%s); see %s\n", mode.c_str(),
-                     r + 1, status, error.empty() ? "" : (", " + error).c_str(),
-                     log.string().c_str());
+      const auto report = bench::runLoop(command, dir, &error);
+      const auto run = report ? readRun(*report, dir / "report.json", &error) : std::nullopt;
+      if (!run) {
+        std::fprintf(stderr, "\n[bench loop] %s run %d failed: %s\n", mode.c_str(), r + 1,
+                     error.c_str());
         return 1;
       }
       summary.runs.push_back(*run);

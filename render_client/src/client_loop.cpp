@@ -59,7 +59,8 @@ struct ReadyMesh {
   std::vector<protocol::StageStamp> stamps;
   Camera user;
   double decode_ms = 0;
-  uint64_t wire_bytes = 0;
+  uint64_t wire_bytes = 0;  // the mesh's message
+  size_t triangles = 0;
   uint64_t decoded_ns = 0, uploaded_ns = 0;
 };
 
@@ -281,6 +282,7 @@ class ClientLoop {
                         ? Status(StatusCode::kMalformed, "mesh with no triangles")
                         : Status::ok();
     ready.decoded_ns = now();
+    if (mesh.isOk()) ready.triangles = mesh->triangleCount();
     const PendingBundle& bundle = ready.bundle->second;
     // The layers' atlas placed on the mesh as received, from its keys.
     if (usable.isOk() && bundle.layers)
@@ -398,6 +400,8 @@ class ClientLoop {
     report_.addStage(static_cast<uint16_t>(Stage::kDecode), ready.decode_ms);
     record.end_to_end_ms = static_cast<double>(written_ns - ready.frame.capture_time_ns) / 1e6;
     record.client_bytes = ready.wire_bytes + bundle.bytes;
+    record.mesh_bytes = ready.wire_bytes;
+    record.mesh_triangles = ready.triangles;
     record.feather_bytes = bundle.feather_bytes;
     auto st = stats_.find(ready.frame.frame_id);
     if (st != stats_.end()) {

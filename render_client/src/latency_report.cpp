@@ -195,18 +195,23 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
                                  {"samples", fanout->second.size()}};
   }
   j["latency_ms"]["links"] = links;
-  double pod_bytes = 0, client_bytes = 0, feather_bytes = 0;
+  double pod_bytes = 0, client_bytes = 0, feather_bytes = 0, mesh_bytes = 0;
+  std::vector<double> triangles;
   size_t incomplete = 0;
   for (const auto& f : frames_) {
     pod_bytes += static_cast<double>(f.pod_bytes);
     client_bytes += static_cast<double>(f.client_bytes);
     feather_bytes += static_cast<double>(f.feather_bytes);
+    mesh_bytes += static_cast<double>(f.mesh_bytes);
+    triangles.push_back(static_cast<double>(f.mesh_triangles));
     if (f.cameras_present < f.cameras_expected) ++incomplete;
   }
   const double n = std::max<double>(1.0, static_cast<double>(frames_.size()));
   j["bytes_per_frame"] = {{"pod_link", pod_bytes / n},
                           {"client_link", client_bytes / n},
-                          {"client_link_feather_maps", feather_bytes / n}};
+                          {"client_link_feather_maps", feather_bytes / n},
+                          {"client_link_mesh", mesh_bytes / n}};
+  j["mesh_triangles"] = {{"p50", percentile(triangles, 50)}, {"max", percentile(triangles, 100)}};
   j["frames_with_missing_cameras"] = incomplete;
   nlohmann::ordered_json jitter = nlohmann::ordered_json::object();
   for (const auto& [pod, ms] : podJitterMs()) jitter["pod_" + std::to_string(pod)] = ms;
@@ -272,6 +277,8 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
          {"cameras_expected", f.cameras_expected},
          {"pod_bytes", f.pod_bytes},
          {"client_bytes", f.client_bytes},
+         {"mesh_bytes", f.mesh_bytes},
+         {"mesh_triangles", f.mesh_triangles},
          {"psnr_db",
           f.quality ? nlohmann::ordered_json(f.quality->psnr_db) : nlohmann::ordered_json()},
          {"ssim", f.quality ? nlohmann::ordered_json(f.quality->ssim) : nlohmann::ordered_json()},

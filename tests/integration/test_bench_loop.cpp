@@ -1,11 +1,15 @@
 // ./holofuse bench loop (bench/bench_loop.cpp) on a short run: the live
 // loop started for real per mode and run, medians over the runs in
 // bench_loop.json and the table, an earlier run's numbers set beside
-// them, and a baseline that is not one refused by name.
+// them, and a baseline that is not one refused by name; and
+// bench_scaling's tables against the runs they come from.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "process_harness.h"
 
@@ -56,6 +60,72 @@ TEST(BenchLoop, RunsTheLoopPerModeAndSetsABaselineBesideIt) {
   EXPECT_NE(readFile(out / "refused.log").find("no bench_loop.json there"), std::string::npos)
       << readFile(out / "refused.log");
   EXPECT_FALSE(fs::exists(out / "again" / "runs")) << "refused before any run";
+  fs::remove_all(out);
+}
+
+double p50Of(const nlohmann::json& report, const char* stage) {
+  return report["latency_ms"]["stages"][stage]["p50"].get<double>();
+}
+
+std::string oneDecimal(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f", v);
+  return text;
+}
+
+// bench_scaling (docs/scaling.md): each point's row is its own run's
+// stages and bytes, summed and divided as the tables say, and the report
+// gives every frame's mesh size that the tables read.
+TEST(BenchScaling, ItsTablesAreEachRunsStagesAndBytes) {
+  const fs::path out = freshDir("bench_scaling");
+  const pid_t bench =
+      spawn({kBin + "/bench_scaling", "--quick", "--frames", "4", "--fps", kSanitized ? "1" : "4",
+             "--out", (out / "runs").string(), "--markdown", (out / "scaling.md").string()},
+            out / "bench.log");
+  ASSERT_EQ(waitExit(bench, 600), 0) << readFile(out / "bench.log");
+  const std::string md = readFile(out / "scaling.md");
+  for (const auto& [point, pods] : {std::pair{1, 2}, {2, 4}}) {
+    const auto report = nlohmann::json::parse(
+        readFile(out / "runs" / ("point-" + std::to_string(point)) / "report.json"));
+    // The mesh's size and bytes per frame, as the tables read them.
+    std::vector<double> triangles;
+    double mesh_bytes = 0;
+    for (const auto& frame : report["frames"]) {
+      triangles.push_back(frame["mesh_triangles"].get<double>());
+      mesh_bytes += frame["mesh_bytes"].get<double>();
+    }
+    ASSERT_FALSE(triangles.empty());
+    EXPECT_GT(*std::min_element(triangles.begin(), triangles.end()), 100.0) << "a hull each frame";
+    EXPECT_LE(report["mesh_triangles"]["p50"].get<double>(),
+              *std::max_element(triangles.begin(), triangles.end()));
+    EXPECT_NEAR(report["bytes_per_frame"]["client_link_mesh"].get<double>(),
+                mesh_bytes / static_cast<double>(triangles.size()), 1e-6);
+    EXPECT_LT(report["bytes_per_frame"]["client_link_mesh"].get<double>(),
+              report["bytes_per_frame"]["client_link"].get<double>());
+    // The row: server ms per frame is every pod image's decode, the hull
+    // and both encodes; the client's its decode, upload and render.
+    const double decode = p50Of(report, "server_decode") * pods;
+    const double server = decode + p50Of(report, "hull") + p50Of(report, "mesh_encode") +
+                          p50Of(report, "image_encode");
+    const double client =
+        p50Of(report, "decode") + p50Of(report, "upload") + p50Of(report, "render");
+    const std::string row = "| " + std::to_string(pods) + " | 96x72 | 20 | normal | ";
+    const size_t at = md.find(row);
+    ASSERT_NE(at, std::string::npos) << md;
+    const std::string line = md.substr(at, md.find('\n', at) - at);
+    EXPECT_NE(line.find("| " + oneDecimal(server) + " | " + oneDecimal(decode) + " | "),
+              std::string::npos)
+        << line << "\nserver " << server << ", decode " << decode;
+    EXPECT_NE(line.find("| " + oneDecimal(client) + " |"), std::string::npos)
+        << line << "\nclient " << client;
+    // The second table: one core's frames per second is 1000 over the
+    // server's ms.
+    const size_t carry = md.find(row, at + 1);
+    ASSERT_NE(carry, std::string::npos) << md;
+    EXPECT_EQ(md.substr(carry + row.size(), oneDecimal(1000 / server).size()),
+              oneDecimal(1000 / server))
+        << md.substr(carry, 200);
+  }
   fs::remove_all(out);
 }
 

@@ -30,6 +30,8 @@ struct FrameRecord {
   uint64_t pod_bytes = 0;
   uint64_t client_bytes = 0;
   uint64_t feather_bytes = 0;  // of client_bytes, the pods' feather maps (protocol 1.2)
+  uint64_t mesh_bytes = 0;     // of client_bytes, the mesh's message
+  size_t mesh_triangles = 0;
   std::string note;
   // The written frame against the truth from the same view (a synthetic
   // scene's, ClientOptions::judge): PSNR and SSIM inside the true mask;
