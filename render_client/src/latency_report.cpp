@@ -13,6 +13,24 @@
 namespace holofuse::render {
 
 void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
+  using protocol::Stage;
+  uint64_t decode_start = UINT64_MAX, fused_end = 0;
+  for (const auto& s : stamps) {
+    if (s.end_ns < s.start_ns || s.end_ns == 0) continue;
+    if (s.stage == static_cast<uint16_t>(Stage::kServerDecode))
+      decode_start = std::min(decode_start, s.start_ns);
+    for (const Stage after_decode : {Stage::kHull, Stage::kRefine, Stage::kMeshEncode,
+                                     Stage::kImageEncode, Stage::kLayers, Stage::kLayerVideo})
+      if (s.stage == static_cast<uint16_t>(after_decode)) fused_end = std::max(fused_end, s.end_ns);
+  }
+  if (decode_start != UINT64_MAX && fused_end >= decode_start) {
+    if (last_server_span_) {
+      const uint64_t earlier_end = last_server_span_->second;
+      server_overlap_ms_.push_back(
+          earlier_end > decode_start ? static_cast<double>(earlier_end - decode_start) / 1e6 : 0.0);
+    }
+    last_server_span_ = {decode_start, fused_end};
+  }
   for (const auto& s : stamps) {
     if (s.end_ns >= s.start_ns && s.end_ns != 0)
       addStage(s.stage, static_cast<double>(s.end_ns - s.start_ns) / 1e6);
@@ -195,6 +213,15 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
                                  {"samples", fanout->second.size()}};
   }
   j["latency_ms"]["links"] = links;
+  // The server's pipeline: how often it decoded a frame's pod images while
+  // it was still carving or encoding the frame before.
+  size_t overlapped = 0;
+  for (const double ms : server_overlap_ms_) overlapped += ms > 0 ? 1 : 0;
+  j["server_pipeline"] = {
+      {"frame_pairs", server_overlap_ms_.size()},
+      {"overlapped", overlapped},
+      {"overlap_ms",
+       {{"p50", percentile(server_overlap_ms_, 50)}, {"p95", percentile(server_overlap_ms_, 95)}}}};
   double pod_bytes = 0, client_bytes = 0, feather_bytes = 0, mesh_bytes = 0;
   std::vector<double> triangles;
   size_t incomplete = 0;

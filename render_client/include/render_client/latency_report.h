@@ -124,6 +124,12 @@ class LatencyReport {
   std::map<uint16_t, std::vector<std::pair<double, double>>>
       transit_ms_;  // per pod: sent, received
   std::vector<protocol::PodArrivals> server_arrivals_;
+  // The server's span of the last rendered frame, from its first pod
+  // image's decode to its last encode (server clock, ns), and per pair of
+  // rendered frames how long the later one's decode ran before the earlier
+  // one's encode ended (0: one after the other).
+  std::optional<std::pair<uint64_t, uint64_t>> last_server_span_;
+  std::vector<double> server_overlap_ms_;
   std::map<uint16_t, protocol::PodArrivals> first_pod_clocks_;  // per pod, its first estimate
   std::optional<HostClock> client_clock_;
   double clock_drift_warn_ms_ = 1.0;
