@@ -37,7 +37,11 @@ inline std::optional<nlohmann::ordered_json> runLoop(const std::vector<std::stri
   SpawnOptions spawn;
   spawn.log_path = log.string();
   const auto pid = spawnProcess(command, spawn);
-  const int status = pid.isOk() ? waitProcess(*pid, -1).value_or(-1) : -1;
+  if (!pid.isOk()) {
+    *error = command.front() + ": " + pid.status().message();
+    return std::nullopt;
+  }
+  const int status = waitProcess(*pid, -1).value_or(-1);
   std::ifstream in(dir / "report.json");
   auto report = nlohmann::ordered_json::parse(in, nullptr, false);
   if (status != 0 || report.is_discarded() || !report.contains("latency_ms")) {

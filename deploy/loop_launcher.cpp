@@ -123,28 +123,47 @@ std::string partValue(const std::vector<holofuse::RigOption>& part, const std::s
 // Whether the launcher passes its value of flag to a process whose rig
 // part is part: always without a rig; with one, when the flag was given
 // to the launcher (the command line wins) or the part does not set it
-// (the launcher's default, as without a rig).
+// (then the launcher's value is the rig's cameras' or its own default).
 bool passes(const LoopPlan& plan, const std::vector<holofuse::RigOption>& part,
             const std::string& flag) {
   return !plan.rig || wasGiven(plan, flag) || partValue(part, flag).empty();
 }
 
-// A rig process's part, for passes(); empty without a rig.
+// A rig process's part, for passes(); empty without a rig. (readRig
+// makes the launcher's pods and clients the rig's, so each has a part.)
 std::vector<holofuse::RigOption> podPart(const LoopPlan& plan, int pod) {
-  return plan.rig ? *plan.rig->podPart(static_cast<uint32_t>(pod))
-                  : std::vector<holofuse::RigOption>{};
+  if (!plan.rig) return {};
+  auto part = plan.rig->podPart(static_cast<uint32_t>(pod));
+  return part.isOk() ? *part : std::vector<holofuse::RigOption>{};
 }
 std::vector<holofuse::RigOption> clientPart(const LoopPlan& plan, int client) {
-  return plan.rig ? *plan.rig->clientPart(
-                        plan.rig->clients.empty() ? 0 : plan.rig->clients.at(client).id)
-                  : std::vector<holofuse::RigOption>{};
+  if (!plan.rig) return {};
+  auto part = plan.rig->clientPart(
+      plan.rig->clients.empty() ? 0 : plan.rig->clients.at(static_cast<size_t>(client)).id);
+  return part.isOk() ? *part : std::vector<holofuse::RigOption>{};
+}
+
+// With a rig, a setting given to the launcher reaches its process even when
+// it equals the default (settingArguments passes only what differs from
+// the defaults), so that it overrides the file as a flag does.
+template <typename S>
+void appendGivenDefaults(std::vector<std::string>& args, const LoopPlan& plan,
+                         const std::vector<holofuse::Setting<S>>& table, const S& settings) {
+  if (!plan.rig) return;
+  for (const auto& setting : table) {
+    // (The pods' --codec is the launcher's --image-codec.)
+    const std::string given = setting.flag == "--codec" ? "--image-codec" : setting.flag;
+    if (!wasGiven(plan, given) || std::find(args.begin(), args.end(), setting.flag) != args.end())
+      continue;
+    args.insert(args.end(), {setting.flag, setting.get(settings)});
+  }
 }
 
 // Reads --rig: the pods and clients are the file's, each link its own
-// (a --link-* flag sets every link's), and the settings the launcher
-// itself needs (the pods' size, rate and scene, the client's mode and
-// view) are pod 0's and client 0's where the flags do not give them. 0, or
-// the exit code after saying what is wrong.
+// (a --link-* flag sets every link's), and the launcher's values of the
+// pods' size, rate, scene, seed and noise are the rig's cameras' where
+// the flags do not give them (a pod's own entry stays its own). 0, or the
+// exit code after saying what is wrong.
 int readRig(LoopPlan& plan) {
   auto rig = holofuse::RigFile::load(plan.rig_file);
   if (!rig.isOk()) {
@@ -155,6 +174,19 @@ int readRig(LoopPlan& plan) {
     if (wasGiven(plan, flag)) {
       std::fprintf(stderr, "%s: the rig file %s names the pods and clients; drop one of them\n",
                    flag, plan.rig_file.c_str());
+      return 2;
+    }
+  }
+  // A replay's cameras are its dataset's, which the launcher reads from
+  // --replay alone.
+  for (const auto& pod : rig->pods) {
+    const auto part = rig->podPart(pod.id);
+    for (const auto& option : part.isOk() ? *part : std::vector<holofuse::RigOption>{}) {
+      if (option.name != "replay") continue;
+      std::fprintf(stderr,
+                   "--rig: %s: replay: the launcher replays a dataset with --replay, not from a "
+                   "rig file\n",
+                   option.where.c_str());
       return 2;
     }
   }
@@ -179,34 +211,39 @@ int readRig(LoopPlan& plan) {
   for (const auto& client : plan.rig->clients) plan.client_links.push_back(linkOf(client.link));
   std::vector<holofuse::RigLink> links = plan.pod_links;
   links.insert(links.end(), plan.client_links.begin(), plan.client_links.end());
-  for (const auto& link : links) {
-    if (link.jitter_ms > link.delay_ms) {
-      std::fprintf(stderr, "--link-jitter-ms %g is more than a link's delay %g it varies\n",
-                   link.jitter_ms, link.delay_ms);
-      return 2;
-    }
+  for (size_t i = 0; i < links.size(); ++i) {
+    if (links[i].jitter_ms <= links[i].delay_ms) continue;
+    const bool pod = i < plan.pod_links.size();
+    std::fprintf(
+        stderr, "--rig: %s's link: jitter %g ms (%s) is more than its delay %g ms (%s)\n",
+        (pod ? "pod " + std::to_string(i) : "client " + std::to_string(i - plan.pod_links.size()))
+            .c_str(),
+        links[i].jitter_ms,
+        wasGiven(plan, "--link-jitter-ms") ? "--link-jitter-ms" : plan.rig_file.c_str(),
+        links[i].delay_ms,
+        wasGiven(plan, "--link-delay-ms") ? "--link-delay-ms" : plan.rig_file.c_str());
+    return 2;
   }
   const bool shaped = std::any_of(links.begin(), links.end(), [](const holofuse::RigLink& link) {
     return link.delay_ms > 0 || link.rate_mbit > 0;
   });
   if (shaped && !plan.netns)
     std::printf("[loop] the rig file's links take effect with --netns (./holofuse rig)\n");
-  const auto pod = podPart(plan, 0);
-  const auto client = clientPart(plan, 0);
+  const auto& cameras = plan.rig->cameras;
   for (auto [flag, value] : {std::pair{"--size", &plan.size},
                              {"--scene", &plan.scene},
                              {"--seed", &plan.seed},
                              {"--noise", &plan.noise}}) {
-    if (!wasGiven(plan, flag) && !partValue(pod, flag).empty()) *value = partValue(pod, flag);
+    if (!wasGiven(plan, flag) && !partValue(cameras, flag).empty())
+      *value = partValue(cameras, flag);
   }
-  for (auto [flag, value] : {std::pair{"--mode", &plan.mode}, {"--view", &plan.view}}) {
-    if (!wasGiven(plan, flag) && !partValue(client, flag).empty()) *value = partValue(client, flag);
-  }
-  if (!wasGiven(plan, "--fps") && !partValue(pod, "--fps").empty()) {
+  if (!wasGiven(plan, "--fps") && !partValue(cameras, "--fps").empty()) {
     double fps = 0;
-    if (const std::string error = holofuse::parseNumberIn(partValue(pod, "--fps"), 0.1, 240, fps);
+    if (const std::string error =
+            holofuse::parseNumberIn(partValue(cameras, "--fps"), 0.1, 240, fps);
         !error.empty()) {
-      std::fprintf(stderr, "--rig: %s: pod 0's fps: %s\n", plan.rig_file.c_str(), error.c_str());
+      std::fprintf(stderr, "--rig: %s: the cameras' fps: %s\n", plan.rig_file.c_str(),
+                   error.c_str());
       return 2;
     }
     plan.fps = fps;
@@ -427,7 +464,8 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
                  holofuse::scene::sceneNames().c_str());
     return 2;
   }
-  if (app.count("--scene") && !app.count("--pods") && plan.replay.empty())
+  // (A rig's pods are its file's.)
+  if (app.count("--scene") && !app.count("--pods") && plan.replay.empty() && !plan.rig)
     plan.pods = plan.preset->cameras;
   if (plan.bin_dir.empty())
     plan.bin_dir = std::filesystem::canonical("/proc/self/exe").parent_path().string();
@@ -454,6 +492,7 @@ std::vector<std::string> serverCommand(const LoopPlan& plan, const std::string& 
                                    plan.key_file};
   if (plan.rig) append(args, {"--rig", plan.rig_file});
   append(args, holofuse::eval::serverArguments(plan.settings));
+  appendGivenDefaults(args, plan, holofuse::fusion::fusionFlags(), plan.settings.fusion);
   if (!plan.record.empty()) {
     append(args, {"--record", plan.record});
     if (plan.record_fused) args.push_back("--record-fused");
@@ -493,6 +532,7 @@ std::vector<std::string> podCommand(const LoopPlan& plan, int pod, const std::st
     if (!value.empty() && passes(plan, part, flag)) append(args, {flag, value});
   }
   append(args, holofuse::eval::podArguments(plan.settings));
+  appendGivenDefaults(args, plan, holofuse::podEncodingFlags(), plan.settings.pods);
   return args;
 }
 
@@ -537,6 +577,7 @@ std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& 
     append(args, {"--judge", shellCommand(judge)});
   }
   append(args, holofuse::eval::clientArguments(plan.settings));
+  appendGivenDefaults(args, plan, holofuse::render::renderFlags(), plan.settings.render);
   if (!plan.budget.empty()) append(args, {"--budget", plan.budget});
   if (replayEnds(plan)) args.push_back("--exit-when-server-leaves");
   return args;

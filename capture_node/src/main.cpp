@@ -49,15 +49,20 @@ int main(int argc, char** argv) {
   PeerKeyFlags key_flags(app, "pod");
   const ProtocolFlag protocol_flag(app, "pod");
   // A capture PC that knows only its name finds its pod in the rig file.
+  app.add_option("--rig-host",
+                 "with --rig and no --pod-id: run the rig's pod on this host (default: this "
+                 "machine's host name; on Kubernetes, give the node's name)")
+      ->configurable(false);
   addRigFlag(app, "capture_node", [&app](const RigFile& rig) -> StatusOr<std::vector<RigOption>> {
     if (app.count("--pod-id") == 0) {
-      const auto pod = rig.podOnHost(hostName());
-      if (!pod.isOk())
-        return Status(pod.status().code(), pod.status().message() + "; or give --pod-id");
+      const std::string host =
+          app.count("--rig-host") ? app["--rig-host"]->results().front() : hostName();
+      const auto pod = rig.podOnHost(host);
+      if (!pod.isOk()) return pod.status();
       auto part = rig.podPart(*pod);
       if (part.isOk())
         part->push_back(
-            {"pod-id", {std::to_string(*pod)}, rig.path + " (pod on host " + hostName() + ")"});
+            {"pod-id", {std::to_string(*pod)}, rig.path + " (pod on host " + host + ")"});
       return part;
     }
     const auto pod = givenId(app, "--pod-id", std::nullopt);

@@ -43,6 +43,9 @@ class Reader {
       if (!it->first.IsScalar()) fail(it->first, what + ": a key is not a name");
       if (!seen.insert(it->first.Scalar()).second)
         fail(it->first, what + ": '" + it->first.Scalar() + "' is given twice");
+      // (A missing value's node has no line of its own: the key's is said.)
+      if (it->second.IsNull())
+        fail(it->first, what + ": '" + it->first.Scalar() + "' has no value");
       items.emplace_back(it->first, it->second);
     }
     return items;
@@ -70,7 +73,6 @@ class Reader {
       for (const YAML::Node& item : value) option.values.push_back(text(item, what + "'s item"));
       if (option.values.empty()) fail(key, what + " is an empty list");
     } else {
-      // (A missing value's node has no line of its own: the key's is said.)
       if (!value.IsScalar() || value.Scalar().empty()) fail(key, what + " is not a value");
       option.values.push_back(value.Scalar());
     }
@@ -107,6 +109,7 @@ class Reader {
     const std::string at_index = kind + "s[" + std::to_string(index) + "]";
     if (!node.IsMap()) fail(node, at_index + " is not a map of keys to values");
     if (const YAML::Node id = node["id"]) {
+      if (id.IsNull()) fail(node, at_index + ": 'id' has no value");
       member.id = static_cast<uint32_t>(number(id, at_index + "'s id", 0, max_id));
       if (std::to_string(member.id) != id.Scalar())
         fail(id, at_index + "'s id '" + id.Scalar() + "' is not a whole number");
@@ -317,7 +320,8 @@ StatusOr<uint32_t> RigFile::podOnHost(const std::string& host) const {
   if (on_host.size() == 1) return on_host[0];
   if (on_host.empty()) {
     if (!hosts.empty()) hosts = " (its pods' hosts:" + hosts.substr(0, hosts.size() - 1) + ")";
-    return Status(StatusCode::kMalformed, path + " has no pod on host " + host + hosts);
+    return Status(StatusCode::kMalformed,
+                  path + " has no pod on host " + host + hosts + ": give --pod-id or --rig-host");
   }
   std::string ids;
   for (const uint32_t id : on_host) ids += (ids.empty() ? "" : ", ") + std::to_string(id);

@@ -64,7 +64,8 @@ int main(int argc, char** argv) {
                  "the keys pods and clients authenticate with (default: $HOLOFUSE_KEY_FILE); "
                  "SECURITY.md");
   app.add_flag("--no-auth", no_auth,
-               "serve without authentication: every peer is trusted, so loopback only");
+               "serve without authentication: every peer is trusted, so loopback only")
+      ->excludes("--key-file");
   app.add_option("--handshake-timeout-ms", options.handshake_timeout_ms,
                  "close a peer that has not finished its handshake after this long")
       ->check(CLI::Range(100, 60000));

@@ -56,7 +56,10 @@ int main(int argc, char** argv) {
   addRigFlag(app, "render_client", [&](const RigFile& rig) -> StatusOr<std::vector<RigOption>> {
     const auto client = givenId(app, "--client-id", options.client_id);
     if (!client.isOk()) return client.status();
-    return rig.clientPart(*client);
+    auto part = rig.clientPart(*client);
+    if (!part.isOk() && app.count("--client-id") == 0)
+      return Status(part.status().code(), part.status().message() + "; give --client-id");
+    return part;
   });
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   render_flags.apply(options.render);

@@ -627,7 +627,7 @@ TEST(Loop, TheReportShowsTheServerDecodingTheNextFrameWhileItFusesThisOne) {
   ASSERT_EQ(busy["frame_pairs"].get<int>(), 7) << busy.dump();
   EXPECT_GE(busy["overlapped"].get<int>(), 2) << busy.dump();
   EXPECT_GT(busy["overlap_ms"]["p95"].get<double>(), 0.0) << busy.dump();
-  const auto idle = run("idle", "1", "0.03");
+  const auto idle = run("idle", holofuse::test::kSanitized ? "0.5" : "1", "0.03");
   ASSERT_EQ(idle["frame_pairs"].get<int>(), 7) << idle.dump();
   EXPECT_EQ(idle["overlapped"].get<int>(), 0) << idle.dump();
   fs::remove_all(out);

@@ -29,47 +29,53 @@ fs::path writeRig(const fs::path& dir, const std::string& text) {
   return path;
 }
 
-// The launcher starts every process with its part of the file: pod 1
-// films at its own rate, the client renders at its own size, and the
-// launcher's --mode overrides the client's mode in the file.
+// The launcher starts every process with its part of the file: pod 0
+// films at its own rate and pod 1 at the cameras' (pod 0's own does not
+// reach it), the client renders at its own size, the launcher's --mode and
+// --mesh-codec override the file's, even the latter at its default, and
+// --scene does not change the file's two pods into the scene's eight.
 TEST(RigFile, TheLoopsProgramsEachReadTheirPartAndFlagsOverrideIt) {
   const fs::path out = freshDir("rig_file_loop");
   const fs::path rig = writeRig(out, R"(rig: test
 server:
   address: 127.0.0.1:7300
   sync-deadline-ms: 250
+  mesh-codec: fp16-lz4
 cameras:
   size: 64x48
   fps: 8
 pods:
   - id: 0
-  - id: 1
     fps: 4
+  - id: 1
 clients:
   - id: 3
     mode: montage4d
     size: 80x60
 )");
-  const pid_t launcher = spawn({kBin + "/holofuse_loop", "--rig", rig.string(), "--frames", "6",
-                                "--mode", "normal", "--out", (out / "run").string()},
-                               out / "launcher.log");
+  const pid_t launcher =
+      spawn({kBin + "/holofuse_loop", "--rig", rig.string(), "--frames", "6", "--mode", "normal",
+             "--mesh-codec", "draco", "--scene", "clean", "--out", (out / "run").string()},
+            out / "launcher.log");
   ASSERT_EQ(waitExit(launcher, 240), 0) << readFile(out / "launcher.log");
   const auto report = nlohmann::json::parse(readFile(out / "run" / "report.json"));
   EXPECT_EQ(report["frames_rendered"].get<int>(), 6);
   EXPECT_EQ(report["settings"]["size"], "80x60") << "the client's size, from its entry";
   EXPECT_EQ(report["settings"]["mode"], "normal") << "the launcher's --mode wins over the file";
   const fs::path logs = out / "run" / "logs";
-  EXPECT_NE(readFile(logs / "pod0.log").find("[pod-0] 64x48 at 8 fps"), std::string::npos)
+  EXPECT_NE(readFile(logs / "pod0.log").find("[pod-0] 64x48 at 4 fps"), std::string::npos)
       << readFile(logs / "pod0.log");
-  EXPECT_NE(readFile(logs / "pod1.log").find("[pod-1] 64x48 at 4 fps"), std::string::npos)
+  EXPECT_NE(readFile(logs / "pod1.log").find("[pod-1] 64x48 at 8 fps"), std::string::npos)
       << readFile(logs / "pod1.log");
+  EXPECT_FALSE(fs::exists(logs / "pod2.log")) << "the scene's cameras, not the rig's pods";
   // The server took its section and the rig's two pods, but the
-  // launcher's address.
+  // launcher's address and mesh codec.
   const std::string server = readFile(logs / "server.log");
   EXPECT_NE(
-      server.find("from the rig file " + fs::absolute(rig).string() + ": --sync-deadline-ms 250"),
+      server.find("from the rig file " + fs::absolute(rig).string() + ": --sync-deadline-ms 250\n"),
       std::string::npos)
       << server;
+  EXPECT_NE(server.find("meshes draco"), std::string::npos) << server;
   fs::remove_all(out);
 }
 
@@ -123,7 +129,7 @@ pods:
       runToEnd({kBin + "/capture_node", "--rig", rig.string()}, out / "pod.log");
   EXPECT_EQ(pod_code, 2) << pod_said;
   EXPECT_NE(pod_said.find("--rig: " + rig.string() + " has no pod on host " + hostName() +
-                          "; or give --pod-id"),
+                          ": give --pod-id or --rig-host"),
             std::string::npos)
       << pod_said;
   const auto [missing_code, missing_said] =
@@ -138,14 +144,17 @@ pods:
 
 // The command line wins: the file's bad deadline and unreachable address
 // are never applied when flags give them, so the server starts, and its
-// two pods (their --server given) send their frames. Pod 1 is not told its
-// id: the file puts it on this machine.
+// two pods (their --server given, and --no-auth, which drops the file's
+// key file) send their frames. Pod 1 is not told its id: the file puts it
+// on this machine.
 TEST(RigFile, FlagsGivenOverrideTheFilesValues) {
   const fs::path out = freshDir("rig_file_override");
   const fs::path rig = writeRig(out, R"(server:
   address: 192.0.2.1:7300
   sync-deadline-ms: 0
   no-auth: true
+cameras:
+  key-file: /nonexistent/pod.key
 pods:
   - id: 0
     host: some-other-host

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cctype>
 #include <cstdio>
 #include <functional>
@@ -61,6 +62,18 @@ class RigConfig : public CLI::Config {
         throw CLI::ConfigError("--rig: " + option.where + ": '" + option.name + "' is not a " +
                                program_ + " flag (" + program_ + " --help lists them)");
       if (flag->count() > 0) continue;  // the command line's wins
+      // So does a flag given there that excludes this one: --replay over a
+      // synthetic pod's --size, --no-auth over the file's --key-file.
+      const auto excluded = flag->get_excludes();
+      if (std::any_of(excluded.begin(), excluded.end(),
+                      [](const CLI::Option* other) { return other->count() > 0; }))
+        continue;
+      if (!flag->get_configurable())
+        throw CLI::ConfigError("--rig: " + option.where + ": --" + option.name +
+                               " is not for a rig file");
+      if (flag->get_expected_min() == 0 && option.values.size() != 1)
+        throw CLI::ConfigError("--rig: " + option.where + ": --" + option.name +
+                               " is a switch: true or false");
       items.push_back({{}, option.name, option.values});
       read.push_back(option);
     }
@@ -76,6 +89,11 @@ class RigConfig : public CLI::Config {
   std::string whereFrom(const std::string& message) const {
     std::string where;
     for (const RigOption& option : from_file_) {
+      // (CLI11 names a file's value by its key alone at times: "no-auth: ...".)
+      if (message.rfind(option.name + ":", 0) == 0) {
+        where += (where.empty() ? "" : "; ") + ("--" + option.name) + " from " + option.where;
+        continue;
+      }
       const std::string flag = "--" + option.name;
       for (size_t at = message.find(flag); at != std::string::npos;
            at = message.find(flag, at + 1)) {
@@ -142,7 +160,8 @@ inline StatusOr<uint32_t> givenId(const CLI::App& app, const std::string& flag,
   const std::string& text = option->results().front();
   uint32_t id = 0;
   char tail = 0;
-  if (std::sscanf(text.c_str(), "%u%c", &id, &tail) != 1)
+  // (%u would take "-1" as 4294967295.)
+  if (text.empty() || text[0] == '-' || std::sscanf(text.c_str(), "%u%c", &id, &tail) != 1)
     return Status(StatusCode::kMalformed, flag + " '" + text + "' is not an id");
   return id;
 }
