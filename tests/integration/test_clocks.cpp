@@ -84,9 +84,15 @@ TEST(Clocks, PodsOnClocksSecondsApartKeepTheBudgetOnTheServersClock) {
   EXPECT_LT(latency["end_to_end"]["p95"].get<double>(), 2000.0) << latency.dump();
   const auto& send = latency["stages"]["send"];
   EXPECT_LT(send["p95"].get<double>(), 1000.0) << send.dump();
-  // A send stamp that ended before it started would be left out: every pod
-  // frame behind a rendered mesh has its own.
-  EXPECT_EQ(send["samples"].get<int>(), 3 * kFrames) << send.dump();
+  // A send stamp that ended before it started would be left out (without
+  // the clocks' offsets, 20 of 60 are). Every pod frame behind a rendered
+  // mesh has its own, but for a camera a loaded machine delivers late
+  // (frames[].cameras_present) or a pod's frames before its first clock
+  // estimate, which carry none: a handful at most.
+  int present = 0;
+  for (const auto& frame : report["frames"]) present += frame["cameras_present"].get<int>();
+  EXPECT_LE(send["samples"].get<int>(), present) << send.dump();
+  EXPECT_GE(send["samples"].get<int>(), 3 * kFrames - 3) << send.dump();
 
   // Each pod's offset as the server measured it: the shift, within the
   // stated uncertainty (both ways of a probe take a time >= 0, so the true
