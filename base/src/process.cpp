@@ -173,10 +173,31 @@ std::optional<ProcessUsage> processUsage(pid_t pid) {
   return usage;
 }
 
-void returnFreedBuffersToTheSystem() {
-  // Either setting also turns off glibc's dynamic adjustment of both.
-  mallopt(M_MMAP_THRESHOLD, 128 * 1024);
-  mallopt(M_TRIM_THRESHOLD, 256 * 1024);
+FreeMemoryReturner::FreeMemoryReturner(std::chrono::milliseconds period) {
+  // Fixed thresholds also turn off glibc's dynamic ones. Buffers up to the
+  // largest threshold glibc takes (32 MiB) come from the heap, and free
+  // memory at its top stays until the thread returns it.
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  thread_ = std::thread([this, period] {
+    std::unique_lock lock(mutex_);
+    while (!wake_.wait_for(lock, period, [this] { return stopping_; })) {
+      lock.unlock();
+      returnFreeMemoryNow();
+      lock.lock();
+    }
+  });
 }
+
+FreeMemoryReturner::~FreeMemoryReturner() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  wake_.notify_one();
+  thread_.join();
+}
+
+bool returnFreeMemoryNow() { return malloc_trim(0) != 0; }
 
 }  // namespace holofuse

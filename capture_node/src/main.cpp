@@ -92,7 +92,7 @@ int main(int argc, char** argv) {
     }
     replay_options.server = *endpoint;
     installStopSignals();
-    returnFreedBuffersToTheSystem();
+    const FreeMemoryReturner free_memory;
     return capture::runReplayPod(replay_options);
   }
   const scene::ScenePreset* preset = scene::findScene(scene_name);
@@ -123,6 +123,6 @@ int main(int argc, char** argv) {
   options.scene.frames_per_second = options.fps;
   encoding_flags.apply(options.encoding);
   installStopSignals();
-  returnFreedBuffersToTheSystem();
+  const FreeMemoryReturner free_memory;
   return capture::runPod(options);
 }

@@ -193,7 +193,7 @@ int main(int argc, char** argv) {
     options.keys = std::move(*keys);
   }
   installStopSignals();
-  returnFreedBuffersToTheSystem();
+  const FreeMemoryReturner free_memory;
   // A recording that reaches a file size limit gets EFBIG from write() and
   // is reported like a full disk, instead of the signal ending the server.
   signal(SIGXFSZ, SIG_IGN);

@@ -119,6 +119,6 @@ int main(int argc, char** argv) {
   options.height = h;
   options.render.blend.mode = *render::blendModeFromName(mode);
   installStopSignals();
-  returnFreedBuffersToTheSystem();
+  const FreeMemoryReturner free_memory;
   return render::runClient(options);
 }

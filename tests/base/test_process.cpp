@@ -138,5 +138,23 @@ TEST(Process, UsageCountsDescriptorsThreadsAndMemory) {
   EXPECT_FALSE(processUsage(child).has_value()) << "a process that is gone holds nothing";
 }
 
+// A freed frame buffer stays resident for the next frame, so reusing it
+// faults nothing in; the returner's pass hands it back to the system. (The
+// period is an hour here: the pass is called by hand, not waited for.)
+TEST(FreeMemory, AFreedBufferStaysForReuseUntilFreeMemoryIsReturned) {
+  const FreeMemoryReturner returner(std::chrono::hours(1));
+  const auto residentKb = [] { return processUsage(::getpid()).value().rss_kb; };
+  constexpr size_t kBytes = 24u << 20;
+  const uint64_t before = residentKb();
+  {
+    std::vector<uint8_t> frame(kBytes, 1);
+    EXPECT_GE(residentKb(), before + (kBytes >> 10) * 9 / 10) << "the buffer is resident";
+  }
+  const uint64_t after_free = residentKb();
+  EXPECT_GE(after_free, before + (kBytes >> 10) * 9 / 10) << "freed, it stays for reuse";
+  EXPECT_TRUE(returnFreeMemoryNow());
+  EXPECT_LE(residentKb(), after_free - (kBytes >> 10) * 9 / 10) << "returned to the system";
+}
+
 }  // namespace
 }  // namespace holofuse

@@ -5,9 +5,13 @@
 
 #include <sys/types.h>
 
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "base/status.h"
@@ -72,12 +76,29 @@ struct ProcessUsage {
 };
 std::optional<ProcessUsage> processUsage(pid_t pid);
 
-// For the long-running programs: buffers of 128 KiB and more (images,
-// meshes, frames) are mapped apart and unmapped when freed, and free memory
-// at the heap's top is returned from 256 KiB. glibc's default raises its
-// mapping threshold to the largest buffer freed so far, after which image
-// buffers come from the heap and a few in flight at the wrong moment pin
-// megabytes that a soak then reads as growth.
-void returnFreedBuffersToTheSystem();
+// For the long-running programs: freed buffers (images, meshes, frames)
+// stay with the process and the next frame reuses them, and once a period
+// a thread hands whatever is free back to the system (malloc_trim), so the
+// resident size follows what is held, not the worst moment. Unmapping each
+// buffer as it is freed instead makes every frame fault its buffers in
+// again page by page: in the demo loop a third of all CPU time went to the
+// kernel's page faults (docs/reliability.md "Memory").
+class FreeMemoryReturner {
+ public:
+  explicit FreeMemoryReturner(std::chrono::milliseconds period = std::chrono::seconds(1));
+  ~FreeMemoryReturner();
+  FreeMemoryReturner(const FreeMemoryReturner&) = delete;
+  FreeMemoryReturner& operator=(const FreeMemoryReturner&) = delete;
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stopping_ = false;
+  std::thread thread_;
+};
+
+// What the returner does each period: every arena's free pages go back to
+// the system. Returns whether any did.
+bool returnFreeMemoryNow();
 
 }  // namespace holofuse
