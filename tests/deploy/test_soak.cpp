@@ -45,6 +45,21 @@ TEST(Soak, FlatWithinFivePercentAfterTheWarmUpAndNotOtherwise) {
       << growing.problems[1];
 }
 
+// A picture being written when a sample is taken holds one descriptor
+// more: back to the least by the last sample, that is no leak. Memory that
+// comes back down is still judged by its spread.
+TEST(Soak, ADescriptorHeldAtOneSampleAndGivenBackIsNoLeak) {
+  const std::vector<SoakSample> transient = {
+      sampleAt(3, {usage(100, 6)}), sampleAt(4, {usage(100, 7)}), sampleAt(5, {usage(100, 6)})};
+  EXPECT_TRUE(judgeSoak({"client"}, transient, 2).flat);
+  std::vector<SoakSample> leaking = transient;
+  leaking.push_back(sampleAt(6, {usage(100, 7)}));
+  EXPECT_FALSE(judgeSoak({"client"}, leaking, 2).flat) << "still held at the end";
+  const std::vector<SoakSample> memory = {sampleAt(3, {usage(100)}), sampleAt(4, {usage(120)}),
+                                          sampleAt(5, {usage(100)})};
+  EXPECT_FALSE(judgeSoak({"client"}, memory, 2).flat);
+}
+
 TEST(Soak, AProcessGoneOrASoakTooShortIsNotFlat) {
   const std::vector<SoakSample> gone = {sampleAt(3, {usage(100), usage(20)}),
                                         sampleAt(4, {usage(100), std::nullopt}),

@@ -33,8 +33,9 @@ struct SoakVerdict {
 };
 
 // Flat: every process alive in every sample, and after warmup_minutes each
-// quantity's spread (max - min) at most tolerance x its minimum. At least
-// two samples after the warm-up are needed to tell.
+// quantity's spread (max - min) at most tolerance x its minimum, or, for
+// the counts (descriptors, threads), the last sample back at the least. At
+// least two samples after the warm-up are needed to tell.
 SoakVerdict judgeSoak(const std::vector<std::string>& processes,
                       const std::vector<SoakSample>& samples, double warmup_minutes,
                       double tolerance = 0.05);
