@@ -86,8 +86,8 @@ VkFramebuffer createFramebuffer(VkDevice device, VkRenderPass pass, VkImageView 
 }
 
 VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayout layout,
-                          const uint32_t* vs, size_t vs_bytes, const uint32_t* fs,
-                          size_t fs_bytes) {
+                          const uint32_t* vs, size_t vs_bytes, const uint32_t* fs, size_t fs_bytes,
+                          int32_t fragment_mode) {
   VkShaderModule vert = ctx.createShader(vs, vs_bytes);
   VkShaderModule frag = ctx.createShader(fs, fs_bytes);
   std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
@@ -98,6 +98,13 @@ VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayou
   stages[1] = stages[0];
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = frag;
+  const VkSpecializationMapEntry mode_entry{0, 0, sizeof(fragment_mode)};
+  VkSpecializationInfo specialization{};
+  specialization.mapEntryCount = 1;
+  specialization.pMapEntries = &mode_entry;
+  specialization.dataSize = sizeof(fragment_mode);
+  specialization.pData = &fragment_mode;
+  stages[1].pSpecializationInfo = &specialization;
   // No vertex attributes: the vertex stage reads the vertices from the
   // storage buffer the compute passes share (shaders/vertices.glsl), in
   // full or half precision.
@@ -233,12 +240,22 @@ Renderer::~Renderer() {
     ctx_.destroy(*b);
   }
   field_passes_pipelines_.reset();
-  vkDestroyPipeline(d, blend_pipeline_, nullptr);
+  for (VkPipeline pipeline : blend_pipelines_) vkDestroyPipeline(d, pipeline, nullptr);
   vkDestroyPipelineLayout(d, blend_layout_, nullptr);
   vkDestroyRenderPass(d, blend_pass_, nullptr);
   vkDestroyDescriptorPool(d, descriptor_pool_, nullptr);
   vkDestroyDescriptorSetLayout(d, set_layout_, nullptr);
   vkDestroySampler(d, linear_sampler_, nullptr);
+}
+
+VkPipeline Renderer::blendPipeline(BlendMode mode) {
+  VkPipeline& pipeline = blend_pipelines_.at(static_cast<size_t>(mode));
+  if (pipeline == VK_NULL_HANDLE) {
+    pipeline =
+        createPipeline(ctx_, blend_pass_, blend_layout_, k_blend_vert_spv, sizeof(k_blend_vert_spv),
+                       k_blend_frag_spv, sizeof(k_blend_frag_spv), static_cast<int32_t>(mode));
+  }
+  return pipeline;
 }
 
 void Renderer::createPipelines() {
@@ -272,10 +289,6 @@ void Renderer::createPipelines() {
   layout_info.pushConstantRangeCount = static_cast<uint32_t>(push.size());
   HOLOFUSE_VK_CHECK(vkCreatePipelineLayout(d, &layout_info, nullptr, &blend_layout_));
   field_passes_pipelines_ = std::make_unique<TextureFieldPasses>(ctx_, blend_layout_);
-
-  blend_pipeline_ =
-      createPipeline(ctx_, blend_pass_, blend_layout_, k_blend_vert_spv, sizeof(k_blend_vert_spv),
-                     k_blend_frag_spv, sizeof(k_blend_frag_spv));
 
   std::array<VkDescriptorPoolSize, 3> sizes = {
       VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},

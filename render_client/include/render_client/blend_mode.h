@@ -26,6 +26,7 @@ enum class BlendMode : int {
   // against the normal and the user's eye; no camera images on the client.
   kLayered = HOLOFUSE_MODE_LAYERED,
 };
+inline constexpr size_t kBlendModeCount = static_cast<size_t>(BlendMode::kLayered) + 1;
 
 std::optional<BlendMode> blendModeFromName(const std::string& name);
 std::string blendModeName(BlendMode mode);

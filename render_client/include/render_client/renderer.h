@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <glm/glm.hpp>
 #include <memory>
 #include <vector>
@@ -175,6 +176,7 @@ class Renderer {
 
  private:
   void createPipelines();
+  VkPipeline blendPipeline(BlendMode mode);
   void ensureViewResources(uint32_t w, uint32_t h, uint32_t count);
   void destroyViewResources();
   void renderDepthMaps(VkCommandBuffer cmd);
@@ -272,7 +274,8 @@ class Renderer {
   // Pipelines
   VkRenderPass blend_pass_ = VK_NULL_HANDLE;
   VkPipelineLayout blend_layout_ = VK_NULL_HANDLE;
-  VkPipeline blend_pipeline_ = VK_NULL_HANDLE;
+  // Per mode, made when the mode first renders (blend.frag.glsl's kBlendMode).
+  std::array<VkPipeline, kBlendModeCount> blend_pipelines_{};
   VkDescriptorSetLayout set_layout_ = VK_NULL_HANDLE;
   VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
   VkDescriptorSet descriptor_set_ = VK_NULL_HANDLE;
