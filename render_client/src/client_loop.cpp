@@ -464,6 +464,7 @@ int runClient(const ClientOptions& options) {
     context = std::make_unique<VulkanContext>(options.device);
     renderer = std::make_unique<Renderer>(*context, options.width, options.height);
     renderer->setHalfPrecisionVertices(options.render.half_precision_vertices);
+    renderer->warmUp(options.render.blend);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "[client] Vulkan start-up failed: %s\n", e.what());
     return 1;

@@ -352,4 +352,42 @@ void Renderer::generateMips(VkCommandBuffer cmd) {
                   VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, images_.mip_levels - 1, 1);
 }
 
+void Renderer::warmUp(const BlendSettings& settings) {
+  if (settings.mode == BlendMode::kLayered) return;
+  // An octahedron of half a metre, closed and counter-clockwise from
+  // outside, seen from two sides.
+  Mesh mesh;
+  mesh.positions = {{0.5f, 0, 0},  {-0.5f, 0, 0}, {0, 0.5f, 0},
+                    {0, -0.5f, 0}, {0, 0, 0.5f},  {0, 0, -0.5f}};
+  for (const auto& p : mesh.positions) mesh.normals.push_back(glm::normalize(p));
+  for (const uint32_t x : {0u, 1u}) {
+    for (const uint32_t y : {2u, 3u}) {
+      for (const uint32_t z : {4u, 5u}) {
+        // Counter-clockwise from outside: the x, y, z order flips with
+        // each negative axis.
+        const bool flip = (x == 1u) != (y == 3u) != (z == 5u);
+        mesh.indices.insert(mesh.indices.end(), {x, flip ? z : y, flip ? y : z});
+      }
+    }
+  }
+  constexpr uint32_t kWidth = 64, kHeight = 48;
+  std::vector<ViewImages> views;
+  for (const double side : {-1.0, 1.0}) {
+    ViewImages view;
+    view.camera = lookAtCamera(static_cast<uint32_t>(views.size()), {2.0 * side, 0.5, 2.0},
+                               {0, 0, 0}, {0, 1, 0}, kWidth, kHeight, 60.0);
+    view.color = Image8(kWidth, kHeight, 3, 128);
+    view.mask = Image8(kWidth, kHeight, 1, 255);
+    views.push_back(std::move(view));
+  }
+  setMesh(mesh);
+  setViews(views);
+  for (int frame = 0; frame < 2; ++frame) render(views[0].camera, settings);  // the carry too
+  setMesh(mesh);  // a second mesh: the carry's match of one mesh to the next
+  render(views[1].camera, settings);
+  vkDeviceWaitIdle(ctx_.device());
+  previous_surface_ = Mesh{};
+  current_surface_ = Mesh{};
+}
+
 }  // namespace holofuse::render

@@ -62,6 +62,32 @@ TEST(Renderer, PodViewReproducesTheTrueImageInsideTheSilhouette) {
   EXPECT_GT(psnr, 24.0) << "blend of the true images from a pod's pose";
 }
 
+// The client warms its renderer before it takes frames (the JIT of a first
+// frame on lavapipe). Nothing of the warm-up (its mesh, views, fields,
+// temporal field) may show in the first real frame, pixel for pixel.
+TEST(Renderer, AWarmedUpRendererDrawsItsFirstMeshAsAFreshOneDoes) {
+  Fixture f(4);
+  for (const BlendMode mode : {BlendMode::kNormal, BlendMode::kMontage4D}) {
+    BlendSettings settings;
+    settings.mode = mode;
+    Renderer fresh(context(), 200, 150), warmed(context(), 200, 150);
+    warmed.warmUp(settings);
+    std::vector<Image8> pictures;
+    for (Renderer* renderer : {&fresh, &warmed}) {
+      renderer->setMesh(f.mesh);
+      renderer->setViews(f.views);
+      pictures.push_back(renderer->render(f.cameras[1], settings));
+    }
+    size_t covered = 0, differing = 0;
+    for (size_t i = 0; i < pictures[0].pixels.size(); ++i) {
+      covered += (i % 4 == 3) && pictures[0].pixels[i] != 0;
+      differing += pictures[0].pixels[i] != pictures[1].pixels[i];
+    }
+    EXPECT_GT(covered, 3000u) << blendModeName(mode) << ": the subject is in view";
+    EXPECT_EQ(differing, 0u) << blendModeName(mode);
+  }
+}
+
 TEST(Renderer, OcclusionTestKeepsHiddenCamerasOut) {
   // Camera 2 sits opposite camera 0: with the occlusion test it cannot paint
   // camera 0's side, so leaving it out changes almost nothing.

@@ -145,6 +145,13 @@ class Renderer {
   // All views must share one image size (the pods' calibration): see
   // checkViews.
   void setViews(const std::vector<ViewImages>& views);
+  // Renders a small mesh seen by two cameras in settings' mode (but
+  // layered, which has no camera images) and forgets it: the next setMesh
+  // starts as the first one. What a first frame compiles (on lavapipe the
+  // JIT of each pipeline and compute pass, hundreds of ms at its first
+  // draw or dispatch) is then paid before the client takes frames, not by
+  // the first frames it shows.
+  void warmUp(const BlendSettings& settings);
   // Mode layered's input (checkLayeredViews; the mesh of setMesh, its
   // corner_uvs pointing into these layers, passes checkLayerCoordinates): uploaded once, rendered
   // from until the next call. Throws std::invalid_argument where the
