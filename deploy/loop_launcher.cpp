@@ -83,6 +83,7 @@ struct LoopPlan {
   double fps = 15.0;
   std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit",
               scene = "clean";
+  std::string overlap_render = "auto";
   std::string seed, noise;  // passed on only when given: the pods keep the scene's otherwise
   std::string budget;
   bool quality = false;
@@ -335,6 +336,10 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
   app.add_option("--mode", plan.mode, "blending mode of the client")
       ->check(CLI::IsMember(holofuse::render::blendModeNames()));
   app.add_option("--view", plan.view, "client view: orbit or pod:N");
+  app.add_option("--overlap-render", plan.overlap_render,
+                 "client: on, the next frame decodes while the device renders this one; off, "
+                 "each render is waited for; auto, on with a GPU only")
+      ->check(CLI::IsMember({"auto", "on", "off"}));
   app.add_option(
       "--scene", plan.scene,
       "named synthetic scene (its camera count unless --pods): " + holofuse::scene::sceneNames());
@@ -564,7 +569,8 @@ std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& 
   const auto part = clientPart(plan, index);
   for (const auto& [flag, value] : {std::pair<std::string, std::string>{"--size", plan.size},
                                     {"--mode", plan.mode},
-                                    {"--view", plan.view}}) {
+                                    {"--view", plan.view},
+                                    {"--overlap-render", plan.overlap_render}}) {
     if (passes(plan, part, flag)) append(args, {flag, value});
   }
   if (plan.replay.empty() && plan.preset->view_jump_degrees != 0) {

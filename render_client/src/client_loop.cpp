@@ -52,6 +52,13 @@ void endFanout(std::vector<protocol::StageStamp>& stamps, uint64_t receive_ns) {
   }
 }
 
+// --overlap-render: auto overlaps on a GPU only; a CPU device renders on
+// the cores the next frame's decode would take.
+bool overlapsRender(const ClientOptions& options, const VulkanContext& context) {
+  return options.overlap_render == "on" ||
+         (options.overlap_render == "auto" && !context.cpuDevice());
+}
+
 // A mesh with its bundle, decoded, checked and on the GPU, ready to render.
 struct ReadyMesh {
   protocol::MeshFrame frame;
@@ -61,7 +68,13 @@ struct ReadyMesh {
   double decode_ms = 0;
   uint64_t wire_bytes = 0;  // the mesh's message
   size_t triangles = 0;
-  uint64_t decoded_ns = 0, uploaded_ns = 0;
+  // upload_start_ns: after the previous frame's render ended (a frame
+  // decodes while the one before it renders).
+  uint64_t decoded_ns = 0, upload_start_ns = 0, uploaded_ns = 0;
+  // Of its bundle, kept past the bundle (dropped once it is on the GPU).
+  uint64_t bundle_bytes = 0, feather_bytes = 0;
+  uint32_t bundle_cameras = 0;
+  uint64_t field_runs = 0;  // the renderer's field passes before this frame
 };
 
 class ClientLoop {
@@ -74,14 +87,19 @@ class ClientLoop {
         context_(context),
         renderer_(renderer),
         judge_(std::move(judge)),
-        tty_(isatty(STDOUT_FILENO)) {
+        tty_(isatty(STDOUT_FILENO)),
+        overlap_(overlapsRender(options, context)) {
     // The judge reads each picture as soon as it is written: judged, the
     // pictures are written on the render path.
     if (options_.write_frames && !judge_) writer_.emplace();
     report_.setClockDriftWarnMs(options_.clock_drift_warn_ms);
   }
 
-  bool done() const { return options_.frames != 0 && report_.framesRendered() >= options_.frames; }
+  // The frame in flight counts: it will be rendered.
+  bool done() const {
+    return options_.frames != 0 &&
+           report_.framesRendered() + (in_flight_ ? 1 : 0) >= options_.frames;
+  }
 
   // One poll's frames. When frames arrive faster than this client renders,
   // only the newest mesh of a batch is rendered: older ones would only add
@@ -107,7 +125,7 @@ class ClientLoop {
           if (k != newest_mesh) {
             ++superseded_;
           } else if (auto ready = prepareMesh(received[k], receive_ns)) {
-            renderAndRecord(*ready);
+            beginFrame(std::move(*ready));
           }
           break;
         default:
@@ -306,6 +324,10 @@ class ClientLoop {
           stamp.stage == static_cast<uint16_t>(Stage::kLayerVideo))
         ready.stamps.push_back(stamp);
     }
+    // This frame is decoded (while the previous one rendered): the
+    // previous one's picture is taken before the GPU's inputs change.
+    finishFrame();
+    ready.upload_start_ns = now();
     renderer_.setMesh(*mesh);
     if (bundle.layers) {
       renderer_.setLayers(bundle.layers->views);
@@ -367,13 +389,36 @@ class ClientLoop {
     report_.addJudgeMs(static_cast<double>(monotonicNs() - judge_start) / 1e6);
   }
 
-  void renderAndRecord(ReadyMesh& ready) {
+ public:
+  // Submits the frame's render; the loop goes on receiving and decoding
+  // until finishFrame takes the picture.
+  void beginFrame(ReadyMesh ready) {
     const PendingBundle& bundle = ready.bundle->second;
     const BlendSettings blend = nextBlend(bundle.views);
-    const uint64_t field_runs = renderer_.fieldPasses();
-    Image8 picture = renderer_.render(ready.user, blend);
+    ready.bundle_bytes = bundle.bytes;
+    ready.feather_bytes = bundle.feather_bytes;
+    ready.bundle_cameras = static_cast<uint32_t>(
+        bundle.layers ? bundle.layers->views.camera_centers.size() : bundle.views.size());
+    ready.field_runs = renderer_.fieldPasses();
+    renderer_.beginRender(ready.user, blend);
+    // On the GPU now: this bundle and every older one are done with.
+    bundles_.erase(bundles_.begin(), std::next(ready.bundle));
+    ready.bundle = bundles_.end();
+    in_flight_ = std::move(ready);
+    if (!overlap_) finishFrame();
+  }
+
+  bool rendering() const { return in_flight_.has_value(); }
+
+  // The picture of the frame in flight, written and recorded; nothing when
+  // none is.
+  void finishFrame() {
+    if (!in_flight_) return;
+    ReadyMesh ready = std::move(*in_flight_);
+    in_flight_.reset();
+    Image8 picture = renderer_.finishRender();
     const uint64_t rendered_ns = now();
-    if (renderer_.fieldPasses() != field_runs) {
+    if (renderer_.fieldPasses() != ready.field_runs) {
       const auto times = renderer_.fieldTimesMs();
       const auto& names = TextureFieldPasses::stageNames();
       for (size_t s = 0; s < times.size() && s < names.size(); ++s) {
@@ -390,7 +435,7 @@ class ClientLoop {
     const uint64_t written_ns = now();
     if (judge_ && written) judgeFrame(ready, record);
     auto& stamps = ready.stamps;
-    stamps.push_back({static_cast<uint16_t>(Stage::kUpload), kSourceClient, ready.decoded_ns,
+    stamps.push_back({static_cast<uint16_t>(Stage::kUpload), kSourceClient, ready.upload_start_ns,
                       ready.uploaded_ns});
     stamps.push_back(
         {static_cast<uint16_t>(Stage::kRender), kSourceClient, ready.uploaded_ns, rendered_ns});
@@ -399,10 +444,10 @@ class ClientLoop {
     report_.addStamps(stamps);
     report_.addStage(static_cast<uint16_t>(Stage::kDecode), ready.decode_ms);
     record.end_to_end_ms = static_cast<double>(written_ns - ready.frame.capture_time_ns) / 1e6;
-    record.client_bytes = ready.wire_bytes + bundle.bytes;
+    record.client_bytes = ready.wire_bytes + ready.bundle_bytes;
     record.mesh_bytes = ready.wire_bytes;
     record.mesh_triangles = ready.triangles;
-    record.feather_bytes = bundle.feather_bytes;
+    record.feather_bytes = ready.feather_bytes;
     auto st = stats_.find(ready.frame.frame_id);
     if (st != stats_.end()) {
       record.client_bytes += st->second.bytes;
@@ -414,14 +459,13 @@ class ClientLoop {
       record.note = st->second.stats.note;
       stats_.erase(stats_.begin(), std::next(st));
     } else {
-      record.cameras_present = static_cast<uint32_t>(
-          bundle.layers ? bundle.layers->views.camera_centers.size() : bundle.views.size());
+      record.cameras_present = ready.bundle_cameras;
       record.cameras_expected = record.cameras_present;
     }
     report_.addFrame(record, written_ns);
-    bundles_.erase(bundles_.begin(), std::next(ready.bundle));
   }
 
+ private:
   // This host's clock read on the server's, which every stamp of the frame
   // is on (its own until the server's clock is measured, or from a server
   // before 1.8).
@@ -434,6 +478,7 @@ class ClientLoop {
   Renderer& renderer_;
   std::optional<FrameJudge> judge_;
   const bool tty_;
+  const bool overlap_;  // the next frame decodes while this one renders (--overlap-render)
   std::map<uint32_t, Camera> cameras_;
   LayerStreams layer_streams_;  // the layers' video, kept from bundle to bundle
   std::map<uint64_t, PendingBundle> bundles_;
@@ -442,9 +487,10 @@ class ClientLoop {
   LatencyReport report_;
   std::optional<PictureWriter> writer_;  // the pictures, off the render path
   uint64_t last_progress_ns_ = 0;
-  uint64_t superseded_ = 0;      // meshes skipped because a newer one was already there
-  bool judge_failed_ = false;    // warned once
-  uint64_t last_render_ns_ = 0;  // for the temporal field's real frame interval
+  uint64_t superseded_ = 0;             // meshes skipped because a newer one was already there
+  bool judge_failed_ = false;           // warned once
+  uint64_t last_render_ns_ = 0;         // for the temporal field's real frame interval
+  std::optional<ReadyMesh> in_flight_;  // rendering while the loop receives
 };
 
 }  // namespace
@@ -478,8 +524,10 @@ int runClient(const ClientOptions& options) {
     }
     judge.emplace(std::move(started.value()));
   }
-  std::fprintf(stderr, "[client] rendering on %s, mode %s\n", context->deviceName().c_str(),
-               blendModeName(options.render.blend.mode).c_str());
+  std::fprintf(
+      stderr, "[client] rendering on %s, mode %s, the next frame decoded %s\n",
+      context->deviceName().c_str(), blendModeName(options.render.blend.mode).c_str(),
+      overlapsRender(options, *context) ? "while this one renders" : "after this one renders");
   if (options.jump_degrees != 0) {
     std::fprintf(stderr, "[client] the view jumps %g degrees at rendered frame %llu\n",
                  options.jump_degrees, static_cast<unsigned long long>(options.jump_at_frame));
@@ -503,21 +551,27 @@ int runClient(const ClientOptions& options) {
   ClientLoop loop(options, *context, *renderer, std::move(judge), link.clock());
   std::vector<protocol::Frame> received;
   while (!stopRequested() && !loop.done()) {
-    link.poll(50, received);
+    // While a frame renders, only what has already arrived is taken (and
+    // decoded beside the render); with nothing more, its picture is taken.
+    link.poll(loop.rendering() ? 0 : 50, received);
     if (link.fatalError()) {
       std::fprintf(stderr, "[client] giving up: %s\n", link.fatalError()->toString().c_str());
       return 2;
     }
+    const bool arrived = !received.empty();
     loop.receive(received);
     received.clear();
+    if (!arrived) loop.finishFrame();
     loop.printProgress();
     // Bye follows everything the server sent on the stream: all of it has
     // been rendered by now.
     if (options.exit_when_server_leaves && link.serverSaidBye()) {
+      loop.finishFrame();
       loop.sayReplayOver();
       break;
     }
   }
+  loop.finishFrame();
   link.close(stopRequested() ? "client stopped by signal" : "client rendered its frames");
   loop.writeReport();
   return 0;

@@ -39,6 +39,10 @@ int main(int argc, char** argv) {
   app.add_option("--device", options.device,
                  "Vulkan device: index or part of its name (default: a GPU if any)");
   app.add_option("--client-id", options.client_id, "this client's id");
+  app.add_option("--overlap-render", options.overlap_render,
+                 "on: receive and decode the next frame while the device renders this one; "
+                 "off: wait for each render; auto: on with a GPU, off with a CPU device")
+      ->check(CLI::IsMember({"auto", "on", "off"}));
   app.add_flag("--list-devices", list_devices, "print the Vulkan devices and exit");
   std::string budget_file;
   app.add_option("--budget", budget_file,

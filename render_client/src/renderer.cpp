@@ -70,6 +70,12 @@ void Renderer::renderDepthMaps(VkCommandBuffer cmd) {
 }
 
 Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings) {
+  beginRender(user_camera, settings);
+  return finishRender();
+}
+
+void Renderer::beginRender(const Camera& user_camera, const BlendSettings& settings) {
+  ctx_.waitForSubmitted();  // the uniforms below are the previous render's until it ends
   BlendUniforms u{};
   // z: cameras left out of the arrays for their empty masks; each adds its
   // gamma of 1 (it sees no vertex) to montage4d's sum, as in the reference.
@@ -144,7 +150,7 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     candidates_stale_ = false;
   }
   if (run_fields || run_candidates) ensureFieldBuffers(parameters);
-  ctx_.submitAndWait([&](VkCommandBuffer cmd) {
+  ctx_.submit([&](VkCommandBuffer cmd) {
     if (run_fields) field_passes_pipelines_->beginTiming(cmd);
     if (have_views && depth_maps_stale_) renderDepthMaps(cmd);
     if (run_fields) {
@@ -218,6 +224,10 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
     field_cameras_ = settings.camera_enabled;
     field_parameters_ = parameters;
   }
+}
+
+Image8 Renderer::finishRender() {
+  ctx_.waitForSubmitted();
   Image8 out(width_, height_, 4);
   std::memcpy(out.pixels.data(), readback_.mapped, out.pixels.size());
   return out;

@@ -110,6 +110,7 @@ void Renderer::setMesh(const Mesh& mesh) {
 }
 
 void Renderer::uploadMesh(const Mesh& mesh, bool half) {
+  ctx_.waitForSubmitted();  // a render in flight reads what this overwrites
   const VkDeviceSize vertex_bytes =
       std::max<VkDeviceSize>(mesh.positions.size() * (half ? 12 : 24), 24);
   const VkDeviceSize index_bytes = std::max<VkDeviceSize>(mesh.indices.size() * 4, 4);
@@ -187,6 +188,7 @@ void Renderer::uploadMesh(const Mesh& mesh, bool half) {
 }
 
 void Renderer::setViews(const std::vector<ViewImages>& views) {
+  ctx_.waitForSubmitted();  // a render in flight reads what this overwrites
   if (views.empty()) {
     cameras_.clear();
     active_.clear();
@@ -279,6 +281,7 @@ void Renderer::ensureLayerImage(uint32_t texels, uint32_t count) {
 }
 
 void Renderer::setLayers(const LayeredViews& layers) {
+  ctx_.waitForSubmitted();  // a render in flight reads what this overwrites
   if (const Status usable = checkLayeredViews(layers); !usable.isOk())
     throw std::invalid_argument(usable.message());
   // The descriptor set is first written with the view resources: a client

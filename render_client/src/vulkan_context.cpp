@@ -97,6 +97,7 @@ VulkanContext::VulkanContext(const std::string& selector) {
   VkPhysicalDeviceProperties props;
   vkGetPhysicalDeviceProperties(physical_, &props);
   device_name_ = props.deviceName;
+  cpu_device_ = props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
 
   uint32_t family_count = 0;
   vkGetPhysicalDeviceQueueFamilyProperties(physical_, &family_count, nullptr);
@@ -138,6 +139,7 @@ VulkanContext::VulkanContext(const std::string& selector) {
 
 VulkanContext::~VulkanContext() {
   if (device_ != VK_NULL_HANDLE) {
+    waitForSubmitted();
     vkDeviceWaitIdle(device_);
     vkDestroyFence(device_, fence_, nullptr);
     vkDestroyCommandPool(device_, pool_, nullptr);
@@ -263,16 +265,22 @@ VkCommandBuffer VulkanContext::beginOneShot() {
   return cmd;
 }
 
-void VulkanContext::endOneShotAndWait(VkCommandBuffer cmd) {
+void VulkanContext::endOneShot(VkCommandBuffer cmd) {
   HOLOFUSE_VK_CHECK(vkEndCommandBuffer(cmd));
   VkSubmitInfo submit{};
   submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
   submit.commandBufferCount = 1;
   submit.pCommandBuffers = &cmd;
   HOLOFUSE_VK_CHECK(vkQueueSubmit(queue_, 1, &submit, fence_));
+  in_flight_ = cmd;
+}
+
+void VulkanContext::waitForSubmitted() {
+  if (in_flight_ == VK_NULL_HANDLE) return;
   HOLOFUSE_VK_CHECK(vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX));
   HOLOFUSE_VK_CHECK(vkResetFences(device_, 1, &fence_));
-  vkFreeCommandBuffers(device_, pool_, 1, &cmd);
+  vkFreeCommandBuffers(device_, pool_, 1, &in_flight_);
+  in_flight_ = VK_NULL_HANDLE;
 }
 
 void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect,

@@ -633,6 +633,42 @@ TEST(Loop, TheReportShowsTheServerDecodingTheNextFrameWhileItFusesThisOne) {
   fs::remove_all(out);
 }
 
+// --overlap-render on: the client receives and decodes the next frames
+// while the device renders (lavapipe's queue thread). It still renders
+// exactly the frames asked for, each written and stamped; auto keeps a CPU
+// device's renders waited for, and the client says which it does.
+TEST(Loop, AClientDecodingWhileItRendersRendersEveryFrameAskedFor) {
+  const fs::path out = freshDir("loop_overlap");
+  auto run = [&](const std::string& overlap) {
+    const pid_t loop = spawn(
+        {kBin + "/holofuse_loop", "--pods", "2", "--frames", "8", "--fps", "30", "--size", "96x72",
+         "--mode", "montage4d", "--overlap-render", overlap, "--out", (out / overlap).string()},
+        out / (overlap + ".log"));
+    EXPECT_EQ(waitExit(loop, 240), 0) << readFile(out / (overlap + ".log"));
+    return readJson(out / overlap / "report.json");
+  };
+  const auto on = run("on");
+  EXPECT_EQ(on["frames_rendered"].get<int>(), 8);
+  EXPECT_EQ(on["frames"].size(), 8u);
+  for (const auto& frame : on["frames"]) {
+    EXPECT_TRUE(fs::exists(out / "on" / frame["file"].get<std::string>())) << frame.dump();
+    EXPECT_GT(frame["end_to_end_ms"].get<double>(), 0.0) << frame.dump();
+  }
+  for (const char* stage : {"decode", "upload", "render"}) {
+    EXPECT_GT(on["latency_ms"]["stages"][stage]["p50"].get<double>(), 0.0) << stage;
+  }
+  EXPECT_NE(readFile(out / "on" / "logs" / "client.log").find("decoded while this one renders"),
+            std::string::npos);
+  run("auto");
+  const std::string automatic = readFile(out / "auto" / "logs" / "client.log");
+  const bool cpu_device = automatic.find("llvmpipe") != std::string::npos;
+  EXPECT_NE(automatic.find(cpu_device ? "decoded after this one renders"
+                                      : "decoded while this one renders"),
+            std::string::npos)
+      << automatic;
+  fs::remove_all(out);
+}
+
 // The sweep's knobs (holofuse_sweep) are flags of the loop too, so a point
 // can be run live: each reaches the process it belongs to, which says so in
 // its report or its log.

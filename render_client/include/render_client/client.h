@@ -45,7 +45,11 @@ struct ClientOptions {
   double jump_degrees = 0;
   uint64_t jump_at_frame = 0;
   uint32_t width = 320, height = 240;
-  std::string device;       // Vulkan device selector (VulkanContext)
+  std::string device;  // Vulkan device selector (VulkanContext)
+  // "on": the next frame is received and decoded while the device renders
+  // this one; "off": each render is waited for; "auto": on a GPU only (a
+  // CPU device renders on the cores the decode would take).
+  std::string overlap_render = "auto";
   RenderSettings render;    // render.blend.mode: the blending mode
   int exclude_camera = -1;  // leave this camera out of the blend
   bool write_frames = true;

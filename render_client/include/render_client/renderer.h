@@ -161,6 +161,14 @@ class Renderer {
   // Mode layered reads the layers alone (no depth map, no camera image);
   // it throws std::invalid_argument without layers or texture coordinates.
   Image8 render(const Camera& user_camera, const BlendSettings& settings);
+  // render in two halves: beginRender records and submits, and the host
+  // is free (to decode the next frame) until finishRender waits for the
+  // picture. Anything else given to the renderer in between (a mesh,
+  // views, the next beginRender) waits for the render first; the next
+  // beginRender's picture replaces one not yet taken.
+  void beginRender(const Camera& user_camera, const BlendSettings& settings);
+  Image8 finishRender();
+  bool rendering() const { return ctx_.submitted(); }
 
   uint32_t width() const { return width_; }
   uint32_t height() const { return height_; }

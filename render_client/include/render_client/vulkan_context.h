@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace holofuse::render {
@@ -58,6 +59,8 @@ class VulkanContext {
   VkPhysicalDevice physicalDevice() const { return physical_; }
   VkQueue queue() const { return queue_; }
   const std::string& deviceName() const { return device_name_; }
+  // A CPU device (lavapipe): its work runs on the host's own cores.
+  bool cpuDevice() const { return cpu_device_; }
 
   Buffer createBuffer(VkDeviceSize size, VkBufferUsageFlags usage);
   void destroy(Buffer& buffer);
@@ -67,17 +70,30 @@ class VulkanContext {
   void destroy(Image& image);
   VkShaderModule createShader(const uint32_t* code, size_t bytes);
 
-  // Records with fn into a fresh command buffer, submits and waits.
+  // Records with fn into a fresh command buffer, submits and waits (for a
+  // submission still in flight first).
   template <typename Fn>
   void submitAndWait(Fn&& fn) {
+    submit(std::forward<Fn>(fn));
+    waitForSubmitted();
+  }
+  // Records with fn and submits without waiting: the host goes on (the
+  // client decodes the next frame) while the device works. One submission
+  // in flight at a time: a second waits for the first.
+  template <typename Fn>
+  void submit(Fn&& fn) {
+    waitForSubmitted();
     VkCommandBuffer cmd = beginOneShot();
     fn(cmd);
-    endOneShotAndWait(cmd);
+    endOneShot(cmd);
   }
+  // Waits for the submission in flight, if any.
+  void waitForSubmitted();
+  bool submitted() const { return in_flight_ != VK_NULL_HANDLE; }
 
  private:
   VkCommandBuffer beginOneShot();
-  void endOneShotAndWait(VkCommandBuffer cmd);
+  void endOneShot(VkCommandBuffer cmd);
   uint32_t memoryType(uint32_t bits, VkMemoryPropertyFlags flags) const;
 
   VkInstance instance_ = VK_NULL_HANDLE;
@@ -87,7 +103,9 @@ class VulkanContext {
   uint32_t queue_family_ = 0;
   VkCommandPool pool_ = VK_NULL_HANDLE;
   VkFence fence_ = VK_NULL_HANDLE;
+  VkCommandBuffer in_flight_ = VK_NULL_HANDLE;  // submitted, fence_ not yet waited on
   std::string device_name_;
+  bool cpu_device_ = false;
 };
 
 // One image layout transition (all layers, mip levels first_level onwards,
