@@ -78,8 +78,8 @@ struct LoopPlan {
   // A soak (deploy/soak.h): the loop runs this long, its processes sampled
   // every sample_seconds; 0: an ordinary run that ends with the frames.
   double soak_minutes = 0, sample_seconds = 60, warmup_minutes = 2;
-  // What this 2-core machine's client sustains in mode normal
-  // (docs/benchmarks.md); a slower mode renders the newest mesh it can.
+  // What a 2-core machine's client sustains in mode normal (measured by
+  // `./holofuse bench loop`); a slower mode renders the newest mesh it can.
   double fps = 15.0;
   std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit",
               scene = "clean";

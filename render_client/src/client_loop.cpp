@@ -110,6 +110,9 @@ class ClientLoop {
       if (typeOf(received[k]) == protocol::MessageType::kMeshFrame) newest_mesh = k;
     }
     for (size_t k = 0; k < received.size() && !done(); ++k) {
+      // A render that has ended is taken at once, not after the next
+      // frame's decode: its picture and its latency are ready now.
+      if (in_flight_ && renderer_.renderDone()) finishFrame();
       const uint64_t receive_ns = now();
       switch (typeOf(received[k])) {
         case protocol::MessageType::kCalibration:

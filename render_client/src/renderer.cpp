@@ -150,6 +150,8 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
     candidates_stale_ = false;
   }
   if (run_fields || run_candidates) ensureFieldBuffers(parameters);
+  // Made (on first use) before recording: a failure leaves nothing half recorded.
+  const VkPipeline blend_pipeline = blendPipeline(settings.mode);
   ctx_.submit([&](VkCommandBuffer cmd) {
     if (run_fields) field_passes_pipelines_->beginTiming(cmd);
     if (have_views && depth_maps_stale_) renderDepthMaps(cmd);
@@ -184,7 +186,7 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
     begin.pClearValues = clears.data();
     vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
     if (have_views || layered) {
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blendPipeline(settings.mode));
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_pipeline);
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_layout_, 0, 1,
                               &descriptor_set_, 0, nullptr);
       setViewport(cmd, width_, height_);

@@ -356,7 +356,8 @@ void Renderer::generateMips(VkCommandBuffer cmd) {
 }
 
 void Renderer::warmUp(const BlendSettings& settings) {
-  if (settings.mode == BlendMode::kLayered) return;
+  blendPipeline(settings.mode);
+  if (settings.mode == BlendMode::kLayered) return;  // its pipeline alone: no camera images
   // An octahedron of half a metre, closed and counter-clockwise from
   // outside, seen from two sides.
   Mesh mesh;

@@ -139,8 +139,9 @@ VulkanContext::VulkanContext(const std::string& selector) {
 
 VulkanContext::~VulkanContext() {
   if (device_ != VK_NULL_HANDLE) {
-    waitForSubmitted();
+    // Not waitForSubmitted: its checks throw, and a destructor must not.
     vkDeviceWaitIdle(device_);
+    if (in_flight_ != VK_NULL_HANDLE) vkFreeCommandBuffers(device_, pool_, 1, &in_flight_);
     vkDestroyFence(device_, fence_, nullptr);
     vkDestroyCommandPool(device_, pool_, nullptr);
     vkDestroyDevice(device_, nullptr);
@@ -273,6 +274,10 @@ void VulkanContext::endOneShot(VkCommandBuffer cmd) {
   submit.pCommandBuffers = &cmd;
   HOLOFUSE_VK_CHECK(vkQueueSubmit(queue_, 1, &submit, fence_));
   in_flight_ = cmd;
+}
+
+bool VulkanContext::submissionDone() const {
+  return in_flight_ == VK_NULL_HANDLE || vkGetFenceStatus(device_, fence_) == VK_SUCCESS;
 }
 
 void VulkanContext::waitForSubmitted() {

@@ -169,6 +169,8 @@ class Renderer {
   void beginRender(const Camera& user_camera, const BlendSettings& settings);
   Image8 finishRender();
   bool rendering() const { return ctx_.submitted(); }
+  // The render begun has finished on the device: finishRender will not wait.
+  bool renderDone() const { return ctx_.submissionDone(); }
 
   uint32_t width() const { return width_; }
   uint32_t height() const { return height_; }
