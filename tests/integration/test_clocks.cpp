@@ -49,6 +49,15 @@ pid_t startShiftedPod(const std::string& endpoint, int id, int shift_s, const fs
                out / ("pod" + std::to_string(id) + ".log"));
 }
 
+// How many peers' clock estimates the server's log gives.
+size_t clocksTold(const std::string& log) {
+  size_t told = 0;
+  for (size_t at = log.find("'s clock against ours: "); at != std::string::npos;
+       at = log.find("'s clock against ours: ", at + 1))
+    ++told;
+  return told;
+}
+
 TEST(Clocks, PodsOnClocksSecondsApartKeepTheBudgetOnTheServersClock) {
   if (const std::string refused = timeNamespacesRefused(); !refused.empty())
     GTEST_SKIP() << "time namespaces are not permitted here, so no pod can run on another "
@@ -62,6 +71,13 @@ TEST(Clocks, PodsOnClocksSecondsApartKeepTheBudgetOnTheServersClock) {
   const std::vector<pid_t> pods = {startShiftedPod(endpoint, 0, 0, out),
                                    startShiftedPod(endpoint, 1, -5, out),
                                    startShiftedPod(endpoint, 2, 3, out)};
+  // The client joins once the server has placed every pod on its clock, so
+  // the frames it renders are fused from stamps the server could place (a
+  // loaded machine can keep a pod's first probe answer behind several of
+  // its frames).
+  const fs::path server_log = out / "server.log";
+  ASSERT_TRUE(test::waitFor([&] { return clocksTold(readFile(server_log)) >= 3; }))
+      << readFile(server_log);
   constexpr int kFrames = 20;
   const pid_t client =
       spawn({kBin + "/render_client", "--server", endpoint, "--out", (out / "client").string(),
@@ -85,14 +101,15 @@ TEST(Clocks, PodsOnClocksSecondsApartKeepTheBudgetOnTheServersClock) {
   const auto& send = latency["stages"]["send"];
   EXPECT_LT(send["p95"].get<double>(), 1000.0) << send.dump();
   // A send stamp that ended before it started would be left out (without
-  // the clocks' offsets, 20 of 60 are). Every pod frame behind a rendered
-  // mesh has its own, but for a camera a loaded machine delivers late
-  // (frames[].cameras_present) or a pod's frames before its first clock
-  // estimate, which carry none: a handful at most.
+  // the clocks' offsets, 20 of 60 are). Every camera present in a rendered
+  // mesh (a loaded machine delivers some late: frames[].cameras_present)
+  // has its own, but for a frame decoded before its pod's estimate, which
+  // carries none: at most one in flight per pod when the client joined.
   int present = 0;
   for (const auto& frame : report["frames"]) present += frame["cameras_present"].get<int>();
   EXPECT_LE(send["samples"].get<int>(), present) << send.dump();
-  EXPECT_GE(send["samples"].get<int>(), 3 * kFrames - 3) << send.dump();
+  EXPECT_GE(send["samples"].get<int>(), present - 3) << send.dump() << ", present " << present;
+  EXPECT_GE(present, 2 * kFrames) << "most groups fused whole";
 
   // Each pod's offset as the server measured it: the shift, within the
   // stated uncertainty (both ways of a probe take a time >= 0, so the true
@@ -114,12 +131,8 @@ TEST(Clocks, PodsOnClocksSecondsApartKeepTheBudgetOnTheServersClock) {
   EXPECT_TRUE(report["clocks"]["warnings"].empty()) << report["clocks"].dump();
   // The server's log gives each peer's estimate once its burst is in: the
   // three pods' and the client's.
-  const std::string log = readFile(out / "server.log");
-  size_t told = 0;
-  for (size_t at = log.find("'s clock against ours: "); at != std::string::npos;
-       at = log.find("'s clock against ours: ", at + 1))
-    ++told;
-  EXPECT_EQ(told, 4u) << log;
+  const std::string log = readFile(server_log);
+  EXPECT_EQ(clocksTold(log), 4u) << log;
 }
 
 }  // namespace

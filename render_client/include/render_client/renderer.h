@@ -168,7 +168,6 @@ class Renderer {
   // beginRender's picture replaces one not yet taken.
   void beginRender(const Camera& user_camera, const BlendSettings& settings);
   Image8 finishRender();
-  bool rendering() const { return ctx_.submitted(); }
   // The render begun has finished on the device: finishRender will not wait.
   bool renderDone() const { return ctx_.submissionDone(); }
 

@@ -89,7 +89,6 @@ class VulkanContext {
   }
   // Waits for the submission in flight, if any.
   void waitForSubmitted();
-  bool submitted() const { return in_flight_ != VK_NULL_HANDLE; }
   // The submission in flight has finished (or none is in flight).
   bool submissionDone() const;
 
