@@ -1,6 +1,8 @@
 #include "render_client/frame_judge.h"
 
 #include <poll.h>
+#include <pthread.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <array>
@@ -130,12 +132,30 @@ StatusOr<JudgeAnswer> FrameJudge::judge(const JudgeRequest& request) {
   };
   if (to_judge_ < 0) return gone("is gone");
   const std::string line = encodeJudgeRequest(request) + "\n";
+  // A judge that has ended closes the pipe: the write fails with EPIPE, and
+  // the SIGPIPE it raises (blocked here, then taken) must not end a process
+  // that does not ignore it.
+  sigset_t pipe_only, before;
+  sigemptyset(&pipe_only);
+  sigaddset(&pipe_only, SIGPIPE);
+  pthread_sigmask(SIG_BLOCK, &pipe_only, &before);
+  int write_error = 0;
   for (size_t sent = 0; sent < line.size();) {
     const ssize_t n = ::write(to_judge_, line.data() + sent, line.size() - sent);
     if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return gone(std::string("does not read: ") + std::strerror(errno));
+    if (n <= 0) {
+      write_error = n < 0 ? errno : EIO;
+      break;
+    }
     sent += static_cast<size_t>(n);
   }
+  if (write_error == EPIPE) {
+    const timespec now{};
+    while (sigtimedwait(&pipe_only, nullptr, &now) == SIGPIPE) {
+    }
+  }
+  pthread_sigmask(SIG_SETMASK, &before, nullptr);
+  if (write_error != 0) return gone(std::string("does not read: ") + std::strerror(write_error));
   for (;;) {
     if (const size_t end = pending_.find('\n'); end != std::string::npos) {
       const std::string answer = pending_.substr(0, end);
