@@ -158,6 +158,7 @@ class ClientLoop {
   // report.json and report.html, and the summary line.
   void writeReport() {
     report_.setSuperseded(superseded_);
+    report_.settleEndToEnd(server_clock_);
     // This host's clock minus the server's: the estimate's sign turned.
     LatencyReport::HostClock own;
     own.host = "client";
@@ -435,7 +436,8 @@ class ClientLoop {
     record.file = std::string("frames/") + name;
     const bool written = writeFrame(std::move(picture), record.file);
     if (!written) record.file.clear();  // not written, or dropped by a full writer queue
-    const uint64_t written_ns = now();
+    const uint64_t written_local_ns = monotonicNs();
+    const uint64_t written_ns = server_clock_.toPeer(written_local_ns);
     if (judge_ && written) judgeFrame(ready, record);
     auto& stamps = ready.stamps;
     stamps.push_back({static_cast<uint16_t>(Stage::kUpload), kSourceClient, ready.upload_start_ns,
@@ -446,7 +448,10 @@ class ClientLoop {
         {static_cast<uint16_t>(Stage::kWrite), kSourceClient, rendered_ns, written_ns});
     report_.addStamps(stamps);
     report_.addStage(static_cast<uint16_t>(Stage::kDecode), ready.decode_ms);
-    record.end_to_end_ms = static_cast<double>(written_ns - ready.frame.capture_time_ns) / 1e6;
+    record.capture_time_ns = ready.frame.capture_time_ns;
+    record.written_local_ns = written_local_ns;
+    record.end_to_end_ms =
+        static_cast<double>(static_cast<int64_t>(written_ns - ready.frame.capture_time_ns)) / 1e6;
     record.client_bytes = ready.wire_bytes + ready.bundle_bytes;
     record.mesh_bytes = ready.wire_bytes;
     record.mesh_triangles = ready.triangles;

@@ -155,6 +155,14 @@ void LatencyReport::addFrame(const FrameRecord& record, uint64_t written_ns) {
   written_ns_.push_back(written_ns);
 }
 
+void LatencyReport::settleEndToEnd(const protocol::ClockSync& server_clock) {
+  for (FrameRecord& f : frames_) {
+    if (f.written_local_ns == 0 || f.capture_time_ns == 0) continue;
+    const auto written = static_cast<int64_t>(server_clock.toPeer(f.written_local_ns));
+    f.end_to_end_ms = static_cast<double>(written - static_cast<int64_t>(f.capture_time_ns)) / 1e6;
+  }
+}
+
 double LatencyReport::fps() const {
   if (written_ns_.size() < 2) return 0.0;
   const double seconds = static_cast<double>(written_ns_.back() - written_ns_.front()) / 1e9;

@@ -263,5 +263,39 @@ TEST(LatencyReport, PercentilesInterpolate) {
   EXPECT_DOUBLE_EQ(percentile({7}, 99), 7);
 }
 
+// A frame written while the client's only clock sample came from a reply
+// read late (the client was rendering) is placed again by the final,
+// better estimate: its end to end is neither negative nor wrapped round.
+TEST(LatencyReport, EndToEndIsSettledByTheFinalClockEstimate) {
+  protocol::ClockSync clock(protocol::ClockSyncOptions{1, 1, 8, 2000});
+  // The server's clock equals ours. A probe at 1.000 s answered at once,
+  // its reply read 140 ms later: offset estimate -70 ms (+- 70 ms).
+  auto probe = clock.probeDue(1'000'000'000);
+  ASSERT_TRUE(probe.has_value());
+  ASSERT_TRUE(
+      clock
+          .onReply(protocol::ClockSync::answer(*probe, 1'000'000'000, 1'000'000'000), 1'140'000'000)
+          .isOk());
+  LatencyReport report;
+  FrameRecord frame;
+  frame.capture_time_ns = 1'150'000'000;   // server's clock
+  frame.written_local_ns = 1'170'000'000;  // 20 ms later, on ours
+  const uint64_t written = clock.toPeer(frame.written_local_ns);
+  frame.end_to_end_ms =
+      static_cast<double>(static_cast<int64_t>(written - frame.capture_time_ns)) / 1e6;
+  EXPECT_NEAR(frame.end_to_end_ms, -50.0, 1e-6) << "placed by the late reply's estimate";
+  report.addFrame(frame, written);
+  // A reply read at once: the estimate becomes the truth, 0.
+  probe = clock.probeDue(2'000'000'000);
+  ASSERT_TRUE(probe.has_value());
+  ASSERT_TRUE(
+      clock
+          .onReply(protocol::ClockSync::answer(*probe, 2'000'000'000, 2'000'000'000), 2'000'000'000)
+          .isOk());
+  report.settleEndToEnd(clock);
+  EXPECT_NEAR(report.frames().front().end_to_end_ms, 20.0, 1e-6);
+  EXPECT_NEAR(report.endToEndPercentile(95), 20.0, 1e-6);
+}
+
 }  // namespace
 }  // namespace holofuse::render

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "base/status.h"
+#include "protocol/clock_sync.h"
 #include "protocol/messages.h"
 #include "protocol/stage_budget.h"
 
@@ -25,6 +26,11 @@ struct FrameRecord {
   uint64_t frame_id = 0;
   std::string file;
   double end_to_end_ms = 0;
+  // The frame's capture on the server's clock and its write on this
+  // host's: end to end is taken again with the final clock estimate
+  // (settleEndToEnd).
+  uint64_t capture_time_ns = 0;
+  uint64_t written_local_ns = 0;
   uint32_t cameras_present = 0;
   uint32_t cameras_expected = 0;
   uint64_t pod_bytes = 0;
@@ -48,6 +54,12 @@ class LatencyReport {
   // GPU time of a texture-field pass (timestamp queries), by pass name.
   void addGpuPass(const std::string& name, double ms) { gpu_ms_[name].push_back(ms); }
   void addFrame(const FrameRecord& record, uint64_t written_ns);
+  // Each frame's end to end again, its write moved onto the server's clock
+  // by the estimate given (the last, the best of its samples): a frame
+  // rendered while the first probes were still answered late (a client
+  // busy rendering reads their replies late) was placed by an estimate off
+  // by up to half their round trip, tens of ms, even before its capture.
+  void settleEndToEnd(const protocol::ClockSync& server_clock);
   // PSNR and SSIM over the frames judged against the truth (FrameRecord);
   // empty when none was.
   struct QualitySummary {
