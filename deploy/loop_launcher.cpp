@@ -84,6 +84,7 @@ struct LoopPlan {
   std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit",
               scene = "clean";
   std::string overlap_render = "auto";
+  std::string frames_ahead = "1";
   std::string seed, noise;  // passed on only when given: the pods keep the scene's otherwise
   std::string budget;
   bool quality = false;
@@ -340,6 +341,11 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
                  "client: on, the next frame decodes while the device renders this one; off, "
                  "each render is waited for; auto, on with a GPU only")
       ->check(CLI::IsMember({"auto", "on", "off"}));
+  app.add_option("--frames-ahead", plan.frames_ahead,
+                 "client: fused frames it asks the server for ahead of the one rendering; the "
+                 "server fuses only what a client asked for (0: every group, each client takes "
+                 "them all)")
+      ->check(CLI::Range(0, 64));
   app.add_option(
       "--scene", plan.scene,
       "named synthetic scene (its camera count unless --pods): " + holofuse::scene::sceneNames());
@@ -570,7 +576,8 @@ std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& 
   for (const auto& [flag, value] : {std::pair<std::string, std::string>{"--size", plan.size},
                                     {"--mode", plan.mode},
                                     {"--view", plan.view},
-                                    {"--overlap-render", plan.overlap_render}}) {
+                                    {"--overlap-render", plan.overlap_render},
+                                    {"--frames-ahead", plan.frames_ahead}}) {
     if (passes(plan, part, flag)) append(args, {flag, value});
   }
   if (plan.replay.empty() && plan.preset->view_jump_degrees != 0) {

@@ -360,6 +360,19 @@ Status FusionServer::handleClockProbe(Peer& peer, const Frame& frame) {
   return Status::ok();
 }
 
+Status FusionServer::handleFrameRequest(Peer& peer, const Frame& frame) {
+  if (peer.role != protocol::Role::kClient)
+    return Status(StatusCode::kUnexpectedMessage, "FrameRequest from a pod");
+  protocol::FrameRequest request;
+  HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, request));
+  // Bounded as the client's --frames-ahead: frames asked for are never
+  // dropped, and the per-peer byte cap closes a client that stops reading.
+  constexpr uint64_t kMostFramesAsked = 64;
+  peer.asks_for_frames = true;
+  peer.frames_asked = std::min(peer.frames_asked + request.frames, kMostFramesAsked);
+  return Status::ok();
+}
+
 Status FusionServer::handlePodFrame(Peer& peer, Frame frame) {
   auto cam = cameras_.find(peer.id);
   if (cam == cameras_.end()) {
@@ -477,6 +490,8 @@ Status FusionServer::handle(Peer& peer, Frame frame) {
     }
     case MessageType::kClockProbe:
       return handleClockProbe(peer, frame);
+    case MessageType::kFrameRequest:
+      return handleFrameRequest(peer, frame);
     case MessageType::kCalibration: {
       if (peer.role != protocol::Role::kPod)
         return Status(StatusCode::kUnexpectedMessage, "Calibration from a client");
@@ -539,40 +554,77 @@ void FusionServer::closePeer(size_t index, const Status& why) {
   peers_.erase(peers_.begin() + static_cast<std::ptrdiff_t>(index));
 }
 
+bool FusionServer::fusingWhenAsked() const {
+  if (!options_.fuse_when_asked || options_.lossless || options_.record_fused) return false;
+  bool clients = false;
+  for (const Peer& p : peers_) {
+    if (!p.greeted || p.role != protocol::Role::kClient) continue;
+    if (!p.asks_for_frames) return false;
+    clients = true;
+  }
+  return clients;
+}
+
+bool FusionServer::aClientWaitsForAFrame() {
+  // Groups submitted and not yet sent out: each goes to every client that
+  // still asks for a frame then.
+  const uint64_t fusing = worker_->jobsNotTaken();
+  for (const Peer& p : peers_) {
+    if (p.greeted && p.role == protocol::Role::kClient && p.frames_asked > fusing) return true;
+  }
+  return false;
+}
+
 void FusionServer::dispatchReadyGroups() {
+  const bool when_asked = fusingWhenAsked();
   for (auto& group : sync_.takeReady(expectedPods(), monotonicNs())) {
     if (group.pods.empty()) continue;
-    // Layers are built only while a client that asked for them is here,
-    // coded as each such client decodes them; the mesh in Draco too while
-    // a client before 1.7 is.
-    bool lz4 = false, video = false;
-    GroupJob job;
-    for (const Peer& p : peers_) {
-      if (!p.greeted || p.role != protocol::Role::kClient) continue;
-      job.draco_for_older = job.draco_for_older || p.minor < 7;
-      if (!p.wants_layers) continue;
-      (p.wants_layer_video ? video : lz4) = true;
-      if (p.wants_layer_video && !p.layer_video_in_step) worker_->requestLayerVideoKeyFrame();
+    if (!when_asked) {
+      submitGroup(std::move(group));
+      continue;
     }
-    worker_->setLayersWanted(lz4, video);
-    job.group = std::move(group);
-    job.late_frames = sync_.lateFrames();
-    job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();
-    for (const auto& [pod, jitter] : pod_arrivals_) {
-      protocol::PodArrivals arrivals{
-          static_cast<uint16_t>(pod), jitter.packets(),
-          static_cast<uint32_t>(std::min(jitter.ms() * 1000.0 + 0.5, 4.0e9))};
-      for (const Peer& p : peers_) {
-        if (!p.greeted || p.replaced || p.role != protocol::Role::kPod || p.id != pod ||
-            !p.clock.known())
-          continue;
-        arrivals.clock_offset_ns = p.clock.offsetNs();
-        arrivals.clock_uncertainty_ns = std::max<uint64_t>(p.clock.uncertaintyNs(), 1);
-      }
-      job.pod_arrivals.push_back(arrivals);
-    }
-    worker_->submit(std::move(job));
+    if (held_group_) ++groups_not_asked_for_;
+    held_group_ = std::move(group);
   }
+  // The held group goes as soon as a client asks (it is at most one pod
+  // frame interval old while the pods send), or when no one paces.
+  if (held_group_ && (!when_asked || aClientWaitsForAFrame())) {
+    submitGroup(std::move(*held_group_));
+    held_group_.reset();
+  }
+}
+
+void FusionServer::submitGroup(FrameGroup group) {
+  // Layers are built only while a client that asked for them is here,
+  // coded as each such client decodes them; the mesh in Draco too while
+  // a client before 1.7 is.
+  bool lz4 = false, video = false;
+  GroupJob job;
+  for (const Peer& p : peers_) {
+    if (!p.greeted || p.role != protocol::Role::kClient) continue;
+    job.draco_for_older = job.draco_for_older || p.minor < 7;
+    if (!p.wants_layers) continue;
+    (p.wants_layer_video ? video : lz4) = true;
+    if (p.wants_layer_video && !p.layer_video_in_step) worker_->requestLayerVideoKeyFrame();
+  }
+  worker_->setLayersWanted(lz4, video);
+  job.group = std::move(group);
+  job.late_frames = sync_.lateFrames();
+  job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();
+  for (const auto& [pod, jitter] : pod_arrivals_) {
+    protocol::PodArrivals arrivals{
+        static_cast<uint16_t>(pod), jitter.packets(),
+        static_cast<uint32_t>(std::min(jitter.ms() * 1000.0 + 0.5, 4.0e9))};
+    for (const Peer& p : peers_) {
+      if (!p.greeted || p.replaced || p.role != protocol::Role::kPod || p.id != pod ||
+          !p.clock.known())
+        continue;
+      arrivals.clock_offset_ns = p.clock.offsetNs();
+      arrivals.clock_uncertainty_ns = std::max<uint64_t>(p.clock.uncertaintyNs(), 1);
+    }
+    job.pod_arrivals.push_back(arrivals);
+  }
+  worker_->submit(std::move(job));
 }
 
 void FusionServer::fanOut() {
@@ -586,6 +638,12 @@ void FusionServer::fanOut() {
       // a frame fused before it joined, and it gets none of that frame.
       const protocol::SharedFrame& mesh = peer.minor >= 7 ? out.mesh_frame : out.mesh_frame_draco;
       if (!mesh) continue;
+      // A client that asked for none more does not get this frame (another
+      // client asked); its layers' video, if any, is out of step from here.
+      if (peer.asks_for_frames && peer.frames_asked == 0) {
+        peer.layer_video_in_step = false;
+        continue;
+      }
       // Bundle and Stats first: the client renders when the mesh arrives.
       // A client that asked for layers gets the images of a frame whose
       // layers were refused (the Stats' note says why).
@@ -610,12 +668,18 @@ void FusionServer::fanOut() {
       } else if (peer.wants_layers && out.texture_bundle_layers) {
         bundle = out.texture_bundle_layers;
       }
-      peer.connection->send(bundle);
+      // A frame a client asked for is never dropped from its queue: it
+      // asks for the next only as this one arrives, and its request bounds
+      // the queue.
+      using Keep = protocol::Connection::Keep;
+      const Keep keep = peer.asks_for_frames ? Keep::kAlways : Keep::kAsFlagged;
+      if (peer.asks_for_frames) --peer.frames_asked;
+      peer.connection->send(bundle, keep);
       peer.connection->send(peer.minor >= 8   ? out.stats
                             : peer.minor >= 3 ? out.stats_v1_7
                             : peer.minor >= 1 ? out.stats_v1_2
                                               : out.stats_v1_0);
-      peer.connection->send(mesh);
+      peer.connection->send(mesh, keep);
       if (peer.connection->framesDropped() != peer.frames_dropped_seen) {
         peer.frames_dropped_seen = peer.connection->framesDropped();
         peer.layer_video_in_step = false;
@@ -647,7 +711,8 @@ bool FusionServer::readable(const Peer& peer) {
 bool FusionServer::podsDone() {
   // Every configured pod joined and left (not just the first ones).
   if (departed_pods_.size() < static_cast<size_t>(options_.pods)) return false;
-  if (decoder_->inFlight() > 0 || sync_.pendingGroups() > 0 || worker_->queuedJobs() > 0)
+  if (decoder_->inFlight() > 0 || sync_.pendingGroups() > 0 || worker_->queuedJobs() > 0 ||
+      held_group_)
     return false;
   for (const auto& peer : peers_) {
     if (!peer.greeted) continue;
@@ -757,10 +822,12 @@ int FusionServer::run() {
   if (!options_.health_file.empty()) writeHealth("stopped");
   std::fprintf(
       stderr,
-      "[server] stopped after fusing %llu groups (%llu late pod frames, %llu groups dropped)\n",
+      "[server] stopped after fusing %llu groups (%llu late pod frames, %llu groups dropped, "
+      "%llu not fused: no client asked for them)\n",
       static_cast<unsigned long long>(groups_fused_),
       static_cast<unsigned long long>(sync_.lateFrames()),
-      static_cast<unsigned long long>(sync_.overflowedGroups() + worker_->replacedJobs()));
+      static_cast<unsigned long long>(sync_.overflowedGroups() + worker_->replacedJobs()),
+      static_cast<unsigned long long>(groups_not_asked_for_));
   return 0;
 }
 
@@ -776,7 +843,8 @@ void FusionServer::writeHealth(const char* state) {
     std::ofstream out(aside);
     out << "{\"state\": \"" << state << "\", \"port\": " << port() << ", \"pods\": " << pods
         << ", \"pods_expected\": " << options_.pods << ", \"clients\": " << clients
-        << ", \"groups_fused\": " << groups_fused_ << "}\n";
+        << ", \"groups_fused\": " << groups_fused_
+        << ", \"groups_not_asked_for\": " << groups_not_asked_for_ << "}\n";
   }
   if (std::rename(aside.c_str(), options_.health_file.c_str()) != 0 && !health_failed_) {
     health_failed_ = true;

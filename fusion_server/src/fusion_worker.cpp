@@ -345,6 +345,11 @@ size_t FusionWorker::queuedJobs() {
   return waiting_.size() + (busy_ ? 1 : 0);
 }
 
+size_t FusionWorker::jobsNotTaken() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return waiting_.size() + (busy_ ? 1 : 0) + outputs_.size();
+}
+
 FusionWorker::~FusionWorker() {
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -51,6 +51,10 @@ int main(int argc, char** argv) {
   app.add_flag(
       "--lossless", options.lossless,
       "fuse every frame of every pod: no sync deadline, no dropped group; pods ahead are not read");
+  bool fuse_every_group = false;
+  app.add_flag("--fuse-every-group", fuse_every_group,
+               "fuse every group the pods send, also while every client (protocol 1.9 and later) "
+               "has all the frames it asked for (by default such groups are not fused)");
   app.add_option("--wait-for-clients", options.wait_for_clients,
                  "read nothing from pods until this many render clients have joined (replays)")
       ->check(CLI::Range(0, 64));
@@ -134,6 +138,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   fusion_flags.apply(options.fusion);
+  options.fuse_when_asked = !fuse_every_group;
   if (!volume.empty()) {
     double v[6];
     char tail = 0;

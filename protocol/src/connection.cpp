@@ -23,9 +23,9 @@ Connection::Connection(Socket socket, std::string peer_name, ConnectionLimits li
   last_send_ns_ = last_receive_ns_;
 }
 
-void Connection::send(SharedFrame frame) {
+void Connection::send(SharedFrame frame, Keep keep) {
   Outgoing out;
-  out.droppable = frame->droppable();
+  out.droppable = keep == Keep::kAsFlagged && frame->droppable();
   queued_bytes_ += frame->size();
   out.frame = std::move(frame);
   if (out.droppable) ++queued_droppable_;

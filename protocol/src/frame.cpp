@@ -35,6 +35,8 @@ const char* messageTypeName(uint16_t type) {
       return "Error";
     case MessageType::kClockProbe:
       return "ClockProbe";
+    case MessageType::kFrameRequest:
+      return "FrameRequest";
   }
   return "unknown";
 }

@@ -535,4 +535,12 @@ Status readPayload(std::span<const uint8_t> payload, ClockProbe& m, size_t base_
   return finish(r);
 }
 
+void writePayload(WireWriter& w, const FrameRequest& m) { w.u32(m.frames); }
+
+Status readPayload(std::span<const uint8_t> payload, FrameRequest& m, size_t base_offset) {
+  WireReader r(payload, base_offset);
+  m.frames = r.u32("frame_request.frames");
+  return finish(r);
+}
+
 }  // namespace holofuse::protocol

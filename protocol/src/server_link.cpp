@@ -107,6 +107,7 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
     }
     acked_ = true;
     agreed_minor_ = ack.minor;
+    if (asksForFrames()) connection_->sendMessage(FrameRequest{options_.frames_ahead});
     clock_ = ClockSync(options_.clock);  // a new connection may reach another host
     connected_event_ = true;
     server_said_bye_ = false;
@@ -147,6 +148,12 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
       fail(Status(StatusCode::kClosed, "server said bye: " + bye.reason));
       return;
     }
+    case MessageType::kMeshFrame:
+      // Asked for before the caller decodes and renders it: the request
+      // leaves at the end of this poll.
+      if (asksForFrames()) connection_->sendMessage(FrameRequest{1});
+      received.push_back(std::move(frame));
+      return;
     default:
       received.push_back(std::move(frame));
   }

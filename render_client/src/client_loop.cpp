@@ -554,6 +554,7 @@ int runClient(const ClientOptions& options) {
   link_options.log_name = "client";
   link_options.key = options.key;
   link_options.limits.max_queued_droppable = 16;
+  link_options.frames_ahead = options.frames_ahead;
   protocol::ServerLink link(options.server, hello, link_options);
 
   ClientLoop loop(options, *context, *renderer, std::move(judge), link.clock());

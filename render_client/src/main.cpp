@@ -43,6 +43,12 @@ int main(int argc, char** argv) {
                  "on: receive and decode the next frame while the device renders this one; "
                  "off: wait for each render; auto: on with a GPU, off with a CPU device")
       ->check(CLI::IsMember({"auto", "on", "off"}));
+  app.add_option("--frames-ahead", options.frames_ahead,
+                 "fused frames to ask the server for ahead of the one rendering (1.9); the "
+                 "server fuses only what a client asked for. 0: ask for none and take every "
+                 "frame it fuses. More than 1 where the link's round trip is long against a "
+                 "frame")
+      ->check(CLI::Range(0, 64));
   app.add_flag("--list-devices", list_devices, "print the Vulkan devices and exit");
   std::string budget_file;
   app.add_option("--budget", budget_file,

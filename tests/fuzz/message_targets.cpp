@@ -64,6 +64,8 @@ void decodeAny(const Frame& frame) {
       return decode(ErrorMessage{});
     case MessageType::kClockProbe:
       return decode(ClockProbe{});
+    case MessageType::kFrameRequest:
+      return decode(FrameRequest{});
   }
 }
 
@@ -105,5 +107,6 @@ HOLOFUSE_MESSAGE_FUZZ_TARGET(message_stats, Stats)
 HOLOFUSE_MESSAGE_FUZZ_TARGET(message_bye, Bye)
 HOLOFUSE_MESSAGE_FUZZ_TARGET(message_error, ErrorMessage)
 HOLOFUSE_MESSAGE_FUZZ_TARGET(message_clock_probe, ClockProbe)
+HOLOFUSE_MESSAGE_FUZZ_TARGET(message_frame_request, FrameRequest)
 
 }  // namespace holofuse::fuzz

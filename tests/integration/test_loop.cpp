@@ -345,9 +345,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     // frame id -> the mesh's codec and its vertices once decoded
     std::map<uint64_t, std::pair<holofuse::protocol::MeshCodec, size_t>> meshes;
   };
-  static_assert(holofuse::protocol::kVersionMinor == 8, "a client of each minor");
-  std::vector<Client> clients(9);
-  for (uint8_t minor = 0; minor < 9; ++minor) clients[minor].max_minor = minor;
+  static_assert(holofuse::protocol::kVersionMinor == 9, "a client of each minor");
+  std::vector<Client> clients(10);
+  for (uint8_t minor = 0; minor < 10; ++minor) clients[minor].max_minor = minor;
   for (Client& c : clients) {
     holofuse::protocol::Hello hello;
     hello.role = holofuse::protocol::Role::kClient;
@@ -472,7 +472,7 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   EXPECT_NE(log.find("meshes fp16-lz4"), std::string::npos) << log;
   for (const char* version :
        {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3", "protocol 1.4",
-        "protocol 1.5", "protocol 1.6", "protocol 1.7", "protocol 1.8"}) {
+        "protocol 1.5", "protocol 1.6", "protocol 1.7", "protocol 1.8", "protocol 1.9"}) {
     EXPECT_NE(log.find(version), std::string::npos) << version << "\n" << log;
   }
 }

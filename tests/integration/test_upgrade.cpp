@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "process_harness.h"
+#include "protocol/frame.h"
 
 namespace holofuse {
 namespace {
@@ -80,7 +81,8 @@ TEST(Upgrade, OldPodsFeedANewServerAndAreUpgradedOneByOneWhileTheClientRenders) 
     kill(pods[id], SIGTERM);
     EXPECT_EQ(waitExit(pods[id], 20), 0) << "pod " << id << " of the old release";
     pods[id] = startPod(endpoint, id, out / ("pod" + std::to_string(id) + "_new.log"));
-    ASSERT_TRUE(serverSays("joined, protocol 1.8", static_cast<size_t>(id) + 2))
+    ASSERT_TRUE(serverSays("joined, protocol 1." + std::to_string(protocol::kVersionMinor),
+                           static_cast<size_t>(id) + 2))
         << readFile(out / "server.log");
     ASSERT_TRUE(morePictures(5)) << "after pod " << id << " was upgraded\n"
                                  << readFile(out / "client.log");

@@ -203,6 +203,12 @@ TEST(Messages, EveryTypeRoundTrips) {
     EXPECT_EQ(e.code, 3u);
   }
   {
+    const FrameRequest in{3};
+    FrameRequest m;
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(in, 1)), m).isOk());
+    EXPECT_EQ(m, in);
+  }
+  {
     const ClockProbe in{ProbeStep::kReply, 11, 5'000'000'022, 5'000'000'031};
     ClockProbe m;
     ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(in, 1)), m).isOk());
@@ -332,6 +338,11 @@ TEST(Messages, EveryTruncationFailsCleanly) {
         }
         case MessageType::kClockProbe: {
           ClockProbe m;
+          s = decodeFrame(cut, m);
+          break;
+        }
+        case MessageType::kFrameRequest: {
+          FrameRequest m;
           s = decodeFrame(cut, m);
           break;
         }

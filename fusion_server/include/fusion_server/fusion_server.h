@@ -45,6 +45,11 @@ struct ServerOptions {
   // pods, no group is dropped, and pods that are ahead are not read
   // (backpressure through TCP) until fusion catches up.
   bool lossless = false;
+  // Fuse a group only while some client asked for a frame (protocol 1.9
+  // FrameRequest), when every client asks: a slow client costs no fusion
+  // it would not render. Off, or with --lossless, --record-fused or a
+  // client that does not ask, every group is fused.
+  bool fuse_when_asked = true;
   // Stop (saying Bye) once every pod that joined has left and everything
   // they sent is fused and delivered: the end of a replay.
   bool exit_when_pods_done = false;
@@ -115,6 +120,10 @@ class FusionServer {
     // server codes it); until it gets a key frame its stream is not in step.
     bool wants_layer_video = false;
     bool layer_video_in_step = false;
+    // A client of 1.9 that asks for frames (FrameRequest) is sent only
+    // what it asked for and has not yet been sent.
+    bool asks_for_frames = false;
+    uint64_t frames_asked = 0;
     uint64_t frames_dropped_seen = 0;  // the connection's drops at the last fan-out
     uint64_t accepted_ns = 0;
     uint64_t last_heartbeat_ns = 0;
@@ -147,6 +156,12 @@ class FusionServer {
   Status admit(Peer& peer, const protocol::Hello& hello, protocol::HelloAck ack);
   Status handlePodFrame(Peer& peer, protocol::Frame frame);
   Status handleClockProbe(Peer& peer, const protocol::Frame& frame);
+  Status handleFrameRequest(Peer& peer, const protocol::Frame& frame);
+  // Whether groups are fused only as clients ask (ServerOptions::
+  // fuse_when_asked), and whether one more may start now.
+  bool fusingWhenAsked() const;
+  bool aClientWaitsForAFrame();
+  void submitGroup(FrameGroup group);
   // A refused connection is told why and closed before it is a peer.
   void refuseConnection(protocol::Socket socket, const std::string& name, const std::string& why);
   void takeDecodedFrames();
@@ -185,6 +200,10 @@ class FusionServer {
   uint64_t refused_connections_ = 0;
   uint32_t next_session_ = 1;
   uint64_t groups_fused_ = 0;
+  // The newest ready group no client has asked for yet; a newer one
+  // replaces it (counted: groups_not_asked_for_).
+  std::optional<FrameGroup> held_group_;
+  uint64_t groups_not_asked_for_ = 0;
   std::optional<dataset::Recorder> recorder_;
   bool clients_arrived_ = false;  // wait_for_clients reached once
 };

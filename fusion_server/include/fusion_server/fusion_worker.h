@@ -146,6 +146,8 @@ class FusionWorker {
   uint64_t replacedJobs() const { return replaced_; }
   // Groups submitted and not yet fused (waiting or in progress).
   size_t queuedJobs();
+  // Those and the fused groups whose output is not yet taken.
+  size_t jobsNotTaken();
   // Whether a connected client asked for texture layers with LZ4 colour
   // (lz4) or as video: the next groups build them (the server sets it as
   // clients come and go).

@@ -41,8 +41,9 @@ class Connection {
   void setAddress(std::string address) { address_ = std::move(address); }
 
   // Queues an encoded frame. The flags in its header say whether it may be
-  // dropped.
-  void send(SharedFrame frame);
+  // dropped, unless kept says it may not (a frame a client asked for).
+  enum class Keep { kAsFlagged, kAlways };
+  void send(SharedFrame frame, Keep keep = Keep::kAsFlagged);
   template <typename Message>
   void sendMessage(const Message& m) {
     send(std::make_shared<const OutgoingFrame>(encodeOutgoing(m, nextSequence())));

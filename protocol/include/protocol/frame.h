@@ -19,8 +19,8 @@ constexpr uint8_t kVersionMajor = 1;
 // 1.1: Stats carries each pod's arrivals; 1.2: a TextureBundle's images
 // carry each pod's feather map; 1.3: up to 128 cameras (bundles and Stats'
 // arrivals, which 1.2 capped at 64; Stats counts the cameras present); the
-// later minors, to 1.8 (clock probes between hosts): SPEC.md section 3.
-constexpr uint8_t kVersionMinor = 8;
+// later minors, to 1.9 (clients ask for fused frames): SPEC.md section 3.
+constexpr uint8_t kVersionMinor = 9;
 constexpr size_t kHeaderSize = 28;
 constexpr uint16_t kFlagDroppable = 0x0001;
 constexpr uint16_t kKnownFlags = kFlagDroppable;
@@ -38,7 +38,8 @@ enum class MessageType : uint16_t {
   kStats = 9,
   kBye = 10,
   kError = 11,
-  kClockProbe = 12,  // since 1.8
+  kClockProbe = 12,    // since 1.8
+  kFrameRequest = 13,  // since 1.9
 };
 
 const char* messageTypeName(uint16_t type);

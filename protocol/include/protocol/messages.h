@@ -260,6 +260,19 @@ struct ClockProbe {
   bool operator==(const ClockProbe&) const = default;
 };
 
+// Since 1.9: a client asks for `frames` more fused frames (a MeshFrame
+// with its TextureBundle and Stats each). A client that asks is sent only
+// what it asked for, and the server fuses a group only while some client
+// can take it: a client that renders slower than the pods capture costs
+// no fusion it would not render, and its next mesh is fused while it
+// renders the last. A client that never asks is sent every frame, as
+// before 1.9.
+struct FrameRequest {
+  static constexpr MessageType kType = MessageType::kFrameRequest;
+  uint32_t frames = 0;
+  bool operator==(const FrameRequest&) const = default;
+};
+
 struct Bye {
   static constexpr MessageType kType = MessageType::kBye;
   std::string reason;
@@ -288,6 +301,7 @@ void writePayload(WireWriter& w, const Stats& m, uint8_t minor = kVersionMinor);
 void writePayload(WireWriter& w, const Bye& m);
 void writePayload(WireWriter& w, const ErrorMessage& m);
 void writePayload(WireWriter& w, const ClockProbe& m);
+void writePayload(WireWriter& w, const FrameRequest& m);
 
 // Payload decoders: read the fields this build knows, ignore trailing bytes
 // (a newer minor's fields). base_offset positions errors in the stream.
@@ -308,6 +322,7 @@ Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offse
 Status readPayload(std::span<const uint8_t> payload, Bye& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, ErrorMessage& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, ClockProbe& m, size_t base_offset = 0);
+Status readPayload(std::span<const uint8_t> payload, FrameRequest& m, size_t base_offset = 0);
 
 // A whole frame for message m: one copy of the payload into the frame
 // buffer (reserved up front from payload_hint), then one CRC pass.

@@ -32,6 +32,11 @@ struct LinkOptions {
   std::vector<uint8_t> key;
   // Probes of the server's clock (a server of 1.8 or later answers them).
   ClockSyncOptions clock;
+  // A client's fused frames asked for ahead (FrameRequest, 1.9): this many
+  // after the handshake, then one more as each MeshFrame arrives, so that
+  // the server fuses the next while this one renders. 0: it asks for none
+  // and is sent every frame the server fuses.
+  uint32_t frames_ahead = 0;
 };
 
 class ServerLink {
@@ -84,6 +89,7 @@ class ServerLink {
   void tryConnect();
   void fail(const Status& why);
   void handle(Frame frame, std::vector<Frame>& received);
+  bool asksForFrames() const { return options_.frames_ahead > 0 && agreed_minor_ >= 9; }
   // The server's Auth before its HelloAck: answer its challenge, check its
   // proof. An error is fatal: a key does not become right by retrying.
   Status handleAuth(const Frame& frame);

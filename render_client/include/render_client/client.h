@@ -50,6 +50,10 @@ struct ClientOptions {
   // this one; "off": each render is waited for; "auto": on a GPU only (a
   // CPU device renders on the cores the decode would take).
   std::string overlap_render = "auto";
+  // Fused frames asked for ahead of the one rendering (protocol 1.9
+  // FrameRequest; a server fuses no group no client asked for). 0: ask for
+  // none, take every frame the server fuses.
+  uint32_t frames_ahead = 1;
   RenderSettings render;    // render.blend.mode: the blending mode
   int exclude_camera = -1;  // leave this camera out of the blend
   bool write_frames = true;
