@@ -345,7 +345,7 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
                  "client: fused frames it asks the server for ahead of the one rendering; the "
                  "server fuses only what a client asked for (0: every group, each client takes "
                  "them all)")
-      ->check(CLI::Range(0, 64));
+      ->check(CLI::Range(0, 8));
   app.add_option(
       "--scene", plan.scene,
       "named synthetic scene (its camera count unless --pods): " + holofuse::scene::sceneNames());

@@ -302,6 +302,8 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
   peer.wants_layer_video = peer.wants_layers && ack.minor >= 6 &&
                            (hello.capabilities & protocol::kCapabilityLayerVideo) != 0 &&
                            isVideoCodec(options_.fusion.layers.video.codec);
+  peer.asks_for_frames = hello.role == protocol::Role::kClient && ack.minor >= 9 &&
+                         (hello.capabilities & protocol::kCapabilityAsksForFrames) != 0;
   peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
                                std::to_string(hello.id) + " (" + peer.connection->peerName() + ")");
   peer.connection->sendMessage(ack);
@@ -365,12 +367,15 @@ Status FusionServer::handleFrameRequest(Peer& peer, const Frame& frame) {
     return Status(StatusCode::kUnexpectedMessage, "FrameRequest from a pod");
   protocol::FrameRequest request;
   HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, request));
-  // Bounded as the client's --frames-ahead: frames asked for are never
-  // dropped, and the per-peer byte cap closes a client that stops reading.
-  constexpr uint64_t kMostFramesAsked = 64;
-  peer.asks_for_frames = true;
-  peer.frames_asked = std::min(peer.frames_asked + request.frames, kMostFramesAsked);
+  // Only a client that said it would ask (Hello, since 1.9) is paced; any
+  // other is sent every frame (SPEC.md section 6) and its request ignored.
+  if (peer.asks_for_frames) peer.frames_through = request.frames_through;
   return Status::ok();
+}
+
+uint64_t FusionServer::Peer::framesOwed() const {
+  if (frames_through <= frames_sent) return 0;
+  return std::min(frames_through - frames_sent, kMostFramesAhead);
 }
 
 Status FusionServer::handlePodFrame(Peer& peer, Frame frame) {
@@ -570,14 +575,28 @@ bool FusionServer::aClientWaitsForAFrame() {
   // still asks for a frame then.
   const uint64_t fusing = worker_->jobsNotTaken();
   for (const Peer& p : peers_) {
-    if (p.greeted && p.role == protocol::Role::kClient && p.frames_asked > fusing) return true;
+    if (p.greeted && p.role == protocol::Role::kClient && p.framesOwed() > fusing) return true;
   }
   return false;
 }
 
 void FusionServer::dispatchReadyGroups() {
   const bool when_asked = fusingWhenAsked();
-  for (auto& group : sync_.takeReady(expectedPods(), monotonicNs())) {
+  std::vector<FrameGroup> ready = sync_.takeReady(expectedPods(), monotonicNs());
+  // No one paces any more (a client that does not ask joined, or the last
+  // that asked left): a group held goes first, unless newer ones are ready
+  // (a waiting job gives way to a newer one; frames never go backwards).
+  if (held_group_ && !when_asked) {
+    const bool newer = std::any_of(ready.begin(), ready.end(),
+                                   [](const FrameGroup& g) { return !g.pods.empty(); });
+    if (newer) {
+      ++groups_not_asked_for_;
+    } else {
+      submitGroup(std::move(*held_group_));
+    }
+    held_group_.reset();
+  }
+  for (auto& group : ready) {
     if (group.pods.empty()) continue;
     if (!when_asked) {
       submitGroup(std::move(group));
@@ -640,7 +659,7 @@ void FusionServer::fanOut() {
       if (!mesh) continue;
       // A client that asked for none more does not get this frame (another
       // client asked); its layers' video, if any, is out of step from here.
-      if (peer.asks_for_frames && peer.frames_asked == 0) {
+      if (peer.asks_for_frames && peer.framesOwed() == 0) {
         peer.layer_video_in_step = false;
         continue;
       }
@@ -673,7 +692,7 @@ void FusionServer::fanOut() {
       // the queue.
       using Keep = protocol::Connection::Keep;
       const Keep keep = peer.asks_for_frames ? Keep::kAlways : Keep::kAsFlagged;
-      if (peer.asks_for_frames) --peer.frames_asked;
+      ++peer.frames_sent;
       peer.connection->send(bundle, keep);
       peer.connection->send(peer.minor >= 8   ? out.stats
                             : peer.minor >= 3 ? out.stats_v1_7
@@ -844,7 +863,8 @@ void FusionServer::writeHealth(const char* state) {
     out << "{\"state\": \"" << state << "\", \"port\": " << port() << ", \"pods\": " << pods
         << ", \"pods_expected\": " << options_.pods << ", \"clients\": " << clients
         << ", \"groups_fused\": " << groups_fused_
-        << ", \"groups_not_asked_for\": " << groups_not_asked_for_ << "}\n";
+        << ", \"groups_not_asked_for\": " << groups_not_asked_for_
+        << ", \"groups_fusing\": " << worker_->jobsNotTaken() << "}\n";
   }
   if (std::rename(aside.c_str(), options_.health_file.c_str()) != 0 && !health_failed_) {
     health_failed_ = true;

@@ -535,11 +535,11 @@ Status readPayload(std::span<const uint8_t> payload, ClockProbe& m, size_t base_
   return finish(r);
 }
 
-void writePayload(WireWriter& w, const FrameRequest& m) { w.u32(m.frames); }
+void writePayload(WireWriter& w, const FrameRequest& m) { w.u64(m.frames_through); }
 
 Status readPayload(std::span<const uint8_t> payload, FrameRequest& m, size_t base_offset) {
   WireReader r(payload, base_offset);
-  m.frames = r.u32("frame_request.frames");
+  m.frames_through = r.u64("frame_request.frames_through");
   return finish(r);
 }
 

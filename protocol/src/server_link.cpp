@@ -14,7 +14,11 @@ ServerLink::ServerLink(Endpoint server, Hello hello, LinkOptions options)
       hello_(std::move(hello)),
       options_(std::move(options)),
       heartbeat_interval_ms_(options_.heartbeat_interval_ms),
-      idle_timeout_ms_(options_.idle_timeout_ms) {}
+      idle_timeout_ms_(options_.idle_timeout_ms) {
+  // Said in the Hello, so that the server sends nothing before the first
+  // request: every MeshFrame the link counts is one it asked for.
+  if (options_.frames_ahead > 0) hello_.capabilities |= kCapabilityAsksForFrames;
+}
 
 bool ServerLink::takeConnectedEvent() {
   const bool event = connected_event_;
@@ -107,7 +111,8 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
     }
     acked_ = true;
     agreed_minor_ = ack.minor;
-    if (asksForFrames()) connection_->sendMessage(FrameRequest{options_.frames_ahead});
+    meshes_ = 0;
+    if (asksForFrames()) askForFrames();
     clock_ = ClockSync(options_.clock);  // a new connection may reach another host
     connected_event_ = true;
     server_said_bye_ = false;
@@ -151,7 +156,8 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
     case MessageType::kMeshFrame:
       // Asked for before the caller decodes and renders it: the request
       // leaves at the end of this poll.
-      if (asksForFrames()) connection_->sendMessage(FrameRequest{1});
+      ++meshes_;
+      if (asksForFrames()) askForFrames();
       received.push_back(std::move(frame));
       return;
     default:

@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
                  "server fuses only what a client asked for. 0: ask for none and take every "
                  "frame it fuses. More than 1 where the link's round trip is long against a "
                  "frame")
-      ->check(CLI::Range(0, 64));
+      ->check(CLI::Range(0, 8));
   app.add_flag("--list-devices", list_devices, "print the Vulkan devices and exit");
   std::string budget_file;
   app.add_option("--budget", budget_file,

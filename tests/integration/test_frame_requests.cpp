@@ -32,6 +32,7 @@ const std::string kBin = HOLOFUSE_BIN_DIR;
 struct Counts {
   uint64_t fused = 0;
   uint64_t not_asked_for = 0;
+  uint64_t fusing = 0;  // submitted, their output not yet sent
 };
 
 // The server's health file (rewritten whole every second); zeros until
@@ -40,7 +41,8 @@ Counts healthCounts(const fs::path& health) {
   std::ifstream in(health);
   const auto json = nlohmann::json::parse(in, nullptr, false);
   if (json.is_discarded() || !json.contains("groups_not_asked_for")) return {};
-  return {json["groups_fused"].get<uint64_t>(), json["groups_not_asked_for"].get<uint64_t>()};
+  return {json["groups_fused"].get<uint64_t>(), json["groups_not_asked_for"].get<uint64_t>(),
+          json["groups_fusing"].get<uint64_t>()};
 }
 
 // A client of the given minor on its own link; polled only when the test
@@ -91,8 +93,10 @@ TEST(FrameRequests, TheServerFusesOnlyWhatAClientAskedForUntilOneThatDoesNotAskJ
   // what it asked for and fuses nothing more, however many groups the pod
   // completes meanwhile.
   Counts before;
-  ASSERT_TRUE(waitFor([&] { return (before = healthCounts(health)).not_asked_for >= 5; }))
-      << readFile(health);
+  ASSERT_TRUE(waitFor([&] {
+    before = healthCounts(health);
+    return before.not_asked_for >= 5 && before.fusing == 0;
+  })) << readFile(health);
   Counts later;
   ASSERT_TRUE(waitFor([&] {
     return (later = healthCounts(health)).not_asked_for >= before.not_asked_for + 15;

@@ -203,7 +203,7 @@ TEST(Messages, EveryTypeRoundTrips) {
     EXPECT_EQ(e.code, 3u);
   }
   {
-    const FrameRequest in{3};
+    const FrameRequest in{5'000'000'022};
     FrameRequest m;
     ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(in, 1)), m).isOk());
     EXPECT_EQ(m, in);

@@ -120,10 +120,14 @@ class FusionServer {
     // server codes it); until it gets a key frame its stream is not in step.
     bool wants_layer_video = false;
     bool layer_video_in_step = false;
-    // A client of 1.9 that asks for frames (FrameRequest) is sent only
-    // what it asked for and has not yet been sent.
+    // A client of 1.9 that said in its Hello it asks for frames
+    // (FrameRequest) is sent only what it asked for: MeshFrames until it
+    // has been sent frames_through on this connection (at most
+    // kMostFramesAhead beyond those sent).
     bool asks_for_frames = false;
-    uint64_t frames_asked = 0;
+    uint64_t frames_through = 0;
+    uint64_t frames_sent = 0;
+    uint64_t framesOwed() const;
     uint64_t frames_dropped_seen = 0;  // the connection's drops at the last fan-out
     uint64_t accepted_ns = 0;
     uint64_t last_heartbeat_ns = 0;
@@ -204,6 +208,9 @@ class FusionServer {
   // replaces it (counted: groups_not_asked_for_).
   std::optional<FrameGroup> held_group_;
   uint64_t groups_not_asked_for_ = 0;
+  // The most frames a client may be owed: frames asked for are never
+  // dropped from its queue, so this bounds what it holds in the server.
+  static constexpr uint64_t kMostFramesAhead = 8;
   std::optional<dataset::Recorder> recorder_;
   bool clients_arrived_ = false;  // wait_for_clients reached once
 };

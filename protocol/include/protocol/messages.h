@@ -106,6 +106,9 @@ constexpr uint64_t kCapabilityLayers = 1;
 // With kCapabilityLayers: the client decodes the layers' colour as video
 // (since 1.6; a server of 1.5 sends them with LZ4).
 constexpr uint64_t kCapabilityLayerVideo = 2;
+// The client asks for its fused frames (FrameRequest, since 1.9): the
+// server sends it none until its first request, then only those asked for.
+constexpr uint64_t kCapabilityAsksForFrames = 4;
 
 struct Hello {
   static constexpr MessageType kType = MessageType::kHello;
@@ -260,16 +263,18 @@ struct ClockProbe {
   bool operator==(const ClockProbe&) const = default;
 };
 
-// Since 1.9: a client asks for `frames` more fused frames (a MeshFrame
-// with its TextureBundle and Stats each). A client that asks is sent only
-// what it asked for, and the server fuses a group only while some client
-// can take it: a client that renders slower than the pods capture costs
-// no fusion it would not render, and its next mesh is fused while it
-// renders the last. A client that never asks is sent every frame, as
-// before 1.9.
+// Since 1.9: a client asks for fused frames (a MeshFrame with its
+// TextureBundle and Stats each) until it has received frames_through
+// MeshFrames on this connection. Counted from the connection's start, a
+// request states the whole want: a repeated, lost or flooded one cannot
+// inflate it. A client that asks is sent only what it asked for, and the
+// server fuses a group only while some client can take it: a client that
+// renders slower than the pods capture costs no fusion it would not
+// render, and its next mesh is fused while it renders the last. A client
+// that never asks is sent every frame, as before 1.9.
 struct FrameRequest {
   static constexpr MessageType kType = MessageType::kFrameRequest;
-  uint32_t frames = 0;
+  uint64_t frames_through = 0;
   bool operator==(const FrameRequest&) const = default;
 };
 

@@ -90,6 +90,7 @@ class ServerLink {
   void fail(const Status& why);
   void handle(Frame frame, std::vector<Frame>& received);
   bool asksForFrames() const { return options_.frames_ahead > 0 && agreed_minor_ >= 9; }
+  void askForFrames() { connection_->sendMessage(FrameRequest{meshes_ + options_.frames_ahead}); }
   // The server's Auth before its HelloAck: answer its challenge, check its
   // proof. An error is fatal: a key does not become right by retrying.
   Status handleAuth(const Frame& frame);
@@ -100,6 +101,7 @@ class ServerLink {
   std::unique_ptr<Connection> connection_;
   bool acked_ = false;
   uint8_t agreed_minor_ = 0;
+  uint64_t meshes_ = 0;  // MeshFrames received on this connection
   ClockSync clock_;
   uint64_t read_ns_ = 0;                               // when the frames being handled were read
   std::optional<AuthBytes> challenge_;                 // the server's, on this connection
