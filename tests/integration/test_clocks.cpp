@@ -100,15 +100,18 @@ TEST(Clocks, PodsOnClocksSecondsApartKeepTheBudgetOnTheServersClock) {
   EXPECT_LT(latency["end_to_end"]["p95"].get<double>(), 2000.0) << latency.dump();
   const auto& send = latency["stages"]["send"];
   EXPECT_LT(send["p95"].get<double>(), 1000.0) << send.dump();
-  // A send stamp that ended before it started would be left out (without
-  // the clocks' offsets, 20 of 60 are). Every camera present in a rendered
-  // mesh (a loaded machine delivers some late: frames[].cameras_present)
-  // has its own, but for a frame decoded before its pod's estimate, which
-  // carries none: at most one in flight per pod when the client joined.
+  // A send stamp that ended before it started is left out: without the
+  // clocks' offsets, the pod 3 s ahead loses all its kFrames. Every other
+  // camera present in a rendered mesh (a loaded machine delivers some
+  // late: frames[].cameras_present) has its own, but for a frame decoded
+  // before its pod's estimate, and a send shorter than the estimate's
+  // uncertainty (on loopback both are about 0.1 ms, so a few come out
+  // negative): fewer than half a pod's frames in all.
   int present = 0;
   for (const auto& frame : report["frames"]) present += frame["cameras_present"].get<int>();
   EXPECT_LE(send["samples"].get<int>(), present) << send.dump();
-  EXPECT_GE(send["samples"].get<int>(), present - 3) << send.dump() << ", present " << present;
+  EXPECT_GT(send["samples"].get<int>(), present - kFrames / 2)
+      << send.dump() << ", present " << present;
   EXPECT_GE(present, 2 * kFrames) << "most groups fused whole";
 
   // Each pod's offset as the server measured it: the shift, within the
