@@ -112,6 +112,9 @@ Status Connection::onReadable(size_t budget) {
       return Status(decoder_.status().code(),
                     "from " + peer_name_ + ": " + decoder_.status().message());
     }
+    // The frames read so far are to be handled first (a header waits
+    // for them); the rest stays in the socket, which polls readable.
+    if (into.empty()) return Status::ok();
     const IoResult r = socket_.readSome(into);
     if (r.error != 0) {
       return Status(StatusCode::kIoError,

@@ -204,7 +204,11 @@ Status verifyCrc(const Frame& frame, uint64_t stream_offset) {
 }
 
 std::span<uint8_t> StreamDecoder::writableSpan() {
-  if (!status_.isOk()) return {};
+  if (header_waits_ && !hasFrame()) {
+    header_waits_ = false;
+    onHeaderComplete(/*may_wait=*/false);
+  }
+  if (!status_.isOk() || header_waits_) return {};
   if (!in_payload_)
     return std::span<uint8_t>(header_bytes_ + header_filled_, kHeaderSize - header_filled_);
   return std::span<uint8_t>(current_.bytes).subspan(kHeaderSize + payload_filled_);
@@ -225,7 +229,7 @@ void StreamDecoder::commit(size_t n) {
         return;
       }
     }
-    if (header_filled_ == kHeaderSize) onHeaderComplete();
+    if (header_filled_ == kHeaderSize) onHeaderComplete(/*may_wait=*/true);
     return;
   }
   payload_filled_ += n;
@@ -234,6 +238,11 @@ void StreamDecoder::commit(size_t n) {
 
 void StreamDecoder::feed(std::span<const uint8_t> data) {
   while (!data.empty() && status_.isOk()) {
+    if (header_waits_) {
+      header_waits_ = false;
+      onHeaderComplete(/*may_wait=*/false);
+      continue;
+    }
     auto dst = writableSpan();
     const size_t n = std::min(dst.size(), data.size());
     std::memcpy(dst.data(), data.data(), n);
@@ -242,7 +251,7 @@ void StreamDecoder::feed(std::span<const uint8_t> data) {
   }
 }
 
-void StreamDecoder::onHeaderComplete() {
+void StreamDecoder::onHeaderComplete(bool may_wait) {
   FrameHeader header;
   // The type's own cap where it has one: parseHeader checks the length
   // against what this stream allows for it.
@@ -250,6 +259,11 @@ void StreamDecoder::onHeaderComplete() {
   const uint32_t cap = type < kTypeCaps && type_caps_[type] != 0 ? type_caps_[type] : max_payload_;
   status_ = parseHeader(std::span<const uint8_t>(header_bytes_, kHeaderSize), cap,
                         frame_start_offset_, header);
+  if (status_.code() == StatusCode::kTooLarge && may_wait && hasFrame()) {
+    status_ = Status::ok();
+    header_waits_ = true;
+    return;
+  }
   if (!status_.isOk()) return;
   // The length passed the cap: only now is the buffer sized.
   current_ = Frame{};

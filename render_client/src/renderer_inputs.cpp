@@ -369,7 +369,7 @@ void Renderer::warmUp(const BlendSettings& settings) {
       for (const uint32_t z : {4u, 5u}) {
         // Counter-clockwise from outside: the x, y, z order flips with
         // each negative axis.
-        const bool flip = (x == 1u) != (y == 3u) != (z == 5u);
+        const bool flip = ((x == 1u) != (y == 3u)) != (z == 5u);
         mesh.indices.insert(mesh.indices.end(), {x, flip ? z : y, flip ? y : z});
       }
     }

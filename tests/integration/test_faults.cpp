@@ -225,6 +225,58 @@ TEST(Faults, HostilePeersAllAtOnceLeaveTheServerSmallAndTheRigServed) {
   fs::remove_all(out);
 }
 
+// A pod writes its Calibration and its first PodFrame as one burst: on
+// loopback the server reads both in one turn. The PodFrame (noise at
+// 320x240, far above the 64 KiB every message but a PodFrame may have) is
+// judged by the cap its calibration sets once the server has handled it,
+// not by the one in force when its header was read: the pod is served.
+TEST(Faults, APodsCalibrationAndLargeFirstFrameInOneBurstAreBothTaken) {
+  const fs::path out = freshDir("faults_one_burst");
+  pid_t server = 0;
+  const std::string endpoint = test::startServer(kBin, out, 1, &server);
+  ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
+  constexpr int kBigWidth = 320, kBigHeight = 240;
+  Camera camera = ringCameras(1, 2.5, 1.0, {0, 1, 0}, kBigWidth, kBigHeight, 50)[0];
+  camera.id = 0;
+  Image8 color{kBigWidth, kBigHeight, 3, 0}, mask{kBigWidth, kBigHeight, 1, 255},
+      feather{kBigWidth, kBigHeight, 1, 255};
+  uint32_t state = 12345;  // noise: LZ4 cannot shrink it below the cap
+  for (auto& byte : color.pixels)
+    byte = static_cast<uint8_t>((state = state * 1664525u + 1013904223u) >> 24);
+  PodPlanes planes;
+  planes.frame_id = 1;
+  planes.color = &color;
+  planes.mask = &mask;
+  planes.feather = &feather;
+  PodEncoding whole;
+  whole.crop_margin = kFullFrame;
+  std::vector<protocol::StageStamp> stamps;
+  auto frame = std::make_shared<protocol::OutgoingFrame>(encodePodFrame(planes, stamps, 0, whole));
+  ASSERT_GT(frame->size(), size_t{64u << 10} + protocol::kHeaderSize);
+
+  auto pod = admittedByHand(endpoint, protocol::Role::kPod, 0);
+  ASSERT_NE(pod, nullptr) << readFile(out / "server.log");
+  pod->sendMessage(toCalibration(camera));
+  pod->send(frame);
+  // The server answers a probe only after it has handled what came before.
+  pod->sendMessage(protocol::ClockProbe{protocol::ProbeStep::kRequest, 1, 0, 0});
+  flush(*pod);
+  Status closed;
+  bool answered = false;
+  for (protocol::Frame reply = nextFrame(*pod, &closed); !reply.bytes.empty() && !answered;
+       reply = nextFrame(*pod, &closed)) {
+    protocol::ClockProbe probe;
+    answered = reply.header.type == static_cast<uint16_t>(protocol::MessageType::kClockProbe) &&
+               protocol::decodeFrame(reply, probe).isOk() && probe.origin_ns == 1;
+  }
+  EXPECT_TRUE(answered) << closed.toString() << "\n" << readFile(out / "server.log");
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  const std::string text = readFile(out / "server.log");
+  EXPECT_EQ(text.find("closing pod 0"), std::string::npos) << text;
+  fs::remove_all(out);
+}
+
 // The server on a port of the test's choosing, so a restart finds the
 // same address; waits for its "listening" line.
 pid_t serverOnPort(uint16_t port, const fs::path& out, int pods, const std::string& log,

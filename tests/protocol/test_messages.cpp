@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -422,6 +423,55 @@ TEST(Framing, UnknownMessageTypeIsDeliveredForSkippingAndTheStreamGoesOn) {
   ASSERT_TRUE(decodeFrame(decoder.takeFrame(), m).isOk());
   EXPECT_EQ(m.reason, "after");
   EXPECT_STREQ(messageTypeName(999), "unknown");
+}
+
+// Reads as Connection does: into writableSpan until it is empty (a header
+// waits for the frames before it to be taken) or the bytes run out.
+size_t readAvailable(StreamDecoder& decoder, std::span<const uint8_t> stream, size_t from) {
+  while (from < stream.size() && decoder.status().isOk()) {
+    const auto into = decoder.writableSpan();
+    if (into.empty()) break;
+    const size_t n = std::min(into.size(), stream.size() - from);
+    std::memcpy(into.data(), stream.data() + from, n);
+    decoder.commit(n);
+    from += n;
+  }
+  return from;
+}
+
+TEST(Framing, AHeaderAboveItsCapWaitsForTheFramesBeforeItThatMayRaiseIt) {
+  // A pod writes its Calibration and its first PodFrame at once; the
+  // server raises the PodFrame's cap only when it handles the Calibration.
+  Bytes stream = encodeFrame(testing::sampleCalibration(), 0);
+  const size_t calibration_bytes = stream.size();
+  PodFrame large = testing::samplePodFrame();
+  large.stamps.resize(64);  // above the Calibration's size
+  const Bytes pod = encodeFrame(large, 1);
+  stream.insert(stream.end(), pod.begin(), pod.end());
+  const auto cap = static_cast<uint32_t>(calibration_bytes - kHeaderSize);
+  ASSERT_LT(cap, pod.size() - kHeaderSize);
+
+  for (const bool raised : {true, false}) {
+    StreamDecoder decoder(cap);
+    size_t read = readAvailable(decoder, stream, 0);
+    ASSERT_TRUE(decoder.status().isOk()) << decoder.status().toString();
+    EXPECT_EQ(read, calibration_bytes + kHeaderSize);  // the PodFrame's payload is not read
+    ASSERT_TRUE(decoder.hasFrame());
+    EXPECT_EQ(decoder.takeFrame().header.type, static_cast<uint16_t>(MessageType::kCalibration));
+    if (raised) decoder.setTypeCap(static_cast<uint16_t>(MessageType::kPodFrame), 1u << 20);
+    read = readAvailable(decoder, stream, read);
+    if (!raised) {
+      EXPECT_EQ(decoder.status().code(), StatusCode::kTooLarge);
+      EXPECT_NE(decoder.status().message().find("payload_length"), std::string::npos);
+      EXPECT_FALSE(decoder.hasFrame());
+      continue;
+    }
+    ASSERT_TRUE(decoder.status().isOk()) << decoder.status().toString();
+    EXPECT_EQ(read, stream.size());
+    ASSERT_TRUE(decoder.hasFrame());
+    PodFrame back;
+    EXPECT_TRUE(decodeFrame(decoder.takeFrame(), back).isOk());
+  }
 }
 
 TEST(Framing, UnknownTrailingFieldsOfAKnownTypeAreSkipped) {

@@ -154,12 +154,17 @@ class StreamDecoder {
   }
 
   // Where the next bytes from the socket should go (read straight into the
-  // frame's own buffer, so a payload is never copied on receipt).
+  // frame's own buffer, so a payload is never copied on receipt). Empty
+  // while a header above its cap waits behind frames not yet taken: those
+  // frames may raise the cap (a pod's Calibration sizes its PodFrames, and
+  // it sends both in one write), so the header is judged by the caps in
+  // force once they are taken, and the bytes after it wait in the socket.
   std::span<uint8_t> writableSpan();
   // Accounts for n bytes written into writableSpan().
   void commit(size_t n);
   // Convenience: copies from data through writableSpan/commit until consumed
-  // or failed.
+  // or failed. Its caller takes frames after feeding, so every header is
+  // judged as it completes, by the caps in force then.
   void feed(std::span<const uint8_t> data);
 
   // True when a complete, checked frame can be taken.
@@ -174,7 +179,9 @@ class StreamDecoder {
   size_t bufferedBytes() const;
 
  private:
-  void onHeaderComplete();
+  // may_wait: a header above its cap, behind frames not yet taken, waits
+  // for them (header_waits_) instead of failing the stream.
+  void onHeaderComplete(bool may_wait);
   void onFrameComplete();
 
   uint32_t max_payload_;
@@ -183,6 +190,7 @@ class StreamDecoder {
   uint8_t header_bytes_[kHeaderSize] = {};
   size_t header_filled_ = 0;
   bool in_payload_ = false;
+  bool header_waits_ = false;
   Frame current_;
   size_t payload_filled_ = 0;
   uint64_t stream_offset_ = 0;       // bytes committed so far
