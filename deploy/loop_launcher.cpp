@@ -84,7 +84,7 @@ struct LoopPlan {
   std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit",
               scene = "clean";
   std::string overlap_render = "auto";
-  std::string frames_ahead = "1";
+  std::string frames_ahead = "2";
   std::string seed, noise;  // passed on only when given: the pods keep the scene's otherwise
   std::string budget;
   bool quality = false;

@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
   app.add_option("--frames-ahead", options.frames_ahead,
                  "fused frames to ask the server for ahead of the one rendering (1.9); the "
                  "server fuses only what a client asked for. 0: ask for none and take every "
-                 "frame it fuses. More than 1 where the link's round trip is long against a "
+                 "frame it fuses. More than 2 where the link's round trip is long against a "
                  "frame")
       ->check(CLI::Range(0, 8));
   app.add_flag("--list-devices", list_devices, "print the Vulkan devices and exit");

@@ -52,8 +52,10 @@ struct ClientOptions {
   std::string overlap_render = "auto";
   // Fused frames asked for ahead of the one rendering (protocol 1.9
   // FrameRequest; a server fuses no group no client asked for). 0: ask for
-  // none, take every frame the server fuses.
-  uint32_t frames_ahead = 1;
+  // none, take every frame the server fuses. 2, not 1: asked for one at a
+  // time, a mesh is fused from a group held since the client's last ask
+  // (up to a pod interval old) and then waits for the render in hand.
+  uint32_t frames_ahead = 2;
   RenderSettings render;    // render.blend.mode: the blending mode
   int exclude_camera = -1;  // leave this camera out of the blend
   bool write_frames = true;
