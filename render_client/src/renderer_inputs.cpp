@@ -7,6 +7,7 @@
 #include <cstring>
 #include <glm/gtc/packing.hpp>
 #include <limits>
+#include <map>
 #include <stdexcept>
 #include <type_traits>
 
@@ -355,15 +356,15 @@ void Renderer::generateMips(VkCommandBuffer cmd) {
                   VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, images_.mip_levels - 1, 1);
 }
 
-void Renderer::warmUp(const BlendSettings& settings) {
-  blendPipeline(settings.mode);
-  if (settings.mode == BlendMode::kLayered) return;  // its pipeline alone: no camera images
-  // An octahedron of half a metre, closed and counter-clockwise from
-  // outside, seen from two sides.
+namespace {
+
+// A sphere of radius 0.5: the octahedron's faces split in four, `levels`
+// times (8 * 4^levels triangles), closed and counter-clockwise from
+// outside, its edges shared, as a carved hull's are.
+Mesh warmUpSphere(int levels) {
   Mesh mesh;
   mesh.positions = {{0.5f, 0, 0},  {-0.5f, 0, 0}, {0, 0.5f, 0},
                     {0, -0.5f, 0}, {0, 0, 0.5f},  {0, 0, -0.5f}};
-  for (const auto& p : mesh.positions) mesh.normals.push_back(glm::normalize(p));
   for (const uint32_t x : {0u, 1u}) {
     for (const uint32_t y : {2u, 3u}) {
       for (const uint32_t z : {4u, 5u}) {
@@ -374,14 +375,46 @@ void Renderer::warmUp(const BlendSettings& settings) {
       }
     }
   }
-  constexpr uint32_t kWidth = 64, kHeight = 48;
+  for (int level = 0; level < levels; ++level) {
+    std::map<std::pair<uint32_t, uint32_t>, uint32_t> midpoints;
+    auto midpoint = [&](uint32_t a, uint32_t b) {
+      const auto key = std::minmax(a, b);
+      auto [it, added] = midpoints.try_emplace(key, static_cast<uint32_t>(mesh.positions.size()));
+      if (added)
+        mesh.positions.push_back(0.5f * glm::normalize(mesh.positions[a] + mesh.positions[b]));
+      return it->second;
+    };
+    std::vector<uint32_t> split;
+    split.reserve(mesh.indices.size() * 4);
+    for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+      const uint32_t a = mesh.indices[t], b = mesh.indices[t + 1], c = mesh.indices[t + 2];
+      const uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
+      split.insert(split.end(), {a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca});
+    }
+    mesh.indices = std::move(split);
+  }
+  for (const auto& p : mesh.positions) mesh.normals.push_back(glm::normalize(p));
+  return mesh;
+}
+
+}  // namespace
+
+void Renderer::warmUp(const BlendSettings& settings) {
+  blendPipeline(settings.mode);
+  if (settings.mode == BlendMode::kLayered) return;  // its pipeline alone: no camera images
+  // Sized as a live frame is likely to be (a hull of tens of thousands of
+  // triangles, four views of the picture's size): the buffers and images a
+  // frame needs are made here, not by the first frames shown.
+  const Mesh mesh = warmUpSphere(6);
   std::vector<ViewImages> views;
-  for (const double side : {-1.0, 1.0}) {
+  for (int k = 0; k < 4; ++k) {
+    const double angle = k * 1.5707963267948966;
     ViewImages view;
-    view.camera = lookAtCamera(static_cast<uint32_t>(views.size()), {2.0 * side, 0.5, 2.0},
-                               {0, 0, 0}, {0, 1, 0}, kWidth, kHeight, 60.0);
-    view.color = Image8(kWidth, kHeight, 3, 128);
-    view.mask = Image8(kWidth, kHeight, 1, 255);
+    view.camera =
+        lookAtCamera(static_cast<uint32_t>(k), {2.0 * std::cos(angle), 0.5, 2.0 * std::sin(angle)},
+                     {0, 0, 0}, {0, 1, 0}, width_, height_, 60.0);
+    view.color = Image8(width_, height_, 3, 128);
+    view.mask = Image8(width_, height_, 1, 255);
     views.push_back(std::move(view));
   }
   setMesh(mesh);
