@@ -390,7 +390,9 @@ Status FusionServer::handlePodFrame(Peer& peer, Frame frame) {
   std::optional<int64_t> offset = 0;
   if (peer.minor >= 8)
     offset = peer.clock.known() ? std::optional(peer.clock.offsetNs()) : std::nullopt;
-  PodDecodeJob job{peer.serial, peer.id, std::move(frame), cam->second, monotonicNs(), offset};
+  const uint64_t uncertainty = offset && peer.clock.known() ? peer.clock.uncertaintyNs() : 0;
+  PodDecodeJob job{peer.serial,   peer.id, std::move(frame), cam->second,
+                   monotonicNs(), offset,  uncertainty};
   decoder_->submit(std::move(job));
   return Status::ok();
 }

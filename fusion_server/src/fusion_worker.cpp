@@ -17,7 +17,8 @@ using protocol::Stage;
 
 StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
                                 const Camera& camera, uint64_t now_ns,
-                                std::optional<int64_t> pod_clock_offset_ns) {
+                                std::optional<int64_t> pod_clock_offset_ns,
+                                uint64_t clock_uncertainty_ns) {
   PodImages images;
   images.camera_id = pod.camera_id;
   images.bytes = wire_bytes;
@@ -42,8 +43,11 @@ StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_byt
                                protocol::shiftedNs(s.end_ns, *pod_clock_offset_ns)});
     }
     images.sent_ns = protocol::shiftedNs(pod_sent, *pod_clock_offset_ns);
+    const bool within_uncertainty =
+        images.sent_ns > now_ns && images.sent_ns - now_ns <= clock_uncertainty_ns;
     images.stamps.push_back({static_cast<uint16_t>(protocol::Stage::kSend),
-                             static_cast<uint16_t>(pod.camera_id), images.sent_ns, now_ns});
+                             static_cast<uint16_t>(pod.camera_id),
+                             within_uncertainty ? now_ns : images.sent_ns, now_ns});
   } else {
     images.capture_time_ns = now_ns;
     images.sent_ns = now_ns;

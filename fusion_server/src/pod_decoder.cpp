@@ -23,8 +23,8 @@ DecodedPodFrame decodePodFrame(PodDecodeJob job) {
   }
   if (out.status.isOk()) {
     out.frame_id = pod.frame_id;
-    auto images =
-        podImagesOf(pod, job.frame.bytes.size(), job.camera, job.arrival_ns, job.clock_offset_ns);
+    auto images = podImagesOf(pod, job.frame.bytes.size(), job.camera, job.arrival_ns,
+                              job.clock_offset_ns, job.clock_uncertainty_ns);
     if (images.isOk()) {
       out.images = std::move(*images);
     } else {

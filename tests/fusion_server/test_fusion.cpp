@@ -213,6 +213,22 @@ TEST(FusionWorker, TheServerStampsTheSendStageItself) {
   EXPECT_EQ(shifted->sent_ns, 1100u);
   EXPECT_EQ(shifted->pod_sent_ns, 2000u);
   EXPECT_EQ(shifted->stamps.front().start_ns, 600u);
+  // An estimate of -3100 ns places the pod's send (2000) at 5100, 100 ns
+  // after its arrival. Within an uncertainty of 150 ns that is a transit
+  // of 0; beyond one of 50 ns it stays negative, and the report leaves it
+  // out.
+  for (const uint64_t uncertainty : {150u, 50u}) {
+    auto early = podImagesOf(pod, 4096, views[0].camera, 5000, -3100, uncertainty);
+    ASSERT_TRUE(early.isOk());
+    EXPECT_EQ(early->sent_ns, 5100u);
+    const auto send =
+        std::find_if(early->stamps.begin(), early->stamps.end(), [](const protocol::StageStamp& s) {
+          return s.stage == static_cast<uint16_t>(protocol::Stage::kSend);
+        });
+    ASSERT_NE(send, early->stamps.end());
+    EXPECT_EQ(send->end_ns, 5000u);
+    EXPECT_EQ(send->start_ns, uncertainty == 150u ? 5000u : 5100u) << uncertainty;
+  }
   // Not measured yet: none of the pod's stamps, and its capture time is the
   // arrival, the latest it can have been.
   auto unplaced = podImagesOf(pod, 4096, views[0].camera, 5000, std::nullopt);

@@ -100,11 +100,15 @@ struct GroupJob {
 // pod_clock_offset_ns is the pod's clock minus the server's
 // (protocol/clock_sync.h; 0 on one host). Without it (a pod not measured
 // yet) the pod's stamps are left out and its capture time is taken as the
-// arrival, the latest it can have been. An error names the plane that
-// does not fit or the plane that is missing.
+// arrival, the latest it can have been. A send that ends before it starts
+// by no more than the offset's uncertainty is a transit shorter than the
+// clocks can tell apart (loopback: about 0.1 ms): it is stamped 0, not
+// left out, which would bias the stage's percentiles up. An error names
+// the plane that does not fit or the plane that is missing.
 StatusOr<PodImages> podImagesOf(const protocol::PodFrame& pod, uint64_t wire_bytes,
                                 const Camera& camera, uint64_t now_ns,
-                                std::optional<int64_t> pod_clock_offset_ns = 0);
+                                std::optional<int64_t> pod_clock_offset_ns = 0,
+                                uint64_t clock_uncertainty_ns = 0);
 
 // The group's silhouettes and feather maps as whole images, for the hull.
 std::vector<hull::HullView> hullViewsOf(const FrameGroup& group);

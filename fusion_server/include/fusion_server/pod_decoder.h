@@ -30,6 +30,7 @@ struct PodDecodeJob {
   // The pod's clock minus ours as estimated at arrival; none while a pod of
   // 1.8 or later is not measured yet (its times cannot be placed).
   std::optional<int64_t> clock_offset_ns = 0;
+  uint64_t clock_uncertainty_ns = 0;  // of that estimate
 };
 
 struct DecodedPodFrame {
