@@ -795,6 +795,10 @@ int FusionServer::run() {
             status = handled;
             break;
           }
+          // A header held back behind these frames is judged by the caps
+          // they set (a Calibration raises its pod's PodFrame cap).
+          if (status.isOk() && !peer.connection->hasFrame() && peer.connection->headerWaits())
+            status = peer.connection->onReadable(options_.read_budget_bytes);
         }
       }
       const uint64_t now = monotonicNs();

@@ -249,6 +249,10 @@ void StreamDecoder::feed(std::span<const uint8_t> data) {
     data = data.subspan(n);
     commit(n);
   }
+  if (header_waits_) {  // the data ended on it: judged now, as the comment promises
+    header_waits_ = false;
+    onHeaderComplete(/*may_wait=*/false);
+  }
 }
 
 void StreamDecoder::onHeaderComplete(bool may_wait) {

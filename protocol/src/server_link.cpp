@@ -214,10 +214,14 @@ void ServerLink::poll(int timeout_ms, std::vector<Frame>& received) {
            static_cast<short>(POLLIN | (connection_->wantsWrite() ? POLLOUT : 0)), 0};
   const int rc = ::poll(&p, 1, timeout_ms);
   if (rc > 0 && (p.revents & (POLLIN | POLLHUP | POLLERR))) {
-    const Status s = connection_->onReadable();
+    Status s = connection_->onReadable();
     read_ns_ = monotonicNs();
-    while (connection_ != nullptr && connection_->hasFrame())
+    while (connection_ != nullptr && connection_->hasFrame()) {
       handle(connection_->takeFrame(), received);
+      if (s.isOk() && connection_ != nullptr && !connection_->hasFrame() &&
+          connection_->headerWaits())
+        s = connection_->onReadable();  // a header held back behind those frames
+    }
     if (!s.isOk()) {
       fail(s);
       return;

@@ -405,6 +405,9 @@ void Renderer::warmUp(const BlendSettings& settings) {
   // Sized as a live frame is likely to be (a hull of tens of thousands of
   // triangles, four views of the picture's size): the buffers and images a
   // frame needs are made here, not by the first frames shown.
+  // Capped: a large picture must not allocate gigabytes before a pod joins.
+  const uint32_t view_width = std::min<uint32_t>(width_, 640);
+  const uint32_t view_height = std::min<uint32_t>(height_, 480);
   const Mesh mesh = warmUpSphere(6);
   std::vector<ViewImages> views;
   for (int k = 0; k < 4; ++k) {
@@ -412,9 +415,9 @@ void Renderer::warmUp(const BlendSettings& settings) {
     ViewImages view;
     view.camera =
         lookAtCamera(static_cast<uint32_t>(k), {2.0 * std::cos(angle), 0.5, 2.0 * std::sin(angle)},
-                     {0, 0, 0}, {0, 1, 0}, width_, height_, 60.0);
-    view.color = Image8(width_, height_, 3, 128);
-    view.mask = Image8(width_, height_, 1, 255);
+                     {0, 0, 0}, {0, 1, 0}, view_width, view_height, 60.0);
+    view.color = Image8(view_width, view_height, 3, 128);
+    view.mask = Image8(view_width, view_height, 1, 255);
     views.push_back(std::move(view));
   }
   setMesh(mesh);

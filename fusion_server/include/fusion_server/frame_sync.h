@@ -23,8 +23,10 @@ struct PodImages {
   uint64_t capture_time_ns = 0;
   uint64_t bytes = 0;  // size of the frame on the wire
   Camera camera;       // the calibration in force when the frame arrived
-  // The transit RFC 3550 watches (the server's kSend stamp): from the pod's
-  // send (its encode end, a replay pod's read end) to the arrival. sent_ns
+  // The transit RFC 3550 watches (the server's kSend stamp, whose start is
+  // moved to the arrival where it ends before it starts by no more than the
+  // clock estimate's uncertainty): from the pod's send (its encode end, a
+  // replay pod's read end) to the arrival. sent_ns
   // is on the server's clock; pod_sent_ns the same moment on the pod's own,
   // which the jitter takes: a constant offset cancels in RFC 3550's
   // differences, and the estimate's steps must not read as jitter.

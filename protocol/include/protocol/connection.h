@@ -71,6 +71,9 @@ class Connection {
     decoder_.setTypeCap(static_cast<uint16_t>(type), cap);
   }
   bool hasFrame() const { return decoder_.hasFrame(); }
+  // The frames taken held a header back: onReadable judges it (and reads
+  // on) without waiting for the socket, whose peer may have gone quiet.
+  bool headerWaits() const { return decoder_.headerWaits(); }
   Frame takeFrame() { return decoder_.takeFrame(); }
 
   uint64_t lastReceiveNs() const { return last_receive_ns_; }

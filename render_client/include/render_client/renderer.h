@@ -145,9 +145,11 @@ class Renderer {
   // All views must share one image size (the pods' calibration): see
   // checkViews.
   void setViews(const std::vector<ViewImages>& views);
-  // Renders a small mesh seen by two cameras in settings' mode (but
+  // Renders a sphere of a hull's size (32768 triangles) seen by four
+  // views of the picture's size (at most 640x480) in settings' mode (but
   // layered, which has no camera images) and forgets it: the next setMesh
-  // starts as the first one. What a first frame compiles (on lavapipe the
+  // starts as the first one. Views of another size than the pods' are
+  // made again by the first frame. What a first frame compiles (on lavapipe the
   // JIT of each pipeline and compute pass, hundreds of ms at its first
   // draw or dispatch) is then paid before the client takes frames, not by
   // the first frames it shows.
