@@ -79,10 +79,13 @@ clients:
   fs::remove_all(out);
 }
 
-// What a program said and its exit code, when it ends by itself.
-std::pair<int, std::string> runToEnd(const std::vector<std::string>& args, const fs::path& log) {
+// The program refuses to start (exit 2) and its log says `why`.
+void expectRefused(const std::vector<std::string>& args, const fs::path& log,
+                   const std::string& why) {
   const int code = waitExit(spawn(args, log), 60);
-  return {code, readFile(log)};
+  const std::string said = readFile(log);
+  EXPECT_EQ(code, 2) << said;
+  EXPECT_NE(said.find(why), std::string::npos) << "expected: " << why << "\n" << said;
 }
 
 TEST(RigFile, AKeyTheProgramHasNoFlagForIsRefusedWithItsLine) {
@@ -93,19 +96,12 @@ pods:
   - id: 0
     colour: red
 )");
-  const auto [code, said] =
-      runToEnd({kBin + "/capture_node", "--rig", rig.string(), "--pod-id", "0"}, out / "pod.log");
-  EXPECT_EQ(code, 2) << said;
-  EXPECT_NE(said.find(rig.string() + ":5 (pod 0): 'colour' is not a capture_node flag"),
-            std::string::npos)
-      << said;
+  expectRefused({kBin + "/capture_node", "--rig", rig.string(), "--pod-id", "0"}, out / "pod.log",
+                rig.string() + ":5 (pod 0): 'colour' is not a capture_node flag");
   // The file's own mistakes are the same message for every program.
   std::ofstream(rig) << "server:\n  address: 127.0.0.1:7300\npods:\n  - id: 0\n  - id: 0\n";
-  const auto [server_code, server_said] =
-      runToEnd({kBin + "/fusion_server", "--rig", rig.string()}, out / "server.log");
-  EXPECT_EQ(server_code, 2) << server_said;
-  EXPECT_NE(server_said.find(rig.string() + ":5: pod 0 is given twice"), std::string::npos)
-      << server_said;
+  expectRefused({kBin + "/fusion_server", "--rig", rig.string()}, out / "server.log",
+                rig.string() + ":5: pod 0 is given twice");
   fs::remove_all(out);
 }
 
@@ -117,28 +113,15 @@ TEST(RigFile, ABadValueInTheFileIsRefusedWithWhereItIs) {
 pods:
   - id: 0
 )");
-  const auto [code, said] =
-      runToEnd({kBin + "/fusion_server", "--rig", rig.string()}, out / "server.log");
-  EXPECT_EQ(code, 2) << said;
-  EXPECT_NE(said.find("--sync-deadline-ms"), std::string::npos) << said;
-  EXPECT_NE(said.find("(--sync-deadline-ms from " + rig.string() + ":3 (server))"),
-            std::string::npos)
-      << said;
+  expectRefused({kBin + "/fusion_server", "--rig", rig.string()}, out / "server.log",
+                "(--sync-deadline-ms from " + rig.string() + ":3 (server))");
   // A pod not told its id looks for this machine in the file.
-  const auto [pod_code, pod_said] =
-      runToEnd({kBin + "/capture_node", "--rig", rig.string()}, out / "pod.log");
-  EXPECT_EQ(pod_code, 2) << pod_said;
-  EXPECT_NE(pod_said.find("--rig: " + rig.string() + " has no pod on host " + hostName() +
-                          ": give --pod-id or --rig-host"),
-            std::string::npos)
-      << pod_said;
-  const auto [missing_code, missing_said] =
-      runToEnd({kBin + "/capture_node", "--rig", (out / "none.yaml").string(), "--pod-id", "0"},
-               out / "missing.log");
-  EXPECT_EQ(missing_code, 2) << missing_said;
-  EXPECT_NE(missing_said.find("--rig: " + (out / "none.yaml").string() + " was not readable"),
-            std::string::npos)
-      << missing_said;
+  expectRefused({kBin + "/capture_node", "--rig", rig.string()}, out / "pod.log",
+                "--rig: " + rig.string() + " has no pod on host " + hostName() +
+                    ": give --pod-id or --rig-host");
+  expectRefused({kBin + "/capture_node", "--rig", (out / "none.yaml").string(), "--pod-id", "0"},
+                out / "missing.log",
+                "--rig: " + (out / "none.yaml").string() + " was not readable");
   fs::remove_all(out);
 }
 
