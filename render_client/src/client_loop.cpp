@@ -447,6 +447,7 @@ class ClientLoop {
     stamps.push_back(
         {static_cast<uint16_t>(Stage::kWrite), kSourceClient, rendered_ns, written_ns});
     report_.addStamps(stamps);
+    record.timeline = timelineOf(stamps);
     report_.addStage(static_cast<uint16_t>(Stage::kDecode), ready.decode_ms);
     record.capture_time_ns = ready.frame.capture_time_ns;
     record.written_local_ns = written_local_ns;

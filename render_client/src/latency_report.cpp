@@ -44,6 +44,20 @@ void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
   }
 }
 
+std::vector<protocol::StageStamp> timelineOf(const std::vector<protocol::StageStamp>& stamps) {
+  std::map<uint16_t, protocol::StageStamp> latest;
+  for (const auto& s : stamps) {
+    if (s.end_ns == 0 || s.end_ns < s.start_ns) continue;
+    auto [it, added] = latest.try_emplace(s.stage, s);
+    if (!added && s.end_ns > it->second.end_ns) it->second = s;
+  }
+  std::vector<protocol::StageStamp> timeline;
+  for (const uint16_t stage : protocol::stagesInPipelineOrder()) {
+    if (auto it = latest.find(stage); it != latest.end()) timeline.push_back(it->second);
+  }
+  return timeline;
+}
+
 void LatencyReport::setServerArrivals(std::vector<protocol::PodArrivals> arrivals) {
   for (const auto& a : arrivals) {
     if (a.clock_uncertainty_ns != 0) first_pod_clocks_.emplace(a.pod, a);
@@ -304,6 +318,12 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   j["settings"] = settings;
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
   for (const auto& f : frames_) {
+    nlohmann::ordered_json timeline = nlohmann::ordered_json::object();
+    const auto since_capture = [&](uint64_t ns) {
+      return static_cast<double>(static_cast<int64_t>(ns - f.capture_time_ns)) / 1e6;
+    };
+    for (const auto& s : f.timeline)
+      timeline[protocol::stageName(s.stage)] = {since_capture(s.start_ns), since_capture(s.end_ns)};
     frames.push_back(
         {{"frame_id", f.frame_id},
          {"file", f.file},
@@ -317,7 +337,8 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
          {"psnr_db",
           f.quality ? nlohmann::ordered_json(f.quality->psnr_db) : nlohmann::ordered_json()},
          {"ssim", f.quality ? nlohmann::ordered_json(f.quality->ssim) : nlohmann::ordered_json()},
-         {"note", f.note}});
+         {"note", f.note},
+         {"timeline_ms", timeline}});
   }
   j["frames"] = frames;
   return j.dump(2) + "\n";
@@ -326,6 +347,61 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
 }  // namespace holofuse::render
 
 namespace holofuse::render {
+
+std::vector<double> timeByStage(const FrameRecord& frame) {
+  const std::vector<uint16_t>& order = protocol::stagesInPipelineOrder();
+  std::vector<double> shares(order.size() + 1);
+  const auto ms = [&](uint64_t ns) {
+    return static_cast<double>(static_cast<int64_t>(ns - frame.capture_time_ns)) / 1e6;
+  };
+  std::vector<double> edges = {0.0, frame.end_to_end_ms};
+  for (const auto& s : frame.timeline) edges.insert(edges.end(), {ms(s.start_ns), ms(s.end_ns)});
+  std::sort(edges.begin(), edges.end());
+  for (size_t e = 0; e + 1 < edges.size(); ++e) {
+    const double from = std::max(edges[e], 0.0), to = std::min(edges[e + 1], frame.end_to_end_ms);
+    if (to <= from) continue;
+    size_t slot = order.size();  // no stage ran
+    for (const auto& s : frame.timeline) {
+      if (ms(s.start_ns) > from || ms(s.end_ns) < to) continue;
+      const auto at = std::find(order.begin(), order.end(), s.stage);
+      slot = std::min(slot, static_cast<size_t>(at - order.begin()));
+    }
+    shares[slot] += to - from;
+  }
+  return shares;
+}
+
+std::string LatencyReport::slowestFrames() const {
+  std::vector<const FrameRecord*> slowest;
+  for (const auto& f : frames_)
+    if (!f.timeline.empty()) slowest.push_back(&f);
+  std::sort(slowest.begin(), slowest.end(), [](const FrameRecord* a, const FrameRecord* b) {
+    return a->end_to_end_ms > b->end_to_end_ms;
+  });
+  slowest.resize(std::min<size_t>(slowest.size(), 5));
+  if (slowest.empty()) return {};
+  const std::vector<uint16_t>& order = protocol::stagesInPipelineOrder();
+  std::vector<std::vector<double>> shares;
+  std::vector<html::StackRow> rows;
+  for (const FrameRecord* f : slowest) {
+    shares.push_back(timeByStage(*f));
+    char label[64];
+    std::snprintf(label, sizeof(label), "frame %llu, %.0f ms",
+                  static_cast<unsigned long long>(f->frame_id), f->end_to_end_ms);
+    rows.push_back({label, {}});
+  }
+  // Stages no slow frame spent time in are left out of the legend.
+  std::vector<std::string> names;
+  for (size_t slot = 0; slot <= order.size(); ++slot) {
+    bool used = false;
+    for (const auto& row : shares) used = used || row[slot] > 0;
+    if (!used) continue;
+    names.push_back(slot < order.size() ? protocol::stageName(order[slot]) : "waiting");
+    for (size_t row = 0; row < rows.size(); ++row) rows[row].segments.push_back(shares[row][slot]);
+  }
+  return html::stackedBars("The slowest frames: where their time went (waiting: no stage ran)",
+                           names, rows, "ms");
+}
 
 std::string LatencyReport::toHtml(const std::map<std::string, std::string>& settings,
                                   const Budget& budget) const {
@@ -357,6 +433,7 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
     p95.segments.push_back(percentile(it->second, 95));
   }
   body += html::stackedBars("Latency budget per stage", stages, {p50, p95}, "ms");
+  body += slowestFrames();
   if (!gpu_ms_.empty()) {
     std::vector<std::string> passes;
     html::StackRow gpu50{"p50", {}}, gpu95{"p95", {}};

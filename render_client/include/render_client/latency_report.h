@@ -43,7 +43,23 @@ struct FrameRecord {
   // scene's, ClientOptions::judge): PSNR and SSIM inside the true mask;
   // none when not judged.
   std::optional<FrameQuality> quality;
+  // Where this frame's time went: each stage's span on the server's clock
+  // (timelineOf), written as ms from its capture; the gaps between spans
+  // are waits no stage names (a group held for a client's ask, a mesh
+  // waiting for the client's render in hand).
+  std::vector<protocol::StageStamp> timeline;
 };
+
+// One span per stage, in pipeline order: of a stage several pods stamped,
+// the one that ended last (the pod the group waited for). Stamps that end
+// before they start, or never ended, are left out.
+std::vector<protocol::StageStamp> timelineOf(const std::vector<protocol::StageStamp>& stamps);
+// A frame's end to end split by its timeline, in ms: one share per stage
+// in pipeline order (protocol::stagesInPipelineOrder), then the time no
+// stage ran (waiting). A moment two spans cover (the last pod's send and
+// the sync wait) goes to the earlier stage, so the shares sum to the end
+// to end.
+std::vector<double> timeByStage(const FrameRecord& frame);
 
 using protocol::Budget;
 
@@ -122,6 +138,8 @@ class LatencyReport {
                      const Budget& budget = {}) const;
 
  private:
+  // The slowest frames' end to end by stage and wait, as stacked bars.
+  std::string slowestFrames() const;
   struct Violation {
     std::string stage;
     double p95, budget;
