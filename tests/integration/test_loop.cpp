@@ -158,13 +158,15 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   EXPECT_LE(report["quality"]["psnr_db"]["worst"].get<double>(),
             report["quality"]["psnr_db"]["mean"].get<double>());
 
-  // The page the run wrote, in a browser: the latency stack, bytes per
-  // link and the server's jitter per pod drawn as their values say, the
-  // hull flagged over budget, the quality table.
+  // The page the run wrote, in a browser: the latency stack, the slowest
+  // frames split by stage, bytes per link and the server's jitter per pod
+  // drawn as their values say, the hull flagged over budget, the quality
+  // table.
   if (holofuse::test::chromium().empty())
     GTEST_SKIP() << "chromium is not installed (./holofuse deps installs it)";
-  EXPECT_EQ(holofuse::test::chartsRendered(out / "report.html"), 3);
+  EXPECT_EQ(holofuse::test::chartsRendered(out / "report.html"), 4);
   const std::string page = readFile(out / "report.html");
+  EXPECT_NE(page.find("The slowest frames: where their time went"), std::string::npos);
   EXPECT_NE(page.find("Arrival jitter per pod (at the server, every frame)"), std::string::npos);
   EXPECT_NE(page.find("<tr class=\"flagged\"><td>hull</td>"), std::string::npos);
   EXPECT_NE(page.find("<h2>Quality against the truth</h2>"), std::string::npos);
