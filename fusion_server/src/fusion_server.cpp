@@ -795,10 +795,9 @@ int FusionServer::run() {
             status = handled;
             break;
           }
-          // A header held back behind these frames is judged by the caps
-          // they set (a Calibration raises its pod's PodFrame cap).
-          if (status.isOk() && !peer.connection->hasFrame() && peer.connection->headerWaits())
-            status = peer.connection->onReadable(options_.read_budget_bytes);
+          // A Calibration raises its pod's PodFrame cap for a header held back.
+          if (status.isOk())
+            status = peer.connection->readOnIfHeaderWaits(options_.read_budget_bytes);
         }
       }
       const uint64_t now = monotonicNs();

@@ -204,10 +204,7 @@ Status verifyCrc(const Frame& frame, uint64_t stream_offset) {
 }
 
 std::span<uint8_t> StreamDecoder::writableSpan() {
-  if (header_waits_ && !hasFrame()) {
-    header_waits_ = false;
-    onHeaderComplete(/*may_wait=*/false);
-  }
+  if (header_waits_ && !hasFrame()) judgeWaitingHeader();
   if (!status_.isOk() || header_waits_) return {};
   if (!in_payload_)
     return std::span<uint8_t>(header_bytes_ + header_filled_, kHeaderSize - header_filled_);
@@ -237,22 +234,22 @@ void StreamDecoder::commit(size_t n) {
 }
 
 void StreamDecoder::feed(std::span<const uint8_t> data) {
-  while (!data.empty() && status_.isOk()) {
-    if (header_waits_) {
-      header_waits_ = false;
-      onHeaderComplete(/*may_wait=*/false);
-      continue;
-    }
+  for (;;) {
+    // feed's caller takes frames only after it, so a header is judged as
+    // soon as it completes, by the caps in force now.
+    if (header_waits_) judgeWaitingHeader();
+    if (data.empty() || !status_.isOk()) return;
     auto dst = writableSpan();
     const size_t n = std::min(dst.size(), data.size());
     std::memcpy(dst.data(), data.data(), n);
     data = data.subspan(n);
     commit(n);
   }
-  if (header_waits_) {  // the data ended on it: judged now, as the comment promises
-    header_waits_ = false;
-    onHeaderComplete(/*may_wait=*/false);
-  }
+}
+
+void StreamDecoder::judgeWaitingHeader() {
+  header_waits_ = false;
+  onHeaderComplete(/*may_wait=*/false);
 }
 
 void StreamDecoder::onHeaderComplete(bool may_wait) {

@@ -218,9 +218,7 @@ void ServerLink::poll(int timeout_ms, std::vector<Frame>& received) {
     read_ns_ = monotonicNs();
     while (connection_ != nullptr && connection_->hasFrame()) {
       handle(connection_->takeFrame(), received);
-      if (s.isOk() && connection_ != nullptr && !connection_->hasFrame() &&
-          connection_->headerWaits())
-        s = connection_->onReadable();  // a header held back behind those frames
+      if (s.isOk() && connection_ != nullptr) s = connection_->readOnIfHeaderWaits();
     }
     if (!s.isOk()) {
       fail(s);

@@ -350,22 +350,28 @@ namespace holofuse::render {
 
 std::vector<double> timeByStage(const FrameRecord& frame) {
   const std::vector<uint16_t>& order = protocol::stagesInPipelineOrder();
-  std::vector<double> shares(order.size() + 1);
   const auto ms = [&](uint64_t ns) {
     return static_cast<double>(static_cast<int64_t>(ns - frame.capture_time_ns)) / 1e6;
   };
+  struct Span {
+    double from, to;
+    size_t slot;  // the stage's place in the pipeline order
+  };
+  std::vector<Span> spans;
   std::vector<double> edges = {0.0, frame.end_to_end_ms};
-  for (const auto& s : frame.timeline) edges.insert(edges.end(), {ms(s.start_ns), ms(s.end_ns)});
+  for (const auto& s : frame.timeline) {
+    const auto at = std::find(order.begin(), order.end(), s.stage);
+    spans.push_back({ms(s.start_ns), ms(s.end_ns), static_cast<size_t>(at - order.begin())});
+    edges.insert(edges.end(), {spans.back().from, spans.back().to});
+  }
   std::sort(edges.begin(), edges.end());
+  std::vector<double> shares(order.size() + 1);
   for (size_t e = 0; e + 1 < edges.size(); ++e) {
     const double from = std::max(edges[e], 0.0), to = std::min(edges[e + 1], frame.end_to_end_ms);
     if (to <= from) continue;
     size_t slot = order.size();  // no stage ran
-    for (const auto& s : frame.timeline) {
-      if (ms(s.start_ns) > from || ms(s.end_ns) < to) continue;
-      const auto at = std::find(order.begin(), order.end(), s.stage);
-      slot = std::min(slot, static_cast<size_t>(at - order.begin()));
-    }
+    for (const Span& s : spans)
+      if (s.from <= from && s.to >= to) slot = std::min(slot, s.slot);
     shares[slot] += to - from;
   }
   return shares;

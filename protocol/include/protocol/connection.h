@@ -71,9 +71,14 @@ class Connection {
     decoder_.setTypeCap(static_cast<uint16_t>(type), cap);
   }
   bool hasFrame() const { return decoder_.hasFrame(); }
-  // The frames taken held a header back: onReadable judges it (and reads
-  // on) without waiting for the socket, whose peer may have gone quiet.
-  bool headerWaits() const { return decoder_.headerWaits(); }
+  // Called once every frame taken so far was handled: a header those
+  // frames held back (they may raise its cap) is judged by the caps now in
+  // force, and reading goes on, without waiting for the socket to poll
+  // readable again (its peer may have gone quiet). Ok when none waited.
+  Status readOnIfHeaderWaits(size_t budget = SIZE_MAX) {
+    if (decoder_.hasFrame() || !decoder_.headerWaits()) return Status::ok();
+    return onReadable(budget);
+  }
   Frame takeFrame() { return decoder_.takeFrame(); }
 
   uint64_t lastReceiveNs() const { return last_receive_ns_; }

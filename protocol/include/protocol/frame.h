@@ -184,6 +184,8 @@ class StreamDecoder {
   // may_wait: a header above its cap, behind frames not yet taken, waits
   // for them (header_waits_) instead of failing the stream.
   void onHeaderComplete(bool may_wait);
+  // Judges the header that waited, by the caps in force now.
+  void judgeWaitingHeader();
   void onFrameComplete();
 
   uint32_t max_payload_;
