@@ -38,12 +38,14 @@ int main(int argc, char** argv) {
   std::map<std::string, std::vector<double>> per_mesh, per_view;
   std::map<std::string, std::map<std::string, std::vector<double>>> passes;
   size_t vertices = 0;
-  // Rounds: in each, every mode renders its block of meshes with its own
-  // renderer (warm, as a client running one mode is), in an order that
-  // rotates per round. The montage4d / holoportation ratio is taken per
-  // round, so a change in this shared machine's load between the blocks of
-  // one round is all that can move it; the report gives the median and
-  // the range over the rounds.
+  // Rounds: in each, the same meshes in turn, and each mesh rendered by
+  // every mode's own renderer (warm, as a client running one mode is),
+  // back to back, in an order that rotates from mesh to mesh. A ratio
+  // between two modes is taken per mesh, from renders tens of ms apart, so
+  // that a change in this shared machine's load between them is all that
+  // can move it; the report gives the median and the quartiles over every
+  // mesh of every round. The first mesh of a round warms up (JIT, caches,
+  // the carry) and is not counted.
   constexpr int kRounds = 3;
   const std::vector<render::BlendMode> modes = {
       render::BlendMode::kNormal, render::BlendMode::kHoloportation, render::BlendMode::kMontage4D,
@@ -51,25 +53,24 @@ int main(int argc, char** argv) {
   std::vector<std::unique_ptr<render::Renderer>> renderers;
   for (size_t k = 0; k < modes.size(); ++k)
     renderers.push_back(std::make_unique<render::Renderer>(context, 320, 240));
-  std::vector<double> mesh_ratios, view_ratios;
-  std::map<std::string, std::vector<double>> mesh_against_normal, view_against_normal;  // per round
+  std::vector<double> mesh_ratios, view_ratios;  // montage4d / holoportation, per mesh
+  std::map<std::string, std::vector<double>> mesh_against_normal, view_against_normal;  // per mesh
   for (int round = 0; round < kRounds; ++round) {
-    std::map<std::string, std::vector<double>> round_mesh, round_view;
-    for (size_t turn = 0; turn < modes.size(); ++turn) {
-      const size_t k = (turn + static_cast<size_t>(round)) % modes.size();
-      const std::string name = render::blendModeName(modes[k]);
-      render::Renderer& renderer = *renderers[k];
-      render::BlendSettings settings;
-      settings.mode = modes[k];
-      for (int m = 0; m < meshes + 1;
-           ++m) {  // the first mesh of a block warms up (JIT, caches, the carry)
-        const Mesh mesh = scene.truthMesh(10 + m, 0.02);
-        vertices = mesh.vertexCount();
-        std::vector<render::ViewImages> views;
-        for (const auto& cam : cameras) {
-          const auto truth = scene.render(cam, 10 + m);
-          views.push_back({cam, truth.color, truth.mask, featherMap(truth.mask)});
-        }
+    for (int m = 0; m < meshes + 1; ++m) {
+      const Mesh mesh = scene.truthMesh(10 + m, 0.02);
+      vertices = mesh.vertexCount();
+      std::vector<render::ViewImages> views;
+      for (const auto& cam : cameras) {
+        const auto truth = scene.render(cam, 10 + m);
+        views.push_back({cam, truth.color, truth.mask, featherMap(truth.mask)});
+      }
+      std::map<std::string, double> mesh_ms, view_ms;
+      for (size_t turn = 0; turn < modes.size(); ++turn) {
+        const size_t k = (turn + static_cast<size_t>(m + round)) % modes.size();
+        const std::string name = render::blendModeName(modes[k]);
+        render::Renderer& renderer = *renderers[k];
+        render::BlendSettings settings;
+        settings.mode = modes[k];
         renderer.setMesh(mesh);
         renderer.setViews(views);
         const auto t0 = Clock::now();
@@ -78,8 +79,8 @@ int main(int argc, char** argv) {
         renderer.render(cameras[2], settings);  // a second view of the same mesh
         const auto t2 = Clock::now();
         if (m == 0) continue;
-        round_mesh[name].push_back(ms(t0, t1));
-        round_view[name].push_back(ms(t1, t2));
+        mesh_ms[name] = ms(t0, t1);
+        view_ms[name] = ms(t1, t2);
         per_mesh[name].push_back(ms(t0, t1));
         per_view[name].push_back(ms(t1, t2));
         if (modes[k] == render::BlendMode::kNormal) continue;  // no field passes to time
@@ -90,16 +91,17 @@ int main(int argc, char** argv) {
             passes[name][names[s]].push_back(times[s]);  // -1: a pass this mode does not have
         }
       }
-    }
-    mesh_ratios.push_back(median(round_mesh["montage4d"]) / median(round_mesh["holoportation"]));
-    view_ratios.push_back(median(round_view["montage4d"]) / median(round_view["holoportation"]));
-    for (const auto& [name, v] : round_mesh) {
-      mesh_against_normal[name].push_back(median(v) / median(round_mesh["normal"]));
-      view_against_normal[name].push_back(median(round_view[name]) / median(round_view["normal"]));
+      if (m == 0) continue;
+      mesh_ratios.push_back(mesh_ms["montage4d"] / mesh_ms["holoportation"]);
+      view_ratios.push_back(view_ms["montage4d"] / view_ms["holoportation"]);
+      for (const auto& [name, v] : mesh_ms) {
+        mesh_against_normal[name].push_back(v / mesh_ms["normal"]);
+        view_against_normal[name].push_back(view_ms[name] / view_ms["normal"]);
+      }
     }
   }
   std::printf(
-      "\n%-14s %16s %16s %18s %18s   (medians over %d rounds of %d meshes; ratios per round)\n",
+      "\n%-14s %16s %16s %18s %18s   (medians over %d rounds of %d meshes; ratios per mesh)\n",
       "mode", "per new mesh ms", "per view ms", "mesh / normal's", "view / normal's", kRounds,
       meshes);
   for (const auto& [name, v] : per_mesh) {
@@ -108,10 +110,11 @@ int main(int argc, char** argv) {
                 median(view_against_normal[name]));
   }
   std::printf(
-      "montage4d / holoportation per new mesh: %.2f, the median of %d rounds (%.2f to %.2f; target "
-      "<= 1.25); per view %.2f\n",
-      median(mesh_ratios), kRounds, *std::min_element(mesh_ratios.begin(), mesh_ratios.end()),
-      *std::max_element(mesh_ratios.begin(), mesh_ratios.end()), median(view_ratios));
+      "montage4d / holoportation per new mesh: %.2f, the median of %zu meshes each rendered by "
+      "both "
+      "(quartiles %.2f to %.2f; target <= 1.25); per view %.2f\n",
+      median(mesh_ratios), mesh_ratios.size(), bench::quantile(mesh_ratios, 0.25),
+      bench::quantile(mesh_ratios, 0.75), median(view_ratios));
   std::printf("\nGPU ms per pass (timestamps; on lavapipe the boundaries are approximate)\n%-30s",
               "pass");
   for (const auto& [name, p] : passes) std::printf(" %14s", name.c_str());

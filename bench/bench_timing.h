@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <utility>
 #include <vector>
 
 namespace holofuse::bench {
@@ -13,10 +14,16 @@ inline double ms(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
 
-// The median, robust to the shared machine's outliers; 0 when empty.
-inline double median(std::vector<double> v) {
+// The value a fraction q (0..1) of the way up the sorted values (nearest
+// rank); 0 when empty.
+inline double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
+  const size_t at = static_cast<size_t>(std::clamp(q, 0.0, 1.0) * static_cast<double>(v.size()));
+  return v[std::min(at, v.size() - 1)];
 }
+
+// The median, robust to the shared machine's outliers; 0 when empty.
+inline double median(std::vector<double> v) { return quantile(std::move(v), 0.5); }
 
 }  // namespace holofuse::bench
