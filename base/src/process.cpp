@@ -2,6 +2,8 @@
 
 #include <fcntl.h>
 #include <malloc.h>
+#include <pthread.h>
+#include <sched.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -199,5 +201,11 @@ FreeMemoryReturner::~FreeMemoryReturner() {
 }
 
 bool returnFreeMemoryNow() { return malloc_trim(0) != 0; }
+
+bool scheduleThisThreadAsBatch() {
+  sched_param parameters{};
+  parameters.sched_priority = 0;  // the only priority SCHED_BATCH has
+  return pthread_setschedparam(pthread_self(), SCHED_BATCH, &parameters) == 0;
+}
 
 }  // namespace holofuse

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <utility>
 
+#include "base/process.h"
 #include "common/image_io.h"
 
 namespace holofuse::render {
@@ -54,6 +55,11 @@ void PictureWriter::flush() {
 }
 
 void PictureWriter::run() {
+  // Writing is throughput work: the frame loop that hands a picture over
+  // keeps its core. Woken as a normal thread, the writer took it mid-frame
+  // on a busy 2-core machine: the write stage's p95 was 1.2-3.0 ms against
+  // 0.1 at p50; as batch work, 0.3-0.7 ms.
+  scheduleThisThreadAsBatch();
   std::unique_lock lock(mutex_);
   for (;;) {
     wake_.wait(lock, [&] { return stopping_ || !queue_.empty(); });

@@ -2,6 +2,7 @@
 // codes as a shell reports them, a program that cannot start named as an
 // error, and a stop that ends even a child that ignores SIGTERM.
 #include <gtest/gtest.h>
+#include <sched.h>
 #include <unistd.h>
 
 #include <condition_variable>
@@ -154,6 +155,22 @@ TEST(FreeMemory, AFreedBufferStaysForReuseUntilFreeMemoryIsReturned) {
   EXPECT_GE(after_free, before + (kBytes >> 10) * 9 / 10) << "freed, it stays for reuse";
   EXPECT_TRUE(returnFreeMemoryNow());
   EXPECT_LE(residentKb(), after_free - (kBytes >> 10) * 9 / 10) << "returned to the system";
+}
+
+// Only the thread that asks becomes batch work: the one that started it
+// (a frame loop) keeps the default policy, which a woken batch thread
+// never preempts.
+TEST(Scheduling, OnlyTheThreadThatAsksRunsAsBatchWork) {
+  int policy_in_thread = -1;
+  bool marked = false;
+  std::thread worker([&] {
+    marked = scheduleThisThreadAsBatch();
+    policy_in_thread = sched_getscheduler(0);  // Linux: the calling thread's
+  });
+  worker.join();
+  EXPECT_TRUE(marked);
+  EXPECT_EQ(policy_in_thread, SCHED_BATCH);
+  EXPECT_EQ(sched_getscheduler(0), SCHED_OTHER);
 }
 
 }  // namespace

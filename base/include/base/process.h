@@ -101,4 +101,12 @@ class FreeMemoryReturner {
 // the system. Returns whether any did.
 bool returnFreeMemoryNow();
 
+// Marks the calling thread as throughput work (Linux SCHED_BATCH): it gets
+// its fair share of the cores, but waking it never preempts the thread
+// that woke it. For a thread that works off a queue behind a latency-
+// critical one (the client's picture writer): on a loaded machine, waking
+// it would otherwise take the core from the frame loop mid-frame. Returns
+// false where the system refuses; the thread then runs as before.
+bool scheduleThisThreadAsBatch();
+
 }  // namespace holofuse
