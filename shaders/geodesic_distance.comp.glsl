@@ -37,6 +37,15 @@ float unfolded(Fan f, float da, float db) {
   return best;
 }
 
+// A distance d from seam vertex `source` within reach replaces the best so
+// far when shorter, or as long and from a smaller source.
+void offer(float d, uint source, float reach, inout float candidate, inout uint candidate_source) {
+  if (d <= reach && (d < candidate || (d == candidate && source < candidate_source))) {
+    candidate = d;
+    candidate_source = source;
+  }
+}
+
 void main() {
   uint pass = push.worklist_pass;
   uint slot = pass % HOLOFUSE_WORKLIST_SLOTS;
@@ -77,7 +86,30 @@ void main() {
   uint ring = old_ring;
   float candidate = old_distance;
   uint candidate_source = old_source;
-  for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
+  float reach = push.geodesic_scale;
+  if (pass == 0u) {
+    // The first pass reads only seeds (ring 0, distance 0, themselves as
+    // source) and unreached entries (no source). Through a fan, a seed
+    // offers its edge to v and an unreached vertex offers nothing (two
+    // unreached corners share "no source", and unfolding from infinite
+    // distances gives none). So the general update below reduces to the
+    // shortest edge to a seed neighbour, ties to the smaller seed, read
+    // from the rings alone: the same bits, and on lavapipe about a third
+    // of the geodesics' time went into this pass.
+    for (uint k = adjacency[v]; k < adjacency[v + 1u]; ++k) {
+      uint a = fans[k].a, b = fans[k].b;
+      uint pa = rings[in_offset + a], pb = rings[in_offset + b];
+      if (ringOf(pa) == 0u) {
+        if (a != v && 0u < uint(push.max_rings)) ring = min(ring, 1u);
+        offer(fans[k].ac, sourceOf(pa), reach, candidate, candidate_source);
+      }
+      if (ringOf(pb) == 0u) {
+        if (b != v && 0u < uint(push.max_rings)) ring = min(ring, 1u);
+        offer(fans[k].bc, sourceOf(pb), reach, candidate, candidate_source);
+      }
+    }
+  }
+  for (uint k = adjacency[v]; pass != 0u && k < adjacency[v + 1u]; ++k) {
     Fan f = fans[k];
     uint pa = rings[in_offset + f.a], pb = rings[in_offset + f.b];
     uint ra = ringOf(pa), rb = ringOf(pb);
@@ -87,17 +119,9 @@ void main() {
     if (f.a != v && ra < uint(push.max_rings) && da < HOLOFUSE_FAR) ring = min(ring, ra + 1u);
     if (f.b != v && rb < uint(push.max_rings) && db < HOLOFUSE_FAR) ring = min(ring, rb + 1u);
     uint sa = sourceOf(pa), sb = sourceOf(pb);
-    float reach = push.geodesic_scale;
     float d = sa == sb ? unfolded(f, da, db) : da + f.ac;
-    if (d <= reach && (d < candidate || (d == candidate && sa < candidate_source))) {
-      candidate = d;
-      candidate_source = sa;
-    }
-    d = sa == sb ? d : db + f.bc;
-    if (d <= reach && (d < candidate || (d == candidate && sb < candidate_source))) {
-      candidate = d;
-      candidate_source = sb;
-    }
+    offer(d, sa, reach, candidate, candidate_source);
+    offer(sa == sb ? d : db + f.bc, sb, reach, candidate, candidate_source);
   }
   bool reached = ring <= uint(push.max_rings);
   float best = reached ? candidate : old_distance;
