@@ -14,8 +14,8 @@ inline double ms(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
 
-// The value a fraction q (0..1) of the way up the sorted values (nearest
-// rank); 0 when empty.
+// The sorted values' element at index floor(q * n), q in 0..1 (q = 0.5:
+// the median below); 0 when empty.
 inline double quantile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());

@@ -90,9 +90,9 @@ void main() {
   if (pass == 0u) {
     // The first pass reads only seeds (ring 0, distance 0, themselves as
     // source) and unreached entries (no source). Through a fan, a seed
-    // offers its edge to v and an unreached vertex offers nothing (two
-    // unreached corners share "no source", and unfolding from infinite
-    // distances gives none). So the general update below reduces to the
+    // offers its edge to v and an unreached vertex offers nothing that
+    // wins (two unreached corners share "no source", and unfolding from
+    // HOLOFUSE_FAR returns at once with HOLOFUSE_FAR or more). So the general update below reduces to the
     // shortest edge to a seed neighbour, ties to the smaller seed, read
     // from the rings alone: the same bits, and on lavapipe about a third
     // of the geodesics' time went into this pass.

@@ -158,19 +158,22 @@ TEST(FreeMemory, AFreedBufferStaysForReuseUntilFreeMemoryIsReturned) {
 }
 
 // Only the thread that asks becomes batch work: the one that started it
-// (a frame loop) keeps the default policy, which a woken batch thread
-// never preempts.
+// (a frame loop) keeps its policy, and a woken batch thread never preempts
+// it. A system may refuse the policy (the function says so, and the
+// writer then runs as before): the test is skipped there, by name.
 TEST(Scheduling, OnlyTheThreadThatAsksRunsAsBatchWork) {
+  const int starter_policy = sched_getscheduler(0);  // Linux: the calling thread's
   int policy_in_thread = -1;
   bool marked = false;
   std::thread worker([&] {
     marked = scheduleThisThreadAsBatch();
-    policy_in_thread = sched_getscheduler(0);  // Linux: the calling thread's
+    policy_in_thread = sched_getscheduler(0);
   });
   worker.join();
-  EXPECT_TRUE(marked);
+  if (!marked) GTEST_SKIP() << "this system refuses SCHED_BATCH to an unprivileged thread";
   EXPECT_EQ(policy_in_thread, SCHED_BATCH);
-  EXPECT_EQ(sched_getscheduler(0), SCHED_OTHER);
+  EXPECT_NE(starter_policy, SCHED_BATCH);
+  EXPECT_EQ(sched_getscheduler(0), starter_policy);
 }
 
 }  // namespace
