@@ -4,6 +4,8 @@
 #include <malloc.h>
 #include <pthread.h>
 #include <sched.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -206,6 +208,24 @@ bool scheduleThisThreadAsBatch() {
   sched_param parameters{};
   parameters.sched_priority = 0;  // the only priority SCHED_BATCH has
   return pthread_setschedparam(pthread_self(), SCHED_BATCH, &parameters) == 0;
+}
+
+bool askForTimeSlice(std::chrono::nanoseconds slice) {
+  // glibc 2.36 has no sched_setattr wrapper; the layout is the kernel's
+  // (include/uapi/linux/sched/types.h, version 1: 56 bytes).
+  struct {
+    uint32_t size, policy;
+    uint64_t flags;
+    int32_t nice;
+    uint32_t priority;
+    uint64_t runtime, deadline, period;
+    uint32_t util_min, util_max;
+  } attributes{};
+  attributes.size = sizeof(attributes);
+  attributes.policy = SCHED_OTHER;
+  attributes.nice = getpriority(PRIO_PROCESS, static_cast<id_t>(gettid()));
+  attributes.runtime = static_cast<uint64_t>(slice.count());
+  return syscall(SYS_sched_setattr, 0, &attributes, 0) == 0;
 }
 
 }  // namespace holofuse

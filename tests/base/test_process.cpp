@@ -3,10 +3,12 @@
 // error, and a stop that ends even a child that ignores SIGTERM.
 #include <gtest/gtest.h>
 #include <sched.h>
+#include <sys/utsname.h>
 #include <unistd.h>
 
 #include <condition_variable>
 #include <csignal>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -174,6 +176,44 @@ TEST(Scheduling, OnlyTheThreadThatAsksRunsAsBatchWork) {
   EXPECT_EQ(policy_in_thread, SCHED_BATCH);
   EXPECT_NE(starter_policy, SCHED_BATCH);
   EXPECT_EQ(sched_getscheduler(0), starter_policy);
+}
+
+// The slice the scheduler keeps for a thread, in ns; -1 where the kernel
+// shows none (before Linux 6.6's EEVDF).
+long long sliceOfThisThread() {
+  std::ifstream sched("/proc/thread-self/sched");
+  std::string line;
+  while (std::getline(sched, line)) {
+    if (line.rfind("se.slice", 0) == 0) return std::stoll(line.substr(line.find(':') + 1));
+  }
+  return -1;
+}
+
+// Whether this kernel keeps a custom slice for a fair thread (Linux 6.12).
+bool kernelKeepsCustomSlices() {
+  utsname names{};
+  int major = 0, minor = 0;
+  if (uname(&names) != 0 || std::sscanf(names.release, "%d.%d", &major, &minor) != 2) return false;
+  return major > 6 || (major == 6 && minor >= 12);
+}
+
+// The slice asked for is the asking thread's own; the starting thread
+// keeps the default. Older kernels take the call and keep theirs: the test
+// is skipped there, by name.
+TEST(Scheduling, OnlyTheThreadThatAsksGetsTheLongerTimeSlice) {
+  if (!kernelKeepsCustomSlices()) GTEST_SKIP() << "custom time slices need Linux 6.12 or later";
+  const long long starter_slice = sliceOfThisThread();
+  long long slice_in_thread = -1;
+  bool asked = false;
+  std::thread worker([&] {
+    asked = askForTimeSlice(std::chrono::milliseconds(12));
+    slice_in_thread = sliceOfThisThread();
+  });
+  worker.join();
+  EXPECT_TRUE(asked);
+  EXPECT_EQ(slice_in_thread, 12'000'000);
+  EXPECT_EQ(sliceOfThisThread(), starter_slice);
+  EXPECT_NE(starter_slice, 12'000'000);
 }
 
 }  // namespace

@@ -109,4 +109,16 @@ bool returnFreeMemoryNow();
 // false where the system refuses; the thread then runs as before.
 bool scheduleThisThreadAsBatch();
 
+// Asks the scheduler to let the calling thread run this long before it is
+// preempted for another of equal priority (Linux 6.12 and later: EEVDF's
+// custom slice, sched_attr::sched_runtime, 0.1 to 100 ms). Its fair share
+// is unchanged; a thread that works in short bursts (a pod's frame) then
+// finishes a burst in one run instead of being cut at the next tick after
+// the default slice. Returns false where the system refuses or has no
+// such slice (older kernels take the call and ignore it).
+bool askForTimeSlice(std::chrono::nanoseconds slice);
+// The slices Linux keeps: it clamps a request to this range.
+constexpr std::chrono::nanoseconds kMinTimeSlice = std::chrono::microseconds(100);
+constexpr std::chrono::nanoseconds kMaxTimeSlice = std::chrono::milliseconds(100);
+
 }  // namespace holofuse
