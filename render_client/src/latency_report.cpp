@@ -11,6 +11,14 @@
 #include "common/html_report.h"
 
 namespace holofuse::render {
+namespace {
+
+// A stamp of the frame's as ms after its capture (negative before it).
+double msSinceCapture(const FrameRecord& frame, uint64_t ns) {
+  return static_cast<double>(static_cast<int64_t>(ns - frame.capture_time_ns)) / 1e6;
+}
+
+}  // namespace
 
 void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
   using protocol::Stage;
@@ -319,11 +327,9 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
   for (const auto& f : frames_) {
     nlohmann::ordered_json timeline = nlohmann::ordered_json::object();
-    const auto since_capture = [&](uint64_t ns) {
-      return static_cast<double>(static_cast<int64_t>(ns - f.capture_time_ns)) / 1e6;
-    };
     for (const auto& s : f.timeline)
-      timeline[protocol::stageName(s.stage)] = {since_capture(s.start_ns), since_capture(s.end_ns)};
+      timeline[protocol::stageName(s.stage)] = {msSinceCapture(f, s.start_ns),
+                                                msSinceCapture(f, s.end_ns)};
     frames.push_back(
         {{"frame_id", f.frame_id},
          {"file", f.file},
@@ -350,9 +356,6 @@ namespace holofuse::render {
 
 std::vector<double> timeByStage(const FrameRecord& frame) {
   const std::vector<uint16_t>& order = protocol::stagesInPipelineOrder();
-  const auto ms = [&](uint64_t ns) {
-    return static_cast<double>(static_cast<int64_t>(ns - frame.capture_time_ns)) / 1e6;
-  };
   struct Span {
     double from, to;
     size_t slot;  // the stage's place in the pipeline order
@@ -361,7 +364,8 @@ std::vector<double> timeByStage(const FrameRecord& frame) {
   std::vector<double> edges = {0.0, frame.end_to_end_ms};
   for (const auto& s : frame.timeline) {
     const auto at = std::find(order.begin(), order.end(), s.stage);
-    spans.push_back({ms(s.start_ns), ms(s.end_ns), static_cast<size_t>(at - order.begin())});
+    spans.push_back({msSinceCapture(frame, s.start_ns), msSinceCapture(frame, s.end_ns),
+                     static_cast<size_t>(at - order.begin())});
     edges.insert(edges.end(), {spans.back().from, spans.back().to});
   }
   std::sort(edges.begin(), edges.end());
