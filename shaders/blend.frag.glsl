@@ -36,8 +36,8 @@ layout(location = 0) out vec4 out_color;
 // The depth maps of the compute passes (depth_raster.comp.glsl).
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_DEPTHS) readonly buffer DepthMaps { uint depth_bits[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_INDICES) readonly buffer Indices { uint indices[]; };
-layout(std430, set = 0, binding = HOLOFUSE_BINDING_BEST_VIEWS) readonly buffer BestViews { uvec2 best_views[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_CANDIDATES) readonly buffer Candidates { uvec2 candidates[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_TRIANGLE_VIEWS) readonly buffer TriangleViews { uvec4 triangle_views[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_CORNER_UVS) readonly buffer CornerUvs { vec2 corner_uvs[]; };
 layout(set = 0, binding = HOLOFUSE_BINDING_LAYERS) uniform sampler2DArray layers;
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_LAYER_CAMERAS) readonly buffer LayerCameras { vec4 layer_cameras[]; };
@@ -123,41 +123,16 @@ bool imagedBy(int i, out vec2 uv, out float depth) {
   return projectInto(i, in_position, uv, depth);
 }
 
-// The cameras this fragment weighs from per-vertex lists, each once: those
-// its triangle's corners keep. listed: the field modes' best views
-// (config.h binding BEST_VIEWS) with each camera's weight interpolated
-// over the triangle (0 at a corner that does not keep it); picked: the
-// candidates of the per-fragment blends (binding CANDIDATES), when
-// blend.views.z is 1 (more cameras than best views; else every camera).
+// The cameras the per-fragment blends weigh (mode normal, mode fragment,
+// the field modes' fallback), each once: the candidates (binding
+// CANDIDATES) its triangle's corners keep, when blend.views.z is 1 (more
+// cameras than best views; else every camera).
 uint corners[3];
-uint listed[3 * HOLOFUSE_MAX_BEST_VIEWS];
-float listed_weight[3 * HOLOFUSE_MAX_BEST_VIEWS];
-uint listed_count = 0u;
 uint picked[3 * HOLOFUSE_MAX_BEST_VIEWS];
 uint picked_count = 0u;
 
 void gatherCorners() {
   for (uint j = 0u; j < 3u; ++j) corners[j] = indices[3u * in_triangle + j];
-}
-
-// One read per corner and rank: each camera's weight is summed as it is met.
-void gatherBestViews() {
-  uint k_max = uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS));
-  for (uint j = 0u; j < 3u; ++j) {
-    for (uint k = 0u; k < k_max; ++k) {
-      uvec2 entry = best_views[corners[j] * k_max + k];
-      if (entry.x == HOLOFUSE_NO_VIEW) break;
-      float w = in_barycentric[j] * uintBitsToFloat(entry.y);
-      uint at = 0u;
-      while (at < listed_count && listed[at] != entry.x) ++at;
-      if (at == listed_count) {
-        listed[listed_count] = entry.x;
-        listed_weight[listed_count++] = w;
-      } else {
-        listed_weight[at] += w;
-      }
-    }
-  }
 }
 
 void gatherCandidates() {
@@ -242,23 +217,26 @@ vec4 blendFragment(vec3 n, bool from_lists, inout float total) {
   return vec4(total > 1e-8 ? sum / total : vec3(0.0), 1.0);
 }
 
-// Blend with the interpolated per-vertex texture fields.
-// The field modes: each listed camera's weight interpolated over the
-// triangle.
+// Blend with the interpolated per-vertex texture fields: each camera of
+// the triangle's merged best views (triangle_views.comp.glsl) with its
+// corner weights interpolated over the triangle.
 vec4 blendFields(inout float total) {
   vec3 sum = vec3(0.0);
   total = 0.0;
   bool fragment_test = blend.fragment_test.w > 0.5;
-  for (uint u = 0u; u < listed_count; ++u) {
-    uint i = listed[u];
-    float w = listed_weight[u];
+  uint slots = uint(blend.views.w);
+  for (uint u = 0u; u < slots; ++u) {
+    uvec4 entry = triangle_views[in_triangle * slots + u];
+    if (entry.x == HOLOFUSE_NO_VIEW) break;
+    int i = int(entry.x);
+    float w = dot(in_barycentric, uintBitsToFloat(entry.yzw));
     CameraGpu cam = cameras[i];
     if (cam.flags.x == 0 || !(w > 0.0)) continue;
     vec2 uv;
     float depth;
-    if (!projectInto(int(i), in_position, uv, depth)) continue;
-    vec4 texel = sampleForeground(int(i), uv);
-    w *= fragment_test ? sightAndFeather(int(i), uv, depth, texel.a) : (texel.a < 0.5 ? 0.0 : 1.0);
+    if (!projectInto(i, in_position, uv, depth)) continue;
+    vec4 texel = sampleForeground(i, uv);
+    w *= fragment_test ? sightAndFeather(i, uv, depth, texel.a) : (texel.a < 0.5 ? 0.0 : 1.0);
     if (!(w > 0.0)) continue;
     sum += w * texel.rgb;
     total += w;
@@ -326,7 +304,6 @@ void main() {
   }
   bool candidates = blend.views.z != 0;  // more cameras than K
   gatherCorners();
-  if (field_mode) gatherBestViews();
   if (candidates && !field_mode) gatherCandidates();
   if (kBlendMode == HOLOFUSE_MODE_FRAGMENT) {
     color = blendFragment(n, candidates, total);

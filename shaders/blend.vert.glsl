@@ -5,8 +5,8 @@
 #include "vertices.glsl"
 // The user's view of the fused mesh; world position and normal go on to
 // the blend, interpolated over the triangle, with the triangle's index and
-// the fragment's barycentric coordinates, from which the blend weighs each
-// corner's best views (paper 000 eq. 1). The draw is not indexed: corner c
+// the fragment's barycentric coordinates, with which the blend
+// interpolates its corners' best-view weights (paper 000 eq. 1). The draw is not indexed: corner c
 // is vertex indices[c] of triangle c / 3, so every corner knows its
 // triangle. The vertices come from the storage buffer the compute passes
 // read (full or half precision).

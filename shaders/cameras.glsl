@@ -26,7 +26,9 @@ layout(set = 0, binding = HOLOFUSE_BINDING_BLEND) uniform Blend {
   vec4 fragment_test;
   vec4 view_weight;    // x: beta, the exponent of (d_k . d_v + 1) (paper 004 eq. 4)
   // x: best views kept per vertex (HOLOFUSE_BINDING_BEST_VIEWS), y: words
-  // of a per-camera bit set
+  // of a per-camera bit set, z: 1 if the per-fragment blends weigh each
+  // vertex's candidates, w: entries per triangle of its merged best views
+  // (HOLOFUSE_BINDING_TRIANGLE_VIEWS): min(3 x, camera count)
   ivec4 views;
 } blend;
 

@@ -62,6 +62,7 @@ layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST) buffer Worklist { u
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_WORKLIST_COUNTS) buffer WorklistCounts { uint worklist_counts[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_BEST_VIEWS) buffer BestViews { uvec2 best_views[]; };
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_CANDIDATES) buffer Candidates { uvec2 candidates[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_TRIANGLE_VIEWS) buffer TriangleViews { uvec4 triangle_views[]; };
 
 float storedDepth(uint camera, ivec2 pixel) {
   return uintBitsToFloat(depth_bits[(camera * push.height + uint(pixel.y)) * push.width + uint(pixel.x)]);

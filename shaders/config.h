@@ -93,7 +93,11 @@
 #define HOLOFUSE_BINDING_CORNER_UVS 24
 #define HOLOFUSE_BINDING_LAYERS 25
 #define HOLOFUSE_BINDING_LAYER_CAMERAS 26
-#define HOLOFUSE_BINDING_COUNT 27
+// The field modes: per triangle, its corners' best views merged,
+// [triangle][min(3 * best_views, cameras)] of (camera, weight bits at
+// corners 0, 1, 2), ended by the camera HOLOFUSE_NO_VIEW where fewer.
+#define HOLOFUSE_BINDING_TRIANGLE_VIEWS 27
+#define HOLOFUSE_BINDING_COUNT 28
 // A layer texel's camera byte where no camera sees the point
 // (common/texture_layers.h kNoLayerCamera).
 #define HOLOFUSE_NO_LAYER_CAMERA 255u

@@ -100,8 +100,8 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
   // each vertex's K candidates (recordCandidates), so that a fragment's
   // cost follows K.
   const bool candidates = cameras_.size() > static_cast<size_t>(best_views);
-  u.views =
-      glm::ivec4(best_views, static_cast<int>(cameraWords(cameras_.size())), candidates ? 1 : 0, 0);
+  u.views = glm::ivec4(best_views, static_cast<int>(cameraWords(cameras_.size())),
+                       candidates ? 1 : 0, triangleViewSlots(best_views, cameras_.size()));
   auto* gpu_cameras = static_cast<CameraGpu*>(camera_buffer_.mapped);
   for (size_t i = 0; i < cameras_.size(); ++i) {
     const Camera& c = cameras_[i];
@@ -170,9 +170,10 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
     }
     // (A measurement stop before stage 6, the field, skips the per-view field too.)
     if (montage && (parameters.last_stage < 0 || parameters.last_stage >= 6)) {
-      field_passes_pipelines_->recordMontage(
-          cmd, descriptor_set_, vertex_count_, static_cast<uint32_t>(cameras_.size()), parameters,
-          static_cast<float>(geodesicScale(parameters)), temporal_stride_);
+      field_passes_pipelines_->recordMontage(cmd, descriptor_set_, vertex_count_, triangle_count_,
+                                             static_cast<uint32_t>(cameras_.size()), parameters,
+                                             static_cast<float>(geodesicScale(parameters)),
+                                             temporal_stride_);
     }
     std::array<VkClearValue, 2> clears{};
     clears[0].color = {{0.0f, 0.0f, 0.0f, 0.0f}};

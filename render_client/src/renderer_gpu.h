@@ -47,6 +47,13 @@ inline uint32_t cameraWords(size_t cameras) {
   return static_cast<uint32_t>(std::max<size_t>(cameras, 1) + 31) / 32;
 }
 
+// Entries per triangle of the merged best views (config.h's
+// TRIANGLE_VIEWS): its corners keep at most 3 K cameras, and no more
+// cameras than there are.
+inline int triangleViewSlots(int best_views, size_t cameras) {
+  return static_cast<int>(std::min<size_t>(3 * static_cast<size_t>(best_views), cameras));
+}
+
 inline constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 // Geodesic worklists are cleared by transfer commands every mesh.
 inline constexpr VkBufferUsageFlags kWorklistUsage =

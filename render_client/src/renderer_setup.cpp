@@ -198,9 +198,10 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
   // descriptor write: start small, grow with the mesh.
   vertex_buffer_ = ctx_.createBuffer(24, kVertexUsage);
   index_buffer_ = ctx_.createBuffer(4, kIndexUsage);
-  for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &adjacency_,
-                    &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_,
-                    &worklist_counts_, &sight_bits_, &best_views_, &candidates_}) {
+  for (Buffer* b :
+       {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &adjacency_, &rings_,
+        &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_, &sight_bits_,
+        &best_views_, &candidates_, &triangle_views_}) {
     *b = ctx_.createBuffer(16, usageOf(*b));
   }
   visible_counts_ =
@@ -234,9 +235,10 @@ Renderer::~Renderer() {
   ctx_.destroy(corner_uvs_);
   ctx_.destroy(layer_cameras_);
   ctx_.destroy(layers_);
-  for (Buffer* b : {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &visible_counts_,
-                    &adjacency_, &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_,
-                    &worklist_counts_, &sight_bits_, &best_views_, &candidates_}) {
+  for (Buffer* b :
+       {&discontinuities_, &sights_, &trusted_, &weights_, &seams_, &visible_counts_, &adjacency_,
+        &rings_, &distances_, &temporal_, &carry_, &fans_, &worklist_, &worklist_counts_,
+        &sight_bits_, &best_views_, &candidates_, &triangle_views_}) {
     ctx_.destroy(*b);
   }
   field_passes_pipelines_.reset();
@@ -362,8 +364,10 @@ void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
   const VkDeviceSize cameras = std::max(images_.layers, 1u);
   const VkDeviceSize words = cameraWords(images_.layers);
   const VkDeviceSize per_vertex = vertices * cameras * 4;
-  const VkDeviceSize best =
-      vertices * std::clamp(parameters.best_views, 1, HOLOFUSE_MAX_BEST_VIEWS) * 8;
+  const VkDeviceSize best_views = std::clamp(parameters.best_views, 1, HOLOFUSE_MAX_BEST_VIEWS);
+  const VkDeviceSize best = vertices * best_views * 8;
+  const VkDeviceSize triangle_best =
+      VkDeviceSize{std::max(triangle_count_, 1u)} * 3 * best_views * 16;
   bool changed = false;
   const VkDeviceSize rule_bits =
       VkDeviceSize{std::max(triangle_count_, 1u)} * HOLOFUSE_SEAM_SETS * words * 4;
@@ -374,6 +378,7 @@ void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
                               {&weights_, per_vertex},
                               {&best_views_, best},
                               {&candidates_, best},
+                              {&triangle_views_, triangle_best},
                               {&seams_, rule_bits},
                               {&rings_, 2 * per_vertex},
                               {&distances_, 2 * per_vertex},
@@ -434,12 +439,13 @@ void Renderer::writeDescriptors() {
   writes[HOLOFUSE_BINDING_BLEND].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
   writes[HOLOFUSE_BINDING_BLEND].pBufferInfo = &ubo;
   // The storage buffers outside the run above, by binding.
-  const std::array<std::pair<uint32_t, VkDescriptorBufferInfo>, 6> others = {
+  const std::array<std::pair<uint32_t, VkDescriptorBufferInfo>, 7> others = {
       std::pair{HOLOFUSE_BINDING_DEPTHS,
                 VkDescriptorBufferInfo{depth_maps_.buffer, 0, VK_WHOLE_SIZE}},
       {HOLOFUSE_BINDING_CAMERAS, {camera_buffer_.buffer, 0, VK_WHOLE_SIZE}},
       {HOLOFUSE_BINDING_BEST_VIEWS, {best_views_.buffer, 0, VK_WHOLE_SIZE}},
       {HOLOFUSE_BINDING_CANDIDATES, {candidates_.buffer, 0, VK_WHOLE_SIZE}},
+      {HOLOFUSE_BINDING_TRIANGLE_VIEWS, {triangle_views_.buffer, 0, VK_WHOLE_SIZE}},
       {HOLOFUSE_BINDING_CORNER_UVS, {corner_uvs_.buffer, 0, VK_WHOLE_SIZE}},
       {HOLOFUSE_BINDING_LAYER_CAMERAS, {layer_cameras_.buffer, 0, VK_WHOLE_SIZE}}};
   for (const auto& [binding, info] : others) {

@@ -14,6 +14,7 @@
 #include "shaders/holoportation_field_comp_spv.h"
 #include "shaders/montage_field_comp_spv.h"
 #include "shaders/seams_comp_spv.h"
+#include "shaders/triangle_views_comp_spv.h"
 #include "shaders/view_candidates_comp_spv.h"
 #include "shaders/visibility_comp_spv.h"
 #include "shaders/vote_comp_spv.h"
@@ -88,6 +89,7 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
   montage_ = create(k_montage_field_comp_spv, sizeof(k_montage_field_comp_spv));
   field_ = create(k_holoportation_field_comp_spv, sizeof(k_holoportation_field_comp_spv));
   candidates_ = create(k_view_candidates_comp_spv, sizeof(k_view_candidates_comp_spv));
+  triangle_views_ = create(k_triangle_views_comp_spv, sizeof(k_triangle_views_comp_spv));
   VkQueryPoolCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
   info.queryType = VK_QUERY_TYPE_TIMESTAMP;
@@ -129,11 +131,12 @@ void TextureFieldPasses::recordCandidates(VkCommandBuffer cmd, VkDescriptorSet s
 }
 
 void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set,
-                                       uint32_t vertex_count, uint32_t camera_count,
-                                       const FieldParameters& parameters, float geodesic_scale,
-                                       uint32_t temporal_stride) {
+                                       uint32_t vertex_count, uint32_t triangle_count,
+                                       uint32_t camera_count, const FieldParameters& parameters,
+                                       float geodesic_scale, uint32_t temporal_stride) {
   ComputePush push{};
   push.vertex_count = vertex_count;
+  push.triangle_count = triangle_count;
   push.camera_count = camera_count;
   push.parity = finalDistanceHalf(parameters);  // the half holding the final distances
   push.max_rings = parameters.geodesic_rings;
@@ -155,9 +158,22 @@ void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set,
             VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
         VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
   }
+  recordTriangleViews(cmd, push);
   if (field_stamp_pending_)
     stamp(cmd, 7);  // this command buffer ran the per-mesh passes: the field is stage 6
   field_stamp_pending_ = false;
+}
+
+void TextureFieldPasses::recordTriangleViews(VkCommandBuffer cmd, const ComputePush& push) {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, triangle_views_);
+  vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET,
+                     sizeof(push), &push);
+  if (push.triangle_count > 0)
+    vkCmdDispatch(cmd, groups(push.triangle_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
+  computeBarrier(cmd,
+                 VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT |
+                     VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
 }
 
 void TextureFieldPasses::beginTiming(VkCommandBuffer cmd) {
@@ -217,7 +233,7 @@ std::vector<double> TextureFieldPasses::lastTimesMs() const {
 TextureFieldPasses::~TextureFieldPasses() {
   for (VkPipeline p :
        {depth_raster_, discontinuity_, visibility_, vote_, seams_, global_visibility_,
-        geodesic_seed_, geodesic_distance_, montage_, field_, candidates_}) {
+        geodesic_seed_, geodesic_distance_, montage_, field_, candidates_, triangle_views_}) {
     vkDestroyPipeline(ctx_.device(), p, nullptr);
   }
   vkDestroyQueryPool(ctx_.device(), queries_, nullptr);
@@ -378,6 +394,7 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
                        VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
   }
+  recordTriangleViews(cmd, push);
   stamp(cmd, 7);
 }
 

@@ -273,7 +273,8 @@ class Renderer {
   }
   // Texture-field buffers (config.h bindings 4 on).
   Buffer discontinuities_, sights_, trusted_, weights_, seams_, visible_counts_, adjacency_, rings_,
-      distances_, fans_, worklist_, worklist_counts_, sight_bits_, best_views_, candidates_;
+      distances_, fans_, worklist_, worklist_counts_, sight_bits_, best_views_, candidates_,
+      triangle_views_;
   uint32_t triangle_count_ = 0;
   std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
   // Mode layered: the corners' atlas coordinates (binding CORNER_UVS), the

@@ -136,8 +136,9 @@ class TextureFieldPasses {
   void recordDepthMaps(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t triangle_count,
                        uint32_t camera_count, uint32_t width, uint32_t height, VkBuffer depth_maps);
   // Records stages 2 to 4 and the Holoportation field for the bound set,
-  // with a barrier between dependent dispatches and one at the end that
-  // makes the weights visible to the vertex shader.
+  // then each triangle's merged best views, with a barrier between
+  // dependent dispatches and one at the end that makes them visible to
+  // the blend.
   // Buffers the passes reset themselves before use (transfer commands).
   struct ResetBuffers {
     VkBuffer visible_counts;   // cleared before stage 7 adds to it
@@ -150,9 +151,11 @@ class TextureFieldPasses {
               const FieldParameters& parameters, const ResetBuffers& reset);
 
   // Stages 8 to 10 of Montage4D for one rendered view (per frame, after the
-  // per-mesh passes): target, temporal and normalised fields.
+  // per-mesh passes): target, temporal and normalised fields, then each
+  // triangle's merged best views for the blend.
   void recordMontage(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,
-                     uint32_t camera_count, const FieldParameters& parameters, float geodesic_scale,
+                     uint32_t triangle_count, uint32_t camera_count,
+                     const FieldParameters& parameters, float geodesic_scale,
                      uint32_t temporal_stride);
 
   // Modes normal and fragment with more cameras than best views: each
@@ -174,6 +177,10 @@ class TextureFieldPasses {
 
  private:
   VkPipeline create(const uint32_t* code, size_t bytes);
+  // After a field pass: each triangle's corners' best views merged, for
+  // the blend (shaders/triangle_views.comp.glsl), with the field pass's
+  // push constants and bound set.
+  void recordTriangleViews(VkCommandBuffer cmd, const ComputePush& push);
   void stamp(VkCommandBuffer cmd, uint32_t index);
 
   VulkanContext& ctx_;
@@ -182,7 +189,8 @@ class TextureFieldPasses {
              visibility_ = VK_NULL_HANDLE, seams_ = VK_NULL_HANDLE,
              global_visibility_ = VK_NULL_HANDLE, geodesic_seed_ = VK_NULL_HANDLE,
              geodesic_distance_ = VK_NULL_HANDLE, montage_ = VK_NULL_HANDLE, vote_ = VK_NULL_HANDLE,
-             field_ = VK_NULL_HANDLE, candidates_ = VK_NULL_HANDLE;
+             field_ = VK_NULL_HANDLE, candidates_ = VK_NULL_HANDLE,
+             triangle_views_ = VK_NULL_HANDLE;
   VkQueryPool queries_ = VK_NULL_HANDLE;
   double timestamp_period_ns_ = 1.0;
   bool recorded_ = false;
