@@ -211,6 +211,7 @@ bool scheduleThisThreadAsBatch() {
 }
 
 bool askForTimeSlice(std::chrono::nanoseconds slice) {
+  constexpr uint64_t kKeepPolicy = 0x08;  // SCHED_FLAG_KEEP_POLICY (Linux 5.3)
   // glibc 2.36 has no sched_setattr wrapper; the layout is the kernel's
   // (include/uapi/linux/sched/types.h, version 1: 56 bytes).
   struct {
@@ -222,7 +223,7 @@ bool askForTimeSlice(std::chrono::nanoseconds slice) {
     uint32_t util_min, util_max;
   } attributes{};
   attributes.size = sizeof(attributes);
-  attributes.policy = SCHED_OTHER;
+  attributes.flags = kKeepPolicy;  // a pod started under chrt keeps its policy
   attributes.nice = getpriority(PRIO_PROCESS, static_cast<id_t>(gettid()));
   attributes.runtime = static_cast<uint64_t>(slice.count());
   return syscall(SYS_sched_setattr, 0, &attributes, 0) == 0;

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <utility>
 
 #include "base/process.h"
@@ -96,8 +98,11 @@ int runPod(const PodOptions& options) {
   // server, and the sub-millisecond stages took the wait: segment's p95
   // was 12 times its p50 in the demo. Half the period: a frame's work has
   // to fit in the period anyway.
-  askForTimeSlice(
-      std::clamp(std::chrono::nanoseconds(period_ns / 2), kMinTimeSlice, kMaxTimeSlice));
+  if (!askForTimeSlice(
+          std::clamp(std::chrono::nanoseconds(period_ns / 2), kMinTimeSlice, kMaxTimeSlice))) {
+    std::fprintf(stderr, "[pod-%u] the system refused a longer time slice: %s\n", options.pod_id,
+                 std::strerror(errno));
+  }
   uint64_t last_frame_id = 0;
   uint64_t sent = 0, skipped = 0;
   std::vector<protocol::Frame> received;

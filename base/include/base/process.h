@@ -109,13 +109,16 @@ bool returnFreeMemoryNow();
 // false where the system refuses; the thread then runs as before.
 bool scheduleThisThreadAsBatch();
 
-// Asks the scheduler to let the calling thread run this long before it is
-// preempted for another of equal priority (Linux 6.12 and later: EEVDF's
-// custom slice, sched_attr::sched_runtime, 0.1 to 100 ms). Its fair share
-// is unchanged; a thread that works in short bursts (a pod's frame) then
-// finishes a burst in one run instead of being cut at the next tick after
-// the default slice. Returns false where the system refuses or has no
-// such slice (older kernels take the call and ignore it).
+// Asks the scheduler for a longer time slice for the calling thread
+// (Linux 6.12 and later: EEVDF's custom slice, sched_attr::sched_runtime,
+// 0.1 to 100 ms; the default is 0.7 ms times 1 + log2 of the cores). Its
+// fair share is unchanged, and its policy and nice are kept. A thread that
+// works in short bursts (a pod's frame) then finishes a burst in one run,
+// not cut at the next tick once the default slice is spent; a waking
+// thread with a shorter slice may still preempt it, and a longer slice
+// also makes it wait longer to be picked when it wakes. Returns false
+// where the system refuses the call; kernels before 6.12 take it and
+// ignore the slice.
 bool askForTimeSlice(std::chrono::nanoseconds slice);
 // The slices Linux keeps: it clamps a request to this range.
 constexpr std::chrono::nanoseconds kMinTimeSlice = std::chrono::microseconds(100);
