@@ -127,19 +127,15 @@ bool imagedBy(int i, out vec2 uv, out float depth) {
 // the field modes' fallback), each once: the candidates (binding
 // CANDIDATES) its triangle's corners keep, when blend.views.z is 1 (more
 // cameras than best views; else every camera).
-uint corners[3];
 uint picked[3 * HOLOFUSE_MAX_BEST_VIEWS];
 uint picked_count = 0u;
-
-void gatherCorners() {
-  for (uint j = 0u; j < 3u; ++j) corners[j] = indices[3u * in_triangle + j];
-}
 
 void gatherCandidates() {
   uint k_max = uint(clamp(blend.views.x, 1, HOLOFUSE_MAX_BEST_VIEWS));
   for (uint j = 0u; j < 3u; ++j) {
+    uint corner = indices[3u * in_triangle + j];
     for (uint k = 0u; k < k_max; ++k) {
-      uint i = candidates[corners[j] * k_max + k].x;
+      uint i = candidates[corner * k_max + k].x;
       if (i == HOLOFUSE_NO_VIEW) break;
       uint at = 0u;
       while (at < picked_count && picked[at] != i) ++at;
@@ -227,7 +223,9 @@ vec4 blendFields(inout float total) {
   uint slots = uint(blend.views.w);
   for (uint u = 0u; u < slots; ++u) {
     uvec4 entry = triangle_views[in_triangle * slots + u];
-    if (entry.x == HOLOFUSE_NO_VIEW) break;
+    // HOLOFUSE_NO_VIEW ends the list; so does anything that is no camera
+    // (a list a measurement stop left unwritten).
+    if (entry.x >= uint(blend.counts.x)) break;
     int i = int(entry.x);
     float w = dot(in_barycentric, uintBitsToFloat(entry.yzw));
     CameraGpu cam = cameras[i];
@@ -303,7 +301,6 @@ void main() {
     return;
   }
   bool candidates = blend.views.z != 0;  // more cameras than K
-  gatherCorners();
   if (candidates && !field_mode) gatherCandidates();
   if (kBlendMode == HOLOFUSE_MODE_FRAGMENT) {
     color = blendFragment(n, candidates, total);

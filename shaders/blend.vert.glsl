@@ -6,10 +6,10 @@
 // The user's view of the fused mesh; world position and normal go on to
 // the blend, interpolated over the triangle, with the triangle's index and
 // the fragment's barycentric coordinates, with which the blend
-// interpolates its corners' best-view weights (paper 000 eq. 1). The draw is not indexed: corner c
-// is vertex indices[c] of triangle c / 3, so every corner knows its
-// triangle. The vertices come from the storage buffer the compute passes
-// read (full or half precision).
+// interpolates its corners' best-view weights (paper 000 eq. 1). The draw
+// is not indexed: corner c is vertex indices[c] of triangle c / 3, so
+// every corner knows its triangle. The vertices come from the storage
+// buffer the compute passes read (full or half precision).
 
 layout(push_constant) uniform Push {
   mat4 world_to_clip;

@@ -40,6 +40,9 @@ FieldSnapshot Renderer::readFields() const {
   for (uint32_t& camera : out.best_cameras) {
     if (camera != HOLOFUSE_NO_VIEW) camera = active_[camera];
   }
+  for (uint32_t& camera : out.triangle_cameras) {
+    if (camera < active_.size()) camera = active_[camera];
+  }
   std::vector<bool> left_out(views, true);
   for (size_t j = 0; j < active_.size(); ++j) {
     const size_t i = active_[j];
@@ -111,6 +114,16 @@ FieldSnapshot Renderer::readActiveFields() const {
     s.best_weights.push_back(w);
   }
   s.triangle_count = triangle_count_;
+  s.triangle_view_slots =
+      static_cast<uint32_t>(triangleViewSlots(static_cast<int>(s.best_views), cameras_.size()));
+  std::vector<uint32_t> merged;  // (camera, weight bits at corners 0, 1, 2)
+  copy(triangle_views_, merged, size_t{triangle_count_} * s.triangle_view_slots * 4);
+  for (size_t e = 0; 4 * e + 3 < merged.size(); ++e) {
+    s.triangle_cameras.push_back(merged[4 * e]);
+    glm::vec3 w;
+    std::memcpy(&w, &merged[4 * e + 1], 12);
+    s.triangle_weights.push_back(w);
+  }
   s.geodesic_scale = static_cast<float>(geodesicScale(field_parameters_));
   // Per triangle, a bit set per rule (config.h's seam sets): back to
   // [camera][triangle] SeamRule bits.

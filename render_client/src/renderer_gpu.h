@@ -33,7 +33,10 @@ struct BlendUniforms {
   glm::vec4
       fragment_test;  // relative and absolute depth tolerance, feather width, 1 for the field modes
   glm::vec4 view_weight;  // x: beta
-  glm::ivec4 views;       // x: best views per vertex, y: words of a per-camera bit set
+  // x: best views per vertex, y: words of a per-camera bit set, z: 1 if the
+  // per-fragment blends weigh candidates, w: entries per triangle of the
+  // merged best views (triangleViewSlots)
+  glm::ivec4 views;
 };
 static_assert(sizeof(CameraGpu) == 112);
 static_assert(HOLOFUSE_MAX_CAMERAS == protocol::kMaxCameras, "one camera limit for the loop");

@@ -357,7 +357,7 @@ void Renderer::ensureViewResources(uint32_t w, uint32_t h, uint32_t count) {
   });
 }
 
-void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
+bool Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
   // Everything per camera is sized by the cameras present, bit sets by
   // their words.
   const VkDeviceSize vertices = std::max(vertex_count_, 1u);
@@ -366,11 +366,11 @@ void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
   const VkDeviceSize per_vertex = vertices * cameras * 4;
   const VkDeviceSize best_views = std::clamp(parameters.best_views, 1, HOLOFUSE_MAX_BEST_VIEWS);
   const VkDeviceSize best = vertices * best_views * 8;
+  const VkDeviceSize triangles = std::max(triangle_count_, 1u);
   const VkDeviceSize triangle_best =
-      VkDeviceSize{std::max(triangle_count_, 1u)} * 3 * best_views * 16;
+      triangles * std::max(triangleViewSlots(static_cast<int>(best_views), images_.layers), 1) * 16;
   bool changed = false;
-  const VkDeviceSize rule_bits =
-      VkDeviceSize{std::max(triangle_count_, 1u)} * HOLOFUSE_SEAM_SETS * words * 4;
+  const VkDeviceSize rule_bits = triangles * HOLOFUSE_SEAM_SETS * words * 4;
   for (auto [buffer, size] : {std::pair{&discontinuities_, vertices * words * 4},
                               {&sight_bits_, vertices * HOLOFUSE_SIGHT_BIT_SETS * words * 4},
                               {&sights_, per_vertex},
@@ -394,6 +394,7 @@ void Renderer::ensureFieldBuffers(const FieldParameters& parameters) {
   if (changed) writeDescriptors();
   std::memcpy(adjacency_.mapped, adjacency_data_.data(), adjacency_data_.size() * 4);
   std::memcpy(fans_.mapped, fan_data_.data(), fan_data_.size() * sizeof(GeodesicFan));
+  return changed;
 }
 
 void Renderer::writeDescriptors() {

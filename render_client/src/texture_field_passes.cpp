@@ -32,6 +32,15 @@ void computeBarrier(VkCommandBuffer cmd, VkPipelineStageFlags dst_stage, VkAcces
                        nullptr, 0, nullptr);
 }
 
+// After a pass whose results the blend reads (the vertex and fragment
+// shaders), later passes read or overwrite, and the tests read back.
+void barrierBeforeBlend(VkCommandBuffer cmd) {
+  computeBarrier(cmd,
+                 VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
+                     VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
+}
+
 // Buffers cleared or filled by transfer commands, then used by compute.
 void clearedBarrier(VkCommandBuffer cmd) {
   VkMemoryBarrier cleared{};
@@ -100,6 +109,8 @@ TextureFieldPasses::TextureFieldPasses(VulkanContext& context, VkPipelineLayout 
   timestamp_period_ns_ = props.limits.timestampPeriod;
 }
 
+// "field" is the field pass and, after it, each triangle's merge of its
+// corners' best views.
 const std::vector<std::string>& TextureFieldPasses::stageNames() {
   static const std::vector<std::string> kNames = {"depth_maps",
                                                   "discontinuities",
@@ -124,10 +135,7 @@ void TextureFieldPasses::recordCandidates(VkCommandBuffer cmd, VkDescriptorSet s
   vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, HOLOFUSE_COMPUTE_PUSH_OFFSET,
                      sizeof(push), &push);
   if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
-  computeBarrier(cmd,
-                 VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT |
-                     VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
+  barrierBeforeBlend(cmd);
 }
 
 void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set,
@@ -152,11 +160,7 @@ void TextureFieldPasses::recordMontage(VkCommandBuffer cmd, VkDescriptorSet set,
   const int repeats = parameters.repeated_stage == 6 ? std::max(1, parameters.stage_repeats) : 1;
   for (int r = 0; r < repeats; ++r) {
     if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
-    computeBarrier(
-        cmd,
-        VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
-            VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
+    barrierBeforeBlend(cmd);
   }
   recordTriangleViews(cmd, push);
   if (field_stamp_pending_)
@@ -170,10 +174,7 @@ void TextureFieldPasses::recordTriangleViews(VkCommandBuffer cmd, const ComputeP
                      sizeof(push), &push);
   if (push.triangle_count > 0)
     vkCmdDispatch(cmd, groups(push.triangle_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
-  computeBarrier(cmd,
-                 VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT |
-                     VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
+  barrierBeforeBlend(cmd);
 }
 
 void TextureFieldPasses::beginTiming(VkCommandBuffer cmd) {
@@ -389,10 +390,7 @@ void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32
                      sizeof(push), &push);
   for (int r = 0; r < repeats(6); ++r) {
     if (vertex_count > 0) vkCmdDispatch(cmd, groups(vertex_count, HOLOFUSE_VERTEX_GROUP), 1, 1);
-    computeBarrier(cmd,
-                   VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
-                       VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
+    barrierBeforeBlend(cmd);
   }
   recordTriangleViews(cmd, push);
   stamp(cmd, 7);

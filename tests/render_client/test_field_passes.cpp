@@ -480,6 +480,47 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
       if (GetParam() == 4) {
         EXPECT_GT(truncated, 100u) << "the scene must need the selection";
       }
+      // Each triangle's merged list (what the blend reads) is its corners'
+      // lists: each camera once, in the order met, with its weight at each
+      // corner (0 where a corner does not keep it), then the end mark
+      // unless the list fills its slots.
+      const uint32_t slots = fields.triangle_view_slots;
+      ASSERT_EQ(fields.triangle_cameras.size(), size_t{fields.triangle_count} * slots);
+      size_t list_mismatches = 0, merged = 0;
+      for (uint32_t t = 0; t < fields.triangle_count; ++t) {
+        std::vector<uint32_t> cameras;
+        std::vector<glm::vec3> at_corners;
+        size_t longest_corner = 0;
+        for (int j = 0; j < 3; ++j) {
+          const uint32_t v = scene.mesh.indices[3 * t + j];
+          size_t kept = 0;
+          for (int k = 0; k < best_views; ++k, ++kept) {
+            const uint32_t camera = fields.best_cameras[v * best_views + k];
+            if (camera == HOLOFUSE_NO_VIEW) break;
+            const size_t at = static_cast<size_t>(
+                std::find(cameras.begin(), cameras.end(), camera) - cameras.begin());
+            if (at == cameras.size()) {
+              cameras.push_back(camera);
+              at_corners.emplace_back(0.0f);
+            }
+            at_corners[at][j] = fields.best_weights[v * best_views + k];
+          }
+          longest_corner = std::max(longest_corner, kept);
+        }
+        merged += cameras.size() > longest_corner;
+        bool same = cameras.size() <= slots;
+        for (size_t e = 0; same && e < slots; ++e) {
+          const uint32_t got = fields.triangle_cameras[t * slots + e];
+          if (e == cameras.size()) {
+            same = got == HOLOFUSE_NO_VIEW;
+            break;
+          }
+          same = got == cameras[e] && fields.triangle_weights[t * slots + e] == at_corners[e];
+        }
+        list_mismatches += !same;
+      }
+      EXPECT_EQ(list_mismatches, 0u) << "of " << fields.triangle_count << " triangles";
+      EXPECT_GT(merged, 50u) << "triangles whose corners keep different cameras";
     }
     reference::BlendOptions options;
     options.alpha = settings.alpha;

@@ -78,6 +78,12 @@ struct FieldSnapshot {
   uint32_t best_views = 0;
   std::vector<uint32_t> best_cameras;
   std::vector<float> best_weights;
+  // Each triangle's corners' best views merged for the blend,
+  // [triangle * triangle_view_slots + entry]: the camera (HOLOFUSE_NO_VIEW
+  // past the last) and its weight at corners 0, 1 and 2.
+  uint32_t triangle_view_slots = 0;
+  std::vector<uint32_t> triangle_cameras;
+  std::vector<glm::vec3> triangle_weights;
 };
 
 struct ViewImages {
@@ -198,7 +204,9 @@ class Renderer {
   void ensureViewResources(uint32_t w, uint32_t h, uint32_t count);
   void destroyViewResources();
   void renderDepthMaps(VkCommandBuffer cmd);
-  void ensureFieldBuffers(const FieldParameters& parameters);
+  // Grows the field passes' buffers to the mesh, cameras and parameters;
+  // true if any was made anew (its contents are gone).
+  bool ensureFieldBuffers(const FieldParameters& parameters);
   void writeDescriptors();
   void generateMips(VkCommandBuffer cmd);
   void drawMesh(VkCommandBuffer cmd);
