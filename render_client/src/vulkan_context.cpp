@@ -132,17 +132,17 @@ VulkanContext::VulkanContext(const std::string& selector) {
       VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT | VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
   pool_info.queueFamilyIndex = queue_family_;
   HOLOFUSE_VK_CHECK(vkCreateCommandPool(device_, &pool_info, nullptr, &pool_));
-  VkFenceCreateInfo fence_info{};
-  fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-  HOLOFUSE_VK_CHECK(vkCreateFence(device_, &fence_info, nullptr, &fence_));
 }
 
 VulkanContext::~VulkanContext() {
   if (device_ != VK_NULL_HANDLE) {
     // Not waitForSubmitted: its checks throw, and a destructor must not.
     vkDeviceWaitIdle(device_);
-    if (in_flight_ != VK_NULL_HANDLE) vkFreeCommandBuffers(device_, pool_, 1, &in_flight_);
-    vkDestroyFence(device_, fence_, nullptr);
+    for (const Submission& s : in_flight_) {
+      vkFreeCommandBuffers(device_, pool_, 1, &s.cmd);
+      vkDestroyFence(device_, s.fence, nullptr);
+    }
+    for (VkFence fence : spare_fences_) vkDestroyFence(device_, fence, nullptr);
     vkDestroyCommandPool(device_, pool_, nullptr);
     vkDestroyDevice(device_, nullptr);
   }
@@ -272,20 +272,44 @@ void VulkanContext::endOneShot(VkCommandBuffer cmd) {
   submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
   submit.commandBufferCount = 1;
   submit.pCommandBuffers = &cmd;
-  HOLOFUSE_VK_CHECK(vkQueueSubmit(queue_, 1, &submit, fence_));
-  in_flight_ = cmd;
+  VkFence fence = VK_NULL_HANDLE;
+  if (spare_fences_.empty()) {
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    HOLOFUSE_VK_CHECK(vkCreateFence(device_, &fence_info, nullptr, &fence));
+  } else {
+    fence = spare_fences_.back();
+    spare_fences_.pop_back();
+  }
+  HOLOFUSE_VK_CHECK(vkQueueSubmit(queue_, 1, &submit, fence));
+  in_flight_.push_back({cmd, fence});
 }
 
 bool VulkanContext::submissionDone() const {
-  return in_flight_ == VK_NULL_HANDLE || vkGetFenceStatus(device_, fence_) == VK_SUCCESS;
+  // A fence's signal covers every command submitted to the queue before
+  // it: the last one done, all are.
+  return in_flight_.empty() || vkGetFenceStatus(device_, in_flight_.back().fence) == VK_SUCCESS;
 }
 
 void VulkanContext::waitForSubmitted() {
-  if (in_flight_ == VK_NULL_HANDLE) return;
-  HOLOFUSE_VK_CHECK(vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX));
-  HOLOFUSE_VK_CHECK(vkResetFences(device_, 1, &fence_));
-  vkFreeCommandBuffers(device_, pool_, 1, &in_flight_);
-  in_flight_ = VK_NULL_HANDLE;
+  if (in_flight_.empty()) return;
+  std::vector<VkFence> fences;
+  for (const Submission& s : in_flight_) fences.push_back(s.fence);
+  HOLOFUSE_VK_CHECK(vkWaitForFences(device_, static_cast<uint32_t>(fences.size()), fences.data(),
+                                    VK_TRUE, UINT64_MAX));
+  HOLOFUSE_VK_CHECK(vkResetFences(device_, static_cast<uint32_t>(fences.size()), fences.data()));
+  for (const Submission& s : in_flight_) vkFreeCommandBuffers(device_, pool_, 1, &s.cmd);
+  spare_fences_.insert(spare_fences_.end(), fences.begin(), fences.end());
+  in_flight_.clear();
+}
+
+void transferWritesToHost(VkCommandBuffer cmd) {
+  VkMemoryBarrier to_host{};
+  to_host.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  to_host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+  to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                       &to_host, 0, nullptr, 0, nullptr);
 }
 
 void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect,

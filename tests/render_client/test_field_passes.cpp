@@ -580,6 +580,30 @@ TEST_P(BlendPass, MatchesTheCpuReferenceInEveryMode) {
 
 INSTANTIATE_TEST_SUITE_P(FiveScenes, BlendPass, ::testing::Values(0, 1, 2, 3, 4));
 
+// The fields and the candidates share their buffers' sizes. Mode normal
+// with more best views, between two holoportation renders of one mesh,
+// makes the buffers anew; the second holoportation render computes its
+// fields again instead of blending lists nothing wrote.
+TEST(FieldModes, AModeInBetweenThatRemakesTheBuffersLeavesTheFieldsRight) {
+  const Scene scene = syntheticScene(40, 96, 72, 7);
+  const Camera& user = scene.views[0].camera;
+  Renderer renderer(context(), user.width, user.height);
+  renderer.setMesh(scene.mesh);
+  renderer.setViews(viewImages(scene));
+  BlendSettings holoportation;
+  holoportation.mode = BlendMode::kHoloportation;
+  holoportation.fields.best_views = 2;
+  const Image8 first = renderer.render(user, holoportation);
+  BlendSettings normal;
+  normal.fields.best_views = 12;  // 40 cameras: the candidates pass runs
+  renderer.render(user, normal);
+  const Image8 again = renderer.render(user, holoportation);
+  ASSERT_EQ(again.pixels.size(), first.pixels.size());
+  size_t differ = 0;
+  for (size_t p = 0; p < first.pixels.size(); ++p) differ += again.pixels[p] != first.pixels[p];
+  EXPECT_EQ(differ, 0u) << "of " << first.pixels.size() << " channels";
+}
+
 TEST(HoloportationMode, ReproducesThePodImageAndComputesFieldsOncePerMesh) {
   const Scene scene = syntheticScene(4, 200, 150, 6);
   Renderer renderer(context(), 200, 150);

@@ -2,7 +2,9 @@
 // pod camera's own pose the blend must reproduce that camera's true image.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <nlohmann/json.hpp>
 
 #include "base/statistics.h"
@@ -34,6 +36,49 @@ struct Fixture {
 VulkanContext& context() {
   static VulkanContext ctx;
   return ctx;
+}
+
+// A frame in two submissions (Renderer::render in montage4d): the second,
+// submitted behind the first while it may still run, sees both the first's
+// results and what the host wrote between the two; waiting waits for both.
+// Three rounds reuse the fences.
+TEST(VulkanContext, ASubmissionBehindTheOneInFlightSeesItsResultsAndTheHostsWrites) {
+  VulkanContext& ctx = context();
+  constexpr VkDeviceSize kBytes = 1 << 16;
+  const VkBufferUsageFlags usage =
+      VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  Buffer device_side = ctx.createBuffer(kBytes, usage), host_side = ctx.createBuffer(kBytes, usage),
+         both = ctx.createBuffer(2 * kBytes, usage);
+  for (uint32_t round = 1; round <= 3; ++round) {
+    SCOPED_TRACE(round);
+    const uint32_t from_device = 0x01010101u * round, from_host = 0x10101010u * round;
+    ctx.submit([&](VkCommandBuffer cmd) {
+      vkCmdFillBuffer(cmd, device_side.buffer, 0, kBytes, from_device);
+    });
+    std::vector<uint32_t> words(kBytes / 4, from_host);
+    std::memcpy(host_side.mapped, words.data(), kBytes);
+    ctx.submitBehind([&](VkCommandBuffer cmd) {
+      VkMemoryBarrier filled{};
+      filled.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+      filled.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+      filled.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0,
+                           1, &filled, 0, nullptr, 0, nullptr);
+      const VkBufferCopy first{0, 0, kBytes}, second{0, kBytes, kBytes};
+      vkCmdCopyBuffer(cmd, device_side.buffer, both.buffer, 1, &first);
+      vkCmdCopyBuffer(cmd, host_side.buffer, both.buffer, 1, &second);
+      transferWritesToHost(cmd);
+    });
+    ctx.waitForSubmitted();
+    EXPECT_TRUE(ctx.submissionDone());
+    std::vector<uint32_t> out(2 * kBytes / 4);
+    std::memcpy(out.data(), both.mapped, 2 * kBytes);
+    EXPECT_EQ(std::count(out.begin(), out.begin() + kBytes / 4, from_device),
+              static_cast<long>(kBytes / 4));
+    EXPECT_EQ(std::count(out.begin() + kBytes / 4, out.end(), from_host),
+              static_cast<long>(kBytes / 4));
+  }
+  for (Buffer* b : {&device_side, &host_side, &both}) ctx.destroy(*b);
 }
 
 TEST(Renderer, PodViewReproducesTheTrueImageInsideTheSilhouette) {

@@ -78,18 +78,26 @@ class VulkanContext {
     waitForSubmitted();
   }
   // Records with fn and submits without waiting: the host goes on (the
-  // client decodes the next frame) while the device works. One submission
-  // in flight at a time: a second waits for the first.
+  // client decodes the next frame) while the device works. Waits first for
+  // the submissions in flight.
   template <typename Fn>
   void submit(Fn&& fn) {
     waitForSubmitted();
+    submitBehind(std::forward<Fn>(fn));
+  }
+  // Records with fn and submits behind the submissions in flight, which
+  // the queue finishes first: one frame in parts, with host work between
+  // them (the renderer's temporal carry while the device runs the per-mesh
+  // passes).
+  template <typename Fn>
+  void submitBehind(Fn&& fn) {
     VkCommandBuffer cmd = beginOneShot();
     fn(cmd);
     endOneShot(cmd);
   }
-  // Waits for the submission in flight, if any.
+  // Waits for the submissions in flight, if any.
   void waitForSubmitted();
-  // The submission in flight has finished (or none is in flight).
+  // The submissions in flight have finished (or none is in flight).
   bool submissionDone() const;
 
  private:
@@ -103,11 +111,21 @@ class VulkanContext {
   VkQueue queue_ = VK_NULL_HANDLE;
   uint32_t queue_family_ = 0;
   VkCommandPool pool_ = VK_NULL_HANDLE;
-  VkFence fence_ = VK_NULL_HANDLE;
-  VkCommandBuffer in_flight_ = VK_NULL_HANDLE;  // submitted, fence_ not yet waited on
+  // Submitted, their fences not yet waited on, in submission order; and
+  // fences free for the next submissions.
+  struct Submission {
+    VkCommandBuffer cmd;
+    VkFence fence;
+  };
+  std::vector<Submission> in_flight_;
+  std::vector<VkFence> spare_fences_;
   std::string device_name_;
   bool cpu_device_ = false;
 };
+
+// Transfer writes (a copy into a mapped buffer) made visible to the host
+// once the submission's fence has signalled.
+void transferWritesToHost(VkCommandBuffer cmd);
 
 // One image layout transition (all layers, mip levels first_level onwards,
 // count levels) as a pipeline barrier.
