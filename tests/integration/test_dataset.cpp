@@ -382,11 +382,23 @@ TEST(DatasetRecorder, ARecordingThatRunsOutOfSpaceIsReportedAndServingGoesOn) {
             std::string::npos)
       << log;
   EXPECT_NE(log.find("file size limit reached"), std::string::npos) << log;
+  // Its progress says it stopped and what it holds, not a growing count.
+  const size_t failed = log.find("recording failed, the server goes on");
+  const size_t stopped = log.find("[server] recording stopped ");
+  ASSERT_NE(stopped, std::string::npos) << log;
+  EXPECT_NE(log.find("file size limit reached", stopped), std::string::npos) << log;
+  EXPECT_EQ(log.find("[server] recording: ", failed), std::string::npos)
+      << "a recording that stopped reported as recording\n"
+      << log;
   EXPECT_EQ(readJson(out / "client" / "report.json")["frames_rendered"].get<int>(), 24);
   // What was written before the failure is whole and checks.
   auto reader = dataset::RecordReader::open((recording / "pods.hfr").string());
   ASSERT_TRUE(reader.isOk()) << reader.status().toString();
   EXPECT_GE(reader->records().size(), 3u);
+  // The pod frames it says it holds are the ones in the file (the two
+  // calibrations are the other records).
+  const std::string holds = log.substr(log.find("it holds ", stopped) + 9);
+  EXPECT_EQ(std::stoull(holds) + 2, reader->records().size()) << holds;
   EXPECT_LE(fs::file_size(recording / "pods.hfr"), 600u * 1024u);
   EXPECT_FALSE(reader->scan().tail_problem.has_value()) << *reader->scan().tail_problem;
   EXPECT_TRUE(reader->verifyAll().isOk());

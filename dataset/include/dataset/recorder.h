@@ -27,14 +27,18 @@ class Recorder {
   void recordFused(uint64_t frame_id, const protocol::OutgoingFrame& mesh_frame,
                    const protocol::OutgoingFrame& texture_bundle,
                    const protocol::OutgoingFrame& stats);
-  // A progress line (frames, MB, rate) at most every interval_ns.
+  // A progress line (frames, MB, rate) at most every interval_ns; once a
+  // file has failed, when and why it stopped, what it holds, and how many
+  // pod frames were not recorded since.
   void maybeReportProgress(uint64_t now_ns, uint64_t interval_ns = 2000000000ull);
   // Writes the indexes; prints what was recorded.
   void close();
 
  private:
+  void reportStopped(uint64_t now_ns) const;
+  // False when nothing was written (this write failed, or one before).
   template <typename Payload>
-  void append(RecordWriter& writer, RecordKind kind, uint32_t stream, uint64_t frame_id,
+  bool append(RecordWriter& writer, RecordKind kind, uint32_t stream, uint64_t frame_id,
               const Payload& payload);
 
   std::string dir_;
@@ -42,7 +46,9 @@ class Recorder {
   std::optional<RecordWriter> fused_;
   uint64_t start_ns_ = 0;
   uint64_t last_report_ns_ = 0;
-  uint64_t pod_frames_ = 0;
+  uint64_t pod_frames_ = 0;       // recorded
+  uint64_t pod_frames_lost_ = 0;  // accepted after the recording stopped
+  uint64_t stopped_ns_ = 0;       // when a write of pods_ failed
 };
 
 }  // namespace holofuse::dataset
