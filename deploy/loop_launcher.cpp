@@ -95,9 +95,10 @@ struct LoopPlan {
   // those that differ from its defaults.
   holofuse::eval::LoopSettings settings;
   std::vector<std::string> dataset_server_args;  // a replay's capture volume and voxel
-  // A fresh key for this run only (mode 0600, removed at the end): the
-  // loop is authenticated like a rig, and no other process can join it.
-  std::string key_file;
+  // Fresh keys for this run only, one per identity (mode 0600, removed at
+  // the end): the loop is authenticated like a rig, no other process can
+  // join it, and no pod can be another.
+  std::string key_dir;
   const holofuse::scene::ScenePreset* preset = nullptr;
   // A rig on this machine (--netns): a namespace per process, each link
   // impaired by a relay; the server then listens on its namespace's
@@ -502,7 +503,7 @@ std::vector<std::string> serverCommand(const LoopPlan& plan, const std::string& 
                                    "--port-file",
                                    port_file,
                                    "--key-file",
-                                   plan.key_file};
+                                   plan.key_dir + "/server.keys"};
   if (plan.rig) append(args, {"--rig", plan.rig_file});
   append(args, holofuse::eval::serverArguments(plan.settings));
   appendGivenDefaults(args, plan, holofuse::fusion::fusionFlags(), plan.settings.fusion);
@@ -526,7 +527,7 @@ std::vector<std::string> podCommand(const LoopPlan& plan, int pod, const std::st
                                    "--pod-id",
                                    std::to_string(pod),
                                    "--key-file",
-                                   plan.key_file};
+                                   plan.key_dir + "/pod-" + std::to_string(pod) + ".key"};
   if (!plan.replay.empty()) {
     // A replay pod sends the recorded bytes as they are: the codec
     // settings reach only the server's images to clients.
@@ -559,19 +560,17 @@ std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& 
                                        int index) {
   // A soak's clients render until it ends.
   const int frames = plan.soak_minutes > 0 ? 1000000 : plan.frames;
+  const uint32_t id = plan.rig && !plan.rig->clients.empty() ? plan.rig->clients.at(index).id : 0;
   std::vector<std::string> args = {plan.bin_dir + "/render_client",
                                    "--server",
                                    endpoint,
                                    "--key-file",
-                                   plan.key_file,
+                                   plan.key_dir + "/client-" + std::to_string(id) + ".key",
                                    "--out",
                                    clientOut(plan, index),
                                    "--frames",
                                    std::to_string(frames)};
-  if (plan.rig) {
-    const uint32_t id = plan.rig->clients.empty() ? 0 : plan.rig->clients.at(index).id;
-    append(args, {"--rig", plan.rig_file, "--client-id", std::to_string(id)});
-  }
+  if (plan.rig) append(args, {"--rig", plan.rig_file, "--client-id", std::to_string(id)});
   const auto part = clientPart(plan, index);
   for (const auto& [flag, value] : {std::pair<std::string, std::string>{"--size", plan.size},
                                     {"--mode", plan.mode},
@@ -852,18 +851,25 @@ int main(int argc, char** argv) {
   fs::create_directories(logs);
   const std::string port_file = (logs / "server.port").string();
   fs::remove(port_file);
-  plan.key_file = (logs / "loop.key").string();
-  fs::remove(plan.key_file);
-  if (const holofuse::Status made = holofuse::protocol::KeyRing::writeNew(plan.key_file);
+  plan.key_dir = (logs / "keys").string();
+  fs::remove_all(plan.key_dir);
+  std::vector<uint32_t> client_ids = {0};
+  if (plan.rig && !plan.rig->clients.empty()) {
+    client_ids.clear();
+    for (const auto& client : plan.rig->clients) client_ids.push_back(client.id);
+  }
+  if (const auto made = holofuse::protocol::KeyRing::writeRig(
+          plan.key_dir, static_cast<uint32_t>(plan.pods), client_ids);
       !made.isOk()) {
-    std::fprintf(stderr, "[loop] cannot make this run's key: %s\n", made.message().c_str());
+    std::fprintf(stderr, "[loop] cannot make this run's keys: %s\n",
+                 made.status().message().c_str());
     return 1;
   }
-  // The key is this run's only: gone when the launcher returns.
-  struct RemoveKey {
+  // The keys are this run's only: gone when the launcher returns.
+  struct RemoveKeys {
     std::string path;
-    ~RemoveKey() { std::filesystem::remove(path); }
-  } remove_key{plan.key_file};
+    ~RemoveKeys() { std::filesystem::remove_all(path); }
+  } remove_keys{plan.key_dir};
 
   struct sigaction sa {};
   sa.sa_handler = onSignal;

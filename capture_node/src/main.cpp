@@ -34,7 +34,11 @@ int main(int argc, char** argv) {
       app.add_option("--scene", scene_name, "named synthetic scene: " + scene::sceneNames()),
       app.add_option("--seed", options.scene.seed, "scene seed"),
       app.add_option("--noise", options.scene.noise_amplitude, scene::kNoiseHelp)
-          ->check(CLI::Range(0.0, scene::kMaxNoise))};
+          ->check(CLI::Range(0.0, scene::kMaxNoise)),
+      app.add_option("--frame-id-offset", options.frame_id_offset,
+                     "add this many (negative: take) to every frame id, as a pod whose clock "
+                     "is that many frame periods off would (tests of the rig's clock)")
+          ->check(CLI::Range(-int64_t{1} << 40, int64_t{1} << 40))};
   for (CLI::Option* option : encoding_flags.options()) synthetic.push_back(option);
   std::string replay, speed = "1";
   bool loop = false;

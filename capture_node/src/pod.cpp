@@ -126,8 +126,11 @@ int runPod(const PodOptions& options) {
     }
     if (last_frame_id != 0 && frame_id > last_frame_id + 1) skipped += frame_id - last_frame_id - 1;
     last_frame_id = frame_id;
+    // A pod told its clock is off sends (and renders) the ids that clock
+    // would give; it keeps time by the true clock.
+    const uint64_t sent_id = frame_id + static_cast<uint64_t>(options.frame_id_offset);
     PodCapture capture =
-        capturePodFrame(renderer, plate, frame_id, static_cast<uint16_t>(options.pod_id));
+        capturePodFrame(renderer, plate, sent_id, static_cast<uint16_t>(options.pod_id));
     link.send(std::make_shared<const protocol::OutgoingFrame>(
         encodePodFrame(capture, camera.id, options.encoding)));
     link.poll(0, received);

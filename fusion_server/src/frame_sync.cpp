@@ -1,43 +1,97 @@
 #include "fusion_server/frame_sync.h"
 
+#include <algorithm>
+
 namespace holofuse::fusion {
+
+namespace {
+
+// a - b, saturated to int64's range (ids are any 64-bit value a pod sends).
+int64_t signedDifference(uint64_t a, uint64_t b) {
+  if (a >= b) return a - b > uint64_t{INT64_MAX} ? INT64_MAX : static_cast<int64_t>(a - b);
+  return b - a > uint64_t{INT64_MAX} ? INT64_MIN : -static_cast<int64_t>(b - a);
+}
+
+uint64_t distance(uint64_t a, uint64_t b) { return a > b ? a - b : b - a; }
+
+}  // namespace
+
+FrameSync::FrameSync(uint64_t deadline_ns, uint64_t max_id_skew)
+    // Room for the groups in flight and for a pod up to max_id_skew ahead,
+    // whose frames wait for the others (FrameGroup::first_arrival_ns).
+    : FrameSync(deadline_ns, max_id_skew, static_cast<size_t>(max_id_skew) + 8) {}
+
+FrameSync::FrameSync(uint64_t deadline_ns, uint64_t max_id_skew, size_t max_pending)
+    : deadline_ns_(deadline_ns),
+      max_id_skew_(max_id_skew),
+      max_pending_(max_pending),
+      // A pod whose last frame is older than this does not vote: a pod that
+      // stalled must not hold the clock back. Lossless pods are silent when
+      // they are not read (they are ahead), so every one votes.
+      vote_window_ns_(deadline_ns == kNoDeadline
+                          ? kNoDeadline
+                          : std::max<uint64_t>(1'000'000'000ull, 4 * deadline_ns)) {}
+
+FrameSync FrameSync::lossless(uint64_t max_id_skew) {
+  return FrameSync(kNoDeadline, max_id_skew, kLosslessMaxPending);
+}
+
+uint64_t FrameSync::rigClock(uint64_t now_ns, size_t& voters) const {
+  std::vector<uint64_t> ids;
+  for (const auto& [camera, clock] : clocks_) {
+    if (vote_window_ns_ == kNoDeadline || now_ns < clock.heard_ns ||
+        now_ns - clock.heard_ns <= vote_window_ns_)
+      ids.push_back(clock.latest_id);
+  }
+  voters = ids.size();
+  std::sort(ids.begin(), ids.end());
+  const size_t n = ids.size();
+  if (n % 2 == 1) return ids[n / 2];
+  // Two middle values: the one nearer the ids being fused (the clock the
+  // rig was on), or the lower before anything was fused.
+  const uint64_t low = ids[n / 2 - 1], high = ids[n / 2];
+  if (last_emitted_ && distance(high, *last_emitted_) < distance(low, *last_emitted_)) return high;
+  return low;
+}
+
+bool FrameSync::offClock(uint32_t camera_id) const {
+  const auto it = clocks_.find(camera_id);
+  return it != clocks_.end() && it->second.off_since_ns.has_value();
+}
 
 FrameSync::Added FrameSync::add(uint64_t frame_id, PodImages images, uint64_t now_ns) {
   const uint32_t camera = images.camera_id;
-  // After a start-over, the clock left behind stays refused: a pod still on
-  // it must not start the sync over again.
-  if (abandoned_ &&
-      (frame_id > *abandoned_ ? frame_id - *abandoned_ : *abandoned_ - frame_id) <= kMaxIdJump)
-    return Added::kImplausible;
-  if (last_emitted_) {
-    if (frame_id > *last_emitted_ && frame_id - *last_emitted_ > kMaxIdJump)
-      return Added::kImplausible;
-    if (frame_id<*last_emitted_&& * last_emitted_ - frame_id> kMaxIdJump) {
-      behind_.insert(camera);
-      last_id_from_[camera] = frame_id;
-      if (2 * behind_.size() < last_id_from_.size()) return Added::kImplausible;
-      // Most pods' clocks went back (or the first ids seen were bogus):
-      // start over rather than calling every frame late forever.
-      abandoned_ = *last_emitted_;
-      last_emitted_.reset();
-      pending_.clear();
-      last_id_from_.clear();
-      behind_.clear();
-      ++clock_resets_;
-    } else if (frame_id <= *last_emitted_) {
-      behind_.erase(camera);
-      ++late_frames_;
-      return Added::kLate;
-    }
+  PodClock& clock = clocks_[camera];
+  clock.latest_id = frame_id;
+  clock.heard_ns = now_ns;
+  const uint64_t rig = rigClock(now_ns, clock.voters);
+  clock.rig_id = rig;
+  rig_id_ = rig;
+  clock.offset = signedDifference(frame_id, rig);
+  if (distance(frame_id, rig) > max_id_skew_) {
+    if (!clock.off_since_ns) clock.off_since_ns = now_ns;
+    ++clock.off_frames;
+    ++off_clock_frames_;
+    return Added::kOffClock;
   }
-  behind_.erase(camera);
-  last_id_from_[images.camera_id] = frame_id;
+  clock.off_since_ns.reset();
+  if (last_emitted_ && rig<*last_emitted_&& * last_emitted_ - rig> max_id_skew_) {
+    // Most pods went back past what was fused: start over rather than
+    // calling every frame late forever.
+    last_emitted_.reset();
+    pending_.clear();
+    ++clock_resets_;
+  }
+  if (last_emitted_ && frame_id <= *last_emitted_) {
+    ++late_frames_;
+    return Added::kLate;
+  }
   auto [it, inserted] = pending_.try_emplace(frame_id);
   if (inserted) {
     it->second.frame_id = frame_id;
     it->second.first_arrival_ns = now_ns;
   }
-  it->second.pods[images.camera_id] = std::move(images);
+  it->second.pods[camera] = std::move(images);
   // Bound memory: a flood of new ids pushes the oldest groups out.
   while (pending_.size() > max_pending_) {
     pending_.erase(pending_.begin());
@@ -46,12 +100,17 @@ FrameSync::Added FrameSync::add(uint64_t frame_id, PodImages images, uint64_t no
   return Added::kAccepted;
 }
 
-void FrameSync::forgetPod(uint32_t camera_id) {
-  last_id_from_.erase(camera_id);
-  behind_.erase(camera_id);
+void FrameSync::forgetPod(uint32_t camera_id) { clocks_.erase(camera_id); }
+
+const PodClock* FrameSync::clockOf(uint32_t camera_id) const {
+  const auto it = clocks_.find(camera_id);
+  return it == clocks_.end() ? nullptr : &it->second;
 }
 
-std::vector<FrameGroup> FrameSync::takeReady(const std::set<uint32_t>& expected, uint64_t now_ns) {
+std::vector<FrameGroup> FrameSync::takeReady(const std::set<uint32_t>& connected, uint64_t now_ns) {
+  std::set<uint32_t> expected;
+  for (uint32_t id : connected)
+    if (!offClock(id)) expected.insert(id);
   std::vector<FrameGroup> ready;
   for (auto it = pending_.begin(); it != pending_.end();) {
     FrameGroup& group = it->second;
@@ -64,11 +123,11 @@ std::vector<FrameGroup> FrameSync::takeReady(const std::set<uint32_t>& expected,
       expired = true;
       for (uint32_t id : expected) {
         if (group.pods.count(id)) continue;
-        const auto last = last_id_from_.find(id);
-        expired = expired && last != last_id_from_.end() && last->second > group.frame_id;
+        const auto clock = clocks_.find(id);
+        expired = expired && clock != clocks_.end() && clock->second.latest_id > group.frame_id;
       }
     } else {
-      expired = now_ns - group.first_arrival_ns >= deadline_ns_;
+      expired = group.frame_id <= rig_id_ && now_ns - group.first_arrival_ns >= deadline_ns_;
     }
     if (!complete && !expired) {
       ++it;
@@ -96,10 +155,12 @@ size_t FrameSync::pendingWith(uint32_t camera_id) const {
 }
 
 std::optional<uint64_t> FrameSync::nextDeadline() const {
-  if (pending_.empty() || deadline_ns_ == kNoDeadline) return std::nullopt;
-  uint64_t earliest = UINT64_MAX;
-  for (const auto& [id, group] : pending_)
-    earliest = std::min(earliest, group.first_arrival_ns + deadline_ns_);
+  if (deadline_ns_ == kNoDeadline) return std::nullopt;
+  std::optional<uint64_t> earliest;
+  for (const auto& [id, group] : pending_) {
+    if (id > rig_id_) break;  // waits for the clock, not the deadline
+    earliest = std::min(earliest.value_or(UINT64_MAX), group.first_arrival_ns + deadline_ns_);
+  }
   return earliest;
 }
 

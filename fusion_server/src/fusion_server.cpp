@@ -42,6 +42,10 @@ Status holdToFloor(uint64_t& last_ns, uint32_t& early_run, uint32_t floor_ms, co
                                            std::to_string(early_run) + " in a row");
 }
 
+// Frames read from one peer per turn of the loop: a flood of tiny messages
+// waits in the socket, not in the server's memory.
+constexpr size_t kMaxFramesPerTurn = 64;
+
 // Whatever a peer may send before it is admitted: a Hello, an Auth.
 constexpr uint32_t kMaxPayloadBeforeAdmission = 256;
 // After admission, every message but a pod's PodFrames: Calibration,
@@ -57,6 +61,16 @@ uint32_t podFrameCap(const protocol::Calibration& c, uint32_t max_payload) {
   return static_cast<uint32_t>(std::min<uint64_t>(max_payload, planes + (64u << 10)));
 }
 
+// A pod's offset from the rig's clock, for the log: "54000 ids ahead of
+// the rig's clock (id N, the median of 4 pods)".
+std::string describeOffset(const PodClock& clock) {
+  const uint64_t ids = clock.offset < 0 ? 0 - static_cast<uint64_t>(clock.offset)
+                                        : static_cast<uint64_t>(clock.offset);
+  return std::to_string(ids) + (clock.offset < 0 ? " ids behind" : " ids ahead of") +
+         " the rig's clock (id " + std::to_string(clock.rig_id) + ", the median of " +
+         std::to_string(clock.voters) + (clock.voters == 1 ? " pod)" : " pods)");
+}
+
 // The decoder and the worker both write the one wake descriptor.
 void drainWake(int wake_fd) {
   uint64_t counter = 0;
@@ -68,8 +82,9 @@ void drainWake(int wake_fd) {
 
 FusionServer::FusionServer(ServerOptions options)
     : options_(std::move(options)),
-      sync_(options_.lossless ? FrameSync::lossless()
-                              : FrameSync(static_cast<uint64_t>(options_.sync_deadline_ms * 1e6))) {
+      sync_(options_.lossless ? FrameSync::lossless(options_.max_id_skew)
+                              : FrameSync(static_cast<uint64_t>(options_.sync_deadline_ms * 1e6),
+                                          options_.max_id_skew)) {
   options_.fusion.pods_expected = static_cast<uint32_t>(options_.pods);
 }
 
@@ -278,6 +293,7 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
   ack.heartbeat_interval_ms = options_.heartbeat_interval_ms;
   ack.idle_timeout_ms = options_.idle_timeout_ms;
   peer.greeted = true;
+  peer.budget = PeerBudget(options_.budget, monotonicNs());
   peer.connection->setMaxPayload(std::min(options_.max_payload, kMaxControlPayload));
   if (hello.role == protocol::Role::kPod) {
     departed_pods_.erase(hello.id);
@@ -421,17 +437,10 @@ void FusionServer::syncDecoded(Frame frame, uint32_t pod, uint64_t frame_id, Pod
   // The group waits from the first frame decoded: its decoding is
   // server_decode's, and the latency budget must not count it twice.
   const FrameSync::Added added = sync_.add(frame_id, std::move(images), monotonicNs());
-  if (added == FrameSync::Added::kImplausible) {
-    // Another clock than the rig's: the frame is dropped, the pod kept (its
-    // ids are its own business until most pods agree; frame_sync.h).
-    const uint64_t refused = ++implausible_frames_[pod];
-    if (refused == 1 || refused % 100 == 0) {
-      std::fprintf(stderr,
-                   "[server] pod %u: frame id %llu is far from the frames being fused; dropped "
-                   "(%llu so far; does it run on another clock?)\n",
-                   pod, static_cast<unsigned long long>(frame_id),
-                   static_cast<unsigned long long>(refused));
-    }
+  if (added == FrameSync::Added::kOffClock) {
+    // Another clock than the rig's: the frame is dropped, the pod kept
+    // until it has been off for off_clock_close_ms (frame_sync.h).
+    tellOffClock(pod, frame_id);
     return;
   }
   // Every frame a pod sends counts for its jitter, also one that arrives too
@@ -443,6 +452,59 @@ void FusionServer::syncDecoded(Frame frame, uint32_t pod, uint64_t frame_id, Pod
   if (added == FrameSync::Added::kAccepted && recorder_) {
     recorder_->recordPodMessage(dataset::RecordKind::kPodFrame, pod, frame_id, frame);
   }
+}
+
+void FusionServer::tellOffClock(uint32_t pod, uint64_t frame_id) {
+  const PodClock* clock = sync_.clockOf(pod);
+  if (clock == nullptr || !clock->off_since_ns) return;
+  // The first frame of a run off the clock, and every 100th in all.
+  if (*clock->off_since_ns != clock->heard_ns && clock->off_frames % 100 != 0) return;
+  std::fprintf(stderr,
+               "[server] pod %u is off the rig's clock: frame id %llu is %s; its frames are "
+               "dropped and it is not waited for (%llu so far), and it is closed if it stays off "
+               "for %u ms (does it run on another clock?)\n",
+               pod, static_cast<unsigned long long>(frame_id), describeOffset(*clock).c_str(),
+               static_cast<unsigned long long>(clock->off_frames), options_.off_clock_close_ms);
+}
+
+Status FusionServer::podCostTooHigh(const Peer& peer) const {
+  if (peer.role != protocol::Role::kPod || !peer.calibrated) return Status::ok();
+  std::vector<uint64_t> pixels;
+  for (const Peer& other : peers_) {
+    if (other.role != protocol::Role::kPod || !other.calibrated || other.replaced) continue;
+    const Camera& camera = cameras_.at(other.id);
+    pixels.push_back(uint64_t{camera.width} * camera.height);
+  }
+  std::sort(pixels.begin(), pixels.end());
+  // The lower median: with two pods, the smaller one is the rig's.
+  const uint64_t median = pixels[(pixels.size() - 1) / 2];
+  const Camera& camera = cameras_.at(peer.id);
+  const uint64_t own = uint64_t{camera.width} * camera.height;
+  if (static_cast<double>(own) <= options_.max_pod_cost_ratio * static_cast<double>(median))
+    return Status::ok();
+  char numbers[160];
+  std::snprintf(numbers, sizeof(numbers),
+                "%ux%u (%llu pixels), cost %.1f times the rig's median pod (%llu pixels, of %zu "
+                "pods); a pod may cost at most --max-pod-cost-ratio %g times it",
+                camera.width, camera.height, static_cast<unsigned long long>(own),
+                static_cast<double>(own) / static_cast<double>(median),
+                static_cast<unsigned long long>(median), pixels.size(),
+                options_.max_pod_cost_ratio);
+  return Status(StatusCode::kTooLarge, std::string("its images, ") + numbers);
+}
+
+Status FusionServer::offClockTooLong(const Peer& peer, uint64_t now_ns) const {
+  if (peer.role != protocol::Role::kPod || !peer.greeted) return Status::ok();
+  const PodClock* clock = sync_.clockOf(peer.id);
+  if (clock == nullptr || !clock->off_since_ns) return Status::ok();
+  const uint64_t off_ns = now_ns - *clock->off_since_ns;
+  if (off_ns <= uint64_t{options_.off_clock_close_ms} * 1000000) return Status::ok();
+  return Status(StatusCode::kMalformed,
+                "its frame ids have been off the rig's clock for " +
+                    std::to_string(off_ns / 1000000) + " ms (--off-clock-close-ms " +
+                    std::to_string(options_.off_clock_close_ms) + "): its latest, " +
+                    std::to_string(clock->latest_id) + ", is " + describeOffset(*clock) +
+                    "; is its host's clock right?");
 }
 
 void FusionServer::enforceBufferedBytes() {
@@ -459,6 +521,30 @@ void FusionServer::enforceBufferedBytes() {
                                std::to_string(options_.max_buffered_bytes >> 20) +
                                " MiB) and this peer holds the most, " + std::to_string(most >> 20) +
                                " MiB"));
+}
+
+Status FusionServer::handleInbox(Peer& peer, Status status) {
+  for (;;) {
+    std::optional<Frame> next;
+    if (peer.held) {
+      next = std::move(peer.held);
+      peer.held.reset();
+    } else if (peer.connection->hasFrame()) {
+      next = peer.connection->takeFrame();
+    } else {
+      return status;
+    }
+    if (peer.greeted && !peer.budget.take(next->header.type, monotonicNs())) {
+      peer.held = std::move(next);
+      peer.paused_until_ns = peer.budget.resumeAt();
+      return status;
+    }
+    const Status handled = handle(peer, std::move(*next));
+    if (!handled.isOk()) return handled;
+    // A Calibration raises its pod's PodFrame cap for a header held back.
+    if (status.isOk())
+      status = peer.connection->readOnIfHeaderWaits(options_.read_budget_bytes, kMaxFramesPerTurn);
+  }
 }
 
 Status FusionServer::handle(Peer& peer, Frame frame) {
@@ -518,6 +604,10 @@ Status FusionServer::handle(Peer& peer, Frame frame) {
                           " from pod " + std::to_string(peer.id));
       }
       cameras_[calibration.camera_id] = fromCalibration(calibration);
+      peer.calibrated = true;
+      // Within --max-image-side, but far above the rig's pods: refused
+      // before anything of its size is read or decoded.
+      HOLOFUSE_RETURN_IF_ERROR(podCostTooHigh(peer));
       peer.connection->setTypeCap(MessageType::kPodFrame,
                                   podFrameCap(calibration, options_.max_payload));
       if (recorder_)
@@ -544,8 +634,11 @@ Status FusionServer::handle(Peer& peer, Frame frame) {
 
 void FusionServer::closePeer(size_t index, const Status& why) {
   Peer& peer = peers_[index];
-  if (peer.greeted && peer.role == protocol::Role::kPod && !peer.replaced)
+  if (peer.greeted && peer.role == protocol::Role::kPod && !peer.replaced) {
     departed_pods_.insert(peer.id);
+    // Its vote on the rig's clock leaves with it (frame_sync.h).
+    sync_.forgetPod(peer.id);
+  }
   if (why.code() == StatusCode::kClosed) {
     std::fprintf(stderr, "[server] %s left (%s)\n", peer.connection->peerName().c_str(),
                  why.message().c_str());
@@ -763,20 +856,26 @@ int FusionServer::run() {
     fds.push_back({listener_.fd(), static_cast<short>(accepting ? POLLIN : 0), 0});
     fds.push_back({wake_fd_, POLLIN, 0});
     std::vector<bool> reading;
+    const uint64_t polled_ns = monotonicNs();
+    std::optional<uint64_t> wake_at = sync_.nextDeadline();
     for (const auto& peer : peers_) {
-      reading.push_back(readable(peer));
-      fds.push_back({peer.connection->fd(),
-                     static_cast<short>((reading.back() ? POLLIN : 0) |
-                                        (peer.connection->wantsWrite() ? POLLOUT : 0)),
+      // A peer over its budget is not read until it may send again.
+      const bool paused = peer.paused_until_ns > polled_ns;
+      if (paused) wake_at = std::min(wake_at.value_or(UINT64_MAX), peer.paused_until_ns);
+      reading.push_back(!paused && readable(peer));
+      const bool writing = peer.connection->wantsWrite();
+      // Left out while paused with nothing to write: a peer that hung up
+      // would wake poll at once, every turn, until then.
+      fds.push_back({paused && !writing ? -1 : peer.connection->fd(),
+                     static_cast<short>((reading.back() ? POLLIN : 0) | (writing ? POLLOUT : 0)),
                      0});
     }
     int timeout_ms = 100;
-    if (auto deadline = sync_.nextDeadline()) {
-      const uint64_t now = monotonicNs();
+    if (wake_at) {
       timeout_ms =
-          *deadline <= now
+          *wake_at <= polled_ns
               ? 0
-              : std::min<int>(timeout_ms, static_cast<int>((*deadline - now) / 1000000) + 1);
+              : std::min<int>(timeout_ms, static_cast<int>((*wake_at - polled_ns) / 1000000) + 1);
     }
     ::poll(fds.data(), fds.size(), timeout_ms);
     if (fds[0].revents & POLLIN) acceptAll();
@@ -786,19 +885,14 @@ int FusionServer::run() {
       Peer& peer = peers_[i];
       const short revents = fds[i + 2].revents;
       Status status = Status::ok();
-      if (revents & (POLLIN | POLLHUP | POLLERR)) {
-        status = peer.connection->onReadable(options_.read_budget_bytes);
-        peer.read_ns = monotonicNs();
-        while (peer.connection->hasFrame()) {
-          const Status handled = handle(peer, peer.connection->takeFrame());
-          if (!handled.isOk()) {
-            status = handled;
-            break;
-          }
-          // A Calibration raises its pod's PodFrame cap for a header held back.
-          if (status.isOk())
-            status = peer.connection->readOnIfHeaderWaits(options_.read_budget_bytes);
+      const bool resting = peer.paused_until_ns > monotonicNs();
+      const bool woke = (revents & (POLLIN | POLLHUP | POLLERR)) != 0;
+      if (!resting && (woke || peer.held || peer.connection->hasFrame())) {
+        if (woke) {
+          status = peer.connection->onReadable(options_.read_budget_bytes, kMaxFramesPerTurn);
+          peer.read_ns = monotonicNs();
         }
+        status = handleInbox(peer, status);
       }
       const uint64_t now = monotonicNs();
       // A pod held back by backpressure is silent because we do not read it.
@@ -820,6 +914,20 @@ int FusionServer::run() {
       }
       if (status.isOk() && peer.greeted && peer.minor >= 8) {  // ClockProbe came with 1.8
         if (auto probe = peer.clock.probeDue(now)) peer.connection->sendMessage(*probe);
+      }
+      if (status.isOk()) status = offClockTooLong(peer, now);
+      // A pod that joined first, before the rig's others showed its size
+      // is far above theirs.
+      if (status.isOk()) status = podCostTooHigh(peer);
+      if (status.isOk() && peer.greeted) {
+        const auto over = peer.budget.overSince();
+        if (over && now - *over > uint64_t{options_.over_budget_close_ms} * 1000000) {
+          status =
+              Status(StatusCode::kTooLarge,
+                     "sent " + peer.budget.describeOver() + ", over its budget for " +
+                         std::to_string((now - *over) / 1000000) + " ms (--over-budget-close-ms " +
+                         std::to_string(options_.over_budget_close_ms) + ")");
+        }
       }
       if (status.isOk() && peer.replaced) {
         status = Status(StatusCode::kClosed, "replaced by a newer connection of the same pod");

@@ -1,5 +1,6 @@
 // fusion_server: syncs pod frames, carves the visual hull, fans out to
 // render clients. Its --help lists the flags.
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 
@@ -9,6 +10,44 @@
 #include "fusion_server/fusion_server.h"
 #include "protocol/auth.h"
 #include "protocol/messages.h"
+
+namespace {
+
+// --new-key: per-identity keys by default (SECURITY.md, docs/runbook.md).
+int writeNewKeys(const std::string& where, int pods, uint32_t clients, bool shared) {
+  using namespace holofuse;
+  if (shared) {
+    const Status written = protocol::KeyRing::writeNew(where);
+    if (!written.isOk()) {
+      std::fprintf(stderr, "--new-key: %s\n", written.message().c_str());
+      return 2;
+    }
+    std::printf(
+        "wrote one shared key to %s (mode 0600); give it to the server, pods and clients with "
+        "--key-file\nwarning: every holder of a shared key can claim any pod and any client; "
+        "leave out --shared-key for a key per identity (SECURITY.md)\n",
+        where.c_str());
+    return 0;
+  }
+  std::vector<uint32_t> client_ids(clients);
+  for (uint32_t i = 0; i < clients; ++i) client_ids[i] = i;
+  const auto written = protocol::KeyRing::writeRig(where, static_cast<uint32_t>(pods), client_ids);
+  if (!written.isOk()) {
+    std::fprintf(stderr, "--new-key: %s\n", written.status().message().c_str());
+    return 2;
+  }
+  std::printf("wrote a key per identity (mode 0600):\n");
+  for (size_t i = 0; i < written->size(); ++i) {
+    std::printf("  %s%s\n", (*written)[i].c_str(),
+                i == 0 ? "   the server's ring (--key-file of fusion_server only)" : "");
+  }
+  std::printf(
+      "give each pod and client only its own file (--key-file); a pod holding pod-3.key can "
+      "be pod 3 and nothing else. Hand-out: docs/runbook.md\n");
+  return 0;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace holofuse;
@@ -110,8 +149,36 @@ int main(int argc, char** argv) {
   app.add_option("--max-buffered-bytes", options.max_buffered_bytes,
                  "bytes all peers together may hold; past it the peer holding most is closed")
       ->check(CLI::Range(size_t{1} << 20, size_t{1} << 40));
+  app.add_option("--max-id-skew", options.max_id_skew,
+                 "frame ids a pod's frames may be from the rig's clock (the median of the pods' "
+                 "ids); further off they are dropped")
+      ->check(CLI::Range(uint64_t{1}, uint64_t{1000000}));
+  app.add_option("--off-clock-close-ms", options.off_clock_close_ms,
+                 "close a pod whose frame ids stay off the rig's clock this long")
+      ->check(CLI::Range(100, 3600000));
+  app.add_option("--over-budget-close-ms", options.over_budget_close_ms,
+                 "close a peer that keeps sending some message type faster than its budget "
+                 "(SECURITY.md) for this long")
+      ->check(CLI::Range(100, 600000));
+  app.add_option("--max-pod-fps", options.budget.pod_frame.per_second,
+                 "PodFrames a pod may send a second (with --lossless, pods are read only as "
+                 "fusion keeps up instead)")
+      ->check(CLI::Range(1.0, 100000.0));
+  app.add_option("--max-pod-cost-ratio", options.max_pod_cost_ratio,
+                 "a pod's image may have at most this many times the pixels of the rig's median "
+                 "pod (a rig of mixed cameras raises it)")
+      ->check(CLI::Range(1.0, 1e6));
   app.add_option("--new-key", new_key,
-                 "write a fresh random key file (mode 0600) to this path and exit");
+                 "write fresh keys into this folder and exit: server.keys (the server's ring), "
+                 "pod-<i>.key for each of --pods pods and client-<j>.key for each of "
+                 "--new-key-clients clients, each its own identity's only (mode 0600)");
+  uint32_t new_key_clients = 1;
+  app.add_option("--new-key-clients", new_key_clients, "with --new-key: client keys to write")
+      ->check(CLI::Range(0, 1024));
+  bool shared_key = false;
+  app.add_flag("--shared-key", shared_key,
+               "with --new-key: write one key file every peer shares instead (any holder can "
+               "then claim any pod; SECURITY.md)");
   addRigFlag(app, "fusion_server", [](const RigFile& rig) -> StatusOr<std::vector<RigOption>> {
     return rig.serverPart();
   });
@@ -125,19 +192,11 @@ int main(int argc, char** argv) {
     std::printf("healthy: %s\n", health->c_str());
     return 0;
   }
-  if (!new_key.empty()) {
-    const Status written = protocol::KeyRing::writeNew(new_key);
-    if (!written.isOk()) {
-      std::fprintf(stderr, "--new-key: %s\n", written.message().c_str());
-      return 2;
-    }
-    std::printf(
-        "wrote a new key to %s (mode 0600); give it to the server, pods and clients "
-        "with --key-file\n",
-        new_key.c_str());
-    return 0;
-  }
+  if (!new_key.empty()) return writeNewKeys(new_key, options.pods, new_key_clients, shared_key);
   fusion_flags.apply(options.fusion);
+  options.budget.pod_frame.burst =
+      std::max(options.budget.pod_frame.burst, options.budget.pod_frame.per_second / 2);
+  if (options.lossless) options.budget.pod_frame = {};  // read as fusion keeps up
   options.fuse_when_asked = !fuse_every_group;
   if (!volume.empty()) {
     double v[6];

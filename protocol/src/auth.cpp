@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -96,31 +97,84 @@ StatusOr<KeyRing> KeyRing::load(const std::string& path) {
   return ring;
 }
 
-Status KeyRing::writeNew(const std::string& path, const std::string& identity) {
-  if (!validIdentity(identity))
-    return Status(StatusCode::kMalformed, "identity \"" + identity + "\" is not valid");
+namespace {
+
+// "<identity> <64 hex digits>" for a fresh key: 32 bytes from the CSPRNG.
+StatusOr<std::string> newKeyLine(const std::string& identity) {
+  std::array<uint8_t, 32> key{};
+  if (RAND_bytes(key.data(), static_cast<int>(key.size())) != 1)
+    return Status(StatusCode::kIoError, "the system's random generator failed");
+  std::string line = identity + " ";
+  for (uint8_t b : key) {
+    static const char* digits = "0123456789abcdef";
+    line += digits[b >> 4];
+    line += digits[b & 15];
+  }
+  return line + "\n";
+}
+
+// Writes text to a new file of mode 0600; never overwrites one.
+Status writeSecretFile(const std::string& path, const std::string& text) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
   if (fd < 0) {
     return Status(StatusCode::kIoError,
                   path + (errno == EEXIST ? ": exists; not overwritten" : ": cannot create"));
   }
-  std::array<uint8_t, 32> key{};
-  const bool random = RAND_bytes(key.data(), static_cast<int>(key.size())) == 1;
-  std::string text = "# holofuse key: keep it secret (mode 0600)\n" + identity + " ";
-  for (uint8_t b : key) {
-    static const char* digits = "0123456789abcdef";
-    text += digits[b >> 4];
-    text += digits[b & 15];
-  }
-  text += "\n";
-  const bool written =
-      random && ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
+  const bool written = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
   ::close(fd);
   if (!written) {
     ::unlink(path.c_str());
-    return Status(StatusCode::kIoError, path + ": could not write a random key");
+    return Status(StatusCode::kIoError, path + ": could not write the key");
   }
   return Status::ok();
+}
+
+constexpr const char* kKeyFileHeader = "# holofuse key: keep it secret (mode 0600)\n";
+
+}  // namespace
+
+Status KeyRing::writeNew(const std::string& path, const std::string& identity) {
+  if (!validIdentity(identity))
+    return Status(StatusCode::kMalformed, "identity \"" + identity + "\" is not valid");
+  auto line = newKeyLine(identity);
+  if (!line.isOk()) return Status(line.status().code(), path + ": " + line.status().message());
+  return writeSecretFile(path, kKeyFileHeader + *line);
+}
+
+StatusOr<std::vector<std::string>> KeyRing::writeRig(const std::string& dir, uint32_t pods,
+                                                     const std::vector<uint32_t>& client_ids) {
+  namespace fs = std::filesystem;
+  std::vector<std::pair<std::string, std::string>> files;  // path, identity
+  for (uint32_t i = 0; i < pods; ++i)
+    files.emplace_back((fs::path(dir) / ("pod-" + std::to_string(i) + ".key")).string(),
+                       "pod:" + std::to_string(i));
+  for (const uint32_t i : client_ids)
+    files.emplace_back((fs::path(dir) / ("client-" + std::to_string(i) + ".key")).string(),
+                       "client:" + std::to_string(i));
+  const std::string ring_path = (fs::path(dir) / "server.keys").string();
+  // Nothing is written over, and nothing half: every name is checked first.
+  std::error_code error;
+  std::vector<std::string> paths = {ring_path};
+  for (const auto& file : files) paths.push_back(file.first);
+  for (const std::string& path : paths) {
+    if (fs::exists(path, error))
+      return Status(StatusCode::kIoError, path + ": exists; not overwritten");
+  }
+  fs::create_directories(dir, error);
+  if (error) return Status(StatusCode::kIoError, dir + ": cannot create (" + error.message() + ")");
+  std::string ring =
+      kKeyFileHeader + std::string("# the server's ring: every identity of the rig\n");
+  std::vector<std::string> written;
+  for (const auto& [path, identity] : files) {
+    auto line = newKeyLine(identity);
+    if (!line.isOk()) return line.status();
+    ring += *line;
+    HOLOFUSE_RETURN_IF_ERROR(writeSecretFile(path, kKeyFileHeader + *line));
+    written.push_back(path);
+  }
+  HOLOFUSE_RETURN_IF_ERROR(writeSecretFile(ring_path, ring));
+  written.insert(written.begin(), ring_path);
+  return written;
 }
 
 const std::vector<uint8_t>* KeyRing::keyFor(Role role, uint32_t id) const {

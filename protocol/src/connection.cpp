@@ -105,8 +105,8 @@ Status Connection::onWritable() {
   return Status::ok();
 }
 
-Status Connection::onReadable(size_t budget) {
-  for (size_t read = 0; read < budget;) {
+Status Connection::onReadable(size_t budget, size_t max_frames) {
+  for (size_t read = 0; read < budget && decoder_.framesWaiting() < max_frames;) {
     auto into = decoder_.writableSpan();
     if (!decoder_.status().isOk()) {
       return Status(decoder_.status().code(),

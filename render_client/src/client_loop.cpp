@@ -221,6 +221,24 @@ class ClientLoop {
     report_.noteSkipped("frame " + std::to_string(frame_id) + ": " + why);
   }
 
+  // The caps on a received mesh: the flags' when given, else what the
+  // rig can produce. A visual hull has a vertex a voxel, and a voxel
+  // smaller than a pixel's footprint adds nothing the cameras saw: its
+  // vertices cannot usefully exceed the cameras' pixels. A 200 KB Draco
+  // mesh stating two million vertices is then refused before anything of
+  // that size exists.
+  DracoLimits meshLimits() const {
+    DracoLimits limits = options_.mesh_limits;
+    if (options_.mesh_limits_given) return limits;
+    constexpr uint64_t kFewestVertices = 65536;
+    uint64_t pixels = 0;
+    for (const auto& [id, camera] : cameras_) pixels += uint64_t{camera.width} * camera.height;
+    const uint64_t vertices = std::max(kFewestVertices, pixels);
+    limits.max_vertices = static_cast<uint32_t>(std::min<uint64_t>(limits.max_vertices, vertices));
+    limits.max_faces = static_cast<uint32_t>(std::min<uint64_t>(limits.max_faces, 2 * vertices));
+    return limits;
+  }
+
   void onCalibration(const protocol::Frame& frame) {
     protocol::Calibration calibration;
     const auto s = protocol::decodeFrame(frame, calibration);
@@ -297,8 +315,15 @@ class ClientLoop {
       if (failed_bundles_.count(id) == 0) skip(id, "its texture bundle was dropped on the way");
       return std::nullopt;
     }
-    auto mesh = decodeMesh(ready.frame.codec, ready.frame.mesh.data(), ready.frame.mesh.size(),
-                           options_.mesh_limits);
+    const DracoLimits limits = meshLimits();
+    auto mesh =
+        decodeMesh(ready.frame.codec, ready.frame.mesh.data(), ready.frame.mesh.size(), limits);
+    if (!mesh.isOk() && mesh.status().code() == StatusCode::kTooLarge &&
+        !options_.mesh_limits_given)
+      mesh = Status(StatusCode::kTooLarge,
+                    mesh.status().message() +
+                        " (what the rig's cameras can produce: a vertex a pixel; "
+                        "--max-mesh-vertices to allow more)");
     Status usable = !mesh.isOk() ? mesh.status()
                     : mesh->triangleCount() == 0
                         ? Status(StatusCode::kMalformed, "mesh with no triangles")

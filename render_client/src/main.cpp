@@ -58,9 +58,11 @@ int main(int argc, char** argv) {
                  "frame is judged against the truth from its view (PSNR, SSIM in report.json and "
                  "report.html); costs client time after each frame");
   app.add_option("--max-mesh-vertices", options.mesh_limits.max_vertices,
-                 "a received mesh stating more vertices is skipped before it is decoded");
+                 "a received mesh stating more vertices is skipped before it is decoded "
+                 "(default: the rig's cameras' pixels, at least 65536, at most 2097152)");
   app.add_option("--max-mesh-faces", options.mesh_limits.max_faces,
-                 "a received mesh stating more faces is skipped before it is decoded");
+                 "a received mesh stating more faces is skipped before it is decoded (default: "
+                 "twice the vertices' cap)");
   PeerKeyFlags key_flags(app, "client");
   const ProtocolFlag protocol_flag(app, "client");
   addRigFlag(app, "render_client", [&](const RigFile& rig) -> StatusOr<std::vector<RigOption>> {
@@ -72,6 +74,7 @@ int main(int argc, char** argv) {
     return part;
   });
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  options.mesh_limits_given = app.count("--max-mesh-vertices") + app.count("--max-mesh-faces") > 0;
   render_flags.apply(options.render);
   const auto key = key_flags.load(protocol::Role::kClient, options.client_id);
   if (!key) return 2;

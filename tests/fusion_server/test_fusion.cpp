@@ -78,53 +78,110 @@ TEST(FrameSync, LosslessGroupsWaitForTheirPodsButNotForSkippedIds) {
   EXPECT_EQ(sync.overflowedGroups(), 0u);
 }
 
-TEST(FrameSync, ABogusFrameIdCannotMakeEveryoneLate) {
+// The first id seen is bogus (far in the future) and goes out alone: a
+// single pod is the rig's clock. Once most pods say otherwise the sync
+// starts over on their clock, and the bogus pod is off it.
+TEST(FrameSync, ABogusFirstFrameIdCannotMakeEveryoneLate) {
   FrameSync sync(10);
-  // The first id seen is bogus (far in the future) and goes out alone.
-  sync.add(uint64_t{1} << 62, imagesOf(0), 0);
-  ASSERT_EQ(sync.takeReady({0, 1}, 100).size(), 1u);
-  // Real ids are far behind it: the sync starts over instead of calling
-  // them late, and a second bogus id is refused.
-  EXPECT_EQ(sync.add(500, imagesOf(1), 101), FrameSync::Added::kAccepted);
+  const uint64_t bogus = uint64_t{1} << 62;
+  EXPECT_EQ(sync.add(bogus, imagesOf(0), 0), FrameSync::Added::kAccepted);
+  ASSERT_EQ(sync.takeReady({0, 1, 2}, 100).size(), 1u);
+  // Two pods that disagree: the clock being fused wins.
+  EXPECT_EQ(sync.add(500, imagesOf(1), 101), FrameSync::Added::kOffClock);
+  // A third: the median is theirs, and the sync starts over on it.
+  EXPECT_EQ(sync.add(500, imagesOf(2), 102), FrameSync::Added::kAccepted);
   EXPECT_EQ(sync.clockResets(), 1u);
-  EXPECT_EQ(sync.takeReady({0, 1}, 200).size(), 1u);
-  EXPECT_EQ(sync.add(uint64_t{1} << 62, imagesOf(0), 201), FrameSync::Added::kImplausible);
-  EXPECT_EQ(sync.add(501, imagesOf(0), 202), FrameSync::Added::kAccepted);
+  EXPECT_EQ(sync.add(501, imagesOf(1), 103), FrameSync::Added::kAccepted);
+  EXPECT_EQ(sync.add(bogus + 1, imagesOf(0), 104), FrameSync::Added::kOffClock);
+  ASSERT_NE(sync.clockOf(0), nullptr);
+  EXPECT_GT(sync.clockOf(0)->offset, int64_t{1} << 61);
+  EXPECT_EQ(sync.clockOf(0)->voters, 3u);
+  // Pod 0 is off the clock: group 501 does not wait for it.
+  EXPECT_EQ(sync.add(501, imagesOf(2), 105), FrameSync::Added::kAccepted);
+  const auto ready = sync.takeReady({0, 1, 2}, 106);
+  ASSERT_EQ(ready.size(), 1u);
+  EXPECT_EQ(ready[0].frame_id, 501u);
+  EXPECT_TRUE(ready[0].complete) << "without pod 0";
 }
 
-// A pod on another clock, behind or ahead, loses its own frames only:
-// three pods on the rig's ids keep being fused and none of them is late;
-// when half the pods go back (the rig restarted), the sync starts over, and a
-// pod still on the old clock cannot start it over again.
+// A pod on another clock, ahead or behind by a little or a lot, loses its
+// own frames only: three pods on the rig's ids keep being fused whole and
+// none of them is late, and the groups never wait for the off pod. Once it
+// leaves, the next pod 3 is judged afresh.
 TEST(FrameSync, OnePodsClockNeverDecidesTheOthers) {
-  FrameSync sync(10);
-  const std::set<uint32_t> all = {0, 1, 2, 3};
-  uint64_t now = 0;
-  for (uint64_t id = 1000000; id < 1000005; ++id) {
-    for (uint32_t pod = 0; pod < 3; ++pod)
-      EXPECT_EQ(sync.add(id, imagesOf(pod), ++now), FrameSync::Added::kAccepted);
-    if (id > 1000000) {  // once the rig's clock is set by a group gone out
-      EXPECT_EQ(sync.add(id - 900000, imagesOf(3), ++now), FrameSync::Added::kImplausible)
-          << "far behind, alone";
-      EXPECT_EQ(sync.add(id + 900000, imagesOf(3), ++now), FrameSync::Added::kImplausible)
-          << "far ahead";
+  for (const int64_t skew : {int64_t{9}, int64_t{-9}, int64_t{54000}, int64_t{-54000},
+                             int64_t{90000}, int64_t{-90000}, int64_t{1} << 50}) {
+    FrameSync sync(10);
+    const std::set<uint32_t> all = {0, 1, 2, 3};
+    uint64_t now = 0;
+    for (uint64_t id = 1000000; id < 1000010; ++id) {
+      for (uint32_t pod = 0; pod < 3; ++pod)
+        EXPECT_EQ(sync.add(id, imagesOf(pod), ++now), FrameSync::Added::kAccepted) << skew;
+      EXPECT_EQ(sync.add(id + static_cast<uint64_t>(skew), imagesOf(3), ++now),
+                FrameSync::Added::kOffClock)
+          << skew;
+      const auto ready = sync.takeReady(all, ++now);
+      ASSERT_EQ(ready.size(), 1u) << skew;
+      EXPECT_EQ(ready[0].frame_id, id);
+      EXPECT_EQ(ready[0].pods.size(), 3u);
+      EXPECT_TRUE(ready[0].complete) << "not waiting for the pod off the clock";
     }
-    now += 20;
-    ASSERT_EQ(sync.takeReady(all, now).size(), 1u);
+    ASSERT_NE(sync.clockOf(3), nullptr);
+    EXPECT_EQ(sync.clockOf(3)->offset, skew);
+    EXPECT_EQ(sync.clockOf(3)->off_frames, 10u);
+    EXPECT_EQ(sync.clockOf(3)->off_since_ns, 4u) << "since its first frame";
+    EXPECT_EQ(sync.clockResets(), 0u);
+    EXPECT_EQ(sync.lateFrames(), 0u);
+    // It leaves; a pod 3 on the rig's clock is fused with the others.
+    sync.forgetPod(3);
+    EXPECT_EQ(sync.clockOf(3), nullptr);
+    for (uint32_t pod = 0; pod < 4; ++pod)
+      EXPECT_EQ(sync.add(1000010, imagesOf(pod), ++now), FrameSync::Added::kAccepted);
+    const auto ready = sync.takeReady(all, ++now);
+    ASSERT_EQ(ready.size(), 1u);
+    EXPECT_TRUE(ready[0].complete);
+    EXPECT_EQ(ready[0].pods.size(), 4u);
   }
-  EXPECT_EQ(sync.clockResets(), 0u);
+}
+
+// A pod a few ids ahead, within the bound: its frames wait in their groups
+// past the deadline, and the others fill them when the rig's clock gets
+// there, so every group goes out whole.
+TEST(FrameSync, APodALittleAheadWaitsForTheOthers) {
+  FrameSync sync(10);
+  const std::set<uint32_t> all = {0, 1, 2};
+  uint64_t now = 0;
+  // Pod 2 runs 3 ids ahead; the deadline is 10 and a frame period 20.
+  for (uint64_t id = 100; id < 112; ++id) {
+    EXPECT_EQ(sync.add(id, imagesOf(0), now), FrameSync::Added::kAccepted);
+    EXPECT_EQ(sync.add(id, imagesOf(1), now), FrameSync::Added::kAccepted);
+    EXPECT_EQ(sync.add(id + 3, imagesOf(2), now), FrameSync::Added::kAccepted);
+    const auto ready = sync.takeReady(all, now);
+    if (id >= 103) {  // pod 2 sent no ids below 103
+      ASSERT_EQ(ready.size(), 1u) << id;
+      EXPECT_EQ(ready[0].frame_id, id);
+      EXPECT_TRUE(ready[0].complete);
+      EXPECT_EQ(sync.nextDeadline(), std::nullopt) << "groups ahead of the clock do not expire";
+    }
+    now += 20;  // past any deadline: only the groups the clock reached go
+    for (const FrameGroup& group : sync.takeReady(all, now))
+      EXPECT_LT(group.frame_id, 103u) << "pod 2's frame went out alone";
+  }
   EXPECT_EQ(sync.lateFrames(), 0u);
-  // The rig restarts: pods 0, 1 and 2 come back with small ids. With pod
-  // 3 still behind, pod 0 makes half of the pods: the sync starts over.
-  EXPECT_EQ(sync.add(10, imagesOf(0), ++now), FrameSync::Added::kAccepted);
-  EXPECT_EQ(sync.clockResets(), 1u);
-  EXPECT_EQ(sync.add(10, imagesOf(1), ++now), FrameSync::Added::kAccepted);
-  EXPECT_EQ(sync.add(10, imagesOf(2), ++now), FrameSync::Added::kAccepted);
-  EXPECT_EQ(sync.add(1000006, imagesOf(3), ++now), FrameSync::Added::kImplausible)
-      << "the clock left behind";
-  now += 20;
-  ASSERT_EQ(sync.takeReady(all, now).size(), 1u);
-  EXPECT_EQ(sync.clockResets(), 1u);
+  EXPECT_EQ(sync.overflowedGroups(), 0u);
+}
+
+// A pod that went quiet stops voting after the window (a second here), so
+// two stalled pods cannot hold the clock back for the two that go on.
+TEST(FrameSync, APodThatWentQuietStopsVoting) {
+  FrameSync sync(10);
+  uint64_t now = 0;
+  for (uint32_t pod = 0; pod < 4; ++pod) sync.add(100, imagesOf(pod), ++now);
+  now += 2'000'000'000ull;
+  // Pods 2 and 3 stalled; 0 and 1 come back 40 ids on (two seconds later).
+  EXPECT_EQ(sync.add(140, imagesOf(0), ++now), FrameSync::Added::kAccepted);
+  EXPECT_EQ(sync.add(140, imagesOf(1), ++now), FrameSync::Added::kAccepted);
+  EXPECT_EQ(sync.clockOf(1)->voters, 2u);
 }
 
 TEST(FrameSync, ADeadPodDoesNotStallWhenItIsNoLongerExpected) {

@@ -123,6 +123,40 @@ std::string startServer(const std::string& bin_dir, const fs::path& out, int pod
   return port.empty() ? std::string() : "127.0.0.1:" + port;
 }
 
+pid_t startSmallPod(const std::string& bin_dir, const std::string& endpoint, int id, int pods,
+                    const fs::path& out, const std::vector<std::string>& extra,
+                    const std::string& log_name) {
+  std::vector<std::string> argv = {bin_dir + "/capture_node",
+                                   "--server",
+                                   endpoint,
+                                   "--pod-id",
+                                   std::to_string(id),
+                                   "--pods",
+                                   std::to_string(pods),
+                                   "--size",
+                                   std::to_string(kSmallWidth) + "x" + std::to_string(kSmallHeight),
+                                   "--fps",
+                                   "10"};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  return spawn(argv, out / (log_name.empty() ? "pod" + std::to_string(id) + ".log" : log_name));
+}
+
+pid_t startSmallClient(const std::string& bin_dir, const std::string& endpoint, const fs::path& out,
+                       const std::string& name, int frames, const std::vector<std::string>& extra) {
+  std::vector<std::string> argv = {
+      bin_dir + "/render_client",
+      "--server",
+      endpoint,
+      "--out",
+      (out / name).string(),
+      "--frames",
+      std::to_string(frames),
+      "--size",
+      std::to_string(kSmallWidth) + "x" + std::to_string(kSmallHeight)};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  return spawn(argv, out / (name + ".log"));
+}
+
 bool waitFor(const std::function<bool()>& done, int limit_s) {
   for (int i = 0; i < limit_s * 20; ++i) {
     if (done()) return true;

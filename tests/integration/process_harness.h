@@ -48,4 +48,15 @@ std::string startServer(const std::string& bin_dir, const fs::path& out, int pod
                         const std::vector<std::string>& extra = {},
                         const std::vector<std::string>& wrapper = {});
 
+// The small rig many loop tests run: pods of 64x48 at 10 fps (log
+// pod<id>.log unless log_name is given), clients rendering 64x48 into
+// out/name (log name.log).
+inline constexpr int kSmallWidth = 64, kSmallHeight = 48;
+pid_t startSmallPod(const std::string& bin_dir, const std::string& endpoint, int id, int pods,
+                    const fs::path& out, const std::vector<std::string>& extra = {},
+                    const std::string& log_name = "");
+pid_t startSmallClient(const std::string& bin_dir, const std::string& endpoint, const fs::path& out,
+                       const std::string& name, int frames,
+                       const std::vector<std::string>& extra = {});
+
 }  // namespace holofuse::test

@@ -136,43 +136,68 @@ TEST(Auth, WrongMissingAndReplayedAnswersAreRefusedByName) {
   fs::remove_all(out);
 }
 
-// Per-pod keys: pod 0's identity is its own key. A peer holding pod 1's
-// key that says it is pod 0 is refused while the real pod 0 keeps serving
-// the client, which renders every frame it asked for.
+// Keys per identity, as --new-key writes them by default: the server's
+// ring holds every identity, each pod and client file only its own. A
+// peer holding pod 1's key that says it is pod 0 is refused while the
+// real pod 0 keeps serving the client, which renders every frame it asked
+// for. --new-key never writes over a key, and --shared-key warns.
 TEST(Auth, APodIsBoundToItsKeyAndCannotBeReplaced) {
   const fs::path out = freshDir("auth_bound");
-  std::string ring_text;
-  int made = 0;
-  for (const char* identity : {"pod:0", "pod:1", "client:*"}) {
-    const fs::path one = out / ("made" + std::to_string(made++) + ".key");
-    ASSERT_TRUE(protocol::KeyRing::writeNew(one.string(), identity).isOk());
-    std::ifstream in(one);
-    for (std::string line; std::getline(in, line);)
-      if (!line.empty() && line[0] != '#') ring_text += line + "\n";
+  const fs::path keys = out / "keys";
+  ASSERT_EQ(waitExit(spawn({kBin + "/fusion_server", "--new-key", keys.string(), "--pods", "2"},
+                           out / "new_key.log"),
+                     30),
+            0)
+      << readFile(out / "new_key.log");
+  for (const char* name : {"server.keys", "pod-0.key", "pod-1.key", "client-0.key"}) {
+    struct stat st {};
+    ASSERT_EQ(::stat((keys / name).c_str(), &st), 0) << name << "\n"
+                                                     << readFile(out / "new_key.log");
+    EXPECT_EQ(st.st_mode & 0777, 0600u) << name;
   }
-  // The server holds every key; each peer only its own line.
-  const fs::path ring = out / "rig.key";
-  { std::ofstream(ring) << ring_text; }
-  fs::permissions(ring, fs::perms::owner_read | fs::perms::owner_write);
-  std::istringstream lines(ring_text);
-  std::vector<fs::path> own;
-  for (std::string line; std::getline(lines, line);) {
-    own.push_back(out / ("own" + std::to_string(own.size()) + ".key"));
-    { std::ofstream(own.back()) << line << "\n"; }
-    fs::permissions(own.back(), fs::perms::owner_read | fs::perms::owner_write);
-  }
+  // Each peer's file authenticates its identity and no other.
+  const auto ring = protocol::KeyRing::load((keys / "server.keys").string());
+  ASSERT_TRUE(ring.isOk()) << ring.status().message();
+  const auto pod0 = protocol::KeyRing::load((keys / "pod-0.key").string());
+  ASSERT_TRUE(pod0.isOk()) << pod0.status().message();
+  ASSERT_NE(pod0->keyFor(protocol::Role::kPod, 0), nullptr);
+  EXPECT_EQ(pod0->keyFor(protocol::Role::kPod, 1), nullptr);
+  EXPECT_EQ(pod0->keyFor(protocol::Role::kClient, 0), nullptr);
+  EXPECT_EQ(*pod0->keyFor(protocol::Role::kPod, 0), *ring->keyFor(protocol::Role::kPod, 0));
+  EXPECT_NE(*ring->keyFor(protocol::Role::kPod, 0), *ring->keyFor(protocol::Role::kPod, 1));
+  // Written once: a second --new-key into the folder changes nothing.
+  const std::string before = readFile(keys / "pod-0.key");
+  EXPECT_EQ(waitExit(spawn({kBin + "/fusion_server", "--new-key", keys.string(), "--pods", "2"},
+                           out / "again.log"),
+                     30),
+            2);
+  EXPECT_NE(readFile(out / "again.log").find("server.keys: exists; not overwritten"),
+            std::string::npos)
+      << readFile(out / "again.log");
+  EXPECT_EQ(readFile(keys / "pod-0.key"), before);
+  EXPECT_EQ(waitExit(spawn({kBin + "/fusion_server", "--new-key", (out / "shared.key").string(),
+                            "--shared-key"},
+                           out / "shared.log"),
+                     30),
+            0);
+  EXPECT_NE(readFile(out / "shared.log").find("can claim any pod"), std::string::npos)
+      << readFile(out / "shared.log");
+
   pid_t server = 0;
-  const std::string endpoint = serverOn(out, 1, &server, {"--key-file", ring.string()});
+  const std::string endpoint =
+      serverOn(out, 1, &server, {"--key-file", (keys / "server.keys").string()});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
-  const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods",
-                           "1", "--size", "64x48", "--fps", "10", "--key-file", own[0].string()},
-                          out / "pod.log");
+  const pid_t pod =
+      spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods", "1", "--size",
+             "64x48", "--fps", "10", "--key-file", (keys / "pod-0.key").string()},
+            out / "pod.log");
   const pid_t client =
       spawn({kBin + "/render_client", "--server", endpoint, "--out", (out / "client").string(),
-             "--frames", "6", "--size", "64x48", "--key-file", own[2].string()},
+             "--frames", "6", "--size", "64x48", "--key-file", (keys / "client-0.key").string()},
             out / "client.log");
   // The impostor: a pod 1 gone bad, with pod 1's key, claiming pod 0.
-  const std::string pod1_hex = ring_text.substr(ring_text.find("pod:1 ") + 6, 64);
+  const std::string pod1 = readFile(keys / "pod-1.key");
+  const std::string pod1_hex = pod1.substr(pod1.find("pod:1 ") + 6, 64);
   const fs::path stolen = out / "impostor.key";
   { std::ofstream(stolen) << "pod:0 " << pod1_hex << "\n"; }
   fs::permissions(stolen, fs::perms::owner_read | fs::perms::owner_write);

@@ -43,7 +43,7 @@ using test::waitExit;
 using test::waitFor;
 
 const std::string kBin = HOLOFUSE_BIN_DIR;
-constexpr int kWidth = 64, kHeight = 48;
+constexpr int kWidth = test::kSmallWidth, kHeight = test::kSmallHeight;
 
 // The memory bounds hold for the program, not for a sanitized build of it
 // (kSanitized): there ASan's quarantine keeps freed blocks resident.
@@ -62,25 +62,12 @@ ProcessUsage usageOf(pid_t pid) {
 }
 
 pid_t startPod(const std::string& endpoint, int id, int pods, const fs::path& out) {
-  return spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(id),
-                "--pods", std::to_string(pods), "--size",
-                std::to_string(kWidth) + "x" + std::to_string(kHeight), "--fps", "10"},
-               out / ("pod" + std::to_string(id) + ".log"));
+  return test::startSmallPod(kBin, endpoint, id, pods, out);
 }
 
 pid_t startClient(const std::string& endpoint, const fs::path& out, const std::string& name,
                   int frames, const std::vector<std::string>& extra = {}) {
-  std::vector<std::string> argv = {kBin + "/render_client",
-                                   "--server",
-                                   endpoint,
-                                   "--out",
-                                   (out / name).string(),
-                                   "--frames",
-                                   std::to_string(frames),
-                                   "--size",
-                                   std::to_string(kWidth) + "x" + std::to_string(kHeight)};
-  argv.insert(argv.end(), extra.begin(), extra.end());
-  return spawn(argv, out / (name + ".log"));
+  return test::startSmallClient(kBin, endpoint, out, name, frames, extra);
 }
 
 void stopAll(const std::vector<pid_t>& pids) {

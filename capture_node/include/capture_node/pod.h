@@ -20,6 +20,9 @@ struct PodOptions {
   uint32_t width = 320, height = 240;
   double fps = 10.0;
   uint64_t frames = 0;  // stop after this many frames sent; 0 = until signalled
+  // Added to every frame id the pod sends: a pod whose clock is off by that
+  // many frame periods (SECURITY.md's tests of the rig's clock).
+  int64_t frame_id_offset = 0;
   scene::SceneOptions scene;
   // The calibration the pod reports is off by this much (scene presets).
   double calibration_error_degrees = 0.0;

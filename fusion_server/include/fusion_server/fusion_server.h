@@ -17,6 +17,7 @@
 #include "dataset/recorder.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
+#include "fusion_server/peer_budget.h"
 #include "fusion_server/pod_decoder.h"
 #include "protocol/auth.h"
 #include "protocol/clock_sync.h"
@@ -93,6 +94,19 @@ struct ServerOptions {
   // closed.
   size_t max_peer_buffered_bytes = 256u << 20;
   size_t max_buffered_bytes = 1024u << 20;
+  // The rig's clock (frame_sync.h): a pod's frames further than this many
+  // ids from it are dropped, and a pod off it this long is closed.
+  uint64_t max_id_skew = FrameSync::kDefaultMaxIdSkew;
+  uint32_t off_clock_close_ms = 3000;
+  // What an admitted peer may send, per message type (peer_budget.h); a
+  // peer over a budget waits, and one over it for this long is closed.
+  BudgetTable budget;
+  uint32_t over_budget_close_ms = 2000;
+  // A pod's image may have at most this many times the pixels of the
+  // rig's median pod (of those connected): what its frames cost to
+  // decompress, hold and fuse, and what each client then decodes and
+  // uploads, is bounded by the rig's, whatever its key allows.
+  double max_pod_cost_ratio = 4.0;
 };
 
 class FusionServer {
@@ -149,9 +163,19 @@ class FusionServer {
       const std::vector<uint8_t>* key = nullptr;
     };
     std::optional<PendingAuth> pending;
+    // What it may send once admitted; a frame over budget waits here, and
+    // the peer is not read, until paused_until_ns.
+    PeerBudget budget;
+    std::optional<protocol::Frame> held;
+    uint64_t paused_until_ns = 0;
+    bool calibrated = false;  // a pod that sent its Calibration on this connection
   };
 
   void acceptAll();
+  // Handles the frames read from a peer, each charged to its budget, until
+  // one is over it (held, the peer paused) or the inbox is empty. status
+  // is the read's, returned unless a frame's handling fails.
+  Status handleInbox(Peer& peer, Status status);
   // Handles one frame; a non-ok status closes that peer.
   Status handle(Peer& peer, protocol::Frame frame);
   Status handleHello(Peer& peer, const protocol::Frame& frame);
@@ -182,8 +206,18 @@ class FusionServer {
   // health_file, rewritten whole (written aside, then renamed).
   void writeHealth(const char* state);
 
+  // A pod's frame off the rig's clock: told in the log (the first of a
+  // run and every 100th).
+  void tellOffClock(uint32_t pod, uint64_t frame_id);
+  // A pod off the rig's clock for longer than off_clock_close_ms: why it
+  // is closed; ok otherwise.
+  Status offClockTooLong(const Peer& peer, uint64_t now_ns) const;
+
+  // A pod whose image costs more than max_pod_cost_ratio times the rig's
+  // median pod: why it is closed; ok otherwise.
+  Status podCostTooHigh(const Peer& peer) const;
+
   ServerOptions options_;
-  std::map<uint32_t, uint64_t> implausible_frames_;  // per pod: frames far off the rig's ids
   // Out of descriptors: the listener is not polled until then, so it
   // cannot spin, and the backlog holds the connections meanwhile.
   uint64_t accept_paused_until_ns_ = 0;

@@ -29,6 +29,13 @@ class KeyRing {
   // A fresh random key (32 bytes from the system's CSPRNG) for identity,
   // written with mode 0600; refuses to overwrite an existing file.
   static Status writeNew(const std::string& path, const std::string& identity = "*");
+  // Per-identity keys for a rig, in dir (created when missing): server.keys
+  // (every identity: the server's ring), pod-<i>.key for pods 0..pods-1
+  // and client-<j>.key for each client id, each holding its own identity's
+  // key only, mode 0600. Nothing is written when any of them exists.
+  // Returns the files, the ring first.
+  static StatusOr<std::vector<std::string>> writeRig(const std::string& dir, uint32_t pods,
+                                                     const std::vector<uint32_t>& client_ids);
 
   // The key that authenticates (role, id): its own entry, else its role's
   // "role:*", else "*"; nullptr when the file has none. A pod with its own

@@ -53,12 +53,13 @@ class Connection {
   // Writes as much as the socket takes. An error status means the
   // connection is dead.
   Status onWritable();
-  // Reads until the socket would block, or budget bytes have been read
-  // this call (the rest waits in the kernel for the next: one peer's flood
-  // cannot take a whole turn of a server's loop). Complete frames go to
-  // the inbox. An error status (malformed stream, EOF, I/O error) means
-  // close it.
-  Status onReadable(size_t budget = SIZE_MAX);
+  // Reads until the socket would block, budget bytes have been read this
+  // call, or max_frames complete frames wait in the inbox (the rest waits
+  // in the kernel for the next: one peer's flood, of large frames or of
+  // tiny ones, cannot take a whole turn of a server's loop). Complete
+  // frames go to the inbox. An error status (malformed stream, EOF, I/O
+  // error) means close it.
+  Status onReadable(size_t budget = SIZE_MAX, size_t max_frames = SIZE_MAX);
   // Writes for up to timeout_ms until the queue is empty (used before close).
   void drain(int timeout_ms);
   // An orderly close within timeout_ms: drain, send FIN, then read (and
@@ -75,9 +76,9 @@ class Connection {
   // frames held back (they may raise its cap) is judged by the caps now in
   // force, and reading goes on, without waiting for the socket to poll
   // readable again (its peer may have gone quiet). Ok when none waited.
-  Status readOnIfHeaderWaits(size_t budget = SIZE_MAX) {
+  Status readOnIfHeaderWaits(size_t budget = SIZE_MAX, size_t max_frames = SIZE_MAX) {
     if (decoder_.hasFrame() || !decoder_.headerWaits()) return Status::ok();
-    return onReadable(budget);
+    return onReadable(budget, max_frames);
   }
   Frame takeFrame() { return decoder_.takeFrame(); }
 

@@ -169,6 +169,8 @@ class StreamDecoder {
 
   // True when a complete, checked frame can be taken.
   bool hasFrame() const { return ready_head_ < ready_.size(); }
+  // Complete frames not yet taken.
+  size_t framesWaiting() const { return ready_.size() - ready_head_; }
   // A header waits for the frames before it to be taken (writableSpan).
   bool headerWaits() const { return header_waits_; }
   Frame takeFrame();

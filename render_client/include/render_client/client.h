@@ -66,7 +66,11 @@ struct ClientOptions {
   // outside every stage's time. Empty: frames are not judged.
   std::string judge_command;
   // Caps on a received mesh, checked before Draco allocates (SECURITY.md).
+  // Unless given (mesh_limits_given), each is lowered to what the rig can
+  // produce: a visual hull's vertices, one a voxel, cannot usefully exceed
+  // the pixels of the cameras that see it (at least 65536).
   DracoLimits mesh_limits;
+  bool mesh_limits_given = false;
 };
 
 int runClient(const ClientOptions& options);

@@ -1,0 +1,311 @@
+// Trust no peer, part two (SECURITY.md): peers that hold a key and still
+// misbehave, with real processes on loopback. A pod whose clock is off
+// loses its own frames, never the others'; the honest client's frames
+// are counted during and after each misbehaviour.
+#include <gtest/gtest.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/socket.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "base/process.h"
+#include "common/camera.h"
+#include "common/pod_frame_codec.h"
+#include "peer_by_hand.h"
+#include "process_harness.h"
+#include "protocol/messages.h"
+
+namespace holofuse {
+namespace {
+
+namespace fs = std::filesystem;
+using test::freshDir;
+using test::picturesIn;
+using test::readFile;
+using test::waitExit;
+using test::waitFor;
+
+const std::string kBin = HOLOFUSE_BIN_DIR;
+
+// A server for `pods` pods with the first `honest` of them running, and a
+// client rendering until stopped: the rig a test's misbehaving peer joins.
+class ServingRig {
+ public:
+  // Starts it; ready once the client has rendered 3 pictures.
+  ServingRig(const std::string& name, int pods, int honest,
+             const std::vector<std::string>& server_flags = {})
+      : out_(freshDir(name)) {
+    endpoint_ = test::startServer(kBin, out_, pods, &server_, server_flags);
+    if (endpoint_.empty()) return;
+    for (int id = 0; id < honest; ++id)
+      pods_.push_back(test::startSmallPod(kBin, endpoint_, id, pods, out_));
+    client_ = test::startSmallClient(kBin, endpoint_, out_, "client", 100000);
+    ready_ = waitFor([&] { return pictures() >= 3; });
+  }
+  ::testing::AssertionResult ready() const {
+    if (ready_) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << readFile(serverLog()) << readFile(out_ / "client.log");
+  }
+  const fs::path& out() const { return out_; }
+  const std::string& endpoint() const { return endpoint_; }
+  pid_t server() const { return server_; }
+  fs::path serverLog() const { return out_ / "server.log"; }
+  size_t pictures() const { return picturesIn(out_ / "client"); }
+  // The client renders n more pictures (an event, with a limit only a
+  // failure reaches).
+  ::testing::AssertionResult rendersMore(size_t n) const {
+    const size_t before = pictures();
+    if (waitFor([&] { return pictures() >= before + n; })) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << "no " << n << " more pictures\n"
+                                         << readFile(out_ / "client.log");
+  }
+  // Stops the client, the pods and the server, which exit cleanly; returns
+  // the server's log, in which no honest pod or client was closed.
+  std::string stop() {
+    kill(client_, SIGTERM);
+    EXPECT_EQ(waitExit(client_, 30), 0) << readFile(out_ / "client.log");
+    for (const pid_t pod : pods_) kill(pod, SIGTERM);
+    for (const pid_t pod : pods_) waitExit(pod, 20);
+    kill(server_, SIGTERM);
+    EXPECT_EQ(waitExit(server_, 20), 0);
+    const std::string log = readFile(serverLog());
+    for (size_t id = 0; id < pods_.size(); ++id)
+      EXPECT_EQ(log.find("closing pod " + std::to_string(id) + " "), std::string::npos) << log;
+    EXPECT_EQ(log.find("closing client 0 "), std::string::npos) << log;
+    return log;
+  }
+  ~ServingRig() {
+    if (!::testing::Test::HasFailure()) fs::remove_all(out_);
+  }
+
+ private:
+  fs::path out_;
+  std::string endpoint_;
+  pid_t server_ = 0, client_ = 0;
+  std::vector<pid_t> pods_;
+  bool ready_ = false;
+};
+
+// Whether a line of log says pod 3 is off the rig's clock by about
+// |skew| ids in that direction (a frame may straddle a tick: within one).
+bool offClockLineSays(const std::string& log, int64_t skew, const std::string& direction) {
+  const std::string start = "pod 3 is off the rig's clock: frame id ";
+  for (size_t at = log.find(start); at != std::string::npos; at = log.find(start, at + 1)) {
+    const std::string line = log.substr(at, log.find('\n', at) - at);
+    const size_t is = line.find(" is ", start.size());
+    if (is == std::string::npos) continue;
+    const std::string rest = line.substr(is + 4);
+    const int64_t ids = std::strtoll(rest.c_str(), nullptr, 10);
+    if (std::llabs(ids - std::llabs(skew)) <= 1 &&
+        rest.find(" ids " + direction + " the rig's clock") != std::string::npos)
+      return true;
+  }
+  return false;
+}
+
+// Three honest pods and a fourth whose frame ids run 1 s, 1 h or 90,000
+// ids ahead of the rig's, then the same behind (pods at 10 fps: 10, 36,000
+// and 90,000 ids), one after another. Each is named in the log with its
+// offset, the one an hour ahead is closed once it has been off the clock
+// for the bound, and the client renders the honest pods' groups whole all
+// the while and after.
+TEST(RigClock, APodOffTheClockLosesOnlyItsOwnFrames) {
+  ServingRig rig("rig_clock", 4, 3, {"--off-clock-close-ms", "1500"});
+  ASSERT_TRUE(rig.ready());
+  const fs::path server_log = rig.serverLog();
+  constexpr size_t kPicturesPerPhase = 6;
+  const struct {
+    int64_t ids;
+    const char* direction;
+  } skews[] = {{10, "ahead of"}, {36000, "ahead of"}, {90000, "ahead of"},
+               {-10, "behind"},  {-36000, "behind"},  {-90000, "behind"}};
+  for (const auto& skew : skews) {
+    const size_t mark = readFile(server_log).size();
+    const std::string name = "skewed" + std::to_string(skew.ids) + ".log";
+    const pid_t skewed = test::startSmallPod(kBin, rig.endpoint(), 3, 4, rig.out(),
+                                             {"--frame-id-offset", std::to_string(skew.ids)}, name);
+    // Named with its offset (a frame may straddle a tick: within one id).
+    EXPECT_TRUE(waitFor([&] {
+      return offClockLineSays(readFile(server_log).substr(mark), skew.ids, skew.direction);
+    })) << "no line naming pod 3 "
+        << skew.ids << " ids off\n"
+        << readFile(server_log);
+    // The honest pods' groups go on being fused while it sends.
+    EXPECT_TRUE(rig.rendersMore(kPicturesPerPhase)) << "while pod 3 was " << skew.ids << " ids off";
+    if (skew.ids == 36000) {
+      // Off the clock for longer than the bound: closed, by name.
+      EXPECT_TRUE(waitFor([&] {
+        return test::logSays(server_log, "malformed: its frame ids have been off the rig's clock");
+      })) << readFile(server_log);
+    }
+    kill(skewed, SIGTERM);
+    EXPECT_EQ(waitExit(skewed, 20), 0) << readFile(rig.out() / name);
+  }
+  // After it left, the honest pods' groups are fused whole.
+  EXPECT_TRUE(rig.rendersMore(kPicturesPerPhase)) << "after pod 3 left";
+  rig.stop();
+
+  // Every frame rendered once the three had joined holds their three
+  // cameras (a frame of pod 3 alone, or of nothing, would be the skewed
+  // pod moving the rig's clock); a loaded machine may deliver a pod's
+  // frame late now and then.
+  const auto report = nlohmann::json::parse(readFile(rig.out() / "client" / "report.json"));
+  const auto& frames = report["frames"];
+  ASSERT_GE(frames.size(), 3 + 7 * kPicturesPerPhase);
+  size_t whole = 0, counted = 0;
+  for (size_t i = 3; i < frames.size(); ++i, ++counted)
+    whole += frames[i]["cameras_present"].get<int>() >= 3;
+  EXPECT_GE(whole, counted * 9 / 10) << whole << " of " << counted << " frames held 3 cameras";
+}
+
+// Writes copies of one encoded message to fd as fast as the socket takes
+// them, until the server closes the connection or limit_s passes (a
+// failure: the flood was never stopped). Returns the copies written.
+uint64_t floodUntilClosed(int fd, const std::vector<uint8_t>& message, int limit_s = 60) {
+  std::vector<uint8_t> burst;
+  for (int i = 0; i < 256; ++i) burst.insert(burst.end(), message.begin(), message.end());
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(limit_s);
+  uint64_t bytes = 0;
+  while (std::chrono::steady_clock::now() < until) {
+    const ssize_t n = ::send(fd, burst.data(), burst.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n > 0) {
+      bytes += static_cast<uint64_t>(n);
+      continue;
+    }
+    if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) break;  // closed
+    pollfd p{fd, POLLOUT, 0};
+    ::poll(&p, 1, 100);
+    if (p.revents & (POLLERR | POLLHUP)) break;
+  }
+  return bytes / message.size();
+}
+
+// Keyed insiders flood the server with what a key allows: FrameRequests,
+// messages of a type it does not know, and clock-probe answers nobody
+// asked for. Each is slowed to its budget, then closed and told why by
+// name, while the honest client goes on rendering the honest pods' frames.
+TEST(Budget, KeyedFloodersAreSlowedThenClosedAndTheHonestClientIsServed) {
+  ServingRig rig("budget_floods", 2, 2);
+  ASSERT_TRUE(rig.ready());
+  const std::string endpoint = rig.endpoint();
+  protocol::FrameBuilder unknown(static_cast<protocol::MessageType>(99), 0);
+  const struct {
+    uint32_t id;
+    std::vector<uint8_t> message;
+    const char* refusal;
+  } floods[] = {
+      {5, protocol::encodeFrame(protocol::FrameRequest{1}, 0),
+       "FrameRequest messages faster than 250 a second (64 at once)"},
+      {6, std::move(unknown).finish(),
+       "messages of type 99 (unknown) faster than 25 a second (20 at once)"},
+      {7, protocol::encodeFrame(protocol::ClockProbe{protocol::ProbeStep::kReply, 1, 2, 3}, 0),
+       "ClockProbe messages faster than 25 a second (20 at once)"},
+  };
+  std::vector<std::unique_ptr<protocol::Connection>> flooders;
+  for (const auto& flood : floods) {
+    flooders.push_back(test::admittedByHand(endpoint, protocol::Role::kClient, flood.id));
+    ASSERT_NE(flooders.back(), nullptr) << readFile(rig.serverLog());
+  }
+  const size_t before = rig.pictures();
+  // Each floods on a thread of its own and reads what the server says on
+  // another, so no refusal waits behind another flooder's.
+  const size_t n = std::size(floods);
+  std::vector<uint64_t> sent(n);
+  std::vector<protocol::ErrorMessage> refusals(n);
+  std::vector<bool> refused(n);
+  {
+    std::vector<std::jthread> threads;
+    for (size_t i = 0; i < n; ++i) {
+      threads.emplace_back(
+          [&, i] { sent[i] = floodUntilClosed(flooders[i]->fd(), floods[i].message); });
+      threads.emplace_back([&, i] {
+        refused[i] = protocol::decodeFrame(test::nextError(*flooders[i]), refusals[i]).isOk();
+      });
+    }
+  }
+  // Each was told why it was closed.
+  for (size_t i = 0; i < n; ++i) {
+    EXPECT_TRUE(refused[i]) << "client " << floods[i].id << " was never refused\n"
+                            << readFile(rig.serverLog());
+    EXPECT_NE(refusals[i].message.find(floods[i].refusal), std::string::npos)
+        << refusals[i].message;
+    EXPECT_NE(refusals[i].message.find("--over-budget-close-ms"), std::string::npos)
+        << refusals[i].message;
+  }
+  // The flood was real (thousands of messages) and the honest client
+  // rendered all through it.
+  for (size_t i = 0; i < n; ++i) EXPECT_GT(sent[i], 1000u) << "client " << floods[i].id;
+  EXPECT_GE(rig.pictures() - before, 5u) << "pictures while the floods lasted";
+  EXPECT_TRUE(rig.rendersMore(5)) << "after the floods";
+  const std::string log = rig.stop();
+  for (const auto& flood : floods) {
+    EXPECT_NE(log.find("closing client " + std::to_string(flood.id) + " (127.0.0.1"),
+              std::string::npos)
+        << log;
+  }
+}
+
+// A keyed pod whose calibration is within --max-image-side (4096x4096)
+// but 5461 times the rig's 64x48 pods: its frames would decompress to 80
+// MB each. It is refused at its Calibration, before any frame of that size
+// is read or decompressed (one follows at once); the server's peak memory
+// stays where it was and the honest client goes on rendering.
+TEST(Budget, APodFarAboveTheRigsImagesIsRefusedBeforeItsFramesAreDecoded) {
+  ServingRig rig("budget_bomb", 3, 2);
+  ASSERT_TRUE(rig.ready());
+  const auto baseline = processUsage(rig.server());
+  ASSERT_TRUE(baseline.has_value());
+
+  constexpr uint32_t kSide = 4096;
+  Camera camera = ringCameras(3, 2.5, 1.0, {0, 1, 0}, kSide, kSide, 50)[2];
+  camera.id = 2;
+  const Image8 color(kSide, kSide, 3, 0), mask(kSide, kSide, 1, 0), feather(kSide, kSide, 1, 0);
+  PodPlanes planes;
+  planes.frame_id = 1;
+  planes.color = &color;
+  planes.mask = &mask;
+  planes.feather = &feather;
+  std::vector<protocol::StageStamp> stamps;
+  PodEncoding whole;
+  whole.crop_margin = kFullFrame;
+  auto bomb_frame =
+      std::make_shared<const protocol::OutgoingFrame>(encodePodFrame(planes, stamps, 2, whole));
+  ASSERT_LT(bomb_frame->size(), 1u << 20) << "LZ4 of empty planes: small on the wire";
+  auto bomb = test::admittedByHand(rig.endpoint(), protocol::Role::kPod, 2);
+  ASSERT_NE(bomb, nullptr) << readFile(rig.serverLog());
+  bomb->sendMessage(toCalibration(camera));
+  bomb->send(bomb_frame);
+  test::flush(*bomb);
+  protocol::ErrorMessage refusal;
+  ASSERT_TRUE(protocol::decodeFrame(test::nextError(*bomb), refusal).isOk())
+      << readFile(rig.serverLog());
+  EXPECT_NE(refusal.message.find("its images, 4096x4096 (16777216 pixels), cost 5461.3 times the "
+                                 "rig's median pod (3072 pixels, of 3 pods)"),
+            std::string::npos)
+      << refusal.message;
+  Status closed;
+  while (!test::nextFrame(*bomb, &closed).bytes.empty()) {
+  }
+  EXPECT_FALSE(closed.isOk()) << "closed by the server";
+  EXPECT_TRUE(rig.rendersMore(5)) << "after the bomb";
+  // Nothing of the bomb's size was ever held: one decoded frame is 80 MB.
+  const auto usage = processUsage(rig.server());
+  ASSERT_TRUE(usage.has_value());
+  if (!test::kSanitized) {
+    EXPECT_LT(usage->peak_rss_kb, baseline->peak_rss_kb + 16 * 1024)
+        << "baseline peak " << baseline->peak_rss_kb << " kB";
+  }
+  const std::string log = rig.stop();
+  EXPECT_NE(log.find("closing pod 2 (127.0.0.1"), std::string::npos) << log;
+}
+
+}  // namespace
+}  // namespace holofuse
