@@ -153,13 +153,73 @@ void FusionServer::refuseConnection(protocol::Socket socket, const std::string& 
   (void)refused.onWritable();
 }
 
+bool FusionServer::makeRoom(const std::string& why) {
+  // Strangers first (no Hello yet), then claims to be a client; a pending
+  // claim to be a pod is the reserve and stays.
+  std::optional<size_t> stalest;
+  int stalest_rank = 0;
+  for (size_t i = 0; i < peers_.size(); ++i) {
+    const Peer& peer = peers_[i];
+    if (peer.greeted) continue;
+    const bool claims_pod = peer.pending && peer.pending->hello.role == protocol::Role::kPod;
+    if (claims_pod) continue;
+    const int rank = peer.pending ? 1 : 2;
+    if (!stalest || rank > stalest_rank ||
+        (rank == stalest_rank && peer.accepted_ns < peers_[*stalest].accepted_ns)) {
+      stalest = i;
+      stalest_rank = rank;
+    }
+  }
+  if (!stalest) return false;
+  Peer& evicted = peers_[*stalest];
+  if (made_room_++ % 100 == 0) {
+    std::fprintf(stderr,
+                 "[server] %s: closing %s, the connection longest in its handshake, to make room "
+                 "for a newer one (%llu so far)\n",
+                 why.c_str(), evicted.connection->peerName().c_str(),
+                 static_cast<unsigned long long>(made_room_));
+  }
+  // One try at telling it why, without waiting on a peer that may not read.
+  evicted.connection->sendMessage(
+      protocol::ErrorMessage{static_cast<uint16_t>(StatusCode::kTimeout),
+                             why + ": closed to make room for a newer connection after " +
+                                 std::to_string((monotonicNs() - evicted.accepted_ns) / 1000000) +
+                                 " ms without finishing its handshake"});
+  (void)evicted.connection->onWritable();
+  peers_.erase(peers_.begin() + static_cast<std::ptrdiff_t>(*stalest));
+  return true;
+}
+
+void FusionServer::limitPodClaims(uint32_t pod) {
+  constexpr size_t kClaimsPerPod = 2;
+  std::vector<Peer*> claims;
+  for (Peer& peer : peers_) {
+    if (!peer.greeted && peer.pending && !peer.close_now &&
+        peer.pending->hello.role == protocol::Role::kPod && peer.pending->hello.id == pod)
+      claims.push_back(&peer);
+  }
+  if (claims.size() <= kClaimsPerPod) return;
+  Peer* oldest = *std::min_element(claims.begin(), claims.end(), [](const Peer* a, const Peer* b) {
+    return a->accepted_ns < b->accepted_ns;
+  });
+  // Closed by the loop (this runs while it walks the peers).
+  oldest->close_now =
+      Status(StatusCode::kTimeout, "a newer connection claims pod " + std::to_string(pod) +
+                                       " too and this one has not answered");
+}
+
 void FusionServer::acceptAll() {
-  for (;;) {
+  // Bounded per turn: a crowd that connects as fast as we accept does not
+  // keep the loop here.
+  constexpr int kMostAcceptsPerTurn = 64;
+  for (int accepted = 0; accepted < kMostAcceptsPerTurn; ++accepted) {
     std::string name;
     int error = 0;
     protocol::Socket socket = listener_.acceptOne(&name, &error);
     if (!socket.valid()) {
       if (error == EMFILE || error == ENFILE || error == ENOBUFS || error == ENOMEM) {
+        // Out of descriptors: a stranger's makes room for the one waiting.
+        if (makeRoom(std::string("cannot accept (") + std::strerror(error) + ")")) continue;
         accept_paused_until_ns_ = monotonicNs() + 100'000'000ull;
         if (accept_pauses_++ % 100 == 0) {
           std::fprintf(stderr,
@@ -180,21 +240,24 @@ void FusionServer::acceptAll() {
       ++handshaking;
       from_address += peer.connection->address() == address;
     }
-    if (peers_.size() >= options_.max_connections) {
-      refuseConnection(std::move(socket), name,
-                       std::to_string(peers_.size()) + " connections already (--max-connections)");
-      continue;
-    }
-    if (handshaking >= options_.max_handshaking) {
-      refuseConnection(std::move(socket), name,
-                       std::to_string(handshaking) +
-                           " connections already in their handshake (--max-handshaking)");
-      continue;
-    }
     if (from_address >= options_.max_handshaking_per_address) {
       refuseConnection(std::move(socket), name,
                        std::to_string(from_address) + " connections from " + address +
                            " already in their handshake (--max-handshaking-per-address)");
+      continue;
+    }
+    if (peers_.size() >= options_.max_connections &&
+        !makeRoom(std::to_string(peers_.size()) + " connections (--max-connections)")) {
+      refuseConnection(std::move(socket), name,
+                       std::to_string(peers_.size()) + " connections already (--max-connections)");
+      continue;
+    }
+    if (handshaking >= options_.max_handshaking &&
+        !makeRoom(std::to_string(handshaking) +
+                  " connections in their handshake (--max-handshaking)")) {
+      refuseConnection(std::move(socket), name,
+                       std::to_string(handshaking) +
+                           " connections already in their handshake (--max-handshaking)");
       continue;
     }
     protocol::ConnectionLimits limits;
@@ -239,6 +302,7 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
   peer.connection->send(std::make_shared<const protocol::OutgoingFrame>(
       protocol::encodeOutgoing(challenge, protocol::nextSequence(), nullptr, ack->minor)));
   peer.pending = std::move(pending);
+  if (hello.role == protocol::Role::kPod) limitPodClaims(hello.id);
   return Status::ok();
 }
 
@@ -878,8 +942,6 @@ int FusionServer::run() {
               : std::min<int>(timeout_ms, static_cast<int>((*wake_at - polled_ns) / 1000000) + 1);
     }
     ::poll(fds.data(), fds.size(), timeout_ms);
-    if (fds[0].revents & POLLIN) acceptAll();
-    // Peers accepted just now are not in fds; they are polled next turn.
     const size_t polled = fds.size() - 2;
     for (size_t i = polled; i-- > 0;) {
       Peer& peer = peers_[i];
@@ -929,11 +991,16 @@ int FusionServer::run() {
                          std::to_string(options_.over_budget_close_ms) + ")");
         }
       }
+      if (status.isOk() && peer.close_now) status = *peer.close_now;
       if (status.isOk() && peer.replaced) {
         status = Status(StatusCode::kClosed, "replaced by a newer connection of the same pod");
       }
       if (!status.isOk()) closePeer(i, status);
     }
+    // After the peers polled above are handled (fds follows peers_ by
+    // index): making room may close one. Peers accepted now are polled next
+    // turn.
+    if (fds[0].revents & POLLIN) acceptAll();
     if (fds[1].revents & POLLIN) drainWake(wake_fd_);
     takeDecodedFrames();
     dispatchReadyGroups();

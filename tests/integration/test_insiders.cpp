@@ -2,14 +2,18 @@
 // misbehave, with real processes on loopback. A pod whose clock is off
 // loses its own frames, never the others'; the honest client's frames
 // are counted during and after each misbehaviour.
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/socket.h>
 
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdlib>
+#include <deque>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -41,9 +45,10 @@ class ServingRig {
  public:
   // Starts it; ready once the client has rendered 3 pictures.
   ServingRig(const std::string& name, int pods, int honest,
-             const std::vector<std::string>& server_flags = {})
-      : out_(freshDir(name)) {
-    endpoint_ = test::startServer(kBin, out_, pods, &server_, server_flags);
+             const std::vector<std::string>& server_flags = {},
+             const std::vector<std::string>& server_wrapper = {})
+      : out_(freshDir(name)), configured_(pods) {
+    endpoint_ = test::startServer(kBin, out_, pods, &server_, server_flags, server_wrapper);
     if (endpoint_.empty()) return;
     for (int id = 0; id < honest; ++id)
       pods_.push_back(test::startSmallPod(kBin, endpoint_, id, pods, out_));
@@ -59,6 +64,13 @@ class ServingRig {
   pid_t server() const { return server_; }
   fs::path serverLog() const { return out_ / "server.log"; }
   size_t pictures() const { return picturesIn(out_ / "client"); }
+  // Kills honest pod `id` (SIGKILL: a crash) and starts it again.
+  void restartPod(int id) {
+    kill(pods_.at(id), SIGKILL);
+    waitExit(pods_.at(id), 20);
+    pods_.at(id) = test::startSmallPod(kBin, endpoint_, id, configured_, out_, {},
+                                       "pod" + std::to_string(id) + "_again.log");
+  }
   // The client renders n more pictures (an event, with a limit only a
   // failure reaches).
   ::testing::AssertionResult rendersMore(size_t n) const {
@@ -89,6 +101,7 @@ class ServingRig {
  private:
   fs::path out_;
   std::string endpoint_;
+  int configured_ = 0;
   pid_t server_ = 0, client_ = 0;
   std::vector<pid_t> pods_;
   bool ready_ = false;
@@ -305,6 +318,121 @@ TEST(Budget, APodFarAboveTheRigsImagesIsRefusedBeforeItsFramesAreDecoded) {
   }
   const std::string log = rig.stop();
   EXPECT_NE(log.find("closing pod 2 (127.0.0.1"), std::string::npos) << log;
+}
+
+// Strangers from many loopback addresses (127.0.1.1, 127.0.1.2, ...),
+// one new every `gap` until stopped, each sending a byte of a header at
+// once and one more every second, so it is never silent long enough to be
+// closed as idle and never finishes its handshake: a sustained trickle.
+// It keeps at most `hold` connections open, closing its oldest.
+class Trickle {
+ public:
+  Trickle(uint16_t port, int addresses, size_t hold, std::chrono::milliseconds gap)
+      : thread_([=, this](std::stop_token stop) {
+          struct Open {
+            int fd;
+            size_t sent;
+            std::chrono::steady_clock::time_point last;
+          };
+          // The first bytes of a Hello's header: never the whole of it.
+          static constexpr uint8_t kHeader[] = {'H', 'F', 'U', 'S', 1, 9, 1, 0, 0, 0, 0, 0,
+                                                0,   0,   0,   0,   0, 0, 0, 0, 0, 0, 0};
+          std::deque<Open> open;
+          for (uint32_t n = 0; !stop.stop_requested(); ++n) {
+            const auto now = std::chrono::steady_clock::now();
+            const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+            sockaddr_in from{}, to{};
+            from.sin_family = to.sin_family = AF_INET;
+            from.sin_addr.s_addr = htonl(0x7F000101u + n % static_cast<uint32_t>(addresses));
+            to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+            to.sin_port = htons(port);
+            if (fd >= 0 && ::bind(fd, reinterpret_cast<sockaddr*>(&from), sizeof(from)) == 0 &&
+                (::connect(fd, reinterpret_cast<sockaddr*>(&to), sizeof(to)) == 0 ||
+                 errno == EINPROGRESS)) {
+              open.push_back({fd, 0, now - std::chrono::seconds(2)});
+              ++opened_;
+            } else if (fd >= 0) {
+              ::close(fd);
+            }
+            for (Open& o : open) {
+              if (o.sent >= sizeof(kHeader) || now - o.last < std::chrono::seconds(1)) continue;
+              if (::send(o.fd, &kHeader[o.sent], 1, MSG_NOSIGNAL | MSG_DONTWAIT) == 1) ++o.sent;
+              o.last = now;
+            }
+            while (open.size() > hold) {
+              ::close(open.front().fd);
+              open.pop_front();
+            }
+            std::this_thread::sleep_for(gap);
+          }
+          for (const Open& o : open) ::close(o.fd);
+        }) {}
+  size_t opened() const { return opened_; }
+
+ private:
+  std::atomic<size_t> opened_{0};
+  std::jthread thread_;
+};
+
+size_t joins(const std::string& log, int pod) {
+  const std::string joined = "pod " + std::to_string(pod) + " (127.0.0.1:";
+  size_t n = 0;
+  for (size_t at = log.find(joined); at != std::string::npos; at = log.find(joined, at + 1))
+    n += log.compare(log.find(')', at), 9, ") joined,") == 0;
+  return n;
+}
+
+// A crowd from 40 addresses keeps every handshake slot taken, each
+// connection sending one byte and waiting out a long handshake deadline,
+// new ones coming all the time. A pod that crashes and starts again gets
+// in: the stranger longest in its handshake makes room for it, and a claim
+// to be one of the rig's pods is kept while it proves it.
+TEST(Admission, ARestartingPodJoinsDuringASustainedTrickle) {
+  ServingRig rig("admission_trickle", 2, 2,
+                 {"--max-handshaking", "16", "--handshake-timeout-ms", "60000"});
+  ASSERT_TRUE(rig.ready());
+  const uint16_t port = static_cast<uint16_t>(std::stoi(rig.endpoint().substr(10)));
+  Trickle crowd(port, 40, 2000, std::chrono::milliseconds(10));
+  // Every slot is taken and the crowd goes on coming.
+  ASSERT_TRUE(waitFor([&] {
+    const std::string log = readFile(rig.serverLog());
+    return log.find("to make room") != std::string::npos ||
+           log.find("already in their handshake") != std::string::npos;
+  })) << readFile(rig.serverLog());
+  rig.restartPod(1);
+  EXPECT_TRUE(waitFor([&] { return joins(readFile(rig.serverLog()), 1) >= 2; }))
+      << "the restarted pod never joined\n"
+      << readFile(rig.serverLog());
+  EXPECT_TRUE(rig.rendersMore(5)) << "after pod 1 restarted";
+  const std::string log = rig.stop();
+  EXPECT_NE(log.find("connections in their handshake (--max-handshaking): closing"),
+            std::string::npos)
+      << log;
+}
+
+// Strangers connect as fast as they can and each waits out its handshake
+// deadline: the server's descriptors (a limit of 48) are all theirs and
+// hundreds more wait in the listen queue ahead of anyone else. A pod that
+// crashes and starts again gets in: strangers' descriptors make room for
+// the connections waiting, its among them.
+TEST(Admission, ARestartingPodJoinsWhileStrangersHoldEveryDescriptor) {
+  ServingRig rig("admission_descriptors", 2, 2,
+                 {"--max-handshaking", "1000", "--max-handshaking-per-address", "1000"},
+                 {"/usr/bin/prlimit", "--nofile=48"});
+  ASSERT_TRUE(rig.ready());
+  const uint16_t port = static_cast<uint16_t>(std::stoi(rig.endpoint().substr(10)));
+  Trickle crowd(port, 1, 4000, std::chrono::milliseconds(1));
+  // Out of descriptors, and 1500 more queued ahead of the pod.
+  ASSERT_TRUE(waitFor([&] {
+    return test::logSays(rig.serverLog(), "cannot accept (Too many open files)") &&
+           crowd.opened() >= 1500;
+  })) << readFile(rig.serverLog());
+  rig.restartPod(1);
+  EXPECT_TRUE(waitFor([&] { return joins(readFile(rig.serverLog()), 1) >= 2; }))
+      << "the restarted pod never joined\n"
+      << readFile(rig.serverLog());
+  EXPECT_TRUE(rig.rendersMore(5)) << "after pod 1 restarted";
+  rig.stop();
 }
 
 }  // namespace

@@ -169,9 +169,21 @@ class FusionServer {
     std::optional<protocol::Frame> held;
     uint64_t paused_until_ns = 0;
     bool calibrated = false;  // a pod that sent its Calibration on this connection
+    // Set while another peer is handled: the loop closes this one for it.
+    std::optional<Status> close_now;
   };
 
   void acceptAll();
+  // Admission that honest peers win (SECURITY.md): when the handshake
+  // slots, the connections or the descriptors run out, the connection
+  // that has been in its handshake longest without proving anything is
+  // closed to make room, rather than the newcomer refused. A pending
+  // claim to be one of the rig's pods is kept (at most two per pod id, the
+  // newest), so a crowd cannot keep a restarting pod out. False when no
+  // such connection is left to close.
+  bool makeRoom(const std::string& why);
+  // A third pending claim of the same pod id: the oldest is closed.
+  void limitPodClaims(uint32_t pod);
   // Handles the frames read from a peer, each charged to its budget, until
   // one is over it (held, the peer paused) or the inbox is empty. status
   // is the read's, returned unless a frame's handling fails.
@@ -222,6 +234,7 @@ class FusionServer {
   // cannot spin, and the backlog holds the connections meanwhile.
   uint64_t accept_paused_until_ns_ = 0;
   uint64_t accept_pauses_ = 0;
+  uint64_t made_room_ = 0;  // connections closed to make room for a newer one
   protocol::Socket listener_;
   int wake_fd_ = -1;
   std::vector<Peer> peers_;
