@@ -531,17 +531,22 @@ void FusionServer::tellOffClock(uint32_t pod, uint64_t frame_id) {
                static_cast<unsigned long long>(clock->off_frames), options_.off_clock_close_ms);
 }
 
-Status FusionServer::podCostTooHigh(const Peer& peer) const {
-  if (peer.role != protocol::Role::kPod || !peer.calibrated) return Status::ok();
+std::pair<uint64_t, size_t> FusionServer::medianPodPixels() const {
   std::vector<uint64_t> pixels;
   for (const Peer& other : peers_) {
     if (other.role != protocol::Role::kPod || !other.calibrated || other.replaced) continue;
     const Camera& camera = cameras_.at(other.id);
     pixels.push_back(uint64_t{camera.width} * camera.height);
   }
+  if (pixels.empty()) return {0, 0};
   std::sort(pixels.begin(), pixels.end());
   // The lower median: with two pods, the smaller one is the rig's.
-  const uint64_t median = pixels[(pixels.size() - 1) / 2];
+  return {pixels[(pixels.size() - 1) / 2], pixels.size()};
+}
+
+Status FusionServer::podCostTooHigh(const Peer& peer) const {
+  if (peer.role != protocol::Role::kPod || !peer.calibrated) return Status::ok();
+  const auto [median, pods] = medianPodPixels();
   const Camera& camera = cameras_.at(peer.id);
   const uint64_t own = uint64_t{camera.width} * camera.height;
   if (static_cast<double>(own) <= options_.max_pod_cost_ratio * static_cast<double>(median))
@@ -552,9 +557,23 @@ Status FusionServer::podCostTooHigh(const Peer& peer) const {
                 "pods); a pod may cost at most --max-pod-cost-ratio %g times it",
                 camera.width, camera.height, static_cast<unsigned long long>(own),
                 static_cast<double>(own) / static_cast<double>(median),
-                static_cast<unsigned long long>(median), pixels.size(),
-                options_.max_pod_cost_ratio);
+                static_cast<unsigned long long>(median), pods, options_.max_pod_cost_ratio);
   return Status(StatusCode::kTooLarge, std::string("its images, ") + numbers);
+}
+
+Status FusionServer::standing(const Peer& peer, uint64_t now_ns) const {
+  if (peer.close_now) return *peer.close_now;
+  HOLOFUSE_RETURN_IF_ERROR(offClockTooLong(peer, now_ns));
+  // A pod that joined first, before the rig's others showed its size is
+  // far above theirs.
+  HOLOFUSE_RETURN_IF_ERROR(podCostTooHigh(peer));
+  const auto over = peer.budget.overSince();
+  if (!peer.greeted || !over || now_ns - *over <= uint64_t{options_.over_budget_close_ms} * 1000000)
+    return Status::ok();
+  return Status(StatusCode::kTooLarge,
+                "sent " + peer.budget.describeOver() + ", over its budget for " +
+                    std::to_string((now_ns - *over) / 1000000) + " ms (--over-budget-close-ms " +
+                    std::to_string(options_.over_budget_close_ms) + ")");
 }
 
 Status FusionServer::offClockTooLong(const Peer& peer, uint64_t now_ns) const {
@@ -598,7 +617,14 @@ Status FusionServer::handleInbox(Peer& peer, Status status) {
     } else {
       return status;
     }
-    if (peer.greeted && !peer.budget.take(next->header.type, monotonicNs())) {
+    // A PodFrame is charged its pixels against the rig's median pod's.
+    double cost = 1.0;
+    if (peer.calibrated && next->header.type == static_cast<uint16_t>(MessageType::kPodFrame)) {
+      const Camera& camera = cameras_.at(peer.id);
+      const uint64_t median = medianPodPixels().first;
+      if (median > 0) cost = static_cast<double>(camera.width) * camera.height / median;
+    }
+    if (peer.greeted && !peer.budget.take(next->header.type, monotonicNs(), cost)) {
       peer.held = std::move(next);
       peer.paused_until_ns = peer.budget.resumeAt();
       return status;
@@ -977,21 +1003,7 @@ int FusionServer::run() {
       if (status.isOk() && peer.greeted && peer.minor >= 8) {  // ClockProbe came with 1.8
         if (auto probe = peer.clock.probeDue(now)) peer.connection->sendMessage(*probe);
       }
-      if (status.isOk()) status = offClockTooLong(peer, now);
-      // A pod that joined first, before the rig's others showed its size
-      // is far above theirs.
-      if (status.isOk()) status = podCostTooHigh(peer);
-      if (status.isOk() && peer.greeted) {
-        const auto over = peer.budget.overSince();
-        if (over && now - *over > uint64_t{options_.over_budget_close_ms} * 1000000) {
-          status =
-              Status(StatusCode::kTooLarge,
-                     "sent " + peer.budget.describeOver() + ", over its budget for " +
-                         std::to_string((now - *over) / 1000000) + " ms (--over-budget-close-ms " +
-                         std::to_string(options_.over_budget_close_ms) + ")");
-        }
-      }
-      if (status.isOk() && peer.close_now) status = *peer.close_now;
+      if (status.isOk()) status = standing(peer, now);
       if (status.isOk() && peer.replaced) {
         status = Status(StatusCode::kClosed, "replaced by a newer connection of the same pod");
       }

@@ -46,7 +46,7 @@ PeerBudget::Kind PeerBudget::kindOf(uint16_t type) {
   }
 }
 
-bool PeerBudget::take(uint16_t type, uint64_t now_ns) {
+bool PeerBudget::take(uint16_t type, uint64_t now_ns, double cost) {
   Bucket& bucket = buckets_[kindOf(type)];
   // A rate of 0 with no burst is no limit (BudgetTable: a lossless pod).
   if (bucket.rate.per_second <= 0 && bucket.rate.burst <= 0) return true;
@@ -57,13 +57,16 @@ bool PeerBudget::take(uint16_t type, uint64_t now_ns) {
                                      static_cast<double>(now_ns - bucket.refilled_ns) / 1e9);
     bucket.refilled_ns = now_ns;
   }
-  if (bucket.tokens >= 1.0) {
-    bucket.tokens -= 1.0;
+  // A message dearer than the whole burst is charged the burst: it passes
+  // once the bucket is full, and the rate still holds.
+  cost = std::min(cost, bucket.rate.burst);
+  if (bucket.tokens >= cost) {
+    bucket.tokens -= cost;
     if (over_since_ns_ && now_ns - last_refused_ns_ > kWithinBudgetNs) over_since_ns_.reset();
     return true;
   }
   const double wait_s =
-      bucket.rate.per_second > 0 ? (1.0 - bucket.tokens) / bucket.rate.per_second : 1.0;
+      bucket.rate.per_second > 0 ? (cost - bucket.tokens) / bucket.rate.per_second : 1.0;
   resume_at_ns_ = now_ns + static_cast<uint64_t>(std::ceil(wait_s * 1e9));
   if (!over_since_ns_) over_since_ns_ = now_ns;
   last_refused_ns_ = now_ns;

@@ -224,13 +224,15 @@ class ClientLoop {
   // The caps on a received mesh: the flags' when given, else what the
   // rig can produce. A visual hull has a vertex a voxel, and a voxel
   // smaller than a pixel's footprint adds nothing the cameras saw: its
-  // vertices cannot usefully exceed the cameras' pixels. A 200 KB Draco
-  // mesh stating two million vertices is then refused before anything of
-  // that size exists.
+  // vertices need not exceed the cameras' pixels (at least 2^18). A 200 KB
+  // Draco mesh stating two million vertices from four 320x240 pods is then
+  // refused before anything of that size exists.
   DracoLimits meshLimits() const {
     DracoLimits limits = options_.mesh_limits;
     if (options_.mesh_limits_given) return limits;
-    constexpr uint64_t kFewestVertices = 65536;
+    // Floor: a hull carved finer than its cameras' pixels (a 1 cm voxel
+    // over two 96x72 pods gives 117,000 vertices) is wasteful, not hostile.
+    constexpr uint64_t kFewestVertices = 1u << 18;
     uint64_t pixels = 0;
     for (const auto& [id, camera] : cameras_) pixels += uint64_t{camera.width} * camera.height;
     const uint64_t vertices = std::max(kFewestVertices, pixels);

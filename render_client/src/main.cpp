@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
                  "report.html); costs client time after each frame");
   app.add_option("--max-mesh-vertices", options.mesh_limits.max_vertices,
                  "a received mesh stating more vertices is skipped before it is decoded "
-                 "(default: the rig's cameras' pixels, at least 65536, at most 2097152)");
+                 "(default: the rig's cameras' pixels, at least 262144, at most 2097152)");
   app.add_option("--max-mesh-faces", options.mesh_limits.max_faces,
                  "a received mesh stating more faces is skipped before it is decoded (default: "
                  "twice the vertices' cap)");

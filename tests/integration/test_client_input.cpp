@@ -174,14 +174,14 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
   c.send(bundleFor(6, truth.color));
   c.send(meshFor(6, forged));
   EXPECT_TRUE(sendAndWaitFor(c, log, "frame 6 skipped"));
-  // Frame 7: a valid mesh of 300 x 300 vertices, more than the one 64x48
-  // camera of this rig can produce (65536 at least; paper 004's hull has a
-  // vertex a voxel): refused by its header before it is decoded.
+  // Frame 7: a valid mesh of 600 x 600 vertices, more than the one 64x48
+  // camera of this rig can produce (262144 at least; paper 004's hull has
+  // a vertex a voxel): refused by its header before it is decoded.
   Mesh dense;
-  constexpr uint32_t kSide = 300;
+  constexpr uint32_t kSide = 600;
   for (uint32_t y = 0; y < kSide; ++y)
     for (uint32_t x = 0; x < kSide; ++x)
-      dense.positions.push_back({x * 0.001f, 1.0f + y * 0.001f, 0.0f});
+      dense.positions.push_back({x * 0.0005f, 1.0f + y * 0.0005f, 0.0f});
   for (uint32_t y = 0; y + 1 < kSide; ++y) {
     for (uint32_t x = 0; x + 1 < kSide; ++x) {
       const uint32_t v = y * kSide + x;
@@ -224,8 +224,8 @@ TEST(ClientInput, BadFramesAreSkippedAndTheNextGoodOneIsRendered) {
                          " vertices and 268435455 faces, above the caps"),
             std::string::npos)
       << skipped;
-  EXPECT_NE(skipped.find("frame 7: draco mesh: 90000 vertices and 178802 faces, above the caps of "
-                         "65536 and 131072 (what the rig's cameras can produce"),
+  EXPECT_NE(skipped.find("frame 7: draco mesh: 360000 vertices and 717602 faces, above the caps of "
+                         "262144 and 524288 (what the rig's cameras can produce"),
             std::string::npos)
       << skipped;
   // The bad frames wrote no picture and left the previous one as it was;

@@ -2,18 +2,14 @@
 // misbehave, with real processes on loopback. A pod whose clock is off
 // loses its own frames, never the others'; the honest client's frames
 // are counted during and after each misbehaviour.
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
 #include <poll.h>
 #include <signal.h>
-#include <sys/socket.h>
 
 #include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdlib>
-#include <deque>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -22,7 +18,7 @@
 
 #include "base/process.h"
 #include "common/camera.h"
-#include "common/pod_frame_codec.h"
+#include "insider_attacks.h"
 #include "peer_by_hand.h"
 #include "process_harness.h"
 #include "protocol/messages.h"
@@ -179,28 +175,6 @@ TEST(RigClock, APodOffTheClockLosesOnlyItsOwnFrames) {
   EXPECT_GE(whole, counted * 9 / 10) << whole << " of " << counted << " frames held 3 cameras";
 }
 
-// Writes copies of one encoded message to fd as fast as the socket takes
-// them, until the server closes the connection or limit_s passes (a
-// failure: the flood was never stopped). Returns the copies written.
-uint64_t floodUntilClosed(int fd, const std::vector<uint8_t>& message, int limit_s = 60) {
-  std::vector<uint8_t> burst;
-  for (int i = 0; i < 256; ++i) burst.insert(burst.end(), message.begin(), message.end());
-  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(limit_s);
-  uint64_t bytes = 0;
-  while (std::chrono::steady_clock::now() < until) {
-    const ssize_t n = ::send(fd, burst.data(), burst.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-    if (n > 0) {
-      bytes += static_cast<uint64_t>(n);
-      continue;
-    }
-    if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) break;  // closed
-    pollfd p{fd, POLLOUT, 0};
-    ::poll(&p, 1, 100);
-    if (p.revents & (POLLERR | POLLHUP)) break;
-  }
-  return bytes / message.size();
-}
-
 // Keyed insiders flood the server with what a key allows: FrameRequests,
 // messages of a type it does not know, and clock-probe answers nobody
 // asked for. Each is slowed to its budget, then closed and told why by
@@ -209,17 +183,16 @@ TEST(Budget, KeyedFloodersAreSlowedThenClosedAndTheHonestClientIsServed) {
   ServingRig rig("budget_floods", 2, 2);
   ASSERT_TRUE(rig.ready());
   const std::string endpoint = rig.endpoint();
-  protocol::FrameBuilder unknown(static_cast<protocol::MessageType>(99), 0);
   const struct {
     uint32_t id;
     std::vector<uint8_t> message;
     const char* refusal;
   } floods[] = {
-      {5, protocol::encodeFrame(protocol::FrameRequest{1}, 0),
+      {5, test::frameRequestMessage(),
        "FrameRequest messages faster than 250 a second (64 at once)"},
-      {6, std::move(unknown).finish(),
+      {6, test::unknownTypeMessage(),
        "messages of type 99 (unknown) faster than 25 a second (20 at once)"},
-      {7, protocol::encodeFrame(protocol::ClockProbe{protocol::ProbeStep::kReply, 1, 2, 3}, 0),
+      {7, test::clockProbeReplyMessage(),
        "ClockProbe messages faster than 25 a second (20 at once)"},
   };
   std::vector<std::unique_ptr<protocol::Connection>> flooders;
@@ -238,7 +211,7 @@ TEST(Budget, KeyedFloodersAreSlowedThenClosedAndTheHonestClientIsServed) {
     std::vector<std::jthread> threads;
     for (size_t i = 0; i < n; ++i) {
       threads.emplace_back(
-          [&, i] { sent[i] = floodUntilClosed(flooders[i]->fd(), floods[i].message); });
+          [&, i] { sent[i] = test::floodUntilClosed(flooders[i]->fd(), floods[i].message); });
       threads.emplace_back([&, i] {
         refused[i] = protocol::decodeFrame(test::nextError(*flooders[i]), refusals[i]).isOk();
       });
@@ -280,17 +253,7 @@ TEST(Budget, APodFarAboveTheRigsImagesIsRefusedBeforeItsFramesAreDecoded) {
   constexpr uint32_t kSide = 4096;
   Camera camera = ringCameras(3, 2.5, 1.0, {0, 1, 0}, kSide, kSide, 50)[2];
   camera.id = 2;
-  const Image8 color(kSide, kSide, 3, 0), mask(kSide, kSide, 1, 0), feather(kSide, kSide, 1, 0);
-  PodPlanes planes;
-  planes.frame_id = 1;
-  planes.color = &color;
-  planes.mask = &mask;
-  planes.feather = &feather;
-  std::vector<protocol::StageStamp> stamps;
-  PodEncoding whole;
-  whole.crop_margin = kFullFrame;
-  auto bomb_frame =
-      std::make_shared<const protocol::OutgoingFrame>(encodePodFrame(planes, stamps, 2, whole));
+  const auto bomb_frame = test::emptyPodFrame(2, kSide, 1);
   ASSERT_LT(bomb_frame->size(), 1u << 20) << "LZ4 of empty planes: small on the wire";
   auto bomb = test::admittedByHand(rig.endpoint(), protocol::Role::kPod, 2);
   ASSERT_NE(bomb, nullptr) << readFile(rig.serverLog());
@@ -320,60 +283,6 @@ TEST(Budget, APodFarAboveTheRigsImagesIsRefusedBeforeItsFramesAreDecoded) {
   EXPECT_NE(log.find("closing pod 2 (127.0.0.1"), std::string::npos) << log;
 }
 
-// Strangers from many loopback addresses (127.0.1.1, 127.0.1.2, ...),
-// one new every `gap` until stopped, each sending a byte of a header at
-// once and one more every second, so it is never silent long enough to be
-// closed as idle and never finishes its handshake: a sustained trickle.
-// It keeps at most `hold` connections open, closing its oldest.
-class Trickle {
- public:
-  Trickle(uint16_t port, int addresses, size_t hold, std::chrono::milliseconds gap)
-      : thread_([=, this](std::stop_token stop) {
-          struct Open {
-            int fd;
-            size_t sent;
-            std::chrono::steady_clock::time_point last;
-          };
-          // The first bytes of a Hello's header: never the whole of it.
-          static constexpr uint8_t kHeader[] = {'H', 'F', 'U', 'S', 1, 9, 1, 0, 0, 0, 0, 0,
-                                                0,   0,   0,   0,   0, 0, 0, 0, 0, 0, 0};
-          std::deque<Open> open;
-          for (uint32_t n = 0; !stop.stop_requested(); ++n) {
-            const auto now = std::chrono::steady_clock::now();
-            const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
-            sockaddr_in from{}, to{};
-            from.sin_family = to.sin_family = AF_INET;
-            from.sin_addr.s_addr = htonl(0x7F000101u + n % static_cast<uint32_t>(addresses));
-            to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-            to.sin_port = htons(port);
-            if (fd >= 0 && ::bind(fd, reinterpret_cast<sockaddr*>(&from), sizeof(from)) == 0 &&
-                (::connect(fd, reinterpret_cast<sockaddr*>(&to), sizeof(to)) == 0 ||
-                 errno == EINPROGRESS)) {
-              open.push_back({fd, 0, now - std::chrono::seconds(2)});
-              ++opened_;
-            } else if (fd >= 0) {
-              ::close(fd);
-            }
-            for (Open& o : open) {
-              if (o.sent >= sizeof(kHeader) || now - o.last < std::chrono::seconds(1)) continue;
-              if (::send(o.fd, &kHeader[o.sent], 1, MSG_NOSIGNAL | MSG_DONTWAIT) == 1) ++o.sent;
-              o.last = now;
-            }
-            while (open.size() > hold) {
-              ::close(open.front().fd);
-              open.pop_front();
-            }
-            std::this_thread::sleep_for(gap);
-          }
-          for (const Open& o : open) ::close(o.fd);
-        }) {}
-  size_t opened() const { return opened_; }
-
- private:
-  std::atomic<size_t> opened_{0};
-  std::jthread thread_;
-};
-
 size_t joins(const std::string& log, int pod) {
   const std::string joined = "pod " + std::to_string(pod) + " (127.0.0.1:";
   size_t n = 0;
@@ -392,7 +301,7 @@ TEST(Admission, ARestartingPodJoinsDuringASustainedTrickle) {
                  {"--max-handshaking", "16", "--handshake-timeout-ms", "60000"});
   ASSERT_TRUE(rig.ready());
   const uint16_t port = static_cast<uint16_t>(std::stoi(rig.endpoint().substr(10)));
-  Trickle crowd(port, 40, 2000, std::chrono::milliseconds(10));
+  test::Trickle crowd(port, 40, 2000, std::chrono::milliseconds(10));
   // Every slot is taken and the crowd goes on coming.
   ASSERT_TRUE(waitFor([&] {
     const std::string log = readFile(rig.serverLog());
@@ -421,7 +330,7 @@ TEST(Admission, ARestartingPodJoinsWhileStrangersHoldEveryDescriptor) {
                  {"/usr/bin/prlimit", "--nofile=48"});
   ASSERT_TRUE(rig.ready());
   const uint16_t port = static_cast<uint16_t>(std::stoi(rig.endpoint().substr(10)));
-  Trickle crowd(port, 1, 4000, std::chrono::milliseconds(1));
+  test::Trickle crowd(port, 1, 4000, std::chrono::milliseconds(1));
   // Out of descriptors, and 1500 more queued ahead of the pod.
   ASSERT_TRUE(waitFor([&] {
     return test::logSays(rig.serverLog(), "cannot accept (Too many open files)") &&

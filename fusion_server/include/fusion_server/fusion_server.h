@@ -221,10 +221,16 @@ class FusionServer {
   // A pod's frame off the rig's clock: told in the log (the first of a
   // run and every 100th).
   void tellOffClock(uint32_t pod, uint64_t frame_id);
+  // Why a peer is to be closed for how it behaves (marked by another's
+  // handling, off the rig's clock too long, too costly a pod, over its
+  // budget too long); ok while it behaves.
+  Status standing(const Peer& peer, uint64_t now_ns) const;
   // A pod off the rig's clock for longer than off_clock_close_ms: why it
   // is closed; ok otherwise.
   Status offClockTooLong(const Peer& peer, uint64_t now_ns) const;
 
+  // The median of the connected pods' image pixels, and their count.
+  std::pair<uint64_t, size_t> medianPodPixels() const;
   // A pod whose image costs more than max_pod_cost_ratio times the rig's
   // median pod: why it is closed; ok otherwise.
   Status podCostTooHigh(const Peer& peer) const;

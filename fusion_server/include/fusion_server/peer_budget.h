@@ -41,9 +41,11 @@ class PeerBudget {
   PeerBudget() = default;
   PeerBudget(const BudgetTable& table, uint64_t now_ns);
 
-  // Takes one message of this type from its budget: true when there was
+  // Takes one message of this type from its budget, charged `cost`
+  // messages (a PodFrame: its pixels against the rig's median pod's, so
+  // what it costs to decompress is the pod's to pay): true when there was
   // room; false (nothing taken) when the peer must wait until resumeAt().
-  bool take(uint16_t type, uint64_t now_ns);
+  bool take(uint16_t type, uint64_t now_ns, double cost = 1.0);
   // When the type that was last refused has room for one message again.
   uint64_t resumeAt() const { return resume_at_ns_; }
   // Since when the peer has been over some budget without a second spent

@@ -68,7 +68,7 @@ struct ClientOptions {
   // Caps on a received mesh, checked before Draco allocates (SECURITY.md).
   // Unless given (mesh_limits_given), each is lowered to what the rig can
   // produce: a visual hull's vertices, one a voxel, cannot usefully exceed
-  // the pixels of the cameras that see it (at least 65536).
+  // the pixels of the cameras that see it (at least 262144).
   DracoLimits mesh_limits;
   bool mesh_limits_given = false;
 };
