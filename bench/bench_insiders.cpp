@@ -1,7 +1,9 @@
 // bench_insiders: SECURITY.md's promises against keyed insiders, measured
 // (issue 43's targets). A keyed rig on loopback (a server, 4 pods and a
-// client, all real processes) is measured quiet, then under each
-// misbehaviour in turn, each window followed by one after it:
+// client, all real processes) is measured under each misbehaviour in
+// turn, each in three windows: quiet before it, during it, and after it
+// (the client's fps during and after is against the window before, since
+// this machine's speed drifts):
 //   - pod 3 replaced by one whose frame ids run 1 s, 1 h and 90,000 ids
 //     ahead, then behind: the client's fps during and after against quiet,
 //     and how long until the log names it;
@@ -53,6 +55,7 @@ struct Row {
   Row(std::string what_, std::string event_) : what(std::move(what_)), event(std::move(event_)) {}
   std::string what;
   std::string event;                     // what `seconds` runs to
+  double quiet_fps = 0;                  // the window before it
   double fps_during = 0, fps_after = 0;  // against quiet
   std::optional<double> seconds;
   double peak_rss = 0;  // the server's peak so far against its quiet peak
@@ -102,10 +105,19 @@ class Rig {
     return test::spawn(
         argv, out_ / ("pod" + std::to_string(id) + "_" + std::to_string(++started_) + ".log"));
   }
+  // Stops pod `id` (SIGKILL: a crash) and starts another in its place,
+  // returning once it has joined, so that what follows is not its start.
   void replacePod(int id, const std::vector<std::string>& extra, bool crash = false) {
     kill(pods_[id], crash ? SIGKILL : SIGTERM);
     test::waitExit(pods_[id], 20);
+    const size_t mark = log().size();
     pods_[id] = startPod(id, extra);
+    const std::string joined = "pod " + std::to_string(id) + " (127.0.0.1:";
+    test::waitFor([&] {
+      const std::string text = log();
+      const size_t at = text.find(joined, mark);
+      return at != std::string::npos && text.find(") joined", at) != std::string::npos;
+    });
   }
   void stopPod(int id) {
     kill(pods_[id], SIGTERM);
@@ -210,13 +222,14 @@ int main(int argc, char** argv) {
                  {"pod 3 90,000 ids behind", -90000}};
     for (const auto& skew : skews) {
       Row row(skew.what, "named in the log");
+      const double quiet = row.quiet_fps = rig.windowFps();
       const auto t0 = Clock::now();
       LogWatch named(rig, "pod 3 is off the rig's clock", t0);
       rig.replacePod(3, {"--frame-id-offset", std::to_string(skew.ids)});
-      row.fps_during = rig.windowFps() / quiet_fps;
+      row.fps_during = rig.windowFps() / quiet;
       row.seconds = named.seconds();
       rig.replacePod(3, {});
-      row.fps_after = rig.windowFps() / quiet_fps;
+      row.fps_after = rig.windowFps() / quiet;
       row.peak_rss = static_cast<double>(rig.peakRssKb()) / quiet_peak;
       rows.push_back(row);
       std::printf("%s: %.0f%% during, %.0f%% after\n", row.what.c_str(), 100 * row.fps_during,
@@ -231,6 +244,7 @@ int main(int argc, char** argv) {
                   {"clock-probe answer flood", 7, test::clockProbeReplyMessage()}};
     for (const auto& flood : floods) {
       Row row(flood.what, "the flooder closed");
+      const double quiet = row.quiet_fps = rig.windowFps();
       auto flooder = test::admittedByHand(rig.endpoint(), protocol::Role::kClient, flood.id);
       if (flooder == nullptr) {
         std::fprintf(stderr, "%s: not admitted\n", flood.what);
@@ -241,9 +255,9 @@ int main(int argc, char** argv) {
         test::floodUntilClosed(flooder->fd(), flood.message);
         row.seconds = secondsSince(t0);
       });
-      row.fps_during = rig.windowFps() / quiet_fps;
+      row.fps_during = rig.windowFps() / quiet;
       writer.join();
-      row.fps_after = rig.windowFps() / quiet_fps;
+      row.fps_after = rig.windowFps() / quiet;
       row.peak_rss = static_cast<double>(rig.peakRssKb()) / quiet_peak;
       rows.push_back(row);
       std::printf("%s: %.0f%% during, closed after %.1f s\n", flood.what, 100 * row.fps_during,
@@ -251,6 +265,7 @@ int main(int argc, char** argv) {
     }
     {
       Row row("pod 3 a 4096x4096 insider", "the insider closed");
+      const double quiet = row.quiet_fps = rig.windowFps();
       rig.stopPod(3);
       constexpr uint32_t kSide = 4096;
       Camera camera = ringCameras(4, 2.5, 1.0, {0, 1, 0}, kSide, kSide, 50)[3];
@@ -272,10 +287,10 @@ int main(int argc, char** argv) {
         }
         row.seconds = secondsSince(t0);
       });
-      row.fps_during = rig.windowFps() / quiet_fps;
+      row.fps_during = rig.windowFps() / quiet;
       sender.join();
       rig.replacePod(3, {});
-      row.fps_after = rig.windowFps() / quiet_fps;
+      row.fps_after = rig.windowFps() / quiet;
       row.peak_rss = static_cast<double>(rig.peakRssKb()) / quiet_peak;
       rows.push_back(row);
       std::printf("%s: %.0f%% during, closed after %.1f s\n", row.what.c_str(),
@@ -283,6 +298,7 @@ int main(int argc, char** argv) {
     }
     {
       Row row("a trickle from 40 addresses; pod 1 restarts", "pod 1 joined again");
+      const double quiet = row.quiet_fps = rig.windowFps();
       const uint16_t port = static_cast<uint16_t>(std::stoi(rig.endpoint().substr(10)));
       const size_t before = rig.log().size();
       test::Trickle crowd(port, 40, 2000, std::chrono::milliseconds(10));
@@ -292,13 +308,13 @@ int main(int argc, char** argv) {
       const auto t0 = Clock::now();
       rig.replacePod(1, {}, true);
       row.seconds = secondsUntilLogged(rig, mark, ") joined", t0);
-      row.fps_during = rig.windowFps() / quiet_fps;
+      row.fps_during = rig.windowFps() / quiet;
       rows.push_back(row);
     }
     {
       // Measured after the crowd has gone.
       Row& row = rows.back();
-      row.fps_after = rig.windowFps() / quiet_fps;
+      row.fps_after = rig.windowFps() / row.quiet_fps;
       row.peak_rss = static_cast<double>(rig.peakRssKb()) / quiet_peak;
       std::printf("%s: joined after %.1f s\n", row.what.c_str(), row.seconds.value_or(-1));
     }
@@ -312,6 +328,7 @@ int main(int argc, char** argv) {
     const double fps = rig.windowFps();
     const uint64_t peak = rig.peakRssKb();
     Row row("40 addresses take every descriptor (48); pod 1 restarts", "pod 1 joined again");
+    row.quiet_fps = fps;
     {
       const uint16_t port = static_cast<uint16_t>(std::stoi(rig.endpoint().substr(10)));
       const size_t before = rig.log().size();
@@ -329,22 +346,26 @@ int main(int argc, char** argv) {
     rows.push_back(row);
   }
 
-  char head[256];
+  char head[512];
   std::snprintf(head, sizeof(head),
-                "Keyed rig on loopback: 4 pods at %s, %.0f fps, one client; quiet %.1f fps, "
-                "server peak %.1f MB; windows of %.0f s.\n\n",
+                "Keyed rig on loopback: 4 pods at %s, %.0f fps, one client; at first %.1f fps, "
+                "server peak %.1f MB; windows of %.0f s. The client's fps during and after "
+                "each misbehaviour is against the window just before it; the server's peak "
+                "memory so far against its peak at first.\n\n",
                 s.size.c_str(), s.fps, quiet_fps, quiet_peak / 1024.0, s.window_s);
   std::string table = head;
   table +=
-      "| misbehaviour | client fps during | after | seconds to | event | server peak |\n"
-      "|---|---:|---:|---:|---|---:|\n";
+      "| misbehaviour | client fps before | during | after | seconds to | event | server peak |\n"
+      "|---|---:|---:|---:|---:|---|---:|\n";
   for (const Row& row : rows) {
     char seconds[32] = "never";
     if (row.seconds) std::snprintf(seconds, sizeof(seconds), "%.2f", *row.seconds);
     char peak[32];
     std::snprintf(peak, sizeof(peak), "%.2fx", row.peak_rss);
-    table += "| " + row.what + " | " + cell(row.fps_during) + " | " + cell(row.fps_after) + " | " +
-             seconds + " | " + row.event + " | " + peak + " |\n";
+    char before[32];
+    std::snprintf(before, sizeof(before), "%.1f", row.quiet_fps);
+    table += "| " + row.what + " | " + before + " | " + cell(row.fps_during) + " | " +
+             cell(row.fps_after) + " | " + seconds + " | " + row.event + " | " + peak + " |\n";
   }
   std::printf("\n%s", table.c_str());
   if (!markdown.empty()) std::ofstream(markdown) << table;

@@ -50,6 +50,9 @@ pid_t spawn(const std::vector<std::string>& args, const std::string& log_path) {
     return word.find("/render_client") != std::string::npos;
   });
   options.ignore_interrupt = true;
+  // A launcher killed outright (a test's time limit, an OOM kill) takes
+  // its rig with it rather than leaving it to eat the machine.
+  options.die_with_parent = true;
   auto pid = holofuse::spawnProcess(args, options);
   if (!pid.isOk()) {
     std::fprintf(stderr, "[loop] %s\n", pid.status().message().c_str());

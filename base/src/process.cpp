@@ -4,6 +4,7 @@
 #include <malloc.h>
 #include <pthread.h>
 #include <sched.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <sys/wait.h>
@@ -63,9 +64,14 @@ StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args, const SpawnOp
   std::vector<char*> argv;
   for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
+  const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
   if (pid == 0) {
     if (options.ignore_interrupt) ::signal(SIGINT, SIG_IGN);
+    // A parent that died before the prctl took effect: go at once.
+    if (options.die_with_parent &&
+        (::prctl(PR_SET_PDEATHSIG, SIGTERM) != 0 || ::getppid() != parent))
+      ::_exit(127);
     if (log_fd >= 0) {
       ::dup2(log_fd, STDERR_FILENO);
       if (options.stdout_to_log) ::dup2(log_fd, STDOUT_FILENO);

@@ -87,6 +87,27 @@ TEST(Process, AnIgnoredInterruptLeavesTheChildRunning) {
   EXPECT_EQ(waitProcess(*interrupted, -1), 128 + SIGINT);
 }
 
+// A child started to die with its parent is sent SIGTERM when the thread
+// that started it ends (a launcher killed outright leaves no rig running);
+// one started without it runs on.
+TEST(Process, AChildThatDiesWithItsParentGoesWhenItsStarterEnds) {
+  pid_t tied = -1, free = -1;
+  std::thread starter([&] {
+    SpawnOptions options;
+    options.die_with_parent = true;
+    const auto started = spawnProcess({"/bin/sleep", "60"}, options);
+    if (started.isOk()) tied = *started;
+    const auto other = spawnProcess({"/bin/sleep", "60"});
+    if (other.isOk()) free = *other;
+  });
+  starter.join();
+  ASSERT_GT(tied, 0);
+  ASSERT_GT(free, 0);
+  EXPECT_EQ(waitProcess(tied, 10000), 128 + SIGTERM) << "still running after its starter ended";
+  EXPECT_EQ(waitProcess(free, 0), std::nullopt) << "the other one runs on";
+  stopProcess(free, 0);
+}
+
 TEST(Process, StopEndsAChildAndKillsOneThatIgnoresTerm) {
   const auto polite = spawnProcess({"/bin/sleep", "100"});
   ASSERT_TRUE(polite.isOk());

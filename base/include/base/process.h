@@ -27,6 +27,11 @@ struct SpawnOptions {
   // The child ignores SIGINT: a Ctrl-C at the terminal reaches the parent,
   // which decides when its children stop.
   bool ignore_interrupt = false;
+  // The child is sent SIGTERM when the thread that started it ends (Linux
+  // PR_SET_PDEATHSIG): a launcher killed with SIGKILL does not leave its
+  // server, pods and client running on. Only for children started from a
+  // thread that lives as long as they should.
+  bool die_with_parent = false;
 };
 
 // A child's stdin and stdout as pipes to the parent (spawnProcess's last
