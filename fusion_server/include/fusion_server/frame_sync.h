@@ -45,7 +45,7 @@ struct FrameGroup {
   bool complete = false;               // every expected pod delivered
 };
 
-// The rig's clock as the pods tell it (FrameSync::add).
+// What the sync knows of one pod's clock (FrameSync::add, clockOf).
 struct PodClock {
   uint64_t latest_id = 0;  // the id of its latest frame, on the rig's clock or not
   uint64_t heard_ns = 0;   // when that frame reached the sync
