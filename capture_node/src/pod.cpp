@@ -25,14 +25,14 @@ using protocol::Stage;
 namespace {
 
 // Segments and feathers a rendered view, stamped from t0 (the capture).
-PodCapture silhouetteOf(scene::RenderedView view, const Image8& plate, uint64_t frame_id,
-                        uint16_t source, uint64_t t0) {
+PodCapture silhouetteOf(scene::RenderedView view, const BackgroundModel& background,
+                        uint64_t frame_id, uint16_t source, uint64_t t0) {
   PodCapture capture;
   capture.frame_id = frame_id;
   capture.capture_time_ns = t0;
   capture.view = std::move(view);
   const uint64_t t1 = monotonicNs();
-  capture.mask = segmentForeground(capture.view.color, plate);
+  capture.mask = background.segment(capture.view.color);
   const uint64_t t2 = monotonicNs();
   capture.feather = featherMap(capture.mask);
   const uint64_t t3 = monotonicNs();
@@ -45,15 +45,15 @@ PodCapture silhouetteOf(scene::RenderedView view, const Image8& plate, uint64_t 
 }  // namespace
 
 PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& camera,
-                           const Image8& plate, uint64_t frame_id, uint16_t source) {
+                           const BackgroundModel& background, uint64_t frame_id, uint16_t source) {
   const uint64_t t0 = monotonicNs();
-  return silhouetteOf(scene.render(camera, frame_id), plate, frame_id, source, t0);
+  return silhouetteOf(scene.render(camera, frame_id), background, frame_id, source, t0);
 }
 
-PodCapture capturePodFrame(const scene::CameraRenderer& renderer, const Image8& plate,
+PodCapture capturePodFrame(const scene::CameraRenderer& renderer, const BackgroundModel& background,
                            uint64_t frame_id, uint16_t source) {
   const uint64_t t0 = monotonicNs();
-  return silhouetteOf(renderer.render(frame_id), plate, frame_id, source, t0);
+  return silhouetteOf(renderer.render(frame_id), background, frame_id, source, t0);
 }
 
 protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id,
@@ -68,7 +68,7 @@ int runPod(const PodOptions& options) {
   const auto cameras =
       scene::SyntheticScene::cameraRig(options.pods, options.width, options.height);
   const Camera& camera = cameras.at(options.pod_id);
-  const Image8 plate = scene.backgroundPlate(camera);
+  const BackgroundModel background(scene.backgroundPlate(camera));
   const scene::CameraRenderer renderer(scene, camera);
   const Camera reported =
       scene::reportedCalibration(camera, options.calibration_error_degrees,
@@ -130,7 +130,7 @@ int runPod(const PodOptions& options) {
     // would give; it keeps time by the true clock.
     const uint64_t sent_id = frame_id + static_cast<uint64_t>(options.frame_id_offset);
     PodCapture capture =
-        capturePodFrame(renderer, plate, sent_id, static_cast<uint16_t>(options.pod_id));
+        capturePodFrame(renderer, background, sent_id, static_cast<uint16_t>(options.pod_id));
     link.send(std::make_shared<const protocol::OutgoingFrame>(
         encodePodFrame(capture, camera.id, options.encoding)));
     link.poll(0, received);

@@ -451,7 +451,7 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
     } else if (plates[c]) {
       // Real sensors and JPEG blocks are noisier than the synthetic pods.
       SegmentationOptions plate_options;
-      plate_options.threshold = 36;
+      plate_options.noise = 4;
       view.mask = segmentForeground(view.color, *plates[c], plate_options);
     } else {
       view.mask = segmentByBrightness(view.color, options);

@@ -42,6 +42,13 @@ std::vector<ScenePreset> makeLibrary() {
     ScenePreset& s = add("many-cameras", "sixteen cameras: many overlapping views to blend");
     s.cameras = 16;
   }
+  {
+    ScenePreset& s = add("studio",
+                         "a real room: a floor that takes the subject's shadow, a stand in view, "
+                         "lights that flicker by 12% from frame to frame, the plate taken empty");
+    s.scene.studio = true;
+    s.scene.flicker = 0.12;
+  }
   return scenes;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "common/marching_cubes.h"
@@ -70,6 +71,59 @@ int64_t cell(double v, double size) { return static_cast<int64_t>(std::floor(v /
 
 constexpr double kTorsoDepthScale = 1.45;  // the torso is flatter front to back
 const glm::dvec3 kLight = glm::normalize(glm::dvec3(0.3, 0.8, 0.5));
+// Lambert's law with an ambient term: a surface facing away from the light,
+// or in a shadow, keeps 35% of its colour.
+constexpr double kAmbient = 0.35;
+
+// The studio (SceneOptions::studio): the floor is y = 0 out to kFloorRadius;
+// the prop is a stand, an upright box, behind the pods' ring between two of
+// them (at 202.5 degrees, 3.4 m out): the pods across the room see it
+// beside the subject, and it never hides the subject from any of them.
+constexpr double kFloorRadius = 6.0;
+const glm::dvec3 kPropMin(-1.45, 0.0, -3.29), kPropMax(-1.15, 1.3, -2.99);
+
+// Where the ray o + t d (d unit) enters the box [lo, hi], and the face's
+// normal; a negative t when it misses it or starts inside.
+double boxEntry(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& lo,
+                const glm::dvec3& hi, glm::dvec3* normal) {
+  double t0 = -std::numeric_limits<double>::infinity(), t1 = -t0;
+  int axis = -1;
+  for (int k = 0; k < 3; ++k) {
+    if (std::abs(d[k]) < 1e-12) {
+      if (o[k] < lo[k] || o[k] > hi[k]) return -1;
+      continue;
+    }
+    double a = (lo[k] - o[k]) / d[k], b = (hi[k] - o[k]) / d[k];
+    if (a > b) std::swap(a, b);
+    if (a > t0) {
+      t0 = a;
+      axis = k;
+    }
+    t1 = std::min(t1, b);
+  }
+  if (t0 > t1 || t0 <= 0 || axis < 0) return -1;
+  if (normal != nullptr) {
+    *normal = glm::dvec3(0.0);
+    (*normal)[axis] = d[axis] > 0 ? -1.0 : 1.0;
+  }
+  return t0;
+}
+
+glm::dvec3 floorAlbedo(const glm::dvec3& p) {
+  // 0.5 m tiles of two greenish greys (the colour a real studio floor
+  // often has under its lights), with a thin darker grout.
+  const double u = p.x / 0.5, v = p.z / 0.5;
+  const double fu = u - std::floor(u), fv = v - std::floor(v);
+  if (fu < 0.03 || fv < 0.03) return glm::dvec3(0.24, 0.27, 0.23);
+  return ((cell(p.x, 0.5) + cell(p.z, 0.5)) & 1) ? glm::dvec3(0.40, 0.47, 0.37)
+                                                 : glm::dvec3(0.34, 0.41, 0.32);
+}
+
+glm::dvec3 propAlbedo(const glm::dvec3& p) {
+  // A grey stand with a white band, like a light stand's clamp.
+  if (p.y > 0.62 && p.y < 0.7) return glm::dvec3(0.85, 0.85, 0.82);
+  return glm::dvec3(0.22, 0.23, 0.26);
+}
 
 }  // namespace
 
@@ -249,6 +303,64 @@ glm::dvec3 SyntheticScene::cameraGain(uint32_t id) const {
                     1 + k * 0.07 * std::sin(0.7 * i + 2));
 }
 
+double SyntheticScene::lightGain(uint64_t frame_id) const {
+  if (options_.flicker <= 0) return 1.0;
+  return 1.0 + options_.flicker * (2 * hashToUnitInterval(options_.seed * 104729 + frame_id) - 1);
+}
+
+SyntheticScene::Surroundings SyntheticScene::surroundings(const glm::dvec3& origin,
+                                                          const glm::dvec3& dir) const {
+  Surroundings around;
+  around.t = std::numeric_limits<double>::infinity();
+  around.color = backdrop(dir);
+  if (!options_.studio) return around;
+  glm::dvec3 normal;
+  const double t_prop = boxEntry(origin, dir, kPropMin, kPropMax, &normal);
+  if (dir.y < 0) {
+    const double t = -origin.y / dir.y;
+    const glm::dvec3 p = origin + t * dir;
+    if (t > 0 && std::hypot(p.x, p.z) < kFloorRadius && (t_prop < 0 || t < t_prop)) {
+      around.t = t;
+      around.floor = true;
+      around.point = p;
+      // The prop's own shadow is part of the studio (and of the plate).
+      const bool prop_shadow = boxEntry(p, kLight, kPropMin, kPropMax, nullptr) > 0;
+      around.color =
+          floorAlbedo(p) * (prop_shadow ? kAmbient : kAmbient + (1 - kAmbient) * kLight.y);
+      return around;
+    }
+  }
+  if (t_prop > 0) {
+    around.t = t_prop;
+    const glm::dvec3 p = origin + t_prop * dir;
+    around.color =
+        propAlbedo(p) * (kAmbient + (1 - kAmbient) * std::max(0.0, glm::dot(normal, kLight)));
+  }
+  return around;
+}
+
+bool SyntheticScene::inSubjectShadow(const glm::dvec3& p, const Pose& pose) {
+  // The torso's capsule lives in body space with its depth stretched.
+  const glm::dvec3 stretch(1, 1, kTorsoDepthScale);
+  const glm::dmat3 to_body = glm::transpose(pose.body_to_world);
+  const glm::dvec3 body_p = stretch * (to_body * (p - pose.body_origin));
+  const glm::dvec3 body_l = stretch * (to_body * kLight);
+  for (int i = 0; i < kPartCount; ++i) {
+    const double t = i == kTorso ? capsuleEntry(body_p, body_l, pose.parts[i])
+                                 : capsuleEntry(p, kLight, pose.parts[i]);
+    if (t > 0) return true;
+  }
+  return false;
+}
+
+glm::dvec3 SyntheticScene::surroundingsColor(const Surroundings& around, const Pose& pose,
+                                             bool* shadowed) const {
+  *shadowed = around.floor && inSubjectShadow(around.point, pose);
+  if (!*shadowed) return around.color;
+  // Lit by the ambient term alone: darker, the same chromaticity.
+  return floorAlbedo(around.point) * kAmbient;
+}
+
 void SyntheticScene::subjectBounds(glm::dvec3& lo, glm::dvec3& hi) {
   lo = glm::dvec3(-0.75, -0.08, -0.75);
   hi = glm::dvec3(0.75, 1.75, 0.75);
@@ -258,7 +370,8 @@ Image8 SyntheticScene::backgroundPlate(const Camera& camera) const {
   Image8 plate(camera.width, camera.height, 3);
   for (uint32_t y = 0; y < camera.height; ++y) {
     for (uint32_t x = 0; x < camera.width; ++x) {
-      const glm::dvec3 c = backdrop(camera.rayDirection(x + 0.5, y + 0.5));
+      const glm::dvec3 c =
+          surroundings(camera.center(), camera.rayDirection(x + 0.5, y + 0.5)).color;
       uint8_t* px = plate.at(x, y);
       for (int k = 0; k < 3; ++k)
         px[k] = static_cast<uint8_t>(std::clamp(c[k] * 255.0 + 0.5, 0.0, 255.0));
@@ -271,8 +384,8 @@ glm::dvec3 SyntheticScene::shade(const glm::dvec3& p, const glm::dvec3& n, const
                                  const Pose& pose, int part, const glm::dvec3& gain) const {
   // Lambertian: the colour of a surface point is the same from every
   // camera up to that camera's gain.
-  glm::dvec3 color =
-      albedo(p, pose, part) * (0.35 + 0.65 * std::max(0.0, glm::dot(n, kLight))) * gain;
+  glm::dvec3 color = albedo(p, pose, part) *
+                     (kAmbient + (1 - kAmbient) * std::max(0.0, glm::dot(n, kLight))) * gain;
   if (options_.specular > 0) {
     // Blinn-Phong: where it shines depends on the camera, so views
     // disagree about those pixels (what the vote has to catch).
@@ -283,16 +396,26 @@ glm::dvec3 SyntheticScene::shade(const glm::dvec3& p, const glm::dvec3& n, const
 }
 
 void SyntheticScene::writePixel(RenderedView& view, const Camera& camera, uint64_t frame_id,
-                                uint32_t x, uint32_t y, const glm::dvec3& color, bool hit) const {
+                                uint32_t x, uint32_t y, const glm::dvec3& color, bool hit,
+                                bool shadowed) const {
   const uint64_t noise_key =
       ((options_.seed * 1000003 + frame_id) * 64 + camera.id) * 0x100000000ull +
       static_cast<uint64_t>(y) * camera.width + x;
+  const double light = lightGain(frame_id);
   uint8_t* px = view.color.at(x, y);
   for (int k = 0; k < 3; ++k) {
     const double noise = options_.noise_amplitude * (2 * hashToUnitInterval(noise_key * 3 + k) - 1);
-    px[k] = static_cast<uint8_t>(std::clamp(color[k] * 255.0 + noise + 0.5, 0.0, 255.0));
+    px[k] = static_cast<uint8_t>(std::clamp(light * color[k] * 255.0 + noise + 0.5, 0.0, 255.0));
   }
   *view.mask.at(x, y) = hit ? 255 : 0;
+  if (!view.shadow.empty()) *view.shadow.at(x, y) = shadowed ? 255 : 0;
+}
+
+RenderedView SyntheticScene::emptyView(const Camera& camera) const {
+  RenderedView view{
+      Image8(camera.width, camera.height, 3), Image8(camera.width, camera.height, 1), {}};
+  if (options_.studio) view.shadow = Image8(camera.width, camera.height, 1);
+  return view;
 }
 
 SyntheticScene::PartRect SyntheticScene::projectedRect(const Camera& camera, const Pose& pose,
@@ -323,7 +446,7 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
   const glm::dvec3 origin = camera.center();
   const glm::dvec3 bound_center(pose.body_origin.x, 0.85, pose.body_origin.z);
   const double bound_radius = 1.0;
-  RenderedView view{Image8(camera.width, camera.height, 3), Image8(camera.width, camera.height, 1)};
+  RenderedView view = emptyView(camera);
   // Only pixels inside the subject's projected bounding rectangle can hit
   // it: the rest is backdrop without tracing.
   double rx0 = camera.width, ry0 = camera.height, rx1 = -1, ry1 = -1;
@@ -337,7 +460,8 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
   for (uint32_t y = 0; y < camera.height; ++y) {
     for (uint32_t x = 0; x < camera.width; ++x) {
       const glm::dvec3 dir = camera.rayDirection(x + 0.5, y + 0.5);
-      glm::dvec3 color = backdrop(dir);
+      const Surroundings around = surroundings(origin, dir);
+      glm::dvec3 color{0.0};
       // Sphere tracing inside the subject's bounding sphere.
       const glm::dvec3 oc = origin - bound_center;
       const double b = glm::dot(oc, dir);
@@ -356,6 +480,7 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
           }
           t += d;
         }
+        hit = hit && t < around.t;  // the prop or the floor may be nearer
         if (hit) {
           const glm::dvec3 p = origin + t * dir;
           const double e = 5e-4;
@@ -369,7 +494,9 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
           color = shade(p, n, dir, pose, part, gain);
         }
       }
-      writePixel(view, camera, frame_id, x, y, color, hit);
+      bool shadowed = false;
+      if (!hit) color = surroundingsColor(around, pose, &shadowed);
+      writePixel(view, camera, frame_id, x, y, color, hit, shadowed);
     }
   }
   return view;
@@ -388,11 +515,11 @@ Mesh SyntheticScene::truthMesh(uint64_t frame_id, double spacing) const {
 CameraRenderer::CameraRenderer(const SyntheticScene& scene, const Camera& camera)
     : scene_(scene), camera_(camera) {
   rays_.reserve(static_cast<size_t>(camera.width) * camera.height);
-  backdrop_.reserve(rays_.capacity());
+  around_.reserve(rays_.capacity());
   for (uint32_t y = 0; y < camera.height; ++y) {
     for (uint32_t x = 0; x < camera.width; ++x) {
       rays_.push_back(camera.rayDirection(x + 0.5, y + 0.5));
-      backdrop_.push_back(scene.backdrop(rays_.back()));
+      around_.push_back(scene.surroundings(camera.center(), rays_.back()));
     }
   }
 }
@@ -403,7 +530,7 @@ RenderedView CameraRenderer::render(uint64_t frame_id) const {
   const glm::dvec3 gain = scene_.cameraGain(camera_.id);
   const glm::dvec3 origin = camera_.center();
   const uint32_t width = camera_.width, height = camera_.height;
-  RenderedView view{Image8(width, height, 3), Image8(width, height, 1)};
+  RenderedView view = scene_.emptyView(camera_);
   // The tracer stops where the field is under 2e-4 m: each capsule grown
   // by that much is what it stops on. The torso's field is its capsule's
   // in body space with depth stretched by kTorsoDepthScale, divided by
@@ -428,9 +555,11 @@ RenderedView CameraRenderer::render(uint64_t frame_id) const {
     for (uint32_t x = 0; x < width; ++x) {
       const size_t index = static_cast<size_t>(y) * width + x;
       const glm::dvec3& dir = rays_[index];
-      glm::dvec3 color = backdrop_[index];
+      const SyntheticScene::Surroundings& around = around_[index];
+      glm::dvec3 color{0.0};
       const double px = x + 0.5;
-      double entry = std::numeric_limits<double>::infinity();
+      // Only what is nearer than the floor or the prop is seen.
+      double entry = around.t;
       int part = -1;
       for (int k = 0; k < row_count; ++k) {
         const int i = row_parts[k];
@@ -459,7 +588,9 @@ RenderedView CameraRenderer::render(uint64_t frame_id) const {
         n = glm::normalize(n);
         color = scene_.shade(p, n, dir, pose, part, gain);
       }
-      scene_.writePixel(view, camera_, frame_id, x, y, color, hit);
+      bool shadowed = false;
+      if (!hit) color = scene_.surroundingsColor(around, pose, &shadowed);
+      scene_.writePixel(view, camera_, frame_id, x, y, color, hit, shadowed);
     }
   }
   return view;

@@ -1,6 +1,7 @@
 // The synthetic scenes: deterministic truth, the pods' ring, the presets.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdlib>
 #include <glm/glm.hpp>
@@ -117,7 +118,7 @@ TEST(SyntheticScene, RingPosesAtThePodsAnglesAreThePods) {
 
 TEST(SceneLibrary, NamesEveryScenarioAndRefusesUnknownOnes) {
   for (const char* name : {"clean", "calibration-error", "colour-imbalance", "fast-motion",
-                           "viewpoint-jump", "few-cameras", "many-cameras"}) {
+                           "viewpoint-jump", "few-cameras", "many-cameras", "studio"}) {
     ASSERT_NE(findScene(name), nullptr) << name;
     EXPECT_NE(sceneNames().find(name), std::string::npos);
   }
@@ -125,6 +126,58 @@ TEST(SceneLibrary, NamesEveryScenarioAndRefusesUnknownOnes) {
   EXPECT_EQ(findScene("few-cameras")->cameras, 4);
   EXPECT_EQ(findScene("many-cameras")->cameras, 16);
   EXPECT_EQ(findScene("viewpoint-jump")->view_jump_degrees, 90.0);
+}
+
+// The studio: the subject's shadow on the floor is darker than the plate
+// there by the light's share (to 35%) with the same chromaticity, and it
+// is not the subject; a stand some cameras see is in the plate too; the
+// lights' gain changes from frame to frame within 12%, the whole picture
+// with it.
+TEST(SceneLibrary, TheStudioHasAShadowAStandAndLightsThatFlicker) {
+  const ScenePreset* studio = findScene("studio");
+  ASSERT_NE(studio, nullptr);
+  const SyntheticScene scene(studio->scene), clean;
+  const auto rig = SyntheticScene::cameraRig(studio->cameras, 160, 120);
+  size_t shadow_pixels = 0, stand_cameras = 0;
+  double gain_low = 2, gain_high = 0;
+  for (uint64_t frame = 0; frame < 40; ++frame) {
+    gain_low = std::min(gain_low, scene.lightGain(frame));
+    gain_high = std::max(gain_high, scene.lightGain(frame));
+  }
+  EXPECT_GE(gain_low, 0.88);
+  EXPECT_LE(gain_high, 1.12);
+  EXPECT_GT(gain_high - gain_low, 0.15) << "the lights flicker";
+  for (const Camera& camera : rig) {
+    const Image8 plate = scene.backgroundPlate(camera);
+    // The stand (behind the ring at 202.5 degrees) in view: its middle
+    // projects into the picture, where the plate is the stand's dark grey.
+    const auto middle = camera.project(glm::dvec3(-1.3, 0.45, -3.14));
+    if (middle && middle->x >= 0 && middle->y >= 0 && middle->x < 160 && middle->y < 120) {
+      const uint8_t* px =
+          plate.at(static_cast<uint32_t>(middle->x), static_cast<uint32_t>(middle->y));
+      EXPECT_LT(px[0] + px[1] + px[2], 3 * 80) << "camera " << camera.id << " sees the stand";
+      ++stand_cameras;
+    }
+    const uint64_t frame = 12;
+    const RenderedView view = scene.render(camera, frame);
+    ASSERT_EQ(view.shadow.width, 160u);
+    const double light = scene.lightGain(frame);
+    for (size_t i = 0; i < view.shadow.pixels.size(); ++i) {
+      if (!view.shadow.pixels[i]) continue;
+      EXPECT_EQ(view.mask.pixels[i], 0) << "a shadow is not the subject";
+      ++shadow_pixels;
+      const uint8_t* seen = &view.color.pixels[3 * i];
+      const uint8_t* empty = &plate.pixels[3 * i];
+      double seen_sum = 0, empty_sum = 0;
+      for (int k = 0; k < 3; ++k) seen_sum += seen[k], empty_sum += empty[k];
+      EXPECT_NEAR(seen_sum / (light * empty_sum), 0.35 / (0.35 + 0.65 * 0.808), 0.08);
+      for (int k = 0; k < 3; ++k)
+        EXPECT_NEAR(seen[k] / seen_sum, empty[k] / empty_sum, 0.05) << "same chromaticity";
+    }
+  }
+  EXPECT_GT(shadow_pixels, 200u) << "the subject casts a shadow some cameras see";
+  EXPECT_GE(stand_cameras, 2u);
+  EXPECT_LT(stand_cameras, rig.size()) << "the stand is in view of some cameras, not all";
 }
 
 TEST(SceneLibrary, ReportedCalibrationIsOffByExactlyTheStatedError) {

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "common/pod_frame_codec.h"
+#include "common/segmentation.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
 #include "scene/synthetic_scene.h"
@@ -46,8 +47,8 @@ struct PodCapture {
 // the reference tracer (eval's inputs and truth), or with the closed-form
 // renderer of the pod's camera (the live pods, scene::CameraRenderer).
 PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& camera,
-                           const Image8& plate, uint64_t frame_id, uint16_t source);
-PodCapture capturePodFrame(const scene::CameraRenderer& renderer, const Image8& plate,
+                           const BackgroundModel& background, uint64_t frame_id, uint16_t source);
+PodCapture capturePodFrame(const scene::CameraRenderer& renderer, const BackgroundModel& background,
                            uint64_t frame_id, uint16_t source);
 
 // The capture as the PodFrame it sends (common/pod_frame_codec.h), the

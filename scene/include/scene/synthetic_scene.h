@@ -2,7 +2,8 @@
 // (torso, head, swinging arms close to the body, walking legs) as a signed
 // distance field, textured with high-frequency detail (stripes, a printed
 // text panel, a face, checkered sleeves), seen by cameras with different
-// colour gains in front of a known backdrop. Everything is a function of
+// colour gains in front of a known backdrop (or in a studio: a floor that
+// takes its shadow, a prop, lights that flicker). Everything is a function of
 // the frame id and the seed, so tests can ask for the truth of any frame.
 #pragma once
 
@@ -29,6 +30,13 @@ struct SceneOptions {
   double gain_spread = 1.0;         // scales how far each camera's colour gain is from 1
   double specular = 0.0;            // strength of a white specular highlight (view dependent)
   double motion_speed = 1.0;        // scales the animation's clock
+  // A studio instead of a far backdrop: a tiled floor that takes the
+  // subject's shadow from the light, and a static prop (a stand) outside
+  // the capture volume that some cameras see, in the plate as well.
+  bool studio = false;
+  // The lights' gain changes from frame to frame by up to this fraction
+  // (mains flicker beating with the shutter); the plate is taken at gain 1.
+  double flicker = 0.0;
 };
 
 // Deterministic hash of x to [0, 1): the scene's only source of "randomness".
@@ -37,6 +45,9 @@ double hashToUnitInterval(uint64_t x);
 struct RenderedView {
   Image8 color;  // RGB
   Image8 mask;   // 255 where the subject is, 0 elsewhere (the truth)
+  // Studio scenes: 255 where the subject's shadow falls on the floor the
+  // camera sees, 0 elsewhere; empty otherwise.
+  Image8 shadow;
 };
 
 class SyntheticScene {
@@ -59,6 +70,8 @@ class SyntheticScene {
   static Camera ringPose(double degrees, uint32_t id, uint32_t width, uint32_t height);
   // Per-camera colour gain (white balance differs between pods).
   glm::dvec3 cameraGain(uint32_t camera_id) const;
+  // The lights' gain at a frame: 1, or within 1 +- flicker.
+  double lightGain(uint64_t frame_id) const;
 
   // The true image and mask of a camera at a frame (with sensor noise).
   RenderedView render(const Camera& camera, uint64_t frame_id) const;
@@ -75,12 +88,29 @@ class SyntheticScene {
   double distance(const glm::dvec3& p, const Pose& pose, int* part) const;
   glm::dvec3 albedo(const glm::dvec3& p, const Pose& pose, int part) const;
   glm::dvec3 backdrop(const glm::dvec3& ray_dir) const;
+  // What a ray from origin meets besides the subject, the same every
+  // frame: in a studio the floor or the prop (t: how far along the unit
+  // ray; on the floor, where), else the far backdrop (t infinite).
+  struct Surroundings {
+    glm::dvec3 color{0.0};
+    double t = 0;
+    bool floor = false;
+    glm::dvec3 point{0.0};
+  };
+  Surroundings surroundings(const glm::dvec3& origin, const glm::dvec3& dir) const;
+  // Whether the subject in this pose stands between floor point p and the
+  // light; the floor there is then lit by the ambient term alone.
+  static bool inSubjectShadow(const glm::dvec3& p, const Pose& pose);
+  // The colour of a pixel that misses the subject or sees it behind the
+  // surroundings: their colour, darkened where the subject's shadow falls.
+  glm::dvec3 surroundingsColor(const Surroundings& around, const Pose& pose, bool* shadowed) const;
   // The lit colour of surface point p of a part, normal n, seen along dir.
   glm::dvec3 shade(const glm::dvec3& p, const glm::dvec3& n, const glm::dvec3& dir,
                    const Pose& pose, int part, const glm::dvec3& gain) const;
   // Pixel (x, y) of view: color with the sensor's noise, and the mask.
   void writePixel(RenderedView& view, const Camera& camera, uint64_t frame_id, uint32_t x,
-                  uint32_t y, const glm::dvec3& color, bool hit) const;
+                  uint32_t y, const glm::dvec3& color, bool hit, bool shadowed) const;
+  RenderedView emptyView(const Camera& camera) const;
   // Pixels a part can cover (pixel centres), with a margin; the whole
   // image when an end of it is behind the camera.
   struct PartRect {
@@ -109,8 +139,8 @@ class CameraRenderer {
  private:
   const SyntheticScene& scene_;
   Camera camera_;
-  std::vector<glm::dvec3> rays_;      // unit, world, per pixel
-  std::vector<glm::dvec3> backdrop_;  // the backdrop's colour per pixel
+  std::vector<glm::dvec3> rays_;                      // unit, world, per pixel
+  std::vector<SyntheticScene::Surroundings> around_;  // what each pixel sees but the subject
 };
 
 }  // namespace holofuse::scene
