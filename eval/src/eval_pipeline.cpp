@@ -8,6 +8,7 @@
 #include "common/mesh_codec.h"
 #include "dataset/dataset.h"
 #include "fusion_server/photo_refine.h"
+#include "metrics/image_metrics.h"
 #include "protocol/clock.h"
 #include "render_client/client.h"
 
@@ -190,6 +191,12 @@ StatusOr<FrameData> prepareFrame(const EvalOptions& options, const scene::Synthe
         capture::capturePodFrame(scene, truth[i], plates[i], frame_id, static_cast<uint16_t>(i));
     frame.true_colors.push_back(capture.view.color);
     frame.true_masks.push_back(capture.view.mask);
+    frame.mask_iou.push_back(metrics::maskIoU(capture.mask, capture.view.mask));
+    for (size_t p = 0; p < capture.view.shadow.pixels.size(); ++p) {
+      if (!capture.view.shadow.pixels[p]) continue;
+      ++frame.shadow_pixels;
+      frame.shadow_taken += capture.mask.pixels[p] != 0;
+    }
     const protocol::Bytes wire =
         capture::encodePodFrame(capture, static_cast<uint32_t>(i), options.loop.pods).flatten();
     // As the pod stamps it: its planes' encoding, not the frame's packing.

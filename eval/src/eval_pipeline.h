@@ -41,6 +41,11 @@ struct FrameData {
   std::vector<Image8>
       true_colors;                 // per camera: its whole image, which leave-one-out compares with
   std::vector<Image8> true_masks;  // per camera
+  // The pods' segmentation against the truth (synthetic scenes): per
+  // camera, its mask's IoU with the true mask; of the true shadow's pixels
+  // (studio scenes), how many it took for the subject.
+  std::vector<double> mask_iou;
+  uint64_t shadow_pixels = 0, shadow_taken = 0;
   std::vector<scene::RenderedView> novel_truth;  // per novel pose (SceneInput::novel_poses)
   double hull_ms = 0;
   double refine_ms = 0;  // the hull's photo-consistency refinement (EvalOptions::refine_voxels)

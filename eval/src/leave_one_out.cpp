@@ -57,7 +57,14 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
   std::vector<double> hull_ms, refine_ms, codec_ms;
   std::map<std::string, std::vector<double>> stage_ms;
   const double n = static_cast<double>(input.frames.size());
+  uint64_t shadow = 0, shadow_taken = 0;
   for (const auto& frame : input.frames) {
+    if (result.mask_iou.size() < frame.mask_iou.size())
+      result.mask_iou.resize(frame.mask_iou.size(), 1.0);
+    for (size_t c = 0; c < frame.mask_iou.size(); ++c)
+      result.mask_iou[c] = std::min(result.mask_iou[c], frame.mask_iou[c]);
+    shadow += frame.shadow_pixels;
+    shadow_taken += frame.shadow_taken;
     hull_ms.push_back(frame.hull_ms);
     refine_ms.push_back(frame.refine_ms);
     double sum = 0;
@@ -80,6 +87,8 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
     result.dense_grid_points += static_cast<double>(frame.hull_stats.grid_points) / n;
     result.triangles += static_cast<double>(frame.mesh.triangleCount()) / n;
   }
+  if (shadow > 0)
+    result.shadow_taken = static_cast<double>(shadow_taken) / static_cast<double>(shadow);
   result.hull_ms = median(hull_ms);
   result.codec_ms = median(codec_ms);
   result.hull_ms_p95 = percentile95(hull_ms);

@@ -267,6 +267,29 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
         {scene.name, v[0], v[1], v[2], v[3], v[4], chamfer, silhouette, v[5], cell});
   }
   md << html::markdownTable(geometry);
+  // The pods' masks against the truth, where the scene has one.
+  html::Table segmentation{
+      {"Scene", "mask IoU mean", "mask IoU worst camera", "shadow taken for the subject"}, {}, ""};
+  for (const auto& scene : results) {
+    if (scene.mask_iou.empty()) continue;
+    double mean = 0, worst = 1;
+    for (double v : scene.mask_iou) {
+      mean += v / static_cast<double>(scene.mask_iou.size());
+      worst = std::min(worst, v);
+    }
+    char v[3][32];
+    std::snprintf(v[0], sizeof(v[0]), "%.3f", mean);
+    std::snprintf(v[1], sizeof(v[1]), "%.3f", worst);
+    std::snprintf(v[2], sizeof(v[2]), "%.2f%%", 100 * scene.shadow_taken);
+    segmentation.rows.push_back(
+        {scene.name, v[0], v[1], scene.shadow_taken >= 0 ? v[2] : "n/a (no shadow)"});
+  }
+  if (!segmentation.rows.empty()) {
+    md << "\n## Segmentation\n\nThe pods' masks against the true masks (each camera's worst "
+          "frame; the mean over cameras and the worst camera), and of the subject's true shadow "
+          "on the floor, the share the masks took for the subject.\n\n"
+       << html::markdownTable(segmentation);
+  }
   md << "\n## Links and codecs\n\nBytes per frame as the loop sends them (the pods' rectangles "
         "with their "
         "feather maps; the server's Draco mesh and images to one client), and the codecs' ms per "

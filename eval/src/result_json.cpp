@@ -33,6 +33,10 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
                {"voxel_mm", scene.voxel_mm},
                {"silhouette_error_mm", measuredJson(scene.silhouette_error_mm)},
                {"dense_grid_points", scene.dense_grid_points}};
+  if (!scene.mask_iou.empty()) {
+    s["segmentation"] = {{"mask_iou", scene.mask_iou},
+                         {"shadow_taken", measuredJson(scene.shadow_taken)}};
+  }
   if (scene.montage_agreement.measured) {
     s["montage_agreement"] = {
         {"differing_pixel_share", scene.montage_agreement.differing_share},
@@ -98,6 +102,11 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
     scene.voxel_mm = hull.value("voxel_mm", 0.0);
     scene.silhouette_error_mm = measuredFromJson(hull, "silhouette_error_mm");
     scene.dense_grid_points = hull.value("dense_grid_points", 0.0);
+  }
+  if (s.contains("segmentation")) {
+    const auto& segmentation = s.at("segmentation");
+    scene.mask_iou = segmentation.value("mask_iou", std::vector<double>{});
+    scene.shadow_taken = measuredFromJson(segmentation, "shadow_taken");
   }
   if (s.contains("montage_agreement")) {
     const auto& a = s.at("montage_agreement");

@@ -203,6 +203,17 @@ ErrorImage errorImage(const Image8& rendered, const Image8& truth, const Image8&
   return e;
 }
 
+double maskIoU(const Image8& a, const Image8& b) {
+  size_t inter = 0, either = 0;
+  const size_t n = std::min(a.pixels.size(), b.pixels.size());
+  for (size_t i = 0; i < n; ++i) {
+    const bool x = a.pixels[i] != 0, y = b.pixels[i] != 0;
+    inter += x && y;
+    either += x || y;
+  }
+  return either ? static_cast<double>(inter) / static_cast<double>(either) : 1.0;
+}
+
 double flicker(const ErrorImage& previous, const ErrorImage& current) {
   if (previous.error.size() != current.error.size()) return 0.0;
   double sum = 0;

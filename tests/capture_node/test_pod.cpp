@@ -7,21 +7,14 @@
 #include "capture_node/pod.h"
 #include "common/image_codec.h"
 #include "common/segmentation.h"
+#include "metrics/image_metrics.h"
 #include "scene/scene_library.h"
 #include "scene/synthetic_scene.h"
 
 namespace holofuse::capture {
 namespace {
 
-double maskIoU(const Image8& a, const Image8& b) {
-  size_t inter = 0, uni = 0;
-  for (size_t i = 0; i < a.pixels.size(); ++i) {
-    const bool x = a.pixels[i] != 0, y = b.pixels[i] != 0;
-    inter += x && y;
-    uni += x || y;
-  }
-  return uni ? static_cast<double>(inter) / static_cast<double>(uni) : 1.0;
-}
+using metrics::maskIoU;
 
 // Every camera of the ring, the shaded back included: a stripe missing
 // from one mask carves a tunnel through the hull.

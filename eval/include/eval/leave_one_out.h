@@ -205,8 +205,13 @@ struct SceneResult {
   // the client; truth by marching cubes at 1 cm).
   double chamfer_mm = 0;               // negative: no true surface (datasets)
   std::vector<double> silhouette_iou;  // per camera
-  double cells_visited = 0;            // mean per frame (eval/visual_hull.h's count)
-  double voxel_mm = 0;                 // the hull's voxel
+  // The pods' masks against the truth (synthetic scenes; empty for
+  // datasets): per camera, the worst IoU over the frames; and the share of
+  // the true shadow's pixels taken for the subject (negative: no shadow).
+  std::vector<double> mask_iou;
+  double shadow_taken = -1;
+  double cells_visited = 0;  // mean per frame (eval/visual_hull.h's count)
+  double voxel_mm = 0;       // the hull's voxel
   double silhouette_error_mm =
       -1;  // first frame, against the segmented masks; negative: not measured
   ModeAgreement montage_agreement;

@@ -74,6 +74,10 @@ std::vector<double> maskedSsimMap(const std::vector<double>& a, const std::vecto
 // Mean of the map: the usual single SSIM value of two images.
 double meanSsim(const std::vector<double>& a, const std::vector<double>& b, int width, int height);
 
+// Intersection over union of two masks' foregrounds (non-zero pixels) of
+// one size; 1 when both are empty.
+double maskIoU(const Image8& a, const Image8& b);
+
 // Signed error image (rendered - truth) per channel, for flicker.
 struct ErrorImage {
   Image8 mask;
