@@ -12,6 +12,12 @@ namespace holofuse {
 
 namespace {
 
+// A pixel's colour off the plate's line by noise alone: its two
+// components across the line are normal with the noise's sigma, so the
+// distance is Rayleigh, past 3.7 sigma once in a thousand pixels (the
+// opening removes those).
+constexpr float kNoiseSigmas = 3.7f;
+
 // Plate colours darker than this (length of the RGB vector, grey levels)
 // carry no usable chromaticity: there a pixel is judged by its distance
 // alone.
@@ -117,7 +123,7 @@ Image8 BackgroundModel::segment(const Image8& frame, SegmentationStats* stats) c
       const float e0 = i0 - alpha * m[0], e1 = i1 - alpha * m[1], e2 = i2 - alpha * m[2];
       const float off_line = std::sqrt(e0 * e0 + e1 * e1 + e2 * e2);
       const float line = std::sqrt(mm);
-      const float limit = std::max(chroma * alpha * line, 4.5f * sigma);
+      const float limit = std::max(chroma * alpha * line, kNoiseSigmas * sigma);
       foreground = off_line > limit || alpha > brighter || alpha < darkest;
       if (!foreground && alpha < 1.0f - 3.0f * sigma / line) ++shadows;
     }

@@ -220,6 +220,52 @@ struct Undistortion {
   }
 };
 
+// The fewest frames a plate video needs, and the most it is learnt from.
+constexpr size_t kFewestPlateFrames = 3, kMostPlateFrames = 60;
+
+// A camera's plate as a background model: a still picture, or the frames
+// of a plate video (each undistorted). Real sensors and JPEG blocks are
+// noisier than the synthetic pods, so the model's noise floor is higher.
+StatusOr<BackgroundModel> readPlate(const std::string& file, const CaptureCamera& camera,
+                                    const std::optional<Undistortion>& undistort) {
+  SegmentationOptions options;
+  options.noise = 4;
+  auto asRgb = [&](cv::Mat values) {
+    if (values.channels() == 1) cv::cvtColor(values, values, cv::COLOR_GRAY2RGB);
+    if (values.channels() == 4) cv::cvtColor(values, values, cv::COLOR_RGBA2RGB);
+    Image8 rgb = fromMat(toEightBit(values));
+    return undistort ? undistort->apply(std::move(rgb), cv::INTER_LINEAR) : rgb;
+  };
+  const std::string who = "the plate of camera \"" + camera.name + "\"";
+  if (!isVideoFile(file)) {
+    auto still = readAny(file, camera.camera, "plate");
+    if (!still.isOk()) return Status(still.status().code(), who + ": " + still.status().message());
+    return BackgroundModel(asRgb(*still), options);
+  }
+  if (!fs::exists(file)) return Status(StatusCode::kIoError, file + ": " + who + " is missing");
+  std::vector<Image8> frames;
+  for (size_t f = 0; f < kMostPlateFrames; ++f) {
+    const std::string name = videoFrameName(file, f);
+    auto frame = readAny(name, camera.camera, "plate");
+    if (!frame.isOk()) {
+      // The end of the video, or a frame that is wrong.
+      if (frame.status().message().find("the plate is ") != std::string::npos)
+        return Status(frame.status().code(), who + ": " + frame.status().message());
+      break;
+    }
+    frames.push_back(asRgb(*frame));
+  }
+  if (frames.size() < kFewestPlateFrames) {
+    return Status(StatusCode::kMalformed,
+                  file + ": " + who + " is a video of " + std::to_string(frames.size()) +
+                      " frames; a plate video needs at least " +
+                      std::to_string(kFewestPlateFrames) + " (or give a still picture)");
+  }
+  auto model = BackgroundModel::fromFrames(frames, options);
+  if (!model.isOk()) return Status(model.status().code(), who + ": " + model.status().message());
+  return model;
+}
+
 // Everything about one image of one camera, ready to encode.
 struct PreparedView {
   Image8 color, mask;
@@ -408,17 +454,16 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
   }
   std::vector<Camera> cameras;
   std::vector<std::optional<Undistortion>> undistort;
-  std::vector<std::optional<Image8>> plates;
+  std::vector<std::optional<BackgroundModel>> plates;
   for (const auto& c : capture.cameras) {
     undistort.push_back(Undistortion::of(c.camera));
     Camera pinhole = c.camera;
     pinhole.distortion.clear();
     cameras.push_back(pinhole);
     if (c.background) {
-      auto plate = readColor(*c.background, c.camera, options.mask_threshold);
+      auto plate = readPlate(*c.background, c, undistort.back());
       if (!plate.isOk()) return plate.status();
-      plates.push_back(undistort.back() ? undistort.back()->apply(plate->color, cv::INTER_LINEAR)
-                                        : plate->color);
+      plates.push_back(std::move(*plate));
     } else {
       plates.push_back(std::nullopt);
     }
@@ -449,10 +494,7 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
       view.mask = undistort[c] ? undistort[c]->apply(std::move(*mask), cv::INTER_NEAREST)
                                : std::move(*mask);
     } else if (plates[c]) {
-      // Real sensors and JPEG blocks are noisier than the synthetic pods.
-      SegmentationOptions plate_options;
-      plate_options.noise = 4;
-      view.mask = segmentForeground(view.color, *plates[c], plate_options);
+      view.mask = plates[c]->segment(view.color);
     } else {
       view.mask = segmentByBrightness(view.color, options);
     }
@@ -467,6 +509,27 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
     if (!view.isOk()) return view.status();
     first_masks.push_back(view->mask);
     first.push_back(std::move(*view));
+  }
+  // A camera whose first mask is empty, or almost all of its picture:
+  // named, since the hull will carve with it (a plate of another camera,
+  // a camera that moved since its plate, one that sees only background).
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    if (first[c].mask_given) continue;
+    const double share = static_cast<double>(std::count(first_masks[c].pixels.begin(),
+                                                        first_masks[c].pixels.end(), 255)) /
+                         static_cast<double>(first_masks[c].pixels.size());
+    const std::string who = "camera \"" + capture.cameras[c].name + "\"";
+    if (share < 0.001) {
+      summary.warnings.push_back(who +
+                                 ": its first frame's mask is empty: it sees only background, or "
+                                 "the subject is out of its view");
+    } else if (share > 0.9 && plates[c]) {
+      char text[64];
+      std::snprintf(text, sizeof(text), "%.0f%%", 100 * share);
+      summary.warnings.push_back(who + ": " + text +
+                                 " of its first frame differs from its plate: is the plate "
+                                 "another camera's, or did the camera move?");
+    }
   }
   auto box = estimateCaptureVolume(cameras, first_masks);
   if (!box.isOk())

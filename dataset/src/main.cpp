@@ -148,6 +148,8 @@ int main(int argc, char** argv) {
     std::printf("%s", dataset::cameraHealthText(summary->camera_names, summary->health,
                                                 "./holofuse dataset info " + out)
                           .c_str());
+    for (const std::string& warning : summary->warnings)
+      std::fprintf(stderr, "warning: %s\n", warning.c_str());
     return 0;
   }
   if (verify->parsed()) {

@@ -4,6 +4,7 @@
 // is named and leaves nothing behind.
 #include <cmath>
 #include <fstream>
+#include <opencv2/videoio.hpp>
 
 #include "common/image_io.h"
 #include "dataset/capture_formats.h"
@@ -112,6 +113,91 @@ TEST_F(ImportTest, MissingMasksAreSegmented) {
   ASSERT_TRUE(summary.isOk()) << summary.status().toString();
   EXPECT_EQ(summary->masks_segmented, 4u);
   expectDatasetMatches(root_ / "out", 0.9);
+}
+
+// A plate video of the empty room under lights that flicker, with sensor
+// noise, is learnt as a background model: the masks come out as the truth.
+// A plate video too short to learn from, and a plate of the wrong size,
+// are refused naming the camera; a camera whose picture is its plate (it
+// sees only background) and one whose plate is another picture are
+// imported with a warning naming them.
+TEST_F(ImportTest, PlatesAreLearntAndTheirMistakesNamed) {
+  const fs::path src = root_ / "src";
+  writeImages(src / "images", ".png");
+  fs::create_directories(src / "plates");
+  cv::RNG rng(3);
+  auto writePlateVideo = [&](size_t i, int frames) {
+    const fs::path file = src / "plates" / (name(i) + ".mkv");
+    cv::VideoWriter writer(file.string(), cv::VideoWriter::fourcc('F', 'F', 'V', '1'), 15,
+                           cv::Size(160, 120));
+    ASSERT_TRUE(writer.isOpened());
+    const cv::Mat plate = toMat(scene_.backgroundPlate(cameras_[i]));
+    for (int f = 0; f < frames; ++f) {
+      cv::Mat noise(plate.size(), CV_16SC3), frame;
+      rng.fill(noise, cv::RNG::UNIFORM, cv::Scalar::all(-3), cv::Scalar::all(4));
+      plate.convertTo(frame, CV_16SC3, 0.92 + 0.04 * f);  // the lights' gain
+      frame += noise;
+      frame.convertTo(frame, CV_8UC3);
+      writer.write(frame);
+    }
+  };
+  nlohmann::json j = holofuseJson(".png", false);
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    writePlateVideo(i, 5);
+    j["cameras"][i]["background"] = "plates/" + name(i) + ".mkv";
+  }
+  std::ofstream(src / "capture.json") << j.dump(2);
+  auto capture = readCapture(src.string(), CaptureFormat::kHolofuse);
+  ASSERT_TRUE(capture.isOk()) << capture.status().toString();
+  auto summary = importCapture(*capture, (root_ / "out").string(), {});
+  ASSERT_TRUE(summary.isOk()) << summary.status().toString();
+  EXPECT_EQ(summary->masks_segmented, 4u);
+  EXPECT_TRUE(summary->warnings.empty()) << summary->warnings.front();
+  expectDatasetMatches(root_ / "out", 0.95);
+  fs::remove_all(root_ / "out");
+
+  // Two frames are not enough to learn from.
+  writePlateVideo(2, 2);
+  auto refused = importCapture(*capture, (root_ / "out").string(), {});
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().message().find(
+                "the plate of camera \"cam11\" is a video of 2 frames; a plate video needs at "
+                "least 3"),
+            std::string::npos)
+      << refused.status().message();
+  EXPECT_FALSE(fs::exists(root_ / "out"));
+  writePlateVideo(2, 5);
+  // The capture's cameras are in natural name order, not the fixture's.
+  auto cameraNamed = [&](const std::string& wanted) -> CaptureCamera& {
+    for (CaptureCamera& c : capture->cameras)
+      if (c.name == wanted) return c;
+    ADD_FAILURE() << wanted;
+    return capture->cameras.front();
+  };
+  // A still of another size.
+  cv::imwrite((src / "plates" / "small.png").string(), cv::Mat(50, 60, CV_8UC3));
+  cameraNamed("cam10").background = (src / "plates" / "small.png").string();
+  refused = importCapture(*capture, (root_ / "out").string(), {});
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().message().find(
+                "the plate of camera \"cam10\": " + (src / "plates" / "small.png").string() +
+                ": the plate is 60x50, the calibration of camera"),
+            std::string::npos)
+      << refused.status().message();
+  // Camera cam10's plate is a red wall; cam2's picture is its own plate.
+  cv::imwrite((src / "plates" / "red.png").string(),
+              cv::Mat(120, 160, CV_8UC3, cv::Scalar(0, 0, 200)));
+  cameraNamed("cam10").background = (src / "plates" / "red.png").string();
+  cv::imwrite((src / "images" / "cam2.png").string(), toMat(scene_.backgroundPlate(cameras_[0])));
+  summary = importCapture(*capture, (root_ / "out").string(), {});
+  ASSERT_TRUE(summary.isOk()) << summary.status().toString();
+  ASSERT_EQ(summary->warnings.size(), 2u);
+  std::string warnings = summary->warnings[0] + "\n" + summary->warnings[1];
+  EXPECT_NE(warnings.find("camera \"cam2\": its first frame's mask is empty"), std::string::npos)
+      << warnings;
+  EXPECT_NE(warnings.find("camera \"cam10\": 100% of its first frame differs from its plate"),
+            std::string::npos)
+      << warnings;
 }
 
 // Masks as they are stored: saved through a video or JPEG step they carry

@@ -55,6 +55,9 @@ struct ImportSummary {
   // camera in pod id order, with the cameras' names.
   std::vector<std::string> camera_names;
   std::vector<CameraHealth> health;
+  // What a person should look at before trusting the dataset: a camera
+  // whose first mask is empty or nearly its whole picture, by name.
+  std::vector<std::string> warnings;
 };
 
 // Brightness threshold segmentation with clean-up (open 1 px, close
