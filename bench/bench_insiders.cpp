@@ -176,6 +176,32 @@ class LogWatch {
   std::jthread thread_;
 };
 
+// A crowd from 40 addresses (a new stranger every gap, at most hold of
+// them open) until the server's log says `crowded`; then pod 1 is killed
+// and started again: the seconds until it has joined, the client's fps
+// during the crowd and after it against the window before, the server's
+// peak against `peak`.
+Row crowdWhilePodRestarts(Rig& rig, const std::string& what, std::chrono::milliseconds gap,
+                          size_t hold, const std::string& crowded, uint64_t peak) {
+  Row row(what, "pod 1 joined again");
+  const double quiet = row.quiet_fps = rig.windowFps();
+  {
+    const uint16_t port = static_cast<uint16_t>(std::stoi(rig.endpoint().substr(10)));
+    const size_t before = rig.log().size();
+    test::Trickle crowd(port, 40, hold, gap);
+    secondsUntilLogged(rig, before, crowded, Clock::now());
+    const size_t mark = rig.log().size();
+    const auto t0 = Clock::now();
+    rig.replacePod(1, {}, true);
+    row.seconds = secondsUntilLogged(rig, mark, ") joined", t0);
+    row.fps_during = rig.windowFps() / quiet;
+  }
+  row.fps_after = rig.windowFps() / quiet;
+  row.peak_rss = static_cast<double>(rig.peakRssKb()) / static_cast<double>(peak);
+  std::printf("%s: joined after %.1f s\n", what.c_str(), row.seconds.value_or(-1));
+  return row;
+}
+
 std::string cell(double ratio) {
   char text[32];
   std::snprintf(text, sizeof(text), "%.0f%%", 100 * ratio);
@@ -296,28 +322,9 @@ int main(int argc, char** argv) {
       std::printf("%s: %.0f%% during, closed after %.1f s\n", row.what.c_str(),
                   100 * row.fps_during, row.seconds.value_or(-1));
     }
-    {
-      Row row("a trickle from 40 addresses; pod 1 restarts", "pod 1 joined again");
-      const double quiet = row.quiet_fps = rig.windowFps();
-      const uint16_t port = static_cast<uint16_t>(std::stoi(rig.endpoint().substr(10)));
-      const size_t before = rig.log().size();
-      test::Trickle crowd(port, 40, 2000, std::chrono::milliseconds(10));
-      // Every slot taken, and the crowd goes on coming.
-      secondsUntilLogged(rig, before, "connections in their handshake", Clock::now());
-      const size_t mark = rig.log().size();
-      const auto t0 = Clock::now();
-      rig.replacePod(1, {}, true);
-      row.seconds = secondsUntilLogged(rig, mark, ") joined", t0);
-      row.fps_during = rig.windowFps() / quiet;
-      rows.push_back(row);
-    }
-    {
-      // Measured after the crowd has gone.
-      Row& row = rows.back();
-      row.fps_after = rig.windowFps() / row.quiet_fps;
-      row.peak_rss = static_cast<double>(rig.peakRssKb()) / quiet_peak;
-      std::printf("%s: joined after %.1f s\n", row.what.c_str(), row.seconds.value_or(-1));
-    }
+    rows.push_back(crowdWhilePodRestarts(rig, "a trickle from 40 addresses; pod 1 restarts",
+                                         std::chrono::milliseconds(10), 2000,
+                                         "connections in their handshake", quiet_peak));
   }
   {
     Rig rig(s, "rig_48_descriptors", {"/usr/bin/prlimit", "--nofile=48"});
@@ -325,25 +332,10 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "the rig never rendered: see %s\n", s.out.c_str());
       return 1;
     }
-    const double fps = rig.windowFps();
     const uint64_t peak = rig.peakRssKb();
-    Row row("40 addresses take every descriptor (48); pod 1 restarts", "pod 1 joined again");
-    row.quiet_fps = fps;
-    {
-      const uint16_t port = static_cast<uint16_t>(std::stoi(rig.endpoint().substr(10)));
-      const size_t before = rig.log().size();
-      test::Trickle crowd(port, 40, 4000, std::chrono::milliseconds(1));
-      secondsUntilLogged(rig, before, "cannot accept", Clock::now());
-      const size_t mark = rig.log().size();
-      const auto t0 = Clock::now();
-      rig.replacePod(1, {}, true);
-      row.seconds = secondsUntilLogged(rig, mark, ") joined", t0);
-      row.fps_during = rig.windowFps() / fps;
-    }
-    row.fps_after = rig.windowFps() / fps;
-    row.peak_rss = static_cast<double>(rig.peakRssKb()) / peak;
-    std::printf("%s: joined after %.1f s\n", row.what.c_str(), row.seconds.value_or(-1));
-    rows.push_back(row);
+    rows.push_back(
+        crowdWhilePodRestarts(rig, "40 addresses take every descriptor (48); pod 1 restarts",
+                              std::chrono::milliseconds(1), 4000, "cannot accept", peak));
   }
 
   char head[512];

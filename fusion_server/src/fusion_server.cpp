@@ -531,22 +531,21 @@ void FusionServer::tellOffClock(uint32_t pod, uint64_t frame_id) {
                static_cast<unsigned long long>(clock->off_frames), options_.off_clock_close_ms);
 }
 
-std::pair<uint64_t, size_t> FusionServer::medianPodPixels() const {
+void FusionServer::measureRigPixels() {
   std::vector<uint64_t> pixels;
   for (const Peer& other : peers_) {
     if (other.role != protocol::Role::kPod || !other.calibrated || other.replaced) continue;
     const Camera& camera = cameras_.at(other.id);
     pixels.push_back(uint64_t{camera.width} * camera.height);
   }
-  if (pixels.empty()) return {0, 0};
   std::sort(pixels.begin(), pixels.end());
   // The lower median: with two pods, the smaller one is the rig's.
-  return {pixels[(pixels.size() - 1) / 2], pixels.size()};
+  rig_pixels_ = {pixels.empty() ? 0 : pixels[(pixels.size() - 1) / 2], pixels.size()};
 }
 
 Status FusionServer::podCostTooHigh(const Peer& peer) const {
   if (peer.role != protocol::Role::kPod || !peer.calibrated) return Status::ok();
-  const auto [median, pods] = medianPodPixels();
+  const auto [median, pods] = rig_pixels_;
   const Camera& camera = cameras_.at(peer.id);
   const uint64_t own = uint64_t{camera.width} * camera.height;
   if (static_cast<double>(own) <= options_.max_pod_cost_ratio * static_cast<double>(median))
@@ -621,7 +620,7 @@ Status FusionServer::handleInbox(Peer& peer, Status status) {
     double cost = 1.0;
     if (peer.calibrated && next->header.type == static_cast<uint16_t>(MessageType::kPodFrame)) {
       const Camera& camera = cameras_.at(peer.id);
-      const uint64_t median = medianPodPixels().first;
+      const uint64_t median = rig_pixels_.first;
       if (median > 0) cost = static_cast<double>(camera.width) * camera.height / median;
     }
     if (peer.greeted && !peer.budget.take(next->header.type, monotonicNs(), cost)) {
@@ -695,6 +694,7 @@ Status FusionServer::handle(Peer& peer, Frame frame) {
       }
       cameras_[calibration.camera_id] = fromCalibration(calibration);
       peer.calibrated = true;
+      measureRigPixels();
       // Within --max-image-side, but far above the rig's pods: refused
       // before anything of its size is read or decoded.
       HOLOFUSE_RETURN_IF_ERROR(podCostTooHigh(peer));
@@ -741,7 +741,9 @@ void FusionServer::closePeer(size_t index, const Status& why) {
       peer.connection->drain(50);
     }
   }
+  const bool calibrated_pod = peer.calibrated;
   peers_.erase(peers_.begin() + static_cast<std::ptrdiff_t>(index));
+  if (calibrated_pod) measureRigPixels();
 }
 
 bool FusionServer::fusingWhenAsked() const {

@@ -9,7 +9,6 @@
 #include <cerrno>
 #include <deque>
 
-#include "common/image.h"
 #include "common/pod_frame_codec.h"
 #include "protocol/messages.h"
 
@@ -47,8 +46,8 @@ std::vector<uint8_t> clockProbeReplyMessage() {
   return protocol::encodeFrame(protocol::ClockProbe{protocol::ProbeStep::kReply, 1, 2, 3}, 0);
 }
 
-protocol::SharedFrame emptyPodFrame(uint32_t camera, uint32_t side, uint64_t frame_id) {
-  const Image8 color(side, side, 3, 0), mask(side, side, 1, 0), feather(side, side, 1, 0);
+protocol::OutgoingFrame wholePodFrame(uint32_t camera, uint64_t frame_id, const Image8& color,
+                                      const Image8& mask, const Image8& feather) {
   PodPlanes planes;
   planes.frame_id = frame_id;
   planes.color = &color;
@@ -57,8 +56,13 @@ protocol::SharedFrame emptyPodFrame(uint32_t camera, uint32_t side, uint64_t fra
   std::vector<protocol::StageStamp> stamps;
   PodEncoding whole;
   whole.crop_margin = kFullFrame;
+  return encodePodFrame(planes, stamps, camera, whole);
+}
+
+protocol::SharedFrame emptyPodFrame(uint32_t camera, uint32_t side, uint64_t frame_id) {
+  const Image8 color(side, side, 3, 0), mask(side, side, 1, 0), feather(side, side, 1, 0);
   return std::make_shared<const protocol::OutgoingFrame>(
-      encodePodFrame(planes, stamps, camera, whole));
+      wholePodFrame(camera, frame_id, color, mask, feather));
 }
 
 Trickle::Trickle(uint16_t port, int addresses, size_t hold, std::chrono::milliseconds gap)

@@ -10,6 +10,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/image.h"
 #include "protocol/frame.h"
 
 namespace holofuse::test {
@@ -24,6 +25,10 @@ uint64_t floodUntilClosed(int fd, const std::vector<uint8_t>& message, int limit
 std::vector<uint8_t> frameRequestMessage();
 std::vector<uint8_t> unknownTypeMessage();
 std::vector<uint8_t> clockProbeReplyMessage();
+
+// The PodFrame a pod sends of these whole planes (no crop).
+protocol::OutgoingFrame wholePodFrame(uint32_t camera, uint64_t frame_id, const Image8& color,
+                                      const Image8& mask, const Image8& feather);
 
 // A PodFrame for camera `camera` whose colour, mask and feather planes are
 // side x side and empty: LZ4 makes it a few hundred KB on the wire, 80 MB

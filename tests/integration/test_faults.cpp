@@ -22,6 +22,7 @@
 #include "base/process.h"
 #include "common/camera.h"
 #include "common/pod_frame_codec.h"
+#include "insider_attacks.h"
 #include "peer_by_hand.h"
 #include "process_harness.h"
 #include "protocol/socket.h"
@@ -84,15 +85,7 @@ struct ForgedPod {
   Image8 color{kWidth, kHeight, 3, 90}, mask{kWidth, kHeight, 1, 255},
       feather{kWidth, kHeight, 1, 255};
   protocol::OutgoingFrame frame(uint32_t pod, uint64_t frame_id) {
-    PodPlanes planes;
-    planes.frame_id = frame_id;
-    planes.color = &color;
-    planes.mask = &mask;
-    planes.feather = &feather;
-    std::vector<protocol::StageStamp> stamps;
-    PodEncoding whole;
-    whole.crop_margin = kFullFrame;
-    return encodePodFrame(planes, stamps, pod, whole);
+    return test::wholePodFrame(pod, frame_id, color, mask, feather);
   }
 };
 

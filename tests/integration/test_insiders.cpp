@@ -291,6 +291,16 @@ size_t joins(const std::string& log, int pod) {
   return n;
 }
 
+// Pod 1, killed (a crash) and started again, joins the rig again and the
+// client renders on.
+void expectRestartedPodJoinsAndRenders(ServingRig& rig) {
+  rig.restartPod(1);
+  EXPECT_TRUE(waitFor([&] { return joins(readFile(rig.serverLog()), 1) >= 2; }))
+      << "the restarted pod never joined\n"
+      << readFile(rig.serverLog());
+  EXPECT_TRUE(rig.rendersMore(5)) << "after pod 1 restarted";
+}
+
 // A crowd from 40 addresses keeps every handshake slot taken, each
 // connection sending one byte and waiting out a long handshake deadline,
 // new ones coming all the time. A pod that crashes and starts again gets
@@ -308,11 +318,7 @@ TEST(Admission, ARestartingPodJoinsDuringASustainedTrickle) {
     return log.find("to make room") != std::string::npos ||
            log.find("already in their handshake") != std::string::npos;
   })) << readFile(rig.serverLog());
-  rig.restartPod(1);
-  EXPECT_TRUE(waitFor([&] { return joins(readFile(rig.serverLog()), 1) >= 2; }))
-      << "the restarted pod never joined\n"
-      << readFile(rig.serverLog());
-  EXPECT_TRUE(rig.rendersMore(5)) << "after pod 1 restarted";
+  expectRestartedPodJoinsAndRenders(rig);
   const std::string log = rig.stop();
   EXPECT_NE(log.find("connections in their handshake (--max-handshaking): closing"),
             std::string::npos)
@@ -336,11 +342,7 @@ TEST(Admission, ARestartingPodJoinsWhileStrangersHoldEveryDescriptor) {
     return test::logSays(rig.serverLog(), "cannot accept (Too many open files)") &&
            crowd.opened() >= 1500;
   })) << readFile(rig.serverLog());
-  rig.restartPod(1);
-  EXPECT_TRUE(waitFor([&] { return joins(readFile(rig.serverLog()), 1) >= 2; }))
-      << "the restarted pod never joined\n"
-      << readFile(rig.serverLog());
-  EXPECT_TRUE(rig.rendersMore(5)) << "after pod 1 restarted";
+  expectRestartedPodJoinsAndRenders(rig);
   rig.stop();
 }
 

@@ -10,6 +10,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "base/arrival_jitter.h"
@@ -229,8 +230,9 @@ class FusionServer {
   // is closed; ok otherwise.
   Status offClockTooLong(const Peer& peer, uint64_t now_ns) const;
 
-  // The median of the connected pods' image pixels, and their count.
-  std::pair<uint64_t, size_t> medianPodPixels() const;
+  // rig_pixels_ anew: measured when a pod's calibration arrives or a
+  // calibrated pod leaves, not on every frame or turn of the loop.
+  void measureRigPixels();
   // A pod whose image costs more than max_pod_cost_ratio times the rig's
   // median pod: why it is closed; ok otherwise.
   Status podCostTooHigh(const Peer& peer) const;
@@ -241,6 +243,8 @@ class FusionServer {
   uint64_t accept_paused_until_ns_ = 0;
   uint64_t accept_pauses_ = 0;
   uint64_t made_room_ = 0;  // connections closed to make room for a newer one
+  // The median of the connected pods' image pixels, and their count.
+  std::pair<uint64_t, size_t> rig_pixels_{0, 0};
   protocol::Socket listener_;
   int wake_fd_ = -1;
   std::vector<Peer> peers_;
