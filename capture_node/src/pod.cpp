@@ -26,13 +26,13 @@ namespace {
 
 // Segments and feathers a rendered view, stamped from t0 (the capture).
 PodCapture silhouetteOf(scene::RenderedView view, const BackgroundModel& background,
-                        uint64_t frame_id, uint16_t source, uint64_t t0) {
+                        uint64_t frame_id, uint16_t source, uint64_t t0, const Image8* previous) {
   PodCapture capture;
   capture.frame_id = frame_id;
   capture.capture_time_ns = t0;
   capture.view = std::move(view);
   const uint64_t t1 = monotonicNs();
-  capture.mask = background.segment(capture.view.color);
+  capture.mask = background.segment(capture.view.color, nullptr, previous);
   const uint64_t t2 = monotonicNs();
   capture.feather = featherMap(capture.mask);
   const uint64_t t3 = monotonicNs();
@@ -45,15 +45,17 @@ PodCapture silhouetteOf(scene::RenderedView view, const BackgroundModel& backgro
 }  // namespace
 
 PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& camera,
-                           const BackgroundModel& background, uint64_t frame_id, uint16_t source) {
+                           const BackgroundModel& background, uint64_t frame_id, uint16_t source,
+                           const Image8* previous_mask) {
   const uint64_t t0 = monotonicNs();
-  return silhouetteOf(scene.render(camera, frame_id), background, frame_id, source, t0);
+  return silhouetteOf(scene.render(camera, frame_id), background, frame_id, source, t0,
+                      previous_mask);
 }
 
 PodCapture capturePodFrame(const scene::CameraRenderer& renderer, const BackgroundModel& background,
-                           uint64_t frame_id, uint16_t source) {
+                           uint64_t frame_id, uint16_t source, const Image8* previous_mask) {
   const uint64_t t0 = monotonicNs();
-  return silhouetteOf(renderer.render(frame_id), background, frame_id, source, t0);
+  return silhouetteOf(renderer.render(frame_id), background, frame_id, source, t0, previous_mask);
 }
 
 protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id,
@@ -105,6 +107,7 @@ int runPod(const PodOptions& options) {
   }
   uint64_t last_frame_id = 0;
   uint64_t sent = 0, skipped = 0;
+  Image8 previous_mask;  // the last frame's, for the segmenter's hysteresis
   std::vector<protocol::Frame> received;
   while (!stopRequested()) {
     // Frame ids follow a grid on the wall clock, so pods in separate
@@ -130,9 +133,11 @@ int runPod(const PodOptions& options) {
     // would give; it keeps time by the true clock.
     const uint64_t sent_id = frame_id + static_cast<uint64_t>(options.frame_id_offset);
     PodCapture capture =
-        capturePodFrame(renderer, background, sent_id, static_cast<uint16_t>(options.pod_id));
+        capturePodFrame(renderer, background, sent_id, static_cast<uint16_t>(options.pod_id),
+                        previous_mask.empty() ? nullptr : &previous_mask);
     link.send(std::make_shared<const protocol::OutgoingFrame>(
         encodePodFrame(capture, camera.id, options.encoding)));
+    previous_mask = capture.mask;
     link.poll(0, received);
     received.clear();
     ++sent;

@@ -94,12 +94,17 @@ StatusOr<BackgroundModel> BackgroundModel::fromFrames(const std::vector<Image8>&
   return model;
 }
 
-Image8 BackgroundModel::segment(const Image8& frame, SegmentationStats* stats) const {
+Image8 BackgroundModel::segment(const Image8& frame, SegmentationStats* stats,
+                                const Image8* previous) const {
   if (frame.width != width_ || frame.height != height_ || frame.channels != 3)
     throw std::invalid_argument("segment: a " + std::to_string(frame.width) + "x" +
                                 std::to_string(frame.height) + " frame against a " +
                                 std::to_string(width_) + "x" + std::to_string(height_) +
                                 " background");
+  if (previous != nullptr &&
+      (previous->width != width_ || previous->height != height_ || previous->channels != 1))
+    throw std::invalid_argument("segment: the previous mask is not the frame's size");
+  const float hold = static_cast<float>(options_.hold);
   Image8 mask(frame.width, frame.height, 1);
   const size_t pixels = static_cast<size_t>(width_) * height_;
   const float gain = options_.follow_gain ? medianGain(frame.pixels.data(), mean_, pixels) : 1.0f;
@@ -112,18 +117,21 @@ Image8 BackgroundModel::segment(const Image8& frame, SegmentationStats* stats) c
     const float* m = &mean_[3 * p];
     const uint8_t* c = &frame.pixels[3 * p];
     const float i0 = c[0] * undo, i1 = c[1] * undo, i2 = c[2] * undo;
+    // Hysteresis against the frame before: its side is kept unless clear.
+    const float held = previous == nullptr ? 1.0f : previous->pixels[p] != 0 ? hold : 1.0f / hold;
     const float sigma = noise_[p];
     const float mm = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
     bool foreground;
     if (mm < kDarkestLine * kDarkestLine) {
       const float d0 = i0 - m[0], d1 = i1 - m[1], d2 = i2 - m[2];
-      foreground = d0 * d0 + d1 * d1 + d2 * d2 > 27.0f * sigma * sigma;  // 3 sigma a channel
+      // 3 sigma a channel
+      foreground = d0 * d0 + d1 * d1 + d2 * d2 > 27.0f * sigma * sigma * held * held;
     } else {
       const float alpha = (i0 * m[0] + i1 * m[1] + i2 * m[2]) / mm;
       const float e0 = i0 - alpha * m[0], e1 = i1 - alpha * m[1], e2 = i2 - alpha * m[2];
       const float off_line = std::sqrt(e0 * e0 + e1 * e1 + e2 * e2);
       const float line = std::sqrt(mm);
-      const float limit = std::max(chroma * alpha * line, kNoiseSigmas * sigma);
+      const float limit = held * std::max(chroma * alpha * line, kNoiseSigmas * sigma);
       foreground = off_line > limit || alpha > brighter || alpha < darkest;
       if (!foreground && alpha < 1.0f - 3.0f * sigma / line) ++shadows;
     }

@@ -17,6 +17,7 @@
 #include "dataset/dataset.h"
 #include "dataset/metadata.h"
 #include "dataset/record_file.h"
+#include "hull/mask_agreement.h"
 #include "protocol/connection.h"
 #include "protocol/messages.h"
 
@@ -357,6 +358,25 @@ std::string formatVec(const glm::dvec3& v) {
 
 }  // namespace
 
+std::string agreementText(const ImportSummary& summary) {
+  std::string text;
+  for (size_t c = 0; c < summary.agreement_pixels_cut.size(); ++c) {
+    if (summary.agreement_pixels_cut[c] == 0) continue;
+    const std::string name =
+        c < summary.camera_names.size() ? summary.camera_names[c] : std::to_string(c);
+    char line[256];
+    std::snprintf(line, sizeof(line),
+                  "camera %zu \"%s\": the other cameras' hull does not explain %.1f%% of its "
+                  "segmented mask pixels (in %zu of %zu frames); cut\n",
+                  c, name.c_str(),
+                  100.0 * static_cast<double>(summary.agreement_pixels_cut[c]) /
+                      static_cast<double>(std::max<uint64_t>(1, summary.segmented_pixels[c])),
+                  summary.agreement_frames_cut[c], summary.frames);
+    text += line;
+  }
+  return text;
+}
+
 Image8 segmentByBrightness(const Image8& color, const ImportOptions& options) {
   std::vector<cv::Mat> channels;
   cv::split(wrapForReading(color), channels);
@@ -474,6 +494,8 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
   summary.frames = capture.frames.size();
   ImportProgress status;
   status.total = capture.cameras.size() * capture.frames.size();
+  // Each camera's mask of the frame before: the segmenter's hysteresis.
+  std::vector<Image8> previous_masks(cameras.size());
   auto prepare = [&](size_t f, size_t c) -> StatusOr<PreparedView> {
     const CaptureFrame& frame = capture.frames[f];
     auto color = readColor(frame.images[c], capture.cameras[c].camera, options.mask_threshold);
@@ -494,7 +516,8 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
       view.mask = undistort[c] ? undistort[c]->apply(std::move(*mask), cv::INTER_NEAREST)
                                : std::move(*mask);
     } else if (plates[c]) {
-      view.mask = plates[c]->segment(view.color);
+      view.mask = plates[c]->segment(view.color, nullptr,
+                                     previous_masks[c].empty() ? nullptr : &previous_masks[c]);
     } else {
       view.mask = segmentByBrightness(view.color, options);
     }
@@ -510,6 +533,9 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
     first_masks.push_back(view->mask);
     first.push_back(std::move(*view));
   }
+  summary.agreement_pixels_cut.assign(cameras.size(), 0);
+  summary.agreement_frames_cut.assign(cameras.size(), 0);
+  summary.segmented_pixels.assign(cameras.size(), 0);
   // A camera whose first mask is empty, or almost all of its picture:
   // named, since the hull will carve with it (a plate of another camera,
   // a camera that moved since its plate, one that sees only background).
@@ -552,17 +578,48 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
                 "component",
                 options.threshold ? ("> " + std::to_string(*options.threshold)).c_str() : "by Otsu",
                 options.dark_subject ? " (dark subject)" : "", options.close_px);
-  metadata.segmentation = segmentation;
   summary.volume = "min " + formatVec(box->min) + " max " + formatVec(box->max) + ", voxel " +
                    std::to_string(metadata.voxel_size);
-  // Whether each camera's mask agrees with the others', in the volume and
-  // at the voxel a replay carves with.
+  // The rig's agreement and the cameras' health, in the volume and at the
+  // voxel a replay carves with.
   hull::HullOptions hull_options;
   hull::setCaptureVolume(hull_options, box->min, box->max);
   hull_options.voxel_size = metadata.voxel_size;
+  std::vector<bool> judged(cameras.size());
+  size_t segmented_cameras = 0;
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    judged[c] = !first[c].mask_given;
+    segmented_cameras += judged[c];
+  }
+  const bool agree = options.rig_agreement && cameras.size() >= 3 && segmented_cameras > 0;
+  // One frame's views, all cameras prepared: the segmented masks cut to
+  // what the others' hull explains, then held for the next frame.
+  auto agreeOnFrame = [&](std::vector<PreparedView>& frame_views) {
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      if (!frame_views[c].mask_given)
+        summary.segmented_pixels[c] += static_cast<uint64_t>(std::count(
+            frame_views[c].mask.pixels.begin(), frame_views[c].mask.pixels.end(), uint8_t{255}));
+    }
+    if (agree) {
+      std::vector<hull::HullView> views;
+      for (size_t c = 0; c < cameras.size(); ++c)
+        views.push_back({cameras[c], frame_views[c].mask, featherMap(frame_views[c].mask)});
+      auto agreed = hull::agreeAcrossCameras(views, hull_options, {}, judged);
+      for (size_t c = 0; c < cameras.size(); ++c) {
+        if (agreed[c].pixels_removed == 0) continue;
+        summary.agreement_pixels_cut[c] += agreed[c].pixels_removed;
+        ++summary.agreement_frames_cut[c];
+        frame_views[c].mask = std::move(agreed[c].mask);
+      }
+    }
+    for (size_t c = 0; c < cameras.size(); ++c) previous_masks[c] = frame_views[c].mask;
+  };
+  metadata.segmentation = segmentation;
+  if (agree) metadata.segmentation += "; segmented masks cut to the other cameras' hull";
+  agreeOnFrame(first);
   std::vector<hull::HullView> first_views;
   for (size_t c = 0; c < cameras.size(); ++c)
-    first_views.push_back({cameras[c], first_masks[c], featherMap(first_masks[c])});
+    first_views.push_back({cameras[c], first[c].mask, featherMap(first[c].mask)});
   summary.health = cameraHealth(first_views, hull_options);
   summary.camera_names = metadata.camera_names;
 
@@ -594,15 +651,19 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
   }
   const uint64_t interval_ns = static_cast<uint64_t>(1e9 / capture.fps);
   for (size_t f = 0; f < capture.frames.size(); ++f) {
-    for (size_t c = 0; c < cameras.size(); ++c) {
-      PreparedView view;
-      if (f == 0) {
-        view = std::move(first[c]);
-      } else {
+    std::vector<PreparedView> frame_views;
+    if (f == 0) {
+      frame_views = std::move(first);
+    } else {
+      for (size_t c = 0; c < cameras.size(); ++c) {
         auto prepared = prepare(f, c);
         if (!prepared.isOk()) return fail(prepared.status());
-        view = std::move(*prepared);
+        frame_views.push_back(std::move(*prepared));
       }
+      agreeOnFrame(frame_views);
+    }
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      PreparedView& view = frame_views[c];
       (view.mask_given ? summary.masks_given : summary.masks_segmented) += 1;
       const Image8 feather = featherMap(view.mask);
       std::vector<protocol::StageStamp> stamps;

@@ -13,6 +13,7 @@
 #include "common/image_io.h"
 #include "dataset/camera_health.h"
 #include "dataset/dataset.h"
+#include "hull/mask_agreement.h"
 #include "hull/visual_hull.h"
 #include "metrics/geometry_metrics.h"
 
@@ -106,34 +107,6 @@ cv::Mat tile(const Image8& color, const Image8& mask, const Image8& hull_mask,
     cv::putText(out, "CHECK", cv::Point(6, out.rows - 10), cv::FONT_HERSHEY_SIMPLEX, 0.8,
                 cv::Scalar(255, 0, 0), 2, cv::LINE_AA);
   }
-  return out;
-}
-
-// The mesh's silhouette in a camera: its triangles filled.
-Image8 meshSilhouette(const Mesh& mesh, const Camera& camera) {
-  cv::Mat mask =
-      cv::Mat::zeros(static_cast<int>(camera.height), static_cast<int>(camera.width), CV_8UC1);
-  for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
-    cv::Point pts[3];
-    bool ok = true;
-    for (int k = 0; k < 3 && ok; ++k) {
-      const auto p =
-          camera.project(glm::dvec3(mesh.positions[mesh.indices[t + static_cast<size_t>(k)]]));
-      ok = p.has_value() && std::isfinite(p->x) && std::isfinite(p->y) && std::abs(p->x) < 1e6 &&
-           std::abs(p->y) < 1e6;
-      // Camera pixel centres sit at +0.5, OpenCV's at integers; 4 bits of subpixel.
-      if (ok) {
-        pts[k] = cv::Point(static_cast<int>(std::lround((p->x - 0.5) * 16)),
-                           static_cast<int>(std::lround((p->y - 0.5) * 16)));
-      }
-    }
-    if (ok) cv::fillConvexPoly(mask, pts, 3, cv::Scalar(255), cv::LINE_8, 4);
-  }
-  Image8 out;
-  out.width = camera.width;
-  out.height = camera.height;
-  out.channels = 1;
-  out.pixels.assign(mask.data, mask.data + mask.total());
   return out;
 }
 
@@ -282,7 +255,7 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
     t += line;
     char label[64];
     std::snprintf(label, sizeof(label), "camera %u  IoU %.3f", c.id, c.silhouette_iou);
-    tiles.push_back(tile(images[i].color, images[i].mask, meshSilhouette(hull, views[i].camera),
+    tiles.push_back(tile(images[i].color, images[i].mask, hull::silhouetteOf(hull, views[i].camera),
                          label, !health[i].concern.empty()));
   }
   std::vector<std::string> names;

@@ -80,6 +80,10 @@ int main(int argc, char** argv) {
       ->add_option("--exclude-cameras", import_options.exclude_cameras,
                    "leave these cameras out, by their names in the source (comma separated)")
       ->delimiter(',');
+  bool no_rig_agreement = false;
+  import->add_flag("--no-rig-agreement", no_rig_agreement,
+                   "keep each segmented mask as its camera saw it (by default, with 3 cameras or "
+                   "more, what the other cameras' hull does not explain is cut)");
   import->add_option("--voxel", import_voxel, "hull voxel size for replays (default: volume / 96)")
       ->check(CLI::Range(holofuse::hull::kMinVoxel, holofuse::hull::kMaxVoxel));
   auto* export_command = app.add_subcommand(
@@ -124,6 +128,7 @@ int main(int argc, char** argv) {
     }
     if (threshold >= 0) import_options.threshold = threshold;
     if (import_voxel > 0) import_options.voxel_size = import_voxel;
+    import_options.rig_agreement = !no_rig_agreement;
     auto description = dataset::readCapture(source, *chosen);
     if (!description.isOk()) {
       std::fprintf(stderr, "dataset import: %s\n", description.status().message().c_str());
@@ -145,6 +150,7 @@ int main(int argc, char** argv) {
         "capture volume %s\n",
         summary->cameras, summary->frames, out.c_str(), summary->megabytes, summary->masks_given,
         summary->masks_segmented, summary->volume.c_str());
+    std::printf("%s", dataset::agreementText(*summary).c_str());
     std::printf("%s", dataset::cameraHealthText(summary->camera_names, summary->health,
                                                 "./holofuse dataset info " + out)
                           .c_str());

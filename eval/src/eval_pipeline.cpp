@@ -8,6 +8,7 @@
 #include "common/mesh_codec.h"
 #include "dataset/dataset.h"
 #include "fusion_server/photo_refine.h"
+#include "hull/mask_agreement.h"
 #include "metrics/image_metrics.h"
 #include "protocol/clock.h"
 #include "render_client/client.h"
@@ -186,12 +187,14 @@ StatusOr<FrameData> prepareFrame(const EvalOptions& options, const scene::Synthe
   fusion::FrameGroup group;
   group.frame_id = frame_id;
   double slowest_pod_ms = 0;
+  std::vector<hull::HullView> pod_masks;
   for (size_t i = 0; i < truth.size(); ++i) {
     capture::PodCapture capture =
         capture::capturePodFrame(scene, truth[i], plates[i], frame_id, static_cast<uint16_t>(i));
     frame.true_colors.push_back(capture.view.color);
     frame.true_masks.push_back(capture.view.mask);
     frame.mask_iou.push_back(metrics::maskIoU(capture.mask, capture.view.mask));
+    pod_masks.push_back({reported[i], capture.mask, capture.feather});
     for (size_t p = 0; p < capture.view.shadow.pixels.size(); ++p) {
       if (!capture.view.shadow.pixels[p]) continue;
       ++frame.shadow_pixels;
@@ -206,6 +209,13 @@ StatusOr<FrameData> prepareFrame(const EvalOptions& options, const scene::Synthe
     HOLOFUSE_RETURN_IF_ERROR(receivePodFrame(wire, reported[i], "pod", group, frame).status());
   }
   frame.codec_ms["pod_encode"] = slowest_pod_ms;
+  if (pod_masks.size() >= 3) {
+    hull::HullOptions volume;  // the synthetic rig's capture volume
+    volume.voxel_size = options.loop.fusion.hull.voxel_size;
+    const auto agreed = hull::agreeAcrossCameras(pod_masks, volume);
+    for (size_t i = 0; i < agreed.size(); ++i)
+      frame.mask_iou_agreed.push_back(metrics::maskIoU(agreed[i].mask, frame.true_masks[i]));
+  }
   // The silhouettes back in whole frames before the hull's clock starts, as
   // in the server.
   const std::vector<hull::HullView> hull_views = fusion::hullViewsOf(group);

@@ -44,7 +44,7 @@ struct FrameData {
   // The pods' segmentation against the truth (synthetic scenes): per
   // camera, its mask's IoU with the true mask; of the true shadow's pixels
   // (studio scenes), how many it took for the subject.
-  std::vector<double> mask_iou;
+  std::vector<double> mask_iou, mask_iou_agreed;  // alone, and after the rig's agreement
   uint64_t shadow_pixels = 0, shadow_taken = 0;
   std::vector<scene::RenderedView> novel_truth;  // per novel pose (SceneInput::novel_poses)
   double hull_ms = 0;

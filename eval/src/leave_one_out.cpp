@@ -63,6 +63,10 @@ void summariseFrames(const SceneInput& input, SceneResult& result) {
       result.mask_iou.resize(frame.mask_iou.size(), 1.0);
     for (size_t c = 0; c < frame.mask_iou.size(); ++c)
       result.mask_iou[c] = std::min(result.mask_iou[c], frame.mask_iou[c]);
+    if (result.mask_iou_agreed.size() < frame.mask_iou_agreed.size())
+      result.mask_iou_agreed.resize(frame.mask_iou_agreed.size(), 1.0);
+    for (size_t c = 0; c < frame.mask_iou_agreed.size(); ++c)
+      result.mask_iou_agreed[c] = std::min(result.mask_iou_agreed[c], frame.mask_iou_agreed[c]);
     shadow += frame.shadow_pixels;
     shadow_taken += frame.shadow_taken;
     hull_ms.push_back(frame.hull_ms);

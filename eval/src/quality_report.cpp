@@ -269,25 +269,40 @@ Status writeQualityReports(const EvalOptions& options, const std::vector<SceneRe
   md << html::markdownTable(geometry);
   // The pods' masks against the truth, where the scene has one.
   html::Table segmentation{
-      {"Scene", "mask IoU mean", "mask IoU worst camera", "shadow taken for the subject"}, {}, ""};
-  for (const auto& scene : results) {
-    if (scene.mask_iou.empty()) continue;
+      {"Scene", "mask IoU mean", "mask IoU worst camera", "with the rig's agreement: mean",
+       "worst camera", "shadow taken for the subject"},
+      {},
+      ""};
+  // The mean over cameras and the worst camera of per-camera IoUs.
+  auto meanAndWorst = [](const std::vector<double>& iou, char* mean_text, char* worst_text) {
+    if (iou.empty()) {
+      std::snprintf(mean_text, 32, "n/a");
+      std::snprintf(worst_text, 32, "n/a");
+      return;
+    }
     double mean = 0, worst = 1;
-    for (double v : scene.mask_iou) {
-      mean += v / static_cast<double>(scene.mask_iou.size());
+    for (double v : iou) {
+      mean += v / static_cast<double>(iou.size());
       worst = std::min(worst, v);
     }
-    char v[3][32];
-    std::snprintf(v[0], sizeof(v[0]), "%.3f", mean);
-    std::snprintf(v[1], sizeof(v[1]), "%.3f", worst);
-    std::snprintf(v[2], sizeof(v[2]), "%.2f%%", 100 * scene.shadow_taken);
+    std::snprintf(mean_text, 32, "%.3f", mean);
+    std::snprintf(worst_text, 32, "%.3f", worst);
+  };
+  for (const auto& scene : results) {
+    if (scene.mask_iou.empty()) continue;
+    char v[5][32];
+    meanAndWorst(scene.mask_iou, v[0], v[1]);
+    meanAndWorst(scene.mask_iou_agreed, v[2], v[3]);
+    std::snprintf(v[4], sizeof(v[4]), "%.2f%%", 100 * scene.shadow_taken);
     segmentation.rows.push_back(
-        {scene.name, v[0], v[1], scene.shadow_taken >= 0 ? v[2] : "n/a (no shadow)"});
+        {scene.name, v[0], v[1], v[2], v[3], scene.shadow_taken >= 0 ? v[4] : "n/a (no shadow)"});
   }
   if (!segmentation.rows.empty()) {
     md << "\n## Segmentation\n\nThe pods' masks against the true masks (each camera's worst "
-          "frame; the mean over cameras and the worst camera), and of the subject's true shadow "
-          "on the floor, the share the masks took for the subject.\n\n"
+          "frame; the mean over cameras and the worst camera), then the same masks cut to "
+          "where the other cameras' hull projects (the rig's agreement, as import applies it), "
+          "and of the subject's true shadow on the floor, the share the pods' masks took for "
+          "the subject.\n\n"
        << html::markdownTable(segmentation);
   }
   md << "\n## Links and codecs\n\nBytes per frame as the loop sends them (the pods' rectangles "

@@ -35,6 +35,7 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
                {"dense_grid_points", scene.dense_grid_points}};
   if (!scene.mask_iou.empty()) {
     s["segmentation"] = {{"mask_iou", scene.mask_iou},
+                         {"mask_iou_agreed", scene.mask_iou_agreed},
                          {"shadow_taken", measuredJson(scene.shadow_taken)}};
   }
   if (scene.montage_agreement.measured) {
@@ -106,6 +107,7 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
   if (s.contains("segmentation")) {
     const auto& segmentation = s.at("segmentation");
     scene.mask_iou = segmentation.value("mask_iou", std::vector<double>{});
+    scene.mask_iou_agreed = segmentation.value("mask_iou_agreed", std::vector<double>{});
     scene.shadow_taken = measuredFromJson(segmentation, "shadow_taken");
   }
   if (s.contains("montage_agreement")) {

@@ -45,8 +45,10 @@ std::vector<ScenePreset> makeLibrary() {
   {
     ScenePreset& s = add("studio",
                          "a real room: a floor that takes the subject's shadow, a stand in view, "
-                         "lights that flicker by 12% from frame to frame, the plate taken empty");
+                         "a checkerboard set down after the plate, lights that flicker by 12% "
+                         "from frame to frame, the plate taken empty");
     s.scene.studio = true;
+    s.scene.late_prop = true;
     s.scene.flicker = 0.12;
   }
   return scenes;

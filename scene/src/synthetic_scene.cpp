@@ -81,6 +81,11 @@ constexpr double kAmbient = 0.35;
 // beside the subject, and it never hides the subject from any of them.
 constexpr double kFloorRadius = 6.0;
 const glm::dvec3 kPropMin(-1.45, 0.0, -3.29), kPropMax(-1.15, 1.3, -2.99);
+// The late prop (SceneOptions::late_prop): a checkerboard on a post, the
+// stand's place turned by 90 degrees (112.5 degrees, 3.4 m out), its board
+// facing the room.
+const glm::dvec3 kBoardMin(3.05, 0.7, -1.65), kBoardMax(3.1, 1.3, -0.95);
+const glm::dvec3 kPostMin(3.04, 0.0, -1.33), kPostMax(3.1, 0.7, -1.27);
 
 // Where the ray o + t d (d unit) enters the box [lo, hi], and the face's
 // normal; a negative t when it misses it or starts inside.
@@ -123,6 +128,35 @@ glm::dvec3 propAlbedo(const glm::dvec3& p) {
   // A grey stand with a white band, like a light stand's clamp.
   if (p.y > 0.62 && p.y < 0.7) return glm::dvec3(0.85, 0.85, 0.82);
   return glm::dvec3(0.22, 0.23, 0.26);
+}
+
+glm::dvec3 boardAlbedo(const glm::dvec3& p) {
+  // Calibration squares of 0.1 m on the board; the post dark grey.
+  if (p.y < kBoardMin.y) return glm::dvec3(0.2, 0.2, 0.2);
+  return ((cell(p.y, 0.1) + cell(p.z, 0.1)) & 1) ? glm::dvec3(0.08, 0.08, 0.08)
+                                                 : glm::dvec3(0.85, 0.85, 0.85);
+}
+
+// The nearest of the props a ray o + t d meets: its t (negative when none),
+// normal and albedo.
+struct PropHit {
+  double t = -1;
+  glm::dvec3 normal{0.0}, albedo{0.0};
+};
+
+PropHit nearestProp(const glm::dvec3& o, const glm::dvec3& d, bool late_prop) {
+  PropHit hit;
+  auto consider = [&](const glm::dvec3& lo, const glm::dvec3& hi, auto albedo) {
+    glm::dvec3 normal;
+    const double t = boxEntry(o, d, lo, hi, &normal);
+    if (t > 0 && (hit.t < 0 || t < hit.t)) hit = {t, normal, albedo(o + t * d)};
+  };
+  consider(kPropMin, kPropMax, propAlbedo);
+  if (late_prop) {
+    consider(kBoardMin, kBoardMax, boardAlbedo);
+    consider(kPostMin, kPostMax, boardAlbedo);
+  }
+  return hit;
 }
 
 }  // namespace
@@ -309,32 +343,32 @@ double SyntheticScene::lightGain(uint64_t frame_id) const {
 }
 
 SyntheticScene::Surroundings SyntheticScene::surroundings(const glm::dvec3& origin,
-                                                          const glm::dvec3& dir) const {
+                                                          const glm::dvec3& dir,
+                                                          bool late_prop) const {
   Surroundings around;
   around.t = std::numeric_limits<double>::infinity();
   around.color = backdrop(dir);
   if (!options_.studio) return around;
-  glm::dvec3 normal;
-  const double t_prop = boxEntry(origin, dir, kPropMin, kPropMax, &normal);
+  const PropHit prop = nearestProp(origin, dir, late_prop);
   if (dir.y < 0) {
     const double t = -origin.y / dir.y;
     const glm::dvec3 p = origin + t * dir;
-    if (t > 0 && std::hypot(p.x, p.z) < kFloorRadius && (t_prop < 0 || t < t_prop)) {
+    if (t > 0 && std::hypot(p.x, p.z) < kFloorRadius && (prop.t < 0 || t < prop.t)) {
       around.t = t;
       around.floor = true;
       around.point = p;
-      // The prop's own shadow is part of the studio (and of the plate).
-      const bool prop_shadow = boxEntry(p, kLight, kPropMin, kPropMax, nullptr) > 0;
+      // The props' own shadows are part of the studio (the stand's of the
+      // plate as well).
+      const bool prop_shadow = nearestProp(p, kLight, late_prop).t > 0;
       around.color =
           floorAlbedo(p) * (prop_shadow ? kAmbient : kAmbient + (1 - kAmbient) * kLight.y);
       return around;
     }
   }
-  if (t_prop > 0) {
-    around.t = t_prop;
-    const glm::dvec3 p = origin + t_prop * dir;
+  if (prop.t > 0) {
+    around.t = prop.t;
     around.color =
-        propAlbedo(p) * (kAmbient + (1 - kAmbient) * std::max(0.0, glm::dot(normal, kLight)));
+        prop.albedo * (kAmbient + (1 - kAmbient) * std::max(0.0, glm::dot(prop.normal, kLight)));
   }
   return around;
 }
@@ -371,7 +405,7 @@ Image8 SyntheticScene::backgroundPlate(const Camera& camera) const {
   for (uint32_t y = 0; y < camera.height; ++y) {
     for (uint32_t x = 0; x < camera.width; ++x) {
       const glm::dvec3 c =
-          surroundings(camera.center(), camera.rayDirection(x + 0.5, y + 0.5)).color;
+          surroundings(camera.center(), camera.rayDirection(x + 0.5, y + 0.5), false).color;
       uint8_t* px = plate.at(x, y);
       for (int k = 0; k < 3; ++k)
         px[k] = static_cast<uint8_t>(std::clamp(c[k] * 255.0 + 0.5, 0.0, 255.0));
@@ -460,7 +494,7 @@ RenderedView SyntheticScene::render(const Camera& camera, uint64_t frame_id) con
   for (uint32_t y = 0; y < camera.height; ++y) {
     for (uint32_t x = 0; x < camera.width; ++x) {
       const glm::dvec3 dir = camera.rayDirection(x + 0.5, y + 0.5);
-      const Surroundings around = surroundings(origin, dir);
+      const Surroundings around = surroundings(origin, dir, options_.late_prop);
       glm::dvec3 color{0.0};
       // Sphere tracing inside the subject's bounding sphere.
       const glm::dvec3 oc = origin - bound_center;
@@ -519,7 +553,8 @@ CameraRenderer::CameraRenderer(const SyntheticScene& scene, const Camera& camera
   for (uint32_t y = 0; y < camera.height; ++y) {
     for (uint32_t x = 0; x < camera.width; ++x) {
       rays_.push_back(camera.rayDirection(x + 0.5, y + 0.5));
-      around_.push_back(scene.surroundings(camera.center(), rays_.back()));
+      around_.push_back(
+          scene.surroundings(camera.center(), rays_.back(), scene.options().late_prop));
     }
   }
 }

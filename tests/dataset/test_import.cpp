@@ -11,6 +11,7 @@
 #include "dataset/import.h"
 #include "dataset/inspection.h"
 #include "import_fixture.h"
+#include "scene/scene_library.h"
 
 namespace holofuse::dataset {
 namespace {
@@ -113,6 +114,82 @@ TEST_F(ImportTest, MissingMasksAreSegmented) {
   ASSERT_TRUE(summary.isOk()) << summary.status().toString();
   EXPECT_EQ(summary->masks_segmented, 4u);
   expectDatasetMatches(root_ / "out", 0.9);
+}
+
+// The studio, imported as a real rig comes (pictures and an empty-room
+// plate, no masks): a checkerboard set down after the plate differs from
+// the plate as the subject does, and one camera's segmented mask keeps it.
+// The rig's agreement cuts it, as no other camera sees anything there
+// inside the capture volume; the subject's masks stay, frame after frame.
+TEST_F(ImportTest, TheRigCutsWhatOnlyOneCameraSees) {
+  scene::SceneOptions options = scene::findScene("studio")->scene;
+  ASSERT_TRUE(options.late_prop);
+  const scene::SyntheticScene studio(options);
+  const std::vector<uint64_t> frame_ids = {30, 31, 32};
+  const fs::path src = root_ / "src";
+  fs::create_directories(src / "images");
+  fs::create_directories(src / "plates");
+  nlohmann::json j = holofuseJson(".png", false);
+  j["frames"] = nlohmann::json::array();
+  std::vector<std::vector<Image8>> truth(cameras_.size());
+  for (const uint64_t f : frame_ids) {
+    nlohmann::json frame;
+    for (size_t i = 0; i < cameras_.size(); ++i) {
+      const auto view = studio.render(cameras_[i], f);
+      truth[i].push_back(view.mask);
+      const std::string file = "images/" + name(i) + "_" + std::to_string(f) + ".png";
+      ASSERT_TRUE(cv::imwrite((src / file).string(), toMat(view.color)));
+      frame["images"][name(i)] = file;
+    }
+    j["frames"].push_back(frame);
+  }
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    ASSERT_TRUE(cv::imwrite((src / "plates" / (name(i) + ".png")).string(),
+                            toMat(studio.backgroundPlate(cameras_[i]))));
+    j["cameras"][i]["background"] = "plates/" + name(i) + ".png";
+  }
+  std::ofstream(src / "capture.json") << j.dump(2);
+  auto capture = readCapture(src.string(), CaptureFormat::kHolofuse);
+  ASSERT_TRUE(capture.isOk()) << capture.status().toString();
+  // Each camera's worst mask over the frames, against the truth.
+  auto worstIoU = [&](const fs::path& out) {
+    std::vector<double> worst(cameras_.size(), 1.0);
+    auto dataset = Dataset::open(out.string());
+    EXPECT_TRUE(dataset.isOk());
+    const size_t source_of[4] = {3, 0, 1, 2};  // pod id -> index in cameras_
+    for (const auto& [id, cam] : dataset->cameras()) {
+      auto calibration = dataset->readFrame(*cam.calibration);
+      protocol::Calibration c;
+      EXPECT_TRUE(protocol::decodeFrame(*calibration, c).isOk());
+      EXPECT_EQ(cam.frames.size(), frame_ids.size());
+      for (size_t f = 0; f < cam.frames.size(); ++f) {
+        auto pod = dataset->readFrame(cam.frames[f]);
+        auto images = decodePodImages(*pod, fromCalibration(c));
+        EXPECT_TRUE(images.isOk());
+        const size_t i = source_of[id];
+        worst[i] = std::min(worst[i], maskIoU(images->mask, truth[i][f]));
+      }
+    }
+    return worst;
+  };
+  ImportOptions alone;
+  alone.rig_agreement = false;
+  auto unagreed = importCapture(*capture, (root_ / "alone").string(), alone);
+  ASSERT_TRUE(unagreed.isOk()) << unagreed.status().toString();
+  auto agreed = importCapture(*capture, (root_ / "agreed").string(), {});
+  ASSERT_TRUE(agreed.isOk()) << agreed.status().toString();
+  const std::vector<double> before = worstIoU(root_ / "alone"), after = worstIoU(root_ / "agreed");
+  size_t fooled = 0;
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    fooled += before[i] < 0.9;
+    EXPECT_GE(after[i], 0.95) << "camera " << name(i) << " (alone " << before[i] << ")";
+    const size_t pod = (i + 1) % 4;  // cameras_[i] is pod (i + 1) mod 4 (natural name order)
+    EXPECT_EQ(agreed->agreement_pixels_cut[pod] > 0, before[i] < 0.9) << "camera " << name(i);
+    EXPECT_EQ(unagreed->agreement_pixels_cut[pod], 0u);
+  }
+  EXPECT_GE(fooled, 1u) << "the board should fool a camera that sees it";
+  const std::string text = agreementText(*agreed);
+  EXPECT_NE(text.find("the other cameras' hull does not explain"), std::string::npos) << text;
 }
 
 // A plate video of the empty room under lights that flicker, with sensor

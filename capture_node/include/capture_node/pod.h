@@ -46,10 +46,14 @@ struct PodCapture {
 // Renders, segments and feathers one frame, recording stage stamps: with
 // the reference tracer (eval's inputs and truth), or with the closed-form
 // renderer of the pod's camera (the live pods, scene::CameraRenderer).
+// previous_mask: the pod's mask of the frame before, which the segmenter's
+// hysteresis holds to (SegmentationOptions::hold).
 PodCapture capturePodFrame(const scene::SyntheticScene& scene, const Camera& camera,
-                           const BackgroundModel& background, uint64_t frame_id, uint16_t source);
+                           const BackgroundModel& background, uint64_t frame_id, uint16_t source,
+                           const Image8* previous_mask = nullptr);
 PodCapture capturePodFrame(const scene::CameraRenderer& renderer, const BackgroundModel& background,
-                           uint64_t frame_id, uint16_t source);
+                           uint64_t frame_id, uint16_t source,
+                           const Image8* previous_mask = nullptr);
 
 // The capture as the PodFrame it sends (common/pod_frame_codec.h), the
 // encode stamp appended to its stamps.

@@ -30,6 +30,12 @@ struct SegmentationOptions {
   // Estimate the frame's gain (lights that flicker, auto exposure) from
   // the pixels that are surely background, and undo it.
   bool follow_gain = true;
+  // Temporal consistency, hysteresis over time: against the previous
+  // frame's mask, a pixel keeps its side unless the evidence is clear. The
+  // subject's pixels stay the subject above `hold` times the limit, the
+  // background's become the subject only above the limit over `hold`, so
+  // that pixels near the line do not flip from frame to frame with noise.
+  double hold = 0.8;
   int cleanup_radius = 1;  // morphological open then close, square of 2r+1
 };
 
@@ -66,8 +72,10 @@ class BackgroundModel {
   // Mask (255 foreground, 0 background) of an RGB frame of the model's
   // size (a contract: std::invalid_argument otherwise; untrusted frames
   // are checked by their readers). Opening removes isolated noise pixels,
-  // closing fills pinholes.
-  Image8 segment(const Image8& frame, SegmentationStats* stats = nullptr) const;
+  // closing fills pinholes. `previous`, the camera's mask of the frame
+  // before (same size), holds its subject's pixels (options.hold).
+  Image8 segment(const Image8& frame, SegmentationStats* stats = nullptr,
+                 const Image8* previous = nullptr) const;
 
  private:
   uint32_t width_ = 0, height_ = 0;

@@ -38,6 +38,10 @@ struct ImportOptions {
   double mask_threshold = 0.5;
   // Cameras left out, by their names in the source.
   std::vector<std::string> exclude_cameras;
+  // With three cameras or more, each segmented mask is cut to where the
+  // other cameras' hull projects (hull/mask_agreement.h): what no other
+  // camera sees inside the capture volume is not the subject.
+  bool rig_agreement = true;
 };
 
 struct ImportProgress {
@@ -58,7 +62,16 @@ struct ImportSummary {
   // What a person should look at before trusting the dataset: a camera
   // whose first mask is empty or nearly its whole picture, by name.
   std::vector<std::string> warnings;
+  // Per camera, what the rig's agreement cut from its segmented masks:
+  // pixels, and in how many frames.
+  std::vector<uint64_t> agreement_pixels_cut;
+  std::vector<size_t> agreement_frames_cut;
+  std::vector<uint64_t> segmented_pixels;  // the segmenter's mask pixels before the cut
 };
+
+// What the rig's agreement cut, a line per camera it cut from (empty when
+// it cut nothing).
+std::string agreementText(const ImportSummary& summary);
 
 // Brightness threshold segmentation with clean-up (open 1 px, close
 // close_px, largest connected component, holes filled): 255 foreground.

@@ -209,6 +209,9 @@ struct SceneResult {
   // datasets): per camera, the worst IoU over the frames; and the share of
   // the true shadow's pixels taken for the subject (negative: no shadow).
   std::vector<double> mask_iou;
+  // The same masks after the rig's agreement (hull/mask_agreement.h): what
+  // import records, and what the live pods would send were they told.
+  std::vector<double> mask_iou_agreed;
   double shadow_taken = -1;
   double cells_visited = 0;  // mean per frame (eval/visual_hull.h's count)
   double voxel_mm = 0;       // the hull's voxel

@@ -34,6 +34,10 @@ struct SceneOptions {
   // subject's shadow from the light, and a static prop (a stand) outside
   // the capture volume that some cameras see, in the plate as well.
   bool studio = false;
+  // In a studio, a checkerboard on a post set down after the plate was
+  // taken: in every frame, not in the plate. No camera alone can tell it
+  // from the subject; the rig can, as it stands outside the capture volume.
+  bool late_prop = false;
   // The lights' gain changes from frame to frame by up to this fraction
   // (mains flicker beating with the shutter); the plate is taken at gain 1.
   double flicker = 0.0;
@@ -89,15 +93,16 @@ class SyntheticScene {
   glm::dvec3 albedo(const glm::dvec3& p, const Pose& pose, int part) const;
   glm::dvec3 backdrop(const glm::dvec3& ray_dir) const;
   // What a ray from origin meets besides the subject, the same every
-  // frame: in a studio the floor or the prop (t: how far along the unit
-  // ray; on the floor, where), else the far backdrop (t infinite).
+  // frame: in a studio the floor or a prop (t: how far along the unit
+  // ray; on the floor, where), else the far backdrop (t infinite). The
+  // plate is taken without the late prop.
   struct Surroundings {
     glm::dvec3 color{0.0};
     double t = 0;
     bool floor = false;
     glm::dvec3 point{0.0};
   };
-  Surroundings surroundings(const glm::dvec3& origin, const glm::dvec3& dir) const;
+  Surroundings surroundings(const glm::dvec3& origin, const glm::dvec3& dir, bool late_prop) const;
   // Whether the subject in this pose stands between floor point p and the
   // light; the floor there is then lit by the ambient term alone.
   static bool inSubjectShadow(const glm::dvec3& p, const Pose& pose);
