@@ -67,6 +67,83 @@ std::vector<CameraHealth> cameraHealth(const std::vector<hull::HullView>& views,
   return health;
 }
 
+HealthOverTime summariseHealthOverTime(const std::vector<uint64_t>& frame_ids,
+                                       const std::vector<std::vector<CameraHealth>>& per_frame) {
+  HealthOverTime health;
+  health.frame_ids = frame_ids;
+  const size_t cameras = per_frame.empty() ? 0 : per_frame.front().size();
+  health.cameras.resize(cameras);
+  std::vector<double> medians;
+  for (size_t c = 0; c < cameras; ++c) {
+    HealthOverTime::Camera& camera = health.cameras[c];
+    std::vector<double> measured;
+    for (size_t k = 0; k < per_frame.size(); ++k) {
+      const CameraHealth* h = c < per_frame[k].size() ? &per_frame[k][c] : nullptr;
+      camera.agreement.push_back(h ? h->agreement : -1.0);
+      if (camera.agreement.back() >= 0) measured.push_back(camera.agreement.back());
+      if (h && !h->concern.empty()) camera.bad_frames.push_back(frame_ids[k]);
+    }
+    if (measured.empty()) continue;
+    camera.min = *std::min_element(measured.begin(), measured.end());
+    camera.median = median(measured);
+    medians.push_back(camera.median);
+  }
+  const double rig_median = median(medians);
+  char text[240];
+  for (HealthOverTime::Camera& camera : health.cameras) {
+    std::string frames;
+    for (size_t k = 0; k < camera.bad_frames.size() && k < 8; ++k)
+      frames += (k ? ", " : "") + std::to_string(camera.bad_frames[k]);
+    if (camera.bad_frames.size() > 8)
+      frames += " and " + std::to_string(camera.bad_frames.size() - 8) + " more";
+    if (camera.median >= 0 && camera.median < rig_median - kAgreementGap) {
+      std::snprintf(text, sizeof(text),
+                    "over the video its masks agree with the others' hull at a median IoU of "
+                    "%.2f, where the cameras' median is %.2f",
+                    camera.median, rig_median);
+      camera.concern = text;
+      if (!frames.empty()) camera.concern += "; set apart in frames " + frames;
+    } else if (!camera.bad_frames.empty()) {
+      std::snprintf(text, sizeof(text),
+                    "its mask is set apart from the rest in %zu of the %zu frames measured "
+                    "(IoU with the others' hull down to %.2f, median %.2f): frames ",
+                    camera.bad_frames.size(), per_frame.size(), camera.min, camera.median);
+      camera.concern = text + frames;
+    }
+  }
+  return health;
+}
+
+std::string healthOverTimeText(const std::vector<std::string>& names, const HealthOverTime& health,
+                               size_t frames_in_dataset) {
+  if (health.frame_ids.empty() || health.cameras.empty()) return "";
+  char line[200];
+  std::snprintf(line, sizeof(line),
+                "mask health over time: %zu of %zu frames (ids %llu to %llu), each camera's mask "
+                "against the other cameras' hull (IoU)\n",
+                health.frame_ids.size(), frames_in_dataset,
+                static_cast<unsigned long long>(health.frame_ids.front()),
+                static_cast<unsigned long long>(health.frame_ids.back()));
+  std::string t = line;
+  t += "camera                   min   median  frames set apart\n";
+  std::string concerns;
+  for (size_t i = 0; i < health.cameras.size(); ++i) {
+    const HealthOverTime::Camera& c = health.cameras[i];
+    const std::string name = i < names.size() ? names[i] : std::to_string(i);
+    if (c.median < 0) {
+      std::snprintf(line, sizeof(line), "%-4zu %-16s   n/a (fewer than 3 cameras)\n", i,
+                    name.c_str());
+    } else {
+      std::snprintf(line, sizeof(line), "%-4zu %-16s %6.3f %7.3f  %zu%s\n", i, name.c_str(), c.min,
+                    c.median, c.bad_frames.size(), c.concern.empty() ? "" : "   <- CHECK");
+    }
+    t += line;
+    if (!c.concern.empty())
+      concerns += "CHECK camera " + std::to_string(i) + " \"" + name + "\": " + c.concern + "\n";
+  }
+  return t + concerns;
+}
+
 std::string cameraHealthText(const std::vector<std::string>& names,
                              const std::vector<CameraHealth>& health,
                              const std::string& inspect_command) {

@@ -151,16 +151,24 @@ StatusOr<VerifyReport> verifyDataset(const std::string& dir) {
   return report;
 }
 
-StatusOr<uint64_t> firstWholeFrame(const Dataset& dataset, const std::string& dir) {
+std::vector<uint64_t> wholeFrames(const Dataset& dataset) {
   // A camera that repeats an id counts once.
   std::map<uint64_t, std::set<uint32_t>> cameras_per_id;
   for (const auto& [id, cam] : dataset.cameras()) {
     for (const auto& r : cam.frames) cameras_per_id[r.frame_id].insert(id);
   }
+  std::vector<uint64_t> ids;
   for (const auto& [id, holders] : cameras_per_id) {
-    if (holders.size() == dataset.cameras().size()) return id;
+    if (holders.size() == dataset.cameras().size()) ids.push_back(id);
   }
-  return Status(StatusCode::kMalformed, dir + ": no frame id is held by every camera");
+  return ids;
+}
+
+StatusOr<uint64_t> firstWholeFrame(const Dataset& dataset, const std::string& dir) {
+  const std::vector<uint64_t> ids = wholeFrames(dataset);
+  if (ids.empty())
+    return Status(StatusCode::kMalformed, dir + ": no frame id is held by every camera");
+  return ids.front();
 }
 
 StatusOr<FrameViews> readFrameViews(const Dataset& dataset, const std::string& dir,
@@ -192,7 +200,7 @@ StatusOr<FrameViews> readFrameViews(const Dataset& dataset, const std::string& d
 }
 
 StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::string& sheet_png,
-                                         double voxel_size) {
+                                         double voxel_size, size_t health_frames) {
   auto dataset = Dataset::open(dir);
   if (!dataset.isOk()) return dataset.status();
   DatasetSummary summary;
@@ -265,6 +273,27 @@ StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::stri
                                                        : "camera " + std::to_string(c.id));
   }
   t += cameraHealthText(names, health, "the contact sheet " + sheet_png);
+  // Health over time: frames spread evenly through the dataset.
+  const std::vector<uint64_t> whole = wholeFrames(*dataset);
+  const size_t measured = health_frames == 0 ? whole.size() : std::min(health_frames, whole.size());
+  if (measured > 1) {
+    std::vector<uint64_t> ids;
+    std::vector<std::vector<CameraHealth>> per_frame;
+    for (size_t k = 0; k < measured; ++k) {
+      const uint64_t id = whole[k * (whole.size() - 1) / std::max<size_t>(1, measured - 1)];
+      if (!ids.empty() && ids.back() == id) continue;
+      auto views_k = readFrameViews(*dataset, dir, id);
+      if (!views_k.isOk()) return views_k.status();
+      std::vector<hull::HullView> frame_views;
+      for (size_t i = 0; i < views_k->cameras.size(); ++i)
+        frame_views.push_back(
+            {views_k->cameras[i], views_k->images[i].mask, views_k->images[i].feather});
+      ids.push_back(id);
+      per_frame.push_back(cameraHealth(frame_views, hull_options));
+    }
+    summary.health_over_time = summariseHealthOverTime(ids, per_frame);
+    t += healthOverTimeText(names, summary.health_over_time, whole.size());
+  }
   // The sheet: tiles scaled to one height, in rows of up to four.
   const int tile_height = 240;
   const int columns = static_cast<int>(std::min<size_t>(4, tiles.size()));

@@ -1,6 +1,6 @@
 // holofuse_dataset: checks and describes datasets (recordings and imports).
 //   holofuse_dataset verify DIR     exit 0 clean, 3 incomplete tail, 1 corrupt, 2 unusable
-//   holofuse_dataset info DIR [--sheet PNG] [--voxel M]
+//   holofuse_dataset info DIR [--sheet PNG] [--voxel M] [--health-frames N]
 //   holofuse_dataset import SRC --format F --out DIR [segmentation flags]
 //   holofuse_dataset export DIR --out FILE.glb|FILE.obj [--frame ID] [--atlas-size N]
 #include <unistd.h>
@@ -47,6 +47,11 @@ int main(int argc, char** argv) {
       "info", "cameras, frames, sizes, codecs, silhouette IoU and a contact sheet");
   info->add_option("dir", dir, "dataset folder")->required();
   info->add_option("--sheet", sheet, "contact sheet PNG (default DIR/contact_sheet.png)");
+  size_t health_frames = 16;
+  info->add_option("--health-frames", health_frames,
+                   "frames, spread through the dataset, on which each camera's mask health over "
+                   "time is measured (0: every frame)")
+      ->capture_default_str();
   info->add_option("--voxel", voxel, "hull voxel size in metres (default: the dataset's)")
       ->check(CLI::Range(holofuse::hull::kMinVoxel, holofuse::hull::kMaxVoxel));
   auto* import =
@@ -168,7 +173,8 @@ int main(int argc, char** argv) {
     return static_cast<int>(report->verdict);
   }
   if (sheet.empty()) sheet = (std::filesystem::path(dir) / "contact_sheet.png").string();
-  auto summary = dataset::describeDataset(dir, sheet, info->count("--voxel") ? voxel : 0.0);
+  auto summary =
+      dataset::describeDataset(dir, sheet, info->count("--voxel") ? voxel : 0.0, health_frames);
   if (!summary.isOk()) {
     std::fprintf(stderr, "dataset info: %s\n", summary.status().message().c_str());
     return 2;

@@ -465,6 +465,51 @@ TEST_F(ImportTest, ACameraApartFromTheRestIsNamedAndCanBeLeftOut) {
   EXPECT_FALSE(fs::exists(root_ / "unknown"));
 }
 
+// Over a video, `dataset info` measures each camera's mask against the
+// others' hull frame by frame and names the frames where one camera falls
+// apart from the rest (someone walked past it, a light came on), and the
+// camera that disagrees all along.
+TEST_F(ImportTest, DatasetInfoNamesTheFramesWhereACameraGoesWrong) {
+  const fs::path src = root_ / "src";
+  writeImages(src / "images", ".png");
+  writeMasks(src / "masks", ".png", false);
+  // cam10's masks in the fourth and fifth frames: a blob in the corner.
+  cv::Mat blob = cv::Mat::zeros(static_cast<int>(cameras_[1].height),
+                                static_cast<int>(cameras_[1].width), CV_8UC1);
+  cv::circle(blob, cv::Point(20, 20), 14, cv::Scalar(255), cv::FILLED);
+  ASSERT_TRUE(cv::imwrite((src / "masks" / "cam10_bad.png").string(), blob));
+  nlohmann::json j = holofuseJson(".png", true);
+  const nlohmann::json frame = j["frames"][0];
+  j["frames"] = nlohmann::json::array();
+  for (int f = 0; f < 8; ++f) {
+    nlohmann::json copy = frame;
+    if (f == 3 || f == 4) copy["masks"]["cam10"] = "masks/cam10_bad.png";
+    j["frames"].push_back(copy);
+  }
+  std::ofstream(src / "capture.json") << j.dump(2);
+  auto capture = readCapture(src.string(), CaptureFormat::kHolofuse);
+  ASSERT_TRUE(capture.isOk()) << capture.status().toString();
+  ASSERT_TRUE(importCapture(*capture, (root_ / "out").string(), {}).isOk());
+  auto info = describeDataset((root_ / "out").string(), (root_ / "sheet.png").string(), 0, 0);
+  ASSERT_TRUE(info.isOk()) << info.status().toString();
+  const HealthOverTime& health = info->health_over_time;
+  ASSERT_EQ(health.frame_ids.size(), 8u);
+  ASSERT_EQ(health.cameras.size(), 4u);
+  // Pods in natural name order: cam1, cam2, cam10, cam11; frame ids from 1.
+  EXPECT_EQ(health.cameras[2].bad_frames, (std::vector<uint64_t>{4, 5}));
+  EXPECT_LT(health.cameras[2].min, 0.3);
+  EXPECT_GT(health.cameras[2].median, 0.7);
+  // The others' hulls with cam10 in them are empty in those frames: the
+  // others score 0 there too, but are not the ones set apart.
+  for (size_t c : {0, 1, 3}) {
+    EXPECT_EQ(health.cameras[c].concern, "") << "camera " << c;
+    EXPECT_GT(health.cameras[c].median, 0.7) << "camera " << c;
+  }
+  EXPECT_NE(info->text.find("CHECK camera 2 \"cam10\": its mask is set apart"), std::string::npos)
+      << info->text;
+  EXPECT_NE(info->text.find("frames 4, 5"), std::string::npos) << info->text;
+}
+
 TEST_F(ImportTest, BadInputIsNamedAndLeavesNoDataset) {
   const fs::path src = root_ / "src";
   writeImages(src / "images", ".png");

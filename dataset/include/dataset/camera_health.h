@@ -37,6 +37,31 @@ inline constexpr double kAgreementGap = 0.25;
 std::vector<CameraHealth> cameraHealth(const std::vector<hull::HullView>& views,
                                        const hull::HullOptions& options);
 
+// Each camera's agreement over a video: its mask's IoU with the silhouette
+// of the hull carved from every other camera, frame by frame (a camera
+// that goes wrong for a while, a light switched on, someone walking past
+// one camera, shows in which frames).
+struct HealthOverTime {
+  std::vector<uint64_t> frame_ids;  // the frames measured, in order
+  struct Camera {
+    std::vector<double> agreement;  // per measured frame; negative: not measured
+    double min = -1, median = -1;
+    std::vector<uint64_t> bad_frames;  // frames where it was set apart from the rest
+    std::string concern;               // empty, or what sets it apart over time
+  };
+  std::vector<Camera> cameras;
+};
+
+// Summarises each frame's health (frame_ids[k]: per_frame[k], cameraHealth
+// of that frame) into each camera's min and median agreement, the frames
+// where it was set apart from the rest, and a concern.
+HealthOverTime summariseHealthOverTime(const std::vector<uint64_t>& frame_ids,
+                                       const std::vector<std::vector<CameraHealth>>& per_frame);
+
+// The table for people, and a CHECK line per camera set apart.
+std::string healthOverTimeText(const std::vector<std::string>& names, const HealthOverTime& health,
+                               size_t frames_in_dataset);
+
 // A table of the cameras' health for people (names in views' order), then
 // one line per camera with a concern, saying what to do about it.
 std::string cameraHealthText(const std::vector<std::string>& names,

@@ -61,13 +61,18 @@ struct DatasetSummary {
   std::string text;  // for people
   std::vector<CameraSummary> cameras;
   uint64_t inspected_frame_id = 0;  // the frame the sheet and the IoU come from
+  HealthOverTime health_over_time;  // over frames spread through the dataset
 };
 
 // Summarises a dataset and writes the contact sheet PNG (every camera, its
 // mask dimmed outside, the hull's silhouette outlined) to sheet_png. The
 // hull is carved in the dataset's capture volume at its voxel size (or at
-// voxel_size when positive).
+// voxel_size when positive). Mask health over time is measured on up to
+// health_frames frames spread evenly through it (0: every frame).
 StatusOr<DatasetSummary> describeDataset(const std::string& dir, const std::string& sheet_png,
-                                         double voxel_size = 0.0);
+                                         double voxel_size = 0.0, size_t health_frames = 16);
+
+// Frame ids every camera holds, in order.
+std::vector<uint64_t> wholeFrames(const Dataset& dataset);
 
 }  // namespace holofuse::dataset
