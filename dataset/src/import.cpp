@@ -14,10 +14,12 @@
 #include "common/opencv_image.h"
 #include "common/pod_frame_codec.h"
 #include "common/segmentation.h"
+#include "dataset/camera_input.h"
 #include "dataset/dataset.h"
 #include "dataset/metadata.h"
 #include "dataset/record_file.h"
 #include "hull/mask_agreement.h"
+#include "picture_reading.h"
 #include "protocol/connection.h"
 #include "protocol/messages.h"
 
@@ -32,92 +34,6 @@ struct LoadedImage {
   Image8 color;
   std::optional<Image8> alpha_mask;
 };
-
-// The videos an import reads, each open at the frame it reads next: the
-// import goes through each camera's frames in order, so each read is the
-// next one and seeks are rare.
-class VideoFrames {
- public:
-  StatusOr<cv::Mat> read(const VideoFrameName& frame, const char* what) {
-    auto& open = open_[frame.video];
-    if (!open.reader.isOpened()) {
-      if (!fs::exists(frame.video))
-        return Status(StatusCode::kIoError, frame.video + ": " + what + " video is missing");
-      if (!open.reader.open(frame.video))
-        return Status(StatusCode::kMalformed, frame.video + ": cannot open the " + what + " video");
-      open.next = 0;
-    }
-    if (open.next != frame.index)
-      open.reader.set(cv::CAP_PROP_POS_FRAMES, static_cast<double>(frame.index));
-    cv::Mat m;
-    if (!open.reader.read(m) || m.empty()) {
-      return Status(StatusCode::kMalformed, frame.video + ": frame " + std::to_string(frame.index) +
-                                                " of the " + what + " video cannot be decoded");
-    }
-    open.next = frame.index + 1;
-    return m;
-  }
-  void close() { open_.clear(); }
-
- private:
-  struct Open {
-    cv::VideoCapture reader;
-    size_t next = 0;
-  };
-  std::map<std::string, Open> open_;
-};
-
-VideoFrames& videoFrames() {
-  static VideoFrames frames;
-  return frames;
-}
-
-// A picture file (through OpenImageIO: 8- or 16-bit PNG, TIFF, JPEG,
-// OpenEXR...) or a video frame, as float display values in [0, 1] with the
-// channels in R, G, B(, A) order, checked against the camera's size.
-StatusOr<cv::Mat> readAny(const std::string& file, const Camera& camera, const char* what) {
-  cv::Mat m;
-  if (const auto frame = parseVideoFrameName(file)) {
-    auto decoded = videoFrames().read(*frame, what);
-    if (!decoded.isOk()) return decoded.status();
-    if (decoded->channels() == 3) cv::cvtColor(*decoded, *decoded, cv::COLOR_BGR2RGB);
-    decoded->convertTo(m, CV_32F, decoded->depth() == CV_16U ? 1.0 / 65535.0 : 1.0 / 255.0);
-  } else {
-    if (!fs::exists(file))
-      return Status(StatusCode::kIoError, file + ": " + what + " file is missing");
-    auto stored = readImageValues(file);
-    if (!stored.isOk()) {
-      std::string reason = stored.status().message();  // "<file>: <why>"
-      if (reason.rfind(file + ": ", 0) == 0) reason.erase(0, file.size() + 2);
-      return Status(StatusCode::kMalformed,
-                    file + ": cannot decode the " + std::string(what) + " (" + reason + ")");
-    }
-    if (stored->channels > 4) {
-      return Status(StatusCode::kMalformed, file + ": " + std::to_string(stored->channels) +
-                                                " channels (grey, RGB or RGBA are read)");
-    }
-    m = cv::Mat(static_cast<int>(stored->height), static_cast<int>(stored->width),
-                CV_32FC(static_cast<int>(stored->channels)), stored->values.data())
-            .clone();
-  }
-  if (m.empty())
-    return Status(StatusCode::kMalformed, file + ": cannot decode the " + std::string(what));
-  if (m.cols != static_cast<int>(camera.width) || m.rows != static_cast<int>(camera.height)) {
-    return Status(StatusCode::kMalformed,
-                  file + ": the " + std::string(what) + " is " + std::to_string(m.cols) + "x" +
-                      std::to_string(m.rows) + ", the calibration of camera " +
-                      std::to_string(camera.id) + " says " + std::to_string(camera.width) + "x" +
-                      std::to_string(camera.height));
-  }
-  return m;
-}
-
-// Float values in [0, 1] as 8-bit, rounded.
-cv::Mat toEightBit(const cv::Mat& values) {
-  cv::Mat out;
-  values.convertTo(out, CV_8U, 255.0);
-  return out;
-}
 
 // The subject where value (one channel in [0, 1]) is above threshold,
 // without the specks a noisy background leaves: components under 1% of
@@ -183,88 +99,6 @@ StatusOr<Image8> readMask(const std::string& file, const Camera& camera, double 
     brightest = cv::max(cv::max(channels[0], channels[1]), channels[2]);  // alpha is not a colour
   }
   return fromMat(binaryMask(brightest, threshold));
-}
-
-// Pinhole remap: for each pixel of the undistorted image (same K, skew
-// included), where Camera::project's distortion model puts it in the
-// source. Colour bilinear, masks nearest.
-struct Undistortion {
-  cv::Mat map_x, map_y;
-  static std::optional<Undistortion> of(const Camera& c) {
-    bool any = false;
-    for (double k : c.distortion) any = any || k != 0.0;
-    if (!any) return std::nullopt;
-    Camera pinhole = c;
-    pinhole.distortion.clear();
-    Undistortion u;
-    u.map_x.create(static_cast<int>(c.height), static_cast<int>(c.width), CV_32FC1);
-    u.map_y.create(static_cast<int>(c.height), static_cast<int>(c.width), CV_32FC1);
-    // A point on the ray through each destination pixel centre, projected
-    // with the distortion: the source position.
-    for (uint32_t y = 0; y < c.height; ++y) {
-      for (uint32_t x = 0; x < c.width; ++x) {
-        const glm::dvec3 world = pinhole.center() + pinhole.rayDirection(x + 0.5, y + 0.5);
-        const auto p = c.project(world);
-        u.map_x.at<float>(static_cast<int>(y), static_cast<int>(x)) =
-            p ? static_cast<float>(p->x - 0.5) : -1.0f;
-        u.map_y.at<float>(static_cast<int>(y), static_cast<int>(x)) =
-            p ? static_cast<float>(p->y - 0.5) : -1.0f;
-      }
-    }
-    return u;
-  }
-  Image8 apply(const Image8& image, int interpolation) const {
-    cv::Mat out;
-    cv::remap(wrapForReading(image), out, map_x, map_y, interpolation, cv::BORDER_CONSTANT,
-              cv::Scalar::all(0));
-    return fromMat(out);
-  }
-};
-
-// The fewest frames a plate video needs, and the most it is learnt from.
-constexpr size_t kFewestPlateFrames = 3, kMostPlateFrames = 60;
-
-// A camera's plate as a background model: a still picture, or the frames
-// of a plate video (each undistorted). Real sensors and JPEG blocks are
-// noisier than the synthetic pods, so the model's noise floor is higher.
-StatusOr<BackgroundModel> readPlate(const std::string& file, const CaptureCamera& camera,
-                                    const std::optional<Undistortion>& undistort) {
-  SegmentationOptions options;
-  options.noise = 4;
-  auto asRgb = [&](cv::Mat values) {
-    if (values.channels() == 1) cv::cvtColor(values, values, cv::COLOR_GRAY2RGB);
-    if (values.channels() == 4) cv::cvtColor(values, values, cv::COLOR_RGBA2RGB);
-    Image8 rgb = fromMat(toEightBit(values));
-    return undistort ? undistort->apply(std::move(rgb), cv::INTER_LINEAR) : rgb;
-  };
-  const std::string who = "the plate of camera \"" + camera.name + "\"";
-  if (!isVideoFile(file)) {
-    auto still = readAny(file, camera.camera, "plate");
-    if (!still.isOk()) return Status(still.status().code(), who + ": " + still.status().message());
-    return BackgroundModel(asRgb(*still), options);
-  }
-  if (!fs::exists(file)) return Status(StatusCode::kIoError, file + ": " + who + " is missing");
-  std::vector<Image8> frames;
-  for (size_t f = 0; f < kMostPlateFrames; ++f) {
-    const std::string name = videoFrameName(file, f);
-    auto frame = readAny(name, camera.camera, "plate");
-    if (!frame.isOk()) {
-      // The end of the video, or a frame that is wrong.
-      if (frame.status().message().find("the plate is ") != std::string::npos)
-        return Status(frame.status().code(), who + ": " + frame.status().message());
-      break;
-    }
-    frames.push_back(asRgb(*frame));
-  }
-  if (frames.size() < kFewestPlateFrames) {
-    return Status(StatusCode::kMalformed,
-                  file + ": " + who + " is a video of " + std::to_string(frames.size()) +
-                      " frames; a plate video needs at least " +
-                      std::to_string(kFewestPlateFrames) + " (or give a still picture)");
-  }
-  auto model = BackgroundModel::fromFrames(frames, options);
-  if (!model.isOk()) return Status(model.status().code(), who + ": " + model.status().message());
-  return model;
 }
 
 // Everything about one image of one camera, ready to encode.
@@ -418,7 +252,7 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
                                       const std::function<void(const ImportProgress&)>& progress) {
   // Whichever way the import ends, the videos it opened are closed.
   struct CloseVideos {
-    ~CloseVideos() { videoFrames().close(); }
+    ~CloseVideos() { closeVideos(); }
   } close_videos;
   const auto start = std::chrono::steady_clock::now();
   if (!(options.mask_threshold > 0 && options.mask_threshold < 1)) {
@@ -510,11 +344,9 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
       mask = std::move(color->alpha_mask);
     }
     view.mask_given = mask.has_value();
-    view.color = undistort[c] ? undistort[c]->apply(std::move(color->color), cv::INTER_LINEAR)
-                              : std::move(color->color);
+    view.color = undistort[c] ? undistort[c]->apply(color->color) : std::move(color->color);
     if (mask) {
-      view.mask = undistort[c] ? undistort[c]->apply(std::move(*mask), cv::INTER_NEAREST)
-                               : std::move(*mask);
+      view.mask = undistort[c] ? undistort[c]->apply(*mask, true) : std::move(*mask);
     } else if (plates[c]) {
       view.mask = plates[c]->segment(view.color, nullptr,
                                      previous_masks[c].empty() ? nullptr : &previous_masks[c]);
