@@ -1,13 +1,16 @@
-// capture_node: one synthetic camera pod. Its --help lists the flags.
+// capture_node: one camera pod (synthetic, a replay, or a real camera). Its
+// --help lists the flags.
 #include <cstdio>
 #include <vector>
 
 #include "base/process.h"
+#include "capture_node/camera_pod.h"
 #include "capture_node/pod.h"
 #include "capture_node/replay_pod.h"
 #include "common/command_line.h"
 #include "common/image_codec.h"
 #include "common/shutdown.h"
+#include "dataset/capture_formats.h"
 #include "protocol/messages.h"
 #include "scene/scene_library.h"
 
@@ -15,7 +18,9 @@ int main(int argc, char** argv) {
   using namespace holofuse;
   capture::PodOptions options;
   std::string server, size = "320x240", scene_name = "clean";
-  CLI::App app{"holofuse capture_node: a synthetic camera pod streaming to a fusion server"};
+  CLI::App app{
+      "holofuse capture_node: a camera pod streaming to a fusion server: a synthetic camera, a "
+      "recorded one (--replay), or a real one (--source)"};
   app.add_option("--server", server, "fusion server HOST:PORT")->required();
   app.add_option("--pod-id", options.pod_id,
                  "this pod's camera index (0-based); with --rig, by default the rig's pod on "
@@ -49,7 +54,40 @@ int main(int argc, char** argv) {
   app.add_option(
       "--speed", speed,
       "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
-  app.add_flag("--loop", loop, "with --replay: start over at the end");
+  app.add_flag("--loop", loop, "with --replay or a video file's --source: start over at the end");
+  // A real camera: the source, the rig's calibration, the plate.
+  capture::CameraPodOptions camera_options;
+  CLI::Option* source_option = app.add_option(
+      "--source", camera_options.source,
+      "a real camera instead of a synthetic scene: a V4L2 device (/dev/video0 or 0), an RTSP or "
+      "HTTP stream URL, or a video file (played at its frame rate)");
+  source_option->excludes(replay_option);
+  for (CLI::Option* option :
+       {app.get_option("--pods"), app.get_option("--size"), app.get_option("--scene"),
+        app.get_option("--seed"), app.get_option("--noise"), app.get_option("--frame-id-offset")})
+    source_option->excludes(option);
+  std::vector<CLI::Option*> camera_flags = {
+      app.add_option("--calibration", camera_options.calibration,
+                     "with --source: the rig's calibration, a capture folder in any format "
+                     "`holofuse dataset import` reads"),
+      app.add_option("--calibration-format", camera_options.calibration_format,
+                     std::string("with --source: the calibration's format: ") +
+                         dataset::captureFormatNames())
+          ->capture_default_str(),
+      app.add_option("--camera", camera_options.camera,
+                     "with --source: this camera's name in the calibration (default: the one "
+                     "numbered --pod-id, in natural name order)"),
+      app.add_option("--plate", camera_options.plate,
+                     "with --source: the empty room, a picture or a video (default: the "
+                     "camera's background in the calibration)"),
+      app.add_option("--plate-frames", camera_options.plate_frames,
+                     "with --source: learn the plate from this many frames of the source, with "
+                     "the room empty")
+          ->check(CLI::Range(0, 600)),
+      app.add_flag("--plate-on-key", camera_options.plate_on_key,
+                   "with --source and --plate-frames: take the plate when Enter is pressed (a "
+                   "line on standard input), and again on each later Enter")};
+  for (CLI::Option* option : camera_flags) option->needs(source_option);
   PeerKeyFlags key_flags(app, "pod");
   const ProtocolFlag protocol_flag(app, "pod");
   // A capture PC that knows only its name finds its pod in the rig file.
@@ -82,6 +120,23 @@ int main(int argc, char** argv) {
   if (!endpoint.isOk()) {
     std::fprintf(stderr, "--server: %s\n", endpoint.status().message().c_str());
     return 2;
+  }
+  if (!camera_options.source.empty()) {
+    if (camera_options.calibration.empty()) {
+      std::fprintf(stderr, "--source needs --calibration (the rig's calibration folder)\n");
+      return 2;
+    }
+    camera_options.server = *endpoint;
+    camera_options.pod_id = options.pod_id;
+    camera_options.key = options.key;
+    camera_options.max_minor = options.max_minor;
+    camera_options.loop = loop;
+    camera_options.frames = options.frames;
+    if (app.count("--fps")) camera_options.fps = options.fps;
+    encoding_flags.apply(camera_options.encoding);
+    installStopSignals();
+    const FreeMemoryReturner free_memory;
+    return capture::runCameraPod(camera_options);
   }
   if (!replay.empty()) {
     capture::ReplayOptions replay_options;

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "base/process.h"
+#include "capture_node/pod_link.h"
 #include "common/image_codec.h"
 #include "common/pod_frame_codec.h"
 #include "common/segmentation.h"
@@ -83,15 +84,10 @@ int runPod(const PodOptions& options) {
                options.encoding.lz4_acceleration, options.encoding.crop_margin,
                options.encoding.lz4_hc_level);
 
-  protocol::Hello hello;
-  hello.role = protocol::Role::kPod;
-  hello.id = options.pod_id;
-  hello.name = "pod-" + std::to_string(options.pod_id);
-  hello.max_minor = options.max_minor;
-  protocol::LinkOptions link_options;
-  link_options.log_name = hello.name;
-  link_options.key = options.key;
-  protocol::ServerLink link(options.server, hello, link_options);
+  const std::string name = "pod-" + std::to_string(options.pod_id);
+  PodLink pod_link(options.server, options.pod_id, name, options.key, options.max_minor,
+                   toCalibration(reported));
+  protocol::ServerLink& link = pod_link.link();
 
   const uint64_t period_ns = static_cast<uint64_t>(1e9 / options.fps);
   // A frame's work (render, segment, feather, encode, send: about 3 ms at
@@ -108,7 +104,6 @@ int runPod(const PodOptions& options) {
   uint64_t last_frame_id = 0;
   uint64_t sent = 0, skipped = 0;
   Image8 previous_mask;  // the last frame's, for the segmenter's hysteresis
-  std::vector<protocol::Frame> received;
   while (!stopRequested()) {
     // Frame ids follow a grid on the wall clock, so pods in separate
     // processes (or hosts) agree on ids without talking to each other; a
@@ -117,14 +112,12 @@ int runPod(const PodOptions& options) {
     const uint64_t frame_id = now / period_ns;
     const uint64_t next_due = (frame_id + 1) * period_ns;
     if (frame_id <= last_frame_id || !link.ready()) {
-      link.poll(static_cast<int>(std::min<uint64_t>((next_due - now) / 1000000 + 1, 50)), received);
-      received.clear();  // pods expect nothing but handshake and heartbeats
-      if (link.fatalError()) {
-        std::fprintf(stderr, "[%s] giving up: %s\n", hello.name.c_str(),
+      if (!pod_link.pump(
+              static_cast<int>(std::min<uint64_t>((next_due - now) / 1000000 + 1, 50)))) {
+        std::fprintf(stderr, "[%s] giving up: %s\n", name.c_str(),
                      link.fatalError()->toString().c_str());
         return 2;
       }
-      if (link.takeConnectedEvent()) link.sendMessage(toCalibration(reported));
       continue;
     }
     if (last_frame_id != 0 && frame_id > last_frame_id + 1) skipped += frame_id - last_frame_id - 1;
@@ -138,8 +131,7 @@ int runPod(const PodOptions& options) {
     link.send(std::make_shared<const protocol::OutgoingFrame>(
         encodePodFrame(capture, camera.id, options.encoding)));
     previous_mask = capture.mask;
-    link.poll(0, received);
-    received.clear();
+    pod_link.pump(0);
     ++sent;
     if (options.frames > 0 && sent >= options.frames) break;
   }
@@ -147,7 +139,7 @@ int runPod(const PodOptions& options) {
   std::fprintf(stderr,
                "[%s] sent %llu frames (%llu ids skipped to stay real-time), %.1f MB, %llu dropped "
                "by the queue\n",
-               hello.name.c_str(), static_cast<unsigned long long>(sent),
+               name.c_str(), static_cast<unsigned long long>(sent),
                static_cast<unsigned long long>(skipped), link.bytesOut() / 1e6,
                static_cast<unsigned long long>(link.framesDropped()));
   return 0;

@@ -6,6 +6,7 @@
 #include <memory>
 #include <thread>
 
+#include "capture_node/pod_link.h"
 #include "common/shutdown.h"
 #include "dataset/dataset.h"
 #include "protocol/clock.h"
@@ -76,22 +77,10 @@ int runReplayPod(const ReplayOptions& options) {
   const protocol::Calibration calibration_message = *calibration;
   const dataset::DatasetCamera& camera = dataset->cameras().at(options.pod_id);
 
-  protocol::Hello hello;
-  hello.role = protocol::Role::kPod;
-  hello.id = options.pod_id;
-  hello.name = name;
-  hello.max_minor = options.max_minor;
-  protocol::LinkOptions link_options;
-  link_options.log_name = name;
-  link_options.key = options.key;
-  protocol::ServerLink link(options.server, hello, link_options);
-  std::vector<protocol::Frame> received;
-  auto pump = [&](int timeout_ms) {
-    link.poll(timeout_ms, received);
-    received.clear();
-    if (link.takeConnectedEvent()) link.sendMessage(calibration_message);
-    return !link.fatalError();
-  };
+  PodLink pod_link(options.server, options.pod_id, name, options.key, options.max_minor,
+                   calibration_message);
+  protocol::ServerLink& link = pod_link.link();
+  auto pump = [&](int timeout_ms) { return pod_link.pump(timeout_ms); };
 
   // Every replay pod derives the same timeline from the same dataset: ids
   // shift by the dataset's id span per loop, times by its duration plus

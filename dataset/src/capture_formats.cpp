@@ -242,7 +242,12 @@ StatusOr<CaptureDescription> readHolofuseCapture(const std::string& folder) {
     numberCamerasByName(d);
     return d;
   }
-  if (!root.contains("frames") || !root["frames"].is_array() || root["frames"].empty()) {
+  // Cameras alone: a rig's calibration, which live camera pods read.
+  if (!root.contains("frames")) {
+    numberCamerasByName(d);
+    return d;
+  }
+  if (!root["frames"].is_array() || root["frames"].empty()) {
     return malformed(where, "expected a non-empty \"frames\" array (or a \"video\" per camera)");
   }
   for (size_t f = 0; f < root["frames"].size(); ++f) {
