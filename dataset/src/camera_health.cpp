@@ -7,16 +7,6 @@
 
 namespace holofuse::dataset {
 
-namespace {
-
-double median(std::vector<double> values) {
-  if (values.empty()) return -1;
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
-}
-
-}  // namespace
-
 std::vector<CameraHealth> cameraHealth(const std::vector<hull::HullView>& views,
                                        const hull::HullOptions& options) {
   std::vector<CameraHealth> health(views.size());
@@ -40,8 +30,8 @@ std::vector<CameraHealth> cameraHealth(const std::vector<hull::HullView>& views,
     agreements.push_back(health[j].agreement);
     others_agreements.push_back(health[j].others_agreement);
   }
-  const double agreement_median = median(agreements);
-  const double others_median = median(others_agreements);
+  const double agreement_median = medianOf(agreements);
+  const double others_median = medianOf(others_agreements);
   char text[200];
   for (CameraHealth& h : health) {
     if (h.coverage == 0) {
@@ -69,49 +59,17 @@ std::vector<CameraHealth> cameraHealth(const std::vector<hull::HullView>& views,
 
 HealthOverTime summariseHealthOverTime(const std::vector<uint64_t>& frame_ids,
                                        const std::vector<std::vector<CameraHealth>>& per_frame) {
-  HealthOverTime health;
-  health.frame_ids = frame_ids;
-  const size_t cameras = per_frame.empty() ? 0 : per_frame.front().size();
-  health.cameras.resize(cameras);
-  std::vector<double> medians;
-  for (size_t c = 0; c < cameras; ++c) {
-    HealthOverTime::Camera& camera = health.cameras[c];
-    std::vector<double> measured;
-    for (size_t k = 0; k < per_frame.size(); ++k) {
-      const CameraHealth* h = c < per_frame[k].size() ? &per_frame[k][c] : nullptr;
-      camera.agreement.push_back(h ? h->agreement : -1.0);
-      if (camera.agreement.back() >= 0) measured.push_back(camera.agreement.back());
-      if (h && !h->concern.empty()) camera.bad_frames.push_back(frame_ids[k]);
-    }
-    if (measured.empty()) continue;
-    camera.min = *std::min_element(measured.begin(), measured.end());
-    camera.median = median(measured);
-    medians.push_back(camera.median);
-  }
-  const double rig_median = median(medians);
-  char text[240];
-  for (HealthOverTime::Camera& camera : health.cameras) {
-    std::string frames;
-    for (size_t k = 0; k < camera.bad_frames.size() && k < 8; ++k)
-      frames += (k ? ", " : "") + std::to_string(camera.bad_frames[k]);
-    if (camera.bad_frames.size() > 8)
-      frames += " and " + std::to_string(camera.bad_frames.size() - 8) + " more";
-    if (camera.median >= 0 && camera.median < rig_median - kAgreementGap) {
-      std::snprintf(text, sizeof(text),
-                    "over the video its masks agree with the others' hull at a median IoU of "
-                    "%.2f, where the cameras' median is %.2f",
-                    camera.median, rig_median);
-      camera.concern = text;
-      if (!frames.empty()) camera.concern += "; set apart in frames " + frames;
-    } else if (!camera.bad_frames.empty()) {
-      std::snprintf(text, sizeof(text),
-                    "its mask is set apart from the rest in %zu of the %zu frames measured "
-                    "(IoU with the others' hull down to %.2f, median %.2f): frames ",
-                    camera.bad_frames.size(), per_frame.size(), camera.min, camera.median);
-      camera.concern = text + frames;
+  std::vector<std::vector<double>> values;
+  std::vector<std::vector<bool>> set_apart;
+  for (const auto& frame : per_frame) {
+    values.emplace_back();
+    set_apart.emplace_back();
+    for (const CameraHealth& h : frame) {
+      values.back().push_back(h.agreement);
+      set_apart.back().push_back(!h.concern.empty());
     }
   }
-  return health;
+  return holofuse::summariseHealthOverTime(frame_ids, values, set_apart);
 }
 
 std::string healthOverTimeText(const std::vector<std::string>& names, const HealthOverTime& health,

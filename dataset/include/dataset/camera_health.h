@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "common/health_over_time.h"
 #include "hull/visual_hull.h"
 
 namespace holofuse::dataset {
@@ -36,21 +37,6 @@ inline constexpr double kAgreementGap = 0.25;
 // One entry per view, in views' order; the hulls carved with options.
 std::vector<CameraHealth> cameraHealth(const std::vector<hull::HullView>& views,
                                        const hull::HullOptions& options);
-
-// Each camera's agreement over a video: its mask's IoU with the silhouette
-// of the hull carved from every other camera, frame by frame (a camera
-// that goes wrong for a while, a light switched on, someone walking past
-// one camera, shows in which frames).
-struct HealthOverTime {
-  std::vector<uint64_t> frame_ids;  // the frames measured, in order
-  struct Camera {
-    std::vector<double> agreement;  // per measured frame; negative: not measured
-    double min = -1, median = -1;
-    std::vector<uint64_t> bad_frames;  // frames where it was set apart from the rest
-    std::string concern;               // empty, or what sets it apart over time
-  };
-  std::vector<Camera> cameras;
-};
 
 // Summarises each frame's health (frame_ids[k]: per_frame[k], cameraHealth
 // of that frame) into each camera's min and median agreement, the frames
