@@ -50,10 +50,11 @@ HealthOverTime summariseHealthOverTime(const std::vector<uint64_t>& frame_ids,
     if (camera.bad_frames.size() > 8)
       frames += " and " + std::to_string(camera.bad_frames.size() - 8) + " more";
     if (camera.median >= 0 && camera.median < rig_median - kHealthGap) {
-      std::snprintf(text, sizeof(text),
-                    "over the video its masks agree with the hull at a median IoU of %.2f, where "
-                    "the cameras' median is %.2f",
-                    camera.median, rig_median);
+      std::snprintf(
+          text, sizeof(text),
+          "over the frames measured its masks agree with the hull at a median IoU of %.2f, "
+          "where the cameras' median is %.2f",
+          camera.median, rig_median);
       camera.concern = text;
       if (!frames.empty()) camera.concern += "; set apart in frames " + frames;
     } else if (!camera.bad_frames.empty()) {

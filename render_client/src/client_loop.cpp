@@ -19,6 +19,7 @@
 #include "render_client/client.h"
 #include "render_client/frame_judge.h"
 #include "render_client/latency_report.h"
+#include "render_client/mask_health.h"
 #include "render_client/picture_writer.h"
 
 namespace holofuse::render {
@@ -174,6 +175,15 @@ class ClientLoop {
     report_.setClientClock(own);
     for (const std::string& warning : report_.clockWarnings())
       std::fprintf(stderr, "[client] warning: %s\n", warning.c_str());
+    std::vector<uint32_t> health_ids;
+    report_.setMaskHealth(mask_health_.summary(&health_ids), health_ids);
+    for (size_t c = 0; c < report_.maskHealth().cameras.size(); ++c) {
+      const std::string& concern = report_.maskHealth().cameras[c].concern;
+      if (!concern.empty())
+        std::fprintf(stderr, "[client] CHECK pod %u's mask: %s\n",
+                     c < health_ids.size() ? health_ids[c] : static_cast<uint32_t>(c),
+                     concern.c_str());
+    }
     if (writer_) {
       writer_->flush();
       report_.setPicturesDropped(writer_->dropped());
@@ -366,6 +376,7 @@ class ClientLoop {
       renderer_.setViews(bundle.views);
     }
     report_.addViewsWithoutSubject(renderer_.camerasWithoutSubject());
+    if (!bundle.layers) mask_health_.offer(id, now(), *mesh, bundle.views);
     ready.uploaded_ns = now();
     auto user = userCamera(options_, cameras_, meshBounds(*mesh), report_.framesRendered());
     if (!user) {
@@ -522,6 +533,7 @@ class ClientLoop {
   std::set<uint64_t> failed_bundles_;  // ids already reported as skipped
   LatencyReport report_;
   std::optional<PictureWriter> writer_;  // the pictures, off the render path
+  MaskHealthSampler mask_health_;        // each pod's mask against the hull, off it too
   uint64_t last_progress_ns_ = 0;
   uint64_t superseded_ = 0;             // meshes skipped because a newer one was already there
   bool judge_failed_ = false;           // warned once

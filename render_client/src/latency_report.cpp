@@ -323,6 +323,21 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   j["frames_superseded"] = superseded_;
   j["pictures_dropped"] = pictures_dropped_;
   j["camera_views_without_subject"] = views_without_subject_;
+  // Each pod's mask against the fused hull, sampled about once a second.
+  nlohmann::ordered_json health = nlohmann::ordered_json::object();
+  health["frames_measured"] = mask_health_.frame_ids;
+  health["cameras"] = nlohmann::ordered_json::array();
+  for (size_t c = 0; c < mask_health_.cameras.size(); ++c) {
+    const HealthOverTime::Camera& camera = mask_health_.cameras[c];
+    nlohmann::ordered_json entry;
+    entry["camera"] = c < mask_health_ids_.size() ? mask_health_ids_[c] : c;
+    entry["iou_min"] = camera.min;
+    entry["iou_median"] = camera.median;
+    entry["frames_set_apart"] = camera.bad_frames;
+    entry["concern"] = camera.concern;
+    health["cameras"].push_back(entry);
+  }
+  j["mask_health"] = health;
   j["settings"] = settings;
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
   for (const auto& f : frames_) {
@@ -526,6 +541,27 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
         "(the smallest round trip of the last eight). A clock that moves more than " +
         ms3(clock_drift_warn_ms_, false) + " beyond the estimates' uncertainty is flagged.</p>\n" +
         html::table({"host", "offset", "uncertainty", "drift", "state"}, rows);
+  }
+  if (!mask_health_.frame_ids.empty()) {
+    std::vector<std::vector<std::string>> rows;
+    for (size_t c = 0; c < mask_health_.cameras.size(); ++c) {
+      const HealthOverTime::Camera& camera = mask_health_.cameras[c];
+      char min[16], median[16];
+      std::snprintf(min, sizeof(min), "%.3f", camera.min);
+      std::snprintf(median, sizeof(median), "%.3f", camera.median);
+      const std::string id = std::to_string(c < mask_health_ids_.size() ? mask_health_ids_[c] : c);
+      rows.push_back({(camera.concern.empty() ? "" : "!") + id, min, median,
+                      std::to_string(camera.bad_frames.size()),
+                      camera.concern.empty() ? "agrees with the rest" : camera.concern});
+    }
+    body += "<h2>Each pod's mask against the fused hull</h2>\n<p>On " +
+            std::to_string(mask_health_.frame_ids.size()) +
+            " frames, about one a second: each pod's mask IoU with the hull's silhouette in its "
+            "camera. A mask under that frame's median by " +
+            std::to_string(static_cast<int>(100 * kHealthGap)) +
+            " points is set apart (a prop or a light only it sees, or a part of the subject it "
+            "misses).</p>\n" +
+            html::table({"camera", "IoU min", "IoU median", "frames set apart", "verdict"}, rows);
   }
   if (!budget.empty()) {
     std::vector<std::vector<std::string>> rows;

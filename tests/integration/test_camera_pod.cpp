@@ -4,11 +4,8 @@
 // streams to a fusion server that records what it receives. A source of
 // another size than the calibration is refused by name; a stream that
 // drops is reconnected.
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
 #include <signal.h>
-#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -231,21 +228,10 @@ TEST(CameraPod, AFrameOfAnotherSizeIsRefusedByName) {
 
 // A free TCP port on loopback (bound, read back, released).
 int freePort() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a));
-  socklen_t length = sizeof(a);
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &length);
-  ::close(fd);
-  return ntohs(a.sin_port);
+  auto listener = protocol::listenTcp({"127.0.0.1", 0});
+  return listener.isOk() ? listener->localPort() : 0;  // closed again on return
 }
 
-// An HTTP stream served by ffmpeg on loopback (MPEG-2 in MPEG-TS, as an
-// encoder box would send it), looping the video in real time. The pod
-// streams, loses the stream when ffmpeg is killed, and reconnects when it
-// is back.
 // A program on $PATH, by its full path (empty when there is none).
 std::string onPath(const std::string& program) {
   const char* path = std::getenv("PATH");

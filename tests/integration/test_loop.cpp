@@ -479,6 +479,47 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   }
 }
 
+// The live report measures each pod's mask against the hull the client
+// receives, about once a second: pod 2 of four films with a sensor so
+// noisy that its mask is most of its picture (it carves nothing, so the
+// hull is the others'); the report and the client's log name it, and only
+// it, with the frames it was set apart in.
+TEST(Loop, TheReportNamesThePodWhoseMaskDisagreesWithTheHull) {
+  const fs::path out = freshDir("mask_health");
+  pid_t server = 0;
+  const std::string endpoint = startServer(out, 4, &server);
+  ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
+  std::vector<pid_t> pods;
+  for (int id = 0; id < 4; ++id) {
+    pods.push_back(holofuse::test::startSmallPod(
+        kBin, endpoint, id, 4, out,
+        id == 2 ? std::vector<std::string>{"--noise", "64"} : std::vector<std::string>{}));
+  }
+  const pid_t client =
+      holofuse::test::startSmallClient(kBin, endpoint, out, "client", 40, {"--view", "pod:0"});
+  EXPECT_EQ(waitExit(client, 120), 0) << readFile(out / "client.log");
+  for (pid_t pod : pods) kill(pod, SIGTERM);
+  for (pid_t pod : pods) waitExit(pod, 30);
+  kill(server, SIGTERM);
+  waitExit(server, 30);
+  const auto health = readJson(out / "client" / "report.json")["mask_health"];
+  ASSERT_GE(health["frames_measured"].size(), 2u) << health.dump();
+  ASSERT_EQ(health["cameras"].size(), 4u) << health.dump();
+  for (const auto& camera : health["cameras"]) {
+    if (camera["camera"] == 2) {
+      EXPECT_LT(camera["iou_median"].get<double>(), 0.5) << camera.dump();
+      EXPECT_FALSE(camera["frames_set_apart"].empty()) << camera.dump();
+      EXPECT_NE(camera["concern"].get<std::string>(), "") << camera.dump();
+    } else {
+      EXPECT_GT(camera["iou_median"].get<double>(), 0.7) << camera.dump();
+      EXPECT_EQ(camera["concern"].get<std::string>(), "") << camera.dump();
+    }
+  }
+  EXPECT_NE(readFile(out / "client.log").find("CHECK pod 2's mask"), std::string::npos)
+      << readFile(out / "client.log");
+  fs::remove_all(out);
+}
+
 TEST(Loop, APodWithoutServerRetriesWithBackoffAndJoinsWhenItAppears) {
   const fs::path out = freshDir("backoff");
   const uint16_t port = freePort();

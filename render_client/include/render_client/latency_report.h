@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "base/status.h"
+#include "common/health_over_time.h"
 #include "protocol/clock_sync.h"
 #include "protocol/messages.h"
 #include "protocol/stage_budget.h"
@@ -95,6 +96,13 @@ class LatencyReport {
   // Camera views of rendered meshes that held none of the subject (left out
   // of every texture-field pass and of the blend).
   void addViewsWithoutSubject(size_t count) { views_without_subject_ += count; }
+  // Each pod's mask against the fused hull over the run
+  // (render_client/mask_health.h), with the cameras' ids in its order.
+  void setMaskHealth(HealthOverTime health, std::vector<uint32_t> camera_ids) {
+    mask_health_ = std::move(health);
+    mask_health_ids_ = std::move(camera_ids);
+  }
+  const HealthOverTime& maskHealth() const { return mask_health_; }
 
   size_t framesRendered() const { return frames_.size(); }
   double fps() const;
@@ -171,6 +179,8 @@ class LatencyReport {
   uint64_t superseded_ = 0;
   uint64_t pictures_dropped_ = 0;
   uint64_t views_without_subject_ = 0;
+  HealthOverTime mask_health_;
+  std::vector<uint32_t> mask_health_ids_;
 };
 
 }  // namespace holofuse::render

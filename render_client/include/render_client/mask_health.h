@@ -1,0 +1,59 @@
+// Each pod's mask against the hull the server fused from all of them, as
+// the client receives both: about once a second, on a thread of its own
+// (never on the render path), each camera's mask IoU with the hull's
+// silhouette in that camera. A mask holding what no other camera sees (a
+// prop, a light) or missing what the others see falls under that frame's
+// median; the report names the camera and the frames
+// (common/health_over_time.h).
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "common/health_over_time.h"
+#include "common/mesh.h"
+#include "render_client/renderer.h"
+
+namespace holofuse::render {
+
+class MaskHealthSampler {
+ public:
+  explicit MaskHealthSampler(uint64_t interval_ns = 1000000000ull);
+  ~MaskHealthSampler();
+  MaskHealthSampler(const MaskHealthSampler&) = delete;
+  MaskHealthSampler& operator=(const MaskHealthSampler&) = delete;
+
+  // A frame as rendered: measured when a sample is due and the thread is
+  // free (copies of the mesh and the masks go to it), else passed over.
+  void offer(uint64_t frame_id, uint64_t now_ns, const Mesh& mesh,
+             const std::vector<ViewImages>& views);
+  // Every sample so far, the one in flight included; camera_ids: the
+  // cameras' ids in its order.
+  HealthOverTime summary(std::vector<uint32_t>* camera_ids = nullptr);
+
+ private:
+  struct Job {
+    uint64_t frame_id = 0;
+    Mesh mesh;
+    std::vector<Camera> cameras;
+    std::vector<Image8> masks;
+  };
+  void run();
+
+  const uint64_t interval_ns_;
+  uint64_t last_offer_ns_ = 0;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::optional<Job> job_;
+  bool busy_ = false, stop_ = false;
+  std::vector<uint64_t> frame_ids_;
+  std::vector<std::vector<double>> values_;
+  std::vector<uint32_t> camera_ids_;  // of the first sample
+  std::thread thread_;
+};
+
+}  // namespace holofuse::render
