@@ -195,9 +195,18 @@ std::string formatVec(const glm::dvec3& v) {
 std::string agreementText(const ImportSummary& summary) {
   std::string text;
   for (size_t c = 0; c < summary.agreement_pixels_cut.size(); ++c) {
-    if (summary.agreement_pixels_cut[c] == 0) continue;
     const std::string name =
         c < summary.camera_names.size() ? summary.camera_names[c] : std::to_string(c);
+    if (c < summary.agreement_shift.size() && summary.agreement_shift[c] != std::pair{0, 0}) {
+      char line[200];
+      std::snprintf(line, sizeof(line),
+                    "camera %zu \"%s\": its first mask sits %+d, %+d px from the other cameras' "
+                    "hull (their calibrations disagree by that much there)\n",
+                    c, name.c_str(), summary.agreement_shift[c].first,
+                    summary.agreement_shift[c].second);
+      text += line;
+    }
+    if (summary.agreement_pixels_cut[c] == 0) continue;
     char line[256];
     std::snprintf(line, sizeof(line),
                   "camera %zu \"%s\": the other cameras' hull does not explain %.1f%% of its "
@@ -368,6 +377,7 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
   summary.agreement_pixels_cut.assign(cameras.size(), 0);
   summary.agreement_frames_cut.assign(cameras.size(), 0);
   summary.segmented_pixels.assign(cameras.size(), 0);
+  summary.agreement_shift.assign(cameras.size(), {0, 0});
   // A camera whose first mask is empty, or almost all of its picture:
   // named, since the hull will carve with it (a plate of another camera,
   // a camera that moved since its plate, one that sees only background).
@@ -437,7 +447,9 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
       for (size_t c = 0; c < cameras.size(); ++c)
         views.push_back({cameras[c], frame_views[c].mask, featherMap(frame_views[c].mask)});
       auto agreed = hull::agreeAcrossCameras(views, hull_options, {}, judged);
+      const bool first_frame = previous_masks[0].empty();
       for (size_t c = 0; c < cameras.size(); ++c) {
+        if (first_frame) summary.agreement_shift[c] = {agreed[c].shift.x, agreed[c].shift.y};
         if (agreed[c].pixels_removed == 0) continue;
         summary.agreement_pixels_cut[c] += agreed[c].pixels_removed;
         ++summary.agreement_frames_cut[c];

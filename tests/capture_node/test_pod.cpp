@@ -163,6 +163,32 @@ TEST(Segmentation, ThePreviousMaskHoldsTheSubjectsPixels) {
   EXPECT_GE(worst_held, worst_alone) << "the held masks' worst IoU";
 }
 
+// A rig whose calibrations are off (the calibration-error scene's): each
+// camera's picture sits a few pixels from where the others' hull projects.
+// Agreement moves the others' hull onto the mask first (and says by how
+// much), so it cuts nothing of the subject.
+TEST(Segmentation, TheRigsAgreementForgivesACalibrationsOffset) {
+  const scene::ScenePreset* preset = scene::findScene("calibration-error");
+  ASSERT_NE(preset, nullptr);
+  const scene::SyntheticScene scene(preset->scene);
+  std::vector<hull::HullView> views;
+  std::vector<Image8> truth;
+  for (const auto& cam : scene::SyntheticScene::cameraRig(preset->cameras, 320, 240)) {
+    truth.push_back(scene.render(cam, 12).mask);
+    const Camera reported =
+        scene::reportedCalibration(cam, preset->calibration_error_degrees,
+                                   preset->calibration_error_metres, preset->scene.seed);
+    views.push_back({reported, truth.back(), featherMap(truth.back())});
+  }
+  const auto agreed = hull::agreeAcrossCameras(views, hull::HullOptions{});
+  int moved = 0;
+  for (size_t c = 0; c < views.size(); ++c) {
+    EXPECT_GE(maskIoU(agreed[c].mask, truth[c]), 0.995) << "camera " << c;
+    moved += agreed[c].shift != glm::ivec2(0, 0);
+  }
+  EXPECT_GE(moved, 1) << "the calibrations' offsets show as moves";
+}
+
 // Fewer than three cameras: no others' hull to judge by, masks unchanged.
 TEST(Segmentation, TwoCamerasCannotOutvoteEachOther) {
   const scene::SyntheticScene scene;

@@ -11,6 +11,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "base/status.h"
@@ -67,6 +68,9 @@ struct ImportSummary {
   std::vector<uint64_t> agreement_pixels_cut;
   std::vector<size_t> agreement_frames_cut;
   std::vector<uint64_t> segmented_pixels;  // the segmenter's mask pixels before the cut
+  // Per camera, how far the others' hull had to move to overlap its first
+  // segmented mask best (pixels): the calibrations' disagreement there.
+  std::vector<std::pair<int, int>> agreement_shift;
 };
 
 // What the rig's agreement cut, a line per camera it cut from (empty when

@@ -24,6 +24,10 @@ struct AgreementOptions {
   // The others' hull is carved at this multiple of the hull's voxel: it
   // only has to say where the subject is, not its exact outline.
   double voxel_scale = 2.0;
+  // The others' hull is first moved, by up to this many pixels, to where
+  // it best overlaps the mask (a calibration's error moves a camera's
+  // picture; the cut then judges the shape, not the offset).
+  int search_px = 12;
 };
 
 // What agreement did to one camera's mask.
@@ -31,7 +35,10 @@ struct MaskAgreement {
   Image8 mask;  // the mask without what the others reject
   // Where the others' hull projects in this camera (255), before the margin.
   Image8 others_hull;
-  double margin_px = 0;         // the slack it was given
+  double margin_px = 0;  // the slack it was given
+  // How far the others' hull was moved to overlap the mask best, pixels:
+  // this camera's calibration against the others'.
+  glm::ivec2 shift{0, 0};
   uint32_t pieces_removed = 0;  // connected pieces of what was cut
   uint64_t pixels_removed = 0;
 };
