@@ -197,7 +197,10 @@ std::string agreementText(const ImportSummary& summary) {
   for (size_t c = 0; c < summary.agreement_pixels_cut.size(); ++c) {
     const std::string name =
         c < summary.camera_names.size() ? summary.camera_names[c] : std::to_string(c);
-    if (c < summary.agreement_shift.size() && summary.agreement_shift[c] != std::pair{0, 0}) {
+    // Moves and cuts too small to matter are not news.
+    if (c < summary.agreement_shift.size() &&
+        std::max(std::abs(summary.agreement_shift[c].first),
+                 std::abs(summary.agreement_shift[c].second)) >= 3) {
       char line[200];
       std::snprintf(line, sizeof(line),
                     "camera %zu \"%s\": its first mask sits %+d, %+d px from the other cameras' "
@@ -206,7 +209,7 @@ std::string agreementText(const ImportSummary& summary) {
                     summary.agreement_shift[c].second);
       text += line;
     }
-    if (summary.agreement_pixels_cut[c] == 0) continue;
+    if (summary.agreement_pixels_cut[c] * 1000 < summary.segmented_pixels[c]) continue;
     char line[256];
     std::snprintf(line, sizeof(line),
                   "camera %zu \"%s\": the other cameras' hull does not explain %.1f%% of its "

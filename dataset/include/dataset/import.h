@@ -73,8 +73,10 @@ struct ImportSummary {
   std::vector<std::pair<int, int>> agreement_shift;
 };
 
-// What the rig's agreement cut, a line per camera it cut from (empty when
-// it cut nothing).
+// What the rig's agreement did, for people: a line per camera whose mask
+// it moved the others' hull 3 px or more to meet (their calibrations
+// disagree), and per camera it cut 0.1% of the segmented pixels or more
+// from; empty otherwise.
 std::string agreementText(const ImportSummary& summary);
 
 // Brightness threshold segmentation with clean-up (open 1 px, close
