@@ -17,6 +17,7 @@
 #include <opencv2/videoio.hpp>
 #include <sstream>
 
+#include "base/process.h"
 #include "common/camera.h"
 #include "common/image_codec.h"
 #include "common/pod_frame_codec.h"
@@ -189,6 +190,44 @@ TEST(CameraPod, ThePlateIsLearntFromTheSourcesFirstFrames) {
   EXPECT_TRUE(logSays(out / "pod.log", "plate learnt from 6 frames")) << readFile(out / "pod.log");
   ASSERT_GE(masks.size(), 5u) << readFile(out / "pod.log");
   expectEachMaskIsAFramesTruth(masks, filmed);
+  fs::remove_all(out);
+}
+
+// --plate-on-key: nothing is streamed until Enter (a line on the pod's
+// standard input) takes the plate from the next frames; here the room
+// stays empty, so once the plate is learnt the masks hold nothing.
+TEST(CameraPod, ThePlateIsTakenWhenEnterIsPressed) {
+  const fs::path out = freshDir("camera_pod_key");
+  const FilmedCamera filmed = film(out, 0, 160, 120, 0, 0, 8);
+  pid_t server = 0;
+  const std::string endpoint =
+      test::startServer(kBin, out, 1, &server, {"--record", (out / "recording").string()});
+  ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
+  // The pod's standard input is a pipe the test writes its Enter into.
+  ChildPipes pipes;
+  auto pod = spawnProcess({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--loop",
+                           "--source", filmed.video.string(), "--calibration",
+                           filmed.calibration.string(), "--plate-frames", "4", "--plate-on-key"},
+                          {(out / "pod.log").string()}, &pipes);
+  ASSERT_TRUE(pod.isOk()) << pod.status().toString();
+  ASSERT_TRUE(waitFor([&] { return logSays(out / "pod.log", "press Enter to take the plate"); }))
+      << readFile(out / "pod.log");
+  EXPECT_EQ(::write(pipes.to_child, "\n", 1), 1);
+  EXPECT_TRUE(waitFor([&] { return logSays(out / "pod.log", "plate learnt from 4 frames"); }))
+      << readFile(out / "pod.log");
+  EXPECT_TRUE(waitFor([&] { return recordedMasks(out / "recording").size() >= 3; }))
+      << readFile(out / "pod.log");
+  kill(*pod, SIGTERM);
+  EXPECT_EQ(waitExit(*pod, 30), 0) << readFile(out / "pod.log");
+  ::close(pipes.to_child);
+  ::close(pipes.from_child);
+  kill(server, SIGTERM);
+  waitExit(server, 30);
+  for (const Image8& mask : recordedMasks(out / "recording")) {
+    size_t subject = 0;
+    for (uint8_t v : mask.pixels) subject += v != 0;
+    EXPECT_LT(subject, mask.pixels.size() / 100) << "an empty room, against its own plate";
+  }
   fs::remove_all(out);
 }
 
