@@ -1,7 +1,8 @@
 // A pod on a real camera, started for real: capture_node --source reads a
-// video file (paced at its frame rate) or an HTTP stream served on
-// loopback by ffmpeg, undistorts, segments against the camera's plate and
-// streams to a fusion server that records what it receives. A source of
+// video file (paced at its frame rate), an HTTP stream served on loopback
+// by ffmpeg or an RTSP stream served by GStreamer's RTSP server,
+// undistorts, segments against the camera's plate and streams to a
+// fusion server that records what it receives. A source of
 // another size than the calibration is refused by name; a stream that
 // drops is reconnected.
 #include <gtest/gtest.h>
@@ -11,6 +12,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -282,19 +284,13 @@ std::string onPath(const std::string& program) {
   return "";
 }
 
-TEST(CameraPod, AnHttpStreamThatDropsIsReconnected) {
-  const std::string ffmpeg_bin = onPath("ffmpeg");
-  ASSERT_FALSE(ffmpeg_bin.empty()) << "ffmpeg is not installed (./holofuse deps installs it)";
-  const fs::path out = freshDir("camera_pod_stream");
-  const FilmedCamera filmed = film(out, 20);
-  const std::string url = "http://127.0.0.1:" + std::to_string(freePort()) + "/door";
-  auto serve = [&](const std::string& log) {
-    return spawn({ffmpeg_bin, "-hide_banner", "-loglevel", "error", "-re", "-stream_loop", "-1",
-                  "-i", filmed.video.string(), "-c:v", "mpeg2video", "-q:v", "2", "-f", "mpegts",
-                  "-listen", "1", url},
-                 out / log);
-  };
-  pid_t ffmpeg = serve("ffmpeg1.log");
+// A stream at url that serve(log) starts on loopback: the pod streams
+// it, loses it when the server of the stream is killed, says so, and is
+// back once it is started again; frames then flow again.
+void expectTheStreamReconnects(const fs::path& out, const FilmedCamera& filmed,
+                               const std::string& url,
+                               const std::function<pid_t(const std::string&)>& serve) {
+  pid_t stream = serve("stream1.log");
   pid_t server = 0;
   const std::string endpoint =
       test::startServer(kBin, out, 1, &server, {"--record", (out / "recording").string()});
@@ -305,24 +301,56 @@ TEST(CameraPod, AnHttpStreamThatDropsIsReconnected) {
                           out / "pod.log");
   // Frames reach the server (and its recording).
   const auto framesRecorded = [&] { return recordedMasks(out / "recording").size(); };
-  ASSERT_TRUE(waitFor([&] { return framesRecorded() >= 3; }, 60)) << readFile(out / "pod.log");
-  kill(ffmpeg, SIGKILL);
-  waitExit(ffmpeg, 10);
+  ASSERT_TRUE(waitFor([&] { return framesRecorded() >= 3; }, 60))
+      << readFile(out / "pod.log") << readFile(out / "stream1.log");
+  kill(stream, SIGKILL);
+  waitExit(stream, 10);
   EXPECT_TRUE(waitFor([&] { return logSays(out / "pod.log", "stopped sending frames"); }, 60))
       << readFile(out / "pod.log");
-  ffmpeg = serve("ffmpeg2.log");
+  stream = serve("stream2.log");
   EXPECT_TRUE(waitFor([&] { return logSays(out / "pod.log", "is back (reconnect 1)"); }, 60))
       << readFile(out / "pod.log");
-  // Frames flow again: the server hears more of them than before the drop.
   const size_t before = framesRecorded();
   EXPECT_TRUE(waitFor([&] { return framesRecorded() > before + 3; }, 60));
   kill(pod, SIGTERM);
   EXPECT_EQ(waitExit(pod, 30), 0) << readFile(out / "pod.log");
-  kill(ffmpeg, SIGKILL);
-  waitExit(ffmpeg, 10);
+  kill(stream, SIGKILL);
+  waitExit(stream, 10);
   kill(server, SIGTERM);
   waitExit(server, 30);
   EXPECT_TRUE(logSays(out / "pod.log", "1 reconnects to the source")) << readFile(out / "pod.log");
+}
+
+// An HTTP stream served by ffmpeg (MPEG-2 in MPEG-TS, as an encoder box
+// sends it), looping the filmed video in real time.
+TEST(CameraPod, AnHttpStreamThatDropsIsReconnected) {
+  const std::string ffmpeg = onPath("ffmpeg");
+  ASSERT_FALSE(ffmpeg.empty()) << "ffmpeg is not installed (./holofuse deps installs it)";
+  const fs::path out = freshDir("camera_pod_http");
+  const FilmedCamera filmed = film(out, 20);
+  const std::string url = "http://127.0.0.1:" + std::to_string(freePort()) + "/door";
+  expectTheStreamReconnects(out, filmed, url, [&](const std::string& log) {
+    return spawn({ffmpeg, "-hide_banner", "-loglevel", "error", "-re", "-stream_loop", "-1", "-i",
+                  filmed.video.string(), "-c:v", "mpeg2video", "-q:v", "2", "-f", "mpegts",
+                  "-listen", "1", url},
+                 out / log);
+  });
+  fs::remove_all(out);
+}
+
+// An RTSP stream (Motion-JPEG over RTP, as IP cameras send it) from
+// GStreamer's RTSP server (tests/integration/rtsp_server.py): a live test
+// picture of the camera's size.
+TEST(CameraPod, AnRtspStreamThatDropsIsReconnected) {
+  const fs::path out = freshDir("camera_pod_rtsp");
+  const FilmedCamera filmed = film(out, 1);
+  const std::string port = std::to_string(freePort());
+  const std::string url = "rtsp://127.0.0.1:" + port + "/door";
+  expectTheStreamReconnects(out, filmed, url, [&](const std::string& log) {
+    return spawn({"/usr/bin/python3", HOLOFUSE_TESTS_DIR "/integration/rtsp_server.py", port,
+                  "door", "160", "120", "10"},
+                 out / log);
+  });
   fs::remove_all(out);
 }
 
