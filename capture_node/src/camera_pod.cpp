@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "capture_node/pod_link.h"
+#include "common/opencv_image.h"
 #include "common/segmentation.h"
 #include "common/shutdown.h"
 #include "dataset/camera_input.h"
@@ -187,9 +188,7 @@ class FrameGrabber {
       }
       if (rgb.depth() != CV_8U) rgb.convertTo(rgb, CV_8U, rgb.depth() == CV_16U ? 1.0 / 257 : 1.0);
       Grab grab;
-      grab.rgb = Image8(static_cast<uint32_t>(rgb.cols), static_cast<uint32_t>(rgb.rows), 3);
-      for (int y = 0; y < rgb.rows; ++y)
-        std::copy_n(rgb.ptr<uint8_t>(y), 3 * rgb.cols, grab.rgb.pixels.data() + 3 * y * rgb.cols);
+      grab.rgb = fromMat(rgb);
       grab.grabbed_ns = monotonicNs();
       {
         std::lock_guard<std::mutex> lock(mutex_);

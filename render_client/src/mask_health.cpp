@@ -1,6 +1,6 @@
 #include "render_client/mask_health.h"
 
-#include "common/depth_raster.h"
+#include "metrics/geometry_metrics.h"
 
 namespace holofuse::render {
 
@@ -55,14 +55,7 @@ void MaskHealthSampler::run() {
         iou.push_back(-1.0);  // a view without its whole mask
         continue;
       }
-      const DepthMap drawn = rasterizeDepth(job.mesh, camera);
-      size_t both = 0, either = 0;
-      for (size_t i = 0; i < drawn.depth.size(); ++i) {
-        const bool hull = drawn.depth[i] != kNoDepth, subject = mask.pixels[i] != 0;
-        both += hull && subject;
-        either += hull || subject;
-      }
-      iou.push_back(either ? static_cast<double>(both) / static_cast<double>(either) : -1.0);
+      iou.push_back(metrics::silhouetteIoU(job.mesh, camera, mask));
     }
     std::lock_guard<std::mutex> lock(mutex_);
     if (camera_ids_.empty())

@@ -24,6 +24,7 @@
 #include "common/image_codec.h"
 #include "common/pod_frame_codec.h"
 #include "dataset/dataset.h"
+#include "metrics/image_metrics.h"
 #include "process_harness.h"
 #include "protocol/socket.h"
 #include "scene/scene_library.h"
@@ -47,15 +48,6 @@ cv::Mat bgrOf(const Image8& rgb) {
   cv::Mat bgr;
   cv::cvtColor(m, bgr, cv::COLOR_RGB2BGR);
   return bgr;
-}
-
-double iou(const Image8& a, const Image8& b) {
-  size_t both = 0, either = 0;
-  for (size_t i = 0; i < a.pixels.size() && i < b.pixels.size(); ++i) {
-    both += a.pixels[i] != 0 && b.pixels[i] != 0;
-    either += a.pixels[i] != 0 || b.pixels[i] != 0;
-  }
-  return either ? static_cast<double>(both) / static_cast<double>(either) : 1.0;
 }
 
 // One studio camera filmed: its video (FFV1, lossless, 10 fps), its plate
@@ -165,7 +157,8 @@ std::vector<Image8> streamThroughPod(const fs::path& out, const FilmedCamera& fi
 void expectEachMaskIsAFramesTruth(const std::vector<Image8>& masks, const FilmedCamera& filmed) {
   for (size_t m = 0; m < masks.size(); ++m) {
     double best = 0;
-    for (const Image8& truth : filmed.truth) best = std::max(best, iou(masks[m], truth));
+    for (const Image8& truth : filmed.truth)
+      best = std::max(best, metrics::maskIoU(masks[m], truth));
     EXPECT_GE(best, 0.95) << "recorded frame " << m;
   }
 }
