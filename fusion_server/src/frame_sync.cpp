@@ -118,16 +118,20 @@ std::vector<FrameGroup> FrameSync::takeReady(const std::set<uint32_t>& connected
     for (uint32_t id : expected) complete = complete && group.pods.count(id) > 0;
     // Lossless groups wait for their pods; once every pod has left, or
     // every missing pod has moved past this id, what they sent goes out.
-    bool expired = false;
-    if (deadline_ns_ == kNoDeadline) {
-      expired = true;
-      for (uint32_t id : expected) {
-        if (group.pods.count(id)) continue;
-        const auto clock = clocks_.find(id);
-        expired = expired && clock != clocks_.end() && clock->second.latest_id > group.frame_id;
-      }
-    } else {
-      expired = group.frame_id <= rig_id_ && now_ns - group.first_arrival_ns >= deadline_ns_;
+    bool no_one_to_wait_for = true;
+    for (uint32_t id : expected) {
+      if (group.pods.count(id)) continue;
+      const auto clock = clocks_.find(id);
+      no_one_to_wait_for =
+          no_one_to_wait_for && clock != clocks_.end() && clock->second.latest_id > group.frame_id;
+    }
+    bool expired = no_one_to_wait_for;
+    if (deadline_ns_ != kNoDeadline) {
+      // A group ahead of the rig's clock waits for the pods behind it, but
+      // not once none is left to fill it (they left, or moved past it):
+      // the clock stops when the last pod leaves, and its frames must go.
+      expired = (group.frame_id <= rig_id_ || no_one_to_wait_for) &&
+                now_ns - group.first_arrival_ns >= deadline_ns_;
     }
     if (!complete && !expired) {
       ++it;

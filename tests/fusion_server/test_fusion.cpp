@@ -191,6 +191,26 @@ TEST(FrameSync, ADeadPodDoesNotStallWhenItIsNoLongerExpected) {
   EXPECT_EQ(sync.takeReady({0}, 2).size(), 1u);  // pod 1 disconnected
 }
 
+// Pod 1 ran ahead of pod 0 and both left: its frames past the rig's
+// clock (the clock stopped with the pods) still go at the deadline, so a
+// server that stops when its pods are done is not kept waiting forever.
+TEST(FrameSync, FramesAheadOfTheClockGoOnceTheirPodsHaveLeft) {
+  FrameSync sync(10);
+  sync.add(0, imagesOf(0), 0);
+  for (uint64_t id = 0; id < 3; ++id) sync.add(id, imagesOf(1), 1);
+  EXPECT_EQ(sync.takeReady({0, 1}, 2).size(), 1u);  // frame 0, whole
+  EXPECT_TRUE(sync.takeReady({0, 1}, 100).empty()) << "pod 0 may still send 1 and 2";
+  sync.forgetPod(1);
+  EXPECT_TRUE(sync.takeReady({0}, 100).empty()) << "pod 0 may still send 1 and 2";
+  sync.forgetPod(0);
+  const auto ready = sync.takeReady({}, 100);
+  ASSERT_EQ(ready.size(), 2u);
+  EXPECT_EQ(ready[0].frame_id, 1u);
+  EXPECT_EQ(ready[1].frame_id, 2u);
+  EXPECT_FALSE(ready[1].complete);
+  EXPECT_EQ(sync.pendingGroups(), 0u);
+}
+
 // The send stage is the server's: it runs from the pod's encode end to the
 // arrival, and a send stamp the pod put in its own frame is not kept (it
 // would count twice for the pod's jitter, with times the pod chose).
