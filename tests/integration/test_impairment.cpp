@@ -238,9 +238,11 @@ TEST(Rig, TheDemoRunsAcrossANamespacePerHostAndItsLinksShowTheirDelay) {
   const auto& links = report["latency_ms"]["links"];
   for (const char* link : {"pod_0_to_server", "pod_1_to_server", "server_to_client"}) {
     ASSERT_TRUE(links.contains(link)) << links.dump();
-    // The relay holds every byte at least the delay less the jitter;
-    // loopback and the bridge add a fraction of a millisecond.
-    EXPECT_GE(links[link]["p50"].get<double>(), 18.0) << link << ": " << links.dump();
+    // The relay holds every byte at least the delay less the jitter, and
+    // the clock estimate that puts the pod's send on the server's clock is
+    // off by at most half the difference of the two ways' jitter (another
+    // jitter at worst); loopback and the bridge add a fraction of a ms.
+    EXPECT_GE(links[link]["p50"].get<double>(), 16.0) << link << ": " << links.dump();
     EXPECT_GT(links[link]["samples"].get<int>(), 0) << link;
   }
   const std::string said = readFile(out / "launcher.log");
@@ -293,11 +295,12 @@ clients:
   ASSERT_TRUE(links.contains("pod_0_to_server") && links.contains("pod_1_to_server") &&
               links.contains("server_to_client"))
       << links.dump();
-  // Each at least its delay less the jitter; the near pod's clearly less
+  // Each at least its delay less twice the jitter (the link's own, and the
+  // clock estimate's error: the test above); the near pod's clearly less
   // than the far one's, whatever a busy machine adds to both.
-  EXPECT_GE(p50("pod_0_to_server"), 4.0) << links.dump();
-  EXPECT_GE(p50("pod_1_to_server"), 44.0) << links.dump();
-  EXPECT_GE(p50("server_to_client"), 19.0) << links.dump();
+  EXPECT_GE(p50("pod_0_to_server"), 3.0) << links.dump();
+  EXPECT_GE(p50("pod_1_to_server"), 43.0) << links.dump();
+  EXPECT_GE(p50("server_to_client"), 18.0) << links.dump();
   EXPECT_LT(p50("pod_0_to_server") + 20.0, p50("pod_1_to_server")) << links.dump();
   const std::string said = readFile(out / "launcher.log");
   EXPECT_NE(said.find("pod 1 45 ms one way +- 1 ms"), std::string::npos) << said;
