@@ -24,8 +24,8 @@
 #include "base/process.h"
 #include "base/text_file.h"
 #include "bench_timing.h"
-#include "common/html_report.h"
 #include "loop_run.h"
+#include "report/html.h"
 
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;

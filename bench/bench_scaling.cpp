@@ -23,8 +23,8 @@
 #include <string>
 #include <vector>
 
-#include "common/html_report.h"
 #include "loop_run.h"
+#include "report/html.h"
 
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;

@@ -29,8 +29,8 @@
 #include "eval/loop_settings.h"
 #include "protocol/auth.h"
 #include "protocol/messages.h"
+#include "protocol/stage_budget.h"
 #include "render_client/blend_mode.h"
-#include "render_client/latency_report.h"
 #include "scene/scene_library.h"
 
 namespace {

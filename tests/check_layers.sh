@@ -11,7 +11,7 @@ layers=(
   "base"
   "protocol"
   "common"
-  "scene hull metrics"
+  "scene hull metrics report"
   "dataset"
   "capture_node fusion_server render_client"
   "eval"

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "common/html_report.h"
+#include "report/html.h"
 
 namespace holofuse::deploy {
 namespace {

@@ -35,7 +35,7 @@ render::JudgeAnswer judgeFrame(const scene::SyntheticScene& scene,
   const metrics::ImageQuality q = metrics::compareInMask(*picture, truth.color, truth.mask);
   // Nothing of the subject in view: nothing to judge (PSNR would be the cap).
   if (q.pixels == 0) return {};
-  return {render::FrameQuality{q.psnr_db, q.ssim}, ""};
+  return {report::FrameQuality{q.psnr_db, q.ssim}, ""};
 }
 
 }  // namespace

@@ -18,9 +18,9 @@
 #include "protocol/server_link.h"
 #include "render_client/client.h"
 #include "render_client/frame_judge.h"
-#include "render_client/latency_report.h"
 #include "render_client/mask_health.h"
 #include "render_client/picture_writer.h"
+#include "report/latency_report.h"
 
 namespace holofuse::render {
 
@@ -161,7 +161,7 @@ class ClientLoop {
     report_.setSuperseded(superseded_);
     report_.settleEndToEnd(server_clock_);
     // This host's clock minus the server's: the estimate's sign turned.
-    LatencyReport::HostClock own;
+    report::LatencyReport::HostClock own;
     own.host = "client";
     own.measured = server_clock_.known();
     if (own.measured) {
@@ -418,7 +418,7 @@ class ClientLoop {
 
   // The live judge's verdict on a written frame, outside every stage's
   // time; a judge gone stays gone, and the frames render on unjudged.
-  void judgeFrame(const ReadyMesh& ready, FrameRecord& record) {
+  void judgeFrame(const ReadyMesh& ready, report::FrameRecord& record) {
     const uint64_t judge_start = monotonicNs();
     auto answer =
         judge_->judge({(out_dir_ / record.file).string(), ready.frame.frame_id, ready.user});
@@ -467,7 +467,7 @@ class ClientLoop {
         if (times[s] >= 0) report_.addGpuPass(names[s], times[s]);  // -1: not in this mode
       }
     }
-    FrameRecord record;
+    report::FrameRecord record;
     record.frame_id = ready.frame.frame_id;
     char name[64];
     std::snprintf(name, sizeof(name), "frame_%06zu.png", report_.framesRendered());
@@ -485,7 +485,7 @@ class ClientLoop {
     stamps.push_back(
         {static_cast<uint16_t>(Stage::kWrite), kSourceClient, rendered_ns, written_ns});
     report_.addStamps(stamps);
-    record.timeline = timelineOf(stamps);
+    record.timeline = report::timelineOf(stamps);
     report_.addStage(static_cast<uint16_t>(Stage::kDecode), ready.decode_ms);
     record.capture_time_ns = ready.frame.capture_time_ns;
     record.written_local_ns = written_local_ns;
@@ -531,7 +531,7 @@ class ClientLoop {
   std::map<uint64_t, PendingBundle> bundles_;
   std::map<uint64_t, FrameStats> stats_;
   std::set<uint64_t> failed_bundles_;  // ids already reported as skipped
-  LatencyReport report_;
+  report::LatencyReport report_;
   std::optional<PictureWriter> writer_;  // the pictures, off the render path
   MaskHealthSampler mask_health_;        // each pod's mask against the hull, off it too
   uint64_t last_progress_ns_ = 0;

@@ -39,9 +39,12 @@ namespace holofuse {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(Camera, id, width, height, fx, fy, cx, cy, skew, distortion,
                                    rotation, translation)
 
+namespace report {
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(FrameQuality, psnr_db, ssim)
+}  // namespace report
+
 namespace render {
 
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(FrameQuality, psnr_db, ssim)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(JudgeRequest, picture, frame_id, view)
 
 namespace {
@@ -86,7 +89,7 @@ StatusOr<JudgeAnswer> decodeJudgeAnswer(const std::string& line) {
     if (j.contains("error")) {
       answer.error = j.at("error").get<std::string>();
     } else if (!j.at("quality").is_null()) {
-      answer.quality = j.at("quality").get<FrameQuality>();
+      answer.quality = j.at("quality").get<report::FrameQuality>();
     }
     return answer;
   });

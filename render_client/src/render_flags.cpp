@@ -1,4 +1,4 @@
-#include "render_client/renderer.h"
+#include "render_client/render_settings.h"
 
 namespace holofuse::render {
 

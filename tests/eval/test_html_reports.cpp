@@ -13,10 +13,10 @@
 #include "base/arrival_jitter.h"
 #include "base/statistics.h"
 #include "browser_check.h"
-#include "common/html_report.h"
 #include "eval/leave_one_out.h"
 #include "eval/sweep.h"
-#include "render_client/latency_report.h"
+#include "report/html.h"
+#include "report/latency_report.h"
 #include "sweep_points.h"
 
 namespace holofuse {
@@ -73,7 +73,7 @@ TEST(HtmlReports, ChartsRenderInChromiumAndAnEmptyChartDoesNotCount) {
 
 TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
   if (chromium().empty()) GTEST_SKIP() << "chromium is not installed (./holofuse deps installs it)";
-  render::LatencyReport report;
+  report::LatencyReport report;
   for (uint64_t f = 0; f < 10; ++f) {
     const uint64_t t = f * 100'000'000;
     report.addStamps(
@@ -82,14 +82,14 @@ TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
          {static_cast<uint16_t>(protocol::Stage::kSend), 0, t, t + 2'000'000 + (f % 2) * 1'000'000},
          {static_cast<uint16_t>(protocol::Stage::kSend), 1, t, t + 3'000'000}});
     report.addGpuPass("geodesics", 60.0);
-    render::FrameRecord record;
+    report::FrameRecord record;
     record.frame_id = f;
     record.end_to_end_ms = 200;
     record.pod_bytes = 600'000;
     record.client_bytes = 650'000;
     if (f != 3) {  // a frame not judged does not count
       record.quality =
-          render::FrameQuality{20.0 + static_cast<double>(f), 0.5 + 0.01 * static_cast<double>(f)};
+          report::FrameQuality{20.0 + static_cast<double>(f), 0.5 + 0.01 * static_cast<double>(f)};
     }
     report.addFrame(record, t);
   }

@@ -36,7 +36,8 @@ TEST(FrameJudge, ARequestComesBackAsItWasSent) {
 }
 
 TEST(FrameJudge, AnswersComeBackAsTheyWereSent) {
-  const auto judged = decodeJudgeAnswer(encodeJudgeAnswer({FrameQuality{31.25, 0.875}, ""}));
+  const auto judged =
+      decodeJudgeAnswer(encodeJudgeAnswer({report::FrameQuality{31.25, 0.875}, ""}));
   ASSERT_TRUE(judged.isOk());
   ASSERT_TRUE(judged->quality);
   EXPECT_EQ(judged->quality->psnr_db, 31.25);

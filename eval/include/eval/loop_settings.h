@@ -11,7 +11,7 @@
 #include "common/pod_frame_codec.h"
 #include "common/settings.h"
 #include "fusion_server/fusion_worker.h"
-#include "render_client/renderer.h"
+#include "render_client/render_settings.h"
 
 namespace holofuse::eval {
 

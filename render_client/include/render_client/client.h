@@ -19,7 +19,7 @@
 #include "common/texture_layers.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
-#include "render_client/latency_report.h"
+#include "protocol/stage_budget.h"
 #include "render_client/renderer.h"
 
 namespace holofuse::render {
@@ -59,7 +59,7 @@ struct ClientOptions {
   RenderSettings render;    // render.blend.mode: the blending mode
   int exclude_camera = -1;  // leave this camera out of the blend
   bool write_frames = true;
-  Budget budget;  // per-stage ms; violations are flagged in the reports
+  protocol::Budget budget;  // per-stage ms; violations are flagged in the reports
   // A shell command that starts the live judge (render_client/frame_judge.h;
   // the launcher's --quality gives eval's holofuse_judge): each written
   // frame is judged against the truth from its view, after it is written,

@@ -14,7 +14,7 @@
 
 #include "base/status.h"
 #include "common/camera.h"
-#include "render_client/latency_report.h"
+#include "report/latency_report.h"
 
 namespace holofuse::render {
 
@@ -30,7 +30,7 @@ struct JudgeRequest {
 // nothing of the subject; or an error that names what went wrong with
 // this frame (a picture of another size than the view, say).
 struct JudgeAnswer {
-  std::optional<FrameQuality> quality;
+  std::optional<report::FrameQuality> quality;
   std::string error;
 };
 

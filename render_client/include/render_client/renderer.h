@@ -15,45 +15,11 @@
 #include "common/mesh.h"
 #include "common/settings.h"
 #include "common/texture_layers.h"
-#include "render_client/blend_mode.h"
+#include "render_client/render_settings.h"
 #include "render_client/texture_field_passes.h"
 #include "render_client/vulkan_context.h"
 
 namespace holofuse::render {
-
-struct BlendSettings {
-  BlendMode mode = BlendMode::kNormal;
-  float alpha = 2.0f;                      // exponent of the normal weight
-  float depth_tolerance = 0.03f;           // metres behind the depth map still visible
-  glm::vec3 hole_color{0.5f, 0.5f, 0.5f};  // surface that no camera sees
-  std::vector<bool> camera_enabled;        // empty: all cameras take part
-  FieldParameters fields;                  // texture-field passes (holoportation, montage4d)
-  double lambda = 0.05;                    // montage4d: temporal rate at 30 fps (eq. 5)
-  double frame_interval_s = 1.0 / 30.0;    // montage4d: real time since the previous rendered frame
-  // The per-fragment test of paper 004 (Li, Magnor, Seidel 2004, section
-  // 4.4): mode fragment always takes it; the field modes multiply their
-  // interpolated weights by it when fragment_test is set. A fragment is
-  // visible to a pod when it lies inside its mask and within
-  // fields.relative_depth_tolerance of the depth plus the mesh's mean edge
-  // (Renderer::fragmentDepthSlack) of the pod's depth map; its feather
-  // weight is min(1, the pod's feather map / feather_width_px) (0: none).
-  float feather_width_px = 8.0f;
-  bool fragment_test = false;
-  // Exponent of the view weight: (d_k . d_v + 1) in mode fragment (paper
-  // 004 eq. 4, its 5) and max(0, v . v_i) in montage4d's target field.
-  float beta = 5.0f;
-};
-
-// The client's rendering settings, which eval and the launcher embed.
-struct RenderSettings {
-  BlendSettings blend;
-  bool half_precision_vertices = false;  // Renderer::setHalfPrecisionVertices
-};
-
-// The client's flags of RenderSettings (common/settings.h); eval and the
-// launcher take the same. The mode is not among them: eval and the sweep
-// run several.
-const std::vector<Setting<RenderSettings>>& renderFlags();
 
 // What the texture-field passes computed, read back for tests, indexed
 // [camera * vertex_count + vertex] (weights: [vertex * camera_count +

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "common/mesh.h"
+#include "render_client/render_settings.h"
 #include "render_client/vulkan_context.h"
 #include "shaders/config.h"
 
@@ -33,55 +34,6 @@ static_assert(sizeof(GeodesicFan) == 32);
 // + 1 offsets, then triangle ids), in the same order. a and b follow c in
 // the triangle's winding.
 std::vector<GeodesicFan> geodesicFans(const Mesh& mesh, const std::vector<uint32_t>& adjacency);
-
-struct FieldParameters {
-  float relative_jump = 0.03f;  // discontinuity: relative depth step
-  int dilation_px = -1;         // discontinuity: eps; -1: paper 000's 4 px at 2048 wide, scaled
-                                // (reference::scaledDilationPx)
-  float relative_depth_tolerance = 0.015f;
-  // The majority vote's delta; 0: no vote, every visible view trusted.
-  // Paper 000's vote (delta = 0.15) rejects a view whose colour disagrees;
-  // on a visual hull every view disagrees somewhat, the hull lying off the
-  // surface, and the vote cost the temple 0.7-0.9 dB while gaining no
-  // synthetic scene more than 0.1 (docs/blending.md).
-  float vote_delta = 0.0f;
-  int vote_levels = 3;
-  float alpha = 2.0f;
-  // The views each vertex keeps for the blend (1 to HOLOFUSE_MAX_BEST_VIEWS):
-  // its largest field weights, renormalised where any is left out. The
-  // blend's cost per fragment grows with this, not with the camera count.
-  int best_views = 8;
-  // Seams, the global visibility and the geodesic distance from the seams
-  // (docs/design.md section 6, steps 5 to 7): run only when a mode needs them (montage4d); the
-  // Holoportation baseline does not pay for them.
-  bool geodesics = false;
-  // montage4d: the field depends on the view, and recordMontage computes it
-  // for every rendered view in place of the per-mesh field pass ("field").
-  bool field_per_view = false;
-  int geodesic_rings = 15;       // k
-  int geodesic_iterations = 20;  // K
-  // Metres from a seam at which gamma reaches 1, and beyond which no
-  // distance is computed (0: k mean edge lengths, distance unbounded).
-  // Paper 000's k = 15 triangles on its ~4 mm-edge captures is about 6 cm;
-  // a fixed length keeps that reach on coarser meshes, where 15 rings would
-  // span a whole limb and the fields would sum below 1 almost everywhere.
-  float geodesic_radius = 0.06f;
-  // Measurement only (bench_texture_fields): record the per-mesh passes up
-  // to this stage of stageNames() and skip the rest (-1: all). Wall clock
-  // differences between stops give each stage's cost where a CPU device's
-  // timestamps cannot (it rasterises lazily). A stop before stage 6 ("field") skips
-  // montage4d's per-view field as well.
-  int last_stage = -1;
-  // Measurement only: record the dispatches of stage repeated_stage (1 to
-  // 6 of stageNames(); 6 in montage4d is its per-view field pass)
-  // stage_repeats times over. Stages that cost a
-  // fraction of a millisecond drown in a shared machine's noise once; the
-  // extra time of many repeats, divided by their number, does not. The
-  // global visibility counts come out multiplied: timing runs only.
-  int repeated_stage = -1;
-  int stage_repeats = 1;
-  bool operator==(const FieldParameters&) const = default;
-};
 
 // Mirror of the Push block in shaders/compute_common.glsl.
 struct ComputePush {
@@ -105,10 +57,6 @@ struct ComputePush {
 static_assert(sizeof(ComputePush) == 64);
 static_assert(HOLOFUSE_COMPUTE_PUSH_OFFSET + sizeof(ComputePush) <= 128,
               "lavapipe allows 128 bytes");
-
-// The largest geodesic reach in rings (k) the packed ring field holds.
-constexpr int kMaxGeodesicRings = 64;
-static_assert(kMaxGeodesicRings < static_cast<int>(HOLOFUSE_NO_RING));
 
 // Geodesic worklist counts (dispatch size and length): count p belongs to
 // the list Jacobi pass p reads, which pass p - 1 appends to (the first

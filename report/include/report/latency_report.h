@@ -16,7 +16,7 @@
 #include "protocol/messages.h"
 #include "protocol/stage_budget.h"
 
-namespace holofuse::render {
+namespace holofuse::report {
 
 // A written frame's quality against the truth (metrics/image_metrics.h's measures).
 struct FrameQuality {
@@ -51,6 +51,8 @@ struct FrameRecord {
   std::vector<protocol::StageStamp> timeline;
 };
 
+// A stamp of the frame's as ms after its capture (negative before it).
+double msSinceCapture(const FrameRecord& frame, uint64_t ns);
 // One span per stage, in pipeline order: of a stage several pods stamped,
 // the one that ended last (the pod the group waited for). Stamps that end
 // before they start, or never ended, are left out.
@@ -137,17 +139,18 @@ class LatencyReport {
   // the frames behind rendered meshes.
   std::map<uint16_t, double> podJitterMs() const;
   bool jitterFromServer() const { return !server_arrivals_.empty(); }
-  // The report as JSON text, and as a self-contained HTML page (latency
-  // budget as stacked bars, GPU passes, bytes per link, per-pod jitter,
-  // budget violations flagged).
+  // The report as JSON text (latency_report_json.cpp), and as a
+  // self-contained HTML page (latency_report_html.cpp: latency budget as
+  // stacked bars, GPU passes, bytes per link, per-pod jitter, budget
+  // violations flagged).
   std::string toJson(const std::map<std::string, std::string>& settings,
                      const Budget& budget = {}) const;
   std::string toHtml(const std::map<std::string, std::string>& settings,
                      const Budget& budget = {}) const;
 
  private:
-  // The slowest frames' end to end by stage and wait, as stacked bars.
-  std::string slowestFrames() const;
+  // The page's table of each budgeted stage against its budget.
+  std::string budgetSection(const Budget& budget) const;
   struct Violation {
     std::string stage;
     double p95, budget;
@@ -183,4 +186,4 @@ class LatencyReport {
   std::vector<uint32_t> mask_health_ids_;
 };
 
-}  // namespace holofuse::render
+}  // namespace holofuse::report

@@ -1,4 +1,4 @@
-#include "common/html_report.h"
+#include "report/html.h"
 
 #include <algorithm>
 #include <cmath>
@@ -36,6 +36,12 @@ std::string exact(double v) {
 }
 
 }  // namespace
+
+std::string number(const char* format, double value) {
+  char text[64];
+  std::snprintf(text, sizeof(text), format, value);
+  return text;
+}
 
 std::string escape(const std::string& text) {
   std::string out;

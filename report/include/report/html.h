@@ -12,6 +12,9 @@
 namespace holofuse::html {
 
 std::string escape(const std::string& text);
+// A number as a printf format with one double argument gives it ("%.2f
+// dB"), for a cell or a label.
+std::string number(const char* format, double value);
 
 struct Series {
   std::string name;

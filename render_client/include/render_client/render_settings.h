@@ -1,0 +1,103 @@
+// How the client renders: the blend mode and its parameters, the texture-
+// field passes' parameters and the flags that set them. Plain data, no
+// Vulkan: the launcher, eval and the sweep embed and forward these without
+// linking the renderer.
+#pragma once
+
+#include <glm/glm.hpp>
+#include <vector>
+
+#include "common/settings.h"
+#include "render_client/blend_mode.h"
+#include "shaders/config.h"
+
+namespace holofuse::render {
+
+// The largest geodesic reach in rings (k) the packed ring field holds.
+constexpr int kMaxGeodesicRings = 64;
+static_assert(kMaxGeodesicRings < static_cast<int>(HOLOFUSE_NO_RING));
+
+struct FieldParameters {
+  float relative_jump = 0.03f;  // discontinuity: relative depth step
+  int dilation_px = -1;         // discontinuity: eps; -1: paper 000's 4 px at 2048 wide, scaled
+                                // (reference::scaledDilationPx)
+  float relative_depth_tolerance = 0.015f;
+  // The majority vote's delta; 0: no vote, every visible view trusted.
+  // Paper 000's vote (delta = 0.15) rejects a view whose colour disagrees;
+  // on a visual hull every view disagrees somewhat, the hull lying off the
+  // surface, and the vote cost the temple 0.7-0.9 dB while gaining no
+  // synthetic scene more than 0.1 (docs/blending.md).
+  float vote_delta = 0.0f;
+  int vote_levels = 3;
+  float alpha = 2.0f;
+  // The views each vertex keeps for the blend (1 to HOLOFUSE_MAX_BEST_VIEWS):
+  // its largest field weights, renormalised where any is left out. The
+  // blend's cost per fragment grows with this, not with the camera count.
+  int best_views = 8;
+  // Seams, the global visibility and the geodesic distance from the seams
+  // (docs/design.md section 6, steps 5 to 7): run only when a mode needs them (montage4d); the
+  // Holoportation baseline does not pay for them.
+  bool geodesics = false;
+  // montage4d: the field depends on the view, and recordMontage computes it
+  // for every rendered view in place of the per-mesh field pass ("field").
+  bool field_per_view = false;
+  int geodesic_rings = 15;       // k
+  int geodesic_iterations = 20;  // K
+  // Metres from a seam at which gamma reaches 1, and beyond which no
+  // distance is computed (0: k mean edge lengths, distance unbounded).
+  // Paper 000's k = 15 triangles on its ~4 mm-edge captures is about 6 cm;
+  // a fixed length keeps that reach on coarser meshes, where 15 rings would
+  // span a whole limb and the fields would sum below 1 almost everywhere.
+  float geodesic_radius = 0.06f;
+  // Measurement only (bench_texture_fields): record the per-mesh passes up
+  // to this stage of stageNames() and skip the rest (-1: all). Wall clock
+  // differences between stops give each stage's cost where a CPU device's
+  // timestamps cannot (it rasterises lazily). A stop before stage 6 ("field") skips
+  // montage4d's per-view field as well.
+  int last_stage = -1;
+  // Measurement only: record the dispatches of stage repeated_stage (1 to
+  // 6 of stageNames(); 6 in montage4d is its per-view field pass)
+  // stage_repeats times over. Stages that cost a
+  // fraction of a millisecond drown in a shared machine's noise once; the
+  // extra time of many repeats, divided by their number, does not. The
+  // global visibility counts come out multiplied: timing runs only.
+  int repeated_stage = -1;
+  int stage_repeats = 1;
+  bool operator==(const FieldParameters&) const = default;
+};
+
+struct BlendSettings {
+  BlendMode mode = BlendMode::kNormal;
+  float alpha = 2.0f;                      // exponent of the normal weight
+  float depth_tolerance = 0.03f;           // metres behind the depth map still visible
+  glm::vec3 hole_color{0.5f, 0.5f, 0.5f};  // surface that no camera sees
+  std::vector<bool> camera_enabled;        // empty: all cameras take part
+  FieldParameters fields;                  // texture-field passes (holoportation, montage4d)
+  double lambda = 0.05;                    // montage4d: temporal rate at 30 fps (eq. 5)
+  double frame_interval_s = 1.0 / 30.0;    // montage4d: real time since the previous rendered frame
+  // The per-fragment test of paper 004 (Li, Magnor, Seidel 2004, section
+  // 4.4): mode fragment always takes it; the field modes multiply their
+  // interpolated weights by it when fragment_test is set. A fragment is
+  // visible to a pod when it lies inside its mask and within
+  // fields.relative_depth_tolerance of the depth plus the mesh's mean edge
+  // (Renderer::fragmentDepthSlack) of the pod's depth map; its feather
+  // weight is min(1, the pod's feather map / feather_width_px) (0: none).
+  float feather_width_px = 8.0f;
+  bool fragment_test = false;
+  // Exponent of the view weight: (d_k . d_v + 1) in mode fragment (paper
+  // 004 eq. 4, its 5) and max(0, v . v_i) in montage4d's target field.
+  float beta = 5.0f;
+};
+
+// The client's rendering settings, which eval and the launcher embed.
+struct RenderSettings {
+  BlendSettings blend;
+  bool half_precision_vertices = false;  // Renderer::setHalfPrecisionVertices
+};
+
+// The client's flags of RenderSettings (common/settings.h); eval and the
+// launcher take the same. The mode is not among them: eval and the sweep
+// run several.
+const std::vector<Setting<RenderSettings>>& renderFlags();
+
+}  // namespace holofuse::render
