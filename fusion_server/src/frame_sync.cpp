@@ -100,6 +100,14 @@ FrameSync::Added FrameSync::add(uint64_t frame_id, PodImages images, uint64_t no
   return Added::kAccepted;
 }
 
+std::string describeOffset(const PodClock& clock) {
+  const uint64_t ids = clock.offset < 0 ? 0 - static_cast<uint64_t>(clock.offset)
+                                        : static_cast<uint64_t>(clock.offset);
+  return std::to_string(ids) + (clock.offset < 0 ? " ids behind" : " ids ahead of") +
+         " the rig's clock (id " + std::to_string(clock.rig_id) + ", the median of " +
+         std::to_string(clock.voters) + (clock.voters == 1 ? " pod)" : " pods)");
+}
+
 void FrameSync::forgetPod(uint32_t camera_id) { clocks_.erase(camera_id); }
 
 const PodClock* FrameSync::clockOf(uint32_t camera_id) const {

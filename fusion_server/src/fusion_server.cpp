@@ -1,7 +1,6 @@
 #include "fusion_server/fusion_server.h"
 
 #include <poll.h>
-#include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -61,37 +60,11 @@ uint32_t podFrameCap(const protocol::Calibration& c, uint32_t max_payload) {
   return static_cast<uint32_t>(std::min<uint64_t>(max_payload, planes + (64u << 10)));
 }
 
-// A pod's offset from the rig's clock, for the log: "54000 ids ahead of
-// the rig's clock (id N, the median of 4 pods)".
-std::string describeOffset(const PodClock& clock) {
-  const uint64_t ids = clock.offset < 0 ? 0 - static_cast<uint64_t>(clock.offset)
-                                        : static_cast<uint64_t>(clock.offset);
-  return std::to_string(ids) + (clock.offset < 0 ? " ids behind" : " ids ahead of") +
-         " the rig's clock (id " + std::to_string(clock.rig_id) + ", the median of " +
-         std::to_string(clock.voters) + (clock.voters == 1 ? " pod)" : " pods)");
-}
-
-// The decoder and the worker both write the one wake descriptor.
-void drainWake(int wake_fd) {
-  uint64_t counter = 0;
-  while (::read(wake_fd, &counter, sizeof(counter)) > 0) {
-  }
-}
-
 }  // namespace
 
 FusionServer::FusionServer(ServerOptions options)
-    : options_(std::move(options)),
-      sync_(options_.lossless ? FrameSync::lossless(options_.max_id_skew)
-                              : FrameSync(static_cast<uint64_t>(options_.sync_deadline_ms * 1e6),
-                                          options_.max_id_skew)) {
+    : options_(std::move(options)), pipeline_(options_) {
   options_.fusion.pods_expected = static_cast<uint32_t>(options_.pods);
-}
-
-FusionServer::~FusionServer() {
-  decoder_.reset();
-  worker_.reset();
-  if (wake_fd_ >= 0) ::close(wake_fd_);
 }
 
 Status FusionServer::start() {
@@ -101,14 +74,7 @@ Status FusionServer::start() {
   auto listener = protocol::listenTcp(options_.listen, SOMAXCONN);
   if (!listener.isOk()) return listener.status();
   listener_ = std::move(*listener);
-  wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-  if (!options_.record_dir.empty()) {
-    auto recorder = dataset::Recorder::open(options_.record_dir, options_.record_fused);
-    if (!recorder.isOk()) return recorder.status();
-    recorder_ = std::move(*recorder);
-  }
-  worker_ = std::make_unique<FusionWorker>(options_.fusion, wake_fd_, options_.lossless);
-  decoder_ = std::make_unique<PodDecoder>(options_.decode_threads, wake_fd_);
+  HOLOFUSE_RETURN_IF_ERROR(pipeline_.start());
   if (!options_.port_file.empty()) {
     std::ofstream(options_.port_file) << port() << "\n";
   }
@@ -124,20 +90,6 @@ Status FusionServer::start() {
                meshCodecName(f.mesh_codec).c_str(), f.draco.position_bits, f.draco.speed,
                imageCodecName(f.image_codec).c_str(), f.lz4_acceleration, f.lz4_hc_level);
   return Status::ok();
-}
-
-std::set<uint32_t> FusionServer::expectedPods() const {
-  // Every configured pod is waited for (up to the sync deadline) until it
-  // has been seen to leave: a pod still starting up gets the deadline, a
-  // pod that left stalls nothing.
-  std::set<uint32_t> ids;
-  for (uint32_t id = 0; id < static_cast<uint32_t>(options_.pods); ++id) {
-    if (departed_pods_.count(id) == 0) ids.insert(id);
-  }
-  // A pod that left with frames still decoding is waited for until they
-  // are in: its last frames are fused like the others.
-  for (uint32_t id : decoder_->podsInFlight()) ids.insert(id);
-  return ids;
 }
 
 void FusionServer::refuseConnection(protocol::Socket socket, const std::string& name,
@@ -284,7 +236,7 @@ Status FusionServer::handleHello(Peer& peer, const Frame& frame) {
                                               std::to_string(options_.pods - 1));
   }
   if (!options_.keys) return admit(peer, hello, *ack);
-  if (ack->minor < 4) {
+  if (!capabilitiesOf(ack->minor).authenticates) {
     return Status(StatusCode::kUnauthenticated,
                   who + " speaks protocol 1." + std::to_string(ack->minor) +
                       ", which has no authentication; this server requires it (1.4 or "
@@ -359,31 +311,19 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
   peer.greeted = true;
   peer.budget = PeerBudget(options_.budget, monotonicNs());
   peer.connection->setMaxPayload(std::min(options_.max_payload, kMaxControlPayload));
-  if (hello.role == protocol::Role::kPod) {
-    departed_pods_.erase(hello.id);
-    // A pod back on a new connection may send from another clock: its first
-    // transit starts afresh rather than counting the offset as jitter, and
-    // its frame ids are judged afresh too.
-    if (auto known = pod_arrivals_.find(hello.id); known != pod_arrivals_.end())
-      known->second.restart();
-    sync_.forgetPod(hello.id);
-  }
+  if (hello.role == protocol::Role::kPod) pipeline_.podJoined(hello.id);
   peer.role = hello.role;
   peer.id = hello.id;
-  peer.minor = ack.minor;
+  peer.caps = capabilitiesOf(ack.minor, hello.role, hello.capabilities);
   peer.clock = protocol::ClockSync(options_.clock);
-  const bool asked_layers = hello.role == protocol::Role::kClient && ack.minor >= 5 &&
-                            (hello.capabilities & protocol::kCapabilityLayers) != 0;
-  // The layers are laid out on the mesh as a 1.7 client decodes it; one
-  // before 1.7 decodes the Draco spelling, whose positions differ.
+  const bool asked_layers = peer.caps.layers;
+  // The layers are laid out on the mesh as the configured codec gives it;
+  // a client that decodes only Draco gets Draco's, whose positions differ.
   const bool layers_fit =
-      ack.minor >= 7 || options_.fusion.mesh_codec == protocol::MeshCodec::kDraco;
+      peer.caps.any_mesh_codec || options_.fusion.mesh_codec == protocol::MeshCodec::kDraco;
   peer.wants_layers = asked_layers && layers_fit;
-  peer.wants_layer_video = peer.wants_layers && ack.minor >= 6 &&
-                           (hello.capabilities & protocol::kCapabilityLayerVideo) != 0 &&
+  peer.wants_layer_video = peer.wants_layers && peer.caps.layer_video &&
                            isVideoCodec(options_.fusion.layers.video.codec);
-  peer.asks_for_frames = hello.role == protocol::Role::kClient && ack.minor >= 9 &&
-                         (hello.capabilities & protocol::kCapabilityAsksForFrames) != 0;
   peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
                                std::to_string(hello.id) + " (" + peer.connection->peerName() + ")");
   peer.connection->sendMessage(ack);
@@ -395,9 +335,7 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
                : asked_layers ? ", no texture layers (they are laid out on meshes it does not "
                                 "decode: --mesh-codec is not draco and it speaks 1.6 or older)"
                               : "");
-  if (peer.role == protocol::Role::kClient) {
-    for (const auto& [id, bytes] : calibration_frames_) peer.connection->send(bytes);
-  }
+  if (peer.role == protocol::Role::kClient) pipeline_.welcomeClient(peer);
   return Status::ok();
 }
 
@@ -449,86 +387,8 @@ Status FusionServer::handleFrameRequest(Peer& peer, const Frame& frame) {
   HOLOFUSE_RETURN_IF_ERROR(protocol::decodeFrame(frame, request));
   // Only a client that said it would ask (Hello, since 1.9) is paced; any
   // other is sent every frame (SPEC.md section 6) and its request ignored.
-  if (peer.asks_for_frames) peer.frames_through = request.frames_through;
+  if (peer.caps.asks_for_frames) peer.frames_through = request.frames_through;
   return Status::ok();
-}
-
-uint64_t FusionServer::Peer::framesOwed() const {
-  if (frames_through <= frames_sent) return 0;
-  return std::min(frames_through - frames_sent, kMostFramesAhead);
-}
-
-Status FusionServer::handlePodFrame(Peer& peer, Frame frame) {
-  auto cam = cameras_.find(peer.id);
-  if (cam == cameras_.end()) {
-    return Status(StatusCode::kUnexpectedMessage, "PodFrame before Calibration");
-  }
-  // Stamped before the decoding, which starts the server_decode stage here
-  // (waiting for a decoder thread is part of it).
-  // A pod of 1.8 is probed; until its first answer its times cannot be
-  // placed on ours (an older pod is taken to share our clock).
-  std::optional<int64_t> offset = 0;
-  if (peer.minor >= 8)
-    offset = peer.clock.known() ? std::optional(peer.clock.offsetNs()) : std::nullopt;
-  const uint64_t uncertainty = offset && peer.clock.known() ? peer.clock.uncertaintyNs() : 0;
-  PodDecodeJob job{peer.serial,   peer.id, std::move(frame), cam->second,
-                   monotonicNs(), offset,  uncertainty};
-  decoder_->submit(std::move(job));
-  return Status::ok();
-}
-
-void FusionServer::takeDecodedFrames() {
-  for (DecodedPodFrame& decoded : decoder_->takeDecoded()) {
-    if (decoded.status.isOk()) {
-      syncDecoded(std::move(decoded.frame), decoded.pod, decoded.frame_id,
-                  std::move(decoded.images));
-      continue;
-    }
-    // Refused as malformed: its connection is closed (if still open), and
-    // it counts for nothing.
-    for (size_t i = 0; i < peers_.size(); ++i) {
-      if (peers_[i].serial == decoded.connection) {
-        closePeer(i, decoded.status);
-        break;
-      }
-    }
-  }
-}
-
-void FusionServer::syncDecoded(Frame frame, uint32_t pod, uint64_t frame_id, PodImages images) {
-  const double sent_ms = static_cast<double>(images.pod_sent_ns) / 1e6;
-  const double arrival_ms = static_cast<double>(images.arrival_ns) / 1e6;
-  // The group waits from the first frame decoded: its decoding is
-  // server_decode's, and the latency budget must not count it twice.
-  const FrameSync::Added added = sync_.add(frame_id, std::move(images), monotonicNs());
-  if (added == FrameSync::Added::kOffClock) {
-    // Another clock than the rig's: the frame is dropped, the pod kept
-    // until it has been off for off_clock_close_ms (frame_sync.h).
-    tellOffClock(pod, frame_id);
-    return;
-  }
-  // Every frame a pod sends counts for its jitter, also one that arrives too
-  // late to be fused: the link's behaviour, not the fusion's. A frame refused
-  // as malformed does not count.
-  if (sent_ms > 0) pod_arrivals_[pod].add(sent_ms, arrival_ms);
-  // What the fusion takes, as it arrived (a late frame is not fused, so a
-  // replay must not fuse it either).
-  if (added == FrameSync::Added::kAccepted && recorder_) {
-    recorder_->recordPodMessage(dataset::RecordKind::kPodFrame, pod, frame_id, frame);
-  }
-}
-
-void FusionServer::tellOffClock(uint32_t pod, uint64_t frame_id) {
-  const PodClock* clock = sync_.clockOf(pod);
-  if (clock == nullptr || !clock->off_since_ns) return;
-  // The first frame of a run off the clock, and every 100th in all.
-  if (*clock->off_since_ns != clock->heard_ns && clock->off_frames % 100 != 0) return;
-  std::fprintf(stderr,
-               "[server] pod %u is off the rig's clock: frame id %llu is %s; its frames are "
-               "dropped and it is not waited for (%llu so far), and it is closed if it stays off "
-               "for %u ms (does it run on another clock?)\n",
-               pod, static_cast<unsigned long long>(frame_id), describeOffset(*clock).c_str(),
-               static_cast<unsigned long long>(clock->off_frames), options_.off_clock_close_ms);
 }
 
 void FusionServer::measureRigPixels() {
@@ -577,7 +437,7 @@ Status FusionServer::standing(const Peer& peer, uint64_t now_ns) const {
 
 Status FusionServer::offClockTooLong(const Peer& peer, uint64_t now_ns) const {
   if (peer.role != protocol::Role::kPod || !peer.greeted) return Status::ok();
-  const PodClock* clock = sync_.clockOf(peer.id);
+  const PodClock* clock = pipeline_.clockOf(peer.id);
   if (clock == nullptr || !clock->off_since_ns) return Status::ok();
   const uint64_t off_ns = now_ns - *clock->off_since_ns;
   if (off_ns <= uint64_t{options_.off_clock_close_ms} * 1000000) return Status::ok();
@@ -700,20 +560,15 @@ Status FusionServer::handle(Peer& peer, Frame frame) {
       HOLOFUSE_RETURN_IF_ERROR(podCostTooHigh(peer));
       peer.connection->setTypeCap(MessageType::kPodFrame,
                                   podFrameCap(calibration, options_.max_payload));
-      if (recorder_)
-        recorder_->recordPodMessage(dataset::RecordKind::kCalibration, calibration.camera_id, 0,
-                                    frame);
-      auto bytes = std::make_shared<const protocol::OutgoingFrame>(frame.bytes);
-      calibration_frames_[calibration.camera_id] = bytes;
-      for (auto& other : peers_) {
-        if (other.greeted && other.role == protocol::Role::kClient) other.connection->send(bytes);
-      }
+      pipeline_.relayCalibration(calibration.camera_id, frame, peers_);
       return Status::ok();
     }
     case MessageType::kPodFrame:
       if (peer.role != protocol::Role::kPod)
         return Status(StatusCode::kUnexpectedMessage, "PodFrame from a client");
-      return handlePodFrame(peer, std::move(frame));
+      if (!cameras_.count(peer.id))
+        return Status(StatusCode::kUnexpectedMessage, "PodFrame before Calibration");
+      return pipeline_.podFrame(peer, cameras_.at(peer.id), std::move(frame));
     case MessageType::kHello:
       return Status(StatusCode::kUnexpectedMessage, "second Hello");
     default:
@@ -725,9 +580,7 @@ Status FusionServer::handle(Peer& peer, Frame frame) {
 void FusionServer::closePeer(size_t index, const Status& why) {
   Peer& peer = peers_[index];
   if (peer.greeted && peer.role == protocol::Role::kPod && !peer.replaced) {
-    departed_pods_.insert(peer.id);
-    // Its vote on the rig's clock leaves with it (frame_sync.h).
-    sync_.forgetPod(peer.id);
+    pipeline_.podLeft(peer.id);
   }
   if (why.code() == StatusCode::kClosed) {
     std::fprintf(stderr, "[server] %s left (%s)\n", peer.connection->peerName().c_str(),
@@ -746,196 +599,15 @@ void FusionServer::closePeer(size_t index, const Status& why) {
   if (calibrated_pod) measureRigPixels();
 }
 
-bool FusionServer::fusingWhenAsked() const {
-  if (!options_.fuse_when_asked || options_.lossless || options_.record_fused) return false;
-  bool clients = false;
-  for (const Peer& p : peers_) {
-    if (!p.greeted || p.role != protocol::Role::kClient) continue;
-    if (!p.asks_for_frames) return false;
-    clients = true;
-  }
-  return clients;
-}
-
-bool FusionServer::aClientWaitsForAFrame() {
-  // Groups submitted and not yet sent out: each goes to every client that
-  // still asks for a frame then.
-  const uint64_t fusing = worker_->jobsNotTaken();
-  for (const Peer& p : peers_) {
-    if (p.greeted && p.role == protocol::Role::kClient && p.framesOwed() > fusing) return true;
-  }
-  return false;
-}
-
-void FusionServer::dispatchReadyGroups() {
-  const bool when_asked = fusingWhenAsked();
-  std::vector<FrameGroup> ready = sync_.takeReady(expectedPods(), monotonicNs());
-  // No one paces any more (a client that does not ask joined, or the last
-  // that asked left): a group held goes first, unless newer ones are ready
-  // (a waiting job gives way to a newer one; frames never go backwards).
-  if (held_group_ && !when_asked) {
-    const bool newer = std::any_of(ready.begin(), ready.end(),
-                                   [](const FrameGroup& g) { return !g.pods.empty(); });
-    if (newer) {
-      ++groups_not_asked_for_;
-    } else {
-      submitGroup(std::move(*held_group_));
-    }
-    held_group_.reset();
-  }
-  for (auto& group : ready) {
-    if (group.pods.empty()) continue;
-    if (!when_asked) {
-      submitGroup(std::move(group));
-      continue;
-    }
-    if (held_group_) ++groups_not_asked_for_;
-    held_group_ = std::move(group);
-  }
-  // The held group goes as soon as a client asks (it is at most one pod
-  // frame interval old while the pods send), or when no one paces.
-  if (held_group_ && (!when_asked || aClientWaitsForAFrame())) {
-    submitGroup(std::move(*held_group_));
-    held_group_.reset();
-  }
-}
-
-void FusionServer::submitGroup(FrameGroup group) {
-  // Layers are built only while a client that asked for them is here,
-  // coded as each such client decodes them; the mesh in Draco too while
-  // a client before 1.7 is.
-  bool lz4 = false, video = false;
-  GroupJob job;
-  for (const Peer& p : peers_) {
-    if (!p.greeted || p.role != protocol::Role::kClient) continue;
-    job.draco_for_older = job.draco_for_older || p.minor < 7;
-    if (!p.wants_layers) continue;
-    (p.wants_layer_video ? video : lz4) = true;
-    if (p.wants_layer_video && !p.layer_video_in_step) worker_->requestLayerVideoKeyFrame();
-  }
-  worker_->setLayersWanted(lz4, video);
-  job.group = std::move(group);
-  job.late_frames = sync_.lateFrames();
-  job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();
-  for (const auto& [pod, jitter] : pod_arrivals_) {
-    protocol::PodArrivals arrivals{
-        static_cast<uint16_t>(pod), jitter.packets(),
-        static_cast<uint32_t>(std::min(jitter.ms() * 1000.0 + 0.5, 4.0e9))};
-    for (const Peer& p : peers_) {
-      if (!p.greeted || p.replaced || p.role != protocol::Role::kPod || p.id != pod ||
-          !p.clock.known())
-        continue;
-      arrivals.clock_offset_ns = p.clock.offsetNs();
-      arrivals.clock_uncertainty_ns = std::max<uint64_t>(p.clock.uncertaintyNs(), 1);
-    }
-    job.pod_arrivals.push_back(arrivals);
-  }
-  worker_->submit(std::move(job));
-}
-
-void FusionServer::fanOut() {
-  for (auto& out : worker_->takeOutputs()) {
-    ++groups_fused_;
-    if (recorder_)
-      recorder_->recordFused(out.frame_id, *out.mesh_frame, *out.texture_bundle, *out.stats);
-    for (auto& peer : peers_) {
-      if (!peer.greeted || peer.role != protocol::Role::kClient) continue;
-      // A client before 1.7 decodes Draco meshes only: none was made for
-      // a frame fused before it joined, and it gets none of that frame.
-      const protocol::SharedFrame& mesh = peer.minor >= 7 ? out.mesh_frame : out.mesh_frame_draco;
-      if (!mesh) continue;
-      // A client that asked for none more does not get this frame (another
-      // client asked); its layers' video, if any, is out of step from here.
-      if (peer.asks_for_frames && peer.framesOwed() == 0) {
-        peer.layer_video_in_step = false;
-        continue;
-      }
-      // Bundle and Stats first: the client renders when the mesh arrives.
-      // A client that asked for layers gets the images of a frame whose
-      // layers were refused (the Stats' note says why).
-      protocol::SharedFrame bundle = peer.minor >= 3   ? out.texture_bundle
-                                     : peer.minor == 2 ? out.texture_bundle_v1_2
-                                                       : out.texture_bundle_v1_1;
-      if (peer.wants_layer_video) {
-        // Its stream is in step from a key frame on, until a frame of it
-        // does not reach the client (refused layers, a drop on a slow link).
-        // Out of step, a predicted frame is one it cannot decode: it gets
-        // nothing until the key frame it asked for.
-        if (out.texture_bundle_layer_video) {
-          if (out.layer_stats.video_key_frame) peer.layer_video_in_step = true;
-          if (!peer.layer_video_in_step) {
-            worker_->requestLayerVideoKeyFrame();
-            continue;
-          }
-          bundle = out.texture_bundle_layer_video;
-        } else {
-          peer.layer_video_in_step = false;
-        }
-      } else if (peer.wants_layers && out.texture_bundle_layers) {
-        bundle = out.texture_bundle_layers;
-      }
-      // A frame a client asked for is never dropped from its queue: it
-      // asks for the next only as this one arrives, and its request bounds
-      // the queue.
-      using Keep = protocol::Connection::Keep;
-      const Keep keep = peer.asks_for_frames ? Keep::kAlways : Keep::kAsFlagged;
-      ++peer.frames_sent;
-      peer.connection->send(bundle, keep);
-      peer.connection->send(peer.minor >= 8   ? out.stats
-                            : peer.minor >= 3 ? out.stats_v1_7
-                            : peer.minor >= 1 ? out.stats_v1_2
-                                              : out.stats_v1_0);
-      peer.connection->send(mesh, keep);
-      if (peer.connection->framesDropped() != peer.frames_dropped_seen) {
-        peer.frames_dropped_seen = peer.connection->framesDropped();
-        peer.layer_video_in_step = false;
-      }
-      if (peer.wants_layer_video && !peer.layer_video_in_step) worker_->requestLayerVideoKeyFrame();
-    }
-  }
-}
-
-bool FusionServer::readable(const Peer& peer) {
-  if (!peer.greeted || peer.role != protocol::Role::kPod) return true;
-  if (!clients_arrived_) {
-    int clients = 0;
-    for (const auto& other : peers_)
-      clients += other.greeted && other.role == protocol::Role::kClient;
-    if (clients < options_.wait_for_clients) return false;
-    clients_arrived_ = true;  // from now on pods are read whoever comes and goes
-  }
-  // Backpressure on a pod whose frames are still being decoded: they
-  // wait in its socket, and its bounded queue drops the oldest.
-  if (decoder_->inFlight(peer.id) >= options_.max_frames_in_flight) return false;
-  if (!options_.lossless) return true;
-  // Frames wait in the pod's socket, and the pod's sends block, until
-  // fusion has caught up: nothing is dropped and memory stays bounded.
-  constexpr size_t kMaxQueuedGroups = 2, kMaxPendingPerPod = 4;
-  return worker_->queuedJobs() < kMaxQueuedGroups && sync_.pendingWith(peer.id) < kMaxPendingPerPod;
-}
-
-bool FusionServer::podsDone() {
-  // Every configured pod joined and left (not just the first ones).
-  if (departed_pods_.size() < static_cast<size_t>(options_.pods)) return false;
-  if (decoder_->inFlight() > 0 || sync_.pendingGroups() > 0 || worker_->queuedJobs() > 0 ||
-      held_group_)
-    return false;
-  for (const auto& peer : peers_) {
-    if (!peer.greeted) continue;
-    if (peer.role == protocol::Role::kPod || peer.connection->wantsWrite()) return false;
-  }
-  return true;
-}
-
 int FusionServer::run() {
   std::string bye_reason = "server shutting down";
   while (!stopRequested()) {
     if (!options_.health_file.empty() && monotonicNs() - health_written_ns_ >= 1'000'000'000ull)
       writeHealth("serving");
-    if (options_.exit_when_pods_done && podsDone()) {
-      drainWake(wake_fd_);
-      fanOut();
-      if (podsDone()) {
+    if (options_.exit_when_pods_done && pipeline_.podsDone(peers_)) {
+      pipeline_.drainWake();
+      pipeline_.fanOut(peers_);
+      if (pipeline_.podsDone(peers_)) {
         std::fprintf(
             stderr,
             "[server] every pod has left and its frames are fused and delivered: stopping\n");
@@ -946,15 +618,15 @@ int FusionServer::run() {
     std::vector<pollfd> fds;
     const bool accepting = monotonicNs() >= accept_paused_until_ns_;
     fds.push_back({listener_.fd(), static_cast<short>(accepting ? POLLIN : 0), 0});
-    fds.push_back({wake_fd_, POLLIN, 0});
+    fds.push_back({pipeline_.wakeFd(), POLLIN, 0});
     std::vector<bool> reading;
     const uint64_t polled_ns = monotonicNs();
-    std::optional<uint64_t> wake_at = sync_.nextDeadline();
+    std::optional<uint64_t> wake_at = pipeline_.nextDeadline();
     for (const auto& peer : peers_) {
       // A peer over its budget is not read until it may send again.
       const bool paused = peer.paused_until_ns > polled_ns;
       if (paused) wake_at = std::min(wake_at.value_or(UINT64_MAX), peer.paused_until_ns);
-      reading.push_back(!paused && readable(peer));
+      reading.push_back(!paused && pipeline_.readable(peer, peers_));
       const bool writing = peer.connection->wantsWrite();
       // Left out while paused with nothing to write: a peer that hung up
       // would wake poll at once, every turn, until then.
@@ -1002,7 +674,7 @@ int FusionServer::run() {
               uint64_t{options_.heartbeat_interval_ms} * 1000000) {
         peer.connection->sendMessage(protocol::Heartbeat{now});
       }
-      if (status.isOk() && peer.greeted && peer.minor >= 8) {  // ClockProbe came with 1.8
+      if (status.isOk() && peer.greeted && peer.caps.clock_probes) {
         if (auto probe = peer.clock.probeDue(now)) peer.connection->sendMessage(*probe);
       }
       if (status.isOk()) status = standing(peer, now);
@@ -1015,12 +687,18 @@ int FusionServer::run() {
     // index): making room may close one. Peers accepted now are polled next
     // turn.
     if (fds[0].revents & POLLIN) acceptAll();
-    if (fds[1].revents & POLLIN) drainWake(wake_fd_);
-    takeDecodedFrames();
-    dispatchReadyGroups();
-    fanOut();
+    if (fds[1].revents & POLLIN) pipeline_.drainWake();
+    for (const FramePipeline::Refused& refused : pipeline_.takeDecodedFrames()) {
+      const auto sender = std::find_if(peers_.begin(), peers_.end(), [&](const Peer& peer) {
+        return peer.serial == refused.connection;
+      });
+      if (sender != peers_.end())
+        closePeer(static_cast<size_t>(sender - peers_.begin()), refused.why);
+    }
+    pipeline_.dispatchReadyGroups(peers_);
+    pipeline_.fanOut(peers_);
     enforceBufferedBytes();
-    if (recorder_) recorder_->maybeReportProgress(monotonicNs());
+    pipeline_.reportRecordingProgress();
     for (size_t i = peers_.size(); i-- > 0;) {
       if (!peers_[i].connection->wantsWrite()) continue;
       const Status s = peers_[i].connection->onWritable();
@@ -1031,16 +709,9 @@ int FusionServer::run() {
     peer.connection->sendMessage(protocol::Bye{bye_reason});
     peer.connection->closeGracefully(options_.exit_when_pods_done ? 5000 : 100);
   }
-  if (recorder_) recorder_->close();
+  pipeline_.closeRecording();
   if (!options_.health_file.empty()) writeHealth("stopped");
-  std::fprintf(
-      stderr,
-      "[server] stopped after fusing %llu groups (%llu late pod frames, %llu groups dropped, "
-      "%llu not fused: no client asked for them)\n",
-      static_cast<unsigned long long>(groups_fused_),
-      static_cast<unsigned long long>(sync_.lateFrames()),
-      static_cast<unsigned long long>(sync_.overflowedGroups() + worker_->replacedJobs()),
-      static_cast<unsigned long long>(groups_not_asked_for_));
+  std::fprintf(stderr, "[server] stopped after %s\n", pipeline_.summary().c_str());
   return 0;
 }
 
@@ -1056,9 +727,9 @@ void FusionServer::writeHealth(const char* state) {
     std::ofstream out(aside);
     out << "{\"state\": \"" << state << "\", \"port\": " << port() << ", \"pods\": " << pods
         << ", \"pods_expected\": " << options_.pods << ", \"clients\": " << clients
-        << ", \"groups_fused\": " << groups_fused_
-        << ", \"groups_not_asked_for\": " << groups_not_asked_for_
-        << ", \"groups_fusing\": " << worker_->jobsNotTaken() << "}\n";
+        << ", \"groups_fused\": " << pipeline_.groupsFused()
+        << ", \"groups_not_asked_for\": " << pipeline_.groupsNotAskedFor()
+        << ", \"groups_fusing\": " << pipeline_.groupsFusing() << "}\n";
   }
   if (std::rename(aside.c_str(), options_.health_file.c_str()) != 0 && !health_failed_) {
     health_failed_ = true;

@@ -349,6 +349,21 @@ size_t FusionWorker::queuedJobs() {
   return waiting_.size() + (busy_ ? 1 : 0);
 }
 
+const protocol::SharedFrame& FusedOutput::bundleFor(PeerCapabilities::Bundle layout) const {
+  using Bundle = PeerCapabilities::Bundle;
+  return layout == Bundle::kCurrent ? texture_bundle
+         : layout == Bundle::kV1_2  ? texture_bundle_v1_2
+                                    : texture_bundle_v1_1;
+}
+
+const protocol::SharedFrame& FusedOutput::statsFor(PeerCapabilities::Stats layout) const {
+  using Stats = PeerCapabilities::Stats;
+  return layout == Stats::kCurrent ? stats
+         : layout == Stats::kV1_7  ? stats_v1_7
+         : layout == Stats::kV1_2  ? stats_v1_2
+                                   : stats_v1_0;
+}
+
 size_t FusionWorker::jobsNotTaken() {
   std::lock_guard<std::mutex> lock(mutex_);
   return waiting_.size() + (busy_ ? 1 : 0) + outputs_.size();

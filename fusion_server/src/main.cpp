@@ -224,7 +224,7 @@ int main(int argc, char** argv) {
   options.listen = *endpoint;
   const std::string key_path = protocol::keyFilePath(key_file);
   options.max_minor = protocol_flag.maxMinor();
-  if (!no_auth && options.max_minor < 4) {
+  if (!no_auth && !fusion::capabilitiesOf(options.max_minor).authenticates) {
     std::fprintf(stderr,
                  "--protocol 1.%u has no authentication (it came with 1.4): give --no-auth, or "
                  "1.4 or later\n",

@@ -289,9 +289,13 @@ TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
   const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out", out.string(),
                               "--frames", "14", "--size", "160x120"},
                              out / "client.log");
-  // Pod 3 dies once the rig is rendering, whatever the machine's speed.
-  ASSERT_TRUE(holofuse::test::waitFor([&] { return holofuse::test::picturesIn(out) >= 2; }))
-      << readFile(out / "client.log");
+  // Pod 3 dies once the rig is rendering and its frames are in, whatever
+  // the machine's speed (a loaded one may start it last).
+  ASSERT_TRUE(holofuse::test::waitFor([&] {
+    return holofuse::test::picturesIn(out) >= 2 &&
+           holofuse::test::logSays(out / "server.log", "pod 3's first frame is in");
+  })) << readFile(out / "client.log")
+      << readFile(out / "server.log");
   kill(pods[3], SIGKILL);
   waitpid(pods[3], nullptr, 0);
   const int client_exit = waitExit(client, 180);

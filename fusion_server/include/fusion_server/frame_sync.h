@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <string>
 #include <vector>
 
 #include "common/camera.h"
@@ -58,6 +59,10 @@ struct PodClock {
   std::optional<uint64_t> off_since_ns;
   uint64_t off_frames = 0;  // every frame refused as off the clock, in all
 };
+
+// A pod's offset from the rig's clock, for the log: "54000 ids ahead of
+// the rig's clock (id N, the median of 4 pods)".
+std::string describeOffset(const PodClock& clock);
 
 class FrameSync {
  public:

@@ -17,6 +17,7 @@
 #include "common/settings.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/layer_stage.h"
+#include "fusion_server/peer_capabilities.h"
 #include "fusion_server/photo_refine.h"
 #include "hull/hull_error.h"
 #include "hull/visual_hull.h"
@@ -66,6 +67,9 @@ struct FusedOutput {
       stats_v1_0;  // the same Stats for a peer that agreed on 1.0 (no pod arrivals)
   // For a peer of 1.3 to 1.7: the Stats of 1.7, without the pods' clocks.
   protocol::SharedFrame stats_v1_7;
+  // Of the above, the spelling a peer decodes.
+  const protocol::SharedFrame& bundleFor(PeerCapabilities::Bundle layout) const;
+  const protocol::SharedFrame& statsFor(PeerCapabilities::Stats layout) const;
   // For a client of 1.5 that asked for layers: the frame's texture layers
   // in place of the images; null when no layers were built (none asked,
   // or they were refused: layers_note says why, and such a client gets
