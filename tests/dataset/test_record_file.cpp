@@ -347,9 +347,20 @@ TEST_F(RecordFileTest, AWriterKilledMidStreamLosesOnlyItsLastRecord) {
         if (!writer->append(RecordKind::kPodFrame, 0, i, i, payload).isOk()) _exit(4);
       }
     }
-    usleep(20000 + static_cast<useconds_t>(random() % 60000));
-    kill(child, SIGKILL);
+    // Killed once the file has grown past a random point: after one to
+    // four whole records and some way into the next, however fast the
+    // machine writes.
+    const uint64_t record = kRecordHeaderSize + 200000;
+    const uint64_t kill_at =
+        kRecordFileHeaderSize + record * (1 + random() % 4) + random() % record;
     int status = 0;
+    bool exited = false;
+    while (!exited && (!fs::exists(file) || fs::file_size(file) < kill_at)) {
+      exited = waitpid(child, &status, WNOHANG) == child;
+      usleep(1000);
+    }
+    ASSERT_FALSE(exited) << "the writer stopped by itself, status " << status;
+    kill(child, SIGKILL);
     waitpid(child, &status, 0);
     ASSERT_TRUE(WIFSIGNALED(status));
     auto reader = RecordReader::open(file);

@@ -5,11 +5,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <map>
 #include <set>
-#include <thread>
 
 #include "common/image_codec.h"
 #include "common/mesh_codec.h"
@@ -386,9 +384,13 @@ TEST(FusionWorker, AnErrorTargetRefinesTheVoxelUntilTheSilhouettesAgree) {
       job.group.frame_id = 3 + static_cast<uint64_t>(frame);
       worker.submit(job);
     }
-    for (int waited = 0; outputs.size() < 6 && waited < 600; ++waited) {
+    // The worker writes the descriptor as each fused group is ready.
+    while (outputs.size() < 6) {
+      pollfd woken{wake, POLLIN, 0};
+      if (::poll(&woken, 1, 120'000) <= 0) break;  // a limit for a hung worker, not a pace
+      uint64_t counter = 0;
+      if (::read(wake, &counter, sizeof(counter)) < 0) break;
       for (auto& out : worker.takeOutputs()) outputs.push_back(std::move(out));
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
   }
   ::close(wake);

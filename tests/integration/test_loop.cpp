@@ -5,7 +5,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -14,7 +13,6 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <thread>
 
 #include "browser_check.h"
 #include "common/camera.h"
@@ -532,14 +530,15 @@ TEST(Loop, APodWithoutServerRetriesWithBackoffAndJoinsWhenItAppears) {
   const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods",
                            "1", "--size", "64x48", "--fps", "5"},
                           out / "pod.log");
-  std::this_thread::sleep_for(std::chrono::milliseconds(1200));
+  // The server comes up after the pod's third retry, however long the
+  // machine takes to get there.
+  ASSERT_TRUE(holofuse::test::waitFor([&] {
+    return holofuse::test::logSays(out / "pod.log", "retry 3 in 400 ms");
+  })) << readFile(out / "pod.log");
   const pid_t server =
       spawn({kBin + "/fusion_server", "--listen", endpoint, "--pods", "1"}, out / "server.log");
-  bool joined = false;
-  for (int i = 0; i < 100 && !joined; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    joined = readFile(out / "pod.log").find("connected to") != std::string::npos;
-  }
+  const bool joined = holofuse::test::waitFor(
+      [&] { return holofuse::test::logSays(out / "pod.log", "connected to"); });
   kill(pod, SIGTERM);
   EXPECT_EQ(waitExit(pod, 10), 0);
   kill(server, SIGTERM);
@@ -568,7 +567,9 @@ TEST(Loop, HostileConnectionsAreClosedWhileTheOthersAreServed) {
   const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out", out.string(),
                               "--frames", "8", "--size", "96x72"},
                              out / "client.log");
-  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  // The hostile peers come while the loop runs: once a picture is out.
+  ASSERT_TRUE(holofuse::test::waitFor([&] { return holofuse::test::picturesIn(out) >= 1; }))
+      << readFile(out / "client.log");
   auto parsed = holofuse::protocol::parseEndpoint(endpoint);
   ASSERT_TRUE(parsed.isOk());
   // One peer speaks HTTP, another announces a 4 GiB frame.
