@@ -11,6 +11,7 @@
 
 #include "base/process.h"
 #include "protocol/auth.h"
+#include "protocol/socket.h"
 
 namespace holofuse::test {
 namespace {
@@ -172,6 +173,16 @@ size_t picturesIn(const fs::path& client_out) {
        it.increment(error))
     n += it->path().extension() == ".png";
   return n;
+}
+
+nlohmann::json readJson(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+uint16_t freePort() {
+  auto listener = protocol::listenTcp({"127.0.0.1", 0});
+  return listener.isOk() ? listener->localPort() : 0;  // closed again on return
 }
 
 bool logSays(const fs::path& log, const std::string& what) {

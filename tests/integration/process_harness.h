@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,10 @@ bool waitFor(const std::function<bool()>& done, int limit_s = 60);
 // The PNGs a render client has written under its --out folder.
 size_t picturesIn(const fs::path& client_out);
 bool logSays(const fs::path& log, const std::string& what);
+// A report or result the programs wrote (report.json, quality.json).
+nlohmann::json readJson(const fs::path& p);
+// A free TCP port on loopback (bound, read back, released); 0: none.
+uint16_t freePort();
 
 // Built with ASan or TSan: the programs run several times slower and hold
 // shadow memory and a quarantine of freed blocks, so a live rig's rate and

@@ -34,6 +34,7 @@ namespace holofuse {
 namespace {
 
 namespace fs = std::filesystem;
+using test::freePort;
 using test::freshDir;
 using test::logSays;
 using test::readFile;
@@ -258,12 +259,6 @@ TEST(CameraPod, AFrameOfAnotherSizeIsRefusedByName) {
   EXPECT_TRUE(logSays(out / "bare.log", "camera \"door\" has no plate"))
       << readFile(out / "bare.log");
   fs::remove_all(out);
-}
-
-// A free TCP port on loopback (bound, read back, released).
-int freePort() {
-  auto listener = protocol::listenTcp({"127.0.0.1", 0});
-  return listener.isOk() ? listener->localPort() : 0;  // closed again on return
 }
 
 // A program on $PATH, by its full path (empty when there is none).

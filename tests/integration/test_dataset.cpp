@@ -32,6 +32,7 @@ namespace {
 namespace fs = std::filesystem;
 using test::freshDir;
 using test::readFile;
+using test::readJson;
 using test::spawn;
 using test::waitExit;
 const std::string kBin = HOLOFUSE_BIN_DIR;
@@ -77,11 +78,6 @@ std::map<uint32_t, std::vector<protocol::Bytes>> recordedPlanes(const fs::path& 
     }
   }
   return planes;
-}
-
-nlohmann::json readJson(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
 }
 
 class DatasetLoop : public ::testing::Test {

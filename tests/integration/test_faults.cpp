@@ -33,6 +33,7 @@ namespace {
 namespace fs = std::filesystem;
 using test::admittedByHand;
 using test::flush;
+using test::freePort;
 using test::freshDir;
 using test::kSanitized;
 using test::logSays;
@@ -288,11 +289,6 @@ pid_t serverOnPort(uint16_t port, const fs::path& out, int pods, const std::stri
   const pid_t pid = spawn(argv, out / log);
   EXPECT_TRUE(waitFor([&] { return logSays(out / log, "listening"); }, 30)) << readFile(out / log);
   return pid;
-}
-
-uint16_t freePort() {
-  auto listener = protocol::listenTcp({"127.0.0.1", 0});
-  return listener.isOk() ? listener->localPort() : 0;  // closed again on return
 }
 
 // Memory a restart gave back: the resident size now is within 10% (and
