@@ -1,65 +1,19 @@
-// holofuse_loop: starts the whole live loop on localhost as separate
-// processes (one fusion_server, N capture_node pods, one render_client),
-// relays the client's progress, and stops everything cleanly when the
-// client has its frames or on Ctrl-C, leaving no process behind. With
-// --netns each process runs in a network namespace of its own, every link
-// through an impairing relay (deploy/netns_rig.h): a rig of hosts on one
-// machine.
-#include <signal.h>
-#include <unistd.h>
+#include "deploy/loop_plan.h"
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <memory>
-#include <nlohmann/json.hpp>
-#include <optional>
-#include <string>
-#include <thread>
-#include <vector>
 
-#include "base/process.h"
 #include "capture_node/replay_pod.h"
 #include "common/command_line.h"
 #include "dataset/dataset.h"
-#include "deploy/netns_rig.h"
-#include "deploy/soak.h"
-#include "eval/loop_settings.h"
-#include "protocol/auth.h"
 #include "protocol/messages.h"
 #include "protocol/stage_budget.h"
 #include "render_client/blend_mode.h"
-#include "scene/scene_library.h"
 
+namespace holofuse::deploy {
 namespace {
-
-volatile sig_atomic_t g_interrupted = 0;
-void onSignal(int) { g_interrupted = 1; }
-
-// Starts a child of the loop: its output into log_path (the client's
-// stdout stays the terminal, for its progress line), Ctrl-C left to the
-// launcher, which decides when children stop. -1, said why, when it cannot
-// start.
-pid_t spawn(const std::vector<std::string>& args, const std::string& log_path) {
-  holofuse::SpawnOptions options;
-  options.log_path = log_path;
-  // (In a rig the program follows ip netns exec's words.)
-  options.stdout_to_log = std::none_of(args.begin(), args.end(), [](const std::string& word) {
-    return word.find("/render_client") != std::string::npos;
-  });
-  options.ignore_interrupt = true;
-  // A launcher killed outright (a test's time limit, an OOM kill) takes
-  // its rig with it rather than leaving it to eat the machine.
-  options.die_with_parent = true;
-  auto pid = holofuse::spawnProcess(args, options);
-  if (!pid.isOk()) {
-    std::fprintf(stderr, "[loop] %s\n", pid.status().message().c_str());
-    return -1;
-  }
-  return *pid;
-}
 
 // args as one command line for /bin/sh, each word single-quoted, so that
 // a folder with spaces or quotes in its name stays one word.
@@ -73,50 +27,6 @@ std::string shellCommand(const std::vector<std::string>& args) {
   }
   return command;
 }
-
-// Everything the launcher was asked for, checked before any process
-// starts.
-struct LoopPlan {
-  int pods = 4, frames = 40, port = 0, clients = 1;
-  // A soak (deploy/soak.h): the loop runs this long, its processes sampled
-  // every sample_seconds; 0: an ordinary run that ends with the frames.
-  double soak_minutes = 0, sample_seconds = 60, warmup_minutes = 2;
-  // What a 2-core machine's client sustains in mode normal (measured by
-  // `./holofuse bench loop`); a slower mode renders the newest mesh it can.
-  double fps = 15.0;
-  std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit",
-              scene = "clean";
-  std::string overlap_render = "auto";
-  std::string frames_ahead = "2";
-  std::string seed, noise;  // passed on only when given: the pods keep the scene's otherwise
-  std::string budget;
-  bool quality = false;
-  std::string record, replay, speed = "1";
-  bool record_fused = false, loop = false;
-  double speed_factor = 1.0;
-  // The pods', the server's and the client's settings; each process gets
-  // those that differ from its defaults.
-  holofuse::eval::LoopSettings settings;
-  std::vector<std::string> dataset_server_args;  // a replay's capture volume and voxel
-  // Fresh keys for this run only, one per identity (mode 0600, removed at
-  // the end): the loop is authenticated like a rig, no other process can
-  // join it, and no pod can be another.
-  std::string key_dir;
-  const holofuse::scene::ScenePreset* preset = nullptr;
-  // A rig on this machine (--netns): a namespace per process, each link
-  // impaired by a relay; the server then listens on its namespace's
-  // address instead of loopback.
-  bool netns = false;
-  holofuse::RigLink link;
-  std::string listen_host = "127.0.0.1";
-  // A rig file (--rig, docs/rig-file.md): its pods and clients, each
-  // process reading its part, the launcher's flags given on top.
-  std::string rig_file;
-  std::optional<holofuse::RigFile> rig;
-  std::vector<std::string> given;  // the flags given to the launcher
-  std::vector<holofuse::RigLink> pod_links, client_links;
-};
-
 bool wasGiven(const LoopPlan& plan, const std::string& flag) {
   return std::find(plan.given.begin(), plan.given.end(), flag) != plan.given.end();
 }
@@ -312,10 +222,13 @@ int readReplay(CLI::App& app, LoopPlan& plan) {
   return 0;
 }
 
-// Parses and checks the flags: nullopt and plan filled, or the exit code
-// (0 after --help).
-std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
-  CLI::App app{"holofuse loop: pods -> fusion server -> render client on localhost"};
+void append(std::vector<std::string>& args, const std::vector<std::string>& more) {
+  args.insert(args.end(), more.begin(), more.end());
+}
+
+// The launcher's own flags: the run, its rig and its budget; what it
+// records or replays.
+void addRunOptions(CLI::App& app, LoopPlan& plan) {
   app.add_option("--pods", plan.pods, "camera pods (1..128)")
       ->check(CLI::Range(1, static_cast<int>(holofuse::protocol::kMaxCameras)));
   app.add_option("--frames", plan.frames, "frames the client renders before everything stops")
@@ -353,12 +266,6 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
   app.add_option(
       "--scene", plan.scene,
       "named synthetic scene (its camera count unless --pods): " + holofuse::scene::sceneNames());
-  std::optional<uint64_t> seed;
-  std::optional<double> noise;
-  app.add_option("--seed", seed,
-                 "synthetic pods' scene seed (their motion, texture and calibration error)");
-  app.add_option("--noise", noise, holofuse::scene::kNoiseHelp)
-      ->check(CLI::Range(0.0, holofuse::scene::kMaxNoise));
   app.add_option("--budget", plan.budget,
                  "JSON of per-stage ms budgets for the client's report (flags violations)");
   app.add_flag("--quality", plan.quality,
@@ -381,15 +288,9 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
                  "process reading its part; flags given here override it");
   app.add_option("--bin-dir", plan.bin_dir,
                  "folder of the executables (default: next to this one)");
-  // Each process's settings, with its help and range, so that the launcher
-  // refuses what the process would.
-  std::vector<holofuse::Setting<holofuse::eval::LoopSettings>> settings =
-      holofuse::eval::loopFlags();
-  for (auto& setting : settings) {
-    const std::string takers = holofuse::eval::loopFlagTakers(setting.flag);
-    if (takers != "client") setting.help += " (" + takers + ")";
-  }
-  const holofuse::SettingFlags<holofuse::eval::LoopSettings> setting_flags(app, settings);
+}
+
+void addRecordingOptions(CLI::App& app, LoopPlan& plan) {
   app.add_option("--record", plan.record,
                  "record what the pods send into this folder (a dataset for --replay)");
   app.add_flag("--record-fused", plan.record_fused,
@@ -402,17 +303,11 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
       "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
   app.add_flag("--loop", plan.loop,
                "with --replay: start over at the end (until --frames or Ctrl-C)");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
-  }
-  setting_flags.apply(plan.settings);
-  for (const CLI::Option* option : app.get_options())
-    if (option->count() > 0) plan.given.push_back(option->get_name());
-  if (!plan.rig_file.empty()) {
-    if (const int code = readRig(plan); code != 0) return code;
-  }
+}
+
+// The flags together, checked by name once parsed: 0 when the plan holds,
+// else the exit code (the reason said).
+int checkPlan(CLI::App& app, LoopPlan& plan) {
   unsigned width = 0, height = 0;
   // A replay's pods keep the recorded size: --size is then the client's
   // output alone, which may be larger than a pod's image.
@@ -430,8 +325,6 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
     std::fprintf(stderr, "--quality needs a synthetic scene's truth; a --replay has none\n");
     return 2;
   }
-  if (seed) plan.seed = std::to_string(*seed);
-  if (noise) plan.noise = holofuse::formatNumber(*noise);
   for (const char* synthetic : {"--seed", "--noise"}) {
     if (!plan.replay.empty() && app.count(synthetic)) {
       std::fprintf(stderr, "%s is a synthetic pod's; a --replay sends the recorded images\n",
@@ -486,15 +379,49 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
     plan.pods = plan.preset->cameras;
   if (plan.bin_dir.empty())
     plan.bin_dir = std::filesystem::canonical("/proc/self/exe").parent_path().string();
+  return 0;
+}
+
+}  // namespace
+
+// Parses and checks the flags: nullopt and plan filled, or the exit code
+// (0 after --help).
+std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
+  CLI::App app{"holofuse loop: pods -> fusion server -> render client on localhost"};
+  addRunOptions(app, plan);
+  std::optional<uint64_t> seed;
+  std::optional<double> noise;
+  app.add_option("--seed", seed,
+                 "synthetic pods' scene seed (their motion, texture and calibration error)");
+  app.add_option("--noise", noise, holofuse::scene::kNoiseHelp)
+      ->check(CLI::Range(0.0, holofuse::scene::kMaxNoise));
+  // Each process's settings, with its help and range, so that the launcher
+  // refuses what the process would.
+  std::vector<holofuse::Setting<holofuse::eval::LoopSettings>> settings =
+      holofuse::eval::loopFlags();
+  for (auto& setting : settings) {
+    const std::string takers = holofuse::eval::loopFlagTakers(setting.flag);
+    if (takers != "client") setting.help += " (" + takers + ")";
+  }
+  const holofuse::SettingFlags<holofuse::eval::LoopSettings> setting_flags(app, settings);
+  addRecordingOptions(app, plan);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  setting_flags.apply(plan.settings);
+  for (const CLI::Option* option : app.get_options())
+    if (option->count() > 0) plan.given.push_back(option->get_name());
+  if (!plan.rig_file.empty()) {
+    if (const int code = readRig(plan); code != 0) return code;
+  }
+  if (seed) plan.seed = std::to_string(*seed);
+  if (noise) plan.noise = holofuse::formatNumber(*noise);
+  if (const int code = checkPlan(app, plan); code != 0) return code;
   return std::nullopt;
 }
 
-void append(std::vector<std::string>& args, const std::vector<std::string>& more) {
-  args.insert(args.end(), more.begin(), more.end());
-}
-
-// A replay that is not looped ends by itself: the server leaves when its
-// pods are done, and the client finishes after it.
 bool replayEnds(const LoopPlan& plan) { return !plan.replay.empty() && !plan.loop; }
 
 std::vector<std::string> serverCommand(const LoopPlan& plan, const std::string& port_file) {
@@ -553,7 +480,6 @@ std::vector<std::string> podCommand(const LoopPlan& plan, int pod, const std::st
   return args;
 }
 
-// Where client `index` writes: OUT itself when it is the only one.
 std::string clientOut(const LoopPlan& plan, int index) {
   if (plan.clients == 1) return plan.out;
   return (std::filesystem::path(plan.out) / ("client" + std::to_string(index))).string();
@@ -600,354 +526,4 @@ std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& 
   return args;
 }
 
-void stop(pid_t pid, const char* what) {
-  if (pid <= 0) return;
-  if (holofuse::stopProcess(pid, 3000).killed) {
-    std::fprintf(stderr, "[loop] %s (pid %d) ignored SIGTERM for 3 s; killed it\n", what, pid);
-  }
-}
-
-// The last lines of a child's log, where a failure is explained.
-void printLogTail(const std::filesystem::path& path) {
-  std::ifstream log(path);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(log, line);) lines.push_back(line);
-  for (size_t i = lines.size() > 15 ? lines.size() - 15 : 0; i < lines.size(); ++i) {
-    std::fprintf(stderr, "  %s\n", lines[i].c_str());
-  }
-}
-
-// The running loop's processes.
-struct LoopProcesses {
-  pid_t server = -1;
-  std::vector<pid_t> pods, clients;
-
-  void stopAll() {
-    for (const pid_t client : clients) stop(client, "render_client");
-    for (const pid_t pod : pods) stop(pod, "capture_node");
-    stop(server, "fusion_server");
-  }
-};
-
-// The port the server wrote into port_file, or "" after saying why not.
-// It ends early when the server does; the limit is for a server alive but
-// stuck, not a slow one (a sanitized build on a busy machine took over 5 s).
-std::string awaitServerPort(LoopProcesses& processes, const std::string& port_file,
-                            const std::string& out) {
-  std::string bound;
-  for (int i = 0; i < 3000 && bound.empty(); ++i) {
-    std::ifstream in(port_file);
-    std::getline(in, bound);
-    if (bound.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    if (holofuse::pollProcess(processes.server)) {
-      processes.server = -1;  // gone already
-      std::fprintf(stderr, "[loop] fusion_server exited at start-up; see %s/logs/server.log\n",
-                   out.c_str());
-      return "";
-    }
-  }
-  if (bound.empty())
-    std::fprintf(stderr, "[loop] fusion_server did not report its port within 60 s\n");
-  return bound;
-}
-
-// Client i's log, beside the others'.
-std::filesystem::path clientLog(const LoopPlan& plan, size_t i) {
-  const std::filesystem::path logs = std::filesystem::path(plan.out) / "logs";
-  return logs /
-         (plan.clients == 1 ? std::string("client.log") : "client" + std::to_string(i) + ".log");
-}
-
-// Polls the pods and the server between waits: a pod that fails (a replay
-// pod that cannot read its dataset) or a server that stops while it should
-// not fails the run, said with the end of its log.
-struct Watch {
-  std::vector<bool> pod_done;
-  bool server_done = false, failed = false;
-
-  void check(const LoopPlan& plan, LoopProcesses& processes) {
-    const std::filesystem::path logs = std::filesystem::path(plan.out) / "logs";
-    pod_done.resize(processes.pods.size(), false);
-    for (size_t i = 0; i < processes.pods.size() && !failed; ++i) {
-      if (pod_done[i]) continue;
-      const auto code = holofuse::pollProcess(processes.pods[i]);
-      if (!code) continue;
-      pod_done[i] = true;
-      if (*code != 0) {
-        std::fprintf(stderr, "\n[loop] capture_node %zu failed; the end of %s/pod%zu.log:\n", i,
-                     logs.c_str(), i);
-        printLogTail(logs / ("pod" + std::to_string(i) + ".log"));
-        failed = true;
-      }
-    }
-    const auto server_code = server_done ? std::nullopt : holofuse::pollProcess(processes.server);
-    if (server_code) {
-      server_done = true;
-      if (!replayEnds(plan) || *server_code != 0) {
-        std::fprintf(stderr, "\n[loop] fusion_server stopped; the end of %s/server.log:\n",
-                     logs.c_str());
-        printLogTail(logs / "server.log");
-        failed = true;
-      }
-    }
-  }
-
-  // Stops what still runs.
-  void stopRest(LoopProcesses& processes, const std::vector<bool>& client_done) {
-    for (size_t i = 0; i < processes.clients.size(); ++i)
-      if (!client_done[i]) stop(processes.clients[i], "render_client");
-    for (size_t i = 0; i < processes.pods.size(); ++i)
-      if (!pod_done[i]) stop(processes.pods[i], "capture_node");
-    if (!server_done) stop(processes.server, "fusion_server");
-  }
-};
-
-// Waits for the clients to finish, a process to fail or Ctrl-C, then
-// stops what still runs. The launcher's exit code.
-int superviseLoop(const LoopPlan& plan, LoopProcesses& processes) {
-  const size_t n = processes.clients.size();
-  std::vector<int> client_exit(n, 0);
-  std::vector<bool> client_done(n, false);
-  Watch watch;
-  uint64_t waited_after_server_ms = 0;
-  auto all_done = [&] {
-    return std::all_of(client_done.begin(), client_done.end(), [](bool done) { return done; });
-  };
-  while (!g_interrupted && !all_done() && !watch.failed) {
-    for (size_t i = 0; i < n; ++i) {
-      if (client_done[i]) continue;
-      if (const auto code = holofuse::waitProcess(processes.clients[i], 100 / n)) {
-        client_exit[i] = *code;
-        client_done[i] = true;
-      }
-    }
-    watch.check(plan, processes);
-    // A replay ends when the server has fused and delivered everything and
-    // said goodbye; the clients then finish on their own.
-    if (watch.server_done && !watch.failed && (waited_after_server_ms += 100) > 60000) {
-      std::fprintf(stderr,
-                   "\n[loop] the client did not finish within 60 s of the end of the replay\n");
-      watch.failed = true;
-    }
-  }
-  if (!all_done()) {
-    std::printf("\n[loop] %s: stopping the client%s (each writes its report)\n",
-                watch.failed ? "failed" : "interrupted", n > 1 ? "s" : "");
-  }
-  watch.stopRest(processes, client_done);
-  bool ok = !watch.failed;
-  for (size_t i = 0; i < n && !watch.failed; ++i) {
-    if (client_done[i] && client_exit[i] != 0) {
-      // Say why right here: the end of the client's log.
-      std::fprintf(stderr, "[loop] render_client failed; the end of %s:\n",
-                   clientLog(plan, i).c_str());
-      printLogTail(clientLog(plan, i));
-      ok = false;
-    }
-  }
-  const std::string& out = plan.out;
-  if (ok) {
-    std::printf("[loop] all processes stopped; frames and report.json in %s%s, logs in %s/logs\n",
-                out.c_str(), n > 1 ? "/client<N>" : "", out.c_str());
-  } else {
-    std::printf("[loop] all processes stopped; logs in %s/logs\n", out.c_str());
-  }
-  return ok ? 0 : 1;
-}
-
-// A rig's links as the first client's report measured them, beside what
-// they were set to.
-void printLinks(const LoopPlan& plan) {
-  std::ifstream in(std::filesystem::path(clientOut(plan, 0)) / "report.json");
-  const auto report = nlohmann::json::parse(in, nullptr, false);
-  if (report.is_discarded() || !report.contains("latency_ms")) {
-    std::printf("[rig] no report.json from the client: no link was measured\n");
-    return;
-  }
-  std::printf("[rig] one-way latency per link, p50 / p95, beside what it is set to:\n");
-  for (const auto& [link, ms] : report["latency_ms"]["links"].items()) {
-    int pod = -1;
-    const holofuse::RigLink& set = std::sscanf(link.c_str(), "pod_%d_to_server", &pod) == 1 &&
-                                           pod >= 0 && pod < static_cast<int>(plan.pod_links.size())
-                                       ? plan.pod_links[pod]
-                                   : link == "server_to_client" && !plan.client_links.empty()
-                                       ? plan.client_links[0]
-                                       : plan.link;
-    std::printf("[rig]   %-24s %7.1f / %7.1f ms   (set %g +- %g ms)\n", link.c_str(),
-                ms["p50"].get<double>(), ms["p95"].get<double>(), set.delay_ms, set.jitter_ms);
-  }
-}
-
-// A soak: the loop runs for plan.soak_minutes while every process is
-// sampled each plan.sample_seconds, then stops and is judged
-// (deploy/soak.h). Ctrl-C ends it early with the samples so far.
-int superviseSoak(const LoopPlan& plan, LoopProcesses& processes) {
-  holofuse::deploy::SoakReport report;
-  std::vector<pid_t> pids = {processes.server};
-  report.processes = {"server"};
-  for (size_t i = 0; i < processes.pods.size(); ++i) {
-    pids.push_back(processes.pods[i]);
-    report.processes.push_back("pod " + std::to_string(i));
-  }
-  for (size_t i = 0; i < processes.clients.size(); ++i) {
-    pids.push_back(processes.clients[i]);
-    report.processes.push_back("client " + std::to_string(i));
-  }
-  char settings[256];
-  std::snprintf(settings, sizeof(settings),
-                "%d pods at %s and %.1f fps, %d clients in mode %s, %g minutes sampled every %g s",
-                plan.pods, plan.size.c_str(), plan.fps, plan.clients, plan.mode.c_str(),
-                plan.soak_minutes, plan.sample_seconds);
-  report.settings = settings;
-  report.warmup_minutes = plan.warmup_minutes;
-  Watch watch;
-  const auto start = std::chrono::steady_clock::now();
-  auto minutes = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60.0;
-  };
-  double next_sample = plan.sample_seconds / 60.0;
-  while (!g_interrupted && minutes() < plan.soak_minutes + 1e-9) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    if (minutes() < next_sample) continue;
-    next_sample += plan.sample_seconds / 60.0;
-    holofuse::deploy::SoakSample sample;
-    sample.minute = minutes();
-    for (pid_t pid : pids) {
-      // A process that ended is gone, not a zombie's numbers.
-      const bool ended = holofuse::pollProcess(pid).has_value();
-      sample.usage.push_back(ended ? std::nullopt : holofuse::processUsage(pid));
-    }
-    report.samples.push_back(sample);
-    uint64_t pods_kb = 0, clients_kb = 0;
-    for (size_t i = 1; i < pids.size(); ++i) {
-      const uint64_t kb = sample.usage[i] ? sample.usage[i]->rss_kb : 0;
-      (i <= processes.pods.size() ? pods_kb : clients_kb) += kb;
-    }
-    const auto& server = sample.usage[0];
-    std::printf(
-        "[soak] minute %.1f of %g: server %.1f MB, %d descriptors, %d threads; pods %.1f "
-        "MB in all; clients %.1f MB in all\n",
-        sample.minute, plan.soak_minutes, server ? server->rss_kb / 1024.0 : 0.0,
-        server ? server->descriptors : 0, server ? server->threads : 0, pods_kb / 1024.0,
-        clients_kb / 1024.0);
-    std::fflush(stdout);
-  }
-  report.verdict =
-      holofuse::deploy::judgeSoak(report.processes, report.samples, plan.warmup_minutes);
-  std::printf("[soak] stopping every process\n");
-  processes.stopAll();
-  const bool written = holofuse::deploy::writeSoakReport(report, plan.out);
-  std::printf("[soak] %s; report in %s/soak.md, soak.html, soak.json\n",
-              report.verdict.flat ? "flat after the warm-up" : "NOT flat", plan.out.c_str());
-  for (const std::string& problem : report.verdict.problems)
-    std::printf("[soak]   %s\n", problem.c_str());
-  return report.verdict.flat && written ? 0 : 1;
-}
-
-}  // namespace
-
-int main(int argc, char** argv) {
-  LoopPlan plan;
-  if (const auto code = parseLoopFlags(argc, argv, plan)) return *code;
-  namespace fs = std::filesystem;
-  const fs::path logs = fs::path(plan.out) / "logs";
-  fs::create_directories(logs);
-  const std::string port_file = (logs / "server.port").string();
-  fs::remove(port_file);
-  plan.key_dir = (logs / "keys").string();
-  fs::remove_all(plan.key_dir);
-  std::vector<uint32_t> client_ids = {0};
-  if (plan.rig && !plan.rig->clients.empty()) {
-    client_ids.clear();
-    for (const auto& client : plan.rig->clients) client_ids.push_back(client.id);
-  }
-  if (const auto made = holofuse::protocol::KeyRing::writeRig(
-          plan.key_dir, static_cast<uint32_t>(plan.pods), client_ids);
-      !made.isOk()) {
-    std::fprintf(stderr, "[loop] cannot make this run's keys: %s\n",
-                 made.status().message().c_str());
-    return 1;
-  }
-  // The keys are this run's only: gone when the launcher returns.
-  struct RemoveKeys {
-    std::string path;
-    ~RemoveKeys() { std::filesystem::remove_all(path); }
-  } remove_keys{plan.key_dir};
-
-  struct sigaction sa {};
-  sa.sa_handler = onSignal;
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
-
-  // A rig: the namespaces and links first; they are gone when this returns,
-  // or, should the launcher be killed, when its reaper sees it end.
-  std::unique_ptr<holofuse::deploy::NetnsRig> rig;
-  if (plan.netns) {
-    auto built = holofuse::deploy::NetnsRig::build(
-        {plan.pods, plan.clients, plan.link, plan.pod_links, plan.client_links,
-         plan.bin_dir + "/holofuse_relay", logs.string()});
-    if (!built.isOk()) {
-      std::fprintf(stderr, "[rig] cannot build the rig: %s\n", built.status().message().c_str());
-      return 1;
-    }
-    rig = std::move(*built);
-    plan.listen_host = rig->serverAddress();
-    std::printf("[rig] %s\n", rig->describe().c_str());
-  }
-  LoopProcesses processes;
-  const auto server_command = serverCommand(plan, port_file);
-  processes.server =
-      spawn(rig ? rig->inServer(server_command) : server_command, (logs / "server.log").string());
-  if (processes.server < 0) return 1;
-  const std::string bound = awaitServerPort(processes, port_file, plan.out);
-  if (bound.empty()) {
-    processes.stopAll();
-    return 1;
-  }
-  const std::string endpoint = plan.listen_host + ":" + bound;
-  if (rig) {
-    if (const holofuse::Status relays = rig->startRelays(bound); !relays.isOk()) {
-      std::fprintf(stderr, "[rig] %s\n", relays.message().c_str());
-      processes.stopAll();
-      return 1;
-    }
-  }
-  const std::string source = plan.replay.empty()
-                                 ? "scene " + plan.scene
-                                 : "replay of " + plan.replay + " at speed " + plan.speed;
-  std::printf("[loop] server on %s, %s, %d pods at %s, %.1f fps; writing %s\n", endpoint.c_str(),
-              source.c_str(), plan.pods, plan.size.c_str(), plan.fps, plan.out.c_str());
-  std::fflush(stdout);
-  for (int i = 0; i < plan.pods; ++i) {
-    const auto command = podCommand(plan, i, rig ? rig->podEndpoint(i) : endpoint);
-    const pid_t pod = spawn(rig ? rig->inPod(i, command) : command,
-                            (logs / ("pod" + std::to_string(i) + ".log")).string());
-    if (pod < 0) {
-      processes.stopAll();
-      return 1;
-    }
-    processes.pods.push_back(pod);
-  }
-  for (int i = 0; i < plan.clients; ++i) {
-    const auto command = clientCommand(plan, rig ? rig->clientEndpoint(i) : endpoint, i);
-    const pid_t client =
-        spawn(rig ? rig->inClient(i, command) : command, clientLog(plan, i).string());
-    if (client < 0) {
-      processes.stopAll();
-      return 1;
-    }
-    processes.clients.push_back(client);
-  }
-  if (plan.soak_minutes > 0) return superviseSoak(plan, processes);
-  const int code = superviseLoop(plan, processes);
-  if (rig) {
-    printLinks(plan);
-    if (const holofuse::Status gone = rig->tearDown(); gone.isOk()) {
-      std::printf("[rig] namespaces, links and relays removed\n");
-    } else {
-      std::fprintf(stderr, "[rig] %s\n", gone.message().c_str());
-      return 1;
-    }
-  }
-  return code;
-}
+}  // namespace holofuse::deploy

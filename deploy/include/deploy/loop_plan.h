@@ -1,0 +1,74 @@
+// The live loop's launcher, its plan: every flag holofuse_loop takes,
+// checked before any process starts (parseLoopFlags), and the command line
+// of each process it starts, with the flags that process takes.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/rig_file.h"
+#include "eval/loop_settings.h"
+#include "scene/scene_library.h"
+
+namespace holofuse::deploy {
+
+// Everything the launcher was asked for, checked before any process
+// starts.
+struct LoopPlan {
+  int pods = 4, frames = 40, port = 0, clients = 1;
+  // A soak (deploy/soak.h): the loop runs this long, its processes sampled
+  // every sample_seconds; 0: an ordinary run that ends with the frames.
+  double soak_minutes = 0, sample_seconds = 60, warmup_minutes = 2;
+  // What a 2-core machine's client sustains in mode normal (measured by
+  // `./holofuse bench loop`); a slower mode renders the newest mesh it can.
+  double fps = 15.0;
+  std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit",
+              scene = "clean";
+  std::string overlap_render = "auto";
+  std::string frames_ahead = "2";
+  std::string seed, noise;  // passed on only when given: the pods keep the scene's otherwise
+  std::string budget;
+  bool quality = false;
+  std::string record, replay, speed = "1";
+  bool record_fused = false, loop = false;
+  double speed_factor = 1.0;
+  // The pods', the server's and the client's settings; each process gets
+  // those that differ from its defaults.
+  eval::LoopSettings settings;
+  std::vector<std::string> dataset_server_args;  // a replay's capture volume and voxel
+  // Fresh keys for this run only, one per identity (mode 0600, removed at
+  // the end): the loop is authenticated like a rig, no other process can
+  // join it, and no pod can be another.
+  std::string key_dir;
+  const scene::ScenePreset* preset = nullptr;
+  // A rig on this machine (--netns): a namespace per process, each link
+  // impaired by a relay; the server then listens on its namespace's
+  // address instead of loopback.
+  bool netns = false;
+  RigLink link;
+  std::string listen_host = "127.0.0.1";
+  // A rig file (--rig, docs/rig-file.md): its pods and clients, each
+  // process reading its part, the launcher's flags given on top.
+  std::string rig_file;
+  std::optional<RigFile> rig;
+  std::vector<std::string> given;  // the flags given to the launcher
+  std::vector<RigLink> pod_links, client_links;
+};
+
+// Parses and checks the flags: nullopt and plan filled, or the exit code
+// (0 after --help).
+std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan);
+
+// Each process's command line under the plan.
+std::vector<std::string> serverCommand(const LoopPlan& plan, const std::string& port_file);
+std::vector<std::string> podCommand(const LoopPlan& plan, int pod, const std::string& endpoint);
+std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& endpoint,
+                                       int index);
+// Where client `index` writes: OUT itself when it is the only one.
+std::string clientOut(const LoopPlan& plan, int index);
+// A replay that is not looped ends by itself: the server leaves when its
+// pods are done, and the client finishes after it.
+bool replayEnds(const LoopPlan& plan);
+
+}  // namespace holofuse::deploy
