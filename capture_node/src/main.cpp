@@ -14,6 +14,75 @@
 #include "protocol/messages.h"
 #include "scene/scene_library.h"
 
+namespace {
+
+// A real camera: the source, the rig's calibration, the plate; refused
+// beside --replay and the synthetic scene's flags. Returns --source.
+CLI::Option* addCameraOptions(CLI::App& app, holofuse::capture::CameraPodOptions& camera_options,
+                              CLI::Option* replay_option) {
+  using namespace holofuse;
+  CLI::Option* source_option = app.add_option(
+      "--source", camera_options.source,
+      "a real camera instead of a synthetic scene: a V4L2 device (/dev/video0 or 0), an RTSP or "
+      "HTTP stream URL, or a video file (played at its frame rate)");
+  source_option->excludes(replay_option);
+  for (CLI::Option* option :
+       {app.get_option("--pods"), app.get_option("--size"), app.get_option("--scene"),
+        app.get_option("--seed"), app.get_option("--noise"), app.get_option("--frame-id-offset")})
+    source_option->excludes(option);
+  std::vector<CLI::Option*> camera_flags = {
+      app.add_option("--calibration", camera_options.calibration,
+                     "with --source: the rig's calibration, a capture folder in any format "
+                     "`holofuse dataset import` reads"),
+      app.add_option("--calibration-format", camera_options.calibration_format,
+                     std::string("with --source: the calibration's format: ") +
+                         dataset::captureFormatNames())
+          ->capture_default_str(),
+      app.add_option("--camera", camera_options.camera,
+                     "with --source: this camera's name in the calibration (default: the one "
+                     "numbered --pod-id, in natural name order)"),
+      app.add_option("--plate", camera_options.plate,
+                     "with --source: the empty room, a picture or a video (default: the "
+                     "camera's background in the calibration)"),
+      app.add_option("--plate-frames", camera_options.plate_frames,
+                     "with --source: learn the plate from this many frames of the source, with "
+                     "the room empty")
+          ->check(CLI::Range(0, 600)),
+      app.add_flag("--plate-on-key", camera_options.plate_on_key,
+                   "with --source and --plate-frames: take the plate when Enter is pressed (a "
+                   "line on standard input), and again on each later Enter")};
+  for (CLI::Option* option : camera_flags) option->needs(source_option);
+  return source_option;
+}
+
+// --rig: a capture PC that knows only its name finds its pod in the rig
+// file (--rig-host, or this machine's host name).
+void addPodRigFlag(CLI::App& app) {
+  using namespace holofuse;
+  app.add_option("--rig-host",
+                 "with --rig and no --pod-id: run the rig's pod on this host (default: this "
+                 "machine's host name; on Kubernetes, give the node's name)")
+      ->configurable(false);
+  addRigFlag(app, "capture_node", [&app](const RigFile& rig) -> StatusOr<std::vector<RigOption>> {
+    if (app.count("--pod-id") == 0) {
+      const std::string host =
+          app.count("--rig-host") ? app["--rig-host"]->results().front() : hostName();
+      const auto pod = rig.podOnHost(host);
+      if (!pod.isOk()) return pod.status();
+      auto part = rig.podPart(*pod);
+      if (part.isOk())
+        part->push_back(
+            {"pod-id", {std::to_string(*pod)}, rig.path + " (pod on host " + host + ")"});
+      return part;
+    }
+    const auto pod = givenId(app, "--pod-id", std::nullopt);
+    if (!pod.isOk()) return pod.status();
+    return rig.podPart(*pod);
+  });
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   using namespace holofuse;
   capture::PodOptions options;
@@ -55,62 +124,11 @@ int main(int argc, char** argv) {
       "--speed", speed,
       "with --replay: 1 the recorded pace, 2 twice as fast, max as fast as the server accepts");
   app.add_flag("--loop", loop, "with --replay or a video file's --source: start over at the end");
-  // A real camera: the source, the rig's calibration, the plate.
   capture::CameraPodOptions camera_options;
-  CLI::Option* source_option = app.add_option(
-      "--source", camera_options.source,
-      "a real camera instead of a synthetic scene: a V4L2 device (/dev/video0 or 0), an RTSP or "
-      "HTTP stream URL, or a video file (played at its frame rate)");
-  source_option->excludes(replay_option);
-  for (CLI::Option* option :
-       {app.get_option("--pods"), app.get_option("--size"), app.get_option("--scene"),
-        app.get_option("--seed"), app.get_option("--noise"), app.get_option("--frame-id-offset")})
-    source_option->excludes(option);
-  std::vector<CLI::Option*> camera_flags = {
-      app.add_option("--calibration", camera_options.calibration,
-                     "with --source: the rig's calibration, a capture folder in any format "
-                     "`holofuse dataset import` reads"),
-      app.add_option("--calibration-format", camera_options.calibration_format,
-                     std::string("with --source: the calibration's format: ") +
-                         dataset::captureFormatNames())
-          ->capture_default_str(),
-      app.add_option("--camera", camera_options.camera,
-                     "with --source: this camera's name in the calibration (default: the one "
-                     "numbered --pod-id, in natural name order)"),
-      app.add_option("--plate", camera_options.plate,
-                     "with --source: the empty room, a picture or a video (default: the "
-                     "camera's background in the calibration)"),
-      app.add_option("--plate-frames", camera_options.plate_frames,
-                     "with --source: learn the plate from this many frames of the source, with "
-                     "the room empty")
-          ->check(CLI::Range(0, 600)),
-      app.add_flag("--plate-on-key", camera_options.plate_on_key,
-                   "with --source and --plate-frames: take the plate when Enter is pressed (a "
-                   "line on standard input), and again on each later Enter")};
-  for (CLI::Option* option : camera_flags) option->needs(source_option);
+  addCameraOptions(app, camera_options, replay_option);
   PeerKeyFlags key_flags(app, "pod");
   const ProtocolFlag protocol_flag(app, "pod");
-  // A capture PC that knows only its name finds its pod in the rig file.
-  app.add_option("--rig-host",
-                 "with --rig and no --pod-id: run the rig's pod on this host (default: this "
-                 "machine's host name; on Kubernetes, give the node's name)")
-      ->configurable(false);
-  addRigFlag(app, "capture_node", [&app](const RigFile& rig) -> StatusOr<std::vector<RigOption>> {
-    if (app.count("--pod-id") == 0) {
-      const std::string host =
-          app.count("--rig-host") ? app["--rig-host"]->results().front() : hostName();
-      const auto pod = rig.podOnHost(host);
-      if (!pod.isOk()) return pod.status();
-      auto part = rig.podPart(*pod);
-      if (part.isOk())
-        part->push_back(
-            {"pod-id", {std::to_string(*pod)}, rig.path + " (pod on host " + host + ")"});
-      return part;
-    }
-    const auto pod = givenId(app, "--pod-id", std::nullopt);
-    if (!pod.isOk()) return pod.status();
-    return rig.podPart(*pod);
-  });
+  addPodRigFlag(app);
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   const auto key = key_flags.load(protocol::Role::kPod, options.pod_id);
   if (!key) return 2;

@@ -47,6 +47,88 @@ int writeNewKeys(const std::string& where, int pods, uint32_t clients, bool shar
   return 0;
 }
 
+// The limits on what each peer may send and hold, and how long it may
+// misbehave (SECURITY.md).
+void addLimitOptions(CLI::App& app, holofuse::fusion::ServerOptions& options) {
+  using namespace holofuse;
+  app.add_option("--handshake-timeout-ms", options.handshake_timeout_ms,
+                 "close a peer that has not finished its handshake after this long")
+      ->check(CLI::Range(100, 60000));
+  app.add_option("--read-budget-bytes", options.read_budget_bytes,
+                 "bytes read from one peer per turn of the loop, so no peer starves the others")
+      ->check(CLI::Range(size_t{65536}, size_t{1} << 30));
+  app.add_option("--min-heartbeat-interval-ms", options.min_heartbeat_interval_ms,
+                 "close a peer whose heartbeats come closer together than this")
+      ->check(CLI::Range(1, 10000));
+  app.add_option("--clock-drift-warn-ms", options.clock_drift_warn_ms,
+                 "warn when a peer's clock moves this far from its first estimate, beyond the "
+                 "estimates' uncertainty (its host needs chrony or linuxptp)")
+      ->check(CLI::Range(0.001, 60000.0));
+  app.add_option("--clock-probe-interval-ms", options.clock.interval_ms,
+                 "between probes of each peer's clock (protocol 1.8)")
+      ->check(CLI::Range(10, 600000));
+  app.add_option("--max-image-side", options.max_image_side,
+                 "the largest image width or height a pod's calibration may claim")
+      ->check(CLI::Range(16, static_cast<int>(protocol::kMaxImageSide)));
+  app.add_option("--decode-threads", options.decode_threads,
+                 "threads that decompress pods' frames, off the loop that reads every peer")
+      ->check(CLI::Range(1, 64));
+  app.add_option("--max-frames-in-flight", options.max_frames_in_flight,
+                 "a pod's frames read and not yet decoded before it is not read")
+      ->check(CLI::Range(size_t{1}, size_t{1024}));
+  app.add_option("--max-connections", options.max_connections,
+                 "connections at once; one more is refused")
+      ->check(CLI::Range(size_t{1}, size_t{65536}));
+  app.add_option("--max-handshaking", options.max_handshaking,
+                 "connections at once that have not finished their handshake")
+      ->check(CLI::Range(size_t{1}, size_t{65536}));
+  app.add_option("--max-handshaking-per-address", options.max_handshaking_per_address,
+                 "connections from one address that have not finished their handshake")
+      ->check(CLI::Range(size_t{1}, size_t{65536}));
+  app.add_option("--max-peer-buffered-bytes", options.max_peer_buffered_bytes,
+                 "bytes one peer may hold in the server, coming in and queued to go out")
+      ->check(CLI::Range(size_t{1} << 20, size_t{1} << 40));
+  app.add_option("--max-buffered-bytes", options.max_buffered_bytes,
+                 "bytes all peers together may hold; past it the peer holding most is closed")
+      ->check(CLI::Range(size_t{1} << 20, size_t{1} << 40));
+  app.add_option("--max-id-skew", options.max_id_skew,
+                 "frame ids a pod's frames may be from the rig's clock (the median of the pods' "
+                 "ids); further off they are dropped")
+      ->check(CLI::Range(uint64_t{1}, uint64_t{1000000}));
+  app.add_option("--off-clock-close-ms", options.off_clock_close_ms,
+                 "close a pod whose frame ids stay off the rig's clock this long")
+      ->check(CLI::Range(100, 3600000));
+  app.add_option("--over-budget-close-ms", options.over_budget_close_ms,
+                 "close a peer that keeps sending some message type faster than its budget "
+                 "(SECURITY.md) for this long")
+      ->check(CLI::Range(100, 600000));
+  app.add_option("--max-pod-fps", options.budget.pod_frame.per_second,
+                 "PodFrames a pod may send a second (with --lossless, pods are read only as "
+                 "fusion keeps up instead)")
+      ->check(CLI::Range(1.0, 100000.0));
+  app.add_option("--max-pod-cost-ratio", options.max_pod_cost_ratio,
+                 "a pod's image may have at most this many times the pixels of the rig's median "
+                 "pod (a rig of mixed cameras raises it)")
+      ->check(CLI::Range(1.0, 1e6));
+}
+
+// --volume x0,y0,z0,x1,y1,z1: the hull's capture volume; false, said why,
+// when it is not one.
+bool setVolume(const std::string& volume, holofuse::hull::HullOptions& hull) {
+  double v[6];
+  char tail = 0;
+  if (std::sscanf(volume.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &v[3], &v[4],
+                  &v[5], &tail) != 6 ||
+      !(v[0] < v[3] && v[1] < v[4] && v[2] < v[5])) {
+    std::fprintf(stderr, "--volume '%s': expected x0,y0,z0,x1,y1,z1 with each min below its max\n",
+                 volume.c_str());
+    return false;
+  }
+  holofuse::hull::setCaptureVolume(hull, glm::dvec3(v[0], v[1], v[2]),
+                                   glm::dvec3(v[3], v[4], v[5]));
+  return true;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -109,65 +191,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-auth", no_auth,
                "serve without authentication: every peer is trusted, so loopback only")
       ->excludes("--key-file");
-  app.add_option("--handshake-timeout-ms", options.handshake_timeout_ms,
-                 "close a peer that has not finished its handshake after this long")
-      ->check(CLI::Range(100, 60000));
-  app.add_option("--read-budget-bytes", options.read_budget_bytes,
-                 "bytes read from one peer per turn of the loop, so no peer starves the others")
-      ->check(CLI::Range(size_t{65536}, size_t{1} << 30));
-  app.add_option("--min-heartbeat-interval-ms", options.min_heartbeat_interval_ms,
-                 "close a peer whose heartbeats come closer together than this")
-      ->check(CLI::Range(1, 10000));
-  app.add_option("--clock-drift-warn-ms", options.clock_drift_warn_ms,
-                 "warn when a peer's clock moves this far from its first estimate, beyond the "
-                 "estimates' uncertainty (its host needs chrony or linuxptp)")
-      ->check(CLI::Range(0.001, 60000.0));
-  app.add_option("--clock-probe-interval-ms", options.clock.interval_ms,
-                 "between probes of each peer's clock (protocol 1.8)")
-      ->check(CLI::Range(10, 600000));
-  app.add_option("--max-image-side", options.max_image_side,
-                 "the largest image width or height a pod's calibration may claim")
-      ->check(CLI::Range(16, static_cast<int>(protocol::kMaxImageSide)));
-  app.add_option("--decode-threads", options.decode_threads,
-                 "threads that decompress pods' frames, off the loop that reads every peer")
-      ->check(CLI::Range(1, 64));
-  app.add_option("--max-frames-in-flight", options.max_frames_in_flight,
-                 "a pod's frames read and not yet decoded before it is not read")
-      ->check(CLI::Range(size_t{1}, size_t{1024}));
-  app.add_option("--max-connections", options.max_connections,
-                 "connections at once; one more is refused")
-      ->check(CLI::Range(size_t{1}, size_t{65536}));
-  app.add_option("--max-handshaking", options.max_handshaking,
-                 "connections at once that have not finished their handshake")
-      ->check(CLI::Range(size_t{1}, size_t{65536}));
-  app.add_option("--max-handshaking-per-address", options.max_handshaking_per_address,
-                 "connections from one address that have not finished their handshake")
-      ->check(CLI::Range(size_t{1}, size_t{65536}));
-  app.add_option("--max-peer-buffered-bytes", options.max_peer_buffered_bytes,
-                 "bytes one peer may hold in the server, coming in and queued to go out")
-      ->check(CLI::Range(size_t{1} << 20, size_t{1} << 40));
-  app.add_option("--max-buffered-bytes", options.max_buffered_bytes,
-                 "bytes all peers together may hold; past it the peer holding most is closed")
-      ->check(CLI::Range(size_t{1} << 20, size_t{1} << 40));
-  app.add_option("--max-id-skew", options.max_id_skew,
-                 "frame ids a pod's frames may be from the rig's clock (the median of the pods' "
-                 "ids); further off they are dropped")
-      ->check(CLI::Range(uint64_t{1}, uint64_t{1000000}));
-  app.add_option("--off-clock-close-ms", options.off_clock_close_ms,
-                 "close a pod whose frame ids stay off the rig's clock this long")
-      ->check(CLI::Range(100, 3600000));
-  app.add_option("--over-budget-close-ms", options.over_budget_close_ms,
-                 "close a peer that keeps sending some message type faster than its budget "
-                 "(SECURITY.md) for this long")
-      ->check(CLI::Range(100, 600000));
-  app.add_option("--max-pod-fps", options.budget.pod_frame.per_second,
-                 "PodFrames a pod may send a second (with --lossless, pods are read only as "
-                 "fusion keeps up instead)")
-      ->check(CLI::Range(1.0, 100000.0));
-  app.add_option("--max-pod-cost-ratio", options.max_pod_cost_ratio,
-                 "a pod's image may have at most this many times the pixels of the rig's median "
-                 "pod (a rig of mixed cameras raises it)")
-      ->check(CLI::Range(1.0, 1e6));
+  addLimitOptions(app, options);
   app.add_option("--new-key", new_key,
                  "write fresh keys into this folder and exit: server.keys (the server's ring), "
                  "pod-<i>.key for each of --pods pods and client-<j>.key for each of "
@@ -198,20 +222,7 @@ int main(int argc, char** argv) {
       std::max(options.budget.pod_frame.burst, options.budget.pod_frame.per_second / 2);
   if (options.lossless) options.budget.pod_frame = {};  // read as fusion keeps up
   options.fuse_when_asked = !fuse_every_group;
-  if (!volume.empty()) {
-    double v[6];
-    char tail = 0;
-    if (std::sscanf(volume.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &v[3], &v[4],
-                    &v[5], &tail) != 6 ||
-        !(v[0] < v[3] && v[1] < v[4] && v[2] < v[5])) {
-      std::fprintf(stderr,
-                   "--volume '%s': expected x0,y0,z0,x1,y1,z1 with each min below its max\n",
-                   volume.c_str());
-      return 2;
-    }
-    hull::setCaptureVolume(options.fusion.hull, glm::dvec3(v[0], v[1], v[2]),
-                           glm::dvec3(v[3], v[4], v[5]));
-  }
+  if (!volume.empty() && !setVolume(volume, options.fusion.hull)) return 2;
   if (options.record_fused && options.record_dir.empty()) {
     std::fprintf(stderr, "--record-fused needs --record DIR\n");
     return 2;
