@@ -147,6 +147,110 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
   return out;
 }
 
+namespace {
+
+// The pods' images of a group, compressed for the clients: the current
+// bundle and 1.1's, which has no feather maps.
+void encodeImages(const FrameGroup& group, const FusionSettings& settings,
+                  std::deque<std::vector<uint8_t>>& storage, protocol::TextureBundle& bundle,
+                  protocol::TextureBundle& bundle_v1_1) {
+  for (const auto& [camera_id, pod] : group.pods) {
+    protocol::BundleImage image;
+    image.camera_id = camera_id;
+    image.offset_x = pod.offset_x;  // clients get the rectangle too
+    image.offset_y = pod.offset_y;
+    storage.emplace_back();
+    image.planes.push_back(encodePlane(pod.color, protocol::PlaneKind::kColor, settings.image_codec,
+                                       storage.back(), settings.lz4_acceleration,
+                                       settings.lz4_hc_level));
+    storage.emplace_back();
+    image.planes.push_back(encodePlane(pod.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4,
+                                       storage.back(), settings.lz4_acceleration,
+                                       settings.lz4_hc_level));
+    // Since 1.2 the pod's feather map goes on too, cropped as its image
+    // (paper 004 weighs each pod by it at every fragment).
+    bundle_v1_1.images.push_back(image);
+    storage.emplace_back();
+    image.planes.push_back(encodePlane(pod.feather, protocol::PlaneKind::kFeather,
+                                       protocol::Codec::kLz4, storage.back(),
+                                       settings.lz4_acceleration, settings.lz4_hc_level));
+    bundle.images.push_back(std::move(image));
+  }
+}
+
+// Texture layers in place of the images, for the clients that asked: laid
+// out and filled in their own stage after the images' (images_end_ns), the
+// video coded in its own. Why they were not built goes in out.layers_note.
+void buildLayerBundles(const FrameGroup& group, const FusionSettings& settings,
+                       const StatusOr<std::vector<uint8_t>>& encoded, const LayerRequest& layers,
+                       uint64_t images_end_ns, std::deque<std::vector<uint8_t>>& storage,
+                       FusedOutput& out, std::optional<protocol::TextureBundle>& layered,
+                       std::optional<protocol::TextureBundle>& layer_video) {
+  // Charts are placed by positions: the mesh as every client decodes it.
+  StatusOr<Mesh> received = encoded.isOk()
+                                ? decodeMesh(settings.mesh_codec, encoded->data(), encoded->size())
+                                : StatusOr<Mesh>(encoded.status());
+  Status built = !received.isOk() ? received.status()
+                                  : layers.stage->build(group, *received, settings.hull,
+                                                        settings.layers, &out.layer_stats);
+  const uint64_t t4 = monotonicNs();
+  if (built.isOk() && layers.lz4) {
+    layered.emplace();
+    layered->frame_id = group.frame_id;
+    layers.stage->encodeLz4(settings.image_codec, settings.lz4_acceleration, settings.lz4_hc_level,
+                            *layered, storage);
+  }
+  const uint64_t t5 = monotonicNs();
+  if (built.isOk() && layers.video) {
+    layer_video.emplace();
+    layer_video->frame_id = group.frame_id;
+    built =
+        layers.stage->encodeVideo(layers.video_key_frame, *layer_video, storage, &out.layer_stats);
+    if (built.isOk()) {
+      const uint64_t t6 = monotonicNs();
+      layer_video->stamps = {
+          {static_cast<uint16_t>(Stage::kLayers), kSourceServer, images_end_ns, t4},
+          {static_cast<uint16_t>(Stage::kLayerVideo), kSourceServer, t5, t6},
+          {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t6, 0}};
+    } else {
+      layer_video.reset();
+    }
+  }
+  if (layered) {
+    layered->stamps = {{static_cast<uint16_t>(Stage::kLayers), kSourceServer, images_end_ns, t5},
+                       {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t5, 0}};
+  }
+  if (!built.isOk()) out.layers_note = built.message();
+}
+
+// The frame's Stats: who was present, what came late or was dropped, and
+// which cameras it went without.
+protocol::Stats statsOf(const GroupJob& job, const FusionSettings& settings, uint64_t present,
+                        uint64_t pod_bytes) {
+  const FrameGroup& group = job.group;
+  protocol::Stats stats;
+  stats.frame_id = group.frame_id;
+  stats.cameras_expected = settings.pods_expected;
+  stats.cameras_present = present;
+  stats.cameras_present_count = static_cast<uint32_t>(group.pods.size());
+  stats.late_frames = job.late_frames;
+  stats.dropped_groups = job.dropped_groups;
+  stats.pod_bytes = pod_bytes;
+  if (!group.complete) {
+    std::string missing;
+    for (uint32_t i = 0; i < settings.pods_expected; ++i) {
+      if (!group.pods.count(i)) missing += (missing.empty() ? "" : ",") + std::to_string(i);
+    }
+    // A group that went out because its pods left (end of a replay) may
+    // still hold every camera.
+    if (!missing.empty())
+      stats.note = "proceeded without camera(s) " + missing + " after the sync deadline";
+  }
+  return stats;
+}
+
+}  // namespace
+
 FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
                          uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns,
                          const LayerRequest& layers) {
@@ -186,71 +290,14 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   // The compressed images and the Draco bytes are borrowed by the frames
   // (fanned out to every client without a copy) and live as long as they do.
   auto storage = std::make_shared<std::deque<std::vector<uint8_t>>>();
-  for (const auto& [camera_id, pod] : group.pods) {
-    protocol::BundleImage image;
-    image.camera_id = camera_id;
-    image.offset_x = pod.offset_x;  // clients get the rectangle too
-    image.offset_y = pod.offset_y;
-    storage->emplace_back();
-    image.planes.push_back(encodePlane(pod.color, protocol::PlaneKind::kColor, settings.image_codec,
-                                       storage->back(), settings.lz4_acceleration,
-                                       settings.lz4_hc_level));
-    storage->emplace_back();
-    image.planes.push_back(encodePlane(pod.mask, protocol::PlaneKind::kMask, protocol::Codec::kLz4,
-                                       storage->back(), settings.lz4_acceleration,
-                                       settings.lz4_hc_level));
-    // Since 1.2 the pod's feather map goes on too, cropped as its image
-    // (paper 004 weighs each pod by it at every fragment).
-    bundle_v1_1.images.push_back(image);
-    storage->emplace_back();
-    image.planes.push_back(encodePlane(pod.feather, protocol::PlaneKind::kFeather,
-                                       protocol::Codec::kLz4, storage->back(),
-                                       settings.lz4_acceleration, settings.lz4_hc_level));
-    bundle.images.push_back(std::move(image));
-  }
+  encodeImages(group, settings, *storage, bundle, bundle_v1_1);
   const uint64_t t3 = monotonicNs();
   bundle.stamps = {{static_cast<uint16_t>(Stage::kImageEncode), kSourceServer, t2, t3},
                    {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0}};
   bundle_v1_1.stamps = bundle.stamps;
-  // Texture layers in place of the images, for the clients that asked:
-  // laid out and filled in their own stage, the video coded in its own.
   std::optional<protocol::TextureBundle> layered, layer_video;
-  if (layers.stage != nullptr && (layers.lz4 || layers.video)) {
-    // Charts are placed by positions: the mesh as every client decodes it.
-    StatusOr<Mesh> received =
-        encoded.isOk() ? decodeMesh(settings.mesh_codec, encoded->data(), encoded->size())
-                       : StatusOr<Mesh>(encoded.status());
-    Status built = !received.isOk() ? received.status()
-                                    : layers.stage->build(group, *received, settings.hull,
-                                                          settings.layers, &out.layer_stats);
-    const uint64_t t4 = monotonicNs();
-    if (built.isOk() && layers.lz4) {
-      layered.emplace();
-      layered->frame_id = group.frame_id;
-      layers.stage->encodeLz4(settings.image_codec, settings.lz4_acceleration,
-                              settings.lz4_hc_level, *layered, *storage);
-    }
-    const uint64_t t5 = monotonicNs();
-    if (built.isOk() && layers.video) {
-      layer_video.emplace();
-      layer_video->frame_id = group.frame_id;
-      built = layers.stage->encodeVideo(layers.video_key_frame, *layer_video, *storage,
-                                        &out.layer_stats);
-      if (built.isOk()) {
-        const uint64_t t6 = monotonicNs();
-        layer_video->stamps = {{static_cast<uint16_t>(Stage::kLayers), kSourceServer, t3, t4},
-                               {static_cast<uint16_t>(Stage::kLayerVideo), kSourceServer, t5, t6},
-                               {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t6, 0}};
-      } else {
-        layer_video.reset();
-      }
-    }
-    if (layered) {
-      layered->stamps = {{static_cast<uint16_t>(Stage::kLayers), kSourceServer, t3, t5},
-                         {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t5, 0}};
-    }
-    if (!built.isOk()) out.layers_note = built.message();
-  }
+  if (layers.stage != nullptr && (layers.lz4 || layers.video))
+    buildLayerBundles(group, settings, encoded, layers, t3, *storage, out, layered, layer_video);
   stamps.push_back({static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0});
 
   protocol::MeshFrame mesh_frame;
@@ -265,24 +312,7 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   mesh_frame.triangle_count = static_cast<uint32_t>(mesh.triangleCount());
   mesh_frame.stamps = std::move(stamps);
 
-  protocol::Stats stats;
-  stats.frame_id = group.frame_id;
-  stats.cameras_expected = settings.pods_expected;
-  stats.cameras_present = present;
-  stats.cameras_present_count = static_cast<uint32_t>(group.pods.size());
-  stats.late_frames = job.late_frames;
-  stats.dropped_groups = job.dropped_groups;
-  stats.pod_bytes = pod_bytes;
-  if (!group.complete) {
-    std::string missing;
-    for (uint32_t i = 0; i < settings.pods_expected; ++i) {
-      if (!group.pods.count(i)) missing += (missing.empty() ? "" : ",") + std::to_string(i);
-    }
-    // A group that went out because its pods left (end of a replay) may
-    // still hold every camera.
-    if (!missing.empty())
-      stats.note = "proceeded without camera(s) " + missing + " after the sync deadline";
-  }
+  protocol::Stats stats = statsOf(job, settings, present, pod_bytes);
   if (!encoded.isOk())
     stats.note += (stats.note.empty() ? "" : "; ") + encoded.status().message();
   else if (!draco.isOk())

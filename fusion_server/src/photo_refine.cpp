@@ -36,11 +36,9 @@ uint8_t maskAt(const Image8& mask, const glm::dvec3& pixel) {
   return mask.pixels[static_cast<size_t>(pixel.y) * mask.width + static_cast<size_t>(pixel.x)];
 }
 
-}  // namespace
-
-Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<hull::HullView>& views,
-                              const std::vector<Image8>& colors, const PhotoRefineOptions& options,
-                              PhotoRefineStats* stats) {
+// Every view has its colour image, and both it and its mask are whole
+// images of its camera; says which camera is not.
+void checkImages(const std::vector<hull::HullView>& views, const std::vector<Image8>& colors) {
   if (colors.size() != views.size())
     throw std::invalid_argument("photo refinement: one colour image per view");
   for (size_t i = 0; i < views.size(); ++i) {
@@ -52,6 +50,53 @@ Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<hull::HullView
                                   "x" + std::to_string(c.height) + " images");
     }
   }
+}
+
+// Neighbouring vertices move together: each offset averaged with its
+// neighbours' (one ring), passes times, so that single noisy picks do not
+// dent the surface.
+void smoothOffsets(const Mesh& hull, int passes, std::vector<double>& offset) {
+  const size_t n = hull.vertexCount();
+  std::vector<std::vector<uint32_t>> neighbours(n);
+  for (size_t t = 0; t < hull.triangleCount(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = hull.indices[3 * t + k], b = hull.indices[3 * t + (k + 1) % 3];
+      neighbours[a].push_back(b);
+      neighbours[b].push_back(a);
+    }
+  }
+  std::vector<double> smoothed(n);
+  for (int pass = 0; pass < passes; ++pass) {
+    for (size_t v = 0; v < n; ++v) {
+      double sum = offset[v];
+      for (uint32_t u : neighbours[v]) sum += offset[u];
+      smoothed[v] = sum / static_cast<double>(1 + neighbours[v].size());
+    }
+    offset.swap(smoothed);
+  }
+}
+
+PhotoRefineStats statsOf(const std::vector<double>& offset, const std::vector<char>& restored_once,
+                         double step, int silhouette_rounds) {
+  PhotoRefineStats stats;
+  stats.silhouette_rounds = silhouette_rounds;
+  double total = 0;
+  for (const double moved : offset) {
+    total += moved;
+    if (moved > 0.5 * step) ++stats.vertices_moved;
+  }
+  stats.mean_offset = total / static_cast<double>(offset.size());
+  stats.vertices_restored =
+      static_cast<size_t>(std::count(restored_once.begin(), restored_once.end(), 1));
+  return stats;
+}
+
+}  // namespace
+
+Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<hull::HullView>& views,
+                              const std::vector<Image8>& colors, const PhotoRefineOptions& options,
+                              PhotoRefineStats* stats) {
+  checkImages(views, colors);
   Mesh out = hull;
   if (stats) *stats = {};
   const size_t n = hull.vertexCount();
@@ -141,25 +186,7 @@ Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<hull::HullView
     const bool clearly = best_cost < 0.5 * surface_cost && surface_cost - best_cost > samples;
     offset[v] = clearly ? step * best_step : 0.0;
   }
-  // Neighbouring vertices move together: average each offset with its
-  // neighbours' (one ring), so that single noisy picks do not dent it.
-  std::vector<std::vector<uint32_t>> neighbours(n);
-  for (size_t t = 0; t < hull.triangleCount(); ++t) {
-    for (int k = 0; k < 3; ++k) {
-      const uint32_t a = hull.indices[3 * t + k], b = hull.indices[3 * t + (k + 1) % 3];
-      neighbours[a].push_back(b);
-      neighbours[b].push_back(a);
-    }
-  }
-  std::vector<double> smoothed(n);
-  for (int pass = 0; pass < options.smoothing_passes; ++pass) {
-    for (size_t v = 0; v < n; ++v) {
-      double sum = offset[v];
-      for (uint32_t u : neighbours[v]) sum += offset[u];
-      smoothed[v] = sum / static_cast<double>(1 + neighbours[v].size());
-    }
-    offset.swap(smoothed);
-  }
+  smoothOffsets(hull, options.smoothing_passes, offset);
   // Silhouette consistency: the refined surface must still cover every
   // pixel of every mask that the hull covered (a photo hull stays a subset
   // of the visual hull that explains the silhouettes; Kutulakos and Seitz
@@ -203,16 +230,7 @@ Mesh refineByPhotoConsistency(const Mesh& hull, const std::vector<hull::HullView
     out = hull;
     std::fill(offset.begin(), offset.end(), 0.0);
   }
-  double total = 0;
-  for (size_t v = 0; v < n; ++v) {
-    total += offset[v];
-    if (stats && offset[v] > 0.5 * step) ++stats->vertices_moved;
-  }
-  if (stats) {
-    stats->mean_offset = total / static_cast<double>(n);
-    stats->vertices_restored =
-        static_cast<size_t>(std::count(restored_once.begin(), restored_once.end(), 1));
-  }
+  if (stats) *stats = statsOf(offset, restored_once, step, stats->silhouette_rounds);
   computeVertexNormals(out);
   return out;
 }
