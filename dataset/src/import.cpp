@@ -259,28 +259,13 @@ Image8 segmentByBrightness(const Image8& color, const ImportOptions& options) {
   return fromMat(filled);
 }
 
-StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
-                                      const std::string& out_folder, const ImportOptions& options,
-                                      const std::function<void(const ImportProgress&)>& progress) {
-  // Whichever way the import ends, the videos it opened are closed.
-  struct CloseVideos {
-    ~CloseVideos() { closeVideos(); }
-  } close_videos;
-  const auto start = std::chrono::steady_clock::now();
-  if (!(options.mask_threshold > 0 && options.mask_threshold < 1)) {
-    return Status(StatusCode::kMalformed, "mask threshold " +
-                                              std::to_string(options.mask_threshold) +
-                                              ": expected a share of the range in (0, 1)");
-  }
-  HOLOFUSE_ASSIGN_OR_RETURN(const CaptureDescription capture,
-                            withoutCameras(source, options.exclude_cameras));
-  // "out/" and "out" are the same folder; the temporary one sits beside it.
-  fs::path normal = fs::path(out_folder).lexically_normal();
-  if (normal.filename().empty()) normal = normal.parent_path();
-  const std::string out_dir = normal.string();
-  if (out_dir.empty() || out_dir == "." || out_dir == "/") {
-    return Status(StatusCode::kIoError, out_folder + ": not a folder to create a dataset in");
-  }
+namespace {
+
+// What import checks before any work: cameras and frames there, no more
+// cameras than the loop serves, an image per camera in every frame, and
+// every file named present (the images are checked when read; a missing
+// one later still leaves no dataset behind).
+Status checkCapture(const CaptureDescription& capture, const std::string& out_dir) {
   if (capture.cameras.empty() || capture.frames.empty()) {
     return Status(StatusCode::kMalformed, capture.source + ": no camera or no frame to import");
   }
@@ -318,6 +303,174 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
       }
     }
   }
+  return Status::ok();
+}
+
+// One camera's view of frame f: its colour undistorted, its mask the
+// capture's, the picture's alpha, or segmented (against the plate, with
+// its previous mask for the hysteresis, else by brightness).
+StatusOr<PreparedView> prepareView(const CaptureDescription& capture, size_t f, size_t c,
+                                   const ImportOptions& options,
+                                   const std::optional<Undistortion>& undistort,
+                                   const std::optional<BackgroundModel>& plate,
+                                   const Image8& previous_mask) {
+  const CaptureFrame& frame = capture.frames[f];
+  auto color = readColor(frame.images[c], capture.cameras[c].camera, options.mask_threshold);
+  if (!color.isOk()) return color.status();
+  PreparedView view;
+  std::optional<Image8> mask;
+  if (frame.masks[c]) {
+    auto read = readMask(*frame.masks[c], capture.cameras[c].camera, options.mask_threshold);
+    if (!read.isOk()) return read.status();
+    mask = std::move(*read);
+  } else if (color->alpha_mask) {
+    mask = std::move(color->alpha_mask);
+  }
+  view.mask_given = mask.has_value();
+  view.color = undistort ? undistort->apply(color->color) : std::move(color->color);
+  if (mask) {
+    view.mask = undistort ? undistort->apply(*mask, true) : std::move(*mask);
+  } else if (plate) {
+    view.mask =
+        plate->segment(view.color, nullptr, previous_mask.empty() ? nullptr : &previous_mask);
+  } else {
+    view.mask = segmentByBrightness(view.color, options);
+  }
+  return view;
+}
+
+// A camera whose first mask is empty, or almost all of its picture, is
+// named, since the hull will carve with it (a plate of another camera, a
+// camera that moved since its plate, one that sees only background).
+void warnOnFirstMasks(const CaptureDescription& capture, const std::vector<PreparedView>& first,
+                      const std::vector<std::optional<BackgroundModel>>& plates,
+                      std::vector<std::string>& warnings) {
+  for (size_t c = 0; c < first.size(); ++c) {
+    if (first[c].mask_given) continue;
+    const double share = static_cast<double>(std::count(first[c].mask.pixels.begin(),
+                                                        first[c].mask.pixels.end(), 255)) /
+                         static_cast<double>(first[c].mask.pixels.size());
+    const std::string who = "camera \"" + capture.cameras[c].name + "\"";
+    if (share < 0.001) {
+      warnings.push_back(who +
+                         ": its first frame's mask is empty: it sees only background, or "
+                         "the subject is out of its view");
+    } else if (share > 0.9 && plates[c]) {
+      char text[64];
+      std::snprintf(text, sizeof(text), "%.0f%%", 100 * share);
+      warnings.push_back(who + ": " + text +
+                         " of its first frame differs from its plate: is the plate "
+                         "another camera's, or did the camera move?");
+    }
+  }
+}
+
+// How the masks were made, for the dataset's metadata.
+std::string segmentationText(const ImportOptions& options) {
+  char segmentation[160];
+  std::snprintf(segmentation, sizeof(segmentation),
+                "masks from the source; otherwise background plates, else brightness %s%s, close "
+                "%d px, largest "
+                "component",
+                options.threshold ? ("> " + std::to_string(*options.threshold)).c_str() : "by Otsu",
+                options.dark_subject ? " (dark subject)" : "", options.close_px);
+  return segmentation;
+}
+
+// One frame's views, all cameras prepared: the segmented masks counted,
+// cut to what the others' hull explains (agree), then held for the next
+// frame's hysteresis; what was cut goes in the summary.
+void agreeAcrossTheRig(const std::vector<Camera>& cameras, bool agree,
+                       const hull::HullOptions& hull_options, const std::vector<bool>& judged,
+                       std::vector<PreparedView>& frame_views, std::vector<Image8>& previous_masks,
+                       ImportSummary& summary) {
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    if (!frame_views[c].mask_given)
+      summary.segmented_pixels[c] += static_cast<uint64_t>(std::count(
+          frame_views[c].mask.pixels.begin(), frame_views[c].mask.pixels.end(), uint8_t{255}));
+  }
+  if (agree) {
+    std::vector<hull::HullView> views;
+    for (size_t c = 0; c < cameras.size(); ++c)
+      views.push_back({cameras[c], frame_views[c].mask, featherMap(frame_views[c].mask)});
+    auto agreed = hull::agreeAcrossCameras(views, hull_options, {}, judged);
+    const bool first_frame = previous_masks[0].empty();
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      if (first_frame) summary.agreement_shift[c] = {agreed[c].shift.x, agreed[c].shift.y};
+      if (agreed[c].pixels_removed == 0) continue;
+      summary.agreement_pixels_cut[c] += agreed[c].pixels_removed;
+      ++summary.agreement_frames_cut[c];
+      frame_views[c].mask = std::move(agreed[c].mask);
+    }
+  }
+  for (size_t c = 0; c < cameras.size(); ++c) previous_masks[c] = frame_views[c].mask;
+}
+
+// The dataset's record file in folder, with its metadata and every
+// camera's calibration written: the frames follow.
+StatusOr<RecordWriter> openDataset(const std::string& folder, const DatasetMetadata& metadata,
+                                   const std::vector<Camera>& cameras) {
+  auto writer = RecordWriter::create(
+      (fs::path(folder) / kDatasetPodsFile).string(),
+      static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                std::chrono::system_clock::now().time_since_epoch())
+                                .count()));
+  if (!writer.isOk()) return writer.status();
+  Status s = writer->append(RecordKind::kDatasetInfo, kServerStream, 0, 0,
+                            encodeDatasetMetadata(metadata));
+  if (!s.isOk()) return s;
+  for (const auto& camera : cameras) {
+    const protocol::OutgoingFrame calibration =
+        protocol::encodeOutgoing(toCalibration(camera), protocol::nextSequence());
+    s = writer->append(RecordKind::kCalibration, camera.id, 0, 0, calibration);
+    if (!s.isOk()) return s;
+  }
+  return writer;
+}
+
+// The dataset's description: its source, the capture volume, the voxel a
+// replay carves with, its cameras' names.
+DatasetMetadata metadataOf(const CaptureDescription& capture, const ImportOptions& options,
+                           const Box& box) {
+  const glm::dvec3 extent = box.max - box.min;
+  DatasetMetadata metadata;
+  metadata.source = capture.source;
+  metadata.volume_min = box.min;
+  metadata.volume_max = box.max;
+  // Within what the server accepts (--voxel 0.0001..0.5 m): captures in
+  // other units (COLMAP's are arbitrary) still carve.
+  metadata.voxel_size = std::clamp(
+      options.voxel_size.value_or(std::max({extent.x, extent.y, extent.z}) / 96.0), 0.0001, 0.5);
+  metadata.still = capture.frames.size() == 1;
+  for (const auto& c : capture.cameras) metadata.camera_names.push_back(c.name);
+  return metadata;
+}
+
+}  // namespace
+
+StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
+                                      const std::string& out_folder, const ImportOptions& options,
+                                      const std::function<void(const ImportProgress&)>& progress) {
+  // Whichever way the import ends, the videos it opened are closed.
+  struct CloseVideos {
+    ~CloseVideos() { closeVideos(); }
+  } close_videos;
+  const auto start = std::chrono::steady_clock::now();
+  if (!(options.mask_threshold > 0 && options.mask_threshold < 1)) {
+    return Status(StatusCode::kMalformed, "mask threshold " +
+                                              std::to_string(options.mask_threshold) +
+                                              ": expected a share of the range in (0, 1)");
+  }
+  HOLOFUSE_ASSIGN_OR_RETURN(const CaptureDescription capture,
+                            withoutCameras(source, options.exclude_cameras));
+  // "out/" and "out" are the same folder; the temporary one sits beside it.
+  fs::path normal = fs::path(out_folder).lexically_normal();
+  if (normal.filename().empty()) normal = normal.parent_path();
+  const std::string out_dir = normal.string();
+  if (out_dir.empty() || out_dir == "." || out_dir == "/") {
+    return Status(StatusCode::kIoError, out_folder + ": not a folder to create a dataset in");
+  }
+  HOLOFUSE_RETURN_IF_ERROR(checkCapture(capture, out_dir));
   std::vector<Camera> cameras;
   std::vector<std::optional<Undistortion>> undistort;
   std::vector<std::optional<BackgroundModel>> plates;
@@ -342,30 +495,8 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
   status.total = capture.cameras.size() * capture.frames.size();
   // Each camera's mask of the frame before: the segmenter's hysteresis.
   std::vector<Image8> previous_masks(cameras.size());
-  auto prepare = [&](size_t f, size_t c) -> StatusOr<PreparedView> {
-    const CaptureFrame& frame = capture.frames[f];
-    auto color = readColor(frame.images[c], capture.cameras[c].camera, options.mask_threshold);
-    if (!color.isOk()) return color.status();
-    PreparedView view;
-    std::optional<Image8> mask;
-    if (frame.masks[c]) {
-      auto read = readMask(*frame.masks[c], capture.cameras[c].camera, options.mask_threshold);
-      if (!read.isOk()) return read.status();
-      mask = std::move(*read);
-    } else if (color->alpha_mask) {
-      mask = std::move(color->alpha_mask);
-    }
-    view.mask_given = mask.has_value();
-    view.color = undistort[c] ? undistort[c]->apply(color->color) : std::move(color->color);
-    if (mask) {
-      view.mask = undistort[c] ? undistort[c]->apply(*mask, true) : std::move(*mask);
-    } else if (plates[c]) {
-      view.mask = plates[c]->segment(view.color, nullptr,
-                                     previous_masks[c].empty() ? nullptr : &previous_masks[c]);
-    } else {
-      view.mask = segmentByBrightness(view.color, options);
-    }
-    return view;
+  auto prepare = [&](size_t f, size_t c) {
+    return prepareView(capture, f, c, options, undistort[c], plates[c], previous_masks[c]);
   };
 
   // The first frame decides the capture volume, written before any frame.
@@ -381,48 +512,11 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
   summary.agreement_frames_cut.assign(cameras.size(), 0);
   summary.segmented_pixels.assign(cameras.size(), 0);
   summary.agreement_shift.assign(cameras.size(), {0, 0});
-  // A camera whose first mask is empty, or almost all of its picture:
-  // named, since the hull will carve with it (a plate of another camera,
-  // a camera that moved since its plate, one that sees only background).
-  for (size_t c = 0; c < cameras.size(); ++c) {
-    if (first[c].mask_given) continue;
-    const double share = static_cast<double>(std::count(first_masks[c].pixels.begin(),
-                                                        first_masks[c].pixels.end(), 255)) /
-                         static_cast<double>(first_masks[c].pixels.size());
-    const std::string who = "camera \"" + capture.cameras[c].name + "\"";
-    if (share < 0.001) {
-      summary.warnings.push_back(who +
-                                 ": its first frame's mask is empty: it sees only background, or "
-                                 "the subject is out of its view");
-    } else if (share > 0.9 && plates[c]) {
-      char text[64];
-      std::snprintf(text, sizeof(text), "%.0f%%", 100 * share);
-      summary.warnings.push_back(who + ": " + text +
-                                 " of its first frame differs from its plate: is the plate "
-                                 "another camera's, or did the camera move?");
-    }
-  }
+  warnOnFirstMasks(capture, first, plates, summary.warnings);
   auto box = estimateCaptureVolume(cameras, first_masks);
   if (!box.isOk())
     return Status(box.status().code(), capture.source + ": " + box.status().message());
-  const glm::dvec3 extent = box->max - box->min;
-  DatasetMetadata metadata;
-  metadata.source = capture.source;
-  metadata.volume_min = box->min;
-  metadata.volume_max = box->max;
-  // Within what the server accepts (--voxel 0.0001..0.5 m): captures in
-  // other units (COLMAP's are arbitrary) still carve.
-  metadata.voxel_size = std::clamp(
-      options.voxel_size.value_or(std::max({extent.x, extent.y, extent.z}) / 96.0), 0.0001, 0.5);
-  metadata.still = capture.frames.size() == 1;
-  for (const auto& c : capture.cameras) metadata.camera_names.push_back(c.name);
-  char segmentation[160];
-  std::snprintf(segmentation, sizeof(segmentation),
-                "masks from the source; otherwise background plates, else brightness %s%s, close "
-                "%d px, largest "
-                "component",
-                options.threshold ? ("> " + std::to_string(*options.threshold)).c_str() : "by Otsu",
-                options.dark_subject ? " (dark subject)" : "", options.close_px);
+  DatasetMetadata metadata = metadataOf(capture, options, *box);
   summary.volume = "min " + formatVec(box->min) + " max " + formatVec(box->max) + ", voxel " +
                    std::to_string(metadata.voxel_size);
   // The rig's agreement and the cameras' health, in the volume and at the
@@ -437,31 +531,10 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
     segmented_cameras += judged[c];
   }
   const bool agree = options.rig_agreement && cameras.size() >= 3 && segmented_cameras > 0;
-  // One frame's views, all cameras prepared: the segmented masks cut to
-  // what the others' hull explains, then held for the next frame.
   auto agreeOnFrame = [&](std::vector<PreparedView>& frame_views) {
-    for (size_t c = 0; c < cameras.size(); ++c) {
-      if (!frame_views[c].mask_given)
-        summary.segmented_pixels[c] += static_cast<uint64_t>(std::count(
-            frame_views[c].mask.pixels.begin(), frame_views[c].mask.pixels.end(), uint8_t{255}));
-    }
-    if (agree) {
-      std::vector<hull::HullView> views;
-      for (size_t c = 0; c < cameras.size(); ++c)
-        views.push_back({cameras[c], frame_views[c].mask, featherMap(frame_views[c].mask)});
-      auto agreed = hull::agreeAcrossCameras(views, hull_options, {}, judged);
-      const bool first_frame = previous_masks[0].empty();
-      for (size_t c = 0; c < cameras.size(); ++c) {
-        if (first_frame) summary.agreement_shift[c] = {agreed[c].shift.x, agreed[c].shift.y};
-        if (agreed[c].pixels_removed == 0) continue;
-        summary.agreement_pixels_cut[c] += agreed[c].pixels_removed;
-        ++summary.agreement_frames_cut[c];
-        frame_views[c].mask = std::move(agreed[c].mask);
-      }
-    }
-    for (size_t c = 0; c < cameras.size(); ++c) previous_masks[c] = frame_views[c].mask;
+    agreeAcrossTheRig(cameras, agree, hull_options, judged, frame_views, previous_masks, summary);
   };
-  metadata.segmentation = segmentation;
+  metadata.segmentation = segmentationText(options);
   if (agree) metadata.segmentation += "; segmented masks cut to the other cameras' hull";
   agreeOnFrame(first);
   std::vector<hull::HullView> first_views;
@@ -481,21 +554,9 @@ StatusOr<ImportSummary> importCapture(const CaptureDescription& source,
     fs::remove_all(partial);
     return s;
   };
-  auto writer = RecordWriter::create(
-      (fs::path(partial) / kDatasetPodsFile).string(),
-      static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                std::chrono::system_clock::now().time_since_epoch())
-                                .count()));
+  auto writer = openDataset(partial, metadata, cameras);
   if (!writer.isOk()) return fail(writer.status());
-  Status s = writer->append(RecordKind::kDatasetInfo, kServerStream, 0, 0,
-                            encodeDatasetMetadata(metadata));
-  if (!s.isOk()) return fail(s);
-  for (const auto& camera : cameras) {
-    const protocol::OutgoingFrame calibration =
-        protocol::encodeOutgoing(toCalibration(camera), protocol::nextSequence());
-    s = writer->append(RecordKind::kCalibration, camera.id, 0, 0, calibration);
-    if (!s.isOk()) return fail(s);
-  }
+  Status s = Status::ok();
   const uint64_t interval_ns = static_cast<uint64_t>(1e9 / capture.fps);
   for (size_t f = 0; f < capture.frames.size(); ++f) {
     std::vector<PreparedView> frame_views;

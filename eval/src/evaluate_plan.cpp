@@ -225,6 +225,131 @@ StatusOr<LayeredFrameCost> layeredFrame(const EvalOptions& options, fusion::Laye
   return cost;
 }
 
+namespace {
+
+// holoportation's and montage4d's pictures of the same views, compared
+// with each other: the first of the two to render a view keeps its picture,
+// cut to the truth's rectangle (all that is compared), until the second
+// renders it (metrics: pictureAgreement).
+class PictureComparison {
+ public:
+  void add(const std::pair<int, int>& key, render::BlendMode mode, const Image8& picture,
+           const Image8& truth_color, const Image8& truth_mask) {
+    const PixelRect rect = foregroundRect(truth_mask);
+    if (!first_mode_) first_mode_ = mode;
+    if (rect.empty()) {
+      // Nothing to compare: both modes score the cap (compareInMask), and so
+      // does the best, so the means cover the same images as the modes'.
+      if (mode != *first_mode_) {
+        holoportation_psnr_ += kPsnrCap;
+        best_montage_psnr_ += kPsnrCap;
+        ++compared_;
+      }
+      return;
+    }
+    if (mode == *first_mode_) {
+      first_pictures_[key] = cropImage(picture, rect);
+      return;
+    }
+    const auto first = first_pictures_.find(key);
+    if (first == first_pictures_.end()) return;
+    const Image8 second = cropImage(picture, rect);
+    const bool holoportation_first = *first_mode_ == render::BlendMode::kHoloportation;
+    const PictureAgreement a = pictureAgreement(
+        holoportation_first ? first->second : second, holoportation_first ? second : first->second,
+        cropImage(truth_color, rect), cropImage(truth_mask, rect));
+    first_pictures_.erase(first);
+    // The mean PSNR over images, as the modes' scores are.
+    holoportation_psnr_ += psnrFromMse(a.a_squared_error / (3.0 * static_cast<double>(a.pixels)));
+    best_montage_psnr_ += a.bestPsnrOfB();
+    ++compared_;
+    pixels_ += a.pixels;
+    differing_ += a.differing;
+    error_ += a.a_squared_error;
+    error_differing_ += a.a_squared_error_differing;
+  }
+
+  // Left unmeasured when no view was compared.
+  void into(ModeAgreement& agreement) const {
+    if (compared_ == 0) return;
+    agreement.measured = true;
+    agreement.differing_share =
+        pixels_ ? static_cast<double>(differing_) / static_cast<double>(pixels_) : 0.0;
+    agreement.holoportation_error_share = error_ > 0 ? error_differing_ / error_ : 0.0;
+    agreement.gain_bound_db =
+        (best_montage_psnr_ - holoportation_psnr_) / static_cast<double>(compared_);
+  }
+
+ private:
+  std::map<std::pair<int, int>, Image8> first_pictures_;
+  std::optional<render::BlendMode> first_mode_;
+  double holoportation_psnr_ = 0, best_montage_psnr_ = 0, error_ = 0, error_differing_ = 0;
+  size_t compared_ = 0, pixels_ = 0, differing_ = 0;
+};
+
+// --save-images: a view's picture, its truth, mask, error and regions as
+// PNG, the error in float and, in the field modes, whose image weighs where.
+Status saveViewImages(const EvalOptions& options, const std::string& scene,
+                      const std::string& mode_name, uint64_t frame_id, const ViewSequence& sequence,
+                      const Image8& picture, const Image8& truth_color, const Image8& truth_mask,
+                      const ViewRegions& regions, const Mesh& mesh,
+                      const std::vector<render::ViewImages>& others, render::Renderer& renderer) {
+  const fs::path dir = fs::path(options.out_dir) / "images" / folderName(scene) / mode_name;
+  const std::string stem = "frame" + std::to_string(frame_id) + "_" + sequence.name;
+  for (const auto& [suffix, image] :
+       {std::pair<const char*, Image8>{"_rendered.png", picture},
+        {"_true.png", truth_color},
+        {"_mask.png", truth_mask},
+        {"_error.png", errorMapPicture(picture, truth_color, truth_mask)},
+        {"_regions.png", regionsPicture(regions.regions)}}) {
+    HOLOFUSE_RETURN_IF_ERROR(saveImage(dir / (stem + suffix), image));
+  }
+  // The same in float, and whose image weighs where (field modes).
+  const FloatMap error_map = signedErrorMap(picture, truth_color, truth_mask);
+  HOLOFUSE_RETURN_IF_ERROR(writeFloatImage((dir / (stem + "_error.exr")).string(),
+                                           sequence.pose.width, sequence.pose.height,
+                                           error_map.channels, error_map.values));
+  std::vector<uint32_t> camera_ids;
+  for (const auto& view : others) camera_ids.push_back(view.camera.id);
+  const FloatMap weight_map = viewWeightMap(mesh, sequence.pose, regions.triangle_of,
+                                            renderer.readFields().weights, camera_ids);
+  if (!weight_map.channels.empty()) {
+    HOLOFUSE_RETURN_IF_ERROR(writeFloatImage((dir / (stem + "_weights.exr")).string(),
+                                             sequence.pose.width, sequence.pose.height,
+                                             weight_map.channels, weight_map.values));
+  }
+  return Status::ok();
+}
+
+// What the client link carries a frame in this mode: the loop's frames,
+// or for layers the mesh, the layers of every camera (as the live server
+// builds them) and the stats; with the layer stage's times.
+Status measureClientLink(const EvalOptions& options, const SceneInput& input, bool layered,
+                         ModeResult& m, std::vector<double>& layers_ms,
+                         std::vector<double>& layer_video_ms) {
+  const double frame_count = static_cast<double>(input.frames.size());
+  m.client_bytes_per_frame = 0;
+  if (layered) {
+    fusion::LayerStage stage;
+    for (const FrameData& frame : input.frames) {
+      HOLOFUSE_ASSIGN_OR_RETURN(const LayeredFrameCost cost,
+                                layeredFrame(options, stage, frame.mesh, frame.views,
+                                             frame.frame_id, nullptr, nullptr, nullptr));
+      layers_ms.push_back(cost.layers_ms);
+      if (cost.video_ms > 0) layer_video_ms.push_back(cost.video_ms);
+      m.client_bytes_per_frame +=
+          static_cast<double>(frame.client_link_bytes - frame.bundle_bytes + cost.bytes) /
+          frame_count;
+    }
+  } else {
+    for (const FrameData& frame : input.frames)
+      m.client_bytes_per_frame += static_cast<double>(frame.client_link_bytes) / frame_count;
+  }
+  return Status::ok();
+}
+
+}  // namespace
+
 Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
                      const SceneInput& input, const EvaluationPlan& plan, SceneResult& result,
                      const std::function<void(const std::string&)>& progress) {
@@ -232,56 +357,14 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
   const int jump_frame = frame_count / 2;  // for sequences with a pose before the jump
   // Seam pixels and error regions per (sequence, frame), shared by the modes.
   std::map<std::pair<int, int>, ViewRegions> region_cache;
-  // holoportation's and montage4d's pictures per (sequence, frame), to
-  // compare with each other when both modes run.
+  // holoportation's and montage4d's pictures of each view compared, when
+  // both modes run.
   const auto runs = [&](render::BlendMode mode) {
     return std::find(options.modes.begin(), options.modes.end(), mode) != options.modes.end();
   };
   const bool compare_pictures =
       runs(render::BlendMode::kHoloportation) && runs(render::BlendMode::kMontage4D);
-  // The first of the two to run keeps its pictures, cut to the truth's
-  // rectangle (all that is compared), until the second renders the same view.
-  std::map<std::pair<int, int>, Image8> first_pictures;
-  std::optional<render::BlendMode> first_mode;
-  double holoportation_psnr = 0, best_montage_psnr = 0, error = 0, error_differing = 0;
-  size_t compared = 0, pixels = 0, differing = 0;
-  auto comparePictures = [&](const std::pair<int, int>& key, render::BlendMode mode,
-                             const Image8& picture) {
-    const auto [truth_color, truth_mask] = truthOf(input.frames[static_cast<size_t>(key.second)],
-                                                   plan.sequences[static_cast<size_t>(key.first)]);
-    const PixelRect rect = foregroundRect(truth_mask);
-    if (!first_mode) first_mode = mode;
-    if (rect.empty()) {
-      // Nothing to compare: both modes score the cap (compareInMask), and so
-      // does the best, so the means cover the same images as the modes'.
-      if (mode != *first_mode) {
-        holoportation_psnr += kPsnrCap;
-        best_montage_psnr += kPsnrCap;
-        ++compared;
-      }
-      return;
-    }
-    if (mode == *first_mode) {
-      first_pictures[key] = cropImage(picture, rect);
-      return;
-    }
-    const auto first = first_pictures.find(key);
-    if (first == first_pictures.end()) return;
-    const Image8 second = cropImage(picture, rect);
-    const bool holoportation_first = *first_mode == render::BlendMode::kHoloportation;
-    const PictureAgreement a = pictureAgreement(
-        holoportation_first ? first->second : second, holoportation_first ? second : first->second,
-        cropImage(truth_color, rect), cropImage(truth_mask, rect));
-    first_pictures.erase(first);
-    // The mean PSNR over images, as the modes' scores are.
-    holoportation_psnr += psnrFromMse(a.a_squared_error / (3.0 * static_cast<double>(a.pixels)));
-    best_montage_psnr += a.bestPsnrOfB();
-    ++compared;
-    pixels += a.pixels;
-    differing += a.differing;
-    error += a.a_squared_error;
-    error_differing += a.a_squared_error_differing;
-  };
+  PictureComparison comparison;
   for (render::BlendMode mode : options.modes) {
     const std::string mode_name = render::blendModeName(mode);
     ModeResult& m = result.modes[mode_name];
@@ -294,27 +377,8 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
     size_t seam_images = 0;
     const bool layered = mode == render::BlendMode::kLayered;
     std::vector<double> layers_ms, layer_video_ms;
-    // What the client link carries in this mode: the loop's frames, or for
-    // layers the mesh, the layers of every camera (as the live server
-    // builds them) and the stats.
-    m.client_bytes_per_frame = 0;
-    if (layered) {
-      fusion::LayerStage stage;
-      for (const FrameData& frame : input.frames) {
-        HOLOFUSE_ASSIGN_OR_RETURN(const LayeredFrameCost cost,
-                                  layeredFrame(options, stage, frame.mesh, frame.views,
-                                               frame.frame_id, nullptr, nullptr, nullptr));
-        layers_ms.push_back(cost.layers_ms);
-        if (cost.video_ms > 0) layer_video_ms.push_back(cost.video_ms);
-        m.client_bytes_per_frame +=
-            static_cast<double>(frame.client_link_bytes - frame.bundle_bytes + cost.bytes) /
-            static_cast<double>(frame_count);
-      }
-    } else {
-      for (const FrameData& frame : input.frames)
-        m.client_bytes_per_frame +=
-            static_cast<double>(frame.client_link_bytes) / static_cast<double>(frame_count);
-    }
+    HOLOFUSE_RETURN_IF_ERROR(
+        measureClientLink(options, input, layered, m, layers_ms, layer_video_ms));
     for (int s = 0; s < static_cast<int>(plan.sequences.size()); ++s) {
       const ViewSequence& sequence = plan.sequences[static_cast<size_t>(s)];
       const Camera& pose = sequence.pose;
@@ -369,7 +433,7 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
         const auto key = std::make_pair(s, f);
         if (compare_pictures &&
             (mode == render::BlendMode::kHoloportation || mode == render::BlendMode::kMontage4D)) {
-          comparePictures(key, mode, picture);
+          comparison.add(key, mode, picture, truth_color, truth_mask);
         }
         auto cached = region_cache.find(key);
         if (cached == region_cache.end()) {
@@ -396,31 +460,9 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
         }
         previous = std::move(error);
         if (options.save_images) {
-          const fs::path dir =
-              fs::path(options.out_dir) / "images" / folderName(result.name) / mode_name;
-          const std::string stem = "frame" + std::to_string(frame.frame_id) + "_" + sequence.name;
-          for (const auto& [suffix, image] :
-               {std::pair<const char*, Image8>{"_rendered.png", picture},
-                {"_true.png", truth_color},
-                {"_mask.png", truth_mask},
-                {"_error.png", errorMapPicture(picture, truth_color, truth_mask)},
-                {"_regions.png", regionsPicture(regions.regions)}}) {
-            HOLOFUSE_RETURN_IF_ERROR(saveImage(dir / (stem + suffix), image));
-          }
-          // The same in float, and whose image weighs where (field modes).
-          const FloatMap error_map = signedErrorMap(picture, truth_color, truth_mask);
-          HOLOFUSE_RETURN_IF_ERROR(writeFloatImage((dir / (stem + "_error.exr")).string(),
-                                                   pose.width, pose.height, error_map.channels,
-                                                   error_map.values));
-          std::vector<uint32_t> camera_ids;
-          for (const auto& view : others) camera_ids.push_back(view.camera.id);
-          const FloatMap weight_map = viewWeightMap(mesh, pose, regions.triangle_of,
-                                                    renderer.readFields().weights, camera_ids);
-          if (!weight_map.channels.empty()) {
-            HOLOFUSE_RETURN_IF_ERROR(writeFloatImage((dir / (stem + "_weights.exr")).string(),
-                                                     pose.width, pose.height, weight_map.channels,
-                                                     weight_map.values));
-          }
+          HOLOFUSE_RETURN_IF_ERROR(saveViewImages(options, result.name, mode_name, frame.frame_id,
+                                                  sequence, picture, truth_color, truth_mask,
+                                                  regions, mesh, others, renderer));
         }
       }
       if (progress) {
@@ -445,15 +487,7 @@ Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
     m.layer_video_ms = layer_video_ms.empty() ? 0.0 : median(layer_video_ms);
     for (const auto& [pass, values] : passes) m.gpu_passes_ms[pass] = median(values);
   }
-  if (compared > 0) {
-    ModeAgreement& agreement = result.montage_agreement;
-    agreement.measured = true;
-    agreement.differing_share =
-        pixels ? static_cast<double>(differing) / static_cast<double>(pixels) : 0.0;
-    agreement.holoportation_error_share = error > 0 ? error_differing / error : 0.0;
-    agreement.gain_bound_db =
-        (best_montage_psnr - holoportation_psnr) / static_cast<double>(compared);
-  }
+  comparison.into(result.montage_agreement);
   return Status::ok();
 }
 

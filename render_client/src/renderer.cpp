@@ -74,6 +74,45 @@ Image8 Renderer::render(const Camera& user_camera, const BlendSettings& settings
   return finishRender();
 }
 
+namespace {
+
+// The user camera's intrinsics scaled to an output of another size than
+// its calibration's.
+Camera scaledTo(const Camera& camera, uint32_t width, uint32_t height) {
+  Camera scaled = camera;
+  const double sx = static_cast<double>(width) / camera.width;
+  const double sy = static_cast<double>(height) / camera.height;
+  scaled.fx *= sx;
+  scaled.cx *= sx;
+  scaled.skew *= sx;
+  scaled.fy *= sy;
+  scaled.cy *= sy;
+  scaled.width = width;
+  scaled.height = height;
+  return scaled;
+}
+
+}  // namespace
+
+void Renderer::writeCameras(const BlendSettings& settings) {
+  auto* gpu_cameras = static_cast<CameraGpu*>(camera_buffer_.mapped);
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    const Camera& c = cameras_[i];
+    CameraGpu& gpu = gpu_cameras[i];
+    gpu.world_to_clip = clipFor(c);
+    gpu.center = glm::vec4(glm::vec3(c.center()), 1.0f);
+    gpu.size = glm::vec4(c.width, c.height, 1.0f / c.width, 1.0f / c.height);
+    const uint32_t view = active_[i];  // camera_enabled is by the views' index
+    const bool enabled = settings.camera_enabled.empty() ||
+                         (view < settings.camera_enabled.size() && settings.camera_enabled[view]);
+    // y: the camera sees none of the subject (an empty mask; only when no
+    // camera does, else it is not among cameras_). Its depth map and
+    // discontinuity test find no surface: every vertex is on its background.
+    const bool empty = view < subject_seen_.size() && !subject_seen_[view];
+    gpu.flags = glm::ivec4(enabled ? 1 : 0, empty ? 1 : 0, 0, 0);
+  }
+}
+
 void Renderer::beginRender(const Camera& user_camera, const BlendSettings& settings) {
   ctx_.waitForSubmitted();  // the uniforms below are the previous render's until it ends
   BlendUniforms u{};
@@ -102,22 +141,7 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
   const bool candidates = cameras_.size() > static_cast<size_t>(best_views);
   u.views = glm::ivec4(best_views, static_cast<int>(cameraWords(cameras_.size())),
                        candidates ? 1 : 0, triangleViewSlots(best_views, cameras_.size()));
-  auto* gpu_cameras = static_cast<CameraGpu*>(camera_buffer_.mapped);
-  for (size_t i = 0; i < cameras_.size(); ++i) {
-    const Camera& c = cameras_[i];
-    CameraGpu& gpu = gpu_cameras[i];
-    gpu.world_to_clip = clipFor(c);
-    gpu.center = glm::vec4(glm::vec3(c.center()), 1.0f);
-    gpu.size = glm::vec4(c.width, c.height, 1.0f / c.width, 1.0f / c.height);
-    const uint32_t view = active_[i];  // camera_enabled is by the views' index
-    const bool enabled = settings.camera_enabled.empty() ||
-                         (view < settings.camera_enabled.size() && settings.camera_enabled[view]);
-    // y: the camera sees none of the subject (an empty mask; only when no
-    // camera does, else it is not among cameras_). Its depth map and
-    // discontinuity test find no surface: every vertex is on its background.
-    const bool empty = view < subject_seen_.size() && !subject_seen_[view];
-    gpu.flags = glm::ivec4(enabled ? 1 : 0, empty ? 1 : 0, 0, 0);
-  }
+  writeCameras(settings);
   // Mode layered reads no camera image: no depth map, field or ranking.
   const bool have_views = !cameras_.empty() && !layered;
   if (const Status usable = checkRenderable(vertex_count_, settings); have_views && !usable.isOk())
@@ -201,19 +225,7 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_layout_, 0, 1,
                               &descriptor_set_, 0, nullptr);
       setViewport(cmd, width_, height_);
-      // The output may differ in size from the user camera's calibration:
-      // scale the intrinsics to the output.
-      Camera scaled = user_camera;
-      const double sx = static_cast<double>(width_) / user_camera.width;
-      const double sy = static_cast<double>(height_) / user_camera.height;
-      scaled.fx *= sx;
-      scaled.cx *= sx;
-      scaled.skew *= sx;
-      scaled.fy *= sy;
-      scaled.cy *= sy;
-      scaled.width = width_;
-      scaled.height = height_;
-      const glm::mat4 m = clipFor(scaled);
+      const glm::mat4 m = clipFor(scaledTo(user_camera, width_, height_));
       vkCmdPushConstants(cmd, blend_layout_, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(m), &m);
       drawMesh(cmd);
     }

@@ -170,6 +170,9 @@ class Renderer {
   void ensureViewResources(uint32_t w, uint32_t h, uint32_t count);
   void destroyViewResources();
   void renderDepthMaps(VkCommandBuffer cmd);
+  // Each camera's projection, centre, size and flags (enabled, sees none
+  // of the subject) into the camera buffer.
+  void writeCameras(const BlendSettings& settings);
   // Grows the field passes' buffers to the mesh, cameras and parameters;
   // true if any was made anew (its contents are gone).
   bool ensureFieldBuffers(const FieldParameters& parameters);
