@@ -208,6 +208,34 @@ std::string cell(double ratio) {
   return text;
 }
 
+// The Markdown table of every misbehaviour, with the quiet rig's numbers
+// it is read against.
+std::string insiderTable(const Settings& s, double quiet_fps, uint64_t quiet_peak,
+                         const std::vector<Row>& rows) {
+  char head[512];
+  std::snprintf(head, sizeof(head),
+                "Keyed rig on loopback: 4 pods at %s, %.0f fps, one client; at first %.1f fps, "
+                "server peak %.1f MB; windows of %.0f s. The client's fps during and after "
+                "each misbehaviour is against the window just before it; the server's peak "
+                "memory so far against its peak at first.\n\n",
+                s.size.c_str(), s.fps, quiet_fps, quiet_peak / 1024.0, s.window_s);
+  std::string table = head;
+  table +=
+      "| misbehaviour | client fps before | during | after | seconds to | event | server peak |\n"
+      "|---|---:|---:|---:|---:|---|---:|\n";
+  for (const Row& row : rows) {
+    char seconds[32] = "never";
+    if (row.seconds) std::snprintf(seconds, sizeof(seconds), "%.2f", *row.seconds);
+    char peak[32];
+    std::snprintf(peak, sizeof(peak), "%.2fx", row.peak_rss);
+    char before[32];
+    std::snprintf(before, sizeof(before), "%.1f", row.quiet_fps);
+    table += "| " + row.what + " | " + before + " | " + cell(row.fps_during) + " | " +
+             cell(row.fps_after) + " | " + seconds + " | " + row.event + " | " + peak + " |\n";
+  }
+  return table;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -338,27 +366,7 @@ int main(int argc, char** argv) {
                               std::chrono::milliseconds(1), 4000, "cannot accept", peak));
   }
 
-  char head[512];
-  std::snprintf(head, sizeof(head),
-                "Keyed rig on loopback: 4 pods at %s, %.0f fps, one client; at first %.1f fps, "
-                "server peak %.1f MB; windows of %.0f s. The client's fps during and after "
-                "each misbehaviour is against the window just before it; the server's peak "
-                "memory so far against its peak at first.\n\n",
-                s.size.c_str(), s.fps, quiet_fps, quiet_peak / 1024.0, s.window_s);
-  std::string table = head;
-  table +=
-      "| misbehaviour | client fps before | during | after | seconds to | event | server peak |\n"
-      "|---|---:|---:|---:|---:|---|---:|\n";
-  for (const Row& row : rows) {
-    char seconds[32] = "never";
-    if (row.seconds) std::snprintf(seconds, sizeof(seconds), "%.2f", *row.seconds);
-    char peak[32];
-    std::snprintf(peak, sizeof(peak), "%.2fx", row.peak_rss);
-    char before[32];
-    std::snprintf(before, sizeof(before), "%.1f", row.quiet_fps);
-    table += "| " + row.what + " | " + before + " | " + cell(row.fps_during) + " | " +
-             cell(row.fps_after) + " | " + seconds + " | " + row.event + " | " + peak + " |\n";
-  }
+  const std::string table = insiderTable(s, quiet_fps, quiet_peak, rows);
   std::printf("\n%s", table.c_str());
   if (!markdown.empty()) std::ofstream(markdown) << table;
   return 0;

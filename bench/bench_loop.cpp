@@ -143,6 +143,86 @@ std::optional<Numbers> stageOf(const ModeSummary* mode, const std::string& stage
   return std::nullopt;
 }
 
+// An earlier run's medians per mode (--baseline's bench_loop.json); false,
+// said why, when it has none.
+bool readBaseline(const std::string& baseline, std::map<std::string, ModeSummary>& before) {
+  std::ifstream in(fs::path(baseline) / "bench_loop.json");
+  const auto j = ordered_json::parse(in, nullptr, false);
+  if (j.is_discarded() || !j.contains("modes")) {
+    std::fprintf(stderr, "--baseline %s: no bench_loop.json there\n", baseline.c_str());
+    return false;
+  }
+  try {
+    for (const auto& [name, mode] : j.at("modes").items()) before[name] = fromJson(name, mode);
+  } catch (const nlohmann::json::exception& e) {
+    std::fprintf(stderr, "--baseline %s: bench_loop.json unreadable: %s\n", baseline.c_str(),
+                 e.what());
+    return false;
+  }
+  return true;
+}
+
+// The page: fps and end to end per mode, and where each mode's time goes
+// (stage p50s), beside the baseline's when given; then the tables.
+std::string chartsPage(const std::string& intro, const std::vector<ModeSummary>& results,
+                       const std::map<std::string, ModeSummary>& before,
+                       const std::vector<std::string>& stages, const html::Table& summary_table,
+                       const html::Table& stage_table, const std::string& verdicts) {
+  std::vector<std::string> mode_names;
+  html::Series fps_now{"now", {}}, fps_before{"baseline", {}};
+  html::Series p50_now{"p50", {}}, p95_now{"p95", {}};
+  std::vector<html::StackRow> stacks;
+  for (const ModeSummary& m : results) {
+    mode_names.push_back(m.mode);
+    fps_now.values.push_back(m.fps);
+    fps_before.values.push_back(before.count(m.mode) ? before.at(m.mode).fps : std::nan(""));
+    p50_now.values.push_back(m.end_to_end.p50);
+    p95_now.values.push_back(m.end_to_end.p95);
+    const ModeSummary* earlier = before.count(m.mode) ? &before.at(m.mode) : nullptr;
+    for (const ModeSummary* s : {&m, earlier}) {
+      if (s == nullptr) continue;
+      html::StackRow row{m.mode + (s == &m ? "" : " (baseline)"), {}};
+      for (const std::string& stage : stages)
+        row.segments.push_back(stageOf(s, stage) ? stageOf(s, stage)->p50 : 0.0);
+      stacks.push_back(row);
+    }
+  }
+  std::vector<html::Series> fps_series = {fps_now};
+  if (!before.empty()) fps_series.push_back(fps_before);
+  return "<p>" + html::escape(intro) + "</p>\n" +
+         html::barChart("Frames per second", mode_names, fps_series, "fps") +
+         html::barChart("End-to-end latency", mode_names, {p50_now, p95_now}, "ms") +
+         html::stackedBars("Where the time goes (stage p50)", stages, stacks, "ms") +
+         html::table(summary_table) + html::table(stage_table) + "<pre>" + html::escape(verdicts) +
+         "</pre>\n";
+}
+
+// The targets, said plainly: each mode's fps and end to end against its
+// target, and the stages whose p95 is far above their p50.
+std::string targetVerdicts(const std::vector<ModeSummary>& results,
+                           const std::vector<std::string>& uneven) {
+  std::string verdicts;
+  for (const ModeSummary& m : results) {
+    if (m.mode == "montage4d") {
+      verdicts +=
+          "- montage4d: " + number(m.fps) + " fps (target >= " + number(kMontage4dFps, "%.0f") +
+          "), end-to-end p95 " + number(m.end_to_end.p95, "%.0f") +
+          " ms (target <= " + number(kMontage4dP95Ms, "%.0f") + "): " +
+          (m.fps >= kMontage4dFps && m.end_to_end.p95 <= kMontage4dP95Ms ? "met" : "missed") + "\n";
+    }
+    if (m.mode == "normal") {
+      verdicts += "- normal: " + number(m.fps) + " fps (target >= " + number(kNormalFps, "%.0f") +
+                  "): " + (m.fps >= kNormalFps ? "met" : "missed") + "\n";
+    }
+  }
+  std::string spread_text;
+  for (const auto& u : uneven) spread_text += (spread_text.empty() ? "" : ", ") + u;
+  verdicts += "- stages with p95 over " + number(kSpreadRatio, "%.0f") + "x their p50 (p95 of " +
+              number(kSpreadFloorMs, "%.0f") +
+              " ms or more): " + (uneven.empty() ? std::string("none") : spread_text) + "\n";
+  return verdicts;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -176,21 +256,7 @@ int main(int argc, char** argv) {
     start = comma + 1;
   }
   std::map<std::string, ModeSummary> before;
-  if (!baseline.empty()) {
-    std::ifstream in(fs::path(baseline) / "bench_loop.json");
-    const auto j = ordered_json::parse(in, nullptr, false);
-    if (j.is_discarded() || !j.contains("modes")) {
-      std::fprintf(stderr, "--baseline %s: no bench_loop.json there\n", baseline.c_str());
-      return 2;
-    }
-    try {
-      for (const auto& [name, mode] : j.at("modes").items()) before[name] = fromJson(name, mode);
-    } catch (const nlohmann::json::exception& e) {
-      std::fprintf(stderr, "--baseline %s: bench_loop.json unreadable: %s\n", baseline.c_str(),
-                   e.what());
-      return 2;
-    }
-  }
+  if (!baseline.empty() && !readBaseline(baseline, before)) return 2;
 
   std::vector<ModeSummary> results;
   const int total = static_cast<int>(modes.size()) * repeats;
@@ -268,59 +334,12 @@ int main(int argc, char** argv) {
     stage_table.rows.push_back(row);
   }
   md += html::markdownTable(stage_table) + "\n";
-  // The targets, said plainly.
-  std::string verdicts;
-  for (const ModeSummary& m : results) {
-    if (m.mode == "montage4d") {
-      verdicts +=
-          "- montage4d: " + number(m.fps) + " fps (target >= " + number(kMontage4dFps, "%.0f") +
-          "), end-to-end p95 " + number(m.end_to_end.p95, "%.0f") +
-          " ms (target <= " + number(kMontage4dP95Ms, "%.0f") + "): " +
-          (m.fps >= kMontage4dFps && m.end_to_end.p95 <= kMontage4dP95Ms ? "met" : "missed") + "\n";
-    }
-    if (m.mode == "normal") {
-      verdicts += "- normal: " + number(m.fps) + " fps (target >= " + number(kNormalFps, "%.0f") +
-                  "): " + (m.fps >= kNormalFps ? "met" : "missed") + "\n";
-    }
-  }
-  std::string spread_text;
-  for (const auto& u : uneven) spread_text += (spread_text.empty() ? "" : ", ") + u;
-  verdicts += "- stages with p95 over " + number(kSpreadRatio, "%.0f") + "x their p50 (p95 of " +
-              number(kSpreadFloorMs, "%.0f") +
-              " ms or more): " + (uneven.empty() ? std::string("none") : spread_text) + "\n";
+  const std::string verdicts = targetVerdicts(results, uneven);
   md += "## Targets\n\n" + verdicts;
   std::fputs(md.c_str(), stdout);
 
-  // The charts: fps and end to end per mode, and where each mode's time
-  // goes (stage p50s), beside the baseline's when given.
-  std::vector<std::string> mode_names;
-  html::Series fps_now{"now", {}}, fps_before{"baseline", {}};
-  html::Series p50_now{"p50", {}}, p95_now{"p95", {}};
-  std::vector<html::StackRow> stacks;
-  for (const ModeSummary& m : results) {
-    mode_names.push_back(m.mode);
-    fps_now.values.push_back(m.fps);
-    fps_before.values.push_back(before.count(m.mode) ? before.at(m.mode).fps : std::nan(""));
-    p50_now.values.push_back(m.end_to_end.p50);
-    p95_now.values.push_back(m.end_to_end.p95);
-    const ModeSummary* earlier = before.count(m.mode) ? &before.at(m.mode) : nullptr;
-    for (const ModeSummary* s : {&m, earlier}) {
-      if (s == nullptr) continue;
-      html::StackRow row{m.mode + (s == &m ? "" : " (baseline)"), {}};
-      for (const std::string& stage : stages)
-        row.segments.push_back(stageOf(s, stage) ? stageOf(s, stage)->p50 : 0.0);
-      stacks.push_back(row);
-    }
-  }
-  std::vector<html::Series> fps_series = {fps_now};
-  if (!before.empty()) fps_series.push_back(fps_before);
   const std::string body =
-      "<p>" + html::escape(intro) + "</p>\n" +
-      html::barChart("Frames per second", mode_names, fps_series, "fps") +
-      html::barChart("End-to-end latency", mode_names, {p50_now, p95_now}, "ms") +
-      html::stackedBars("Where the time goes (stage p50)", stages, stacks, "ms") +
-      html::table(summary_table) + html::table(stage_table) + "<pre>" + html::escape(verdicts) +
-      "</pre>\n";
+      chartsPage(intro, results, before, stages, summary_table, stage_table, verdicts);
   ordered_json json;
   json["command"] = {
       {"modes", modes}, {"frames", frames}, {"repeats", repeats}, {"loop_flags", loop_flags}};
