@@ -125,15 +125,10 @@ ModeSummary fromJson(const std::string& name, const ordered_json& j) {
   return mode;
 }
 
-std::string number(double value, const char* format = "%.1f") {
-  char text[32];
-  std::snprintf(text, sizeof(text), format, value);
-  return text;
-}
-
 // "now" or "before -> now" when a baseline has the value.
 std::string beside(std::optional<double> before, double now, const char* format = "%.1f") {
-  return before ? number(*before, format) + " -> " + number(now, format) : number(now, format);
+  return before ? html::number(format, *before) + " -> " + html::number(format, now)
+                : html::number(format, now);
 }
 
 std::optional<Numbers> stageOf(const ModeSummary* mode, const std::string& stage) {
@@ -205,20 +200,22 @@ std::string targetVerdicts(const std::vector<ModeSummary>& results,
   for (const ModeSummary& m : results) {
     if (m.mode == "montage4d") {
       verdicts +=
-          "- montage4d: " + number(m.fps) + " fps (target >= " + number(kMontage4dFps, "%.0f") +
-          "), end-to-end p95 " + number(m.end_to_end.p95, "%.0f") +
-          " ms (target <= " + number(kMontage4dP95Ms, "%.0f") + "): " +
+          "- montage4d: " + html::number("%.1f", m.fps) +
+          " fps (target >= " + html::number("%.0f", kMontage4dFps) + "), end-to-end p95 " +
+          html::number("%.0f", m.end_to_end.p95) +
+          " ms (target <= " + html::number("%.0f", kMontage4dP95Ms) + "): " +
           (m.fps >= kMontage4dFps && m.end_to_end.p95 <= kMontage4dP95Ms ? "met" : "missed") + "\n";
     }
     if (m.mode == "normal") {
-      verdicts += "- normal: " + number(m.fps) + " fps (target >= " + number(kNormalFps, "%.0f") +
+      verdicts += "- normal: " + html::number("%.1f", m.fps) +
+                  " fps (target >= " + html::number("%.0f", kNormalFps) +
                   "): " + (m.fps >= kNormalFps ? "met" : "missed") + "\n";
     }
   }
   std::string spread_text;
   for (const auto& u : uneven) spread_text += (spread_text.empty() ? "" : ", ") + u;
-  verdicts += "- stages with p95 over " + number(kSpreadRatio, "%.0f") + "x their p50 (p95 of " +
-              number(kSpreadFloorMs, "%.0f") +
+  verdicts += "- stages with p95 over " + html::number("%.0f", kSpreadRatio) +
+              "x their p50 (p95 of " + html::number("%.0f", kSpreadFloorMs) +
               " ms or more): " + (uneven.empty() ? std::string("none") : spread_text) + "\n";
   return verdicts;
 }
@@ -329,7 +326,8 @@ int main(int argc, char** argv) {
       row.push_back(beside(was ? std::optional(was->p50) : std::nullopt, now->p50));
       row.push_back(beside(was ? std::optional(was->p95) : std::nullopt, now->p95));
       if (now->p95 > kSpreadRatio * now->p50 && now->p95 >= kSpreadFloorMs)
-        uneven.push_back(m.mode + " " + stage + " (" + number(now->p95 / now->p50, "%.1f") + "x)");
+        uneven.push_back(m.mode + " " + stage + " (" + html::number("%.1f", now->p95 / now->p50) +
+                         "x)");
     }
     stage_table.rows.push_back(row);
   }
