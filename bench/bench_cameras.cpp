@@ -25,10 +25,10 @@
 #include "base/process.h"
 #include "bench_timing.h"
 #include "capture_node/pod.h"
-#include "common/segmentation.h"
 #include "hull/visual_hull.h"
 #include "render_client/renderer.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 using namespace holofuse;
 using bench::Clock;

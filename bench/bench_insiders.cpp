@@ -31,7 +31,7 @@
 #include <vector>
 
 #include "base/process.h"
-#include "common/camera.h"
+#include "geometry/camera.h"
 #include "integration/insider_attacks.h"
 #include "integration/peer_by_hand.h"
 #include "integration/process_harness.h"

@@ -16,13 +16,13 @@
 
 #include "bench_timing.h"
 #include "capture_node/pod.h"
-#include "common/image_codec.h"
-#include "common/mesh_codec.h"
-#include "common/pod_frame_codec.h"
-#include "common/texture_atlas.h"
-#include "common/texture_layers.h"
+#include "codec/image_codec.h"
+#include "codec/mesh_codec.h"
+#include "codec/pod_frame_codec.h"
 #include "hull/visual_hull.h"
 #include "scene/synthetic_scene.h"
+#include "texture/texture_atlas.h"
+#include "texture/texture_layers.h"
 
 using namespace holofuse;
 using bench::Clock;

@@ -12,7 +12,7 @@
 
 #include "bench_timing.h"
 #include "capture_node/pod.h"
-#include "common/mesh_codec.h"
+#include "codec/mesh_codec.h"
 #include "hull/visual_hull.h"
 #include "scene/synthetic_scene.h"
 

@@ -14,10 +14,10 @@
 
 #include "bench_timing.h"
 #include "capture_node/pod.h"
-#include "common/command_line.h"
-#include "common/segmentation.h"
+#include "config/command_line.h"
 #include "hull/visual_hull.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 using namespace holofuse;
 using bench::Clock;

@@ -20,13 +20,13 @@
 #include <vector>
 
 #include "bench_timing.h"
-#include "common/command_line.h"
-#include "common/opencv_image.h"
-#include "common/segmentation.h"
+#include "config/command_line.h"
 #include "hull/mask_agreement.h"
+#include "image/opencv_image.h"
 #include "metrics/image_metrics.h"
 #include "scene/scene_library.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 using namespace holofuse;
 using bench::Clock;

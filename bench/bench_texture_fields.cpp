@@ -14,7 +14,6 @@
 #include <vector>
 
 #include "bench_timing.h"
-#include "common/segmentation.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/reference/geodesics.h"
 #include "render_client/reference/texture_fields.h"
@@ -22,6 +21,7 @@
 #include "render_client/renderer.h"
 #include "render_client/temporal_carry.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 using namespace holofuse;
 using bench::Clock;

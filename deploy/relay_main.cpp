@@ -4,8 +4,8 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
-#include "common/command_line.h"
-#include "common/shutdown.h"
+#include "base/shutdown.h"
+#include "config/command_line.h"
 #include "deploy/link_relay.h"
 
 int main(int argc, char** argv) {

@@ -99,7 +99,7 @@
 #define HOLOFUSE_BINDING_TRIANGLE_VIEWS 27
 #define HOLOFUSE_BINDING_COUNT 28
 // A layer texel's camera byte where no camera sees the point
-// (common/texture_layers.h kNoLayerCamera).
+// (texture/texture_layers.h kNoLayerCamera).
 #define HOLOFUSE_NO_LAYER_CAMERA 255u
 
 // Geodesic worklists and their marks rotate through three slots of storage:

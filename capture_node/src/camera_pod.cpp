@@ -18,14 +18,14 @@
 #include <optional>
 #include <thread>
 
+#include "base/shutdown.h"
 #include "capture_node/pod_link.h"
-#include "common/opencv_image.h"
-#include "common/segmentation.h"
-#include "common/shutdown.h"
 #include "dataset/camera_input.h"
 #include "dataset/capture_formats.h"
+#include "image/opencv_image.h"
 #include "protocol/clock.h"
 #include "protocol/server_link.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::capture {
 

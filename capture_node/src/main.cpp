@@ -4,12 +4,12 @@
 #include <vector>
 
 #include "base/process.h"
+#include "base/shutdown.h"
 #include "capture_node/camera_pod.h"
 #include "capture_node/pod.h"
 #include "capture_node/replay_pod.h"
-#include "common/command_line.h"
-#include "common/image_codec.h"
-#include "common/shutdown.h"
+#include "codec/image_codec.h"
+#include "config/command_line.h"
 #include "dataset/capture_formats.h"
 #include "protocol/messages.h"
 #include "scene/scene_library.h"

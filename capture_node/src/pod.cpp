@@ -9,14 +9,14 @@
 #include <utility>
 
 #include "base/process.h"
+#include "base/shutdown.h"
 #include "capture_node/pod_link.h"
-#include "common/image_codec.h"
-#include "common/pod_frame_codec.h"
-#include "common/segmentation.h"
-#include "common/shutdown.h"
+#include "codec/image_codec.h"
+#include "codec/pod_frame_codec.h"
 #include "protocol/clock.h"
 #include "protocol/server_link.h"
 #include "scene/scene_library.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::capture {
 

@@ -6,8 +6,8 @@
 #include <memory>
 #include <thread>
 
+#include "base/shutdown.h"
 #include "capture_node/pod_link.h"
-#include "common/shutdown.h"
 #include "dataset/dataset.h"
 #include "protocol/clock.h"
 #include "protocol/server_link.h"

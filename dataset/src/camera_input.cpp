@@ -5,8 +5,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
-#include "common/image_io.h"
-#include "common/opencv_image.h"
+#include "image/image_io.h"
+#include "image/opencv_image.h"
 #include "picture_reading.h"
 
 namespace holofuse::dataset {

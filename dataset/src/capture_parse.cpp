@@ -9,7 +9,7 @@
 #include <opencv2/videoio.hpp>
 #include <sstream>
 
-#include "common/image_io.h"
+#include "image/image_io.h"
 
 namespace holofuse::dataset::capture {
 

@@ -3,7 +3,7 @@
 #include <filesystem>
 #include <set>
 
-#include "common/image_codec.h"
+#include "codec/image_codec.h"
 
 namespace holofuse::dataset {
 

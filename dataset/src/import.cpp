@@ -10,18 +10,18 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
-#include "common/image_io.h"
-#include "common/opencv_image.h"
-#include "common/pod_frame_codec.h"
-#include "common/segmentation.h"
+#include "codec/pod_frame_codec.h"
 #include "dataset/camera_input.h"
 #include "dataset/dataset.h"
 #include "dataset/metadata.h"
 #include "dataset/record_file.h"
 #include "hull/mask_agreement.h"
+#include "image/image_io.h"
+#include "image/opencv_image.h"
 #include "picture_reading.h"
 #include "protocol/connection.h"
 #include "protocol/messages.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::dataset {
 

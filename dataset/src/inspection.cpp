@@ -9,12 +9,12 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
-#include "common/image_codec.h"
-#include "common/image_io.h"
+#include "codec/image_codec.h"
 #include "dataset/camera_health.h"
 #include "dataset/dataset.h"
 #include "hull/mask_agreement.h"
 #include "hull/visual_hull.h"
+#include "image/image_io.h"
 #include "metrics/geometry_metrics.h"
 
 namespace holofuse::dataset {

@@ -8,12 +8,12 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "common/command_line.h"
-#include "common/texture_atlas.h"
+#include "config/command_line.h"
 #include "dataset/import.h"
 #include "dataset/inspection.h"
 #include "dataset/textured_export.h"
 #include "hull/visual_hull.h"
+#include "texture/texture_atlas.h"
 
 namespace {
 

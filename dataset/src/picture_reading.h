@@ -7,7 +7,7 @@
 #include <string>
 
 #include "base/status.h"
-#include "common/camera.h"
+#include "geometry/camera.h"
 
 namespace holofuse::dataset {
 

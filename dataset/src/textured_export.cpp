@@ -2,12 +2,12 @@
 
 #include <filesystem>
 
-#include "common/texture_atlas.h"
-#include "common/texture_layers.h"
-#include "common/textured_mesh_files.h"
 #include "dataset/dataset.h"
 #include "dataset/inspection.h"
 #include "hull/visual_hull.h"
+#include "texture/texture_atlas.h"
+#include "texture/texture_layers.h"
+#include "texture/textured_mesh_files.h"
 
 namespace holofuse::dataset {
 

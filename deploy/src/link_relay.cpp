@@ -15,7 +15,7 @@
 #include <random>
 #include <vector>
 
-#include "common/shutdown.h"
+#include "base/shutdown.h"
 #include "protocol/clock.h"
 #include "protocol/socket.h"
 

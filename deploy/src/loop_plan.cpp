@@ -6,7 +6,7 @@
 #include <filesystem>
 
 #include "capture_node/replay_pod.h"
-#include "common/command_line.h"
+#include "config/command_line.h"
 #include "dataset/dataset.h"
 #include "protocol/messages.h"
 #include "protocol/stage_budget.h"

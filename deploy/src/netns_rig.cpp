@@ -12,7 +12,7 @@
 #include <thread>
 
 #include "base/process.h"
-#include "common/settings.h"
+#include "config/settings.h"
 
 namespace holofuse::deploy {
 namespace {

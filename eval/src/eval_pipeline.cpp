@@ -4,8 +4,8 @@
 #include <optional>
 
 #include "capture_node/pod.h"
-#include "common/image_codec.h"
-#include "common/mesh_codec.h"
+#include "codec/image_codec.h"
+#include "codec/mesh_codec.h"
 #include "dataset/dataset.h"
 #include "fusion_server/photo_refine.h"
 #include "hull/mask_agreement.h"

@@ -10,12 +10,12 @@
 #include <string>
 #include <vector>
 
-#include "common/camera.h"
-#include "common/image.h"
-#include "common/mesh.h"
 #include "eval/leave_one_out.h"
 #include "fusion_server/fusion_worker.h"
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
 #include "hull/visual_hull.h"
+#include "image/image.h"
 #include "protocol/bytes.h"
 #include "render_client/renderer.h"
 #include "scene/synthetic_scene.h"

@@ -11,11 +11,10 @@
 #include <optional>
 
 #include "base/statistics.h"
-#include "common/depth_raster.h"
-#include "common/image_io.h"
-#include "common/texture_atlas.h"
 #include "eval/view_maps.h"
 #include "fusion_server/layer_stage.h"
+#include "geometry/depth_raster.h"
+#include "image/image_io.h"
 #include "metrics/image_metrics.h"
 #include "protocol/frame.h"
 #include "render_client/client.h"
@@ -23,6 +22,7 @@
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
 #include "render_client/texture_field_passes.h"
+#include "texture/texture_atlas.h"
 
 namespace holofuse::eval {
 

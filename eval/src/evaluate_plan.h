@@ -11,9 +11,9 @@
 
 #include "base/statistics.h"
 #include "base/status.h"
-#include "common/camera.h"
 #include "eval/leave_one_out.h"
 #include "eval_pipeline.h"
+#include "geometry/camera.h"
 #include "render_client/vulkan_context.h"
 
 namespace holofuse::eval {

@@ -10,8 +10,8 @@
 #include <string>
 
 #include "capture_node/pod.h"
-#include "common/command_line.h"
-#include "common/image_io.h"
+#include "config/command_line.h"
+#include "image/image_io.h"
 #include "metrics/image_metrics.h"
 #include "render_client/frame_judge.h"
 #include "scene/scene_library.h"

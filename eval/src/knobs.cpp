@@ -3,8 +3,8 @@
 #include <stdexcept>
 #include <utility>
 
-#include "common/command_line.h"
-#include "common/image_codec.h"
+#include "codec/image_codec.h"
+#include "config/command_line.h"
 #include "protocol/messages.h"
 #include "scene/scene_library.h"
 

@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <exception>
 
-#include "common/command_line.h"
+#include "config/command_line.h"
 #include "eval/knobs.h"
 #include "eval/leave_one_out.h"
 #include "protocol/messages.h"

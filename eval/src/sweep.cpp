@@ -9,8 +9,8 @@
 
 #include "base/process.h"
 #include "base/text_file.h"
-#include "common/command_line.h"
-#include "common/image_codec.h"
+#include "codec/image_codec.h"
+#include "config/command_line.h"
 #include "dataset/dataset.h"
 #include "dataset/inspection.h"
 #include "result_json.h"

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <optional>
 
-#include "common/command_line.h"
+#include "config/command_line.h"
 #include "eval/sweep.h"
 #include "protocol/messages.h"
 

@@ -1,6 +1,6 @@
-#include "common/image_codec.h"
-#include "common/layer_video.h"
-#include "common/mesh_codec.h"
+#include "codec/image_codec.h"
+#include "codec/layer_video.h"
+#include "codec/mesh_codec.h"
 #include "fusion_server/fusion_worker.h"
 
 namespace holofuse::fusion {

@@ -13,9 +13,9 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "common/image_codec.h"
-#include "common/mesh_codec.h"
-#include "common/shutdown.h"
+#include "base/shutdown.h"
+#include "codec/image_codec.h"
+#include "codec/mesh_codec.h"
 #include "protocol/clock.h"
 #include "protocol/handshake.h"
 

@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <deque>
 
-#include "common/image_codec.h"
+#include "codec/image_codec.h"
 #include "protocol/clock.h"
 #include "protocol/clock_sync.h"
 

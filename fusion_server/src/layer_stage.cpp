@@ -1,6 +1,6 @@
 #include "fusion_server/layer_stage.h"
 
-#include "common/image_codec.h"
+#include "codec/image_codec.h"
 #include "fusion_server/fusion_worker.h"
 
 namespace holofuse::fusion {

@@ -5,8 +5,8 @@
 #include <cstdio>
 
 #include "base/process.h"
-#include "common/command_line.h"
-#include "common/shutdown.h"
+#include "base/shutdown.h"
+#include "config/command_line.h"
 #include "fusion_server/fusion_server.h"
 #include "protocol/auth.h"
 #include "protocol/messages.h"

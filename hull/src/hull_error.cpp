@@ -4,7 +4,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
-#include "common/depth_raster.h"
+#include "geometry/depth_raster.h"
 
 namespace holofuse::hull {
 namespace {

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <opencv2/imgproc.hpp>
 
-#include "common/depth_raster.h"
-#include "common/opencv_image.h"
+#include "geometry/depth_raster.h"
+#include "image/opencv_image.h"
 
 namespace holofuse::hull {
 

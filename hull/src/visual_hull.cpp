@@ -5,7 +5,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
-#include "common/marching_cubes.h"
+#include "geometry/marching_cubes.h"
 
 namespace holofuse::hull {
 namespace {
@@ -15,7 +15,7 @@ struct Rect {
   bool empty() const { return x1 < x0; }
 };
 
-// The silhouette's bounding rectangle (common/image.h), inclusive bounds.
+// The silhouette's bounding rectangle (image/image.h), inclusive bounds.
 Rect silhouetteRect(const Image8& mask) {
   const PixelRect r = foregroundRect(mask);
   if (r.empty()) return {};

@@ -5,7 +5,7 @@
 #include <limits>
 #include <unordered_map>
 
-#include "common/depth_raster.h"
+#include "geometry/depth_raster.h"
 
 namespace holofuse::metrics {
 namespace {

@@ -5,8 +5,8 @@
 #include <map>
 #include <numbers>
 
-#include "common/camera.h"
-#include "common/image_codec.h"
+#include "codec/image_codec.h"
+#include "geometry/camera.h"
 
 namespace holofuse::render {
 

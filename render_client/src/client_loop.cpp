@@ -11,9 +11,9 @@
 #include <optional>
 #include <set>
 
-#include "common/image_io.h"
-#include "common/mesh_codec.h"
-#include "common/shutdown.h"
+#include "base/shutdown.h"
+#include "codec/mesh_codec.h"
+#include "image/image_io.h"
 #include "protocol/clock.h"
 #include "protocol/server_link.h"
 #include "render_client/client.h"

@@ -3,8 +3,8 @@
 #include <cstdio>
 
 #include "base/process.h"
-#include "common/command_line.h"
-#include "common/shutdown.h"
+#include "base/shutdown.h"
+#include "config/command_line.h"
 #include "render_client/client.h"
 
 int main(int argc, char** argv) {

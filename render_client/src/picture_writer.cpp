@@ -4,7 +4,7 @@
 #include <utility>
 
 #include "base/process.h"
-#include "common/image_io.h"
+#include "image/image_io.h"
 
 namespace holofuse::render {
 

@@ -5,7 +5,7 @@
 #include <limits>
 #include <numbers>
 
-#include "common/marching_cubes.h"
+#include "geometry/marching_cubes.h"
 
 namespace holofuse::scene {
 namespace {

@@ -5,12 +5,12 @@
 #include <cstdlib>
 
 #include "capture_node/pod.h"
-#include "common/image_codec.h"
-#include "common/segmentation.h"
+#include "codec/image_codec.h"
 #include "hull/mask_agreement.h"
 #include "metrics/image_metrics.h"
 #include "scene/scene_library.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::capture {
 namespace {

@@ -5,10 +5,10 @@
 #include <sstream>
 
 #include "base/process.h"
-#include "common/image_io.h"
 #include "dataset/capture_formats.h"
 #include "dataset/import.h"
 #include "dataset/textured_export.h"
+#include "image/image_io.h"
 #include "import_fixture.h"
 
 namespace holofuse::dataset {

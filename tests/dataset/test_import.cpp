@@ -6,10 +6,10 @@
 #include <fstream>
 #include <opencv2/videoio.hpp>
 
-#include "common/image_io.h"
 #include "dataset/capture_formats.h"
 #include "dataset/import.h"
 #include "dataset/inspection.h"
+#include "image/image_io.h"
 #include "import_fixture.h"
 #include "scene/scene_library.h"
 

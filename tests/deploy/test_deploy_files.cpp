@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "base/process.h"
-#include "common/rig_file.h"
+#include "config/rig_file.h"
 
 namespace holofuse {
 namespace {

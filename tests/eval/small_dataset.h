@@ -9,8 +9,8 @@
 #include <filesystem>
 #include <string>
 
-#include "common/image_io.h"
 #include "dataset/import.h"
+#include "image/image_io.h"
 #include "scene/synthetic_scene.h"
 
 namespace holofuse::eval::test {

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "common/command_line.h"
+#include "config/command_line.h"
 #include "eval/loop_settings.h"
 
 namespace holofuse::eval {

@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "browser_check.h"
-#include "common/command_line.h"
+#include "config/command_line.h"
 #include "eval/sweep.h"
 #include "integration/process_harness.h"
 #include "small_dataset.h"

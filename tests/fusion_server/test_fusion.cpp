@@ -9,9 +9,8 @@
 #include <map>
 #include <set>
 
-#include "common/image_codec.h"
-#include "common/mesh_codec.h"
-#include "common/segmentation.h"
+#include "codec/image_codec.h"
+#include "codec/mesh_codec.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/pod_decoder.h"
@@ -19,6 +18,7 @@
 #include "hull/synthetic_views.h"
 #include "hull/visual_hull.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::fusion {
 namespace {

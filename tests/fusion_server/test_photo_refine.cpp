@@ -8,14 +8,14 @@
 #include <optional>
 #include <stdexcept>
 
-#include "common/depth_raster.h"
-#include "common/mesh_codec.h"
-#include "common/segmentation.h"
+#include "codec/mesh_codec.h"
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/photo_refine.h"
+#include "geometry/depth_raster.h"
 #include "hull/visual_hull.h"
 #include "protocol/frame.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::fusion {
 namespace {

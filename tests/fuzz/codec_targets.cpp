@@ -5,7 +5,7 @@
 // must be what the stages after them rely on.
 #include <cmath>
 
-#include "common/mesh_codec.h"
+#include "codec/mesh_codec.h"
 #include "fusion_server/pod_decoder.h"
 #include "fuzz_frames.h"
 #include "fuzz_rig.h"

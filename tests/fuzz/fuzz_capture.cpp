@@ -1,7 +1,7 @@
 #include "fuzz_capture.h"
 
-#include "common/image_io.h"
 #include "fuzz_rig.h"
+#include "image/image_io.h"
 
 namespace holofuse::fuzz {
 

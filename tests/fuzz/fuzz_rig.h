@@ -5,7 +5,7 @@
 
 #include <map>
 
-#include "common/camera.h"
+#include "geometry/camera.h"
 
 namespace holofuse::fuzz {
 

@@ -16,16 +16,16 @@
 #include <opencv2/core.hpp>
 #include <sstream>
 
-#include "common/image_codec.h"
-#include "common/marching_cubes.h"
-#include "common/mesh_codec.h"
-#include "common/pod_frame_codec.h"
-#include "common/segmentation.h"
+#include "codec/image_codec.h"
+#include "codec/mesh_codec.h"
+#include "codec/pod_frame_codec.h"
 #include "dataset/metadata.h"
 #include "dataset/record_file.h"
 #include "fuzz_capture.h"
 #include "fuzz_rig.h"
+#include "geometry/marching_cubes.h"
 #include "protocol/auth.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::fuzz {
 namespace {

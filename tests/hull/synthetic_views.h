@@ -4,9 +4,9 @@
 
 #include <vector>
 
-#include "common/segmentation.h"
 #include "hull/visual_hull.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::test {
 

@@ -9,7 +9,7 @@
 #include <cerrno>
 #include <deque>
 
-#include "common/pod_frame_codec.h"
+#include "codec/pod_frame_codec.h"
 #include "protocol/messages.h"
 
 namespace holofuse::test {

@@ -10,7 +10,7 @@
 #include <thread>
 #include <vector>
 
-#include "common/image.h"
+#include "image/image.h"
 #include "protocol/frame.h"
 
 namespace holofuse::test {

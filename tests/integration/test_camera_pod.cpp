@@ -20,10 +20,10 @@
 #include <sstream>
 
 #include "base/process.h"
-#include "common/camera.h"
-#include "common/image_codec.h"
-#include "common/pod_frame_codec.h"
+#include "codec/image_codec.h"
+#include "codec/pod_frame_codec.h"
 #include "dataset/dataset.h"
+#include "geometry/camera.h"
 #include "metrics/image_metrics.h"
 #include "process_harness.h"
 #include "protocol/socket.h"

@@ -14,9 +14,9 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "common/image_codec.h"
-#include "common/marching_cubes.h"
-#include "common/mesh_codec.h"
+#include "codec/image_codec.h"
+#include "codec/mesh_codec.h"
+#include "geometry/marching_cubes.h"
 #include "process_harness.h"
 #include "protocol/clock.h"
 #include "protocol/connection.h"

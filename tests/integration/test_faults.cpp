@@ -20,8 +20,8 @@
 #include <thread>
 
 #include "base/process.h"
-#include "common/camera.h"
-#include "common/pod_frame_codec.h"
+#include "codec/pod_frame_codec.h"
+#include "geometry/camera.h"
 #include "insider_attacks.h"
 #include "peer_by_hand.h"
 #include "process_harness.h"

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "base/process.h"
-#include "common/camera.h"
+#include "geometry/camera.h"
 #include "insider_attacks.h"
 #include "peer_by_hand.h"
 #include "process_harness.h"

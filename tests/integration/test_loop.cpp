@@ -406,7 +406,7 @@ TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
   EXPECT_NE(readFile(refused / "loop.log").find("--geodesic-rings"), std::string::npos);
   EXPECT_FALSE(fs::exists(refused / "logs"));
   // Every forwarded flag is checked by the launcher (with the range of the
-  // process it goes to: its flag table, common/settings.h), not left to fail later; so
+  // process it goes to: its flag table, config/settings.h), not left to fail later; so
   // are the client's mode, view, size and budget file.
   for (const char* flag :
        {"--voxel", "--draco-bits", "--image-codec", "--lz4-acceleration", "--alpha", "--lambda",

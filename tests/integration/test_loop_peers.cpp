@@ -14,9 +14,9 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
-#include "common/camera.h"
-#include "common/image_codec.h"
-#include "common/mesh_codec.h"
+#include "codec/image_codec.h"
+#include "codec/mesh_codec.h"
+#include "geometry/camera.h"
 #include "process_harness.h"
 #include "protocol/auth.h"
 #include "protocol/frame.h"

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "common/command_line.h"
+#include "config/command_line.h"
 #include "process_harness.h"
 
 namespace holofuse {

@@ -7,11 +7,11 @@
 #include <string>
 #include <vector>
 
-#include "common/marching_cubes.h"
-#include "common/segmentation.h"
+#include "geometry/marching_cubes.h"
 #include "render_client/reference/blend.h"
 #include "render_client/renderer.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::render::test {
 

@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "common/marching_cubes.h"
+#include "geometry/marching_cubes.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/renderer.h"
 

@@ -9,15 +9,15 @@
 #include <memory>
 #include <string>
 
-#include "common/marching_cubes.h"
-#include "common/segmentation.h"
 #include "field_scenes.h"
+#include "geometry/marching_cubes.h"
 #include "render_client/reference/blend.h"
 #include "render_client/reference/geodesics.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::render {
 namespace {

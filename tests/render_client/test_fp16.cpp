@@ -6,11 +6,11 @@
 
 #include <cmath>
 
-#include "common/segmentation.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
 #include "render_client/renderer.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::render::reference {
 namespace {

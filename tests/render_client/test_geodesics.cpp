@@ -9,7 +9,7 @@
 #include <map>
 #include <tuple>
 
-#include "common/marching_cubes.h"
+#include "geometry/marching_cubes.h"
 #include "render_client/reference/exact_geodesics.h"
 #include "render_client/reference/geodesics.h"
 

@@ -6,12 +6,12 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "common/depth_raster.h"
-#include "common/marching_cubes.h"
-#include "common/texture_atlas.h"
-#include "common/texture_layers.h"
+#include "geometry/depth_raster.h"
+#include "geometry/marching_cubes.h"
 #include "render_client/reference/blend.h"
 #include "render_client/renderer.h"
+#include "texture/texture_atlas.h"
+#include "texture/texture_layers.h"
 
 namespace holofuse::render {
 namespace {

@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "common/image_io.h"
+#include "image/image_io.h"
 #include "integration/process_harness.h"
 #include "render_client/picture_writer.h"
 

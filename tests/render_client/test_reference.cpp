@@ -5,12 +5,12 @@
 #include <cmath>
 #include <numeric>
 
-#include "common/marching_cubes.h"
-#include "common/segmentation.h"
+#include "geometry/marching_cubes.h"
 #include "render_client/reference/depth_map.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/reference/visibility.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::render::reference {
 namespace {

@@ -7,11 +7,11 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 
-#include "common/image_codec.h"
-#include "common/segmentation.h"
+#include "codec/image_codec.h"
 #include "render_client/client.h"
 #include "render_client/renderer.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::render {
 namespace {

@@ -7,7 +7,7 @@
 #include <numeric>
 #include <random>
 
-#include "common/marching_cubes.h"
+#include "geometry/marching_cubes.h"
 #include "render_client/reference/texture_fields.h"
 #include "render_client/temporal_carry.h"
 

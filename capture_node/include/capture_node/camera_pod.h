@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "common/pod_frame_codec.h"
+#include "codec/pod_frame_codec.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
 

@@ -6,11 +6,11 @@
 #include <cstdint>
 #include <string>
 
-#include "common/pod_frame_codec.h"
-#include "common/segmentation.h"
+#include "codec/pod_frame_codec.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
 #include "scene/synthetic_scene.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::capture {
 
@@ -55,7 +55,7 @@ PodCapture capturePodFrame(const scene::CameraRenderer& renderer, const Backgrou
                            uint64_t frame_id, uint16_t source,
                            const Image8* previous_mask = nullptr);
 
-// The capture as the PodFrame it sends (common/pod_frame_codec.h), the
+// The capture as the PodFrame it sends (codec/pod_frame_codec.h), the
 // encode stamp appended to its stamps.
 protocol::OutgoingFrame encodePodFrame(PodCapture& capture, uint32_t camera_id,
                                        const PodEncoding& encoding);

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "common/health_over_time.h"
 #include "hull/visual_hull.h"
+#include "metrics/health_over_time.h"
 
 namespace holofuse::dataset {
 

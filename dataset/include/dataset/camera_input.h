@@ -10,10 +10,10 @@
 #include <vector>
 
 #include "base/status.h"
-#include "common/camera.h"
-#include "common/image.h"
-#include "common/segmentation.h"
 #include "dataset/capture_formats.h"
+#include "geometry/camera.h"
+#include "image/image.h"
+#include "segmentation/segmentation.h"
 
 namespace holofuse::dataset {
 

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "base/status.h"
-#include "common/camera.h"
+#include "geometry/camera.h"
 
 namespace holofuse::dataset {
 

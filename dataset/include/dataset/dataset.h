@@ -10,10 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "common/camera.h"
-#include "common/image.h"
 #include "dataset/metadata.h"
 #include "dataset/record_file.h"
+#include "geometry/camera.h"
+#include "image/image.h"
 #include "protocol/frame.h"
 #include "protocol/messages.h"
 

@@ -15,9 +15,9 @@
 #include <vector>
 
 #include "base/status.h"
-#include "common/image.h"
 #include "dataset/camera_health.h"
 #include "dataset/capture_formats.h"
+#include "image/image.h"
 
 namespace holofuse::dataset {
 

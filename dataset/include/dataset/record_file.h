@@ -32,7 +32,7 @@ enum class RecordKind : uint16_t {
   kMeshFrame = 3,
   kTextureBundle = 4,
   kStats = 5,
-  kDatasetInfo = 6,  // JSON: common/dataset_metadata.h
+  kDatasetInfo = 6,  // JSON: dataset/metadata.h
   kIndex = 15,
 };
 const char* recordKindName(uint16_t kind);

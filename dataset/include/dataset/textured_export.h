@@ -1,8 +1,8 @@
 // `./holofuse dataset export`: one frame of a dataset fused into a visual
 // hull and written as a textured mesh a person opens in Blender or
-// MeshLab, the atlas (common/texture_atlas.h) filled per texel from the
+// MeshLab, the atlas (texture/texture_atlas.h) filled per texel from the
 // most direct camera that sees the point (layer 1 of
-// common/texture_layers.h).
+// texture/texture_layers.h).
 #pragma once
 
 #include <cstdint>

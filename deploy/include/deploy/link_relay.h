@@ -31,7 +31,7 @@ struct RelayOptions {
   std::string port_file;  // when set, the port it listens on is written here
 };
 
-// Runs until SIGINT or SIGTERM (see common/shutdown.h); an error when it
+// Runs until SIGINT or SIGTERM (see base/shutdown.h); an error when it
 // cannot listen. Logs each link it opens and closes and each stall, and at
 // the end the bytes it carried each way.
 Status runRelay(const RelayOptions& options);

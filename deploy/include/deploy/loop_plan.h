@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "common/rig_file.h"
+#include "config/rig_file.h"
 #include "eval/loop_settings.h"
 #include "scene/scene_library.h"
 

@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "base/status.h"
-#include "common/rig_file.h"
+#include "config/rig_file.h"
 
 namespace holofuse::deploy {
 

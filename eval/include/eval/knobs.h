@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "common/settings.h"
+#include "config/settings.h"
 #include "eval/leave_one_out.h"
 
 namespace holofuse::eval {

@@ -18,9 +18,9 @@
 #include <vector>
 
 #include "capture_node/pod.h"
-#include "common/depth_raster.h"
-#include "common/mesh_codec.h"
+#include "codec/mesh_codec.h"
 #include "eval/loop_settings.h"
+#include "geometry/depth_raster.h"
 #include "metrics/image_metrics.h"
 #include "protocol/messages.h"
 #include "protocol/stage_budget.h"

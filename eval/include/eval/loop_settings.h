@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "common/pod_frame_codec.h"
-#include "common/settings.h"
+#include "codec/pod_frame_codec.h"
+#include "config/settings.h"
 #include "fusion_server/fusion_worker.h"
 #include "render_client/render_settings.h"
 

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "common/camera.h"
-#include "common/image.h"
-#include "common/mesh.h"
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
+#include "image/image.h"
 
 namespace holofuse::eval {
 

@@ -15,13 +15,13 @@
 #include <vector>
 
 #include "base/arrival_jitter.h"
-#include "common/camera.h"
 #include "dataset/recorder.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/fusion_worker.h"
 #include "fusion_server/peer.h"
 #include "fusion_server/pod_decoder.h"
 #include "fusion_server/server_options.h"
+#include "geometry/camera.h"
 #include "protocol/frame.h"
 
 namespace holofuse::fusion {

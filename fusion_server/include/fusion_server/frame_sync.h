@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "common/camera.h"
-#include "common/image.h"
+#include "geometry/camera.h"
+#include "image/image.h"
 #include "protocol/messages.h"
 
 namespace holofuse::fusion {

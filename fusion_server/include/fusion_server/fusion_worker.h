@@ -12,13 +12,13 @@
 #include <optional>
 #include <thread>
 
-#include "common/camera.h"
-#include "common/mesh_codec.h"
-#include "common/settings.h"
+#include "codec/mesh_codec.h"
+#include "config/settings.h"
 #include "fusion_server/frame_sync.h"
 #include "fusion_server/layer_stage.h"
 #include "fusion_server/peer_capabilities.h"
 #include "fusion_server/photo_refine.h"
+#include "geometry/camera.h"
 #include "hull/hull_error.h"
 #include "hull/visual_hull.h"
 #include "protocol/connection.h"
@@ -40,13 +40,13 @@ struct FusionSettings {
   protocol::MeshCodec mesh_codec = protocol::MeshCodec::kDraco;
   protocol::Codec image_codec = protocol::Codec::kLz4PlanarDelta;
   int lz4_acceleration = 1;  // of the images sent to clients (1 = LZ4's default)
-  int lz4_hc_level = 0;      // 0: LZ4's fast mode; 1-12: LZ4HC (common/image_codec.h)
+  int lz4_hc_level = 0;      // 0: LZ4's fast mode; 1-12: LZ4HC (codec/image_codec.h)
   uint32_t pods_expected = 0;
   // Texture layers for the clients that ask (protocol 1.5).
   LayerSettings layers;
 };
 
-// The server's flags of FusionSettings (common/settings.h); eval and the
+// The server's flags of FusionSettings (config/settings.h); eval and the
 // launcher take the same.
 const std::vector<Setting<FusionSettings>>& fusionFlags();
 

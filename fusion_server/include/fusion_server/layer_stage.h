@@ -12,13 +12,13 @@
 #include <vector>
 
 #include "base/status.h"
-#include "common/layer_video.h"
-#include "common/mesh.h"
-#include "common/texture_atlas.h"
-#include "common/texture_layers.h"
+#include "codec/layer_video.h"
 #include "fusion_server/frame_sync.h"
+#include "geometry/mesh.h"
 #include "hull/visual_hull.h"
 #include "protocol/messages.h"
+#include "texture/texture_atlas.h"
+#include "texture/texture_layers.h"
 
 namespace holofuse::fusion {
 

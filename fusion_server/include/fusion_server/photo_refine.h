@@ -8,9 +8,9 @@
 
 #include <vector>
 
-#include "common/image.h"
-#include "common/mesh.h"
+#include "geometry/mesh.h"
 #include "hull/visual_hull.h"
+#include "image/image.h"
 
 namespace holofuse::fusion {
 

@@ -15,8 +15,8 @@
 #include <thread>
 #include <vector>
 
-#include "common/camera.h"
 #include "fusion_server/frame_sync.h"
+#include "geometry/camera.h"
 #include "protocol/frame.h"
 
 namespace holofuse::fusion {

@@ -8,7 +8,7 @@
 
 #include <vector>
 
-#include "common/mesh.h"
+#include "geometry/mesh.h"
 #include "hull/visual_hull.h"
 
 namespace holofuse::hull {

@@ -9,10 +9,10 @@
 #include <cstdint>
 #include <vector>
 
-#include "common/camera.h"
-#include "common/image.h"
-#include "common/mesh.h"
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
 #include "hull/visual_hull.h"
+#include "image/image.h"
 
 namespace holofuse::hull {
 

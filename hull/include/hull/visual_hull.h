@@ -11,9 +11,9 @@
 
 #include <vector>
 
-#include "common/camera.h"
-#include "common/image.h"
-#include "common/mesh.h"
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
+#include "image/image.h"
 
 namespace holofuse::hull {
 

@@ -38,7 +38,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "common/image.h"
+#include "image/image.h"
 
 namespace holofuse::metrics {
 

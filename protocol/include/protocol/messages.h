@@ -81,7 +81,7 @@ double stampedMs(const std::vector<StageStamp>& stamps, Stage stage);
 // into the layers' camera ids (BundleLayers), 255 where none sees it.
 enum class PlaneKind : uint8_t { kColor = 1, kMask = 2, kFeather = 3, kDepth = 4, kCamera = 5 };
 // kH264, kHevc, kAv1 (since 1.6): a texture layer's colour as one frame of
-// that layer's video stream (common/layer_video.h), only to a client that
+// that layer's video stream (codec/layer_video.h), only to a client that
 // asked for it (kCapabilityLayerVideo).
 enum class Codec : uint8_t { kRaw, kLz4, kLz4PlanarDelta, kH264, kHevc, kAv1 };
 enum class PixelFormat : uint8_t { kRgb8 = 1, kGray8 = 2, kR16 = 3 };
@@ -162,7 +162,7 @@ struct PodFrame {
   std::vector<Plane> planes;
 };
 
-// 2 since 1.7: half floats through LZ4 (common/mesh_codec.h).
+// 2 since 1.7: half floats through LZ4 (codec/mesh_codec.h).
 enum class MeshCodec : uint8_t { kDraco = 1, kFp16Lz4 = 2 };
 
 struct MeshFrame {
@@ -186,7 +186,7 @@ struct BundleImage {
 // Since 1.5: layered view-dependent texture maps (Volino and Hilton 2016)
 // in the frame's atlas (Dong and Hollerer 2017), in place of the camera
 // images for a client that asked (kCapabilityLayers). The atlas travels
-// as its layout (common/texture_atlas.h: the grid, the key lattice and
+// as its layout (texture/texture_atlas.h: the grid, the key lattice and
 // each square's slot); the receiver lays the mesh out from its vertex keys.
 constexpr size_t kMaxLayers = 16;
 struct BundleLayers {

@@ -11,16 +11,16 @@
 #include <vector>
 
 #include "base/status.h"
-#include "common/camera.h"
-#include "common/layer_video.h"
-#include "common/mesh.h"
-#include "common/mesh_codec.h"
-#include "common/texture_atlas.h"
-#include "common/texture_layers.h"
+#include "codec/layer_video.h"
+#include "codec/mesh_codec.h"
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
 #include "protocol/stage_budget.h"
 #include "render_client/renderer.h"
+#include "texture/texture_atlas.h"
+#include "texture/texture_layers.h"
 
 namespace holofuse::render {
 

@@ -13,7 +13,7 @@
 #include <string>
 
 #include "base/status.h"
-#include "common/camera.h"
+#include "geometry/camera.h"
 #include "report/latency_report.h"
 
 namespace holofuse::render {

@@ -4,7 +4,7 @@
 // silhouette in that camera. A mask holding what no other camera sees (a
 // prop, a light) or missing what the others see falls under that frame's
 // median; the report names the camera and the frames
-// (common/health_over_time.h).
+// (metrics/health_over_time.h).
 #pragma once
 
 #include <condition_variable>
@@ -14,8 +14,8 @@
 #include <thread>
 #include <vector>
 
-#include "common/health_over_time.h"
-#include "common/mesh.h"
+#include "geometry/mesh.h"
+#include "metrics/health_over_time.h"
 #include "render_client/renderer.h"
 
 namespace holofuse::render {

@@ -13,7 +13,7 @@
 #include <string>
 #include <thread>
 
-#include "common/image.h"
+#include "image/image.h"
 
 namespace holofuse::render {
 

@@ -7,7 +7,7 @@
 #include <glm/glm.hpp>
 #include <vector>
 
-#include "common/settings.h"
+#include "config/settings.h"
 #include "render_client/blend_mode.h"
 #include "shaders/config.h"
 
@@ -95,7 +95,7 @@ struct RenderSettings {
   bool half_precision_vertices = false;  // Renderer::setHalfPrecisionVertices
 };
 
-// The client's flags of RenderSettings (common/settings.h); eval and the
+// The client's flags of RenderSettings (config/settings.h); eval and the
 // launcher take the same. The mode is not among them: eval and the sweep
 // run several.
 const std::vector<Setting<RenderSettings>>& renderFlags();

@@ -10,14 +10,14 @@
 #include <vector>
 
 #include "base/status.h"
-#include "common/camera.h"
-#include "common/image.h"
-#include "common/mesh.h"
-#include "common/settings.h"
-#include "common/texture_layers.h"
+#include "config/settings.h"
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
+#include "image/image.h"
 #include "render_client/render_settings.h"
 #include "render_client/texture_field_passes.h"
 #include "render_client/vulkan_context.h"
+#include "texture/texture_layers.h"
 
 namespace holofuse::render {
 

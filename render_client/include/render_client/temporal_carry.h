@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "common/mesh.h"
+#include "geometry/mesh.h"
 
 namespace holofuse::render {
 

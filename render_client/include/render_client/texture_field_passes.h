@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "common/mesh.h"
+#include "geometry/mesh.h"
 #include "render_client/render_settings.h"
 #include "render_client/vulkan_context.h"
 #include "shaders/config.h"

@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "common/depth_raster.h"
+#include "geometry/depth_raster.h"
 #include "render_client/reference/texture_fields.h"
 
 namespace holofuse::render::reference {

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "base/status.h"
-#include "common/health_over_time.h"
+#include "metrics/health_over_time.h"
 #include "protocol/clock_sync.h"
 #include "protocol/messages.h"
 #include "protocol/stage_budget.h"

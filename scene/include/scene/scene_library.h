@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "common/camera.h"
+#include "geometry/camera.h"
 #include "scene/synthetic_scene.h"
 
 namespace holofuse::scene {

@@ -12,9 +12,9 @@
 #include <glm/glm.hpp>
 #include <vector>
 
-#include "common/camera.h"
-#include "common/image.h"
-#include "common/mesh.h"
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
+#include "image/image.h"
 
 namespace holofuse::scene {
 

@@ -15,11 +15,11 @@
 
 #include <vector>
 
-#include "common/camera.h"
-#include "common/image.h"
-#include "common/mesh.h"
-#include "common/texture_layers.h"
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
+#include "image/image.h"
 #include "render_client/reference/visibility.h"
+#include "texture/texture_layers.h"
 
 namespace holofuse::render::reference {
 

@@ -8,9 +8,9 @@
 #include <limits>
 #include <vector>
 
-#include "common/camera.h"
-#include "common/depth_raster.h"
-#include "common/mesh.h"
+#include "geometry/camera.h"
+#include "geometry/depth_raster.h"
+#include "geometry/mesh.h"
 
 namespace holofuse::render::reference {
 

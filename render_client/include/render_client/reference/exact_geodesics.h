@@ -21,7 +21,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "common/mesh.h"
+#include "geometry/mesh.h"
 
 namespace holofuse::render::reference {
 

@@ -13,7 +13,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "common/mesh.h"
+#include "geometry/mesh.h"
 
 namespace holofuse::render::reference {
 

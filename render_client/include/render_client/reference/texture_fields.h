@@ -9,8 +9,8 @@
 #include <glm/glm.hpp>
 #include <vector>
 
-#include "common/camera.h"
-#include "common/mesh.h"
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
 
 namespace holofuse::render::reference {
 

@@ -7,9 +7,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "common/camera.h"
-#include "common/image.h"
-#include "common/mesh.h"
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
+#include "image/image.h"
 #include "render_client/reference/depth_map.h"
 
 namespace holofuse::render::reference {

@@ -1,0 +1,82 @@
+// Mesh to and from Draco bytes. Draco is lossless unless asked, so the
+// quantisation is always set explicitly (PLATFORM.md).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "base/status.h"
+#include "geometry/mesh.h"
+#include "protocol/messages.h"
+
+namespace holofuse {
+
+struct DracoOptions {
+  int position_bits = 11;
+  int normal_bits = 8;
+  int uv_bits = 16;  // texture coordinates of an atlas: 1/65536 of its side
+  int speed = 7;     // Draco's encoding/decoding speed, 0 (smallest) .. 10 (fastest)
+};
+
+StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions& options = {});
+
+// What a Draco mesh says it holds, read from its header and connectivity
+// header (Draco bitstream 2.2) before anything is decoded.
+struct DracoCounts {
+  uint32_t vertices = 0;  // encoded vertices (edgebreaker) or points (sequential)
+  uint32_t faces = 0;
+};
+StatusOr<DracoCounts> readDracoCounts(const uint8_t* data, size_t size);
+
+// Caps checked against readDracoCounts before Draco allocates anything
+// (SECURITY.md). A decoded mesh has at most 3 points a face.
+struct DracoLimits {
+  uint32_t max_vertices = 1u << 21;
+  uint32_t max_faces = 1u << 22;
+};
+
+// Decodes untrusted Draco bytes: the counts are capped first, then the
+// result is validated (indices in range, finite positions) and normals are
+// recomputed when absent.
+StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& limits = {});
+
+// The open Holoportation stack's mesh coding: half-float positions and
+// normals and the indices as they are, through LZ4, with no prediction or
+// entropy coding: several times Draco's bytes in a fraction of its time
+// (bench_mesh_codec measures the trade). holofuse's meshes also carry
+// their vertex keys (exact) and an atlas's corner coordinates (16-bit
+// fixed point, Draco's default). Positions are halves of their offset
+// from the mesh's bounds centre (kept as floats): a step of 2^-11 of the
+// offset, under 0.5 mm on a 2 m subject, like Draco's 11 bits over its box.
+// Like Draco it reorders: triangles and vertices go out in the order a
+// GPU's vertex cache reuses best (meshoptimizer), the keys with their
+// vertices; with corner coordinates the triangles keep their order.
+// Layout, little endian: "HF16", u8 version 1, u8 flags (1 normals, 2
+// vertex keys, 4 corner coordinates), u16 0, u32 vertices, u32 faces,
+// f32 x3 centre, u32 raw size, then one LZ4 block of the raw arrays in
+// this order: positions (u16 x3 a vertex), normals (u16 x3), keys (u64),
+// indices (u32 x3 a face), corner coordinates (u16 x2 a corner).
+StatusOr<std::vector<uint8_t>> encodeFp16Lz4(const Mesh& mesh);
+// The counts its header states, read before anything is decoded.
+StatusOr<DracoCounts> readFp16Lz4Counts(const uint8_t* data, size_t size);
+// Decodes untrusted bytes: the counts are capped and the stated raw size
+// checked against the counts and against what LZ4 can expand the payload
+// to before anything is allocated; then as decodeDraco's result (indices
+// in range, finite positions, normals recomputed when absent).
+StatusOr<Mesh> decodeFp16Lz4(const uint8_t* data, size_t size, const DracoLimits& limits = {});
+
+// The codecs under their flag names ("draco", "fp16-lz4"), and by the
+// MeshFrame's codec: what the server sends (--mesh-codec) and what a
+// client decodes.
+std::vector<std::string> meshCodecNames();
+std::string meshCodecName(protocol::MeshCodec codec);
+std::optional<protocol::MeshCodec> meshCodecFromName(const std::string& name);
+StatusOr<std::vector<uint8_t>> encodeMesh(protocol::MeshCodec codec, const Mesh& mesh,
+                                          const DracoOptions& draco = {});
+StatusOr<DracoCounts> readMeshCounts(protocol::MeshCodec codec, const uint8_t* data, size_t size);
+StatusOr<Mesh> decodeMesh(protocol::MeshCodec codec, const uint8_t* data, size_t size,
+                          const DracoLimits& limits = {});
+
+}  // namespace holofuse

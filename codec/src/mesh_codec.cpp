@@ -1,0 +1,355 @@
+#include "codec/mesh_codec.h"
+
+#include <draco/compression/decode.h>
+#include <draco/compression/encode.h>
+#include <draco/mesh/mesh.h>
+
+#include <array>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <string>
+
+namespace holofuse {
+
+namespace {
+
+// Adds a per-vertex attribute. With corners (a mesh with an atlas), the
+// points are the triangles' corners and each maps to its vertex's value, so
+// the vertices stay shared: Draco's edgebreaker finds the connectivity from
+// the position values and codes the texture coordinates' seams apart.
+int addVertexAttribute(draco::Mesh& dm, draco::GeometryAttribute::Type type, int components,
+                       draco::DataType data_type, size_t value_size, size_t count,
+                       const void* values, const std::vector<uint32_t>* corners) {
+  draco::GeometryAttribute attribute;
+  attribute.Init(type, nullptr, static_cast<int8_t>(components), data_type, false,
+                 static_cast<int64_t>(value_size), 0);
+  const int id = dm.AddAttribute(attribute, corners == nullptr, static_cast<uint32_t>(count));
+  draco::PointAttribute* added = dm.attribute(id);
+  const auto* bytes = static_cast<const uint8_t*>(values);
+  for (size_t i = 0; i < count; ++i) {
+    added->SetAttributeValue(draco::AttributeValueIndex(static_cast<uint32_t>(i)),
+                             bytes + i * value_size);
+  }
+  if (corners != nullptr) {
+    for (size_t c = 0; c < corners->size(); ++c) {
+      added->SetPointMapEntry(draco::PointIndex(static_cast<uint32_t>(c)),
+                              draco::AttributeValueIndex((*corners)[c]));
+    }
+  }
+  return id;
+}
+
+// A reader over the Draco bitstream's first bytes, failing (not reading
+// past the end) on a short buffer.
+class DracoHeaderReader {
+ public:
+  DracoHeaderReader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
+  bool byte(uint8_t& out) {
+    if (at_ >= size_) return false;
+    out = data_[at_++];
+    return true;
+  }
+  bool skip(size_t n) {
+    if (size_ - at_ < n) return false;
+    at_ += n;
+    return true;
+  }
+  // LEB128, at most 5 bytes for 32 bits (the spec's varUI32).
+  bool varint(uint32_t& out) {
+    uint64_t value = 0;
+    for (int shift = 0; shift < 35; shift += 7) {
+      uint8_t b = 0;
+      if (!byte(b)) return false;
+      value |= uint64_t{b & 0x7Fu} << shift;
+      if ((b & 0x80) == 0) {
+        if (value > UINT32_MAX) return false;
+        out = static_cast<uint32_t>(value);
+        return true;
+      }
+    }
+    return false;
+  }
+  // One metadata element and its sub-elements (spec 4.4-4.6), skipped.
+  bool skipMetadataElement(int depth) {
+    if (depth > 32) return false;
+    uint32_t entries = 0;
+    if (!varint(entries)) return false;
+    for (uint32_t i = 0; i < entries; ++i) {
+      uint8_t n = 0;
+      if (!byte(n) || !skip(n) || !byte(n) || !skip(n)) return false;
+    }
+    uint32_t subs = 0;
+    if (!varint(subs)) return false;
+    for (uint32_t i = 0; i < subs; ++i) {
+      uint8_t n = 0;
+      if (!byte(n) || !skip(n) || !skipMetadataElement(depth + 1)) return false;
+    }
+    return true;
+  }
+
+ private:
+  const uint8_t* data_;
+  size_t size_;
+  size_t at_ = 0;
+};
+
+}  // namespace
+
+StatusOr<DracoCounts> readDracoCounts(const uint8_t* data, size_t size) {
+  // Draco bitstream specification 2.2: the header (section 3.2), optional
+  // metadata (4) and the connectivity header (6.1 sequential, 7.1
+  // edgebreaker), which states the counts the decoder allocates for.
+  DracoHeaderReader in(data, size);
+  const Status truncated(StatusCode::kMalformed, "draco mesh: header truncated");
+  uint8_t magic[5] = {};
+  for (uint8_t& b : magic)
+    if (!in.byte(b)) return truncated;
+  if (std::string(magic, magic + 5) != "DRACO")
+    return Status(StatusCode::kMalformed, "draco mesh: no DRACO signature");
+  uint8_t major = 0, minor = 0, type = 0, method = 0, flags_lo = 0, flags_hi = 0;
+  if (!in.byte(major) || !in.byte(minor) || !in.byte(type) || !in.byte(method) ||
+      !in.byte(flags_lo) || !in.byte(flags_hi))
+    return truncated;
+  if (major != 2 || minor != 2) {
+    return Status(StatusCode::kMalformed,
+                  "draco mesh: bitstream " + std::to_string(major) + "." + std::to_string(minor) +
+                      "; only 2.2 (what Draco 1.4 and later write) is read");
+  }
+  if (type != 1) return Status(StatusCode::kMalformed, "draco mesh: not a triangle mesh");
+  const uint16_t flags = static_cast<uint16_t>(flags_lo | (flags_hi << 8));
+  if (flags & 0x8000) {
+    uint32_t attribute_metadata = 0;
+    if (!in.varint(attribute_metadata)) return truncated;
+    for (uint32_t i = 0; i < attribute_metadata; ++i) {
+      uint32_t id = 0;
+      if (!in.varint(id) || !in.skipMetadataElement(0)) return truncated;
+    }
+    if (!in.skipMetadataElement(0)) return truncated;
+  }
+  DracoCounts counts;
+  if (method == 0) {
+    if (!in.varint(counts.faces) || !in.varint(counts.vertices)) return truncated;
+  } else if (method == 1) {
+    uint8_t traversal = 0;
+    if (!in.byte(traversal) || !in.varint(counts.vertices) || !in.varint(counts.faces))
+      return truncated;
+  } else {
+    return Status(StatusCode::kMalformed,
+                  "draco mesh: unknown encoder method " + std::to_string(method));
+  }
+  return counts;
+}
+
+StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions& options) {
+  const size_t n = mesh.positions.size();
+  const bool atlas = !mesh.corner_uvs.empty();
+  if (atlas && mesh.corner_uvs.size() != mesh.indices.size()) {
+    return Status(StatusCode::kMalformed,
+                  "draco encode: " + std::to_string(mesh.corner_uvs.size()) +
+                      " texture coordinates for " + std::to_string(mesh.indices.size()) +
+                      " triangle corners");
+  }
+  draco::Mesh dm;
+  dm.set_num_points(static_cast<uint32_t>(atlas ? mesh.indices.size() : n));
+  const std::vector<uint32_t>* corners = atlas ? &mesh.indices : nullptr;
+  addVertexAttribute(dm, draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32,
+                     sizeof(glm::vec3), n, mesh.positions.data(), corners);
+  if (mesh.normals.size() == n) {
+    addVertexAttribute(dm, draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32,
+                       sizeof(glm::vec3), n, mesh.normals.data(), corners);
+  }
+  if (mesh.vertex_keys.size() == n) {
+    // Two 32-bit halves, low first: Draco has no 64-bit integer attribute.
+    std::vector<uint32_t> halves(2 * n);
+    for (size_t i = 0; i < n; ++i) {
+      halves[2 * i] = static_cast<uint32_t>(mesh.vertex_keys[i]);
+      halves[2 * i + 1] = static_cast<uint32_t>(mesh.vertex_keys[i] >> 32);
+    }
+    addVertexAttribute(dm, draco::GeometryAttribute::GENERIC, 2, draco::DT_UINT32,
+                       2 * sizeof(uint32_t), n, halves.data(), corners);
+  }
+  if (atlas) {
+    addVertexAttribute(dm, draco::GeometryAttribute::TEX_COORD, 2, draco::DT_FLOAT32,
+                       sizeof(glm::vec2), mesh.corner_uvs.size(), mesh.corner_uvs.data(), nullptr);
+  }
+  for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    if (atlas) {
+      dm.AddFace({draco::PointIndex(static_cast<uint32_t>(t)),
+                  draco::PointIndex(static_cast<uint32_t>(t + 1)),
+                  draco::PointIndex(static_cast<uint32_t>(t + 2))});
+    } else {
+      dm.AddFace({draco::PointIndex(mesh.indices[t]), draco::PointIndex(mesh.indices[t + 1]),
+                  draco::PointIndex(mesh.indices[t + 2])});
+    }
+  }
+  draco::Encoder encoder;
+  encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, options.position_bits);
+  encoder.SetAttributeQuantization(draco::GeometryAttribute::NORMAL, options.normal_bits);
+  encoder.SetAttributeQuantization(draco::GeometryAttribute::TEX_COORD, options.uv_bits);
+  encoder.SetSpeedOptions(options.speed, options.speed);
+  draco::EncoderBuffer buffer;
+  const draco::Status status = encoder.EncodeMeshToBuffer(dm, &buffer);
+  if (!status.ok()) {
+    return Status(StatusCode::kMalformed,
+                  std::string("draco encode failed: ") + status.error_msg());
+  }
+  return std::vector<uint8_t>(buffer.data(), buffer.data() + buffer.size());
+}
+
+StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& limits) {
+  auto counts = readDracoCounts(data, size);
+  if (!counts.isOk()) return counts.status();
+  if (counts->vertices > limits.max_vertices || counts->faces > limits.max_faces) {
+    return Status(StatusCode::kTooLarge, "draco mesh: " + std::to_string(counts->vertices) +
+                                             " vertices and " + std::to_string(counts->faces) +
+                                             " faces, above the caps of " +
+                                             std::to_string(limits.max_vertices) + " and " +
+                                             std::to_string(limits.max_faces));
+  }
+  draco::DecoderBuffer buffer;
+  buffer.Init(reinterpret_cast<const char*>(data), size);
+  draco::Decoder decoder;
+  auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
+  if (!decoded.ok()) {
+    return Status(StatusCode::kMalformed,
+                  std::string("draco mesh: ") + decoded.status().error_msg());
+  }
+  const std::unique_ptr<draco::Mesh>& dm = decoded.value();
+  // Where texture coordinates have seams Draco decodes one position per
+  // corner; equal values are one vertex again (the encoder shared them).
+  if (dm->GetNamedAttribute(draco::GeometryAttribute::TEX_COORD) != nullptr &&
+      !dm->DeduplicateAttributeValues()) {
+    return Status(StatusCode::kMalformed, "draco mesh: its attribute values cannot be merged");
+  }
+  const draco::PointAttribute* positions =
+      dm->GetNamedAttribute(draco::GeometryAttribute::POSITION);
+  if (positions == nullptr || positions->num_components() != 3) {
+    return Status(StatusCode::kMalformed, "draco mesh: no 3-component position attribute");
+  }
+  const draco::PointAttribute* normals = dm->GetNamedAttribute(draco::GeometryAttribute::NORMAL);
+  const draco::PointAttribute* uvs = dm->GetNamedAttribute(draco::GeometryAttribute::TEX_COORD);
+  const bool atlas = uvs != nullptr && uvs->num_components() == 2;
+  const draco::PointAttribute* keys = dm->GetNamedAttribute(draco::GeometryAttribute::GENERIC);
+  const bool keyed =
+      keys != nullptr && keys->num_components() == 2 && keys->data_type() == draco::DT_UINT32;
+  const bool has_normals = normals != nullptr && normals->num_components() == 3;
+  // With an atlas the points are triangle corners: a vertex is the corners
+  // that agree on every attribute but the texture coordinates (values made
+  // unique above). The key, where there is one, keeps apart two vertices
+  // that quantisation put in one place.
+  std::vector<uint32_t> vertex_of_point(dm->num_points());
+  uint32_t n = dm->num_points();
+  if (atlas) {
+    std::map<std::array<uint32_t, 3>, uint32_t> vertex_of;
+    for (uint32_t p = 0; p < dm->num_points(); ++p) {
+      const draco::PointIndex point(p);
+      const std::array<uint32_t, 3> identity = {
+          positions->mapped_index(point).value(),
+          has_normals ? normals->mapped_index(point).value() : 0u,
+          keyed ? keys->mapped_index(point).value() : 0u};
+      vertex_of_point[p] =
+          vertex_of.emplace(identity, static_cast<uint32_t>(vertex_of.size())).first->second;
+    }
+    n = static_cast<uint32_t>(vertex_of.size());
+  } else {
+    std::iota(vertex_of_point.begin(), vertex_of_point.end(), 0u);
+  }
+  if (n > limits.max_vertices) {
+    return Status(StatusCode::kTooLarge, "draco mesh: " + std::to_string(n) +
+                                             " vertices, above the cap of " +
+                                             std::to_string(limits.max_vertices));
+  }
+  auto vertexOf = [&](draco::PointIndex point) { return vertex_of_point[point.value()]; };
+  Mesh mesh;
+  mesh.positions.resize(n);
+  std::vector<bool> seen(n, false);
+  for (uint32_t p = 0; p < dm->num_points(); ++p) {
+    const uint32_t v = vertexOf(draco::PointIndex(p));
+    if (seen[v]) continue;
+    seen[v] = true;
+    float value[3] = {0, 0, 0};
+    positions->ConvertValue<float, 3>(positions->mapped_index(draco::PointIndex(p)), value);
+    if (!std::isfinite(value[0]) || !std::isfinite(value[1]) || !std::isfinite(value[2])) {
+      return Status(StatusCode::kMalformed,
+                    "draco mesh: vertex " + std::to_string(v) + " is not finite");
+    }
+    mesh.positions[v] = glm::vec3(value[0], value[1], value[2]);
+  }
+  mesh.indices.reserve(static_cast<size_t>(dm->num_faces()) * 3);
+  if (atlas) mesh.corner_uvs.reserve(static_cast<size_t>(dm->num_faces()) * 3);
+  for (uint32_t f = 0; f < dm->num_faces(); ++f) {
+    const auto& face = dm->face(draco::FaceIndex(f));
+    for (int k = 0; k < 3; ++k) {
+      if (face[k].value() >= dm->num_points()) {
+        return Status(StatusCode::kMalformed, "draco mesh: face " + std::to_string(f) + " index " +
+                                                  std::to_string(face[k].value()) +
+                                                  " out of range");
+      }
+      mesh.indices.push_back(vertexOf(face[k]));
+      if (atlas) {
+        float uv[2] = {0, 0};
+        uvs->ConvertValue<float, 2>(uvs->mapped_index(face[k]), uv);
+        // Outside [0,1] (or not finite) it would sample another triangle's
+        // texels or none: refused, never clamped into someone else's.
+        if (!(uv[0] >= 0.0f && uv[0] <= 1.0f && uv[1] >= 0.0f && uv[1] <= 1.0f)) {
+          return Status(StatusCode::kMalformed, "draco mesh: face " + std::to_string(f) +
+                                                    " has a texture coordinate outside [0,1]");
+        }
+        mesh.corner_uvs.emplace_back(uv[0], uv[1]);
+      }
+    }
+  }
+  if (keyed) {
+    mesh.vertex_keys.resize(n);
+    for (uint32_t p = 0; p < dm->num_points(); ++p) {
+      uint32_t halves[2] = {0, 0};
+      keys->ConvertValue<uint32_t, 2>(keys->mapped_index(draco::PointIndex(p)), halves);
+      mesh.vertex_keys[vertexOf(draco::PointIndex(p))] = (uint64_t{halves[1]} << 32) | halves[0];
+    }
+  }
+  if (has_normals) {
+    mesh.normals.assign(n, glm::vec3(0.0f));
+    for (uint32_t p = 0; p < dm->num_points(); ++p) {
+      float v[3] = {0, 0, 0};
+      normals->ConvertValue<float, 3>(normals->mapped_index(draco::PointIndex(p)), v);
+      glm::vec3 nv(v[0], v[1], v[2]);
+      const float len = glm::length(nv);
+      mesh.normals[vertexOf(draco::PointIndex(p))] =
+          (std::isfinite(len) && len > 0) ? nv / len : glm::vec3(0.0f);
+    }
+  } else {
+    computeVertexNormals(mesh);
+  }
+  return mesh;
+}
+
+std::vector<std::string> meshCodecNames() { return {"draco", "fp16-lz4"}; }
+
+std::string meshCodecName(protocol::MeshCodec codec) {
+  return codec == protocol::MeshCodec::kFp16Lz4 ? "fp16-lz4" : "draco";
+}
+
+std::optional<protocol::MeshCodec> meshCodecFromName(const std::string& name) {
+  if (name == "draco") return protocol::MeshCodec::kDraco;
+  if (name == "fp16-lz4") return protocol::MeshCodec::kFp16Lz4;
+  return std::nullopt;
+}
+
+StatusOr<std::vector<uint8_t>> encodeMesh(protocol::MeshCodec codec, const Mesh& mesh,
+                                          const DracoOptions& draco) {
+  return codec == protocol::MeshCodec::kFp16Lz4 ? encodeFp16Lz4(mesh) : encodeDraco(mesh, draco);
+}
+
+StatusOr<DracoCounts> readMeshCounts(protocol::MeshCodec codec, const uint8_t* data, size_t size) {
+  return codec == protocol::MeshCodec::kFp16Lz4 ? readFp16Lz4Counts(data, size)
+                                                : readDracoCounts(data, size);
+}
+
+StatusOr<Mesh> decodeMesh(protocol::MeshCodec codec, const uint8_t* data, size_t size,
+                          const DracoLimits& limits) {
+  return codec == protocol::MeshCodec::kFp16Lz4 ? decodeFp16Lz4(data, size, limits)
+                                                : decodeDraco(data, size, limits);
+}
+
+}  // namespace holofuse

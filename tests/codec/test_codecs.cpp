@@ -1,0 +1,310 @@
+// The image and mesh codecs: exact or within quantisation, and refusing
+// corrupt or forged bytes by name.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <set>
+
+#include "codec/image_codec.h"
+#include "codec/mesh_codec.h"
+#include "geometry/marching_cubes.h"
+
+namespace holofuse {
+namespace {
+
+TEST(ImageCodec, EveryCodecRoundTripsExactly) {
+  Image8 image(37, 23, 3);
+  for (size_t i = 0; i < image.pixels.size(); ++i)
+    image.pixels[i] = static_cast<uint8_t>((i * 7) ^ (i >> 3));
+  for (auto codec :
+       {protocol::Codec::kRaw, protocol::Codec::kLz4, protocol::Codec::kLz4PlanarDelta}) {
+    std::vector<uint8_t> storage;
+    const auto plane = encodePlane(image, protocol::PlaneKind::kColor, codec, storage);
+    auto back = decodePlane(plane);
+    ASSERT_TRUE(back.isOk()) << back.status().toString();
+    EXPECT_EQ(back->pixels, image.pixels);
+  }
+}
+
+// LZ4HC writes the same block format: the decoder reads it unchanged, and on
+// an image with repeats it is smaller than the fast mode's.
+TEST(ImageCodec, Lz4HcLevelsDecodeAsLz4AndCompressMore) {
+  Image8 image(96, 64, 3);
+  for (uint32_t y = 0; y < image.height; ++y) {
+    for (uint32_t x = 0; x < image.width; ++x) {
+      for (int c = 0; c < 3; ++c)
+        image.at(x, y)[c] = static_cast<uint8_t>(((x / 3) * 37 + (y / 5) * 11 + c * 50) % 251);
+    }
+  }
+  std::vector<uint8_t> fast, hc;
+  encodePlane(image, protocol::PlaneKind::kColor, protocol::Codec::kLz4, fast, 1, 0);
+  for (int level : {1, 9, kMaxLz4HcLevel}) {
+    const auto plane =
+        encodePlane(image, protocol::PlaneKind::kColor, protocol::Codec::kLz4, hc, 1, level);
+    EXPECT_EQ(plane.codec, protocol::Codec::kLz4) << "the wire's codec is LZ4";
+    auto back = decodePlane(plane);
+    ASSERT_TRUE(back.isOk()) << back.status().toString();
+    EXPECT_EQ(back->pixels, image.pixels) << "level " << level;
+    if (level >= 9) {
+      EXPECT_LT(hc.size(), fast.size()) << "level " << level;
+    }
+  }
+}
+
+TEST(ImageCodec, CorruptOrLyingPlanesAreErrorsNamingThePlane) {
+  Image8 image(16, 16, 1, 9);
+  std::vector<uint8_t> storage;
+  auto plane = encodePlane(image, protocol::PlaneKind::kMask, protocol::Codec::kLz4, storage);
+  std::vector<uint8_t> cut(storage.begin(), storage.begin() + storage.size() / 2);
+  plane.data = cut;
+  auto bad = decodePlane(plane);
+  ASSERT_FALSE(bad.isOk());
+  EXPECT_NE(bad.status().message().find("16x16"), std::string::npos);
+  plane.data = storage;
+  plane.raw_size = 5;
+  EXPECT_FALSE(decodePlane(plane).isOk());
+}
+
+TEST(MeshCodec, DracoRoundTripIsWithinQuantisation) {
+  const auto grid = sampleGrid({-0.5, -0.5, -0.5}, 0.05, 21, 21, 21,
+                               [](const glm::dvec3& p) { return 0.4 - glm::length(p); });
+  const Mesh mesh = marchingCubes(grid);
+  DracoOptions options;
+  options.position_bits = 11;
+  auto bytes = encodeDraco(mesh, options);
+  ASSERT_TRUE(bytes.isOk());
+  auto back = decodeDraco(bytes->data(), bytes->size());
+  ASSERT_TRUE(back.isOk()) << back.status().toString();
+  EXPECT_EQ(back->triangleCount(), mesh.triangleCount());
+  // Draco reorders vertices: compare each decoded vertex with the sphere.
+  // 11 bits over a 0.8 m box is 0.4 mm per step.
+  for (const auto& p : back->positions) EXPECT_NEAR(glm::length(glm::dvec3(p)), 0.4, 0.011);
+  EXPECT_LT(bytes->size(), mesh.vertexCount() * 24 / 4) << "quantisation must shrink the mesh";
+  EXPECT_FALSE(decodeDraco(bytes->data(), bytes->size() / 3).isOk());
+}
+
+// The Holoportation coding (half floats through LZ4) on a keyed marching
+// cubes sphere: the same vertices (by key) and the same triangles, in the
+// vertex cache's order; positions within a half's step of their offset
+// from the centre (2^-11 of 0.4 m: 0.2 mm), normals within a half's step.
+// With an atlas's corner coordinates the triangles keep their order and
+// each corner its coordinate, within 1/65535.
+TEST(MeshCodec, Fp16Lz4RoundTripKeepsEveryVertexAndTriangle) {
+  const auto grid = sampleGrid({0.5, 0.6, -0.7}, 0.05, 21, 21, 21, [](const glm::dvec3& p) {
+    return 0.4 - glm::length(p - glm::dvec3(1.0, 1.1, -0.2));
+  });
+  const Mesh mesh = marchingCubes(grid);
+  ASSERT_EQ(mesh.vertex_keys.size(), mesh.vertexCount());
+  std::map<uint64_t, size_t> by_key;
+  for (size_t v = 0; v < mesh.vertexCount(); ++v) by_key[mesh.vertex_keys[v]] = v;
+  ASSERT_EQ(by_key.size(), mesh.vertexCount()) << "keys name vertices";
+  // A triangle as its keys, from its smallest: the same however it is numbered.
+  auto triangles = [](const Mesh& m) {
+    std::multiset<std::array<uint64_t, 3>> set;
+    for (size_t t = 0; t < m.triangleCount(); ++t) {
+      std::array<uint64_t, 3> k = {m.vertex_keys[m.indices[3 * t]],
+                                   m.vertex_keys[m.indices[3 * t + 1]],
+                                   m.vertex_keys[m.indices[3 * t + 2]]};
+      std::rotate(k.begin(), std::min_element(k.begin(), k.end()), k.end());
+      set.insert(k);
+    }
+    return set;
+  };
+  auto bytes = encodeFp16Lz4(mesh);
+  ASSERT_TRUE(bytes.isOk()) << bytes.status().toString();
+  const auto counts = readFp16Lz4Counts(bytes->data(), bytes->size());
+  ASSERT_TRUE(counts.isOk());
+  EXPECT_EQ(counts->vertices, mesh.vertexCount());
+  EXPECT_EQ(counts->faces, mesh.triangleCount());
+  auto back = decodeFp16Lz4(bytes->data(), bytes->size());
+  ASSERT_TRUE(back.isOk()) << back.status().toString();
+  ASSERT_EQ(back->vertexCount(), mesh.vertexCount());
+  EXPECT_NE(back->vertex_keys, mesh.vertex_keys) << "reordered for the vertex cache";
+  EXPECT_EQ(triangles(*back), triangles(mesh));
+  for (size_t v = 0; v < back->vertexCount(); ++v) {
+    const size_t was = by_key.at(back->vertex_keys[v]);
+    EXPECT_LT(glm::length(back->positions[v] - mesh.positions[was]), 0.4f / 2048 * 1.8f) << v;
+    EXPECT_LT(glm::length(back->normals[v] - mesh.normals[was]), 2e-3f) << v;
+  }
+  Mesh atlas = mesh;
+  for (size_t c = 0; c < atlas.indices.size(); ++c)
+    atlas.corner_uvs.emplace_back((c % 97) / 96.0f, (c % 89) / 88.0f);
+  bytes = encodeFp16Lz4(atlas);
+  ASSERT_TRUE(bytes.isOk());
+  back = decodeFp16Lz4(bytes->data(), bytes->size());
+  ASSERT_TRUE(back.isOk());
+  ASSERT_EQ(back->corner_uvs.size(), atlas.corner_uvs.size());
+  for (size_t c = 0; c < atlas.indices.size(); ++c) {
+    EXPECT_EQ(back->vertex_keys[back->indices[c]], atlas.vertex_keys[atlas.indices[c]]) << c;
+    EXPECT_LE(glm::length(back->corner_uvs[c] - atlas.corner_uvs[c]), 1.0f / 65535) << c;
+  }
+  // Without normals they are computed from the faces, as Draco's decoder does.
+  Mesh bare = mesh;
+  bare.normals.clear();
+  bytes = encodeFp16Lz4(bare);
+  ASSERT_TRUE(bytes.isOk());
+  back = decodeFp16Lz4(bytes->data(), bytes->size());
+  ASSERT_TRUE(back.isOk());
+  ASSERT_EQ(back->normals.size(), mesh.vertexCount());
+  for (size_t v = 0; v < back->vertexCount(); ++v)
+    EXPECT_GT(glm::dot(back->normals[v], mesh.normals[by_key.at(back->vertex_keys[v])]), 0.9f);
+}
+
+// Untrusted bytes, each refused by name before it can allocate or reach
+// the renderer: short, not ours, counts past the caps, a raw size its
+// counts do not make, a raw size no LZ4 payload of that length expands
+// to, a corrupt block, a face past the vertices, a non-finite position.
+TEST(MeshCodec, Fp16Lz4RefusesWhatIsNotAWholeMeshByName) {
+  Mesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  mesh.indices = {0, 1, 2, 1, 3, 2};
+  auto good = encodeFp16Lz4(mesh);
+  ASSERT_TRUE(good.isOk());
+  auto says = [](const StatusOr<Mesh>& decoded, const std::string& what) {
+    ASSERT_FALSE(decoded.isOk()) << what;
+    EXPECT_NE(decoded.status().toString().find(what), std::string::npos)
+        << decoded.status().toString();
+  };
+  says(decodeFp16Lz4(good->data(), 20), "shorter than its 32-byte header");
+  std::vector<uint8_t> bytes = *good;
+  bytes[0] = 'X';
+  says(decodeFp16Lz4(bytes.data(), bytes.size()), "no HF16 magic");
+  DracoLimits tight;
+  tight.max_faces = 1;
+  says(decodeFp16Lz4(good->data(), good->size(), tight), "above the caps");
+  auto patched = [&](size_t offset, uint32_t value) {
+    std::vector<uint8_t> b = *good;
+    std::memcpy(b.data() + offset, &value, 4);
+    return b;
+  };
+  bytes = patched(12, 3);  // faces 2 -> 3, raw size unchanged
+  says(decodeFp16Lz4(bytes.data(), bytes.size()), "raw bytes where its counts make");
+  // A 32-byte header claiming a million vertices over a few bytes of payload.
+  bytes = patched(8, 1000000);
+  const uint32_t claimed = 1000000 * 6 + 2 * 12;
+  std::memcpy(bytes.data() + 28, &claimed, 4);
+  says(decodeFp16Lz4(bytes.data(), bytes.size()), "cannot hold");
+  bytes = *good;
+  for (size_t i = 32; i < bytes.size(); ++i) bytes[i] ^= 0xA5;
+  says(decodeFp16Lz4(bytes.data(), bytes.size()), "LZ4");
+  Mesh bad_face = mesh;
+  bad_face.indices[4] = 7;
+  auto encoded = encodeFp16Lz4(bad_face);
+  ASSERT_TRUE(encoded.isOk());
+  says(decodeFp16Lz4(encoded->data(), encoded->size()), "face 1 index 7 out of range");
+  Mesh far = mesh;
+  far.positions[3].z = 1e6f;  // past a half's range (65504) from the centre
+  encoded = encodeFp16Lz4(far);
+  ASSERT_TRUE(encoded.isOk());
+  says(decodeFp16Lz4(encoded->data(), encoded->size()), "is not finite");
+}
+
+// Bytes from a faulty server: Draco carries unquantised floats and its
+// sequential connectivity as given, so a NaN position and a face that
+// names a vertex past the end both reach the decoder, which must refuse
+// them by name rather than hand them to the renderer.
+DracoOptions losslessSequential() {
+  DracoOptions options;
+  options.position_bits = 0;  // no quantisation: floats as they are
+  options.normal_bits = 0;
+  options.speed = 10;  // sequential encoding: indices as they are
+  return options;
+}
+
+TEST(MeshCodec, DecodingRefusesNonFinitePositionsByVertex) {
+  Mesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, std::nanf("")}};
+  mesh.indices = {0, 1, 2, 1, 3, 2};
+  auto bytes = encodeDraco(mesh, losslessSequential());
+  ASSERT_TRUE(bytes.isOk()) << bytes.status().toString();
+  auto back = decodeDraco(bytes->data(), bytes->size());
+  ASSERT_FALSE(back.isOk());
+  EXPECT_NE(back.status().toString().find("is not finite"), std::string::npos)
+      << back.status().toString();
+  mesh.positions[3].z = 0.5f;  // the same mesh, finite
+  bytes = encodeDraco(mesh, losslessSequential());
+  ASSERT_TRUE(bytes.isOk());
+  EXPECT_TRUE(decodeDraco(bytes->data(), bytes->size()).isOk());
+}
+
+TEST(MeshCodec, DecodingRefusesIndicesOutOfRange) {
+  Mesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  mesh.indices = {0, 1, 2, 0, 2, 7};
+  auto bytes = encodeDraco(mesh, losslessSequential());
+  ASSERT_TRUE(bytes.isOk()) << bytes.status().toString();
+  auto back = decodeDraco(bytes->data(), bytes->size());
+  ASSERT_FALSE(back.isOk()) << back->indices.size() << " indices decoded";
+  EXPECT_NE(back.status().toString().find("draco mesh: face 1 index 7 out of range"),
+            std::string::npos)
+      << back.status().toString();
+}
+
+// The counts Draco would allocate for, read before it runs: they must be
+// the mesh's own for both of the encoder's methods, and a forged header
+// must be refused by the cap, not by running out of memory.
+TEST(MeshCodec, CountsAreReadFromTheHeaderForBothEncoderMethods) {
+  const auto grid = sampleGrid({-0.5, -0.5, -0.5}, 0.05, 21, 21, 21,
+                               [](const glm::dvec3& p) { return 0.4 - glm::length(p); });
+  const Mesh mesh = marchingCubes(grid);
+  for (int speed : {7, 10}) {  // 7: edgebreaker, 10: sequential
+    DracoOptions options;
+    options.speed = speed;
+    auto bytes = encodeDraco(mesh, options);
+    ASSERT_TRUE(bytes.isOk());
+    auto counts = readDracoCounts(bytes->data(), bytes->size());
+    ASSERT_TRUE(counts.isOk()) << counts.status().toString();
+    EXPECT_EQ(counts->faces, mesh.triangleCount()) << "speed " << speed;
+    EXPECT_EQ(counts->vertices, mesh.vertexCount()) << "speed " << speed;
+
+    DracoLimits tight;
+    tight.max_faces = static_cast<uint32_t>(mesh.triangleCount()) - 1;
+    auto refused = decodeDraco(bytes->data(), bytes->size(), tight);
+    ASSERT_FALSE(refused.isOk());
+    EXPECT_EQ(refused.status().code(), StatusCode::kTooLarge);
+    EXPECT_NE(refused.status().message().find(std::to_string(mesh.triangleCount()) + " faces"),
+              std::string::npos)
+        << refused.status().toString();
+    DracoLimits exact;
+    exact.max_faces = static_cast<uint32_t>(mesh.triangleCount());
+    exact.max_vertices = static_cast<uint32_t>(mesh.vertexCount());
+    EXPECT_TRUE(decodeDraco(bytes->data(), bytes->size(), exact).isOk());
+  }
+}
+
+TEST(MeshCodec, AForgedFaceCountIsRefusedBeforeDecoding) {
+  Mesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  mesh.indices = {0, 1, 2};
+  auto bytes = encodeDraco(mesh, losslessSequential());
+  ASSERT_TRUE(bytes.isOk());
+  // Sequential connectivity starts right after the 11-byte header with
+  // num_faces as a varint; 1 face fits one byte. Claim 2^28 - 1 faces.
+  std::vector<uint8_t> forged(bytes->begin(), bytes->begin() + 11);
+  ASSERT_EQ((*bytes)[11], 1);
+  for (uint8_t b : {0xFF, 0xFF, 0xFF, 0x7F}) forged.push_back(b);
+  forged.insert(forged.end(), bytes->begin() + 12, bytes->end());
+  auto refused = decodeDraco(forged.data(), forged.size());
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().message().find("268435455 faces, above the caps"), std::string::npos)
+      << refused.status().toString();
+
+  auto truncated = decodeDraco(bytes->data(), 9);
+  ASSERT_FALSE(truncated.isOk());
+  EXPECT_NE(truncated.status().message().find("header truncated"), std::string::npos)
+      << truncated.status().toString();
+  std::vector<uint8_t> unsigned_bytes(bytes->begin(), bytes->end());
+  unsigned_bytes[0] = 'd';
+  EXPECT_NE(decodeDraco(unsigned_bytes.data(), unsigned_bytes.size())
+                .status()
+                .message()
+                .find("no DRACO signature"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace holofuse

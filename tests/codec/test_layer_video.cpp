@@ -1,0 +1,186 @@
+// Texture layers as video (codec/layer_video.h): a stream's frames come
+// back close to what went in, frames after the first cost less when the
+// picture stays put, and a receiver that missed a frame says so by name
+// and recovers at the next key frame.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "codec/layer_video.h"
+
+namespace holofuse {
+namespace {
+
+// An atlas-like picture: smooth patches of colour with detail, shifted by
+// `shift` texels (the surface moving a little between frames).
+Image8 patches(uint32_t width, uint32_t height, int shift) {
+  Image8 image(width, height, 3);
+  for (uint32_t y = 0; y < height; ++y) {
+    for (uint32_t x = 0; x < width; ++x) {
+      const double u = static_cast<double>(static_cast<int>(x) + shift), v = y;
+      uint8_t* p = image.at(x, y);
+      const int patch = static_cast<int>(u / 24) + 7 * static_cast<int>(v / 24);
+      p[0] = static_cast<uint8_t>(80 + 60 * std::sin(u * 0.11) + (patch * 37) % 50);
+      p[1] = static_cast<uint8_t>(120 + 50 * std::cos(v * 0.07 + u * 0.03));
+      p[2] = static_cast<uint8_t>(60 + (patch * 53) % 120);
+    }
+  }
+  return image;
+}
+
+double psnr(const Image8& a, const Image8& b) {
+  double sum = 0;
+  for (size_t i = 0; i < a.pixels.size(); ++i) {
+    const double d = static_cast<double>(a.pixels[i]) - b.pixels[i];
+    sum += d * d;
+  }
+  const double mse = sum / static_cast<double>(a.pixels.size());
+  return mse == 0 ? 99.0 : 10.0 * std::log10(255.0 * 255.0 / mse);
+}
+
+class LayerVideo : public ::testing::TestWithParam<protocol::Codec> {};
+
+TEST_P(LayerVideo, FramesComeBackCloseAndStillPicturesCostLessAfterTheKeyFrame) {
+  LayerVideoOptions options;
+  options.codec = GetParam();
+  LayerVideoEncoder encoder(options);
+  LayerVideoDecoder decoder;
+  // 200 is not a multiple of 16: the coded picture is larger, the plane not.
+  constexpr uint32_t kWidth = 200, kHeight = 120;
+  std::vector<size_t> bytes;
+  for (int frame = 0; frame < 4; ++frame) {
+    const Image8 source = patches(kWidth, kHeight, frame);
+    std::vector<uint8_t> storage;
+    auto plane = encoder.encode(source, false, storage);
+    ASSERT_TRUE(plane.isOk()) << plane.status().toString();
+    EXPECT_EQ(plane->codec, options.codec);
+    EXPECT_EQ(plane->width, kWidth);
+    EXPECT_EQ(plane->raw_size, kWidth * kHeight * 3);
+    bytes.push_back(plane->data.size());
+    auto decoded = decoder.decode(*plane);
+    ASSERT_TRUE(decoded.isOk()) << decoded.status().toString();
+    ASSERT_EQ(decoded->width, kWidth);
+    ASSERT_EQ(decoded->height, kHeight);
+    EXPECT_GT(psnr(source, *decoded), 32.0) << "frame " << frame;
+  }
+  EXPECT_EQ(encoder.keyFrames(), 1u);
+  for (size_t f = 1; f < bytes.size(); ++f)
+    EXPECT_LT(bytes[f] * 2, bytes[0]) << "frame " << f << " against the key frame";
+  // Far below the raw picture, far below what LZ4 gets from such detail.
+  EXPECT_LT(bytes[0] * 8, size_t{kWidth} * kHeight * 3);
+}
+
+TEST_P(LayerVideo, AReceiverThatMissedAFrameWaitsForTheNextKeyFrame) {
+  LayerVideoOptions options;
+  options.codec = GetParam();
+  LayerVideoEncoder encoder(options);
+  LayerVideoDecoder decoder;
+  std::vector<std::vector<uint8_t>> storage(5);
+  std::vector<protocol::Plane> planes;
+  for (int frame = 0; frame < 4; ++frame) {
+    auto plane = encoder.encode(patches(64, 48, frame), false, storage[frame]);
+    ASSERT_TRUE(plane.isOk()) << plane.status().toString();
+    planes.push_back(*plane);
+  }
+  ASSERT_TRUE(decoder.decode(planes[0]).isOk());
+  // Frame 1 lost on the way: 2 follows a gap.
+  auto after_gap = decoder.decode(planes[2]);
+  ASSERT_FALSE(after_gap.isOk());
+  EXPECT_EQ(after_gap.status().code(), StatusCode::kUnexpectedMessage);
+  EXPECT_NE(after_gap.status().message().find("frame 2 after 0 is not a key frame"),
+            std::string::npos)
+      << after_gap.status().message();
+  // Still broken: 3 follows 2, but 2 never decoded.
+  EXPECT_FALSE(decoder.decode(planes[3]).isOk());
+  // The sender asked for a key frame (a receiver missed one): decoding resumes.
+  auto key = encoder.encode(patches(64, 48, 4), true, storage[4]);
+  ASSERT_TRUE(key.isOk()) << key.status().toString();
+  auto resumed = decoder.decode(*key);
+  ASSERT_TRUE(resumed.isOk()) << resumed.status().toString();
+  EXPECT_GT(psnr(patches(64, 48, 4), *resumed), 30.0);
+  EXPECT_EQ(encoder.keyFrames(), 2u);
+}
+
+TEST_P(LayerVideo, ANewSizeStartsTheStreamAgainAtAKeyFrame) {
+  LayerVideoOptions options;
+  options.codec = GetParam();
+  LayerVideoEncoder encoder(options);
+  LayerVideoDecoder decoder;
+  std::vector<uint8_t> first, second;
+  auto small = encoder.encode(patches(64, 64, 0), false, first);
+  ASSERT_TRUE(small.isOk());
+  ASSERT_TRUE(decoder.decode(*small).isOk());
+  auto large = encoder.encode(patches(128, 96, 1), false, second);
+  ASSERT_TRUE(large.isOk()) << large.status().toString();
+  EXPECT_EQ(encoder.keyFrames(), 2u);
+  auto decoded = decoder.decode(*large);
+  ASSERT_TRUE(decoded.isOk()) << decoded.status().toString();
+  EXPECT_EQ(decoded->width, 128u);
+  EXPECT_EQ(decoded->height, 96u);
+}
+
+TEST_P(LayerVideo, CorruptOrShortFramesAreRefusedByName) {
+  LayerVideoOptions options;
+  options.codec = GetParam();
+  LayerVideoEncoder encoder(options);
+  std::vector<uint8_t> storage;
+  auto plane = encoder.encode(patches(64, 48, 0), false, storage);
+  ASSERT_TRUE(plane.isOk());
+  {
+    LayerVideoDecoder decoder;
+    protocol::Plane shortened = *plane;
+    shortened.data = shortened.data.first(3);
+    auto decoded = decoder.decode(shortened);
+    ASSERT_FALSE(decoded.isOk());
+    EXPECT_NE(decoded.status().message().find("holds no frame"), std::string::npos);
+  }
+  {
+    // A key frame's header over bytes that are no bitstream: an error,
+    // never a picture of garbage.
+    LayerVideoDecoder decoder;
+    std::vector<uint8_t> junk(storage.begin(), storage.begin() + 5);
+    junk.resize(64, 0);
+    protocol::Plane bad = *plane;
+    bad.data = junk;
+    auto decoded = decoder.decode(bad);
+    ASSERT_FALSE(decoded.isOk());
+    EXPECT_NE(decoded.status().message().find("frame 0"), std::string::npos)
+        << decoded.status().message();
+  }
+  {
+    // A stream whose pictures are larger than its receiver takes: refused
+    // before decoding, and a declared picture past the cap never decodes.
+    LayerVideoDecoder small(32);
+    auto decoded = small.decode(*plane);
+    ASSERT_FALSE(decoded.isOk());
+    EXPECT_EQ(decoded.status().code(), StatusCode::kTooLarge);
+    EXPECT_NE(decoded.status().message().find("above the stream's 32"), std::string::npos)
+        << decoded.status().message();
+    protocol::Plane claimed = *plane;
+    claimed.width = 16;
+    claimed.height = 16;
+    claimed.raw_size = 16 * 16 * 3;
+    EXPECT_FALSE(small.decode(claimed).isOk()) << "a 64x48 picture in a 32-texel stream";
+  }
+  {
+    // A plane larger than the coded picture it carries.
+    LayerVideoDecoder decoder;
+    protocol::Plane larger = *plane;
+    larger.width = 640;
+    larger.raw_size = 640 * 48 * 3;
+    auto decoded = decoder.decode(larger);
+    ASSERT_FALSE(decoded.isOk());
+    EXPECT_NE(decoded.status().message().find("smaller than its plane"), std::string::npos)
+        << decoded.status().message();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Codecs, LayerVideo,
+                         ::testing::Values(protocol::Codec::kH264, protocol::Codec::kHevc,
+                                           protocol::Codec::kAv1),
+                         [](const auto& info) { return layerVideoCodecName(info.param); });
+
+}  // namespace
+}  // namespace holofuse

@@ -1,0 +1,84 @@
+// Layered view-dependent texture maps (Volino and Hilton 2016, section
+// 3.1): per texel of a mesh's atlas, the colour from the l-th best camera
+// that sees that point of the surface, with the camera alongside so a
+// renderer knows whose view it is. The CPU reference.
+#pragma once
+
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <vector>
+
+#include "base/status.h"
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
+#include "image/image.h"
+#include "texture/texture_atlas.h"
+
+namespace holofuse {
+
+// A layer texel's camera byte where no camera sees the point.
+inline constexpr uint8_t kNoLayerCamera = 255;
+
+struct LayerView {
+  const Camera* camera = nullptr;
+  const Image8* color = nullptr;    // 3 or 4 channels, camera->width x height
+  const Image8* mask = nullptr;     // 255 foreground; nullptr: every pixel
+  const Image8* feather = nullptr;  // distance inside the silhouette, pixels; nullptr: none
+};
+
+struct LayerOptions {
+  int layers = 3;  // L
+  // A point is seen when its depth is within this of the camera's depth
+  // map (Volino and Hilton eq. 1); 0: the mesh's mean edge length, about
+  // a voxel of the hull.
+  double depth_tolerance = 0.0;
+  // Pixels this close to the silhouette's border rank lower, linearly to
+  // zero at the border (the feather weight of Li et al. 2004): a border
+  // pixel mixes subject and background.
+  double feather_ramp_px = 4.0;
+  glm::u8vec3 hole{128, 128, 128};  // where no camera sees the point
+};
+
+struct TextureLayers {
+  uint32_t texels = 0;
+  // L RGBA images, texels x texels: RGB the colour, A the index in the
+  // views of the camera it came from (kNoLayerCamera: none).
+  std::vector<Image8> layers;
+  uint64_t texels_covered = 0;  // texels of the mesh's triangles
+  uint64_t texels_seen = 0;     // of those, seen by at least one camera
+  // Texels inside two triangles' footprints (a layout that folds the
+  // surface onto itself): each holds one of the points.
+  uint64_t texels_contested = 0;
+};
+
+// Texture layers as a renderer takes them (Volino and Hilton 2016 section
+// 3.2): L RGBA images of the atlas the mesh's corner_uvs point into, RGB
+// the colour and A the index of the camera in camera_centers
+// (kNoLayerCamera where none sees the point); eq. 3 weighs each layer by
+// its camera's direction.
+struct LayeredViews {
+  std::vector<Image8> layers;
+  std::vector<glm::dvec3> camera_centers;
+};
+
+// What a renderer refuses, by name: layers of different sizes or not RGBA,
+// more than kMaxRenderedLayers, a camera index past camera_centers; and
+// a mesh without a texture coordinate per corner or with one outside [0,1].
+inline constexpr size_t kMaxRenderedLayers = 16;
+Status checkLayeredViews(const LayeredViews& views);
+Status checkLayerCoordinates(const Mesh& mesh);
+
+// The atlas the mesh's corner_uvs point into (a texels-square texture)
+// filled from the views: each texel holds the point of the surface whose
+// triangle's footprint in the atlas is nearest, within the reach of a
+// bilinear sample (border texels included, so sampling reads the
+// triangle's own colours: Dong and Hollerer 2017, Fig. 4); cameras that
+// see the point (depth test, facing it, inside the mask) rank by the
+// cosine between the normal and the direction to the camera (Volino and
+// Hilton eq. 2), times the feather weight. Refused by name with more than
+// 254 views or inputs that disagree.
+StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
+                                           const std::vector<LayerView>& views,
+                                           const LayerOptions& options = {});
+
+}  // namespace holofuse

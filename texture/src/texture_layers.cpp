@@ -1,0 +1,268 @@
+#include "texture/texture_layers.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "geometry/depth_raster.h"
+
+namespace holofuse {
+
+namespace {
+
+struct Ranked {
+  double score = 0.0;
+  uint8_t view = kNoLayerCamera;
+};
+
+// Bilinear colour at pixel position (x, y), pixel centres at .5.
+glm::dvec3 sampleColor(const Image8& image, double x, double y) {
+  const double fx = std::clamp(x - 0.5, 0.0, image.width - 1.0);
+  const double fy = std::clamp(y - 0.5, 0.0, image.height - 1.0);
+  const uint32_t x0 = static_cast<uint32_t>(fx), y0 = static_cast<uint32_t>(fy);
+  const uint32_t x1 = std::min(x0 + 1, image.width - 1), y1 = std::min(y0 + 1, image.height - 1);
+  const double ax = fx - x0, ay = fy - y0;
+  glm::dvec3 out(0.0);
+  for (int c = 0; c < 3; ++c) {
+    const double top = (1 - ax) * image.at(x0, y0)[c] + ax * image.at(x1, y0)[c];
+    const double bottom = (1 - ax) * image.at(x0, y1)[c] + ax * image.at(x1, y1)[c];
+    out[c] = (1 - ay) * top + ay * bottom;
+  }
+  return out;
+}
+
+// The point of triangle t nearest to p, as barycentrics, and its distance
+// (0 inside): a texel just outside a triangle's footprint (a border
+// texel bilinear sampling reads) takes the colour of the triangle's
+// nearest point, as the paper's border triangles copy the edge's values.
+double nearestOnTriangle(const glm::dvec2& p, const std::array<glm::dvec2, 3>& t, glm::dvec3& b) {
+  const glm::dvec2 e0 = t[1] - t[0], e1 = t[2] - t[0], d = p - t[0];
+  const double det = e0.x * e1.y - e1.x * e0.y;
+  if (std::abs(det) > 1e-12) {
+    const double b1 = (d.x * e1.y - e1.x * d.y) / det;
+    const double b2 = (e0.x * d.y - d.x * e0.y) / det;
+    if (b1 >= 0 && b2 >= 0 && b1 + b2 <= 1) {
+      b = glm::dvec3(1.0 - b1 - b2, b1, b2);
+      return 0.0;
+    }
+  }
+  // Outside (or degenerate): the nearest point of the three edges.
+  double best = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    const glm::dvec2 a = t[k], c = t[(k + 1) % 3], ac = c - a;
+    const double length2 = glm::dot(ac, ac);
+    const double s = length2 > 0 ? std::clamp(glm::dot(p - a, ac) / length2, 0.0, 1.0) : 0.0;
+    const double distance = glm::length(p - (a + s * ac));
+    if (distance < best) {
+      best = distance;
+      b = glm::dvec3(0.0);
+      b[k] = 1.0 - s;
+      b[(k + 1) % 3] = s;
+    }
+  }
+  return best;
+}
+
+// Which point of the surface each texel holds: the triangle whose atlas
+// footprint is nearest within reach, and the barycentrics of its nearest
+// point. A bilinear sample inside a footprint reads texels whose centres
+// lie under one texel away on each axis, so reach is sqrt(2) texels; a
+// texel between two footprints goes to the nearer (the layouts keep
+// triangles of different patches further apart than that).
+struct TexelSource {
+  int32_t triangle = -1;
+  double distance = std::numeric_limits<double>::infinity();
+  glm::dvec3 barycentric{0.0};
+};
+std::vector<TexelSource> texelSources(const Mesh& mesh, uint32_t texels, uint64_t& contested) {
+  constexpr double kReach = 1.41421356237;
+  std::vector<TexelSource> sources(size_t{texels} * texels);
+  for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+    std::array<glm::dvec2, 3> corners;
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+    for (int k = 0; k < 3; ++k) {
+      corners[k] = glm::dvec2(mesh.corner_uvs[3 * t + k]) * double(texels);
+      lo = glm::min(lo, corners[k]);
+      hi = glm::max(hi, corners[k]);
+    }
+    const int x0 = std::max(0, static_cast<int>(std::floor(lo.x - kReach)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(lo.y - kReach)));
+    const int x1 = std::min<int>(texels - 1, static_cast<int>(std::ceil(hi.x + kReach)));
+    const int y1 = std::min<int>(texels - 1, static_cast<int>(std::ceil(hi.y + kReach)));
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        glm::dvec3 b;
+        const double distance = nearestOnTriangle(glm::dvec2(x + 0.5, y + 0.5), corners, b);
+        TexelSource& source = sources[size_t(y) * texels + x];
+        if (distance == 0 && source.distance == 0) ++contested;  // two footprints overlap
+        if (distance > kReach || distance >= source.distance) continue;
+        source = {static_cast<int32_t>(t), distance, b};
+      }
+    }
+  }
+  return sources;
+}
+
+Status checkInputs(const Mesh& mesh, uint32_t texels, const std::vector<LayerView>& views) {
+  auto refuse = [](const std::string& what) {
+    return Status(StatusCode::kMalformed, "texture layers: " + what);
+  };
+  if (views.size() >= kNoLayerCamera)
+    return refuse(std::to_string(views.size()) + " views; a layer names at most 254");
+  if (mesh.normals.size() != mesh.vertexCount()) return refuse("the mesh has no vertex normals");
+  if (mesh.corner_uvs.size() != mesh.indices.size())
+    return refuse("the mesh has no texture coordinates (TextureAtlas::layOut)");
+  if (texels == 0 || texels > kMaxAtlasTexels)
+    return refuse("an atlas of " + std::to_string(texels) + " texels");
+  for (size_t i = 0; i < views.size(); ++i) {
+    const LayerView& v = views[i];
+    const std::string name = "view " + std::to_string(i);
+    if (v.camera == nullptr || v.color == nullptr) return refuse(name + " has no camera or colour");
+    if (v.color->width != v.camera->width || v.color->height != v.camera->height ||
+        v.color->channels < 3 || v.color->empty())
+      return refuse(name + ": colour image does not match its camera");
+    for (const Image8* plane : {v.mask, v.feather}) {
+      if (plane != nullptr && (plane->width != v.camera->width ||
+                               plane->height != v.camera->height || plane->channels != 1))
+        return refuse(name + ": mask or feather does not match its camera");
+    }
+  }
+  return Status();
+}
+
+}  // namespace
+
+StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
+                                           const std::vector<LayerView>& views,
+                                           const LayerOptions& options) {
+  if (Status bad = checkInputs(mesh, texels, views); !bad.isOk()) return bad;
+  const int layer_count = std::max(options.layers, 1);
+  TextureLayers out;
+  out.texels = texels;
+  for (int l = 0; l < layer_count; ++l) {
+    Image8 layer(texels, texels, 4);
+    for (size_t i = 0; i < layer.pixels.size(); i += 4) {
+      layer.pixels[i] = options.hole.r;
+      layer.pixels[i + 1] = options.hole.g;
+      layer.pixels[i + 2] = options.hole.b;
+      layer.pixels[i + 3] = kNoLayerCamera;
+    }
+    out.layers.push_back(std::move(layer));
+  }
+  if (mesh.triangleCount() == 0) return out;
+
+  const double tolerance =
+      options.depth_tolerance > 0 ? options.depth_tolerance : std::max(meanEdgeLength(mesh), 1e-6);
+  std::vector<DepthMap> depths;
+  depths.reserve(views.size());
+  for (const LayerView& v : views) depths.push_back(rasterizeDepth(mesh, *v.camera));
+
+  std::vector<Ranked> ranked;
+  ranked.reserve(views.size());
+  const std::vector<TexelSource> sources = texelSources(mesh, texels, out.texels_contested);
+  for (uint32_t y = 0; y < texels; ++y) {
+    for (uint32_t x = 0; x < texels; ++x) {
+      const TexelSource& source = sources[size_t{y} * texels + x];
+      if (source.triangle < 0) continue;
+      ++out.texels_covered;
+      const glm::dvec3& b = source.barycentric;
+      const uint32_t* corner = &mesh.indices[3 * size_t(source.triangle)];
+      glm::dvec3 point(0.0), normal(0.0);
+      for (int k = 0; k < 3; ++k) {
+        point += b[k] * glm::dvec3(mesh.positions[corner[k]]);
+        normal += b[k] * glm::dvec3(mesh.normals[corner[k]]);
+      }
+      const double length = glm::length(normal);
+      if (!(length > 0)) continue;
+      normal /= length;
+      ranked.clear();
+      for (size_t j = 0; j < views.size(); ++j) {
+        const LayerView& v = views[j];
+        const auto pixel = v.camera->project(point);
+        if (!pixel || !(pixel->x >= 0 && pixel->y >= 0 && pixel->x < v.camera->width &&
+                        pixel->y < v.camera->height))
+          continue;
+        const uint32_t px = static_cast<uint32_t>(pixel->x), py = static_cast<uint32_t>(pixel->y);
+        // Volino and Hilton eq. 1: the depth map sees this point.
+        if (!(std::abs(depths[j].at(px, py) - pixel->z) <= tolerance)) continue;
+        if (v.mask != nullptr && v.mask->at(px, py)[0] < 128) continue;
+        // Eq. 2 as a cosine: the point faces the camera.
+        const double facing = glm::dot(normal, glm::normalize(v.camera->center() - point));
+        if (!(facing > 0)) continue;
+        double feather = 1.0;
+        if (v.feather != nullptr && options.feather_ramp_px > 0)
+          feather = std::min(1.0, v.feather->at(px, py)[0] / options.feather_ramp_px);
+        if (!(feather > 0)) continue;
+        ranked.push_back({facing * feather, static_cast<uint8_t>(j)});
+      }
+      if (ranked.empty()) continue;
+      ++out.texels_seen;
+      const size_t keep = std::min<size_t>(ranked.size(), layer_count);
+      std::partial_sort(ranked.begin(), ranked.begin() + keep, ranked.end(),
+                        [](const Ranked& a, const Ranked& c) {
+                          return a.score > c.score || (a.score == c.score && a.view < c.view);
+                        });
+      for (size_t l = 0; l < keep; ++l) {
+        const LayerView& v = views[ranked[l].view];
+        const auto pixel = v.camera->project(point);
+        const glm::dvec3 colour = sampleColor(*v.color, pixel->x, pixel->y);
+        uint8_t* texel = out.layers[l].at(x, y);
+        for (int c = 0; c < 3; ++c)
+          texel[c] = static_cast<uint8_t>(std::clamp(std::lround(colour[c]), 0L, 255L));
+        texel[3] = ranked[l].view;
+      }
+    }
+  }
+  return out;
+}
+
+Status checkLayeredViews(const LayeredViews& views) {
+  auto refuse = [](const std::string& what) {
+    return Status(StatusCode::kMalformed, "texture layers: " + what);
+  };
+  if (views.layers.empty() || views.layers.size() > kMaxRenderedLayers)
+    return refuse(std::to_string(views.layers.size()) + " layers, not 1.." +
+                  std::to_string(kMaxRenderedLayers));
+  const Image8& first = views.layers.front();
+  if (first.width == 0 || first.width != first.height || first.width > kMaxAtlasTexels)
+    return refuse("a layer of " + std::to_string(first.width) + "x" + std::to_string(first.height) +
+                  ", not a square of at most " + std::to_string(kMaxAtlasTexels));
+  if (views.camera_centers.size() >= kNoLayerCamera)
+    return refuse(std::to_string(views.camera_centers.size()) +
+                  " cameras; a layer names at most 254");
+  for (size_t l = 0; l < views.layers.size(); ++l) {
+    const Image8& layer = views.layers[l];
+    if (layer.width != first.width || layer.height != first.height || layer.channels != 4)
+      return refuse("layer " + std::to_string(l) + " is not RGBA " + std::to_string(first.width) +
+                    "x" + std::to_string(first.height));
+    for (size_t i = 3; i < layer.pixels.size(); i += 4) {
+      if (layer.pixels[i] != kNoLayerCamera && layer.pixels[i] >= views.camera_centers.size())
+        return refuse("layer " + std::to_string(l) + " names camera index " +
+                      std::to_string(layer.pixels[i]) + " of " +
+                      std::to_string(views.camera_centers.size()));
+    }
+  }
+  for (const glm::dvec3& centre : views.camera_centers) {
+    if (!std::isfinite(centre.x) || !std::isfinite(centre.y) || !std::isfinite(centre.z))
+      return refuse("a camera centre is not finite");
+  }
+  return Status();
+}
+
+Status checkLayerCoordinates(const Mesh& mesh) {
+  auto refuse = [](const std::string& what) {
+    return Status(StatusCode::kMalformed, "texture layers: " + what);
+  };
+  if (mesh.corner_uvs.size() != mesh.indices.size())
+    return refuse("the mesh has " + std::to_string(mesh.corner_uvs.size()) +
+                  " texture coordinates for " + std::to_string(mesh.indices.size()) + " corners");
+  for (const glm::vec2& uv : mesh.corner_uvs) {
+    if (!(uv.x >= 0.0f && uv.x <= 1.0f && uv.y >= 0.0f && uv.y <= 1.0f))
+      return refuse("a texture coordinate outside [0,1]");
+  }
+  return Status();
+}
+
+}  // namespace holofuse
