@@ -86,7 +86,7 @@ void addPodRigFlag(CLI::App& app) {
 int main(int argc, char** argv) {
   using namespace holofuse;
   capture::PodOptions options;
-  std::string server, size = "320x240", scene_name = "clean";
+  std::string server, size = "320x240";
   CLI::App app{
       "holofuse capture_node: a camera pod streaming to a fusion server: a synthetic camera, a "
       "recorded one (--replay), or a real one (--source)"};
@@ -98,6 +98,7 @@ int main(int argc, char** argv) {
   // What a synthetic pod makes and how it encodes it: a replay pod sends
   // the recorded bytes as they are, so these are refused with --replay.
   const SettingFlags<PodEncoding> encoding_flags(app, podEncodingFlags());
+  const SettingFlags<scene::SceneChoice> scene_flags(app, scene::sceneFlags());
   std::vector<CLI::Option*> synthetic = {
       app.add_option("--pods", options.pods, "cameras on the ring (1..128)")
           ->check(CLI::Range(1, static_cast<int>(protocol::kMaxCameras))),
@@ -105,15 +106,12 @@ int main(int argc, char** argv) {
       app.add_option("--fps", options.fps, "frames per second")->check(CLI::Range(0.1, 240.0)),
       app.add_option("--frames", options.frames,
                      "stop after this many frames (0: run until signalled)"),
-      app.add_option("--scene", scene_name, "named synthetic scene: " + scene::sceneNames()),
-      app.add_option("--seed", options.scene.seed, "scene seed"),
-      app.add_option("--noise", options.scene.noise_amplitude, scene::kNoiseHelp)
-          ->check(CLI::Range(0.0, scene::kMaxNoise)),
       app.add_option("--frame-id-offset", options.frame_id_offset,
                      "add this many (negative: take) to every frame id, as a pod whose clock "
                      "is that many frame periods off would (tests of the rig's clock)")
           ->check(CLI::Range(-int64_t{1} << 40, int64_t{1} << 40))};
   for (CLI::Option* option : encoding_flags.options()) synthetic.push_back(option);
+  for (CLI::Option* option : scene_flags.options()) synthetic.push_back(option);
   std::string replay, speed = "1";
   bool loop = false;
   CLI::Option* replay_option =
@@ -172,18 +170,11 @@ int main(int argc, char** argv) {
     const FreeMemoryReturner free_memory;
     return capture::runReplayPod(replay_options);
   }
-  const scene::ScenePreset* preset = scene::findScene(scene_name);
-  if (preset == nullptr) {
-    std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene_name.c_str(),
-                 scene::sceneNames().c_str());
-    return 2;
-  }
-  const scene::SceneOptions given = options.scene;
-  options.scene = preset->scene;
-  if (app.count("--seed")) options.scene.seed = given.seed;
-  if (app.count("--noise")) options.scene.noise_amplitude = given.noise_amplitude;
-  options.calibration_error_degrees = preset->calibration_error_degrees;
-  options.calibration_error_metres = preset->calibration_error_metres;
+  scene::SceneChoice scene_choice;
+  scene_flags.apply(scene_choice);
+  options.scene = scene_choice.options();
+  options.calibration_error_degrees = scene_choice.preset().calibration_error_degrees;
+  options.calibration_error_metres = scene_choice.preset().calibration_error_metres;
 
   unsigned w = 0, h = 0;
   if (const std::string error = parseImageSize(size, w, h); !error.empty()) {

@@ -18,6 +18,24 @@ std::string parseNumberIn(const std::string& text, double min, double max, doubl
   return "";
 }
 
+std::string parseNumberIn(const std::string& text, double min, double max, uint64_t& out) {
+  const char* end = text.data() + text.size();
+  uint64_t v = 0;
+  const auto [stop, error] = std::from_chars(text.data(), end, v);
+  if (error != std::errc() || stop != end || text.empty() ||
+      !(static_cast<double>(v) >= min && static_cast<double>(v) <= max)) {
+    char range[96];
+    if (max >= 18446744073709551615.0) {  // every uint64_t above min
+      std::snprintf(range, sizeof(range), "a whole number, %.0f or more", min);
+    } else {
+      std::snprintf(range, sizeof(range), "a whole number in [%.0f, %.0f]", min, max);
+    }
+    return "'" + text + "' is not " + range;
+  }
+  out = v;
+  return "";
+}
+
 std::string formatNumber(double v) {
   const bool single = static_cast<double>(static_cast<float>(v)) == v;
   char buffer[40];

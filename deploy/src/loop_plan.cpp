@@ -148,12 +148,16 @@ int readRig(LoopPlan& plan) {
   if (shaped && !plan.netns)
     std::printf("[loop] the rig file's links take effect with --netns (./holofuse rig)\n");
   const auto& cameras = plan.rig->cameras;
-  for (auto [flag, value] : {std::pair{"--size", &plan.size},
-                             {"--scene", &plan.scene},
-                             {"--seed", &plan.seed},
-                             {"--noise", &plan.noise}}) {
-    if (!wasGiven(plan, flag) && !partValue(cameras, flag).empty())
-      *value = partValue(cameras, flag);
+  if (!wasGiven(plan, "--size") && !partValue(cameras, "--size").empty())
+    plan.size = partValue(cameras, "--size");
+  for (const auto& setting : holofuse::scene::sceneFlags()) {
+    const std::string value = partValue(cameras, setting.flag);
+    if (wasGiven(plan, setting.flag) || value.empty()) continue;
+    if (const std::string error = setting.set(plan.scene, value); !error.empty()) {
+      std::fprintf(stderr, "--rig: %s: the cameras' %s: %s\n", plan.rig_file.c_str(),
+                   setting.flag.c_str(), error.c_str());
+      return 2;
+    }
   }
   if (!wasGiven(plan, "--fps") && !partValue(cameras, "--fps").empty()) {
     double fps = 0;
@@ -226,6 +230,18 @@ void append(std::vector<std::string>& args, const std::vector<std::string>& more
   args.insert(args.end(), more.begin(), more.end());
 }
 
+// settings forwarded through the table its process reads them with: every
+// setting that holds a value, where the process's rig part lets it pass.
+template <typename S>
+void appendSettings(std::vector<std::string>& args, const LoopPlan& plan,
+                    const std::vector<holofuse::RigOption>& part,
+                    const std::vector<holofuse::Setting<S>>& table, const S& settings) {
+  for (const auto& setting : table) {
+    const std::string value = setting.get(settings);
+    if (!value.empty() && passes(plan, part, setting.flag)) append(args, {setting.flag, value});
+  }
+}
+
 // The launcher's own flags: the run, its rig and its budget; what it
 // records or replays.
 void addRunOptions(CLI::App& app, LoopPlan& plan) {
@@ -251,23 +267,6 @@ void addRunOptions(CLI::App& app, LoopPlan& plan) {
   app.add_option("--out", plan.out, "output folder");
   app.add_option("--port", plan.port, "server port (0: any free port)")
       ->check(CLI::Range(0, 65535));
-  app.add_option("--mode", plan.mode, "blending mode of the client")
-      ->check(CLI::IsMember(holofuse::render::blendModeNames()));
-  app.add_option("--view", plan.view, "client view: orbit or pod:N");
-  app.add_option("--overlap-render", plan.overlap_render,
-                 "client: on, the next frame decodes while the device renders this one; off, "
-                 "each render is waited for; auto, on with a GPU only")
-      ->check(CLI::IsMember({"auto", "on", "off"}));
-  app.add_option("--frames-ahead", plan.frames_ahead,
-                 "client: fused frames it asks the server for ahead of the one rendering; the "
-                 "server fuses only what a client asked for (0: every group, each client takes "
-                 "them all)")
-      ->check(CLI::Range(0, 8));
-  app.add_option(
-      "--scene", plan.scene,
-      "named synthetic scene (its camera count unless --pods): " + holofuse::scene::sceneNames());
-  app.add_option("--budget", plan.budget,
-                 "JSON of per-stage ms budgets for the client's report (flags violations)");
   app.add_flag("--quality", plan.quality,
                "judge every written frame against the synthetic scene's true image from the same "
                "view (PSNR, SSIM in the report); off by default: the client renders the truth "
@@ -317,10 +316,6 @@ int checkPlan(CLI::App& app, LoopPlan& plan) {
     std::fprintf(stderr, "--size %s\n", error.c_str());
     return 2;
   }
-  if (!holofuse::isViewName(plan.view)) {
-    std::fprintf(stderr, "--view '%s': expected orbit or pod:N\n", plan.view.c_str());
-    return 2;
-  }
   if (!plan.replay.empty() && plan.quality) {
     std::fprintf(stderr, "--quality needs a synthetic scene's truth; a --replay has none\n");
     return 2;
@@ -331,10 +326,6 @@ int checkPlan(CLI::App& app, LoopPlan& plan) {
                    synthetic);
       return 2;
     }
-  }
-  if (auto budget = holofuse::protocol::loadBudgetFlag(plan.budget); !budget.isOk()) {
-    std::fprintf(stderr, "%s\n", budget.status().message().c_str());
-    return 2;
   }
   if (!holofuse::capture::parseReplaySpeed(plan.speed, plan.speed_factor)) {
     std::fprintf(stderr, "--speed '%s': expected a factor in (0, 1000] or max\n",
@@ -368,15 +359,9 @@ int checkPlan(CLI::App& app, LoopPlan& plan) {
   if (!plan.replay.empty()) {
     if (const int code = readReplay(app, plan); code != 0) return code;
   }
-  plan.preset = holofuse::scene::findScene(plan.scene);
-  if (plan.preset == nullptr) {
-    std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", plan.scene.c_str(),
-                 holofuse::scene::sceneNames().c_str());
-    return 2;
-  }
   // (A rig's pods are its file's.)
   if (app.count("--scene") && !app.count("--pods") && plan.replay.empty() && !plan.rig)
-    plan.pods = plan.preset->cameras;
+    plan.pods = plan.scene.preset().cameras;
   if (plan.bin_dir.empty())
     plan.bin_dir = std::filesystem::canonical("/proc/self/exe").parent_path().string();
   return 0;
@@ -389,12 +374,12 @@ int checkPlan(CLI::App& app, LoopPlan& plan) {
 std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
   CLI::App app{"holofuse loop: pods -> fusion server -> render client on localhost"};
   addRunOptions(app, plan);
-  std::optional<uint64_t> seed;
-  std::optional<double> noise;
-  app.add_option("--seed", seed,
-                 "synthetic pods' scene seed (their motion, texture and calibration error)");
-  app.add_option("--noise", noise, holofuse::scene::kNoiseHelp)
-      ->check(CLI::Range(0.0, holofuse::scene::kMaxNoise));
+  // The pods' scene and the client's run, from their own tables.
+  auto scene_settings = holofuse::scene::sceneFlags();
+  scene_settings.front().help += " (its camera count unless --pods)";
+  const holofuse::SettingFlags<holofuse::scene::SceneChoice> scene_flags(app, scene_settings);
+  const holofuse::SettingFlags<holofuse::render::ClientRunSettings> client_flags(
+      app, holofuse::render::clientRunFlags());
   // Each process's settings, with its help and range, so that the launcher
   // refuses what the process would.
   std::vector<holofuse::Setting<holofuse::eval::LoopSettings>> settings =
@@ -411,13 +396,13 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   setting_flags.apply(plan.settings);
+  scene_flags.apply(plan.scene);
+  client_flags.apply(plan.client);
   for (const CLI::Option* option : app.get_options())
     if (option->count() > 0) plan.given.push_back(option->get_name());
   if (!plan.rig_file.empty()) {
     if (const int code = readRig(plan); code != 0) return code;
   }
-  if (seed) plan.seed = std::to_string(*seed);
-  if (noise) plan.noise = holofuse::formatNumber(*noise);
   if (const int code = checkPlan(app, plan); code != 0) return code;
   return std::nullopt;
 }
@@ -469,12 +454,10 @@ std::vector<std::string> podCommand(const LoopPlan& plan, int pod, const std::st
   const auto part = podPart(plan, pod);
   if (plan.rig) append(args, {"--rig", plan.rig_file});
   for (const auto& [flag, value] : {std::pair<std::string, std::string>{"--size", plan.size},
-                                    {"--fps", std::to_string(plan.fps)},
-                                    {"--scene", plan.scene},
-                                    {"--seed", plan.seed},
-                                    {"--noise", plan.noise}}) {
-    if (!value.empty() && passes(plan, part, flag)) append(args, {flag, value});
+                                    {"--fps", std::to_string(plan.fps)}}) {
+    if (passes(plan, part, flag)) append(args, {flag, value});
   }
+  appendSettings(args, plan, part, holofuse::scene::sceneFlags(), plan.scene);
   append(args, holofuse::eval::podArguments(plan.settings));
   appendGivenDefaults(args, plan, holofuse::podEncodingFlags(), plan.settings.pods);
   return args;
@@ -501,27 +484,21 @@ std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& 
                                    std::to_string(frames)};
   if (plan.rig) append(args, {"--rig", plan.rig_file, "--client-id", std::to_string(id)});
   const auto part = clientPart(plan, index);
-  for (const auto& [flag, value] : {std::pair<std::string, std::string>{"--size", plan.size},
-                                    {"--mode", plan.mode},
-                                    {"--view", plan.view},
-                                    {"--overlap-render", plan.overlap_render},
-                                    {"--frames-ahead", plan.frames_ahead}}) {
-    if (passes(plan, part, flag)) append(args, {flag, value});
-  }
-  if (plan.replay.empty() && plan.preset->view_jump_degrees != 0) {
+  if (passes(plan, part, "--size")) append(args, {"--size", plan.size});
+  appendSettings(args, plan, part, holofuse::render::clientRunFlags(), plan.client);
+  const double jump = plan.scene.preset().view_jump_degrees;
+  if (plan.replay.empty() && jump != 0) {
     // The scene's jump is the user's view's.
-    append(args, {"--jump-degrees", std::to_string(plan.preset->view_jump_degrees)});
+    append(args, {"--jump-degrees", std::to_string(jump)});
   }
   if (plan.quality) {  // the judge knows the truth the pods film; the client does not
-    std::vector<std::string> judge = {plan.bin_dir + "/holofuse_judge", "--scene", plan.scene,
-                                      "--fps", std::to_string(plan.fps)};
-    if (!plan.seed.empty()) append(judge, {"--seed", plan.seed});
-    if (!plan.noise.empty()) append(judge, {"--noise", plan.noise});
+    std::vector<std::string> judge = {plan.bin_dir + "/holofuse_judge", "--fps",
+                                      std::to_string(plan.fps)};
+    appendSettings(judge, plan, {}, holofuse::scene::sceneFlags(), plan.scene);
     append(args, {"--judge", shellCommand(judge)});
   }
   append(args, holofuse::eval::clientArguments(plan.settings));
   appendGivenDefaults(args, plan, holofuse::render::renderFlags(), plan.settings.render);
-  if (!plan.budget.empty()) append(args, {"--budget", plan.budget});
   if (replayEnds(plan)) args.push_back("--exit-when-server-leaves");
   return args;
 }

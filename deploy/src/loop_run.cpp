@@ -244,8 +244,9 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes) {
   char settings[256];
   std::snprintf(settings, sizeof(settings),
                 "%d pods at %s and %.1f fps, %d clients in mode %s, %g minutes sampled every %g s",
-                plan.pods, plan.size.c_str(), plan.fps, plan.clients, plan.mode.c_str(),
-                plan.soak_minutes, plan.sample_seconds);
+                plan.pods, plan.size.c_str(), plan.fps, plan.clients,
+                holofuse::render::blendModeName(plan.client.mode).c_str(), plan.soak_minutes,
+                plan.sample_seconds);
   report.settings = settings;
   report.warmup_minutes = plan.warmup_minutes;
   Watch watch;
@@ -359,7 +360,7 @@ int runLoop(LoopPlan& plan) {
     }
   }
   const std::string source = plan.replay.empty()
-                                 ? "scene " + plan.scene
+                                 ? "scene " + plan.scene.name
                                  : "replay of " + plan.replay + " at speed " + plan.speed;
   std::printf("[loop] server on %s, %s, %d pods at %s, %.1f fps; writing %s\n", endpoint.c_str(),
               source.c_str(), plan.pods, plan.size.c_str(), plan.fps, plan.out.c_str());

@@ -41,33 +41,22 @@ render::JudgeAnswer judgeFrame(const scene::SyntheticScene& scene,
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string scene_name;
   double fps = capture::PodOptions{}.fps;
-  std::optional<uint64_t> seed;
-  std::optional<double> noise;
   CLI::App app{
       "holofuse judge: judges the client's frames against the synthetic scene the pods film "
       "(requests on stdin, answers on stdout, a line of JSON each)"};
-  app.add_option("--scene", scene_name, "the pods' --scene: " + scene::sceneNames())->required();
   app.add_option("--fps", fps, "the pods' --fps (their frame ids' clock)")
       ->check(CLI::Range(0.1, 240.0));
-  // The pods' own flags of the same names change what they render; the
-  // truth must change with them.
-  app.add_option("--seed", seed, "the pods' --seed (their motion and texture)");
-  app.add_option("--noise", noise, "the pods' --noise, grey levels")
-      ->check(CLI::Range(0.0, scene::kMaxNoise));
+  // The pods' scene flags, from the pods' own table: the truth must be
+  // what they render.
+  const SettingFlags<scene::SceneChoice> scene_flags(app, scene::sceneFlags());
+  scene_flags.option("--scene")->required();
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
-  const scene::ScenePreset* preset = scene::findScene(scene_name);
-  if (preset == nullptr) {
-    std::fprintf(stderr, "--scene '%s': unknown; valid scenes: %s\n", scene_name.c_str(),
-                 scene::sceneNames().c_str());
-    return 2;
-  }
+  scene::SceneChoice choice;
+  scene_flags.apply(choice);
   // The scene as the pods render it (capture_node --scene).
-  scene::SceneOptions scene_options = preset->scene;
+  scene::SceneOptions scene_options = choice.options();
   scene_options.frames_per_second = fps;  // as capture_node sets it from its --fps
-  if (seed) scene_options.seed = *seed;
-  if (noise) scene_options.noise_amplitude = *noise;
   const scene::SyntheticScene scene(scene_options);
   std::string line;
   while (std::getline(std::cin, line)) {

@@ -9,6 +9,7 @@
 #include "eval/knobs.h"
 #include "eval/leave_one_out.h"
 #include "protocol/messages.h"
+#include "render_client/render_settings.h"
 
 int main(int argc, char** argv) {
   using namespace holofuse;
@@ -55,13 +56,15 @@ int main(int argc, char** argv) {
   app.add_option("--geometry", options.geometry,
                  "hull (the server's visual hull) or truth (the true surface)")
       ->check(CLI::IsMember({"hull", "truth"}));
-  app.add_option("--device", options.device, "Vulkan device: index or part of its name");
-  std::string budget_file;
-  app.add_option(
-      "--budget", budget_file,
-      "JSON of per-stage ms budgets (" + eval::budgetedStagesText() + " are checked at p95)");
+  // The client's --device and --budget, from its table.
+  auto client_settings = pickSettings(render::clientRunFlags(), {"--device", "--budget"});
+  client_settings.back().help += "; here the p95 of " + eval::budgetedStagesText();
+  const SettingFlags<render::ClientRunSettings> client_flags(app, client_settings);
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
-  auto loaded_budget = protocol::loadBudgetFlag(budget_file);
+  render::ClientRunSettings client;
+  client_flags.apply(client);
+  options.device = client.device;
+  auto loaded_budget = protocol::loadBudgetFlag(client.budget);
   if (!loaded_budget.isOk()) {
     std::fprintf(stderr, "%s\n", loaded_budget.status().message().c_str());
     return 2;

@@ -8,6 +8,7 @@
 #include "config/command_line.h"
 #include "eval/sweep.h"
 #include "protocol/messages.h"
+#include "render_client/render_settings.h"
 
 int main(int argc, char** argv) {
   using namespace holofuse;
@@ -36,7 +37,10 @@ int main(int argc, char** argv) {
   app.add_option("--out", options.out_dir,
                  "output folder (points/, sweep.json, sweep.md, sweep.html)")
       ->required();
-  app.add_option("--device", options.base.device, "Vulkan device: index or part of its name");
+  // The client's --device and --budget, from its table.
+  auto client_settings = pickSettings(render::clientRunFlags(), {"--device", "--budget"});
+  client_settings.back().help += "; here the p95 of " + eval::budgetedStagesText();
+  const SettingFlags<render::ClientRunSettings> client_flags(app, client_settings);
   std::vector<std::string> set_texts;
   app.add_option("--set", set_texts,
                  "NAME=VALUE (repeatable): move the sweep's base (the defaults every point starts "
@@ -47,12 +51,11 @@ int main(int argc, char** argv) {
                  "frames and "
                  "judge its end-to-end latency too (0: no live runs)")
       ->check(CLI::Range(0, 100000));
-  std::string budget_file;
-  app.add_option("--budget", budget_file,
-                 "JSON of per-stage ms budgets; each point's p95 of " + eval::budgetedStagesText() +
-                     " is checked and the points over are flagged");
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
-  auto loaded_budget = protocol::loadBudgetFlag(budget_file);
+  render::ClientRunSettings client;
+  client_flags.apply(client);
+  options.base.device = client.device;
+  auto loaded_budget = protocol::loadBudgetFlag(client.budget);
   if (!loaded_budget.isOk()) {
     std::fprintf(stderr, "%s\n", loaded_budget.status().message().c_str());
     return 2;

@@ -70,8 +70,8 @@ std::optional<Camera> userCamera(const ClientOptions& options,
   auto fovX = [](const Camera& cam) {
     return 2.0 * std::atan(0.5 * cam.width / cam.fx) * 180.0 / std::numbers::pi;
   };
-  if (options.view.rfind("pod:", 0) == 0) {
-    const uint32_t id = static_cast<uint32_t>(std::stoul(options.view.substr(4)));
+  if (options.run.view.rfind("pod:", 0) == 0) {
+    const uint32_t id = static_cast<uint32_t>(std::stoul(options.run.view.substr(4)));
     auto it = cameras.find(id);
     if (it == cameras.end()) return std::nullopt;
     Camera pod = it->second;

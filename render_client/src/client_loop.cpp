@@ -56,8 +56,8 @@ void endFanout(std::vector<protocol::StageStamp>& stamps, uint64_t receive_ns) {
 // --overlap-render: auto overlaps on a GPU only; a CPU device renders on
 // the cores the next frame's decode would take.
 bool overlapsRender(const ClientOptions& options, const VulkanContext& context) {
-  return options.overlap_render == "on" ||
-         (options.overlap_render == "auto" && !context.cpuDevice());
+  return options.run.overlap_render == "on" ||
+         (options.run.overlap_render == "auto" && !context.cpuDevice());
 }
 
 // A mesh with its bundle, decoded, checked and on the GPU, ready to render.
@@ -192,7 +192,7 @@ class ClientLoop {
     // with the sweep point it was meant to reproduce.
     std::map<std::string, std::string> settings = {
         {"mode", blendModeName(options_.render.blend.mode)},
-        {"view", options_.view},
+        {"view", options_.run.view},
         {"size", std::to_string(options_.width) + "x" + std::to_string(options_.height)},
         {"device", context_.deviceName()}};
     // Every rendering setting under its flag's name ("--vote-delta": vote_delta).
@@ -380,7 +380,7 @@ class ClientLoop {
     ready.uploaded_ns = now();
     auto user = userCamera(options_, cameras_, meshBounds(*mesh), report_.framesRendered());
     if (!user) {
-      skip(id, "view '" + options_.view + "' names no calibrated camera");
+      skip(id, "view '" + options_.run.view + "' names no calibrated camera");
       bundles_.erase(ready.bundle);
       return std::nullopt;
     }
@@ -555,7 +555,7 @@ int runClient(const ClientOptions& options) {
   std::unique_ptr<VulkanContext> context;
   std::unique_ptr<Renderer> renderer;
   try {
-    context = std::make_unique<VulkanContext>(options.device);
+    context = std::make_unique<VulkanContext>(options.run.device);
     renderer = std::make_unique<Renderer>(*context, options.width, options.height);
     renderer->setHalfPrecisionVertices(options.render.half_precision_vertices);
     renderer->warmUp(options.render.blend);
@@ -594,7 +594,7 @@ int runClient(const ClientOptions& options) {
   link_options.log_name = "client";
   link_options.key = options.key;
   link_options.limits.max_queued_droppable = 16;
-  link_options.frames_ahead = options.frames_ahead;
+  link_options.frames_ahead = options.run.frames_ahead;
   protocol::ServerLink link(options.server, hello, link_options);
 
   ClientLoop loop(options, *context, *renderer, std::move(judge), link.clock());

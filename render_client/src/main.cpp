@@ -10,7 +10,7 @@
 int main(int argc, char** argv) {
   using namespace holofuse;
   render::ClientOptions options;
-  std::string server, size = "320x240", mode = "normal";
+  std::string server, size = "320x240";
   bool list_devices = false;
   CLI::App app{"holofuse render_client: renders the fused stream to PNG frames"};
   app.add_option("--server", server, "fusion server HOST:PORT");
@@ -24,7 +24,6 @@ int main(int argc, char** argv) {
                  "from its first estimate, beyond the estimates' uncertainty")
       ->check(CLI::Range(0.001, 60000.0));
   app.add_option("--size", size, "output size WxH");
-  app.add_option("--view", options.view, "user camera: orbit, or pod:N to sit at pod camera N");
   app.add_option("--orbit-speed", options.orbit_degrees_per_frame,
                  "orbit degrees per rendered frame");
   app.add_option("--jump-degrees", options.jump_degrees,
@@ -32,27 +31,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(-360.0, 360.0));
   app.add_option("--jump-at", options.jump_at_frame,
                  "the rendered frame the jump happens at (default: half of --frames, else 30)");
-  app.add_option("--mode", mode, "blending mode")->check(CLI::IsMember(render::blendModeNames()));
+  const SettingFlags<render::ClientRunSettings> run_flags(app, render::clientRunFlags());
   const SettingFlags<render::RenderSettings> render_flags(app, render::renderFlags());
   app.add_option("--exclude-camera", options.exclude_camera,
                  "leave this pod camera out of the blend");
-  app.add_option("--device", options.device,
-                 "Vulkan device: index or part of its name (default: a GPU if any)");
   app.add_option("--client-id", options.client_id, "this client's id");
-  app.add_option("--overlap-render", options.overlap_render,
-                 "on: receive and decode the next frame while the device renders this one; "
-                 "off: wait for each render; auto: on with a GPU, off with a CPU device")
-      ->check(CLI::IsMember({"auto", "on", "off"}));
-  app.add_option("--frames-ahead", options.frames_ahead,
-                 "fused frames to ask the server for ahead of the one rendering (1.9); the "
-                 "server fuses only what a client asked for. 0: ask for none and take every "
-                 "frame it fuses. More than 2 where the link's round trip is long against a "
-                 "frame")
-      ->check(CLI::Range(0, 8));
   app.add_flag("--list-devices", list_devices, "print the Vulkan devices and exit");
-  std::string budget_file;
-  app.add_option("--budget", budget_file,
-                 "JSON of per-stage ms budgets (stage names of report.json, end_to_end)");
   app.add_option("--judge", options.judge_command,
                  "a shell command that starts a live judge (eval's holofuse_judge): each written "
                  "frame is judged against the truth from its view (PSNR, SSIM in report.json and "
@@ -75,7 +59,9 @@ int main(int argc, char** argv) {
   });
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
   options.mesh_limits_given = app.count("--max-mesh-vertices") + app.count("--max-mesh-faces") > 0;
+  run_flags.apply(options.run);
   render_flags.apply(options.render);
+  options.render.blend.mode = options.run.mode;
   const auto key = key_flags.load(protocol::Role::kClient, options.client_id);
   if (!key) return 2;
   options.key = *key;
@@ -100,16 +86,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "--size %s\n", error.c_str());
     return 2;
   }
-  auto loaded_budget = protocol::loadBudgetFlag(budget_file);
+  auto loaded_budget = protocol::loadBudgetFlag(options.run.budget);
   if (!loaded_budget.isOk()) {
     std::fprintf(stderr, "%s\n", loaded_budget.status().message().c_str());
     return 2;
   }
   options.budget = *loaded_budget;
-  if (!isViewName(options.view)) {
-    std::fprintf(stderr, "--view '%s': expected orbit or pod:N\n", options.view.c_str());
-    return 2;
-  }
   auto endpoint = protocol::parseEndpoint(server);
   if (!endpoint.isOk()) {
     std::fprintf(stderr, "--server: %s\n", endpoint.status().message().c_str());
@@ -130,7 +112,6 @@ int main(int argc, char** argv) {
   }
   options.width = w;
   options.height = h;
-  options.render.blend.mode = *render::blendModeFromName(mode);
   installStopSignals();
   const FreeMemoryReturner free_memory;
   return render::runClient(options);

@@ -1,3 +1,4 @@
+#include "protocol/stage_budget.h"
 #include "render_client/render_settings.h"
 
 namespace holofuse::render {
@@ -54,6 +55,56 @@ const std::vector<Setting<RenderSettings>>& renderFlags() {
                       "holoportation and montage4d: also test each fragment against every pod's "
                       "depth map and mask and feather it (paper 004), on or off",
                       [](S& s) -> bool& { return s.blend.fragment_test; })};
+  return flags;
+}
+
+namespace {
+
+// "orbit", or "pod:N" with N a number: "" or what is wrong with view.
+std::string checkViewName(const std::string& view) {
+  const bool pod = view.rfind("pod:", 0) == 0 && view.size() > 4 &&
+                   view.find_first_not_of("0123456789", 4) == std::string::npos;
+  return view == "orbit" || pod ? "" : "'" + view + "': expected orbit or pod:N";
+}
+
+std::string checkBudgetFile(const std::string& path) {
+  if (path.empty()) return "";
+  const auto budget = protocol::loadBudget(path);
+  return budget.isOk() ? "" : budget.status().message();
+}
+
+}  // namespace
+
+const std::vector<Setting<ClientRunSettings>>& clientRunFlags() {
+  using S = ClientRunSettings;
+  static const std::vector<Setting<S>> flags = {
+      choiceSetting<S>(
+          "--mode", "blending mode", blendModeNames(),
+          [](S& s, const std::string& name) { s.mode = *blendModeFromName(name); },
+          [](const S& s) { return blendModeName(s.mode); }),
+      textSetting<S>(
+          "--view", "user camera: orbit, or pod:N to sit at pod camera N",
+          [](S& s) -> std::string& { return s.view; }, checkViewName),
+      numberSetting<S>("--frames-ahead",
+                       "fused frames to ask the server for ahead of the one rendering (1.9); the "
+                       "server fuses only what a client asked for. 0: ask for none and take "
+                       "every frame it fuses. More than 2 where the link's round trip is long "
+                       "against a frame",
+                       0, 8, [](S& s) -> uint32_t& { return s.frames_ahead; }),
+      choiceSetting<S>(
+          "--overlap-render",
+          "on: receive and decode the next frame while the device renders this one; off: wait "
+          "for each render; auto: on with a GPU, off with a CPU device",
+          {"auto", "on", "off"}, [](S& s, const std::string& text) { s.overlap_render = text; },
+          [](const S& s) { return s.overlap_render; }),
+      textSetting<S>("--device", "Vulkan device: index or part of its name (default: a GPU if any)",
+                     [](S& s) -> std::string& { return s.device; }),
+      textSetting<S>(
+          "--budget",
+          "JSON of per-stage ms budgets (stage names of report.json, end_to_end); "
+          "each stage's p95 over its budget is flagged in the reports",
+          [](S& s) -> std::string& { return s.budget; }, checkBudgetFile),
+  };
   return flags;
 }
 

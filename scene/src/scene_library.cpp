@@ -80,6 +80,41 @@ std::string sceneNames() {
   return names;
 }
 
+const ScenePreset& SceneChoice::preset() const {
+  const ScenePreset* found = findScene(name);
+  return found != nullptr ? *found : sceneLibrary().front();
+}
+
+SceneOptions SceneChoice::options() const {
+  SceneOptions scene = preset().scene;
+  if (seed) scene.seed = *seed;
+  if (noise) scene.noise_amplitude = *noise;
+  return scene;
+}
+
+const std::vector<Setting<SceneChoice>>& sceneFlags() {
+  using S = SceneChoice;
+  static const std::vector<Setting<S>> flags = [] {
+    std::vector<std::string> names;
+    for (const ScenePreset& preset : sceneLibrary()) names.push_back(preset.name);
+    return std::vector<Setting<S>>{
+        choiceSetting<S>(
+            "--scene", "named synthetic scene", names,
+            [](S& s, const std::string& name) { s.name = name; },
+            [](const S& s) { return s.name; }),
+        optionalNumberSetting<S>("--seed",
+                                 "synthetic pods' scene seed: their motion, texture and "
+                                 "calibration error (default: the scene's)",
+                                 0, 18446744073709551615.0,
+                                 [](S& s) -> std::optional<uint64_t>& { return s.seed; }),
+        optionalNumberSetting<S>(
+            "--noise", "synthetic pods' sensor noise, grey levels (default: the scene's)", 0,
+            kMaxNoise, [](S& s) -> std::optional<double>& { return s.noise; }),
+    };
+  }();
+  return flags;
+}
+
 Camera reportedCalibration(const Camera& truth, double degrees, double metres, uint64_t seed) {
   if (degrees == 0.0 && metres == 0.0) return truth;
   const uint64_t key = (seed * 7919 + truth.id) * 4;

@@ -259,7 +259,7 @@ TEST(UserCamera, AViewpointJumpTurnsTheViewAroundTheRingAtItsFrame) {
   ClientOptions options;
   options.width = 64;
   options.height = 48;
-  options.view = "pod:0";
+  options.run.view = "pod:0";
   options.jump_degrees = 90;
   options.jump_at_frame = 5;
   const Camera before = *userCamera(options, pods, bounds, 4);
@@ -284,7 +284,7 @@ TEST(UserCamera, AViewpointJumpTurnsTheViewAroundTheRingAtItsFrame) {
   EXPECT_EQ(after.cx, pods[0].cx);
   EXPECT_EQ(after.cy, pods[0].cy);
   // The orbit jumps too, by the same angle on top of its own motion.
-  options.view = "orbit";
+  options.run.view = "orbit";
   options.orbit_degrees_per_frame = 2;
   auto turnBetween = [&](size_t a, size_t b) {
     const glm::dvec3 oa = userCamera(options, pods, bounds, a)->center() - centre;

@@ -193,6 +193,12 @@ class SettingFlags {
     }
     return false;
   }
+  CLI::Option* option(const std::string& flag) const {
+    for (const auto& g : given_) {
+      if (g->setting.flag == flag) return g->option;
+    }
+    return nullptr;
+  }
   std::vector<CLI::Option*> options() const {
     std::vector<CLI::Option*> all;
     for (const auto& g : given_) all.push_back(g->option);
@@ -231,12 +237,6 @@ inline std::string parseImageSize(const std::string& text, unsigned& width, unsi
   width = w;
   height = h;
   return "";
-}
-
-// The render client's user camera: "orbit", or "pod:N" to sit at pod N.
-inline bool isViewName(const std::string& view) {
-  return view == "orbit" || (view.rfind("pod:", 0) == 0 && view.size() > 4 &&
-                             view.find_first_not_of("0123456789", 4) == std::string::npos);
 }
 
 // A pod's or client's --key-file and --no-auth (SECURITY.md).

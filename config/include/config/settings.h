@@ -9,7 +9,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -29,6 +31,9 @@ struct Setting {
 
 // "" and out set, or what is wrong: text is not a number in [min, max].
 std::string parseNumberIn(const std::string& text, double min, double max, double& out);
+// The same for a whole number: out set only when text is one, digits
+// only, so that no 64-bit value is rounded through a double.
+std::string parseNumberIn(const std::string& text, double min, double max, uint64_t& out);
 // The shortest text that reads back as v; a value held as a float reads
 // back as that float, so 0.15f is "0.15", not "0.150000006".
 std::string formatNumber(double v);
@@ -51,6 +56,49 @@ Setting<S> numberSetting(std::string flag, std::string help, double min, double 
   setting.get = [=](const S& settings) {
     return formatNumber(static_cast<double>(field(const_cast<S&>(settings))) * scale);
   };
+  return setting;
+}
+
+// A number setting whose field is a std::optional: unset until given, so
+// that a process reading the flag keeps a default of its own (a scene's
+// seed) and settingArguments passes only what was given. Whole numbers are
+// read as such, so that a 64-bit seed keeps every digit.
+template <typename S, typename Field>
+Setting<S> optionalNumberSetting(std::string flag, std::string help, double min, double max,
+                                 Field field) {
+  using T = typename std::remove_reference_t<std::invoke_result_t<Field, S&>>::value_type;
+  Setting<S> setting{std::move(flag), std::move(help), min, max, {}, {}, {}};
+  setting.set = [=](S& settings, const std::string& text) -> std::string {
+    T v{};
+    if (std::string error = parseNumberIn(text, min, max, v); !error.empty()) return error;
+    field(settings) = v;
+    return "";
+  };
+  setting.get = [=](const S& settings) {
+    const auto& value = field(const_cast<S&>(settings));
+    if (!value) return std::string();
+    if constexpr (std::is_integral_v<T>) {
+      return std::to_string(*value);
+    } else {
+      return formatNumber(*value);
+    }
+  };
+  return setting;
+}
+
+// A text setting: check(text) is "" or what is wrong with the text.
+template <typename S, typename Field>
+Setting<S> textSetting(std::string flag, std::string help, Field field,
+                       std::function<std::string(const std::string&)> check = {}) {
+  Setting<S> setting{std::move(flag), std::move(help), 0, 0, {}, {}, {}};
+  setting.set = [=](S& settings, const std::string& text) -> std::string {
+    if (check) {
+      if (std::string error = check(text); !error.empty()) return error;
+    }
+    field(settings) = text;
+    return "";
+  };
+  setting.get = [=](const S& settings) { return field(const_cast<S&>(settings)); };
   return setting;
 }
 
@@ -102,6 +150,20 @@ template <typename Outer, typename Inner, typename Part>
 void embedSettings(std::vector<Setting<Outer>>& into, const std::vector<Setting<Inner>>& table,
                    Part part) {
   for (const Setting<Inner>& inner : table) into.push_back(embedSetting<Outer>(inner, part));
+}
+
+// The settings of table named by flags, in flags' order: a program that
+// takes some of another's flags binds them from the owner's table.
+template <typename S>
+std::vector<Setting<S>> pickSettings(const std::vector<Setting<S>>& table,
+                                     const std::vector<std::string>& flags) {
+  std::vector<Setting<S>> picked;
+  for (const std::string& flag : flags) {
+    for (const Setting<S>& setting : table) {
+      if (setting.flag == flag) picked.push_back(setting);
+    }
+  }
+  return picked;
 }
 
 template <typename S>

@@ -9,6 +9,7 @@
 
 #include "config/rig_file.h"
 #include "eval/loop_settings.h"
+#include "render_client/render_settings.h"
 #include "scene/scene_library.h"
 
 namespace holofuse::deploy {
@@ -23,12 +24,12 @@ struct LoopPlan {
   // What a 2-core machine's client sustains in mode normal (measured by
   // `./holofuse bench loop`); a slower mode renders the newest mesh it can.
   double fps = 15.0;
-  std::string size = "320x240", out = "out/demo", bin_dir, mode = "normal", view = "orbit",
-              scene = "clean";
-  std::string overlap_render = "auto";
-  std::string frames_ahead = "2";
-  std::string seed, noise;  // passed on only when given: the pods keep the scene's otherwise
-  std::string budget;
+  std::string size = "320x240", out = "out/demo", bin_dir;
+  // The pods' scene (to the pods and the judge) and each client's run
+  // settings, bound from the pods' and the client's own flag tables and
+  // forwarded through them.
+  scene::SceneChoice scene;
+  render::ClientRunSettings client;
   bool quality = false;
   std::string record, replay, speed = "1";
   bool record_fused = false, loop = false;
@@ -41,7 +42,6 @@ struct LoopPlan {
   // the end): the loop is authenticated like a rig, no other process can
   // join it, and no pod can be another.
   std::string key_dir;
-  const scene::ScenePreset* preset = nullptr;
   // A rig on this machine (--netns): a namespace per process, each link
   // impaired by a relay; the server then listens on its namespace's
   // address instead of loopback.

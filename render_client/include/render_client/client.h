@@ -36,8 +36,7 @@ struct ClientOptions {
   // estimate against the server's, beyond the estimates' uncertainty.
   double clock_drift_warn_ms = 1.0;
   uint8_t max_minor = protocol::kVersionMinor;  // the newest protocol offered (--protocol)
-  uint64_t frames = 0;         // stop after this many rendered frames; 0 = until signalled
-  std::string view = "orbit";  // "orbit" or "pod:N"
+  uint64_t frames = 0;  // stop after this many rendered frames; 0 = until signalled
   double orbit_degrees_per_frame = 2.0;
   // A viewpoint jump (the viewpoint-jump scene): from rendered frame
   // jump_at_frame on, the user camera is turned this many degrees around
@@ -45,17 +44,9 @@ struct ClientOptions {
   double jump_degrees = 0;
   uint64_t jump_at_frame = 0;
   uint32_t width = 320, height = 240;
-  std::string device;  // Vulkan device selector (VulkanContext)
-  // "on": the next frame is received and decoded while the device renders
-  // this one; "off": each render is waited for; "auto": on a GPU only (a
-  // CPU device renders on the cores the decode would take).
-  std::string overlap_render = "auto";
-  // Fused frames asked for ahead of the one rendering (protocol 1.9
-  // FrameRequest; a server fuses no group no client asked for). 0: ask for
-  // none, take every frame the server fuses. 2, not 1: asked for one at a
-  // time, a mesh is fused from a group held since the client's last ask
-  // (up to a pod interval old) and then waits for the render in hand.
-  uint32_t frames_ahead = 2;
+  // The view, frames ahead, overlap, device and budget file its flags
+  // gave; their mode is render.blend.mode's, which the renderer reads.
+  ClientRunSettings run;
   RenderSettings render;    // render.blend.mode: the blending mode
   int exclude_camera = -1;  // leave this camera out of the blend
   bool write_frames = true;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <glm/glm.hpp>
+#include <string>
 #include <vector>
 
 #include "config/settings.h"
@@ -99,5 +100,29 @@ struct RenderSettings {
 // launcher take the same. The mode is not among them: eval and the sweep
 // run several.
 const std::vector<Setting<RenderSettings>>& renderFlags();
+
+// How a client session runs, beside how it renders: the mode it blends
+// with, where the user's camera sits, how far ahead it asks for frames,
+// whether decoding overlaps the render, the Vulkan device and the stage
+// budget. The client, the launcher (which forwards them), eval and the
+// sweep (--device, --budget) all bind them from clientRunFlags().
+struct ClientRunSettings {
+  BlendMode mode = BlendMode::kNormal;
+  std::string view = "orbit";  // "orbit", or "pod:N" to sit at pod camera N
+  // Fused frames asked for ahead of the one rendering (protocol 1.9
+  // FrameRequest; a server fuses no group no client asked for). 0: ask for
+  // none, take every frame the server fuses. 2, not 1: asked for one at a
+  // time, a mesh is fused from a group held since the client's last ask
+  // (up to a pod interval old) and then waits for the render in hand.
+  uint32_t frames_ahead = 2;
+  // "on": the next frame is received and decoded while the device renders
+  // this one; "off": each render is waited for; "auto": on a GPU only (a
+  // CPU device renders on the cores the decode would take).
+  std::string overlap_render = "auto";
+  std::string device;  // Vulkan device selector (VulkanContext); "": a GPU if any
+  std::string budget;  // a JSON file of per-stage ms budgets; "": none
+};
+
+const std::vector<Setting<ClientRunSettings>>& clientRunFlags();
 
 }  // namespace holofuse::render

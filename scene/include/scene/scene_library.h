@@ -3,9 +3,12 @@
 // them by name; everything stays deterministic and keeps its ground truth.
 #pragma once
 
+#include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "config/settings.h"
 #include "geometry/camera.h"
 #include "scene/synthetic_scene.h"
 
@@ -28,6 +31,22 @@ const std::vector<ScenePreset>& sceneLibrary();
 // nullptr when unknown; sceneNames() lists the valid ones for the message.
 const ScenePreset* findScene(const std::string& name);
 std::string sceneNames();
+
+// Which synthetic scene the pods film: a preset by name, with its seed and
+// noise replaced where given. The pods, the launcher (which forwards it)
+// and the live judge (which must render what the pods render) bind it
+// from sceneFlags().
+struct SceneChoice {
+  std::string name = "clean";
+  std::optional<uint64_t> seed;  // the preset's unless given
+  std::optional<double> noise;   // grey levels; the preset's unless given
+  // The named preset (one of sceneLibrary(): the flag takes no other).
+  const ScenePreset& preset() const;
+  // The preset's scene with the given seed and noise.
+  SceneOptions options() const;
+};
+
+const std::vector<Setting<SceneChoice>>& sceneFlags();
 
 // The calibration a pod reports for its true camera: the truth turned by
 // `degrees` about an axis and moved by `metres` in a direction, both drawn

@@ -18,10 +18,8 @@
 
 namespace holofuse::scene {
 
-// The --noise flag of the pods, the judge and the launcher.
+// The most sensor noise a scene takes (--noise, scene::sceneFlags()).
 inline constexpr double kMaxNoise = 64;
-inline constexpr const char* kNoiseHelp =
-    "synthetic pods' sensor noise, grey levels (default: the scene's)";
 
 struct SceneOptions {
   uint64_t seed = 1;
