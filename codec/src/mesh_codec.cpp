@@ -8,7 +8,10 @@
 #include <cmath>
 #include <map>
 #include <numeric>
+#include <span>
 #include <string>
+
+#include "protocol/wire.h"
 
 namespace holofuse {
 
@@ -40,59 +43,24 @@ int addVertexAttribute(draco::Mesh& dm, draco::GeometryAttribute::Type type, int
   return id;
 }
 
-// A reader over the Draco bitstream's first bytes, failing (not reading
-// past the end) on a short buffer.
-class DracoHeaderReader {
- public:
-  DracoHeaderReader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
-  bool byte(uint8_t& out) {
-    if (at_ >= size_) return false;
-    out = data_[at_++];
-    return true;
+// One metadata element and its sub-elements (Draco bitstream
+// specification 4.4-4.6), passed over.
+void skipMetadataElement(protocol::WireReader& in, int depth) {
+  if (depth > 32) {
+    in.failValue("a metadata element", StatusCode::kMalformed, "nested more than 32 deep");
+    return;
   }
-  bool skip(size_t n) {
-    if (size_ - at_ < n) return false;
-    at_ += n;
-    return true;
+  const uint32_t entries = in.varint32("a metadata entry count");
+  for (uint32_t i = 0; i < entries && in.ok(); ++i) {
+    in.raw("a metadata key", in.u8("a metadata key's length"));
+    in.raw("a metadata value", in.u8("a metadata value's length"));
   }
-  // LEB128, at most 5 bytes for 32 bits (the spec's varUI32).
-  bool varint(uint32_t& out) {
-    uint64_t value = 0;
-    for (int shift = 0; shift < 35; shift += 7) {
-      uint8_t b = 0;
-      if (!byte(b)) return false;
-      value |= uint64_t{b & 0x7Fu} << shift;
-      if ((b & 0x80) == 0) {
-        if (value > UINT32_MAX) return false;
-        out = static_cast<uint32_t>(value);
-        return true;
-      }
-    }
-    return false;
+  const uint32_t subs = in.varint32("a sub-metadata count");
+  for (uint32_t i = 0; i < subs && in.ok(); ++i) {
+    in.raw("a sub-metadata key", in.u8("a sub-metadata key's length"));
+    skipMetadataElement(in, depth + 1);
   }
-  // One metadata element and its sub-elements (spec 4.4-4.6), skipped.
-  bool skipMetadataElement(int depth) {
-    if (depth > 32) return false;
-    uint32_t entries = 0;
-    if (!varint(entries)) return false;
-    for (uint32_t i = 0; i < entries; ++i) {
-      uint8_t n = 0;
-      if (!byte(n) || !skip(n) || !byte(n) || !skip(n)) return false;
-    }
-    uint32_t subs = 0;
-    if (!varint(subs)) return false;
-    for (uint32_t i = 0; i < subs; ++i) {
-      uint8_t n = 0;
-      if (!byte(n) || !skip(n) || !skipMetadataElement(depth + 1)) return false;
-    }
-    return true;
-  }
-
- private:
-  const uint8_t* data_;
-  size_t size_;
-  size_t at_ = 0;
-};
+}
 
 }  // namespace
 
@@ -100,44 +68,48 @@ StatusOr<DracoCounts> readDracoCounts(const uint8_t* data, size_t size) {
   // Draco bitstream specification 2.2: the header (section 3.2), optional
   // metadata (4) and the connectivity header (6.1 sequential, 7.1
   // edgebreaker), which states the counts the decoder allocates for.
-  DracoHeaderReader in(data, size);
-  const Status truncated(StatusCode::kMalformed, "draco mesh: header truncated");
-  uint8_t magic[5] = {};
-  for (uint8_t& b : magic)
-    if (!in.byte(b)) return truncated;
-  if (std::string(magic, magic + 5) != "DRACO")
+  protocol::WireReader in(std::span<const uint8_t>(data, size));
+  auto unreadable = [&in] {
+    const bool short_buffer = in.status().code() == StatusCode::kTruncated;
+    return Status(StatusCode::kMalformed, std::string("draco mesh: header ") +
+                                              (short_buffer ? "truncated" : "malformed") + " (" +
+                                              in.status().message() + ")");
+  };
+  const auto magic = in.raw("the DRACO signature", 5);
+  if (!in.ok()) return unreadable();
+  if (std::string(magic.begin(), magic.end()) != "DRACO")
     return Status(StatusCode::kMalformed, "draco mesh: no DRACO signature");
-  uint8_t major = 0, minor = 0, type = 0, method = 0, flags_lo = 0, flags_hi = 0;
-  if (!in.byte(major) || !in.byte(minor) || !in.byte(type) || !in.byte(method) ||
-      !in.byte(flags_lo) || !in.byte(flags_hi))
-    return truncated;
+  const uint8_t major = in.u8("the major version"), minor = in.u8("the minor version");
+  const uint8_t type = in.u8("the encoder type"), method = in.u8("the encoder method");
+  const uint16_t flags = in.u16("the flags");
+  if (!in.ok()) return unreadable();
   if (major != 2 || minor != 2) {
     return Status(StatusCode::kMalformed,
                   "draco mesh: bitstream " + std::to_string(major) + "." + std::to_string(minor) +
                       "; only 2.2 (what Draco 1.4 and later write) is read");
   }
   if (type != 1) return Status(StatusCode::kMalformed, "draco mesh: not a triangle mesh");
-  const uint16_t flags = static_cast<uint16_t>(flags_lo | (flags_hi << 8));
   if (flags & 0x8000) {
-    uint32_t attribute_metadata = 0;
-    if (!in.varint(attribute_metadata)) return truncated;
-    for (uint32_t i = 0; i < attribute_metadata; ++i) {
-      uint32_t id = 0;
-      if (!in.varint(id) || !in.skipMetadataElement(0)) return truncated;
+    const uint32_t attribute_metadata = in.varint32("the attribute metadata count");
+    for (uint32_t i = 0; i < attribute_metadata && in.ok(); ++i) {
+      in.varint32("an attribute metadata id");
+      skipMetadataElement(in, 0);
     }
-    if (!in.skipMetadataElement(0)) return truncated;
+    skipMetadataElement(in, 0);
   }
   DracoCounts counts;
   if (method == 0) {
-    if (!in.varint(counts.faces) || !in.varint(counts.vertices)) return truncated;
+    counts.faces = in.varint32("the face count");
+    counts.vertices = in.varint32("the vertex count");
   } else if (method == 1) {
-    uint8_t traversal = 0;
-    if (!in.byte(traversal) || !in.varint(counts.vertices) || !in.varint(counts.faces))
-      return truncated;
+    in.u8("the traversal decoder");
+    counts.vertices = in.varint32("the vertex count");
+    counts.faces = in.varint32("the face count");
   } else {
     return Status(StatusCode::kMalformed,
                   "draco mesh: unknown encoder method " + std::to_string(method));
   }
+  if (!in.ok()) return unreadable();
   return counts;
 }
 

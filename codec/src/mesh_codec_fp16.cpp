@@ -5,11 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <glm/gtc/packing.hpp>
 #include <string>
 
 #include "codec/mesh_codec.h"
+#include "protocol/wire.h"
 
 namespace holofuse {
 
@@ -35,20 +35,6 @@ uint64_t rawSize(uint8_t flags, uint64_t vertices, uint64_t faces) {
          ((flags & kKeys) ? vertices * 8 : 0) + faces * 12 + ((flags & kUvs) ? faces * 12 : 0);
 }
 
-template <typename T>
-void put(std::vector<uint8_t>& out, T value) {
-  const auto* bytes = reinterpret_cast<const uint8_t*>(&value);
-  out.insert(out.end(), bytes, bytes + sizeof(T));
-}
-
-template <typename T>
-T take(const uint8_t*& at) {
-  T value;
-  std::memcpy(&value, at, sizeof(T));
-  at += sizeof(T);
-  return value;
-}
-
 Status malformed(const std::string& what) {
   return Status(StatusCode::kMalformed, "fp16-lz4 mesh: " + what);
 }
@@ -59,21 +45,24 @@ StatusOr<Header> readHeader(const uint8_t* data, size_t size) {
                                               " bytes, shorter than its " +
                                               std::to_string(kHeaderBytes) + "-byte header");
   }
-  if (std::memcmp(data, kMagic, 4) != 0)
+  // Every read below lies inside the header's 32 bytes.
+  protocol::WireReader in(std::span<const uint8_t>(data, kHeaderBytes));
+  const auto magic = in.raw("the magic", 4);
+  if (!std::equal(magic.begin(), magic.end(), kMagic))
     return Status(StatusCode::kBadMagic, "fp16-lz4 mesh: no HF16 magic");
-  if (data[4] != kVersion) {
+  if (const uint8_t version = in.u8("the version"); version != kVersion) {
     return Status(StatusCode::kUnsupportedVersion,
-                  "fp16-lz4 mesh: version " + std::to_string(data[4]) + ", not 1");
+                  "fp16-lz4 mesh: version " + std::to_string(version) + ", not 1");
   }
   Header h;
-  h.flags = data[5];
+  h.flags = in.u8("the flags");
   if ((h.flags & ~(kNormals | kKeys | kUvs)) != 0)
     return malformed("unknown flags " + std::to_string(h.flags));
-  const uint8_t* at = data + 8;
-  h.vertices = take<uint32_t>(at);
-  h.faces = take<uint32_t>(at);
-  for (int k = 0; k < 3; ++k) h.centre[k] = take<float>(at);
-  h.raw_size = take<uint32_t>(at);
+  in.u16("the padding");
+  h.vertices = in.u32("the vertex count");
+  h.faces = in.u32("the face count");
+  for (int k = 0; k < 3; ++k) h.centre[k] = in.f32("the centre");
+  h.raw_size = in.u32("the raw size");
   if (!std::isfinite(h.centre.x) || !std::isfinite(h.centre.y) || !std::isfinite(h.centre.z))
     return malformed("its centre is not finite");
   return h;
@@ -130,28 +119,38 @@ StatusOr<std::vector<uint8_t>> encodeFp16Lz4(const Mesh& unordered) {
   const glm::vec3 centre = n > 0 ? 0.5f * (bounds.min + bounds.max) : glm::vec3(0.0f);
   std::vector<uint8_t> raw;
   raw.reserve(raw_size);
-  for (const glm::vec3& p : mesh.positions)
-    for (int k = 0; k < 3; ++k) put(raw, glm::packHalf1x16(p[k] - centre[k]));
-  if (normals)
-    for (const glm::vec3& v : mesh.normals)
-      for (int k = 0; k < 3; ++k) put(raw, glm::packHalf1x16(v[k]));
-  if (keys)
-    for (uint64_t key : mesh.vertex_keys) put(raw, key);
-  for (uint32_t index : mesh.indices) put(raw, index);
-  if (uvs)
-    for (const glm::vec2& uv : mesh.corner_uvs)
+  protocol::WireWriter body(raw);
+  std::vector<uint16_t> halves(3 * n);
+  for (size_t v = 0; v < n; ++v)
+    for (int k = 0; k < 3; ++k)
+      halves[3 * v + k] = glm::packHalf1x16(mesh.positions[v][k] - centre[k]);
+  body.array<uint16_t>(halves);
+  if (normals) {
+    for (size_t v = 0; v < n; ++v)
+      for (int k = 0; k < 3; ++k) halves[3 * v + k] = glm::packHalf1x16(mesh.normals[v][k]);
+    body.array<uint16_t>(halves);
+  }
+  if (keys) body.array<uint64_t>(mesh.vertex_keys);
+  body.array<uint32_t>(mesh.indices);
+  if (uvs) {
+    std::vector<uint16_t> coordinates(2 * mesh.corner_uvs.size());
+    for (size_t c = 0; c < mesh.corner_uvs.size(); ++c)
       for (int k = 0; k < 2; ++k)
-        put(raw, static_cast<uint16_t>(std::lround(std::clamp(uv[k], 0.0f, 1.0f) * 65535.0f)));
+        coordinates[2 * c + k] = static_cast<uint16_t>(
+            std::lround(std::clamp(mesh.corner_uvs[c][k], 0.0f, 1.0f) * 65535.0f));
+    body.array<uint16_t>(coordinates);
+  }
   std::vector<uint8_t> out;
   out.reserve(kHeaderBytes + LZ4_compressBound(static_cast<int>(raw.size())));
-  out.insert(out.end(), kMagic, kMagic + 4);
-  put(out, kVersion);
-  put(out, flags);
-  put(out, uint16_t{0});
-  put(out, static_cast<uint32_t>(n));
-  put(out, static_cast<uint32_t>(faces));
-  for (int k = 0; k < 3; ++k) put(out, centre[k]);
-  put(out, static_cast<uint32_t>(raw.size()));
+  protocol::WireWriter header(out);
+  header.raw(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(kMagic), 4));
+  header.u8(kVersion);
+  header.u8(flags);
+  header.u16(0);
+  header.u32(static_cast<uint32_t>(n));
+  header.u32(static_cast<uint32_t>(faces));
+  for (int k = 0; k < 3; ++k) header.f32(centre[k]);
+  header.u32(static_cast<uint32_t>(raw.size()));
   const size_t at = out.size();
   out.resize(at + LZ4_compressBound(static_cast<int>(raw.size())));
   const int packed = LZ4_compress_default(
@@ -201,11 +200,15 @@ StatusOr<Mesh> decodeFp16Lz4(const uint8_t* data, size_t size, const DracoLimits
                                      std::to_string(expected) + " raw bytes");
     }
   }
-  const uint8_t* at = raw.data();
+  // raw holds exactly what the counts make (LZ4 gave every byte), so no
+  // read below can fail; the cursor checks each anyway.
+  protocol::WireReader in(raw);
   Mesh mesh;
+  std::vector<uint16_t> halves(3 * static_cast<size_t>(h.vertices));
+  in.array<uint16_t>("the positions", halves);
   mesh.positions.resize(h.vertices);
   for (uint32_t v = 0; v < h.vertices; ++v) {
-    for (int k = 0; k < 3; ++k) mesh.positions[v][k] = glm::unpackHalf1x16(take<uint16_t>(at));
+    for (int k = 0; k < 3; ++k) mesh.positions[v][k] = glm::unpackHalf1x16(halves[3 * v + k]);
     if (!std::isfinite(mesh.positions[v].x) || !std::isfinite(mesh.positions[v].y) ||
         !std::isfinite(mesh.positions[v].z)) {
       return malformed("vertex " + std::to_string(v) + " is not finite");
@@ -213,30 +216,36 @@ StatusOr<Mesh> decodeFp16Lz4(const uint8_t* data, size_t size, const DracoLimits
     mesh.positions[v] += h.centre;
   }
   if (h.flags & kNormals) {
+    in.array<uint16_t>("the normals", halves);
     mesh.normals.resize(h.vertices);
-    for (glm::vec3& normal : mesh.normals) {
-      for (int k = 0; k < 3; ++k) normal[k] = glm::unpackHalf1x16(take<uint16_t>(at));
+    for (uint32_t v = 0; v < h.vertices; ++v) {
+      glm::vec3& normal = mesh.normals[v];
+      for (int k = 0; k < 3; ++k) normal[k] = glm::unpackHalf1x16(halves[3 * v + k]);
       const float length = glm::length(normal);
       normal = (std::isfinite(length) && length > 0) ? normal / length : glm::vec3(0.0f);
     }
   }
   if (h.flags & kKeys) {
     mesh.vertex_keys.resize(h.vertices);
-    for (uint64_t& key : mesh.vertex_keys) key = take<uint64_t>(at);
+    in.array<uint64_t>("the vertex keys", mesh.vertex_keys);
   }
   mesh.indices.resize(static_cast<size_t>(h.faces) * 3);
+  in.array<uint32_t>("the indices", mesh.indices);
   for (size_t i = 0; i < mesh.indices.size(); ++i) {
-    mesh.indices[i] = take<uint32_t>(at);
     if (mesh.indices[i] >= h.vertices) {
       return malformed("face " + std::to_string(i / 3) + " index " +
                        std::to_string(mesh.indices[i]) + " out of range");
     }
   }
   if (h.flags & kUvs) {
+    std::vector<uint16_t> coordinates(2 * mesh.indices.size());
+    in.array<uint16_t>("the corner coordinates", coordinates);
     mesh.corner_uvs.resize(mesh.indices.size());
-    for (glm::vec2& uv : mesh.corner_uvs)
-      for (int k = 0; k < 2; ++k) uv[k] = static_cast<float>(take<uint16_t>(at)) / 65535.0f;
+    for (size_t c = 0; c < mesh.corner_uvs.size(); ++c)
+      for (int k = 0; k < 2; ++k)
+        mesh.corner_uvs[c][k] = static_cast<float>(coordinates[2 * c + k]) / 65535.0f;
   }
+  if (!in.ok()) return malformed(in.status().message());
   if (!(h.flags & kNormals)) computeVertexNormals(mesh);
   return mesh;
 }

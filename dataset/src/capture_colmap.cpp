@@ -5,8 +5,11 @@
 #include <fstream>
 #include <glm/gtc/quaternion.hpp>
 #include <map>
+#include <memory>
+#include <span>
 
 #include "capture_parse.h"
+#include "protocol/wire.h"
 
 namespace holofuse::dataset {
 
@@ -143,76 +146,52 @@ StatusOr<ColmapModel> readColmapText(const fs::path& dir) {
   return model;
 }
 
-// Little-endian fields of a COLMAP binary file, each read checked against
-// the file's end so that a truncated file is named with the offset.
-class BinaryReader {
- public:
-  static StatusOr<BinaryReader> open(const fs::path& file) {
-    std::ifstream in(file, std::ios::binary);
-    if (!in) return Status(StatusCode::kIoError, file.string() + ": cannot open");
-    BinaryReader r;
-    r.file_ = file.string();
-    r.bytes_.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    return r;
+// A COLMAP binary file read through the wire's cursor (little-endian,
+// each read checked against the file's end); a short file is named with
+// the offset and the field it ends inside.
+struct ColmapBinaryFile {
+  std::string name;
+  protocol::Bytes bytes;
+  protocol::WireReader in{std::span<const uint8_t>()};
+
+  static StatusOr<std::unique_ptr<ColmapBinaryFile>> open(const fs::path& file) {
+    std::ifstream stream(file, std::ios::binary);
+    if (!stream) return Status(StatusCode::kIoError, file.string() + ": cannot open");
+    auto opened = std::make_unique<ColmapBinaryFile>();
+    opened->name = file.string();
+    opened->bytes.assign(std::istreambuf_iterator<char>(stream), std::istreambuf_iterator<char>());
+    opened->in = protocol::WireReader(opened->bytes);
+    return opened;
   }
-
-  template <typename T>
-  Status read(T& value, const char* what) {
-    if (bytes_.size() - offset_ < sizeof(T)) return truncated(what);
-    std::memcpy(&value, bytes_.data() + offset_, sizeof(T));
-    offset_ += sizeof(T);
-    return Status::ok();
+  std::string at() const { return name + " at byte " + std::to_string(in.offset()); }
+  Status truncated() const {
+    return malformed(name + " at byte " + std::to_string(in.failedOffset()),
+                     "the file ends inside " + in.failedField());
   }
-
-  Status readName(std::string& name) {
-    const size_t end = bytes_.find('\0', offset_);
-    if (end == std::string::npos) return truncated("an image name");
-    name = bytes_.substr(offset_, end - offset_);
-    offset_ = end + 1;
-    return Status::ok();
-  }
-
-  Status skip(uint64_t count, uint64_t size, const char* what) {
-    if (size != 0 && count > (bytes_.size() - offset_) / size) return truncated(what);
-    offset_ += static_cast<size_t>(count * size);
-    return Status::ok();
-  }
-
-  std::string at() const { return file_ + " at byte " + std::to_string(offset_); }
-  bool atEnd() const { return offset_ == bytes_.size(); }
-
- private:
-  Status truncated(const char* what) const {
-    return malformed(at(), std::string("the file ends inside ") + what);
-  }
-
-  std::string file_;
-  std::string bytes_;
-  size_t offset_ = 0;
 };
 
 StatusOr<ColmapModel> readColmapBinary(const fs::path& dir) {
   ColmapModel model;
   model.cameras_file = (dir / "cameras.bin").string();
-  auto cameras = BinaryReader::open(dir / "cameras.bin");
-  if (!cameras.isOk()) return cameras.status();
-  uint64_t camera_count = 0;
-  HOLOFUSE_RETURN_IF_ERROR(cameras->read(camera_count, "the camera count"));
-  for (uint64_t i = 0; i < camera_count; ++i) {
-    const std::string at = cameras->at();
-    int32_t id = 0, model_id = 0;
-    uint64_t width = 0, height = 0;
-    HOLOFUSE_RETURN_IF_ERROR(cameras->read(id, "a CAMERA_ID"));
-    HOLOFUSE_RETURN_IF_ERROR(cameras->read(model_id, "a camera model"));
-    HOLOFUSE_RETURN_IF_ERROR(cameras->read(width, "a width"));
-    HOLOFUSE_RETURN_IF_ERROR(cameras->read(height, "a height"));
+  auto opened_cameras = ColmapBinaryFile::open(dir / "cameras.bin");
+  if (!opened_cameras.isOk()) return opened_cameras.status();
+  ColmapBinaryFile& cameras = **opened_cameras;
+  const uint64_t camera_count = cameras.in.u64("the camera count");
+  for (uint64_t i = 0; i < camera_count && cameras.in.ok(); ++i) {
+    const std::string at = cameras.at();
+    const auto id = static_cast<int32_t>(cameras.in.u32("a CAMERA_ID"));
+    const auto model_id = static_cast<int32_t>(cameras.in.u32("a camera model"));
+    const uint64_t width = cameras.in.u64("a width");
+    const uint64_t height = cameras.in.u64("a height");
+    if (!cameras.in.ok()) break;
     if (model_id < 0 || static_cast<size_t>(model_id) >= std::size(kColmapModels)) {
       return malformed(at, "camera model id " + std::to_string(model_id) + " is not COLMAP's");
     }
     const ColmapModelNames& m = kColmapModels[model_id];
     std::vector<double> params(m.parameters);
-    for (double& p : params) {
-      HOLOFUSE_RETURN_IF_ERROR(cameras->read(p, "camera parameters"));
+    for (double& p : params) p = cameras.in.f64("camera parameters");
+    if (!cameras.in.ok()) break;
+    for (const double p : params) {
       if (!std::isfinite(p)) return malformed(at, "a camera parameter is not finite");
     }
     Camera c;
@@ -223,28 +202,29 @@ StatusOr<ColmapModel> readColmapBinary(const fs::path& dir) {
     if (model.intrinsics.count(key)) return malformed(at, "CAMERA_ID " + key + " is defined twice");
     model.intrinsics[key] = c;
   }
-  auto images = BinaryReader::open(dir / "images.bin");
-  if (!images.isOk()) return images.status();
-  uint64_t image_count = 0;
-  HOLOFUSE_RETURN_IF_ERROR(images->read(image_count, "the image count"));
-  for (uint64_t i = 0; i < image_count; ++i) {
+  if (!cameras.in.ok()) return cameras.truncated();
+  auto opened_images = ColmapBinaryFile::open(dir / "images.bin");
+  if (!opened_images.isOk()) return opened_images.status();
+  ColmapBinaryFile& images = **opened_images;
+  const uint64_t image_count = images.in.u64("the image count");
+  for (uint64_t i = 0; i < image_count && images.in.ok(); ++i) {
     ColmapImage image;
-    image.at = images->at();
-    int32_t image_id = 0, camera_id = 0;
-    uint64_t points = 0;
-    HOLOFUSE_RETURN_IF_ERROR(images->read(image_id, "an IMAGE_ID"));
-    for (double& v : image.pose) HOLOFUSE_RETURN_IF_ERROR(images->read(v, "a pose"));
-    HOLOFUSE_RETURN_IF_ERROR(images->read(camera_id, "a CAMERA_ID"));
-    HOLOFUSE_RETURN_IF_ERROR(images->readName(image.name));
-    HOLOFUSE_RETURN_IF_ERROR(images->read(points, "the 2D point count"));
-    HOLOFUSE_RETURN_IF_ERROR(images->skip(points, 24, "the 2D points"));  // x, y, POINT3D_ID
+    image.at = images.at();
+    images.in.u32("an IMAGE_ID");  // COLMAP's own numbering; images go by name
+    for (double& v : image.pose) v = images.in.f64("a pose");
+    const auto camera_id = static_cast<int32_t>(images.in.u32("a CAMERA_ID"));
+    image.name = images.in.cstr("an image name");
+    const uint64_t points = images.in.u64("the 2D point count");
+    images.in.skip("the 2D points", points, 24);  // x, y, POINT3D_ID
+    if (!images.in.ok()) break;
     for (double v : image.pose) {
       if (!std::isfinite(v)) return malformed(image.at, "the pose is not finite");
     }
     image.camera_id = std::to_string(camera_id);
     model.images.push_back(std::move(image));
   }
-  if (!images->atEnd()) return malformed(images->at(), "bytes after the last image");
+  if (!images.in.ok()) return images.truncated();
+  if (images.in.remaining() != 0) return malformed(images.at(), "bytes after the last image");
   return model;
 }
 

@@ -1,5 +1,6 @@
 #include "protocol/wire.h"
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 
@@ -26,11 +27,17 @@ void WireWriter::bytes32(std::span<const uint8_t> data) {
 bool WireReader::need(const char* field, size_t n) {
   if (!status_.isOk()) return false;
   if (n <= data_.size() - pos_) return true;
-  status_ = Status(StatusCode::kTruncated, "field '" + std::string(field) + "' at offset " +
-                                               std::to_string(base_offset_ + pos_) + " needs " +
-                                               std::to_string(n) + " bytes, " +
-                                               std::to_string(data_.size() - pos_) + " left");
+  fail(field, StatusCode::kTruncated,
+       "needs " + std::to_string(n) + " bytes, " + std::to_string(data_.size() - pos_) + " left");
   return false;
+}
+
+void WireReader::fail(const char* field, StatusCode code, const std::string& detail) {
+  failed_field_ = field;
+  failed_offset_ = base_offset_ + pos_;
+  status_ =
+      Status(code, "field '" + failed_field_ + "' at offset " + std::to_string(failed_offset_) +
+                       (code == StatusCode::kTruncated ? " " : ": ") + detail);
 }
 
 uint64_t WireReader::getLe(const char* field, int n) {
@@ -78,10 +85,51 @@ std::span<const uint8_t> WireReader::raw(const char* field, size_t n) {
   return view;
 }
 
+uint32_t WireReader::varint32(const char* field) {
+  const size_t start = pos_;
+  uint64_t value = 0;
+  for (int shift = 0; shift < 35; shift += 7) {
+    const uint8_t b = u8(field);
+    if (!ok()) return 0;
+    value |= uint64_t{b & 0x7Fu} << shift;
+    if ((b & 0x80) == 0) {
+      if (value <= UINT32_MAX) return static_cast<uint32_t>(value);
+      break;
+    }
+  }
+  pos_ = start;
+  failValue(field, StatusCode::kMalformed, "not a 32-bit LEB128 number");
+  return 0;
+}
+
+std::string WireReader::cstr(const char* field) {
+  if (!ok()) return {};
+  const auto rest = data_.subspan(pos_);
+  const auto end = std::find(rest.begin(), rest.end(), uint8_t{0});
+  if (end == rest.end()) {
+    fail(field, StatusCode::kTruncated,
+         "has no NUL in the " + std::to_string(rest.size()) + " bytes left");
+    return {};
+  }
+  std::string text(rest.begin(), end);
+  pos_ += text.size() + 1;
+  return text;
+}
+
+void WireReader::skip(const char* field, uint64_t count, uint64_t element_size) {
+  if (!ok()) return;
+  if (element_size != 0 && count > remaining() / element_size) {
+    fail(field, StatusCode::kTruncated,
+         "needs " + std::to_string(count) + " x " + std::to_string(element_size) + " bytes, " +
+             std::to_string(remaining()) + " left");
+    return;
+  }
+  pos_ += static_cast<size_t>(count * element_size);
+}
+
 void WireReader::failValue(const char* field, StatusCode code, const std::string& detail) {
   if (!status_.isOk()) return;
-  status_ = Status(code, "field '" + std::string(field) + "' at offset " +
-                             std::to_string(base_offset_ + pos_) + ": " + detail);
+  fail(field, code, detail);
 }
 
 }  // namespace holofuse::protocol
