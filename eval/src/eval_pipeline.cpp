@@ -28,16 +28,6 @@ Status within(const std::string& what, const Status& status) {
   return Status(status.code(), what + ": " + status.message());
 }
 
-// The hull refined as the server refines it (the fusion's refine settings;
-// the hull itself when off).
-Mesh refined(const Mesh& hull, const std::vector<hull::HullView>& views,
-             const std::vector<Image8>& colors, const EvalOptions& options, double voxel_size) {
-  fusion::PhotoRefineOptions refine = options.loop.fusion.refine;
-  if (!(refine.depth_voxels > 0)) return hull;
-  refine.voxel_size = voxel_size;
-  return fusion::refineByPhotoConsistency(hull, views, colors, refine);
-}
-
 // For each camera held out, the mesh its image is compared with where that
 // is not the frame's: the hull carved without its silhouette
 // (EvalOptions::hull_without_held_out), and refined without its colour
@@ -49,8 +39,8 @@ StatusOr<std::map<int, Mesh>> meshesForHeldOut(const EvalOptions& options,
                                                const std::vector<Image8>& colors, const Mesh& hull,
                                                const hull::HullOptions& hull_options) {
   std::map<int, Mesh> meshes;
-  if (!options.hull_without_held_out && !(options.loop.fusion.refine.depth_voxels > 0))
-    return meshes;
+  const fusion::PhotoRefineOptions& refine = options.loop.fusion.refine;
+  if (!options.hull_without_held_out && !fusion::refines(refine)) return meshes;
   for (int held : heldOutCameras(static_cast<int>(views.size()), options.held_out_cameras)) {
     std::vector<hull::HullView> others = views;
     others.erase(others.begin() + held);
@@ -59,9 +49,15 @@ StatusOr<std::map<int, Mesh>> meshesForHeldOut(const EvalOptions& options,
       other_colors = colors;
       other_colors.erase(other_colors.begin() + held);
     }
-    const Mesh mesh =
-        refined(options.hull_without_held_out ? hull::carveVisualHull(others, hull_options) : hull,
-                others, other_colors, options, hull_options.voxel_size);
+    // The server's fusion of the other cameras (fusion_server/fusion_worker.h).
+    fusion::FusedMesh without;
+    if (options.hull_without_held_out) {
+      without = fusion::carveHull(others, hull_options);
+    } else {
+      without.carved = hull;
+    }
+    fusion::refineFused(without, others, other_colors, refine, hull_options.voxel_size);
+    const Mesh& mesh = without.mesh();
     const protocol::MeshCodec codec = options.loop.fusion.mesh_codec;
     auto bytes = encodeMesh(codec, mesh, options.loop.fusion.draco);
     auto decoded = bytes.isOk() ? decodeMesh(codec, bytes->data(), bytes->size()) : bytes.status();
@@ -161,21 +157,17 @@ std::vector<int> heldOutCameras(int cameras, int limit) {
 }
 
 StatusOr<Mesh> refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
-                            const std::vector<hull::HullView>& views, Mesh carved,
+                            const std::vector<hull::HullView>& views, fusion::FusedMesh fused,
                             const hull::HullOptions& hull_options, FrameData& frame) {
-  const bool refining = options.loop.fusion.refine.depth_voxels > 0;
+  const fusion::PhotoRefineOptions& refine = options.loop.fusion.refine;
   // The colours in whole frames only for the refinement, which reads them.
   const std::vector<Image8> colors =
-      refining ? fusion::colorsInFrame(group) : std::vector<Image8>{};
-  std::optional<Mesh> mesh;
-  if (refining) {
-    const auto t0 = Clock::now();
-    mesh = refined(carved, views, colors, options, hull_options.voxel_size);
-    frame.refine_ms = msSince(t0);
-  }
+      fusion::refines(refine) ? fusion::colorsInFrame(group) : std::vector<Image8>{};
+  fusion::refineFused(fused, views, colors, refine, hull_options.voxel_size);
+  if (fused.refined) frame.refine_ms = fused.refineMs();
   HOLOFUSE_ASSIGN_OR_RETURN(frame.mesh_without,
-                            meshesForHeldOut(options, views, colors, carved, hull_options));
-  return mesh ? std::move(*mesh) : std::move(carved);
+                            meshesForHeldOut(options, views, colors, fused.carved, hull_options));
+  return fused.refined ? std::move(*fused.refined) : std::move(fused.carved);
 }
 
 StatusOr<FrameData> prepareFrame(const EvalOptions& options, const scene::SyntheticScene& scene,
@@ -219,17 +211,18 @@ StatusOr<FrameData> prepareFrame(const EvalOptions& options, const scene::Synthe
   // The silhouettes back in whole frames before the hull's clock starts, as
   // in the server.
   const std::vector<hull::HullView> hull_views = fusion::hullViewsOf(group);
-  const auto t0 = Clock::now();
-  // The true surface at the hull's voxel size, when asked for.
   hull::HullOptions hull_options;
   hull_options.voxel_size = options.loop.fusion.hull.voxel_size;
-  Mesh hull = options.geometry == "truth"
-                  ? scene.truthMesh(frame_id, hull_options.voxel_size)
-                  : hull::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
-  frame.hull_ms = msSince(t0);
-  if (options.geometry != "truth") {
+  Mesh hull;
+  if (options.geometry == "truth") {  // the true surface at the hull's voxel size
+    const auto t0 = Clock::now();
+    hull = scene.truthMesh(frame_id, hull_options.voxel_size);
+    frame.hull_ms = msSince(t0);
+  } else {
+    fusion::FusedMesh carved = fusion::carveHull(hull_views, hull_options, &frame.hull_stats);
+    frame.hull_ms = carved.carveMs();
     HOLOFUSE_ASSIGN_OR_RETURN(
-        hull, refineCarved(options, group, hull_views, std::move(hull), hull_options, frame));
+        hull, refineCarved(options, group, hull_views, std::move(carved), hull_options, frame));
   }
   HOLOFUSE_RETURN_IF_ERROR(sendToClient(std::move(group), hull, options, reported, frame));
   return frame;

@@ -86,11 +86,11 @@ Status sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOption
 // spread evenly by index.
 std::vector<int> heldOutCameras(int cameras, int limit);
 
-// What follows the carving in the server, timed as its refine stage, and
-// the meshes the held-out cameras are compared with: the mesh the frame
-// sends.
+// What follows the carving in the server (fusion::refineFused), timed as
+// its refine stage, and the meshes the held-out cameras are compared with:
+// the mesh the frame sends.
 StatusOr<Mesh> refineCarved(const EvalOptions& options, const fusion::FrameGroup& group,
-                            const std::vector<hull::HullView>& views, Mesh carved,
+                            const std::vector<hull::HullView>& views, fusion::FusedMesh carved,
                             const hull::HullOptions& hull_options, FrameData& frame);
 
 // One frame of a synthetic scene through the loop's whole path: the pods'

@@ -157,20 +157,22 @@ StatusOr<SceneInput> loadDatasetScene(const EvalOptions& options, const std::str
           placeInFrame(pod.mask, pod.offset_x, pod.offset_y, cam.width, cam.height));
     }
     const std::vector<hull::HullView> hull_views = fusion::hullViewsOf(group);
-    const auto t0 = Clock::now();
-    Mesh hull;
+    fusion::FusedMesh carved;
     if (options.loop.fusion.hull_error_target > 0 && input.frames.empty()) {
       // The error target picks the voxel on the first frame; the rest follow it.
+      const auto t0 = Clock::now();
       hull::HullForTarget found = hull::carveToErrorTarget(
           hull_views, hull_options, options.loop.fusion.hull_error_target, &frame.hull_stats);
-      hull = std::move(found.mesh);
+      frame.hull_ms = msSince(t0);
+      carved.carved = std::move(found.mesh);
       hull_options.voxel_size = found.voxel_size;
     } else {
-      hull = hull::carveVisualHull(hull_views, hull_options, &frame.hull_stats);
+      carved = fusion::carveHull(hull_views, hull_options, &frame.hull_stats);
+      frame.hull_ms = carved.carveMs();
     }
-    frame.hull_ms = msSince(t0);
     HOLOFUSE_ASSIGN_OR_RETURN(
-        hull, refineCarved(options, group, hull_views, std::move(hull), hull_options, frame));
+        const Mesh hull,
+        refineCarved(options, group, hull_views, std::move(carved), hull_options, frame));
     HOLOFUSE_RETURN_IF_ERROR(sendToClient(std::move(group), hull, options, cameras, frame));
     input.frames.push_back(std::move(frame));
   }

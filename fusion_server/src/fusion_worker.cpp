@@ -126,24 +126,41 @@ std::vector<Image8> colorsInFrame(const FrameGroup& group) {
   return colors;
 }
 
+FusedMesh carveHull(const std::vector<hull::HullView>& views, const hull::HullOptions& hull,
+                    hull::HullStats* stats) {
+  FusedMesh fused;
+  fused.carve_start_ns = monotonicNs();
+  fused.carved = hull::carveVisualHull(views, hull, stats);
+  fused.carve_end_ns = monotonicNs();
+  return fused;
+}
+
+bool refines(const PhotoRefineOptions& refine) { return refine.depth_voxels > 0; }
+
+void refineFused(FusedMesh& fused, const std::vector<hull::HullView>& views,
+                 const std::vector<Image8>& colors, const PhotoRefineOptions& refine,
+                 double voxel_size) {
+  if (!refines(refine)) return;
+  fused.refine_start_ns = monotonicNs();
+  PhotoRefineOptions at_voxel = refine;
+  at_voxel.voxel_size = voxel_size;  // this frame's, under an error target
+  fused.refined = refineByPhotoConsistency(fused.carved, views, colors, at_voxel);
+  fused.refine_end_ns = monotonicNs();
+}
+
 FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
                       const LayerRequest& layers) {
   const std::vector<hull::HullView> views = hullViewsOf(job.group);
-  const uint64_t t0 = monotonicNs();
-  const Mesh hull = hull::carveVisualHull(views, settings.hull);
-  const uint64_t t1 = monotonicNs();
-  std::optional<Mesh> refined;
-  uint64_t t2 = 0;
-  if (settings.refine.depth_voxels > 0) {
-    PhotoRefineOptions refine = settings.refine;
-    refine.voxel_size = settings.hull.voxel_size;  // this frame's, under an error target
-    refined = refineByPhotoConsistency(hull, views, colorsInFrame(job.group), refine);
-    t2 = monotonicNs();
+  FusedMesh fused = carveHull(views, settings.hull);
+  if (refines(settings.refine)) {
+    refineFused(fused, views, colorsInFrame(job.group), settings.refine, settings.hull.voxel_size);
   }
-  FusedOutput out = packageFused(job, settings, refined ? *refined : hull, t0, t1, t2, layers);
+  FusedOutput out = packageFused(job, settings, fused.mesh(), fused.carve_start_ns,
+                                 fused.carve_end_ns, fused.refine_end_ns, layers);
   // Measured after the frame is on its way (not part of the hull's time):
   // it only steers the next frame's voxel, which is the carved hull's.
-  if (settings.hull_error_target > 0) out.silhouette_error = hull::silhouetteError(hull, views);
+  if (settings.hull_error_target > 0)
+    out.silhouette_error = hull::silhouetteError(fused.carved, views);
   return out;
 }
 

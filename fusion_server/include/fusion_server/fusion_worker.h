@@ -128,6 +128,30 @@ struct LayerRequest {
   bool lz4 = false, video = false, video_key_frame = false;
 };
 
+// A group's mesh as the server fuses it, each step with its clock: the
+// visual hull carved from the silhouettes (carveHull), then refined by
+// photo-consistency at the hull's voxel where the settings refine
+// (refineFused). fuseGroup runs the two; eval runs the same two on its
+// frames, so that its meshes and their times are the loop's.
+struct FusedMesh {
+  Mesh carved;
+  std::optional<Mesh> refined;  // none: not refined
+  uint64_t carve_start_ns = 0, carve_end_ns = 0;
+  uint64_t refine_start_ns = 0, refine_end_ns = 0;
+  const Mesh& mesh() const { return refined ? *refined : carved; }
+  double carveMs() const { return 1e-6 * static_cast<double>(carve_end_ns - carve_start_ns); }
+  double refineMs() const { return 1e-6 * static_cast<double>(refine_end_ns - refine_start_ns); }
+};
+FusedMesh carveHull(const std::vector<hull::HullView>& views, const hull::HullOptions& hull,
+                    hull::HullStats* stats = nullptr);
+// Whether refine refines at all (depth_voxels > 0).
+bool refines(const PhotoRefineOptions& refine);
+// colors: the views' colour images in whole frames, in their order
+// (colorsInFrame), read only where refine refines.
+void refineFused(FusedMesh& fused, const std::vector<hull::HullView>& views,
+                 const std::vector<Image8>& colors, const PhotoRefineOptions& refine,
+                 double voxel_size);
+
 // The whole fusion of one group, callable without the thread (tests).
 FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
                       const LayerRequest& layers = {});
