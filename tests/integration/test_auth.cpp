@@ -15,8 +15,8 @@
 #include <sstream>
 #include <thread>
 
+#include "loop_test.h"
 #include "peer_by_hand.h"
-#include "process_harness.h"
 #include "protocol/auth.h"
 #include "protocol/connection.h"
 #include "protocol/socket.h"
@@ -24,22 +24,7 @@
 namespace holofuse {
 namespace {
 
-namespace fs = std::filesystem;
-using test::admittedByHand;
-using test::flush;
-using test::freshDir;
-using test::nextError;
-using test::nextFrame;
-using test::readFile;
-using test::spawn;
-using test::waitExit;
-
-const std::string kBin = HOLOFUSE_BIN_DIR;
-
-std::string serverOn(const fs::path& out, int pods, pid_t* pid,
-                     const std::vector<std::string>& extra = {}) {
-  return test::startServer(kBin, out, pods, pid, extra);
-}
+using namespace holofuse::test;
 
 // The honest client rendered all its frames; then pod and server stop.
 void expectEveryFrameRenderedThenStop(const fs::path& out, pid_t client, pid_t pod, pid_t server,
@@ -56,7 +41,7 @@ void expectEveryFrameRenderedThenStop(const fs::path& out, pid_t client, pid_t p
 TEST(Auth, WrongMissingAndReplayedAnswersAreRefusedByName) {
   const fs::path out = freshDir("auth");
   pid_t server = 0;
-  const std::string endpoint = serverOn(out, 2, &server);
+  const std::string endpoint = startServer(out, 2, &server);
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
 
   // A pod with another key: refused, both sides say why, and it stops.
@@ -185,7 +170,7 @@ TEST(Auth, APodIsBoundToItsKeyAndCannotBeReplaced) {
 
   pid_t server = 0;
   const std::string endpoint =
-      serverOn(out, 1, &server, {"--key-file", (keys / "server.keys").string()});
+      startServer(out, 1, &server, {"--key-file", (keys / "server.keys").string()});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   const pid_t pod =
       spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods", "1", "--size",
@@ -252,7 +237,7 @@ TEST(Auth, AServerWithoutAKeyOrWithAnOpenKeyFileDoesNotStart) {
 TEST(Limits, BeforeItsHandshakeAPeerGetsAFewBytesAndALittleTime) {
   const fs::path out = freshDir("limits");
   pid_t server = 0;
-  const std::string endpoint = serverOn(out, 1, &server, {"--handshake-timeout-ms", "300"});
+  const std::string endpoint = startServer(out, 1, &server, {"--handshake-timeout-ms", "300"});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   auto parsed = protocol::parseEndpoint(endpoint);
   ASSERT_TRUE(parsed.isOk());
@@ -290,7 +275,7 @@ TEST(Limits, BeforeItsHandshakeAPeerGetsAFewBytesAndALittleTime) {
 TEST(FairService, AFloodingPeerIsClosedAndTheOthersAreStillServed) {
   const fs::path out = freshDir("fair");
   pid_t server = 0;
-  const std::string endpoint = serverOn(out, 3, &server);
+  const std::string endpoint = startServer(out, 3, &server);
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods",
                            "3", "--size", "64x48", "--fps", "10"},
@@ -390,7 +375,7 @@ TEST(FairService, OutOfDescriptorsTheServerPausesAcceptingAndRecovers) {
 TEST(Limits, PastTheHandshakeCapForOneAddressAConnectionIsRefusedByName) {
   const fs::path out = freshDir("caps");
   pid_t server = 0;
-  const std::string endpoint = serverOn(
+  const std::string endpoint = startServer(
       out, 1, &server, {"--max-handshaking-per-address", "4", "--handshake-timeout-ms", "1000"});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   auto parsed = protocol::parseEndpoint(endpoint);

@@ -11,12 +11,10 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "process_harness.h"
+#include "loop_test.h"
 
 namespace holofuse::test {
 namespace {
-
-const std::string kBin = HOLOFUSE_BIN_DIR;
 
 TEST(BenchLoop, RunsTheLoopPerModeAndSetsABaselineBesideIt) {
   const fs::path out = freshDir("bench_loop");

@@ -24,8 +24,8 @@
 #include "codec/pod_frame_codec.h"
 #include "dataset/dataset.h"
 #include "geometry/camera.h"
+#include "loop_test.h"
 #include "metrics/image_metrics.h"
-#include "process_harness.h"
 #include "protocol/socket.h"
 #include "scene/scene_library.h"
 #include "scene/synthetic_scene.h"
@@ -33,15 +33,7 @@
 namespace holofuse {
 namespace {
 
-namespace fs = std::filesystem;
-using test::freePort;
-using test::freshDir;
-using test::logSays;
-using test::readFile;
-using test::spawn;
-using test::waitExit;
-using test::waitFor;
-const std::string kBin = HOLOFUSE_BIN_DIR;
+using namespace holofuse::test;
 
 cv::Mat bgrOf(const Image8& rgb) {
   cv::Mat m(static_cast<int>(rgb.height), static_cast<int>(rgb.width), CV_8UC3,
@@ -134,7 +126,7 @@ std::vector<Image8> streamThroughPod(const fs::path& out, const FilmedCamera& fi
                                      const std::vector<std::string>& extra) {
   pid_t server = 0;
   const std::string endpoint =
-      test::startServer(kBin, out, 1, &server, {"--record", (out / "recording").string()});
+      startServer(out, 1, &server, {"--record", (out / "recording").string()});
   EXPECT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   std::vector<std::string> args = {kBin + "/capture_node",
                                    "--server",
@@ -197,7 +189,7 @@ TEST(CameraPod, ThePlateIsTakenWhenEnterIsPressed) {
   const FilmedCamera filmed = film(out, 0, 160, 120, 0, 0, 8);
   pid_t server = 0;
   const std::string endpoint =
-      test::startServer(kBin, out, 1, &server, {"--record", (out / "recording").string()});
+      startServer(out, 1, &server, {"--record", (out / "recording").string()});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   // The pod's standard input is a pipe the test writes its Enter into.
   ChildPipes pipes;
@@ -281,7 +273,7 @@ void expectTheStreamReconnects(const fs::path& out, const FilmedCamera& filmed,
   pid_t stream = serve("stream1.log");
   pid_t server = 0;
   const std::string endpoint =
-      test::startServer(kBin, out, 1, &server, {"--record", (out / "recording").string()});
+      startServer(out, 1, &server, {"--record", (out / "recording").string()});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0",
                            "--source", url, "--calibration", filmed.calibration.string(), "--plate",

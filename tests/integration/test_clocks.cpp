@@ -15,18 +15,13 @@
 #include <vector>
 
 #include "base/process.h"
-#include "process_harness.h"
+#include "loop_test.h"
 
 namespace holofuse {
 namespace {
 
-namespace fs = std::filesystem;
-using test::freshDir;
-using test::readFile;
-using test::spawn;
-using test::waitExit;
+using namespace holofuse::test;
 
-const std::string kBin = HOLOFUSE_BIN_DIR;
 const std::string kUnshare = "/usr/bin/unshare";  // util-linux
 
 // Whether this process may make time namespaces (Linux 5.6 and
@@ -65,7 +60,7 @@ TEST(Clocks, PodsOnClocksSecondsApartKeepTheBudgetOnTheServersClock) {
                  << refused;
   const fs::path out = freshDir("clocks_shifted");
   pid_t server = 0;
-  const std::string endpoint = test::startServer(kBin, out, 3, &server);
+  const std::string endpoint = startServer(out, 3, &server);
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   // Pod 0 on this clock, pod 1 five seconds behind, pod 2 three ahead.
   const std::vector<pid_t> pods = {startShiftedPod(endpoint, 0, 0, out),

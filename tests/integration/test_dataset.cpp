@@ -22,20 +22,14 @@
 
 #include "dataset/dataset.h"
 #include "dataset/record_file.h"
-#include "process_harness.h"
+#include "loop_test.h"
 #include "protocol/messages.h"
 #include "scene/synthetic_scene.h"
 
 namespace holofuse {
 namespace {
 
-namespace fs = std::filesystem;
-using test::freshDir;
-using test::readFile;
-using test::readJson;
-using test::spawn;
-using test::waitExit;
-const std::string kBin = HOLOFUSE_BIN_DIR;
+using namespace holofuse::test;
 
 // frame id -> the Draco bytes of the fused mesh, from a fused.hfr.
 std::map<uint64_t, protocol::Bytes> fusedMeshes(const fs::path& file) {
@@ -286,8 +280,7 @@ TEST(DatasetRecorder, AKilledRecorderKeepsEveryWholeRecordAndStillReplays) {
   const fs::path out = freshDir("dataset_killed");
   const fs::path recording = out / "recording";
   pid_t server = 0;
-  const std::string endpoint =
-      test::startServer(kBin, out, 2, &server, {"--record", recording.string()});
+  const std::string endpoint = startServer(out, 2, &server, {"--record", recording.string()});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   std::vector<pid_t> pods;
   for (int i = 0; i < 2; ++i) {

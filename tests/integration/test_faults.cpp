@@ -23,28 +23,15 @@
 #include "codec/pod_frame_codec.h"
 #include "geometry/camera.h"
 #include "insider_attacks.h"
+#include "loop_test.h"
 #include "peer_by_hand.h"
-#include "process_harness.h"
 #include "protocol/socket.h"
 
 namespace holofuse {
 namespace {
 
-namespace fs = std::filesystem;
-using test::admittedByHand;
-using test::flush;
-using test::freePort;
-using test::freshDir;
-using test::kSanitized;
-using test::logSays;
-using test::nextFrame;
-using test::picturesIn;
-using test::readFile;
-using test::spawn;
-using test::waitExit;
-using test::waitFor;
+using namespace holofuse::test;
 
-const std::string kBin = HOLOFUSE_BIN_DIR;
 constexpr int kWidth = test::kSmallWidth, kHeight = test::kSmallHeight;
 
 // The memory bounds hold for the program, not for a sanitized build of it
@@ -61,15 +48,6 @@ ProcessUsage usageOf(pid_t pid) {
   const auto usage = processUsage(pid);
   EXPECT_TRUE(usage.has_value()) << "process " << pid << " is gone";
   return usage.value_or(ProcessUsage{});
-}
-
-pid_t startPod(const std::string& endpoint, int id, int pods, const fs::path& out) {
-  return test::startSmallPod(kBin, endpoint, id, pods, out);
-}
-
-pid_t startClient(const std::string& endpoint, const fs::path& out, const std::string& name,
-                  int frames, const std::vector<std::string>& extra = {}) {
-  return test::startSmallClient(kBin, endpoint, out, name, frames, extra);
 }
 
 void stopAll(const std::vector<pid_t>& pids) {
@@ -100,13 +78,13 @@ struct ForgedPod {
 TEST(Faults, HostilePeersAllAtOnceLeaveTheServerSmallAndTheRigServed) {
   const fs::path out = freshDir("faults_hostile");
   pid_t server = 0;
-  const std::string endpoint =
-      test::startServer(kBin, out, 4, &server,
-                        {"--handshake-timeout-ms", "1000", "--max-handshaking", "100",
-                         "--max-handshaking-per-address", "100"});
+  const std::string endpoint = startServer(out, 4, &server,
+                                           {"--handshake-timeout-ms", "1000", "--max-handshaking",
+                                            "100", "--max-handshaking-per-address", "100"});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
-  const std::vector<pid_t> pods = {startPod(endpoint, 0, 4, out), startPod(endpoint, 1, 4, out)};
-  const pid_t client = startClient(endpoint, out, "client", 400);
+  const std::vector<pid_t> pods = {startSmallPod(endpoint, 0, 4, out),
+                                   startSmallPod(endpoint, 1, 4, out)};
+  const pid_t client = startSmallClient(endpoint, out, "client", 400);
   ASSERT_TRUE(waitFor([&] { return picturesIn(out / "client") >= 2; }))
       << readFile(out / "client.log");
   const ProcessUsage baseline = usageOf(server);
@@ -215,7 +193,7 @@ TEST(Faults, HostilePeersAllAtOnceLeaveTheServerSmallAndTheRigServed) {
 TEST(Faults, APodsCalibrationAndLargeFirstFrameInOneBurstAreBothTaken) {
   const fs::path out = freshDir("faults_one_burst");
   pid_t server = 0;
-  const std::string endpoint = test::startServer(kBin, out, 1, &server);
+  const std::string endpoint = startServer(out, 1, &server);
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   constexpr int kBigWidth = 320, kBigHeight = 240;
   Camera camera = ringCameras(1, 2.5, 1.0, {0, 1, 0}, kBigWidth, kBigHeight, 50)[0];
@@ -314,8 +292,9 @@ TEST(Faults, PeersKilledAndStartedAgainRejoinAndLeaveNothingBehind) {
   ASSERT_NE(port, 0);
   const std::string endpoint = "127.0.0.1:" + std::to_string(port);
   pid_t server = serverOnPort(port, out, 2, "server.log");
-  std::vector<pid_t> pods = {startPod(endpoint, 0, 2, out), startPod(endpoint, 1, 2, out)};
-  pid_t client = startClient(endpoint, out, "client0", 2000);
+  std::vector<pid_t> pods = {startSmallPod(endpoint, 0, 2, out),
+                             startSmallPod(endpoint, 1, 2, out)};
+  pid_t client = startSmallClient(endpoint, out, "client0", 2000);
   ASSERT_TRUE(waitFor([&] { return picturesIn(out / "client0") >= 3; }))
       << readFile(out / "client0.log");
   // A pod, then the client: killed, started again, back in, rendering.
@@ -326,13 +305,13 @@ TEST(Faults, PeersKilledAndStartedAgainRejoinAndLeaveNothingBehind) {
     EXPECT_EQ(waitExit(pods[1], 10), 128 + SIGKILL);
     EXPECT_TRUE(waitFor([&] { return usageOf(server).descriptors < before; }))
         << "the server let the dead pod's socket go";
-    pods[1] = startPod(endpoint, 1, 2, out);
+    pods[1] = startSmallPod(endpoint, 1, 2, out);
     EXPECT_TRUE(waitFor([&] { return usageOf(server).descriptors == before; }))
         << readFile(out / "server.log");
     kill(client, SIGKILL);
     EXPECT_EQ(waitExit(client, 10), 128 + SIGKILL);
     const std::string name = "client" + std::to_string(++restarts);
-    client = startClient(endpoint, out, name, 2000);
+    client = startSmallClient(endpoint, out, name, 2000);
     EXPECT_TRUE(waitFor([&] { return picturesIn(out / name) >= 3; }))
         << readFile(out / (name + ".log"));
     EXPECT_TRUE(waitFor([&] { return usageOf(server).descriptors == before; }))
@@ -384,16 +363,17 @@ TEST(Faults, AStoppedClientNeitherStallsTheOtherNorSwellsTheServer) {
   ASSERT_NE(port, 0);
   const std::string endpoint = "127.0.0.1:" + std::to_string(port);
   const pid_t server = serverOnPort(port, out, 2, "server.log");
-  const std::vector<pid_t> pods = {startPod(endpoint, 0, 2, out), startPod(endpoint, 1, 2, out)};
+  const std::vector<pid_t> pods = {startSmallPod(endpoint, 0, 2, out),
+                                   startSmallPod(endpoint, 1, 2, out)};
   // The other client is running before the stopped one starts, and the
   // stopped one has many more frames to render than it has when it is
   // stopped: at 15 fps a short run could finish, say bye and leave the
   // server nothing to time out while the other one was still starting.
-  const pid_t other = startClient(endpoint, out, "other", 2000);
+  const pid_t other = startSmallClient(endpoint, out, "other", 2000);
   ASSERT_TRUE(waitFor([&] { return picturesIn(out / "other") >= 2; }))
       << readFile(out / "server.log");
   constexpr int kStoppedFrames = 60;
-  const pid_t stopped = startClient(endpoint, out, "stopped", kStoppedFrames);
+  const pid_t stopped = startSmallClient(endpoint, out, "stopped", kStoppedFrames);
   ASSERT_TRUE(waitFor([&] { return picturesIn(out / "stopped") >= 2; }))
       << readFile(out / "server.log");
   const ProcessUsage baseline = usageOf(server);
@@ -443,9 +423,10 @@ TEST(Faults, ALayeredClientJoiningAVideoStreamLateDecodesFromItsFirstFrame) {
   const std::string endpoint = "127.0.0.1:" + std::to_string(port);
   const pid_t server = serverOnPort(port, out, 2, "server.log",
                                     {"--layer-video", "h264", "--layer-video-key-interval", "600"});
-  const std::vector<pid_t> pods = {startPod(endpoint, 0, 2, out), startPod(endpoint, 1, 2, out)};
+  const std::vector<pid_t> pods = {startSmallPod(endpoint, 0, 2, out),
+                                   startSmallPod(endpoint, 1, 2, out)};
   const std::vector<std::string> layered = {"--mode", "layered"};
-  const pid_t first = startClient(endpoint, out, "first", 2000, layered);
+  const pid_t first = startSmallClient(endpoint, out, "first", 2000, layered);
   ASSERT_TRUE(waitFor([&] { return picturesIn(out / "first") >= 4; }))
       << readFile(out / "first.log") << readFile(out / "server.log");
   // Frames fused before the server heard the first client carry no layers
@@ -458,7 +439,7 @@ TEST(Faults, ALayeredClientJoiningAVideoStreamLateDecodesFromItsFirstFrame) {
     return count;
   };
   const size_t first_skips = skips("first");
-  const pid_t late = startClient(endpoint, out, "late", 6, layered);
+  const pid_t late = startSmallClient(endpoint, out, "late", 6, layered);
   ASSERT_EQ(waitExit(late, 120), 0) << readFile(out / "late.log");
   const auto report = nlohmann::json::parse(readFile(out / "late" / "report.json"));
   EXPECT_EQ(report["frames_rendered"].get<int>(), 6);

@@ -14,20 +14,13 @@
 #include <string>
 #include <vector>
 
-#include "process_harness.h"
+#include "loop_test.h"
 #include "protocol/server_link.h"
 
 namespace holofuse {
 namespace {
 
-namespace fs = std::filesystem;
-using test::freshDir;
-using test::readFile;
-using test::spawn;
-using test::waitExit;
-using test::waitFor;
-
-const std::string kBin = HOLOFUSE_BIN_DIR;
+using namespace holofuse::test;
 
 struct Counts {
   uint64_t fused = 0;
@@ -80,7 +73,7 @@ TEST(FrameRequests, TheServerFusesOnlyWhatAClientAskedForUntilOneThatDoesNotAskJ
   const fs::path health = out / "health.json";
   pid_t server = 0;
   const std::string endpoint =
-      test::startServer(kBin, out, 1, &server, {"--no-auth", "--health-file", health.string()});
+      startServer(out, 1, &server, {"--no-auth", "--health-file", health.string()});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   const pid_t pod = spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", "0", "--pods",
                            "1", "--size", "64x48", "--fps", "30", "--no-auth"},

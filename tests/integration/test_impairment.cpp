@@ -18,18 +18,12 @@
 #include <vector>
 
 #include "base/process.h"
-#include "process_harness.h"
+#include "loop_test.h"
 
 namespace holofuse {
 namespace {
 
-namespace fs = std::filesystem;
-using test::freshDir;
-using test::readFile;
-using test::spawn;
-using test::waitExit;
-
-const std::string kBin = HOLOFUSE_BIN_DIR;
+using namespace holofuse::test;
 
 // iproute2's ip, where Debian puts it (the spawner does not search PATH).
 std::string ipCommand() {

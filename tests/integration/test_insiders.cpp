@@ -21,21 +21,14 @@
 #include "base/process.h"
 #include "geometry/camera.h"
 #include "insider_attacks.h"
+#include "loop_test.h"
 #include "peer_by_hand.h"
-#include "process_harness.h"
 #include "protocol/messages.h"
 
 namespace holofuse {
 namespace {
 
-namespace fs = std::filesystem;
-using test::freshDir;
-using test::picturesIn;
-using test::readFile;
-using test::waitExit;
-using test::waitFor;
-
-const std::string kBin = HOLOFUSE_BIN_DIR;
+using namespace holofuse::test;
 
 // A server for `pods` pods with the first `honest` of them running, and a
 // client rendering until stopped: the rig a test's misbehaving peer joins.
@@ -46,11 +39,10 @@ class ServingRig {
              const std::vector<std::string>& server_flags = {},
              const std::vector<std::string>& server_wrapper = {})
       : out_(freshDir(name)), configured_(pods) {
-    endpoint_ = test::startServer(kBin, out_, pods, &server_, server_flags, server_wrapper);
+    endpoint_ = startServer(out_, pods, &server_, server_flags, server_wrapper);
     if (endpoint_.empty()) return;
-    for (int id = 0; id < honest; ++id)
-      pods_.push_back(test::startSmallPod(kBin, endpoint_, id, pods, out_));
-    client_ = test::startSmallClient(kBin, endpoint_, out_, "client", 100000);
+    for (int id = 0; id < honest; ++id) pods_.push_back(startSmallPod(endpoint_, id, pods, out_));
+    client_ = startSmallClient(endpoint_, out_, "client", 100000);
     ready_ = waitFor([&] { return pictures() >= 3; });
   }
   ::testing::AssertionResult ready() const {
@@ -67,8 +59,8 @@ class ServingRig {
     crashed_.insert(id);
     kill(pods_.at(id), SIGKILL);
     waitExit(pods_.at(id), 20);
-    pods_.at(id) = test::startSmallPod(kBin, endpoint_, id, configured_, out_, {},
-                                       "pod" + std::to_string(id) + "_again.log");
+    pods_.at(id) = startSmallPod(endpoint_, id, configured_, out_, {},
+                                 "pod" + std::to_string(id) + "_again.log");
   }
   // The client renders n more pictures (an event, with a limit only a
   // failure reaches).
@@ -152,8 +144,8 @@ TEST(RigClock, APodOffTheClockLosesOnlyItsOwnFrames) {
   for (const auto& skew : skews) {
     const size_t mark = readFile(server_log).size();
     const std::string name = "skewed" + std::to_string(skew.ids) + ".log";
-    const pid_t skewed = test::startSmallPod(kBin, rig.endpoint(), 3, 4, rig.out(),
-                                             {"--frame-id-offset", std::to_string(skew.ids)}, name);
+    const pid_t skewed = startSmallPod(rig.endpoint(), 3, 4, rig.out(),
+                                       {"--frame-id-offset", std::to_string(skew.ids)}, name);
     // Named with its offset (a frame may straddle a tick: within one id).
     EXPECT_TRUE(waitFor([&] {
       return offClockLineSays(readFile(server_log).substr(mark), skew.ids, skew.direction);

@@ -13,18 +13,12 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "browser_check.h"
-#include "process_harness.h"
+#include "loop_test.h"
 #include "scene/synthetic_scene.h"
 
 namespace {
 
-namespace fs = std::filesystem;
-const std::string kBin = HOLOFUSE_BIN_DIR;
-using holofuse::test::freshDir;
-using holofuse::test::readFile;
-using holofuse::test::readJson;
-using holofuse::test::spawn;
-using holofuse::test::waitExit;
+using namespace holofuse::test;
 
 TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   const fs::path out = freshDir("loop");
@@ -34,28 +28,11 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
   // A budget no hull can meet and an end-to-end one no frame can miss: the
   // report flags the first and not the second, through the launcher's flag.
   std::ofstream(out / "budget.json") << R"({"hull": 0.001, "end_to_end": 100000})";
-  const pid_t loop = spawn({kBin + "/holofuse_loop",
-                            "--pods",
-                            "4",
-                            "--frames",
-                            "6",
-                            "--fps",
-                            holofuse::test::kSanitized ? "1" : "4",
-                            "--size",
-                            "200x150",
-                            "--view",
-                            "pod:0",
-                            "--budget",
-                            (out / "budget.json").string(),
-                            "--quality",
-                            "--seed",
-                            "5",
-                            "--noise",
-                            "0",
-                            "--out",
-                            out.string()},
-                           out / "loop.log");
-  ASSERT_EQ(waitExit(loop, 240), 0) << "see " << (out / "loop.log");
+  ASSERT_EQ(runLoop(out, judgedFromPod0({"--pods", "4", "--frames", "6", "--fps",
+                                         kSanitized ? "1" : "4", "--size", "200x150", "--budget",
+                                         (out / "budget.json").string()})),
+            0)
+      << "see " << (out / "loop.log");
   const auto report = readJson(out / "report.json");
   ASSERT_EQ(report["frames_rendered"], 6);
   EXPECT_GT(report["fps"].get<double>(), 0.0);
@@ -157,32 +134,12 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
 // are laid out on the mesh as that codec gives it back.
 TEST(Loop, ModeLayeredRendersFromTheServersTextureLayers) {
   const fs::path out = freshDir("loop_layered");
-  const pid_t loop = spawn({kBin + "/holofuse_loop",
-                            "--pods",
-                            "4",
-                            "--frames",
-                            "4",
-                            "--fps",
-                            holofuse::test::kSanitized ? "1" : "2",
-                            "--size",
-                            "200x150",
-                            "--view",
-                            "pod:0",
-                            "--mode",
-                            "layered",
-                            "--layer-video",
-                            "h264",
-                            "--mesh-codec",
-                            "fp16-lz4",
-                            "--quality",
-                            "--seed",
-                            "5",
-                            "--noise",
-                            "0",
-                            "--out",
-                            out.string()},
-                           out / "loop.log");
-  ASSERT_EQ(waitExit(loop, 240), 0) << "see " << (out / "loop.log");
+  ASSERT_EQ(
+      runLoop(out, judgedFromPod0({"--pods", "4", "--frames", "4", "--fps", kSanitized ? "1" : "2",
+                                   "--size", "200x150", "--mode", "layered", "--layer-video",
+                                   "h264", "--mesh-codec", "fp16-lz4"})),
+      0)
+      << "see " << (out / "loop.log");
   const auto report = readJson(out / "report.json");
   ASSERT_EQ(report["frames_rendered"], 4);
   const auto& stages = report["latency_ms"]["stages"];
@@ -211,28 +168,10 @@ TEST(Loop, ModeLayeredRendersFromTheServersTextureLayers) {
 // each vertex's best views shows the subject.
 TEST(Loop, ThirtyTwoPodsAreAllFusedAndBlended) {
   const fs::path out = freshDir("loop32");
-  const pid_t loop = spawn({kBin + "/holofuse_loop",
-                            "--pods",
-                            "32",
-                            "--frames",
-                            "3",
-                            "--fps",
-                            "2",
-                            "--size",
-                            "96x72",
-                            "--view",
-                            "pod:0",
-                            "--seed",
-                            "5",
-                            "--noise",
-                            "0",
-                            "--quality",
-                            "--mode",
-                            "montage4d",
-                            "--out",
-                            out.string()},
-                           out / "loop.log");
-  ASSERT_EQ(waitExit(loop, 240), 0) << "see " << (out / "loop.log");
+  ASSERT_EQ(runLoop(out, judgedFromPod0({"--pods", "32", "--frames", "3", "--fps", "2", "--size",
+                                         "96x72", "--mode", "montage4d"})),
+            0)
+      << "see " << (out / "loop.log");
   const auto report = readJson(out / "report.json");
   ASSERT_EQ(report["frames_rendered"], 3);
   ASSERT_EQ(report["pod_frames_at_server"].size(), 32u) << report["pod_frames_at_server"].dump();
@@ -319,55 +258,54 @@ TEST(Loop, AClientDecodingWhileItRendersRendersEveryFrameAskedFor) {
 // its report or its log.
 TEST(Loop, SweepSettingsReachTheProcessesTheyBelongTo) {
   const fs::path out = freshDir("loop_settings");
-  const pid_t loop = spawn({kBin + "/holofuse_loop",
-                            "--pods",
-                            "2",
-                            "--frames",
-                            "2",
-                            "--fps",
-                            "4",
-                            "--size",
-                            "160x120",
-                            "--mode",
-                            "montage4d",
-                            "--voxel",
-                            "0.03",
-                            "--draco-bits",
-                            "12",
-                            "--image-codec",
-                            "lz4",
-                            "--lz4-acceleration",
-                            "8",
-                            "--crop-margin",
-                            "3",
-                            "--lz4-hc-level",
-                            "4",
-                            "--alpha",
-                            "3",
-                            "--lambda",
-                            "0.5",
-                            "--beta",
-                            "7",
-                            "--feather-width",
-                            "4",
-                            "--fragment-test",
-                            "on",
-                            "--dilation",
-                            "1",
-                            "--vote-delta",
-                            "0.25",
-                            "--geodesic-rings",
-                            "9",
-                            "--geodesic-passes",
-                            "11",
-                            "--geodesic-radius",
-                            "0.04",
-                            "--vertex-precision",
-                            "fp16",
-                            "--out",
-                            out.string()},
-                           out / "loop.log");
-  ASSERT_EQ(waitExit(loop, 120), 0) << readFile(out / "loop.log");
+  ASSERT_EQ(runLoop(out,
+                    {"--pods",
+                     "2",
+                     "--frames",
+                     "2",
+                     "--fps",
+                     "4",
+                     "--size",
+                     "160x120",
+                     "--mode",
+                     "montage4d",
+                     "--voxel",
+                     "0.03",
+                     "--draco-bits",
+                     "12",
+                     "--image-codec",
+                     "lz4",
+                     "--lz4-acceleration",
+                     "8",
+                     "--crop-margin",
+                     "3",
+                     "--lz4-hc-level",
+                     "4",
+                     "--alpha",
+                     "3",
+                     "--lambda",
+                     "0.5",
+                     "--beta",
+                     "7",
+                     "--feather-width",
+                     "4",
+                     "--fragment-test",
+                     "on",
+                     "--dilation",
+                     "1",
+                     "--vote-delta",
+                     "0.25",
+                     "--geodesic-rings",
+                     "9",
+                     "--geodesic-passes",
+                     "11",
+                     "--geodesic-radius",
+                     "0.04",
+                     "--vertex-precision",
+                     "fp16"},
+                    120),
+            0)
+      << readFile(out / "loop.log");
   const auto settings = readJson(out / "report.json").at("settings");
   const std::map<std::string, std::string> expected = {{"mode", "montage4d"},
                                                        {"alpha", "3"},

@@ -17,7 +17,7 @@
 #include "codec/image_codec.h"
 #include "codec/mesh_codec.h"
 #include "geometry/camera.h"
-#include "process_harness.h"
+#include "loop_test.h"
 #include "protocol/auth.h"
 #include "protocol/frame.h"
 #include "protocol/messages.h"
@@ -27,19 +27,7 @@
 
 namespace {
 
-namespace fs = std::filesystem;
-const std::string kBin = HOLOFUSE_BIN_DIR;
-using holofuse::test::freePort;
-using holofuse::test::freshDir;
-using holofuse::test::readFile;
-using holofuse::test::readJson;
-using holofuse::test::spawn;
-using holofuse::test::waitExit;
-
-std::string startServer(const fs::path& out, int pods, pid_t* pid,
-                        const std::vector<std::string>& extra = {}) {
-  return holofuse::test::startServer(kBin, out, pods, pid, extra);
-}
+using namespace holofuse::test;
 
 TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
   const fs::path out = freshDir("kill");
@@ -265,8 +253,7 @@ TEST(Loop, TheReportNamesThePodWhoseMaskDisagreesWithTheHull) {
         kBin, endpoint, id, 4, out,
         id == 2 ? std::vector<std::string>{"--noise", "64"} : std::vector<std::string>{}));
   }
-  const pid_t client =
-      holofuse::test::startSmallClient(kBin, endpoint, out, "client", 40, {"--view", "pod:0"});
+  const pid_t client = startSmallClient(endpoint, out, "client", 40, {"--view", "pod:0"});
   EXPECT_EQ(waitExit(client, 120), 0) << readFile(out / "client.log");
   for (pid_t pod : pods) kill(pod, SIGTERM);
   for (pid_t pod : pods) waitExit(pod, 30);

@@ -10,18 +10,12 @@
 #include <vector>
 
 #include "config/command_line.h"
-#include "process_harness.h"
+#include "loop_test.h"
 
 namespace holofuse {
 namespace {
 
-namespace fs = std::filesystem;
-using test::freshDir;
-using test::readFile;
-using test::spawn;
-using test::waitExit;
-
-const std::string kBin = HOLOFUSE_BIN_DIR;
+using namespace holofuse::test;
 
 fs::path writeRig(const fs::path& dir, const std::string& text) {
   const fs::path path = dir / "rig.yaml";

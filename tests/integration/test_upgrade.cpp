@@ -12,39 +12,15 @@
 #include <string>
 #include <vector>
 
-#include "process_harness.h"
+#include "loop_test.h"
 #include "protocol/frame.h"
 
 namespace holofuse {
 namespace {
 
-namespace fs = std::filesystem;
-using test::freshDir;
-using test::picturesIn;
-using test::readFile;
-using test::spawn;
-using test::waitExit;
-using test::waitFor;
+using namespace holofuse::test;
 
-const std::string kBin = HOLOFUSE_BIN_DIR;
 const std::string kOldRelease = "1.4";
-
-pid_t startPod(const std::string& endpoint, int id, const fs::path& log,
-               const std::vector<std::string>& extra = {}) {
-  std::vector<std::string> argv = {kBin + "/capture_node",
-                                   "--server",
-                                   endpoint,
-                                   "--pod-id",
-                                   std::to_string(id),
-                                   "--pods",
-                                   "2",
-                                   "--size",
-                                   "64x48",
-                                   "--fps",
-                                   "10"};
-  argv.insert(argv.end(), extra.begin(), extra.end());
-  return spawn(argv, log);
-}
 
 size_t countIn(const std::string& text, const std::string& what) {
   size_t n = 0;
@@ -59,11 +35,11 @@ size_t countIn(const std::string& text, const std::string& what) {
 TEST(Upgrade, OldPodsFeedANewServerAndAreUpgradedOneByOneWhileTheClientRenders) {
   const fs::path out = freshDir("upgrade_pods");
   pid_t server = 0;
-  const std::string endpoint = test::startServer(kBin, out, 2, &server);
+  const std::string endpoint = startServer(out, 2, &server);
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   std::vector<pid_t> pods = {
-      startPod(endpoint, 0, out / "pod0_old.log", {"--protocol", kOldRelease}),
-      startPod(endpoint, 1, out / "pod1_old.log", {"--protocol", kOldRelease})};
+      startSmallPod(endpoint, 0, 2, out, {"--protocol", kOldRelease}, "pod0_old.log"),
+      startSmallPod(endpoint, 1, 2, out, {"--protocol", kOldRelease}, "pod1_old.log")};
   const fs::path client_out = out / "client";
   const pid_t client = spawn({kBin + "/render_client", "--server", endpoint, "--out",
                               client_out.string(), "--frames", "100000", "--size", "64x48"},
@@ -80,7 +56,7 @@ TEST(Upgrade, OldPodsFeedANewServerAndAreUpgradedOneByOneWhileTheClientRenders) 
   for (int id = 0; id < 2; ++id) {
     kill(pods[id], SIGTERM);
     EXPECT_EQ(waitExit(pods[id], 20), 0) << "pod " << id << " of the old release";
-    pods[id] = startPod(endpoint, id, out / ("pod" + std::to_string(id) + "_new.log"));
+    pods[id] = startSmallPod(endpoint, id, 2, out, {}, "pod" + std::to_string(id) + "_new.log");
     ASSERT_TRUE(serverSays("joined, protocol 1." + std::to_string(protocol::kVersionMinor),
                            static_cast<size_t>(id) + 2))
         << readFile(out / "server.log");
@@ -111,11 +87,10 @@ TEST(Upgrade, OldPodsFeedANewServerAndAreUpgradedOneByOneWhileTheClientRenders) 
 TEST(Upgrade, NewPodsAndClientJoinAServerOfTheOldRelease) {
   const fs::path out = freshDir("upgrade_server");
   pid_t server = 0;
-  const std::string endpoint =
-      test::startServer(kBin, out, 2, &server, {"--protocol", kOldRelease});
+  const std::string endpoint = startServer(out, 2, &server, {"--protocol", kOldRelease});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
-  const std::vector<pid_t> pods = {startPod(endpoint, 0, out / "pod0.log"),
-                                   startPod(endpoint, 1, out / "pod1.log")};
+  const std::vector<pid_t> pods = {startSmallPod(endpoint, 0, 2, out),
+                                   startSmallPod(endpoint, 1, 2, out)};
   const fs::path client_out = out / "client";
   constexpr int kFrames = 8;
   const pid_t client =
