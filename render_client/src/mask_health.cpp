@@ -1,5 +1,7 @@
 #include "render_client/mask_health.h"
 
+#include <algorithm>
+
 #include "metrics/geometry_metrics.h"
 
 namespace holofuse::render {
@@ -47,19 +49,15 @@ void MaskHealthSampler::run() {
       job_.reset();
       busy_ = true;
     }
-    std::vector<double> iou;
+    std::map<uint32_t, double> iou;
     for (size_t c = 0; c < job.cameras.size(); ++c) {
       const Camera& camera = job.cameras[c];
       const Image8& mask = job.masks[c];
-      if (mask.width != camera.width || mask.height != camera.height) {
-        iou.push_back(-1.0);  // a view without its whole mask
-        continue;
-      }
-      iou.push_back(metrics::silhouetteIoU(job.mesh, camera, mask));
+      // A view without its whole mask is not measured.
+      if (mask.width != camera.width || mask.height != camera.height) continue;
+      iou[camera.id] = metrics::silhouetteIoU(job.mesh, camera, mask);
     }
     std::lock_guard<std::mutex> lock(mutex_);
-    if (camera_ids_.empty())
-      for (const Camera& camera : job.cameras) camera_ids_.push_back(camera.id);
     frame_ids_.push_back(job.frame_id);
     values_.push_back(std::move(iou));
     busy_ = false;
@@ -70,10 +68,26 @@ void MaskHealthSampler::run() {
 HealthOverTime MaskHealthSampler::summary(std::vector<uint32_t>* camera_ids) {
   std::unique_lock<std::mutex> lock(mutex_);
   changed_.wait(lock, [&] { return !busy_ && !job_; });
-  if (camera_ids != nullptr) *camera_ids = camera_ids_;
+  // One column per camera any sample measured, in id order; -1 where a
+  // sample did not measure it.
+  std::vector<uint32_t> ids;
+  for (const auto& sample : values_)
+    for (const auto& [id, value] : sample)
+      if (std::find(ids.begin(), ids.end(), id) == ids.end()) ids.push_back(id);
+  std::sort(ids.begin(), ids.end());
+  std::vector<std::vector<double>> rows;
   std::vector<std::vector<bool>> set_apart;
-  for (const auto& frame : values_) set_apart.push_back(belowTheFramesMedian(frame));
-  return summariseHealthOverTime(frame_ids_, values_, set_apart);
+  for (const auto& sample : values_) {
+    std::vector<double> row;
+    for (const uint32_t id : ids) {
+      const auto found = sample.find(id);
+      row.push_back(found != sample.end() ? found->second : -1.0);
+    }
+    set_apart.push_back(belowTheFramesMedian(row));
+    rows.push_back(std::move(row));
+  }
+  if (camera_ids != nullptr) *camera_ids = ids;
+  return summariseHealthOverTime(frame_ids_, rows, set_apart);
 }
 
 }  // namespace holofuse::render

@@ -9,6 +9,7 @@
 
 #include <condition_variable>
 #include <cstdint>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -51,8 +52,10 @@ class MaskHealthSampler {
   std::optional<Job> job_;
   bool busy_ = false, stop_ = false;
   std::vector<uint64_t> frame_ids_;
-  std::vector<std::vector<double>> values_;
-  std::vector<uint32_t> camera_ids_;  // of the first sample
+  // Per sample, each measured camera's IoU by its id: a frame may lack a
+  // camera (a group sent without a late pod), so a sample's position is
+  // not a camera.
+  std::vector<std::map<uint32_t, double>> values_;
   std::thread thread_;
 };
 
