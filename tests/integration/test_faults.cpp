@@ -273,13 +273,20 @@ pid_t serverOnPort(uint16_t port, const fs::path& out, int pods, const std::stri
 // 4 MiB) of the high-water mark before. Not of the resident size before:
 // a sample lands anywhere between a trough and a frame's worth of buffers
 // in flight (measured 31-37 MB for the same warmed-up server), while what
-// a peer left behind raises the trough above the old peak.
+// a peer left behind raises the trough above the old peak. Returns what
+// was too much, or nothing.
+std::string residentGrowth(const ProcessUsage& now, const ProcessUsage& baseline) {
+  if (kSanitized) return {};  // memory figures are the sanitizer's (kSanitized)
+  if (now.rss_kb <= baseline.peak_rss_kb + std::max<uint64_t>(baseline.peak_rss_kb / 10, 4096))
+    return {};
+  return "resident memory " + std::to_string(baseline.rss_kb) + " kB before (peak " +
+         std::to_string(baseline.peak_rss_kb) + " kB), " + std::to_string(now.rss_kb) + " kB after";
+}
+
 void expectNear(const ProcessUsage& now, const ProcessUsage& baseline, const char* who) {
   EXPECT_EQ(now.descriptors, baseline.descriptors) << who << ": descriptors";
-  if (kSanitized) return;  // memory figures are the sanitizer's (kSanitized)
-  EXPECT_LE(now.rss_kb, baseline.peak_rss_kb + std::max<uint64_t>(baseline.peak_rss_kb / 10, 4096))
-      << who << ": resident memory " << baseline.rss_kb << " kB before (peak "
-      << baseline.peak_rss_kb << " kB), " << now.rss_kb << " kB after";
+  const std::string growth = residentGrowth(now, baseline);
+  EXPECT_TRUE(growth.empty()) << who << ": " << growth;
 }
 
 // SIGKILL, then a start again, of a pod, of the client and of the server:
@@ -318,14 +325,24 @@ TEST(Faults, PeersKilledAndStartedAgainRejoinAndLeaveNothingBehind) {
         << "descriptors: " << usageOf(server).descriptors << ", before " << before;
     return name;
   };
-  // Two restarts warm the server's allocator up (each thread's arena);
-  // four more then must leave it where it was.
+  // Two restarts warm the server's allocator up (each thread's arena).
+  // Then two rounds of four: what a restart leaves behind grows the
+  // server in both, while the allocator may still grow once, in one of
+  // them, on a loaded machine (glibc opens a new arena when a thread finds
+  // the others' locks taken).
   restartPodAndClient();
   restartPodAndClient();
-  const ProcessUsage server_baseline = usageOf(server);
   std::string last;
-  for (int i = 0; i < 4; ++i) last = restartPodAndClient();
-  expectNear(usageOf(server), server_baseline, "server after pods and clients restarted");
+  std::vector<ProcessUsage> rounds = {usageOf(server)};
+  for (int round = 0; round < 2; ++round) {
+    for (int i = 0; i < 4; ++i) last = restartPodAndClient();
+    rounds.push_back(usageOf(server));
+    EXPECT_EQ(rounds.back().descriptors, rounds.front().descriptors) << "server: descriptors";
+  }
+  const std::string first = residentGrowth(rounds[1], rounds[0]);
+  const std::string second = residentGrowth(rounds[2], rounds[1]);
+  EXPECT_TRUE(first.empty() || second.empty())
+      << "the server grew in both rounds of restarts: " << first << "; then " << second;
 
   // The server: killed and started on the same port; the pods and the
   // client find it again, and hold what they held before.
