@@ -31,6 +31,8 @@
 #include <vector>
 
 #include "base/process.h"
+#include "config/command_line.h"
+#include "config/rig_shape.h"
 #include "geometry/camera.h"
 #include "integration/insider_attacks.h"
 #include "integration/peer_by_hand.h"
@@ -243,13 +245,18 @@ int main(int argc, char** argv) {
   std::string markdown;
   CLI::App app{"bench_insiders: the rig against keyed insiders and crowds (SECURITY.md)"};
   app.add_option("--size", s.size, "the pods' images")->capture_default_str();
-  app.add_option("--fps", s.fps, "the pods' rate")->capture_default_str();
+  // The pods' --fps, from their table.
+  const SettingFlags<RigShape> shape_flags(app, pickSettings(rigShapeFlags(), {"--fps"}));
   app.add_option("--window-s", s.window_s, "seconds each fps is measured over")
       ->capture_default_str();
   std::string out = "out/bench_insiders";
   app.add_option("--out", out, "folder for the rigs' logs")->capture_default_str();
   app.add_option("--markdown", markdown, "also write the table to this file");
   CLI11_PARSE(app, argc, argv);
+  RigShape shape;
+  shape.fps = s.fps;
+  shape_flags.apply(shape);
+  s.fps = shape.fps;
   s.out = out;
   fs::create_directories(s.out);
   std::vector<Row> rows;

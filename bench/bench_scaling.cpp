@@ -23,6 +23,8 @@
 #include <string>
 #include <vector>
 
+#include "config/command_line.h"
+#include "config/rig_shape.h"
 #include "loop_run.h"
 #include "report/html.h"
 
@@ -88,9 +90,9 @@ int main(int argc, char** argv) {
   CLI::App app{"bench_scaling: what a server core, a client device and a link carry"};
   app.add_option("--frames", frames, "frames each point's loop renders")
       ->check(CLI::Range(4, 10000));
-  app.add_option("--fps", fps,
-                 "the pods' rate: low, so that stages measure their cost, not the queue")
-      ->check(CLI::Range(0.5, 30.0));
+  // The pods' --fps, from their table: low by default, so that stages
+  // measure their cost, not the queue.
+  const SettingFlags<RigShape> shape_flags(app, pickSettings(rigShapeFlags(), {"--fps"}));
   app.add_flag("--quick", quick, "two small points (for the tests)");
   app.add_option("--out", out, "where each point's run goes");
   app.add_option("--markdown", markdown, "also write the tables to this file");
@@ -99,6 +101,10 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
+  RigShape shape;
+  shape.fps = fps;
+  shape_flags.apply(shape);
+  fps = shape.fps;
   std::vector<Point> points;
   if (quick) {
     points = {{2, "96x72", "20", "normal"}, {4, "96x72", "20", "normal"}};

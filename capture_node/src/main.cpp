@@ -10,6 +10,7 @@
 #include "capture_node/replay_pod.h"
 #include "codec/image_codec.h"
 #include "config/command_line.h"
+#include "config/rig_shape.h"
 #include "dataset/capture_formats.h"
 #include "protocol/messages.h"
 #include "scene/scene_library.h"
@@ -99,11 +100,10 @@ int main(int argc, char** argv) {
   // the recorded bytes as they are, so these are refused with --replay.
   const SettingFlags<PodEncoding> encoding_flags(app, podEncodingFlags());
   const SettingFlags<scene::SceneChoice> scene_flags(app, scene::sceneFlags());
+  const SettingFlags<RigShape> shape_flags(app, rigShapeFlags());
   std::vector<CLI::Option*> synthetic = {
-      app.add_option("--pods", options.pods, "cameras on the ring (1..128)")
-          ->check(CLI::Range(1, static_cast<int>(protocol::kMaxCameras))),
-      app.add_option("--size", size, "image size WxH"),
-      app.add_option("--fps", options.fps, "frames per second")->check(CLI::Range(0.1, 240.0)),
+      shape_flags.option("--pods"), app.add_option("--size", size, "image size WxH"),
+      shape_flags.option("--fps"),
       app.add_option("--frames", options.frames,
                      "stop after this many frames (0: run until signalled)"),
       app.add_option("--frame-id-offset", options.frame_id_offset,
@@ -128,6 +128,10 @@ int main(int argc, char** argv) {
   const ProtocolFlag protocol_flag(app, "pod");
   addPodRigFlag(app);
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  RigShape shape{options.pods, options.fps};
+  shape_flags.apply(shape);
+  options.pods = shape.pods;
+  options.fps = shape.fps;
   const auto key = key_flags.load(protocol::Role::kPod, options.pod_id);
   if (!key) return 2;
   options.key = *key;
@@ -148,7 +152,7 @@ int main(int argc, char** argv) {
     camera_options.max_minor = options.max_minor;
     camera_options.loop = loop;
     camera_options.frames = options.frames;
-    if (app.count("--fps")) camera_options.fps = options.fps;
+    if (shape_flags.given("--fps")) camera_options.fps = options.fps;
     encoding_flags.apply(camera_options.encoding);
     installStopSignals();
     const FreeMemoryReturner free_memory;

@@ -111,7 +111,7 @@ int readRig(LoopPlan& plan) {
   plan.rig = std::move(*rig);
   plan.rig_file = std::filesystem::absolute(plan.rig_file).string();
   plan.rig->path = plan.rig_file;
-  plan.pods = static_cast<int>(plan.rig->pods.size());
+  plan.shape.pods = static_cast<int>(plan.rig->pods.size());
   plan.clients = std::max<int>(1, static_cast<int>(plan.rig->clients.size()));
   if (plan.clients > 8) {
     std::fprintf(stderr, "--rig: %s names %d clients; the launcher starts at most 8\n",
@@ -159,16 +159,14 @@ int readRig(LoopPlan& plan) {
       return 2;
     }
   }
-  if (!wasGiven(plan, "--fps") && !partValue(cameras, "--fps").empty()) {
-    double fps = 0;
-    if (const std::string error =
-            holofuse::parseNumberIn(partValue(cameras, "--fps"), 0.1, 240, fps);
-        !error.empty()) {
+  if (const std::string fps = partValue(cameras, "--fps");
+      !wasGiven(plan, "--fps") && !fps.empty()) {
+    const auto* setting = holofuse::findSetting(holofuse::rigShapeFlags(), "--fps");
+    if (const std::string error = setting->set(plan.shape, fps); !error.empty()) {
       std::fprintf(stderr, "--rig: %s: the cameras' fps: %s\n", plan.rig_file.c_str(),
                    error.c_str());
       return 2;
     }
-    plan.fps = fps;
   }
   return 0;
 }
@@ -186,7 +184,7 @@ int readReplay(CLI::App& app, LoopPlan& plan) {
     std::fprintf(stderr, "--replay: %s holds no camera\n", plan.replay.c_str());
     return 2;
   }
-  plan.pods = static_cast<int>(dataset->cameras().size());
+  plan.shape.pods = static_cast<int>(dataset->cameras().size());
   uint32_t expected_id = 0;
   holofuse::protocol::Calibration calibration;  // camera 0's: the output size
   for (const auto& [id, camera] : dataset->cameras()) {
@@ -194,7 +192,7 @@ int readReplay(CLI::App& app, LoopPlan& plan) {
       std::fprintf(
           stderr,
           "--replay: %s: cameras must be numbered 0..%d, each with a calibration (camera %u)\n",
-          plan.replay.c_str(), plan.pods - 1, id);
+          plan.replay.c_str(), plan.shape.pods - 1, id);
       return 2;
     }
     // Checked here, so that no replay pod fails after the others started.
@@ -245,8 +243,6 @@ void appendSettings(std::vector<std::string>& args, const LoopPlan& plan,
 // The launcher's own flags: the run, its rig and its budget; what it
 // records or replays.
 void addRunOptions(CLI::App& app, LoopPlan& plan) {
-  app.add_option("--pods", plan.pods, "camera pods (1..128)")
-      ->check(CLI::Range(1, static_cast<int>(holofuse::protocol::kMaxCameras)));
   app.add_option("--frames", plan.frames, "frames the client renders before everything stops")
       ->check(CLI::Range(1, 1000000));
   app.add_option("--clients", plan.clients,
@@ -263,7 +259,6 @@ void addRunOptions(CLI::App& app, LoopPlan& plan) {
                  "with --soak-minutes: samples before this are not judged")
       ->check(CLI::Range(0.0, 10080.0));
   app.add_option("--size", plan.size, "pod image and output size WxH");
-  app.add_option("--fps", plan.fps, "pod frame rate")->check(CLI::Range(0.5, 120.0));
   app.add_option("--out", plan.out, "output folder");
   app.add_option("--port", plan.port, "server port (0: any free port)")
       ->check(CLI::Range(0, 65535));
@@ -361,7 +356,7 @@ int checkPlan(CLI::App& app, LoopPlan& plan) {
   }
   // (A rig's pods are its file's.)
   if (app.count("--scene") && !app.count("--pods") && plan.replay.empty() && !plan.rig)
-    plan.pods = plan.scene.preset().cameras;
+    plan.shape.pods = plan.scene.preset().cameras;
   if (plan.bin_dir.empty())
     plan.bin_dir = std::filesystem::canonical("/proc/self/exe").parent_path().string();
   return 0;
@@ -380,6 +375,7 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
   const holofuse::SettingFlags<holofuse::scene::SceneChoice> scene_flags(app, scene_settings);
   const holofuse::SettingFlags<holofuse::render::ClientRunSettings> client_flags(
       app, holofuse::render::clientRunFlags());
+  const holofuse::SettingFlags<holofuse::RigShape> shape_flags(app, holofuse::rigShapeFlags());
   // Each process's settings, with its help and range, so that the launcher
   // refuses what the process would.
   std::vector<holofuse::Setting<holofuse::eval::LoopSettings>> settings =
@@ -398,6 +394,7 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
   setting_flags.apply(plan.settings);
   scene_flags.apply(plan.scene);
   client_flags.apply(plan.client);
+  shape_flags.apply(plan.shape);
   for (const CLI::Option* option : app.get_options())
     if (option->count() > 0) plan.given.push_back(option->get_name());
   if (!plan.rig_file.empty()) {
@@ -414,7 +411,7 @@ std::vector<std::string> serverCommand(const LoopPlan& plan, const std::string& 
                                    "--listen",
                                    plan.listen_host + ":" + std::to_string(plan.port),
                                    "--pods",
-                                   std::to_string(plan.pods),
+                                   std::to_string(plan.shape.pods),
                                    "--port-file",
                                    port_file,
                                    "--key-file",
@@ -450,11 +447,11 @@ std::vector<std::string> podCommand(const LoopPlan& plan, int pod, const std::st
     if (plan.loop) args.push_back("--loop");
     return args;
   }
-  append(args, {"--pods", std::to_string(plan.pods)});
+  append(args, {"--pods", std::to_string(plan.shape.pods)});
   const auto part = podPart(plan, pod);
   if (plan.rig) append(args, {"--rig", plan.rig_file});
   for (const auto& [flag, value] : {std::pair<std::string, std::string>{"--size", plan.size},
-                                    {"--fps", std::to_string(plan.fps)}}) {
+                                    {"--fps", holofuse::formatNumber(plan.shape.fps)}}) {
     if (passes(plan, part, flag)) append(args, {flag, value});
   }
   appendSettings(args, plan, part, holofuse::scene::sceneFlags(), plan.scene);
@@ -492,8 +489,9 @@ std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& 
     append(args, {"--jump-degrees", std::to_string(jump)});
   }
   if (plan.quality) {  // the judge knows the truth the pods film; the client does not
-    std::vector<std::string> judge = {plan.bin_dir + "/holofuse_judge", "--fps",
-                                      std::to_string(plan.fps)};
+    std::vector<std::string> judge = {plan.bin_dir + "/holofuse_judge"};
+    appendSettings(judge, plan, {}, holofuse::pickSettings(holofuse::rigShapeFlags(), {"--fps"}),
+                   plan.shape);
     appendSettings(judge, plan, {}, holofuse::scene::sceneFlags(), plan.scene);
     append(args, {"--judge", shellCommand(judge)});
   }

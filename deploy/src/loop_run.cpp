@@ -244,7 +244,7 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes) {
   char settings[256];
   std::snprintf(settings, sizeof(settings),
                 "%d pods at %s and %.1f fps, %d clients in mode %s, %g minutes sampled every %g s",
-                plan.pods, plan.size.c_str(), plan.fps, plan.clients,
+                plan.shape.pods, plan.size.c_str(), plan.shape.fps, plan.clients,
                 holofuse::render::blendModeName(plan.client.mode).c_str(), plan.soak_minutes,
                 plan.sample_seconds);
   report.settings = settings;
@@ -309,7 +309,7 @@ int runLoop(LoopPlan& plan) {
     for (const auto& client : plan.rig->clients) client_ids.push_back(client.id);
   }
   if (const auto made = holofuse::protocol::KeyRing::writeRig(
-          plan.key_dir, static_cast<uint32_t>(plan.pods), client_ids);
+          plan.key_dir, static_cast<uint32_t>(plan.shape.pods), client_ids);
       !made.isOk()) {
     std::fprintf(stderr, "[loop] cannot make this run's keys: %s\n",
                  made.status().message().c_str());
@@ -331,7 +331,7 @@ int runLoop(LoopPlan& plan) {
   std::unique_ptr<holofuse::deploy::NetnsRig> rig;
   if (plan.netns) {
     auto built = holofuse::deploy::NetnsRig::build(
-        {plan.pods, plan.clients, plan.link, plan.pod_links, plan.client_links,
+        {plan.shape.pods, plan.clients, plan.link, plan.pod_links, plan.client_links,
          plan.bin_dir + "/holofuse_relay", logs.string()});
     if (!built.isOk()) {
       std::fprintf(stderr, "[rig] cannot build the rig: %s\n", built.status().message().c_str());
@@ -363,9 +363,9 @@ int runLoop(LoopPlan& plan) {
                                  ? "scene " + plan.scene.name
                                  : "replay of " + plan.replay + " at speed " + plan.speed;
   std::printf("[loop] server on %s, %s, %d pods at %s, %.1f fps; writing %s\n", endpoint.c_str(),
-              source.c_str(), plan.pods, plan.size.c_str(), plan.fps, plan.out.c_str());
+              source.c_str(), plan.shape.pods, plan.size.c_str(), plan.shape.fps, plan.out.c_str());
   std::fflush(stdout);
-  for (int i = 0; i < plan.pods; ++i) {
+  for (int i = 0; i < plan.shape.pods; ++i) {
     const auto command = podCommand(plan, i, rig ? rig->podEndpoint(i) : endpoint);
     const pid_t pod = spawn(rig ? rig->inPod(i, command) : command,
                             (logs / ("pod" + std::to_string(i) + ".log")).string());

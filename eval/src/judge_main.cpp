@@ -11,6 +11,7 @@
 
 #include "capture_node/pod.h"
 #include "config/command_line.h"
+#include "config/rig_shape.h"
 #include "image/image_io.h"
 #include "metrics/image_metrics.h"
 #include "render_client/frame_judge.h"
@@ -41,12 +42,11 @@ render::JudgeAnswer judgeFrame(const scene::SyntheticScene& scene,
 }  // namespace
 
 int main(int argc, char** argv) {
-  double fps = capture::PodOptions{}.fps;
   CLI::App app{
       "holofuse judge: judges the client's frames against the synthetic scene the pods film "
       "(requests on stdin, answers on stdout, a line of JSON each)"};
-  app.add_option("--fps", fps, "the pods' --fps (their frame ids' clock)")
-      ->check(CLI::Range(0.1, 240.0));
+  // The pods' --fps, from their table: their frame ids' clock.
+  const SettingFlags<RigShape> shape_flags(app, pickSettings(rigShapeFlags(), {"--fps"}));
   // The pods' scene flags, from the pods' own table: the truth must be
   // what they render.
   const SettingFlags<scene::SceneChoice> scene_flags(app, scene::sceneFlags());
@@ -56,7 +56,9 @@ int main(int argc, char** argv) {
   scene_flags.apply(choice);
   // The scene as the pods render it (capture_node --scene).
   scene::SceneOptions scene_options = choice.options();
-  scene_options.frames_per_second = fps;  // as capture_node sets it from its --fps
+  RigShape shape;
+  shape_flags.apply(shape);
+  scene_options.frames_per_second = shape.fps;  // as capture_node sets it from its --fps
   const scene::SyntheticScene scene(scene_options);
   std::string line;
   while (std::getline(std::cin, line)) {

@@ -7,6 +7,7 @@
 #include "base/process.h"
 #include "base/shutdown.h"
 #include "config/command_line.h"
+#include "config/rig_shape.h"
 #include "fusion_server/fusion_server.h"
 #include "protocol/auth.h"
 #include "protocol/messages.h"
@@ -138,8 +139,8 @@ int main(int argc, char** argv) {
   CLI::App app{"holofuse fusion_server: visual hull fusion and fan-out"};
   app.add_option("--listen", listen, "HOST:PORT to listen on (port 0: any free port)")
       ->capture_default_str();
-  app.add_option("--pods", options.pods, "cameras expected (1..128)")
-      ->check(CLI::Range(1, static_cast<int>(protocol::kMaxCameras)));
+  // The rig's --pods, from its table: the cameras expected.
+  const SettingFlags<RigShape> shape_flags(app, pickSettings(rigShapeFlags(), {"--pods"}));
   app.add_option("--sync-deadline-ms", options.sync_deadline_ms,
                  "wait this long for a frame's slowest pod")
       ->check(CLI::Range(1.0, 10000.0));
@@ -207,6 +208,10 @@ int main(int argc, char** argv) {
     return rig.serverPart();
   });
   HOLOFUSE_PARSE_FLAGS(app, argc, argv)
+  RigShape shape;
+  shape.pods = options.pods;
+  shape_flags.apply(shape);
+  options.pods = shape.pods;
   if (!check_health.empty()) {
     const auto health = fusion::checkHealth(check_health, health_max_age_ms);
     if (!health.isOk()) {

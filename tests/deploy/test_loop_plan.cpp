@@ -55,15 +55,18 @@ TEST(LoopPlan, EachClientReadsBackTheRunTheLauncherWasGiven) {
 }
 
 TEST(LoopPlan, EachPodAndTheJudgeReadBackTheSceneTheLauncherWasGiven) {
-  const LoopPlan plan = planOf(
-      {"--scene", "fast-motion", "--seed", "18446744073709551615", "--noise", "0.5", "--quality"});
+  const LoopPlan plan = planOf({"--scene", "fast-motion", "--seed", "18446744073709551615",
+                                "--noise", "0.5", "--fps", "7.5", "--quality"});
   ASSERT_TRUE(plan.scene.seed.has_value());
   EXPECT_EQ(*plan.scene.seed, 18446744073709551615u) << "a 64-bit seed keeps every digit";
-  EXPECT_EQ(plan.pods, plan.scene.preset().cameras) << "the scene's camera count";
-  for (int pod : {0, plan.pods - 1}) {
+  EXPECT_EQ(plan.shape.pods, plan.scene.preset().cameras) << "the scene's camera count";
+  for (int pod : {0, plan.shape.pods - 1}) {
     const auto read = readBack(scene::sceneFlags(), podCommand(plan, pod, "127.0.0.1:1"));
     expectSame(scene::sceneFlags(), read, plan.scene);
     EXPECT_EQ(read.options().noise_amplitude, 0.5);
+    const auto shape = readBack(rigShapeFlags(), podCommand(plan, pod, "127.0.0.1:1"));
+    expectSame(rigShapeFlags(), shape, plan.shape);
+    EXPECT_EQ(shape.fps, 7.5);
   }
   // The judge's command is one shell word of the client's --judge.
   const auto client = clientCommand(plan, "127.0.0.1:1", 0);
@@ -71,6 +74,7 @@ TEST(LoopPlan, EachPodAndTheJudgeReadBackTheSceneTheLauncherWasGiven) {
   ASSERT_NE(judge, client.end());
   EXPECT_NE(judge[1].find("'--seed' '18446744073709551615'"), std::string::npos) << judge[1];
   EXPECT_NE(judge[1].find("'--scene' 'fast-motion'"), std::string::npos) << judge[1];
+  EXPECT_NE(judge[1].find("'--fps' '7.5'"), std::string::npos) << judge[1];
 }
 
 // Unset, the seed and the noise reach no pod: each keeps its scene's.

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "codec/pod_frame_codec.h"
+#include "config/rig_shape.h"
 #include "protocol/messages.h"
 #include "protocol/socket.h"
 #include "scene/synthetic_scene.h"
@@ -17,9 +18,9 @@ namespace holofuse::capture {
 struct PodOptions {
   protocol::Endpoint server;
   uint32_t pod_id = 0;
-  int pods = 4;
+  int pods = RigShape{}.pods;  // --pods and --fps are the rig shape's (config/rig_shape.h)
   uint32_t width = 320, height = 240;
-  double fps = 10.0;
+  double fps = RigShape{}.fps;
   uint64_t frames = 0;  // stop after this many frames sent; 0 = until signalled
   // Added to every frame id the pod sends: a pod whose clock is off by that
   // many frame periods (SECURITY.md's tests of the rig's clock).

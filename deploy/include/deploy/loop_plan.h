@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "config/rig_file.h"
+#include "config/rig_shape.h"
 #include "eval/loop_settings.h"
 #include "render_client/render_settings.h"
 #include "scene/scene_library.h"
@@ -17,13 +18,14 @@ namespace holofuse::deploy {
 // Everything the launcher was asked for, checked before any process
 // starts.
 struct LoopPlan {
-  int pods = 4, frames = 40, port = 0, clients = 1;
+  int frames = 40, port = 0, clients = 1;
   // A soak (deploy/soak.h): the loop runs this long, its processes sampled
   // every sample_seconds; 0: an ordinary run that ends with the frames.
   double soak_minutes = 0, sample_seconds = 60, warmup_minutes = 2;
-  // What a 2-core machine's client sustains in mode normal (measured by
+  // The pods and their rate (the pods' own table, forwarded), at 15 fps:
+  // what a 2-core machine's client sustains in mode normal (measured by
   // `./holofuse bench loop`); a slower mode renders the newest mesh it can.
-  double fps = 15.0;
+  RigShape shape{4, 15.0};
   std::string size = "320x240", out = "out/demo", bin_dir;
   // The pods' scene (to the pods and the judge) and each client's run
   // settings, bound from the pods' and the client's own flag tables and
