@@ -130,6 +130,46 @@ bool setVolume(const std::string& volume, holofuse::hull::HullOptions& hull) {
   return true;
 }
 
+// The keys the server authenticates peers with, or none with --no-auth
+// (loopback only). False, having said why, when neither can serve.
+bool takeKeys(holofuse::fusion::ServerOptions& options, bool no_auth, const std::string& key_path,
+              const std::string& listen) {
+  using namespace holofuse;
+  if (!no_auth && !fusion::capabilitiesOf(options.max_minor).authenticates) {
+    std::fprintf(stderr,
+                 "--protocol 1.%u has no authentication (it came with 1.4): give --no-auth, or "
+                 "1.4 or later\n",
+                 options.max_minor);
+    return false;
+  }
+  if (no_auth) {
+    if (!protocol::isLoopback(options.listen)) {
+      std::fprintf(stderr,
+                   "--no-auth serves only loopback (127.0.0.1 or ::1), not %s: every peer would be "
+                   "trusted; give a --key-file instead\n",
+                   listen.c_str());
+      return false;
+    }
+    std::fprintf(stderr,
+                 "[server] no authentication (--no-auth): any local process may join; loopback "
+                 "only\n");
+  } else if (key_path.empty()) {
+    std::fprintf(
+        stderr,
+        "[server] no key: give --key-file PATH (make one with fusion_server --new-key "
+        "PATH) or set HOLOFUSE_KEY_FILE; or --no-auth to serve loopback unauthenticated\n");
+    return false;
+  } else {
+    auto keys = protocol::KeyRing::load(key_path);
+    if (!keys.isOk()) {
+      std::fprintf(stderr, "[server] cannot start: %s\n", keys.status().message().c_str());
+      return false;
+    }
+    options.keys = std::move(*keys);
+  }
+  return true;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -238,40 +278,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   options.listen = *endpoint;
-  const std::string key_path = protocol::keyFilePath(key_file);
   options.max_minor = protocol_flag.maxMinor();
-  if (!no_auth && !fusion::capabilitiesOf(options.max_minor).authenticates) {
-    std::fprintf(stderr,
-                 "--protocol 1.%u has no authentication (it came with 1.4): give --no-auth, or "
-                 "1.4 or later\n",
-                 options.max_minor);
-    return 2;
-  }
-  if (no_auth) {
-    if (!protocol::isLoopback(options.listen)) {
-      std::fprintf(stderr,
-                   "--no-auth serves only loopback (127.0.0.1 or ::1), not %s: every peer would be "
-                   "trusted; give a --key-file instead\n",
-                   listen.c_str());
-      return 2;
-    }
-    std::fprintf(stderr,
-                 "[server] no authentication (--no-auth): any local process may join; loopback "
-                 "only\n");
-  } else if (key_path.empty()) {
-    std::fprintf(
-        stderr,
-        "[server] no key: give --key-file PATH (make one with fusion_server --new-key "
-        "PATH) or set HOLOFUSE_KEY_FILE; or --no-auth to serve loopback unauthenticated\n");
-    return 2;
-  } else {
-    auto keys = protocol::KeyRing::load(key_path);
-    if (!keys.isOk()) {
-      std::fprintf(stderr, "[server] cannot start: %s\n", keys.status().message().c_str());
-      return 2;
-    }
-    options.keys = std::move(*keys);
-  }
+  if (!takeKeys(options, no_auth, protocol::keyFilePath(key_file), listen)) return 2;
   installStopSignals();
   const FreeMemoryReturner free_memory;
   // A recording that reaches a file size limit gets EFBIG from write() and
