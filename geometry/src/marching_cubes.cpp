@@ -1,5 +1,7 @@
 #include "geometry/marching_cubes.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <unordered_map>
@@ -141,19 +143,33 @@ ScalarGrid sampleGrid(const glm::dvec3& origin, double spacing, int nx, int ny, 
   return grid;
 }
 
-Mesh marchingCubes(const ScalarGrid& grid) {
+namespace {
+
+// The surface of the cube layers [z0, z1): triangles over the slab's own
+// vertices, numbered in the order its cubes first reach them.
+struct SlabSurface {
+  std::vector<glm::vec3> positions;
+  std::vector<uint64_t> keys;
+  std::vector<uint32_t> indices;
+};
+
+SlabSurface marchSlab(const ScalarGrid& grid, int z0, int z1) {
   const auto& table = marchingCubesCaseTable();
   const auto& edges = cubeEdges();
-  Mesh mesh;
-  std::unordered_map<uint64_t, uint32_t> vertex_of_edge;
+  SlabSurface slab;
+  // The slab's edges start on its grid planes z0..z1: a dense table of
+  // them is cheaper than hashing (3 edges per point).
+  const uint64_t plane = static_cast<uint64_t>(grid.nx) * grid.ny;
+  const uint64_t first_key = static_cast<uint64_t>(z0) * plane * 3;
+  std::vector<uint32_t> vertex_of_edge(static_cast<size_t>(z1 - z0 + 1) * plane * 3, UINT32_MAX);
   auto vertexFor = [&](int x, int y, int z, const CubeEdge& edge) -> uint32_t {
     const int bx = x + (edge.base & 1), by = y + ((edge.base >> 1) & 1),
               bz = z + ((edge.base >> 2) & 1);
     const uint64_t key = ((static_cast<uint64_t>(bz) * grid.ny + by) * grid.nx + bx) * 3 +
                          static_cast<uint64_t>(edge.axis);
-    auto [it, inserted] =
-        vertex_of_edge.try_emplace(key, static_cast<uint32_t>(mesh.positions.size()));
-    if (inserted) {
+    uint32_t& vertex = vertex_of_edge[key - first_key];
+    if (vertex == UINT32_MAX) {
+      vertex = static_cast<uint32_t>(slab.positions.size());
       const int ox = bx + (edge.axis == 0), oy = by + (edge.axis == 1), oz = bz + (edge.axis == 2);
       const double v0 = grid.at(bx, by, bz), v1 = grid.at(ox, oy, oz);
       // Linear placement of the zero crossing, kept off the end points so no
@@ -161,21 +177,65 @@ Mesh marchingCubes(const ScalarGrid& grid) {
       const double t = std::clamp(v0 / (v0 - v1), 1e-3, 1.0 - 1e-3);
       const glm::dvec3 p =
           grid.point(bx, by, bz) + t * (grid.point(ox, oy, oz) - grid.point(bx, by, bz));
-      mesh.positions.emplace_back(p);
-      mesh.vertex_keys.push_back(key);
+      slab.positions.emplace_back(p);
+      slab.keys.push_back(key);
     }
-    return it->second;
+    return vertex;
   };
-  for (int z = 0; z + 1 < grid.nz; ++z) {
+  for (int z = z0; z < z1; ++z) {
     for (int y = 0; y + 1 < grid.ny; ++y) {
       for (int x = 0; x + 1 < grid.nx; ++x) {
         int config = 0;
         for (int c = 0; c < 8; ++c) {
           if (grid.at(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)) > 0.0f) config |= 1 << c;
         }
-        for (int e : table[config]) mesh.indices.push_back(vertexFor(x, y, z, edges[e]));
+        for (int e : table[config]) slab.indices.push_back(vertexFor(x, y, z, edges[e]));
       }
     }
+  }
+  return slab;
+}
+
+}  // namespace
+
+Mesh marchingCubes(const ScalarGrid& grid) {
+  // Slabs of cube layers are marched side by side and joined in z order.
+  // A vertex on the plane between two slabs is reached by both: the lower
+  // one numbered it first, as a scan of the whole grid would, so the
+  // joined mesh is the whole scan's, vertex for vertex, however many
+  // threads marched it.
+  constexpr int kSlabLayers = 4;
+  const int layers = std::max(grid.nz - 1, 0);
+  const int slab_count = (layers + kSlabLayers - 1) / kSlabLayers;
+  std::vector<SlabSurface> slabs(static_cast<size_t>(slab_count));
+  tbb::parallel_for(0, slab_count, [&](int i) {
+    slabs[i] = marchSlab(grid, i * kSlabLayers, std::min((i + 1) * kSlabLayers, layers));
+  });
+  Mesh mesh;
+  const uint64_t plane_keys = static_cast<uint64_t>(grid.nx) * grid.ny * 3;
+  std::unordered_map<uint64_t, uint32_t> on_plane;  // the plane between this slab and the last
+  for (int i = 0; i < slab_count; ++i) {
+    const SlabSurface& slab = slabs[i];
+    const uint64_t bottom = static_cast<uint64_t>(i) * kSlabLayers;
+    const uint64_t top = std::min<uint64_t>(bottom + kSlabLayers, layers);
+    std::unordered_map<uint64_t, uint32_t> on_top;
+    std::vector<uint32_t> joined(slab.positions.size());
+    for (size_t v = 0; v < slab.positions.size(); ++v) {
+      const uint64_t key = slab.keys[v];
+      const uint64_t z = key / plane_keys;
+      if (z == bottom && i > 0) {
+        if (auto it = on_plane.find(key); it != on_plane.end()) {
+          joined[v] = it->second;
+          continue;
+        }
+      }
+      joined[v] = static_cast<uint32_t>(mesh.positions.size());
+      mesh.positions.push_back(slab.positions[v]);
+      mesh.vertex_keys.push_back(key);
+      if (z == top) on_top.emplace(key, joined[v]);
+    }
+    for (uint32_t index : slab.indices) mesh.indices.push_back(joined[index]);
+    on_plane = std::move(on_top);
   }
   computeVertexNormals(mesh);
   return mesh;

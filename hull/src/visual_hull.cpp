@@ -1,9 +1,13 @@
 #include "hull/visual_hull.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <opencv2/imgproc.hpp>
+#include <tuple>
+#include <utility>
 
 #include "geometry/marching_cubes.h"
 
@@ -118,10 +122,73 @@ CellClass classifyCell(const glm::dvec3& p0, const glm::dvec3& p1,
   return inside_all ? CellClass::kInside : CellClass::kBoundary;
 }
 
+// What one top cell's subtree settled without sampling, and the voxels
+// the surface may cross (their corners are sampled).
+struct CellVerdicts {
+  struct Settled {
+    glm::ivec3 a, b;  // inclusive grid point range
+    float value;
+  };
+  std::vector<Settled> settled;
+  std::vector<glm::ivec3> voxels;
+  size_t cells_classified = 0;
+};
+
+// Classifies the cell [a, a + size] (clipped to the grid) and, where the
+// surface may cross it, its children down to voxels.
+CellVerdicts classifyTopCell(const glm::ivec3& top_a, int top_size, const ScalarGrid& grid,
+                             const std::vector<HullView>& views,
+                             const std::vector<std::vector<uint32_t>>& foreground_sums) {
+  const glm::ivec3 n(grid.nx, grid.ny, grid.nz);
+  const float s = static_cast<float>(grid.spacing);
+  CellVerdicts verdicts;
+  struct Cell {
+    glm::ivec3 a;
+    int size;
+  };
+  std::vector<Cell> stack = {{top_a, top_size}};
+  while (!stack.empty()) {
+    const Cell cell = stack.back();
+    stack.pop_back();
+    const glm::ivec3 b = glm::min(cell.a + cell.size, n - 1);
+    if (cell.size == 1) {
+      verdicts.voxels.push_back(cell.a);
+      continue;
+    }
+    const glm::dvec3 p0 = grid.point(cell.a.x, cell.a.y, cell.a.z), p1 = grid.point(b.x, b.y, b.z);
+    ++verdicts.cells_classified;
+    CellClass c = classifyCell(p0, p1, views, foreground_sums);
+    // The grid's outer layer is forced outside afterwards: an inside cell on
+    // it must be refined, or its points keep a placeholder next to the
+    // forced border.
+    const bool on_border = cell.a.x == 0 || cell.a.y == 0 || cell.a.z == 0 || b.x == n.x - 1 ||
+                           b.y == n.y - 1 || b.z == n.z - 1;
+    if (c == CellClass::kInside && on_border) c = CellClass::kBoundary;
+    if (c != CellClass::kBoundary) {
+      verdicts.settled.push_back({cell.a, b, c == CellClass::kInside ? s : -s});
+      continue;
+    }
+    const int half = cell.size / 2;
+    for (int dz = 0; dz < 2; ++dz) {
+      for (int dy = 0; dy < 2; ++dy) {
+        for (int dx = 0; dx < 2; ++dx) {
+          const glm::ivec3 a = cell.a + half * glm::ivec3(dx, dy, dz);
+          if (a.x < n.x - 1 && a.y < n.y - 1 && a.z < n.z - 1) stack.push_back({a, half});
+        }
+      }
+    }
+  }
+  return verdicts;
+}
+
 // The fine grid of `n` points from `lo`, filled coarse to fine. Settled
-// cells give their points a placeholder of one voxel inside or outside
-// (unless a boundary voxel already evaluated them exactly); boundary voxels
-// evaluate their eight corners.
+// cells give their points a placeholder of one voxel inside or outside;
+// the corners of every voxel the surface may cross get the exact signed
+// distance, whatever a neighbouring cell settled. Settled cells never
+// disagree on a point they share (classifyCell is exact for the points it
+// settles), so the grid is the same whatever order the cells are visited
+// in: the top cells are classified side by side, then the placeholders
+// are written, then the exact points are sampled side by side.
 template <typename Distance>
 ScalarGrid sampleHierarchically(const glm::dvec3& lo, double s, const glm::ivec3& n, int levels,
                                 const std::vector<HullView>& views,
@@ -134,74 +201,93 @@ ScalarGrid sampleHierarchically(const glm::dvec3& lo, double s, const glm::ivec3
   grid.origin = lo;
   grid.spacing = s;
   grid.values.assign(static_cast<size_t>(n.x) * n.y * n.z, 0.0f);
-  std::vector<uint8_t> exact(grid.values.size(), 0);
   auto index = [&](int x, int y, int z) { return (static_cast<size_t>(z) * n.y + y) * n.x + x; };
-  auto settle = [&](const glm::ivec3& a, const glm::ivec3& b, float value) {
-    for (int z = a.z; z <= b.z; ++z) {
-      for (int y = a.y; y <= b.y; ++y) {
-        for (int x = a.x; x <= b.x; ++x) {
-          const size_t i = index(x, y, z);
-          if (!exact[i]) grid.values[i] = value;
-        }
-      }
-    }
-  };
-  // Cells are voxel ranges [a, a + size] clipped to the grid.
-  struct Cell {
-    glm::ivec3 a;
-    int size;
-  };
-  std::vector<Cell> stack;
   const int top = 1 << levels;
+  std::vector<glm::ivec3> tops;
   for (int z = 0; z < n.z - 1; z += top) {
     for (int y = 0; y < n.y - 1; y += top) {
-      for (int x = 0; x < n.x - 1; x += top) stack.push_back({{x, y, z}, top});
+      for (int x = 0; x < n.x - 1; x += top) tops.push_back({x, y, z});
     }
   }
-  while (!stack.empty()) {
-    const Cell cell = stack.back();
-    stack.pop_back();
-    const glm::ivec3 b = glm::min(cell.a + cell.size, n - 1);
-    if (cell.size == 1) {
-      for (int z = cell.a.z; z <= b.z; ++z) {
-        for (int y = cell.a.y; y <= b.y; ++y) {
-          for (int x = cell.a.x; x <= b.x; ++x) {
-            const size_t i = index(x, y, z);
-            if (exact[i]) continue;
-            grid.values[i] = static_cast<float>(signedDistance(grid.point(x, y, z)));
-            exact[i] = 1;
-            ++stats.points_sampled;
-          }
+  std::vector<CellVerdicts> verdicts(tops.size());
+  tbb::parallel_for(size_t{0}, tops.size(), [&](size_t i) {
+    verdicts[i] = classifyTopCell(tops[i], top, grid, views, foreground_sums);
+  });
+  std::vector<uint8_t> exact(grid.values.size(), 0);
+  for (const CellVerdicts& v : verdicts) {
+    stats.cells_classified += v.cells_classified;
+    for (const auto& settled : v.settled) {
+      for (int z = settled.a.z; z <= settled.b.z; ++z) {
+        for (int y = settled.a.y; y <= settled.b.y; ++y) {
+          float* row = &grid.values[index(settled.a.x, y, z)];
+          std::fill(row, row + (settled.b.x - settled.a.x + 1), settled.value);
         }
       }
-      continue;
     }
-    const glm::dvec3 p0 = grid.point(cell.a.x, cell.a.y, cell.a.z), p1 = grid.point(b.x, b.y, b.z);
-    ++stats.cells_classified;
-    CellClass c = classifyCell(p0, p1, views, foreground_sums);
-    // The grid's outer layer is forced outside afterwards: an inside cell on
-    // it must be refined, or its points keep a placeholder next to the
-    // forced border.
-    const bool on_border = cell.a.x == 0 || cell.a.y == 0 || cell.a.z == 0 || b.x == n.x - 1 ||
-                           b.y == n.y - 1 || b.z == n.z - 1;
-    if (c == CellClass::kInside && on_border) c = CellClass::kBoundary;
-    if (c == CellClass::kInside) {
-      settle(cell.a, b, static_cast<float>(s));
-    } else if (c == CellClass::kOutside) {
-      settle(cell.a, b, static_cast<float>(-s));
-    } else {
-      const int half = cell.size / 2;
-      for (int dz = 0; dz < 2; ++dz) {
-        for (int dy = 0; dy < 2; ++dy) {
-          for (int dx = 0; dx < 2; ++dx) {
-            const glm::ivec3 a = cell.a + half * glm::ivec3(dx, dy, dz);
-            if (a.x < n.x - 1 && a.y < n.y - 1 && a.z < n.z - 1) stack.push_back({a, half});
-          }
+    for (const glm::ivec3& a : v.voxels) {
+      const glm::ivec3 b = glm::min(a + 1, n - 1);
+      for (int z = a.z; z <= b.z; ++z) {
+        for (int y = a.y; y <= b.y; ++y) {
+          for (int x = a.x; x <= b.x; ++x) exact[index(x, y, z)] = 1;
         }
       }
     }
   }
+  // Each grid plane's exact points, sampled on its own.
+  std::vector<size_t> sampled(static_cast<size_t>(n.z), 0);
+  tbb::parallel_for(0, n.z, [&](int z) {
+    for (int y = 0; y < n.y; ++y) {
+      for (int x = 0; x < n.x; ++x) {
+        const size_t i = index(x, y, z);
+        if (!exact[i]) continue;
+        grid.values[i] = static_cast<float>(signedDistance(grid.point(x, y, z)));
+        ++sampled[z];
+      }
+    }
+  });
+  for (size_t count : sampled) stats.points_sampled += count;
   return grid;
+}
+
+// The valid region: the bounds of the points of a coarse lattice that
+// fall inside every camera's silhouette rectangle (empty: lo above hi).
+// Each plane of the lattice is tested on its own.
+std::pair<glm::dvec3, glm::dvec3> validRegion(const std::vector<HullView>& views,
+                                              const std::vector<Rect>& rects,
+                                              const HullOptions& options) {
+  const double step = options.valid_region_step;
+  std::vector<double> planes;
+  for (double z = options.volume_min.z; z <= options.volume_max.z; z += step) planes.push_back(z);
+  constexpr double kMax = std::numeric_limits<double>::max();
+  std::vector<std::pair<glm::dvec3, glm::dvec3>> bounds(planes.size(),
+                                                        {glm::dvec3(kMax), glm::dvec3(-kMax)});
+  tbb::parallel_for(size_t{0}, planes.size(), [&](size_t k) {
+    auto& [lo, hi] = bounds[k];
+    for (double y = options.volume_min.y; y <= options.volume_max.y; y += step) {
+      for (double x = options.volume_min.x; x <= options.volume_max.x; x += step) {
+        const glm::dvec3 p(x, y, planes[k]);
+        bool inside_all = true;
+        for (size_t i = 0; i < views.size() && inside_all; ++i) {
+          const auto proj = views[i].camera.project(p);
+          // A lattice point within one step of the rectangle may still carry
+          // surface: test against the rectangle grown by the step's footprint.
+          const double margin = proj ? step * views[i].camera.fx / proj->z : 0;
+          inside_all = proj && proj->x >= rects[i].x0 - margin &&
+                       proj->x <= rects[i].x1 + 1 + margin && proj->y >= rects[i].y0 - margin &&
+                       proj->y <= rects[i].y1 + 1 + margin;
+        }
+        if (!inside_all) continue;
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+      }
+    }
+  });
+  std::pair<glm::dvec3, glm::dvec3> region = {glm::dvec3(kMax), glm::dvec3(-kMax)};
+  for (const auto& [lo, hi] : bounds) {
+    region.first = glm::min(region.first, lo);
+    region.second = glm::max(region.second, hi);
+  }
+  return region;
 }
 
 }  // namespace
@@ -252,32 +338,10 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
     rects.push_back(silhouetteRect(v.mask));
     if (rects.back().empty()) return {};  // an empty silhouette carves everything away
   }
-  // Valid region: the points of a coarse lattice that fall inside every
-  // camera's silhouette rectangle, grown by one step.
-  glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
   const double step = options.valid_region_step;
-  for (double z = options.volume_min.z; options.valid_region && z <= options.volume_max.z;
-       z += step) {
-    for (double y = options.volume_min.y; y <= options.volume_max.y; y += step) {
-      for (double x = options.volume_min.x; x <= options.volume_max.x; x += step) {
-        const glm::dvec3 p(x, y, z);
-        bool inside_all = true;
-        for (size_t i = 0; i < views.size() && inside_all; ++i) {
-          const auto proj = views[i].camera.project(p);
-          // A lattice point within one step of the rectangle may still carry
-          // surface: test against the rectangle grown by the step's footprint.
-          const double margin = proj ? step * views[i].camera.fx / proj->z : 0;
-          inside_all = proj && proj->x >= rects[i].x0 - margin &&
-                       proj->x <= rects[i].x1 + 1 + margin && proj->y >= rects[i].y0 - margin &&
-                       proj->y <= rects[i].y1 + 1 + margin;
-        }
-        if (!inside_all) continue;
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-      }
-    }
-  }
+  glm::dvec3 lo, hi;
   if (options.valid_region) {
+    std::tie(lo, hi) = validRegion(views, rects, options);
     if (lo.x > hi.x) return {};
     lo = glm::max(lo - step, options.volume_min);
     hi = glm::min(hi + step, options.volume_max);
@@ -292,8 +356,9 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   const glm::ivec3 first = glm::ivec3(glm::floor((lo - options.volume_min) / s));
   lo = options.volume_min + s * glm::dvec3(first);
 
-  std::vector<std::vector<float>> distances;
-  for (const auto& v : views) distances.push_back(silhouetteSignedDistance(v));
+  std::vector<std::vector<float>> distances(views.size());
+  tbb::parallel_for(size_t{0}, views.size(),
+                    [&](size_t i) { distances[i] = silhouetteSignedDistance(views[i]); });
 
   const glm::ivec3 n = glm::ivec3(glm::ceil((hi - lo) / s)) + 1;
   // The hull's signed distance is approximated by the smallest of the
@@ -320,23 +385,24 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
     grid = sampleGrid(lo, s, n.x, n.y, n.z, signedDistance);
     local.points_sampled = grid.values.size();
   } else {
-    std::vector<std::vector<uint32_t>> foreground_sums;
-    for (const auto& v : views) foreground_sums.push_back(foregroundSums(v.mask));
+    std::vector<std::vector<uint32_t>> foreground_sums(views.size());
+    tbb::parallel_for(size_t{0}, views.size(),
+                      [&](size_t i) { foreground_sums[i] = foregroundSums(views[i].mask); });
     grid = sampleHierarchically(lo, s, n, options.hierarchy_levels, views, foreground_sums,
                                 signedDistance, local);
   }
-  ScalarGrid closed = grid;
+  // Closed in place: the outer layer outside.
   for (int z = 0; z < n.z; ++z) {
     for (int y = 0; y < n.y; ++y) {
       for (int x = 0; x < n.x; ++x) {
         if (x == 0 || y == 0 || z == 0 || x == n.x - 1 || y == n.y - 1 || z == n.z - 1) {
-          float& v = closed.values[(static_cast<size_t>(z) * n.y + y) * n.x + x];
+          float& v = grid.values[(static_cast<size_t>(z) * n.y + y) * n.x + x];
           v = std::min(v, static_cast<float>(-0.5 * s));
         }
       }
     }
   }
-  Mesh mesh = marchingCubes(closed);
+  Mesh mesh = marchingCubes(grid);
   // Local edge keys to keys on the capture volume's lattice.
   const glm::u64vec3 lattice = keyLattice(options);
   for (uint64_t& key : mesh.vertex_keys) {
@@ -349,7 +415,7 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
     *stats = local;
     stats->region_min = lo;
     stats->region_max = hi;
-    stats->grid_points = closed.values.size();
+    stats->grid_points = grid.values.size();
     stats->triangles = mesh.triangleCount();
   }
   return mesh;

@@ -88,6 +88,64 @@ TEST(MarchingCubes, AmbiguousCheckerFieldStillGivesAClosedSurface) {
   expectClosedAndOriented(marchingCubes(grid));
 }
 
+// Marching cubes as one scan of the whole grid, vertices numbered as the
+// cubes first reach them: what the marcher's slabs, marched side by side
+// and joined, must give vertex for vertex. Edge e runs along axis e / 4
+// from the (e % 4)-th corner whose bit for that axis is 0 (the case
+// table's numbering).
+Mesh marchedInOneScan(const ScalarGrid& grid) {
+  Mesh mesh;
+  std::map<uint64_t, uint32_t> vertex_of_edge;
+  for (int z = 0; z + 1 < grid.nz; ++z) {
+    for (int y = 0; y + 1 < grid.ny; ++y) {
+      for (int x = 0; x + 1 < grid.nx; ++x) {
+        int config = 0;
+        for (int c = 0; c < 8; ++c) {
+          if (grid.at(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)) > 0.0f) config |= 1 << c;
+        }
+        for (int e : marchingCubesCaseTable()[config]) {
+          const int axis = e / 4;
+          int base = -1;
+          for (int c = 0, k = 0; c < 8; ++c) {
+            if (c & (1 << axis)) continue;
+            if (k++ == e % 4) base = c;
+          }
+          const glm::ivec3 b(x + (base & 1), y + ((base >> 1) & 1), z + ((base >> 2) & 1));
+          const uint64_t key =
+              ((static_cast<uint64_t>(b.z) * grid.ny + b.y) * grid.nx + b.x) * 3 + axis;
+          auto [it, inserted] =
+              vertex_of_edge.try_emplace(key, static_cast<uint32_t>(mesh.positions.size()));
+          if (inserted) {
+            mesh.positions.emplace_back(grid.point(b.x, b.y, b.z));  // where is not compared
+            mesh.vertex_keys.push_back(key);
+          }
+          mesh.indices.push_back(it->second);
+        }
+      }
+    }
+  }
+  return mesh;
+}
+
+TEST(MarchingCubes, SlabsJoinedGiveTheWholeScansMeshVertexForVertex) {
+  // A blob tall enough for many slabs, crossing every slab boundary, and
+  // thin layers (3 and 5 planes) where the last slab is short.
+  for (const int nz : {3, 5, 23, 40}) {
+    // The tallest grid holds the whole blob (a closed surface); the others
+    // cut it.
+    const double z0 = nz == 40 ? -1.0 : -0.5;
+    const auto grid = sampleGrid({-0.5, -0.5, z0}, 0.05, 21, 19, nz, [&](const glm::dvec3& p) {
+      return 0.35 - glm::length(p * glm::dvec3(1.0, 1.3, 0.6)) + 0.05 * std::sin(9 * p.x);
+    });
+    const Mesh mesh = marchingCubes(grid);
+    const Mesh scan = marchedInOneScan(grid);
+    ASSERT_GT(scan.triangleCount(), 0u) << nz;
+    EXPECT_EQ(mesh.vertex_keys, scan.vertex_keys) << nz << " planes";
+    EXPECT_EQ(mesh.indices, scan.indices) << nz << " planes";
+    if (nz == 40) expectClosedAndOriented(mesh);
+  }
+}
+
 // One right triangle with legs 3 and 4 (edges 3, 4, 5) and one with legs 1
 // and 1 (1, 1, sqrt 2): six edges in all.
 TEST(Mesh, MeanEdgeLengthCountsEveryTrianglesEdges) {
