@@ -10,23 +10,35 @@
 //   - the client's ms per frame (decode, upload, render);
 //   - the bytes per frame on a pod's link and a client's link, and their
 //     Mbit/s at 15 and 30 fps;
-//   - the frames per second each of them carries (and the fusion worker's
-//     thread alone, which no further core speeds up), and which is the
-//     first to stop a rig at 30 fps (a 1 Gbit/s link counted as one).
+//   - the frames per second each of them carries (and the fusion alone:
+//     the hull and the encodes), and which is the first to stop a rig at
+//     30 fps (a 1 Gbit/s link counted as one).
+// Then the server's fusion on 1 thread and on more (--fusion-threads), in
+// this process on the same groups of the synthetic scene, fed as fast as
+// it takes them: the ms per fused frame each thread count sustains.
 //   bench_scaling [--frames F] [--fps R] [--quick] [--out DIR] [--markdown FILE]
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "capture_node/pod.h"
 #include "config/command_line.h"
 #include "config/rig_shape.h"
+#include "fusion_server/fusion_worker.h"
 #include "loop_run.h"
 #include "report/html.h"
+#include "scene/synthetic_scene.h"
 
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
@@ -80,6 +92,106 @@ std::string fixed(double v, const char* format = "%.1f") {
 
 double mbit(double bytes_per_frame, double fps) { return bytes_per_frame * 8 * fps / 1e6; }
 
+// `frames` groups of the synthetic scene's subject through the pods' own
+// capture (render, segmentation, feather map), as the server fuses them.
+std::vector<fusion::GroupJob> syntheticGroups(int pods, uint32_t width, uint32_t height,
+                                              int frames) {
+  const scene::SyntheticScene scene;
+  const auto cameras = scene::SyntheticScene::cameraRig(pods, width, height);
+  std::vector<fusion::GroupJob> jobs;
+  for (int f = 0; f < frames; ++f) {
+    fusion::GroupJob job;
+    job.group.frame_id = 30 + static_cast<uint64_t>(f);
+    job.group.complete = true;
+    for (const auto& camera : cameras) {
+      capture::PodCapture capture =
+          capture::capturePodFrame(scene, camera, scene.backgroundPlate(camera), job.group.frame_id,
+                                   static_cast<uint16_t>(camera.id));
+      fusion::PodImages pod;
+      pod.camera_id = camera.id;
+      pod.color = std::move(capture.view.color);
+      pod.mask = std::move(capture.mask);
+      pod.feather = std::move(capture.feather);
+      pod.camera = camera;
+      job.group.pods[camera.id] = std::move(pod);
+    }
+    jobs.push_back(std::move(job));
+  }
+  return jobs;
+}
+
+// The ms per frame a fusion worker of `threads` threads sustains on jobs
+// handed to it all at once (lossless: none replaced), first submit to
+// last output.
+double fusionMsPerFrame(const std::vector<fusion::GroupJob>& jobs, double voxel, int threads) {
+  fusion::FusionSettings settings;
+  settings.hull.voxel_size = voxel;
+  settings.pods_expected = static_cast<uint32_t>(jobs.front().group.pods.size());
+  settings.threads = threads;
+  const int wake = ::eventfd(0, 0);
+  size_t fused = 0;
+  double ms = 0;
+  {
+    fusion::FusionWorker worker(settings, wake, /*lossless=*/true);
+    const auto start = std::chrono::steady_clock::now();
+    for (const auto& job : jobs) worker.submit(job);
+    while (fused < jobs.size()) {
+      uint64_t counter = 0;
+      if (::read(wake, &counter, sizeof counter) < 0) break;
+      fused += worker.takeOutputs().size();
+    }
+    ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
+  ::close(wake);
+  return fused == jobs.size() ? ms / static_cast<double>(jobs.size()) : 0;
+}
+
+// The fusion's ms per frame on 1 thread and on 2 (and on every core where
+// there are more), each the median of three rounds taken in turn.
+html::Table fusionThreadsTable(bool quick) {
+  const int cores = static_cast<int>(std::max(2u, std::thread::hardware_concurrency()));
+  std::vector<int> counts = {1, 2};
+  if (cores > 2) counts.push_back(cores);
+  struct FusionPoint {
+    int pods;
+    uint32_t width, height;
+    double voxel_mm;
+  };
+  const std::vector<FusionPoint> points =
+      quick ? std::vector<FusionPoint>{{2, 96, 72, 20}}
+            : std::vector<FusionPoint>{
+                  {4, 320, 240, 20}, {8, 320, 240, 20}, {8, 640, 480, 20}, {4, 320, 240, 10}};
+  std::vector<std::string> header = {"pods", "size", "voxel mm"};
+  for (int n : counts) header.push_back(std::to_string(n) + (n == 1 ? " thread" : " threads"));
+  for (size_t k = 1; k < counts.size(); ++k) header.push_back(std::to_string(counts[k]) + " / 1");
+  html::Table table{header, {}, std::string(header.size(), 'r')};
+  for (size_t i = 0; i < points.size(); ++i) {
+    const FusionPoint& p = points[i];
+    std::fprintf(stderr, "\r[bench scaling] fusion threads %zu/%zu: %d pods at %ux%u, %g mm   ",
+                 i + 1, points.size(), p.pods, p.width, p.height, p.voxel_mm);
+    const auto jobs = syntheticGroups(p.pods, p.width, p.height, quick ? 4 : 8);
+    std::vector<std::vector<double>> rounds(counts.size());
+    for (int round = 0; round < 3; ++round) {
+      for (size_t k = 0; k < counts.size(); ++k)
+        rounds[k].push_back(fusionMsPerFrame(jobs, p.voxel_mm / 1000, counts[k]));
+    }
+    std::vector<double> ms;
+    for (auto& r : rounds) {
+      std::sort(r.begin(), r.end());
+      ms.push_back(r[1]);
+    }
+    std::vector<std::string> row = {std::to_string(p.pods),
+                                    std::to_string(p.width) + "x" + std::to_string(p.height),
+                                    fixed(p.voxel_mm, "%g")};
+    for (double v : ms) row.push_back(fixed(v));
+    for (size_t k = 1; k < ms.size(); ++k) row.push_back(fixed(ms[k] / ms[0], "%.2f"));
+    table.rows.push_back(std::move(row));
+  }
+  std::fprintf(stderr, "\n");
+  return table;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -94,6 +206,9 @@ int main(int argc, char** argv) {
   // measure their cost, not the queue.
   const SettingFlags<RigShape> shape_flags(app, pickSettings(rigShapeFlags(), {"--fps"}));
   app.add_flag("--quick", quick, "two small points (for the tests)");
+  bool fusion_only = false;
+  app.add_flag("--fusion-only", fusion_only,
+               "only the fusion's table of thread counts (no loop runs)");
   app.add_option("--out", out, "where each point's run goes");
   app.add_option("--markdown", markdown, "also write the tables to this file");
   try {
@@ -105,6 +220,10 @@ int main(int argc, char** argv) {
   shape.fps = fps;
   shape_flags.apply(shape);
   fps = shape.fps;
+  if (fusion_only) {
+    std::printf("%s", html::markdownTable(fusionThreadsTable(quick)).c_str());
+    return 0;
+  }
   std::vector<Point> points;
   if (quick) {
     points = {{2, "96x72", "20", "normal"}, {4, "96x72", "20", "normal"}};
@@ -141,7 +260,7 @@ int main(int argc, char** argv) {
       {},
       "rrrlrrrrrrrr"};
   html::Table carry_table{
-      {"pods", "size", "voxel mm", "mode", "server core fps", "cores for 30 fps", "worker fps",
+      {"pods", "size", "voxel mm", "mode", "server core fps", "cores for 30 fps", "fusion fps",
        "pod fps", "client fps", "pod link Mbit/s @15/30", "client link Mbit/s @15/30", "mesh share",
        "first bottleneck"},
       {},
@@ -174,6 +293,7 @@ int main(int argc, char** argv) {
          first.first + (first.second < kTargetFps ? " (" + fixed(first.second) + " fps)"
                                                   : " (none below 30 fps)")});
   }
+  const html::Table fusion_table = fusionThreadsTable(quick);
   const std::string md =
       "Per point, `holofuse_loop --pods N --size WxH --voxel V --mode M --fps " + fixed(fps, "%g") +
       " --frames " + std::to_string(frames) +
@@ -183,11 +303,16 @@ int main(int argc, char** argv) {
       html::markdownTable(cost_table) +
       "\nWhat each carries alone (frames per second), the links' rates, and the first to stop a "
       "rig at 30 fps (a link counted as 1 Gbit/s; server core fps is every server stage on one "
-      "core; worker fps is the fusion worker's thread alone, hull and encodes, which no second "
-      "core speeds up; a pod's link carries its own frames, the server's link in all of them; "
+      "core; fusion fps is the hull and the encodes of one frame after another; a pod's link "
+      "carries its own frames, the server's link in all of them; "
       "the pods share this machine's cores, so on a rig with a PC per pod the pod column is a "
       "floor):\n\n" +
-      html::markdownTable(carry_table);
+      html::markdownTable(carry_table) +
+      "\nThe server's fusion (hull, marching cubes, mesh and image encodes) on 1 thread and on "
+      "more (`--fusion-threads`), in one process on the same groups of the synthetic subject "
+      "handed over all at once: ms per fused frame, the median of three rounds, and its ratio "
+      "to 1 thread:\n\n" +
+      html::markdownTable(fusion_table);
   std::printf("%s", md.c_str());
   if (!markdown.empty()) {
     std::ofstream file(markdown);

@@ -339,8 +339,11 @@ bool FramePipeline::readable(const Peer& peer, const std::vector<Peer>& peers) {
   if (!options_.lossless) return true;
   // Frames wait in the pod's socket, and the pod's sends block, until
   // fusion has caught up: nothing is dropped and memory stays bounded.
-  constexpr size_t kMaxQueuedGroups = 2, kMaxPendingPerPod = 4;
-  return worker_->queuedJobs() < kMaxQueuedGroups && sync_.pendingWith(peer.id) < kMaxPendingPerPod;
+  // A group for every fusion thread and one waiting.
+  const size_t max_queued_groups = static_cast<size_t>(worker_->threads()) + 1;
+  constexpr size_t kMaxPendingPerPod = 4;
+  return worker_->queuedJobs() < max_queued_groups &&
+         sync_.pendingWith(peer.id) < kMaxPendingPerPod;
 }
 
 bool FramePipeline::podsDone(const std::vector<Peer>& peers) const {

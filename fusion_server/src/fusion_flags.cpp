@@ -17,6 +17,11 @@ const std::vector<Setting<FusionSettings>>& fusionFlags() {
             "that meets it (the server follows it frame by frame; eval picks it per scene on the "
             "first frame; 0: the voxel is fixed)",
             0, 1000, [](S& s) -> double& { return s.hull_error_target; }, 1000.0),
+        numberSetting<S>("--fusion-threads",
+                         "threads that fuse: groups fused at once, and the threads each group's "
+                         "hull spreads over (0: the machine's cores; 1: one group at a time on "
+                         "one thread)",
+                         0, 256, [](S& s) -> int& { return s.threads; }),
         numberSetting<S>("--refine-voxels",
                          "photo-consistency refinement: hull voxels the hull's vertices may move "
                          "inward where the pods that see them disagree in colour (0: none)",

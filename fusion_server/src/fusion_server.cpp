@@ -84,11 +84,13 @@ Status FusionServer::start() {
                "[server] listening on %s:%u for %d pods; voxel %g m (error target %g mm, "
                "refinement %g voxels), meshes %s (Draco %d "
                "bits speed %d), "
-               "images to clients %s at LZ4 acceleration %d, LZ4HC level %d\n",
+               "images to clients %s at LZ4 acceleration %d, LZ4HC level %d; fusion on %d "
+               "threads\n",
                options_.listen.host.c_str(), port(), options_.pods, f.hull.voxel_size,
                1000.0 * f.hull_error_target, f.refine.depth_voxels,
                meshCodecName(f.mesh_codec).c_str(), f.draco.position_bits, f.draco.speed,
-               imageCodecName(f.image_codec).c_str(), f.lz4_acceleration, f.lz4_hc_level);
+               imageCodecName(f.image_codec).c_str(), f.lz4_acceleration, f.lz4_hc_level,
+               fusionThreads(f));
   return Status::ok();
 }
 

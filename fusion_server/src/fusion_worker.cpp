@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <deque>
 
@@ -148,19 +149,29 @@ void refineFused(FusedMesh& fused, const std::vector<hull::HullView>& views,
   fused.refine_end_ns = monotonicNs();
 }
 
-FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
-                      const LayerRequest& layers) {
+// All of fuseGroup but the layers: the mesh carved (and refined) and
+// encoded with the images. error: measured where the settings follow an
+// error target.
+EncodedGroup carveAndEncode(const GroupJob& job, const FusionSettings& settings,
+                            hull::SilhouetteError& error) {
   const std::vector<hull::HullView> views = hullViewsOf(job.group);
   FusedMesh fused = carveHull(views, settings.hull);
   if (refines(settings.refine)) {
     refineFused(fused, views, colorsInFrame(job.group), settings.refine, settings.hull.voxel_size);
   }
-  FusedOutput out = packageFused(job, settings, fused.mesh(), fused.carve_start_ns,
-                                 fused.carve_end_ns, fused.refine_end_ns, layers);
-  // Measured after the frame is on its way (not part of the hull's time):
-  // it only steers the next frame's voxel, which is the carved hull's.
-  if (settings.hull_error_target > 0)
-    out.silhouette_error = hull::silhouetteError(fused.carved, views);
+  EncodedGroup encoded = encodeFused(job, settings, fused.mesh(), fused.carve_start_ns,
+                                     fused.carve_end_ns, fused.refine_end_ns);
+  // Measured after the encodes (not part of the hull's time): it only
+  // steers the next frame's voxel, which is the carved hull's.
+  if (settings.hull_error_target > 0) error = hull::silhouetteError(fused.carved, views);
+  return encoded;
+}
+
+FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
+                      const LayerRequest& layers) {
+  hull::SilhouetteError error;
+  FusedOutput out = finishFused(job, settings, carveAndEncode(job, settings, error), layers);
+  out.silhouette_error = error;
   return out;
 }
 
@@ -268,56 +279,44 @@ protocol::Stats statsOf(const GroupJob& job, const FusionSettings& settings, uin
 
 }  // namespace
 
-FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
-                         uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns,
-                         const LayerRequest& layers) {
+EncodedGroup encodeFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
+                         uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns) {
   const FrameGroup& group = job.group;
-  FusedOutput out;
-  out.frame_id = group.frame_id;
+  EncodedGroup encoded;
   std::vector<protocol::StageStamp> stamps;
   uint64_t capture_time = UINT64_MAX;
-  uint64_t pod_bytes = 0;
-  uint64_t present = 0;  // bits of cameras 0..63, as 1.0 to 1.2 read them
   for (const auto& [camera_id, pod] : group.pods) {
     stamps.insert(stamps.end(), pod.stamps.begin(), pod.stamps.end());
     capture_time = std::min(capture_time, pod.capture_time_ns);
-    pod_bytes += pod.bytes;
-    if (camera_id < 64) present |= uint64_t{1} << camera_id;
+    encoded.pod_bytes += pod.bytes;
+    if (camera_id < 64) encoded.present |= uint64_t{1} << camera_id;
   }
   stamps.push_back({static_cast<uint16_t>(Stage::kSyncWait), kSourceServer, group.first_arrival_ns,
                     group.emitted_ns});
-  out.voxel_size = settings.hull.voxel_size;
   stamps.push_back(
       {static_cast<uint16_t>(Stage::kHull), kSourceServer, hull_start_ns, hull_end_ns});
   const uint64_t mesh_ready_ns = refine_end_ns != 0 ? refine_end_ns : hull_end_ns;
   if (refine_end_ns != 0)
     stamps.push_back(
         {static_cast<uint16_t>(Stage::kRefine), kSourceServer, hull_end_ns, refine_end_ns});
-  auto encoded = encodeMesh(settings.mesh_codec, mesh, settings.draco);
+  encoded.mesh = encodeMesh(settings.mesh_codec, mesh, settings.draco);
   // Clients before 1.7 decode Draco only.
-  const bool draco_apart =
-      settings.mesh_codec != protocol::MeshCodec::kDraco && job.draco_for_older;
-  auto draco = draco_apart ? encodeDraco(mesh, settings.draco)
-                           : StatusOr<std::vector<uint8_t>>(std::vector<uint8_t>{});
+  encoded.draco_apart = settings.mesh_codec != protocol::MeshCodec::kDraco && job.draco_for_older;
+  if (encoded.draco_apart) encoded.draco = encodeDraco(mesh, settings.draco);
   const uint64_t t2 = monotonicNs();
   stamps.push_back({static_cast<uint16_t>(Stage::kMeshEncode), kSourceServer, mesh_ready_ns, t2});
 
-  protocol::TextureBundle bundle, bundle_v1_1;
-  bundle.frame_id = bundle_v1_1.frame_id = group.frame_id;
-  // The compressed images and the Draco bytes are borrowed by the frames
-  // (fanned out to every client without a copy) and live as long as they do.
-  auto storage = std::make_shared<std::deque<std::vector<uint8_t>>>();
-  encodeImages(group, settings, *storage, bundle, bundle_v1_1);
+  encoded.bundle.frame_id = encoded.bundle_v1_1.frame_id = group.frame_id;
+  encoded.storage = std::make_shared<std::deque<std::vector<uint8_t>>>();
+  encodeImages(group, settings, *encoded.storage, encoded.bundle, encoded.bundle_v1_1);
   const uint64_t t3 = monotonicNs();
-  bundle.stamps = {{static_cast<uint16_t>(Stage::kImageEncode), kSourceServer, t2, t3},
-                   {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0}};
-  bundle_v1_1.stamps = bundle.stamps;
-  std::optional<protocol::TextureBundle> layered, layer_video;
-  if (layers.stage != nullptr && (layers.lz4 || layers.video))
-    buildLayerBundles(group, settings, encoded, layers, t3, *storage, out, layered, layer_video);
+  encoded.images_end_ns = t3;
+  encoded.bundle.stamps = {{static_cast<uint16_t>(Stage::kImageEncode), kSourceServer, t2, t3},
+                           {static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0}};
+  encoded.bundle_v1_1.stamps = encoded.bundle.stamps;
   stamps.push_back({static_cast<uint16_t>(Stage::kFanout), kSourceServer, t3, 0});
 
-  protocol::MeshFrame mesh_frame;
+  protocol::MeshFrame& mesh_frame = encoded.mesh_frame;
   mesh_frame.frame_id = group.frame_id;
   mesh_frame.capture_time_ns = capture_time == UINT64_MAX ? group.first_arrival_ns : capture_time;
   const Bounds bounds = meshBounds(mesh);
@@ -328,30 +327,45 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   mesh_frame.vertex_count = static_cast<uint32_t>(mesh.vertexCount());
   mesh_frame.triangle_count = static_cast<uint32_t>(mesh.triangleCount());
   mesh_frame.stamps = std::move(stamps);
+  encoded.triangles = mesh.triangleCount();
+  return encoded;
+}
 
-  protocol::Stats stats = statsOf(job, settings, present, pod_bytes);
-  if (!encoded.isOk())
-    stats.note += (stats.note.empty() ? "" : "; ") + encoded.status().message();
-  else if (!draco.isOk())
-    stats.note += (stats.note.empty() ? "" : "; ") + draco.status().message();
+FusedOutput finishFused(const GroupJob& job, const FusionSettings& settings, EncodedGroup encoded,
+                        const LayerRequest& layers) {
+  const FrameGroup& group = job.group;
+  FusedOutput out;
+  out.frame_id = group.frame_id;
+  out.voxel_size = settings.hull.voxel_size;
+  std::optional<protocol::TextureBundle> layered, layer_video;
+  if (layers.wanted()) {
+    buildLayerBundles(group, settings, encoded.mesh, layers, encoded.images_end_ns,
+                      *encoded.storage, out, layered, layer_video);
+  }
+  protocol::Stats stats = statsOf(job, settings, encoded.present, encoded.pod_bytes);
+  if (!encoded.mesh.isOk())
+    stats.note += (stats.note.empty() ? "" : "; ") + encoded.mesh.status().message();
+  else if (!encoded.draco.isOk())
+    stats.note += (stats.note.empty() ? "" : "; ") + encoded.draco.status().message();
   if (!out.layers_note.empty()) stats.note += (stats.note.empty() ? "" : "; ") + out.layers_note;
 
   auto share = [](protocol::OutgoingFrame frame) {
     return std::make_shared<const protocol::OutgoingFrame>(std::move(frame));
   };
+  const auto& storage = encoded.storage;
   // One sequence number for both spellings of the bundle, as for the Stats.
   const uint64_t bundle_sequence = protocol::nextSequence();
-  out.texture_bundle = share(protocol::encodeOutgoing(bundle, bundle_sequence, storage));
+  out.texture_bundle = share(protocol::encodeOutgoing(encoded.bundle, bundle_sequence, storage));
   out.texture_bundle_v1_1 =
-      share(protocol::encodeOutgoing(bundle_v1_1, bundle_sequence, storage, 1));
+      share(protocol::encodeOutgoing(encoded.bundle_v1_1, bundle_sequence, storage, 1));
   if (layered)
     out.texture_bundle_layers = share(protocol::encodeOutgoing(*layered, bundle_sequence, storage));
   if (layer_video)
     out.texture_bundle_layer_video =
         share(protocol::encodeOutgoing(*layer_video, bundle_sequence, storage));
   out.texture_bundle_v1_2 =
-      bundle.images.size() > protocol::kMaxCamerasBefore13
-          ? share(protocol::encodeOutgoing(bundle, bundle_sequence, storage, 2))
+      encoded.bundle.images.size() > protocol::kMaxCamerasBefore13
+          ? share(protocol::encodeOutgoing(encoded.bundle, bundle_sequence, storage, 2))
           : out.texture_bundle;
   // The mesh bytes are borrowed by the frame, as the images are; one
   // sequence number for both spellings.
@@ -359,17 +373,17 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   auto frameOf = [&](StatusOr<std::vector<uint8_t>>& bytes, protocol::MeshCodec codec) {
     auto kept =
         bytes.isOk() ? std::make_shared<const std::vector<uint8_t>>(std::move(*bytes)) : nullptr;
-    protocol::MeshFrame spelt = mesh_frame;
+    protocol::MeshFrame spelt = encoded.mesh_frame;
     spelt.codec = codec;
     if (kept) spelt.mesh = *kept;
     return share(protocol::encodeOutgoing(spelt, mesh_sequence, kept));
   };
-  out.mesh_frame = frameOf(encoded, settings.mesh_codec);
-  if (!draco_apart) {
+  out.mesh_frame = frameOf(encoded.mesh, settings.mesh_codec);
+  if (!encoded.draco_apart) {
     out.mesh_frame_draco =
         settings.mesh_codec == protocol::MeshCodec::kDraco ? out.mesh_frame : nullptr;
   } else {
-    out.mesh_frame_draco = frameOf(draco, protocol::MeshCodec::kDraco);
+    out.mesh_frame_draco = frameOf(encoded.draco, protocol::MeshCodec::kDraco);
   }
   // One sequence number for both: it is one frame, spelt per minor.
   const uint64_t stats_sequence = protocol::nextSequence();
@@ -378,8 +392,21 @@ FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, co
   out.stats_v1_7 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 7));
   out.stats_v1_2 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 2));
   out.stats_v1_0 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 0));
-  out.triangles = mesh.triangleCount();
+  out.triangles = encoded.triangles;
   return out;
+}
+
+FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
+                         uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns,
+                         const LayerRequest& layers) {
+  return finishFused(job, settings,
+                     encodeFused(job, settings, mesh, hull_start_ns, hull_end_ns, refine_end_ns),
+                     layers);
+}
+
+int fusionThreads(const FusionSettings& settings) {
+  if (settings.threads > 0) return settings.threads;
+  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
 FusionWorker::FusionWorker(FusionSettings settings, int wake_fd, bool lossless)
@@ -388,12 +415,14 @@ FusionWorker::FusionWorker(FusionSettings settings, int wake_fd, bool lossless)
     voxel_.emplace(settings_.hull_error_target, settings_.hull.voxel_size,
                    settings_.hull.voxel_size);
   }
-  thread_ = std::thread([this] { run(); });
+  const int threads = fusionThreads(settings_);
+  arena_ = std::make_unique<tbb::task_arena>(threads);
+  for (int i = 0; i < threads; ++i) threads_.emplace_back([this] { run(); });
 }
 
 size_t FusionWorker::queuedJobs() {
   std::lock_guard<std::mutex> lock(mutex_);
-  return waiting_.size() + (busy_ ? 1 : 0);
+  return waiting_.size() + busy_ + encoded_.size();
 }
 
 const protocol::SharedFrame& FusedOutput::bundleFor(PeerCapabilities::Bundle layout) const {
@@ -413,7 +442,7 @@ const protocol::SharedFrame& FusedOutput::statsFor(PeerCapabilities::Stats layou
 
 size_t FusionWorker::jobsNotTaken() {
   std::lock_guard<std::mutex> lock(mutex_);
-  return waiting_.size() + (busy_ ? 1 : 0) + outputs_.size();
+  return waiting_.size() + busy_ + encoded_.size() + outputs_.size();
 }
 
 FusionWorker::~FusionWorker() {
@@ -422,7 +451,7 @@ FusionWorker::~FusionWorker() {
     stop_ = true;
   }
   cv_.notify_all();
-  thread_.join();
+  for (std::thread& thread : threads_) thread.join();
 }
 
 void FusionWorker::submit(GroupJob job) {
@@ -442,52 +471,98 @@ std::vector<FusedOutput> FusionWorker::takeOutputs() {
   return std::move(outputs_);
 }
 
+std::optional<FusionWorker::Taken> FusionWorker::take() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  cv_.wait(lock, [this] { return stop_ || !waiting_.empty(); });
+  if (stop_) return std::nullopt;
+  Taken taken;
+  taken.job = std::move(waiting_.front());
+  waiting_.pop_front();
+  taken.turn = next_turn_++;
+  ++busy_;
+  // The settings of the moment the group is taken: the voxel the error
+  // target steers to (as the groups before it observed), the layers the
+  // clients want.
+  taken.settings = settings_;
+  if (voxel_) taken.settings.hull.voxel_size = voxel_->voxel();
+  taken.layers = {&layer_stage_, layers_lz4_, layers_video_, false};
+  if (taken.layers.video) taken.layers.video_key_frame = video_key_frame_.exchange(false);
+  return taken;
+}
+
+void FusionWorker::encode(Taken& taken) {
+  try {
+    // The arena bounds this group's parallel loops, and the other groups',
+    // to the fusion's threads.
+    arena_->execute(
+        [&] { taken.encoded = carveAndEncode(taken.job, taken.settings, taken.error); });
+  } catch (const std::exception& e) {
+    // One group that cannot be fused (memory for a hostile calibration's
+    // image size, say) costs that frame, not the server.
+    std::fprintf(stderr, "[server] frame %llu not fused: %s\n",
+                 static_cast<unsigned long long>(taken.job.group.frame_id), e.what());
+  }
+}
+
+std::optional<FusedOutput> FusionWorker::finish(Taken& taken) {
+  if (!taken.encoded) return std::nullopt;
+  try {
+    FusedOutput out =
+        finishFused(taken.job, taken.settings, std::move(*taken.encoded), taken.layers);
+    out.silhouette_error = taken.error;
+    return out;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "[server] frame %llu not fused: %s\n",
+                 static_cast<unsigned long long>(taken.job.group.frame_id), e.what());
+    return std::nullopt;
+  }
+}
+
+void FusionWorker::deliver(Taken taken) {
+  // In the order the groups were taken: the layers keep their atlas and
+  // video from frame to frame, the voxel follows the frames in order, and
+  // clients get the frames in order.
+  std::unique_lock<std::mutex> lock(mutex_);
+  --busy_;
+  encoded_.emplace(taken.turn, std::move(taken));
+  if (finishing_) return;  // the thread finishing in order takes it up
+  finishing_ = true;
+  bool delivered = false;
+  while (!stop_ && !encoded_.empty() && encoded_.begin()->first == turn_) {
+    Taken next = std::move(encoded_.begin()->second);
+    encoded_.erase(encoded_.begin());
+    lock.unlock();
+    std::optional<FusedOutput> out = finish(next);
+    lock.lock();
+    if (out && voxel_ && voxel_->observe(out->silhouette_error)) {
+      std::fprintf(stderr,
+                   "[server] hull voxel %.1f -> %.1f mm: silhouette error %.2f mm against the "
+                   "target of %.2f mm%s\n",
+                   1000 * next.settings.hull.voxel_size, 1000 * voxel_->voxel(),
+                   1000 * out->silhouette_error.mean_m, 1000 * settings_.hull_error_target,
+                   voxel_->unreachable()
+                       ? " (out of reach: a finer voxel did not help, the silhouettes disagree)"
+                       : "");
+    }
+    if (out) {
+      outputs_.push_back(std::move(*out));
+      delivered = true;
+    }
+    ++turn_;
+  }
+  finishing_ = false;
+  lock.unlock();
+  if (!delivered) return;
+  const uint64_t one = 1;
+  if (::write(wake_fd_, &one, sizeof(one)) < 0) {
+    // The eventfd counter cannot overflow at our rates; nothing to do.
+  }
+}
+
 void FusionWorker::run() {
-  for (;;) {
-    GroupJob job;
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      cv_.wait(lock, [this] { return stop_ || !waiting_.empty(); });
-      if (stop_) return;
-      job = std::move(waiting_.front());
-      waiting_.pop_front();
-      busy_ = true;
-    }
-    FusedOutput out;
-    try {
-      FusionSettings settings = settings_;
-      if (voxel_) settings.hull.voxel_size = voxel_->voxel();
-      LayerRequest layers{&layer_stage_, layers_lz4_, layers_video_, false};
-      if (layers.video) layers.video_key_frame = video_key_frame_.exchange(false);
-      out = fuseGroup(job, settings, layers);
-      if (voxel_ && voxel_->observe(out.silhouette_error)) {
-        std::fprintf(stderr,
-                     "[server] hull voxel %.1f -> %.1f mm: silhouette error %.2f mm against the "
-                     "target of %.2f mm%s\n",
-                     1000 * settings.hull.voxel_size, 1000 * voxel_->voxel(),
-                     1000 * out.silhouette_error.mean_m, 1000 * settings_.hull_error_target,
-                     voxel_->unreachable()
-                         ? " (out of reach: a finer voxel did not help, the silhouettes disagree)"
-                         : "");
-      }
-    } catch (const std::exception& e) {
-      // One group that cannot be fused (memory for a hostile calibration's
-      // image size, say) costs that frame, not the server.
-      std::fprintf(stderr, "[server] frame %llu not fused: %s\n",
-                   static_cast<unsigned long long>(job.group.frame_id), e.what());
-      std::lock_guard<std::mutex> lock(mutex_);
-      busy_ = false;
-      continue;
-    }
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      outputs_.push_back(std::move(out));
-      busy_ = false;
-    }
-    const uint64_t one = 1;
-    if (::write(wake_fd_, &one, sizeof(one)) < 0) {
-      // The eventfd counter cannot overflow at our rates; nothing to do.
-    }
+  while (std::optional<Taken> taken = take()) {
+    encode(*taken);
+    deliver(std::move(*taken));
   }
 }
 

@@ -356,6 +356,100 @@ TEST(FusionWorker, FusesAGroupIntoDecodableFrames) {
   EXPECT_EQ(bundle.images.size(), 3u);
 }
 
+// Every output of a lossless worker fed jobs, in the order it gave them.
+std::vector<FusedOutput> fuseAll(const FusionSettings& settings,
+                                 const std::vector<GroupJob>& jobs) {
+  const int wake = ::eventfd(0, EFD_NONBLOCK);
+  EXPECT_GE(wake, 0);
+  std::vector<FusedOutput> outputs;
+  {
+    FusionWorker worker(settings, wake, /*lossless=*/true);
+    for (const GroupJob& job : jobs) worker.submit(job);
+    // The worker writes the descriptor as each fused group is ready.
+    while (outputs.size() < jobs.size()) {
+      pollfd woken{wake, POLLIN, 0};
+      if (::poll(&woken, 1, 120'000) <= 0) break;  // a limit for a hung worker, not a pace
+      uint64_t counter = 0;
+      if (::read(wake, &counter, sizeof(counter)) < 0) break;
+      for (auto& out : worker.takeOutputs()) outputs.push_back(std::move(out));
+    }
+  }
+  ::close(wake);
+  return outputs;
+}
+
+// A frame's payload as the client decodes it: the mesh bytes, or every
+// image plane's bytes (not the header: its sequence number and stamps
+// differ from run to run).
+std::vector<uint8_t> meshBytes(const protocol::SharedFrame& frame) {
+  protocol::StreamDecoder decoder;
+  decoder.feed(frame->flatten());
+  EXPECT_TRUE(decoder.hasFrame());
+  const protocol::Frame bytes = decoder.takeFrame();
+  protocol::MeshFrame mesh;
+  EXPECT_TRUE(protocol::decodeFrame(bytes, mesh).isOk());
+  return {mesh.mesh.begin(), mesh.mesh.end()};
+}
+
+std::vector<uint8_t> imageBytes(const protocol::SharedFrame& frame) {
+  protocol::StreamDecoder decoder;
+  decoder.feed(frame->flatten());
+  EXPECT_TRUE(decoder.hasFrame());
+  const protocol::Frame bytes = decoder.takeFrame();
+  protocol::TextureBundle bundle;
+  EXPECT_TRUE(protocol::decodeFrame(bytes, bundle).isOk());
+  std::vector<uint8_t> all;
+  for (const auto& image : bundle.images) {
+    for (const auto& plane : image.planes)
+      all.insert(all.end(), plane.data.begin(), plane.data.end());
+  }
+  return all;
+}
+
+// Groups fused several at once, each hull spread over threads, come out
+// in the order they went in, byte for byte what one thread makes.
+TEST(FusionWorker, AnyThreadCountFusesTheSameBytesInTheSameOrder) {
+  const scene::SyntheticScene scene;
+  std::vector<GroupJob> jobs;
+  for (uint64_t frame = 0; frame < 6; ++frame) {
+    const auto views = syntheticViews(4, 10 + 3 * frame, 160, 120);
+    GroupJob job;
+    job.group.frame_id = 10 + 3 * frame;
+    for (size_t i = 0; i < views.size(); ++i) {
+      PodImages pod;
+      pod.camera_id = static_cast<uint32_t>(i);
+      pod.color = scene.render(views[i].camera, job.group.frame_id).color;
+      pod.mask = views[i].mask;
+      pod.feather = views[i].feather;
+      pod.camera = views[i].camera;
+      job.group.pods[pod.camera_id] = pod;
+    }
+    jobs.push_back(std::move(job));
+  }
+  FusionSettings settings;
+  settings.pods_expected = 4;
+  settings.hull.voxel_size = 0.03;
+  settings.threads = 1;
+  const std::vector<FusedOutput> one = fuseAll(settings, jobs);
+  ASSERT_EQ(one.size(), jobs.size());
+  for (const int threads : {2, 3}) {
+    settings.threads = threads;
+    const std::vector<FusedOutput> many = fuseAll(settings, jobs);
+    ASSERT_EQ(many.size(), jobs.size()) << threads << " threads";
+    for (size_t k = 0; k < jobs.size(); ++k) {
+      EXPECT_EQ(many[k].frame_id, jobs[k].group.frame_id) << threads << " threads, output " << k;
+      EXPECT_EQ(many[k].triangles, one[k].triangles) << threads << " threads, output " << k;
+      EXPECT_GT(many[k].triangles, 100u) << "a subject was carved";
+      EXPECT_TRUE(meshBytes(many[k].mesh_frame) == meshBytes(one[k].mesh_frame))
+          << threads << " threads, frame " << many[k].frame_id << ": other mesh bytes";
+      EXPECT_TRUE(imageBytes(many[k].texture_bundle) == imageBytes(one[k].texture_bundle))
+          << threads << " threads, frame " << many[k].frame_id << ": other image bytes";
+    }
+  }
+  // The frames differ from one another: equal bytes are not one frame's.
+  EXPECT_FALSE(meshBytes(one[0].mesh_frame) == meshBytes(one[5].mesh_frame));
+}
+
 // Under an error target the worker carves each group once, at a voxel that
 // follows the measured silhouette error: finer after each miss.
 TEST(FusionWorker, AnErrorTargetRefinesTheVoxelUntilTheSilhouettesAgree) {
@@ -375,25 +469,15 @@ TEST(FusionWorker, AnErrorTargetRefinesTheVoxelUntilTheSilhouettesAgree) {
   settings.pods_expected = 4;
   settings.hull.voxel_size = 0.05;
   settings.hull_error_target = 0.0025;
-  const int wake = ::eventfd(0, EFD_NONBLOCK);
-  ASSERT_GE(wake, 0);
-  std::vector<FusedOutput> outputs;
-  {
-    FusionWorker worker(settings, wake, /*lossless=*/true);
-    for (int frame = 0; frame < 6; ++frame) {
-      job.group.frame_id = 3 + static_cast<uint64_t>(frame);
-      worker.submit(job);
-    }
-    // The worker writes the descriptor as each fused group is ready.
-    while (outputs.size() < 6) {
-      pollfd woken{wake, POLLIN, 0};
-      if (::poll(&woken, 1, 120'000) <= 0) break;  // a limit for a hung worker, not a pace
-      uint64_t counter = 0;
-      if (::read(wake, &counter, sizeof(counter)) < 0) break;
-      for (auto& out : worker.takeOutputs()) outputs.push_back(std::move(out));
-    }
+  // One group at a time: each is taken after the one before was measured
+  // (with several in flight the voxel follows the groups finished).
+  settings.threads = 1;
+  std::vector<GroupJob> jobs;
+  for (int frame = 0; frame < 6; ++frame) {
+    job.group.frame_id = 3 + static_cast<uint64_t>(frame);
+    jobs.push_back(job);
   }
-  ::close(wake);
+  const std::vector<FusedOutput> outputs = fuseAll(settings, jobs);
   ASSERT_EQ(outputs.size(), 6u);
   EXPECT_DOUBLE_EQ(outputs[0].voxel_size, 0.05);
   ASSERT_TRUE(outputs[0].silhouette_error.valid);

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 #include "loop_test.h"
@@ -71,6 +72,23 @@ std::string oneDecimal(double v) {
   return text;
 }
 
+// The cells of a Markdown table's first line, trimmed.
+std::vector<std::string> tableCells(const std::string& text) {
+  const std::string line = text.substr(0, text.find('\n'));
+  std::vector<std::string> cells;
+  size_t at = line.find('|');
+  while (at != std::string::npos) {
+    const size_t next = line.find('|', at + 1);
+    if (next == std::string::npos) break;
+    std::string cell = line.substr(at + 1, next - at - 1);
+    cell.erase(0, cell.find_first_not_of(' '));
+    cell.erase(cell.find_last_not_of(' ') + 1);
+    cells.push_back(cell);
+    at = next;
+  }
+  return cells;
+}
+
 // bench_scaling (docs/scaling.md): each point's row is its own run's
 // stages and bytes, summed and divided as the tables say, and the report
 // gives every frame's mesh size that the tables read.
@@ -130,6 +148,24 @@ TEST(BenchScaling, ItsTablesAreEachRunsStagesAndBytes) {
               oneDecimal(1000 / server))
         << md.substr(carry, 200);
   }
+  // The fusion's table: ms per frame on 1 thread and on 2, both fused,
+  // and their ratio as the columns give it.
+  const size_t header_at = md.find("| pods | size | voxel mm | 1 thread |");
+  ASSERT_NE(header_at, std::string::npos) << md;
+  const size_t fusion_at = md.find("| 2 | 96x72 | 20 | ", header_at);
+  ASSERT_NE(fusion_at, std::string::npos) << md;
+  const std::vector<std::string> header = tableCells(md.substr(header_at));
+  const std::vector<std::string> row = tableCells(md.substr(fusion_at));
+  ASSERT_EQ(header.size(), row.size()) << md.substr(header_at);
+  auto column = [&](const std::string& name) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    EXPECT_NE(it, header.end()) << name;
+    return it == header.end() ? 0.0 : std::stod(row[it - header.begin()]);
+  };
+  const double one = column("1 thread"), two = column("2 threads");
+  EXPECT_GT(one, 0) << md.substr(fusion_at, 120) << " (0: a round lost frames)";
+  EXPECT_GT(two, 0) << md.substr(fusion_at, 120);
+  EXPECT_NEAR(column("2 / 1"), two / one, 0.006) << md.substr(fusion_at, 120);
   fs::remove_all(out);
 }
 

@@ -1,13 +1,19 @@
-// FusionWorker turns a frame group into the frames every client gets
-// (MeshFrame, TextureBundle, Stats) on its own thread, so the I/O loop keeps
-// serving pods and clients while a hull is carved. One group waits at most:
-// a newer group replaces a waiting one (counted as dropped).
+// FusionWorker turns frame groups into the frames every client gets
+// (MeshFrame, TextureBundle, Stats) on threads of its own, so the I/O loop
+// keeps serving pods and clients while hulls are carved. Several groups are
+// fused at once, one per thread, and each group's hull and marching cubes
+// spread over the same threads (oneTBB); the outputs come out in the order
+// the groups went in. One group waits at most: a newer group replaces a
+// waiting one (counted as dropped).
 #pragma once
+
+#include <tbb/task_arena.h>
 
 #include <atomic>
 #include <condition_variable>
 #include <deque>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -44,7 +50,13 @@ struct FusionSettings {
   uint32_t pods_expected = 0;
   // Texture layers for the clients that ask (protocol 1.5).
   LayerSettings layers;
+  // Threads that fuse: groups in flight at once, and the threads each
+  // group's hull spreads over (0: the machine's cores).
+  int threads = 0;
 };
+
+// settings.threads, with 0 read as the machine's cores.
+int fusionThreads(const FusionSettings& settings);
 
 // The server's flags of FusionSettings (config/settings.h); eval and the
 // launcher take the same.
@@ -126,6 +138,7 @@ std::vector<Image8> colorsInFrame(const FrameGroup& group);
 struct LayerRequest {
   LayerStage* stage = nullptr;
   bool lz4 = false, video = false, video_key_frame = false;
+  bool wanted() const { return stage != nullptr && (lz4 || video); }
 };
 
 // A group's mesh as the server fuses it, each step with its clock: the
@@ -156,14 +169,38 @@ void refineFused(FusedMesh& fused, const std::vector<hull::HullView>& views,
 FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
                       const LayerRequest& layers = {});
 
+// A group's mesh and images encoded for the clients, before the texture
+// layers: what encodeFused makes side by side with other groups, and
+// finishFused completes in frame order (the layers keep their atlas and
+// video from frame to frame).
+struct EncodedGroup {
+  StatusOr<std::vector<uint8_t>> mesh = std::vector<uint8_t>{};
+  StatusOr<std::vector<uint8_t>> draco = std::vector<uint8_t>{};
+  bool draco_apart = false;  // draco holds the mesh for clients before 1.7
+  protocol::TextureBundle bundle, bundle_v1_1;
+  // The compressed images and the Draco bytes are borrowed by the frames
+  // (fanned out to every client without a copy) and live as long as they do.
+  std::shared_ptr<std::deque<std::vector<uint8_t>>> storage;
+  protocol::MeshFrame mesh_frame;  // all but the codec and the bytes
+  uint64_t images_end_ns = 0;
+  uint64_t present = 0;  // bits of cameras 0..63, as 1.0 to 1.2 read them
+  uint64_t pod_bytes = 0;
+  size_t triangles = 0;
+};
+
 // What fuseGroup sends for a given mesh (carved from hull_start_ns to
 // hull_end_ns, refined from then to refine_end_ns; refine_end_ns 0: not
 // refined, no refine stage): the MeshFrame, the TextureBundle of the pods' images
 // re-encoded for clients, and the Stats. The evaluation packs its own
-// meshes with it, so that its bytes and codec times are the loop's.
+// meshes with it, so that its bytes and codec times are the loop's. It is
+// encodeFused, then finishFused.
 FusedOutput packageFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
                          uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns = 0,
                          const LayerRequest& layers = {});
+EncodedGroup encodeFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
+                         uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns);
+FusedOutput finishFused(const GroupJob& job, const FusionSettings& settings, EncodedGroup encoded,
+                        const LayerRequest& layers);
 
 class FusionWorker {
  public:
@@ -174,8 +211,11 @@ class FusionWorker {
   ~FusionWorker();
 
   void submit(GroupJob job);
+  // The fused groups not taken yet, in the order they were submitted.
   std::vector<FusedOutput> takeOutputs();
   uint64_t replacedJobs() const { return replaced_; }
+  // Groups fused at once at most (FusionSettings::threads).
+  int threads() const { return static_cast<int>(threads_.size()); }
   // Groups submitted and not yet fused (waiting or in progress).
   size_t queuedJobs();
   // Those and the fused groups whose output is not yet taken.
@@ -192,22 +232,46 @@ class FusionWorker {
   void requestLayerVideoKeyFrame() { video_key_frame_ = true; }
 
  private:
+  // A group taken off the queue, with its place in the output order and
+  // the settings it is fused with; encoded once its thread is done.
+  struct Taken {
+    GroupJob job;
+    uint64_t turn = 0;
+    FusionSettings settings;
+    LayerRequest layers;
+    std::optional<EncodedGroup> encoded;  // none: it could not be fused
+    hull::SilhouetteError error;
+  };
+  std::optional<Taken> take();
   void run();
+  void encode(Taken& taken);
+  // Hands an encoded group over for output; the thread whose group is next
+  // in order finishes it and every later one already encoded, while the
+  // others go on to the next group instead of waiting.
+  void deliver(Taken taken);
+  std::optional<FusedOutput> finish(Taken& taken);
 
   FusionSettings settings_;
   std::optional<hull::VoxelController> voxel_;  // under an error target
   int wake_fd_;
   std::mutex mutex_;
-  std::condition_variable cv_;
+  std::condition_variable cv_;  // a job waits, or stop_
   bool lossless_;
   std::deque<GroupJob> waiting_;
   std::atomic<bool> layers_lz4_{false}, layers_video_{false}, video_key_frame_{false};
-  LayerStage layer_stage_;  // the worker thread's only
-  bool busy_ = false;
+  LayerStage layer_stage_;             // built in order, by one thread at a time
+  size_t busy_ = 0;                    // groups being encoded
+  uint64_t next_turn_ = 0;             // the next group taken gets this place in the output order
+  uint64_t turn_ = 0;                  // the group whose output goes out next
+  std::map<uint64_t, Taken> encoded_;  // encoded, waiting for the groups before them
+  bool finishing_ = false;             // a thread is finishing groups in order
   std::vector<FusedOutput> outputs_;
   bool stop_ = false;
-  uint64_t replaced_ = 0;
-  std::thread thread_;
+  std::atomic<uint64_t> replaced_{0};
+  // The threads the fusion runs on: a group per thread, each group's
+  // parallel loops bounded by the arena (oneTBB) to the same count.
+  std::unique_ptr<tbb::task_arena> arena_;
+  std::vector<std::thread> threads_;
 };
 
 }  // namespace holofuse::fusion
