@@ -13,11 +13,13 @@ double msSinceCapture(const FrameRecord& frame, uint64_t ns) {
 
 void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
   using protocol::Stage;
-  uint64_t decode_start = UINT64_MAX, fused_end = 0;
+  uint64_t decode_start = UINT64_MAX, fusion_start = UINT64_MAX, fused_end = 0;
   for (const auto& s : stamps) {
     if (s.end_ns < s.start_ns || s.end_ns == 0) continue;
     if (s.stage == static_cast<uint16_t>(Stage::kServerDecode))
       decode_start = std::min(decode_start, s.start_ns);
+    if (s.stage == static_cast<uint16_t>(Stage::kHull))
+      fusion_start = std::min(fusion_start, s.start_ns);
     for (const Stage after_decode : {Stage::kHull, Stage::kRefine, Stage::kMeshEncode,
                                      Stage::kImageEncode, Stage::kLayers, Stage::kLayerVideo})
       if (s.stage == static_cast<uint16_t>(after_decode)) fused_end = std::max(fused_end, s.end_ns);
@@ -29,6 +31,17 @@ void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
           earlier_end > decode_start ? static_cast<double>(earlier_end - decode_start) / 1e6 : 0.0);
     }
     last_server_span_ = {decode_start, fused_end};
+  }
+  // Two groups fused at once (--fusion-threads): the later one's hull
+  // began before the earlier one's encodes ended.
+  if (fusion_start != UINT64_MAX && fused_end >= fusion_start) {
+    if (last_fusion_end_ns_) {
+      fusion_overlap_ms_.push_back(*last_fusion_end_ns_ > fusion_start
+                                       ? static_cast<double>(*last_fusion_end_ns_ - fusion_start) /
+                                             1e6
+                                       : 0.0);
+    }
+    last_fusion_end_ns_ = fused_end;
   }
   for (const auto& s : stamps) {
     if (s.end_ns >= s.start_ns && s.end_ns != 0)

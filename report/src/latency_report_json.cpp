@@ -47,14 +47,22 @@ Json linksJson(const std::map<uint16_t, std::vector<std::pair<double, double>>>&
 }
 
 // The server's pipeline: how often it decoded a frame's pod images while
-// it was still carving or encoding the frame before.
-Json serverPipelineJson(const std::vector<double>& overlap_ms) {
-  size_t overlapped = 0;
-  for (const double ms : overlap_ms) overlapped += ms > 0 ? 1 : 0;
-  return {
-      {"frame_pairs", overlap_ms.size()},
-      {"overlapped", overlapped},
-      {"overlap_ms", {{"p50", percentile(overlap_ms, 50)}, {"p95", percentile(overlap_ms, 95)}}}};
+// it was still carving or encoding the frame before, and how often it
+// carved a frame while it still fused the one before (fusion threads).
+Json serverPipelineJson(const std::vector<double>& overlap_ms,
+                        const std::vector<double>& fusion_overlap_ms) {
+  auto overlapped = [](const std::vector<double>& ms) {
+    return std::count_if(ms.begin(), ms.end(), [](double v) { return v > 0; });
+  };
+  auto spread = [](const std::vector<double>& ms) {
+    return Json{{"p50", percentile(ms, 50)}, {"p95", percentile(ms, 95)}};
+  };
+  return {{"frame_pairs", overlap_ms.size()},
+          {"overlapped", overlapped(overlap_ms)},
+          {"overlap_ms", spread(overlap_ms)},
+          {"fusion_frame_pairs", fusion_overlap_ms.size()},
+          {"fusion_overlapped", overlapped(fusion_overlap_ms)},
+          {"fusion_overlap_ms", spread(fusion_overlap_ms)}};
 }
 
 void addBytesAndMeshes(const std::vector<FrameRecord>& frames, Json& j) {
@@ -154,7 +162,7 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   for (const auto& [name, ms] : gpu_ms_) gpu[name] = spreadOf(ms);
   j["latency_ms"]["gpu_passes"] = gpu;
   j["latency_ms"]["links"] = linksJson(transit_ms_, stage_ms_);
-  j["server_pipeline"] = serverPipelineJson(server_overlap_ms_);
+  j["server_pipeline"] = serverPipelineJson(server_overlap_ms_, fusion_overlap_ms_);
   addBytesAndMeshes(frames_, j);
   Json jitter = Json::object();
   for (const auto& [pod, ms] : podJitterMs()) jitter["pod_" + std::to_string(pod)] = ms;

@@ -199,22 +199,35 @@ TEST(Loop, ThirtyTwoPodsAreAllFusedAndBlended) {
 // machine stalled for most of a period sends its frame so late that the
 // next one comes while it fuses (seen once in CI, 1 pair of 7 at 1 fps,
 // by 32 ms).
+//
+// Fused on two threads, the busy run also carves a frame while it fuses
+// the one before; on one thread that can never happen. The client asks
+// four frames ahead: it renders a 10 mm hull of two views more slowly than
+// the server fuses it, and two ahead kept the server one frame in flight
+// (measured: 0 of 15 pairs overlapped; 2 to 3 at four ahead, the first
+// ones among them).
 TEST(Loop, TheReportShowsTheServerDecodingTheNextFrameWhileItFusesThisOne) {
   const fs::path out = freshDir("loop_pipeline");
   auto run = [&](const std::string& name, const std::string& fps, const std::string& voxel,
-                 const std::string& frames) {
-    const pid_t loop =
-        spawn({kBin + "/holofuse_loop", "--pods", "2", "--frames", frames, "--fps", fps, "--size",
-               "96x72", "--voxel", voxel, "--out", (out / name).string()},
-              out / (name + ".log"));
+                 const std::string& frames, const std::string& threads) {
+    const pid_t loop = spawn({kBin + "/holofuse_loop", "--pods", "2", "--frames", frames, "--fps",
+                              fps, "--size", "96x72", "--voxel", voxel, "--fusion-threads", threads,
+                              "--frames-ahead", "4", "--out", (out / name).string()},
+                             out / (name + ".log"));
     EXPECT_EQ(waitExit(loop, 240), 0) << readFile(out / (name + ".log"));
     return readJson(out / name / "report.json")["server_pipeline"];
   };
-  const auto busy = run("busy", "30", "0.01", "16");
+  const auto busy = run("busy", "30", "0.01", "16", "2");
   ASSERT_EQ(busy["frame_pairs"].get<int>(), 15) << busy.dump();
   EXPECT_GE(busy["overlapped"].get<int>(), 1) << busy.dump();
   EXPECT_GT(busy["overlap_ms"]["p95"].get<double>(), 0.0) << busy.dump();
-  const auto idle = run("idle", "0.5", "0.03", "8");
+  ASSERT_EQ(busy["fusion_frame_pairs"].get<int>(), 15) << busy.dump();
+  EXPECT_GE(busy["fusion_overlapped"].get<int>(), 1) << busy.dump();
+  EXPECT_GT(busy["fusion_overlap_ms"]["p95"].get<double>(), 0.0) << busy.dump();
+  const auto one_thread = run("one_thread", "30", "0.01", "16", "1");
+  ASSERT_EQ(one_thread["fusion_frame_pairs"].get<int>(), 15) << one_thread.dump();
+  EXPECT_EQ(one_thread["fusion_overlapped"].get<int>(), 0) << one_thread.dump();
+  const auto idle = run("idle", "0.5", "0.03", "8", "0");
   ASSERT_EQ(idle["frame_pairs"].get<int>(), 7) << idle.dump();
   EXPECT_LE(idle["overlapped"].get<int>(), 1) << idle.dump();
   fs::remove_all(out);

@@ -171,6 +171,8 @@ class LatencyReport {
   // one's encode ended (0: one after the other).
   std::optional<std::pair<uint64_t, uint64_t>> last_server_span_;
   std::vector<double> server_overlap_ms_;
+  std::optional<uint64_t> last_fusion_end_ns_;  // the last rendered frame's fusion
+  std::vector<double> fusion_overlap_ms_;
   std::map<uint16_t, protocol::PodArrivals> first_pod_clocks_;  // per pod, its first estimate
   std::optional<HostClock> client_clock_;
   double clock_drift_warn_ms_ = 1.0;
