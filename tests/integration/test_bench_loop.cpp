@@ -169,5 +169,46 @@ TEST(BenchScaling, ItsTablesAreEachRunsStagesAndBytes) {
   fs::remove_all(out);
 }
 
+// bench_gpu (./holofuse bench gpu): each row is its run's report, the
+// ratio is bench_texture_fields' own line, and a CPU device is said to be
+// one.
+TEST(BenchGpu, ItsPageIsEachRunsReportAndTheTextureFieldsRatio) {
+  const fs::path out = freshDir("bench_gpu");
+  const pid_t bench = spawn({kBin + "/bench_gpu", "--quick", "--out", (out / "runs").string(),
+                             "--markdown", (out / "gpu.md").string()},
+                            out / "bench.log");
+  ASSERT_EQ(waitExit(bench, 600), 0) << readFile(out / "bench.log");
+  const std::string md = readFile(out / "gpu.md");
+  for (const std::string mode : {"normal", "montage4d"}) {
+    const auto report = nlohmann::json::parse(
+        readFile(out / "runs" / ("2-pods-96x72-20mm-" + mode) / "report.json"));
+    const std::string row = "| 2 | 96x72 | 20 | " + mode + " | ";
+    const size_t at = md.find(row);
+    ASSERT_NE(at, std::string::npos) << md;
+    const std::vector<std::string> cells = tableCells(md.substr(at));
+    ASSERT_EQ(cells.size(), 11u) << md.substr(at, 200);
+    EXPECT_EQ(cells[4], oneDecimal(report["fps"].get<double>()));
+    const double p95 = report["latency_ms"]["end_to_end"]["p95"].get<double>();
+    EXPECT_NEAR(std::stod(cells[6]), p95, 0.5) << cells[6];
+    const bool met = report["fps"].get<double>() >= 29 && p95 <= 100;
+    EXPECT_EQ(cells[10], met ? "met" : "missed");
+    if (mode == "normal") {
+      const bool cpu =
+          report["settings"]["device"].get<std::string>().find("llvmpipe") != std::string::npos;
+      EXPECT_EQ(md.find("**No GPU:**") != std::string::npos, cpu) << md.substr(0, 400);
+    }
+  }
+  const std::string fields = readFile(out / "runs" / "bench_texture_fields.txt");
+  const std::string line = "montage4d / holoportation per new mesh: ";
+  const std::string summary = "montage4d / holoportation per new mesh (bench_texture_fields): ";
+  const size_t in_fields = fields.find(line), in_page = md.find(summary);
+  ASSERT_NE(in_fields, std::string::npos) << fields;
+  ASSERT_NE(in_page, std::string::npos) << md;
+  EXPECT_EQ(md.substr(in_page + summary.size(), 4), fields.substr(in_fields + line.size(), 4))
+      << md.substr(in_page, 120) << "\n"
+      << fields.substr(in_fields, 120);
+  fs::remove_all(out);
+}
+
 }  // namespace
 }  // namespace holofuse::test
