@@ -138,6 +138,9 @@ double fusionMsPerFrame(const std::vector<fusion::GroupJob>& jobs, double voxel,
     const auto start = std::chrono::steady_clock::now();
     for (const auto& job : jobs) worker.submit(job);
     while (fused < jobs.size()) {
+      // A group that failed to fuse never wakes us: a limit, not a pace.
+      pollfd woken{wake, POLLIN, 0};
+      if (::poll(&woken, 1, 120'000) <= 0) break;
       uint64_t counter = 0;
       if (::read(wake, &counter, sizeof counter) < 0) break;
       fused += worker.takeOutputs().size();

@@ -327,7 +327,6 @@ EncodedGroup encodeFused(const GroupJob& job, const FusionSettings& settings, co
   mesh_frame.vertex_count = static_cast<uint32_t>(mesh.vertexCount());
   mesh_frame.triangle_count = static_cast<uint32_t>(mesh.triangleCount());
   mesh_frame.stamps = std::move(stamps);
-  encoded.triangles = mesh.triangleCount();
   return encoded;
 }
 
@@ -392,7 +391,7 @@ FusedOutput finishFused(const GroupJob& job, const FusionSettings& settings, Enc
   out.stats_v1_7 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 7));
   out.stats_v1_2 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 2));
   out.stats_v1_0 = share(protocol::encodeOutgoing(stats, stats_sequence, nullptr, 0));
-  out.triangles = encoded.triangles;
+  out.triangles = encoded.mesh_frame.triangle_count;
   return out;
 }
 

@@ -380,30 +380,34 @@ std::vector<FusedOutput> fuseAll(const FusionSettings& settings,
 
 // A frame's payload as the client decodes it: the mesh bytes, or every
 // image plane's bytes (not the header: its sequence number and stamps
-// differ from run to run).
-std::vector<uint8_t> meshBytes(const protocol::SharedFrame& frame) {
+// differ from run to run). The decoded spans point into the frame, so
+// take reads them before it goes.
+template <typename Message, typename Take>
+std::vector<uint8_t> payloadOf(const protocol::SharedFrame& frame, Take take) {
   protocol::StreamDecoder decoder;
   decoder.feed(frame->flatten());
   EXPECT_TRUE(decoder.hasFrame());
   const protocol::Frame bytes = decoder.takeFrame();
-  protocol::MeshFrame mesh;
-  EXPECT_TRUE(protocol::decodeFrame(bytes, mesh).isOk());
-  return {mesh.mesh.begin(), mesh.mesh.end()};
+  Message message;
+  EXPECT_TRUE(protocol::decodeFrame(bytes, message).isOk());
+  return take(message);
+}
+
+std::vector<uint8_t> meshBytes(const protocol::SharedFrame& frame) {
+  return payloadOf<protocol::MeshFrame>(frame, [](const protocol::MeshFrame& mesh) {
+    return std::vector<uint8_t>(mesh.mesh.begin(), mesh.mesh.end());
+  });
 }
 
 std::vector<uint8_t> imageBytes(const protocol::SharedFrame& frame) {
-  protocol::StreamDecoder decoder;
-  decoder.feed(frame->flatten());
-  EXPECT_TRUE(decoder.hasFrame());
-  const protocol::Frame bytes = decoder.takeFrame();
-  protocol::TextureBundle bundle;
-  EXPECT_TRUE(protocol::decodeFrame(bytes, bundle).isOk());
-  std::vector<uint8_t> all;
-  for (const auto& image : bundle.images) {
-    for (const auto& plane : image.planes)
-      all.insert(all.end(), plane.data.begin(), plane.data.end());
-  }
-  return all;
+  return payloadOf<protocol::TextureBundle>(frame, [](const protocol::TextureBundle& bundle) {
+    std::vector<uint8_t> all;
+    for (const auto& image : bundle.images) {
+      for (const auto& plane : image.planes)
+        all.insert(all.end(), plane.data.begin(), plane.data.end());
+    }
+    return all;
+  });
 }
 
 // Groups fused several at once, each hull spread over threads, come out

@@ -185,7 +185,6 @@ struct EncodedGroup {
   uint64_t images_end_ns = 0;
   uint64_t present = 0;  // bits of cameras 0..63, as 1.0 to 1.2 read them
   uint64_t pod_bytes = 0;
-  size_t triangles = 0;
 };
 
 // What fuseGroup sends for a given mesh (carved from hull_start_ns to
