@@ -63,7 +63,7 @@ int main(int argc, char** argv) {
   const uint32_t pod_height = pod_width * 3 / 4;
   const std::vector<int> counts = {8, 16, 32, 64, 128};
   const scene::SyntheticScene scene;
-  render::VulkanContext context;
+  gpu::VulkanContext context;
   std::printf("device: %s; cameras on the ring at %ux%u, output %ux%u, %d meshes per count\n\n",
               context.deviceName().c_str(), pod_width, pod_height, kWidth, kHeight, meshes);
   std::vector<Mesh> surfaces;

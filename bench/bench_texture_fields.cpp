@@ -35,7 +35,7 @@ namespace {
 struct Setup {
   const scene::SyntheticScene& scene;
   const std::vector<Camera>& cameras;
-  render::VulkanContext& context;
+  gpu::VulkanContext& context;
   int meshes;
 };
 
@@ -633,7 +633,7 @@ int main(int argc, char** argv) {
   const int meshes = argc > 1 ? std::max(2, std::atoi(argv[1])) : 4;
   const scene::SyntheticScene scene;
   const auto cameras = scene::SyntheticScene::cameraRig(4, 320, 240);
-  render::VulkanContext context;
+  gpu::VulkanContext context;
   std::printf("device: %s; 4 cameras at 320x240, output 320x240, %d meshes per mode and round\n",
               context.deviceName().c_str(), meshes);
   const Setup setup{scene, cameras, context, meshes};

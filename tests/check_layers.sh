@@ -10,7 +10,7 @@ cd "$root"
 layers=(
   "base"
   "protocol"
-  "geometry image config"
+  "geometry image config gpu"
   "codec texture segmentation metrics"
   "scene hull report"
   "dataset"

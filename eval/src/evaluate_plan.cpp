@@ -350,7 +350,7 @@ Status measureClientLink(const EvalOptions& options, const SceneInput& input, bo
 
 }  // namespace
 
-Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
+Status evaluateModes(const EvalOptions& options, gpu::VulkanContext& context,
                      const SceneInput& input, const EvaluationPlan& plan, SceneResult& result,
                      const std::function<void(const std::string&)>& progress) {
   const int frame_count = static_cast<int>(input.frames.size());

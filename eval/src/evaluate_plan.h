@@ -14,7 +14,7 @@
 #include "eval/leave_one_out.h"
 #include "eval_pipeline.h"
 #include "geometry/camera.h"
-#include "render_client/vulkan_context.h"
+#include "gpu/vulkan_context.h"
 
 namespace holofuse::eval {
 
@@ -72,7 +72,7 @@ EvaluationPlan novelPlan(const std::vector<Camera>& poses);
 // result's modes (and its montage4d agreement); with options.save_images
 // the pictures go under options.out_dir/images. An error names the image
 // that could not be written.
-Status evaluateModes(const EvalOptions& options, render::VulkanContext& context,
+Status evaluateModes(const EvalOptions& options, gpu::VulkanContext& context,
                      const SceneInput& input, const EvaluationPlan& plan, SceneResult& result,
                      const std::function<void(const std::string&)>& progress);
 

@@ -32,7 +32,7 @@ namespace fs = std::filesystem;
 // The leave-one-out row's scene again, with each held-out camera's image
 // kept in the blend: what the camera's own pose scores when its image
 // takes part.
-StatusOr<SceneResult> cameraKeptRow(const EvalOptions& options, render::VulkanContext& context,
+StatusOr<SceneResult> cameraKeptRow(const EvalOptions& options, gpu::VulkanContext& context,
                                     const SceneInput& input, const SceneResult& leave_one_out,
                                     const std::function<void(const std::string&)>& progress) {
   SceneResult row = leave_one_out;
@@ -225,13 +225,13 @@ StatusOr<std::vector<SceneResult>> runLeaveOneOut(
                             checkedScenes(options));
   // (The Vulkan context throws when no device answers: said here as an
   // error naming the device asked for.)
-  std::optional<render::VulkanContext> started;
+  std::optional<gpu::VulkanContext> started;
   try {
     started.emplace(options.device);
   } catch (const std::exception& e) {
     return Status(StatusCode::kIoError, "Vulkan device '" + options.device + "': " + e.what());
   }
-  render::VulkanContext& context = *started;
+  gpu::VulkanContext& context = *started;
   std::vector<SceneResult> results;
   for (const auto& dir : options.datasets) {
     SceneResult result;

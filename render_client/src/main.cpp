@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
   options.max_minor = protocol_flag.maxMinor();
   if (list_devices) {
     try {
-      const auto devices = render::VulkanContext::listDevices();
+      const auto devices = gpu::VulkanContext::listDevices();
       for (size_t i = 0; i < devices.size(); ++i)
         std::printf("%zu: %s\n", i, devices[i].name.c_str());
       return 0;

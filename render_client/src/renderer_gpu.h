@@ -9,8 +9,8 @@
 #include <cstddef>
 #include <glm/glm.hpp>
 
+#include "gpu/vulkan_context.h"
 #include "protocol/messages.h"
-#include "render_client/vulkan_context.h"
 #include "shaders/config.h"
 
 namespace holofuse::render {

@@ -241,19 +241,7 @@ TextureFieldPasses::~TextureFieldPasses() {
 }
 
 VkPipeline TextureFieldPasses::create(const uint32_t* code, size_t bytes) {
-  VkShaderModule module = ctx_.createShader(code, bytes);
-  VkComputePipelineCreateInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
-  info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-  info.stage.module = module;
-  info.stage.pName = "main";
-  info.layout = layout_;
-  VkPipeline pipeline;
-  HOLOFUSE_VK_CHECK(
-      vkCreateComputePipelines(ctx_.device(), VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
-  vkDestroyShaderModule(ctx_.device(), module, nullptr);
-  return pipeline;
+  return ctx_.createComputePipeline(code, bytes, layout_);
 }
 
 void TextureFieldPasses::record(VkCommandBuffer cmd, VkDescriptorSet set, uint32_t vertex_count,

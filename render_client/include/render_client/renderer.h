@@ -13,10 +13,10 @@
 #include "config/settings.h"
 #include "geometry/camera.h"
 #include "geometry/mesh.h"
+#include "gpu/vulkan_context.h"
 #include "image/image.h"
 #include "render_client/render_settings.h"
 #include "render_client/texture_field_passes.h"
-#include "render_client/vulkan_context.h"
 #include "texture/texture_layers.h"
 
 namespace holofuse::render {

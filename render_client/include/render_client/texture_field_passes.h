@@ -13,11 +13,18 @@
 #include <vector>
 
 #include "geometry/mesh.h"
+#include "gpu/vulkan_context.h"
 #include "render_client/render_settings.h"
-#include "render_client/vulkan_context.h"
 #include "shaders/config.h"
 
 namespace holofuse::render {
+
+// The renderer's passes are built on the shared Vulkan context.
+using gpu::Buffer;
+using gpu::Image;
+using gpu::transferWritesToHost;
+using gpu::transitionImage;
+using gpu::VulkanContext;
 
 // C++ mirror of the GLSL Fan (compute_common.glsl): vertex c's view of one
 // triangle (a, b, c) around it, unfolded into the plane (a at the origin,

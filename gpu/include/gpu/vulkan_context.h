@@ -10,15 +10,15 @@
 #include <utility>
 #include <vector>
 
-namespace holofuse::render {
+namespace holofuse::gpu {
 
 // Vulkan failures are programmer or platform errors at this level: they
 // throw with the call, the result code and the place.
-#define HOLOFUSE_VK_CHECK(call)                                                   \
-  do {                                                                            \
-    const VkResult holofuse_vk_result_ = (call);                                  \
-    if (holofuse_vk_result_ != VK_SUCCESS)                                        \
-      ::holofuse::render::vkFail(#call, holofuse_vk_result_, __FILE__, __LINE__); \
+#define HOLOFUSE_VK_CHECK(call)                                                \
+  do {                                                                         \
+    const VkResult holofuse_vk_result_ = (call);                               \
+    if (holofuse_vk_result_ != VK_SUCCESS)                                     \
+      ::holofuse::gpu::vkFail(#call, holofuse_vk_result_, __FILE__, __LINE__); \
   } while (0)
 
 [[noreturn]] void vkFail(const char* call, VkResult result, const char* file, int line);
@@ -69,6 +69,8 @@ class VulkanContext {
                     uint32_t mip_levels = 1);
   void destroy(Image& image);
   VkShaderModule createShader(const uint32_t* code, size_t bytes);
+  // A compute pipeline of SPIR-V `code` (entry point main) on `layout`.
+  VkPipeline createComputePipeline(const uint32_t* code, size_t bytes, VkPipelineLayout layout);
 
   // Records with fn into a fresh command buffer, submits and waits (for a
   // submission still in flight first).
@@ -135,4 +137,4 @@ void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags
                      VkPipelineStageFlags dst_stage, uint32_t first_level = 0,
                      uint32_t level_count = VK_REMAINING_MIP_LEVELS);
 
-}  // namespace holofuse::render
+}  // namespace holofuse::gpu

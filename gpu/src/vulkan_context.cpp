@@ -1,8 +1,8 @@
-#include "render_client/vulkan_context.h"
+#include "gpu/vulkan_context.h"
 
 #include <cstring>
 
-namespace holofuse::render {
+namespace holofuse::gpu {
 
 void vkFail(const char* call, VkResult result, const char* file, int line) {
   throw std::runtime_error(std::string("Vulkan call ") + call + " failed with VkResult " +
@@ -251,6 +251,24 @@ VkShaderModule VulkanContext::createShader(const uint32_t* code, size_t bytes) {
   return module;
 }
 
+VkPipeline VulkanContext::createComputePipeline(const uint32_t* code, size_t bytes,
+                                                VkPipelineLayout layout) {
+  VkShaderModule module = createShader(code, bytes);
+  VkComputePipelineCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+  info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  info.stage.module = module;
+  info.stage.pName = "main";
+  info.layout = layout;
+  VkPipeline pipeline;
+  const VkResult result =
+      vkCreateComputePipelines(device_, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline);
+  vkDestroyShaderModule(device_, module, nullptr);
+  if (result != VK_SUCCESS) vkFail("vkCreateComputePipelines", result, __FILE__, __LINE__);
+  return pipeline;
+}
+
 VkCommandBuffer VulkanContext::beginOneShot() {
   VkCommandBufferAllocateInfo alloc{};
   alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
@@ -329,4 +347,4 @@ void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags
   vkCmdPipelineBarrier(cmd, src_stage, dst_stage, 0, 0, nullptr, 0, nullptr, 1, &barrier);
 }
 
-}  // namespace holofuse::render
+}  // namespace holofuse::gpu
