@@ -38,6 +38,7 @@ constexpr const char* kRatioLine = "montage4d / holoportation per new mesh: ";
 struct Point {
   int pods;
   std::string size, voxel_mm;
+  std::string hull_device;  // fusion_server --hull-device
 };
 
 struct Run {
@@ -54,7 +55,9 @@ double stageP50(const ordered_json& report, const char* stage) {
 }
 
 Run runOf(const Point& point, const std::string& mode, const ordered_json& report) {
-  Run run{point, mode};
+  Run run;
+  run.point = point;
+  run.mode = mode;
   run.fps = report["fps"].get<double>();
   run.p50 = report["latency_ms"]["end_to_end"]["p50"].get<double>();
   run.p95 = report["latency_ms"]["end_to_end"]["p95"].get<double>();
@@ -102,19 +105,19 @@ std::string today() {
 
 std::string page(const std::vector<Run>& runs, double ratio, const std::string& fields_text,
                  const std::string& command, int frames) {
-  html::Table table{{"pods", "size", "voxel mm", "mode", "fps", "end-to-end p50", "end-to-end p95",
-                     "hull", "mesh encode", "render", "target"},
+  html::Table table{{"pods", "size", "voxel mm", "hull on", "mode", "fps", "end-to-end p50",
+                     "end-to-end p95", "hull", "mesh encode", "render", "target"},
                     {},
-                    "rrrlrrrrrrl"};
+                    "rrrllrrrrrrl"};
   bool all_met = true;
   for (const Run& r : runs) {
     const bool met = r.fps >= kTargetFps && r.p95 <= kTargetP95Ms;
     all_met = all_met && met;
-    table.rows.push_back({std::to_string(r.point.pods), r.point.size, r.point.voxel_mm, r.mode,
-                          html::number("%.1f", r.fps), html::number("%.0f", r.p50),
-                          html::number("%.0f", r.p95), html::number("%.1f", r.hull),
-                          html::number("%.1f", r.mesh_encode), html::number("%.1f", r.render),
-                          verdict(met)});
+    table.rows.push_back({std::to_string(r.point.pods), r.point.size, r.point.voxel_mm,
+                          r.point.hull_device, r.mode, html::number("%.1f", r.fps),
+                          html::number("%.0f", r.p50), html::number("%.0f", r.p95),
+                          html::number("%.1f", r.hull), html::number("%.1f", r.mesh_encode),
+                          html::number("%.1f", r.render), verdict(met)});
   }
   const std::string device = runs.empty() ? "?" : runs.front().device;
   const bool cpu_device = device.find("llvmpipe") != std::string::npos;
@@ -127,7 +130,8 @@ std::string page(const std::vector<Run>& runs, double ratio, const std::string& 
     md << "**No GPU:** the device is Mesa's CPU rasteriser, so these numbers are this "
           "machine's, not a GPU host's; the targets are a GPU host's.\n\n";
   }
-  md << "Each point is `holofuse_loop --pods N --size WxH --voxel V --mode M --fps 30 --frames "
+  md << "Each point is `holofuse_loop --pods N --size WxH --voxel V --hull-device D --mode M "
+        "--fps 30 --frames "
      << frames
      << "` (the demo's settings otherwise, fusion on every core); fps and end-to-end latency "
         "from the client's report, stage p50s in ms. Target: at least "
@@ -160,24 +164,38 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
-  const std::vector<Point> points =
-      quick ? std::vector<Point>{{2, "96x72", "20"}}
-            : std::vector<Point>{{4, "320x240", "20"}, {8, "640x480", "10"}};
+  // The 10 mm point twice: its hull on the CPU's cores and on the device.
+  std::vector<Point> points;
+  auto add = [&](int pods, const char* size, const char* voxel_mm, const char* hull_device) {
+    Point p;
+    p.pods = pods;
+    p.size = size;
+    p.voxel_mm = voxel_mm;
+    p.hull_device = hull_device;
+    points.push_back(p);
+  };
+  if (quick) {
+    add(2, "96x72", "20", "vulkan");
+  } else {
+    add(4, "320x240", "20", "cpu");
+    add(8, "640x480", "10", "cpu");
+    add(8, "640x480", "10", "vulkan");
+  }
   const std::vector<std::string> modes = {"normal", "montage4d"};
   std::vector<Run> runs;
   for (const Point& p : points) {
     for (const std::string& mode : modes) {
-      std::fprintf(stderr, "\r[bench gpu] loop %zu/%zu: %d pods at %s, %s mm, %s   ",
+      std::fprintf(stderr, "\r[bench gpu] loop %zu/%zu: %d pods at %s, %s mm, hull on %s, %s   ",
                    runs.size() + 1, points.size() * modes.size(), p.pods, p.size.c_str(),
-                   p.voxel_mm.c_str(), mode.c_str());
+                   p.voxel_mm.c_str(), p.hull_device.c_str(), mode.c_str());
       const fs::path dir = fs::path(out) / (std::to_string(p.pods) + "-pods-" + p.size + "-" +
-                                            p.voxel_mm + "mm-" + mode);
+                                            p.voxel_mm + "mm-" + p.hull_device + "-hull-" + mode);
       std::string error;
-      const auto report =
-          bench::runLoop({"--pods", std::to_string(p.pods), "--size", p.size, "--voxel",
-                          html::number("%g", std::stod(p.voxel_mm) / 1000), "--mode", mode, "--fps",
-                          "30", "--frames", std::to_string(quick ? 20 : frames)},
-                         dir, &error);
+      const auto report = bench::runLoop(
+          {"--pods", std::to_string(p.pods), "--size", p.size, "--voxel",
+           html::number("%g", std::stod(p.voxel_mm) / 1000), "--hull-device", p.hull_device,
+           "--mode", mode, "--fps", "30", "--frames", std::to_string(quick ? 20 : frames)},
+          dir, &error);
       if (!report) {
         std::fprintf(stderr, "\n[bench gpu] %s: %s\n", dir.c_str(), error.c_str());
         return 1;

@@ -2,18 +2,23 @@
 // section 5): the visual hull carved coarse to fine inside the valid region
 // against the dense grid over the same region, and the grid the whole
 // capture volume would be, at two voxel sizes, 8 pods of the synthetic
-// scene at 320x240 through the pods' own segmentation. Prints ratios
-// measured in one run; the machine is noisy.
+// scene at 320x240 through the pods' own segmentation; and the same carve
+// with its grid on the Vulkan device (`fusion_server --hull-device
+// vulkan`), where one opens. Prints ratios measured in one run; the
+// machine is noisy.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <iterator>
+#include <memory>
 #include <vector>
 
 #include "bench_timing.h"
 #include "capture_node/pod.h"
 #include "hull/visual_hull.h"
+#include "hull/vulkan_hull_grid.h"
 #include "scene/synthetic_scene.h"
 
 using namespace holofuse;
@@ -43,7 +48,14 @@ int main(int argc, char** argv) {
     }
     groups.push_back(std::move(views));
   }
-  std::printf("8 pods at 320x240, %d frames of the synthetic subject\n\n", frames);
+  std::shared_ptr<hull::VulkanHullGrid> device;
+  try {
+    device = hull::VulkanHullGrid::open();
+  } catch (const std::exception& e) {
+    std::printf("no Vulkan device opened (%s): the CPU only\n", e.what());
+  }
+  std::printf("8 pods at 320x240, %d frames of the synthetic subject%s%s\n\n", frames,
+              device ? "; device: " : "", device ? device->deviceName().c_str() : "");
   std::printf("%8s %-13s %10s %16s %12s %10s\n", "voxel", "hull", "ms", "points sampled",
               "triangles", "same mesh");
   for (double voxel : {0.02, 0.01}) {
@@ -52,7 +64,8 @@ int main(int argc, char** argv) {
     const glm::dvec3 volume = options.volume_max - options.volume_min;
     const double volume_points = std::ceil(volume.x / voxel + 1) * std::ceil(volume.y / voxel + 1) *
                                  std::ceil(volume.z / voxel + 1);
-    std::vector<double> ms[2], whole_ms;
+    std::vector<double> ms[2], whole_ms, device_ms;
+    size_t device_triangles = 0, device_same_edges = 0, device_vertices = 0;
     double sampled[2] = {0, 0}, region_points = 0;
     size_t triangles[2] = {0, 0};
     bool same = true, same_as_whole = true;
@@ -83,6 +96,23 @@ int main(int argc, char** argv) {
           region_points += hierarchical ? 0.0 : static_cast<double>(stats.grid_points) / frames;
           triangles[hierarchical] = meshes[hierarchical].triangleCount();
         }
+        if (device) {  // the hierarchical carve with its grid on the device
+          hull::HullOptions o = options;
+          o.grid_fill = hull::deviceGridFill(device);
+          const auto t0 = Clock::now();
+          const Mesh on_device = hull::carveVisualHull(views, o);
+          const double elapsed = bench::ms(t0, Clock::now());
+          if (repeat == 1) {
+            device_ms.push_back(elapsed);
+            device_triangles = on_device.triangleCount();
+            const auto keys = sortedKeys(meshes[1]), device_keys = sortedKeys(on_device);
+            std::vector<uint64_t> common;
+            std::set_intersection(keys.begin(), keys.end(), device_keys.begin(), device_keys.end(),
+                                  std::back_inserter(common));
+            device_same_edges += common.size();
+            device_vertices += device_keys.size();
+          }
+        }
         same = same && meshes[0].indices == meshes[1].indices &&
                meshes[0].positions == meshes[1].positions;
         if (repeat == 1) {  // the same surface, its vertices numbered in another order
@@ -98,6 +128,12 @@ int main(int argc, char** argv) {
                 median(ms[0]), region_points, triangles[0], "");
     std::printf("%6.0f mm %-13s %10.1f %16.0f %12zu %10s\n", voxel * 1000, "hierarchical",
                 median(ms[1]), sampled[1], triangles[1], same ? "yes" : "NO");
+    if (device) {
+      std::printf("%6.0f mm %-13s %10.1f %16s %12zu %9.2f%%\n", voxel * 1000, "on the device",
+                  median(device_ms), "", device_triangles,
+                  100.0 * static_cast<double>(device_same_edges) /
+                      static_cast<double>(std::max<size_t>(device_vertices, 1)));
+    }
     std::printf(
         "         the valid region samples %.1fx fewer points than the whole volume, %.1fx faster; "
         "coarse to "

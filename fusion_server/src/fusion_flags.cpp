@@ -22,6 +22,12 @@ const std::vector<Setting<FusionSettings>>& fusionFlags() {
                          "hull spreads over (0: the machine's cores; 1: one group at a time on "
                          "one thread)",
                          0, 256, [](S& s) -> int& { return s.threads; }),
+        choiceSetting<S>(
+            "--hull-device",
+            "where the hull's grid is carved: cpu, or vulkan (compute passes on the first "
+            "GPU, else any Vulkan device; the CPU, with a log line, where none opens)",
+            {"cpu", "vulkan"}, [](S& s, const std::string& name) { s.hull_device = name; },
+            [](const S& s) { return s.hull_device; }),
         numberSetting<S>("--refine-voxels",
                          "photo-consistency refinement: hull voxels the hull's vertices may move "
                          "inward where the pods that see them disagree in colour (0: none)",

@@ -9,6 +9,7 @@
 #include "config/command_line.h"
 #include "config/rig_shape.h"
 #include "fusion_server/fusion_server.h"
+#include "hull/vulkan_hull_grid.h"
 #include "protocol/auth.h"
 #include "protocol/messages.h"
 
@@ -111,6 +112,20 @@ void addLimitOptions(CLI::App& app, holofuse::fusion::ServerOptions& options) {
                  "a pod's image may have at most this many times the pixels of the rig's median "
                  "pod (a rig of mixed cameras raises it)")
       ->check(CLI::Range(1.0, 1e6));
+}
+
+// --hull-device vulkan: the hull's grid carved on the device, or on the
+// CPU with a line that says why.
+void openHullDevice(holofuse::hull::HullOptions& hull) {
+  try {
+    auto grid = holofuse::hull::VulkanHullGrid::open();
+    std::printf("[server] hull grid on %s%s\n", grid->deviceName().c_str(),
+                grid->cpuDevice() ? " (a CPU device)" : "");
+    hull.grid_fill = holofuse::hull::deviceGridFill(std::move(grid));
+  } catch (const std::exception& e) {
+    std::printf("[server] hull grid on the CPU: no Vulkan device opened (%s)\n", e.what());
+  }
+  std::fflush(stdout);
 }
 
 // --volume x0,y0,z0,x1,y1,z1: the hull's capture volume; false, said why,
@@ -263,6 +278,7 @@ int main(int argc, char** argv) {
   }
   if (!new_key.empty()) return writeNewKeys(new_key, options.pods, new_key_clients, shared_key);
   fusion_flags.apply(options.fusion);
+  if (options.fusion.hull_device == "vulkan") openHullDevice(options.fusion.hull);
   options.budget.pod_frame.burst =
       std::max(options.budget.pod_frame.burst, options.budget.pod_frame.per_second / 2);
   if (options.lossless) options.budget.pod_frame = {};  // read as fusion keeps up

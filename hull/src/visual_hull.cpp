@@ -326,6 +326,36 @@ glm::u64vec3 keyLattice(const HullOptions& options) {
          glm::u64vec3(3);
 }
 
+ScalarGrid fillHullGrid(const HullGridInput& input, HullStats& stats) {
+  const std::vector<HullView>& views = *input.views;
+  const double s = input.spacing;
+  // The hull's signed distance is approximated by the smallest of the
+  // cameras' silhouette distances, each turned from pixels into metres at
+  // the point's depth.
+  auto signedDistance = [&](const glm::dvec3& p) {
+    double value = std::numeric_limits<double>::max();
+    for (size_t i = 0; i < views.size(); ++i) {
+      const Camera& cam = views[i].camera;
+      const auto proj = cam.project(p);
+      // Written so that NaN (a hostile calibration) counts as outside.
+      if (!proj || !(proj->x >= 0 && proj->y >= 0 && proj->x < cam.width && proj->y < cam.height))
+        return -s;
+      const double px = sampleBilinear(input.distances[i], static_cast<int>(cam.width),
+                                       static_cast<int>(cam.height), proj->x, proj->y);
+      value = std::min(value, px * proj->z / cam.fx);
+    }
+    return value;
+  };
+  const glm::ivec3 n = input.points;
+  if (input.levels <= 0) {
+    ScalarGrid grid = sampleGrid(input.origin, s, n.x, n.y, n.z, signedDistance);
+    stats.points_sampled = grid.values.size();
+    return grid;
+  }
+  return sampleHierarchically(input.origin, s, n, input.levels, views, input.foreground_sums,
+                              signedDistance, stats);
+}
+
 Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options,
                      HullStats* stats) {
   if (views.empty()) return {};
@@ -356,42 +386,24 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
   const glm::ivec3 first = glm::ivec3(glm::floor((lo - options.volume_min) / s));
   lo = options.volume_min + s * glm::dvec3(first);
 
-  std::vector<std::vector<float>> distances(views.size());
-  tbb::parallel_for(size_t{0}, views.size(),
-                    [&](size_t i) { distances[i] = silhouetteSignedDistance(views[i]); });
-
-  const glm::ivec3 n = glm::ivec3(glm::ceil((hi - lo) / s)) + 1;
-  // The hull's signed distance is approximated by the smallest of the
-  // cameras' silhouette distances, each turned from pixels into metres at
-  // the point's depth. The outer layer of the grid is forced outside so the
-  // surface is closed.
-  auto signedDistance = [&](const glm::dvec3& p) {
-    double value = std::numeric_limits<double>::max();
-    for (size_t i = 0; i < views.size(); ++i) {
-      const Camera& cam = views[i].camera;
-      const auto proj = cam.project(p);
-      // Written so that NaN (a hostile calibration) counts as outside.
-      if (!proj || !(proj->x >= 0 && proj->y >= 0 && proj->x < cam.width && proj->y < cam.height))
-        return -s;
-      const double px = sampleBilinear(distances[i], static_cast<int>(cam.width),
-                                       static_cast<int>(cam.height), proj->x, proj->y);
-      value = std::min(value, px * proj->z / cam.fx);
-    }
-    return value;
-  };
+  HullGridInput input;
+  input.views = &views;
+  input.origin = lo;
+  input.spacing = s;
+  input.points = glm::ivec3(glm::ceil((hi - lo) / s)) + 1;
+  input.levels = options.hierarchy_levels;
+  input.distances.resize(views.size());
+  if (input.levels > 0) input.foreground_sums.resize(views.size());
+  tbb::parallel_for(size_t{0}, views.size(), [&](size_t i) {
+    input.distances[i] = silhouetteSignedDistance(views[i]);
+    if (input.levels > 0) input.foreground_sums[i] = foregroundSums(views[i].mask);
+  });
   HullStats local;
-  ScalarGrid grid;
-  if (options.hierarchy_levels <= 0) {
-    grid = sampleGrid(lo, s, n.x, n.y, n.z, signedDistance);
-    local.points_sampled = grid.values.size();
-  } else {
-    std::vector<std::vector<uint32_t>> foreground_sums(views.size());
-    tbb::parallel_for(size_t{0}, views.size(),
-                      [&](size_t i) { foreground_sums[i] = foregroundSums(views[i].mask); });
-    grid = sampleHierarchically(lo, s, n, options.hierarchy_levels, views, foreground_sums,
-                                signedDistance, local);
-  }
-  // Closed in place: the outer layer outside.
+  ScalarGrid grid =
+      options.grid_fill ? options.grid_fill(input, local) : fillHullGrid(input, local);
+  const glm::ivec3 n = input.points;
+  // The outer layer of the grid is forced outside so the surface is
+  // closed, in place.
   for (int z = 0; z < n.z; ++z) {
     for (int y = 0; y < n.y; ++y) {
       for (int x = 0; x < n.x; ++x) {

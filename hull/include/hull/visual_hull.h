@@ -9,9 +9,11 @@
 // as on the dense grid.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "geometry/camera.h"
+#include "geometry/marching_cubes.h"
 #include "geometry/mesh.h"
 #include "image/image.h"
 
@@ -26,6 +28,14 @@ struct HullView {
 // The voxel sizes a flag takes, metres.
 inline constexpr double kMinVoxel = 0.0001, kMaxVoxel = 0.5;
 
+struct HullStats;
+struct HullGridInput;
+
+// Fills the carve's grid (coarse to fine, or densely where levels <= 0)
+// from its input: the CPU's own (fillHullGrid), or a device's
+// (hull/vulkan_hull_grid.h). Either gives the same occupancy.
+using HullGridFill = std::function<ScalarGrid(const HullGridInput&, HullStats&)>;
+
 struct HullOptions {
   double voxel_size = 0.02;                 // metres: the accuracy knob
   glm::dvec3 volume_min{-1.0, -0.1, -1.0};  // capture volume
@@ -38,6 +48,8 @@ struct HullOptions {
   // false: carve the whole capture volume instead of the valid region (what
   // the region saves is measured against it: bench_hull).
   bool valid_region = true;
+  // Who fills the grid: empty is the CPU (fillHullGrid).
+  HullGridFill grid_fill;
 };
 
 // Sets the capture volume and scales the valid-region search to it (40
@@ -53,6 +65,28 @@ struct HullStats {
   size_t cells_visited() const { return cells_classified + points_sampled; }
   size_t triangles = 0;
 };
+
+// The grid stage's input: the fine grid over the valid region (origin on
+// the capture volume's lattice) and each view's silhouette signed distance
+// (silhouetteSignedDistance) and foreground counts (sums[(y + 1) * (w + 1)
+// + x + 1] counts the mask's foreground in [0, x] x [0, y]; empty where
+// levels <= 0).
+struct HullGridInput {
+  const std::vector<HullView>* views = nullptr;
+  glm::dvec3 origin{0.0};
+  double spacing = 0;
+  glm::ivec3 points{0};
+  int levels = 0;
+  std::vector<std::vector<float>> distances;
+  std::vector<std::vector<uint32_t>> foreground_sums;
+};
+
+// The CPU's grid: cells of 2^levels voxels classified against every
+// silhouette and split where the surface may cross them; the corners of
+// every voxel it may cross get the exact signed distance (metres, > 0
+// inside), settled cells one voxel inside or outside. levels <= 0: every
+// point exact.
+ScalarGrid fillHullGrid(const HullGridInput& input, HullStats& stats);
 
 // Signed distance of each pixel to the silhouette border in pixels,
 // positive inside: the feather map inside, the distance transform of the
