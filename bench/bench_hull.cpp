@@ -96,9 +96,9 @@ int main(int argc, char** argv) {
           region_points += hierarchical ? 0.0 : static_cast<double>(stats.grid_points) / frames;
           triangles[hierarchical] = meshes[hierarchical].triangleCount();
         }
-        if (device) {  // the hierarchical carve with its grid on the device
+        if (device) {  // the hierarchical carve on the device
           hull::HullOptions o = options;
-          o.grid_fill = hull::deviceGridFill(device);
+          o.surface = hull::deviceSurface(device);
           const auto t0 = Clock::now();
           const Mesh on_device = hull::carveVisualHull(views, o);
           const double elapsed = bench::ms(t0, Clock::now());

@@ -47,16 +47,15 @@ uint classify(ivec3 a, ivec3 b) {
 }
 
 void main() {
-  uint item = gl_GlobalInvocationID.x;
-  if (item >= counts[4u * push.list_in.x + 3u]) return;
+  ivec3 a;
+  if (!entryOfListIn(a)) return;
   ivec3 n = push.points.xyz;
   int size = int(push.list_in.z);
-  ivec3 a = unpack(lists[push.list_in.y + item]);
   ivec3 b = min(a + size, n - 1);
   uint c = classify(a, b);
   // The grid's outer layer is forced outside afterwards: an inside cell on
   // it is refined, or its points would keep a placeholder there.
-  bool on_border = any(equal(a, ivec3(0))) || any(equal(b, n - 1));
+  bool on_border = onBorder(a) || onBorder(b);
   if (c == HULL_INSIDE && on_border) c = HULL_BOUNDARY;
   if (c != HULL_BOUNDARY) {
     uint at = atomicAdd(counts[4u * push.list_out.z + 3u], 1u);

@@ -25,18 +25,39 @@ layout(std430, set = 0, binding = 3) buffer Lists { uint lists[]; };
 layout(std430, set = 0, binding = 4) buffer Counts { uint counts[]; };
 layout(std430, set = 0, binding = 5) buffer Values { float values[]; };
 layout(std430, set = 0, binding = 6) buffer Marks { uint marks[]; };
+// Marching cubes (hull_march.comp.glsl): per cube configuration, its
+// corner count then its triangles' cube edges (geometry's case table);
+// the triangles' corners (x: the grid edge's key point * 3 + axis, yzw:
+// the vertex, bits of floats); and per cube that has any, (its grid
+// index, its first corner, its corner count).
+layout(std430, set = 0, binding = 7) readonly buffer CaseTable { uint case_table[]; };
+layout(std430, set = 0, binding = 8) writeonly buffer Corners { uvec4 corners[]; };
+layout(std430, set = 0, binding = 9) writeonly buffer Cubes { uvec4 cubes[]; };
 
 layout(push_constant) uniform Push {
   vec4 origin;      // xyz: the grid's point (0, 0, 0); w: the spacing
   ivec4 points;     // xyz: points per axis; w: cameras
   uvec4 list_in;    // x: list index read, y: its offset in lists, z: cell size in voxels
   uvec4 list_out;   // x, y: the list children go to; z, w: the settled list
+  uvec4 march;      // x: the corners' list, y: its capacity; z: the cubes' list; w: the case table's stride
 } push;
+
+bool onBorder(ivec3 a) { return any(equal(a, ivec3(0))) || any(equal(a, push.points.xyz - 1)); }
 
 uint pack(ivec3 a) { return uint(a.x) | (uint(a.y) << 10) | (uint(a.z) << 20); }
 ivec3 unpack(uint p) { return ivec3(p & 1023u, (p >> 10) & 1023u, (p >> 20) & 1023u); }
 vec3 gridPoint(ivec3 a) { return push.origin.xyz + push.origin.w * vec3(a); }
 uint gridIndex(ivec3 a) { return (uint(a.z) * uint(push.points.y) + uint(a.y)) * uint(push.points.x) + uint(a.x); }
+
+// This invocation's entry of the list read (list_in.x at offset
+// list_in.y), unpacked; false past its end.
+bool entryOfListIn(out ivec3 a) {
+  uint item = gl_GlobalInvocationID.x;
+  a = ivec3(0);
+  if (item >= counts[4u * push.list_in.x + 3u]) return false;
+  a = unpack(lists[push.list_in.y + item]);
+  return true;
+}
 
 // Appends value to list `list` at `offset`, keeping its dispatch size.
 void append(uint list, uint offset, uint value) {

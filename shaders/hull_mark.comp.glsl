@@ -8,9 +8,8 @@
 layout(local_size_x = HULL_GROUP) in;
 
 void main() {
-  uint item = gl_GlobalInvocationID.x;
-  if (item >= counts[4u * push.list_in.x + 3u]) return;
-  ivec3 a = unpack(lists[push.list_in.y + item]);
+  ivec3 a;
+  if (!entryOfListIn(a)) return;
   ivec3 b = min(a + 1, push.points.xyz - 1);
   for (int k = 0; k < 8; ++k) {
     ivec3 corner = ivec3((k & 1) != 0 ? b.x : a.x, (k & 2) != 0 ? b.y : a.y, (k & 4) != 0 ? b.z : a.z);

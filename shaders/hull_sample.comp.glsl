@@ -6,7 +6,9 @@
 // push.list_in.w is 1 (the dense grid): the smallest of the cameras'
 // silhouette distances, bilinear between pixel centres and turned from
 // pixels into metres at the point's depth; -spacing where a camera does
-// not see the point (hull::fillHullGrid).
+// not see the point (hull::fillHullGrid). With push.list_in.w bit 1 the
+// grid's outer layer is closed as it is written (at most half a voxel
+// inside: hull::surfaceOfGrid); no settled point there is inside.
 layout(local_size_x = HULL_GROUP) in;
 
 float sampleDistance(uint i, vec2 q) {
@@ -25,7 +27,7 @@ float sampleDistance(uint i, vec2 q) {
 void main() {
   uint index = gl_GlobalInvocationID.x;
   ivec3 n = push.points.xyz;
-  if (push.list_in.w == 1u) {
+  if ((push.list_in.w & 1u) != 0u) {
     if (index >= uint(n.x * n.y * n.z)) return;
   } else {
     if (index >= counts[4u * push.list_out.x + 3u]) return;
@@ -46,5 +48,6 @@ void main() {
     }
     value = min(value, sampleDistance(i, q) * c.z / cam.intrinsics.x);
   }
+  if ((push.list_in.w & 2u) != 0u && onBorder(a)) value = min(value, -0.5 * s);
   values[index] = value;
 }

@@ -24,8 +24,8 @@ const std::vector<Setting<FusionSettings>>& fusionFlags() {
                          0, 256, [](S& s) -> int& { return s.threads; }),
         choiceSetting<S>(
             "--hull-device",
-            "where the hull's grid is carved: cpu, or vulkan (compute passes on the first "
-            "GPU, else any Vulkan device; the CPU, with a log line, where none opens)",
+            "where the hull is carved: cpu, or vulkan (compute passes on the first GPU, else "
+            "any Vulkan device; the CPU, with a log line, where none opens)",
             {"cpu", "vulkan"}, [](S& s, const std::string& name) { s.hull_device = name; },
             [](const S& s) { return s.hull_device; }),
         numberSetting<S>("--refine-voxels",

@@ -114,16 +114,16 @@ void addLimitOptions(CLI::App& app, holofuse::fusion::ServerOptions& options) {
       ->check(CLI::Range(1.0, 1e6));
 }
 
-// --hull-device vulkan: the hull's grid carved on the device, or on the
-// CPU with a line that says why.
+// --hull-device vulkan: the hull carved on the device, or on the CPU with
+// a line that says why.
 void openHullDevice(holofuse::hull::HullOptions& hull) {
   try {
     auto grid = holofuse::hull::VulkanHullGrid::open();
-    std::printf("[server] hull grid on %s%s\n", grid->deviceName().c_str(),
+    std::printf("[server] hull carved on %s%s\n", grid->deviceName().c_str(),
                 grid->cpuDevice() ? " (a CPU device)" : "");
-    hull.grid_fill = holofuse::hull::deviceGridFill(std::move(grid));
+    hull.surface = holofuse::hull::deviceSurface(std::move(grid));
   } catch (const std::exception& e) {
-    std::printf("[server] hull grid on the CPU: no Vulkan device opened (%s)\n", e.what());
+    std::printf("[server] hull carved on the CPU: no Vulkan device opened (%s)\n", e.what());
   }
   std::fflush(stdout);
 }

@@ -356,6 +356,22 @@ ScalarGrid fillHullGrid(const HullGridInput& input, HullStats& stats) {
                               signedDistance, stats);
 }
 
+Mesh surfaceOfGrid(ScalarGrid grid) {
+  const int nx = grid.nx, ny = grid.ny, nz = grid.nz;
+  const float inside_at_most = static_cast<float>(-0.5 * grid.spacing);
+  for (int z = 0; z < nz; ++z) {
+    for (int y = 0; y < ny; ++y) {
+      for (int x = 0; x < nx; ++x) {
+        if (x == 0 || y == 0 || z == 0 || x == nx - 1 || y == ny - 1 || z == nz - 1) {
+          float& v = grid.values[(static_cast<size_t>(z) * ny + y) * nx + x];
+          v = std::min(v, inside_at_most);
+        }
+      }
+    }
+  }
+  return marchingCubes(grid);
+}
+
 Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& options,
                      HullStats* stats) {
   if (views.empty()) return {};
@@ -399,22 +415,9 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
     if (input.levels > 0) input.foreground_sums[i] = foregroundSums(views[i].mask);
   });
   HullStats local;
-  ScalarGrid grid =
-      options.grid_fill ? options.grid_fill(input, local) : fillHullGrid(input, local);
+  Mesh mesh =
+      options.surface ? options.surface(input, local) : surfaceOfGrid(fillHullGrid(input, local));
   const glm::ivec3 n = input.points;
-  // The outer layer of the grid is forced outside so the surface is
-  // closed, in place.
-  for (int z = 0; z < n.z; ++z) {
-    for (int y = 0; y < n.y; ++y) {
-      for (int x = 0; x < n.x; ++x) {
-        if (x == 0 || y == 0 || z == 0 || x == n.x - 1 || y == n.y - 1 || z == n.z - 1) {
-          float& v = grid.values[(static_cast<size_t>(z) * n.y + y) * n.x + x];
-          v = std::min(v, static_cast<float>(-0.5 * s));
-        }
-      }
-    }
-  }
-  Mesh mesh = marchingCubes(grid);
   // Local edge keys to keys on the capture volume's lattice.
   const glm::u64vec3 lattice = keyLattice(options);
   for (uint64_t& key : mesh.vertex_keys) {
@@ -427,7 +430,7 @@ Mesh carveVisualHull(const std::vector<HullView>& views, const HullOptions& opti
     *stats = local;
     stats->region_min = lo;
     stats->region_max = hi;
-    stats->grid_points = grid.values.size();
+    stats->grid_points = static_cast<size_t>(n.x) * n.y * n.z;
     stats->triangles = mesh.triangleCount();
   }
   return mesh;

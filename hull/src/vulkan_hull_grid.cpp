@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <glm/gtc/packing.hpp>
+#include <unordered_map>
 #include <vector>
 
 #include "shaders/hull_classify_comp_spv.h"
+#include "shaders/hull_march_comp_spv.h"
 #include "shaders/hull_mark_comp_spv.h"
 #include "shaders/hull_sample_comp_spv.h"
 #include "shaders/hull_settle_comp_spv.h"
@@ -16,7 +19,8 @@ namespace {
 constexpr uint32_t kGroup = 64;         // HULL_GROUP
 constexpr int kPacked = 1024;           // points a side the packing holds
 constexpr uint32_t kMaxGroups = 65535;  // a dispatch's groups along x, at least
-constexpr uint32_t kBuffers = 7;        // bindings 0..6 of hull_common.glsl
+constexpr uint32_t kBuffers = 10;       // bindings 0..9 of hull_common.glsl
+constexpr uint32_t kCaseTable = 7, kCorners = 8, kCubes = 9;
 
 // hull_common.glsl's HullCamera, std430.
 struct GpuCamera {
@@ -34,6 +38,7 @@ struct Push {
   int32_t points[4];
   uint32_t list_in[4];
   uint32_t list_out[4];
+  uint32_t march[4];
 };
 
 uint32_t groupsFor(uint64_t items) { return static_cast<uint32_t>((items + kGroup - 1) / kGroup); }
@@ -48,9 +53,15 @@ struct VulkanHullGrid::Passes {
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet set = VK_NULL_HANDLE;
   VkPipeline classify = VK_NULL_HANDLE, settle = VK_NULL_HANDLE, mark = VK_NULL_HANDLE,
-             sample = VK_NULL_HANDLE;
-  // cameras, distances, sums, lists, counts, values, marks: grown, never shrunk.
+             sample = VK_NULL_HANDLE, march = VK_NULL_HANDLE;
+  // cameras, distances, sums, lists, counts, values, marks, the case
+  // table, corners, cubes: grown, never shrunk.
   std::array<gpu::Buffer, kBuffers> buffers{};
+  uint32_t case_stride = 0;
+  uint64_t corner_capacity = 1 << 16;
+  // The last carve's layout: what surface() reads back.
+  glm::ivec3 points{0};
+  uint32_t voxel_list = 0, voxel_offset = 0, corner_list = 0, cube_list = 0;
 };
 
 std::shared_ptr<VulkanHullGrid> VulkanHullGrid::open(const std::string& device_selector) {
@@ -105,12 +116,30 @@ VulkanHullGrid::VulkanHullGrid(gpu::VulkanContext& context)
   passes_->settle = create(k_hull_settle_comp_spv, sizeof(k_hull_settle_comp_spv));
   passes_->mark = create(k_hull_mark_comp_spv, sizeof(k_hull_mark_comp_spv));
   passes_->sample = create(k_hull_sample_comp_spv, sizeof(k_hull_sample_comp_spv));
+  passes_->march = create(k_hull_march_comp_spv, sizeof(k_hull_march_comp_spv));
+  // geometry's case table: per configuration its corner count, then its
+  // triangles' cube edges.
+  const auto& table = marchingCubesCaseTable();
+  size_t widest = 0;
+  for (const auto& triangles : table) widest = std::max(widest, triangles.size());
+  passes_->case_stride = static_cast<uint32_t>(widest + 1);
+  gpu::Buffer& cases = passes_->buffers[kCaseTable];
+  cases = context_.createBuffer(4 * table.size() * passes_->case_stride,
+                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  uint32_t* words = static_cast<uint32_t*>(cases.mapped);
+  for (size_t config = 0; config < table.size(); ++config) {
+    uint32_t* row = words + config * passes_->case_stride;
+    row[0] = static_cast<uint32_t>(table[config].size());
+    for (size_t k = 0; k < table[config].size(); ++k)
+      row[1 + k] = static_cast<uint32_t>(table[config][k]);
+  }
 }
 
 VulkanHullGrid::~VulkanHullGrid() {
   context_.waitForSubmitted();
   VkDevice d = context_.device();
-  for (VkPipeline p : {passes_->classify, passes_->settle, passes_->mark, passes_->sample})
+  for (VkPipeline p :
+       {passes_->classify, passes_->settle, passes_->mark, passes_->sample, passes_->march})
     vkDestroyPipeline(d, p, nullptr);
   for (gpu::Buffer& b : passes_->buffers) context_.destroy(b);
   vkDestroyDescriptorPool(d, passes_->pool, nullptr);
@@ -123,24 +152,77 @@ size_t VulkanHullGrid::cpuFallbacks() const {
   return cpu_fallbacks_;
 }
 
+size_t VulkanHullGrid::hostMarches() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return host_marches_;
+}
+
+namespace {
+
+bool deviceHolds(const glm::ivec3& n) {
+  const uint64_t points = static_cast<uint64_t>(n.x) * n.y * n.z;
+  const uint64_t voxels =
+      static_cast<uint64_t>(std::max(n.x - 1, 0)) * std::max(n.y - 1, 0) * std::max(n.z - 1, 0);
+  return n.x < kPacked && n.y < kPacked && n.z < kPacked && voxels > 0 &&
+         groupsFor(voxels) <= kMaxGroups && groupsFor(points) <= kMaxGroups;
+}
+
+}  // namespace
+
 ScalarGrid VulkanHullGrid::fill(const HullGridInput& input, HullStats& stats) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!deviceHolds(input.points)) {
+    ++cpu_fallbacks_;
+    return fillHullGrid(input, stats);
+  }
+  carve(input, stats, false);
+  return readGrid(input);
+}
+
+ScalarGrid VulkanHullGrid::readGrid(const HullGridInput& input) const {
+  ScalarGrid grid;
+  grid.nx = input.points.x;
+  grid.ny = input.points.y;
+  grid.nz = input.points.z;
+  grid.origin = input.origin;
+  grid.spacing = input.spacing;
+  grid.values.resize(static_cast<size_t>(grid.nx) * grid.ny * grid.nz);
+  std::memcpy(grid.values.data(), passes_->buffers[5].mapped, 4 * grid.values.size());
+  return grid;
+}
+
+Mesh VulkanHullGrid::surface(const HullGridInput& input, HullStats& stats) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!deviceHolds(input.points)) {
+    ++cpu_fallbacks_;
+    return surfaceOfGrid(fillHullGrid(input, stats));
+  }
+  // The dense grid has no list of cubes to march: marching cubes on the host.
+  if (input.levels <= 0) {
+    carve(input, stats, false);
+    return surfaceOfGrid(readGrid(input));
+  }
+  if (!carve(input, stats, true)) {
+    ++host_marches_;
+    // Closed on the device already: closing again changes nothing.
+    return surfaceOfGrid(readGrid(input));
+  }
+  return readSurface();
+}
+
+bool VulkanHullGrid::carve(const HullGridInput& input, HullStats& stats, bool surface) {
   const glm::ivec3 n = input.points;
   const uint64_t points = static_cast<uint64_t>(n.x) * n.y * n.z;
   const uint64_t voxels =
       static_cast<uint64_t>(std::max(n.x - 1, 0)) * std::max(n.y - 1, 0) * std::max(n.z - 1, 0);
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (n.x >= kPacked || n.y >= kPacked || n.z >= kPacked || voxels == 0 ||
-      groupsFor(voxels) > kMaxGroups || groupsFor(points) > kMaxGroups) {
-    ++cpu_fallbacks_;
-    return fillHullGrid(input, stats);
-  }
   const std::vector<HullView>& views = *input.views;
   const int levels = std::max(input.levels, 0);
   // Lists: k = 0 the top cells (2^levels voxels a side), k = levels - l
   // those of 2^l, k = levels the voxels, then the settled cells (two words
   // each) and the points to sample.
   const uint32_t voxel_list = static_cast<uint32_t>(levels), settled_list = voxel_list + 1,
-                 sampled_list = voxel_list + 2;
+                 sampled_list = voxel_list + 2, corner_list = voxel_list + 3,
+                 cube_list = voxel_list + 4;
   std::vector<uint32_t> offsets(sampled_list + 1, 0);
   uint64_t words = 0, settled_capacity = 0;
   for (int k = 0; k < levels; ++k) {
@@ -194,9 +276,12 @@ ScalarGrid VulkanHullGrid::fill(const HullGridInput& input, HullStats& stats) {
       4 * std::max<uint64_t>(distance_words, 1),
       4 * std::max<uint64_t>(sum_words, 1),
       4 * std::max<uint64_t>(words, 1),
-      16 * (sampled_list + 1),
+      16 * (cube_list + 1),
       4 * points,
-      4 * points};
+      4 * points,
+      passes_->buffers[kCaseTable].size,
+      16 * passes_->corner_capacity,
+      16 * (passes_->corner_capacity / 3 + 1)};
   bool grown = false;
   for (uint32_t b = 0; b < kBuffers; ++b) {
     gpu::Buffer& buffer = passes_->buffers[b];
@@ -235,7 +320,7 @@ ScalarGrid VulkanHullGrid::fill(const HullGridInput& input, HullStats& stats) {
   }
   // The top cells, written here; every other list starts empty.
   uint32_t* counts = static_cast<uint32_t*>(mapped(4));
-  for (uint32_t k = 0; k <= sampled_list; ++k) {
+  for (uint32_t k = 0; k <= cube_list; ++k) {
     counts[4 * k] = 0;
     counts[4 * k + 1] = counts[4 * k + 2] = 1;
     counts[4 * k + 3] = 0;
@@ -315,7 +400,7 @@ ScalarGrid VulkanHullGrid::fill(const HullGridInput& input, HullStats& stats) {
       vkCmdDispatchIndirect(cmd, count_buffer, VkDeviceSize{16} * voxel_list);
       barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT);
     }
-    push.list_in[3] = levels > 0 ? 0u : 1u;  // dense: every point
+    push.list_in[3] = (levels > 0 ? 0u : 1u) | (surface ? 2u : 0u);  // dense: every point; closed
     push.list_out[0] = sampled_list;
     push.list_out[1] = offsets[sampled_list];
     run(passes_->sample);
@@ -324,6 +409,17 @@ ScalarGrid VulkanHullGrid::fill(const HullGridInput& input, HullStats& stats) {
     } else {
       vkCmdDispatch(cmd, groupsFor(points), 1, 1);
     }
+    if (surface && levels > 0) {
+      barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT);
+      push.list_in[0] = voxel_list;
+      push.list_in[1] = offsets[voxel_list];
+      push.march[0] = corner_list;
+      push.march[1] = static_cast<uint32_t>(passes_->corner_capacity);
+      push.march[2] = cube_list;
+      push.march[3] = passes_->case_stride;
+      run(passes_->march);
+      vkCmdDispatchIndirect(cmd, count_buffer, VkDeviceSize{16} * voxel_list);
+    }
     VkMemoryBarrier to_host{};
     to_host.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
     to_host.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
@@ -331,22 +427,51 @@ ScalarGrid VulkanHullGrid::fill(const HullGridInput& input, HullStats& stats) {
     vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0,
                          1, &to_host, 0, nullptr, 0, nullptr);
   });
-  ScalarGrid grid;
-  grid.nx = n.x;
-  grid.ny = n.y;
-  grid.nz = n.z;
-  grid.origin = input.origin;
-  grid.spacing = input.spacing;
-  grid.values.resize(points);
-  std::memcpy(grid.values.data(), mapped(5), 4 * points);
   for (uint32_t k = 0; k < voxel_list; ++k) stats.cells_classified += counts[4 * k + 3];
   stats.points_sampled += levels > 0 ? counts[4 * sampled_list + 3] : points;
-  return grid;
+  passes_->corner_list = corner_list;
+  passes_->cube_list = cube_list;
+  const uint64_t corners = counts[4 * corner_list + 3];
+  if (!surface || corners <= passes_->corner_capacity) return true;
+  // More triangles than the corners' buffer held: this frame is marched on
+  // the host, the next ones into a buffer with room.
+  passes_->corner_capacity = corners + corners / 4;
+  return false;
 }
 
-HullGridFill deviceGridFill(std::shared_ptr<VulkanHullGrid> grid) {
+Mesh VulkanHullGrid::readSurface() const {
+  const uint32_t* counts = static_cast<const uint32_t*>(passes_->buffers[4].mapped);
+  const auto* cubes = static_cast<const glm::uvec4*>(passes_->buffers[kCubes].mapped);
+  const auto* corners = static_cast<const glm::uvec4*>(passes_->buffers[kCorners].mapped);
+  // The cubes in grid order, each its triangles in the case table's order,
+  // and the vertices numbered as they are first reached: the numbering of
+  // a scan of the whole grid (geometry's marchingCubes).
+  std::vector<glm::uvec4> order(cubes, cubes + counts[4 * passes_->cube_list + 3]);
+  std::sort(order.begin(), order.end(),
+            [](const glm::uvec4& a, const glm::uvec4& b) { return a.x < b.x; });
+  Mesh mesh;
+  std::unordered_map<uint32_t, uint32_t> vertex_of_edge;
+  vertex_of_edge.reserve(counts[4 * passes_->corner_list + 3] / 2);
+  for (const glm::uvec4& cube : order) {
+    for (uint32_t k = cube.y; k < cube.y + cube.z; ++k) {
+      const glm::uvec4& corner = corners[k];
+      const auto [it, added] =
+          vertex_of_edge.emplace(corner.x, static_cast<uint32_t>(mesh.positions.size()));
+      if (added) {
+        mesh.positions.emplace_back(glm::uintBitsToFloat(corner.y), glm::uintBitsToFloat(corner.z),
+                                    glm::uintBitsToFloat(corner.w));
+        mesh.vertex_keys.push_back(corner.x);
+      }
+      mesh.indices.push_back(it->second);
+    }
+  }
+  computeVertexNormals(mesh);
+  return mesh;
+}
+
+HullSurface deviceSurface(std::shared_ptr<VulkanHullGrid> grid) {
   return [grid = std::move(grid)](const HullGridInput& input, HullStats& stats) {
-    return grid->fill(input, stats);
+    return grid->surface(input, stats);
   };
 }
 

@@ -27,11 +27,11 @@ struct BothGrids {
 BothGrids carveBothWays(VulkanHullGrid& device, const std::vector<HullView>& views,
                         HullOptions options) {
   BothGrids both;
-  options.grid_fill = [&](const HullGridInput& input, HullStats& stats) {
+  options.surface = [&](const HullGridInput& input, HullStats& stats) {
     both.cpu = fillHullGrid(input, both.cpu_stats);
     both.device = device.fill(input, both.device_stats);
     stats = both.device_stats;
-    return both.device;
+    return surfaceOfGrid(both.device);
   };
   carveVisualHull(views, options);
   return both;
@@ -105,7 +105,7 @@ TEST(VulkanHullGrid, ItsMeshIsTheCpusWithinAVoxel) {
   options.voxel_size = 0.01;
   expectSameOccupancy(carveBothWays(*device, views, options), "frame 20");
   const Mesh cpu = carveVisualHull(views, options);
-  options.grid_fill = deviceGridFill(device);
+  options.surface = deviceSurface(device);
   const Mesh gpu = carveVisualHull(views, options);
   ASSERT_GT(cpu.triangleCount(), 1000u);
   // Nearly every vertex sits on the same grid edge as one of the CPU's,
@@ -150,6 +150,43 @@ TEST(VulkanHullGrid, ItsMeshIsTheCpusWithinAVoxel) {
               0.001 * static_cast<double>(cpu.triangleCount()));
   RecordProperty("vertices_on_other_edges", std::to_string(gpu.vertex_keys.size() - same_edge));
   RecordProperty("worst_same_edge_offset_um", std::to_string(worst_same_edge * 1e6));
+}
+
+// Marching cubes on the device numbers the vertices as the host's over
+// the same (device's) grid, vertex for vertex, at the same places to
+// float rounding; a corners' buffer too small for a frame is marched on
+// the host that once and grown for the next.
+TEST(VulkanHullGrid, MarchesTheSurfaceAsTheHostDoesOverItsGrid) {
+  gpu::VulkanContext context;
+  VulkanHullGrid device(context);
+  for (double voxel : {0.02, 0.01}) {
+    for (uint64_t frame : {4, 9}) {
+      const auto views = syntheticViews(6, frame);
+      HullOptions options;
+      options.voxel_size = voxel;
+      Mesh marched, on_host;
+      options.surface = [&](const HullGridInput& input, HullStats& stats) {
+        marched = device.surface(input, stats);
+        HullStats again;
+        on_host = surfaceOfGrid(device.fill(input, again));
+        return marched;
+      };
+      carveVisualHull(views, options);
+      const std::string what = std::to_string(voxel) + " m, frame " + std::to_string(frame);
+      ASSERT_GT(on_host.triangleCount(), 1000u) << what;
+      EXPECT_EQ(marched.indices, on_host.indices) << what;
+      ASSERT_EQ(marched.vertex_keys, on_host.vertex_keys) << what;
+      ASSERT_EQ(marched.normals.size(), marched.positions.size()) << what;
+      float worst = 0;
+      for (size_t i = 0; i < marched.positions.size(); ++i)
+        worst = std::max(worst, glm::length(marched.positions[i] - on_host.positions[i]));
+      EXPECT_LT(worst, 1e-4f * static_cast<float>(voxel)) << what;
+    }
+  }
+  EXPECT_EQ(device.cpuFallbacks(), 0u);
+  // The first 10 mm frame (about 170k corners) outgrew the first buffer
+  // (65536); the second fitted the grown one.
+  EXPECT_EQ(device.hostMarches(), 1u);
 }
 
 TEST(VulkanHullGrid, AGridTooLargeForTheDeviceIsFilledOnTheCpuAndCounted) {

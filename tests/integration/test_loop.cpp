@@ -233,7 +233,7 @@ TEST(Loop, TheReportShowsTheServerDecodingTheNextFrameWhileItFusesThisOne) {
   fs::remove_all(out);
 }
 
-// --hull-device vulkan: the server carves its grid on the device (here
+// --hull-device vulkan: the server carves its hull on the device (here
 // lavapipe) and says so, and the pictures are judged as good as the
 // CPU hull's (measured 16-17 dB from pod 0's pose at 96x72, as the CPU's);
 // a server whose device does not open carves on the CPU, says why in one
@@ -245,7 +245,7 @@ TEST(Loop, TheHullCarvedOnTheDeviceOrOnTheCpuWhereNoDeviceOpens) {
                                                     "--size", "96x72", "--hull-device", "vulkan"})),
             0)
       << readFile(out / "vulkan" / "loop.log");
-  EXPECT_TRUE(logSays(out / "vulkan" / "logs" / "server.log", "[server] hull grid on llvmpipe"))
+  EXPECT_TRUE(logSays(out / "vulkan" / "logs" / "server.log", "[server] hull carved on llvmpipe"))
       << readFile(out / "vulkan" / "logs" / "server.log");
   const auto report = readJson(out / "vulkan" / "report.json");
   ASSERT_EQ(report["frames_rendered"].get<int>(), 4);
@@ -261,7 +261,7 @@ TEST(Loop, TheHullCarvedOnTheDeviceOrOnTheCpuWhereNoDeviceOpens) {
                   {"/usr/bin/env", "VK_ICD_FILENAMES=" + (out / "no_such_icd.json").string()});
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
   EXPECT_TRUE(
-      logSays(out / "server.log", "[server] hull grid on the CPU: no Vulkan device opened ("))
+      logSays(out / "server.log", "[server] hull carved on the CPU: no Vulkan device opened ("))
       << readFile(out / "server.log");
   const pid_t pods[] = {startSmallPod(endpoint, 0, 2, out), startSmallPod(endpoint, 1, 2, out)};
   const pid_t client = startSmallClient(endpoint, out, "client", 3);

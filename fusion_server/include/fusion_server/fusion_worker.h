@@ -50,8 +50,8 @@ struct FusionSettings {
   uint32_t pods_expected = 0;
   // Texture layers for the clients that ask (protocol 1.5).
   LayerSettings layers;
-  // Where the hull's grid is carved: "cpu", or "vulkan" (the program
-  // opens the device and sets hull.grid_fill: hull/vulkan_hull_grid.h).
+  // Where the hull is carved: "cpu", or "vulkan" (the program opens the
+  // device and sets hull.surface: hull/vulkan_hull_grid.h).
   std::string hull_device = "cpu";
   // Threads that fuse: groups in flight at once, and the threads each
   // group's hull spreads over (0: the machine's cores).

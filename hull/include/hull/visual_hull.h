@@ -31,10 +31,10 @@ inline constexpr double kMinVoxel = 0.0001, kMaxVoxel = 0.5;
 struct HullStats;
 struct HullGridInput;
 
-// Fills the carve's grid (coarse to fine, or densely where levels <= 0)
-// from its input: the CPU's own (fillHullGrid), or a device's
+// The carve from its input to the surface (vertex keys on the input's
+// grid): the CPU's own (surfaceOfGrid of fillHullGrid), or a device's
 // (hull/vulkan_hull_grid.h). Either gives the same occupancy.
-using HullGridFill = std::function<ScalarGrid(const HullGridInput&, HullStats&)>;
+using HullSurface = std::function<Mesh(const HullGridInput&, HullStats&)>;
 
 struct HullOptions {
   double voxel_size = 0.02;                 // metres: the accuracy knob
@@ -48,8 +48,8 @@ struct HullOptions {
   // false: carve the whole capture volume instead of the valid region (what
   // the region saves is measured against it: bench_hull).
   bool valid_region = true;
-  // Who fills the grid: empty is the CPU (fillHullGrid).
-  HullGridFill grid_fill;
+  // Who carves: empty is the CPU (surfaceOfGrid of fillHullGrid).
+  HullSurface surface;
 };
 
 // Sets the capture volume and scales the valid-region search to it (40
@@ -87,6 +87,10 @@ struct HullGridInput {
 // inside), settled cells one voxel inside or outside. levels <= 0: every
 // point exact.
 ScalarGrid fillHullGrid(const HullGridInput& input, HullStats& stats);
+
+// The grid's outer layer forced outside (so the surface is closed), then
+// marching cubes.
+Mesh surfaceOfGrid(ScalarGrid grid);
 
 // Signed distance of each pixel to the silhouette border in pixels,
 // positive inside: the feather map inside, the distance transform of the

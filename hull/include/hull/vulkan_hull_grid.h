@@ -1,8 +1,9 @@
-// The visual hull's grid on a Vulkan device: the coarse-to-fine carve of
+// The visual hull on a Vulkan device: the coarse-to-fine carve of
 // hull::fillHullGrid as compute passes (shaders/hull_*.comp.glsl), one
 // level per pass with the lists and their dispatch sizes kept on the
-// device. Set as HullOptions::grid_fill, the server carves with it
-// (`fusion_server --hull-device vulkan`); marching cubes stays on the host.
+// device, then marching cubes over the cubes the surface may cross. Set
+// as HullOptions::surface, the server carves with it (`fusion_server
+// --hull-device vulkan`).
 #pragma once
 
 #include <memory>
@@ -31,22 +32,35 @@ class VulkanHullGrid {
   // hold (1024 points a side or more, or more voxels than one dispatch
   // reaches) is filled on the CPU instead and counted in cpuFallbacks().
   ScalarGrid fill(const HullGridInput& input, HullStats& stats);
+  // The closed grid's surface (hull::surfaceOfGrid of the device's grid):
+  // marched on the device, its vertices numbered on the host in the order
+  // a scan of the whole grid reaches them, normals area weighted. The
+  // dense grid (levels <= 0), and a frame with more triangles than the
+  // device's buffer held (it grows for the next), are marched on the host.
+  Mesh surface(const HullGridInput& input, HullStats& stats);
 
   size_t cpuFallbacks() const;
+  // Frames surface() marched on the host because the corners overflowed.
+  size_t hostMarches() const;
   const std::string& deviceName() const { return context_.deviceName(); }
   bool cpuDevice() const { return context_.cpuDevice(); }
 
  private:
   struct Passes;
   VulkanHullGrid(std::unique_ptr<gpu::VulkanContext> owned);
+  // The passes for `input` (the caller holds mutex_); with surface, the
+  // grid closed and marched: false when the corners overflowed.
+  bool carve(const HullGridInput& input, HullStats& stats, bool surface);
+  ScalarGrid readGrid(const HullGridInput& input) const;
+  Mesh readSurface() const;
   std::unique_ptr<gpu::VulkanContext> owned_context_;  // before context_: destroyed after it
   gpu::VulkanContext& context_;
   std::unique_ptr<Passes> passes_;
   mutable std::mutex mutex_;
-  size_t cpu_fallbacks_ = 0;
+  size_t cpu_fallbacks_ = 0, host_marches_ = 0;
 };
 
-// grid_fill for HullOptions: carves on `grid`, which the function keeps alive.
-HullGridFill deviceGridFill(std::shared_ptr<VulkanHullGrid> grid);
+// HullOptions::surface carved on `grid`, which the function keeps alive.
+HullSurface deviceSurface(std::shared_ptr<VulkanHullGrid> grid);
 
 }  // namespace holofuse::hull
