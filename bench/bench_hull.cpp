@@ -133,6 +133,10 @@ int main(int argc, char** argv) {
                   median(device_ms), "", device_triangles,
                   100.0 * static_cast<double>(device_same_edges) /
                       static_cast<double>(std::max<size_t>(device_vertices, 1)));
+      std::printf(
+          "         on the device: coarse to fine with fusion_server --hull-device vulkan (carve "
+          "and marching cubes in compute passes); its \"same mesh\" is the share of its vertices "
+          "on the CPU mesh's grid edges\n");
     }
     std::printf(
         "         the valid region samples %.1fx fewer points than the whole volume, %.1fx faster; "
