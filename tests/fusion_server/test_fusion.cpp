@@ -17,6 +17,7 @@
 #include "hull/hull_error.h"
 #include "hull/synthetic_views.h"
 #include "hull/visual_hull.h"
+#include "hull/vulkan_hull_grid.h"
 #include "scene/synthetic_scene.h"
 #include "segmentation/segmentation.h"
 
@@ -410,9 +411,8 @@ std::vector<uint8_t> imageBytes(const protocol::SharedFrame& frame) {
   });
 }
 
-// Groups fused several at once, each hull spread over threads, come out
-// in the order they went in, byte for byte what one thread makes.
-TEST(FusionWorker, AnyThreadCountFusesTheSameBytesInTheSameOrder) {
+// Six groups of four synthetic pods at 160x120.
+std::vector<GroupJob> syntheticJobs() {
   const scene::SyntheticScene scene;
   std::vector<GroupJob> jobs;
   for (uint64_t frame = 0; frame < 6; ++frame) {
@@ -430,6 +430,13 @@ TEST(FusionWorker, AnyThreadCountFusesTheSameBytesInTheSameOrder) {
     }
     jobs.push_back(std::move(job));
   }
+  return jobs;
+}
+
+// Groups fused several at once, each hull spread over threads, come out
+// in the order they went in, byte for byte what one thread makes.
+TEST(FusionWorker, AnyThreadCountFusesTheSameBytesInTheSameOrder) {
+  const std::vector<GroupJob> jobs = syntheticJobs();
   FusionSettings settings;
   settings.pods_expected = 4;
   settings.hull.voxel_size = 0.03;
@@ -452,6 +459,32 @@ TEST(FusionWorker, AnyThreadCountFusesTheSameBytesInTheSameOrder) {
   }
   // The frames differ from one another: equal bytes are not one frame's.
   EXPECT_FALSE(meshBytes(one[0].mesh_frame) == meshBytes(one[5].mesh_frame));
+}
+
+// The hull carved on the device (--hull-device vulkan, lavapipe here),
+// one group at a time or three: the same bytes in the same order, and
+// about the CPU's triangles (the same surface to float rounding).
+TEST(FusionWorker, OnTheDeviceAnyThreadCountFusesTheSameBytes) {
+  const std::vector<GroupJob> jobs = syntheticJobs();
+  FusionSettings settings;
+  settings.pods_expected = 4;
+  settings.hull.voxel_size = 0.03;
+  settings.threads = 1;
+  const std::vector<FusedOutput> cpu = fuseAll(settings, jobs);
+  settings.hull.surface = hull::deviceSurface(hull::VulkanHullGrid::open());
+  const std::vector<FusedOutput> one = fuseAll(settings, jobs);
+  settings.threads = 3;
+  const std::vector<FusedOutput> many = fuseAll(settings, jobs);
+  ASSERT_EQ(one.size(), jobs.size());
+  ASSERT_EQ(many.size(), jobs.size());
+  for (size_t k = 0; k < jobs.size(); ++k) {
+    EXPECT_EQ(many[k].frame_id, jobs[k].group.frame_id) << "output " << k;
+    EXPECT_TRUE(meshBytes(many[k].mesh_frame) == meshBytes(one[k].mesh_frame))
+        << "frame " << many[k].frame_id << ": other mesh bytes on 3 threads";
+    EXPECT_NEAR(static_cast<double>(one[k].triangles), static_cast<double>(cpu[k].triangles),
+                0.002 * static_cast<double>(cpu[k].triangles) + 2)
+        << "frame " << one[k].frame_id;
+  }
 }
 
 // Under an error target the worker carves each group once, at a voxel that
