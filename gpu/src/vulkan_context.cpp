@@ -12,7 +12,9 @@ void vkFail(const char* call, VkResult result, const char* file, int line) {
 
 namespace {
 
-VkInstance createInstance() {
+VkInstance createInstance(const std::vector<std::string>& extensions = {}) {
+  std::vector<const char*> names;
+  for (const std::string& e : extensions) names.push_back(e.c_str());
   VkApplicationInfo app{};
   app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
   app.pApplicationName = "holofuse";
@@ -20,6 +22,8 @@ VkInstance createInstance() {
   VkInstanceCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
   info.pApplicationInfo = &app;
+  info.enabledExtensionCount = static_cast<uint32_t>(names.size());
+  info.ppEnabledExtensionNames = names.data();
   VkInstance instance = VK_NULL_HANDLE;
   HOLOFUSE_VK_CHECK(vkCreateInstance(&info, nullptr, &instance));
   return instance;
@@ -62,8 +66,9 @@ std::vector<DeviceInfo> VulkanContext::listDevices() {
   return infos;
 }
 
-VulkanContext::VulkanContext(const std::string& selector) {
-  instance_ = createInstance();
+VulkanContext::VulkanContext(const ContextOptions& options) {
+  const std::string& selector = options.device_selector;
+  instance_ = createInstance(options.instance_extensions);
   const auto devices = physicalDevices(instance_);
   if (devices.empty())
     throw std::runtime_error("no Vulkan device (install mesa-vulkan-drivers for lavapipe)");
@@ -123,6 +128,11 @@ VulkanContext::VulkanContext(const std::string& selector) {
   device_info.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
   device_info.queueCreateInfoCount = 1;
   device_info.pQueueCreateInfos = &queue_info;
+  const char* swapchain = VK_KHR_SWAPCHAIN_EXTENSION_NAME;
+  if (options.swapchain) {
+    device_info.enabledExtensionCount = 1;
+    device_info.ppEnabledExtensionNames = &swapchain;
+  }
   HOLOFUSE_VK_CHECK(vkCreateDevice(physical_, &device_info, nullptr, &device_));
   vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
 

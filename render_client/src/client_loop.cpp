@@ -20,6 +20,7 @@
 #include "render_client/frame_judge.h"
 #include "render_client/mask_health.h"
 #include "render_client/picture_writer.h"
+#include "render_client/viewer_window.h"
 #include "report/latency_report.h"
 
 namespace holofuse::render {
@@ -95,6 +96,9 @@ class ClientLoop {
     if (options_.write_frames && !judge_) writer_.emplace();
     report_.setClockDriftWarnMs(options_.clock_drift_warn_ms);
   }
+
+  // Every picture shown in `window` too (not owned; null: none).
+  void setWindow(ViewerWindow* window) { window_ = window; }
 
   // The frame in flight counts: it will be rendered.
   bool done() const {
@@ -460,6 +464,7 @@ class ClientLoop {
     in_flight_.reset();
     Image8 picture = renderer_.finishRender();
     const uint64_t rendered_ns = now();
+    if (window_ != nullptr) window_->show(picture);
     if (renderer_.fieldPasses() != ready.field_runs) {
       const auto times = renderer_.fieldTimesMs();
       const auto& names = TextureFieldPasses::stageNames();
@@ -522,6 +527,7 @@ class ClientLoop {
   const protocol::ClockSync& server_clock_;
   const fs::path out_dir_;
   VulkanContext& context_;
+  ViewerWindow* window_ = nullptr;
   Renderer& renderer_;
   std::optional<FrameJudge> judge_;
   const bool tty_;
@@ -554,14 +560,34 @@ int runClient(const ClientOptions& options) {
   }
   std::unique_ptr<VulkanContext> context;
   std::unique_ptr<Renderer> renderer;
+  // The window's system first: its extensions go into the instance.
+  gpu::ContextOptions context_options;
+  context_options.device_selector = options.run.device;
+  std::string no_window;
+  if (options.run.window)
+    context_options.swapchain =
+        windowSystemExtensions(&context_options.instance_extensions, &no_window);
+  std::unique_ptr<ViewerWindow> window;  // before the context goes
   try {
-    context = std::make_unique<VulkanContext>(options.run.device);
+    context = std::make_unique<VulkanContext>(context_options);
     renderer = std::make_unique<Renderer>(*context, options.width, options.height);
     renderer->setHalfPrecisionVertices(options.render.half_precision_vertices);
     renderer->warmUp(options.render.blend);
+    if (context_options.swapchain) {
+      window =
+          ViewerWindow::open(*context, options.width, options.height,
+                             "holofuse client " + std::to_string(options.client_id), &no_window);
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "[client] Vulkan start-up failed: %s\n", e.what());
     return 1;
+  }
+  if (options.run.window) {
+    if (window) {
+      std::fprintf(stderr, "[client] the pictures show in a window too (Escape or Q closes it)\n");
+    } else {
+      std::fprintf(stderr, "[client] no window: %s; rendering headless\n", no_window.c_str());
+    }
   }
   std::optional<FrameJudge> judge;
   if (!options.judge_command.empty()) {
@@ -598,8 +624,14 @@ int runClient(const ClientOptions& options) {
   protocol::ServerLink link(options.server, hello, link_options);
 
   ClientLoop loop(options, *context, *renderer, std::move(judge), link.clock());
+  loop.setWindow(window.get());
   std::vector<protocol::Frame> received;
+  bool window_closed = false;
   while (!stopRequested() && !loop.done()) {
+    if (window && window->closed()) {
+      window_closed = true;
+      break;
+    }
     // While a frame renders, only what has already arrived is taken (and
     // decoded beside the render); with nothing more, its picture is taken.
     link.poll(loop.rendering() ? 0 : 50, received);
@@ -621,7 +653,15 @@ int runClient(const ClientOptions& options) {
     }
   }
   loop.finishFrame();
-  link.close(stopRequested() ? "client stopped by signal" : "client rendered its frames");
+  if (window) {
+    std::fprintf(stderr, "[client] window: %llu pictures shown, %llu dropped%s\n",
+                 static_cast<unsigned long long>(window->shown()),
+                 static_cast<unsigned long long>(window->dropped()),
+                 window_closed ? " (closed by the user)" : "");
+  }
+  link.close(window_closed     ? "the client's window was closed"
+             : stopRequested() ? "client stopped by signal"
+                               : "client rendered its frames");
   loop.writeReport();
   return 0;
 }

@@ -356,7 +356,10 @@ TEST(Deploy, TheContainerImageIsDebian12WithEveryPackageTheBuildUses) {
                                            "ffmpeg",
                                            "gir1.2-gst-rtsp-server-1.0",
                                            "gstreamer1.0-plugins-good",
-                                           "python3-gi"};
+                                           "python3-gi",
+                                           "xvfb",
+                                           "xdotool",
+                                           "imagemagick"};
   std::istringstream lines(list);
   size_t checked = 0;
   for (std::string line; std::getline(lines, line);) {

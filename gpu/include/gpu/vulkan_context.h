@@ -43,19 +43,31 @@ struct DeviceInfo {
   VkPhysicalDeviceType type = VK_PHYSICAL_DEVICE_TYPE_OTHER;
 };
 
+struct ContextOptions {
+  // Empty picks a discrete, then integrated GPU, then a CPU device
+  // (lavapipe); a number picks that index; other text picks the first
+  // device whose name contains it.
+  std::string device_selector;
+  // A window system's instance extensions (render_client's viewer window),
+  // and VK_KHR_swapchain on the device to present to it.
+  std::vector<std::string> instance_extensions;
+  bool swapchain = false;
+};
+
 class VulkanContext {
  public:
-  // device_selector: empty picks a discrete, then integrated GPU, then a CPU
-  // device (lavapipe); a number picks that index; other text picks the
-  // first device whose name contains it.
-  explicit VulkanContext(const std::string& device_selector = "");
+  explicit VulkanContext(const std::string& device_selector = "")
+      : VulkanContext(ContextOptions{device_selector, {}, false}) {}
+  explicit VulkanContext(const ContextOptions& options);
   ~VulkanContext();
   VulkanContext(const VulkanContext&) = delete;
   VulkanContext& operator=(const VulkanContext&) = delete;
 
   static std::vector<DeviceInfo> listDevices();
 
+  VkInstance instance() const { return instance_; }
   VkDevice device() const { return device_; }
+  uint32_t queueFamily() const { return queue_family_; }
   VkPhysicalDevice physicalDevice() const { return physical_; }
   VkQueue queue() const { return queue_; }
   const std::string& deviceName() const { return device_name_; }

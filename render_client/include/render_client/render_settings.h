@@ -119,8 +119,9 @@ struct ClientRunSettings {
   // this one; "off": each render is waited for; "auto": on a GPU only (a
   // CPU device renders on the cores the decode would take).
   std::string overlap_render = "auto";
-  std::string device;  // Vulkan device selector (VulkanContext); "": a GPU if any
-  std::string budget;  // a JSON file of per-stage ms budgets; "": none
+  std::string device;   // Vulkan device selector (VulkanContext); "": a GPU if any
+  std::string budget;   // a JSON file of per-stage ms budgets; "": none
+  bool window = false;  // the pictures shown in a window too (viewer_window.h)
 };
 
 const std::vector<Setting<ClientRunSettings>>& clientRunFlags();

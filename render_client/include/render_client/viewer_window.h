@@ -1,0 +1,58 @@
+// A window onto the client's pictures (render_client --window on): a
+// GLFW window with a Vulkan swapchain on the renderer's own device, each
+// rendered picture scaled into it. The render loop never waits on it:
+// where no swapchain image is free, or the previous copy into one has not
+// finished, the picture is not shown (counted as dropped), never delayed.
+// Escape or Q, or the window's close button, close it; the client then
+// ends as if it had rendered its frames.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "gpu/vulkan_context.h"
+#include "image/image.h"
+
+struct GLFWwindow;
+
+namespace holofuse::render {
+
+// Starts GLFW and returns the instance extensions a window's surface
+// needs; false, with why, where there is no display or no Vulkan surface
+// support (the client then renders headless).
+bool windowSystemExtensions(std::vector<std::string>* extensions, std::string* why);
+
+class ViewerWindow {
+ public:
+  // A window of width x height on `context` (made with the extensions
+  // above and a swapchain); null, with why, where it cannot be made.
+  static std::unique_ptr<ViewerWindow> open(gpu::VulkanContext& context, uint32_t width,
+                                            uint32_t height, const std::string& title,
+                                            std::string* why);
+  ~ViewerWindow();
+  ViewerWindow(const ViewerWindow&) = delete;
+  ViewerWindow& operator=(const ViewerWindow&) = delete;
+
+  // Shows an RGBA picture scaled to the window, or drops it (see above).
+  void show(const Image8& picture);
+  // Takes the window's events; true once the user closed it.
+  bool closed();
+  uint64_t shown() const { return shown_; }
+  uint64_t dropped() const { return dropped_; }
+
+ private:
+  struct Swapchain;
+  ViewerWindow(gpu::VulkanContext& context, GLFWwindow* window);
+  bool makeSwapchain();
+  void destroySwapchain();
+
+  gpu::VulkanContext& context_;
+  GLFWwindow* window_ = nullptr;
+  std::unique_ptr<Swapchain> chain_;
+  bool stale_ = false;  // out of date or resized: remade before the next picture
+  uint64_t shown_ = 0, dropped_ = 0;
+};
+
+}  // namespace holofuse::render

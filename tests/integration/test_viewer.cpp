@@ -1,0 +1,109 @@
+// The client's viewer window (render_client --window on) under Xvfb with
+// lavapipe: a real X server, a real swapchain, input by xdotool and a
+// screenshot by ImageMagick's import.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
+
+#include "loop_test.h"
+
+namespace {
+
+using namespace holofuse::test;
+
+// A display number no X server holds.
+int freeDisplay() {
+  for (int n = 90 + static_cast<int>(getpid() % 50);; ++n) {
+    if (!fs::exists("/tmp/.X11-unix/X" + std::to_string(n)) &&
+        !fs::exists("/tmp/.X" + std::to_string(n) + "-lock"))
+      return n;
+  }
+}
+
+// Pixels of a BGR(A) image that are not black.
+size_t litPixels(const cv::Mat& image, int x0, int y0, int w, int h) {
+  size_t lit = 0;
+  for (int y = y0; y < y0 + h && y < image.rows; ++y) {
+    for (int x = x0; x < x0 + w && x < image.cols; ++x) {
+      const uchar* p = image.ptr<uchar>(y) + x * image.channels();
+      lit += p[0] > 8 || p[1] > 8 || p[2] > 8;
+    }
+  }
+  return lit;
+}
+
+// The window shows the pictures the client renders (the screenshot lights
+// about the pixels the written frame covers, at the window's place, and
+// nothing beside it); Escape closes it, the client ends with 0, saying
+// so, and the server sees it leave.
+TEST(Viewer, AWindowShowsThePicturesAndEscapeClosesItCleanly) {
+  for (const char* tool : {"/usr/bin/Xvfb", "/usr/bin/xdotool", "/usr/bin/import"})
+    ASSERT_TRUE(fs::exists(tool)) << tool << " is missing: ./holofuse test installs it";
+  const fs::path out = freshDir("viewer");
+  const std::string display = ":" + std::to_string(freeDisplay());
+  const pid_t x =
+      spawn({"/usr/bin/Xvfb", display, "-screen", "0", "320x240x24", "-nolisten", "tcp"},
+            out / "xvfb.log");
+  ASSERT_TRUE(waitFor([&] { return fs::exists("/tmp/.X11-unix/X" + display.substr(1)); }))
+      << readFile(out / "xvfb.log");
+  pid_t server = 0;
+  const std::string endpoint = startServer(out, 2, &server);
+  ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
+  const pid_t pods[] = {startSmallPod(endpoint, 0, 2, out), startSmallPod(endpoint, 1, 2, out)};
+  const pid_t client = spawn(
+      {"/usr/bin/env", "DISPLAY=" + display, kBin + "/render_client", "--server", endpoint, "--out",
+       (out / "client").string(), "--frames", "100000", "--size", "160x120", "--window", "on"},
+      out / "client.log");
+  ASSERT_TRUE(waitFor([&] { return picturesIn(out / "client") >= 4; }, 120))
+      << readFile(out / "client.log");
+  EXPECT_TRUE(logSays(out / "client.log", "[client] the pictures show in a window too"))
+      << readFile(out / "client.log");
+
+  const fs::path shot = out / "screen.png";
+  ASSERT_EQ(waitExit(spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/import", "-window",
+                            "root", shot.string()},
+                           out / "import.log"),
+                     60),
+            0)
+      << readFile(out / "import.log");
+  const cv::Mat screen = cv::imread(shot.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(screen.empty());
+  // The written frames' coverage (alpha), which the window shows over black.
+  const cv::Mat frame =
+      cv::imread((out / "client" / "frames" / "frame_000002.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(frame.channels(), 4);
+  size_t covered = 0;
+  for (int y = 0; y < frame.rows; ++y)
+    for (int x = 0; x < frame.cols; ++x) covered += frame.at<cv::Vec4b>(y, x)[3] != 0;
+  ASSERT_GT(covered, 500u) << "the subject is in the picture";
+  // The window sits at the screen's origin (no window manager), its size
+  // the client's.
+  const size_t in_window = litPixels(screen, 0, 0, 160, 120);
+  EXPECT_GT(in_window, covered / 2) << "the subject drawn in the window";
+  EXPECT_LT(in_window, 2 * covered + 200);
+  EXPECT_EQ(litPixels(screen, 160, 0, 160, 240) + litPixels(screen, 0, 120, 160, 120), 0u)
+      << "nothing drawn outside the window";
+
+  const pid_t key = spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/xdotool", "search",
+                           "--name", "holofuse client", "windowfocus", "--sync", "key", "Escape"},
+                          out / "xdotool.log");
+  EXPECT_EQ(waitExit(key, 60), 0) << readFile(out / "xdotool.log");
+  EXPECT_EQ(waitExit(client, 60), 0) << readFile(out / "client.log");
+  EXPECT_TRUE(logSays(out / "client.log", "dropped (closed by the user)"))
+      << readFile(out / "client.log");
+  EXPECT_TRUE(waitFor([&] {
+    return logSays(out / "server.log", "the client's window was closed");
+  })) << readFile(out / "server.log");
+  for (pid_t pod : pods) kill(pod, SIGTERM);
+  kill(server, SIGTERM);
+  for (pid_t pod : pods) waitExit(pod, 60);
+  waitExit(server, 60);
+  kill(x, SIGTERM);
+  waitExit(x, 60);
+  fs::remove_all(out);
+}
+
+}  // namespace
