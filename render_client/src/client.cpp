@@ -60,7 +60,7 @@ glm::dvec3 turned(const glm::dvec3& v, const glm::dvec3& axis, double degrees) {
 // and turns its pose around the ring axis through the subject.
 std::optional<Camera> userCamera(const ClientOptions& options,
                                  const std::map<uint32_t, Camera>& cameras, const Bounds& bounds,
-                                 size_t frame_index) {
+                                 size_t frame_index, const OrbitHold& hold) {
   if (cameras.empty()) return std::nullopt;
   const glm::dvec3 target = 0.5 * (glm::dvec3(bounds.min) + glm::dvec3(bounds.max));
   const glm::dvec3 up = ringAxis(cameras);
@@ -101,11 +101,24 @@ std::optional<Camera> userCamera(const ClientOptions& options,
   radius /= n;
   height /= n;
   fov_x /= n;
-  const double degrees = options.orbit_degrees_per_frame * static_cast<double>(frame_index) + jump;
+  const double degrees =
+      hold.held ? hold.yaw
+                : options.orbit_degrees_per_frame * static_cast<double>(frame_index) + jump;
   const double angle = degrees * std::numbers::pi / 180.0;
-  const glm::dvec3 eye =
-      target + up * height + radius * (std::cos(angle) * e1 + std::sin(angle) * e2);
-  return lookAtCamera(kOrbitCameraId, eye, target, up, options.width, options.height, fov_x);
+  const glm::dvec3 around = std::cos(angle) * e1 + std::sin(angle) * e2;
+  glm::dvec3 eye = target + up * height + radius * around;
+  if (!hold.held)
+    return lookAtCamera(kOrbitCameraId, eye, target, up, options.width, options.height, fov_x);
+  // Held: pitched about the target, nearer or farther, moved sideways.
+  const double pitch = std::clamp(hold.pitch, -85.0, 85.0) * std::numbers::pi / 180.0;
+  const glm::dvec3 offset = eye - target;
+  const double distance = glm::length(offset) * std::clamp(hold.zoom, 0.05, 20.0);
+  const double elevation = std::asin(std::clamp(glm::dot(glm::normalize(offset), up), -1.0, 1.0));
+  const double lifted = std::clamp(elevation + pitch, -1.5, 1.5);
+  const glm::dvec3 right = glm::normalize(glm::cross(around, up));
+  const glm::dvec3 moved_target = target + radius * (hold.pan_right * right + hold.pan_up * up);
+  eye = moved_target + distance * (std::cos(lifted) * around + std::sin(lifted) * up);
+  return lookAtCamera(kOrbitCameraId, eye, moved_target, up, options.width, options.height, fov_x);
 }
 
 uint64_t featherBytes(const protocol::TextureBundle& bundle) {

@@ -91,6 +91,8 @@ class ClientLoop {
         judge_(std::move(judge)),
         tty_(isatty(STDOUT_FILENO)),
         overlap_(overlapsRender(options, context)) {
+    view_ = options.run.view;
+    mode_ = options.render.blend.mode;
     // The judge reads each picture as soon as it is written: judged, the
     // pictures are written on the render path.
     if (options_.write_frames && !judge_) writer_.emplace();
@@ -99,6 +101,38 @@ class ClientLoop {
 
   // Every picture shown in `window` too (not owned; null: none).
   void setWindow(ViewerWindow* window) { window_ = window; }
+
+  // What the window's user asked for: a view, a mode, a screenshot, a
+  // hold on the orbit. Mode layered stays layered: its frames carry
+  // layers, not the camera images the other modes blend.
+  void takeWindowControls() {
+    if (window_ == nullptr) return;
+    const ViewerWindow::Controls c = window_->takeControls();
+    if (c.view_key >= 0) {
+      const std::string view = c.view_key == 0 ? "orbit" : "pod:" + std::to_string(c.view_key - 1);
+      if (view == "orbit" || cameras_.count(static_cast<uint32_t>(c.view_key - 1))) {
+        view_ = view;
+        hold_ = {};
+        std::fprintf(stderr, "%s[client] view %s\n", tty_ ? "\n" : "", view_.c_str());
+      }
+    }
+    static const BlendMode kCycle[] = {BlendMode::kNormal, BlendMode::kFragment,
+                                       BlendMode::kHoloportation, BlendMode::kMontage4D};
+    for (int step = 0; step < c.mode_steps && mode_ != BlendMode::kLayered; ++step) {
+      size_t at = 0;
+      while (at < std::size(kCycle) && kCycle[at] != mode_) ++at;
+      mode_ = kCycle[(at + 1) % std::size(kCycle)];
+      std::fprintf(stderr, "%s[client] mode %s\n", tty_ ? "\n" : "", blendModeName(mode_).c_str());
+    }
+    screenshot_due_ = screenshot_due_ || c.screenshot;
+    if (c.orbit.held && view_ == "orbit") {
+      if (!hold_.held) {
+        held_from_degrees_ =
+            options_.orbit_degrees_per_frame * static_cast<double>(report_.framesRendered());
+      }
+      hold_ = c.orbit;
+    }
+  }
 
   // The frame in flight counts: it will be rendered.
   bool done() const {
@@ -382,9 +416,13 @@ class ClientLoop {
     report_.addViewsWithoutSubject(renderer_.camerasWithoutSubject());
     if (!bundle.layers) mask_health_.offer(id, now(), *mesh, bundle.views);
     ready.uploaded_ns = now();
-    auto user = userCamera(options_, cameras_, meshBounds(*mesh), report_.framesRendered());
+    ClientOptions steered = options_;
+    steered.run.view = view_;
+    OrbitHold hold = hold_;
+    hold.yaw += held_from_degrees_;
+    auto user = userCamera(steered, cameras_, meshBounds(*mesh), report_.framesRendered(), hold);
     if (!user) {
-      skip(id, "view '" + options_.run.view + "' names no calibrated camera");
+      skip(id, "view '" + view_ + "' names no calibrated camera");
       bundles_.erase(ready.bundle);
       return std::nullopt;
     }
@@ -398,6 +436,7 @@ class ClientLoop {
   // make the field jump); an excluded camera is left out.
   BlendSettings nextBlend(const std::vector<ViewImages>& views) {
     BlendSettings blend = options_.render.blend;
+    blend.mode = mode_;
     const uint64_t now_ns = monotonicNs();
     blend.frame_interval_s =
         last_render_ns_ == 0
@@ -465,6 +504,16 @@ class ClientLoop {
     Image8 picture = renderer_.finishRender();
     const uint64_t rendered_ns = now();
     if (window_ != nullptr) window_->show(picture);
+    if (screenshot_due_) {  // S in the window: this picture, kept apart from the frames
+      screenshot_due_ = false;
+      char shot[64];
+      std::snprintf(shot, sizeof(shot), "screenshot_%03zu.png", ++screenshots_);
+      std::error_code ec;
+      fs::create_directories(out_dir_ / "screenshots", ec);
+      if (writePictureAtomically(picture, out_dir_ / "screenshots" / shot))
+        std::fprintf(stderr, "%s[client] screenshot %s\n", tty_ ? "\n" : "",
+                     (out_dir_ / "screenshots" / shot).c_str());
+    }
     if (renderer_.fieldPasses() != ready.field_runs) {
       const auto times = renderer_.fieldTimesMs();
       const auto& names = TextureFieldPasses::stageNames();
@@ -528,6 +577,14 @@ class ClientLoop {
   const fs::path out_dir_;
   VulkanContext& context_;
   ViewerWindow* window_ = nullptr;
+  // The view and the mode, as the flags set them and the window steers
+  // them; the orbit's hold, and the automatic orbit's angle when it began.
+  std::string view_;
+  BlendMode mode_;
+  OrbitHold hold_;
+  double held_from_degrees_ = 0;
+  bool screenshot_due_ = false;
+  size_t screenshots_ = 0;
   Renderer& renderer_;
   std::optional<FrameJudge> judge_;
   const bool tty_;
@@ -632,6 +689,7 @@ int runClient(const ClientOptions& options) {
       window_closed = true;
       break;
     }
+    loop.takeWindowControls();
     // While a frame renders, only what has already arrived is taken (and
     // decoded beside the render); with nothing more, its picture is taken.
     link.poll(loop.rendering() ? 0 : 50, received);

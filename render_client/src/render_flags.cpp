@@ -97,10 +97,12 @@ const std::vector<Setting<ClientRunSettings>>& clientRunFlags() {
           "for each render; auto: on with a GPU, off with a CPU device",
           {"auto", "on", "off"}, [](S& s, const std::string& text) { s.overlap_render = text; },
           [](const S& s) { return s.overlap_render; }),
-      onOffSetting<S>("--window",
-                      "on: show the pictures in a window as well (Escape or Q closes it and ends "
-                      "the client); without a display the client says so and renders headless",
-                      [](S& s) -> bool& { return s.window; }),
+      onOffSetting<S>(
+          "--window",
+          "on: show the pictures in a window as well: 0-9 the orbit or a pod's camera, M "
+          "the next mode, S a screenshot, mouse drag/wheel orbit, pan, zoom; Escape or "
+          "Q closes it and ends the client. Without a display: one line, headless",
+          [](S& s) -> bool& { return s.window; }),
       textSetting<S>("--device", "Vulkan device: index or part of its name (default: a GPU if any)",
                      [](S& s) -> std::string& { return s.device; }),
       textSetting<S>(

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 
 namespace holofuse::render {
@@ -18,11 +19,6 @@ std::string& lastGlfwError() {
 }
 
 void onGlfwError(int, const char* description) { lastGlfwError() = description; }
-
-void onKey(GLFWwindow* window, int key, int, int action, int) {
-  if (action == GLFW_PRESS && (key == GLFW_KEY_ESCAPE || key == GLFW_KEY_Q))
-    glfwSetWindowShouldClose(window, GLFW_TRUE);
-}
 
 // Fits a picture of w x h into the window, centred, aspect kept.
 VkImageBlit fitted(uint32_t w, uint32_t h, VkExtent2D window) {
@@ -42,6 +38,44 @@ VkImageBlit fitted(uint32_t w, uint32_t h, VkExtent2D window) {
 }
 
 }  // namespace
+
+// GLFW's callbacks, which reach the window through its user pointer.
+struct WindowCallbacks {
+  static ViewerWindow& of(GLFWwindow* window) {
+    return *static_cast<ViewerWindow*>(glfwGetWindowUserPointer(window));
+  }
+  static void key(GLFWwindow* window, int key, int, int action, int) {
+    if (action != GLFW_PRESS) return;
+    ViewerWindow::Controls& c = of(window).controls_;
+    if (key == GLFW_KEY_ESCAPE || key == GLFW_KEY_Q) glfwSetWindowShouldClose(window, GLFW_TRUE);
+    if (key >= GLFW_KEY_0 && key <= GLFW_KEY_9) c.view_key = key - GLFW_KEY_0;
+    if (key == GLFW_KEY_M) ++c.mode_steps;
+    if (key == GLFW_KEY_S) c.screenshot = true;
+  }
+  static void cursor(GLFWwindow* window, double x, double y) {
+    ViewerWindow& viewer = of(window);
+    const double dx = x - viewer.cursor_x_, dy = y - viewer.cursor_y_;
+    viewer.cursor_x_ = x;
+    viewer.cursor_y_ = y;
+    int w = 0, h = 0;
+    glfwGetWindowSize(window, &w, &h);
+    OrbitHold& orbit = viewer.controls_.orbit;
+    if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS) {
+      orbit.held = true;
+      orbit.yaw -= 180.0 * dx / std::max(w, 1);  // a window's width: half a turn
+      orbit.pitch += 90.0 * dy / std::max(h, 1);
+    } else if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS) {
+      orbit.held = true;
+      orbit.pan_right -= dx / std::max(w, 1);
+      orbit.pan_up += dy / std::max(h, 1);
+    }
+  }
+  static void scroll(GLFWwindow* window, double, double y) {
+    OrbitHold& orbit = of(window).controls_.orbit;
+    orbit.held = true;
+    orbit.zoom *= std::pow(0.9, y);
+  }
+};
 
 struct ViewerWindow::Swapchain {
   VkSurfaceKHR surface = VK_NULL_HANDLE;
@@ -103,7 +137,10 @@ std::unique_ptr<ViewerWindow> ViewerWindow::open(gpu::VulkanContext& context, ui
     *why = context.deviceName() + "'s queue cannot present to the window";
     return nullptr;
   }
-  glfwSetKeyCallback(window, onKey);
+  glfwSetWindowUserPointer(window, viewer.get());
+  glfwSetKeyCallback(window, WindowCallbacks::key);
+  glfwSetCursorPosCallback(window, WindowCallbacks::cursor);
+  glfwSetScrollCallback(window, WindowCallbacks::scroll);
   VkDevice d = context.device();
   VkCommandPoolCreateInfo pool_info{};
   pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
@@ -230,6 +267,14 @@ bool ViewerWindow::makeSwapchain() {
     chain.presentable.push_back(s);
   }
   return true;
+}
+
+ViewerWindow::Controls ViewerWindow::takeControls() {
+  Controls taken = controls_;
+  controls_.view_key = -1;
+  controls_.mode_steps = 0;
+  controls_.screenshot = false;
+  return taken;
 }
 
 bool ViewerWindow::closed() {

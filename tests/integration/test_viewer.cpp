@@ -5,6 +5,7 @@
 #include <signal.h>
 
 #include <filesystem>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
@@ -35,11 +36,21 @@ size_t litPixels(const cv::Mat& image, int x0, int y0, int w, int h) {
   return lit;
 }
 
+// Pixels a written RGBA picture covers (alpha not 0).
+size_t coverage(const cv::Mat& picture) {
+  if (picture.channels() != 4) return 0;
+  size_t covered = 0;
+  for (int y = 0; y < picture.rows; ++y)
+    for (int x = 0; x < picture.cols; ++x) covered += picture.at<cv::Vec4b>(y, x)[3] != 0;
+  return covered;
+}
+
 // The window shows the pictures the client renders (the screenshot lights
 // about the pixels the written frame covers, at the window's place, and
 // nothing beside it); Escape closes it, the client ends with 0, saying
-// so, and the server sees it leave.
-TEST(Viewer, AWindowShowsThePicturesAndEscapeClosesItCleanly) {
+// so, and the server sees it leave. Keys move the view, step the mode and
+// keep a screenshot.
+TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   for (const char* tool : {"/usr/bin/Xvfb", "/usr/bin/xdotool", "/usr/bin/import"})
     ASSERT_TRUE(fs::exists(tool)) << tool << " is missing: ./holofuse test installs it";
   const fs::path out = freshDir("viewer");
@@ -74,10 +85,7 @@ TEST(Viewer, AWindowShowsThePicturesAndEscapeClosesItCleanly) {
   // The written frames' coverage (alpha), which the window shows over black.
   const cv::Mat frame =
       cv::imread((out / "client" / "frames" / "frame_000002.png").string(), cv::IMREAD_UNCHANGED);
-  ASSERT_EQ(frame.channels(), 4);
-  size_t covered = 0;
-  for (int y = 0; y < frame.rows; ++y)
-    for (int x = 0; x < frame.cols; ++x) covered += frame.at<cv::Vec4b>(y, x)[3] != 0;
+  const size_t covered = coverage(frame);
   ASSERT_GT(covered, 500u) << "the subject is in the picture";
   // The window sits at the screen's origin (no window manager), its size
   // the client's.
@@ -87,10 +95,40 @@ TEST(Viewer, AWindowShowsThePicturesAndEscapeClosesItCleanly) {
   EXPECT_EQ(litPixels(screen, 160, 0, 160, 240) + litPixels(screen, 0, 120, 160, 120), 0u)
       << "nothing drawn outside the window";
 
-  const pid_t key = spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/xdotool", "search",
-                           "--name", "holofuse client", "windowfocus", "--sync", "key", "Escape"},
-                          out / "xdotool.log");
-  EXPECT_EQ(waitExit(key, 60), 0) << readFile(out / "xdotool.log");
+  // Keys steer it: 1 sits at pod 0's camera, M steps to mode fragment, S
+  // keeps the next picture; the view from pod 0 is another picture than
+  // the orbit's.
+  auto press = [&](const std::string& key) {
+    const pid_t xdotool = spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/xdotool", "search",
+                                 "--name", "holofuse client", "windowfocus", "--sync", "key", key},
+                                out / "xdotool.log");
+    EXPECT_EQ(waitExit(xdotool, 60), 0) << key << ": " << readFile(out / "xdotool.log");
+  };
+  press("1");
+  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "[client] view pod:0"); }))
+      << readFile(out / "client.log");
+  press("m");
+  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "[client] mode fragment"); }))
+      << readFile(out / "client.log");
+  press("s");
+  const fs::path kept = out / "client" / "screenshots" / "screenshot_001.png";
+  ASSERT_TRUE(waitFor([&] { return fs::exists(kept); })) << readFile(out / "client.log");
+  const size_t pictures = picturesIn(out / "client");
+  ASSERT_TRUE(waitFor([&] { return picturesIn(out / "client") >= pictures + 2; }, 120));
+  ASSERT_EQ(waitExit(spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/import", "-window",
+                            "root", (out / "screen_pod0.png").string()},
+                           out / "import.log"),
+                     60),
+            0);
+  const cv::Mat from_pod = cv::imread((out / "screen_pod0.png").string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(from_pod.empty());
+  cv::Mat difference;
+  cv::absdiff(screen(cv::Rect(0, 0, 160, 120)), from_pod(cv::Rect(0, 0, 160, 120)), difference);
+  EXPECT_GT(litPixels(difference, 0, 0, 160, 120), 500u) << "pod 0's view is another picture";
+  EXPECT_GT(coverage(cv::imread(kept.string(), cv::IMREAD_UNCHANGED)), 500u)
+      << "the kept picture holds the subject";
+
+  press("Escape");
   EXPECT_EQ(waitExit(client, 60), 0) << readFile(out / "client.log");
   EXPECT_TRUE(logSays(out / "client.log", "dropped (closed by the user)"))
       << readFile(out / "client.log");

@@ -74,9 +74,20 @@ int runClient(const ClientOptions& options);
 // novel views (ids from 1000).
 inline constexpr uint32_t kOrbitCameraId = 1000;
 
+// The viewer window's hold on the orbit (viewer_window.h): once held, the
+// orbit stops turning by itself and sits at yaw degrees round the ring
+// axis (from where the automatic orbit starts), pitch degrees above its
+// height, its distance times zoom, its target moved by pan (in orbit
+// radii, right and up in the view).
+struct OrbitHold {
+  bool held = false;
+  double yaw = 0, pitch = 0, zoom = 1;
+  double pan_right = 0, pan_up = 0;
+};
+
 std::optional<Camera> userCamera(const ClientOptions& options,
                                  const std::map<uint32_t, Camera>& cameras, const Bounds& bounds,
-                                 size_t frame_index);
+                                 size_t frame_index, const OrbitHold& hold = {});
 
 // The pods' images a TextureBundle carries, decoded and each back in its
 // whole frame (pods send their foreground's rectangle), with the

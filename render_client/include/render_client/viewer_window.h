@@ -4,7 +4,10 @@
 // where no swapchain image is free, or the previous copy into one has not
 // finished, the picture is not shown (counted as dropped), never delayed.
 // Escape or Q, or the window's close button, close it; the client then
-// ends as if it had rendered its frames.
+// ends as if it had rendered its frames. The user steers the view: 0 the
+// orbit, 1 to 9 a pod's camera, M the next blending mode, S a screenshot,
+// the left button dragged turns the orbit, the right one moves it, the
+// wheel zooms.
 #pragma once
 
 #include <cstdint>
@@ -14,6 +17,7 @@
 
 #include "gpu/vulkan_context.h"
 #include "image/image.h"
+#include "render_client/client.h"
 
 struct GLFWwindow;
 
@@ -39,6 +43,15 @@ class ViewerWindow {
   void show(const Image8& picture);
   // Takes the window's events; true once the user closed it.
   bool closed();
+
+  // What the user asked for since the last call.
+  struct Controls {
+    int view_key = -1;        // 0: the orbit, 1..9: pod camera 0..8; -1: none pressed
+    int mode_steps = 0;       // M pressed this many times
+    bool screenshot = false;  // S pressed
+    OrbitHold orbit;          // the mouse's hold (kept from call to call)
+  };
+  Controls takeControls();
   uint64_t shown() const { return shown_; }
   uint64_t dropped() const { return dropped_; }
 
@@ -52,6 +65,9 @@ class ViewerWindow {
   GLFWwindow* window_ = nullptr;
   std::unique_ptr<Swapchain> chain_;
   bool stale_ = false;  // out of date or resized: remade before the next picture
+  Controls controls_;
+  double cursor_x_ = 0, cursor_y_ = 0;
+  friend struct WindowCallbacks;
   uint64_t shown_ = 0, dropped_ = 0;
 };
 
