@@ -27,6 +27,10 @@
 // than being skipped, so a mode read from the uniforms paid for all five
 // modes' blends in every fragment, four times mode normal's own cost.
 layout(constant_id = 0) const int kBlendMode = HOLOFUSE_MODE_NORMAL;
+// The viewer's overlay (BlendSettings::camera_colours): 1 blends each
+// camera's own colour in place of its image, so the weights show as
+// colours (paper 000, Figure 7's style).
+layout(constant_id = 1) const int kOverlay = 0;
 
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
@@ -52,6 +56,16 @@ bool projectInto(int i, vec3 p, out vec2 uv, out float depth) {
   uv = clip.xy / clip.w * 0.5 + 0.5;
   return all(greaterThanEqual(uv, vec2(0.0))) && all(lessThanEqual(uv, vec2(1.0)));
 }
+
+// Camera i's overlay colour: hues a golden-ratio step apart, saturated.
+vec3 cameraColour(int i) {
+  float h = fract(float(i) * 0.618034) * 6.0;
+  return clamp(vec3(abs(h - 3.0) - 1.0, 2.0 - abs(h - 2.0), 2.0 - abs(h - 4.0)), 0.0, 1.0);
+}
+
+// What camera i adds at a fragment: its image's colour there, or its own
+// colour under the overlay.
+vec3 shade(int i, vec3 texel) { return kOverlay == 1 ? cameraColour(i) : texel; }
 
 // Camera i's depth map at the pixel uv falls in.
 float storedDepth(int i, vec2 uv) {
@@ -165,7 +179,7 @@ vec4 blendNormal(vec3 n, bool from_lists, inout float total) {
     // 0 facing away, whatever alpha (pow(0, 0) is undefined in GLSL).
     float c = dot(n, to_camera);
     float w = c > 0.0 ? pow(c, blend.params.x) : 0.0;
-    sum += w * texel.rgb;
+    sum += w * shade(i, texel.rgb);
     total += w;
   }
   return vec4(total > 1e-8 ? sum / total : vec3(0.0), 1.0);
@@ -207,7 +221,7 @@ vec4 blendFragment(vec3 n, bool from_lists, inout float total) {
       largest = log_w;
     }
     float w = exp(log_w - largest);
-    sum += w * texel.rgb;
+    sum += w * shade(i, texel.rgb);
     total += w;
   }
   return vec4(total > 1e-8 ? sum / total : vec3(0.0), 1.0);
@@ -236,7 +250,7 @@ vec4 blendFields(inout float total) {
     vec4 texel = sampleForeground(i, uv);
     w *= fragment_test ? sightAndFeather(i, uv, depth, texel.a) : (texel.a < 0.5 ? 0.0 : 1.0);
     if (!(w > 0.0)) continue;
-    sum += w * texel.rgb;
+    sum += w * shade(i, texel.rgb);
     total += w;
   }
   return vec4(total > 1e-8 ? sum / total : vec3(0.0), 1.0);
@@ -275,7 +289,7 @@ vec4 blendLayers(vec3 n, inout float total) {
       weight += w;
     }
     if (!(weight > 1e-12)) continue;
-    colour /= weight;
+    colour = kOverlay == 1 ? cameraColour(int(camera)) : colour / weight;
     if (!any) first = colour;
     any = true;
     vec3 to_camera = layer_cameras[camera].xyz - in_position;

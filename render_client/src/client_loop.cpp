@@ -125,6 +125,11 @@ class ClientLoop {
       std::fprintf(stderr, "%s[client] mode %s\n", tty_ ? "\n" : "", blendModeName(mode_).c_str());
     }
     screenshot_due_ = screenshot_due_ || c.screenshot;
+    if (c.overlay_toggles % 2 == 1) {
+      camera_colours_ = !camera_colours_;
+      std::fprintf(stderr, "%s[client] overlay: camera colours %s\n", tty_ ? "\n" : "",
+                   camera_colours_ ? "on" : "off");
+    }
     if (c.orbit.held && view_ == "orbit") {
       if (!hold_.held) {
         held_from_degrees_ =
@@ -437,6 +442,7 @@ class ClientLoop {
   BlendSettings nextBlend(const std::vector<ViewImages>& views) {
     BlendSettings blend = options_.render.blend;
     blend.mode = mode_;
+    blend.camera_colours = blend.camera_colours || camera_colours_;
     const uint64_t now_ns = monotonicNs();
     blend.frame_interval_s =
         last_render_ns_ == 0
@@ -584,6 +590,7 @@ class ClientLoop {
   OrbitHold hold_;
   double held_from_degrees_ = 0;
   bool screenshot_due_ = false;
+  bool camera_colours_ = false;
   size_t screenshots_ = 0;
   Renderer& renderer_;
   std::optional<FrameJudge> judge_;

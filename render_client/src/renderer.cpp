@@ -182,7 +182,7 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
     candidates_stale_ = false;
   }
   // Made (on first use) before recording: a failure leaves nothing half recorded.
-  const VkPipeline blend_pipeline = blendPipeline(settings.mode);
+  const VkPipeline blend_pipeline = blendPipeline(settings.mode, settings.camera_colours);
   // The frame in two parts: what follows the mesh, then the view.
   auto recordPerMesh = [&](VkCommandBuffer cmd) {
     if (run_fields) field_passes_pipelines_->beginTiming(cmd);

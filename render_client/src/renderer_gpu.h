@@ -72,10 +72,11 @@ VkRenderPass createPass(VkDevice device, VkFormat color_format, VkImageLayout co
 VkFramebuffer createFramebuffer(VkDevice device, VkRenderPass pass, VkImageView color,
                                 VkImageView depth, uint32_t w, uint32_t h);
 
-// fragment_mode: the fragment stage's constant 0 (blend.frag.glsl's kBlendMode).
+// fragment_mode and overlay: the fragment stage's constants 0 and 1
+// (blend.frag.glsl's kBlendMode and kOverlay).
 VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayout layout,
                           const uint32_t* vs, size_t vs_bytes, const uint32_t* fs, size_t fs_bytes,
-                          int32_t fragment_mode);
+                          int32_t fragment_mode, int32_t overlay = 0);
 
 void setViewport(VkCommandBuffer cmd, uint32_t w, uint32_t h);
 

@@ -87,7 +87,7 @@ VkFramebuffer createFramebuffer(VkDevice device, VkRenderPass pass, VkImageView 
 
 VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayout layout,
                           const uint32_t* vs, size_t vs_bytes, const uint32_t* fs, size_t fs_bytes,
-                          int32_t fragment_mode) {
+                          int32_t fragment_mode, int32_t overlay) {
   VkShaderModule vert = ctx.createShader(vs, vs_bytes);
   VkShaderModule frag = ctx.createShader(fs, fs_bytes);
   std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
@@ -98,12 +98,14 @@ VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayou
   stages[1] = stages[0];
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = frag;
-  const VkSpecializationMapEntry mode_entry{0, 0, sizeof(fragment_mode)};
+  const int32_t constants[2] = {fragment_mode, overlay};
+  const VkSpecializationMapEntry entries[2] = {{0, 0, sizeof(int32_t)},
+                                               {1, sizeof(int32_t), sizeof(int32_t)}};
   VkSpecializationInfo specialization{};
-  specialization.mapEntryCount = 1;
-  specialization.pMapEntries = &mode_entry;
-  specialization.dataSize = sizeof(fragment_mode);
-  specialization.pData = &fragment_mode;
+  specialization.mapEntryCount = 2;
+  specialization.pMapEntries = entries;
+  specialization.dataSize = sizeof(constants);
+  specialization.pData = constants;
   stages[1].pSpecializationInfo = &specialization;
   // No vertex attributes: the vertex stage reads the vertices from the
   // storage buffer the compute passes share (shaders/vertices.glsl), in
@@ -250,12 +252,13 @@ Renderer::~Renderer() {
   vkDestroySampler(d, linear_sampler_, nullptr);
 }
 
-VkPipeline Renderer::blendPipeline(BlendMode mode) {
-  VkPipeline& pipeline = blend_pipelines_.at(static_cast<size_t>(mode));
+VkPipeline Renderer::blendPipeline(BlendMode mode, bool camera_colours) {
+  VkPipeline& pipeline =
+      blend_pipelines_.at(2 * static_cast<size_t>(mode) + (camera_colours ? 1 : 0));
   if (pipeline == VK_NULL_HANDLE) {
-    pipeline =
-        createPipeline(ctx_, blend_pass_, blend_layout_, k_blend_vert_spv, sizeof(k_blend_vert_spv),
-                       k_blend_frag_spv, sizeof(k_blend_frag_spv), static_cast<int32_t>(mode));
+    pipeline = createPipeline(ctx_, blend_pass_, blend_layout_, k_blend_vert_spv,
+                              sizeof(k_blend_vert_spv), k_blend_frag_spv, sizeof(k_blend_frag_spv),
+                              static_cast<int32_t>(mode), camera_colours ? 1 : 0);
   }
   return pipeline;
 }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -127,6 +128,33 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   EXPECT_GT(litPixels(difference, 0, 0, 160, 120), 500u) << "pod 0's view is another picture";
   EXPECT_GT(coverage(cv::imread(kept.string(), cv::IMREAD_UNCHANGED)), 500u)
       << "the kept picture holds the subject";
+
+  // F: each camera's weight as its colour; saturated pixels, which the
+  // subject's own colours hold few of, fill the window.
+  auto saturated = [](const cv::Mat& image) {
+    size_t n = 0;
+    for (int y = 0; y < 120; ++y) {
+      for (int x = 0; x < 160; ++x) {
+        const cv::Vec3b p = image.at<cv::Vec3b>(y, x);
+        n += std::max({p[0], p[1], p[2]}) - std::min({p[0], p[1], p[2]}) > 150;
+      }
+    }
+    return n;
+  };
+  press("f");
+  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "overlay: camera colours on"); }))
+      << readFile(out / "client.log");
+  const size_t before_overlay = picturesIn(out / "client");
+  ASSERT_TRUE(waitFor([&] { return picturesIn(out / "client") >= before_overlay + 2; }, 120));
+  ASSERT_EQ(waitExit(spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/import", "-window",
+                            "root", (out / "screen_overlay.png").string()},
+                           out / "import.log"),
+                     60),
+            0);
+  const cv::Mat overlaid = cv::imread((out / "screen_overlay.png").string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(overlaid.empty());
+  EXPECT_GT(saturated(overlaid), 2 * saturated(from_pod) + covered / 4)
+      << "the overlay colours the subject by camera";
 
   press("Escape");
   EXPECT_EQ(waitExit(client, 60), 0) << readFile(out / "client.log");

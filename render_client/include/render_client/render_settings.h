@@ -88,6 +88,9 @@ struct BlendSettings {
   // Exponent of the view weight: (d_k . d_v + 1) in mode fragment (paper
   // 004 eq. 4, its 5) and max(0, v . v_i) in montage4d's target field.
   float beta = 5.0f;
+  // An overlay (the viewer's F key): each camera's weight shown as its own
+  // colour instead of its image (paper 000, Figure 7's style).
+  bool camera_colours = false;
 };
 
 // The client's rendering settings, which eval and the launcher embed.
