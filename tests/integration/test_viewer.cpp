@@ -74,14 +74,20 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   EXPECT_TRUE(logSays(out / "client.log", "[client] the pictures show in a window too"))
       << readFile(out / "client.log");
 
-  const fs::path shot = out / "screen.png";
-  ASSERT_EQ(waitExit(spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/import", "-window",
-                            "root", shot.string()},
-                           out / "import.log"),
-                     60),
-            0)
-      << readFile(out / "import.log");
-  const cv::Mat screen = cv::imread(shot.string(), cv::IMREAD_COLOR);
+  // The screen once the client has rendered two more pictures.
+  auto screenAfterTwoPictures = [&](const std::string& name) {
+    const size_t pictures = picturesIn(out / "client");
+    EXPECT_TRUE(waitFor([&] { return picturesIn(out / "client") >= pictures + 2; }, 120));
+    const fs::path file = out / (name + ".png");
+    EXPECT_EQ(waitExit(spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/import", "-window",
+                              "root", file.string()},
+                             out / "import.log"),
+                       60),
+              0)
+        << readFile(out / "import.log");
+    return cv::imread(file.string(), cv::IMREAD_COLOR);
+  };
+  const cv::Mat screen = screenAfterTwoPictures("screen");
   ASSERT_FALSE(screen.empty());
   // The written frames' coverage (alpha), which the window shows over black.
   const cv::Mat frame =
@@ -114,14 +120,7 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   press("s");
   const fs::path kept = out / "client" / "screenshots" / "screenshot_001.png";
   ASSERT_TRUE(waitFor([&] { return fs::exists(kept); })) << readFile(out / "client.log");
-  const size_t pictures = picturesIn(out / "client");
-  ASSERT_TRUE(waitFor([&] { return picturesIn(out / "client") >= pictures + 2; }, 120));
-  ASSERT_EQ(waitExit(spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/import", "-window",
-                            "root", (out / "screen_pod0.png").string()},
-                           out / "import.log"),
-                     60),
-            0);
-  const cv::Mat from_pod = cv::imread((out / "screen_pod0.png").string(), cv::IMREAD_COLOR);
+  const cv::Mat from_pod = screenAfterTwoPictures("screen_pod0");
   ASSERT_FALSE(from_pod.empty());
   cv::Mat difference;
   cv::absdiff(screen(cv::Rect(0, 0, 160, 120)), from_pod(cv::Rect(0, 0, 160, 120)), difference);
@@ -144,14 +143,7 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   press("f");
   EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "overlay: camera colours on"); }))
       << readFile(out / "client.log");
-  const size_t before_overlay = picturesIn(out / "client");
-  ASSERT_TRUE(waitFor([&] { return picturesIn(out / "client") >= before_overlay + 2; }, 120));
-  ASSERT_EQ(waitExit(spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/import", "-window",
-                            "root", (out / "screen_overlay.png").string()},
-                           out / "import.log"),
-                     60),
-            0);
-  const cv::Mat overlaid = cv::imread((out / "screen_overlay.png").string(), cv::IMREAD_COLOR);
+  const cv::Mat overlaid = screenAfterTwoPictures("screen_overlay");
   ASSERT_FALSE(overlaid.empty());
   EXPECT_GT(saturated(overlaid), 2 * saturated(from_pod) + covered / 4)
       << "the overlay colours the subject by camera";
