@@ -7,7 +7,7 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build_dir=${1:?usage: tools/results.sh BUILD_DIR [NAME...]}
 shift
-all_results=(quality novel-views hull cameras layers scaling insiders segmentation)
+all_results=(quality novel-views hull cameras layers scaling insiders segmentation viewer)
 for name in "$@"; do
   [[ " ${all_results[*]} " == *" $name "* ]] || { echo "no result '$name'; results: ${all_results[*]}" >&2; exit 2; }
 done
@@ -56,4 +56,33 @@ if want insiders; then
 fi
 want segmentation && { stamp "Segmentation on the studio: ours against OpenCV's subtractors" \
   "build/bin/bench_segmentation 24"; "$build_dir/bin/bench_segmentation" 24; } >"$results/segmentation.md"
+if want viewer; then
+  # The viewer window under Xvfb: the demo in montage4d, F pressed once
+  # twenty pictures are in, the window grabbed three pictures later.
+  display=":$((90 + $$ % 50))"
+  while [ -e "/tmp/.X11-unix/X${display#:}" ]; do display=":$((${display#:} + 1))"; done
+  Xvfb "$display" -screen 0 640x480x24 -nolisten tcp >"$out/xvfb.log" 2>&1 &
+  xvfb=$!
+  for _ in $(seq 100); do [ -e "/tmp/.X11-unix/X${display#:}" ] && break; sleep 0.1; done
+  viewer_flags=(--pods 4 --size 320x240 --mode montage4d --frames 100000 --window on)
+  DISPLAY=$display "$build_dir/bin/holofuse_loop" "${viewer_flags[@]}" --out "$out/viewer" \
+    >"$out/viewer.log" 2>&1 &
+  loop=$!
+  pictures() { find "$out/viewer/frames" -name '*.png' 2>/dev/null | wc -l; }
+  for _ in $(seq 600); do [ "$(pictures)" -ge 20 ] && break; sleep 0.2; done
+  window=$(DISPLAY=$display xdotool search --sync --name "holofuse client" | head -n 1)
+  DISPLAY=$display xdotool windowfocus --sync "$window" key f
+  shown=$(pictures)
+  for _ in $(seq 600); do [ "$(pictures)" -ge $((shown + 3)) ] && break; sleep 0.2; done
+  DISPLAY=$display import -window "$window" "$results/viewer.png"
+  DISPLAY=$display xdotool key Escape
+  wait "$loop" || true
+  kill "$xvfb" 2>/dev/null || true
+  { stamp "The viewer window" "./holofuse demo ${viewer_flags[*]}, then F"
+    echo "The client's window (\`--window on\`) with the camera-colour overlay (F): each"
+    echo "camera's texture-field weight as its own colour, paper 000's Figure 7 style,"
+    echo "seams and their fades included; grey where no camera's field reaches."
+    echo
+    echo "![The viewer window with the camera-colour overlay](viewer.png)"; } >"$results/viewer.md"
+fi
 echo "[results] wrote $(printf "$results/%s.md " "${wanted[@]}")"
