@@ -147,15 +147,9 @@ VulkanHullGrid::~VulkanHullGrid() {
   vkDestroyDescriptorSetLayout(d, passes_->set_layout, nullptr);
 }
 
-size_t VulkanHullGrid::cpuFallbacks() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return cpu_fallbacks_;
-}
+size_t VulkanHullGrid::cpuFallbacks() const { return cpu_fallbacks_; }
 
-size_t VulkanHullGrid::hostMarches() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return host_marches_;
-}
+size_t VulkanHullGrid::hostMarches() const { return host_marches_; }
 
 namespace {
 
@@ -169,12 +163,16 @@ bool deviceHolds(const glm::ivec3& n) {
 
 }  // namespace
 
+// The lock is held for the device's work only, never around oneTBB's:
+// a thread waiting for a parallel loop runs other work meanwhile, such as
+// another group's carve, which would then wait for the lock its own
+// thread holds.
 ScalarGrid VulkanHullGrid::fill(const HullGridInput& input, HullStats& stats) {
-  std::lock_guard<std::mutex> lock(mutex_);
   if (!deviceHolds(input.points)) {
     ++cpu_fallbacks_;
     return fillHullGrid(input, stats);
   }
+  std::lock_guard<std::mutex> lock(mutex_);
   carve(input, stats, false);
   return readGrid(input);
 }
@@ -192,22 +190,25 @@ ScalarGrid VulkanHullGrid::readGrid(const HullGridInput& input) const {
 }
 
 Mesh VulkanHullGrid::surface(const HullGridInput& input, HullStats& stats) {
-  std::lock_guard<std::mutex> lock(mutex_);
   if (!deviceHolds(input.points)) {
     ++cpu_fallbacks_;
     return surfaceOfGrid(fillHullGrid(input, stats));
   }
-  // The dense grid has no list of cubes to march: marching cubes on the host.
-  if (input.levels <= 0) {
-    carve(input, stats, false);
-    return surfaceOfGrid(readGrid(input));
+  ScalarGrid grid;  // for marching cubes on the host, after the lock
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (input.levels > 0 && carve(input, stats, true)) return readSurface();
+    // The dense grid has no list of cubes to march; a frame whose corners
+    // overflowed is marched on the host (its grid closed on the device
+    // already: closing again changes nothing).
+    if (input.levels <= 0) {
+      carve(input, stats, false);
+    } else {
+      ++host_marches_;
+    }
+    grid = readGrid(input);
   }
-  if (!carve(input, stats, true)) {
-    ++host_marches_;
-    // Closed on the device already: closing again changes nothing.
-    return surfaceOfGrid(readGrid(input));
-  }
-  return readSurface();
+  return surfaceOfGrid(std::move(grid));
 }
 
 bool VulkanHullGrid::carve(const HullGridInput& input, HullStats& stats, bool surface) {

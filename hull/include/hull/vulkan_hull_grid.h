@@ -6,6 +6,7 @@
 // --hull-device vulkan`).
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -56,8 +57,8 @@ class VulkanHullGrid {
   std::unique_ptr<gpu::VulkanContext> owned_context_;  // before context_: destroyed after it
   gpu::VulkanContext& context_;
   std::unique_ptr<Passes> passes_;
-  mutable std::mutex mutex_;
-  size_t cpu_fallbacks_ = 0, host_marches_ = 0;
+  std::mutex mutex_;  // the device's buffers: one carve at a time
+  std::atomic<size_t> cpu_fallbacks_{0}, host_marches_{0};
 };
 
 // HullOptions::surface carved on `grid`, which the function keeps alive.
