@@ -59,7 +59,9 @@ struct VulkanHullGrid::Passes {
   std::array<gpu::Buffer, kBuffers> buffers{};
   uint32_t case_stride = 0;
   uint64_t corner_capacity = 1 << 16;
-  // The last carve's layout: what surface() reads back.
+  // The last carve's layout: what surface() reads back and marchAgain()
+  // dispatches.
+  Push march_push{};
   glm::ivec3 points{0};
   uint32_t voxel_list = 0, voxel_offset = 0, corner_list = 0, cube_list = 0;
 };
@@ -149,7 +151,7 @@ VulkanHullGrid::~VulkanHullGrid() {
 
 size_t VulkanHullGrid::cpuFallbacks() const { return cpu_fallbacks_; }
 
-size_t VulkanHullGrid::hostMarches() const { return host_marches_; }
+size_t VulkanHullGrid::remarches() const { return remarches_; }
 
 namespace {
 
@@ -162,6 +164,63 @@ bool deviceHolds(const glm::ivec3& n) {
 }
 
 }  // namespace
+
+void VulkanHullGrid::growBuffers(const std::array<VkDeviceSize, kBuffers>& bytes) {
+  bool grown = false;
+  for (uint32_t b = 0; b < kBuffers; ++b) {
+    gpu::Buffer& buffer = passes_->buffers[b];
+    if (buffer.buffer != VK_NULL_HANDLE && buffer.size >= bytes[b]) continue;
+    context_.destroy(buffer);
+    // Room to grow: the region changes a little from frame to frame.
+    buffer =
+        context_.createBuffer(bytes[b] + bytes[b] / 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                                           VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                                           VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+    grown = true;
+  }
+  if (!grown) return;
+  std::array<VkDescriptorBufferInfo, kBuffers> infos{};
+  std::array<VkWriteDescriptorSet, kBuffers> writes{};
+  for (uint32_t b = 0; b < kBuffers; ++b) {
+    infos[b] = {passes_->buffers[b].buffer, 0, VK_WHOLE_SIZE};
+    writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    writes[b].dstSet = passes_->set;
+    writes[b].dstBinding = b;
+    writes[b].descriptorCount = 1;
+    writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    writes[b].pBufferInfo = &infos[b];
+  }
+  vkUpdateDescriptorSets(context_.device(), kBuffers, writes.data(), 0, nullptr);
+}
+
+// The cubes marched again into buffers with room (the carve's lists and
+// grid are still on the device): every frame's surface comes from the
+// device, so its bytes do not depend on which frame came first.
+void VulkanHullGrid::marchAgain() {
+  std::array<VkDeviceSize, kBuffers> bytes{};
+  for (uint32_t b = 0; b < kBuffers; ++b) bytes[b] = passes_->buffers[b].size;
+  bytes[kCorners] = 16 * passes_->corner_capacity;
+  bytes[kCubes] = 16 * (passes_->corner_capacity / 3 + 1);
+  growBuffers(bytes);
+  auto* counts = static_cast<uint32_t*>(passes_->buffers[4].mapped);
+  counts[4 * passes_->corner_list + 3] = 0;
+  counts[4 * passes_->cube_list + 3] = 0;
+  Push push = passes_->march_push;
+  push.march[1] = static_cast<uint32_t>(passes_->corner_capacity);
+  context_.submitAndWait([&](VkCommandBuffer cmd) {
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, passes_->layout, 0, 1,
+                            &passes_->set, 0, nullptr);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, passes_->march);
+    vkCmdPushConstants(cmd, passes_->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+    vkCmdDispatchIndirect(cmd, passes_->buffers[4].buffer, VkDeviceSize{16} * push.list_in[0]);
+    VkMemoryBarrier to_host{};
+    to_host.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    to_host.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0,
+                         1, &to_host, 0, nullptr, 0, nullptr);
+  });
+}
 
 // The lock is held for the device's work only, never around oneTBB's:
 // a thread waiting for a parallel loop runs other work meanwhile, such as
@@ -194,18 +253,18 @@ Mesh VulkanHullGrid::surface(const HullGridInput& input, HullStats& stats) {
     ++cpu_fallbacks_;
     return surfaceOfGrid(fillHullGrid(input, stats));
   }
-  ScalarGrid grid;  // for marching cubes on the host, after the lock
+  ScalarGrid grid;  // the dense grid, for marching cubes on the host after the lock
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (input.levels > 0 && carve(input, stats, true)) return readSurface();
-    // The dense grid has no list of cubes to march; a frame whose corners
-    // overflowed is marched on the host (its grid closed on the device
-    // already: closing again changes nothing).
-    if (input.levels <= 0) {
-      carve(input, stats, false);
-    } else {
-      ++host_marches_;
+    if (input.levels > 0) {
+      if (!carve(input, stats, true)) {
+        ++remarches_;
+        marchAgain();
+      }
+      return readSurface();
     }
+    // The dense grid has no list of cubes to march.
+    carve(input, stats, false);
     grid = readGrid(input);
   }
   return surfaceOfGrid(std::move(grid));
@@ -283,32 +342,7 @@ bool VulkanHullGrid::carve(const HullGridInput& input, HullStats& stats, bool su
       passes_->buffers[kCaseTable].size,
       16 * passes_->corner_capacity,
       16 * (passes_->corner_capacity / 3 + 1)};
-  bool grown = false;
-  for (uint32_t b = 0; b < kBuffers; ++b) {
-    gpu::Buffer& buffer = passes_->buffers[b];
-    if (buffer.buffer != VK_NULL_HANDLE && buffer.size >= bytes[b]) continue;
-    context_.destroy(buffer);
-    // Room to grow: the region changes a little from frame to frame.
-    buffer =
-        context_.createBuffer(bytes[b] + bytes[b] / 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-                                                           VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                                                           VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
-    grown = true;
-  }
-  if (grown) {
-    std::array<VkDescriptorBufferInfo, kBuffers> infos{};
-    std::array<VkWriteDescriptorSet, kBuffers> writes{};
-    for (uint32_t b = 0; b < kBuffers; ++b) {
-      infos[b] = {passes_->buffers[b].buffer, 0, VK_WHOLE_SIZE};
-      writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-      writes[b].dstSet = passes_->set;
-      writes[b].dstBinding = b;
-      writes[b].descriptorCount = 1;
-      writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-      writes[b].pBufferInfo = &infos[b];
-    }
-    vkUpdateDescriptorSets(context_.device(), kBuffers, writes.data(), 0, nullptr);
-  }
+  growBuffers(bytes);
   auto mapped = [&](uint32_t b) { return passes_->buffers[b].mapped; };
   std::memcpy(mapped(0), cameras.data(), sizeof(GpuCamera) * cameras.size());
   for (size_t i = 0; i < views.size(); ++i) {
@@ -393,6 +427,8 @@ bool VulkanHullGrid::carve(const HullGridInput& input, HullStats& stats, bool su
     if (levels > 0) {
       run(passes_->settle);
       vkCmdDispatchIndirect(cmd, count_buffer, VkDeviceSize{16} * settled_list);
+      // The marks append to the lists the settling pass read.
+      barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
       push.list_in[0] = voxel_list;
       push.list_in[1] = offsets[voxel_list];
       push.list_out[0] = sampled_list;
@@ -418,6 +454,7 @@ bool VulkanHullGrid::carve(const HullGridInput& input, HullStats& stats, bool su
       push.march[1] = static_cast<uint32_t>(passes_->corner_capacity);
       push.march[2] = cube_list;
       push.march[3] = passes_->case_stride;
+      passes_->march_push = push;
       run(passes_->march);
       vkCmdDispatchIndirect(cmd, count_buffer, VkDeviceSize{16} * voxel_list);
     }
@@ -434,8 +471,8 @@ bool VulkanHullGrid::carve(const HullGridInput& input, HullStats& stats, bool su
   passes_->cube_list = cube_list;
   const uint64_t corners = counts[4 * corner_list + 3];
   if (!surface || corners <= passes_->corner_capacity) return true;
-  // More triangles than the corners' buffer held: this frame is marched on
-  // the host, the next ones into a buffer with room.
+  // More triangles than the corners' buffer held: marched again into a
+  // buffer with room (marchAgain), which the next frames keep.
   passes_->corner_capacity = corners + corners / 4;
   return false;
 }

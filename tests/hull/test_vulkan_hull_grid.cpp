@@ -154,8 +154,8 @@ TEST(VulkanHullGrid, ItsMeshIsTheCpusWithinAVoxel) {
 
 // Marching cubes on the device numbers the vertices as the host's over
 // the same (device's) grid, vertex for vertex, at the same places to
-// float rounding; a corners' buffer too small for a frame is marched on
-// the host that once and grown for the next.
+// float rounding; a corners' buffer too small for a frame is grown and
+// the frame marched again on the device.
 TEST(VulkanHullGrid, MarchesTheSurfaceAsTheHostDoesOverItsGrid) {
   gpu::VulkanContext context;
   VulkanHullGrid device(context);
@@ -186,7 +186,7 @@ TEST(VulkanHullGrid, MarchesTheSurfaceAsTheHostDoesOverItsGrid) {
   EXPECT_EQ(device.cpuFallbacks(), 0u);
   // The first 10 mm frame (about 170k corners) outgrew the first buffer
   // (65536); the second fitted the grown one.
-  EXPECT_EQ(device.hostMarches(), 1u);
+  EXPECT_EQ(device.remarches(), 1u);
 }
 
 TEST(VulkanHullGrid, AGridTooLargeForTheDeviceIsFilledOnTheCpuAndCounted) {

@@ -6,6 +6,7 @@
 // --hull-device vulkan`).
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <memory>
 #include <mutex>
@@ -35,14 +36,15 @@ class VulkanHullGrid {
   ScalarGrid fill(const HullGridInput& input, HullStats& stats);
   // The closed grid's surface (hull::surfaceOfGrid of the device's grid):
   // marched on the device, its vertices numbered on the host in the order
-  // a scan of the whole grid reaches them, normals area weighted. The
-  // dense grid (levels <= 0), and a frame with more triangles than the
-  // device's buffer held (it grows for the next), are marched on the host.
+  // a scan of the whole grid reaches them, normals area weighted; a frame
+  // with more triangles than the device's buffer held is marched again
+  // into a larger one. The dense grid (levels <= 0) is marched on the host.
   Mesh surface(const HullGridInput& input, HullStats& stats);
 
   size_t cpuFallbacks() const;
-  // Frames surface() marched on the host because the corners overflowed.
-  size_t hostMarches() const;
+  // Frames whose corners outgrew the device's buffer and were marched
+  // again into a larger one.
+  size_t remarches() const;
   const std::string& deviceName() const { return context_.deviceName(); }
   bool cpuDevice() const { return context_.cpuDevice(); }
 
@@ -53,12 +55,14 @@ class VulkanHullGrid {
   // grid closed and marched: false when the corners overflowed.
   bool carve(const HullGridInput& input, HullStats& stats, bool surface);
   ScalarGrid readGrid(const HullGridInput& input) const;
+  void growBuffers(const std::array<VkDeviceSize, 10>& bytes);
+  void marchAgain();
   Mesh readSurface() const;
   std::unique_ptr<gpu::VulkanContext> owned_context_;  // before context_: destroyed after it
   gpu::VulkanContext& context_;
   std::unique_ptr<Passes> passes_;
   std::mutex mutex_;  // the device's buffers: one carve at a time
-  std::atomic<size_t> cpu_fallbacks_{0}, host_marches_{0};
+  std::atomic<size_t> cpu_fallbacks_{0}, remarches_{0};
 };
 
 // HullOptions::surface carved on `grid`, which the function keeps alive.
