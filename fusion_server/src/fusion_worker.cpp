@@ -528,8 +528,12 @@ void FusionWorker::deliver(Taken taken) {
   finishing_ = true;
   bool delivered = false;
   while (!stop_ && !encoded_.empty() && encoded_.begin()->first == turn_) {
-    Taken next = std::move(encoded_.begin()->second);
-    encoded_.erase(encoded_.begin());
+    // The group stays in encoded_ while it is finished outside the lock
+    // (other threads only add later turns): queuedJobs() counts it until
+    // its output is in, or a server waiting for the last frames would
+    // see nothing queued and stop without it.
+    const auto next_it = encoded_.begin();
+    Taken& next = next_it->second;
     lock.unlock();
     std::optional<FusedOutput> out = finish(next);
     lock.lock();
@@ -547,6 +551,7 @@ void FusionWorker::deliver(Taken taken) {
       outputs_.push_back(std::move(*out));
       delivered = true;
     }
+    encoded_.erase(next_it);
     ++turn_;
   }
   finishing_ = false;
