@@ -27,10 +27,12 @@
 // than being skipped, so a mode read from the uniforms paid for all five
 // modes' blends in every fragment, four times mode normal's own cost.
 layout(constant_id = 0) const int kBlendMode = HOLOFUSE_MODE_NORMAL;
-// The viewer's overlay (BlendSettings::camera_colours): 1 blends each
-// camera's own colour in place of its image, so the weights show as
-// colours (paper 000, Figure 7's style).
-layout(constant_id = 1) const int kOverlay = 0;
+// The viewer's overlay (BlendSettings::overlay, config.h's
+// HOLOFUSE_OVERLAY_*): camera colours blend each camera's own colour in
+// place of its image, so the weights show as colours (paper 000, Figure
+// 7's style); seams, geodesics and visibility paint one pod's fields
+// (blend.view_weight.yzw) over the picture.
+layout(constant_id = 1) const int kOverlay = HOLOFUSE_OVERLAY_NONE;
 
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
@@ -45,6 +47,10 @@ layout(std430, set = 0, binding = HOLOFUSE_BINDING_TRIANGLE_VIEWS) readonly buff
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_CORNER_UVS) readonly buffer CornerUvs { vec2 corner_uvs[]; };
 layout(set = 0, binding = HOLOFUSE_BINDING_LAYERS) uniform sampler2DArray layers;
 layout(std430, set = 0, binding = HOLOFUSE_BINDING_LAYER_CAMERAS) readonly buffer LayerCameras { vec4 layer_cameras[]; };
+// The field passes' results, read by the overlays only.
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_SIGHTS) readonly buffer Sights { uint sights[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_SEAMS) readonly buffer Seams { uint seams[]; };
+layout(std430, set = 0, binding = HOLOFUSE_BINDING_DISTANCES) readonly buffer Distances { float distances[]; };
 
 // Where p lands in camera i: texture coordinates in [0, 1] and the
 // camera-space depth; false behind the camera or off its image.
@@ -65,7 +71,7 @@ vec3 cameraColour(int i) {
 
 // What camera i adds at a fragment: its image's colour there, or its own
 // colour under the overlay.
-vec3 shade(int i, vec3 texel) { return kOverlay == 1 ? cameraColour(i) : texel; }
+vec3 shade(int i, vec3 texel) { return kOverlay == HOLOFUSE_OVERLAY_CAMERA_COLOURS ? cameraColour(i) : texel; }
 
 // Camera i's depth map at the pixel uv falls in.
 float storedDepth(int i, vec2 uv) {
@@ -289,7 +295,7 @@ vec4 blendLayers(vec3 n, inout float total) {
       weight += w;
     }
     if (!(weight > 1e-12)) continue;
-    colour = kOverlay == 1 ? cameraColour(int(camera)) : colour / weight;
+    colour = kOverlay == HOLOFUSE_OVERLAY_CAMERA_COLOURS ? cameraColour(int(camera)) : colour / weight;
     if (!any) first = colour;
     any = true;
     vec3 to_camera = layer_cameras[camera].xyz - in_position;
@@ -301,6 +307,55 @@ vec4 blendLayers(vec3 n, inout float total) {
   if (total > 1e-8) return vec4(sum / total, 1.0);
   total = any ? 1.0 : 0.0;
   return vec4(first, 1.0);
+}
+
+// The overlay colours: fixed values, so that a test can find them.
+const vec3 kSeamColour = vec3(1.0, 0.0, 0.0);
+const vec3 kUnreachedColour = vec3(0.5, 0.5, 0.5);
+const vec3 kSeenColour = vec3(0.1, 0.85, 0.2);
+const vec3 kUnseenColour = vec3(0.35, 0.0, 0.05);
+
+// 0 (at a seam) to 1 (the geodesic radius and beyond): dark blue through
+// cyan to yellow, brighter with distance, so that it reads in grey too.
+vec3 distanceRamp(float t) {
+  t = clamp(t, 0.0, 1.0);
+  return clamp(vec3(2.0 * t - 0.6, 1.6 * t, 1.0 - 1.6 * abs(t - 0.35)), 0.0, 1.0);
+}
+
+// One pod's fields over the blended colour (kOverlay seams, geodesics or
+// visibility): opaque, so that the picture shows the field whatever the
+// mode. The pod's slot is blend.view_weight.y; -1 (not in the arrays)
+// shows it as seeing nothing.
+vec3 overlaid(vec3 colour) {
+  int slot = int(blend.view_weight.y);
+  uint vertices = uint(blend.params.w);
+  uint corner[3] = uint[3](indices[3u * in_triangle], indices[3u * in_triangle + 1u], indices[3u * in_triangle + 2u]);
+  if (kOverlay == HOLOFUSE_OVERLAY_SEAMS) {
+    if (slot < 0) return colour;
+    uint words = uint(blend.views.y), bit = 1u << (uint(slot) % 32u);
+    uint at = in_triangle * HOLOFUSE_SEAM_SETS * words + uint(slot) / 32u;
+    bool seam = ((seams[at] | seams[at + words] | seams[at + 2u * words]) & bit) != 0u;
+    return seam ? kSeamColour : colour;
+  }
+  if (kOverlay == HOLOFUSE_OVERLAY_GEODESICS) {
+    if (slot < 0) return kUnreachedColour;
+    float d = 0.0;
+    for (uint j = 0u; j < 3u; ++j) {
+      float dj = distances[(uint(blend.view_weight.z) * uint(blend.counts.x) + uint(slot)) * vertices + corner[j]];
+      if (!(dj < HOLOFUSE_FAR)) return kUnreachedColour;
+      d += in_barycentric[j] * dj;
+    }
+    float scale = blend.view_weight.w;
+    return distanceRamp(scale > 0.0 ? d / scale : 1.0);
+  }
+  if (kOverlay == HOLOFUSE_OVERLAY_VISIBILITY) {
+    float seen = 0.0;
+    for (uint j = 0u; j < 3u && slot >= 0; ++j) {
+      if (sights[uint(slot) * vertices + corner[j]] == HOLOFUSE_SIGHT_VISIBLE) seen += in_barycentric[j];
+    }
+    return mix(kUnseenColour, kSeenColour, clamp(seen, 0.0, 1.0));
+  }
+  return colour;
 }
 
 void main() {
@@ -329,4 +384,5 @@ void main() {
     color = blendNormal(n, candidates, total);
   }
   out_color = total > 1e-8 ? color : vec4(blend.hole_color.rgb, 1.0);
+  if (kOverlay >= HOLOFUSE_OVERLAY_SEAMS) out_color.rgb = overlaid(out_color.rgb);
 }

@@ -14,7 +14,7 @@ layout(set = 0, binding = HOLOFUSE_BINDING_BLEND) uniform Blend {
   // x: camera count, y: mode, z: cameras left out for an empty mask, w: 1
   // for half-precision vertices (vertices.glsl)
   ivec4 counts;
-  vec4 params;         // x: alpha, y: depth tolerance (metres)
+  vec4 params;         // x: alpha, y: depth tolerance (metres), z: layers, w: the mesh's vertex count
   vec4 hole_color;     // for surface no camera sees
   vec4 user_eye;       // xyz: the user's eye (montage4d eq. 4, fragment's view weight)
   vec4 temporal;       // x: lambda of this frame (eq. 5), y: half of the temporal buffer holding the previous field
@@ -24,7 +24,11 @@ layout(set = 0, binding = HOLOFUSE_BINDING_BLEND) uniform Blend {
   // mean edge), z: feather width in pixels (0: no feathering), w: 1 if the
   // field modes take the test too.
   vec4 fragment_test;
-  vec4 view_weight;    // x: beta, the exponent of (d_k . d_v + 1) (paper 004 eq. 4)
+  // x: beta, the exponent of (d_k . d_v + 1) (paper 004 eq. 4); for the
+  // seams, geodesics and visibility overlays: y the overlay pod's camera
+  // slot (-1: none), z the half of the distances holding the final ones,
+  // w the geodesic scale (gamma's distance 1)
+  vec4 view_weight;
   // x: best views kept per vertex (HOLOFUSE_BINDING_BEST_VIEWS), y: words
   // of a per-camera bit set, z: 1 if the per-fragment blends weigh each
   // vertex's candidates, w: entries per triangle of its merged best views

@@ -20,6 +20,13 @@
 #define HOLOFUSE_MODE_MONTAGE4D 2
 #define HOLOFUSE_MODE_FRAGMENT 3
 #define HOLOFUSE_MODE_LAYERED 4
+// The viewer's overlays (render_client/include/render_client/render_settings.h's Overlay).
+#define HOLOFUSE_OVERLAY_NONE 0
+#define HOLOFUSE_OVERLAY_CAMERA_COLOURS 1
+#define HOLOFUSE_OVERLAY_SEAMS 2
+#define HOLOFUSE_OVERLAY_GEODESICS 3
+#define HOLOFUSE_OVERLAY_VISIBILITY 4
+#define HOLOFUSE_OVERLAY_COUNT 5
 
 // Push constants: the vertex stage's matrix, then the compute passes' block.
 #define HOLOFUSE_COMPUTE_PUSH_OFFSET 64

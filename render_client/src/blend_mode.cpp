@@ -31,4 +31,21 @@ std::vector<std::string> blendModeNames() {
   return {"normal", "holoportation", "montage4d", "fragment", "layered"};
 }
 
+std::vector<std::string> overlayNames() {
+  return {"none", "cameras", "seams", "geodesics", "visibility"};
+}
+
+std::optional<Overlay> overlayFromName(const std::string& name) {
+  const std::vector<std::string> names = overlayNames();
+  for (size_t k = 0; k < names.size(); ++k) {
+    if (names[k] == name) return static_cast<Overlay>(k);
+  }
+  return std::nullopt;
+}
+
+std::string overlayName(Overlay overlay) {
+  const size_t k = static_cast<size_t>(overlay);
+  return k < kOverlayCount ? overlayNames()[k] : "unknown";
+}
+
 }  // namespace holofuse::render

@@ -93,6 +93,8 @@ class ClientLoop {
         overlap_(overlapsRender(options, context)) {
     view_ = options.run.view;
     mode_ = options.render.blend.mode;
+    overlay_ = options.render.blend.overlay;
+    overlay_pod_ = options.render.blend.overlay_pod;
     // The judge reads each picture as soon as it is written: judged, the
     // pictures are written on the render path.
     if (options_.write_frames && !judge_) writer_.emplace();
@@ -125,10 +127,18 @@ class ClientLoop {
       std::fprintf(stderr, "%s[client] mode %s\n", tty_ ? "\n" : "", blendModeName(mode_).c_str());
     }
     screenshot_due_ = screenshot_due_ || c.screenshot;
-    if (c.overlay_toggles % 2 == 1) {
-      camera_colours_ = !camera_colours_;
-      std::fprintf(stderr, "%s[client] overlay: camera colours %s\n", tty_ ? "\n" : "",
-                   camera_colours_ ? "on" : "off");
+    if (c.overlay_steps > 0 || c.overlay_pod_steps > 0) {
+      overlay_ = static_cast<Overlay>(
+          (static_cast<size_t>(overlay_) + static_cast<size_t>(c.overlay_steps)) % kOverlayCount);
+      // The pods in turn, by id, among those the client has cameras of.
+      for (int step = 0; step < c.overlay_pod_steps && !cameras_.empty(); ++step) {
+        auto next = cameras_.upper_bound(overlay_pod_);
+        overlay_pod_ = next == cameras_.end() ? cameras_.begin()->first : next->first;
+      }
+      const bool per_pod = overlay_ != Overlay::kNone && overlay_ != Overlay::kCameraColours;
+      std::fprintf(stderr, "%s[client] overlay: %s%s\n", tty_ ? "\n" : "",
+                   overlayName(overlay_).c_str(),
+                   per_pod ? (" of pod " + std::to_string(overlay_pod_)).c_str() : "");
     }
     if (c.orbit.held && view_ == "orbit") {
       if (!hold_.held) {
@@ -442,7 +452,8 @@ class ClientLoop {
   BlendSettings nextBlend(const std::vector<ViewImages>& views) {
     BlendSettings blend = options_.render.blend;
     blend.mode = mode_;
-    blend.camera_colours = blend.camera_colours || camera_colours_;
+    blend.overlay = overlay_;
+    blend.overlay_pod = overlay_pod_;
     const uint64_t now_ns = monotonicNs();
     blend.frame_interval_s =
         last_render_ns_ == 0
@@ -590,7 +601,8 @@ class ClientLoop {
   OrbitHold hold_;
   double held_from_degrees_ = 0;
   bool screenshot_due_ = false;
-  bool camera_colours_ = false;
+  Overlay overlay_ = Overlay::kNone;
+  uint32_t overlay_pod_ = 0;
   size_t screenshots_ = 0;
   Renderer& renderer_;
   std::optional<FrameJudge> judge_;

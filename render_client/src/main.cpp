@@ -62,6 +62,8 @@ int main(int argc, char** argv) {
   run_flags.apply(options.run);
   render_flags.apply(options.render);
   options.render.blend.mode = options.run.mode;
+  options.render.blend.overlay = options.run.overlay;
+  options.render.blend.overlay_pod = options.run.overlay_pod;
   const auto key = key_flags.load(protocol::Role::kClient, options.client_id);
   if (!key) return 2;
   options.key = *key;

@@ -100,9 +100,22 @@ const std::vector<Setting<ClientRunSettings>>& clientRunFlags() {
       onOffSetting<S>(
           "--window",
           "on: show the pictures in a window as well: 0-9 the orbit or a pod's camera, M "
-          "the next mode, S a screenshot, mouse drag/wheel orbit, pan, zoom; Escape or "
+          "the next mode, F the next overlay, C its pod, S a screenshot, mouse drag/wheel "
+          "orbit, pan, zoom; Escape or "
           "Q closes it and ends the client. Without a display: one line, headless",
           [](S& s) -> bool& { return s.window; }),
+      choiceSetting<S>(
+          "--overlay",
+          "drawn over the blend: cameras (each pod's weight as its colour), seams, geodesics "
+          "(distance from the seams) or visibility of the --overlay-pod; the window's F key "
+          "steps through them",
+          overlayNames(), [](S& s, const std::string& name) { s.overlay = *overlayFromName(name); },
+          [](const S& s) { return overlayName(s.overlay); }),
+      numberSetting<S>("--overlay-pod",
+                       "the pod whose seams, geodesics or visibility the overlay shows (the "
+                       "window's C key steps through the pods)",
+                       0, HOLOFUSE_MAX_CAMERAS - 1,
+                       [](S& s) -> uint32_t& { return s.overlay_pod; }),
       textSetting<S>("--device", "Vulkan device: index or part of its name (default: a GPU if any)",
                      [](S& s) -> std::string& { return s.device; }),
       textSetting<S>(

@@ -126,14 +126,14 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
     throw std::invalid_argument(layer_count_ == 0
                                     ? "mode layered without texture layers (setLayers)"
                                     : "mode layered with a mesh without texture coordinates");
-  u.params =
-      glm::vec4(settings.alpha, settings.depth_tolerance, static_cast<float>(layer_count_), 0);
+  u.params = glm::vec4(settings.alpha, settings.depth_tolerance, static_cast<float>(layer_count_),
+                       static_cast<float>(vertex_count_));
   u.hole_color = glm::vec4(settings.hole_color, 1.0f);
   u.user_eye = glm::vec4(glm::vec3(user_camera.center()), 1.0f);
   u.fragment_test =
       glm::vec4(settings.fields.relative_depth_tolerance, static_cast<float>(fragmentDepthSlack()),
                 std::max(settings.feather_width_px, 0.0f), settings.fragment_test ? 1.0f : 0.0f);
-  u.view_weight = glm::vec4(std::max(settings.beta, 0.0f), 0.0f, 0.0f, 0.0f);
+  u.view_weight = glm::vec4(std::max(settings.beta, 0.0f), -1.0f, 0.0f, 0.0f);
   const int best_views = std::clamp(settings.fields.best_views, 1, HOLOFUSE_MAX_BEST_VIEWS);
   // Modes normal and fragment weigh each pod per fragment: past K cameras,
   // each vertex's K candidates (recordCandidates), so that a fragment's
@@ -147,9 +147,27 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
   if (const Status usable = checkRenderable(vertex_count_, settings); have_views && !usable.isOk())
     throw std::invalid_argument(usable.message());
   const bool montage = have_views && settings.mode == BlendMode::kMontage4D;
-  const bool want_fields = have_views && (settings.mode == BlendMode::kHoloportation || montage);
+  // The seams, distance and visibility overlays show what the field passes
+  // compute, in any mode: they run for the overlay's sake, the seams and
+  // geodesics too where the mode itself has none.
+  const bool overlay_geodesics =
+      settings.overlay == Overlay::kSeams || settings.overlay == Overlay::kGeodesics;
+  const bool overlay_fields =
+      have_views && (overlay_geodesics || settings.overlay == Overlay::kVisibility);
+  const bool want_fields =
+      have_views && (settings.mode == BlendMode::kHoloportation || montage || overlay_fields);
   FieldParameters parameters = settings.fields;
   parameters.alpha = settings.alpha;
+  if (overlay_fields) {
+    parameters.geodesics = parameters.geodesics || overlay_geodesics;
+    int slot = -1;  // the overlay's pod among the arrays' cameras
+    for (size_t k = 0; k < cameras_.size(); ++k) {
+      if (cameras_[k].id == settings.overlay_pod) slot = static_cast<int>(k);
+    }
+    u.view_weight.y = static_cast<float>(slot);
+    u.view_weight.z = static_cast<float>(TextureFieldPasses::finalDistanceHalf(parameters));
+    u.view_weight.w = static_cast<float>(geodesicScale(parameters));
+  }
   if (montage) {
     parameters.geodesics = true;
     parameters.field_per_view = true;
@@ -182,7 +200,7 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
     candidates_stale_ = false;
   }
   // Made (on first use) before recording: a failure leaves nothing half recorded.
-  const VkPipeline blend_pipeline = blendPipeline(settings.mode, settings.camera_colours);
+  const VkPipeline blend_pipeline = blendPipeline(settings.mode, settings.overlay);
   // The frame in two parts: what follows the mesh, then the view.
   auto recordPerMesh = [&](VkCommandBuffer cmd) {
     if (run_fields) field_passes_pipelines_->beginTiming(cmd);

@@ -32,7 +32,7 @@ struct BlendUniforms {
   glm::vec4 temporal;  // x: lambda of this frame, y: half holding the previous field
   glm::vec4
       fragment_test;  // relative and absolute depth tolerance, feather width, 1 for the field modes
-  glm::vec4 view_weight;  // x: beta
+  glm::vec4 view_weight;  // x: beta; y, z, w: the overlay's camera slot, distance half, scale
   // x: best views per vertex, y: words of a per-camera bit set, z: 1 if the
   // per-fragment blends weigh candidates, w: entries per triangle of the
   // merged best views (triangleViewSlots)

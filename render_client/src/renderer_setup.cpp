@@ -252,13 +252,13 @@ Renderer::~Renderer() {
   vkDestroySampler(d, linear_sampler_, nullptr);
 }
 
-VkPipeline Renderer::blendPipeline(BlendMode mode, bool camera_colours) {
+VkPipeline Renderer::blendPipeline(BlendMode mode, Overlay overlay) {
   VkPipeline& pipeline =
-      blend_pipelines_.at(2 * static_cast<size_t>(mode) + (camera_colours ? 1 : 0));
+      blend_pipelines_.at(kOverlayCount * static_cast<size_t>(mode) + static_cast<size_t>(overlay));
   if (pipeline == VK_NULL_HANDLE) {
     pipeline = createPipeline(ctx_, blend_pass_, blend_layout_, k_blend_vert_spv,
                               sizeof(k_blend_vert_spv), k_blend_frag_spv, sizeof(k_blend_frag_spv),
-                              static_cast<int32_t>(mode), camera_colours ? 1 : 0);
+                              static_cast<int32_t>(mode), static_cast<int32_t>(overlay));
   }
   return pipeline;
 }

@@ -51,7 +51,8 @@ struct WindowCallbacks {
     if (key >= GLFW_KEY_0 && key <= GLFW_KEY_9) c.view_key = key - GLFW_KEY_0;
     if (key == GLFW_KEY_M) ++c.mode_steps;
     if (key == GLFW_KEY_S) c.screenshot = true;
-    if (key == GLFW_KEY_F) ++c.overlay_toggles;
+    if (key == GLFW_KEY_F) ++c.overlay_steps;
+    if (key == GLFW_KEY_C) ++c.overlay_pod_steps;
   }
   static void cursor(GLFWwindow* window, double x, double y) {
     ViewerWindow& viewer = of(window);
@@ -275,7 +276,8 @@ ViewerWindow::Controls ViewerWindow::takeControls() {
   controls_.view_key = -1;
   controls_.mode_steps = 0;
   controls_.screenshot = false;
-  controls_.overlay_toggles = 0;
+  controls_.overlay_steps = 0;
+  controls_.overlay_pod_steps = 0;
   return taken;
 }
 

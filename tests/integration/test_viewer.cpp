@@ -141,12 +141,36 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
     return n;
   };
   press("f");
-  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "overlay: camera colours on"); }))
+  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "overlay: cameras"); }))
       << readFile(out / "client.log");
   const cv::Mat overlaid = screenAfterTwoPictures("screen_overlay");
   ASSERT_FALSE(overlaid.empty());
   EXPECT_GT(saturated(overlaid), 2 * saturated(from_pod) + covered / 4)
       << "the overlay colours the subject by camera";
+
+  // From pod 1's camera, F again: pod 0's seams in red; C: pod 1's own
+  // (where its view of the subject is cut by an occluding limb, which
+  // pod 1 sees in every frame).
+  auto red = [](const cv::Mat& image) {
+    size_t n = 0;
+    for (int y = 0; y < 120; ++y) {
+      for (int x = 0; x < 160; ++x) {
+        const cv::Vec3b p = image.at<cv::Vec3b>(y, x);  // BGR
+        n += p[2] > 220 && p[1] < 40 && p[0] < 40;
+      }
+    }
+    return n;
+  };
+  press("2");
+  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "[client] view pod:1"); }))
+      << readFile(out / "client.log");
+  press("f");
+  press("c");
+  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "overlay: seams of pod 1"); }))
+      << readFile(out / "client.log");
+  const cv::Mat seams = screenAfterTwoPictures("screen_seams");
+  ASSERT_FALSE(seams.empty());
+  EXPECT_GT(red(seams), 3 * red(from_pod) + 10) << "pod 1's seam triangles drawn in red";
 
   press("Escape");
   EXPECT_EQ(waitExit(client, 60), 0) << readFile(out / "client.log");
@@ -161,7 +185,7 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   waitExit(server, 60);
   kill(x, SIGTERM);
   waitExit(x, 60);
-  fs::remove_all(out);
+  if (!::testing::Test::HasFailure()) fs::remove_all(out);
 }
 
 }  // namespace

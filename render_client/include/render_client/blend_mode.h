@@ -32,4 +32,25 @@ std::optional<BlendMode> blendModeFromName(const std::string& name);
 std::string blendModeName(BlendMode mode);
 std::vector<std::string> blendModeNames();
 
+// What the viewer draws over the blend (keys F and C, render_client
+// --overlay): the texture fields a mode computes, made visible.
+enum class Overlay : int {
+  kNone = HOLOFUSE_OVERLAY_NONE,
+  // Each camera's weight as its own colour in place of its image (paper
+  // 000, Figure 7's style).
+  kCameraColours = HOLOFUSE_OVERLAY_CAMERA_COLOURS,
+  // One pod's seam triangles (occlusion, vote or field of view) in red.
+  kSeams = HOLOFUSE_OVERLAY_SEAMS,
+  // One pod's geodesic distance from its seams, 0 to the geodesic radius
+  // as a colour ramp; grey where no distance was reached.
+  kGeodesics = HOLOFUSE_OVERLAY_GEODESICS,
+  // Where one pod sees the surface (green) and where not (dark red).
+  kVisibility = HOLOFUSE_OVERLAY_VISIBILITY,
+};
+inline constexpr size_t kOverlayCount = HOLOFUSE_OVERLAY_COUNT;
+
+std::optional<Overlay> overlayFromName(const std::string& name);
+std::string overlayName(Overlay overlay);
+std::vector<std::string> overlayNames();
+
 }  // namespace holofuse::render

@@ -88,9 +88,11 @@ struct BlendSettings {
   // Exponent of the view weight: (d_k . d_v + 1) in mode fragment (paper
   // 004 eq. 4, its 5) and max(0, v . v_i) in montage4d's target field.
   float beta = 5.0f;
-  // An overlay (the viewer's F key): each camera's weight shown as its own
-  // colour instead of its image (paper 000, Figure 7's style).
-  bool camera_colours = false;
+  // An overlay (the viewer's F key, render_client --overlay), Overlay below.
+  Overlay overlay = Overlay::kNone;
+  // The pod whose seams, geodesic distances or visibility the overlay
+  // shows (the viewer's C key); a pod not in the arrays shows none.
+  uint32_t overlay_pod = 0;
 };
 
 // The client's rendering settings, which eval and the launcher embed.
@@ -122,9 +124,11 @@ struct ClientRunSettings {
   // this one; "off": each render is waited for; "auto": on a GPU only (a
   // CPU device renders on the cores the decode would take).
   std::string overlap_render = "auto";
-  std::string device;   // Vulkan device selector (VulkanContext); "": a GPU if any
-  std::string budget;   // a JSON file of per-stage ms budgets; "": none
-  bool window = false;  // the pictures shown in a window too (viewer_window.h)
+  std::string device;                // Vulkan device selector (VulkanContext); "": a GPU if any
+  std::string budget;                // a JSON file of per-stage ms budgets; "": none
+  bool window = false;               // the pictures shown in a window too (viewer_window.h)
+  Overlay overlay = Overlay::kNone;  // BlendSettings::overlay at the start (the window's F key)
+  uint32_t overlay_pod = 0;          // BlendSettings::overlay_pod at the start (C)
 };
 
 const std::vector<Setting<ClientRunSettings>>& clientRunFlags();

@@ -166,7 +166,7 @@ class Renderer {
 
  private:
   void createPipelines();
-  VkPipeline blendPipeline(BlendMode mode, bool camera_colours = false);
+  VkPipeline blendPipeline(BlendMode mode, Overlay overlay = Overlay::kNone);
   void ensureViewResources(uint32_t w, uint32_t h, uint32_t count);
   void destroyViewResources();
   void renderDepthMaps(VkCommandBuffer cmd);
@@ -270,9 +270,9 @@ class Renderer {
   // Pipelines
   VkRenderPass blend_pass_ = VK_NULL_HANDLE;
   VkPipelineLayout blend_layout_ = VK_NULL_HANDLE;
-  // Per mode, and with the camera-colour overlay, made when first used
-  // (blend.frag.glsl's kBlendMode and kOverlay).
-  std::array<VkPipeline, 2 * kBlendModeCount> blend_pipelines_{};
+  // Per mode and overlay, made when first used (blend.frag.glsl's
+  // kBlendMode and kOverlay).
+  std::array<VkPipeline, kOverlayCount * kBlendModeCount> blend_pipelines_{};
   VkDescriptorSetLayout set_layout_ = VK_NULL_HANDLE;
   VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
   VkDescriptorSet descriptor_set_ = VK_NULL_HANDLE;

@@ -5,8 +5,10 @@
 // finished, the picture is not shown (counted as dropped), never delayed.
 // Escape or Q, or the window's close button, close it; the client then
 // ends as if it had rendered its frames. The user steers the view: 0 the
-// orbit, 1 to 9 a pod's camera, M the next blending mode, F the cameras'
-// weights as colours, S a screenshot,
+// orbit, 1 to 9 a pod's camera, M the next blending mode, F the next
+// overlay (the cameras' weights as colours, a pod's seams, its geodesic
+// distances, its visibility, none), C the overlay's next pod, S a
+// screenshot,
 // the left button dragged turns the orbit, the right one moves it, the
 // wheel zooms.
 #pragma once
@@ -47,11 +49,12 @@ class ViewerWindow {
 
   // What the user asked for since the last call.
   struct Controls {
-    int view_key = -1;        // 0: the orbit, 1..9: pod camera 0..8; -1: none pressed
-    int mode_steps = 0;       // M pressed this many times
-    bool screenshot = false;  // S pressed
-    int overlay_toggles = 0;  // F pressed this many times: the camera-colour overlay
-    OrbitHold orbit;          // the mouse's hold (kept from call to call)
+    int view_key = -1;          // 0: the orbit, 1..9: pod camera 0..8; -1: none pressed
+    int mode_steps = 0;         // M pressed this many times
+    bool screenshot = false;    // S pressed
+    int overlay_steps = 0;      // F pressed this many times: the next overlay
+    int overlay_pod_steps = 0;  // C pressed this many times: the overlay's next pod
+    OrbitHold orbit;            // the mouse's hold (kept from call to call)
   };
   Controls takeControls();
   uint64_t shown() const { return shown_; }
