@@ -311,7 +311,7 @@ vec4 blendLayers(vec3 n, inout float total) {
 
 // The overlay colours: fixed values, so that a test can find them.
 const vec3 kSeamColour = vec3(1.0, 0.0, 0.0);
-const vec3 kUnreachedColour = vec3(0.5, 0.5, 0.5);
+const vec3 kUnreachedColour = vec3(0.5, 0.5, 0.5);  // geodesics: a corner the pod does not see
 const vec3 kSeenColour = vec3(0.1, 0.85, 0.2);
 const vec3 kUnseenColour = vec3(0.35, 0.0, 0.05);
 
@@ -338,14 +338,18 @@ vec3 overlaid(vec3 colour) {
     return seam ? kSeamColour : colour;
   }
   if (kOverlay == HOLOFUSE_OVERLAY_GEODESICS) {
+    // A corner the pod sees with no distance lies beyond the radius (the
+    // ramp's end); one it does not see has none (grey).
     if (slot < 0) return kUnreachedColour;
-    float d = 0.0;
+    float scale = blend.view_weight.w, d = 0.0;
     for (uint j = 0u; j < 3u; ++j) {
       float dj = distances[(uint(blend.view_weight.z) * uint(blend.counts.x) + uint(slot)) * vertices + corner[j]];
-      if (!(dj < HOLOFUSE_FAR)) return kUnreachedColour;
+      if (!(dj < HOLOFUSE_FAR)) {
+        if (sights[uint(slot) * vertices + corner[j]] != HOLOFUSE_SIGHT_VISIBLE) return kUnreachedColour;
+        dj = scale;
+      }
       d += in_barycentric[j] * dj;
     }
-    float scale = blend.view_weight.w;
     return distanceRamp(scale > 0.0 ? d / scale : 1.0);
   }
   if (kOverlay == HOLOFUSE_OVERLAY_VISIBILITY) {

@@ -58,7 +58,8 @@ want segmentation && { stamp "Segmentation on the studio: ours against OpenCV's 
   "build/bin/bench_segmentation 24"; "$build_dir/bin/bench_segmentation" 24; } >"$results/segmentation.md"
 if want viewer; then
   # The viewer window under Xvfb: the demo in montage4d, F pressed once
-  # twenty pictures are in, the window grabbed three pictures later.
+  # twenty pictures are in, the window grabbed three pictures later; then
+  # F twice more and C (pod 1's geodesic distances), grabbed again.
   display=":$((90 + $$ % 50))"
   while [ -e "/tmp/.X11-unix/X${display#:}" ]; do display=":$((${display#:} + 1))"; done
   Xvfb "$display" -screen 0 640x480x24 -nolisten tcp >"$out/xvfb.log" 2>&1 &
@@ -71,18 +72,27 @@ if want viewer; then
   pictures() { find "$out/viewer/frames" -name '*.png' 2>/dev/null | wc -l; }
   for _ in $(seq 600); do [ "$(pictures)" -ge 20 ] && break; sleep 0.2; done
   window=$(DISPLAY=$display xdotool search --sync --name "holofuse client" | head -n 1)
-  DISPLAY=$display xdotool windowfocus --sync "$window" key f
-  shown=$(pictures)
-  for _ in $(seq 600); do [ "$(pictures)" -ge $((shown + 3)) ] && break; sleep 0.2; done
-  DISPLAY=$display import -window "$window" "$results/viewer.png"
+  grab() {
+    DISPLAY=$display xdotool windowfocus --sync "$window" key "$@"
+    local shown
+    shown=$(pictures)
+    for _ in $(seq 600); do [ "$(pictures)" -ge $((shown + 3)) ] && break; sleep 0.2; done
+    DISPLAY=$display import -window "$window" "$out/viewer_$1_$#.png"
+  }
+  grab f
+  grab f f c
+  convert "$out/viewer_f_1.png" "$out/viewer_f_3.png" +append "$results/viewer.png"
   DISPLAY=$display xdotool key Escape
   wait "$loop" || true
   kill "$xvfb" 2>/dev/null || true
-  { stamp "The viewer window" "./holofuse demo ${viewer_flags[*]}, then F"
-    echo "The client's window (\`--window on\`) with the camera-colour overlay (F): each"
+  { stamp "The viewer window" "./holofuse demo ${viewer_flags[*]}, then F; F, F and C"
+    echo "The client's window (\`--window on\`) with its live panel (fps, link, end to end"
+    echo "and the latest frame's stages). Left, the camera-colour overlay (F): each"
     echo "camera's texture-field weight as its own colour, paper 000's Figure 7 style,"
-    echo "seams and their fades included; grey where no camera's field reaches."
+    echo "seams and their fades included. Right, pod 1's geodesic distance from its seams"
+    echo "(F twice more, then C): dark blue at a seam to yellow at the geodesic radius;"
+    echo "grey where pod 1 does not see the surface."
     echo
-    echo "![The viewer window with the camera-colour overlay](viewer.png)"; } >"$results/viewer.md"
+    echo "![The viewer window: camera colours, and pod 1's geodesic distances](viewer.png)"; } >"$results/viewer.md"
 fi
 echo "[results] wrote $(printf "$results/%s.md " "${wanted[@]}")"

@@ -18,6 +18,7 @@
 #include "protocol/server_link.h"
 #include "render_client/client.h"
 #include "render_client/frame_judge.h"
+#include "render_client/live_panel.h"
 #include "render_client/mask_health.h"
 #include "render_client/picture_writer.h"
 #include "render_client/viewer_window.h"
@@ -127,6 +128,10 @@ class ClientLoop {
       std::fprintf(stderr, "%s[client] mode %s\n", tty_ ? "\n" : "", blendModeName(mode_).c_str());
     }
     screenshot_due_ = screenshot_due_ || c.screenshot;
+    if (c.panel_toggles % 2 == 1) {
+      panel_ = !panel_;
+      std::fprintf(stderr, "%s[client] live panel %s\n", tty_ ? "\n" : "", panel_ ? "on" : "off");
+    }
     if (c.overlay_steps > 0 || c.overlay_pod_steps > 0) {
       overlay_ = static_cast<Overlay>(
           (static_cast<size_t>(overlay_) + static_cast<size_t>(c.overlay_steps)) % kOverlayCount);
@@ -512,6 +517,15 @@ class ClientLoop {
 
   bool rendering() const { return in_flight_.has_value(); }
 
+  // The panel's first words: the mode, and the overlay with its pod.
+  std::string panelTitle() const {
+    std::string title = blendModeName(mode_);
+    if (overlay_ == Overlay::kCameraColours) title += " + cameras";
+    if (overlay_ != Overlay::kNone && overlay_ != Overlay::kCameraColours)
+      title += " + " + overlayName(overlay_) + " of pod " + std::to_string(overlay_pod_);
+    return title;
+  }
+
   // The picture of the frame in flight, written and recorded; nothing when
   // none is.
   void finishFrame() {
@@ -520,14 +534,22 @@ class ClientLoop {
     in_flight_.reset();
     Image8 picture = renderer_.finishRender();
     const uint64_t rendered_ns = now();
-    if (window_ != nullptr) window_->show(picture);
-    if (screenshot_due_) {  // S in the window: this picture, kept apart from the frames
+    // The window shows the picture under the live panel (P hides it); S
+    // keeps what the window shows, apart from the frames.
+    Image8 shown;
+    if (window_ != nullptr && panel_) {
+      shown = picture;
+      drawPanel(shown, panelFigures(report_.frames(), kPanelFrames, panelTitle()));
+    }
+    const Image8& in_window = shown.pixels.empty() ? picture : shown;
+    if (window_ != nullptr) window_->show(in_window);
+    if (screenshot_due_) {
       screenshot_due_ = false;
       char shot[64];
       std::snprintf(shot, sizeof(shot), "screenshot_%03zu.png", ++screenshots_);
       std::error_code ec;
       fs::create_directories(out_dir_ / "screenshots", ec);
-      if (writePictureAtomically(picture, out_dir_ / "screenshots" / shot))
+      if (writePictureAtomically(in_window, out_dir_ / "screenshots" / shot))
         std::fprintf(stderr, "%s[client] screenshot %s\n", tty_ ? "\n" : "",
                      (out_dir_ / "screenshots" / shot).c_str());
     }
@@ -603,6 +625,8 @@ class ClientLoop {
   bool screenshot_due_ = false;
   Overlay overlay_ = Overlay::kNone;
   uint32_t overlay_pod_ = 0;
+  bool panel_ = true;  // the window's live panel (P)
+  static constexpr size_t kPanelFrames = 30;
   size_t screenshots_ = 0;
   Renderer& renderer_;
   std::optional<FrameJudge> judge_;

@@ -53,6 +53,7 @@ struct WindowCallbacks {
     if (key == GLFW_KEY_S) c.screenshot = true;
     if (key == GLFW_KEY_F) ++c.overlay_steps;
     if (key == GLFW_KEY_C) ++c.overlay_pod_steps;
+    if (key == GLFW_KEY_P) ++c.panel_toggles;
   }
   static void cursor(GLFWwindow* window, double x, double y) {
     ViewerWindow& viewer = of(window);
@@ -278,6 +279,7 @@ ViewerWindow::Controls ViewerWindow::takeControls() {
   controls_.screenshot = false;
   controls_.overlay_steps = 0;
   controls_.overlay_pod_steps = 0;
+  controls_.panel_toggles = 0;
   return taken;
 }
 

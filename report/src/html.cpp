@@ -11,8 +11,6 @@ const char* const kPalette[] = {"#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#76
                                 "#b07aa1", "#ff9da7", "#9c755f", "#bab0ac", "#1b9e77", "#d95f02",
                                 "#7570b3", "#e7298a", "#66a61e", "#e6ab02"};
 
-std::string colour(size_t i) { return kPalette[i % (sizeof(kPalette) / sizeof(kPalette[0]))]; }
-
 std::string number(double v) {
   char buffer[32];
   const double a = std::abs(v);
@@ -36,6 +34,14 @@ std::string exact(double v) {
 }
 
 }  // namespace
+
+std::string colour(size_t i) { return kPalette[i % (sizeof(kPalette) / sizeof(kPalette[0]))]; }
+
+std::array<unsigned char, 3> colourRgb(size_t i) {
+  const unsigned long rgb = std::stoul(colour(i).substr(1), nullptr, 16);
+  return {static_cast<unsigned char>(rgb >> 16), static_cast<unsigned char>(rgb >> 8 & 0xff),
+          static_cast<unsigned char>(rgb & 0xff)};
+}
 
 std::string number(const char* format, double value) {
   char text[64];

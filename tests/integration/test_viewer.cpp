@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <string>
 
 #include "loop_test.h"
@@ -73,6 +74,17 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
       << readFile(out / "client.log");
   EXPECT_TRUE(logSays(out / "client.log", "[client] the pictures show in a window too"))
       << readFile(out / "client.log");
+  auto press = [&](const std::string& key) {
+    const pid_t xdotool = spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/xdotool", "search",
+                                 "--name", "holofuse client", "windowfocus", "--sync", "key", key},
+                                out / "xdotool.log");
+    EXPECT_EQ(waitExit(xdotool, 60), 0) << key << ": " << readFile(out / "xdotool.log");
+  };
+  // P hides the live panel, which the pictures below are compared
+  // without; it comes back at the end.
+  press("p");
+  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "[client] live panel off"); }))
+      << readFile(out / "client.log");
 
   // The screen once the client has rendered two more pictures.
   auto screenAfterTwoPictures = [&](const std::string& name) {
@@ -105,12 +117,6 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   // Keys steer it: 1 sits at pod 0's camera, M steps to mode fragment, S
   // keeps the next picture; the view from pod 0 is another picture than
   // the orbit's.
-  auto press = [&](const std::string& key) {
-    const pid_t xdotool = spawn({"/usr/bin/env", "DISPLAY=" + display, "/usr/bin/xdotool", "search",
-                                 "--name", "holofuse client", "windowfocus", "--sync", "key", key},
-                                out / "xdotool.log");
-    EXPECT_EQ(waitExit(xdotool, 60), 0) << key << ": " << readFile(out / "xdotool.log");
-  };
   press("1");
   EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "[client] view pod:0"); }))
       << readFile(out / "client.log");
@@ -171,6 +177,18 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   const cv::Mat seams = screenAfterTwoPictures("screen_seams");
   ASSERT_FALSE(seams.empty());
   EXPECT_GT(red(seams), 3 * red(from_pod) + 10) << "pod 1's seam triangles drawn in red";
+
+  // P again: the live panel in the top-left corner (its box, figures and
+  // stage bar); the frames written never have it.
+  press("p");
+  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "[client] live panel on"); }))
+      << readFile(out / "client.log");
+  const cv::Mat panel = screenAfterTwoPictures("screen_panel");
+  ASSERT_FALSE(panel.empty());
+  cv::Mat panel_strip;
+  cv::absdiff(seams(cv::Rect(0, 0, 160, 24)), panel(cv::Rect(0, 0, 160, 24)), panel_strip);
+  cv::cvtColor(panel_strip, panel_strip, cv::COLOR_BGR2GRAY);
+  EXPECT_GT(cv::countNonZero(panel_strip > 40), 300) << "the panel drawn";
 
   press("Escape");
   EXPECT_EQ(waitExit(client, 60), 0) << readFile(out / "client.log");

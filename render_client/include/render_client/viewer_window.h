@@ -7,10 +7,10 @@
 // ends as if it had rendered its frames. The user steers the view: 0 the
 // orbit, 1 to 9 a pod's camera, M the next blending mode, F the next
 // overlay (the cameras' weights as colours, a pod's seams, its geodesic
-// distances, its visibility, none), C the overlay's next pod, S a
-// screenshot,
-// the left button dragged turns the orbit, the right one moves it, the
-// wheel zooms.
+// distances, its visibility, none), C the overlay's next pod, P the live
+// panel (fps, end to end, link, the latest frame's stages), S a
+// screenshot (of what the window shows); the left button dragged turns
+// the orbit, the right one moves it, the wheel zooms.
 #pragma once
 
 #include <cstdint>
@@ -54,6 +54,7 @@ class ViewerWindow {
     bool screenshot = false;    // S pressed
     int overlay_steps = 0;      // F pressed this many times: the next overlay
     int overlay_pod_steps = 0;  // C pressed this many times: the overlay's next pod
+    int panel_toggles = 0;      // P pressed this many times: the live panel shown or hidden
     OrbitHold orbit;            // the mouse's hold (kept from call to call)
   };
   Controls takeControls();

@@ -6,12 +6,18 @@
 // back from headless Chromium).
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <string>
 #include <vector>
 
 namespace holofuse::html {
 
 std::string escape(const std::string& text);
+// The charts' colour for series i ("#rrggbb"), and as red, green, blue:
+// the viewer's panel colours the stages as the reports do.
+std::string colour(size_t i);
+std::array<unsigned char, 3> colourRgb(size_t i);
 // A number as a printf format with one double argument gives it ("%.2f
 // dB"), for a cell or a label.
 std::string number(const char* format, double value);
