@@ -93,6 +93,14 @@ if want viewer; then
     echo "(F twice more, then C): dark blue at a seam to yellow at the geodesic radius;"
     echo "grey where pod 1 does not see the surface."
     echo
-    echo "![The viewer window: camera colours, and pod 1's geodesic distances](viewer.png)"; } >"$results/viewer.md"
+    echo "![The viewer window: camera colours, and pod 1's geodesic distances](viewer.png)"
+    echo
+    echo "What the window costs the client's render (\`build/bin/bench_viewer --repeats 5\`:"
+    echo "the loop with \`--window on\` on an Xvfb display and headless, alternately; the"
+    echo "render stage ends once the picture, under the live panel, is handed to the window):"
+    echo
+    echo '```'
+    "$build_dir/bin/bench_viewer" --repeats 5 --out "$out/bench_viewer" | sed '1,2d'
+    echo '```'; } >"$results/viewer.md"
 fi
 echo "[results] wrote $(printf "$results/%s.md " "${wanted[@]}")"

@@ -92,12 +92,15 @@ struct ViewerWindow::Swapchain {
     VkCommandBuffer cmd = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
     VkSemaphore acquired = VK_NULL_HANDLE;
+    // The picture's bytes and image (the last picture's size, RGBA8), the
+    // slot's own: the other slot's copy may still read its own while this
+    // one is written.
+    gpu::Buffer staging;
+    gpu::Image picture;
   };
   std::array<Slot, 2> slots{};
   size_t next_slot = 0;
   VkCommandPool pool = VK_NULL_HANDLE;
-  gpu::Buffer staging;
-  gpu::Image picture;  // the last picture's size, RGBA8
 };
 
 bool windowSystemExtensions(std::vector<std::string>* extensions, std::string* why) {
@@ -182,10 +185,10 @@ ViewerWindow::~ViewerWindow() {
   for (auto& slot : chain_->slots) {
     if (slot.fence != VK_NULL_HANDLE) vkDestroyFence(d, slot.fence, nullptr);
     if (slot.acquired != VK_NULL_HANDLE) vkDestroySemaphore(d, slot.acquired, nullptr);
+    context_.destroy(slot.staging);
+    context_.destroy(slot.picture);
   }
   if (chain_->pool != VK_NULL_HANDLE) vkDestroyCommandPool(d, chain_->pool, nullptr);
-  context_.destroy(chain_->staging);
-  context_.destroy(chain_->picture);
   if (chain_->surface != VK_NULL_HANDLE)
     vkDestroySurfaceKHR(context_.instance(), chain_->surface, nullptr);
   glfwDestroyWindow(window_);
@@ -321,18 +324,18 @@ void ViewerWindow::show(const Image8& picture) {
   }
   // The picture, as RGBA8, into the staging buffer and its image.
   const VkDeviceSize bytes = VkDeviceSize{4} * picture.width * picture.height;
-  if (chain.staging.size < bytes) {
-    context_.destroy(chain.staging);
-    chain.staging = context_.createBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+  if (slot.staging.size < bytes) {
+    context_.destroy(slot.staging);
+    slot.staging = context_.createBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
   }
-  if (chain.picture.width != picture.width || chain.picture.height != picture.height) {
-    context_.destroy(chain.picture);
-    chain.picture =
+  if (slot.picture.width != picture.width || slot.picture.height != picture.height) {
+    context_.destroy(slot.picture);
+    slot.picture =
         context_.createImage(picture.width, picture.height, 1, VK_FORMAT_R8G8B8A8_UNORM,
                              VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                              VK_IMAGE_ASPECT_COLOR_BIT, false);
   }
-  auto* out = static_cast<uint8_t*>(chain.staging.mapped);
+  auto* out = static_cast<uint8_t*>(slot.staging.mapped);
   if (picture.channels == 4) {
     std::memcpy(out, picture.pixels.data(), bytes);
   } else {
@@ -348,15 +351,15 @@ void ViewerWindow::show(const Image8& picture) {
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   HOLOFUSE_VK_CHECK(vkBeginCommandBuffer(slot.cmd, &begin));
   const VkPipelineStageFlags transfer = VK_PIPELINE_STAGE_TRANSFER_BIT;
-  gpu::transitionImage(slot.cmd, chain.picture, VK_IMAGE_ASPECT_COLOR_BIT,
-                       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
-                       VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, transfer);
+  gpu::transitionImage(slot.cmd, slot.picture, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, transfer);
   VkBufferImageCopy copy{};
   copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
   copy.imageExtent = {picture.width, picture.height, 1};
-  vkCmdCopyBufferToImage(slot.cmd, chain.staging.buffer, chain.picture.image,
+  vkCmdCopyBufferToImage(slot.cmd, slot.staging.buffer, slot.picture.image,
                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
-  gpu::transitionImage(slot.cmd, chain.picture, VK_IMAGE_ASPECT_COLOR_BIT,
+  gpu::transitionImage(slot.cmd, slot.picture, VK_IMAGE_ASPECT_COLOR_BIT,
                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
                        VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT, transfer,
                        transfer);
@@ -376,7 +379,7 @@ void ViewerWindow::show(const Image8& picture) {
   cleared.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
   vkCmdPipelineBarrier(slot.cmd, transfer, transfer, 0, 1, &cleared, 0, nullptr, 0, nullptr);
   const VkImageBlit blit = fitted(picture.width, picture.height, chain.extent);
-  vkCmdBlitImage(slot.cmd, chain.picture.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, target.image,
+  vkCmdBlitImage(slot.cmd, slot.picture.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, target.image,
                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &blit, VK_FILTER_LINEAR);
   gpu::transitionImage(slot.cmd, target, VK_IMAGE_ASPECT_COLOR_BIT,
                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR,
