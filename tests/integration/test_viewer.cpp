@@ -26,6 +26,17 @@ int freeDisplay() {
   }
 }
 
+// An Xvfb server of 320x240 on a free display (its log in out), once it
+// serves; 0 if it did not start.
+pid_t startXvfb(const fs::path& out, std::string* display) {
+  *display = ":" + std::to_string(freeDisplay());
+  const pid_t x =
+      spawn({"/usr/bin/Xvfb", *display, "-screen", "0", "320x240x24", "-nolisten", "tcp"},
+            out / "xvfb.log");
+  if (!waitFor([&] { return fs::exists("/tmp/.X11-unix/X" + display->substr(1)); })) return 0;
+  return x;
+}
+
 // Pixels of a BGR(A) image that are not black.
 size_t litPixels(const cv::Mat& image, int x0, int y0, int w, int h) {
   size_t lit = 0;
@@ -56,12 +67,9 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   for (const char* tool : {"/usr/bin/Xvfb", "/usr/bin/xdotool", "/usr/bin/import"})
     ASSERT_TRUE(fs::exists(tool)) << tool << " is missing: ./holofuse test installs it";
   const fs::path out = freshDir("viewer");
-  const std::string display = ":" + std::to_string(freeDisplay());
-  const pid_t x =
-      spawn({"/usr/bin/Xvfb", display, "-screen", "0", "320x240x24", "-nolisten", "tcp"},
-            out / "xvfb.log");
-  ASSERT_TRUE(waitFor([&] { return fs::exists("/tmp/.X11-unix/X" + display.substr(1)); }))
-      << readFile(out / "xvfb.log");
+  std::string display;
+  const pid_t x = startXvfb(out, &display);
+  ASSERT_GT(x, 0) << readFile(out / "xvfb.log");
   pid_t server = 0;
   const std::string endpoint = startServer(out, 2, &server);
   ASSERT_FALSE(endpoint.empty()) << readFile(out / "server.log");
@@ -201,6 +209,46 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   kill(server, SIGTERM);
   for (pid_t pod : pods) waitExit(pod, 60);
   waitExit(server, 60);
+  kill(x, SIGTERM);
+  waitExit(x, 60);
+  if (!::testing::Test::HasFailure()) fs::remove_all(out);
+}
+
+// A replay shows in the window as the live loop does (the launcher passes
+// --window on to its client); without a display the client says so in
+// one line and renders every frame headless.
+TEST(Viewer, AReplayShowsInTheWindowAndWithoutADisplayRendersHeadless) {
+  const fs::path out = freshDir("viewer_replay");
+  const fs::path recording = out / "recording";
+  const pid_t live = spawn({"/usr/bin/env", "-u", "DISPLAY", kBin + "/holofuse_loop", "--pods", "2",
+                            "--frames", "4", "--fps", "8", "--size", "160x120", "--out",
+                            (out / "live").string(), "--record", recording.string()},
+                           out / "live.log");
+  ASSERT_EQ(waitExit(live, 240), 0) << readFile(out / "live.log");
+  std::string display;
+  const pid_t x = startXvfb(out, &display);
+  ASSERT_GT(x, 0) << readFile(out / "xvfb.log");
+  auto replay = [&](const std::vector<std::string>& env, const std::string& name) {
+    std::vector<std::string> command = {"/usr/bin/env"};
+    command.insert(command.end(), env.begin(), env.end());
+    command.insert(command.end(),
+                   {kBin + "/holofuse_loop", "--replay", recording.string(), "--speed", "max",
+                    "--window", "on", "--out", (out / name).string()});
+    EXPECT_EQ(waitExit(spawn(command, out / (name + ".log")), 240), 0)
+        << readFile(out / (name + ".log"));
+    return readFile(out / name / "logs" / "client.log");
+  };
+  const std::string shown = replay({"DISPLAY=" + display}, "shown");
+  EXPECT_NE(shown.find("[client] the pictures show in a window too"), std::string::npos) << shown;
+  EXPECT_NE(shown.find("[client] window: "), std::string::npos) << shown;
+  const std::string headless = replay({"-u", "DISPLAY"}, "headless");
+  EXPECT_NE(headless.find("[client] no window: "), std::string::npos) << headless;
+  EXPECT_NE(headless.find("; rendering headless"), std::string::npos) << headless;
+  EXPECT_EQ(headless.find("[client] window: "), std::string::npos) << headless;
+  const int rendered = readJson(out / "shown" / "report.json")["frames_rendered"].get<int>();
+  EXPECT_GT(rendered, 0);
+  EXPECT_EQ(readJson(out / "headless" / "report.json")["frames_rendered"].get<int>(), rendered)
+      << "every frame rendered, window or not";
   kill(x, SIGTERM);
   waitExit(x, 60);
   if (!::testing::Test::HasFailure()) fs::remove_all(out);
