@@ -125,6 +125,9 @@ class ClientLoop {
       size_t at = 0;
       while (at < std::size(kCycle) && kCycle[at] != mode_) ++at;
       mode_ = kCycle[(at + 1) % std::size(kCycle)];
+      // The window fades from the last picture of the mode before.
+      fade_from_ = last_shown_;
+      fade_start_ns_ = monotonicNs();
       std::fprintf(stderr, "%s[client] mode %s\n", tty_ ? "\n" : "", blendModeName(mode_).c_str());
     }
     screenshot_due_ = screenshot_due_ || c.screenshot;
@@ -536,9 +539,12 @@ class ClientLoop {
     // The window shows the picture under the live panel (P hides it); S
     // keeps what the window shows, apart from the frames.
     Image8 shown;
-    if (window_ != nullptr && panel_) {
-      shown = picture;
-      drawPanel(shown, panelFigures(report_.frames(), kPanelFrames, panelTitle()));
+    if (window_ != nullptr) {
+      const double fade = static_cast<double>(monotonicNs() - fade_start_ns_) / kFadeNs;
+      shown = fade < 1.0 ? crossFade(fade_from_, picture, fade) : picture;
+      if (!(fade < 1.0)) fade_from_ = {};
+      last_shown_ = shown;
+      if (panel_) drawPanel(shown, panelFigures(report_.frames(), kPanelFrames, panelTitle()));
     }
     const Image8& in_window = shown.pixels.empty() ? picture : shown;
     if (window_ != nullptr) window_->show(in_window);
@@ -629,6 +635,11 @@ class ClientLoop {
   uint32_t overlay_pod_ = 0;
   bool panel_ = true;  // the window's live panel (P)
   static constexpr size_t kPanelFrames = 30;
+  // A new mode fades in over kFadeNs from the last picture shown before it
+  // (without the panel), so that the difference shows, not a snap.
+  static constexpr double kFadeNs = 400e6;
+  Image8 last_shown_, fade_from_;
+  uint64_t fade_start_ns_ = 0;
   size_t screenshots_ = 0;
   Renderer& renderer_;
   std::optional<FrameJudge> judge_;

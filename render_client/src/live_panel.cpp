@@ -120,4 +120,17 @@ void drawPanel(Image8& picture, const PanelFigures& figures) {
   }
 }
 
+Image8 crossFade(const Image8& from, const Image8& to, double t) {
+  if (from.width != to.width || from.height != to.height || from.channels != to.channels ||
+      !(t < 1.0))
+    return to;
+  const double w = std::max(t, 0.0);
+  Image8 out = to;
+  for (size_t i = 0; i < out.pixels.size(); ++i) {
+    out.pixels[i] = static_cast<uint8_t>(
+        std::lround((1.0 - w) * from.pixels[i] + w * static_cast<double>(to.pixels[i])));
+  }
+  return out;
+}
+
 }  // namespace holofuse::render

@@ -73,5 +73,20 @@ TEST(LivePanel, DrawsInTheTopLeftCornerAndNothingWithoutFrames) {
   EXPECT_EQ(changed_bottom, 0u) << "the subject below stays in view";
 }
 
+// A new mode fades in: from the old picture at 0 to the new one at 1.
+TEST(ModeFade, MixesFromTheOldPictureToTheNew) {
+  Image8 from(4, 2, 4), to(4, 2, 4);
+  std::fill(from.pixels.begin(), from.pixels.end(), 0);
+  std::fill(to.pixels.begin(), to.pixels.end(), 200);
+  EXPECT_TRUE(crossFade(from, to, 0.0).pixels == from.pixels);
+  EXPECT_TRUE(crossFade(from, to, 1.0).pixels == to.pixels);
+  EXPECT_TRUE(crossFade(from, to, 7.0).pixels == to.pixels) << "past the fade: the new picture";
+  const Image8 half = crossFade(from, to, 0.25);
+  for (uint8_t v : half.pixels) EXPECT_EQ(v, 50);
+  // No picture before (the first mode switch), or another size: no fade.
+  EXPECT_TRUE(crossFade(Image8{}, to, 0.5).pixels == to.pixels);
+  EXPECT_TRUE(crossFade(Image8(2, 2, 4), to, 0.5).pixels == to.pixels);
+}
+
 }  // namespace
 }  // namespace holofuse::render

@@ -39,4 +39,9 @@ PanelFigures panelFigures(const std::vector<report::FrameRecord>& frames, size_t
 // frames.
 void drawPanel(Image8& picture, const PanelFigures& figures);
 
+// The window's fade from one mode's picture to the next's (the M key): t
+// from 0 (all `from`) to 1 (all `to`), per channel, rounded; `to` where
+// the two differ in size.
+Image8 crossFade(const Image8& from, const Image8& to, double t);
+
 }  // namespace holofuse::render
