@@ -27,6 +27,13 @@
 #define HOLOFUSE_OVERLAY_GEODESICS 3
 #define HOLOFUSE_OVERLAY_VISIBILITY 4
 #define HOLOFUSE_OVERLAY_COUNT 5
+// Sketchy stippling (stipple.comp.glsl, render::reference::stipple; Du et
+// al. 2019, section 6.1): the blur's radius in pixels, how much a dot
+// lifts the blurred image the picture is divided by, and the final
+// contrast exponent.
+#define HOLOFUSE_STIPPLE_RADIUS 2
+#define HOLOFUSE_STIPPLE_STRENGTH 1.5
+#define HOLOFUSE_STIPPLE_CONTRAST 2.0
 
 // Push constants: the vertex stage's matrix, then the compute passes' block.
 #define HOLOFUSE_COMPUTE_PUSH_OFFSET 64

@@ -340,6 +340,24 @@ void transferWritesToHost(VkCommandBuffer cmd) {
                        &to_host, 0, nullptr, 0, nullptr);
 }
 
+DescriptorSet createDescriptorSet(VkDevice device, VkDescriptorSetLayout layout,
+                                  const std::vector<VkDescriptorPoolSize>& sizes) {
+  DescriptorSet out;
+  VkDescriptorPoolCreateInfo pool_info{};
+  pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+  pool_info.maxSets = 1;
+  pool_info.poolSizeCount = static_cast<uint32_t>(sizes.size());
+  pool_info.pPoolSizes = sizes.data();
+  HOLOFUSE_VK_CHECK(vkCreateDescriptorPool(device, &pool_info, nullptr, &out.pool));
+  VkDescriptorSetAllocateInfo alloc{};
+  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+  alloc.descriptorPool = out.pool;
+  alloc.descriptorSetCount = 1;
+  alloc.pSetLayouts = &layout;
+  HOLOFUSE_VK_CHECK(vkAllocateDescriptorSets(device, &alloc, &out.set));
+  return out;
+}
+
 void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect,
                      VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
                      VkAccessFlags dst_access, VkPipelineStageFlags src_stage,

@@ -98,19 +98,10 @@ VulkanHullGrid::VulkanHullGrid(gpu::VulkanContext& context)
   layout_info.pushConstantRangeCount = 1;
   layout_info.pPushConstantRanges = &range;
   HOLOFUSE_VK_CHECK(vkCreatePipelineLayout(d, &layout_info, nullptr, &passes_->layout));
-  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kBuffers};
-  VkDescriptorPoolCreateInfo pool_info{};
-  pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-  pool_info.maxSets = 1;
-  pool_info.poolSizeCount = 1;
-  pool_info.pPoolSizes = &size;
-  HOLOFUSE_VK_CHECK(vkCreateDescriptorPool(d, &pool_info, nullptr, &passes_->pool));
-  VkDescriptorSetAllocateInfo alloc{};
-  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-  alloc.descriptorPool = passes_->pool;
-  alloc.descriptorSetCount = 1;
-  alloc.pSetLayouts = &passes_->set_layout;
-  HOLOFUSE_VK_CHECK(vkAllocateDescriptorSets(d, &alloc, &passes_->set));
+  const gpu::DescriptorSet set = gpu::createDescriptorSet(
+      d, passes_->set_layout, {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kBuffers}});
+  passes_->pool = set.pool;
+  passes_->set = set.set;
   auto create = [&](const uint32_t* code, size_t bytes) {
     return context_.createComputePipeline(code, bytes, passes_->layout);
   };

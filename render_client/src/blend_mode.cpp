@@ -31,6 +31,18 @@ std::vector<std::string> blendModeNames() {
   return {"normal", "holoportation", "montage4d", "fragment", "layered"};
 }
 
+std::vector<std::string> stylisationNames() { return {"none", "stipple"}; }
+
+std::optional<Stylisation> stylisationFromName(const std::string& name) {
+  if (name == "none") return Stylisation::kNone;
+  if (name == "stipple") return Stylisation::kStipple;
+  return std::nullopt;
+}
+
+std::string stylisationName(Stylisation stylisation) {
+  return stylisation == Stylisation::kStipple ? "stipple" : "none";
+}
+
 std::vector<std::string> overlayNames() {
   return {"none", "cameras", "seams", "geodesics", "visibility"};
 }

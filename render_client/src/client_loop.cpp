@@ -96,6 +96,7 @@ class ClientLoop {
     mode_ = options.render.blend.mode;
     overlay_ = options.render.blend.overlay;
     overlay_pod_ = options.render.blend.overlay_pod;
+    stylisation_ = options.render.blend.stylisation;
     // The judge reads each picture as soon as it is written: judged, the
     // pictures are written on the render path.
     if (options_.write_frames && !judge_) writer_.emplace();
@@ -131,6 +132,12 @@ class ClientLoop {
       std::fprintf(stderr, "%s[client] mode %s\n", tty_ ? "\n" : "", blendModeName(mode_).c_str());
     }
     screenshot_due_ = screenshot_due_ || c.screenshot;
+    for (int step = 0; step < c.stylisation_steps; ++step) {
+      const auto next = static_cast<size_t>(stylisation_) + 1;
+      stylisation_ = static_cast<Stylisation>(next % stylisationNames().size());
+      std::fprintf(stderr, "%s[client] stylisation: %s\n", tty_ ? "\n" : "",
+                   stylisationName(stylisation_).c_str());
+    }
     if (c.panel_toggles % 2 == 1) {
       panel_ = !panel_;
       std::fprintf(stderr, "%s[client] live panel %s\n", tty_ ? "\n" : "", panel_ ? "on" : "off");
@@ -462,6 +469,7 @@ class ClientLoop {
     blend.mode = mode_;
     blend.overlay = overlay_;
     blend.overlay_pod = overlay_pod_;
+    blend.stylisation = stylisation_;
     const uint64_t now_ns = monotonicNs();
     blend.frame_interval_s =
         last_render_ns_ == 0
@@ -633,6 +641,7 @@ class ClientLoop {
   bool screenshot_due_ = false;
   Overlay overlay_ = Overlay::kNone;
   uint32_t overlay_pod_ = 0;
+  Stylisation stylisation_ = Stylisation::kNone;
   bool panel_ = true;  // the window's live panel (P)
   static constexpr size_t kPanelFrames = 30;
   // A new mode fades in over kFadeNs from the last picture shown before it

@@ -64,6 +64,7 @@ int main(int argc, char** argv) {
   options.render.blend.mode = options.run.mode;
   options.render.blend.overlay = options.run.overlay;
   options.render.blend.overlay_pod = options.run.overlay_pod;
+  options.render.blend.stylisation = options.run.stylisation;
   const auto key = key_flags.load(protocol::Role::kClient, options.client_id);
   if (!key) return 2;
   options.key = *key;

@@ -111,6 +111,13 @@ const std::vector<Setting<ClientRunSettings>>& clientRunFlags() {
           "steps through them",
           overlayNames(), [](S& s, const std::string& name) { s.overlay = *overlayFromName(name); },
           [](const S& s) { return overlayName(s.overlay); }),
+      choiceSetting<S>(
+          "--stylise",
+          "a pass over the final picture (paper 000, section 6): stipple, sketchy "
+          "stippling; the window's T key steps through them",
+          stylisationNames(),
+          [](S& s, const std::string& name) { s.stylisation = *stylisationFromName(name); },
+          [](const S& s) { return stylisationName(s.stylisation); }),
       numberSetting<S>("--overlay-pod",
                        "the pod whose seams, geodesics or visibility the overlay shows (the "
                        "window's C key steps through the pods)",

@@ -13,6 +13,7 @@
 #include "render_client/reference/texture_fields.h"
 #include "render_client/temporal_carry.h"
 #include "renderer_gpu.h"
+#include "stylise_pass.h"
 
 namespace holofuse::render {
 
@@ -201,6 +202,9 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
   }
   // Made (on first use) before recording: a failure leaves nothing half recorded.
   const VkPipeline blend_pipeline = blendPipeline(settings.mode, settings.overlay);
+  const bool stipple = settings.stylisation == Stylisation::kStipple;
+  if (stipple && !stylise_pass_)
+    stylise_pass_ = std::make_unique<StylisePass>(ctx_, width_, height_);
   // The frame in two parts: what follows the mesh, then the view.
   auto recordPerMesh = [&](VkCommandBuffer cmd) {
     if (run_fields) field_passes_pipelines_->beginTiming(cmd);
@@ -251,7 +255,9 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = {width_, height_, 1};
-    vkCmdCopyImageToBuffer(cmd, color_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+    // The picture, stylised (paper 000, section 6) when asked.
+    const gpu::Image& picture = stipple ? stylise_pass_->recordStipple(cmd, color_) : color_;
+    vkCmdCopyImageToBuffer(cmd, picture.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
                            readback_.buffer, 1, &region);
     transferWritesToHost(cmd);
   };

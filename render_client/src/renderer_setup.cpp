@@ -17,6 +17,7 @@
 #include "renderer_gpu.h"
 #include "shaders/blend_frag_spv.h"
 #include "shaders/blend_vert_spv.h"
+#include "stylise_pass.h"
 
 namespace holofuse::render {
 
@@ -185,7 +186,8 @@ Renderer::Renderer(VulkanContext& context, uint32_t width, uint32_t height)
     : ctx_(context), width_(width), height_(height) {
   createPipelines();
   color_ = ctx_.createImage(width, height, 1, VK_FORMAT_R8G8B8A8_UNORM,
-                            VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                            VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
+                                VK_IMAGE_USAGE_STORAGE_BIT,  // read by the stylisation passes
                             VK_IMAGE_ASPECT_COLOR_BIT, false);
   depth_ =
       ctx_.createImage(width, height, 1, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
@@ -244,6 +246,7 @@ Renderer::~Renderer() {
     ctx_.destroy(*b);
   }
   field_passes_pipelines_.reset();
+  stylise_pass_.reset();
   for (VkPipeline pipeline : blend_pipelines_) vkDestroyPipeline(d, pipeline, nullptr);
   vkDestroyPipelineLayout(d, blend_layout_, nullptr);
   vkDestroyRenderPass(d, blend_pass_, nullptr);
@@ -295,22 +298,13 @@ void Renderer::createPipelines() {
   HOLOFUSE_VK_CHECK(vkCreatePipelineLayout(d, &layout_info, nullptr, &blend_layout_));
   field_passes_pipelines_ = std::make_unique<TextureFieldPasses>(ctx_, blend_layout_);
 
-  std::array<VkDescriptorPoolSize, 3> sizes = {
-      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 3},
-      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, HOLOFUSE_BINDING_COUNT - 4}};
-  VkDescriptorPoolCreateInfo pool_info{};
-  pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-  pool_info.maxSets = 1;
-  pool_info.poolSizeCount = static_cast<uint32_t>(sizes.size());
-  pool_info.pPoolSizes = sizes.data();
-  HOLOFUSE_VK_CHECK(vkCreateDescriptorPool(d, &pool_info, nullptr, &descriptor_pool_));
-  VkDescriptorSetAllocateInfo alloc{};
-  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-  alloc.descriptorPool = descriptor_pool_;
-  alloc.descriptorSetCount = 1;
-  alloc.pSetLayouts = &set_layout_;
-  HOLOFUSE_VK_CHECK(vkAllocateDescriptorSets(d, &alloc, &descriptor_set_));
+  const gpu::DescriptorSet set =
+      gpu::createDescriptorSet(d, set_layout_,
+                               {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 3},
+                                {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, HOLOFUSE_BINDING_COUNT - 4}});
+  descriptor_pool_ = set.pool;
+  descriptor_set_ = set.set;
 
   VkSamplerCreateInfo sampler{};
   sampler.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;

@@ -186,6 +186,24 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   ASSERT_FALSE(seams.empty());
   EXPECT_GT(red(seams), 3 * red(from_pod) + 10) << "pod 1's seam triangles drawn in red";
 
+  // T: sketchy stippling (over the seams overlay too), the subject in grey.
+  press("t");
+  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "stylisation: stipple"); }))
+      << readFile(out / "client.log");
+  const cv::Mat stippled = screenAfterTwoPictures("screen_stipple");
+  ASSERT_FALSE(stippled.empty());
+  size_t lit = 0, grey = 0;
+  for (int y = 0; y < 120; ++y) {
+    for (int x = 0; x < 160; ++x) {
+      const cv::Vec3b p = stippled.at<cv::Vec3b>(y, x);
+      if (p[0] < 8 && p[1] < 8 && p[2] < 8) continue;
+      ++lit;
+      grey += p[0] == p[1] && p[1] == p[2];
+    }
+  }
+  EXPECT_GT(lit, covered / 4) << "the stippled subject is drawn";
+  EXPECT_GT(grey, lit * 9 / 10) << "in grey";
+
   // P again: the live panel in the top-left corner (its box, figures and
   // stage bar); the frames written never have it.
   press("p");

@@ -141,6 +141,16 @@ class VulkanContext {
 // once the submission's fence has signalled.
 void transferWritesToHost(VkCommandBuffer cmd);
 
+// A descriptor pool for one set of `layout`, holding `sizes`, and that set
+// allocated from it (the pool is the caller's to destroy, and the set
+// with it).
+struct DescriptorSet {
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+};
+DescriptorSet createDescriptorSet(VkDevice device, VkDescriptorSetLayout layout,
+                                  const std::vector<VkDescriptorPoolSize>& sizes);
+
 // One image layout transition (all layers, mip levels first_level onwards,
 // count levels) as a pipeline barrier.
 void transitionImage(VkCommandBuffer cmd, const Image& image, VkImageAspectFlags aspect,

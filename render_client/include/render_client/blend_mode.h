@@ -49,6 +49,16 @@ enum class Overlay : int {
 };
 inline constexpr size_t kOverlayCount = HOLOFUSE_OVERLAY_COUNT;
 
+// A screen-space pass over the final picture (paper 000, section 6; the
+// viewer's T key, render_client --stylise).
+enum class Stylisation : int {
+  kNone = 0,
+  kStipple = 1,  // sketchy stippling (section 6.1)
+};
+std::optional<Stylisation> stylisationFromName(const std::string& name);
+std::string stylisationName(Stylisation stylisation);
+std::vector<std::string> stylisationNames();
+
 std::optional<Overlay> overlayFromName(const std::string& name);
 std::string overlayName(Overlay overlay);
 std::vector<std::string> overlayNames();

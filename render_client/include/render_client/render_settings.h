@@ -93,6 +93,8 @@ struct BlendSettings {
   // The pod whose seams, geodesic distances or visibility the overlay
   // shows (the viewer's C key); a pod not in the arrays shows none.
   uint32_t overlay_pod = 0;
+  // A screen-space pass over the final picture (Stylisation above).
+  Stylisation stylisation = Stylisation::kNone;
 };
 
 // The client's rendering settings, which eval and the launcher embed.
@@ -129,6 +131,7 @@ struct ClientRunSettings {
   bool window = false;               // the pictures shown in a window too (viewer_window.h)
   Overlay overlay = Overlay::kNone;  // BlendSettings::overlay at the start (the window's F key)
   uint32_t overlay_pod = 0;          // BlendSettings::overlay_pod at the start (C)
+  Stylisation stylisation = Stylisation::kNone;  // BlendSettings::stylisation at the start (T)
 };
 
 const std::vector<Setting<ClientRunSettings>>& clientRunFlags();

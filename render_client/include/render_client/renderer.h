@@ -96,6 +96,8 @@ Status checkViews(const std::vector<ViewImages>& views);
 // geodesic rings and its vertex limit).
 Status checkRenderable(size_t mesh_vertices, const BlendSettings& settings);
 
+class StylisePass;  // stylise_pass.h
+
 class Renderer {
  public:
   Renderer(VulkanContext& context, uint32_t width, uint32_t height);
@@ -254,6 +256,8 @@ class Renderer {
       triangle_views_;
   uint32_t triangle_count_ = 0;
   std::unique_ptr<TextureFieldPasses> field_passes_pipelines_;
+  // The stylisation passes over the picture, made when first asked for.
+  std::unique_ptr<StylisePass> stylise_pass_;
   // Mode layered: the corners' atlas coordinates (binding CORNER_UVS), the
   // layers (an RGBA array image, binding LAYERS) and their cameras'
   // centres (binding LAYER_CAMERAS).

@@ -8,7 +8,8 @@
 // orbit, 1 to 9 a pod's camera, M the next blending mode, F the next
 // overlay (the cameras' weights as colours, a pod's seams, its geodesic
 // distances, its visibility, none), C the overlay's next pod, P the live
-// panel (fps, end to end, link, the latest frame's stages), S a
+// panel (fps, end to end, link, the latest frame's stages), T the next
+// stylisation (sketchy stippling, none), S a
 // screenshot (of what the window shows); the left button dragged turns
 // the orbit, the right one moves it, the wheel zooms.
 #pragma once
@@ -55,6 +56,7 @@ class ViewerWindow {
     int overlay_steps = 0;      // F pressed this many times: the next overlay
     int overlay_pod_steps = 0;  // C pressed this many times: the overlay's next pod
     int panel_toggles = 0;      // P pressed this many times: the live panel shown or hidden
+    int stylisation_steps = 0;  // T pressed this many times: the next stylisation
     OrbitHold orbit;            // the mouse's hold (kept from call to call)
   };
   Controls takeControls();
