@@ -362,6 +362,28 @@ vec3 overlaid(vec3 colour) {
   return colour;
 }
 
+// Relighting (Du et al. 2019, section 6.2): eq. 6, the normal in view
+// space; eq. 7, the probe's light along it (its spherical harmonics,
+// bands 0 to 2, Green 2003's constants, clamped); eq. 8 per channel,
+// t + |1 - 2 l| (t^(1.5 - l) - t): lighter under a bright light, darker
+// under a dark one, unchanged at 50%. CPU reference:
+// render::probeLight and render::relightChannel.
+vec3 relit(vec3 t, vec3 n) {
+  vec3 d = mat3(blend.world_to_view) * n;
+  float len = length(d);
+  d = len > 1e-12 ? d / len : vec3(0.0);
+  float basis[9] = float[9](0.282095, 0.488603 * d.y, 0.488603 * d.z, 0.488603 * d.x,
+                            1.092548 * d.x * d.y, 1.092548 * d.y * d.z,
+                            0.315392 * (3.0 * d.z * d.z - 1.0), 1.092548 * d.x * d.z,
+                            0.546274 * (d.x * d.x - d.y * d.y));
+  vec3 l = vec3(0.0);
+  for (int k = 0; k < 9; ++k) l += basis[k] * blend.light_probe[k].rgb;
+  l = clamp(l, 0.0, 1.0);
+  vec3 lifted = vec3(t.r > 0.0 ? pow(t.r, 1.5 - l.r) : 0.0, t.g > 0.0 ? pow(t.g, 1.5 - l.g) : 0.0,
+                     t.b > 0.0 ? pow(t.b, 1.5 - l.b) : 0.0);
+  return clamp(t + abs(1.0 - 2.0 * l) * (lifted - t), 0.0, 1.0);
+}
+
 void main() {
   float len = length(in_normal);
   vec3 n = len > 1e-12 ? in_normal / len : vec3(0.0);
@@ -371,6 +393,7 @@ void main() {
   if (kBlendMode == HOLOFUSE_MODE_LAYERED) {
     color = blendLayers(n, total);
     out_color = total > 0.0 ? color : vec4(blend.hole_color.rgb, 1.0);
+    if (blend.relight.x > 0.5 && total > 0.0) out_color.rgb = relit(out_color.rgb, n);
     return;
   }
   bool candidates = blend.views.z != 0;  // more cameras than K
@@ -388,5 +411,6 @@ void main() {
     color = blendNormal(n, candidates, total);
   }
   out_color = total > 1e-8 ? color : vec4(blend.hole_color.rgb, 1.0);
+  if (blend.relight.x > 0.5 && total > 1e-8) out_color.rgb = relit(out_color.rgb, n);
   if (kOverlay >= HOLOFUSE_OVERLAY_SEAMS) out_color.rgb = overlaid(out_color.rgb);
 }

@@ -34,6 +34,9 @@ layout(set = 0, binding = HOLOFUSE_BINDING_BLEND) uniform Blend {
   // vertex's candidates, w: entries per triangle of its merged best views
   // (HOLOFUSE_BINDING_TRIANGLE_VIEWS): min(3 x, camera count)
   ivec4 views;
+  vec4 relight;         // x: 1 to relight the fragment (blend.frag.glsl, paper 000 eqs. 6 to 8)
+  mat4 world_to_view;   // the user camera's rotation into view space (x right, y up, z back)
+  vec4 light_probe[9];  // spherical harmonics of the probe, bands 0 to 2, rgb
 } blend;
 
 uint cameraWords() { return uint(blend.views.y); }

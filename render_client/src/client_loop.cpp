@@ -97,6 +97,7 @@ class ClientLoop {
     overlay_ = options.render.blend.overlay;
     overlay_pod_ = options.render.blend.overlay_pod;
     stylisation_ = options.render.blend.stylisation;
+    relight_ = options.render.blend.relight;
     // The judge reads each picture as soon as it is written: judged, the
     // pictures are written on the render path.
     if (options_.write_frames && !judge_) writer_.emplace();
@@ -137,6 +138,16 @@ class ClientLoop {
       stylisation_ = static_cast<Stylisation>(next % stylisationNames().size());
       std::fprintf(stderr, "%s[client] stylisation: %s\n", tty_ ? "\n" : "",
                    stylisationName(stylisation_).c_str());
+    }
+    if (c.relight_toggles % 2 == 1) {
+      if (options_.run.light_probe.empty()) {
+        std::fprintf(stderr, "%s[client] no light probe to relight by (--light-probe FILE)\n",
+                     tty_ ? "\n" : "");
+      } else {
+        relight_ = !relight_;
+        std::fprintf(stderr, "%s[client] relighting %s\n", tty_ ? "\n" : "",
+                     relight_ ? "on" : "off");
+      }
     }
     if (c.panel_toggles % 2 == 1) {
       panel_ = !panel_;
@@ -470,6 +481,7 @@ class ClientLoop {
     blend.overlay = overlay_;
     blend.overlay_pod = overlay_pod_;
     blend.stylisation = stylisation_;
+    blend.relight = relight_;
     const uint64_t now_ns = monotonicNs();
     blend.frame_interval_s =
         last_render_ns_ == 0
@@ -642,6 +654,7 @@ class ClientLoop {
   Overlay overlay_ = Overlay::kNone;
   uint32_t overlay_pod_ = 0;
   Stylisation stylisation_ = Stylisation::kNone;
+  bool relight_ = false;
   bool panel_ = true;  // the window's live panel (P)
   static constexpr size_t kPanelFrames = 30;
   // A new mode fades in over kFadeNs from the last picture shown before it

@@ -27,6 +27,21 @@ glm::vec3 equirectangularDirection(uint32_t x, uint32_t y, uint32_t width, uint3
                    static_cast<float>(-std::sin(theta) * std::cos(phi)));
 }
 
+ImageValues equirectangularMap(uint32_t width, uint32_t height,
+                               const std::function<glm::vec3(const glm::vec3&)>& colour) {
+  ImageValues map;
+  map.width = width;
+  map.height = height;
+  map.channels = 3;
+  for (uint32_t y = 0; y < height; ++y) {
+    for (uint32_t x = 0; x < width; ++x) {
+      const glm::vec3 c = colour(equirectangularDirection(x, y, width, height));
+      map.values.insert(map.values.end(), {c.r, c.g, c.b});
+    }
+  }
+  return map;
+}
+
 LightProbe projectEquirectangular(const ImageValues& map) {
   LightProbe probe;
   if (map.width == 0 || map.height == 0 || map.channels == 0) return probe;

@@ -6,6 +6,7 @@
 #include "base/shutdown.h"
 #include "config/command_line.h"
 #include "render_client/client.h"
+#include "render_client/light_probe.h"
 
 int main(int argc, char** argv) {
   using namespace holofuse;
@@ -65,6 +66,15 @@ int main(int argc, char** argv) {
   options.render.blend.overlay = options.run.overlay;
   options.render.blend.overlay_pod = options.run.overlay_pod;
   options.render.blend.stylisation = options.run.stylisation;
+  if (!options.run.light_probe.empty()) {
+    auto probe = render::loadLightProbe(options.run.light_probe);
+    if (!probe.isOk()) {
+      std::fprintf(stderr, "--light-probe: %s\n", probe.status().message().c_str());
+      return 2;
+    }
+    options.render.blend.relight = true;
+    options.render.blend.light_probe = probe->coefficients;
+  }
   const auto key = key_flags.load(protocol::Role::kClient, options.client_id);
   if (!key) return 2;
   options.key = *key;

@@ -118,6 +118,11 @@ const std::vector<Setting<ClientRunSettings>>& clientRunFlags() {
           stylisationNames(),
           [](S& s, const std::string& name) { s.stylisation = *stylisationFromName(name); },
           [](const S& s) { return stylisationName(s.stylisation); }),
+      textSetting<S>("--light-probe",
+                     "relight by this equirectangular environment map (EXR, HDR, PNG; paper 000, "
+                     "section 6.2): lighter where its light is above 50% grey, darker below; the "
+                     "window's L key turns it off and on",
+                     [](S& s) -> std::string& { return s.light_probe; }),
       numberSetting<S>("--overlay-pod",
                        "the pod whose seams, geodesics or visibility the overlay shows (the "
                        "window's C key steps through the pods)",

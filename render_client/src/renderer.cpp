@@ -135,6 +135,15 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
       glm::vec4(settings.fields.relative_depth_tolerance, static_cast<float>(fragmentDepthSlack()),
                 std::max(settings.feather_width_px, 0.0f), settings.fragment_test ? 1.0f : 0.0f);
   u.view_weight = glm::vec4(std::max(settings.beta, 0.0f), -1.0f, 0.0f, 0.0f);
+  if (settings.relight) {
+    // Eq. 6: the normal into view space; the camera's own axes (x right,
+    // y down, z forward) turned to the probe's (y up, z towards the eye).
+    const glm::mat3 flip(1, 0, 0, 0, -1, 0, 0, 0, -1);
+    u.relight = glm::vec4(1, 0, 0, 0);
+    u.world_to_view = glm::mat4(flip * glm::mat3(user_camera.rotation));
+    for (size_t k = 0; k < settings.light_probe.size(); ++k)
+      u.light_probe[k] = glm::vec4(settings.light_probe[k], 0.0f);
+  }
   const int best_views = std::clamp(settings.fields.best_views, 1, HOLOFUSE_MAX_BEST_VIEWS);
   // Modes normal and fragment weigh each pod per fragment: past K cameras,
   // each vertex's K candidates (recordCandidates), so that a fragment's

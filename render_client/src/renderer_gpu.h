@@ -37,13 +37,18 @@ struct BlendUniforms {
   // per-fragment blends weigh candidates, w: entries per triangle of the
   // merged best views (triangleViewSlots)
   glm::ivec4 views;
+  glm::vec4 relight;         // x: 1 to relight (eqs. 6 to 8)
+  glm::mat4 world_to_view;   // the user camera's rotation, to view space (x right, y up)
+  glm::vec4 light_probe[9];  // the probe's coefficients, rgb
 };
 static_assert(sizeof(CameraGpu) == 112);
 static_assert(HOLOFUSE_MAX_CAMERAS == protocol::kMaxCameras, "one camera limit for the loop");
 static_assert(offsetof(BlendUniforms, params) == 16);
 static_assert(offsetof(BlendUniforms, fragment_test) == 80);
 static_assert(offsetof(BlendUniforms, views) == 112);
-static_assert(sizeof(BlendUniforms) == 128);
+static_assert(offsetof(BlendUniforms, relight) == 128);
+static_assert(offsetof(BlendUniforms, world_to_view) == 144);
+static_assert(sizeof(BlendUniforms) == 352);
 
 // Words of a per-camera bit set (config.h): 32 cameras a word.
 inline uint32_t cameraWords(size_t cameras) {

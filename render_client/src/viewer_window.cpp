@@ -55,6 +55,7 @@ struct WindowCallbacks {
     if (key == GLFW_KEY_C) ++c.overlay_pod_steps;
     if (key == GLFW_KEY_P) ++c.panel_toggles;
     if (key == GLFW_KEY_T) ++c.stylisation_steps;
+    if (key == GLFW_KEY_L) ++c.relight_toggles;
   }
   static void cursor(GLFWwindow* window, double x, double y) {
     ViewerWindow& viewer = of(window);
@@ -285,6 +286,7 @@ ViewerWindow::Controls ViewerWindow::takeControls() {
   controls_.overlay_pod_steps = 0;
   controls_.panel_toggles = 0;
   controls_.stylisation_steps = 0;
+  controls_.relight_toggles = 0;
   return taken;
 }
 

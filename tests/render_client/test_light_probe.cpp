@@ -17,17 +17,7 @@ namespace fs = std::filesystem;
 // An equirectangular map of 64x32, each pixel's colour from its direction.
 template <typename Colour>
 ImageValues mapOf(Colour colour) {
-  ImageValues map;
-  map.width = 64;
-  map.height = 32;
-  map.channels = 3;
-  for (uint32_t y = 0; y < map.height; ++y) {
-    for (uint32_t x = 0; x < map.width; ++x) {
-      const glm::vec3 c = colour(equirectangularDirection(x, y, map.width, map.height));
-      map.values.insert(map.values.end(), {c.r, c.g, c.b});
-    }
-  }
-  return map;
+  return equirectangularMap(64, 32, colour);
 }
 
 TEST(LightProbe, AGreyMapLightsEveryDirectionAlike) {

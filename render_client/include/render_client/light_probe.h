@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <glm/glm.hpp>
 #include <string>
 #include <vector>
@@ -28,6 +29,11 @@ std::array<float, 9> shBasis(const glm::vec3& d);
 // width x height) looks along: row 0 up (+y), the middle row the horizon;
 // column 0 towards -z, the columns going round through +x.
 glm::vec3 equirectangularDirection(uint32_t x, uint32_t y, uint32_t width, uint32_t height);
+
+// A width x height equirectangular map (RGB) of colour(direction) at each
+// pixel's centre: a synthetic probe (a sky, a single colour).
+ImageValues equirectangularMap(uint32_t width, uint32_t height,
+                               const std::function<glm::vec3(const glm::vec3&)>& colour);
 
 // An equirectangular map's colour (display values in [0, 1], RGB or RGBA;
 // grey taken as all three) projected onto the nine functions, each pixel

@@ -4,6 +4,7 @@
 // linking the renderer.
 #pragma once
 
+#include <array>
 #include <glm/glm.hpp>
 #include <string>
 #include <vector>
@@ -95,6 +96,12 @@ struct BlendSettings {
   uint32_t overlay_pod = 0;
   // A screen-space pass over the final picture (Stylisation above).
   Stylisation stylisation = Stylisation::kNone;
+  // Relighting (paper 000, section 6.2): each fragment's colour blended
+  // with a light probe's light along its view-space normal (eqs. 6 to 8);
+  // the probe's spherical harmonics, bands 0 to 2, red, green, blue
+  // (render_client/light_probe.h's LightProbe::coefficients).
+  bool relight = false;
+  std::array<glm::vec3, 9> light_probe{};
 };
 
 // The client's rendering settings, which eval and the launcher embed.
@@ -132,6 +139,9 @@ struct ClientRunSettings {
   Overlay overlay = Overlay::kNone;  // BlendSettings::overlay at the start (the window's F key)
   uint32_t overlay_pod = 0;          // BlendSettings::overlay_pod at the start (C)
   Stylisation stylisation = Stylisation::kNone;  // BlendSettings::stylisation at the start (T)
+  // An equirectangular environment map to relight by (BlendSettings::
+  // relight; the window's L key turns it off and on); "": none.
+  std::string light_probe;
 };
 
 const std::vector<Setting<ClientRunSettings>>& clientRunFlags();

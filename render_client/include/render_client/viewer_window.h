@@ -9,7 +9,8 @@
 // overlay (the cameras' weights as colours, a pod's seams, its geodesic
 // distances, its visibility, none), C the overlay's next pod, P the live
 // panel (fps, end to end, link, the latest frame's stages), T the next
-// stylisation (sketchy stippling, none), S a
+// stylisation (sketchy stippling, none), L relighting (with a light
+// probe), S a
 // screenshot (of what the window shows); the left button dragged turns
 // the orbit, the right one moves it, the wheel zooms.
 #pragma once
@@ -57,6 +58,7 @@ class ViewerWindow {
     int overlay_pod_steps = 0;  // C pressed this many times: the overlay's next pod
     int panel_toggles = 0;      // P pressed this many times: the live panel shown or hidden
     int stylisation_steps = 0;  // T pressed this many times: the next stylisation
+    int relight_toggles = 0;    // L pressed this many times: relighting off or on
     OrbitHold orbit;            // the mouse's hold (kept from call to call)
   };
   Controls takeControls();
