@@ -331,13 +331,25 @@ void VulkanContext::waitForSubmitted() {
   in_flight_.clear();
 }
 
-void transferWritesToHost(VkCommandBuffer cmd) {
+namespace {
+
+void writesToHost(VkCommandBuffer cmd, VkAccessFlags access, VkPipelineStageFlags stage) {
   VkMemoryBarrier to_host{};
   to_host.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-  to_host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+  to_host.srcAccessMask = access;
   to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
-                       &to_host, 0, nullptr, 0, nullptr);
+  vkCmdPipelineBarrier(cmd, stage, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &to_host, 0, nullptr, 0,
+                       nullptr);
+}
+
+}  // namespace
+
+void transferWritesToHost(VkCommandBuffer cmd) {
+  writesToHost(cmd, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+}
+
+void shaderWritesToHost(VkCommandBuffer cmd) {
+  writesToHost(cmd, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 }
 
 DescriptorSet createDescriptorSet(VkDevice device, VkDescriptorSetLayout layout,

@@ -204,12 +204,7 @@ void VulkanHullGrid::marchAgain() {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, passes_->march);
     vkCmdPushConstants(cmd, passes_->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
     vkCmdDispatchIndirect(cmd, passes_->buffers[4].buffer, VkDeviceSize{16} * push.list_in[0]);
-    VkMemoryBarrier to_host{};
-    to_host.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-    to_host.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-    to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0,
-                         1, &to_host, 0, nullptr, 0, nullptr);
+    gpu::shaderWritesToHost(cmd);
   });
 }
 
@@ -449,12 +444,7 @@ bool VulkanHullGrid::carve(const HullGridInput& input, HullStats& stats, bool su
       run(passes_->march);
       vkCmdDispatchIndirect(cmd, count_buffer, VkDeviceSize{16} * voxel_list);
     }
-    VkMemoryBarrier to_host{};
-    to_host.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-    to_host.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-    to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0,
-                         1, &to_host, 0, nullptr, 0, nullptr);
+    gpu::shaderWritesToHost(cmd);
   });
   for (uint32_t k = 0; k < voxel_list; ++k) stats.cells_classified += counts[4 * k + 3];
   stats.points_sampled += levels > 0 ? counts[4 * sampled_list + 3] : points;

@@ -140,6 +140,8 @@ class VulkanContext {
 // Transfer writes (a copy into a mapped buffer) made visible to the host
 // once the submission's fence has signalled.
 void transferWritesToHost(VkCommandBuffer cmd);
+// Compute shaders' writes (to a mapped buffer), likewise.
+void shaderWritesToHost(VkCommandBuffer cmd);
 
 // A descriptor pool for one set of `layout`, holding `sizes`, and that set
 // allocated from it (the pool is the caller's to destroy, and the set
