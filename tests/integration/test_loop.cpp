@@ -201,18 +201,19 @@ TEST(Loop, ThirtyTwoPodsAreAllFusedAndBlended) {
 // by 32 ms).
 //
 // Fused on two threads, the busy run also carves a frame while it fuses
-// the one before; on one thread that can never happen. The client asks
-// four frames ahead: it renders a 10 mm hull of two views more slowly than
-// the server fuses it, and two ahead kept the server one frame in flight
-// (measured: 0 of 15 pairs overlapped; 2 to 3 at four ahead, the first
-// ones among them).
+// the one before; on one thread that can never happen. The client takes
+// every frame the server fuses (--frames-ahead 0), so both threads stay
+// busy as long as the pods send faster than a hull is carved: a client
+// that paces the server kept it mostly one frame in flight (measured
+// under load, four ahead: 0 to 4 of 15 pairs overlapped; none ahead: 2 to
+// 6, 2 with four busy loops on the two cores).
 TEST(Loop, TheReportShowsTheServerDecodingTheNextFrameWhileItFusesThisOne) {
   const fs::path out = freshDir("loop_pipeline");
   auto run = [&](const std::string& name, const std::string& fps, const std::string& voxel,
                  const std::string& frames, const std::string& threads) {
     const pid_t loop = spawn({kBin + "/holofuse_loop", "--pods", "2", "--frames", frames, "--fps",
                               fps, "--size", "96x72", "--voxel", voxel, "--fusion-threads", threads,
-                              "--frames-ahead", "4", "--out", (out / name).string()},
+                              "--frames-ahead", "0", "--out", (out / name).string()},
                              out / (name + ".log"));
     EXPECT_EQ(waitExit(loop, 240), 0) << readFile(out / (name + ".log"));
     return readJson(out / name / "report.json")["server_pipeline"];
