@@ -1,5 +1,11 @@
 #include "gpu/vulkan_context.h"
 
+#include <errno.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
 #include <cstring>
 
 namespace holofuse::gpu {
@@ -12,21 +18,116 @@ void vkFail(const char* call, VkResult result, const char* file, int line) {
 
 namespace {
 
+// kMessageLogVariable's file, or "" when it is not set.
+std::string messageLogPath() {
+  const char* path = std::getenv(kMessageLogVariable);
+  return path ? path : "";
+}
+
+// This executable's file name (not the name it was started by, which may
+// be /proc/self/exe).
+const std::string& programName() {
+  static const std::string name = [] {
+    char path[4096];
+    const ssize_t n = readlink("/proc/self/exe", path, sizeof(path) - 1);
+    if (n <= 0) return std::string(program_invocation_short_name);
+    const std::string full(path, static_cast<size_t>(n));
+    return full.substr(full.rfind('/') + 1);
+  }();
+  return name;
+}
+
+// One line per message, written with one append: lines from processes
+// writing at once do not interleave (O_APPEND, one write each).
+VKAPI_ATTR VkBool32 VKAPI_CALL appendMessage(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                             VkDebugUtilsMessageTypeFlagsEXT,
+                                             const VkDebugUtilsMessengerCallbackDataEXT* data,
+                                             void* path) {
+  std::string text = std::string(data->pMessageIdName ? data->pMessageIdName : "-") + ": " +
+                     (data->pMessage ? data->pMessage : "");
+  std::replace(text.begin(), text.end(), '\n', ' ');
+  const std::string line =
+      std::string("Vulkan ") +
+      (severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT ? "error" : "warning") + " in " +
+      programName() + " (pid " + std::to_string(getpid()) + "): " + text + "\n";
+  const int fd =
+      open(static_cast<const char*>(path), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
+  if (fd >= 0) {
+    [[maybe_unused]] const ssize_t written = write(fd, line.data(), line.size());
+    close(fd);
+  }
+  return VK_FALSE;
+}
+
+VkDebugUtilsMessengerCreateInfoEXT messengerInfo(const std::string& path) {
+  VkDebugUtilsMessengerCreateInfoEXT info{};
+  info.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
+  info.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
+                         VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  // Not the general ones: the loader says there which layers it added.
+  info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                     VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+  info.pfnUserCallback = appendMessage;
+  info.pUserData = const_cast<char*>(path.c_str());
+  return info;
+}
+
+// The message log's path, checked writable: a log that cannot be written
+// would pass every message silently.
+const std::string& checkedMessageLog() {
+  static const std::string path = [] {
+    std::string p = messageLogPath();
+    if (p.empty()) return p;
+    const int fd = open(p.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0)
+      throw std::runtime_error(std::string(kMessageLogVariable) + "=" + p +
+                               ": cannot append to it (" + std::strerror(errno) + ")");
+    close(fd);
+    return p;
+  }();
+  return path;
+}
+
 VkInstance createInstance(const std::vector<std::string>& extensions = {}) {
   std::vector<const char*> names;
   for (const std::string& e : extensions) names.push_back(e.c_str());
+  const std::string& log = checkedMessageLog();
+  // The chained messenger also hears instance creation and destruction.
+  VkDebugUtilsMessengerCreateInfoEXT messenger = messengerInfo(log);
+  if (!log.empty()) names.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
   VkApplicationInfo app{};
   app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
   app.pApplicationName = "holofuse";
   app.apiVersion = VK_API_VERSION_1_2;
   VkInstanceCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+  info.pNext = log.empty() ? nullptr : &messenger;
   info.pApplicationInfo = &app;
   info.enabledExtensionCount = static_cast<uint32_t>(names.size());
   info.ppEnabledExtensionNames = names.data();
   VkInstance instance = VK_NULL_HANDLE;
   HOLOFUSE_VK_CHECK(vkCreateInstance(&info, nullptr, &instance));
   return instance;
+}
+
+VkDebugUtilsMessengerEXT createMessenger(VkInstance instance) {
+  const std::string& log = checkedMessageLog();
+  if (log.empty()) return VK_NULL_HANDLE;
+  auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+      vkGetInstanceProcAddr(instance, "vkCreateDebugUtilsMessengerEXT"));
+  const VkDebugUtilsMessengerCreateInfoEXT info = messengerInfo(log);
+  VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
+  HOLOFUSE_VK_CHECK(create(instance, &info, nullptr, &messenger));
+  return messenger;
+}
+
+void destroyInstance(VkInstance instance, VkDebugUtilsMessengerEXT messenger) {
+  if (messenger != VK_NULL_HANDLE) {
+    auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
+        vkGetInstanceProcAddr(instance, "vkDestroyDebugUtilsMessengerEXT"));
+    destroy(instance, messenger, nullptr);
+  }
+  vkDestroyInstance(instance, nullptr);
 }
 
 std::vector<VkPhysicalDevice> physicalDevices(VkInstance instance) {
@@ -69,6 +170,7 @@ std::vector<DeviceInfo> VulkanContext::listDevices() {
 VulkanContext::VulkanContext(const ContextOptions& options) {
   const std::string& selector = options.device_selector;
   instance_ = createInstance(options.instance_extensions);
+  messenger_ = createMessenger(instance_);
   const auto devices = physicalDevices(instance_);
   if (devices.empty())
     throw std::runtime_error("no Vulkan device (install mesa-vulkan-drivers for lavapipe)");
@@ -95,7 +197,7 @@ VulkanContext::VulkanContext(const ContextOptions& options) {
       vkGetPhysicalDeviceProperties(devices[i], &props);
       names += "\n  " + std::to_string(i) + ": " + props.deviceName;
     }
-    vkDestroyInstance(instance_, nullptr);
+    destroyInstance(instance_, messenger_);
     throw std::runtime_error("no Vulkan device matches '" + selector + "'; devices:" + names);
   }
   physical_ = devices[best];
@@ -156,7 +258,7 @@ VulkanContext::~VulkanContext() {
     vkDestroyCommandPool(device_, pool_, nullptr);
     vkDestroyDevice(device_, nullptr);
   }
-  if (instance_ != VK_NULL_HANDLE) vkDestroyInstance(instance_, nullptr);
+  if (instance_ != VK_NULL_HANDLE) destroyInstance(instance_, messenger_);
 }
 
 uint32_t VulkanContext::memoryType(uint32_t bits, VkMemoryPropertyFlags flags) const {
@@ -239,7 +341,15 @@ Image VulkanContext::createImage(uint32_t width, uint32_t height, uint32_t layer
     HOLOFUSE_VK_CHECK(vkCreateImageView(device_, &v, nullptr, &view));
     return view;
   };
-  img.view = makeView(array_view ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D, 0, layers);
+  // An image only copied to and from (the viewer's picture) has no view:
+  // a view needs a usage that reads or writes through one.
+  const VkImageUsageFlags viewed = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_STORAGE_BIT |
+                                   VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
+                                   VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT |
+                                   VK_IMAGE_USAGE_INPUT_ATTACHMENT_BIT;
+  if (usage & viewed)
+    img.view =
+        makeView(array_view ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D, 0, layers);
   return img;
 }
 

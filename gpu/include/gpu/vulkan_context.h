@@ -33,7 +33,8 @@ struct Buffer {
 struct Image {
   VkImage image = VK_NULL_HANDLE;
   VkDeviceMemory memory = VK_NULL_HANDLE;
-  VkImageView view = VK_NULL_HANDLE;  // all layers and levels (2D_ARRAY when asked for, else 2D)
+  VkImageView view = VK_NULL_HANDLE;  // all layers and levels (2D_ARRAY when asked for, else 2D);
+                                      // none for an image only copied to and from
   VkFormat format = VK_FORMAT_UNDEFINED;
   uint32_t width = 0, height = 0, layers = 0, mip_levels = 1;
 };
@@ -42,6 +43,12 @@ struct DeviceInfo {
   std::string name;
   VkPhysicalDeviceType type = VK_PHYSICAL_DEVICE_TYPE_OTHER;
 };
+
+// Set to a file, every process's Vulkan context appends each error and
+// warning a layer reports (the Khronos validation layer) to it, one line
+// each: `./holofuse validate` reads it, so the programs the tests start
+// (the launcher's server, pods and client) are judged as well as the tests.
+inline constexpr const char* kMessageLogVariable = "HOLOFUSE_VULKAN_MESSAGE_LOG";
 
 struct ContextOptions {
   // Empty picks a discrete, then integrated GPU, then a CPU device
@@ -135,6 +142,8 @@ class VulkanContext {
   std::vector<VkFence> spare_fences_;
   std::string device_name_;
   bool cpu_device_ = false;
+  // The layers' messages to kMessageLogVariable's file, when it is set.
+  VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
 };
 
 // Transfer writes (a copy into a mapped buffer) made visible to the host
