@@ -318,25 +318,13 @@ Status FusionServer::admit(Peer& peer, const protocol::Hello& hello, protocol::H
   peer.id = hello.id;
   peer.caps = capabilitiesOf(ack.minor, hello.role, hello.capabilities);
   peer.clock = protocol::ClockSync(options_.clock);
-  const bool asked_layers = peer.caps.layers;
-  // The layers are laid out on the mesh as the configured codec gives it;
-  // a client that decodes only Draco gets Draco's, whose positions differ.
-  const bool layers_fit =
-      peer.caps.any_mesh_codec || options_.fusion.mesh_codec == protocol::MeshCodec::kDraco;
-  peer.wants_layers = asked_layers && layers_fit;
-  peer.wants_layer_video = peer.wants_layers && peer.caps.layer_video &&
-                           isVideoCodec(options_.fusion.layers.video.codec);
+  setLayersTaken(peer, hello.capabilities);
   peer.connection->setPeerName((hello.role == protocol::Role::kPod ? "pod " : "client ") +
                                std::to_string(hello.id) + " (" + peer.connection->peerName() + ")");
   peer.connection->sendMessage(ack);
   std::fprintf(stderr, "[server] %s joined, protocol %u.%u%s%s\n",
                peer.connection->peerName().c_str(), ack.major, ack.minor,
-               options_.keys ? ", authenticated" : "",
-               peer.wants_layer_video ? ", texture layers as video"
-               : peer.wants_layers    ? ", texture layers"
-               : asked_layers ? ", no texture layers (they are laid out on meshes it does not "
-                                "decode: --mesh-codec is not draco and it speaks 1.6 or older)"
-                              : "");
+               options_.keys ? ", authenticated" : "", layersTakenNote(peer).c_str());
   if (peer.role == protocol::Role::kClient) pipeline_.welcomeClient(peer);
   return Status::ok();
 }
@@ -390,7 +378,43 @@ Status FusionServer::handleFrameRequest(Peer& peer, const Frame& frame) {
   // Only a client that said it would ask (Hello, since 1.9) is paced; any
   // other is sent every frame (SPEC.md section 6) and its request ignored.
   if (peer.caps.asks_for_frames) peer.frames_through = request.frames_through;
+  if (peer.caps.changes_layers && request.layer_capabilities) {
+    const bool layers = peer.wants_layers, video = peer.wants_layer_video;
+    const bool asked = peer.caps.layers;
+    setLayersTaken(peer, *request.layer_capabilities);
+    if (peer.wants_layers != layers || peer.wants_layer_video != video ||
+        peer.caps.layers != asked) {
+      // Its stream starts again at a key frame (asked for as the next
+      // group is submitted).
+      peer.layer_video_in_step = false;
+      const std::string note = layersTakenNote(peer);
+      std::fprintf(stderr, "[server] %s takes from the next frame: %s\n",
+                   peer.connection->peerName().c_str(),
+                   note.empty() ? "camera images" : note.c_str() + 2);
+    }
+  }
   return Status::ok();
+}
+
+void FusionServer::setLayersTaken(Peer& peer, uint64_t capability_bits) {
+  const PeerCapabilities asked = capabilitiesOf(peer.caps.minor, peer.role, capability_bits);
+  peer.caps.layers = asked.layers;
+  peer.caps.layer_video = asked.layer_video;
+  // The layers are laid out on the mesh as the configured codec gives it;
+  // a client that decodes only Draco gets Draco's, whose positions differ.
+  const bool layers_fit =
+      peer.caps.any_mesh_codec || options_.fusion.mesh_codec == protocol::MeshCodec::kDraco;
+  peer.wants_layers = peer.caps.layers && layers_fit;
+  peer.wants_layer_video = peer.wants_layers && peer.caps.layer_video &&
+                           isVideoCodec(options_.fusion.layers.video.codec);
+}
+
+std::string FusionServer::layersTakenNote(const Peer& peer) {
+  return peer.wants_layer_video ? ", texture layers as video"
+         : peer.wants_layers    ? ", texture layers"
+         : peer.caps.layers     ? ", no texture layers (they are laid out on meshes it does not "
+                                  "decode: --mesh-codec is not draco and it speaks 1.6 or older)"
+                                : "";
 }
 
 void FusionServer::measureRigPixels() {

@@ -535,11 +535,17 @@ Status readPayload(std::span<const uint8_t> payload, ClockProbe& m, size_t base_
   return finish(r);
 }
 
-void writePayload(WireWriter& w, const FrameRequest& m) { w.u64(m.frames_through); }
+void writePayload(WireWriter& w, const FrameRequest& m, uint8_t minor) {
+  w.u64(m.frames_through);
+  if (minor >= 10) w.u64(m.layer_capabilities.value_or(0));
+}
 
-Status readPayload(std::span<const uint8_t> payload, FrameRequest& m, size_t base_offset) {
+Status readPayload(std::span<const uint8_t> payload, FrameRequest& m, size_t base_offset,
+                   uint8_t minor) {
   WireReader r(payload, base_offset);
   m.frames_through = r.u64("frame_request.frames_through");
+  m.layer_capabilities.reset();
+  if (minor >= 10) m.layer_capabilities = r.u64("frame_request.layer_capabilities");
   return finish(r);
 }
 

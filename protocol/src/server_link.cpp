@@ -26,6 +26,13 @@ bool ServerLink::takeConnectedEvent() {
   return event;
 }
 
+bool ServerLink::takeLayers(uint64_t capability_bits) {
+  hello_.capabilities = (hello_.capabilities & ~kLayerBits) | (capability_bits & kLayerBits);
+  if (!changesLayers()) return false;
+  askForFrames();
+  return true;
+}
+
 void ServerLink::tryConnect() {
   auto socket = connectTcp(server_, options_.connect_timeout_ms);
   const uint64_t now = monotonicNs();
@@ -47,6 +54,7 @@ void ServerLink::tryConnect() {
   server_proved_ = false;
   hello_.nonce = randomNonce();  // fresh per connection: an old proof is worth nothing
   hello_.send_time_ns = now;
+  hello_layers_ = layersTaken();
   connection_->sendMessage(hello_);
 }
 
@@ -112,7 +120,8 @@ void ServerLink::handle(Frame frame, std::vector<Frame>& received) {
     acked_ = true;
     agreed_minor_ = ack.minor;
     meshes_ = 0;
-    if (asksForFrames()) askForFrames();
+    // A change of layers while the handshake ran is told at once.
+    if (asksForFrames() || (changesLayers() && layersTaken() != hello_layers_)) askForFrames();
     clock_ = ClockSync(options_.clock);  // a new connection may reach another host
     connected_event_ = true;
     server_said_bye_ = false;

@@ -108,9 +108,11 @@ class ClientLoop {
   void setWindow(ViewerWindow* window) { window_ = window; }
 
   // What the window's user asked for: a view, a mode, a screenshot, a
-  // hold on the orbit. Mode layered stays layered: its frames carry
-  // layers, not the camera images the other modes blend.
-  void takeWindowControls() {
+  // hold on the orbit. Mode layered is in the cycle where the server
+  // changes what it sends while the client runs (protocol 1.10:
+  // `layers_switchable`); with an older one, a client started layered
+  // stays layered, and the others leave it out.
+  void takeWindowControls(bool layers_switchable) {
     if (window_ == nullptr) return;
     const ViewerWindow::Controls c = window_->takeControls();
     if (c.view_key >= 0) {
@@ -122,11 +124,15 @@ class ClientLoop {
       }
     }
     static const BlendMode kCycle[] = {BlendMode::kNormal, BlendMode::kFragment,
-                                       BlendMode::kHoloportation, BlendMode::kMontage4D};
-    for (int step = 0; step < c.mode_steps && mode_ != BlendMode::kLayered; ++step) {
+                                       BlendMode::kHoloportation, BlendMode::kMontage4D,
+                                       BlendMode::kLayered};
+    const size_t modes = std::size(kCycle) - (layers_switchable ? 0 : 1);
+    for (int step = 0; step < c.mode_steps; ++step) {
+      if (mode_ == BlendMode::kLayered && !layers_switchable) break;
       size_t at = 0;
-      while (at < std::size(kCycle) && kCycle[at] != mode_) ++at;
-      mode_ = kCycle[(at + 1) % std::size(kCycle)];
+      while (at < modes && kCycle[at] != mode_) ++at;
+      if (mode_ != BlendMode::kLayered) images_mode_ = mode_;
+      mode_ = kCycle[(at + 1) % modes];
       // The window fades from the last picture of the mode before.
       fade_from_ = last_shown_;
       fade_start_ns_ = monotonicNs();
@@ -364,14 +370,16 @@ class ClientLoop {
     endFanout(pending.stamps, receive_ns);
     auto views = viewsOfBundle(bundle, cameras_);
     // Mode layered renders from layers only: a bundle of images (the
-    // server's layers were refused, or it speaks an older minor) is skipped.
-    const bool layered = options_.render.blend.mode == BlendMode::kLayered;
+    // server's layers were refused, or it speaks an older minor) is skipped,
+    // unless the user just changed to layered from a mode that blends them
+    // (the server had fused it before it heard). A bundle of layers renders
+    // layered whatever the mode (the user just left layered).
     std::optional<StatusOr<DecodedLayers>> layers;
-    if (layered) {
-      layers.emplace(bundle.layers ? layersOfBundle(*bundle.layers, cameras_, &layer_streams_)
-                                   : StatusOr<DecodedLayers>(Status(
-                                         StatusCode::kMalformed,
-                                         "mode layered, and the bundle holds no texture layers")));
+    if (bundle.layers) {
+      layers.emplace(layersOfBundle(*bundle.layers, cameras_, &layer_streams_));
+    } else if (mode_ == BlendMode::kLayered && !images_mode_) {
+      layers.emplace(
+          Status(StatusCode::kMalformed, "mode layered, and the bundle holds no texture layers"));
     }
     const Status usable = !views.isOk()                 ? views.status()
                           : layers && !(*layers).isOk() ? (*layers).status()
@@ -475,9 +483,11 @@ class ClientLoop {
   // The blend for the next rendered frame: eq. 5's lambda is rescaled by
   // the real interval between rendered frames (clamped: a stall must not
   // make the field jump); an excluded camera is left out.
-  BlendSettings nextBlend(const std::vector<ViewImages>& views) {
+  BlendSettings nextBlend(const std::vector<ViewImages>& views, bool layers) {
     BlendSettings blend = options_.render.blend;
-    blend.mode = mode_;
+    blend.mode = layers                         ? BlendMode::kLayered
+                 : mode_ == BlendMode::kLayered ? *images_mode_
+                                                : mode_;
     blend.overlay = overlay_;
     blend.overlay_pod = overlay_pod_;
     blend.stylisation = stylisation_;
@@ -524,12 +534,20 @@ class ClientLoop {
   // until finishFrame takes the picture.
   void beginFrame(ReadyMesh ready) {
     const PendingBundle& bundle = ready.bundle->second;
-    const BlendSettings blend = nextBlend(bundle.views);
+    const BlendSettings blend = nextBlend(bundle.views, bundle.layers.has_value());
     ready.bundle_bytes = bundle.bytes;
     ready.feather_bytes = bundle.feather_bytes;
     ready.bundle_cameras = static_cast<uint32_t>(
         bundle.layers ? bundle.layers->views.camera_centers.size() : bundle.views.size());
     ready.field_runs = renderer_.fieldPasses();
+    // Where the user changed to or from layered, the frames change from
+    // one kind to the other a little later (what the server had fused
+    // before it heard): said when they do.
+    if (rendered_layers_ && *rendered_layers_ != bundle.layers.has_value())
+      std::fprintf(stderr, "%s[client] the frames carry %s: rendering them %s\n", tty_ ? "\n" : "",
+                   bundle.layers ? "texture layers" : "camera images",
+                   blendModeName(blend.mode).c_str());
+    rendered_layers_ = bundle.layers.has_value();
     renderer_.beginRender(ready.user, blend);
     // On the GPU now: this bundle and every older one are done with.
     bundles_.erase(bundles_.begin(), std::next(ready.bundle));
@@ -539,6 +557,8 @@ class ClientLoop {
   }
 
   bool rendering() const { return in_flight_.has_value(); }
+  // Texture layers in place of camera images, as the user's mode asks.
+  bool wantsLayers() const { return mode_ == BlendMode::kLayered; }
 
   // The panel's first words: the mode, and the overlay with its pod.
   std::string panelTitle() const {
@@ -648,6 +668,11 @@ class ClientLoop {
   // them; the orbit's hold, and the automatic orbit's angle when it began.
   std::string view_;
   BlendMode mode_;
+  // The last mode that blends camera images, the user's before layered:
+  // frames fused before the server heard of a change to layered still
+  // carry images, and render so (none: the client started layered).
+  std::optional<BlendMode> images_mode_;
+  std::optional<bool> rendered_layers_;  // whether the last frame rendered carried layers
   OrbitHold hold_;
   double held_from_degrees_ = 0;
   bool screenshot_due_ = false;
@@ -767,7 +792,11 @@ int runClient(const ClientOptions& options) {
       window_closed = true;
       break;
     }
-    loop.takeWindowControls();
+    loop.takeWindowControls(link.changesLayers());
+    // Layers as video, as the Hello of a client started layered asks.
+    const uint64_t layers =
+        loop.wantsLayers() ? protocol::kCapabilityLayers | protocol::kCapabilityLayerVideo : 0;
+    if (layers != link.layersTaken()) link.takeLayers(layers);
     // While a frame renders, only what has already arrived is taken (and
     // decoded beside the render); with nothing more, its picture is taken.
     link.poll(loop.rendering() ? 0 : 50, received);

@@ -181,7 +181,7 @@ void protocolSeeds(Corpus& corpus) {
       {"error", encodeFrame(ErrorMessage{6, "plane 1 is 9x9"}, 11)},
       {"clock_probe",
        encodeFrame(ClockProbe{ProbeStep::kReply, 1'000'000, 5'001'000'000, 5'001'050'000}, 12)},
-      {"frame_request", encodeFrame(FrameRequest{41}, 13)}};
+      {"frame_request", encodeFrame(FrameRequest{41, kCapabilityLayers}, 13)}};
   Bytes pod_session, client_session;
   for (const auto& [name, frame] : frames) {
     corpus["message_" + name].push_back(

@@ -34,7 +34,7 @@ uint64_t floodUntilClosed(int fd, const std::vector<uint8_t>& message, int limit
 }
 
 std::vector<uint8_t> frameRequestMessage() {
-  return protocol::encodeFrame(protocol::FrameRequest{1}, 0);
+  return protocol::encodeFrame(protocol::FrameRequest{1, std::nullopt}, 0);
 }
 
 std::vector<uint8_t> unknownTypeMessage() {

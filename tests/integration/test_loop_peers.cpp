@@ -105,9 +105,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     // frame id -> the mesh's codec and its vertices once decoded
     std::map<uint64_t, std::pair<holofuse::protocol::MeshCodec, size_t>> meshes;
   };
-  static_assert(holofuse::protocol::kVersionMinor == 9, "a client of each minor");
-  std::vector<Client> clients(10);
-  for (uint8_t minor = 0; minor < 10; ++minor) clients[minor].max_minor = minor;
+  static_assert(holofuse::protocol::kVersionMinor == 10, "a client of each minor");
+  std::vector<Client> clients(11);
+  for (uint8_t minor = 0; minor < 11; ++minor) clients[minor].max_minor = minor;
   for (Client& c : clients) {
     holofuse::protocol::Hello hello;
     hello.role = holofuse::protocol::Role::kClient;
@@ -230,9 +230,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   EXPECT_GT(shared, 0u) << "no frame reached both a Draco and a fp16-lz4 client";
   const std::string log = readFile(out / "server.log");
   EXPECT_NE(log.find("meshes fp16-lz4"), std::string::npos) << log;
-  for (const char* version :
-       {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3", "protocol 1.4",
-        "protocol 1.5", "protocol 1.6", "protocol 1.7", "protocol 1.8", "protocol 1.9"}) {
+  for (const char* version : {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3",
+                              "protocol 1.4", "protocol 1.5", "protocol 1.6", "protocol 1.7",
+                              "protocol 1.8", "protocol 1.9", "protocol 1.10"}) {
     EXPECT_NE(log.find(version), std::string::npos) << version << "\n" << log;
   }
 }

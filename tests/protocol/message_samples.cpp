@@ -187,8 +187,11 @@ std::vector<Sample> allSamples(uint8_t minor) {
     samples.push_back({"clock_probe_request", encodeFrame(request, 15, 0, minor)});
     samples.push_back({"clock_probe_reply", encodeFrame(reply, 16, 0, minor)});
   }
-  if (minor >= 9)  // clients ask for frames since 1.9
-    samples.push_back({"frame_request", encodeFrame(FrameRequest{73'131'090}, 17, 0, minor)});
+  if (minor >= 9) {  // clients ask for frames since 1.9, and change their layers since 1.10
+    FrameRequest request{73'131'090, std::nullopt};
+    if (minor >= 10) request.layer_capabilities = kCapabilityLayers | kCapabilityLayerVideo;
+    samples.push_back({"frame_request", encodeFrame(request, 17, 0, minor)});
+  }
   if (minor >= 4) {  // Auth came with 1.4
     Auth auth;
     auth.step = AuthStep::kResponse;

@@ -204,10 +204,20 @@ TEST(Messages, EveryTypeRoundTrips) {
     EXPECT_EQ(e.code, 3u);
   }
   {
-    const FrameRequest in{5'000'000'022};
+    const FrameRequest in{5'000'000'022, kCapabilityLayers};
     FrameRequest m;
     ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(in, 1)), m).isOk());
     EXPECT_EQ(m, in);
+    // A request of 1.9 states no layers: the reader says none, not "none wanted".
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(in, 1, 0, 9)), m).isOk());
+    EXPECT_EQ(m.frames_through, in.frames_through);
+    EXPECT_FALSE(m.layer_capabilities.has_value());
+    // One of 1.10 without them is truncated.
+    FrameBuilder builder(MessageType::kFrameRequest, 1);
+    builder.setMinor(10);
+    writePayload(builder.writer(), in, 9);
+    const Frame truncated = decodeOne(std::move(builder).finish());
+    EXPECT_EQ(decodeFrame(truncated, m).code(), StatusCode::kTruncated);
   }
   {
     const ClockProbe in{ProbeStep::kReply, 11, 5'000'000'022, 5'000'000'031};

@@ -54,6 +54,11 @@ class FusionServer {
   Status admit(Peer& peer, const protocol::Hello& hello, protocol::HelloAck ack);
   Status handleClockProbe(Peer& peer, const protocol::Frame& frame);
   Status handleFrameRequest(Peer& peer, const protocol::Frame& frame);
+  // What a client takes, from its capability bits (its Hello's, or since
+  // 1.10 its latest FrameRequest's): texture layers where they fit the
+  // meshes it decodes, as video where the server codes them.
+  void setLayersTaken(Peer& peer, uint64_t capability_bits);
+  static std::string layersTakenNote(const Peer& peer);
   // A refused connection is told why and closed before it is a peer.
   void refuseConnection(protocol::Socket socket, const std::string& name, const std::string& why);
   // Past the global cap on buffered bytes: the peer holding most goes.

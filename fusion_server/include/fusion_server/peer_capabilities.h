@@ -24,6 +24,7 @@ struct PeerCapabilities {
   bool any_mesh_codec = false;   // 1.7: decodes every MeshCodec, not only Draco
   bool clock_probes = false;     // 1.8: answers and sends ClockProbes
   bool asks_for_frames = false;  // 1.9: a client that paces with FrameRequest
+  bool changes_layers = false;   // 1.10: a client whose FrameRequests say which layers it takes
 };
 
 // hello_capabilities: the Hello's kCapability* bits, which count only for a

@@ -272,9 +272,15 @@ struct ClockProbe {
 // renders slower than the pods capture costs no fusion it would not
 // render, and its next mesh is fused while it renders the last. A client
 // that never asks is sent every frame, as before 1.9.
+//
+// Since 1.10 it also states what the client takes from the next frame on:
+// Hello's capability bits 0 and 1 (texture layers; their colour as video),
+// so a viewer changes to or from mode layered without reconnecting. A
+// request of 1.9 has none: the Hello's bits stand.
 struct FrameRequest {
   static constexpr MessageType kType = MessageType::kFrameRequest;
   uint64_t frames_through = 0;
+  std::optional<uint64_t> layer_capabilities;
   bool operator==(const FrameRequest&) const = default;
 };
 
@@ -306,7 +312,8 @@ void writePayload(WireWriter& w, const Stats& m, uint8_t minor = kVersionMinor);
 void writePayload(WireWriter& w, const Bye& m);
 void writePayload(WireWriter& w, const ErrorMessage& m);
 void writePayload(WireWriter& w, const ClockProbe& m);
-void writePayload(WireWriter& w, const FrameRequest& m);
+// From 1.10 on the layer capabilities (0 when m has none).
+void writePayload(WireWriter& w, const FrameRequest& m, uint8_t minor = kVersionMinor);
 
 // Payload decoders: read the fields this build knows, ignore trailing bytes
 // (a newer minor's fields). base_offset positions errors in the stream.
@@ -327,7 +334,9 @@ Status readPayload(std::span<const uint8_t> payload, Stats& m, size_t base_offse
 Status readPayload(std::span<const uint8_t> payload, Bye& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, ErrorMessage& m, size_t base_offset = 0);
 Status readPayload(std::span<const uint8_t> payload, ClockProbe& m, size_t base_offset = 0);
-Status readPayload(std::span<const uint8_t> payload, FrameRequest& m, size_t base_offset = 0);
+// One of 1.10 or later must hold the layer capabilities; one of 1.9 has none.
+Status readPayload(std::span<const uint8_t> payload, FrameRequest& m, size_t base_offset = 0,
+                   uint8_t minor = kVersionMinor);
 
 // A whole frame for message m: one copy of the payload into the frame
 // buffer (reserved up front from payload_hint), then one CRC pass.

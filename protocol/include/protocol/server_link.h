@@ -75,6 +75,15 @@ class ServerLink {
   // The version agreed in the last handshake.
   uint8_t agreedMinor() const { return agreed_minor_; }
 
+  // A client's texture layers (Hello's bits kCapabilityLayers and
+  // kCapabilityLayerVideo), changed while it runs: said to a server of
+  // 1.10 or later at once (FrameRequest), and in the Hello of every later
+  // connection. Whether the server heard it now; an older one goes on
+  // sending what the Hello asked for.
+  bool takeLayers(uint64_t capability_bits);
+  uint64_t layersTaken() const { return hello_.capabilities & kLayerBits; }
+  bool changesLayers() const { return ready() && agreed_minor_ >= 10; }
+
   uint64_t connects() const { return connects_; }
   uint64_t bytesOut() const {
     return bytes_out_closed_ + (connection_ ? connection_->bytesOut() : 0);
@@ -90,7 +99,10 @@ class ServerLink {
   void fail(const Status& why);
   void handle(Frame frame, std::vector<Frame>& received);
   bool asksForFrames() const { return options_.frames_ahead > 0 && agreed_minor_ >= 9; }
-  void askForFrames() { connection_->sendMessage(FrameRequest{meshes_ + options_.frames_ahead}); }
+  void askForFrames() {
+    connection_->sendMessage(FrameRequest{meshes_ + options_.frames_ahead, layersTaken()});
+  }
+  static constexpr uint64_t kLayerBits = kCapabilityLayers | kCapabilityLayerVideo;
   // The server's Auth before its HelloAck: answer its challenge, check its
   // proof. An error is fatal: a key does not become right by retrying.
   Status handleAuth(const Frame& frame);
@@ -101,7 +113,8 @@ class ServerLink {
   std::unique_ptr<Connection> connection_;
   bool acked_ = false;
   uint8_t agreed_minor_ = 0;
-  uint64_t meshes_ = 0;  // MeshFrames received on this connection
+  uint64_t hello_layers_ = 0;  // the layer bits of the Hello on this connection
+  uint64_t meshes_ = 0;        // MeshFrames received on this connection
   ClockSync clock_;
   uint64_t read_ns_ = 0;                               // when the frames being handled were read
   std::optional<AuthBytes> challenge_;                 // the server's, on this connection
