@@ -389,7 +389,7 @@ std::optional<int> parseLoopFlags(int argc, char** argv, LoopPlan& plan) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
+    return exitOnFlagError(app, e);
   }
   setting_flags.apply(plan.settings);
   scene_flags.apply(plan.scene);

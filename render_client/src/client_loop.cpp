@@ -787,6 +787,7 @@ int runClient(const ClientOptions& options) {
   loop.setWindow(window.get());
   std::vector<protocol::Frame> received;
   bool window_closed = false;
+  uint64_t answered_ns = monotonicNs();  // the start, or when the server last answered
   while (!stopRequested() && !loop.done()) {
     if (window && window->closed()) {
       window_closed = true;
@@ -803,6 +804,16 @@ int runClient(const ClientOptions& options) {
     if (link.fatalError()) {
       std::fprintf(stderr, "[client] giving up: %s\n", link.fatalError()->toString().c_str());
       return 2;
+    }
+    if (link.ready()) answered_ns = monotonicNs();
+    if (options.give_up_after_s > 0 &&
+        static_cast<double>(monotonicNs() - answered_ns) / 1e9 > options.give_up_after_s) {
+      std::fprintf(
+          stderr, "%s[client] giving up: no server answered at %s for %g s (--give-up-after)\n",
+          loop.rendering() ? "\n" : "", options.server.toString().c_str(), options.give_up_after_s);
+      loop.finishFrame();
+      loop.writeReport();
+      return 1;
     }
     const bool arrived = !received.empty();
     loop.receive(received);

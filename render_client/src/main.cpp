@@ -18,6 +18,10 @@ int main(int argc, char** argv) {
   app.add_option("--out", options.out_dir, "output folder (frames/ and report.json)");
   app.add_option("--frames", options.frames,
                  "stop after this many rendered frames (0: until signalled)");
+  app.add_option("--give-up-after", options.give_up_after_s,
+                 "exit (1) when no server has answered for this many seconds, from the start or "
+                 "since the connection was lost (default 0: keep trying until signalled)")
+      ->check(CLI::Range(0.0, 1e6));
   app.add_flag("--exit-when-server-leaves", options.exit_when_server_leaves,
                "finish when the server says goodbye (the end of a replay)");
   app.add_option("--clock-drift-warn-ms", options.clock_drift_warn_ms,

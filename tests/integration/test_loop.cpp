@@ -455,6 +455,41 @@ TEST(Loop, WrongFlagsPrintUsageAndFail) {
   std::ifstream log(out / "a.log");
   const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("--pod-id"), std::string::npos);
+  // A typo is answered with the flag it is nearest to; a word near none
+  // with nothing but the error.
+  EXPECT_EQ(waitExit(spawn({kBin + "/holofuse_loop", "--frame", "5"}, out / "f.log"), 10), 2);
+  EXPECT_NE(readFile(out / "f.log").find("--frame: did you mean --frames?"), std::string::npos)
+      << readFile(out / "f.log");
+  EXPECT_EQ(
+      waitExit(spawn({kBin + "/render_client", "--server", "127.0.0.1:1", "--mdoe", "montage4d"},
+                     out / "g.log"),
+               10),
+      2);
+  EXPECT_NE(readFile(out / "g.log").find("--mdoe: did you mean --mode?"), std::string::npos)
+      << readFile(out / "g.log");
+  EXPECT_EQ(waitExit(spawn({kBin + "/fusion_server", "--no-such-flag"}, out / "b.log"), 10), 2);
+  EXPECT_EQ(readFile(out / "b.log").find("did you mean"), std::string::npos)
+      << readFile(out / "b.log");
+}
+
+// A client pointed at a server that never answers (nothing listens on
+// port 1) gives up after --give-up-after, saying where it tried; without
+// the flag it keeps trying (the launcher's clients, started before their
+// server listens).
+TEST(Loop, AClientGivesUpOnAServerThatNeverAnswers) {
+  const fs::path out = freshDir("give_up");
+  EXPECT_EQ(waitExit(spawn({kBin + "/render_client", "--server", "127.0.0.1:1", "--out",
+                            (out / "client").string(), "--give-up-after", "1"},
+                           out / "client.log"),
+                     60),
+            1);
+  const std::string log = readFile(out / "client.log");
+  EXPECT_NE(log.find("[client] giving up: no server answered at 127.0.0.1:1 for 1 s "
+                     "(--give-up-after)"),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("cannot reach server 127.0.0.1:1"), std::string::npos) << log;
+  fs::remove_all(out);
 }
 
 }  // namespace

@@ -8,11 +8,13 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cctype>
+#include <cstdint>
 #include <cstdio>
 #include <functional>
 #include <iterator>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -125,8 +127,42 @@ inline void addRigFlag(CLI::App& app, const std::string& program, RigConfig::Par
   app.config_formatter(std::make_shared<RigConfig>(app, program, std::move(part)));
 }
 
+// Levenshtein distance: edits (insert, delete, replace) from a to b.
+inline size_t editDistance(std::string_view a, std::string_view b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+// The flag of app nearest to `given` (a word from the command line), when
+// it is near enough to be a typo of it: "--frames" for "--frame" or
+// "--frmaes"; "" otherwise.
+inline std::string nearestFlag(const CLI::App& app, std::string_view given) {
+  while (!given.empty() && given.front() == '-') given.remove_prefix(1);
+  given = given.substr(0, given.find('='));
+  std::string best;
+  size_t best_distance = SIZE_MAX;
+  for (const CLI::Option* option : app.get_options()) {
+    for (const std::string& name : option->get_lnames()) {
+      const size_t distance = editDistance(given, name);
+      if (distance < best_distance) best_distance = distance, best = "--" + name;
+    }
+  }
+  return !given.empty() && best_distance <= std::max<size_t>(2, given.size() / 3) ? best : "";
+}
+
 // What a flag error exits with (2; 0 after --help), after the message and,
-// when the value came from a rig file, where in it.
+// when the value came from a rig file, where in it; a flag not known is
+// followed by the one it is nearest to.
 inline int exitOnFlagError(const CLI::App& app, const CLI::ParseError& error) {
   // (CLI11 reads only the configuration file: say which flag named it.)
   if (error.get_name() == "FileError") {
@@ -134,6 +170,16 @@ inline int exitOnFlagError(const CLI::App& app, const CLI::ParseError& error) {
     return 2;
   }
   const int code = app.exit(error);
+  if (dynamic_cast<const CLI::ExtrasError*>(&error) != nullptr) {
+    const std::string what = error.what();
+    std::istringstream words(what.substr(what.find(": ") + 2));
+    for (std::string word; words >> word;) {
+      if (word.size() < 2 || word[0] != '-') continue;
+      if (const std::string near = nearestFlag(app, word); !near.empty())
+        std::fprintf(stderr, "%s: did you mean %s? (--help lists every flag)\n", word.c_str(),
+                     near.c_str());
+    }
+  }
   if (auto rig = std::dynamic_pointer_cast<RigConfig>(app.get_config_formatter())) {
     if (const std::string where = rig->whereFrom(error.what()); !where.empty())
       std::fprintf(stderr, "(%s)\n", where.c_str());

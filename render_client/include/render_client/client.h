@@ -37,6 +37,9 @@ struct ClientOptions {
   double clock_drift_warn_ms = 1.0;
   uint8_t max_minor = protocol::kVersionMinor;  // the newest protocol offered (--protocol)
   uint64_t frames = 0;  // stop after this many rendered frames; 0 = until signalled
+  // Exit (1) when no server has answered for this long, from the start or
+  // since the connection was lost; 0: keep trying until signalled.
+  double give_up_after_s = 0;
   double orbit_degrees_per_frame = 2.0;
   // A viewpoint jump (the viewpoint-jump scene): from rendered frame
   // jump_at_frame on, the user camera is turned this many degrees around
