@@ -10,6 +10,7 @@
 #include <map>
 #include <optional>
 
+#include "base/eta.h"
 #include "base/statistics.h"
 #include "eval/view_maps.h"
 #include "fusion_server/layer_stage.h"
@@ -365,6 +366,10 @@ Status evaluateModes(const EvalOptions& options, gpu::VulkanContext& context,
   const bool compare_pictures =
       runs(render::BlendMode::kHoloportation) && runs(render::BlendMode::kMontage4D);
   PictureComparison comparison;
+  // This scene's views in every mode, for the time left.
+  Eta eta;
+  const size_t views = options.modes.size() * plan.sequences.size();
+  size_t views_done = 0;
   for (render::BlendMode mode : options.modes) {
     const std::string mode_name = render::blendModeName(mode);
     ModeResult& m = result.modes[mode_name];
@@ -465,13 +470,16 @@ Status evaluateModes(const EvalOptions& options, gpu::VulkanContext& context,
                                                   regions, mesh, others, renderer));
         }
       }
+      eta.stepDone();
+      ++views_done;
       if (progress) {
         // Leave-one-out counts its cameras; novel views their poses.
         const size_t of = sequence.novel_truth ? plan.sequences.size() : input.reported.size();
         progress(result.name + " / " + mode_name + ": " + plan.what + " " +
                  std::to_string(sequence.truth) + " of " + std::to_string(of) + ", " +
                  std::to_string(frame_count) + " frames, " +
-                 std::to_string(static_cast<int>(msSince(mode_start) / 1000)) + " s so far");
+                 std::to_string(static_cast<int>(msSince(mode_start) / 1000)) + " s so far" +
+                 (views_done < views ? "; this scene's " + eta.text(views - views_done) : ""));
       }
     }
     if (m.images > 0) {

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <set>
 
+#include "base/eta.h"
 #include "base/process.h"
 #include "base/text_file.h"
 #include "codec/image_codec.h"
@@ -261,6 +262,7 @@ StatusOr<std::vector<SweepPoint>> sweepPoints(
   std::vector<SweepPoint> points;
   size_t done = 0, total = 0;
   for (const auto& [name, values] : options.knobs) total += values.size();
+  Eta eta;
   for (const auto& [name, values] : options.knobs) {
     const Knob& knob = *findKnob(name);
     for (const auto& value : values) {
@@ -269,6 +271,7 @@ StatusOr<std::vector<SweepPoint>> sweepPoints(
       point.value = value;
       const PlannedPoint plan = planPoint(options, knob, value);
       point.is_default = plan.is_default;
+      bool eta_step = false;  // measured here, not read back
       nlohmann::json file;
       if (fs::exists(plan.path)) {
         HOLOFUSE_ASSIGN_OR_RETURN(file, readPoint(plan));
@@ -281,6 +284,7 @@ StatusOr<std::vector<SweepPoint>> sweepPoints(
         }
         point.resumed = true;
       } else {
+        eta_step = true;
         HOLOFUSE_ASSIGN_OR_RETURN(std::vector<SceneResult> results, runLeaveOneOut(plan.run));
         point.result = std::move(results.at(0));
         file = {{"knob", name},
@@ -307,11 +311,13 @@ StatusOr<std::vector<SweepPoint>> sweepPoints(
                      std::to_string(options.live_frames) + " frames");
           }
           HOLOFUSE_ASSIGN_OR_RETURN(point.live, runLive(options, name, value, plan.is_default));
+          eta_step = true;
           file["live"] = liveJson(*point.live, options.live_frames);
           HOLOFUSE_RETURN_IF_ERROR(writePoint(plan.path, file));
         }
       }
       ++done;
+      if (eta_step) eta.stepDone();
       if (progress) {
         const auto& m = point.result.modes.at(primaryMode(options.base));
         char line[240];
@@ -327,6 +333,7 @@ StatusOr<std::vector<SweepPoint>> sweepPoints(
                         point.live->fps);
           text += line;
         }
+        if (done < total && !eta.text(total - done).empty()) text += "; " + eta.text(total - done);
         progress(text);
       }
       points.push_back(std::move(point));
