@@ -283,9 +283,13 @@ std::string residentGrowth(const ProcessUsage& now, const ProcessUsage& baseline
          std::to_string(baseline.peak_rss_kb) + " kB), " + std::to_string(now.rss_kb) + " kB after";
 }
 
-void expectNear(const ProcessUsage& now, const ProcessUsage& baseline, const char* who) {
-  EXPECT_EQ(now.descriptors, baseline.descriptors) << who << ": descriptors";
-  const std::string growth = residentGrowth(now, baseline);
+// The descriptors: back to at most the baseline's. A client writing its
+// pictures holds a file open for a moment, in either sample (seen in CI:
+// 8 against 7); that one closes, a leaked one stays open.
+void expectNear(pid_t pid, const ProcessUsage& baseline, const char* who) {
+  EXPECT_TRUE(waitFor([&] { return usageOf(pid).descriptors <= baseline.descriptors; }))
+      << who << ": descriptors " << usageOf(pid).descriptors << ", before " << baseline.descriptors;
+  const std::string growth = residentGrowth(usageOf(pid), baseline);
   EXPECT_TRUE(growth.empty()) << who << ": " << growth;
 }
 
@@ -361,8 +365,8 @@ TEST(Faults, PeersKilledAndStartedAgainRejoinAndLeaveNothingBehind) {
   const size_t seen = picturesIn(out / last);
   EXPECT_TRUE(waitFor([&] { return picturesIn(out / last) >= seen + 3; }))
       << readFile(out / (last + ".log"));
-  expectNear(usageOf(pods[0]), pod_baseline, "pod 0 after the server restarted");
-  expectNear(usageOf(client), client_baseline, "the client after the server restarted");
+  expectNear(pods[0], pod_baseline, "pod 0 after the server restarted");
+  expectNear(client, client_baseline, "the client after the server restarted");
   stopAll({client});
   stopAll(pods);
   kill(server, SIGTERM);
