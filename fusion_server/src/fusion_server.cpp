@@ -379,15 +379,12 @@ Status FusionServer::handleFrameRequest(Peer& peer, const Frame& frame) {
   // other is sent every frame (SPEC.md section 6) and its request ignored.
   if (peer.caps.asks_for_frames) peer.frames_through = request.frames_through;
   if (peer.caps.changes_layers && request.layer_capabilities) {
-    const bool layers = peer.wants_layers, video = peer.wants_layer_video;
-    const bool asked = peer.caps.layers;
+    const std::string before = layersTakenNote(peer);
     setLayersTaken(peer, *request.layer_capabilities);
-    if (peer.wants_layers != layers || peer.wants_layer_video != video ||
-        peer.caps.layers != asked) {
+    if (const std::string note = layersTakenNote(peer); note != before) {
       // Its stream starts again at a key frame (asked for as the next
       // group is submitted).
       peer.layer_video_in_step = false;
-      const std::string note = layersTakenNote(peer);
       std::fprintf(stderr, "[server] %s takes from the next frame: %s\n",
                    peer.connection->peerName().c_str(),
                    note.empty() ? "camera images" : note.c_str() + 2);

@@ -18,12 +18,6 @@ void vkFail(const char* call, VkResult result, const char* file, int line) {
 
 namespace {
 
-// kMessageLogVariable's file, or "" when it is not set.
-std::string messageLogPath() {
-  const char* path = std::getenv(kMessageLogVariable);
-  return path ? path : "";
-}
-
 // This executable's file name (not the name it was started by, which may
 // be /proc/self/exe).
 const std::string& programName() {
@@ -76,7 +70,8 @@ VkDebugUtilsMessengerCreateInfoEXT messengerInfo(const std::string& path) {
 // would pass every message silently.
 const std::string& checkedMessageLog() {
   static const std::string path = [] {
-    std::string p = messageLogPath();
+    const char* variable = std::getenv(kMessageLogVariable);
+    const std::string p = variable ? variable : "";
     if (p.empty()) return p;
     const int fd = open(p.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
     if (fd < 0)

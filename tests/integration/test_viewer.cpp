@@ -226,29 +226,25 @@ TEST(Viewer, AWindowShowsThePicturesKeysSteerItAndEscapeClosesIt) {
   // M three times more: mode layered (protocol 1.10), which the server
   // hears at once and answers with texture layers in place of the camera
   // images; then M once more back to normal, and camera images again.
-  for (int step = 0; step < 3; ++step) press("m");
-  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "[client] mode layered"); }))
-      << readFile(out / "client.log");
-  EXPECT_TRUE(waitFor([&] {
-    return logSays(out / "server.log", "takes from the next frame: texture layers");
-  })) << readFile(out / "server.log");
-  EXPECT_TRUE(waitFor([&] {
-    return logSays(out / "client.log",
-                   "[client] the frames carry texture layers: rendering them layered");
-  })) << readFile(out / "client.log");
+  // Each step: the client says the mode, the server what it now sends,
+  // and the client what the frames carry once they change.
+  auto stepsTo = [&](int steps, const std::string& mode, const std::string& sent,
+                     const std::string& rendered) {
+    for (int step = 0; step < steps; ++step) press("m");
+    EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "[client] mode " + mode); }))
+        << readFile(out / "client.log");
+    EXPECT_TRUE(waitFor([&] {
+      return logSays(out / "server.log", "takes from the next frame: " + sent);
+    })) << readFile(out / "server.log");
+    EXPECT_TRUE(waitFor([&] {
+      return logSays(out / "client.log", "[client] the frames carry " + rendered);
+    })) << readFile(out / "client.log");
+  };
+  stepsTo(3, "layered", "texture layers", "texture layers: rendering them layered");
   const cv::Mat layered = screenAfterTwoPictures("screen_layered");
   ASSERT_FALSE(layered.empty());
   EXPECT_GT(litPixels(layered, 0, 24, 160, 96), fewest / 4) << "the layered subject is drawn";
-  press("m");
-  EXPECT_TRUE(waitFor([&] { return logSays(out / "client.log", "[client] mode normal"); }))
-      << readFile(out / "client.log");
-  EXPECT_TRUE(waitFor([&] {
-    return logSays(out / "server.log", "takes from the next frame: camera images");
-  })) << readFile(out / "server.log");
-  EXPECT_TRUE(waitFor([&] {
-    return logSays(out / "client.log",
-                   "[client] the frames carry camera images: rendering them normal");
-  })) << readFile(out / "client.log");
+  stepsTo(1, "normal", "camera images", "camera images: rendering them normal");
 
   press("Escape");
   EXPECT_EQ(waitExit(client, 60), 0) << readFile(out / "client.log");
