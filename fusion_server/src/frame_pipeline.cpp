@@ -85,14 +85,19 @@ void FramePipeline::closeRecording() {
 }
 
 std::string FramePipeline::summary() const {
-  char text[200];
+  const FusionWorker::Overlap overlap = worker_->overlap();
+  char text[300];
   std::snprintf(text, sizeof(text),
                 "fusing %llu groups (%llu late pod frames, %llu groups dropped, %llu not fused: "
-                "no client asked for them)",
+                "no client asked for them; %llu of %llu begun before the one before was done, "
+                "on %d fusion thread%s)",
                 static_cast<unsigned long long>(groups_fused_),
                 static_cast<unsigned long long>(sync_.lateFrames()),
                 static_cast<unsigned long long>(sync_.overflowedGroups() + worker_->replacedJobs()),
-                static_cast<unsigned long long>(groups_not_asked_for_));
+                static_cast<unsigned long long>(groups_not_asked_for_),
+                static_cast<unsigned long long>(overlap.at_once),
+                static_cast<unsigned long long>(overlap.pairs), worker_->threads(),
+                worker_->threads() == 1 ? "" : "s");
   return text;
 }
 

@@ -465,6 +465,11 @@ void FusionWorker::submit(GroupJob job) {
   cv_.notify_one();
 }
 
+FusionWorker::Overlap FusionWorker::overlap() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return overlap_;
+}
+
 std::vector<FusedOutput> FusionWorker::takeOutputs() {
   std::lock_guard<std::mutex> lock(mutex_);
   return std::move(outputs_);
@@ -490,6 +495,7 @@ std::optional<FusionWorker::Taken> FusionWorker::take() {
 }
 
 void FusionWorker::encode(Taken& taken) {
+  taken.started_ns = monotonicNs();
   try {
     // The arena bounds this group's parallel loops, and the other groups',
     // to the fusion's threads.
@@ -536,7 +542,15 @@ void FusionWorker::deliver(Taken taken) {
     Taken& next = next_it->second;
     lock.unlock();
     std::optional<FusedOutput> out = finish(next);
+    const uint64_t finished_ns = monotonicNs();
     lock.lock();
+    if (out) {
+      if (last_finished_ns_) {
+        ++overlap_.pairs;
+        overlap_.at_once += next.started_ns < *last_finished_ns_;
+      }
+      last_finished_ns_ = finished_ns;
+    }
     if (out && voxel_ && voxel_->observe(out->silhouette_error)) {
       std::fprintf(stderr,
                    "[server] hull voxel %.1f -> %.1f mm: silhouette error %.2f mm against the "

@@ -216,6 +216,13 @@ class FusionWorker {
   // The fused groups not taken yet, in the order they were submitted.
   std::vector<FusedOutput> takeOutputs();
   uint64_t replacedJobs() const { return replaced_; }
+  // Of the groups delivered after another, those whose fusion began before
+  // the one before them was finished: the overlap --fusion-threads buys,
+  // counted over every group (a client sees only the frames it took).
+  struct Overlap {
+    uint64_t pairs = 0, at_once = 0;
+  };
+  Overlap overlap();
   // Groups fused at once at most (FusionSettings::threads).
   int threads() const { return static_cast<int>(threads_.size()); }
   // Groups submitted and not yet fused (waiting or in progress).
@@ -243,6 +250,7 @@ class FusionWorker {
     LayerRequest layers;
     std::optional<EncodedGroup> encoded;  // none: it could not be fused
     hull::SilhouetteError error;
+    uint64_t started_ns = 0;  // its fusion began
   };
   std::optional<Taken> take();
   void run();
@@ -268,6 +276,8 @@ class FusionWorker {
   std::map<uint64_t, Taken> encoded_;  // encoded, waiting for the groups before them
   bool finishing_ = false;             // a thread is finishing groups in order
   std::vector<FusedOutput> outputs_;
+  std::optional<uint64_t> last_finished_ns_;  // the group delivered last
+  Overlap overlap_;
   bool stop_ = false;
   std::atomic<uint64_t> replaced_{0};
   // The threads the fusion runs on: a group per thread, each group's
