@@ -341,6 +341,8 @@ int runLoop(LoopPlan& plan) {
     plan.listen_host = rig->serverAddress();
     std::printf("[rig] %s\n", rig->describe().c_str());
   }
+  // Which copy runs, where a build and an install both exist.
+  std::fprintf(stderr, "[loop] programs from %s\n", plan.bin_dir.c_str());
   LoopProcesses processes;
   const auto server_command = serverCommand(plan, port_file);
   processes.server =

@@ -41,7 +41,7 @@ std::string readFile(const fs::path& path) {
 }
 
 // A command's exit code and what it printed (stdout, then stderr).
-std::pair<int, std::string> run(const std::vector<std::string>& args) {
+std::pair<int, std::string> run(const std::vector<std::string>& args, int timeout_ms = 60000) {
   const fs::path errors =
       fs::temp_directory_path() / ("holofuse_deploy_stderr_" + std::to_string(getpid()));
   SpawnOptions options;
@@ -55,7 +55,7 @@ std::pair<int, std::string> run(const std::vector<std::string>& args) {
   for (ssize_t n; (n = ::read(pipes.from_child, buffer, sizeof buffer)) > 0;)
     said.append(buffer, static_cast<size_t>(n));
   ::close(pipes.from_child);
-  const int code = waitProcess(*pid, 60000).value_or(-1);
+  const int code = waitProcess(*pid, timeout_ms).value_or(-1);
   said += readFile(errors);
   fs::remove(errors);
   return {code, said};
@@ -295,52 +295,173 @@ std::vector<std::string> execStart(const fs::path& unit) {
   return words;
 }
 
+const std::vector<std::string> kUnits = {"holofuse-server.service", "holofuse-pod@.service",
+                                         "holofuse-client@.service"};
+
+// Whether systemd-analyze verify passes every unit of `dir` and says
+// nothing; it checks that each ExecStart's program exists.
+void verifyUnits(const fs::path& dir) {
+  const char* analyze = "/usr/bin/systemd-analyze";
+  if (::access(analyze, X_OK) != 0)
+    GTEST_SKIP() << "systemd-analyze (Debian's systemd) is not installed: the units were not "
+                    "verified";
+  for (const std::string& name : kUnits) {
+    const auto [code, said] = run({analyze, "verify", (dir / name).string()});
+    EXPECT_EQ(code, 0) << name << ": " << said;
+    EXPECT_EQ(said, "") << name;
+  }
+}
+
+// The unit templates (cmake --install writes the installed folders in:
+// the tests below check what it writes).
 TEST(Deploy, SystemdUnitsPassVerifyAndRunTheirProgramsFlags) {
   const fs::path units = kSource / "deploy" / "systemd";
-  const std::vector<std::string> names = {"holofuse-server.service", "holofuse-pod@.service",
-                                          "holofuse-client@.service"};
   // The units read the rig file deploy/rig.yaml installs as.
   const auto rig = RigFile::load((kSource / "deploy" / "rig.yaml").string());
   ASSERT_TRUE(rig.isOk()) << rig.status().message();
   checkRigAgainstPrograms(*rig);
-  for (const std::string& name : names) {
-    const auto words = execStart(units / name);
+  for (const std::string& name : kUnits) {
+    const auto words = execStart(units / (name + ".in"));
     ASSERT_FALSE(words.empty()) << name;
     const auto rig_flag = std::find(words.begin(), words.end(), "--rig");
     ASSERT_NE(rig_flag, words.end()) << name;
     EXPECT_EQ(*(rig_flag + 1), "/etc/holofuse/rig.yaml") << name;
     EXPECT_TRUE(unknownFlags(words).empty())
         << name << ": " << ::testing::PrintToString(unknownFlags(words));
-    const std::string text = readFile(units / name);
+    const std::string text = readFile(units / (name + ".in"));
     for (const char* key : {"Restart=on-failure", "LoadCredential=", "MemoryMax=", "[Install]"})
       EXPECT_NE(text.find(key), std::string::npos) << name << " has no " << key;
     EXPECT_NE(text.find("--key-file ${CREDENTIALS_DIRECTORY}/"), std::string::npos)
         << name << ": the key comes from the credentials directory";
+    EXPECT_EQ(text.find("/usr/local/"), std::string::npos)
+        << name << ": the installed folders are the install's to write in";
   }
-  const char* analyze = "/usr/bin/systemd-analyze";
-  if (::access(analyze, X_OK) != 0)
-    GTEST_SKIP() << "systemd-analyze (Debian's systemd) is not installed: the units were not "
-                    "verified";
-  // verify checks that ExecStart's program exists: the units run the
-  // build's binaries here, from a folder of their own.
-  const fs::path dir = fs::temp_directory_path() / ("holofuse_units_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  for (const std::string& name : names) {
-    std::string text = readFile(units / name);
-    for (size_t at; (at = text.find("/usr/local/bin/")) != std::string::npos;)
-      text.replace(at, 15, kBin + "/");
-    std::ofstream(dir / name) << text;
-    const auto [code, said] = run({analyze, "verify", (dir / name).string()});
-    EXPECT_EQ(code, 0) << name << ": " << said;
-    EXPECT_EQ(said, "") << name;
-  }
-  fs::remove_all(dir);
 }
 
-TEST(Deploy, TheContainerImageIsDebian12WithEveryPackageTheBuildUses) {
-  const std::string containerfile = readFile(kSource / "deploy" / "container" / "Containerfile");
-  EXPECT_NE(containerfile.find("FROM debian:12"), std::string::npos);
+// cmake --install into a scratch prefix: every program there answers
+// --help, the loop launcher runs two frames with the programs installed
+// beside it, and the units name those programs and pass verify.
+TEST(Install, TheInstalledProgramsRunALoopAndTheUnitsNameThem) {
+  const fs::path prefix =
+      fs::temp_directory_path() / ("holofuse_install_" + std::to_string(getpid()));
+  fs::remove_all(prefix);
+  const auto [installed, install_said] =
+      run({HOLOFUSE_CMAKE, "--install", HOLOFUSE_BUILD_DIR, "--prefix", prefix.string()}, 600000);
+  ASSERT_EQ(installed, 0) << install_said;
+  const std::vector<std::string> programs = {
+      "fusion_server", "capture_node",   "render_client",  "holofuse_loop",   "holofuse_relay",
+      "holofuse_eval", "holofuse_sweep", "holofuse_judge", "holofuse_dataset"};
+  for (const std::string& program : programs) {
+    const auto [code, said] = run({(prefix / "bin" / program).string(), "--help"});
+    EXPECT_EQ(code, 0) << program << ": " << said;
+    EXPECT_NE(said.find("--"), std::string::npos) << program << ": " << said;
+  }
+  EXPECT_TRUE(fs::exists(prefix / "share" / "doc" / "holofuse" / "runbook.md"));
+  EXPECT_TRUE(fs::exists(prefix / "share" / "doc" / "holofuse" / "examples" / "rig.yaml"));
+
+  const fs::path units = prefix / "lib" / "systemd" / "system";
+  for (const std::string& name : kUnits) {
+    const auto words = execStart(units / name);
+    ASSERT_FALSE(words.empty()) << name;
+    EXPECT_EQ(words[0].rfind((prefix / "bin").string() + "/", 0), 0u) << name << ": " << words[0];
+    EXPECT_NE(readFile(units / name).find("file:" + (prefix / "share/doc/holofuse").string()),
+              std::string::npos)
+        << name;
+  }
+
+  const fs::path out = prefix / "loop";
+  const auto [looped, loop_said] =
+      run({(prefix / "bin" / "holofuse_loop").string(), "--frames", "2", "--pods", "2", "--size",
+           "64x48", "--out", out.string()},
+          600000);
+  ASSERT_EQ(looped, 0) << loop_said;
+  EXPECT_TRUE(fs::exists(out / "frames" / "frame_000000.png"));
+  EXPECT_TRUE(fs::exists(out / "frames" / "frame_000001.png"));
+  // The launcher started the installed programs, not the build's.
+  EXPECT_NE(loop_said.find("[loop] programs from " + (prefix / "bin").string() + "\n"),
+            std::string::npos)
+      << loop_said;
+  verifyUnits(units);
+  if (!HasFailure()) fs::remove_all(prefix);
+}
+
+// The Debian package CPack makes: the programs in /usr/bin, the units
+// naming them, and its dependencies read off the programs' libraries.
+TEST(Install, TheDebianPackageHoldsTheProgramsTheUnitsAndTheirLibraries) {
+  const fs::path out = fs::temp_directory_path() / ("holofuse_package_" + std::to_string(getpid()));
+  fs::remove_all(out);
+  const auto [packed, pack_said] =
+      run({HOLOFUSE_CPACK, "--config", std::string(HOLOFUSE_BUILD_DIR) + "/CPackConfig.cmake", "-B",
+           out.string()},
+          600000);
+  ASSERT_EQ(packed, 0) << pack_said;
+  const std::string dpkg_deb = "/usr/bin/dpkg-deb";
+  if (::access(dpkg_deb.c_str(), X_OK) != 0)
+    GTEST_SKIP() << "dpkg-deb is not installed: the package was made but not read";
+  fs::path deb;
+  for (const auto& entry : fs::directory_iterator(out))
+    if (entry.path().extension() == ".deb") deb = entry.path();
+  ASSERT_FALSE(deb.empty()) << pack_said;
+  const auto [info_code, info] = run({dpkg_deb, "--field", deb.string(), "Package", "Depends"});
+  ASSERT_EQ(info_code, 0) << info;
+  EXPECT_NE(info.find("Package: holofuse"), std::string::npos) << info;
+  for (const char* library : {"libvulkan1", "libopencv-core", "libdraco", "liblz4-1", "libtbb",
+                              "libopenimageio", "libavcodec", "libssl3"})
+    EXPECT_NE(info.find(library), std::string::npos) << "Depends lacks " << library << ": " << info;
+  EXPECT_EQ(info.find("-dev"), std::string::npos) << "a development package: " << info;
+  const fs::path tree = out / "tree";
+  const auto [unpacked, unpack_said] = run({dpkg_deb, "--extract", deb.string(), tree.string()});
+  ASSERT_EQ(unpacked, 0) << unpack_said;
+  for (const char* program : {"fusion_server", "capture_node", "render_client", "holofuse_loop"})
+    EXPECT_TRUE(fs::exists(tree / "usr" / "bin" / program)) << program;
+  const auto words = execStart(tree / "usr/lib/systemd/system/holofuse-server.service");
+  ASSERT_FALSE(words.empty());
+  EXPECT_EQ(words[0], "/usr/bin/fusion_server");
+  if (!HasFailure()) fs::remove_all(out);
+}
+
+// The image builds on Debian 12 with every package the build uses, and
+// ships the installed programs on the slim image, as a user of its own.
+TEST(Deploy, TheContainerImageBuildsOnDebian12AndShipsTheInstalledProgramsSlim) {
+  const std::string file = readFile(kSource / "deploy" / "container" / "Containerfile");
+  const size_t runtime_from = file.find("\nFROM debian:12-slim\n");
+  ASSERT_NE(runtime_from, std::string::npos) << "no slim runtime stage";
+  ASSERT_EQ(file.find("\nFROM ", runtime_from + 1), std::string::npos) << "the slim stage is last";
+  const std::string containerfile = file.substr(0, runtime_from);  // the build stage
+  const std::string runtime = file.substr(runtime_from);
+  EXPECT_NE(containerfile.find("FROM debian:12 AS build"), std::string::npos);
+  // The runtime stage installs the package the build stage made, and
+  // neither sources nor tools.
+  EXPECT_NE(runtime.find("COPY --from=build /holofuse.deb"), std::string::npos) << runtime;
+  EXPECT_NE(containerfile.find("cpack -G DEB"), std::string::npos);
+  for (const char* absent : {"-dev ", "build-essential", "cmake", "COPY . "})
+    EXPECT_EQ(runtime.find(absent), std::string::npos) << "the slim stage has " << absent;
+  const std::regex user(R"(\nUSER ([a-z_][a-z0-9_-]*)\n)");
+  std::smatch named;
+  ASSERT_TRUE(std::regex_search(runtime, named, user)) << "the image runs as root";
+  EXPECT_NE(named[1].str(), "root");
+  EXPECT_NE(runtime.find("CMD [\"/usr/bin/fusion_server\""), std::string::npos)
+      << "the command is the installed program";
+  // The context sent to the builder leaves the build folders out.
+  const std::string ignored = readFile(kSource / ".containerignore");
+  for (const char* line : {"\nbuild\n", "\nbuild-*\n", "\n.git\n"})
+    EXPECT_NE(("\n" + ignored).find(line), std::string::npos) << ".containerignore lacks " << line;
+  // The manifests run the installed programs; those that mount keys run
+  // as root (a Secret's owner), the others as the image's user.
+  for (const YAML::Node& doc : manifests()) {
+    if (!doc["spec"] || !doc["spec"]["template"]) continue;
+    for (const auto& container : doc["spec"]["template"]["spec"]["containers"]) {
+      const std::string program = container["command"][0].as<std::string>();
+      EXPECT_EQ(program.rfind("/usr/bin/", 0), 0u) << program;
+      bool keys = false;
+      for (const auto& mount : container["volumeMounts"])
+        keys |= mount["mountPath"].as<std::string>().find("keys") != std::string::npos;
+      if (keys) {
+        EXPECT_EQ(container["securityContext"]["runAsUser"].as<int>(-1), 0)
+            << program << " reads a root-owned key";
+      }
+    }
+  }
   // ./holofuse's list of what the programs need (the tests' and the other
   // commands' extra packages are lists of their own, which a demo and the
   // image never install).
@@ -375,11 +496,11 @@ TEST(Deploy, TheContainerImageIsDebian12WithEveryPackageTheBuildUses) {
       EXPECT_EQ(test_only.count(package), 0u) << package << " is for the tests only";
       ++checked;
       EXPECT_NE(containerfile.find(" " + package + " "), std::string::npos)
-          << "the image lacks " << package;
+          << "the build stage lacks " << package;
     }
   }
   EXPECT_GT(checked, 20u) << list;
-  EXPECT_NE(containerfile.find("EXPOSE 7300"), std::string::npos);
+  EXPECT_NE(runtime.find("EXPOSE 7300"), std::string::npos);
 }
 
 }  // namespace
