@@ -271,11 +271,10 @@ std::string knobCharts(const std::vector<SweepPoint>& points, const std::string&
   std::vector<html::StackRow> stack;
   for (const SweepPoint* p : mine) {
     const ModeResult& m = p->result.modes.at(mode);
-    stack.push_back({p->value + " p50", latencyParts(p->result, m, false)});
-    stack.push_back({p->value + " p95", latencyParts(p->result, m, true)});
+    stack.push_back({p->value, latencyParts(p->result, m, false), std::nullopt, ""});
   }
-  return body + html::stackedBars("Latency of a new mesh by value (" + name + ")", latencyStages(),
-                                  stack, "ms");
+  return body + html::stackedBars("Latency of a new mesh by value (" + name + "; each stage's p50)",
+                                  latencyStages(), stack, "ms");
 }
 
 // Where each budgeted stage is measured, and which no point measured.

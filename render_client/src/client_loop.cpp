@@ -375,17 +375,30 @@ class ClientLoop {
     // (the server had fused it before it heard). A bundle of layers renders
     // layered whatever the mode (the user just left layered).
     std::optional<StatusOr<DecodedLayers>> layers;
+    bool before_layers = false;
     if (bundle.layers) {
       layers.emplace(layersOfBundle(*bundle.layers, cameras_, &layer_streams_));
+      layers_began_ = true;
+      report_.startUpEnded();
     } else if (mode_ == BlendMode::kLayered && !images_mode_) {
       layers.emplace(
           Status(StatusCode::kMalformed, "mode layered, and the bundle holds no texture layers"));
+      before_layers = !layers_began_;
     }
     const Status usable = !views.isOk()                 ? views.status()
                           : layers && !(*layers).isOk() ? (*layers).status()
                                                         : Status::ok();
     if (!usable.isOk()) {
-      skip(bundle.frame_id, usable.message());
+      if (views.isOk() && before_layers) {
+        // Fused before the server took this client's request for layers:
+        // start-up, not bad input (the report counts it as skipped if no
+        // layers ever come).
+        std::fprintf(stderr, "[client] frame %llu has no texture layers yet (start-up)\n",
+                     static_cast<unsigned long long>(bundle.frame_id));
+        report_.noteStartUp("frame " + std::to_string(bundle.frame_id) + ": " + usable.message());
+      } else {
+        skip(bundle.frame_id, usable.message());
+      }
       failed_bundles_.insert(bundle.frame_id);
       while (failed_bundles_.size() > 64) failed_bundles_.erase(failed_bundles_.begin());
       return;
@@ -697,6 +710,7 @@ class ClientLoop {
   std::map<uint64_t, PendingBundle> bundles_;
   std::map<uint64_t, FrameStats> stats_;
   std::set<uint64_t> failed_bundles_;  // ids already reported as skipped
+  bool layers_began_ = false;          // a bundle of texture layers came
   report::LatencyReport report_;
   std::optional<PictureWriter> writer_;  // the pictures, off the render path
   MaskHealthSampler mask_health_;        // each pod's mask against the hull, off it too

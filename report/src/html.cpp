@@ -4,12 +4,18 @@
 #include <cmath>
 #include <cstdio>
 
+#include "protocol/messages.h"
+
 namespace holofuse::html {
 namespace {
 
-const char* const kPalette[] = {"#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#76b7b2", "#edc948",
-                                "#b07aa1", "#ff9da7", "#9c755f", "#bab0ac", "#1b9e77", "#d95f02",
-                                "#7570b3", "#e7298a", "#66a61e", "#e6ab02"};
+// Twenty colours apart: every pipeline stage gets one of its own.
+const char* const kPalette[] = {"#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#76b7b2",
+                                "#edc948", "#b07aa1", "#ff9da7", "#9c755f", "#17becf",
+                                "#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e",
+                                "#e6ab02", "#5254a3", "#bcbd22", "#aec7e8", "#393b79"};
+// Time no stage accounts for.
+const char* const kWaiting = "#c7c7c7";
 
 std::string number(double v) {
   char buffer[32];
@@ -36,6 +42,20 @@ std::string exact(double v) {
 }  // namespace
 
 std::string colour(size_t i) { return kPalette[i % (sizeof(kPalette) / sizeof(kPalette[0]))]; }
+
+std::string stageColour(const std::string& stage) {
+  if (stage == "waiting") return kWaiting;
+  // The evaluation's name for the client's render stage.
+  const std::string name = stage == "client render" ? "render" : stage;
+  const std::vector<uint16_t>& order = protocol::stagesInPipelineOrder();
+  for (size_t slot = 0; slot < order.size(); ++slot)
+    if (protocol::stageName(order[slot]) == name) return colour(slot);
+  // Not a stage (a GPU pass): the same colour for the same name in every
+  // chart, from its spelling.
+  uint32_t hash = 2166136261u;  // FNV-1a
+  for (const unsigned char c : stage) hash = (hash ^ c) * 16777619u;
+  return colour(hash);
+}
 
 std::array<unsigned char, 3> colourRgb(size_t i) {
   const unsigned long rgb = std::stoul(colour(i).substr(1), nullptr, 16);
@@ -132,7 +152,10 @@ std::string barChart(const std::string& title, const std::vector<std::string>& c
 
 std::string stackedBars(const std::string& title, const std::vector<std::string>& stages,
                         const std::vector<StackRow>& rows, const std::string& unit) {
-  const double width = 860, row_height = 34, left = 120, right = 80;
+  // Room right of the bars for the total, and for a mark's figure beside it.
+  const bool marked =
+      std::any_of(rows.begin(), rows.end(), [](const StackRow& row) { return row.mark; });
+  const double width = 860, row_height = 34, left = 120, right = marked ? 260 : 80;
   const double legend_rows = std::ceil(static_cast<double>(stages.size()) / 5.0);
   const double height = 40 + row_height * static_cast<double>(rows.size()) + 22 * legend_rows + 20;
   double longest = 0;
@@ -140,6 +163,7 @@ std::string stackedBars(const std::string& title, const std::vector<std::string>
     double total = 0;
     for (double v : row.segments) total += std::max(0.0, finiteOrZero(v));
     longest = std::max(longest, total);
+    if (row.mark) longest = std::max(longest, finiteOrZero(*row.mark));
   }
   if (!(longest > 0)) longest = 1;
   const double scale = (width - left - right) / longest;
@@ -159,19 +183,31 @@ std::string stackedBars(const std::string& title, const std::vector<std::string>
       if (w <= 0) continue;
       svg += "<rect class=\"bar\" data-encoding=\"width\" data-value=\"" + exact(v) + "\" x=\"" +
              number(x) + "\" y=\"" + number(y) + "\" width=\"" + number(w) +
-             "\" height=\"24\" fill=\"" + colour(s) + "\"><title>" + escape(stages[s]) + ": " +
-             number(v) + " " + escape(unit) + "</title></rect>";
+             "\" height=\"24\" fill=\"" + stageColour(stages[s]) + "\"><title>" +
+             escape(stages[s]) + ": " + number(v) + " " + escape(unit) + "</title></rect>";
       x += w;
     }
-    svg += "<text x=\"" + number(x + 6) + "\" y=\"" + number(y + 17) + "\">" + number(total) + " " +
-           escape(unit) + "</text>";
+    std::string label = number(total) + " " + escape(unit);
+    if (rows[r].mark) {
+      // A figure of the whole that is not a sum of the segments (the end
+      // to end's p95): a tick across the row, named beside the total.
+      const double mx = left + std::max(0.0, finiteOrZero(*rows[r].mark)) * scale;
+      svg += "<line class=\"mark\" x1=\"" + number(mx) + "\" y1=\"" + number(y - 4) + "\" x2=\"" +
+             number(mx) + "\" y2=\"" + number(y + 28) +
+             "\" stroke=\"#222\" stroke-width=\"2\" stroke-dasharray=\"4 2\"><title>" +
+             escape(rows[r].mark_label) + ": " + number(*rows[r].mark) + " " + escape(unit) +
+             "</title></line>";
+      label += "; " + escape(rows[r].mark_label) + " " + number(*rows[r].mark) + " " + escape(unit);
+      x = std::max(x, mx);
+    }
+    svg += "<text x=\"" + number(x + 6) + "\" y=\"" + number(y + 17) + "\">" + label + "</text>";
   }
   for (size_t s = 0; s < stages.size(); ++s) {
     const double lx = 10 + 170.0 * static_cast<double>(s % 5);
     const double ly =
         40 + row_height * static_cast<double>(rows.size()) + 22 * static_cast<double>(s / 5);
     svg += "<rect x=\"" + number(lx) + "\" y=\"" + number(ly) +
-           "\" width=\"12\" height=\"12\" fill=\"" + colour(s) + "\"/><text x=\"" +
+           "\" width=\"12\" height=\"12\" fill=\"" + stageColour(stages[s]) + "\"/><text x=\"" +
            number(lx + 16) + "\" y=\"" + number(ly + 10) + "\">" + escape(stages[s]) + "</text>";
   }
   return svg + "</svg></figure>\n";

@@ -228,4 +228,14 @@ std::vector<double> timeByStage(const FrameRecord& frame) {
   return shares;
 }
 
+std::vector<std::string> LatencyReport::startUpFrames() const {
+  return start_up_ended_ ? start_up_ : std::vector<std::string>{};
+}
+
+std::vector<std::string> LatencyReport::skippedFrames() const {
+  std::vector<std::string> skipped = skipped_;
+  if (!start_up_ended_) skipped.insert(skipped.end(), start_up_.begin(), start_up_.end());
+  return skipped;
+}
+
 }  // namespace holofuse::report

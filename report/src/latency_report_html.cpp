@@ -2,6 +2,7 @@
 // SVG charts (report/html.h).
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 
 #include "base/statistics.h"
 #include "report/html.h"
@@ -14,24 +15,22 @@ using Rows = std::vector<std::vector<std::string>>;
 
 std::string ms1(double v) { return html::number("%.1f ms", v); }
 
-// The slowest frames' end to end by stage and wait, as stacked bars.
+// The slowest frames' end to end by stage and wait, as stacked bars, each
+// frame by its place in the run (its picture is frames/frame_NNNNNN.png).
 std::string slowestFramesChart(const std::vector<FrameRecord>& frames) {
-  std::vector<const FrameRecord*> slowest;
-  for (const auto& f : frames)
-    if (!f.timeline.empty()) slowest.push_back(&f);
-  std::sort(slowest.begin(), slowest.end(), [](const FrameRecord* a, const FrameRecord* b) {
-    return a->end_to_end_ms > b->end_to_end_ms;
-  });
+  std::vector<size_t> slowest;
+  for (size_t i = 0; i < frames.size(); ++i)
+    if (!frames[i].timeline.empty()) slowest.push_back(i);
+  std::sort(slowest.begin(), slowest.end(),
+            [&](size_t a, size_t b) { return frames[a].end_to_end_ms > frames[b].end_to_end_ms; });
   slowest.resize(std::min<size_t>(slowest.size(), 5));
   if (slowest.empty()) return {};
   const std::vector<uint16_t>& order = protocol::stagesInPipelineOrder();
   std::vector<std::vector<double>> shares;
   std::vector<html::StackRow> rows;
-  for (const FrameRecord* f : slowest) {
-    shares.push_back(timeByStage(*f));
-    rows.push_back(
-        {"frame " + std::to_string(f->frame_id) + ", " + html::number("%.0f ms", f->end_to_end_ms),
-         {}});
+  for (const size_t i : slowest) {
+    shares.push_back(timeByStage(frames[i]));
+    rows.push_back({"frame " + std::to_string(i), {}, std::nullopt, ""});
   }
   // Stages no slow frame spent time in are left out of the legend.
   std::vector<std::string> names;
@@ -46,28 +45,39 @@ std::string slowestFramesChart(const std::vector<FrameRecord>& frames) {
                            names, rows, "ms");
 }
 
-// p50 and p95 of each named series, stacked.
+// Each named series' p50, stacked, with its p50 and p95 in a table: the
+// p95s are never stacked (they do not add up); `whole`, where given, marks
+// the p95 of the whole on the stack.
 std::string spreadBars(const std::string& title, const std::vector<std::string>& names,
-                       const std::vector<const std::vector<double>*>& samples) {
-  html::StackRow p50{"p50", {}}, p95{"p95", {}};
-  for (const auto* ms : samples) {
-    p50.segments.push_back(percentile(*ms, 50));
-    p95.segments.push_back(percentile(*ms, 95));
+                       const std::vector<const std::vector<double>*>& samples,
+                       std::optional<double> whole_p95 = std::nullopt,
+                       const std::string& whole = "") {
+  html::StackRow p50{"p50", {}, whole_p95, whole + " p95"};
+  Rows rows;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    p50.segments.push_back(percentile(*samples[i], 50));
+    rows.push_back({names[i], ms1(percentile(*samples[i], 50)), ms1(percentile(*samples[i], 95)),
+                    std::to_string(samples[i]->size())});
   }
-  return html::stackedBars(title, names, {p50, p95}, "ms");
+  return html::stackedBars(title, names, {p50}, "ms") +
+         html::table({"", "p50", "p95", "samples"}, rows);
 }
 
-// The latency budget: the pipeline stages stacked, at p50 and at p95.
-std::string stageBars(const std::map<uint16_t, std::vector<double>>& stage_ms) {
+// The latency budget: the pipeline stages' p50s stacked, the end to end's
+// p95 marked.
+std::string stageBars(const std::map<uint16_t, std::vector<double>>& stage_ms,
+                      double end_to_end_p95) {
   std::vector<std::string> names;
   std::vector<const std::vector<double>*> samples;
   for (uint16_t stage : protocol::stagesInPipelineOrder()) {
     const auto it = stage_ms.find(stage);
-    if (it == stage_ms.end()) continue;
+    if (it == stage_ms.end() || it->second.empty()) continue;
     names.push_back(protocol::stageName(stage));
     samples.push_back(&it->second);
   }
-  return spreadBars("Latency budget per stage", names, samples);
+  if (names.empty()) return {};
+  return spreadBars("Latency budget: each stage's p50, the end to end's p95 marked", names, samples,
+                    end_to_end_p95, "end to end");
 }
 
 std::string gpuBars(const std::map<std::string, std::vector<double>>& gpu_ms) {
@@ -78,7 +88,7 @@ std::string gpuBars(const std::map<std::string, std::vector<double>>& gpu_ms) {
     names.push_back(name);
     samples.push_back(&ms);
   }
-  return spreadBars("Texture-field passes per new mesh (GPU timestamps)", names, samples);
+  return spreadBars("Texture-field passes per new mesh (GPU timestamps, p50)", names, samples);
 }
 
 // Every written frame against the scene's true image from the same view,
@@ -101,6 +111,7 @@ std::string qualitySection(const std::vector<LatencyReport::QualitySummary>& jud
 }
 
 std::string bytesChart(const std::vector<FrameRecord>& frames) {
+  if (frames.empty()) return {};
   double pod_bytes = 0, client_bytes = 0, feather_bytes = 0;
   for (const auto& f : frames) {
     pod_bytes += static_cast<double>(f.pod_bytes);
@@ -186,22 +197,31 @@ std::string LatencyReport::budgetSection(const Budget& budget) const {
 
 std::string LatencyReport::toHtml(const std::map<std::string, std::string>& settings,
                                   const Budget& budget) const {
-  Rows summary = {
-      {"frames rendered", std::to_string(frames_.size())},
-      {"frames per second", html::number("%.1f", fps())},
-      {"end-to-end p50 / p95 / p99", ms1(endToEndPercentile(50)) + " / " +
-                                         ms1(endToEndPercentile(95)) + " / " +
-                                         ms1(endToEndPercentile(99))},
-      {"meshes superseded (a newer one was waiting)", std::to_string(superseded_)},
-      {"pictures not written (the writer's queue was full)", std::to_string(pictures_dropped_)},
-      {"frames skipped (bad input)", std::to_string(skipped_.size())}};
-  for (const auto& [key, value] : settings) summary.push_back({key, value});
+  Rows summary = {{"frames rendered", std::to_string(frames_.size())},
+                  {"frames per second", html::number("%.1f", fps())},
+                  {"end-to-end p50 / p95 / p99", ms1(endToEndPercentile(50)) + " / " +
+                                                     ms1(endToEndPercentile(95)) + " / " +
+                                                     ms1(endToEndPercentile(99))}};
+  // Counts of what did not become a picture, each only where it happened.
+  const auto count = [&](const char* what, size_t n) {
+    if (n > 0) summary.push_back({what, std::to_string(n)});
+  };
+  count("meshes superseded (a newer one was waiting)", superseded_);
+  count("pictures not written (the writer's queue was full)", pictures_dropped_);
+  count("frames at start-up (fused before the server took this client's layers)",
+        startUpFrames().size());
+  count("frames skipped (unusable; report.json frames_skipped says why)", skippedFrames().size());
+  Rows settings_rows;
+  for (const auto& [key, value] : settings) settings_rows.push_back({key, value});
   const std::string body =
-      html::table({"", "value"}, summary) + stageBars(stage_ms_) + slowestFramesChart(frames_) +
+      "<h2>Results</h2>\n" + html::table({"", "value"}, summary) +
+      stageBars(stage_ms_, endToEndPercentile(95)) + slowestFramesChart(frames_) +
       gpuBars(gpu_ms_) + qualitySection(quality(), judge_ms_) + bytesChart(frames_) +
       jitterChart(podJitterMs(), jitterFromServer()) +
       clocksSection(hostClocks(), clock_drift_warn_ms_) +
-      maskHealthSection(mask_health_, mask_health_ids_) + budgetSection(budget);
+      maskHealthSection(mask_health_, mask_health_ids_) + budgetSection(budget) +
+      (settings_rows.empty() ? ""
+                             : "<h2>Settings</h2>\n" + html::table({"", "value"}, settings_rows));
   return html::page("holofuse live loop report", body);
 }
 

@@ -199,7 +199,8 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
     quality["judge_ms"] = {{"p50", percentile(judge_ms_, 50)}, {"p95", percentile(judge_ms_, 95)}};
   }
   j["quality"] = quality;
-  j["frames_skipped"] = skipped_;
+  j["frames_skipped"] = skippedFrames();
+  j["frames_at_start_up"] = startUpFrames();
   j["frames_superseded"] = superseded_;
   j["pictures_dropped"] = pictures_dropped_;
   j["camera_views_without_subject"] = views_without_subject_;

@@ -8,7 +8,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <regex>
+#include <set>
 
 #include "base/arrival_jitter.h"
 #include "base/statistics.h"
@@ -40,8 +43,10 @@ TEST(HtmlReports, ChartsRenderInChromiumAndAnEmptyChartDoesNotCount) {
   const std::string faithful =
       html::barChart("PSNR", {"clean", "few-cameras"},
                      {{"normal", {17.0, 11.2}}, {"montage4d", {17.3, 11.4}}}, "dB") +
-      html::stackedBars("Latency", {"hull", "render"}, {{"p50", {30, 40}}, {"p95", {50, 80}}},
-                        "ms") +
+      html::stackedBars(
+          "Latency", {"hull", "render"},
+          {{"p50", {30, 40}, 95.0, "end to end p95"}, {"p50 again", {20, 10}, std::nullopt, ""}},
+          "ms") +
       html::scatterChart("Trade", "ms", "dB",
                          {{"a", 10, 19.0, true, false}, {"b", 30, 19.6, true, true}});
   std::ofstream(dir / "page.html")
@@ -127,6 +132,115 @@ TEST(HtmlReports, LoopReportShowsBudgetJitterAndBytes) {
   EXPECT_EQ(json["budget_unmeasured"], (nlohmann::json{"replay_read"}));
   EXPECT_DOUBLE_EQ(json["quality"]["ssim"]["worst"].get<double>(), 0.5);
   EXPECT_TRUE(json["frames"][3]["psnr_db"].is_null());
+  fs::remove_all(dir);
+}
+
+// Each stacked chart's segments as name -> colours, from the SVG as a
+// browser reads it: a bar's fill and its tooltip's name.
+std::map<std::string, std::set<std::string>> segmentColours(const fs::path& page) {
+  std::ifstream in(page);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::map<std::string, std::set<std::string>> colours;
+  const std::regex bar(R"re(data-encoding="width"[^>]*fill="(#[0-9a-f]{6})"><title>([^:<]+):)re");
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), bar); it != std::sregex_iterator();
+       ++it)
+    colours[(*it)[2]].insert((*it)[1]);
+  return colours;
+}
+
+std::string readText(const fs::path& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// The live report and the evaluation's page read apart: one colour per
+// stage in every chart (the slowest frames' chart leaves out stages no
+// slow frame ran, which once shifted every colour after them), the p95s
+// never stacked, frames named by their place in the run, the settings in
+// a table of their own, start-up frames not counted as bad input, and no
+// table without rows.
+TEST(HtmlReports, EachStageKeepsOneColourInEveryChartAndNoPercentileIsStacked) {
+  using protocol::Stage;
+  report::LatencyReport report;
+  const uint64_t first_id = 26'946'885'960;
+  for (uint64_t f = 0; f < 6; ++f) {
+    const uint64_t t = 1'000'000'000 + f * 100'000'000;
+    const auto stamp = [&](Stage stage, uint64_t from_ms, uint64_t to_ms) {
+      return protocol::StageStamp{static_cast<uint16_t>(stage), protocol::kSourceServer,
+                                  t + from_ms * 1'000'000, t + to_ms * 1'000'000};
+    };
+    // Only the fastest frame is refined: the chart of the five slowest
+    // lacks refine, and the stages after it must keep their colours.
+    std::vector<protocol::StageStamp> stamps = {
+        stamp(Stage::kHull, 0, 30), stamp(Stage::kMeshEncode, 30, 40),
+        stamp(Stage::kDecode, 45, 50), stamp(Stage::kUpload, 50, 55),
+        stamp(Stage::kRender, 55, 70 + 10 * f)};
+    if (f == 0) stamps.push_back(stamp(Stage::kRefine, 40, 45));
+    report.addStamps(stamps);
+    report::FrameRecord record;
+    record.frame_id = first_id + f;
+    record.capture_time_ns = t;
+    record.end_to_end_ms = static_cast<double>(80 + 10 * f);
+    record.timeline = stamps;
+    report.addFrame(record, t);
+  }
+  report.noteStartUp("frame 1: no texture layers yet");
+  report.startUpEnded();
+  const fs::path dir = scratch("colours");
+  std::ofstream(dir / "report.html") << report.toHtml({{"mode", "layered"}}, {});
+
+  eval::SceneResult scene;
+  scene.name = "clean";
+  scene.cameras = 4;
+  scene.modes["normal"] = {15.2, 16.7, 0.59, 19.2, 21.0, 16, 80, {}, 95, {}};
+  scene.hull_ms = scene.codec_ms = 20;
+  for (const std::string& stage : eval::codecStages())
+    scene.codec_stage_ms[stage] = scene.codec_stage_ms_p95[stage] = 3;
+  eval::EvalOptions options;
+  options.modes = {render::BlendMode::kNormal};
+  ASSERT_TRUE(eval::writeQualityReports(options, {scene}, dir.string()).isOk());
+
+  std::map<std::string, std::set<std::string>> colours;
+  for (const char* page : {"report.html", "quality.html"}) {
+    for (const auto& [stage, used] : segmentColours(dir / page))
+      colours[stage == "client render" ? "render" : stage].insert(used.begin(), used.end());
+  }
+  for (const char* stage : {"hull", "refine", "mesh_encode", "decode", "upload", "render"})
+    ASSERT_EQ(colours.count(stage), 1u) << stage << " is drawn nowhere";
+  std::map<std::string, std::string> owner;
+  for (const auto& [stage, used] : colours) {
+    EXPECT_EQ(used.size(), 1u) << stage << " is drawn in " << ::testing::PrintToString(used);
+    const auto [it, fresh] = owner.emplace(*used.begin(), stage);
+    EXPECT_TRUE(fresh) << stage << " and " << it->second << " share " << *used.begin();
+  }
+
+  const std::string page = readText(dir / "report.html");
+  // The budget chart: one row of p50s, the end to end's p95 a mark.
+  EXPECT_EQ(page.find(">p95</text>"), std::string::npos) << "a stacked row of p95s";
+  EXPECT_NE(page.find("<line class=\"mark\""), std::string::npos);
+  // 80..130 ms: a p95 of 127.5, beside the row's total.
+  EXPECT_NE(page.find("; end to end p95 128 ms</text>"), std::string::npos);
+  EXPECT_NE(page.find(">frame 5</text>"), std::string::npos) << "the slowest, by its place";
+  EXPECT_EQ(page.find(std::to_string(first_id)), std::string::npos) << "a frame by its id";
+  const size_t settings = page.find("<h2>Settings</h2>");
+  ASSERT_NE(settings, std::string::npos);
+  EXPECT_GT(page.find("<td>mode</td>", 0), settings) << "a setting among the results";
+  EXPECT_NE(page.find("frames at start-up"), std::string::npos);
+  EXPECT_EQ(page.find("frames skipped"), std::string::npos) << "nothing was skipped";
+  const auto json = nlohmann::json::parse(report.toJson({}, {}));
+  EXPECT_EQ(json["frames_at_start_up"].size(), 1u);
+  EXPECT_EQ(json["frames_skipped"].size(), 0u);
+  // A start-up that never ended: the frames were skipped after all.
+  report::LatencyReport never;
+  never.noteStartUp("frame 1: no texture layers yet");
+  const auto never_json = nlohmann::json::parse(never.toJson({}, {}));
+  EXPECT_EQ(never_json["frames_at_start_up"].size(), 0u);
+  EXPECT_EQ(never_json["frames_skipped"].size(), 1u);
+
+  // Holoportation did not run: no verdict table against it.
+  const std::string quality = readText(dir / "quality.html");
+  EXPECT_EQ(quality.find("montage4d against holoportation"), std::string::npos);
+  EXPECT_EQ(quality.find("<tbody></tbody>"), std::string::npos) << "an empty table";
   fs::remove_all(dir);
 }
 

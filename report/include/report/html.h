@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,12 @@ std::string escape(const std::string& text);
 // the viewer's panel colours the stages as the reports do.
 std::string colour(size_t i);
 std::array<unsigned char, 3> colourRgb(size_t i);
+// A stage's colour, the same in every chart of every report and in the
+// viewer's panel: the colour of its place in the pipeline order
+// (protocol::stagesInPipelineOrder), grey for "waiting"; the evaluation's
+// "client render" is render's. Another name (a GPU pass) gets the same
+// colour wherever it is drawn.
+std::string stageColour(const std::string& stage);
 // A number as a printf format with one double argument gives it ("%.2f
 // dB"), for a cell or a label.
 std::string number(const char* format, double value);
@@ -35,9 +42,14 @@ std::string barChart(const std::string& title, const std::vector<std::string>& c
 struct StackRow {
   std::string label;
   std::vector<double> segments;  // one per stage, in the stages' order
+  // A figure of the whole drawn as a tick across the row, never stacked:
+  // percentiles other than the median do not add up (the end to end's
+  // p95 beside the stages' p50s).
+  std::optional<double> mark;
+  std::string mark_label;
 };
 // Horizontal stacked bars (the latency budget): a row per label, a segment
-// per stage, with a legend.
+// per stage in the stage's colour (stageColour), with a legend.
 std::string stackedBars(const std::string& title, const std::vector<std::string>& stages,
                         const std::vector<StackRow>& rows, const std::string& unit);
 

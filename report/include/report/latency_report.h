@@ -90,6 +90,14 @@ class LatencyReport {
   // The client's time judging a frame (after it is written, before the next).
   void addJudgeMs(double ms) { judge_ms_.push_back(ms); }
   void noteSkipped(const std::string& why) { skipped_.push_back(why); }
+  // A frame without what this client renders (texture layers) that the
+  // server fused before it took the client's request: start-up, until the
+  // first frame that has them (startUpEnded). A run in which none came
+  // counts them as skipped: the start-up never ended.
+  void noteStartUp(const std::string& why) { start_up_.push_back(why); }
+  void startUpEnded() { start_up_ended_ = true; }
+  std::vector<std::string> startUpFrames() const;
+  std::vector<std::string> skippedFrames() const;
   // Meshes not rendered because a newer one had already arrived.
   void setSuperseded(uint64_t count) { superseded_ = count; }
   // Pictures not written because the writer's queue was full (their frames
@@ -180,7 +188,8 @@ class LatencyReport {
   std::vector<double> judge_ms_;
   std::vector<FrameRecord> frames_;
   std::vector<uint64_t> written_ns_;
-  std::vector<std::string> skipped_;
+  std::vector<std::string> skipped_, start_up_;
+  bool start_up_ended_ = false;
   uint64_t superseded_ = 0;
   uint64_t pictures_dropped_ = 0;
   uint64_t views_without_subject_ = 0;
