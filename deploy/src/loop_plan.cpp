@@ -220,6 +220,7 @@ int readReplay(CLI::App& app, LoopPlan& plan) {
   }
   // A still (one frame of a static scene) repeats so the client can orbit it.
   if (dataset->frameIds() == 1) plan.loop = true;
+  plan.replay_frames = dataset->frameIds();
   if (!app.count("--frames") && !plan.loop) plan.frames = 0;  // until the replay ends
   return 0;
 }
@@ -497,7 +498,11 @@ std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& 
   }
   append(args, holofuse::eval::clientArguments(plan.settings));
   appendGivenDefaults(args, plan, holofuse::render::renderFlags(), plan.settings.render);
-  if (replayEnds(plan)) args.push_back("--exit-when-server-leaves");
+  if (replayEnds(plan)) {
+    args.push_back("--exit-when-server-leaves");
+    // The progress line counts against the dataset's frames.
+    if (frames == 0) append(args, {"--frames-expected", std::to_string(plan.replay_frames)});
+  }
   return args;
 }
 

@@ -351,9 +351,21 @@ Status measureClientLink(const EvalOptions& options, const SceneInput& input, bo
 
 }  // namespace
 
+void RunProgress::say(const std::string& line, double part_done) {
+  if (!sink_) return;
+  const double done = static_cast<double>(parts_done_) + part_done;
+  std::string whole;
+  if (parts_ > 1) {
+    whole = "; the run: part " + std::to_string(std::min(parts_done_ + 1, parts_)) + " of " +
+            std::to_string(parts_) + ", " +
+            eta_.textOfShares(done, static_cast<double>(parts_) - done);
+  }
+  sink_(line + whole);
+}
+
 Status evaluateModes(const EvalOptions& options, gpu::VulkanContext& context,
                      const SceneInput& input, const EvaluationPlan& plan, SceneResult& result,
-                     const std::function<void(const std::string&)>& progress) {
+                     RunProgress& progress) {
   const int frame_count = static_cast<int>(input.frames.size());
   const int jump_frame = frame_count / 2;  // for sequences with a pose before the jump
   // Seam pixels and error regions per (sequence, frame), shared by the modes.
@@ -472,15 +484,14 @@ Status evaluateModes(const EvalOptions& options, gpu::VulkanContext& context,
       }
       eta.stepDone();
       ++views_done;
-      if (progress) {
-        // Leave-one-out counts its cameras; novel views their poses.
-        const size_t of = sequence.novel_truth ? plan.sequences.size() : input.reported.size();
-        progress(result.name + " / " + mode_name + ": " + plan.what + " " +
-                 std::to_string(sequence.truth) + " of " + std::to_string(of) + ", " +
-                 std::to_string(frame_count) + " frames, " +
-                 std::to_string(static_cast<int>(msSince(mode_start) / 1000)) + " s so far" +
-                 (views_done < views ? "; this scene's " + eta.text(views - views_done) : ""));
-      }
+      // Leave-one-out counts its cameras; novel views their poses.
+      const size_t of = sequence.novel_truth ? plan.sequences.size() : input.reported.size();
+      progress.say(result.name + " / " + mode_name + ": " + plan.what + " " +
+                       std::to_string(sequence.truth) + " of " + std::to_string(of) + ", " +
+                       std::to_string(frame_count) + " frames, " +
+                       std::to_string(static_cast<int>(msSince(mode_start) / 1000)) + " s so far" +
+                       (views_done < views ? "; this scene's " + eta.text(views - views_done) : ""),
+                   static_cast<double>(views_done) / static_cast<double>(views));
     }
     if (m.images > 0) {
       m.seam_visibility = seam_images ? seam_sum / static_cast<double>(seam_images) : -1.0;

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "base/eta.h"
 #include "base/statistics.h"
 #include "base/status.h"
 #include "eval/leave_one_out.h"
@@ -68,12 +69,30 @@ EvaluationPlan cameraPlan(const EvalOptions& options, const SceneInput& input, d
 // scene's truth there (frames' novel_truth, in poses' order).
 EvaluationPlan novelPlan(const std::vector<Camera>& poses);
 
+// The whole run's progress over its parts (each scene's leave-one-out row,
+// its camera-kept row, each novel view): every line the caller's callback
+// gets ends with the part it is in and the time the run has left, at the
+// pace so far counted in shares of parts.
+class RunProgress {
+ public:
+  RunProgress(std::function<void(const std::string&)> sink, size_t parts)
+      : sink_(std::move(sink)), parts_(parts) {}
+  // A line from the current part, of which `part_done` (0..1) is done.
+  void say(const std::string& line, double part_done);
+  void partDone() { ++parts_done_; }
+
+ private:
+  std::function<void(const std::string&)> sink_;
+  size_t parts_ = 1, parts_done_ = 0;
+  Eta eta_;
+};
+
 // Every mode, every sequence of the plan, every frame of one scene, into
 // result's modes (and its montage4d agreement); with options.save_images
 // the pictures go under options.out_dir/images. An error names the image
 // that could not be written.
 Status evaluateModes(const EvalOptions& options, gpu::VulkanContext& context,
                      const SceneInput& input, const EvaluationPlan& plan, SceneResult& result,
-                     const std::function<void(const std::string&)>& progress);
+                     RunProgress& progress);
 
 }  // namespace holofuse::eval

@@ -34,7 +34,7 @@ namespace fs = std::filesystem;
 // takes part.
 StatusOr<SceneResult> cameraKeptRow(const EvalOptions& options, gpu::VulkanContext& context,
                                     const SceneInput& input, const SceneResult& leave_one_out,
-                                    const std::function<void(const std::string&)>& progress) {
+                                    RunProgress& progress) {
   SceneResult row = leave_one_out;
   row.modes.clear();
   row.name = leave_one_out.name + " (camera kept)";
@@ -220,9 +220,13 @@ StatusOr<std::vector<const scene::ScenePreset*>> checkedScenes(const EvalOptions
 }  // namespace
 
 StatusOr<std::vector<SceneResult>> runLeaveOneOut(
-    const EvalOptions& options, const std::function<void(const std::string&)>& progress) {
+    const EvalOptions& options, const std::function<void(const std::string&)>& say) {
   HOLOFUSE_ASSIGN_OR_RETURN(const std::vector<const scene::ScenePreset*> presets,
                             checkedScenes(options));
+  // Each scene's leave-one-out row, its camera-kept row, each novel view.
+  const size_t kept = options.camera_kept ? 1 : 0;
+  RunProgress progress(say, options.datasets.size() * (1 + kept) +
+                                presets.size() * (1 + kept + options.novel_view_degrees.size()));
   // (The Vulkan context throws when no device answers: said here as an
   // error naming the device asked for.)
   std::optional<gpu::VulkanContext> started;
@@ -240,11 +244,13 @@ StatusOr<std::vector<SceneResult>> runLeaveOneOut(
     result.silhouette_error_mm = silhouetteErrorMm(input.frames[0]);
     HOLOFUSE_RETURN_IF_ERROR(evaluateModes(options, context, input,
                                            cameraPlan(options, input, 0, false), result, progress));
+    progress.partDone();
     results.push_back(std::move(result));
     if (options.camera_kept) {
-      HOLOFUSE_ASSIGN_OR_RETURN(SceneResult kept,
+      HOLOFUSE_ASSIGN_OR_RETURN(SceneResult kept_row,
                                 cameraKeptRow(options, context, input, results.back(), progress));
-      results.push_back(std::move(kept));
+      progress.partDone();
+      results.push_back(std::move(kept_row));
     }
   }
   for (const scene::ScenePreset* preset : presets) {
@@ -302,12 +308,14 @@ StatusOr<std::vector<SceneResult>> runLeaveOneOut(
     HOLOFUSE_RETURN_IF_ERROR(evaluateModes(
         options, context, input, cameraPlan(options, input, result.view_jump_degrees, false),
         result, progress));
+    progress.partDone();
     const SceneResult leave_one_out = result;
     results.push_back(std::move(result));
     if (options.camera_kept) {
-      HOLOFUSE_ASSIGN_OR_RETURN(SceneResult kept,
+      HOLOFUSE_ASSIGN_OR_RETURN(SceneResult kept_row,
                                 cameraKeptRow(options, context, input, leave_one_out, progress));
-      results.push_back(std::move(kept));
+      progress.partDone();
+      results.push_back(std::move(kept_row));
     }
     for (double degrees : options.novel_view_degrees) {
       // The same frames, seen from beside the chosen pods with all of them
@@ -332,6 +340,7 @@ StatusOr<std::vector<SceneResult>> runLeaveOneOut(
       row.view_jump_degrees = 0;
       HOLOFUSE_RETURN_IF_ERROR(
           evaluateModes(options, context, novel, novelPlan(poses), row, progress));
+      progress.partDone();
       results.push_back(std::move(row));
     }
   }

@@ -11,6 +11,7 @@
 #include <optional>
 #include <set>
 
+#include "base/eta.h"
 #include "base/shutdown.h"
 #include "codec/mesh_codec.h"
 #include "image/image_io.h"
@@ -228,12 +229,15 @@ class ClientLoop {
     if (now - last_progress_ns_ <= 1000000000ull || report_.framesRendered() == 0) return;
     last_progress_ns_ = now;
     const auto& last = report_.frames().back();
-    std::printf(
-        "%sframes %zu%s | %5.1f fps | end-to-end p50 %6.1f ms p95 %6.1f ms | cameras %u/%u%s",
-        tty_ ? "\r" : "", report_.framesRendered(),
-        options_.frames ? ("/" + std::to_string(options_.frames)).c_str() : "", report_.fps(),
-        report_.endToEndPercentile(50), report_.endToEndPercentile(95), last.cameras_present,
-        last.cameras_expected, tty_ ? "   " : "\n");
+    // Of a known total (--frames, or a replay's --frames-expected): the
+    // count against it and the time left at the pace so far.
+    const std::string count =
+        Eta::countOf(report_.framesRendered(),
+                     options_.frames ? options_.frames : options_.frames_expected, report_.fps());
+    std::printf("%sframes %s | %5.1f fps | end-to-end p50 %6.1f ms p95 %6.1f ms | cameras %u/%u%s",
+                tty_ ? "\r" : "", count.c_str(), report_.fps(), report_.endToEndPercentile(50),
+                report_.endToEndPercentile(95), last.cameras_present, last.cameras_expected,
+                tty_ ? "   " : "\n");
     std::fflush(stdout);
   }
 

@@ -18,6 +18,9 @@ int main(int argc, char** argv) {
   app.add_option("--out", options.out_dir, "output folder (frames/ and report.json)");
   app.add_option("--frames", options.frames,
                  "stop after this many rendered frames (0: until signalled)");
+  app.add_option("--frames-expected", options.frames_expected,
+                 "with --frames 0: the frames the run should bring (a replay's), for the "
+                 "progress line's count and time left; it stops nothing");
   app.add_option("--give-up-after", options.give_up_after_s,
                  "exit (1) when no server has answered for this many seconds, from the start or "
                  "since the connection was lost (default 0: keep trying until signalled)")

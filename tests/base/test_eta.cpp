@@ -20,5 +20,19 @@ TEST(Eta, NoEstimateBeforeTheFirstStep) {
   EXPECT_EQ(eta.text(10).rfind("ETA ", 0), 0u) << eta.text(10);
 }
 
+TEST(Eta, ACountReadsAgainstItsTotalWithTheTimeLeft) {
+  EXPECT_EQ(Eta::countOf(12, 40, 4.0), "12/40 (ETA 7 s)");  // 28 frames at 4 a second
+  EXPECT_EQ(Eta::countOf(40, 40, 4.0), "40/40");
+  EXPECT_EQ(Eta::countOf(3, 40, 0.0), "3/40") << "no pace yet";
+  EXPECT_EQ(Eta::countOf(3, 0, 4.0), "3") << "no total";
+}
+
+// Work counted in shares of steps has no estimate before any share is done.
+TEST(Eta, SharesOfStepsGiveNoEstimateBeforeAnyIsDone) {
+  const Eta eta;
+  EXPECT_EQ(eta.textOfShares(0.0, 2.0), "");
+  EXPECT_EQ(eta.textOfShares(0.5, 0.0), "ETA 0 s");
+}
+
 }  // namespace
 }  // namespace holofuse

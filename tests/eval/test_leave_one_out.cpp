@@ -44,6 +44,22 @@ EvalOptions tiny() {
   return options;
 }
 
+// Every progress line says which part of the whole run it is in (here two
+// scenes) and, once there is a pace, the time the run has left.
+TEST(LeaveOneOut, ProgressLinesCountTheRunsPartsWithTheTimeLeft) {
+  EvalOptions options = tiny();
+  options.scenes = {"few-cameras", "clean"};
+  options.modes = {render::BlendMode::kNormal};
+  std::vector<std::string> lines;
+  ASSERT_TRUE(
+      runLeaveOneOut(options, [&](const std::string& line) { lines.push_back(line); }).isOk());
+  ASSERT_EQ(lines.size(), 2u) << "a held-out camera of each scene";
+  EXPECT_EQ(lines[0].rfind("few-cameras / normal: ", 0), 0u) << lines[0];
+  EXPECT_NE(lines[0].find("; the run: part 1 of 2, ETA "), std::string::npos) << lines[0];
+  EXPECT_EQ(lines[1].rfind("clean / normal: ", 0), 0u) << lines[1];
+  EXPECT_NE(lines[1].find("; the run: part 2 of 2, ETA 0 s"), std::string::npos) << lines[1];
+}
+
 TEST(LeaveOneOut, MeasuresEveryModeAndWritesReportsAndImages) {
   EvalOptions options = tiny();
   options.scenes = {"few-cameras"};

@@ -40,6 +40,7 @@ struct LoopPlan {
   // those that differ from its defaults.
   eval::LoopSettings settings;
   std::vector<std::string> dataset_server_args;  // a replay's capture volume and voxel
+  size_t replay_frames = 0;                      // the replayed dataset's frames
   // Fresh keys for this run only, one per identity (mode 0600, removed at
   // the end): the loop is authenticated like a rig, no other process can
   // join it, and no pod can be another.

@@ -37,6 +37,9 @@ struct ClientOptions {
   double clock_drift_warn_ms = 1.0;
   uint8_t max_minor = protocol::kVersionMinor;  // the newest protocol offered (--protocol)
   uint64_t frames = 0;  // stop after this many rendered frames; 0 = until signalled
+  // With frames 0: the frames the run is expected to bring (a replay's), for
+  // the progress line's count and time left; 0: not known.
+  uint64_t frames_expected = 0;
   // Exit (1) when no server has answered for this long, from the start or
   // since the connection was lost; 0: keep trying until signalled.
   double give_up_after_s = 0;
