@@ -1,12 +1,24 @@
-// NeRF-style transforms.json (instant-ngp, nerfstudio, Blender).
+// NeRF-style transforms.json (instant-ngp, nerfstudio), and the Blender
+// layout of the NeRF synthetic scenes: transforms_train.json,
+// transforms_val.json and transforms_test.json, the split kept per camera.
 #include "capture_parse.h"
 
 namespace holofuse::dataset {
 
 using namespace capture;
 
-StatusOr<CaptureDescription> readNerfCapture(const std::string& folder) {
-  const fs::path file = fs::path(folder) / "transforms.json";
+namespace {
+
+// The camera models read as perspective with radial-tangential distortion
+// (nerfstudio's OPENCV, its default; COLMAP's pinhole names).
+bool perspectiveModel(const std::string& model) {
+  return model == "OPENCV" || model == "PINHOLE" || model == "SIMPLE_PINHOLE";
+}
+
+// One transforms file's frames as cameras of `d` and images of `frame`;
+// a camera of a split is named "split/file".
+Status readTransforms(const std::string& folder, const fs::path& file, const std::string& split,
+                      CaptureDescription& d, CaptureFrame& frame) {
   auto json = readJson(file);
   if (!json.isOk()) return json.status();
   const nlohmann::json& root = *json;
@@ -15,9 +27,6 @@ StatusOr<CaptureDescription> readNerfCapture(const std::string& folder) {
       root["frames"].empty()) {
     return malformed(where, "expected a non-empty \"frames\" array");
   }
-  CaptureDescription d;
-  d.source = "nerf " + folder;
-  CaptureFrame frame;
   for (size_t i = 0; i < root["frames"].size(); ++i) {
     const nlohmann::json& f = root["frames"][i];
     const std::string at = where + ": frames[" + std::to_string(i) + "]";
@@ -30,6 +39,19 @@ StatusOr<CaptureDescription> readNerfCapture(const std::string& folder) {
       if (root.contains(key) && root[key].is_number()) return root[key].get<double>();
       return std::nullopt;
     };
+    // nerfstudio's camera_model: a fisheye or a panorama projects unlike
+    // the pinhole the fusion and the blend assume.
+    const nlohmann::json& model_at = f.contains("camera_model") ? f : root;
+    if (model_at.contains("camera_model")) {
+      const std::string model =
+          model_at["camera_model"].is_string() ? model_at["camera_model"].get<std::string>() : "";
+      if (!perspectiveModel(model)) {
+        return malformed(at, "camera_model \"" + model + "\" is not supported yet (" +
+                                 (model == "OPENCV_FISHEYE" ? "a fisheye: " : "") +
+                                 "holofuse reads perspective cameras: OPENCV, PINHOLE, "
+                                 "SIMPLE_PINHOLE, or none given)");
+      }
+    }
     Camera c;
     const auto w = value("w"), h = value("h");
     if (!w || !h)
@@ -80,14 +102,56 @@ StatusOr<CaptureDescription> readNerfCapture(const std::string& folder) {
         (!fs::exists(resolved) && fs::exists(resolved.string() + ".png"))) {
       image = resolved.string() + ".png";
     }
-    cam.name = fs::path(path).filename().string();
+    const std::string file_name = fs::path(path).filename().string();
+    cam.name = split.empty() ? file_name : split + "/" + file_name;
+    cam.split = split;
     cam.camera = c;
     frame.images.push_back(image);
-    const fs::path mask =
-        fs::path(folder) / "masks" / (fs::path(image).filename().string() + ".png");
-    frame.masks.push_back(fs::exists(mask) ? std::optional<std::string>(mask.string())
-                                           : std::nullopt);
+    // nerfstudio names each frame's mask; otherwise masks/<image>.png if
+    // there is one.
+    if (f.contains("mask_path")) {
+      if (!f["mask_path"].is_string()) return malformed(at, "\"mask_path\" is not a string");
+      const fs::path mask = relativeTo(folder, f["mask_path"].get<std::string>());
+      if (!fs::exists(mask))
+        return malformed(at, "mask_path \"" + mask.string() + "\" does not exist");
+      frame.masks.push_back(mask.string());
+    } else {
+      const fs::path mask =
+          fs::path(folder) / "masks" / (fs::path(image).filename().string() + ".png");
+      frame.masks.push_back(fs::exists(mask) ? std::optional<std::string>(mask.string())
+                                             : std::nullopt);
+    }
     d.cameras.push_back(std::move(cam));
+  }
+  return Status::ok();
+}
+
+}  // namespace
+
+StatusOr<CaptureDescription> readNerfCapture(const std::string& folder) {
+  CaptureDescription d;
+  d.source = "nerf " + folder;
+  CaptureFrame frame;
+  const fs::path single = fs::path(folder) / "transforms.json";
+  std::string where = single.string();
+  if (fs::exists(single)) {
+    HOLOFUSE_RETURN_IF_ERROR(readTransforms(folder, single, "", d, frame));
+  } else {
+    // The Blender layout: a file per split, those present read in order.
+    bool any = false;
+    for (const char* split : {"train", "val", "test"}) {
+      const fs::path file = fs::path(folder) / ("transforms_" + std::string(split) + ".json");
+      if (!fs::exists(file)) continue;
+      any = true;
+      HOLOFUSE_RETURN_IF_ERROR(readTransforms(folder, file, split, d, frame));
+    }
+    if (!any) {
+      return Status(StatusCode::kIoError,
+                    folder +
+                        ": no transforms.json, nor the Blender layout's "
+                        "transforms_train.json, transforms_val.json or transforms_test.json");
+    }
+    where = folder;
   }
   std::map<std::string, int> names;
   for (const auto& c : d.cameras) {

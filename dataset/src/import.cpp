@@ -443,6 +443,10 @@ DatasetMetadata metadataOf(const CaptureDescription& capture, const ImportOption
       options.voxel_size.value_or(std::max({extent.x, extent.y, extent.z}) / 96.0), 0.0001, 0.5);
   metadata.still = capture.frames.size() == 1;
   for (const auto& c : capture.cameras) metadata.camera_names.push_back(c.name);
+  const bool split = std::any_of(capture.cameras.begin(), capture.cameras.end(),
+                                 [](const CaptureCamera& c) { return !c.split.empty(); });
+  for (const auto& c : capture.cameras)
+    if (split) metadata.camera_splits.push_back(c.split);
   return metadata;
 }
 

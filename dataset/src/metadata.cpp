@@ -12,6 +12,7 @@ protocol::Bytes encodeDatasetMetadata(const DatasetMetadata& m) {
   j["volume_max"] = {m.volume_max.x, m.volume_max.y, m.volume_max.z};
   j["voxel_size"] = m.voxel_size;
   j["camera_names"] = m.camera_names;
+  if (!m.camera_splits.empty()) j["camera_splits"] = m.camera_splits;
   j["still"] = m.still;
   j["segmentation"] = m.segmentation;
   const std::string text = j.dump(2);
@@ -44,6 +45,8 @@ StatusOr<DatasetMetadata> decodeDatasetMetadata(const protocol::Bytes& bytes,
     }
     if (j.contains("camera_names"))
       m.camera_names = j["camera_names"].get<std::vector<std::string>>();
+    if (j.contains("camera_splits"))
+      m.camera_splits = j["camera_splits"].get<std::vector<std::string>>();
     m.still = j.value("still", false);
     m.segmentation = j.value("segmentation", "");
   } catch (const nlohmann::json::exception& e) {

@@ -5,7 +5,9 @@
 // input names the file and the line, byte or key.
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <iomanip>
+#include <map>
 #include <opencv2/core.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -81,13 +83,19 @@ class CaptureFormats : public SyntheticCapture {
     }
   }
 
-  void importAndMatch(const fs::path& src, CaptureFormat format, size_t masks_given,
-                      const std::string& name_suffix = "", size_t frames = 1) {
+  // The capture read and imported into root_/out, with its masks counted.
+  void importInto(const fs::path& src, CaptureFormat format, size_t masks_given) {
     auto capture = readCapture(src.string(), format);
     ASSERT_TRUE(capture.isOk()) << capture.status().toString();
     auto summary = importCapture(*capture, (root_ / "out").string(), {});
     ASSERT_TRUE(summary.isOk()) << summary.status().toString();
     EXPECT_EQ(summary->masks_given, masks_given);
+  }
+
+  void importAndMatch(const fs::path& src, CaptureFormat format, size_t masks_given,
+                      const std::string& name_suffix = "", size_t frames = 1) {
+    importInto(src, format, masks_given);
+    if (HasFatalFailure()) return;
     expectDatasetMatches(root_ / "out", 0.999, name_suffix, frames);
   }
 
@@ -147,19 +155,18 @@ TEST_F(CaptureFormats, ColmapTextInSparseZeroWithRgbMasks) {
   expectDatasetMatches(root_ / "out", 0.999, ".png");  // COLMAP names cameras by image file
 }
 
-// transforms.json: OpenGL camera axes, RGBA images whose alpha is the mask,
-// file paths without extension, intrinsics from the field of view.
-TEST_F(CaptureFormats, NerfTransformsWithAlphaMasks) {
-  const fs::path src = root_ / "src";
-  cameras_[1].skew = 0;
-  views_[1] = scene_.render(cameras_[1], 30);
-  writeImages(src / "train", ".png", true);
+// A transforms file's frames for the cameras of `indices`: OpenGL camera
+// axes, file paths under `folder` without extension, intrinsics from the
+// field of view.
+nlohmann::json nerfTransforms(const std::vector<Camera>& cameras,
+                              const std::vector<size_t>& indices,
+                              const std::function<std::string(size_t)>& file_of) {
   nlohmann::json j;
-  j["camera_angle_x"] = 2 * std::atan(0.5 * cameras_[0].width / cameras_[0].fx);
-  j["w"] = cameras_[0].width;
-  j["h"] = cameras_[0].height;
-  for (size_t i = 0; i < cameras_.size(); ++i) {
-    const Camera& c = cameras_[i];
+  j["camera_angle_x"] = 2 * std::atan(0.5 * cameras[0].width / cameras[0].fx);
+  j["w"] = cameras[0].width;
+  j["h"] = cameras[0].height;
+  for (const size_t i : indices) {
+    const Camera& c = cameras[i];
     const glm::dmat3 to_world = glm::transpose(c.rotation);
     const glm::dvec3 centre = c.center();
     nlohmann::json m = nlohmann::json::array();
@@ -168,15 +175,90 @@ TEST_F(CaptureFormats, NerfTransformsWithAlphaMasks) {
       m.push_back({to_world[0][row], -to_world[1][row], -to_world[2][row], centre[row]});
     }
     m.push_back({0, 0, 0, 1});
-    j["frames"].push_back({{"file_path", "./train/" + name(i)}, {"transform_matrix", m}});
+    j["frames"].push_back({{"file_path", file_of(i)}, {"transform_matrix", m}});
   }
+  return j;
+}
+
+// transforms.json: OpenGL camera axes, RGBA images whose alpha is the mask,
+// file paths without extension, intrinsics from the field of view.
+TEST_F(CaptureFormats, NerfTransformsWithAlphaMasks) {
+  const fs::path src = root_ / "src";
+  cameras_[1].skew = 0;
+  views_[1] = scene_.render(cameras_[1], 30);
+  writeImages(src / "train", ".png", true);
+  std::ofstream(src / "transforms.json") << nerfTransforms(cameras_, {0, 1, 2, 3}, [&](size_t i) {
+                                              return "./train/" + name(i);
+                                            }).dump(2);
+  importAndMatch(src, CaptureFormat::kNerf, 4);
+}
+
+// The NeRF synthetic scenes' Blender layout: a transforms file per split,
+// each camera named by its split and kept in that split in the metadata.
+TEST_F(CaptureFormats, NerfBlenderSplitsKeepEachCamerasSplit) {
+  const fs::path src = root_ / "src";
+  dropSkew();
+  const std::vector<std::pair<std::string, std::vector<size_t>>> splits = {
+      {"train", {0, 1}}, {"val", {2}}, {"test", {3}}};
+  for (const auto& [split, indices] : splits) {
+    writeImages(src / split, ".png", true);
+    std::ofstream(src / ("transforms_" + split + ".json"))
+        << nerfTransforms(cameras_, indices, [&, split = split](size_t i) {
+             return "./" + split + "/" + name(i);
+           }).dump(2);
+  }
+  importInto(src, CaptureFormat::kNerf, 4);
+  ASSERT_FALSE(HasFatalFailure());
+  const auto dataset = Dataset::open((root_ / "out").string());
+  ASSERT_TRUE(dataset.isOk()) << dataset.status().toString();
+  const DatasetMetadata& metadata = *dataset->metadata();
+  ASSERT_EQ(metadata.camera_names.size(), 4u);
+  ASSERT_EQ(metadata.camera_splits.size(), 4u);
+  std::map<std::string, std::string> split_of;
+  for (size_t c = 0; c < 4; ++c) split_of[metadata.camera_names[c]] = metadata.camera_splits[c];
+  EXPECT_EQ(split_of["train/" + name(0)], "train");
+  EXPECT_EQ(split_of["train/" + name(1)], "train");
+  EXPECT_EQ(split_of["val/" + name(2)], "val");
+  EXPECT_EQ(split_of["test/" + name(3)], "test");
+  // Neither layout: every file looked for is named.
+  fs::create_directories(root_ / "empty");
+  EXPECT_NE(failure(root_ / "empty", CaptureFormat::kNerf)
+                .find("no transforms.json, nor the Blender layout's transforms_train.json"),
+            std::string::npos);
+}
+
+// nerfstudio's per-frame mask_path, and its camera_model: a fisheye is
+// refused by name rather than read as a pinhole with radial distortion.
+TEST_F(CaptureFormats, NerfstudioMaskPathsAndCameraModels) {
+  const fs::path src = root_ / "src";
+  dropSkew();
+  writeImages(src / "images", ".png", false);
+  writeMasks(src / "segmentation", "_person.png", false);
+  nlohmann::json j = nerfTransforms(cameras_, {0, 1, 2, 3},
+                                    [&](size_t i) { return "images/" + name(i) + ".png"; });
+  j["camera_model"] = "OPENCV";
+  for (size_t i = 0; i < 4; ++i)
+    j["frames"][i]["mask_path"] = "segmentation/" + name(i) + "_person.png";
   std::ofstream(src / "transforms.json") << j.dump(2);
-  auto capture = readCapture(src.string(), CaptureFormat::kNerf);
-  ASSERT_TRUE(capture.isOk()) << capture.status().toString();
-  auto summary = importCapture(*capture, (root_ / "out").string(), {});
-  ASSERT_TRUE(summary.isOk()) << summary.status().toString();
-  EXPECT_EQ(summary->masks_given, 4u);
-  expectDatasetMatches(root_ / "out", 0.999);
+  importAndMatch(src, CaptureFormat::kNerf, 4, ".png");
+
+  j["frames"][2]["mask_path"] = "segmentation/missing.png";
+  std::ofstream(src / "transforms.json") << j.dump(2);
+  EXPECT_NE(failure(src, CaptureFormat::kNerf).find("frames[2]: mask_path"), std::string::npos);
+
+  j["frames"][2]["mask_path"] = "segmentation/" + name(2) + "_person.png";
+  j["frames"][1]["camera_model"] = "OPENCV_FISHEYE";
+  std::ofstream(src / "transforms.json") << j.dump(2);
+  const std::string fisheye = failure(src, CaptureFormat::kNerf);
+  EXPECT_NE(fisheye.find("frames[1]: camera_model \"OPENCV_FISHEYE\" is not supported yet (a "
+                         "fisheye"),
+            std::string::npos)
+      << fisheye;
+  j["frames"][1].erase("camera_model");
+  j["camera_model"] = "EQUIRECTANGULAR";
+  std::ofstream(src / "transforms.json") << j.dump(2);
+  EXPECT_NE(failure(src, CaptureFormat::kNerf).find("camera_model \"EQUIRECTANGULAR\""),
+            std::string::npos);
 }
 
 // COLMAP's default output: cameras.bin and images.bin, little-endian.

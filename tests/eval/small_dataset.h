@@ -35,7 +35,7 @@ inline void writeSmallDataset(const std::filesystem::path& dir, int cameras, uin
     const fs::path image = source / (name + ".png"), mask = source / (name + "_mask.png");
     ASSERT_TRUE(writeImage(image.string(), view.color).isOk());
     ASSERT_TRUE(writeImage(mask.string(), view.mask).isOk());
-    capture.cameras.push_back({name, camera, std::nullopt});
+    capture.cameras.push_back({name, camera, std::nullopt, ""});
     frame.images.push_back(image.string());
     frame.masks.push_back(mask.string());
   }

@@ -22,6 +22,7 @@ struct CaptureCamera {
   std::string name;  // as the source names it (pod ids follow natural name order)
   Camera camera;     // id = pod id; distortion as given (the import undistorts)
   std::optional<std::string> background;  // a plate of the empty scene, if given
+  std::string split;  // the source's split ("train", "val", "test"), if it has them
 };
 
 struct CaptureFrame {

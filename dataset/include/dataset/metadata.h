@@ -19,6 +19,9 @@ struct DatasetMetadata {
   glm::dvec3 volume_min{0.0}, volume_max{0.0};
   double voxel_size = 0.0;  // metres; 0: not given
   std::vector<std::string> camera_names;
+  // Per camera, the split its source put it in ("train", "val", "test" of a
+  // NeRF Blender set); empty when the source has none.
+  std::vector<std::string> camera_splits;
   bool still = false;        // one frame of a static scene
   std::string segmentation;  // how masks were made, for people
 };
