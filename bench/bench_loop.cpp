@@ -176,7 +176,7 @@ std::string chartsPage(const std::string& intro, const std::vector<ModeSummary>&
     const ModeSummary* earlier = before.count(m.mode) ? &before.at(m.mode) : nullptr;
     for (const ModeSummary* s : {&m, earlier}) {
       if (s == nullptr) continue;
-      html::StackRow row{m.mode + (s == &m ? "" : " (baseline)"), {}};
+      html::StackRow row{m.mode + (s == &m ? "" : " (baseline)"), {}, std::nullopt, ""};
       for (const std::string& stage : stages)
         row.segments.push_back(stageOf(s, stage) ? stageOf(s, stage)->p50 : 0.0);
       stacks.push_back(row);

@@ -143,6 +143,41 @@ std::optional<int> waitProcess(pid_t pid, int timeout_ms) {
   }
 }
 
+FinishedProcess runToEnd(const std::vector<std::string>& args, int timeout_ms) {
+  FinishedProcess finished;
+  char errors_path[] = "/tmp/holofuse_run_XXXXXX";
+  const int errors_fd = ::mkstemp(errors_path);
+  if (errors_fd < 0) {
+    finished.errors = std::string("cannot make a file for its stderr: ") + std::strerror(errno);
+    return finished;
+  }
+  ::close(errors_fd);
+  SpawnOptions options;
+  options.log_path = errors_path;
+  ChildPipes pipes;
+  const auto pid = spawnProcess(args, options, &pipes);
+  if (pid.isOk()) {
+    ::close(pipes.to_child);
+    char buffer[4096];
+    for (ssize_t n; (n = ::read(pipes.from_child, buffer, sizeof buffer)) != 0;) {
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) break;
+      finished.output.append(buffer, static_cast<size_t>(n));
+    }
+    ::close(pipes.from_child);
+    if (const std::optional<int> code = waitProcess(*pid, timeout_ms)) {
+      finished.exit_code = *code;
+    } else {
+      stopProcess(*pid, 0);  // past its time: killed, reaped, and -1
+    }
+  }
+  std::ifstream errors(errors_path);
+  finished.errors.assign(std::istreambuf_iterator<char>(errors), std::istreambuf_iterator<char>());
+  ::unlink(errors_path);
+  if (!pid.isOk()) finished.errors = pid.status().message();
+  return finished;
+}
+
 StoppedProcess stopProcess(pid_t pid, int grace_ms) {
   StoppedProcess stopped;
   if (const auto code = pollProcess(pid)) {

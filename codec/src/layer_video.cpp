@@ -229,6 +229,20 @@ struct LayerVideoDecoder::Codec {
 LayerVideoDecoder::LayerVideoDecoder(uint32_t max_side) : max_side_(max_side) { quietLibraries(); }
 LayerVideoDecoder::~LayerVideoDecoder() = default;
 
+StatusOr<LayerVideoPacket> layerVideoPacket(const protocol::Plane& plane) {
+  if (infoOf(plane.codec) == nullptr)
+    return Status(StatusCode::kMalformed, "layer video: not a video plane");
+  if (plane.data.size() <= kHeaderBytes)
+    return Status(
+        StatusCode::kTruncated,
+        "layer video: a plane of " + std::to_string(plane.data.size()) + " bytes holds no frame");
+  LayerVideoPacket packet;
+  for (int b = 0; b < 4; ++b) packet.sequence |= uint32_t{plane.data[b]} << (8 * b);
+  packet.key_frame = (plane.data[4] & kKeyFrameFlag) != 0;
+  packet.bitstream = plane.data.subspan(kHeaderBytes);
+  return packet;
+}
+
 StatusOr<Image8> LayerVideoDecoder::decode(const protocol::Plane& plane) {
   const CodecInfo* info = infoOf(plane.codec);
   if (info == nullptr) return Status(StatusCode::kMalformed, "layer video: not a video plane");
@@ -237,13 +251,9 @@ StatusOr<Image8> LayerVideoDecoder::decode(const protocol::Plane& plane) {
                                              std::to_string(plane.height) +
                                              " plane, above the stream's " +
                                              std::to_string(max_side_) + " a side");
-  if (plane.data.size() <= kHeaderBytes)
-    return Status(
-        StatusCode::kTruncated,
-        "layer video: a plane of " + std::to_string(plane.data.size()) + " bytes holds no frame");
-  uint32_t sequence = 0;
-  for (int b = 0; b < 4; ++b) sequence |= uint32_t{plane.data[b]} << (8 * b);
-  const bool key = (plane.data[4] & kKeyFrameFlag) != 0;
+  HOLOFUSE_ASSIGN_OR_RETURN(const LayerVideoPacket packet, layerVideoPacket(plane));
+  const uint32_t sequence = packet.sequence;
+  const bool key = packet.key_frame;
   if (!key && (!last_sequence_ || sequence != *last_sequence_ + 1)) {
     const std::string after =
         last_sequence_ ? "after " + std::to_string(*last_sequence_) : "as the first";
@@ -281,7 +291,7 @@ StatusOr<Image8> LayerVideoDecoder::decode(const protocol::Plane& plane) {
     return Status(StatusCode::kMalformed, "layer video: frame " + std::to_string(sequence) + " " +
                                               what + "; waiting for a key frame");
   };
-  const std::span<const uint8_t> bitstream = plane.data.subspan(kHeaderBytes);
+  const std::span<const uint8_t> bitstream = packet.bitstream;
   // The decoder reads past the end by up to its padding: a padded copy.
   std::vector<uint8_t> padded(bitstream.size() + AV_INPUT_BUFFER_PADDING_SIZE, 0);
   std::memcpy(padded.data(), bitstream.data(), bitstream.size());

@@ -21,33 +21,13 @@ namespace {
 // what it said (ip says why on stderr: "RTNETLINK answers: ..."). Its
 // stdout goes to *output when asked for.
 std::string run(const std::vector<std::string>& args, std::string* output = nullptr) {
-  char errors_path[] = "/tmp/holofuse_rig_ip_XXXXXX";
-  const int errors_fd = ::mkstemp(errors_path);
-  if (errors_fd >= 0) ::close(errors_fd);
-  SpawnOptions options;
-  options.log_path = errors_fd >= 0 ? errors_path : "";
-  ChildPipes pipes;
-  auto pid = spawnProcess(args, options, &pipes);
-  if (!pid.isOk()) return pid.status().message();
-  ::close(pipes.to_child);
-  std::string said;
-  char buffer[4096];
-  for (ssize_t n; (n = ::read(pipes.from_child, buffer, sizeof buffer)) != 0;) {
-    if (n < 0) break;
-    said.append(buffer, static_cast<size_t>(n));
-  }
-  ::close(pipes.from_child);
-  const int code = waitProcess(*pid, 30000).value_or(-1);
-  if (output) *output = said;
-  if (errors_fd >= 0) {
-    std::ifstream errors(errors_path);
-    said += std::string(std::istreambuf_iterator<char>(errors), std::istreambuf_iterator<char>());
-    ::unlink(errors_path);
-  }
-  if (code == 0) return "";
+  const FinishedProcess finished = runToEnd(args, 30000);
+  if (output) *output = finished.output;
+  if (finished.exit_code == 0) return "";
+  const std::string said = finished.output + finished.errors;
   std::string line;
   for (const std::string& word : args) line += word + " ";
-  return line + "exited " + std::to_string(code) + (said.empty() ? "" : ": " + said);
+  return line + "exited " + std::to_string(finished.exit_code) + (said.empty() ? "" : ": " + said);
 }
 
 std::vector<pid_t> pidsIn(const std::string& ns) {

@@ -13,6 +13,8 @@
 
 #include "base/eta.h"
 #include "base/shutdown.h"
+#include "codec/layer_video.h"
+#include "codec/layer_video_file.h"
 #include "codec/mesh_codec.h"
 #include "image/image_io.h"
 #include "protocol/clock.h"
@@ -94,6 +96,7 @@ class ClientLoop {
         tty_(isatty(STDOUT_FILENO)),
         overlap_(overlapsRender(options, context)) {
     view_ = options.run.view;
+    if (!options.run.record_layers.empty()) layer_files_.emplace(options.run.record_layers);
     mode_ = options.render.blend.mode;
     overlay_ = options.render.blend.overlay;
     overlay_pod_ = options.render.blend.overlay_pod;
@@ -247,6 +250,7 @@ class ClientLoop {
 
   // report.json and report.html, and the summary line.
   void writeReport() {
+    finishLayerFiles();
     report_.setSuperseded(superseded_);
     report_.settleEndToEnd(server_clock_);
     // This host's clock minus the server's: the estimate's sign turned.
@@ -310,6 +314,37 @@ class ClientLoop {
   }
 
  private:
+  // --record-layers: each layer's video plane into its file; a failure is
+  // said once and ends the recording, never the client.
+  void recordLayers(const protocol::BundleLayers& layers, uint64_t receive_ns) {
+    if (!layer_files_) return;
+    for (size_t l = 0; l < layers.layers.size(); ++l) {
+      for (const protocol::Plane& plane : layers.layers[l]) {
+        if (plane.kind != protocol::PlaneKind::kColor || !isVideoCodec(plane.codec)) continue;
+        const Status added = layer_files_->add(l, plane, static_cast<double>(receive_ns) / 1e6);
+        if (added.isOk()) continue;
+        std::fprintf(stderr, "[client] --record-layers stops: %s\n", added.toString().c_str());
+        finishLayerFiles();
+        return;
+      }
+    }
+  }
+
+  void finishLayerFiles() {
+    if (!layer_files_) return;
+    const auto written = layer_files_->finish();
+    layer_files_.reset();
+    if (!written.isOk()) {
+      std::fprintf(stderr, "[client] --record-layers: %s\n", written.status().toString().c_str());
+      return;
+    }
+    std::fprintf(stderr, "[client] layers' video: %zu file(s) in %s%s\n", written->size(),
+                 options_.run.record_layers.c_str(),
+                 written->empty() ? " (no video layers came: --mode layered, and the server's "
+                                    "--layer-video h264, hevc or av1)"
+                                  : "");
+  }
+
   static protocol::MessageType typeOf(const protocol::Frame& frame) {
     return static_cast<protocol::MessageType>(frame.header.type);
   }
@@ -381,6 +416,7 @@ class ClientLoop {
     std::optional<StatusOr<DecodedLayers>> layers;
     bool before_layers = false;
     if (bundle.layers) {
+      recordLayers(*bundle.layers, receive_ns);
       layers.emplace(layersOfBundle(*bundle.layers, cameras_, &layer_streams_));
       layers_began_ = true;
       report_.startUpEnded();
@@ -716,8 +752,9 @@ class ClientLoop {
   std::set<uint64_t> failed_bundles_;  // ids already reported as skipped
   bool layers_began_ = false;          // a bundle of texture layers came
   report::LatencyReport report_;
-  std::optional<PictureWriter> writer_;  // the pictures, off the render path
-  MaskHealthSampler mask_health_;        // each pod's mask against the hull, off it too
+  std::optional<LayerVideoRecorder> layer_files_;  // --record-layers
+  std::optional<PictureWriter> writer_;            // the pictures, off the render path
+  MaskHealthSampler mask_health_;                  // each pod's mask against the hull, off it too
   uint64_t last_progress_ns_ = 0;
   uint64_t superseded_ = 0;             // meshes skipped because a newer one was already there
   bool judge_failed_ = false;           // warned once

@@ -128,6 +128,12 @@ const std::vector<Setting<ClientRunSettings>>& clientRunFlags() {
                        "window's C key steps through the pods)",
                        0, HOLOFUSE_MAX_CAMERAS - 1,
                        [](S& s) -> uint32_t& { return s.overlay_pod; }),
+      textSetting<S>("--record-layers",
+                     "with --mode layered and the server's --layer-video h264, hevc or av1: "
+                     "write each texture layer's video as received into this folder, as files "
+                     "ffprobe reads and a player plays (layer<L>_part<N>.ts, .ivf for AV1; a "
+                     "part begins at a key frame)",
+                     [](S& s) -> std::string& { return s.record_layers; }),
       textSetting<S>("--device", "Vulkan device: index or part of its name (default: a GPU if any)",
                      [](S& s) -> std::string& { return s.device; }),
       textSetting<S>(

@@ -3,12 +3,17 @@
 // picture stays put, and a receiver that missed a frame says so by name
 // and recovers at the next key frame.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "base/process.h"
 #include "codec/layer_video.h"
+#include "codec/layer_video_file.h"
 
 namespace holofuse {
 namespace {
@@ -175,6 +180,69 @@ TEST_P(LayerVideo, CorruptOrShortFramesAreRefusedByName) {
     EXPECT_NE(decoded.status().message().find("smaller than its plane"), std::string::npos)
         << decoded.status().message();
   }
+}
+
+// What ffprobe says of a file's video stream ("" where it cannot run).
+nlohmann::json probe(const std::string& path) {
+  const FinishedProcess probed =
+      runToEnd({"/usr/bin/ffprobe", "-v", "error", "-count_frames", "-show_entries",
+                "stream=codec_name,width,height,nb_read_frames", "-of", "json", path},
+               60000);
+  if (probed.exit_code != 0) return {};
+  return nlohmann::json::parse(probed.output, nullptr, false);
+}
+
+// --record-layers: each layer's stream as the client got it, a file that
+// ffprobe (a tool nobody here wrote) reads frame by frame; a part begins at
+// a key frame, and a frame missed ends it until the next key frame.
+TEST_P(LayerVideo, RecordedLayersAreVideoFilesFfprobeReads) {
+  if (::access("/usr/bin/ffprobe", X_OK) != 0)
+    GTEST_SKIP() << "ffprobe (Debian's ffmpeg) is not installed: ./holofuse deps installs it";
+  const std::string dir = (std::filesystem::temp_directory_path() /
+                           ("holofuse_layer_files_" + layerVideoCodecName(GetParam()) + "_" +
+                            std::to_string(::getpid())))
+                              .string();
+  std::filesystem::remove_all(dir);
+  LayerVideoOptions options;
+  options.codec = GetParam();
+  LayerVideoEncoder steady(options), broken(options);
+  LayerVideoRecorder recorder(dir);
+  constexpr uint32_t kWidth = 200, kHeight = 120;
+  for (int frame = 0; frame < 6; ++frame) {
+    std::vector<uint8_t> storage, other;
+    auto plane = steady.encode(patches(kWidth, kHeight, frame), false, storage);
+    ASSERT_TRUE(plane.isOk()) << plane.status().toString();
+    ASSERT_TRUE(recorder.add(0, *plane, 40.0 * frame).isOk());
+    // Layer 1 misses its frame 2: frames 3 and 4 are not written, frame 5
+    // (a key frame) begins its second part.
+    auto second = broken.encode(patches(kWidth, kHeight, -frame), frame == 5, other);
+    ASSERT_TRUE(second.isOk()) << second.status().toString();
+    if (frame != 2) {
+      ASSERT_TRUE(recorder.add(1, *second, 40.0 * frame).isOk());
+    }
+  }
+  const auto written = recorder.finish();
+  ASSERT_TRUE(written.isOk()) << written.status().toString();
+  const std::string ext = GetParam() == protocol::Codec::kAv1 ? ".ivf" : ".ts";
+  ASSERT_EQ(*written,
+            (std::vector<std::string>{dir + "/layer0_part0" + ext, dir + "/layer1_part0" + ext,
+                                      dir + "/layer1_part1" + ext}));
+  const std::vector<int> frames = {6, 2, 1};
+  for (size_t f = 0; f < written->size(); ++f) {
+    const nlohmann::json said = probe((*written)[f]);
+    ASSERT_TRUE(said.is_object() && said.contains("streams") && said["streams"].size() == 1)
+        << (*written)[f] << ": " << said.dump();
+    const nlohmann::json& stream = said["streams"][0];
+    EXPECT_EQ(stream["codec_name"], layerVideoCodecName(GetParam())) << stream.dump();
+    // The coded picture, whose top-left corner is the layer (its sides
+    // rounded up to the codec's blocks).
+    EXPECT_GE(stream["width"].get<int>(), static_cast<int>(kWidth)) << stream.dump();
+    EXPECT_LT(stream["width"].get<int>(), static_cast<int>(kWidth) + 64) << stream.dump();
+    EXPECT_GE(stream["height"].get<int>(), static_cast<int>(kHeight)) << stream.dump();
+    EXPECT_LT(stream["height"].get<int>(), static_cast<int>(kHeight) + 64) << stream.dump();
+    EXPECT_EQ(stream["nb_read_frames"], std::to_string(frames[f])) << (*written)[f];
+  }
+  if (!HasFailure()) std::filesystem::remove_all(dir);
 }
 
 INSTANTIATE_TEST_SUITE_P(Codecs, LayerVideo,

@@ -42,23 +42,8 @@ std::string readFile(const fs::path& path) {
 
 // A command's exit code and what it printed (stdout, then stderr).
 std::pair<int, std::string> run(const std::vector<std::string>& args, int timeout_ms = 60000) {
-  const fs::path errors =
-      fs::temp_directory_path() / ("holofuse_deploy_stderr_" + std::to_string(getpid()));
-  SpawnOptions options;
-  options.log_path = errors.string();
-  ChildPipes pipes;
-  auto pid = spawnProcess(args, options, &pipes);
-  if (!pid.isOk()) return {-1, pid.status().message()};
-  ::close(pipes.to_child);
-  std::string said;
-  char buffer[4096];
-  for (ssize_t n; (n = ::read(pipes.from_child, buffer, sizeof buffer)) > 0;)
-    said.append(buffer, static_cast<size_t>(n));
-  ::close(pipes.from_child);
-  const int code = waitProcess(*pid, timeout_ms).value_or(-1);
-  said += readFile(errors);
-  fs::remove(errors);
-  return {code, said};
+  const FinishedProcess finished = runToEnd(args, timeout_ms);
+  return {finished.exit_code, finished.output + finished.errors};
 }
 
 // The flags a program's --help lists: each option's line starts with its

@@ -130,7 +130,8 @@ TEST(Loop, FourPodsServerAndClientRenderTheSubjectWhereTheTruthIs) {
 // their colour as H.264 in another and sends them in place of the images,
 // the client decodes the streams (a key frame when it joined, then
 // predicted frames), and its pictures from pod 0's pose are judged against
-// the truth as mode normal's are. (LZ4 layers: LeaveOneOut.ModeLayered...)
+// the truth as mode normal's are, and records each layer's stream as a
+// video file. (LZ4 layers: LeaveOneOut.ModeLayered...)
 // The meshes come as half floats through LZ4 (protocol 1.7), so the layers
 // are laid out on the mesh as that codec gives it back.
 TEST(Loop, ModeLayeredRendersFromTheServersTextureLayers) {
@@ -138,9 +139,25 @@ TEST(Loop, ModeLayeredRendersFromTheServersTextureLayers) {
   ASSERT_EQ(
       runLoop(out, judgedFromPod0({"--pods", "4", "--frames", "4", "--fps", kSanitized ? "1" : "2",
                                    "--size", "200x150", "--mode", "layered", "--layer-video",
-                                   "h264", "--mesh-codec", "fp16-lz4"})),
+                                   "h264", "--mesh-codec", "fp16-lz4", "--record-layers",
+                                   (out / "layers").string()})),
       0)
       << "see " << (out / "loop.log");
+  // --record-layers: each layer's stream as received, a file ffprobe reads
+  // frame by frame (every frame received, superseded ones too).
+  if (::access("/usr/bin/ffprobe", X_OK) == 0) {
+    const fs::path probed = out / "layer0.json";
+    ASSERT_EQ(waitExit(spawn({"/usr/bin/ffprobe", "-v", "error", "-count_frames", "-show_entries",
+                              "stream=codec_name,nb_read_frames", "-of", "json",
+                              (out / "layers" / "layer0_part0.ts").string()},
+                             probed),
+                       60),
+              0)
+        << readFile(probed);
+    const auto stream = nlohmann::json::parse(readFile(probed))["streams"].at(0);
+    EXPECT_EQ(stream["codec_name"], "h264") << stream.dump();
+    EXPECT_GE(std::stoi(stream["nb_read_frames"].get<std::string>()), 4) << stream.dump();
+  }
   const auto report = readJson(out / "report.json");
   ASSERT_EQ(report["frames_rendered"], 4);
   const auto& stages = report["latency_ms"]["stages"];

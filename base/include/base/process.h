@@ -61,6 +61,15 @@ std::optional<int> pollProcess(pid_t pid);
 // timeout_ms (negative: no limit).
 std::optional<int> waitProcess(pid_t pid, int timeout_ms);
 
+// A short program run to its end: what it said on stdout and on stderr,
+// and its exit code (-1 when it did not start, errors then saying why, or
+// did not end within timeout_ms, when it is killed).
+struct FinishedProcess {
+  int exit_code = -1;
+  std::string output, errors;
+};
+FinishedProcess runToEnd(const std::vector<std::string>& args, int timeout_ms);
+
 struct StoppedProcess {
   int exit_code = 0;
   bool killed = false;  // it ignored SIGTERM for the grace period and got SIGKILL

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,15 @@ const std::vector<std::string>& layerVideoCodecNames();
 std::string layerVideoCodecName(protocol::Codec codec);
 std::optional<protocol::Codec> layerVideoCodecFromName(const std::string& name);
 bool isVideoCodec(protocol::Codec codec);
+
+// A stream's frame as sent: its sequence number, whether it is a key
+// frame, and the codec's bitstream (the plane's data after the header).
+struct LayerVideoPacket {
+  uint32_t sequence = 0;
+  bool key_frame = false;
+  std::span<const uint8_t> bitstream;
+};
+StatusOr<LayerVideoPacket> layerVideoPacket(const protocol::Plane& plane);
 
 // One layer's stream on the sending side. A frame of another size than the
 // last starts the stream again at a key frame.

@@ -142,6 +142,9 @@ struct ClientRunSettings {
   // An equirectangular environment map to relight by (BlendSettings::
   // relight; the window's L key turns it off and on); "": none.
   std::string light_probe;
+  // A folder for each texture layer's video as received, as files a player
+  // opens (codec/layer_video_file.h); "": none.
+  std::string record_layers;
 };
 
 const std::vector<Setting<ClientRunSettings>>& clientRunFlags();
