@@ -4,6 +4,8 @@
 #include <cstring>
 #include <mutex>
 
+#include "ffmpeg_codecs.h"
+
 extern "C" {
 #include <libavcodec/avcodec.h>
 #include <libavutil/error.h>
@@ -18,12 +20,6 @@ namespace {
 constexpr size_t kHeaderBytes = 5;  // sequence (u32) and flags (u8)
 constexpr uint8_t kKeyFrameFlag = 1;
 
-std::string avError(int code) {
-  char text[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(code, text, sizeof text);
-  return text;
-}
-
 void quietLibraries() {
   // The encoders' banners and notes are not the loop's output, and every
   // failure comes back as a Status naming the frame.
@@ -31,23 +27,10 @@ void quietLibraries() {
   std::call_once(once, [] { av_log_set_level(AV_LOG_FATAL); });
 }
 
-struct CodecInfo {
-  protocol::Codec codec;
-  const char* name;
-  const char* encoder;
-  AVCodecID id;
-};
-constexpr CodecInfo kCodecs[] = {
-    {protocol::Codec::kH264, "h264", "libx264", AV_CODEC_ID_H264},
-    {protocol::Codec::kHevc, "hevc", "libx265", AV_CODEC_ID_HEVC},
-    {protocol::Codec::kAv1, "av1", "libaom-av1", AV_CODEC_ID_AV1},
-};
-
-const CodecInfo* infoOf(protocol::Codec codec) {
-  for (const CodecInfo& info : kCodecs)
-    if (info.codec == codec) return &info;
-  return nullptr;
-}
+using ffmpeg::avError;
+using ffmpeg::CodecInfo;
+using ffmpeg::infoOf;
+using ffmpeg::kCodecs;
 
 struct ContextDeleter {
   void operator()(AVCodecContext* c) const { avcodec_free_context(&c); }

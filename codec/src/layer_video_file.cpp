@@ -5,36 +5,14 @@
 #include <optional>
 
 #include "codec/layer_video.h"
+#include "ffmpeg_codecs.h"
 
 extern "C" {
-#include <libavcodec/avcodec.h>
 #include <libavformat/avformat.h>
-#include <libavutil/error.h>
 }
 
 namespace holofuse {
-namespace {
-
-std::string avError(int code) {
-  char text[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(code, text, sizeof text);
-  return text;
-}
-
-AVCodecID codecId(protocol::Codec codec) {
-  switch (codec) {
-    case protocol::Codec::kH264:
-      return AV_CODEC_ID_H264;
-    case protocol::Codec::kHevc:
-      return AV_CODEC_ID_HEVC;
-    case protocol::Codec::kAv1:
-      return AV_CODEC_ID_AV1;
-    default:
-      return AV_CODEC_ID_NONE;
-  }
-}
-
-}  // namespace
+using ffmpeg::avError;
 
 // One part of one layer's stream: a muxer writing one file.
 struct LayerVideoRecorder::File {
@@ -67,7 +45,7 @@ struct LayerVideoRecorder::File {
     stream = avformat_new_stream(format, nullptr);
     if (stream == nullptr) return Status(StatusCode::kIoError, path + ": cannot add its stream");
     stream->codecpar->codec_type = AVMEDIA_TYPE_VIDEO;
-    stream->codecpar->codec_id = codecId(codec);
+    stream->codecpar->codec_id = ffmpeg::infoOf(codec)->id;
     stream->codecpar->width = static_cast<int>(width);
     stream->codecpar->height = static_cast<int>(height);
     stream->time_base = AVRational{1, 1000};
