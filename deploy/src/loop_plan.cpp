@@ -484,6 +484,14 @@ std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& 
   const auto part = clientPart(plan, index);
   if (passes(plan, part, "--size")) append(args, {"--size", plan.size});
   appendSettings(args, plan, part, holofuse::render::clientRunFlags(), plan.client);
+  if (plan.clients > 1) {
+    // Each client records its layers' video into a folder of its own, as
+    // it writes its pictures (else one's files would overwrite another's).
+    const auto flag = std::find(args.begin(), args.end(), "--record-layers");
+    if (flag != args.end() && flag + 1 != args.end())
+      *(flag + 1) =
+          (std::filesystem::path(*(flag + 1)) / ("client" + std::to_string(index))).string();
+  }
   const double jump = plan.scene.preset().view_jump_degrees;
   if (plan.replay.empty() && jump != 0) {
     // The scene's jump is the user's view's.

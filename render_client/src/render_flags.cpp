@@ -132,7 +132,7 @@ const std::vector<Setting<ClientRunSettings>>& clientRunFlags() {
                      "with --mode layered and the server's --layer-video h264, hevc or av1: "
                      "write each texture layer's video as received into this folder, as files "
                      "ffprobe reads and a player plays (layer<L>_part<N>.ts, .ivf for AV1; a "
-                     "part begins at a key frame)",
+                     "part begins at a key frame; the demo's several clients: DIR/client<N>)",
                      [](S& s) -> std::string& { return s.record_layers; }),
       textSetting<S>("--device", "Vulkan device: index or part of its name (default: a GPU if any)",
                      [](S& s) -> std::string& { return s.device; }),

@@ -54,6 +54,19 @@ TEST(LoopPlan, EachClientReadsBackTheRunTheLauncherWasGiven) {
   EXPECT_EQ(read.device, "lavapipe");
 }
 
+// --record-layers with several clients: a folder each, as their pictures.
+TEST(LoopPlan, EachClientRecordsItsLayersIntoAFolderOfItsOwn) {
+  const LoopPlan one = planOf({"--record-layers", "/tmp/layers"});
+  EXPECT_EQ(readBack(render::clientRunFlags(), clientCommand(one, "127.0.0.1:1", 0)).record_layers,
+            "/tmp/layers");
+  const LoopPlan two = planOf({"--clients", "2", "--record-layers", "/tmp/layers"});
+  for (int c = 0; c < 2; ++c) {
+    EXPECT_EQ(
+        readBack(render::clientRunFlags(), clientCommand(two, "127.0.0.1:1", c)).record_layers,
+        "/tmp/layers/client" + std::to_string(c));
+  }
+}
+
 TEST(LoopPlan, EachPodAndTheJudgeReadBackTheSceneTheLauncherWasGiven) {
   const LoopPlan plan = planOf({"--scene", "fast-motion", "--seed", "18446744073709551615",
                                 "--noise", "0.5", "--fps", "7.5", "--quality"});
