@@ -100,8 +100,8 @@ const std::vector<Setting<ClientRunSettings>>& clientRunFlags() {
       onOffSetting<S>(
           "--window",
           "on: show the pictures in a window as well: 0-9 the orbit or a pod's camera, M "
-          "the next mode, F the next overlay, C its pod, S a screenshot, mouse drag/wheel "
-          "orbit, pan, zoom; Escape or "
+          "the next mode, F the next overlay, C its pod, P the live panel, T stippling, L "
+          "relighting, S a screenshot, mouse drag/wheel orbit, pan, zoom; Escape or "
           "Q closes it and ends the client. Without a display: one line, headless",
           [](S& s) -> bool& { return s.window; }),
       choiceSetting<S>(
