@@ -341,6 +341,57 @@ TEST(AtlasLayout, ChartsFollowTheSurfaceAndTravelAsTheirLayout) {
   EXPECT_FALSE(TextureAtlas(no_size).layOut(copy).isOk());
 }
 
+// Charts are anchored to the lattice (what inter-frame video coding of the
+// layers needs): as the surface moves, a point that stays in its chart
+// stays on its texels. A vertex on a lattice edge along its chart's axis
+// projects onto the same texel in every frame; only charts the surface
+// enters or leaves move.
+TEST(TextureAtlas, ChartsHoldStillWhereTheSurfaceStaysInThem) {
+  TextureAtlas atlas(chartOptions());
+  std::map<std::pair<uint64_t, uint64_t>, glm::vec2> last;  // (triangle's keys, corner key) -> uv
+  double moved = 0;
+  const int frames = 6;
+  for (int f = 0; f <= frames; ++f) {
+    // A fifth of a voxel a frame, and breathing.
+    Mesh mesh = sphereOnLattice(glm::dvec3(0.01 * f, 0.003 * f, 0.0), 0.7 + 0.004 * f);
+    AtlasStats stats;
+    ASSERT_TRUE(atlas.layOut(mesh, &stats).isOk());
+    std::map<std::pair<uint64_t, uint64_t>, glm::vec2> now;
+    size_t same = 0, compared = 0;
+    for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+      const glm::dvec3 a(mesh.positions[mesh.indices[3 * t]]),
+          b(mesh.positions[mesh.indices[3 * t + 1]]), c(mesh.positions[mesh.indices[3 * t + 2]]);
+      const glm::dvec3 normal = glm::abs(glm::cross(b - a, c - a));
+      const uint64_t axis = normal.x >= normal.y && normal.x >= normal.z ? 0
+                            : normal.y >= normal.z                       ? 1
+                                                                         : 2;
+      std::array<uint64_t, 3> keys{};
+      for (int k = 0; k < 3; ++k) keys[k] = mesh.vertex_keys[mesh.indices[3 * t + k]];
+      const uint64_t triangle = keys[0] ^ (keys[1] * 0x9e3779b97f4a7c15ull) ^ (keys[2] << 17);
+      for (int k = 0; k < 3; ++k) {
+        if (keys[k] % 3 != axis) continue;  // fractional across the chart
+        const auto key = std::make_pair(triangle, keys[k]);
+        now[key] = mesh.corner_uvs[3 * t + k];
+        const auto before = last.find(key);
+        if (before == last.end()) continue;
+        ++compared;
+        same += glm::length(glm::dvec2(before->second - now[key]) * double(stats.texels)) < 1e-3;
+      }
+    }
+    if (f > 0) {
+      ASSERT_FALSE(stats.regridded) << "frame " << f;
+      EXPECT_GT(compared, 100u) << "frame " << f;
+      EXPECT_EQ(same, compared) << "frame " << f << ": corners on an edge along their chart's "
+                                << "axis stay on their texels";
+      EXPECT_EQ(stats.squares_moved, stats.squares_used - stats.squares_kept)
+          << "frame " << f << ": no kept chart shifts";
+      moved += stats.movedFraction() / frames;
+    }
+    last = std::move(now);
+  }
+  EXPECT_LT(moved, 0.2);
+}
+
 // A sphere painted by the direction from its centre, seen by a ring of
 // cameras: each camera's image is ray traced, so a texel's colour can be
 // checked against the paint at its point of the surface.

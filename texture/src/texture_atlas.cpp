@@ -159,36 +159,104 @@ std::vector<AtlasCell> placeTriangles(Mesh& mesh, const SquareAssignment& assign
   return cells;
 }
 
-// Charts' UVs: each triangle's corners projected along its chart's axis,
-// from the smallest projected coordinates of the chart's vertices, at
-// texel_metres a texel, inside the square's gutter.
+// The key lattice's origin and spacing, fitted to the mesh: a vertex lies
+// on the lattice edge its key names, so across that edge (on the two other
+// axes) it sits on lattice planes, p_k = origin_k + spacing * i_k. A least
+// squares fit over those coordinates, one spacing for the three axes. The
+// sender and the receiver fit the same decoded positions, so they agree on
+// every texel without the lattice's place in the world on the wire.
+struct LatticeFit {
+  glm::dvec3 origin{0.0};
+  double spacing = 0.0;
+};
+
+glm::u64vec3 latticePoint(uint64_t key, const glm::u64vec3& lattice) {
+  const uint64_t point = key / 3;
+  return glm::u64vec3(point % lattice.x, (point / lattice.x) % lattice.y,
+                      point / (lattice.x * lattice.y));
+}
+
+LatticeFit fitLattice(const Mesh& mesh, const glm::u64vec3& lattice, double fallback_spacing) {
+  glm::dvec3 count(0.0), sum_i(0.0), sum_p(0.0);
+  for (size_t v = 0; v < mesh.vertexCount(); ++v) {
+    const glm::dvec3 i(latticePoint(mesh.vertex_keys[v], lattice));
+    const uint64_t along = mesh.vertex_keys[v] % 3;
+    for (int k = 0; k < 3; ++k) {
+      if (uint64_t(k) == along) continue;
+      count[k] += 1;
+      sum_i[k] += i[k];
+      sum_p[k] += mesh.positions[v][k];
+    }
+  }
+  const glm::dvec3 mean_i = sum_i / glm::max(count, glm::dvec3(1.0)),
+                   mean_p = sum_p / glm::max(count, glm::dvec3(1.0));
+  double covariance = 0, variance = 0;
+  for (size_t v = 0; v < mesh.vertexCount(); ++v) {
+    const glm::dvec3 i(latticePoint(mesh.vertex_keys[v], lattice));
+    const uint64_t along = mesh.vertex_keys[v] % 3;
+    for (int k = 0; k < 3; ++k) {
+      if (uint64_t(k) == along) continue;
+      covariance += (i[k] - mean_i[k]) * (mesh.positions[v][k] - mean_p[k]);
+      variance += (i[k] - mean_i[k]) * (i[k] - mean_i[k]);
+    }
+  }
+  LatticeFit fit;
+  // Too few points to fit (a mesh inside one plane of cells): the spacing
+  // the layout implies, the same at both ends.
+  fit.spacing = variance > 0.5 && covariance > 0 ? covariance / variance : fallback_spacing;
+  fit.origin = mean_p - fit.spacing * mean_i;
+  return fit;
+}
+
+// Charts' UVs: each triangle's corners projected along its chart's axis
+// onto the square, from the corner of the chart's block of lattice cells
+// at texel_metres a texel, inside the square's gutter. The projection is
+// anchored to the lattice, not to the surface: a part of the surface that
+// stays in its chart keeps its texels (what the layers' video predicts
+// from), however the rest of the chart changes.
 template <typename SlotOf>
 void placeCharts(Mesh& mesh, const SquareAssignment& assignment,
-                 const std::vector<uint8_t>& axis_of_triangle, uint32_t side,
-                 uint32_t square_texels, uint32_t texels, double texel_metres, SlotOf slot_of) {
+                 const std::vector<uint8_t>& axis_of_triangle, const glm::u64vec3& lattice,
+                 uint32_t chart_cells, uint32_t side, uint32_t square_texels, uint32_t texels,
+                 double texel_metres, SlotOf slot_of,
+                 std::unordered_map<uint64_t, glm::dvec2>* anchors = nullptr) {
   const size_t triangles = mesh.triangleCount();
-  auto projected = [&](size_t t, int k) {
-    const int axis = axis_of_triangle[t] / 2;
-    const glm::dvec3 p(mesh.positions[mesh.indices[3 * t + k]]);
-    return glm::dvec2(p[(axis + 1) % 3], p[(axis + 2) % 3]);
-  };
-  std::unordered_map<uint64_t, glm::dvec2> chart_min;
-  for (size_t t = 0; t < triangles; ++t) {
-    auto [at, fresh] = chart_min.try_emplace(assignment.key_of_triangle[t],
-                                             glm::dvec2(std::numeric_limits<double>::max()));
-    for (int k = 0; k < 3; ++k) at->second = glm::min(at->second, projected(t, k));
-  }
   const double inside = square_texels - 2.0 * kChartGutterTexels;
+  const LatticeFit fit = fitLattice(mesh, lattice, texel_metres * inside / chart_cells);
+  const uint64_t n = chart_cells;
+  const glm::u64vec3 blocks((lattice.x + n - 1) / n, (lattice.y + n - 1) / n,
+                            (lattice.z + n - 1) / n);
+  // A vertex's place on the lattice in cells: exact across its edge, the
+  // fitted fraction along it.
+  auto cells_at = [&](uint32_t v) {
+    const uint64_t key = mesh.vertex_keys[v];
+    glm::dvec3 at(latticePoint(key, lattice));
+    const int along = static_cast<int>(key % 3);
+    at[along] = std::clamp((mesh.positions[v][along] - fit.origin[along]) / fit.spacing, at[along],
+                           at[along] + 1.0);
+    return at;
+  };
+  const double texels_per_cell = fit.spacing / texel_metres;
   std::vector<glm::vec2> uvs(3 * triangles);
   for (size_t t = 0; t < triangles; ++t) {
     const uint64_t key = assignment.key_of_triangle[t];
+    const uint64_t block = key >> 3;
+    const glm::dvec3 block_cells(double(block % blocks.x * n),
+                                 double((block / blocks.x) % blocks.y * n),
+                                 double(block / (blocks.x * blocks.y) * n));
+    const int axis = axis_of_triangle[t] / 2;
+    if (anchors != nullptr) {
+      // Where the chart's corner texel lies in the world, across its axis.
+      const glm::dvec3 world = fit.origin + fit.spacing * block_cells;
+      anchors->try_emplace(key, world[(axis + 1) % 3], world[(axis + 2) % 3]);
+    }
     const uint32_t slot = slot_of(key);
     const glm::dvec2 corner(double(slot % side) * square_texels + kChartGutterTexels,
                             double(slot / side) * square_texels + kChartGutterTexels);
     for (int k = 0; k < 3; ++k) {
-      const glm::dvec2 local =
-          glm::clamp((projected(t, k) - chart_min.at(key)) / texel_metres, 0.0, inside);
-      uvs[3 * t + k] = glm::vec2((corner + local) / double(texels));
+      const glm::dvec3 local = (cells_at(mesh.indices[3 * t + k]) - block_cells) * texels_per_cell;
+      const glm::dvec2 projected(local[(axis + 1) % 3], local[(axis + 2) % 3]);
+      uvs[3 * t + k] = glm::vec2((corner + glm::clamp(projected, 0.0, inside)) / double(texels));
     }
   }
   mesh.corner_uvs = std::move(uvs);
@@ -324,8 +392,22 @@ StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* st
   std::vector<AtlasCell> cells =
       placeTriangles(mesh, assignment, side, square_texels, texels, slot_of);
   const double texel_metres = charts ? options_.cell_size / options_.texels_per_cell : 0.0;
+  std::unordered_map<uint64_t, glm::dvec2> anchors;
   if (charts)
-    placeCharts(mesh, assignment, axes, side, square_texels, texels, texel_metres, slot_of);
+    placeCharts(mesh, assignment, axes, options_.lattice, options_.chart_cells, side, square_texels,
+                texels, texel_metres, slot_of, &anchors);
+  // A square moved: new to the atlas, in another slot, or (charts) its
+  // surface half a texel or more away from where it was.
+  uint32_t moved = static_cast<uint32_t>(squares) - kept;
+  if (!regrid && charts) {
+    for (const auto& [key, anchor] : anchors) {
+      const auto before = anchors_.find(key);
+      if (before != anchors_.end() && slot_of_key_.count(key) &&
+          glm::length(anchor - before->second) >= 0.5 * texel_metres)
+        ++moved;
+    }
+  }
+  anchors_ = std::move(anchors);
   texels_ = texels;
   squares_per_side_ = side;
   square_texels_ = square_texels;
@@ -346,6 +428,7 @@ StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* st
     stats->square_texels = square_texels;
     stats->squares_used = static_cast<uint32_t>(squares);
     stats->squares_kept = kept;
+    stats->squares_moved = regrid ? static_cast<uint32_t>(squares) : moved;
     stats->regridded = regrid;
   }
   return cells;
@@ -392,8 +475,8 @@ StatusOr<std::vector<AtlasCell>> applyAtlasLayout(Mesh& mesh, const AtlasLayout&
   auto cells = placeTriangles(mesh, assignment, layout.squares_per_side, layout.square_texels,
                               layout.texels, slot_of);
   if (charts)
-    placeCharts(mesh, assignment, axes, layout.squares_per_side, layout.square_texels,
-                layout.texels, layout.texel_metres, slot_of);
+    placeCharts(mesh, assignment, axes, layout.lattice, layout.chart_cells, layout.squares_per_side,
+                layout.square_texels, layout.texels, layout.texel_metres, slot_of);
   return cells;
 }
 

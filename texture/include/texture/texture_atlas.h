@@ -61,8 +61,13 @@ struct AtlasStats {
   uint32_t square_texels = 0;     // side of one square, texels
   uint32_t squares_used = 0;
   uint32_t squares_kept = 0;  // holding the same patch of surface, in the same place, as last frame
-  bool regridded = false;     // the grid changed size: nothing is kept
+  // New, in another slot, or (charts) showing their surface half a texel
+  // or more from where they did: the texels a video coder cannot predict
+  // from the same place in the frame before.
+  uint32_t squares_moved = 0;
+  bool regridded = false;  // the grid changed size: nothing is kept
   double keptFraction() const { return squares_used ? double(squares_kept) / squares_used : 0.0; }
+  double movedFraction() const { return squares_used ? double(squares_moved) / squares_used : 0.0; }
 };
 
 // What a receiver needs to lay the same mesh out again from its vertex
@@ -108,6 +113,7 @@ class TextureAtlas {
   uint32_t squares_per_side_ = 0;
   uint32_t square_texels_ = 0;
   std::unordered_map<uint64_t, uint32_t> slot_of_key_;  // last frame's squares
+  std::unordered_map<uint64_t, glm::dvec2> anchors_;    // last frame's charts' corners, metres
   AtlasLayout layout_;
 };
 
