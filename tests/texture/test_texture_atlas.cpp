@@ -553,5 +553,46 @@ TEST(TextureLayersInputs, InputsThatDisagreeAreRefusedByName) {
   EXPECT_EQ(none->texels_covered, 0u);
 }
 
+// The layers' video fills the texels no camera covers from the colours
+// around them, leaving the covered ones as they are.
+TEST(FillUncoveredTexels, EmptyTexelsTakeTheColourNearestThemAndCoveredOnesKeepTheirs) {
+  const glm::u8vec3 red(200, 30, 30), blue(20, 40, 220), hole(128, 128, 128);
+  Image8 colour(64, 64, 3), camera(64, 64, 1, kNoLayerCamera);
+  for (uint32_t y = 0; y < 64; ++y) {
+    for (uint32_t x = 0; x < 64; ++x) {
+      const bool left = x < 16, right = x >= 48;
+      const glm::u8vec3 c = left ? red : right ? blue : hole;
+      for (int k = 0; k < 3; ++k) colour.at(x, y)[k] = c[k];
+      if (left || right) camera.at(x, y)[0] = left ? 0 : 1;
+    }
+  }
+  const Image8 before = colour;
+  fillUncoveredTexels(colour, camera);
+  for (uint32_t y = 0; y < 64; ++y) {
+    for (uint32_t x = 0; x < 64; ++x) {
+      const glm::u8vec3 got(colour.at(x, y)[0], colour.at(x, y)[1], colour.at(x, y)[2]);
+      if (camera.at(x, y)[0] != kNoLayerCamera) {
+        ASSERT_EQ(got, glm::u8vec3(before.at(x, y)[0], before.at(x, y)[1], before.at(x, y)[2]))
+            << "covered texel " << x << "," << y;
+        continue;
+      }
+      // The hole colour is gone; the nearer side's colour is nearer.
+      const glm::dvec3 g(got);
+      const double to_red = glm::length(g - glm::dvec3(red)),
+                   to_blue = glm::length(g - glm::dvec3(blue));
+      ASSERT_NE(got, hole) << x << "," << y;
+      if (x < 30) EXPECT_LT(to_red, to_blue) << x << "," << y;
+      if (x > 33) EXPECT_LT(to_blue, to_red) << x << "," << y;
+    }
+  }
+  // Next to a side, its colour exactly.
+  EXPECT_EQ(colour.at(16, 5)[0], red.x);
+  EXPECT_EQ(colour.at(47, 60)[2], blue.z);
+  // Nothing covered: nothing to spread, the layer stays as it was.
+  Image8 empty(8, 8, 3, 77);
+  fillUncoveredTexels(empty, Image8(8, 8, 1, kNoLayerCamera));
+  EXPECT_EQ(empty.pixels, Image8(8, 8, 3, 77).pixels);
+}
+
 }  // namespace
 }  // namespace holofuse

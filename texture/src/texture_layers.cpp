@@ -218,6 +218,61 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
   return out;
 }
 
+void fillUncoveredTexels(Image8& colour, const Image8& camera) {
+  // Level 0 is the layer itself: RGB sums and the weight (1 where covered).
+  struct Level {
+    uint32_t width, height;
+    std::vector<glm::vec4> texels;  // rgb * weight, weight
+  };
+  std::vector<Level> levels;
+  Level base{colour.width, colour.height, {}};
+  base.texels.resize(size_t{colour.width} * colour.height);
+  for (size_t i = 0; i < base.texels.size(); ++i) {
+    if (camera.pixels[i] == kNoLayerCamera) continue;
+    const uint8_t* c = &colour.pixels[3 * i];
+    base.texels[i] = glm::vec4(c[0], c[1], c[2], 1.0f);
+  }
+  levels.push_back(std::move(base));
+  // Push: each level's texel the sum of the four below it.
+  while (levels.back().width > 1 || levels.back().height > 1) {
+    const Level& fine = levels.back();
+    Level coarse{(fine.width + 1) / 2, (fine.height + 1) / 2, {}};
+    coarse.texels.resize(size_t{coarse.width} * coarse.height);
+    for (uint32_t y = 0; y < fine.height; ++y) {
+      for (uint32_t x = 0; x < fine.width; ++x)
+        coarse.texels[size_t{y / 2} * coarse.width + x / 2] +=
+            fine.texels[size_t{y} * fine.width + x];
+    }
+    levels.push_back(std::move(coarse));
+  }
+  // Pull: an empty texel takes its parent's mean, which has been filled.
+  for (glm::vec4& t : levels.back().texels) {
+    if (t.w > 0) t = glm::vec4(glm::vec3(t) / t.w, 1.0f);
+  }
+  for (size_t l = levels.size() - 1; l-- > 0;) {
+    Level& fine = levels[l];
+    const Level& coarse = levels[l + 1];
+    for (uint32_t y = 0; y < fine.height; ++y) {
+      for (uint32_t x = 0; x < fine.width; ++x) {
+        glm::vec4& t = fine.texels[size_t{y} * fine.width + x];
+        const glm::vec4& parent = coarse.texels[size_t{y / 2} * coarse.width + x / 2];
+        if (t.w > 0) {
+          t = glm::vec4(glm::vec3(t) / t.w, 1.0f);
+        } else if (parent.w > 0) {
+          t = parent;
+        }
+      }
+    }
+  }
+  const Level& filled = levels.front();
+  for (size_t i = 0; i < filled.texels.size(); ++i) {
+    if (camera.pixels[i] != kNoLayerCamera || !(filled.texels[i].w > 0)) continue;
+    for (int c = 0; c < 3; ++c)
+      colour.pixels[3 * i + c] =
+          static_cast<uint8_t>(std::clamp(std::lround(filled.texels[i][c]), 0L, 255L));
+  }
+}
+
 Status checkLayeredViews(const LayeredViews& views) {
   auto refuse = [](const std::string& what) {
     return Status(StatusCode::kMalformed, "texture layers: " + what);

@@ -81,4 +81,13 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
                                            const std::vector<LayerView>& views,
                                            const LayerOptions& options = {});
 
+// The colour of the texels no camera fills (camera byte kNoLayerCamera)
+// spread in from the texels around them: the covered texels' means down a
+// pyramid of halvings, filled back up level by level (push-pull). A video
+// coder then meets no edge at a chart's border, and 4:2:0's shared chroma
+// does not mix the hole colour into a chart's border texels. A renderer
+// never reads the filled texels (it takes a layer's taps of its own camera
+// only). colour: RGB; camera: one channel, the same size.
+void fillUncoveredTexels(Image8& colour, const Image8& camera);
+
 }  // namespace holofuse
