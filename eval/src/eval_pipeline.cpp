@@ -112,6 +112,7 @@ Status sendToClient(fusion::FrameGroup group, const Mesh& hull, const EvalOption
   const protocol::Bytes stats_wire = fused.stats->flatten();
   frame.client_link_bytes += mesh_wire.size() + bundle_wire.size() + stats_wire.size();
   frame.bundle_bytes += bundle_wire.size();
+  frame.mesh_bytes += mesh_wire.size();
   HOLOFUSE_ASSIGN_OR_RETURN(const protocol::Frame bundle_frame,
                             parsedFrame(bundle_wire, "texture bundle"));
   HOLOFUSE_ASSIGN_OR_RETURN(const protocol::Frame mesh_frame_parsed,

@@ -63,6 +63,7 @@ struct FrameData {
       0;                     // MeshFrame, TextureBundle and Stats, as the server sends each client
   size_t feather_bytes = 0;  // of them, the pods' feather maps (protocol 1.2)
   size_t bundle_bytes = 0;   // of them, the TextureBundle of camera images
+  size_t mesh_bytes = 0;     // of them, the MeshFrame
   hull::HullStats hull_stats;
 };
 

@@ -174,8 +174,10 @@ EvaluationPlan novelPlan(const std::vector<Camera>& poses) {
 
 // What the server's layer stages cost for one frame.
 struct LayeredFrameCost {
-  size_t bytes = 0;  // the TextureBundle on the wire
+  size_t bytes = 0;                           // the TextureBundle on the wire
+  size_t colour_bytes = 0, camera_bytes = 0;  // of them, the layers' planes
   double layers_ms = 0, video_ms = 0;
+  fusion::LayerStats stats;
 };
 
 // Mode layered as the loop runs it: the server's layer stage builds the
@@ -205,7 +207,8 @@ StatusOr<LayeredFrameCost> layeredFrame(const EvalOptions& options, fusion::Laye
   std::deque<std::vector<uint8_t>> storage;
   LayeredFrameCost cost;
   const auto t0 = Clock::now();
-  HOLOFUSE_RETURN_IF_ERROR(stage.build(mesh, sources, camera_ids, hull, fusion.layers));
+  HOLOFUSE_RETURN_IF_ERROR(
+      stage.build(mesh, sources, camera_ids, hull, fusion.layers, &cost.stats));
   if (isVideoCodec(fusion.layers.video.codec)) {
     cost.layers_ms = msSince(t0);
     const auto t1 = Clock::now();
@@ -217,6 +220,11 @@ StatusOr<LayeredFrameCost> layeredFrame(const EvalOptions& options, fusion::Laye
     cost.layers_ms = msSince(t0);
   }
   cost.bytes = protocol::encodeFrame(bundle, 0).size();
+  for (const auto& planes : bundle.layers->layers) {
+    for (const protocol::Plane& plane : planes)
+      (plane.kind == protocol::PlaneKind::kCamera ? cost.camera_bytes : cost.colour_bytes) +=
+          plane.data.size();
+  }
   if (placed == nullptr) return cost;
   HOLOFUSE_ASSIGN_OR_RETURN(render::DecodedLayers decoded,
                             render::layersOfBundle(*bundle.layers, cameras, streams));
@@ -330,8 +338,14 @@ Status measureClientLink(const EvalOptions& options, const SceneInput& input, bo
                          std::vector<double>& layer_video_ms) {
   const double frame_count = static_cast<double>(input.frames.size());
   m.client_bytes_per_frame = 0;
+  m.mesh_bytes_per_frame = 0;
+  for (const FrameData& frame : input.frames)
+    m.mesh_bytes_per_frame += static_cast<double>(frame.mesh_bytes) / frame_count;
   if (layered) {
     fusion::LayerStage stage;
+    double moved = 0;
+    int moved_frames = 0;
+    m.layer_colour_bytes_per_frame = m.layer_camera_bytes_per_frame = 0;
     for (const FrameData& frame : input.frames) {
       HOLOFUSE_ASSIGN_OR_RETURN(const LayeredFrameCost cost,
                                 layeredFrame(options, stage, frame.mesh, frame.views,
@@ -341,7 +355,14 @@ Status measureClientLink(const EvalOptions& options, const SceneInput& input, bo
       m.client_bytes_per_frame +=
           static_cast<double>(frame.client_link_bytes - frame.bundle_bytes + cost.bytes) /
           frame_count;
+      m.layer_colour_bytes_per_frame += static_cast<double>(cost.colour_bytes) / frame_count;
+      m.layer_camera_bytes_per_frame += static_cast<double>(cost.camera_bytes) / frame_count;
+      if (&frame != &input.frames.front()) {
+        moved += cost.stats.atlas.movedFraction();
+        ++moved_frames;
+      }
     }
+    m.atlas_moved = moved_frames > 0 ? moved / moved_frames : -1.0;
   } else {
     for (const FrameData& frame : input.frames)
       m.client_bytes_per_frame += static_cast<double>(frame.client_link_bytes) / frame_count;

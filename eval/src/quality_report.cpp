@@ -339,10 +339,20 @@ QualityTables qualityTables(const EvalOptions& options, const std::vector<SceneR
         return {measuredText(m.flicker, "%.2f"), measuredText(m.seam_visibility, "%.2f")};
       });
   t.layers =
-      modeTable(results, t.modes, {"KB/frame", "layers ms", "video ms"},
+      modeTable(results, t.modes,
+                {"KB/frame", "mesh KB", "layer colour KB", "camera planes KB", "charts moved",
+                 "layers ms", "video ms"},
                 [](const ModeResult& m) -> std::vector<std::string> {
+                  const bool layered = m.layers_ms > 0;
+                  auto kb = [&](double bytes) {
+                    return layered ? html::number("%.1f", bytes / 1000.0) : std::string("-");
+                  };
                   return {html::number("%.1f", m.client_bytes_per_frame / 1000.0),
-                          m.layers_ms > 0 ? html::number("%.1f", m.layers_ms) : "-",
+                          html::number("%.1f", m.mesh_bytes_per_frame / 1000.0),
+                          kb(m.layer_colour_bytes_per_frame),
+                          kb(m.layer_camera_bytes_per_frame),
+                          m.atlas_moved >= 0 ? html::number("%.0f%%", 100 * m.atlas_moved) : "-",
+                          layered ? html::number("%.1f", m.layers_ms) : "-",
                           m.layer_video_ms > 0 ? html::number("%.1f", m.layer_video_ms) : "-"};
                 });
   t.regions = regionTable(results, t.modes);
@@ -434,7 +444,11 @@ std::string qualityMarkdown(const EvalOptions& options, const QualityTables& t) 
         "layers\n\n";
   md << html::markdownTable(t.layers);
   md << "\nKB/frame: what a client of the mode receives per frame (mesh, images or texture layers, "
-        "stats). layers ms: the server's layer stage (layout, layers, LZ4), median; video ms: its "
+        "stats); of it, mesh KB the mesh, layer colour KB the layers' colour (video or LZ4) and "
+        "camera planes KB which camera each texel came from. charts moved: the share of the "
+        "atlas's charts a video coder cannot predict in place from the frame before (new, in "
+        "another slot, or shifted by half a texel or more), mean over frames. layers ms: the "
+        "server's layer stage (layout, layers, LZ4), median; video ms: its "
         "video coding of the layers' colour (--layer-video), median; `-`: not in this mode.\n\n";
   md << "## Where the errors differ\n\nPSNR per region over every image (the squared error "
         "pooled), and the share of "

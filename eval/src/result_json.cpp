@@ -56,6 +56,10 @@ nlohmann::json sceneResultJson(const SceneResult& scene) {
                         {"client_bytes_per_frame", m.client_bytes_per_frame},
                         {"layers_ms", m.layers_ms},
                         {"layer_video_ms", m.layer_video_ms},
+                        {"mesh_bytes_per_frame", m.mesh_bytes_per_frame},
+                        {"layer_colour_bytes_per_frame", m.layer_colour_bytes_per_frame},
+                        {"layer_camera_bytes_per_frame", m.layer_camera_bytes_per_frame},
+                        {"atlas_moved", measuredJson(m.atlas_moved)},
                         {"gpu_passes_ms", m.gpu_passes_ms}};
     for (size_t r = 0; r < kErrorRegionCount; ++r) {
       const double samples = 3.0 * static_cast<double>(m.regions.pixels[r]);
@@ -129,6 +133,10 @@ SceneResult sceneResultFromJson(const std::string& name, const nlohmann::json& s
     r.client_bytes_per_frame = m.value("client_bytes_per_frame", 0.0);
     r.layers_ms = m.value("layers_ms", 0.0);
     r.layer_video_ms = m.value("layer_video_ms", 0.0);
+    r.mesh_bytes_per_frame = m.value("mesh_bytes_per_frame", 0.0);
+    r.layer_colour_bytes_per_frame = m.value("layer_colour_bytes_per_frame", 0.0);
+    r.layer_camera_bytes_per_frame = m.value("layer_camera_bytes_per_frame", 0.0);
+    r.atlas_moved = measuredFromJson(m, "atlas_moved");
     r.gpu_passes_ms = m.at("gpu_passes_ms").get<std::map<std::string, double>>();
     if (m.contains("regions")) {
       for (size_t k = 0; k < kErrorRegionCount; ++k) {

@@ -361,6 +361,20 @@ TEST(LeaveOneOut, ModeLayeredScoresNearTheImagesFromLayersOfTheOtherCameras) {
   EXPECT_DOUBLE_EQ(normal.client_bytes_per_frame, result.bytes_per_frame);
   EXPECT_NE(layered.client_bytes_per_frame, result.bytes_per_frame);
   EXPECT_GT(layered.client_bytes_per_frame, 0.0);
+  // The link's parts: the same mesh in both modes; the layers' colour and
+  // camera planes inside what the client receives; the atlas's charts
+  // mostly kept in place frame to frame.
+  EXPECT_GT(normal.mesh_bytes_per_frame, 0.0);
+  EXPECT_DOUBLE_EQ(layered.mesh_bytes_per_frame, normal.mesh_bytes_per_frame);
+  EXPECT_EQ(normal.layer_colour_bytes_per_frame, 0.0);
+  EXPECT_GT(layered.layer_colour_bytes_per_frame, 0.0);
+  EXPECT_GT(layered.layer_camera_bytes_per_frame, 0.0);
+  EXPECT_LT(layered.mesh_bytes_per_frame + layered.layer_colour_bytes_per_frame +
+                layered.layer_camera_bytes_per_frame,
+            layered.client_bytes_per_frame);
+  EXPECT_EQ(normal.atlas_moved, -1.0);
+  EXPECT_GE(layered.atlas_moved, 0.0);
+  EXPECT_LT(layered.atlas_moved, 0.5);
   RecordProperty("layered_minus_normal_psnr_db", std::to_string(layered.psnr_db - normal.psnr_db));
   RecordProperty("layered_minus_normal_ssim", std::to_string(layered.ssim - normal.ssim));
   RecordProperty("layered_over_normal_bytes",

@@ -105,6 +105,14 @@ struct ModeResult {
   // mode layered with --layer-video: median of the server's video coding
   // of the layers (0: LZ4 layers, or other modes)
   double layer_video_ms = 0;
+  // Of client_bytes_per_frame: the MeshFrame; for mode layered the layers'
+  // colour planes (video or LZ4) and their camera planes.
+  double mesh_bytes_per_frame = 0, layer_colour_bytes_per_frame = 0,
+         layer_camera_bytes_per_frame = 0;
+  // Mode layered: the mean share of the atlas's squares a video coder
+  // cannot predict in place from the frame before (AtlasStats::
+  // movedFraction), over every frame but a stream's first; -1: not measured.
+  double atlas_moved = -1;
 };
 
 // The share of the squared-error difference between normal and the mode
