@@ -1,7 +1,10 @@
 #include "texture/texture_layers.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -155,18 +158,22 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
 
   const double tolerance =
       options.depth_tolerance > 0 ? options.depth_tolerance : std::max(meanEdgeLength(mesh), 1e-6);
-  std::vector<DepthMap> depths;
-  depths.reserve(views.size());
-  for (const LayerView& v : views) depths.push_back(rasterizeDepth(mesh, *v.camera));
+  // Views side by side, then rows of texels side by side: each texel is
+  // its own, so the layers are the same bytes on any number of threads.
+  std::vector<DepthMap> depths(views.size());
+  tbb::parallel_for(size_t{0}, views.size(),
+                    [&](size_t j) { depths[j] = rasterizeDepth(mesh, *views[j].camera); });
 
-  std::vector<Ranked> ranked;
-  ranked.reserve(views.size());
   const std::vector<TexelSource> sources = texelSources(mesh, texels, out.texels_contested);
-  for (uint32_t y = 0; y < texels; ++y) {
+  std::atomic<uint64_t> covered{0}, seen{0};
+  tbb::parallel_for(uint32_t{0}, texels, [&](uint32_t y) {
+    std::vector<Ranked> ranked;
+    ranked.reserve(views.size());
+    uint64_t row_covered = 0, row_seen = 0;
     for (uint32_t x = 0; x < texels; ++x) {
       const TexelSource& source = sources[size_t{y} * texels + x];
       if (source.triangle < 0) continue;
-      ++out.texels_covered;
+      ++row_covered;
       const glm::dvec3& b = source.barycentric;
       const uint32_t* corner = &mesh.indices[3 * size_t(source.triangle)];
       glm::dvec3 point(0.0), normal(0.0);
@@ -198,7 +205,7 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
         ranked.push_back({facing * feather, static_cast<uint8_t>(j)});
       }
       if (ranked.empty()) continue;
-      ++out.texels_seen;
+      ++row_seen;
       const size_t keep = std::min<size_t>(ranked.size(), layer_count);
       std::partial_sort(ranked.begin(), ranked.begin() + keep, ranked.end(),
                         [](const Ranked& a, const Ranked& c) {
@@ -214,7 +221,11 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
         texel[3] = ranked[l].view;
       }
     }
-  }
+    covered += row_covered;
+    seen += row_seen;
+  });
+  out.texels_covered = covered;
+  out.texels_seen = seen;
   return out;
 }
 
