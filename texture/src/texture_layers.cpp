@@ -20,18 +20,35 @@ struct Ranked {
   uint8_t view = kNoLayerCamera;
 };
 
-// Bilinear colour at pixel position (x, y), pixel centres at .5.
+// The colour at pixel position (x, y), pixel centres at .5, by Catmull-Rom
+// bicubic interpolation (Keys 1981, a = -1/2) over the 4x4 pixels around
+// it. The layers resample each camera image once and the renderer samples
+// the layers bilinearly again; bilinear here too blurred the picture
+// twice (eval, 8 frames, H.264 layers: SSIM +0.011 on clean and +0.013 on
+// many-cameras against bilinear, PSNR within 0.07 dB, 3% more bytes).
+// Its overshoot is clamped to 0..255 by the caller.
 glm::dvec3 sampleColor(const Image8& image, double x, double y) {
-  const double fx = std::clamp(x - 0.5, 0.0, image.width - 1.0);
-  const double fy = std::clamp(y - 0.5, 0.0, image.height - 1.0);
-  const uint32_t x0 = static_cast<uint32_t>(fx), y0 = static_cast<uint32_t>(fy);
-  const uint32_t x1 = std::min(x0 + 1, image.width - 1), y1 = std::min(y0 + 1, image.height - 1);
-  const double ax = fx - x0, ay = fy - y0;
+  const double fx = x - 0.5, fy = y - 0.5;
+  const int ix = static_cast<int>(std::floor(fx)), iy = static_cast<int>(std::floor(fy));
+  const double tx = fx - ix, ty = fy - iy;
+  auto weights = [](double t, double w[4]) {  // Keys' cubic at distances 1+t, t, 1-t, 2-t
+    const double t2 = t * t, t3 = t2 * t;
+    w[0] = 0.5 * (-t3 + 2 * t2 - t);
+    w[1] = 0.5 * (3 * t3 - 5 * t2 + 2);
+    w[2] = 0.5 * (-3 * t3 + 4 * t2 + t);
+    w[3] = 0.5 * (t3 - t2);
+  };
+  double wx[4], wy[4];
+  weights(tx, wx);
+  weights(ty, wy);
   glm::dvec3 out(0.0);
-  for (int c = 0; c < 3; ++c) {
-    const double top = (1 - ax) * image.at(x0, y0)[c] + ax * image.at(x1, y0)[c];
-    const double bottom = (1 - ax) * image.at(x0, y1)[c] + ax * image.at(x1, y1)[c];
-    out[c] = (1 - ay) * top + ay * bottom;
+  for (int j = 0; j < 4; ++j) {
+    const uint32_t yy = static_cast<uint32_t>(std::clamp(iy - 1 + j, 0, int(image.height) - 1));
+    for (int i = 0; i < 4; ++i) {
+      const uint32_t xx = static_cast<uint32_t>(std::clamp(ix - 1 + i, 0, int(image.width) - 1));
+      const uint8_t* p = image.at(xx, yy);
+      out += wx[i] * wy[j] * glm::dvec3(p[0], p[1], p[2]);
+    }
   }
   return out;
 }
