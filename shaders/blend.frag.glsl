@@ -13,7 +13,8 @@
 //   mesh's scale, F_k the pod's feather weight, d_v towards the user's eye;
 // mode layered (Volino and Hilton 2016, eqs. 3 and 4): per layer, the
 //   colour and camera the atlas holds at the fragment, weighed by
-//   w_j = max((d_j . n)(d_j . d_v), 0) (render::reference::blendLayers);
+//   w_j = max((d_j . n)(d_j . d_v), 0)^HOLOFUSE_LAYER_VIEW_POWER
+//   (render::reference::blendLayers);
 // modes holoportation and montage4d: w_i are the per-vertex texture fields
 //   (eq. 2, or eqs. 4 and 5 normalised) computed by the compute passes and
 //   interpolated over the triangle, times V_k * F_k when the field modes
@@ -300,7 +301,7 @@ vec4 blendLayers(vec3 n, inout float total) {
     any = true;
     vec3 to_camera = layer_cameras[camera].xyz - in_position;
     vec3 d_j = length(to_camera) > 1e-20 ? normalize(to_camera) : vec3(0.0);
-    float w = max(dot(d_j, n) * dot(d_j, d_v), 0.0);
+    float w = pow(max(dot(d_j, n) * dot(d_j, d_v), 0.0), HOLOFUSE_LAYER_VIEW_POWER);
     sum += w * colour;
     total += w;
   }

@@ -8,6 +8,7 @@
 
 #include "geometry/depth_raster.h"
 #include "render_client/reference/texture_fields.h"
+#include "shaders/config.h"
 
 namespace holofuse::render::reference {
 namespace {
@@ -392,9 +393,10 @@ Image8 blendLayers(const Mesh& mesh, const LayeredViews& layers, const Camera& u
       colour /= weight;
       if (!any) first = colour;
       any = true;
-      // Eq. 3.
+      // Eq. 3, raised to HOLOFUSE_LAYER_VIEW_POWER.
       const glm::dvec3 d_j = unitOrZero(layers.camera_centers[camera] - p);
-      const double w = std::max(glm::dot(d_j, n) * glm::dot(d_j, d_v), 0.0);
+      const double w =
+          std::pow(std::max(glm::dot(d_j, n) * glm::dot(d_j, d_v), 0.0), HOLOFUSE_LAYER_VIEW_POWER);
       sum += w * colour;
       total += w;
     }
