@@ -71,6 +71,7 @@ std::vector<Knob> makeKnobs() {
                                                        {"layers", "--layers"},
                                                        {"chart-cells", "--chart-cells"},
                                                        {"texels-per-voxel", "--texels-per-voxel"},
+                                                       {"layer-min-share", "--layer-min-share"},
                                                        {"atlas-size", "--atlas-size"},
                                                        {"layer-video", "--layer-video"},
                                                        {"layer-video-crf", "--layer-video-crf"},

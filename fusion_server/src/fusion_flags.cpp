@@ -63,6 +63,11 @@ const std::vector<Setting<FusionSettings>>& fusionFlags() {
                          "layers' atlas with charts: texels a hull voxel spans (the layers' "
                          "resolution)",
                          0.25, 16, [](S& s) -> double& { return s.layers.texels_per_cell; }),
+        numberSetting<S>("--layer-min-share",
+                         "texture layers after the first hold a point only where their camera "
+                         "sees it at least this share as squarely as the best camera (0: the L "
+                         "best everywhere)",
+                         0.0, 1.0, [](S& s) -> double& { return s.layers.min_score_share; }),
         choiceSetting<S>(
             "--layer-video",
             "the layers' colour as video for the clients that decode it (protocol 1.6): "

@@ -458,7 +458,8 @@ TEST_P(TextureLayers, EachLayerHoldsTheNextMostDirectCameraThatSeesThePoint) {
   const auto& cells = laid.cells;
   ASSERT_TRUE(cells.has_value());
   LayerOptions options;
-  options.layers = 6;  // more than the 4 cameras
+  options.layers = 6;           // more than the 4 cameras
+  options.min_score_share = 0;  // the paper's L best
   auto built = buildTextureLayers(mesh, atlas.texels(), scene.views(), options);
   ASSERT_TRUE(built.isOk()) << built.status().toString();
   ASSERT_EQ(built->layers.size(), 6u);
@@ -526,6 +527,34 @@ TEST_P(TextureLayers, EachLayerHoldsTheNextMostDirectCameraThatSeesThePoint) {
   EXPECT_LT(error / checked, 6.0);
   // Charts fold little of a sphere onto itself.
   EXPECT_LT(built->texels_contested, built->texels_covered / 100);
+
+  // With a share, a deeper layer keeps a point only where its camera faces
+  // it at least that share as squarely as the first layer's (no feather
+  // maps here, so the score is the cosine); the first layers are the same.
+  options.min_score_share = 0.5;
+  auto shared = buildTextureLayers(mesh, atlas.texels(), scene.views(), options);
+  ASSERT_TRUE(shared.isOk());
+  EXPECT_EQ(shared->layers[0].pixels, built->layers[0].pixels);
+  uint64_t dropped = 0, kept = 0;
+  for (uint32_t y = 0; y < atlas.texels(); ++y) {
+    for (uint32_t x = 0; x < atlas.texels(); ++x) {
+      for (int l = 1; l < 6; ++l) {
+        const uint8_t all = built->layers[l].at(x, y)[3], some = shared->layers[l].at(x, y)[3];
+        if (all == kNoLayerCamera) {
+          EXPECT_EQ(some, kNoLayerCamera);
+          continue;
+        }
+        if (some == kNoLayerCamera) {
+          ++dropped;
+          continue;
+        }
+        ++kept;
+        EXPECT_EQ(some, all) << "texel " << x << "," << y << " layer " << l;
+      }
+    }
+  }
+  EXPECT_GT(dropped, 0u) << "oblique cameras leave deeper layers";
+  EXPECT_GT(kept, 0u) << "cameras nearly as square as the best stay";
 }
 
 INSTANTIATE_TEST_SUITE_P(Layouts, TextureLayers, ::testing::Values(false, true),

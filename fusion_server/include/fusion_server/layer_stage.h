@@ -31,6 +31,7 @@ struct LayerSettings {
   // at atlas_texels (Dong and Hollerer 2017).
   uint32_t chart_cells = 4;
   double texels_per_cell = 3.0;
+  double min_score_share = 0.5;  // LayerOptions::min_score_share
   // The layers' colour as video, for the clients that decode it (protocol
   // 1.6); video.codec kLz4 (or any image codec, the default): never as
   // video, LZ4 as the images.
@@ -39,7 +40,7 @@ struct LayerSettings {
   bool sameAtlas(const LayerSettings& other) const {
     return layers == other.layers && atlas_texels == other.atlas_texels &&
            atlas_max_texels == other.atlas_max_texels && chart_cells == other.chart_cells &&
-           texels_per_cell == other.texels_per_cell;
+           texels_per_cell == other.texels_per_cell && min_score_share == other.min_score_share;
   }
 };
 

@@ -28,6 +28,14 @@ struct LayerView {
 
 struct LayerOptions {
   int layers = 3;  // L
+  // A layer after the first holds a point only where its camera's score
+  // (eq. 2's cosine times the feather weight) is at least this share of
+  // the best camera's: a camera that sees the surface much more obliquely
+  // than the best adds little to any view near the surface's normal, and
+  // the texels it leaves empty cost a video coder almost nothing (eval's
+  // clean scene, H.264 layers: 255 -> 206 KB a frame at the same SSIM;
+  // many-cameras 250 -> 241 KB, SSIM -0.0006). 0: the L best, as the paper.
+  double min_score_share = 0.5;
   // A point is seen when its depth is within this of the camera's depth
   // map (Volino and Hilton eq. 1); 0: the mesh's mean edge length, about
   // a voxel of the hull.
