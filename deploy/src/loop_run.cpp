@@ -287,10 +287,15 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes) {
   processes.stopAll();
   const bool written = holofuse::deploy::writeSoakReport(report, plan.out);
   std::printf("[soak] %s; report in %s/soak.md, soak.html, soak.json\n",
-              report.verdict.flat ? "flat after the warm-up" : "NOT flat", plan.out.c_str());
+              report.verdict.flat     ? "flat after the warm-up"
+              : report.verdict.passed ? "nothing leaking, not all decided"
+                                      : "NOT passed",
+              plan.out.c_str());
   for (const std::string& problem : report.verdict.problems)
     std::printf("[soak]   %s\n", problem.c_str());
-  return report.verdict.flat && written ? 0 : 1;
+  for (const std::string& line : report.verdict.undecided)
+    std::printf("[soak]   %s\n", line.c_str());
+  return report.verdict.passed && written ? 0 : 1;
 }
 
 }  // namespace

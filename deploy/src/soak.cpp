@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "report/html.h"
@@ -30,9 +31,66 @@ std::string minuteLabel(double minute) { return number(minute, minute < 10 ? 1 :
 
 }  // namespace
 
+TrendFit fitTrend(const std::vector<double>& hours, const std::vector<double>& values) {
+  // Runs of consecutive samples averaged down to kTrendPoints points: the
+  // pairs grow as the square of the points.
+  std::vector<double> x, y;
+  const size_t n = std::min(hours.size(), values.size());
+  const size_t run = (n + kTrendPoints - 1) / std::max<size_t>(kTrendPoints, 1);
+  for (size_t i = 0; i < n; i += std::max<size_t>(run, 1)) {
+    double sx = 0, sy = 0;
+    size_t k = 0;
+    for (; k < run && i + k < n; ++k) {
+      sx += hours[i + k];
+      sy += values[i + k];
+    }
+    x.push_back(sx / k);
+    y.push_back(sy / k);
+  }
+  TrendFit fit;
+  fit.samples = n;
+  std::vector<double> slopes;
+  slopes.reserve(x.size() * (x.size() - (x.empty() ? 0 : 1)) / 2);
+  for (size_t i = 0; i < x.size(); ++i) {
+    for (size_t j = i + 1; j < x.size(); ++j) {
+      if (x[j] != x[i]) slopes.push_back((y[j] - y[i]) / (x[j] - x[i]));
+    }
+  }
+  if (slopes.empty()) return fit;
+  std::sort(slopes.begin(), slopes.end());
+  const size_t count = slopes.size();
+  auto at = [&](double rank) {
+    return slopes[static_cast<size_t>(std::clamp(rank, 0.0, double(count - 1)))];
+  };
+  fit.slope = count % 2 ? slopes[count / 2] : 0.5 * (slopes[count / 2 - 1] + slopes[count / 2]);
+  // Sen's interval: the ranks (N -+ C) / 2 of the sorted slopes, C = z *
+  // sqrt(var S), var S = m (m - 1) (2m + 5) / 18 for m points (ties only
+  // narrow it, so this errs wide).
+  const double m = static_cast<double>(x.size());
+  const double c = 1.959964 * std::sqrt(m * (m - 1) * (2 * m + 5) / 18.0);
+  fit.low = at(std::floor((double(count) - c) / 2.0));
+  fit.high = at(std::ceil((double(count) + c) / 2.0));
+  std::vector<double> residuals(x.size());
+  for (size_t i = 0; i < x.size(); ++i) residuals[i] = y[i] - fit.slope * x[i];
+  std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2, residuals.end());
+  fit.intercept = residuals[residuals.size() / 2];
+  return fit;
+}
+
+const char* trendVerdictName(TrendVerdict verdict) {
+  switch (verdict) {
+    case TrendVerdict::kFlat:
+      return "flat";
+    case TrendVerdict::kLeaking:
+      return "leaking";
+    case TrendVerdict::kUndecided:
+      break;
+  }
+  return "undecided";
+}
+
 SoakVerdict judgeSoak(const std::vector<std::string>& processes,
-                      const std::vector<SoakSample>& samples, double warmup_minutes,
-                      double tolerance) {
+                      const std::vector<SoakSample>& samples, double warmup_minutes) {
   SoakVerdict verdict;
   for (size_t p = 0; p < processes.size(); ++p) {
     for (const SoakSample& sample : samples) {
@@ -45,43 +103,64 @@ SoakVerdict judgeSoak(const std::vector<std::string>& processes,
   std::vector<const SoakSample*> judged;
   for (const SoakSample& sample : samples)
     if (sample.minute >= warmup_minutes) judged.push_back(&sample);
-  if (judged.size() < 2) {
+  if (judged.size() < 3) {
     verdict.problems.push_back("too short to tell: " + std::to_string(judged.size()) +
                                " sample(s) after the " + minuteLabel(warmup_minutes) +
-                               "-minute warm-up, 2 needed");
+                               "-minute warm-up, 3 needed");
   }
-  for (size_t p = 0; p < processes.size() && judged.size() >= 2; ++p) {
+  for (size_t p = 0; p < processes.size() && judged.size() >= 3; ++p) {
     for (const std::string q : kQuantities) {
       SoakTrend trend;
       trend.process = processes[p];
       trend.quantity = q;
-      bool first = true;
+      std::vector<double> hours, values;
       for (const SoakSample* sample : judged) {
         if (p >= sample->usage.size() || !sample->usage[p]) continue;
         const double v = quantity(*sample->usage[p], q);
-        if (first) trend.first = trend.min = trend.max = v;
+        if (values.empty()) trend.first = trend.min = trend.max = v;
         trend.last = v;
         trend.min = std::min(trend.min, v);
         trend.max = std::max(trend.max, v);
-        first = false;
+        hours.push_back(sample->minute / 60.0);
+        values.push_back(v);
       }
-      if (first) continue;  // gone throughout: said above
-      // A count (descriptors, threads) that rose and is back at its least
-      // by the last sample was caught mid-task (a picture being written),
-      // not leaking: a leak never gives its descriptor back.
-      const bool count = q != "rss_mb";
-      trend.flat =
-          trend.max - trend.min <= tolerance * trend.min || (count && trend.last <= trend.min);
-      if (!trend.flat) {
-        verdict.problems.push_back(
-            trend.process + " " + q + " moved from " + number(trend.first, 1) + " to " +
-            number(trend.last, 1) + " (range " + number(trend.min, 1) + " to " +
-            number(trend.max, 1) + ", more than " + number(100 * tolerance, 0) + "% of the least)");
+      if (values.size() < 3) continue;  // gone: said above
+      trend.fit = fitTrend(hours, values);
+      std::vector<double> sorted = values;
+      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+      const double level = sorted[sorted.size() / 2];
+      trend.limit_per_hour = q == "rss_mb" ? kMemoryLimitShare * level : kCountLimitPerHour;
+      const TrendFit& f = trend.fit;
+      const std::string unit = q == "rss_mb" ? " MB" : "";
+      const std::string slope_text = number(f.slope, 2) + unit + "/h (95%: " + number(f.low, 2) +
+                                     " to " + number(f.high, 2) + ", limit " +
+                                     number(trend.limit_per_hour, 2) + ")";
+      if (f.high < trend.limit_per_hour) {
+        trend.verdict = TrendVerdict::kFlat;
+      } else if (f.low > trend.limit_per_hour) {
+        trend.verdict = TrendVerdict::kLeaking;
+        verdict.problems.push_back(trend.process + " " + q + " is leaking: " + slope_text);
+      } else {
+        // The interval's half on the limit's side narrows as the run's
+        // length to the 3/2 (a slope's error over evenly spaced samples).
+        trend.verdict = TrendVerdict::kUndecided;
+        const double span = hours.back() - hours.front();
+        const double distance = std::abs(trend.limit_per_hour - f.slope);
+        const double half = f.slope < trend.limit_per_hour ? f.high - f.slope : f.slope - f.low;
+        trend.hours_to_decide = distance > 0 ? 1.5 * span * std::pow(half / distance, 2.0 / 3.0)
+                                             : std::numeric_limits<double>::infinity();
+        verdict.undecided.push_back(
+            trend.process + " " + q + " undecided, " + slope_text + ": " +
+            (std::isfinite(trend.hours_to_decide)
+                 ? "about " + number(trend.hours_to_decide * 60.0 + warmup_minutes, 0) +
+                       " minutes of soak would decide"
+                 : "its slope sits at the limit; no run length decides"));
       }
       verdict.trends.push_back(trend);
     }
   }
-  verdict.flat = verdict.problems.empty();
+  verdict.passed = verdict.problems.empty();
+  verdict.flat = verdict.passed && verdict.undecided.empty();
   return verdict;
 }
 
@@ -109,22 +188,35 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
     }
     json["samples"].push_back(row);
   }
+  json["passed"] = report.verdict.passed;
+  json["undecided"] = report.verdict.undecided;
   for (const SoakTrend& t : report.verdict.trends) {
-    json["trends"].push_back({{"process", t.process},
-                              {"quantity", t.quantity},
-                              {"first", t.first},
-                              {"last", t.last},
-                              {"min", t.min},
-                              {"max", t.max},
-                              {"flat", t.flat}});
+    json["trends"].push_back(
+        {{"process", t.process},
+         {"quantity", t.quantity},
+         {"first", t.first},
+         {"last", t.last},
+         {"min", t.min},
+         {"max", t.max},
+         {"slope_per_hour", t.fit.slope},
+         {"slope_low", t.fit.low},
+         {"slope_high", t.fit.high},
+         {"limit_per_hour", t.limit_per_hour},
+         {"verdict", trendVerdictName(t.verdict)},
+         {"hours_to_decide", std::isfinite(t.hours_to_decide) ? nlohmann::json(t.hours_to_decide)
+                                                              : nlohmann::json()}});
   }
 
-  // One table of every sample (MB, descriptors, threads per process) and
-  // one of the trends after the warm-up.
+  // One table of the samples (MB, descriptors, threads per process; at
+  // most kTableRows of them, evenly spread, soak.json holds all) and one
+  // of the trends after the warm-up.
+  constexpr size_t kTableRows = 60;
+  const size_t stride = std::max<size_t>(1, (report.samples.size() + kTableRows - 1) / kTableRows);
   html::Table samples;
   samples.header = {"minute"};
   for (const std::string& p : report.processes) samples.header.push_back(p + " MB / fd / thr");
-  for (const SoakSample& sample : report.samples) {
+  for (size_t i = 0; i < report.samples.size(); i += stride) {
+    const SoakSample& sample = report.samples[i];
     std::vector<std::string> row = {minuteLabel(sample.minute)};
     for (size_t p = 0; p < report.processes.size(); ++p) {
       const auto& usage = p < sample.usage.size() ? sample.usage[p] : std::nullopt;
@@ -136,52 +228,85 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
     samples.rows.push_back(row);
   }
   html::Table trends;
-  trends.header = {"process", "quantity", "first", "last", "least", "most", "flat"};
+  trends.header = {"process", "quantity",       "first",        "last",           "least",
+                   "most",    "slope per hour", "95% interval", "limit per hour", "verdict"};
   trends.align = "ll";
   for (const SoakTrend& t : report.verdict.trends) {
-    trends.rows.push_back({(t.flat ? "" : "!") + t.process, t.quantity, number(t.first, 1),
-                           number(t.last, 1), number(t.min, 1), number(t.max, 1),
-                           t.flat ? "yes" : "no"});
+    trends.rows.push_back({(t.verdict == TrendVerdict::kLeaking ? "!" : "") + t.process, t.quantity,
+                           number(t.first, 1), number(t.last, 1), number(t.min, 1),
+                           number(t.max, 1), number(t.fit.slope, 2),
+                           number(t.fit.low, 2) + " to " + number(t.fit.high, 2),
+                           number(t.limit_per_hour, 2), trendVerdictName(t.verdict)});
   }
   const std::string verdict =
       report.verdict.flat
-          ? "Flat: after the warm-up every process's memory, descriptors and threads stayed "
-            "within 5%."
-          : "Not flat:";
+          ? "Flat: after the warm-up every process's memory, descriptors and threads grew "
+            "less than their limits, with 95% confidence."
+      : report.verdict.passed
+          ? "Nothing leaks and every process lived, but not every quantity is decided yet:"
+          : "Not passed:";
   std::string problems;
   for (const std::string& p : report.verdict.problems) problems += "- " + p + "\n";
+  for (const std::string& u : report.verdict.undecided) problems += "- " + u + "\n";
 
   std::ofstream md(fs::path(folder) / "soak.md");
   md << "# Soak\n\n"
      << report.settings << "; warm-up " << minuteLabel(report.warmup_minutes) << " minutes.\n\n"
      << verdict << "\n\n"
      << problems << (problems.empty() ? "" : "\n") << "## After the warm-up\n\n"
-     << html::markdownTable(trends) << "\n## Every sample\n\n"
+     << html::markdownTable(trends)
+     << "\nSlopes: Theil and Sen's (the median of the slopes between every two samples), "
+        "with Sen's 95% interval. Flat: the interval lies under the limit (memory: "
+     << number(100 * kMemoryLimitShare, 1)
+     << "% of its level an hour; descriptors and threads: " << number(kCountLimitPerHour, 1)
+     << " an hour); leaking: above it; undecided: across it.\n\n## Samples\n\n"
+     << (stride > 1 ? "Every " + std::to_string(stride) + "th sample; soak.json has all.\n\n"
+                    : std::string())
      << html::markdownTable(samples);
 
-  // Resident memory by minute: the server, each client, and the largest pod.
-  std::vector<std::string> minutes;
-  std::vector<html::Series> series;
-  for (const SoakSample& sample : report.samples) minutes.push_back(minuteLabel(sample.minute));
-  html::Series largest_pod{"largest pod", {}};
-  for (size_t p = 0; p < report.processes.size(); ++p) {
-    const bool pod = report.processes[p].rfind("pod", 0) == 0;
-    html::Series s{report.processes[p], {}};
-    for (size_t i = 0; i < report.samples.size(); ++i) {
-      const auto& usage =
-          p < report.samples[i].usage.size() ? report.samples[i].usage[p] : std::nullopt;
-      const double mb = usage ? static_cast<double>(usage->rss_kb) / 1024.0 : std::nan("");
-      if (!pod) {
-        s.values.push_back(mb);
-        continue;
-      }
-      if (largest_pod.values.size() <= i) largest_pod.values.push_back(mb);
-      if (!std::isnan(mb) && (std::isnan(largest_pod.values[i]) || mb > largest_pod.values[i]))
-        largest_pod.values[i] = mb;
+  // Each quantity of the server and the clients, and the memory of the pod
+  // whose memory rose fastest, against time with the fitted line over the
+  // judged minutes.
+  std::string charts;
+  auto trendOf = [&](const std::string& process, const std::string& q) -> const SoakTrend* {
+    for (const SoakTrend& t : report.verdict.trends)
+      if (t.process == process && t.quantity == q) return &t;
+    return nullptr;
+  };
+  auto chartOf = [&](size_t p, const std::string& q, const std::string& label) {
+    html::Line samples{"samples", {}, false};
+    for (const SoakSample& sample : report.samples) {
+      const auto& usage = p < sample.usage.size() ? sample.usage[p] : std::nullopt;
+      if (usage) samples.points.emplace_back(sample.minute, quantity(*usage, q));
     }
-    if (!pod) series.push_back(s);
+    std::vector<html::Line> lines = {samples};
+    if (const SoakTrend* t = trendOf(report.processes[p], q); t != nullptr) {
+      const double end = report.samples.empty() ? 0 : report.samples.back().minute;
+      auto at = [&](double minute) { return t->fit.intercept + t->fit.slope * minute / 60.0; };
+      lines.push_back(
+          {"fit: " + number(t->fit.slope, 2) + "/h (" + trendVerdictName(t->verdict) + ")",
+           {{report.warmup_minutes, at(report.warmup_minutes)}, {end, at(end)}},
+           true});
+    }
+    charts += html::lineChart(report.processes[p] + ": " + label, "minute", label, lines);
+  };
+  size_t steepest_pod = report.processes.size();
+  double steepest = -std::numeric_limits<double>::infinity();
+  for (size_t p = 0; p < report.processes.size(); ++p) {
+    if (report.processes[p].rfind("pod", 0) != 0) continue;
+    const SoakTrend* t = trendOf(report.processes[p], "rss_mb");
+    if (t != nullptr && t->fit.slope > steepest) {
+      steepest = t->fit.slope;
+      steepest_pod = p;
+    }
   }
-  if (!largest_pod.values.empty()) series.push_back(largest_pod);
+  for (size_t p = 0; p < report.processes.size(); ++p) {
+    if (report.processes[p].rfind("pod", 0) == 0 && p != steepest_pod) continue;
+    chartOf(p, "rss_mb", "resident MB");
+    if (report.processes[p].rfind("pod", 0) == 0) continue;
+    chartOf(p, "descriptors", "descriptors");
+    chartOf(p, "threads", "threads");
+  }
   std::ofstream page(fs::path(folder) / "soak.html");
   page << html::page(
       "holofuse soak", "<h1>Soak</h1><p>" + html::escape(report.settings) + "; warm-up " +
@@ -191,12 +316,12 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
                              std::string items;
                              for (const std::string& p : report.verdict.problems)
                                items += "<li>" + html::escape(p) + "</li>";
+                             for (const std::string& u : report.verdict.undecided)
+                               items += "<li>" + html::escape(u) + "</li>";
                              return items;
                            }() +
-                           "</ul>" +
-                           html::barChart("Resident memory by minute", minutes, series, "MB") +
-                           "<h2>After the warm-up</h2>" + html::table(trends) +
-                           "<h2>Every sample</h2>" + html::table(samples));
+                           "</ul>" + charts + "<h2>After the warm-up</h2>" + html::table(trends) +
+                           "<h2>Samples</h2>" + html::table(samples));
   std::ofstream(fs::path(folder) / "soak.json") << json.dump(1) << "\n";
   if (!md || !page) {
     std::fprintf(stderr, "[soak] cannot write the report into %s\n", folder.c_str());

@@ -213,6 +213,49 @@ std::string stackedBars(const std::string& title, const std::vector<std::string>
   return svg + "</svg></figure>\n";
 }
 
+namespace {
+
+// A chart's plotting area: the svg's size, the margins around the axes,
+// and the ranges the axes span.
+struct PlotArea {
+  double width, height, full_height, left, right, top, bottom, x0, x1, y0, y1;
+  double x(double v) const { return left + (v - x0) / (x1 - x0) * (width - left - right); }
+  double y(double v) const {
+    return height - bottom - (v - y0) / (y1 - y0) * (height - top - bottom);
+  }
+};
+
+// The svg's opening, the title, both axes with five ticks each and their
+// labels: what the scatter and line charts share.
+std::string axesSvg(const std::string& title, const std::string& x_label,
+                    const std::string& y_label, const PlotArea& a) {
+  const double width = a.width, height = a.height, left = a.left, right = a.right, top = a.top,
+               bottom = a.bottom, x0 = a.x0, x1 = a.x1, y0 = a.y0, y1 = a.y1;
+  auto sx = [&](double x) { return a.x(x); };
+  auto sy = [&](double y) { return a.y(y); };
+  std::string svg = "<figure><svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" +
+                    number(width) + "\" height=\"" + number(a.full_height) +
+                    "\" role=\"img\" aria-label=\"" + escape(title) + "\">";
+  svg += "<text x=\"10\" y=\"20\" class=\"title\">" + escape(title) + "</text>";
+  svg += "<line class=\"axis\" x1=\"" + number(left) + "\" y1=\"" + number(height - bottom) +
+         "\" x2=\"" + number(width - right) + "\" y2=\"" + number(height - bottom) + "\"/>";
+  svg += "<line class=\"axis\" x1=\"" + number(left) + "\" y1=\"" + number(top) + "\" x2=\"" +
+         number(left) + "\" y2=\"" + number(height - bottom) + "\"/>";
+  for (int t = 0; t <= 4; ++t) {
+    const double xv = x0 + (x1 - x0) * t / 4, yv = y0 + (y1 - y0) * t / 4;
+    svg += "<text class=\"category\" x=\"" + number(sx(xv)) + "\" y=\"" +
+           number(height - bottom + 16) + "\">" + number(xv) + "</text>";
+    svg += "<text x=\"" + number(left - 6) + "\" y=\"" + number(sy(yv) + 4) +
+           "\" style=\"text-anchor:end\">" + number(yv) + "</text>";
+  }
+  svg += "<text class=\"category\" x=\"" + number((left + width - right) / 2) + "\" y=\"" +
+         number(height - 10) + "\">" + escape(x_label) + "</text>";
+  svg += "<text x=\"14\" y=\"" + number(top - 8) + "\">" + escape(y_label) + "</text>";
+  return svg;
+}
+
+}  // namespace
+
 std::string scatterChart(const std::string& title, const std::string& x_label,
                          const std::string& y_label, const std::vector<Point>& points) {
   const double width = 620, height = 380, left = 70, right = 30, top = 40, bottom = 50;
@@ -236,28 +279,10 @@ std::string scatterChart(const std::string& title, const std::string& x_label,
   x1 += padx;
   y0 -= pady;
   y1 += pady;
-  auto sx = [&](double x) { return left + (x - x0) / (x1 - x0) * (width - left - right); };
-  auto sy = [&](double y) {
-    return height - bottom - (y - y0) / (y1 - y0) * (height - top - bottom);
-  };
-  std::string svg = "<figure><svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" +
-                    number(width) + "\" height=\"" + number(height) +
-                    "\" role=\"img\" aria-label=\"" + escape(title) + "\">";
-  svg += "<text x=\"10\" y=\"20\" class=\"title\">" + escape(title) + "</text>";
-  svg += "<line class=\"axis\" x1=\"" + number(left) + "\" y1=\"" + number(height - bottom) +
-         "\" x2=\"" + number(width - right) + "\" y2=\"" + number(height - bottom) + "\"/>";
-  svg += "<line class=\"axis\" x1=\"" + number(left) + "\" y1=\"" + number(top) + "\" x2=\"" +
-         number(left) + "\" y2=\"" + number(height - bottom) + "\"/>";
-  for (int t = 0; t <= 4; ++t) {
-    const double xv = x0 + (x1 - x0) * t / 4, yv = y0 + (y1 - y0) * t / 4;
-    svg += "<text class=\"category\" x=\"" + number(sx(xv)) + "\" y=\"" +
-           number(height - bottom + 16) + "\">" + number(xv) + "</text>";
-    svg += "<text x=\"" + number(left - 6) + "\" y=\"" + number(sy(yv) + 4) +
-           "\" style=\"text-anchor:end\">" + number(yv) + "</text>";
-  }
-  svg += "<text class=\"category\" x=\"" + number((left + width - right) / 2) + "\" y=\"" +
-         number(height - 10) + "\">" + escape(x_label) + "</text>";
-  svg += "<text x=\"14\" y=\"" + number(top - 8) + "\">" + escape(y_label) + "</text>";
+  const PlotArea area{width, height, height, left, right, top, bottom, x0, x1, y0, y1};
+  auto sx = [&](double x) { return area.x(x); };
+  auto sy = [&](double y) { return area.y(y); };
+  std::string svg = axesSvg(title, x_label, y_label, area);
   std::vector<const Point*> front;
   for (const auto& p : points) {
     if (p.highlighted && std::isfinite(p.x) && std::isfinite(p.y)) front.push_back(&p);
@@ -279,6 +304,55 @@ std::string scatterChart(const std::string& title, const std::string& x_label,
            number(p.y) + "</title></circle>";
     svg += "<text x=\"" + number(sx(p.x) + 7) + "\" y=\"" + number(sy(p.y) - 6) + "\">" +
            escape(p.label) + "</text>";
+  }
+  return svg + "</svg></figure>\n";
+}
+
+std::string lineChart(const std::string& title, const std::string& x_label,
+                      const std::string& y_label, const std::vector<Line>& lines) {
+  const double width = 720, height = 360, left = 70, right = 30, top = 40, bottom = 50;
+  const double legend_rows = std::ceil(static_cast<double>(lines.size()) / 4.0);
+  double x0 = 0, x1 = 1, y0 = 0, y1 = 1;
+  bool first = true;
+  for (const Line& line : lines) {
+    for (const auto& [x, y] : line.points) {
+      if (!std::isfinite(x) || !std::isfinite(y)) continue;
+      if (first) {
+        x0 = x1 = x;
+        y0 = y1 = y;
+        first = false;
+      }
+      x0 = std::min(x0, x);
+      x1 = std::max(x1, x);
+      y0 = std::min(y0, y);
+      y1 = std::max(y1, y);
+    }
+  }
+  const double pady = std::max((y1 - y0) * 0.08, 1e-9 + std::abs(y1) * 0.02);
+  y0 -= pady;
+  y1 += pady;
+  if (x1 <= x0) x1 = x0 + 1;
+  const double full = height + 22 * legend_rows;
+  const PlotArea area{width, height, full, left, right, top, bottom, x0, x1, y0, y1};
+  auto sx = [&](double x) { return area.x(x); };
+  auto sy = [&](double y) { return area.y(y); };
+  std::string svg = axesSvg(title, x_label, y_label, area);
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const Line& line = lines[i];
+    std::string points;
+    for (const auto& [x, y] : line.points) {
+      if (std::isfinite(x) && std::isfinite(y)) points += number(sx(x)) + "," + number(sy(y)) + " ";
+    }
+    svg += "<polyline fill=\"none\" stroke=\"" + colour(i) + "\" stroke-width=\"" +
+           (line.dashed ? "2\" stroke-dasharray=\"6 4" : "1.2") + "\" points=\"" + points +
+           "\"><title>" + escape(line.name) + "</title></polyline>";
+    const double lx = left + 160.0 * static_cast<double>(i % 4),
+                 ly = height + 22.0 * static_cast<double>(i / 4) + 4;
+    svg += "<line x1=\"" + number(lx) + "\" y1=\"" + number(ly) + "\" x2=\"" + number(lx + 22) +
+           "\" y2=\"" + number(ly) + "\" stroke=\"" + colour(i) + "\" stroke-width=\"2\"" +
+           (line.dashed ? " stroke-dasharray=\"6 4\"" : "") + "/>";
+    svg += "<text x=\"" + number(lx + 28) + "\" y=\"" + number(ly + 4) + "\">" + escape(line.name) +
+           "</text>";
   }
   return svg + "</svg></figure>\n";
 }

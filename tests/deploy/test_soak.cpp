@@ -3,9 +3,11 @@
 // the report written for people and programs.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 
 #include "deploy/soak.h"
 #include "integration/process_harness.h"
@@ -23,53 +25,160 @@ ProcessUsage usage(uint64_t rss_mb, int descriptors = 10, int threads = 4) {
   return ProcessUsage{rss_mb * 1024, rss_mb * 1024, descriptors, threads};
 }
 
-TEST(Soak, FlatWithinFivePercentAfterTheWarmUpAndNotOtherwise) {
-  // The warm-up may grow as it likes; after it, 100 to 104 MB is flat.
-  std::vector<SoakSample> samples = {sampleAt(1, {usage(40)}), sampleAt(2, {usage(100)}),
-                                     sampleAt(3, {usage(104)}), sampleAt(4, {usage(101)})};
-  const SoakVerdict flat = judgeSoak({"server"}, samples, 2);
-  EXPECT_TRUE(flat.flat) << ::testing::PrintToString(flat.problems);
-  ASSERT_EQ(flat.trends.size(), 3u);
-  EXPECT_EQ(flat.trends[0].quantity, "rss_mb");
-  EXPECT_DOUBLE_EQ(flat.trends[0].min, 100);
-  EXPECT_DOUBLE_EQ(flat.trends[0].max, 104);
-  // 100 to 106 MB is a leak of 6%; one more descriptor in 10 is 10%.
-  samples.push_back(sampleAt(5, {usage(106, 11)}));
-  const SoakVerdict growing = judgeSoak({"server"}, samples, 2);
-  EXPECT_FALSE(growing.flat);
-  ASSERT_EQ(growing.problems.size(), 2u);
-  EXPECT_NE(growing.problems[0].find("server rss_mb moved from 100.0 to 106.0"), std::string::npos)
-      << growing.problems[0];
-  EXPECT_NE(growing.problems[1].find("server descriptors moved from 10.0 to 11.0"),
-            std::string::npos)
-      << growing.problems[1];
+// A soak of one server sampled every 10 s: memory at 45 MB with the
+// noise a sample that reads frames in flight gives (uniform, +-1 MB, as
+// measured on a healthy build), growing by mb_per_hour; descriptors and
+// threads steady. A fixed generator, so every run sees the same series.
+std::vector<SoakSample> serverSoak(double minutes, double mb_per_hour, uint32_t seed = 7) {
+  std::vector<SoakSample> samples;
+  uint32_t state = seed;
+  auto uniform = [&] {  // in [-1, 1)
+    state = state * 1664525u + 1013904223u;
+    return (state >> 8) / double(1u << 23) - 1.0;
+  };
+  for (double minute = 1.0 / 6.0; minute <= minutes + 1e-9; minute += 1.0 / 6.0) {
+    ProcessUsage u;
+    u.rss_kb = static_cast<uint64_t>((45.0 + mb_per_hour * minute / 60.0 + uniform()) * 1024);
+    u.peak_rss_kb = u.rss_kb;
+    u.descriptors = 10;
+    u.threads = 5;
+    samples.push_back(sampleAt(minute, {u}));
+  }
+  return samples;
 }
 
-// A picture being written when a sample is taken holds one descriptor
-// more: back to the least by the last sample, that is no leak. Memory that
-// comes back down is still judged by its spread.
-TEST(Soak, ADescriptorHeldAtOneSampleAndGivenBackIsNoLeak) {
-  const std::vector<SoakSample> transient = {
-      sampleAt(3, {usage(100, 6)}), sampleAt(4, {usage(100, 7)}), sampleAt(5, {usage(100, 6)})};
-  EXPECT_TRUE(judgeSoak({"client"}, transient, 2).flat);
-  std::vector<SoakSample> leaking = transient;
-  leaking.push_back(sampleAt(6, {usage(100, 7)}));
-  EXPECT_FALSE(judgeSoak({"client"}, leaking, 2).flat) << "still held at the end";
-  const std::vector<SoakSample> memory = {sampleAt(3, {usage(100)}), sampleAt(4, {usage(120)}),
-                                          sampleAt(5, {usage(100)})};
-  EXPECT_FALSE(judgeSoak({"client"}, memory, 2).flat);
+const SoakTrend& trendOf(const SoakVerdict& verdict, const std::string& quantity) {
+  for (const SoakTrend& t : verdict.trends)
+    if (t.quantity == quantity) return t;
+  throw std::runtime_error("no trend of " + quantity);
+}
+
+TEST(Soak, AStraightLineFitsExactlyAndItsIntervalHoldsIt) {
+  std::vector<double> hours, values;
+  for (int i = 0; i < 50; ++i) {
+    hours.push_back(0.1 * i);
+    values.push_back(3.0 + 2.0 * hours.back());
+  }
+  const TrendFit exact = fitTrend(hours, values);
+  EXPECT_NEAR(exact.slope, 2.0, 1e-9);
+  EXPECT_NEAR(exact.low, 2.0, 1e-9);
+  EXPECT_NEAR(exact.high, 2.0, 1e-9);
+  EXPECT_NEAR(exact.intercept, 3.0, 1e-9);
+  EXPECT_EQ(exact.samples, 50u);
+  // One wild value among fifty moves a median of slopes little.
+  values[20] += 100;
+  const TrendFit spiked = fitTrend(hours, values);
+  EXPECT_NEAR(spiked.slope, 2.0, 0.05);
+  EXPECT_LE(spiked.low, 2.0);
+  EXPECT_GE(spiked.high, 2.0);
+}
+
+// Known answers: the noise a healthy server shows is flat once the run is
+// long enough to tell, and no run is called leaking for it.
+TEST(Soak, NoiseWithoutATrendIsFlat) {
+  const SoakVerdict verdict = judgeSoak({"server"}, serverSoak(122, 0.0), 2);
+  EXPECT_TRUE(verdict.flat) << ::testing::PrintToString(verdict.problems)
+                            << ::testing::PrintToString(verdict.undecided);
+  EXPECT_TRUE(verdict.passed);
+  const SoakTrend& memory = trendOf(verdict, "rss_mb");
+  EXPECT_EQ(memory.verdict, TrendVerdict::kFlat);
+  EXPECT_NEAR(memory.limit_per_hour, kMemoryLimitShare * 45.0, 0.02);
+  EXPECT_LT(memory.fit.low, 0.0);
+  EXPECT_GT(memory.fit.high, 0.0);
+  EXPECT_EQ(trendOf(verdict, "descriptors").verdict, TrendVerdict::kFlat);
+  EXPECT_EQ(trendOf(verdict, "threads").verdict, TrendVerdict::kFlat);
+  // Half an hour of the same noise is too short to call flat, and is no
+  // failure: undecided, with the run that would decide.
+  const SoakVerdict short_run = judgeSoak({"server"}, serverSoak(30, 0.0), 2);
+  EXPECT_TRUE(short_run.passed) << ::testing::PrintToString(short_run.problems);
+  for (const SoakTrend& t : short_run.trends) EXPECT_NE(t.verdict, TrendVerdict::kLeaking);
+}
+
+// 1% of 45 MB an hour, twice the limit: undecided in half an hour, and
+// leaking in a run as long as the judge said would decide.
+TEST(Soak, OnePercentAnHourIsLeakingWithinTheRunLengthTheJudgeNames) {
+  const SoakVerdict short_run = judgeSoak({"server"}, serverSoak(30, 0.45), 2);
+  const SoakTrend& first = trendOf(short_run, "rss_mb");
+  ASSERT_EQ(first.verdict, TrendVerdict::kUndecided) << first.fit.low << " " << first.fit.high;
+  ASSERT_TRUE(std::isfinite(first.hours_to_decide));
+  EXPECT_GT(first.hours_to_decide, 28.0 / 60.0);
+  ASSERT_EQ(short_run.undecided.size(), 1u);
+  EXPECT_NE(short_run.undecided[0].find("server rss_mb undecided"), std::string::npos)
+      << short_run.undecided[0];
+  EXPECT_NE(short_run.undecided[0].find("minutes of soak would decide"), std::string::npos);
+  EXPECT_TRUE(short_run.passed);
+  EXPECT_FALSE(short_run.flat);
+
+  const double named_minutes = 2 + 60.0 * first.hours_to_decide;
+  const SoakVerdict long_run = judgeSoak({"server"}, serverSoak(named_minutes, 0.45), 2);
+  const SoakTrend& memory = trendOf(long_run, "rss_mb");
+  EXPECT_EQ(memory.verdict, TrendVerdict::kLeaking)
+      << named_minutes << " min: " << memory.fit.low << " to " << memory.fit.high;
+  EXPECT_NEAR(memory.fit.slope, 0.45, 0.15);
+  EXPECT_FALSE(long_run.passed);
+  ASSERT_EQ(long_run.problems.size(), 1u);
+  EXPECT_NE(long_run.problems[0].find("server rss_mb is leaking: 0."), std::string::npos)
+      << long_run.problems[0];
+
+  // The report says it in each form: the table's verdict, a chart of the
+  // samples with the fitted line, the trend's figures for programs.
+  SoakReport report;
+  report.settings = "a server of known answers";
+  report.processes = {"server"};
+  report.samples = serverSoak(named_minutes, 0.45);
+  report.warmup_minutes = 2;
+  report.verdict = long_run;
+  const fs::path out = test::freshDir("soak_report");
+  ASSERT_TRUE(writeSoakReport(report, out.string()));
+  const std::string md = test::readFile(out / "soak.md");
+  EXPECT_NE(md.find("| server | rss_mb |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| leaking |"), std::string::npos) << md;
+  EXPECT_NE(md.find("th sample; soak.json has all"), std::string::npos) << "a long run's table";
+  const std::string page = test::readFile(out / "soak.html");
+  EXPECT_NE(page.find("server: resident MB"), std::string::npos);
+  EXPECT_NE(page.find("<title>fit: 0."), std::string::npos) << "the fitted line is drawn";
+  EXPECT_NE(page.find("/h (leaking)"), std::string::npos);
+  std::ifstream in(out / "soak.json");
+  const auto json = nlohmann::json::parse(in);
+  EXPECT_FALSE(json["passed"].get<bool>());
+  EXPECT_EQ(json["samples"].size(), report.samples.size());
+  const auto& trend = json["trends"].at(0);
+  EXPECT_EQ(trend["verdict"], "leaking");
+  EXPECT_DOUBLE_EQ(trend["slope_per_hour"].get<double>(), memory.fit.slope);
+  EXPECT_GT(trend["slope_low"].get<double>(), trend["limit_per_hour"].get<double>());
+  fs::remove_all(out);
+}
+
+// A single spike (frames piled up at one sample, a picture being written)
+// is no trend; a count that keeps rising is.
+TEST(Soak, ASingleSpikeIsFlatAndACountThatKeepsRisingLeaks) {
+  std::vector<SoakSample> spiked = serverSoak(122, 0.0);
+  spiked[360].usage[0]->rss_kb += 20 * 1024;
+  spiked[400].usage[0]->descriptors += 3;
+  spiked[401].usage[0]->threads += 1;
+  const SoakVerdict verdict = judgeSoak({"server"}, spiked, 2);
+  EXPECT_TRUE(verdict.flat) << ::testing::PrintToString(verdict.problems)
+                            << ::testing::PrintToString(verdict.undecided);
+  std::vector<SoakSample> rising = serverSoak(62, 0.0);
+  for (SoakSample& sample : rising)
+    sample.usage[0]->descriptors += static_cast<int>(sample.minute / 10);  // one per 10 minutes
+  const SoakVerdict leaking = judgeSoak({"server"}, rising, 2);
+  EXPECT_EQ(trendOf(leaking, "descriptors").verdict, TrendVerdict::kLeaking);
+  EXPECT_NEAR(trendOf(leaking, "descriptors").fit.slope, 6.0, 1.0);
+  EXPECT_FALSE(leaking.passed);
 }
 
 TEST(Soak, AProcessGoneOrASoakTooShortIsNotFlat) {
-  const std::vector<SoakSample> gone = {sampleAt(3, {usage(100), usage(20)}),
-                                        sampleAt(4, {usage(100), std::nullopt}),
-                                        sampleAt(5, {usage(100), std::nullopt})};
+  const std::vector<SoakSample> gone = {
+      sampleAt(3, {usage(100), usage(20)}), sampleAt(4, {usage(100), std::nullopt}),
+      sampleAt(5, {usage(100), std::nullopt}), sampleAt(6, {usage(100), std::nullopt})};
   const SoakVerdict verdict = judgeSoak({"server", "pod 0"}, gone, 2);
+  EXPECT_FALSE(verdict.passed);
   EXPECT_FALSE(verdict.flat);
   ASSERT_FALSE(verdict.problems.empty());
   EXPECT_EQ(verdict.problems[0], "pod 0 was gone at minute 4.0");
   const SoakVerdict short_one = judgeSoak({"server"}, {sampleAt(1, {usage(5)})}, 2);
-  EXPECT_FALSE(short_one.flat);
+  EXPECT_FALSE(short_one.passed);
   EXPECT_NE(short_one.problems.at(0).find("too short to tell: 0 sample(s) after the 2.0-minute"),
             std::string::npos)
       << short_one.problems.at(0);
@@ -99,10 +208,21 @@ TEST(Soak, TheLoopSoaksWithEveryProcessSampled) {
       EXPECT_GE(sample["usage"][p]["threads"].get<int>(), 1) << p;
     }
   }
-  bool all_trends_flat = true;
-  for (const auto& trend : report["trends"]) all_trends_flat &= trend["flat"].get<bool>();
-  EXPECT_EQ(report["flat"].get<bool>(), all_trends_flat);
-  EXPECT_EQ(code == 0, report["flat"].get<bool>()) << "the exit code says the verdict";
+  // Every quantity judged, the verdicts adding up to the report's, and the
+  // exit code saying whether it passed.
+  ASSERT_EQ(report["trends"].size(), 3 * processes.size());
+  bool all_flat = true, any_leaking = false;
+  for (const auto& trend : report["trends"]) {
+    const std::string v = trend["verdict"].get<std::string>();
+    EXPECT_TRUE(v == "flat" || v == "leaking" || v == "undecided") << v;
+    EXPECT_LE(trend["slope_low"].get<double>(), trend["slope_per_hour"].get<double>());
+    EXPECT_GE(trend["slope_high"].get<double>(), trend["slope_per_hour"].get<double>());
+    all_flat &= v == "flat";
+    any_leaking |= v == "leaking";
+  }
+  EXPECT_EQ(report["flat"].get<bool>(), all_flat);
+  EXPECT_EQ(report["passed"].get<bool>(), !any_leaking);
+  EXPECT_EQ(code == 0, report["passed"].get<bool>()) << "the exit code says the verdict";
   for (const char* file : {"soak.md", "soak.html", "client0/report.json", "client1/report.json"})
     EXPECT_TRUE(fs::exists(out / file)) << file;
   fs::remove_all(out);

@@ -21,7 +21,7 @@ struct LoopPlan {
   int frames = 40, port = 0, clients = 1;
   // A soak (deploy/soak.h): the loop runs this long, its processes sampled
   // every sample_seconds; 0: an ordinary run that ends with the frames.
-  double soak_minutes = 0, sample_seconds = 60, warmup_minutes = 2;
+  double soak_minutes = 0, sample_seconds = 10, warmup_minutes = 2;
   // The pods and their rate (the pods' own table, forwarded), at 15 fps:
   // what a 2-core machine's client sustains in mode normal (measured by
   // `./holofuse bench loop`); a slower mode renders the newest mesh it can.

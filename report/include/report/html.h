@@ -63,6 +63,16 @@ struct Point {
 std::string scatterChart(const std::string& title, const std::string& x_label,
                          const std::string& y_label, const std::vector<Point>& points);
 
+struct Line {
+  std::string name;
+  std::vector<std::pair<double, double>> points;  // (x, y) in order of x
+  bool dashed = false;                            // a fitted line, drawn over the samples
+};
+// Lines against a shared x axis (a soak's quantities against time), each
+// in colour(i) of its place, dashed ones thinner, with a legend.
+std::string lineChart(const std::string& title, const std::string& x_label,
+                      const std::string& y_label, const std::vector<Line>& lines);
+
 // A table of a report, built once and written as HTML (table) or as
 // Markdown (markdownTable). Rows whose first cell starts with "!" are
 // flagged: shown red in HTML, the "!" dropped in both.
