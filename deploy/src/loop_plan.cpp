@@ -254,6 +254,13 @@ void addRunOptions(CLI::App& app, LoopPlan& plan) {
                  "memory, descriptors and threads, and judge them flat after the warm-up "
                  "(OUT/soak.md, soak.html, soak.json)")
       ->check(CLI::Range(0.0, 10080.0));
+  app.add_flag("--churn", plan.churn,
+               "with --soak-minutes: client sessions join and leave all through the soak (half "
+               "say bye after 8 frames, half are killed after 6 s), and every fifth session a "
+               "pod restarts (cleanly and with SIGKILL in turn)");
+  app.add_option("--churn-seconds", plan.churn_seconds,
+                 "with --churn: between one session's start and the next's")
+      ->check(CLI::Range(0.5, 3600.0));
   app.add_option("--sample-seconds", plan.sample_seconds, "with --soak-minutes: between samples")
       ->check(CLI::Range(1.0, 3600.0));
   app.add_option("--warmup-minutes", plan.warmup_minutes,
@@ -330,6 +337,10 @@ int checkPlan(CLI::App& app, LoopPlan& plan) {
   }
   if (plan.soak_minutes > 0 && !plan.replay.empty() && !plan.loop) {
     std::fprintf(stderr, "--soak-minutes needs a loop that does not end: add --loop to --replay\n");
+    return 2;
+  }
+  if (plan.churn && plan.soak_minutes <= 0) {
+    std::fprintf(stderr, "--churn needs --soak-minutes\n");
     return 2;
   }
   if (plan.soak_minutes > 0 && plan.warmup_minutes >= plan.soak_minutes) {
@@ -468,8 +479,9 @@ std::string clientOut(const LoopPlan& plan, int index) {
 
 std::vector<std::string> clientCommand(const LoopPlan& plan, const std::string& endpoint,
                                        int index) {
-  // A soak's clients render until it ends.
-  const int frames = plan.soak_minutes > 0 ? 1000000 : plan.frames;
+  // A soak's clients render until it stops them (0: until signalled), so
+  // their progress lines count frames without a made-up total and ETA.
+  const int frames = plan.soak_minutes > 0 ? 0 : plan.frames;
   const uint32_t id = plan.rig && !plan.rig->clients.empty() ? plan.rig->clients.at(index).id : 0;
   std::vector<std::string> args = {plan.bin_dir + "/render_client",
                                    "--server",

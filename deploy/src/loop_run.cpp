@@ -5,15 +5,18 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "base/eta.h"
 #include "base/process.h"
 #include "deploy/netns_rig.h"
 #include "deploy/soak.h"
@@ -26,16 +29,17 @@ volatile sig_atomic_t g_interrupted = 0;
 void onSignal(int) { g_interrupted = 1; }
 
 // Starts a child of the loop: its output into log_path (the client's
-// stdout stays the terminal, for its progress line), Ctrl-C left to the
-// launcher, which decides when children stop. -1, said why, when it cannot
-// start.
-pid_t spawn(const std::vector<std::string>& args, const std::string& log_path) {
+// stdout stays the terminal, for its progress line, unless quiet), Ctrl-C
+// left to the launcher, which decides when children stop. -1, said why,
+// when it cannot start.
+pid_t spawn(const std::vector<std::string>& args, const std::string& log_path, bool quiet = false) {
   holofuse::SpawnOptions options;
   options.log_path = log_path;
   // (In a rig the program follows ip netns exec's words.)
-  options.stdout_to_log = std::none_of(args.begin(), args.end(), [](const std::string& word) {
-    return word.find("/render_client") != std::string::npos;
-  });
+  options.stdout_to_log =
+      quiet || std::none_of(args.begin(), args.end(), [](const std::string& word) {
+        return word.find("/render_client") != std::string::npos;
+      });
   options.ignore_interrupt = true;
   // A launcher killed outright (a test's time limit, an OOM kill) takes
   // its rig with it rather than leaving it to eat the machine.
@@ -226,10 +230,148 @@ void printLinks(const LoopPlan& plan) {
   }
 }
 
+// --churn: client sessions that join and leave all through a soak, and a
+// pod that restarts. A session begins every plan.churn_seconds while
+// fewer than two are live; in turn one renders 8 frames and leaves saying
+// bye, the next is killed (SIGKILL, mid-frame) 6 s after it began. Every
+// fifth session the last pod is stopped, cleanly and with SIGKILL in turn,
+// and started again at once: the sampled pid follows it.
+class Churn {
+ public:
+  Churn(const LoopPlan& plan, std::string endpoint, LoopProcesses& processes,
+        std::vector<pid_t>& sampled)
+      : plan_(plan), endpoint_(std::move(endpoint)), processes_(processes), sampled_(sampled) {}
+
+  void step(double seconds) {
+    for (auto session = live_.begin(); session != live_.end();) {
+      std::optional<int> code = holofuse::pollProcess(session->pid);
+      if (!code && !session->bye && seconds >= session->kill_at) {
+        ::kill(session->pid, SIGKILL);
+        code = holofuse::waitProcess(session->pid, -1);
+      }
+      if (!code) {
+        ++session;
+        continue;
+      }
+      ended(*session, *code);
+      session = live_.erase(session);
+    }
+    if (seconds < next_ || live_.size() >= 2) return;
+    next_ = seconds + plan_.churn_seconds;
+    begin(seconds);
+    if (counts.sessions % 5 == 0 && !processes_.pods.empty()) restartPod();
+  }
+
+  // The sessions still live end (a bye one after its frames, a killed one
+  // now), and the server's log is read for what it saw.
+  void finish() {
+    for (Session& session : live_) {
+      if (!session.bye) ::kill(session.pid, SIGKILL);
+      ended(session, holofuse::waitProcess(session.pid, session.bye ? 60000 : -1).value_or(-1));
+    }
+    live_.clear();
+  }
+
+  // The server's log: its client joins, leaves (said, or closed on an
+  // error) and refusals.
+  void readServerLog(const std::filesystem::path& log) {
+    std::ifstream in(log);
+    for (std::string line; std::getline(in, line);) {
+      // A client that vanished (killed) is closed on the error its
+      // connection gave, not seen to leave: both end its session.
+      if (line.rfind("[server] closing client ", 0) == 0) {
+        ++counts.server_client_leaves;
+        continue;
+      }
+      if (line.rfind("[server] client ", 0) != 0) {
+        const auto refused = line.find(" refused so far)");
+        if (line.rfind("[server] refusing ", 0) == 0 && refused != std::string::npos) {
+          const auto open = line.rfind('(', refused);
+          counts.server_refusals =
+              std::max<uint64_t>(counts.server_refusals, std::stoull(line.substr(open + 1)));
+        }
+        continue;
+      }
+      if (line.find(") joined") != std::string::npos) ++counts.server_client_joins;
+      if (line.find(") left (") != std::string::npos) ++counts.server_client_leaves;
+    }
+  }
+
+  holofuse::deploy::ChurnCounts counts;
+
+ private:
+  struct Session {
+    pid_t pid;
+    bool bye;
+    double kill_at;
+    std::filesystem::path out;
+  };
+
+  void begin(double seconds) {
+    const bool bye = counts.sessions % 2 == 0;
+    const std::filesystem::path out =
+        std::filesystem::path(plan_.out) / "churn" / ("session" + std::to_string(counts.sessions));
+    auto command = clientCommand(plan_, endpoint_, 0);
+    for (size_t i = 0; i + 1 < command.size(); ++i) {
+      if (command[i] == "--out") command[i + 1] = out.string();
+      if (command[i] == "--frames") command[i + 1] = bye ? "8" : "0";
+    }
+    const pid_t pid = spawn(command, out.string() + ".log", /*quiet=*/true);
+    ++counts.sessions;
+    if (pid < 0) {
+      ++counts.sessions_failed;
+      return;
+    }
+    live_.push_back({pid, bye, seconds + 6.0, out});
+  }
+
+  void ended(const Session& session, int code) {
+    // A killed session's exit is 128 + 9; a bye one's 0.
+    if (session.bye && code == 0) {
+      ++counts.sessions_bye;
+    } else if (!session.bye && code == 128 + SIGKILL) {
+      ++counts.sessions_killed;
+    } else {
+      ++counts.sessions_failed;
+      std::fprintf(stderr, "[soak] churn session %s ended with %d; see %s.log\n",
+                   session.out.filename().c_str(), code, session.out.c_str());
+    }
+    // Its pictures are not the soak's: only its log stays.
+    std::error_code ignored;
+    std::filesystem::remove_all(session.out, ignored);
+  }
+
+  void restartPod() {
+    const size_t pod = processes_.pods.size() - 1;
+    const bool killed = counts.pod_restarts % 2 == 1;
+    if (killed) {
+      ::kill(processes_.pods[pod], SIGKILL);
+      holofuse::waitProcess(processes_.pods[pod], -1);
+      ++counts.pod_restarts_killed;
+    } else {
+      stop(processes_.pods[pod], "capture_node");
+    }
+    const pid_t again =
+        spawn(podCommand(plan_, static_cast<int>(pod), endpoint_),
+              (std::filesystem::path(plan_.out) / "logs" / ("pod" + std::to_string(pod) + ".log"))
+                  .string());
+    processes_.pods[pod] = again;
+    sampled_[1 + pod] = again;
+    ++counts.pod_restarts;
+  }
+
+  const LoopPlan& plan_;
+  const std::string endpoint_;
+  LoopProcesses& processes_;
+  std::vector<pid_t>& sampled_;
+  std::vector<Session> live_;
+  double next_ = 0;
+};
+
 // A soak: the loop runs for plan.soak_minutes while every process is
 // sampled each plan.sample_seconds, then stops and is judged
 // (deploy/soak.h). Ctrl-C ends it early with the samples so far.
-int superviseSoak(const LoopPlan& plan, LoopProcesses& processes) {
+int superviseSoak(const LoopPlan& plan, LoopProcesses& processes, const std::string& endpoint) {
   holofuse::deploy::SoakReport report;
   std::vector<pid_t> pids = {processes.server};
   report.processes = {"server"};
@@ -248,25 +390,51 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes) {
                 holofuse::render::blendModeName(plan.client.mode).c_str(), plan.soak_minutes,
                 plan.sample_seconds);
   report.settings = settings;
+  if (plan.churn) {
+    report.settings += "; churn: a client session every " + std::to_string(plan.churn_seconds) +
+                       " s, the last pod restarted every fifth";
+  }
   report.warmup_minutes = plan.warmup_minutes;
+  std::optional<Churn> churn;
+  if (plan.churn) {
+    churn.emplace(plan, endpoint, processes, pids);
+    report.restarted = {"pod " + std::to_string(processes.pods.size() - 1)};
+    std::error_code error;
+    std::filesystem::create_directories(std::filesystem::path(plan.out) / "churn", error);
+  }
   Watch watch;
   const auto start = std::chrono::steady_clock::now();
   auto minutes = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60.0;
   };
   double next_sample = plan.sample_seconds / 60.0;
+  // The report is rewritten every few minutes, so a soak cut short (the
+  // machine restarted, the launcher killed) still leaves its figures.
+  constexpr double kReportEveryMinutes = 5;
+  double next_report = kReportEveryMinutes, next_line = 0;
   while (!g_interrupted && minutes() < plan.soak_minutes + 1e-9) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (churn) churn->step(minutes() * 60.0);
     if (minutes() < next_sample) continue;
     next_sample += plan.sample_seconds / 60.0;
     holofuse::deploy::SoakSample sample;
     sample.minute = minutes();
+    sample.sessions = churn ? churn->counts.sessions : 0;
     for (pid_t pid : pids) {
       // A process that ended is gone, not a zombie's numbers.
       const bool ended = holofuse::pollProcess(pid).has_value();
       sample.usage.push_back(ended ? std::nullopt : holofuse::processUsage(pid));
     }
     report.samples.push_back(sample);
+    if (sample.minute >= next_report) {
+      next_report += kReportEveryMinutes;
+      report.verdict = holofuse::deploy::judgeSoak(report.processes, report.samples,
+                                                   plan.warmup_minutes, report.restarted);
+      holofuse::deploy::writeSoakReport(report, plan.out);
+    }
+    // A line a minute, whatever the sampling.
+    if (sample.minute < next_line) continue;
+    next_line = std::floor(sample.minute) + 1;
     uint64_t pods_kb = 0, clients_kb = 0;
     for (size_t i = 1; i < pids.size(); ++i) {
       const uint64_t kb = sample.usage[i] ? sample.usage[i]->rss_kb : 0;
@@ -274,17 +442,71 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes) {
     }
     const auto& server = sample.usage[0];
     std::printf(
-        "[soak] minute %.1f of %g: server %.1f MB, %d descriptors, %d threads; pods %.1f "
-        "MB in all; clients %.1f MB in all\n",
-        sample.minute, plan.soak_minutes, server ? server->rss_kb / 1024.0 : 0.0,
-        server ? server->descriptors : 0, server ? server->threads : 0, pods_kb / 1024.0,
-        clients_kb / 1024.0);
+        "[soak] minute %.0f of %g (%s): server %.1f MB, %d descriptors, %d threads; pods "
+        "%.1f MB in all; clients %.1f MB in all\n",
+        std::floor(sample.minute), plan.soak_minutes,
+        holofuse::Eta::text(
+            1.0, static_cast<size_t>(std::max(0.0, (plan.soak_minutes - sample.minute) * 60.0)))
+            .c_str(),
+        server ? server->rss_kb / 1024.0 : 0.0, server ? server->descriptors : 0,
+        server ? server->threads : 0, pods_kb / 1024.0, clients_kb / 1024.0);
+    if (churn) {
+      std::printf("[soak]   churn so far: %llu client sessions, %llu pod restarts\n",
+                  static_cast<unsigned long long>(churn->counts.sessions),
+                  static_cast<unsigned long long>(churn->counts.pod_restarts));
+    }
     std::fflush(stdout);
   }
-  report.verdict =
-      holofuse::deploy::judgeSoak(report.processes, report.samples, plan.warmup_minutes);
+  report.verdict = holofuse::deploy::judgeSoak(report.processes, report.samples,
+                                               plan.warmup_minutes, report.restarted);
+  if (churn) {
+    // The last sessions end; the server then holds what it held before
+    // they came: its descriptors and threads are waited for (at most 30 s)
+    // to come back to the first judged sample's.
+    churn->finish();
+    holofuse::deploy::ChurnCounts& counts = churn->counts;
+    for (const auto& sample : report.samples) {
+      if (sample.minute < plan.warmup_minutes || sample.usage.empty() || !sample.usage[0]) continue;
+      counts.descriptors_start = sample.usage[0]->descriptors;
+      counts.threads_start = sample.usage[0]->threads;
+      break;
+    }
+    for (int i = 0; i < 300; ++i) {
+      const auto now = holofuse::processUsage(processes.server);
+      if (!now) break;
+      counts.descriptors_end = now->descriptors;
+      counts.threads_end = now->threads;
+      if (now->descriptors <= counts.descriptors_start && now->threads <= counts.threads_start)
+        break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    if (counts.descriptors_end > counts.descriptors_start ||
+        counts.threads_end > counts.threads_start) {
+      report.verdict.problems.push_back(
+          "the server held " + std::to_string(counts.descriptors_end) + " descriptors and " +
+          std::to_string(counts.threads_end) + " threads 30 s after the last session left, " +
+          std::to_string(counts.descriptors_start) + " and " +
+          std::to_string(counts.threads_start) + " before the sessions");
+      report.verdict.passed = report.verdict.flat = false;
+    }
+  }
   std::printf("[soak] stopping every process\n");
   processes.stopAll();
+  if (churn) {
+    churn->readServerLog(std::filesystem::path(plan.out) / "logs" / "server.log");
+    report.churn = churn->counts;
+    const auto& c = churn->counts;
+    std::printf(
+        "[soak] churn: %llu client sessions (%llu bye, %llu killed, %llu otherwise), %llu pod "
+        "restarts; the server logged %llu client joins and %llu leaves\n",
+        static_cast<unsigned long long>(c.sessions),
+        static_cast<unsigned long long>(c.sessions_bye),
+        static_cast<unsigned long long>(c.sessions_killed),
+        static_cast<unsigned long long>(c.sessions_failed),
+        static_cast<unsigned long long>(c.pod_restarts),
+        static_cast<unsigned long long>(c.server_client_joins),
+        static_cast<unsigned long long>(c.server_client_leaves));
+  }
   const bool written = holofuse::deploy::writeSoakReport(report, plan.out);
   std::printf("[soak] %s; report in %s/soak.md, soak.html, soak.json\n",
               report.verdict.flat     ? "flat after the warm-up"
@@ -392,7 +614,8 @@ int runLoop(LoopPlan& plan) {
     }
     processes.clients.push_back(client);
   }
-  if (plan.soak_minutes > 0) return superviseSoak(plan, processes);
+  if (plan.soak_minutes > 0)
+    return superviseSoak(plan, processes, rig ? rig->clientEndpoint(0) : endpoint);
   const int code = superviseLoop(plan, processes);
   if (rig) {
     printLinks(plan);

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
 
@@ -89,8 +90,44 @@ const char* trendVerdictName(TrendVerdict verdict) {
   return "undecided";
 }
 
+namespace {
+
+// The verdict of one fitted trend against its limit, said in verdict's
+// problems (leaking) or undecided lists. run_to_decide says, in words, how
+// long a run would decide, from the length in x units.
+void decide(SoakTrend& trend, const std::vector<double>& x, const std::string& unit,
+            const std::function<std::string(double)>& run_to_decide, SoakVerdict& verdict) {
+  const TrendFit& f = trend.fit;
+  const std::string slope_text = number(f.slope, 2) + unit + " (95%: " + number(f.low, 2) + " to " +
+                                 number(f.high, 2) + ", limit " + number(trend.limit, 2) + ")";
+  const std::string name = trend.process + " " + trend.quantity;
+  if (f.high < trend.limit) {
+    trend.verdict = TrendVerdict::kFlat;
+  } else if (f.low > trend.limit) {
+    trend.verdict = TrendVerdict::kLeaking;
+    verdict.problems.push_back(name + " is leaking: " + slope_text);
+  } else {
+    // The interval's half on the limit's side narrows as the run's length
+    // to the 3/2 (a slope's error over evenly spaced samples).
+    trend.verdict = TrendVerdict::kUndecided;
+    const double span = x.back() - x.front();
+    const double distance = std::abs(trend.limit - f.slope);
+    const double half = f.slope < trend.limit ? f.high - f.slope : f.slope - f.low;
+    trend.to_decide = distance > 0 ? 1.5 * span * std::pow(half / distance, 2.0 / 3.0)
+                                   : std::numeric_limits<double>::infinity();
+    verdict.undecided.push_back(name + " undecided, " + slope_text + ": " +
+                                (std::isfinite(trend.to_decide)
+                                     ? run_to_decide(trend.to_decide)
+                                     : "its slope sits at the limit; no run length decides"));
+  }
+  verdict.trends.push_back(trend);
+}
+
+}  // namespace
+
 SoakVerdict judgeSoak(const std::vector<std::string>& processes,
-                      const std::vector<SoakSample>& samples, double warmup_minutes) {
+                      const std::vector<SoakSample>& samples, double warmup_minutes,
+                      const std::vector<std::string>& restarted) {
   SoakVerdict verdict;
   for (size_t p = 0; p < processes.size(); ++p) {
     for (const SoakSample& sample : samples) {
@@ -108,12 +145,17 @@ SoakVerdict judgeSoak(const std::vector<std::string>& processes,
                                " sample(s) after the " + minuteLabel(warmup_minutes) +
                                "-minute warm-up, 3 needed");
   }
+  // Sessions came and went (a churning soak): the server's quantities
+  // against the sessions begun as well as against time.
+  const bool churned =
+      judged.size() >= 3 && judged.back()->sessions >= judged.front()->sessions + 3;
   for (size_t p = 0; p < processes.size() && judged.size() >= 3; ++p) {
+    if (std::find(restarted.begin(), restarted.end(), processes[p]) != restarted.end()) continue;
     for (const std::string q : kQuantities) {
       SoakTrend trend;
       trend.process = processes[p];
       trend.quantity = q;
-      std::vector<double> hours, values;
+      std::vector<double> hours, sessions, values;
       for (const SoakSample* sample : judged) {
         if (p >= sample->usage.size() || !sample->usage[p]) continue;
         const double v = quantity(*sample->usage[p], q);
@@ -122,41 +164,36 @@ SoakVerdict judgeSoak(const std::vector<std::string>& processes,
         trend.min = std::min(trend.min, v);
         trend.max = std::max(trend.max, v);
         hours.push_back(sample->minute / 60.0);
+        sessions.push_back(static_cast<double>(sample->sessions) / 100.0);
         values.push_back(v);
       }
       if (values.size() < 3) continue;  // gone: said above
-      trend.fit = fitTrend(hours, values);
       std::vector<double> sorted = values;
       std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
       const double level = sorted[sorted.size() / 2];
-      trend.limit_per_hour = q == "rss_mb" ? kMemoryLimitShare * level : kCountLimitPerHour;
-      const TrendFit& f = trend.fit;
-      const std::string unit = q == "rss_mb" ? " MB" : "";
-      const std::string slope_text = number(f.slope, 2) + unit + "/h (95%: " + number(f.low, 2) +
-                                     " to " + number(f.high, 2) + ", limit " +
-                                     number(trend.limit_per_hour, 2) + ")";
-      if (f.high < trend.limit_per_hour) {
-        trend.verdict = TrendVerdict::kFlat;
-      } else if (f.low > trend.limit_per_hour) {
-        trend.verdict = TrendVerdict::kLeaking;
-        verdict.problems.push_back(trend.process + " " + q + " is leaking: " + slope_text);
-      } else {
-        // The interval's half on the limit's side narrows as the run's
-        // length to the 3/2 (a slope's error over evenly spaced samples).
-        trend.verdict = TrendVerdict::kUndecided;
-        const double span = hours.back() - hours.front();
-        const double distance = std::abs(trend.limit_per_hour - f.slope);
-        const double half = f.slope < trend.limit_per_hour ? f.high - f.slope : f.slope - f.low;
-        trend.hours_to_decide = distance > 0 ? 1.5 * span * std::pow(half / distance, 2.0 / 3.0)
-                                             : std::numeric_limits<double>::infinity();
-        verdict.undecided.push_back(
-            trend.process + " " + q + " undecided, " + slope_text + ": " +
-            (std::isfinite(trend.hours_to_decide)
-                 ? "about " + number(trend.hours_to_decide * 60.0 + warmup_minutes, 0) +
-                       " minutes of soak would decide"
-                 : "its slope sits at the limit; no run length decides"));
-      }
-      verdict.trends.push_back(trend);
+      const bool memory = q == "rss_mb";
+      trend.fit = fitTrend(hours, values);
+      trend.limit = memory ? kMemoryLimitShare * level : kCountLimitPerHour;
+      decide(
+          trend, hours, memory ? " MB/h" : "/h",
+          [&](double to_decide) {
+            return "about " + number(to_decide * 60.0 + warmup_minutes, 0) +
+                   " minutes of soak would decide";
+          },
+          verdict);
+      if (!churned || p != 0) continue;
+      SoakTrend per_session = trend;
+      per_session.quantity = q + " per 100 sessions";
+      per_session.per = "100 sessions";
+      per_session.fit = fitTrend(sessions, values);
+      per_session.limit = memory ? kMemoryLimitPer100Sessions : kCountLimitPer100Sessions;
+      per_session.to_decide = 0;
+      decide(
+          per_session, sessions, memory ? " MB/100 sessions" : "/100 sessions",
+          [&](double to_decide) {
+            return "about " + number(to_decide * 100.0, 0) + " sessions would decide";
+          },
+          verdict);
     }
   }
   verdict.passed = verdict.problems.empty();
@@ -177,6 +214,7 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
   for (const SoakSample& sample : report.samples) {
     nlohmann::json row;
     row["minute"] = sample.minute;
+    if (report.churn) row["sessions"] = sample.sessions;
     for (size_t p = 0; p < report.processes.size(); ++p) {
       const auto& usage = p < sample.usage.size() ? sample.usage[p] : std::nullopt;
       row["usage"][report.processes[p]] = usage
@@ -191,20 +229,36 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
   json["passed"] = report.verdict.passed;
   json["undecided"] = report.verdict.undecided;
   for (const SoakTrend& t : report.verdict.trends) {
-    json["trends"].push_back(
-        {{"process", t.process},
-         {"quantity", t.quantity},
-         {"first", t.first},
-         {"last", t.last},
-         {"min", t.min},
-         {"max", t.max},
-         {"slope_per_hour", t.fit.slope},
-         {"slope_low", t.fit.low},
-         {"slope_high", t.fit.high},
-         {"limit_per_hour", t.limit_per_hour},
-         {"verdict", trendVerdictName(t.verdict)},
-         {"hours_to_decide", std::isfinite(t.hours_to_decide) ? nlohmann::json(t.hours_to_decide)
-                                                              : nlohmann::json()}});
+    json["trends"].push_back({{"process", t.process},
+                              {"quantity", t.quantity},
+                              {"first", t.first},
+                              {"last", t.last},
+                              {"min", t.min},
+                              {"max", t.max},
+                              {"per", t.per},
+                              {"slope", t.fit.slope},
+                              {"slope_low", t.fit.low},
+                              {"slope_high", t.fit.high},
+                              {"limit", t.limit},
+                              {"verdict", trendVerdictName(t.verdict)},
+                              {"to_decide", std::isfinite(t.to_decide) ? nlohmann::json(t.to_decide)
+                                                                       : nlohmann::json()}});
+  }
+  if (report.churn) {
+    const ChurnCounts& c = *report.churn;
+    json["churn"] = {{"sessions", c.sessions},
+                     {"sessions_bye", c.sessions_bye},
+                     {"sessions_killed", c.sessions_killed},
+                     {"sessions_failed", c.sessions_failed},
+                     {"pod_restarts", c.pod_restarts},
+                     {"pod_restarts_killed", c.pod_restarts_killed},
+                     {"server_client_joins", c.server_client_joins},
+                     {"server_client_leaves", c.server_client_leaves},
+                     {"server_refusals", c.server_refusals},
+                     {"descriptors_start", c.descriptors_start},
+                     {"descriptors_end", c.descriptors_end},
+                     {"threads_start", c.threads_start},
+                     {"threads_end", c.threads_end}};
   }
 
   // One table of the samples (MB, descriptors, threads per process; at
@@ -228,15 +282,15 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
     samples.rows.push_back(row);
   }
   html::Table trends;
-  trends.header = {"process", "quantity",       "first",        "last",           "least",
-                   "most",    "slope per hour", "95% interval", "limit per hour", "verdict"};
+  trends.header = {"process", "quantity", "first",        "last",  "least",  "most",
+                   "slope",   "per",      "95% interval", "limit", "verdict"};
   trends.align = "ll";
   for (const SoakTrend& t : report.verdict.trends) {
     trends.rows.push_back({(t.verdict == TrendVerdict::kLeaking ? "!" : "") + t.process, t.quantity,
                            number(t.first, 1), number(t.last, 1), number(t.min, 1),
-                           number(t.max, 1), number(t.fit.slope, 2),
+                           number(t.max, 1), number(t.fit.slope, 2), t.per,
                            number(t.fit.low, 2) + " to " + number(t.fit.high, 2),
-                           number(t.limit_per_hour, 2), trendVerdictName(t.verdict)});
+                           number(t.limit, 2), trendVerdictName(t.verdict)});
   }
   const std::string verdict =
       report.verdict.flat
@@ -245,6 +299,21 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
       : report.verdict.passed
           ? "Nothing leaks and every process lived, but not every quantity is decided yet:"
           : "Not passed:";
+  std::string churn_text;
+  if (report.churn) {
+    const ChurnCounts& c = *report.churn;
+    churn_text =
+        "Churn: " + std::to_string(c.sessions) + " client sessions begun (" +
+        std::to_string(c.sessions_bye) + " left saying bye, " + std::to_string(c.sessions_killed) +
+        " killed mid-frame, " + std::to_string(c.sessions_failed) + " ended otherwise), " +
+        std::to_string(c.pod_restarts) + " pod restarts (" + std::to_string(c.pod_restarts_killed) +
+        " by SIGKILL). The server logged " + std::to_string(c.server_client_joins) +
+        " client joins, " + std::to_string(c.server_client_leaves) + " leaves and " +
+        std::to_string(c.server_refusals) + " refusals. Its descriptors went from " +
+        std::to_string(c.descriptors_start) + " to " + std::to_string(c.descriptors_end) +
+        " and its threads from " + std::to_string(c.threads_start) + " to " +
+        std::to_string(c.threads_end) + " once the last session left.";
+  }
   std::string problems;
   for (const std::string& p : report.verdict.problems) problems += "- " + p + "\n";
   for (const std::string& u : report.verdict.undecided) problems += "- " + u + "\n";
@@ -253,7 +322,8 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
   md << "# Soak\n\n"
      << report.settings << "; warm-up " << minuteLabel(report.warmup_minutes) << " minutes.\n\n"
      << verdict << "\n\n"
-     << problems << (problems.empty() ? "" : "\n") << "## After the warm-up\n\n"
+     << problems << (churn_text.empty() ? "" : "\n" + churn_text + "\n")
+     << (problems.empty() ? "" : "\n") << "## After the warm-up\n\n"
      << html::markdownTable(trends)
      << "\nSlopes: Theil and Sen's (the median of the slopes between every two samples), "
         "with Sen's 95% interval. Flat: the interval lies under the limit (memory: "
@@ -309,19 +379,20 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
   }
   std::ofstream page(fs::path(folder) / "soak.html");
   page << html::page(
-      "holofuse soak", "<h1>Soak</h1><p>" + html::escape(report.settings) + "; warm-up " +
-                           minuteLabel(report.warmup_minutes) + " minutes.</p><p>" +
-                           html::escape(verdict) + "</p><ul>" +
-                           [&] {
-                             std::string items;
-                             for (const std::string& p : report.verdict.problems)
-                               items += "<li>" + html::escape(p) + "</li>";
-                             for (const std::string& u : report.verdict.undecided)
-                               items += "<li>" + html::escape(u) + "</li>";
-                             return items;
-                           }() +
-                           "</ul>" + charts + "<h2>After the warm-up</h2>" + html::table(trends) +
-                           "<h2>Samples</h2>" + html::table(samples));
+      "holofuse soak",
+      "<h1>Soak</h1><p>" + html::escape(report.settings) + "; warm-up " +
+          minuteLabel(report.warmup_minutes) + " minutes.</p><p>" + html::escape(verdict) + "</p>" +
+          (churn_text.empty() ? "" : "<p>" + html::escape(churn_text) + "</p>") + "<ul>" +
+          [&] {
+            std::string items;
+            for (const std::string& p : report.verdict.problems)
+              items += "<li>" + html::escape(p) + "</li>";
+            for (const std::string& u : report.verdict.undecided)
+              items += "<li>" + html::escape(u) + "</li>";
+            return items;
+          }() +
+          "</ul>" + charts + "<h2>After the warm-up</h2>" + html::table(trends) +
+          "<h2>Samples</h2>" + html::table(samples));
   std::ofstream(fs::path(folder) / "soak.json") << json.dump(1) << "\n";
   if (!md || !page) {
     std::fprintf(stderr, "[soak] cannot write the report into %s\n", folder.c_str());

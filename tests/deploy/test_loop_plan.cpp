@@ -67,6 +67,17 @@ TEST(LoopPlan, EachClientRecordsItsLayersIntoAFolderOfItsOwn) {
   }
 }
 
+// A soak's clients render until the soak stops them: no frame count, so
+// their progress lines give no made-up total.
+TEST(LoopPlan, ASoaksClientsRenderUntilStopped) {
+  auto framesOf = [](const std::vector<std::string>& args) {
+    const auto flag = std::find(args.begin(), args.end(), "--frames");
+    return flag != args.end() && flag + 1 != args.end() ? *(flag + 1) : std::string("absent");
+  };
+  EXPECT_EQ(framesOf(clientCommand(planOf({"--frames", "12"}), "127.0.0.1:1", 0)), "12");
+  EXPECT_EQ(framesOf(clientCommand(planOf({"--soak-minutes", "3"}), "127.0.0.1:1", 0)), "0");
+}
+
 TEST(LoopPlan, EachPodAndTheJudgeReadBackTheSceneTheLauncherWasGiven) {
   const LoopPlan plan = planOf({"--scene", "fast-motion", "--seed", "18446744073709551615",
                                 "--noise", "0.5", "--fps", "7.5", "--quality"});

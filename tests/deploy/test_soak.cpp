@@ -18,7 +18,7 @@ namespace {
 namespace fs = std::filesystem;
 
 SoakSample sampleAt(double minute, std::vector<std::optional<ProcessUsage>> usage) {
-  return SoakSample{minute, std::move(usage)};
+  return SoakSample{minute, 0, std::move(usage)};
 }
 
 ProcessUsage usage(uint64_t rss_mb, int descriptors = 10, int threads = 4) {
@@ -82,7 +82,7 @@ TEST(Soak, NoiseWithoutATrendIsFlat) {
   EXPECT_TRUE(verdict.passed);
   const SoakTrend& memory = trendOf(verdict, "rss_mb");
   EXPECT_EQ(memory.verdict, TrendVerdict::kFlat);
-  EXPECT_NEAR(memory.limit_per_hour, kMemoryLimitShare * 45.0, 0.02);
+  EXPECT_NEAR(memory.limit, kMemoryLimitShare * 45.0, 0.02);
   EXPECT_LT(memory.fit.low, 0.0);
   EXPECT_GT(memory.fit.high, 0.0);
   EXPECT_EQ(trendOf(verdict, "descriptors").verdict, TrendVerdict::kFlat);
@@ -100,8 +100,8 @@ TEST(Soak, OnePercentAnHourIsLeakingWithinTheRunLengthTheJudgeNames) {
   const SoakVerdict short_run = judgeSoak({"server"}, serverSoak(30, 0.45), 2);
   const SoakTrend& first = trendOf(short_run, "rss_mb");
   ASSERT_EQ(first.verdict, TrendVerdict::kUndecided) << first.fit.low << " " << first.fit.high;
-  ASSERT_TRUE(std::isfinite(first.hours_to_decide));
-  EXPECT_GT(first.hours_to_decide, 28.0 / 60.0);
+  ASSERT_TRUE(std::isfinite(first.to_decide));
+  EXPECT_GT(first.to_decide, 28.0 / 60.0);
   ASSERT_EQ(short_run.undecided.size(), 1u);
   EXPECT_NE(short_run.undecided[0].find("server rss_mb undecided"), std::string::npos)
       << short_run.undecided[0];
@@ -109,7 +109,7 @@ TEST(Soak, OnePercentAnHourIsLeakingWithinTheRunLengthTheJudgeNames) {
   EXPECT_TRUE(short_run.passed);
   EXPECT_FALSE(short_run.flat);
 
-  const double named_minutes = 2 + 60.0 * first.hours_to_decide;
+  const double named_minutes = 2 + 60.0 * first.to_decide;
   const SoakVerdict long_run = judgeSoak({"server"}, serverSoak(named_minutes, 0.45), 2);
   const SoakTrend& memory = trendOf(long_run, "rss_mb");
   EXPECT_EQ(memory.verdict, TrendVerdict::kLeaking)
@@ -144,8 +144,8 @@ TEST(Soak, OnePercentAnHourIsLeakingWithinTheRunLengthTheJudgeNames) {
   EXPECT_EQ(json["samples"].size(), report.samples.size());
   const auto& trend = json["trends"].at(0);
   EXPECT_EQ(trend["verdict"], "leaking");
-  EXPECT_DOUBLE_EQ(trend["slope_per_hour"].get<double>(), memory.fit.slope);
-  EXPECT_GT(trend["slope_low"].get<double>(), trend["limit_per_hour"].get<double>());
+  EXPECT_DOUBLE_EQ(trend["slope"].get<double>(), memory.fit.slope);
+  EXPECT_GT(trend["slope_low"].get<double>(), trend["limit"].get<double>());
   fs::remove_all(out);
 }
 
@@ -168,6 +168,36 @@ TEST(Soak, ASingleSpikeIsFlatAndACountThatKeepsRisingLeaks) {
   EXPECT_FALSE(leaking.passed);
 }
 
+// A churning soak: a session every 8 s. The server's memory is judged
+// against the sessions begun too: flat without a leak, leaking at 5 KB a
+// session (the limit is 1 KB).
+TEST(Soak, AChurningServerIsJudgedPerHundredSessions) {
+  auto churned = [](double kb_per_session) {
+    std::vector<SoakSample> samples = serverSoak(122, 0.0);
+    for (SoakSample& sample : samples) {
+      sample.sessions = static_cast<uint64_t>(sample.minute * 60.0 / 8.0);
+      sample.usage[0]->rss_kb += static_cast<uint64_t>(kb_per_session * sample.sessions);
+    }
+    return samples;
+  };
+  const SoakVerdict healthy = judgeSoak({"server"}, churned(0), 2);
+  const SoakTrend& per_session = trendOf(healthy, "rss_mb per 100 sessions");
+  EXPECT_EQ(per_session.per, "100 sessions");
+  EXPECT_EQ(per_session.verdict, TrendVerdict::kFlat)
+      << per_session.fit.low << " to " << per_session.fit.high;
+  EXPECT_DOUBLE_EQ(per_session.limit, kMemoryLimitPer100Sessions);
+  EXPECT_EQ(trendOf(healthy, "descriptors per 100 sessions").verdict, TrendVerdict::kFlat);
+  EXPECT_TRUE(healthy.flat) << ::testing::PrintToString(healthy.undecided);
+  const SoakVerdict leaking = judgeSoak({"server"}, churned(5), 2);
+  const SoakTrend& leak = trendOf(leaking, "rss_mb per 100 sessions");
+  EXPECT_EQ(leak.verdict, TrendVerdict::kLeaking);
+  EXPECT_NEAR(leak.fit.slope, 0.49, 0.05) << "5 KB a session is 0.49 MB per 100";
+  EXPECT_FALSE(leaking.passed);
+  // Without sessions, nothing is judged per session.
+  for (const SoakTrend& t : judgeSoak({"server"}, serverSoak(30, 0.0), 2).trends)
+    EXPECT_EQ(t.per, "h");
+}
+
 TEST(Soak, AProcessGoneOrASoakTooShortIsNotFlat) {
   const std::vector<SoakSample> gone = {
       sampleAt(3, {usage(100), usage(20)}), sampleAt(4, {usage(100), std::nullopt}),
@@ -184,22 +214,40 @@ TEST(Soak, AProcessGoneOrASoakTooShortIsNotFlat) {
       << short_one.problems.at(0);
 }
 
-// The real loop soaked for 24 s, sampled every 4 s: a row per sample with
-// every process alive, and the verdict consistent with the trends it lists.
-TEST(Soak, TheLoopSoaksWithEveryProcessSampled) {
+// The real loop soaked for 30 s with churn, sampled every 3 s: a row per
+// sample with every process alive (the restarted pod followed), the
+// verdict consistent with the trends it lists, and every session and
+// restart accounted for, by the soak and in the server's log.
+TEST(Soak, TheLoopSoaksWithChurnAndEveryProcessSampled) {
   const fs::path out = test::freshDir("soak");
-  const pid_t soak =
-      test::spawn({std::string(HOLOFUSE_BIN_DIR) + "/holofuse_loop", "--pods", "2", "--clients",
-                   "2", "--size", "64x48", "--soak-minutes", "0.4", "--sample-seconds", "4",
-                   "--warmup-minutes", "0.1", "--out", out.string()},
-                  out.string() + ".log");
+  const pid_t soak = test::spawn({std::string(HOLOFUSE_BIN_DIR) + "/holofuse_loop",
+                                  "--pods",
+                                  "2",
+                                  "--clients",
+                                  "2",
+                                  "--size",
+                                  "64x48",
+                                  "--fps",
+                                  "5",
+                                  "--soak-minutes",
+                                  "0.5",
+                                  "--sample-seconds",
+                                  "3",
+                                  "--warmup-minutes",
+                                  "0.1",
+                                  "--churn",
+                                  "--churn-seconds",
+                                  "1",
+                                  "--out",
+                                  out.string()},
+                                 out.string() + ".log");
   const int code = test::waitExit(soak, 180);
   ASSERT_TRUE(code == 0 || code == 1) << test::readFile(out.string() + ".log");
   std::ifstream in(out / "soak.json");
   const auto report = nlohmann::json::parse(in);
   const std::vector<std::string> processes = {"server", "pod 0", "pod 1", "client 0", "client 1"};
   EXPECT_EQ(report["processes"].get<std::vector<std::string>>(), processes);
-  ASSERT_GE(report["samples"].size(), 5u);
+  ASSERT_GE(report["samples"].size(), 8u);
   for (const auto& sample : report["samples"]) {
     for (const std::string& p : processes) {
       ASSERT_TRUE(sample["usage"][p].is_object()) << p << " gone at " << sample["minute"];
@@ -210,13 +258,14 @@ TEST(Soak, TheLoopSoaksWithEveryProcessSampled) {
   }
   // Every quantity judged, the verdicts adding up to the report's, and the
   // exit code saying whether it passed.
-  ASSERT_EQ(report["trends"].size(), 3 * processes.size());
+  // (pod 1 restarts: not judged by trend; the server also per session)
+  ASSERT_EQ(report["trends"].size(), 3 * (processes.size() - 1) + 3);
   bool all_flat = true, any_leaking = false;
   for (const auto& trend : report["trends"]) {
     const std::string v = trend["verdict"].get<std::string>();
     EXPECT_TRUE(v == "flat" || v == "leaking" || v == "undecided") << v;
-    EXPECT_LE(trend["slope_low"].get<double>(), trend["slope_per_hour"].get<double>());
-    EXPECT_GE(trend["slope_high"].get<double>(), trend["slope_per_hour"].get<double>());
+    EXPECT_LE(trend["slope_low"].get<double>(), trend["slope"].get<double>());
+    EXPECT_GE(trend["slope_high"].get<double>(), trend["slope"].get<double>());
     all_flat &= v == "flat";
     any_leaking |= v == "leaking";
   }
@@ -225,6 +274,33 @@ TEST(Soak, TheLoopSoaksWithEveryProcessSampled) {
   EXPECT_EQ(code == 0, report["passed"].get<bool>()) << "the exit code says the verdict";
   for (const char* file : {"soak.md", "soak.html", "client0/report.json", "client1/report.json"})
     EXPECT_TRUE(fs::exists(out / file)) << file;
+
+  // Churn: sessions both ways and pod restarts both ways, each counted
+  // once; the server saw every session that rendered join and every
+  // session leave, and came back to its descriptors and threads.
+  const auto& churn = report["churn"];
+  ASSERT_TRUE(churn.is_object()) << report.dump();
+  const auto count = [&](const char* key) { return churn[key].get<uint64_t>(); };
+  EXPECT_GE(count("sessions"), 4u);
+  EXPECT_EQ(count("sessions_failed"), 0u) << "see " << (out / "churn");
+  EXPECT_EQ(count("sessions_bye") + count("sessions_killed"), count("sessions"));
+  EXPECT_GE(count("sessions_bye"), 2u);
+  EXPECT_GE(count("sessions_killed"), 1u);
+  EXPECT_GE(count("pod_restarts"), 1u);
+  EXPECT_LE(count("pod_restarts_killed"), count("pod_restarts"));
+  // The two steady clients, the bye sessions (they rendered), and at most
+  // every session joined; whoever joined left.
+  EXPECT_GE(count("server_client_joins"), 2 + count("sessions_bye"));
+  EXPECT_LE(count("server_client_joins"), 2 + count("sessions"));
+  EXPECT_EQ(count("server_client_leaves"), count("server_client_joins"));
+  EXPECT_LE(churn["descriptors_end"].get<int>(), churn["descriptors_start"].get<int>());
+  EXPECT_LE(churn["threads_end"].get<int>(), churn["threads_start"].get<int>());
+  uint64_t last_sessions = 0;
+  for (const auto& sample : report["samples"]) {
+    EXPECT_GE(sample["sessions"].get<uint64_t>(), last_sessions) << "sessions only grow";
+    last_sessions = sample["sessions"].get<uint64_t>();
+  }
+  EXPECT_NE(test::readFile(out / "soak.md").find("Churn: "), std::string::npos);
   fs::remove_all(out);
 }
 

@@ -22,6 +22,11 @@ struct LoopPlan {
   // A soak (deploy/soak.h): the loop runs this long, its processes sampled
   // every sample_seconds; 0: an ordinary run that ends with the frames.
   double soak_minutes = 0, sample_seconds = 10, warmup_minutes = 2;
+  // A churning soak: a client session joins every churn_seconds (half
+  // leave saying bye after 8 frames, half are killed mid-frame after 6 s)
+  // and every fifth one a pod restarts (cleanly and with SIGKILL in turn).
+  bool churn = false;
+  double churn_seconds = 4;
   // The pods and their rate (the pods' own table, forwarded), at 15 fps:
   // what a 2-core machine's client sustains in mode normal (measured by
   // `./holofuse bench loop`); a slower mode renders the newest mesh it can.

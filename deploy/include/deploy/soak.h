@@ -13,7 +13,8 @@
 namespace holofuse::deploy {
 
 struct SoakSample {
-  double minute = 0;  // since the loop started
+  double minute = 0;      // since the loop started
+  uint64_t sessions = 0;  // client sessions begun by then (a churning soak's)
   // Per process, in the order of the names judged with it; nullopt: the
   // process was gone.
   std::vector<std::optional<ProcessUsage>> usage;
@@ -42,13 +43,15 @@ const char* trendVerdictName(TrendVerdict verdict);  // "flat", "leaking", "unde
 struct SoakTrend {
   std::string process, quantity;  // quantity: "rss_mb", "descriptors", "threads"
   double first = 0, last = 0, min = 0, max = 0;
-  TrendFit fit;
-  double limit_per_hour = 0;
+  TrendFit fit;  // per "h" or per "100 sessions" (per)
+  std::string per = "h";
+  double limit = 0;  // per the same
   TrendVerdict verdict = TrendVerdict::kUndecided;
-  // Undecided: how long a run after the warm-up would decide, hours (the
-  // interval narrows as the run's length to the power 3/2; with a margin
-  // of 1.5); infinity when the slope sits at the limit.
-  double hours_to_decide = 0;
+  // Undecided: how long a run after the warm-up would decide, in hours or
+  // hundreds of sessions (the interval narrows as the run's length to the
+  // power 3/2; with a margin of 1.5); infinity when the slope sits at the
+  // limit.
+  double to_decide = 0;
   bool flat() const { return verdict == TrendVerdict::kFlat; }
 };
 
@@ -57,6 +60,20 @@ struct SoakTrend {
 // (a 1%-an-hour leak is twice that); descriptors and threads by at most
 // kCountLimitPerHour.
 inline constexpr double kMemoryLimitShare = 0.005, kCountLimitPerHour = 0.5;
+// A churning soak's server, against the sessions begun: at most 1 KB of
+// memory a session (0.1 MB per 100), a descriptor or thread per 100.
+inline constexpr double kMemoryLimitPer100Sessions = 0.1, kCountLimitPer100Sessions = 1.0;
+
+// What a churning soak did, and what the server said it saw (its log's
+// joins, leaves and refusals of clients): every action accounted for.
+struct ChurnCounts {
+  uint64_t sessions = 0, sessions_bye = 0, sessions_killed = 0, sessions_failed = 0;
+  uint64_t pod_restarts = 0, pod_restarts_killed = 0;
+  uint64_t server_client_joins = 0, server_client_leaves = 0, server_refusals = 0;
+  // The server's descriptors and threads once the last session left,
+  // against the first sample after the warm-up.
+  int descriptors_start = 0, descriptors_end = 0, threads_start = 0, threads_end = 0;
+};
 
 struct SoakVerdict {
   // No quantity leaking, every process alive, enough samples: what the
@@ -72,8 +89,11 @@ struct SoakVerdict {
 // Every process alive in every sample; after warmup_minutes each quantity
 // judged by its trend against its limit. At least three samples after
 // the warm-up are needed to tell.
+// Processes named in restarted (a churning soak's pod) are several
+// processes in turn: checked alive, never judged by trend.
 SoakVerdict judgeSoak(const std::vector<std::string>& processes,
-                      const std::vector<SoakSample>& samples, double warmup_minutes);
+                      const std::vector<SoakSample>& samples, double warmup_minutes,
+                      const std::vector<std::string>& restarted = {});
 
 struct SoakReport {
   std::string settings;  // the run, in words (pods, clients, size, fps, minutes)
@@ -81,6 +101,8 @@ struct SoakReport {
   std::vector<SoakSample> samples;
   double warmup_minutes = 0;
   SoakVerdict verdict;
+  std::optional<ChurnCounts> churn;
+  std::vector<std::string> restarted;  // judgeSoak's
 };
 
 // soak.json, soak.md and soak.html into folder; false after saying why
