@@ -13,6 +13,7 @@
 #include <cerrno>
 #include <chrono>
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -215,8 +216,30 @@ std::optional<ProcessUsage> processUsage(pid_t pid) {
        it.increment(error))
     ++usage.descriptors;
   if (error) return std::nullopt;
+  if (const char* heap_dir = std::getenv(kHeapStatsDirEnv); heap_dir != nullptr) {
+    std::ifstream heap(std::string(heap_dir) + "/" + std::to_string(pid));
+    uint64_t bytes = 0;
+    if (heap >> bytes) usage.heap_kb = bytes / 1024;
+  }
   return usage;
 }
+
+namespace {
+
+// This process's heap in use into dir/<pid>, whole or not at all (written
+// aside, then renamed over the last).
+void writeHeapInUse(const std::string& dir) {
+  const struct mallinfo2 info = mallinfo2();
+  const std::string path = dir + "/" + std::to_string(getpid());
+  {
+    std::ofstream out(path + ".part");
+    out << info.uordblks + info.hblkhd << "\n";
+    if (!out) return;
+  }
+  std::rename((path + ".part").c_str(), path.c_str());
+}
+
+}  // namespace
 
 FreeMemoryReturner::FreeMemoryReturner(std::chrono::milliseconds period) {
   // Fixed thresholds also turn off glibc's dynamic ones. Buffers up to the
@@ -224,11 +247,14 @@ FreeMemoryReturner::FreeMemoryReturner(std::chrono::milliseconds period) {
   // memory at its top stays until the thread returns it.
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
-  thread_ = std::thread([this, period] {
+  const char* heap_dir = std::getenv(kHeapStatsDirEnv);
+  thread_ = std::thread([this, period, heap = std::string(heap_dir ? heap_dir : "")] {
     std::unique_lock lock(mutex_);
+    if (!heap.empty()) writeHeapInUse(heap);
     while (!wake_.wait_for(lock, period, [this] { return stopping_; })) {
       lock.unlock();
       returnFreeMemoryNow();
+      if (!heap.empty()) writeHeapInUse(heap);
       lock.lock();
     }
   });

@@ -230,8 +230,8 @@ void printLinks(const LoopPlan& plan) {
   }
 }
 
-// --churn: client sessions that join and leave all through a soak, and a
-// pod that restarts. A session begins every plan.churn_seconds while
+// --churn: client sessions that join and leave all through a soak after
+// its warm-up, and a pod that restarts. A session begins every plan.churn_seconds while
 // fewer than two are live; in turn one renders 8 frames and leaves saying
 // bye, the next is killed (SIGKILL, mid-frame) 6 s after it began. Every
 // fifth session the last pod is stopped, cleanly and with SIGKILL in turn,
@@ -256,8 +256,17 @@ class Churn {
       ended(*session, *code);
       session = live_.erase(session);
     }
-    if (seconds < next_ || live_.size() >= 2) return;
+    // The churn begins after the warm-up, when every pod and steady client
+    // has joined: the server's descriptors and threads then are the ones
+    // it must come back to.
+    if (seconds < plan_.warmup_minutes * 60.0 || seconds < next_ || live_.size() >= 2) return;
     next_ = seconds + plan_.churn_seconds;
+    if (counts.sessions == 0) {
+      if (const auto usage = holofuse::processUsage(processes_.server)) {
+        counts.descriptors_start = usage->descriptors;
+        counts.threads_start = usage->threads;
+      }
+    }
     begin(seconds);
     if (counts.sessions % 5 == 0 && !processes_.pods.empty()) restartPod();
   }
@@ -462,15 +471,9 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes, const std::str
   if (churn) {
     // The last sessions end; the server then holds what it held before
     // they came: its descriptors and threads are waited for (at most 30 s)
-    // to come back to the first judged sample's.
+    // to come back to where they were when the first session began.
     churn->finish();
     holofuse::deploy::ChurnCounts& counts = churn->counts;
-    for (const auto& sample : report.samples) {
-      if (sample.minute < plan.warmup_minutes || sample.usage.empty() || !sample.usage[0]) continue;
-      counts.descriptors_start = sample.usage[0]->descriptors;
-      counts.threads_start = sample.usage[0]->threads;
-      break;
-    }
     for (int i = 0; i < 300; ++i) {
       const auto now = holofuse::processUsage(processes.server);
       if (!now) break;
@@ -567,6 +570,14 @@ int runLoop(LoopPlan& plan) {
     rig = std::move(*built);
     plan.listen_host = rig->serverAddress();
     std::printf("[rig] %s\n", rig->describe().c_str());
+  }
+  // A soak's children write their heap in use for its samples to read
+  // (base/process.h), beside their resident size.
+  if (plan.soak_minutes > 0) {
+    const std::string heap = (std::filesystem::path(plan.out) / "logs" / "heap").string();
+    std::error_code error;
+    std::filesystem::create_directories(heap, error);
+    ::setenv(holofuse::kHeapStatsDirEnv, heap.c_str(), 1);
   }
   // Which copy runs, where a build and an install both exist.
   std::fprintf(stderr, "[loop] programs from %s\n", plan.bin_dir.c_str());

@@ -14,10 +14,12 @@
 namespace holofuse::deploy {
 namespace {
 
-const char* const kQuantities[] = {"rss_mb", "descriptors", "threads"};
+// heap_mb where the process writes its heap in use (a soak's children).
+const char* const kQuantities[] = {"rss_mb", "heap_mb", "descriptors", "threads"};
 
 double quantity(const ProcessUsage& usage, const std::string& name) {
   if (name == "rss_mb") return static_cast<double>(usage.rss_kb) / 1024.0;
+  if (name == "heap_mb") return static_cast<double>(usage.heap_kb.value_or(0)) / 1024.0;
   if (name == "descriptors") return usage.descriptors;
   return usage.threads;
 }
@@ -158,6 +160,7 @@ SoakVerdict judgeSoak(const std::vector<std::string>& processes,
       std::vector<double> hours, sessions, values;
       for (const SoakSample* sample : judged) {
         if (p >= sample->usage.size() || !sample->usage[p]) continue;
+        if (q == "heap_mb" && !sample->usage[p]->heap_kb) continue;
         const double v = quantity(*sample->usage[p], q);
         if (values.empty()) trend.first = trend.min = trend.max = v;
         trend.last = v;
@@ -171,7 +174,7 @@ SoakVerdict judgeSoak(const std::vector<std::string>& processes,
       std::vector<double> sorted = values;
       std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
       const double level = sorted[sorted.size() / 2];
-      const bool memory = q == "rss_mb";
+      const bool memory = q == "rss_mb" || q == "heap_mb";
       trend.fit = fitTrend(hours, values);
       trend.limit = memory ? kMemoryLimitShare * level : kCountLimitPerHour;
       decide(
@@ -217,12 +220,14 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
     if (report.churn) row["sessions"] = sample.sessions;
     for (size_t p = 0; p < report.processes.size(); ++p) {
       const auto& usage = p < sample.usage.size() ? sample.usage[p] : std::nullopt;
-      row["usage"][report.processes[p]] = usage
-                                              ? nlohmann::json{{"rss_kb", usage->rss_kb},
-                                                               {"peak_rss_kb", usage->peak_rss_kb},
-                                                               {"descriptors", usage->descriptors},
-                                                               {"threads", usage->threads}}
-                                              : nlohmann::json();
+      row["usage"][report.processes[p]] =
+          usage ? nlohmann::json{{"rss_kb", usage->rss_kb},
+                                 {"peak_rss_kb", usage->peak_rss_kb},
+                                 {"descriptors", usage->descriptors},
+                                 {"threads", usage->threads},
+                                 {"heap_kb", usage->heap_kb ? nlohmann::json(*usage->heap_kb)
+                                                            : nlohmann::json()}}
+                : nlohmann::json();
     }
     json["samples"].push_back(row);
   }
@@ -347,7 +352,8 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
     html::Line samples{"samples", {}, false};
     for (const SoakSample& sample : report.samples) {
       const auto& usage = p < sample.usage.size() ? sample.usage[p] : std::nullopt;
-      if (usage) samples.points.emplace_back(sample.minute, quantity(*usage, q));
+      if (usage && (q != "heap_mb" || usage->heap_kb))
+        samples.points.emplace_back(sample.minute, quantity(*usage, q));
     }
     std::vector<html::Line> lines = {samples};
     if (const SoakTrend* t = trendOf(report.processes[p], q); t != nullptr) {
@@ -374,6 +380,7 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
     if (report.processes[p].rfind("pod", 0) == 0 && p != steepest_pod) continue;
     chartOf(p, "rss_mb", "resident MB");
     if (report.processes[p].rfind("pod", 0) == 0) continue;
+    if (trendOf(report.processes[p], "heap_mb") != nullptr) chartOf(p, "heap_mb", "heap MB");
     chartOf(p, "descriptors", "descriptors");
     chartOf(p, "threads", "threads");
   }

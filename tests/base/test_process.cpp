@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <mutex>
 #include <sstream>
 #include <string>
@@ -178,6 +179,40 @@ TEST(FreeMemory, AFreedBufferStaysForReuseUntilFreeMemoryIsReturned) {
   EXPECT_GE(after_free, before + (kBytes >> 10) * 9 / 10) << "freed, it stays for reuse";
   EXPECT_TRUE(returnFreeMemoryNow());
   EXPECT_LE(residentKb(), after_free - (kBytes >> 10) * 9 / 10) << "returned to the system";
+}
+
+// Where asked (the soak's children), the returner writes the heap the
+// program holds each period, and processUsage reads it back beside the
+// resident size: a buffer held shows, and is gone from it once freed
+// (whether or not its pages went back). The test waits for the written
+// value to change, not for a time.
+TEST(FreeMemory, TheHeapInUseIsWrittenForTheSoakToRead) {
+  const std::string dir = ::testing::TempDir() + "heap_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  ::setenv(kHeapStatsDirEnv, dir.c_str(), 1);
+  const auto heapKb = [] { return processUsage(::getpid()).value().heap_kb; };
+  const auto waitFor = [&](auto ready) {
+    for (int i = 0; i < 2000 && !ready(); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    return ready();
+  };
+  constexpr size_t kBytes = 24u << 20;
+  {
+    const FreeMemoryReturner returner(std::chrono::milliseconds(10));
+    ASSERT_TRUE(waitFor([&] { return heapKb().has_value(); })) << "written at once";
+    const uint64_t before = *heapKb();
+    auto frame = std::make_unique<std::vector<uint8_t>>(kBytes, 1);
+    EXPECT_TRUE(waitFor([&] { return heapKb().value_or(0) >= before + (kBytes >> 10) * 9 / 10; }))
+        << "a held buffer is in the heap: " << heapKb().value_or(0) << " KB from " << before;
+    frame.reset();
+    EXPECT_TRUE(waitFor([&] {
+      return heapKb().value_or(UINT64_MAX) < before + (kBytes >> 10) / 10;
+    })) << "a freed one is not: "
+        << heapKb().value_or(0) << " KB from " << before;
+  }
+  ::unsetenv(kHeapStatsDirEnv);
+  EXPECT_FALSE(processUsage(::getpid()).value().heap_kb.has_value()) << "asked for no more";
+  std::filesystem::remove_all(dir);
 }
 
 // Only the thread that asks becomes batch work: the one that started it

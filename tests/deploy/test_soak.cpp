@@ -22,7 +22,7 @@ SoakSample sampleAt(double minute, std::vector<std::optional<ProcessUsage>> usag
 }
 
 ProcessUsage usage(uint64_t rss_mb, int descriptors = 10, int threads = 4) {
-  return ProcessUsage{rss_mb * 1024, rss_mb * 1024, descriptors, threads};
+  return ProcessUsage{rss_mb * 1024, rss_mb * 1024, descriptors, threads, std::nullopt};
 }
 
 // A soak of one server sampled every 10 s: memory at 45 MB with the
@@ -254,12 +254,19 @@ TEST(Soak, TheLoopSoaksWithChurnAndEveryProcessSampled) {
       EXPECT_GT(sample["usage"][p]["rss_kb"].get<uint64_t>(), 1000u) << p;
       EXPECT_GT(sample["usage"][p]["descriptors"].get<int>(), 2) << p;
       EXPECT_GE(sample["usage"][p]["threads"].get<int>(), 1) << p;
+      // Each writes its heap in use: under its resident size.
+      ASSERT_TRUE(sample["usage"][p]["heap_kb"].is_number()) << p;
+      EXPECT_GT(sample["usage"][p]["heap_kb"].get<uint64_t>(), 100u) << p;
+      EXPECT_LT(sample["usage"][p]["heap_kb"].get<uint64_t>(),
+                sample["usage"][p]["rss_kb"].get<uint64_t>())
+          << p;
     }
   }
   // Every quantity judged, the verdicts adding up to the report's, and the
   // exit code saying whether it passed.
-  // (pod 1 restarts: not judged by trend; the server also per session)
-  ASSERT_EQ(report["trends"].size(), 3 * (processes.size() - 1) + 3);
+  // Resident memory, heap in use, descriptors and threads of each (pod 1
+  // restarts: not judged by trend), the server's also per session.
+  ASSERT_EQ(report["trends"].size(), 4 * (processes.size() - 1) + 4);
   bool all_flat = true, any_leaking = false;
   for (const auto& trend : report["trends"]) {
     const std::string v = trend["verdict"].get<std::string>();

@@ -87,8 +87,18 @@ struct ProcessUsage {
   uint64_t peak_rss_kb = 0;  // VmHWM
   int descriptors = 0;       // entries of /proc/<pid>/fd
   int threads = 0;           // Threads
+  // The heap the program holds (malloc's bytes in use, mallinfo2), as its
+  // FreeMemoryReturner last wrote it under kHeapStatsDirEnv; nullopt when
+  // it writes none. Beside RSS it tells the allocator's retained pages
+  // from what the program holds.
+  std::optional<uint64_t> heap_kb;
 };
 std::optional<ProcessUsage> processUsage(pid_t pid);
+
+// Where a FreeMemoryReturner writes its process's heap in use each period
+// (a file named by the pid, its decimal bytes), when set in its
+// environment; processUsage reads it from the same variable's folder.
+inline constexpr const char* kHeapStatsDirEnv = "HOLOFUSE_HEAP_STATS_DIR";
 
 // For the long-running programs: freed buffers (images, meshes, frames)
 // stay with the process and the next frame reuses them, and once a period

@@ -71,7 +71,7 @@ struct ChurnCounts {
   uint64_t pod_restarts = 0, pod_restarts_killed = 0;
   uint64_t server_client_joins = 0, server_client_leaves = 0, server_refusals = 0;
   // The server's descriptors and threads once the last session left,
-  // against the first sample after the warm-up.
+  // against where they were when the first session began.
   int descriptors_start = 0, descriptors_end = 0, threads_start = 0, threads_end = 0;
 };
 
