@@ -168,6 +168,31 @@ TEST(Soak, ASingleSpikeIsFlatAndACountThatKeepsRisingLeaks) {
   EXPECT_FALSE(leaking.passed);
 }
 
+// Memory that moves in steps lasting minutes (groups in flight, an arena
+// grown and trimmed: a healthy server's 30 minutes went 61, 64, 68, 64,
+// 68, 64 MB) is not a leak: its samples are far from independent, so the
+// judge widens its interval by their autocorrelation. A real leak under
+// the same steps still shows.
+TEST(Soak, MemoryThatMovesInStepsIsNoLeakButALeakUnderTheStepsIs) {
+  auto stepped = [](double mb_per_hour) {
+    std::vector<SoakSample> samples = serverSoak(30, mb_per_hour);
+    const double levels[] = {0, 3, 7, 3, 7, 3, 0, 7, 3, 7};  // 3 minutes each
+    for (SoakSample& sample : samples) {
+      const int step = std::min(9, static_cast<int>(sample.minute / 3.0));
+      sample.usage[0]->rss_kb += static_cast<uint64_t>(levels[step] * 1024);
+    }
+    return samples;
+  };
+  const SoakVerdict healthy = judgeSoak({"server"}, stepped(0), 2);
+  const SoakTrend& memory = trendOf(healthy, "rss_mb");
+  EXPECT_NE(memory.verdict, TrendVerdict::kLeaking)
+      << memory.fit.slope << " (" << memory.fit.low << " to " << memory.fit.high << ")";
+  EXPECT_TRUE(healthy.passed);
+  const SoakVerdict leaking = judgeSoak({"server"}, stepped(60), 2);
+  EXPECT_EQ(trendOf(leaking, "rss_mb").verdict, TrendVerdict::kLeaking)
+      << trendOf(leaking, "rss_mb").fit.low;
+}
+
 // A churning soak: a session every 8 s. The server's memory is judged
 // against the sessions begun too: flat without a leak, leaking at 5 KB a
 // session (the limit is 1 KB).
