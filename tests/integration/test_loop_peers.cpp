@@ -70,8 +70,11 @@ TEST(Loop, KillingOnePodMidRunLeavesTheOthersRunning) {
   EXPECT_EQ(report["jitter_source"], "server, over every pod frame received");
   const auto& received = report["pod_frames_at_server"];
   ASSERT_EQ(received.size(), 4u) << report.dump();
-  EXPECT_LT(received["pod_3"].get<int>(), received["pod_0"].get<int>());
-  EXPECT_GE(received["pod_0"].get<int>(), 14);
+  // The live pods went on for frames after pod 3 stopped. (Not "at least
+  // the 14 rendered": on a loaded machine a group may be fused without a
+  // late pod, and one run counted pod 0 at 13.)
+  for (const char* live : {"pod_0", "pod_1", "pod_2"})
+    EXPECT_GE(received[live].get<int>(), received["pod_3"].get<int>() + 3) << live;
   for (const auto& [pod, ms] : report["jitter_ms"].items()) EXPECT_GE(ms.get<double>(), 0.0) << pod;
   std::ifstream log(out / "server.log");
   const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
