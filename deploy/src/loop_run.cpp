@@ -400,7 +400,9 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes, const std::str
                 plan.sample_seconds);
   report.settings = settings;
   if (plan.churn) {
-    report.settings += "; churn: a client session every " + std::to_string(plan.churn_seconds) +
+    char seconds[32];
+    std::snprintf(seconds, sizeof(seconds), "%g", plan.churn_seconds);
+    report.settings += "; churn: a client session every " + std::string(seconds) +
                        " s, the last pod restarted every fifth";
   }
   report.warmup_minutes = plan.warmup_minutes;

@@ -228,7 +228,8 @@ SoakVerdict judgeSoak(const std::vector<std::string>& processes,
       const double level = sorted[sorted.size() / 2];
       const bool memory = q == "rss_mb" || q == "heap_mb";
       trend.fit = fitTrend(hours, values);
-      trend.limit = memory ? kMemoryLimitShare * level : kCountLimitPerHour;
+      trend.limit = memory ? std::max(kMemoryLimitShare * level, kMemoryLimitFloorPerHour)
+                           : kCountLimitPerHour;
       decide(
           trend, hours, memory ? " MB/h" : "/h",
           [&](double to_decide) {

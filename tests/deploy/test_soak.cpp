@@ -87,6 +87,13 @@ TEST(Soak, NoiseWithoutATrendIsFlat) {
   EXPECT_GT(memory.fit.high, 0.0);
   EXPECT_EQ(trendOf(verdict, "descriptors").verdict, TrendVerdict::kFlat);
   EXPECT_EQ(trendOf(verdict, "threads").verdict, TrendVerdict::kFlat);
+  // A heap as small as a server's between frames (0.2 MB) is held to the
+  // floor, not to 0.5% of itself (1 KB/h, more exact than any soak).
+  std::vector<SoakSample> small_heap = serverSoak(122, 0.0);
+  for (SoakSample& sample : small_heap) sample.usage[0]->heap_kb = 200;
+  const SoakTrend& heap = trendOf(judgeSoak({"server"}, small_heap, 2), "heap_mb");
+  EXPECT_DOUBLE_EQ(heap.limit, kMemoryLimitFloorPerHour);
+  EXPECT_EQ(heap.verdict, TrendVerdict::kFlat);
   // Half an hour of the same noise is too short to call flat, and is no
   // failure: undecided, with the run that would decide.
   const SoakVerdict short_run = judgeSoak({"server"}, serverSoak(30, 0.0), 2);

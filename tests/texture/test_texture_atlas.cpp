@@ -610,8 +610,12 @@ TEST(FillUncoveredTexels, EmptyTexelsTakeTheColourNearestThemAndCoveredOnesKeepT
       const double to_red = glm::length(g - glm::dvec3(red)),
                    to_blue = glm::length(g - glm::dvec3(blue));
       ASSERT_NE(got, hole) << x << "," << y;
-      if (x < 30) EXPECT_LT(to_red, to_blue) << x << "," << y;
-      if (x > 33) EXPECT_LT(to_blue, to_red) << x << "," << y;
+      if (x < 30) {
+        EXPECT_LT(to_red, to_blue) << x << "," << y;
+      }
+      if (x > 33) {
+        EXPECT_LT(to_blue, to_red) << x << "," << y;
+      }
     }
   }
   // Next to a side, its colour exactly.

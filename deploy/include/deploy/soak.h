@@ -56,10 +56,15 @@ struct SoakTrend {
 };
 
 // The limits: memory may grow by at most kMemoryLimitShare of its level
-// (the median after the warm-up) an hour, 0.22 MB/h for a 45 MB server
+// (the median after the warm-up) an hour, and at least by
+// kMemoryLimitFloorPerHour, 0.22 MB/h for a 45 MB server
 // (a 1%-an-hour leak is twice that); descriptors and threads by at most
 // kCountLimitPerHour.
 inline constexpr double kMemoryLimitShare = 0.005, kCountLimitPerHour = 0.5;
+// A small heap's share would ask for less than any soak can measure (a
+// server whose heap between frames is 0.2 MB: 1 KB/h); memory may always
+// grow by this much, MB an hour.
+inline constexpr double kMemoryLimitFloorPerHour = 0.05;
 // A churning soak's server, against the sessions begun: at most 1 KB of
 // memory a session (0.1 MB per 100), a descriptor or thread per 100.
 inline constexpr double kMemoryLimitPer100Sessions = 0.1, kCountLimitPer100Sessions = 1.0;
