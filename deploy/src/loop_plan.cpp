@@ -343,6 +343,11 @@ int checkPlan(CLI::App& app, LoopPlan& plan) {
     std::fprintf(stderr, "--churn needs --soak-minutes\n");
     return 2;
   }
+  if (plan.churn && plan.netns) {
+    // Its sessions start outside the rig's client namespace.
+    std::fprintf(stderr, "--churn runs on loopback only, not in a rig (--netns)\n");
+    return 2;
+  }
   if (plan.soak_minutes > 0 && plan.warmup_minutes >= plan.soak_minutes) {
     std::fprintf(stderr, "--warmup-minutes %g leaves nothing of a %g-minute soak to judge\n",
                  plan.warmup_minutes, plan.soak_minutes);
