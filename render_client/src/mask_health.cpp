@@ -49,17 +49,22 @@ void MaskHealthSampler::run() {
       job_.reset();
       busy_ = true;
     }
-    std::map<uint32_t, double> iou;
+    Sample sample{job.frame_id, {}};
     for (size_t c = 0; c < job.cameras.size(); ++c) {
       const Camera& camera = job.cameras[c];
       const Image8& mask = job.masks[c];
       // A view without its whole mask is not measured.
       if (mask.width != camera.width || mask.height != camera.height) continue;
-      iou[camera.id] = metrics::silhouetteIoU(job.mesh, camera, mask);
+      sample.iou.emplace_back(camera.id, metrics::silhouetteIoU(job.mesh, camera, mask));
     }
     std::lock_guard<std::mutex> lock(mutex_);
-    frame_ids_.push_back(job.frame_id);
-    values_.push_back(std::move(iou));
+    if (samples_.capacity() < kSamplesKept) samples_.reserve(kSamplesKept);
+    samples_.push_back(std::move(sample));
+    if (samples_.size() == kSamplesKept) {
+      for (size_t i = 0; i < kSamplesKept / 2; ++i) samples_[i] = std::move(samples_[2 * i]);
+      samples_.resize(kSamplesKept / 2);
+      interval_ns_ = interval_ns_ * 2;
+    }
     busy_ = false;
     changed_.notify_all();
   }
@@ -71,23 +76,26 @@ HealthOverTime MaskHealthSampler::summary(std::vector<uint32_t>* camera_ids) {
   // One column per camera any sample measured, in id order; -1 where a
   // sample did not measure it.
   std::vector<uint32_t> ids;
-  for (const auto& sample : values_)
-    for (const auto& [id, value] : sample)
+  for (const Sample& sample : samples_)
+    for (const auto& [id, value] : sample.iou)
       if (std::find(ids.begin(), ids.end(), id) == ids.end()) ids.push_back(id);
   std::sort(ids.begin(), ids.end());
   std::vector<std::vector<double>> rows;
   std::vector<std::vector<bool>> set_apart;
-  for (const auto& sample : values_) {
+  std::vector<uint64_t> frame_ids;
+  for (const Sample& sample : samples_) {
+    frame_ids.push_back(sample.frame_id);
     std::vector<double> row;
     for (const uint32_t id : ids) {
-      const auto found = sample.find(id);
-      row.push_back(found != sample.end() ? found->second : -1.0);
+      const auto found = std::find_if(sample.iou.begin(), sample.iou.end(),
+                                      [&](const auto& entry) { return entry.first == id; });
+      row.push_back(found != sample.iou.end() ? found->second : -1.0);
     }
     set_apart.push_back(belowTheFramesMedian(row));
     rows.push_back(std::move(row));
   }
   if (camera_ids != nullptr) *camera_ids = ids;
-  return summariseHealthOverTime(frame_ids_, rows, set_apart);
+  return summariseHealthOverTime(frame_ids, rows, set_apart);
 }
 
 }  // namespace holofuse::render

@@ -7,6 +7,15 @@
 
 namespace holofuse::report {
 
+namespace {
+
+// In order of arrival, as RFC 3550 (and the server) takes them.
+bool arrivedBefore(const std::pair<double, double>& a, const std::pair<double, double>& b) {
+  return a.second != b.second ? a.second < b.second : a.first < b.first;
+}
+
+}  // namespace
+
 double msSinceCapture(const FrameRecord& frame, uint64_t ns) {
   return static_cast<double>(static_cast<int64_t>(ns - frame.capture_time_ns)) / 1e6;
 }
@@ -27,7 +36,7 @@ void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
   if (decode_start != UINT64_MAX && fused_end >= decode_start) {
     if (last_server_span_) {
       const uint64_t earlier_end = last_server_span_->second;
-      server_overlap_ms_.push_back(
+      server_overlap_.add(
           earlier_end > decode_start ? static_cast<double>(earlier_end - decode_start) / 1e6 : 0.0);
     }
     last_server_span_ = {decode_start, fused_end};
@@ -36,10 +45,9 @@ void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
   // began before the earlier one's encodes ended.
   if (fusion_start != UINT64_MAX && fused_end >= fusion_start) {
     if (last_fusion_end_ns_) {
-      fusion_overlap_ms_.push_back(*last_fusion_end_ns_ > fusion_start
-                                       ? static_cast<double>(*last_fusion_end_ns_ - fusion_start) /
-                                             1e6
-                                       : 0.0);
+      fusion_overlap_.add(*last_fusion_end_ns_ > fusion_start
+                              ? static_cast<double>(*last_fusion_end_ns_ - fusion_start) / 1e6
+                              : 0.0);
     }
     last_fusion_end_ns_ = fused_end;
   }
@@ -50,10 +58,27 @@ void LatencyReport::addStamps(const std::vector<protocol::StageStamp>& stamps) {
     // end (its send time) to its arrival: the transit RFC 3550 watches.
     if (s.stage == static_cast<uint16_t>(protocol::Stage::kSend) && s.end_ns != 0 &&
         s.source < 64) {
-      transit_ms_[s.source].emplace_back(static_cast<double>(s.start_ns) / 1e6,
-                                         static_cast<double>(s.end_ns) / 1e6);
+      PodTransit& pod = transit_[s.source];
+      const double sent = static_cast<double>(s.start_ns) / 1e6;
+      const double received = static_cast<double>(s.end_ns) / 1e6;
+      pod.ms.add(received - sent);
+      pod.pending.emplace_back(sent, received);
+      if (pod.pending.size() > kJitterReorder) {
+        // The earliest arrival of those waiting goes to the estimate.
+        const auto first = std::min_element(pod.pending.begin(), pod.pending.end(), arrivedBefore);
+        pod.jitter.add(first->first, first->second);
+        pod.pending.erase(first);
+      }
     }
   }
+}
+
+double LatencyReport::PodTransit::jitterMs() const {
+  std::vector<std::pair<double, double>> waiting = pending;
+  std::sort(waiting.begin(), waiting.end(), arrivedBefore);
+  ArrivalJitter all = jitter;
+  for (const auto& [sent, received] : waiting) all.add(sent, received);
+  return all.ms();
 }
 
 std::vector<protocol::StageStamp> timelineOf(const std::vector<protocol::StageStamp>& stamps) {
@@ -114,40 +139,33 @@ std::vector<std::string> LatencyReport::clockWarnings() const {
 }
 
 std::vector<LatencyReport::QualitySummary> LatencyReport::quality() const {
-  std::vector<double> psnr, ssim;
-  for (const auto& f : frames_) {
-    if (!f.quality) continue;
-    psnr.push_back(f.quality->psnr_db);
-    ssim.push_back(f.quality->ssim);
-  }
-  if (psnr.empty()) return {};
-  auto summary = [](const char* name, const std::vector<double>& v) {
-    double sum = 0;
-    for (double x : v) sum += x;
-    return QualitySummary{name, sum / static_cast<double>(v.size()), percentile(v, 50),
-                          *std::min_element(v.begin(), v.end()), v.size()};
+  if (psnr_.values.empty()) return {};
+  auto summary = [](const char* name, const Judged& judged) {
+    const auto frames = static_cast<size_t>(judged.values.count());
+    return QualitySummary{name, judged.sum / static_cast<double>(frames),
+                          percentile(judged.values.kept(), 50), judged.worst, frames};
   };
-  return {summary("psnr_db", psnr), summary("ssim", ssim)};
+  return {summary("psnr_db", psnr_), summary("ssim", ssim_)};
 }
 
 std::map<uint16_t, double> LatencyReport::podJitterMs() const {
   std::map<uint16_t, double> jitter;
   for (const auto& a : server_arrivals_) jitter[a.pod] = static_cast<double>(a.jitter_us) / 1000.0;
   if (!jitter.empty()) return jitter;
-  for (const auto& [pod, pairs] : transit_ms_) jitter[pod] = interarrivalJitter(pairs);
+  for (const auto& [pod, transit] : transit_) jitter[pod] = transit.jitterMs();
   return jitter;
 }
 
 double LatencyReport::stagePercentile(const std::string& name, double p) const {
   if (name == "end_to_end") return endToEndPercentile(p);
   for (const auto& [stage, v] : stage_ms_) {
-    if (protocol::stageName(stage) == name) return percentile(v, p);
+    if (protocol::stageName(stage) == name) return percentile(v.kept(), p);
   }
   return 0.0;
 }
 
 bool LatencyReport::stageMeasured(const std::string& name) const {
-  if (name == "end_to_end") return !frames_.empty();
+  if (name == "end_to_end") return frames_rendered_ > 0;
   for (const auto& [stage, v] : stage_ms_) {
     if (protocol::stageName(stage) == name) return !v.empty();
   }
@@ -174,31 +192,71 @@ std::vector<LatencyReport::Violation> LatencyReport::violations(const Budget& bu
   return over;
 }
 
-void LatencyReport::addStage(uint16_t stage, double ms) { stage_ms_[stage].push_back(ms); }
+void LatencyReport::addStage(uint16_t stage, double ms) { stage_ms_[stage].add(ms); }
 
 void LatencyReport::addFrame(const FrameRecord& record, uint64_t written_ns) {
+  if (frames_rendered_ == 0) first_written_ns_ = written_ns;
+  last_written_ns_ = written_ns;
+  // The list is cut back to its last kFramesListed when it reaches twice
+  // that, so that a frame costs one move on average.
+  if (frames_.size() >= 2 * kFramesListed)
+    frames_.erase(frames_.begin(), frames_.end() - static_cast<std::ptrdiff_t>(kFramesListed));
   frames_.push_back(record);
-  written_ns_.push_back(written_ns);
+  FrameRecord& frame = frames_.back();
+  frame.place = frames_rendered_++;
+  end_to_end_.add({frame.capture_time_ns, frame.written_local_ns, frame.end_to_end_ms});
+  pod_bytes_ += static_cast<double>(frame.pod_bytes);
+  client_bytes_ += static_cast<double>(frame.client_bytes);
+  feather_bytes_ += static_cast<double>(frame.feather_bytes);
+  mesh_bytes_ += static_cast<double>(frame.mesh_bytes);
+  if (frame.cameras_present < frame.cameras_expected) ++frames_with_missing_cameras_;
+  triangles_.add(static_cast<double>(frame.mesh_triangles));
+  most_triangles_ = std::max(most_triangles_, static_cast<double>(frame.mesh_triangles));
+  if (frame.quality) {
+    psnr_.add(frame.quality->psnr_db);
+    ssim_.add(frame.quality->ssim);
+  }
+  if (frame.timeline.empty()) return;
+  const auto slower = [](const FrameRecord& a, const FrameRecord& b) {
+    return a.end_to_end_ms > b.end_to_end_ms;
+  };
+  if (slowest_.size() == kSlowestKept) {
+    if (!slower(frame, slowest_.back())) return;
+    slowest_.pop_back();
+  }
+  slowest_.insert(std::upper_bound(slowest_.begin(), slowest_.end(), frame, slower), frame);
 }
 
+std::vector<FrameRecord> LatencyReport::slowestFrames() const { return slowest_; }
+
 void LatencyReport::settleEndToEnd(const protocol::ClockSync& server_clock) {
-  for (FrameRecord& f : frames_) {
-    if (f.written_local_ns == 0 || f.capture_time_ns == 0) continue;
-    const auto written = static_cast<int64_t>(server_clock.toPeer(f.written_local_ns));
-    f.end_to_end_ms = static_cast<double>(written - static_cast<int64_t>(f.capture_time_ns)) / 1e6;
-  }
+  const auto settle = [&](uint64_t capture_ns, uint64_t written_local_ns, double& end_to_end_ms) {
+    if (written_local_ns == 0 || capture_ns == 0) return;
+    const auto written = static_cast<int64_t>(server_clock.toPeer(written_local_ns));
+    end_to_end_ms = static_cast<double>(written - static_cast<int64_t>(capture_ns)) / 1e6;
+  };
+  for (FrameTimes& t : end_to_end_.kept())
+    settle(t.capture_ns, t.written_local_ns, t.end_to_end_ms);
+  for (auto* frames : {&frames_, &slowest_})
+    for (FrameRecord& f : *frames) settle(f.capture_time_ns, f.written_local_ns, f.end_to_end_ms);
+  // Settled, the slowest may change order; they were chosen by the
+  // estimates of their moment.
+  std::stable_sort(
+      slowest_.begin(), slowest_.end(),
+      [](const FrameRecord& a, const FrameRecord& b) { return a.end_to_end_ms > b.end_to_end_ms; });
 }
 
 double LatencyReport::fps() const {
-  if (written_ns_.size() < 2) return 0.0;
-  const double seconds = static_cast<double>(written_ns_.back() - written_ns_.front()) / 1e9;
-  return seconds > 0 ? static_cast<double>(written_ns_.size() - 1) / seconds : 0.0;
+  if (frames_rendered_ < 2) return 0.0;
+  const double seconds = static_cast<double>(last_written_ns_ - first_written_ns_) / 1e9;
+  return seconds > 0 ? static_cast<double>(frames_rendered_ - 1) / seconds : 0.0;
 }
 
 double LatencyReport::endToEndPercentile(double p) const {
   std::vector<double> e2e;
-  for (const auto& f : frames_) e2e.push_back(f.end_to_end_ms);
-  return percentile(e2e, p);
+  e2e.reserve(end_to_end_.kept().size());
+  for (const FrameTimes& t : end_to_end_.kept()) e2e.push_back(t.end_to_end_ms);
+  return percentile(std::move(e2e), p);
 }
 
 std::vector<double> timeByStage(const FrameRecord& frame) {
@@ -228,13 +286,23 @@ std::vector<double> timeByStage(const FrameRecord& frame) {
   return shares;
 }
 
+std::vector<std::string> LatencyReport::Reasons::listed() const {
+  std::vector<std::string> lines = named;
+  if (count > named.size())
+    lines.push_back("and " + std::to_string(count - named.size()) + " more frames");
+  return lines;
+}
+
 std::vector<std::string> LatencyReport::startUpFrames() const {
-  return start_up_ended_ ? start_up_ : std::vector<std::string>{};
+  return start_up_ended_ ? start_up_.listed() : std::vector<std::string>{};
 }
 
 std::vector<std::string> LatencyReport::skippedFrames() const {
-  std::vector<std::string> skipped = skipped_;
-  if (!start_up_ended_) skipped.insert(skipped.end(), start_up_.begin(), start_up_.end());
+  std::vector<std::string> skipped = skipped_.listed();
+  if (!start_up_ended_) {
+    const std::vector<std::string> start_up = start_up_.listed();
+    skipped.insert(skipped.end(), start_up.begin(), start_up.end());
+  }
   return skipped;
 }
 

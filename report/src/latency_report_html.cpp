@@ -17,20 +17,14 @@ std::string ms1(double v) { return html::number("%.1f ms", v); }
 
 // The slowest frames' end to end by stage and wait, as stacked bars, each
 // frame by its place in the run (its picture is frames/frame_NNNNNN.png).
-std::string slowestFramesChart(const std::vector<FrameRecord>& frames) {
-  std::vector<size_t> slowest;
-  for (size_t i = 0; i < frames.size(); ++i)
-    if (!frames[i].timeline.empty()) slowest.push_back(i);
-  std::sort(slowest.begin(), slowest.end(),
-            [&](size_t a, size_t b) { return frames[a].end_to_end_ms > frames[b].end_to_end_ms; });
-  slowest.resize(std::min<size_t>(slowest.size(), 5));
+std::string slowestFramesChart(const std::vector<FrameRecord>& slowest) {
   if (slowest.empty()) return {};
   const std::vector<uint16_t>& order = protocol::stagesInPipelineOrder();
   std::vector<std::vector<double>> shares;
   std::vector<html::StackRow> rows;
-  for (const size_t i : slowest) {
-    shares.push_back(timeByStage(frames[i]));
-    rows.push_back({"frame " + std::to_string(i), {}, std::nullopt, ""});
+  for (const FrameRecord& frame : slowest) {
+    shares.push_back(timeByStage(frame));
+    rows.push_back({"frame " + std::to_string(frame.place), {}, std::nullopt, ""});
   }
   // Stages no slow frame spent time in are left out of the legend.
   std::vector<std::string> names;
@@ -48,16 +42,19 @@ std::string slowestFramesChart(const std::vector<FrameRecord>& frames) {
 // Each named series' p50, stacked, with its p50 and p95 in a table: the
 // p95s are never stacked (they do not add up); `whole`, where given, marks
 // the p95 of the whole on the stack.
+using Series = DecimatedSeries<double>;
+
 std::string spreadBars(const std::string& title, const std::vector<std::string>& names,
-                       const std::vector<const std::vector<double>*>& samples,
+                       const std::vector<const Series*>& samples,
                        std::optional<double> whole_p95 = std::nullopt,
                        const std::string& whole = "") {
   html::StackRow p50{"p50", {}, whole_p95, whole + " p95"};
   Rows rows;
   for (size_t i = 0; i < samples.size(); ++i) {
-    p50.segments.push_back(percentile(*samples[i], 50));
-    rows.push_back({names[i], ms1(percentile(*samples[i], 50)), ms1(percentile(*samples[i], 95)),
-                    std::to_string(samples[i]->size())});
+    const std::vector<double>& kept = samples[i]->kept();
+    p50.segments.push_back(percentile(kept, 50));
+    rows.push_back({names[i], ms1(percentile(kept, 50)), ms1(percentile(kept, 95)),
+                    std::to_string(samples[i]->count())});
   }
   return html::stackedBars(title, names, {p50}, "ms") +
          html::table({"", "p50", "p95", "samples"}, rows);
@@ -65,10 +62,9 @@ std::string spreadBars(const std::string& title, const std::vector<std::string>&
 
 // The latency budget: the pipeline stages' p50s stacked, the end to end's
 // p95 marked.
-std::string stageBars(const std::map<uint16_t, std::vector<double>>& stage_ms,
-                      double end_to_end_p95) {
+std::string stageBars(const std::map<uint16_t, Series>& stage_ms, double end_to_end_p95) {
   std::vector<std::string> names;
-  std::vector<const std::vector<double>*> samples;
+  std::vector<const Series*> samples;
   for (uint16_t stage : protocol::stagesInPipelineOrder()) {
     const auto it = stage_ms.find(stage);
     if (it == stage_ms.end() || it->second.empty()) continue;
@@ -80,10 +76,10 @@ std::string stageBars(const std::map<uint16_t, std::vector<double>>& stage_ms,
                     end_to_end_p95, "end to end");
 }
 
-std::string gpuBars(const std::map<std::string, std::vector<double>>& gpu_ms) {
+std::string gpuBars(const std::map<std::string, Series>& gpu_ms) {
   if (gpu_ms.empty()) return {};
   std::vector<std::string> names;
-  std::vector<const std::vector<double>*> samples;
+  std::vector<const Series*> samples;
   for (const auto& [name, ms] : gpu_ms) {
     names.push_back(name);
     samples.push_back(&ms);
@@ -94,7 +90,7 @@ std::string gpuBars(const std::map<std::string, std::vector<double>>& gpu_ms) {
 // Every written frame against the scene's true image from the same view,
 // inside its true mask (metrics/image_metrics.h's measures).
 std::string qualitySection(const std::vector<LatencyReport::QualitySummary>& judged,
-                           const std::vector<double>& judge_ms) {
+                           const Series& judge_ms) {
   if (judged.empty()) return {};
   Rows rows;
   for (const auto& q : judged) {
@@ -105,20 +101,15 @@ std::string qualitySection(const std::vector<LatencyReport::QualitySummary>& jud
   }
   return "<h2>Quality against the truth</h2>\n<p>Each written frame against the synthetic "
          "scene's true image from the same view, inside its true mask. Judging took " +
-         ms1(percentile(judge_ms, 50)) +
+         ms1(percentile(judge_ms.kept(), 50)) +
          " per frame (p50), after the frame was written and before the next.</p>\n" +
          html::table({"measure", "mean", "p50", "worst", "frames"}, rows);
 }
 
-std::string bytesChart(const std::vector<FrameRecord>& frames) {
-  if (frames.empty()) return {};
-  double pod_bytes = 0, client_bytes = 0, feather_bytes = 0;
-  for (const auto& f : frames) {
-    pod_bytes += static_cast<double>(f.pod_bytes);
-    client_bytes += static_cast<double>(f.client_bytes);
-    feather_bytes += static_cast<double>(f.feather_bytes);
-  }
-  const double kb = 1000.0 * std::max<double>(1.0, static_cast<double>(frames.size()));
+// Bytes per link, summed over the run's `frames`.
+std::string bytesChart(size_t frames, double pod_bytes, double client_bytes, double feather_bytes) {
+  if (frames == 0) return {};
+  const double kb = 1000.0 * static_cast<double>(frames);
   return html::barChart(
       "Bytes per frame by link", {"pods -> server", "server -> client", "of which feather maps"},
       {{"KB per frame", {pod_bytes / kb, client_bytes / kb, feather_bytes / kb}}}, "KB");
@@ -197,7 +188,7 @@ std::string LatencyReport::budgetSection(const Budget& budget) const {
 
 std::string LatencyReport::toHtml(const std::map<std::string, std::string>& settings,
                                   const Budget& budget) const {
-  Rows summary = {{"frames rendered", std::to_string(frames_.size())},
+  Rows summary = {{"frames rendered", std::to_string(frames_rendered_)},
                   {"frames per second", html::number("%.1f", fps())},
                   {"end-to-end p50 / p95 / p99", ms1(endToEndPercentile(50)) + " / " +
                                                      ms1(endToEndPercentile(95)) + " / " +
@@ -208,15 +199,15 @@ std::string LatencyReport::toHtml(const std::map<std::string, std::string>& sett
   };
   count("meshes superseded (a newer one was waiting)", superseded_);
   count("pictures not written (the writer's queue was full)", pictures_dropped_);
-  count("frames at start-up (fused before the server took this client's layers)",
-        startUpFrames().size());
-  count("frames skipped (unusable; report.json frames_skipped says why)", skippedFrames().size());
+  count("frames at start-up (fused before the server took this client's layers)", startUpCount());
+  count("frames skipped (unusable; report.json frames_skipped says why)", skippedCount());
   Rows settings_rows;
   for (const auto& [key, value] : settings) settings_rows.push_back({key, value});
   const std::string body =
       "<h2>Results</h2>\n" + html::table({"", "value"}, summary) +
-      stageBars(stage_ms_, endToEndPercentile(95)) + slowestFramesChart(frames_) +
-      gpuBars(gpu_ms_) + qualitySection(quality(), judge_ms_) + bytesChart(frames_) +
+      stageBars(stage_ms_, endToEndPercentile(95)) + slowestFramesChart(slowest_) +
+      gpuBars(gpu_ms_) + qualitySection(quality(), judge_ms_) +
+      bytesChart(frames_rendered_, pod_bytes_, client_bytes_, feather_bytes_) +
       jitterChart(podJitterMs(), jitterFromServer()) +
       clocksSection(hostClocks(), clock_drift_warn_ms_) +
       maskHealthSection(mask_health_, mask_health_ids_) + budgetSection(budget) +

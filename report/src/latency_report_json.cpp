@@ -10,15 +10,21 @@ namespace {
 
 using Json = nlohmann::ordered_json;
 
-Json spreadOf(const std::vector<double>& ms) {
-  return {{"p50", percentile(ms, 50)}, {"p95", percentile(ms, 95)}, {"samples", ms.size()}};
+using Series = DecimatedSeries<double>;
+
+// samples: every one taken; the percentiles are over those kept (all of
+// them until 2048, then an even spread, base/decimated_series.h).
+Json spreadOf(const Series& ms) {
+  return {{"p50", percentile(ms.kept(), 50)},
+          {"p95", percentile(ms.kept(), 95)},
+          {"samples", ms.count()}};
 }
 
 // Every pipeline stage in order (those without a sample too), then the
 // stages outside the pipeline that have one.
-Json stagesJson(const std::map<uint16_t, std::vector<double>>& stage_ms) {
+Json stagesJson(const std::map<uint16_t, Series>& stage_ms) {
   Json stages = Json::object();
-  const std::vector<double> none;
+  const Series none;
   for (uint16_t stage : protocol::stagesInPipelineOrder()) {
     const auto it = stage_ms.find(stage);
     stages[protocol::stageName(stage)] = spreadOf(it == stage_ms.end() ? none : it->second);
@@ -33,14 +39,11 @@ Json stagesJson(const std::map<uint16_t, std::vector<double>>& stage_ms) {
 // Per link, one way: each pod's frames to the server (its send stamps
 // behind rendered meshes), and the server's frames to this client (the
 // fan-out, from the server's send to the arrival here).
-Json linksJson(const std::map<uint16_t, std::vector<std::pair<double, double>>>& transit_ms,
-               const std::map<uint16_t, std::vector<double>>& stage_ms) {
+Json linksJson(const std::map<uint16_t, const Series*>& transit_ms,
+               const std::map<uint16_t, Series>& stage_ms) {
   Json links = Json::object();
-  for (const auto& [pod, pairs] : transit_ms) {
-    std::vector<double> ms;
-    for (const auto& [sent, received] : pairs) ms.push_back(received - sent);
-    links["pod_" + std::to_string(pod) + "_to_server"] = spreadOf(ms);
-  }
+  for (const auto& [pod, ms] : transit_ms)
+    links["pod_" + std::to_string(pod) + "_to_server"] = spreadOf(*ms);
   const auto fanout = stage_ms.find(static_cast<uint16_t>(protocol::Stage::kFanout));
   if (fanout != stage_ms.end()) links["server_to_client"] = spreadOf(fanout->second);
   return links;
@@ -49,41 +52,15 @@ Json linksJson(const std::map<uint16_t, std::vector<std::pair<double, double>>>&
 // The server's pipeline: how often it decoded a frame's pod images while
 // it was still carving or encoding the frame before, and how often it
 // carved a frame while it still fused the one before (fusion threads).
-Json serverPipelineJson(const std::vector<double>& overlap_ms,
-                        const std::vector<double>& fusion_overlap_ms) {
-  auto overlapped = [](const std::vector<double>& ms) {
-    return std::count_if(ms.begin(), ms.end(), [](double v) { return v > 0; });
+Json serverPipelineJson(const Series& overlap_ms, uint64_t overlapped,
+                        const Series& fusion_overlap_ms, uint64_t fusion_overlapped) {
+  auto spread = [](const Series& ms) {
+    return Json{{"p50", percentile(ms.kept(), 50)}, {"p95", percentile(ms.kept(), 95)}};
   };
-  auto spread = [](const std::vector<double>& ms) {
-    return Json{{"p50", percentile(ms, 50)}, {"p95", percentile(ms, 95)}};
-  };
-  return {{"frame_pairs", overlap_ms.size()},
-          {"overlapped", overlapped(overlap_ms)},
-          {"overlap_ms", spread(overlap_ms)},
-          {"fusion_frame_pairs", fusion_overlap_ms.size()},
-          {"fusion_overlapped", overlapped(fusion_overlap_ms)},
-          {"fusion_overlap_ms", spread(fusion_overlap_ms)}};
-}
-
-void addBytesAndMeshes(const std::vector<FrameRecord>& frames, Json& j) {
-  double pod_bytes = 0, client_bytes = 0, feather_bytes = 0, mesh_bytes = 0;
-  std::vector<double> triangles;
-  size_t incomplete = 0;
-  for (const auto& f : frames) {
-    pod_bytes += static_cast<double>(f.pod_bytes);
-    client_bytes += static_cast<double>(f.client_bytes);
-    feather_bytes += static_cast<double>(f.feather_bytes);
-    mesh_bytes += static_cast<double>(f.mesh_bytes);
-    triangles.push_back(static_cast<double>(f.mesh_triangles));
-    if (f.cameras_present < f.cameras_expected) ++incomplete;
-  }
-  const double n = std::max<double>(1.0, static_cast<double>(frames.size()));
-  j["bytes_per_frame"] = {{"pod_link", pod_bytes / n},
-                          {"client_link", client_bytes / n},
-                          {"client_link_feather_maps", feather_bytes / n},
-                          {"client_link_mesh", mesh_bytes / n}};
-  j["mesh_triangles"] = {{"p50", percentile(triangles, 50)}, {"max", percentile(triangles, 100)}};
-  j["frames_with_missing_cameras"] = incomplete;
+  return {
+      {"frame_pairs", overlap_ms.count()},      {"overlapped", overlapped},
+      {"overlap_ms", spread(overlap_ms)},       {"fusion_frame_pairs", fusion_overlap_ms.count()},
+      {"fusion_overlapped", fusion_overlapped}, {"fusion_overlap_ms", spread(fusion_overlap_ms)}};
 }
 
 Json hostsJson(const std::vector<LatencyReport::HostClock>& clocks) {
@@ -122,9 +99,11 @@ Json maskHealthJson(const HealthOverTime& health, const std::vector<uint32_t>& c
   return j;
 }
 
-Json framesJson(const std::vector<FrameRecord>& frames) {
+// The last `listed` frames in full.
+Json framesJson(const std::vector<FrameRecord>& frames, size_t listed) {
   Json all = Json::array();
-  for (const auto& f : frames) {
+  for (size_t i = frames.size() - std::min(listed, frames.size()); i < frames.size(); ++i) {
+    const FrameRecord& f = frames[i];
     Json timeline = Json::object();
     for (const auto& s : f.timeline)
       timeline[protocol::stageName(s.stage)] = {msSinceCapture(f, s.start_ns),
@@ -151,7 +130,7 @@ Json framesJson(const std::vector<FrameRecord>& frames) {
 std::string LatencyReport::toJson(const std::map<std::string, std::string>& settings,
                                   const Budget& budget) const {
   Json j;
-  j["frames_rendered"] = frames_.size();
+  j["frames_rendered"] = frames_rendered_;
   j["fps"] = fps();
   j["latency_ms"]["end_to_end"] = {{"p50", endToEndPercentile(50)},
                                    {"p95", endToEndPercentile(95)},
@@ -161,9 +140,18 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
   Json gpu = Json::object();
   for (const auto& [name, ms] : gpu_ms_) gpu[name] = spreadOf(ms);
   j["latency_ms"]["gpu_passes"] = gpu;
-  j["latency_ms"]["links"] = linksJson(transit_ms_, stage_ms_);
-  j["server_pipeline"] = serverPipelineJson(server_overlap_ms_, fusion_overlap_ms_);
-  addBytesAndMeshes(frames_, j);
+  std::map<uint16_t, const Series*> transit_ms;
+  for (const auto& [pod, transit] : transit_) transit_ms[pod] = &transit.ms;
+  j["latency_ms"]["links"] = linksJson(transit_ms, stage_ms_);
+  j["server_pipeline"] = serverPipelineJson(server_overlap_.ms, server_overlap_.overlapped,
+                                            fusion_overlap_.ms, fusion_overlap_.overlapped);
+  const double n = std::max<double>(1.0, static_cast<double>(frames_rendered_));
+  j["bytes_per_frame"] = {{"pod_link", pod_bytes_ / n},
+                          {"client_link", client_bytes_ / n},
+                          {"client_link_feather_maps", feather_bytes_ / n},
+                          {"client_link_mesh", mesh_bytes_ / n}};
+  j["mesh_triangles"] = {{"p50", percentile(triangles_.kept(), 50)}, {"max", most_triangles_}};
+  j["frames_with_missing_cameras"] = frames_with_missing_cameras_;
   Json jitter = Json::object();
   for (const auto& [pod, ms] : podJitterMs()) jitter["pod_" + std::to_string(pod)] = ms;
   j["jitter_ms"] = jitter;
@@ -196,17 +184,21 @@ std::string LatencyReport::toJson(const std::map<std::string, std::string>& sett
         {"mean", q.mean}, {"p50", q.p50}, {"worst", q.worst}, {"frames", q.frames}};
   }
   if (!judge_ms_.empty()) {
-    quality["judge_ms"] = {{"p50", percentile(judge_ms_, 50)}, {"p95", percentile(judge_ms_, 95)}};
+    quality["judge_ms"] = {{"p50", percentile(judge_ms_.kept(), 50)},
+                           {"p95", percentile(judge_ms_.kept(), 95)}};
   }
   j["quality"] = quality;
   j["frames_skipped"] = skippedFrames();
+  j["frames_skipped_count"] = skippedCount();
   j["frames_at_start_up"] = startUpFrames();
+  j["frames_at_start_up_count"] = startUpCount();
   j["frames_superseded"] = superseded_;
   j["pictures_dropped"] = pictures_dropped_;
   j["camera_views_without_subject"] = views_without_subject_;
   j["mask_health"] = maskHealthJson(mask_health_, mask_health_ids_);
   j["settings"] = settings;
-  j["frames"] = framesJson(frames_);
+  j["frames_listed"] = std::min(frames_.size(), kFramesListed);
+  j["frames"] = framesJson(frames_, kFramesListed);
   return j.dump(2) + "\n";
 }
 

@@ -4,12 +4,15 @@
 // silhouette in that camera. A mask holding what no other camera sees (a
 // prop, a light) or missing what the others see falls under that frame's
 // median; the report names the camera and the frames
-// (metrics/health_over_time.h).
+// (metrics/health_over_time.h). A client may run for days: when
+// kSamplesKept samples are held, every other one is dropped and the
+// interval doubles, so the samples stay evenly spread over the run in
+// bounded memory.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
-#include <map>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -23,6 +26,8 @@ namespace holofuse::render {
 
 class MaskHealthSampler {
  public:
+  static constexpr size_t kSamplesKept = 512;
+
   explicit MaskHealthSampler(uint64_t interval_ns = 1000000000ull);
   ~MaskHealthSampler();
   MaskHealthSampler(const MaskHealthSampler&) = delete;
@@ -32,9 +37,11 @@ class MaskHealthSampler {
   // free (copies of the mesh and the masks go to it), else passed over.
   void offer(uint64_t frame_id, uint64_t now_ns, const Mesh& mesh,
              const std::vector<ViewImages>& views);
-  // Every sample so far, the one in flight included; camera_ids: the
+  // Every sample kept, the one in flight included; camera_ids: the
   // cameras' ids in its order.
   HealthOverTime summary(std::vector<uint32_t>* camera_ids = nullptr);
+  // The time between samples now: the first interval, doubled at each halving.
+  uint64_t intervalNs() const { return interval_ns_; }
 
  private:
   struct Job {
@@ -45,17 +52,20 @@ class MaskHealthSampler {
   };
   void run();
 
-  const uint64_t interval_ns_;
+  std::atomic<uint64_t> interval_ns_;
   uint64_t last_offer_ns_ = 0;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::optional<Job> job_;
   bool busy_ = false, stop_ = false;
-  std::vector<uint64_t> frame_ids_;
   // Per sample, each measured camera's IoU by its id: a frame may lack a
   // camera (a group sent without a late pod), so a sample's position is
   // not a camera.
-  std::vector<std::map<uint32_t, double>> values_;
+  struct Sample {
+    uint64_t frame_id = 0;
+    std::vector<std::pair<uint32_t, double>> iou;
+  };
+  std::vector<Sample> samples_;
   std::thread thread_;
 };
 

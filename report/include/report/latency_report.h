@@ -3,6 +3,7 @@
 // report.json in the layout docs/report-json.md documents.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -10,6 +11,8 @@
 #include <utility>
 #include <vector>
 
+#include "base/arrival_jitter.h"
+#include "base/decimated_series.h"
 #include "base/status.h"
 #include "metrics/health_over_time.h"
 #include "protocol/clock_sync.h"
@@ -25,6 +28,7 @@ struct FrameQuality {
 
 struct FrameRecord {
   uint64_t frame_id = 0;
+  size_t place = 0;  // frames rendered before it in this run (set by addFrame)
   std::string file;
   double end_to_end_ms = 0;
   // The frame's capture on the server's clock and its write on this
@@ -66,12 +70,22 @@ std::vector<double> timeByStage(const FrameRecord& frame);
 
 using protocol::Budget;
 
+// A client may render for days (a soak, a viewer left open), so the report
+// holds bounded memory however long it runs: the last kFramesListed frames
+// in full and the slowest few apart; every other figure from running
+// totals (counts, sums, worst) and from DecimatedSeries (base/), which keep
+// an evenly spread sample of each series once it passes 2048 values.
 class LatencyReport {
  public:
+  static constexpr size_t kFramesListed = 300;
+  // Reasons for frames skipped or at start-up: the first ones are named,
+  // the rest counted.
+  static constexpr size_t kReasonsListed = 100;
+
   void addStamps(const std::vector<protocol::StageStamp>& stamps);
   void addStage(uint16_t stage, double ms);
   // GPU time of a texture-field pass (timestamp queries), by pass name.
-  void addGpuPass(const std::string& name, double ms) { gpu_ms_[name].push_back(ms); }
+  void addGpuPass(const std::string& name, double ms) { gpu_ms_[name].add(ms); }
   void addFrame(const FrameRecord& record, uint64_t written_ns);
   // Each frame's end to end again, its write moved onto the server's clock
   // by the estimate given (the last, the best of its samples): a frame
@@ -88,16 +102,19 @@ class LatencyReport {
   };
   std::vector<QualitySummary> quality() const;
   // The client's time judging a frame (after it is written, before the next).
-  void addJudgeMs(double ms) { judge_ms_.push_back(ms); }
-  void noteSkipped(const std::string& why) { skipped_.push_back(why); }
+  void addJudgeMs(double ms) { judge_ms_.add(ms); }
+  void noteSkipped(const std::string& why) { skipped_.add(why); }
   // A frame without what this client renders (texture layers) that the
   // server fused before it took the client's request: start-up, until the
   // first frame that has them (startUpEnded). A run in which none came
   // counts them as skipped: the start-up never ended.
-  void noteStartUp(const std::string& why) { start_up_.push_back(why); }
+  void noteStartUp(const std::string& why) { start_up_.add(why); }
   void startUpEnded() { start_up_ended_ = true; }
+  // The reasons named (at most kReasonsListed of each kind), and the counts.
   std::vector<std::string> startUpFrames() const;
   std::vector<std::string> skippedFrames() const;
+  uint64_t startUpCount() const { return start_up_ended_ ? start_up_.count : 0; }
+  uint64_t skippedCount() const { return skipped_.count + (start_up_ended_ ? 0 : start_up_.count); }
   // Meshes not rendered because a newer one had already arrived.
   void setSuperseded(uint64_t count) { superseded_ = count; }
   // Pictures not written because the writer's queue was full (their frames
@@ -114,10 +131,15 @@ class LatencyReport {
   }
   const HealthOverTime& maskHealth() const { return mask_health_; }
 
-  size_t framesRendered() const { return frames_.size(); }
+  size_t framesRendered() const { return frames_rendered_; }
   double fps() const;
   double endToEndPercentile(double p) const;
+  // The last frames rendered, in order: at least the last kFramesListed
+  // (all of them in a shorter run), at most twice that.
   const std::vector<FrameRecord>& frames() const { return frames_; }
+  // The slowest frames with a timeline (at most kSlowestKept), slowest first.
+  static constexpr size_t kSlowestKept = 5;
+  std::vector<FrameRecord> slowestFrames() const;
   // The server's account of every pod's frames (Stats since 1.1), the
   // latest received: it covers frames no client rendered too.
   // Since 1.8 they carry each pod's clock against the server's: the
@@ -169,26 +191,77 @@ class LatencyReport {
   std::vector<std::string> unmeasured(const Budget& budget) const;
   bool stageMeasured(const std::string& name) const;
   double stagePercentile(const std::string& name, double p) const;
-  std::map<uint16_t, std::vector<double>> stage_ms_;
-  std::map<uint16_t, std::vector<std::pair<double, double>>>
-      transit_ms_;  // per pod: sent, received
+  using Series = DecimatedSeries<double>;
+  std::map<uint16_t, Series> stage_ms_;
+  // Per pod, its frames' transit (sent to received, ms) and their RFC 3550
+  // jitter, fed in order of arrival: a client learns of them out of order,
+  // so the latest kJitterReorder wait in `pending` to be sorted.
+  struct PodTransit {
+    Series ms;
+    std::vector<std::pair<double, double>> pending;  // sent, received
+    ArrivalJitter jitter;
+    double jitterMs() const;
+  };
+  static constexpr size_t kJitterReorder = 64;
+  std::map<uint16_t, PodTransit> transit_;
   std::vector<protocol::PodArrivals> server_arrivals_;
   // The server's span of the last rendered frame, from its first pod
   // image's decode to its last encode (server clock, ns), and per pair of
   // rendered frames how long the later one's decode ran before the earlier
   // one's encode ended (0: one after the other).
+  struct Overlaps {
+    Series ms;
+    uint64_t overlapped = 0;  // pairs with an overlap
+    void add(double v) {
+      ms.add(v);
+      if (v > 0) ++overlapped;
+    }
+  };
   std::optional<std::pair<uint64_t, uint64_t>> last_server_span_;
-  std::vector<double> server_overlap_ms_;
+  Overlaps server_overlap_;
   std::optional<uint64_t> last_fusion_end_ns_;  // the last rendered frame's fusion
-  std::vector<double> fusion_overlap_ms_;
+  Overlaps fusion_overlap_;
   std::map<uint16_t, protocol::PodArrivals> first_pod_clocks_;  // per pod, its first estimate
   std::optional<HostClock> client_clock_;
   double clock_drift_warn_ms_ = 1.0;
-  std::map<std::string, std::vector<double>> gpu_ms_;
-  std::vector<double> judge_ms_;
-  std::vector<FrameRecord> frames_;
-  std::vector<uint64_t> written_ns_;
-  std::vector<std::string> skipped_, start_up_;
+  std::map<std::string, Series> gpu_ms_;
+  Series judge_ms_;
+  // Every frame's end to end, with what settles it again.
+  struct FrameTimes {
+    uint64_t capture_ns = 0, written_local_ns = 0;
+    double end_to_end_ms = 0;
+  };
+  DecimatedSeries<FrameTimes> end_to_end_;
+  std::vector<FrameRecord> frames_;   // the last ones (frames())
+  std::vector<FrameRecord> slowest_;  // slowest first
+  size_t frames_rendered_ = 0;
+  uint64_t first_written_ns_ = 0, last_written_ns_ = 0;
+  // Over every frame: bytes per link, frames short of a camera, triangles.
+  double pod_bytes_ = 0, client_bytes_ = 0, feather_bytes_ = 0, mesh_bytes_ = 0;
+  uint64_t frames_with_missing_cameras_ = 0;
+  Series triangles_;
+  double most_triangles_ = 0;
+  // Judged frames: PSNR and SSIM.
+  struct Judged {
+    Series values;
+    double sum = 0, worst = 0;
+    void add(double v) {
+      worst = values.empty() ? v : std::min(worst, v);
+      values.add(v);
+      sum += v;
+    }
+  };
+  Judged psnr_, ssim_;
+  struct Reasons {
+    std::vector<std::string> named;
+    uint64_t count = 0;
+    void add(const std::string& why) {
+      if (named.size() < kReasonsListed) named.push_back(why);
+      ++count;
+    }
+    std::vector<std::string> listed() const;
+  };
+  Reasons skipped_, start_up_;
   bool start_up_ended_ = false;
   uint64_t superseded_ = 0;
   uint64_t pictures_dropped_ = 0;
