@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -76,6 +77,30 @@ TEST(LoopPlan, ASoaksClientsRenderUntilStopped) {
   };
   EXPECT_EQ(framesOf(clientCommand(planOf({"--frames", "12"}), "127.0.0.1:1", 0)), "12");
   EXPECT_EQ(framesOf(clientCommand(planOf({"--soak-minutes", "3"}), "127.0.0.1:1", 0)), "0");
+}
+
+// Soak settings that cannot run together are refused before anything
+// starts, with exit code 2 and a line that names them.
+TEST(LoopPlan, SoakSettingsThatCannotRunAreRefusedByName) {
+  const auto refusal = [](std::vector<std::string> flags) {
+    flags.insert(flags.begin(), "holofuse_loop");
+    std::vector<char*> argv;
+    for (std::string& flag : flags) argv.push_back(flag.data());
+    LoopPlan plan;
+    testing::internal::CaptureStderr();
+    const auto exit_code = parseLoopFlags(static_cast<int>(argv.size()), argv.data(), plan);
+    const std::string said = testing::internal::GetCapturedStderr();
+    EXPECT_EQ(exit_code, std::optional<int>(2)) << said;
+    return said;
+  };
+  EXPECT_NE(refusal({"--churn"}).find("--churn needs --soak-minutes"), std::string::npos);
+  // Churn sessions start on loopback, outside a rig's client namespace.
+  EXPECT_NE(refusal({"--soak-minutes", "5", "--churn", "--netns"}).find("not in a rig (--netns)"),
+            std::string::npos);
+  EXPECT_NE(refusal({"--soak-minutes", "2", "--warmup-minutes", "2"})
+                .find("--warmup-minutes 2 leaves nothing of a 2-minute soak"),
+            std::string::npos);
+  planOf({"--soak-minutes", "5", "--churn"});  // and together, where they can, they run
 }
 
 TEST(LoopPlan, EachPodAndTheJudgeReadBackTheSceneTheLauncherWasGiven) {
