@@ -261,6 +261,11 @@ void addRunOptions(CLI::App& app, LoopPlan& plan) {
   app.add_option("--churn-seconds", plan.churn_seconds,
                  "with --churn: between one session's start and the next's")
       ->check(CLI::Range(0.5, 3600.0));
+  app.add_flag("--profile", plan.profile,
+               "with --soak-minutes: trace the server's heap with heaptrack and name the "
+               "allocation sites whose held memory grew from the warm-up's end to the last "
+               "sample (OUT/profile/server-growth.txt and the soak report); the server runs "
+               "slower, and its memory includes heaptrack's own");
   app.add_option("--sample-seconds", plan.sample_seconds, "with --soak-minutes: between samples")
       ->check(CLI::Range(1.0, 3600.0));
   app.add_option("--warmup-minutes", plan.warmup_minutes,
@@ -341,6 +346,10 @@ int checkPlan(CLI::App& app, LoopPlan& plan) {
   }
   if (plan.churn && plan.soak_minutes <= 0) {
     std::fprintf(stderr, "--churn needs --soak-minutes\n");
+    return 2;
+  }
+  if (plan.profile && plan.soak_minutes <= 0) {
+    std::fprintf(stderr, "--profile needs --soak-minutes\n");
     return 2;
   }
   if (plan.churn && plan.netns) {

@@ -18,6 +18,7 @@
 
 #include "base/eta.h"
 #include "base/process.h"
+#include "deploy/heap_profile.h"
 #include "deploy/netns_rig.h"
 #include "deploy/soak.h"
 #include "protocol/auth.h"
@@ -380,7 +381,8 @@ class Churn {
 // A soak: the loop runs for plan.soak_minutes while every process is
 // sampled each plan.sample_seconds, then stops and is judged
 // (deploy/soak.h). Ctrl-C ends it early with the samples so far.
-int superviseSoak(const LoopPlan& plan, LoopProcesses& processes, const std::string& endpoint) {
+int superviseSoak(const LoopPlan& plan, LoopProcesses& processes, const std::string& endpoint,
+                  const holofuse::deploy::HeapProfile* profile) {
   holofuse::deploy::SoakReport report;
   std::vector<pid_t> pids = {processes.server};
   report.processes = {"server"};
@@ -414,6 +416,7 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes, const std::str
     std::filesystem::create_directories(std::filesystem::path(plan.out) / "churn", error);
   }
   Watch watch;
+  bool profile_marked = false;
   const auto start = std::chrono::steady_clock::now();
   auto minutes = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60.0;
@@ -437,6 +440,16 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes, const std::str
       sample.usage.push_back(ended ? std::nullopt : holofuse::processUsage(pid));
     }
     report.samples.push_back(sample);
+    // The heap trace as it stands when judging begins: what grows after it
+    // is what the profile names.
+    if (profile != nullptr && !profile_marked && sample.minute >= plan.warmup_minutes) {
+      if (const holofuse::Status marked = profile->mark("warm"); marked.isOk()) {
+        profile_marked = true;
+      } else {
+        report.heap_profile_problem = marked.message();
+        profile = nullptr;
+      }
+    }
     if (sample.minute >= next_report) {
       next_report += kReportEveryMinutes;
       report.verdict = holofuse::deploy::judgeSoak(report.processes, report.samples,
@@ -495,8 +508,34 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes, const std::str
       report.verdict.passed = report.verdict.flat = false;
     }
   }
+  const bool profiled = profile != nullptr && profile_marked && [&] {
+    const holofuse::Status marked = profile->mark("end");
+    if (!marked.isOk()) report.heap_profile_problem = marked.message();
+    return marked.isOk();
+  }();
   std::printf("[soak] stopping every process\n");
   processes.stopAll();
+  if (profiled) {
+    std::printf("[soak] reading the server's heap trace (heaptrack_interpret, heaptrack_print)\n");
+    std::fflush(stdout);
+    auto growth = profile->growth("warm", "end");
+    if (growth.isOk()) {
+      report.heap_growth = std::move(growth.value());
+      std::printf("[soak] the server's heap grew by %.1f KB after the warm-up; most by:\n",
+                  report.heap_growth->total_bytes / 1e3);
+      for (size_t i = 0; i < std::min<size_t>(3, report.heap_growth->sites.size()); ++i) {
+        const auto& site = report.heap_growth->sites[i];
+        std::printf("[soak]   %.1f KB from %s (%s)\n", site.bytes / 1e3, site.function.c_str(),
+                    site.location.c_str());
+      }
+    } else {
+      report.heap_profile_problem = growth.status().message();
+    }
+  } else if (profile != nullptr && report.heap_profile_problem.empty()) {
+    report.heap_profile_problem = "the soak ended before its warm-up did";
+  }
+  if (!report.heap_profile_problem.empty())
+    std::fprintf(stderr, "[soak] no heap profile: %s\n", report.heap_profile_problem.c_str());
   if (churn) {
     churn->readServerLog(std::filesystem::path(plan.out) / "logs" / "server.log");
     report.churn = churn->counts;
@@ -584,7 +623,18 @@ int runLoop(LoopPlan& plan) {
   // Which copy runs, where a build and an install both exist.
   std::fprintf(stderr, "[loop] programs from %s\n", plan.bin_dir.c_str());
   LoopProcesses processes;
-  const auto server_command = serverCommand(plan, port_file);
+  auto server_command = serverCommand(plan, port_file);
+  std::optional<holofuse::deploy::HeapProfile> profile;
+  if (plan.profile) {
+    auto found =
+        holofuse::deploy::HeapProfile::find((std::filesystem::path(plan.out) / "profile").string());
+    if (!found.isOk()) {
+      std::fprintf(stderr, "[loop] %s\n", found.status().message().c_str());
+      return 2;
+    }
+    profile = std::move(found.value());
+    server_command = profile->wrap(server_command);
+  }
   processes.server =
       spawn(rig ? rig->inServer(server_command) : server_command, (logs / "server.log").string());
   if (processes.server < 0) return 1;
@@ -628,7 +678,8 @@ int runLoop(LoopPlan& plan) {
     processes.clients.push_back(client);
   }
   if (plan.soak_minutes > 0)
-    return superviseSoak(plan, processes, rig ? rig->clientEndpoint(0) : endpoint);
+    return superviseSoak(plan, processes, rig ? rig->clientEndpoint(0) : endpoint,
+                         profile ? &*profile : nullptr);
   const int code = superviseLoop(plan, processes);
   if (rig) {
     printLinks(plan);

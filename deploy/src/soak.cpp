@@ -319,6 +319,33 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
                      {"threads_end", c.threads_end}};
   }
 
+  // Where the server's heap grew, by allocation site (heaptrack).
+  html::Table growth_sites;
+  std::string growth_text;
+  if (report.heap_growth) {
+    const HeapGrowth& g = *report.heap_growth;
+    nlohmann::json sites = nlohmann::json::array();
+    growth_sites.header = {"grew by KB", "allocations", "asked for by", "at"};
+    growth_sites.align = "rrll";
+    for (const HeapGrowthSite& site : g.sites) {
+      sites.push_back({{"bytes", site.bytes},
+                       {"calls", site.calls},
+                       {"function", site.function},
+                       {"location", site.location}});
+      growth_sites.rows.push_back(
+          {number(site.bytes / 1e3, 1), std::to_string(site.calls), site.function, site.location});
+    }
+    json["heap_growth"] = {
+        {"total_bytes", g.total_bytes}, {"sites", sites}, {"account", g.account}};
+    growth_text = "The server's heap held " + number(g.total_bytes / 1e3, 1) +
+                  " KB more at the last sample than at the warm-up's end (heaptrack; its full "
+                  "account: " +
+                  g.account + "). The sites that grew most:";
+  } else if (!report.heap_profile_problem.empty()) {
+    json["heap_growth"] = {{"problem", report.heap_profile_problem}};
+    growth_text = "No heap profile: " + report.heap_profile_problem;
+  }
+
   // One table of the samples (MB, descriptors, threads per process; at
   // most kTableRows of them, evenly spread, soak.json holds all) and one
   // of the trends after the warm-up.
@@ -372,6 +399,11 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
         " and its threads from " + std::to_string(c.threads_start) + " to " +
         std::to_string(c.threads_end) + " once the last session left.";
   }
+  const std::string growth_md =
+      growth_text.empty()
+          ? ""
+          : "## Where the server's heap grew\n\n" + growth_text + "\n\n" +
+                (growth_sites.rows.empty() ? "" : html::markdownTable(growth_sites) + "\n");
   std::string problems;
   for (const std::string& p : report.verdict.problems) problems += "- " + p + "\n";
   for (const std::string& u : report.verdict.undecided) problems += "- " + u + "\n";
@@ -387,7 +419,8 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
         "with Sen's 95% interval. Flat: the interval lies under the limit (memory: "
      << number(100 * kMemoryLimitShare, 1)
      << "% of its level an hour; descriptors and threads: " << number(kCountLimitPerHour, 1)
-     << " an hour); leaking: above it; undecided: across it.\n\n## Samples\n\n"
+     << " an hour); leaking: above it; undecided: across it.\n\n"
+     << growth_md << "## Samples\n\n"
      << (stride > 1 ? "Every " + std::to_string(stride) + "th sample; soak.json has all.\n\n"
                     : std::string())
      << html::markdownTable(samples);
@@ -452,6 +485,10 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
             return items;
           }() +
           "</ul>" + charts + "<h2>After the warm-up</h2>" + html::table(trends) +
+          (growth_text.empty()
+               ? ""
+               : "<h2>Where the server's heap grew</h2><p>" + html::escape(growth_text) + "</p>" +
+                     (growth_sites.rows.empty() ? "" : html::table(growth_sites))) +
           "<h2>Samples</h2>" + html::table(samples));
   std::ofstream(fs::path(folder) / "soak.json") << json.dump(1) << "\n";
   if (!md || !page) {

@@ -2,6 +2,7 @@
 // too short), and a short soak of the real loop: every process sampled,
 // the report written for people and programs.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -9,6 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "base/process.h"
+#include "deploy/heap_profile.h"
 #include "deploy/soak.h"
 #include "integration/process_harness.h"
 
@@ -343,6 +346,104 @@ TEST(Soak, TheLoopSoaksWithChurnAndEveryProcessSampled) {
   }
   EXPECT_NE(test::readFile(out / "soak.md").find("Churn: "), std::string::npos);
   fs::remove_all(out);
+}
+
+// heaptrack_print's account of what grew between two moments (--diff,
+// --print-leaks), as heaptrack 1.4 writes it: each site's growth, its
+// allocations, and the code that asked (not the standard library's frames
+// the allocation passed through).
+TEST(HeapProfile, TheAccountNamesTheSitesThatGrewAndTheCodeThatAsked) {
+  const std::string printed = R"(reading file "end.gz" - please wait, this might take some time...
+finished reading file, now analyzing data:
+
+MEMORY LEAKS
+1.02K leaked over 1 calls from
+std::__new_allocator<>::allocate(unsigned long, void const*)
+  at /usr/include/c++/12/bits/new_allocator.h:137
+  in /srv/fusion_server
+std::_Vector_base<>::_M_allocate(unsigned long)
+  at /usr/include/c++/12/bits/stl_vector.h:378
+1.02K leaked over 1 calls from:
+    std::vector<>::push_back(void* const&)
+      at /usr/include/c++/12/bits/stl_vector.h:1287
+      in /srv/fusion_server
+    holofuse::Sessions::add(int)
+      at /src/sessions.cpp:42
+    main
+      at /src/main.cpp:8
+
+483.33K leaked over 118 calls from
+holofuse::Sessions::keep(int)
+  at /src/sessions.cpp:6
+  in /srv/fusion_server
+483.33K leaked over 118 calls from:
+    main
+      at /src/main.cpp:8
+      in /srv/fusion_server
+
+-2.50K leaked over -3 calls from
+holofuse::Frame::free()
+  at /src/frame.cpp:3
+  in /srv/fusion_server
+
+
+total runtime: 1.22s.
+calls to allocation functions: 119 (97/s)
+peak heap memory consumption: 484.35K
+total memory leaked: 482.85Kheaptrack stats:
+)";
+  const HeapGrowth growth = parseHeaptrackGrowth(printed);
+  EXPECT_DOUBLE_EQ(growth.total_bytes, 482850);
+  ASSERT_EQ(growth.sites.size(), 2u) << "what shrank is not growth";
+  EXPECT_DOUBLE_EQ(growth.sites[0].bytes, 483330);
+  EXPECT_EQ(growth.sites[0].calls, 118u);
+  EXPECT_EQ(growth.sites[0].function, "holofuse::Sessions::keep(int)");
+  EXPECT_EQ(growth.sites[0].location, "/src/sessions.cpp:6");
+  EXPECT_EQ(growth.sites[1].function, "holofuse::Sessions::add(int)") << "past the std frames";
+  EXPECT_EQ(growth.sites[1].location, "/src/sessions.cpp:42");
+  EXPECT_DOUBLE_EQ(heaptrackBytes("12.5M"), 12.5e6);
+  EXPECT_DOUBLE_EQ(heaptrackBytes("512B"), 512);
+  EXPECT_EQ(parseHeaptrackGrowth("no leaks section\n").sites.size(), 0u);
+}
+
+// A real trace: a program's heap grows by 1 MiB in one function between
+// two marks, and heaptrack, read by HeapProfile, names that function and
+// that much. Each mark waits for the program to say its work is done.
+TEST(HeapProfile, AProgramsGrowthBetweenTwoMarksIsNamedByItsFunction) {
+  const fs::path folder = test::freshDir("heap_profile");
+  auto profile = HeapProfile::find(folder.string());
+  if (!profile.isOk()) GTEST_SKIP() << profile.status().message();
+  ChildPipes pipes;
+  SpawnOptions options;
+  options.log_path = folder.string() + "/grower.log";
+  auto grower = spawnProcess(profile.value().wrap({std::string(HOLOFUSE_BIN_DIR) + "/heap_grower"}),
+                             options, &pipes);
+  ASSERT_TRUE(grower.isOk()) << grower.status().message();
+  const auto ask = [&](const std::string& line) {
+    const std::string asked = line + "\n";
+    ASSERT_EQ(::write(pipes.to_child, asked.data(), asked.size()),
+              static_cast<ssize_t>(asked.size()));
+    std::string answer;
+    char c = 0;
+    while (::read(pipes.from_child, &c, 1) == 1 && c != '\n') answer += c;
+    ASSERT_EQ(answer, "done") << test::readFile(options.log_path);
+  };
+  ask("settle");
+  ASSERT_TRUE(profile.value().mark("warm").isOk());
+  ask("grow");
+  ASSERT_TRUE(profile.value().mark("end").isOk());
+  ::close(pipes.to_child);
+  ::close(pipes.from_child);
+  EXPECT_EQ(waitProcess(*grower, 30000), std::optional<int>(0));
+  const auto growth = profile.value().growth("warm", "end");
+  ASSERT_TRUE(growth.isOk()) << growth.status().message();
+  ASSERT_FALSE(growth.value().sites.empty()) << test::readFile(growth.value().account);
+  const HeapGrowthSite& top = growth.value().sites.front();
+  EXPECT_NE(top.function.find("keepSessionState"), std::string::npos) << top.function;
+  EXPECT_NEAR(top.bytes, 256.0 * 4096, 256.0 * 4096 * 0.01);
+  EXPECT_EQ(top.calls, 256u);
+  EXPECT_NEAR(growth.value().total_bytes, 256.0 * 4096, 256.0 * 4096 * 0.05);
+  EXPECT_NE(top.location.find("heap_grower.cpp"), std::string::npos) << top.location;
 }
 
 }  // namespace

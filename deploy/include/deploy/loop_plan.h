@@ -27,6 +27,9 @@ struct LoopPlan {
   // and every fifth one a pod restarts (cleanly and with SIGKILL in turn).
   bool churn = false;
   double churn_seconds = 4;
+  // A soak's server traced by heaptrack (deploy/heap_profile.h): the
+  // allocation sites that grew after the warm-up, named in the report.
+  bool profile = false;
   // The pods and their rate (the pods' own table, forwarded), at 15 fps:
   // what a 2-core machine's client sustains in mode normal (measured by
   // `./holofuse bench loop`); a slower mode renders the newest mesh it can.

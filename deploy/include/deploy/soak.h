@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "base/process.h"
+#include "deploy/heap_profile.h"
 
 namespace holofuse::deploy {
 
@@ -108,6 +109,10 @@ struct SoakReport {
   SoakVerdict verdict;
   std::optional<ChurnCounts> churn;
   std::vector<std::string> restarted;  // judgeSoak's
+  // With --profile: the server's allocation sites whose held memory grew
+  // from the warm-up's end to the last sample (heaptrack), or why none.
+  std::optional<HeapGrowth> heap_growth;
+  std::string heap_profile_problem;
 };
 
 // soak.json, soak.md and soak.html into folder; false after saying why
