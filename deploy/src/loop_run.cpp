@@ -239,9 +239,16 @@ void printLinks(const LoopPlan& plan) {
 // and started again at once: the sampled pid follows it.
 class Churn {
  public:
+  // In a rig, sessions start in client 0's namespace through its link,
+  // pods restart in their own, and every tenth session pod 0's link is
+  // cut for kLinkCutSeconds.
   Churn(const LoopPlan& plan, std::string endpoint, LoopProcesses& processes,
-        std::vector<pid_t>& sampled)
-      : plan_(plan), endpoint_(std::move(endpoint)), processes_(processes), sampled_(sampled) {}
+        std::vector<pid_t>& sampled, const holofuse::deploy::NetnsRig* rig)
+      : plan_(plan),
+        endpoint_(std::move(endpoint)),
+        processes_(processes),
+        sampled_(sampled),
+        rig_(rig) {}
 
   void step(double seconds) {
     for (auto session = live_.begin(); session != live_.end();) {
@@ -257,6 +264,7 @@ class Churn {
       ended(*session, *code);
       session = live_.erase(session);
     }
+    if (cut_until_ && seconds >= *cut_until_) restoreLink();
     // The churn begins after the warm-up, when every pod and steady client
     // has joined: the server's descriptors and threads then are the ones
     // it must come back to.
@@ -270,11 +278,13 @@ class Churn {
     }
     begin(seconds);
     if (counts.sessions % 5 == 0 && !processes_.pods.empty()) restartPod();
+    if (rig_ != nullptr && counts.sessions % 10 == 3 && !cut_until_) cutLink(seconds);
   }
 
   // The sessions still live end (a bye one after its frames, a killed one
   // now), and the server's log is read for what it saw.
   void finish() {
+    if (cut_until_) restoreLink();
     for (Session& session : live_) {
       if (!session.bye) ::kill(session.pid, SIGKILL);
       ended(session, holofuse::waitProcess(session.pid, session.bye ? 60000 : -1).value_or(-1));
@@ -287,6 +297,15 @@ class Churn {
   void readServerLog(const std::filesystem::path& log) {
     std::ifstream in(log);
     for (std::string line; std::getline(in, line);) {
+      if (line.rfind("[server] pod ", 0) == 0 || line.rfind("[server] closing pod ", 0) == 0) {
+        if (line.find(") joined") != std::string::npos) {
+          ++counts.server_pod_joins;
+        } else if (line.find(") left (") != std::string::npos ||
+                   line.rfind("[server] closing pod ", 0) == 0) {
+          ++counts.server_pod_leaves;
+        }
+        continue;
+      }
       // A client that vanished (killed) is closed on the error its
       // connection gave, not seen to leave: both end its session.
       if (line.rfind("[server] closing client ", 0) == 0) {
@@ -326,7 +345,8 @@ class Churn {
       if (command[i] == "--out") command[i + 1] = out.string();
       if (command[i] == "--frames") command[i + 1] = bye ? "8" : "0";
     }
-    const pid_t pid = spawn(command, out.string() + ".log", /*quiet=*/true);
+    const pid_t pid =
+        spawn(rig_ ? rig_->inClient(0, command) : command, out.string() + ".log", /*quiet=*/true);
     ++counts.sessions;
     if (pid < 0) {
       ++counts.sessions_failed;
@@ -361,8 +381,10 @@ class Churn {
     } else {
       stop(processes_.pods[pod], "capture_node");
     }
+    const int id = static_cast<int>(pod);
+    const auto command = podCommand(plan_, id, rig_ ? rig_->podEndpoint(id) : endpoint_);
     const pid_t again =
-        spawn(podCommand(plan_, static_cast<int>(pod), endpoint_),
+        spawn(rig_ ? rig_->inPod(id, command) : command,
               (std::filesystem::path(plan_.out) / "logs" / ("pod" + std::to_string(pod) + ".log"))
                   .string());
     processes_.pods[pod] = again;
@@ -370,19 +392,44 @@ class Churn {
     ++counts.pod_restarts;
   }
 
+  // Pod 0's link down; restored kLinkCutSeconds later (or when the churn
+  // finishes). Pod 0, not the restarting last pod: a link cut and a
+  // restart are separate faults.
+  static constexpr double kLinkCutSeconds = 5;
+  void cutLink(double seconds) {
+    if (const holofuse::Status cut = rig_->setPodLinkUp(0, false); !cut.isOk()) {
+      ++counts.link_cut_failures;
+      std::fprintf(stderr, "[soak] cannot cut pod 0's link: %s\n", cut.message().c_str());
+      return;
+    }
+    ++counts.link_cuts;
+    cut_until_ = seconds + kLinkCutSeconds;
+  }
+  void restoreLink() {
+    cut_until_.reset();
+    if (const holofuse::Status restored = rig_->setPodLinkUp(0, true); !restored.isOk()) {
+      std::fprintf(stderr, "[soak] cannot restore pod 0's link: %s\n", restored.message().c_str());
+      return;
+    }
+    ++counts.link_restores;
+  }
+
   const LoopPlan& plan_;
   const std::string endpoint_;
   LoopProcesses& processes_;
   std::vector<pid_t>& sampled_;
+  const holofuse::deploy::NetnsRig* rig_;
   std::vector<Session> live_;
   double next_ = 0;
+  std::optional<double> cut_until_;
 };
 
 // A soak: the loop runs for plan.soak_minutes while every process is
 // sampled each plan.sample_seconds, then stops and is judged
 // (deploy/soak.h). Ctrl-C ends it early with the samples so far.
 int superviseSoak(const LoopPlan& plan, LoopProcesses& processes, const std::string& endpoint,
-                  const holofuse::deploy::HeapProfile* profile) {
+                  const holofuse::deploy::HeapProfile* profile,
+                  const holofuse::deploy::NetnsRig* rig) {
   holofuse::deploy::SoakReport report;
   std::vector<pid_t> pids = {processes.server};
   report.processes = {"server"};
@@ -405,12 +452,13 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes, const std::str
     char seconds[32];
     std::snprintf(seconds, sizeof(seconds), "%g", plan.churn_seconds);
     report.settings += "; churn: a client session every " + std::string(seconds) +
-                       " s, the last pod restarted every fifth";
+                       " s, the last pod restarted every fifth" +
+                       (rig ? ", pod 0's link cut for 5 s every tenth" : "");
   }
   report.warmup_minutes = plan.warmup_minutes;
   std::optional<Churn> churn;
   if (plan.churn) {
-    churn.emplace(plan, endpoint, processes, pids);
+    churn.emplace(plan, endpoint, processes, pids, rig);
     report.restarted = {"pod " + std::to_string(processes.pods.size() - 1)};
     std::error_code error;
     std::filesystem::create_directories(std::filesystem::path(plan.out) / "churn", error);
@@ -679,7 +727,7 @@ int runLoop(LoopPlan& plan) {
   }
   if (plan.soak_minutes > 0)
     return superviseSoak(plan, processes, rig ? rig->clientEndpoint(0) : endpoint,
-                         profile ? &*profile : nullptr);
+                         profile ? &*profile : nullptr, rig.get());
   const int code = superviseLoop(plan, processes);
   if (rig) {
     printLinks(plan);

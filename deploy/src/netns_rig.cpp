@@ -164,6 +164,12 @@ Status NetnsRig::buildNetwork() {
   return Status::ok();
 }
 
+Status NetnsRig::setPodLinkUp(int pod, bool up) const {
+  const std::string why = run({ipCommand(), "-n", pod_ns_.at(pod), "link", "set",
+                               prefix_ + "p" + std::to_string(pod) + "a", up ? "up" : "down"});
+  return why.empty() ? Status::ok() : Status(StatusCode::kIoError, why);
+}
+
 std::vector<std::string> NetnsRig::inNamespace(const std::string& ns,
                                                std::vector<std::string> args) const {
   args.insert(args.begin(), {ipCommand(), "netns", "exec", ns});

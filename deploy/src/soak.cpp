@@ -313,6 +313,11 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
                      {"server_client_joins", c.server_client_joins},
                      {"server_client_leaves", c.server_client_leaves},
                      {"server_refusals", c.server_refusals},
+                     {"link_cuts", c.link_cuts},
+                     {"link_restores", c.link_restores},
+                     {"link_cut_failures", c.link_cut_failures},
+                     {"server_pod_joins", c.server_pod_joins},
+                     {"server_pod_leaves", c.server_pod_leaves},
                      {"descriptors_start", c.descriptors_start},
                      {"descriptors_end", c.descriptors_end},
                      {"threads_start", c.threads_start},
@@ -387,17 +392,25 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
   std::string churn_text;
   if (report.churn) {
     const ChurnCounts& c = *report.churn;
-    churn_text =
-        "Churn: " + std::to_string(c.sessions) + " client sessions begun (" +
-        std::to_string(c.sessions_bye) + " left saying bye, " + std::to_string(c.sessions_killed) +
-        " killed mid-frame, " + std::to_string(c.sessions_failed) + " ended otherwise), " +
-        std::to_string(c.pod_restarts) + " pod restarts (" + std::to_string(c.pod_restarts_killed) +
-        " by SIGKILL). The server logged " + std::to_string(c.server_client_joins) +
-        " client joins, " + std::to_string(c.server_client_leaves) + " leaves and " +
-        std::to_string(c.server_refusals) + " refusals. Its descriptors went from " +
-        std::to_string(c.descriptors_start) + " to " + std::to_string(c.descriptors_end) +
-        " and its threads from " + std::to_string(c.threads_start) + " to " +
-        std::to_string(c.threads_end) + " once the last session left.";
+    churn_text = "Churn: " + std::to_string(c.sessions) + " client sessions begun (" +
+                 std::to_string(c.sessions_bye) + " left saying bye, " +
+                 std::to_string(c.sessions_killed) + " killed mid-frame, " +
+                 std::to_string(c.sessions_failed) + " ended otherwise), " +
+                 std::to_string(c.pod_restarts) + " pod restarts (" +
+                 std::to_string(c.pod_restarts_killed) + " by SIGKILL)" +
+                 (c.link_cuts + c.link_cut_failures > 0
+                      ? ", " + std::to_string(c.link_cuts) + " cuts of pod 0's link (" +
+                            std::to_string(c.link_restores) + " restored, " +
+                            std::to_string(c.link_cut_failures) + " failed)"
+                      : std::string()) +
+                 ". The server logged " + std::to_string(c.server_client_joins) +
+                 " client joins, " + std::to_string(c.server_client_leaves) + " leaves and " +
+                 std::to_string(c.server_refusals) + " refusals, and " +
+                 std::to_string(c.server_pod_joins) + " pod joins and " +
+                 std::to_string(c.server_pod_leaves) + " leaves. Its descriptors went from " +
+                 std::to_string(c.descriptors_start) + " to " + std::to_string(c.descriptors_end) +
+                 " and its threads from " + std::to_string(c.threads_start) + " to " +
+                 std::to_string(c.threads_end) + " once the last session left.";
   }
   const std::string growth_md =
       growth_text.empty()
@@ -452,6 +465,29 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
     }
     charts += html::lineChart(report.processes[p] + ": " + label, "minute", label, lines);
   };
+  // A churning soak's server against the sessions begun, with the fitted
+  // line per 100 sessions over the judged samples.
+  auto sessionsChartOf = [&](size_t p, const std::string& q, const std::string& label) {
+    const SoakTrend* t = trendOf(report.processes[p], q + " per 100 sessions");
+    if (t == nullptr) return;
+    html::Line samples{"samples", {}, false};
+    double first = -1, last = 0;
+    for (const SoakSample& sample : report.samples) {
+      const auto& usage = p < sample.usage.size() ? sample.usage[p] : std::nullopt;
+      if (!usage || (q == "heap_mb" && !usage->heap_kb)) continue;
+      const auto sessions = static_cast<double>(sample.sessions);
+      samples.points.emplace_back(sessions, quantity(*usage, q));
+      if (sample.minute >= report.warmup_minutes && first < 0) first = sessions;
+      last = sessions;
+    }
+    auto at = [&](double sessions) { return t->fit.intercept + t->fit.slope * sessions / 100.0; };
+    const html::Line fit{"fit: " + number(t->fit.slope, 3) + " per 100 sessions (" +
+                             trendVerdictName(t->verdict) + ")",
+                         {{std::max(first, 0.0), at(std::max(first, 0.0))}, {last, at(last)}},
+                         true};
+    charts += html::lineChart(report.processes[p] + ": " + label + " against sessions",
+                              "client sessions begun", label, {samples, fit});
+  };
   size_t steepest_pod = report.processes.size();
   double steepest = -std::numeric_limits<double>::infinity();
   for (size_t p = 0; p < report.processes.size(); ++p) {
@@ -467,6 +503,8 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
     chartOf(p, "rss_mb", "resident MB");
     if (report.processes[p].rfind("pod", 0) == 0) continue;
     if (trendOf(report.processes[p], "heap_mb") != nullptr) chartOf(p, "heap_mb", "heap MB");
+    sessionsChartOf(p, "heap_mb", "heap MB");
+    sessionsChartOf(p, "rss_mb", "resident MB");
     chartOf(p, "descriptors", "descriptors");
     chartOf(p, "threads", "threads");
   }

@@ -12,6 +12,7 @@
 
 #include "base/process.h"
 #include "deploy/heap_profile.h"
+#include "deploy/netns_rig.h"
 #include "deploy/soak.h"
 #include "integration/process_harness.h"
 
@@ -48,6 +49,18 @@ std::vector<SoakSample> serverSoak(double minutes, double mb_per_hour, uint32_t 
     samples.push_back(sampleAt(minute, {u}));
   }
   return samples;
+}
+
+// A short churning soak of the real loop (2 pods at 64x48 and 5 fps, a
+// session a second, sampled every 3 s after a 6-second warm-up), with
+// the flags given; its output and log in out.
+pid_t startChurningSoak(const fs::path& out, std::vector<std::string> flags) {
+  flags.insert(flags.begin(), std::string(HOLOFUSE_BIN_DIR) + "/holofuse_loop");
+  for (const char* flag : {"--pods", "2", "--size", "64x48", "--fps", "5", "--sample-seconds", "3",
+                           "--warmup-minutes", "0.1", "--churn", "--churn-seconds", "1", "--out"})
+    flags.push_back(flag);
+  flags.push_back(out.string());
+  return test::spawn(flags, out.string() + ".log");
 }
 
 const SoakTrend& trendOf(const SoakVerdict& verdict, const std::string& quantity) {
@@ -255,27 +268,7 @@ TEST(Soak, AProcessGoneOrASoakTooShortIsNotFlat) {
 // restart accounted for, by the soak and in the server's log.
 TEST(Soak, TheLoopSoaksWithChurnAndEveryProcessSampled) {
   const fs::path out = test::freshDir("soak");
-  const pid_t soak = test::spawn({std::string(HOLOFUSE_BIN_DIR) + "/holofuse_loop",
-                                  "--pods",
-                                  "2",
-                                  "--clients",
-                                  "2",
-                                  "--size",
-                                  "64x48",
-                                  "--fps",
-                                  "5",
-                                  "--soak-minutes",
-                                  "0.5",
-                                  "--sample-seconds",
-                                  "3",
-                                  "--warmup-minutes",
-                                  "0.1",
-                                  "--churn",
-                                  "--churn-seconds",
-                                  "1",
-                                  "--out",
-                                  out.string()},
-                                 out.string() + ".log");
+  const pid_t soak = startChurningSoak(out, {"--clients", "2", "--soak-minutes", "0.5"});
   const int code = test::waitExit(soak, 180);
   ASSERT_TRUE(code == 0 || code == 1) << test::readFile(out.string() + ".log");
   std::ifstream in(out / "soak.json");
@@ -337,6 +330,12 @@ TEST(Soak, TheLoopSoaksWithChurnAndEveryProcessSampled) {
   EXPECT_GE(count("server_client_joins"), 2 + count("sessions_bye"));
   EXPECT_LE(count("server_client_joins"), 2 + count("sessions"));
   EXPECT_EQ(count("server_client_leaves"), count("server_client_joins"));
+  // Both pods joined, and the restarted one each time (the last restart
+  // may come as the soak ends).
+  EXPECT_GE(count("server_pod_joins"), 1 + count("pod_restarts"));
+  EXPECT_LE(count("server_pod_joins"), 2 + count("pod_restarts"));
+  EXPECT_GE(count("server_pod_leaves"), count("pod_restarts") - 1);
+  EXPECT_EQ(count("link_cuts"), 0u) << "no rig, no links to cut";
   EXPECT_LE(churn["descriptors_end"].get<int>(), churn["descriptors_start"].get<int>());
   EXPECT_LE(churn["threads_end"].get<int>(), churn["threads_start"].get<int>());
   uint64_t last_sessions = 0;
@@ -345,6 +344,45 @@ TEST(Soak, TheLoopSoaksWithChurnAndEveryProcessSampled) {
     last_sessions = sample["sessions"].get<uint64_t>();
   }
   EXPECT_NE(test::readFile(out / "soak.md").find("Churn: "), std::string::npos);
+  fs::remove_all(out);
+}
+
+// In a rig the churn also cuts pod 0's link (its end of the veth pair
+// down for 5 s) and restores it; the sessions join through client 0's
+// link and the restarted pod through its own. Every process lives through
+// it, every cut is restored, and the rig's namespaces are gone afterwards.
+TEST(Soak, ARigChurnsCutsAPodsLinkAndRestoresIt) {
+  if (::geteuid() != 0) GTEST_SKIP() << "a rig needs root (network namespaces)";
+  if (ipCommand().empty()) GTEST_SKIP() << "no ip command (Debian package iproute2)";
+  const fs::path out = test::freshDir("soak_rig");
+  const pid_t soak =
+      startChurningSoak(out, {"--netns", "--clients", "1", "--soak-minutes", "0.75"});
+  const int code = test::waitExit(soak, 240);
+  const std::string log = test::readFile(out.string() + ".log");
+  if (log.find("cannot build the rig") != std::string::npos)
+    GTEST_SKIP() << "network namespaces are not permitted here: " << log;
+  ASSERT_TRUE(code == 0 || code == 1) << log;
+  std::ifstream in(out / "soak.json");
+  const auto report = nlohmann::json::parse(in);
+  EXPECT_EQ(code == 0, report["passed"].get<bool>()) << log;
+  for (const auto& sample : report["samples"])
+    for (const std::string p : {"server", "pod 0", "pod 1", "client 0"})
+      ASSERT_TRUE(sample["usage"][p].is_object()) << p << " gone at " << sample["minute"];
+  const auto& churn = report["churn"];
+  const auto count = [&](const char* key) { return churn[key].get<uint64_t>(); };
+  EXPECT_GE(count("link_cuts"), 1u) << churn.dump();
+  EXPECT_EQ(count("link_restores"), count("link_cuts"));
+  EXPECT_EQ(count("link_cut_failures"), 0u);
+  EXPECT_EQ(count("sessions_failed"), 0u) << "see " << (out / "churn");
+  EXPECT_GE(count("sessions_bye"), 1u);
+  EXPECT_GE(count("sessions_killed"), 1u);
+  EXPECT_GE(count("pod_restarts"), 1u);
+  EXPECT_GE(count("server_pod_joins"), 1 + count("pod_restarts"));
+  EXPECT_NE(test::readFile(out / "soak.md").find("cuts of pod 0's link"), std::string::npos);
+  // The launcher has ended: its rig (hf<its pid>-...) with it.
+  const FinishedProcess listed = runToEnd({ipCommand(), "netns", "list"}, 10000);
+  EXPECT_EQ(listed.output.find("hf" + std::to_string(soak) + "-"), std::string::npos)
+      << listed.output;
   fs::remove_all(out);
 }
 

@@ -69,6 +69,10 @@ class NetnsRig {
   // not start.
   Status startRelays(const std::string& server_port);
   const std::string& podEndpoint(int pod) const { return pod_endpoints_.at(pod); }
+  // Cuts pod's link (its namespace's end of the veth pair down: nothing
+  // passes either way, and its connection stalls as over a pulled cable)
+  // or restores it; an error names the command that failed.
+  Status setPodLinkUp(int pod, bool up) const;
   const std::string& clientEndpoint(int client) const { return client_endpoints_.at(client); }
 
   // Every namespace of the rig, the switch last.

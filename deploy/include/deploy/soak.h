@@ -75,7 +75,10 @@ inline constexpr double kMemoryLimitPer100Sessions = 0.1, kCountLimitPer100Sessi
 struct ChurnCounts {
   uint64_t sessions = 0, sessions_bye = 0, sessions_killed = 0, sessions_failed = 0;
   uint64_t pod_restarts = 0, pod_restarts_killed = 0;
+  // In a rig: pod 0's link cut (and later restored); cuts that failed.
+  uint64_t link_cuts = 0, link_restores = 0, link_cut_failures = 0;
   uint64_t server_client_joins = 0, server_client_leaves = 0, server_refusals = 0;
+  uint64_t server_pod_joins = 0, server_pod_leaves = 0;
   // The server's descriptors and threads once the last session left,
   // against where they were when the first session began.
   int descriptors_start = 0, descriptors_end = 0, threads_start = 0, threads_end = 0;
