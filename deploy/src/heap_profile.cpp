@@ -14,11 +14,16 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// A frame of the standard library or the allocator: not the code that asked.
+// A frame of the standard library or the allocator: not the code that
+// asked. Its name is read up to its parameters, past a return type
+// ("Outgoing& std::deque<>::emplace_back<>(...)" is the deque's).
 bool allocatorFrame(const std::string& function) {
-  for (const char* prefix : {"std::", "void std::", "__gnu_cxx::", "operator new", "malloc",
-                             "calloc", "realloc", "posix_memalign", "aligned_alloc", "<unresolved"})
-    if (function.rfind(prefix, 0) == 0) return true;
+  std::string name = function.substr(0, function.find('('));
+  if (const size_t space = name.rfind(' '); space != std::string::npos)
+    name = name.substr(space + 1);
+  for (const char* prefix : {"std::", "__gnu_cxx::", "operator new", "malloc", "calloc", "realloc",
+                             "posix_memalign", "aligned_alloc", "<unresolved"})
+    if (name.rfind(prefix, 0) == 0) return true;
   return false;
 }
 

@@ -330,7 +330,7 @@ bool writeSoakReport(const SoakReport& report, const std::string& folder) {
   if (report.heap_growth) {
     const HeapGrowth& g = *report.heap_growth;
     nlohmann::json sites = nlohmann::json::array();
-    growth_sites.header = {"grew by KB", "allocations", "asked for by", "at"};
+    growth_sites.header = {"grew by KB", "allocations made", "asked for by", "at"};
     growth_sites.align = "rrll";
     for (const HeapGrowthSite& site : g.sites) {
       sites.push_back({{"bytes", site.bytes},

@@ -18,7 +18,7 @@ namespace holofuse::deploy {
 
 struct HeapGrowthSite {
   double bytes = 0;    // held at the later moment minus at the earlier
-  uint64_t calls = 0;  // allocations from the site still held, the same way
+  uint64_t calls = 0;  // allocations the site made between the two moments
   // The first frame of its backtrace outside the standard library and the
   // allocator (the code that asked), and where it is.
   std::string function, location;
