@@ -17,9 +17,7 @@ double percentile(std::vector<double> values, double p) {
 
 double interarrivalJitter(std::vector<std::pair<double, double>> sent_and_received) {
   // In order of arrival, as RFC 3550 (and the server) takes them.
-  std::sort(sent_and_received.begin(), sent_and_received.end(), [](const auto& a, const auto& b) {
-    return a.second != b.second ? a.second < b.second : a.first < b.first;
-  });
+  std::sort(sent_and_received.begin(), sent_and_received.end(), arrivedBefore);
   ArrivalJitter jitter;
   for (const auto& [sent, received] : sent_and_received) jitter.add(sent, received);
   return jitter.ms();

@@ -7,15 +7,6 @@
 
 namespace holofuse::report {
 
-namespace {
-
-// In order of arrival, as RFC 3550 (and the server) takes them.
-bool arrivedBefore(const std::pair<double, double>& a, const std::pair<double, double>& b) {
-  return a.second != b.second ? a.second < b.second : a.first < b.first;
-}
-
-}  // namespace
-
 double msSinceCapture(const FrameRecord& frame, uint64_t ns) {
   return static_cast<double>(static_cast<int64_t>(ns - frame.capture_time_ns)) / 1e6;
 }

@@ -7,8 +7,15 @@
 
 #include <cmath>
 #include <cstdint>
+#include <utility>
 
 namespace holofuse {
+
+// Packets as (sent, received) in the order RFC 3550 takes them: by
+// arrival, then by send time.
+inline bool arrivedBefore(const std::pair<double, double>& a, const std::pair<double, double>& b) {
+  return a.second != b.second ? a.second < b.second : a.first < b.first;
+}
 
 class ArrivalJitter {
  public:
