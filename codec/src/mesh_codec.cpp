@@ -127,7 +127,7 @@ StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions&
   const std::vector<uint32_t>* corners = atlas ? &mesh.indices : nullptr;
   addVertexAttribute(dm, draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32,
                      sizeof(glm::vec3), n, mesh.positions.data(), corners);
-  if (mesh.normals.size() == n) {
+  if (options.normals && mesh.normals.size() == n) {
     addVertexAttribute(dm, draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32,
                        sizeof(glm::vec3), n, mesh.normals.data(), corners);
   }
@@ -310,7 +310,8 @@ std::optional<protocol::MeshCodec> meshCodecFromName(const std::string& name) {
 
 StatusOr<std::vector<uint8_t>> encodeMesh(protocol::MeshCodec codec, const Mesh& mesh,
                                           const DracoOptions& draco) {
-  return codec == protocol::MeshCodec::kFp16Lz4 ? encodeFp16Lz4(mesh) : encodeDraco(mesh, draco);
+  return codec == protocol::MeshCodec::kFp16Lz4 ? encodeFp16Lz4(mesh, draco.normals)
+                                                : encodeDraco(mesh, draco);
 }
 
 StatusOr<DracoCounts> readMeshCounts(protocol::MeshCodec codec, const uint8_t* data, size_t size) {

@@ -102,10 +102,10 @@ Mesh inCacheOrder(const Mesh& mesh) {
 
 }  // namespace
 
-StatusOr<std::vector<uint8_t>> encodeFp16Lz4(const Mesh& unordered) {
+StatusOr<std::vector<uint8_t>> encodeFp16Lz4(const Mesh& unordered, bool with_normals) {
   const Mesh mesh = inCacheOrder(unordered);
   const size_t n = mesh.vertexCount(), faces = mesh.triangleCount();
-  const bool normals = mesh.normals.size() == n && n > 0;
+  const bool normals = with_normals && mesh.normals.size() == n && n > 0;
   const bool keys = mesh.vertex_keys.size() == n && n > 0;
   const bool uvs = !mesh.corner_uvs.empty();
   if (uvs && mesh.corner_uvs.size() != faces * 3)

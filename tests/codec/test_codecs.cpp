@@ -87,6 +87,46 @@ TEST(MeshCodec, DracoRoundTripIsWithinQuantisation) {
   EXPECT_FALSE(decodeDraco(bytes->data(), bytes->size() / 3).isOk());
 }
 
+// The server's meshes go without normals: the receiver computes them from
+// the decoded positions, as the hull computed its own, so they agree with
+// the hull's to within the positions' quantisation, for fewer bytes.
+TEST(MeshCodec, NormalsAreLeftToTheReceiverUnlessAsked) {
+  const auto grid = sampleGrid({-0.5, -0.5, -0.5}, 0.05, 21, 21, 21,
+                               [](const glm::dvec3& p) { return 0.4 - glm::length(p); });
+  const Mesh mesh = marchingCubes(grid);
+  ASSERT_EQ(mesh.normals.size(), mesh.vertexCount());
+  DracoOptions with_normals;
+  with_normals.normals = true;
+  auto bare = encodeDraco(mesh);
+  auto full = encodeDraco(mesh, with_normals);
+  ASSERT_TRUE(bare.isOk() && full.isOk());
+  EXPECT_LT(bare->size() * 5, full->size() * 4) << "normals were a fifth of the bytes or more";
+  for (const auto& bytes : {*bare, *full}) {
+    auto back = decodeDraco(bytes.data(), bytes.size());
+    ASSERT_TRUE(back.isOk()) << back.status().toString();
+    ASSERT_EQ(back->normals.size(), back->vertexCount());
+    // Each decoded vertex against the hull's vertex nearest it.
+    for (size_t v = 0; v < back->vertexCount(); ++v) {
+      size_t nearest = 0;
+      for (size_t u = 1; u < mesh.vertexCount(); ++u)
+        if (glm::length(mesh.positions[u] - back->positions[v]) <
+            glm::length(mesh.positions[nearest] - back->positions[v]))
+          nearest = u;
+      EXPECT_GT(glm::dot(back->normals[v], mesh.normals[nearest]), 0.99f) << v;
+    }
+  }
+  auto fp16_bare = encodeFp16Lz4(mesh, false);
+  auto fp16_full = encodeFp16Lz4(mesh);
+  ASSERT_TRUE(fp16_bare.isOk() && fp16_full.isOk());
+  EXPECT_LT(fp16_bare->size(), fp16_full->size());
+  auto back = decodeFp16Lz4(fp16_bare->data(), fp16_bare->size());
+  ASSERT_TRUE(back.isOk());
+  std::map<uint64_t, size_t> by_key;
+  for (size_t v = 0; v < mesh.vertexCount(); ++v) by_key[mesh.vertex_keys[v]] = v;
+  for (size_t v = 0; v < back->vertexCount(); ++v)
+    EXPECT_GT(glm::dot(back->normals[v], mesh.normals[by_key.at(back->vertex_keys[v])]), 0.999f);
+}
+
 // The Holoportation coding (half floats through LZ4) on a keyed marching
 // cubes sphere: the same vertices (by key) and the same triangles, in the
 // vertex cache's order; positions within a half's step of their offset
