@@ -2,6 +2,7 @@
 
 #include <lz4.h>
 #include <lz4hc.h>
+#include <zstd.h>
 
 #include <algorithm>
 #include <stdexcept>
@@ -86,6 +87,15 @@ protocol::Plane encodePlane(const Image8& image, protocol::PlaneKind kind, Codec
       lz4Into(filtered.data(), filtered.size(), storage, acceleration, hc_level);
       break;
     }
+    case Codec::kZstd: {
+      storage.resize(ZSTD_compressBound(image.pixels.size()));
+      const size_t n = ZSTD_compress(storage.data(), storage.size(), image.pixels.data(),
+                                     image.pixels.size(), kPlaneZstdLevel);
+      // Only a bound too small fails, and the bound is Zstandard's own.
+      if (ZSTD_isError(n)) throw std::logic_error(ZSTD_getErrorName(n));
+      storage.resize(n);
+      break;
+    }
     case Codec::kH264:
     case Codec::kHevc:
     case Codec::kAv1:
@@ -142,6 +152,29 @@ StatusOr<Image8> decodePlane(const protocol::Plane& plane) {
       if (plane.codec == Codec::kLz4PlanarDelta) undoPlanarDelta(scratch, image);
       return image;
     }
+    case Codec::kZstd: {
+      // The frame states its size: checked before anything is written.
+      const unsigned long long stated =
+          ZSTD_getFrameContentSize(plane.data.data(), plane.data.size());
+      if (stated != expected) {
+        return Status(StatusCode::kMalformed,
+                      which + ": its Zstandard frame states " +
+                          (stated == ZSTD_CONTENTSIZE_UNKNOWN ? std::string("no size")
+                           : stated == ZSTD_CONTENTSIZE_ERROR ? std::string("nothing readable")
+                                                              : std::to_string(stated) + " bytes") +
+                          " instead of " + std::to_string(expected));
+      }
+      const size_t n =
+          ZSTD_decompress(image.pixels.data(), expected, plane.data.data(), plane.data.size());
+      if (ZSTD_isError(n) || n != expected) {
+        return Status(StatusCode::kMalformed,
+                      which + ": Zstandard data is corrupt (" +
+                          (ZSTD_isError(n) ? std::string(ZSTD_getErrorName(n))
+                                           : std::to_string(n) + " bytes") +
+                          ")");
+      }
+      return image;
+    }
     case Codec::kH264:
     case Codec::kHevc:
     case Codec::kAv1:
@@ -170,6 +203,8 @@ std::string imageCodecName(Codec codec) {
       return "hevc";
     case Codec::kAv1:
       return "av1";
+    case Codec::kZstd:
+      return "zstd";
   }
   return "unknown codec " + std::to_string(static_cast<int>(codec));
 }

@@ -243,16 +243,17 @@ void FramePipeline::submitGroup(FrameGroup group, const std::vector<Peer>& peers
   // Layers are built only while a client that asked for them is here,
   // coded as each such client decodes them; the mesh in Draco too while
   // a client before 1.7 is.
-  bool lz4 = false, video = false;
+  bool lz4 = false, video = false, lz4_camera_planes = false;
   GroupJob job;
   for (const Peer& p : peers) {
     if (!p.isClient()) continue;
     job.draco_for_older = job.draco_for_older || !p.caps.any_mesh_codec;
     if (!p.wants_layers) continue;
     (p.wants_layer_video ? video : lz4) = true;
+    lz4_camera_planes = lz4_camera_planes || !p.caps.zstd_planes;
     if (p.wants_layer_video && !p.layer_video_in_step) worker_->requestLayerVideoKeyFrame();
   }
-  worker_->setLayersWanted(lz4, video);
+  worker_->setLayersWanted(lz4, video, lz4_camera_planes);
   job.group = std::move(group);
   job.late_frames = sync_.lateFrames();
   job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();
@@ -299,18 +300,26 @@ void FramePipeline::fanOut(std::vector<Peer>& peers) {
         // does not reach the client (refused layers, a drop on a slow link).
         // Out of step, a predicted frame is one it cannot decode: it gets
         // nothing until the key frame it asked for.
+        // A client before 1.11 joined after this frame was taken: its
+        // spelling was not made, and it waits for a later key frame.
         if (out.texture_bundle_layer_video) {
-          if (out.layer_stats.video_key_frame) peer.layer_video_in_step = true;
-          if (!peer.layer_video_in_step) {
+          const protocol::SharedFrame& layers = peer.caps.zstd_planes
+                                                    ? out.texture_bundle_layer_video
+                                                    : out.texture_bundle_layer_video_v1_10;
+          if (out.layer_stats.video_key_frame && layers) peer.layer_video_in_step = true;
+          if (!peer.layer_video_in_step || !layers) {
+            peer.layer_video_in_step = false;
             worker_->requestLayerVideoKeyFrame();
             continue;
           }
-          bundle = out.texture_bundle_layer_video;
+          bundle = layers;
         } else {
           peer.layer_video_in_step = false;
         }
-      } else if (peer.wants_layers && out.texture_bundle_layers) {
-        bundle = out.texture_bundle_layers;
+      } else if (peer.wants_layers) {
+        const protocol::SharedFrame& layers =
+            peer.caps.zstd_planes ? out.texture_bundle_layers : out.texture_bundle_layers_v1_10;
+        if (layers) bundle = layers;
       }
       // A frame a client asked for is never dropped from its queue: it
       // asks for the next only as this one arrives, and its request bounds

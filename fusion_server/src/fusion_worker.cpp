@@ -341,6 +341,12 @@ FusedOutput finishFused(const GroupJob& job, const FusionSettings& settings, Enc
     buildLayerBundles(group, settings, encoded.mesh, layers, encoded.images_end_ns,
                       *encoded.storage, out, layered, layer_video);
   }
+  std::optional<protocol::TextureBundle> layered_v1_10, layer_video_v1_10;
+  if (layers.lz4_camera_planes) {
+    if (layered) layered_v1_10 = layers.stage->withLz4CameraPlanes(*layered, *encoded.storage);
+    if (layer_video)
+      layer_video_v1_10 = layers.stage->withLz4CameraPlanes(*layer_video, *encoded.storage);
+  }
   protocol::Stats stats = statsOf(job, settings, encoded.present, encoded.pod_bytes);
   if (!encoded.mesh.isOk())
     stats.note += (stats.note.empty() ? "" : "; ") + encoded.mesh.status().message();
@@ -362,6 +368,12 @@ FusedOutput finishFused(const GroupJob& job, const FusionSettings& settings, Enc
   if (layer_video)
     out.texture_bundle_layer_video =
         share(protocol::encodeOutgoing(*layer_video, bundle_sequence, storage));
+  if (layered_v1_10)
+    out.texture_bundle_layers_v1_10 =
+        share(protocol::encodeOutgoing(*layered_v1_10, bundle_sequence, storage, 10));
+  if (layer_video_v1_10)
+    out.texture_bundle_layer_video_v1_10 =
+        share(protocol::encodeOutgoing(*layer_video_v1_10, bundle_sequence, storage, 10));
   out.texture_bundle_v1_2 =
       encoded.bundle.images.size() > protocol::kMaxCamerasBefore13
           ? share(protocol::encodeOutgoing(encoded.bundle, bundle_sequence, storage, 2))
@@ -489,7 +501,7 @@ std::optional<FusionWorker::Taken> FusionWorker::take() {
   // clients want.
   taken.settings = settings_;
   if (voxel_) taken.settings.hull.voxel_size = voxel_->voxel();
-  taken.layers = {&layer_stage_, layers_lz4_, layers_video_, false};
+  taken.layers = {&layer_stage_, layers_lz4_, layers_video_, false, layers_lz4_camera_planes_};
   if (taken.layers.video) taken.layers.video_key_frame = video_key_frame_.exchange(false);
   return taken;
 }

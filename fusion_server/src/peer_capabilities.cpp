@@ -21,6 +21,7 @@ PeerCapabilities capabilitiesOf(uint8_t minor, protocol::Role role, uint64_t hel
   c.clock_probes = minor >= 8;
   c.asks_for_frames = minor >= 9 && asked(protocol::kCapabilityAsksForFrames);
   c.changes_layers = client && minor >= 10;
+  c.zstd_planes = minor >= 11;
   return c;
 }
 

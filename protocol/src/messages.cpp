@@ -53,7 +53,7 @@ void writePlanes(WireWriter& w, const std::vector<Plane>& planes) {
 }
 
 // max_codec: the highest codec id the field may hold (video codecs only in
-// a 1.6 bundle's layers).
+// a 1.6 bundle's layers, Zstandard only in a 1.11 bundle's).
 void readPlanes(WireReader& r, std::vector<Plane>& planes,
                 Codec max_codec = Codec::kLz4PlanarDelta) {
   const uint8_t n = r.u8("planes.count");
@@ -413,7 +413,10 @@ Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t ba
   }
   layers.layers.resize(r.ok() ? layer_count : 0);
   for (auto& planes : layers.layers) {
-    readPlanes(r, planes, minor >= 6 ? Codec::kAv1 : Codec::kLz4PlanarDelta);
+    readPlanes(r, planes,
+               minor >= 11  ? Codec::kZstd
+               : minor >= 6 ? Codec::kAv1
+                            : Codec::kLz4PlanarDelta);
     if (!r.ok()) break;
   }
   return finish(r);

@@ -20,8 +20,8 @@ TEST(ImageCodec, EveryCodecRoundTripsExactly) {
   Image8 image(37, 23, 3);
   for (size_t i = 0; i < image.pixels.size(); ++i)
     image.pixels[i] = static_cast<uint8_t>((i * 7) ^ (i >> 3));
-  for (auto codec :
-       {protocol::Codec::kRaw, protocol::Codec::kLz4, protocol::Codec::kLz4PlanarDelta}) {
+  for (auto codec : {protocol::Codec::kRaw, protocol::Codec::kLz4, protocol::Codec::kLz4PlanarDelta,
+                     protocol::Codec::kZstd}) {
     std::vector<uint8_t> storage;
     const auto plane = encodePlane(image, protocol::PlaneKind::kColor, codec, storage);
     auto back = decodePlane(plane);
@@ -67,6 +67,46 @@ TEST(ImageCodec, CorruptOrLyingPlanesAreErrorsNamingThePlane) {
   plane.data = storage;
   plane.raw_size = 5;
   EXPECT_FALSE(decodePlane(plane).isOk());
+}
+
+// A camera plane in Zstandard (protocol 1.11): exact, smaller than LZ4 HC
+// on runs of camera indices with ragged borders, and refused by name when
+// its frame lies about its size, is cut short or is not Zstandard.
+TEST(ImageCodec, ZstandardCameraPlanesRoundTripAndLiesAreRefused) {
+  Image8 cameras(128, 96, 1);
+  for (uint32_t y = 0; y < cameras.height; ++y)
+    for (uint32_t x = 0; x < cameras.width; ++x)
+      cameras.at(x, y)[0] = static_cast<uint8_t>(
+          (x + (y * 7 % 5)) / 24 % 4 == 3 ? 255 : (x / 17 + y / 13 + (x * y % 11 == 0)) % 6);
+  std::vector<uint8_t> zstd, lz4;
+  const auto plane =
+      encodePlane(cameras, protocol::PlaneKind::kCamera, protocol::Codec::kZstd, zstd);
+  encodePlane(cameras, protocol::PlaneKind::kCamera, protocol::Codec::kLz4, lz4, 1, 6);
+  EXPECT_EQ(plane.codec, protocol::Codec::kZstd);
+  auto back = decodePlane(plane);
+  ASSERT_TRUE(back.isOk()) << back.status().toString();
+  EXPECT_EQ(back->pixels, cameras.pixels);
+  EXPECT_LT(zstd.size(), lz4.size());
+  auto refused = [&](protocol::Plane lying, const std::string& says) {
+    auto result = decodePlane(lying);
+    ASSERT_FALSE(result.isOk()) << says;
+    EXPECT_EQ(result.status().code(), StatusCode::kMalformed);
+    EXPECT_NE(result.status().message().find(says), std::string::npos) << result.status().message();
+    EXPECT_NE(result.status().message().find("128x96"), std::string::npos);
+  };
+  // A frame of another image's size under this plane's.
+  Image8 smaller(64, 96, 1);
+  std::vector<uint8_t> other;
+  protocol::Plane lying = plane;
+  lying.data =
+      encodePlane(smaller, protocol::PlaneKind::kCamera, protocol::Codec::kZstd, other).data;
+  refused(lying, "states 6144 bytes instead of 12288");
+  lying = plane;
+  lying.data = std::span<const uint8_t>(zstd).first(zstd.size() / 2);
+  refused(lying, "Zstandard data is corrupt");
+  lying = plane;
+  lying.data = lz4;
+  refused(lying, "nothing readable");
 }
 
 TEST(MeshCodec, DracoRoundTripIsWithinQuantisation) {

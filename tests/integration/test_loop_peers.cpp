@@ -108,9 +108,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     // frame id -> the mesh's codec and its vertices once decoded
     std::map<uint64_t, std::pair<holofuse::protocol::MeshCodec, size_t>> meshes;
   };
-  static_assert(holofuse::protocol::kVersionMinor == 10, "a client of each minor");
-  std::vector<Client> clients(11);
-  for (uint8_t minor = 0; minor < 11; ++minor) clients[minor].max_minor = minor;
+  static_assert(holofuse::protocol::kVersionMinor == 11, "a client of each minor");
+  std::vector<Client> clients(12);
+  for (uint8_t minor = 0; minor < 12; ++minor) clients[minor].max_minor = minor;
   for (Client& c : clients) {
     holofuse::protocol::Hello hello;
     hello.role = holofuse::protocol::Role::kClient;
@@ -235,9 +235,109 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   EXPECT_NE(log.find("meshes fp16-lz4"), std::string::npos) << log;
   for (const char* version : {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3",
                               "protocol 1.4", "protocol 1.5", "protocol 1.6", "protocol 1.7",
-                              "protocol 1.8", "protocol 1.9", "protocol 1.10"}) {
+                              "protocol 1.8", "protocol 1.9", "protocol 1.10", "protocol 1.11"}) {
     EXPECT_NE(log.find(version), std::string::npos) << version << "\n" << log;
   }
+}
+
+// Protocol 1.11 codes the layers' camera planes in Zstandard. Two layered
+// clients of one server, of 1.10 and 1.11: each gets its spelling of the
+// same frames (LZ4 and Zstandard camera planes, the same colour planes),
+// and the camera indices decode the same in both.
+TEST(Loop, LayeredClientsBefore111GetLz4CameraPlanesAndLaterOnesZstandard) {
+  namespace protocol = holofuse::protocol;
+  const fs::path out = freshDir("camera_planes");
+  pid_t server = 0;
+  const std::string endpoint = startServer(out, 2, &server, {"--no-auth"});
+  auto parsed = protocol::parseEndpoint(endpoint);
+  ASSERT_TRUE(parsed.isOk()) << "the server did not report its port";
+  std::vector<pid_t> pods;
+  for (int i = 0; i < 2; ++i)
+    pods.push_back(
+        spawn({kBin + "/capture_node", "--server", endpoint, "--pod-id", std::to_string(i),
+               "--pods", "2", "--size", "96x72", "--fps", "10", "--no-auth"},
+              out / ("pod" + std::to_string(i) + ".log")));
+  struct Client {
+    uint8_t max_minor;
+    std::unique_ptr<protocol::ServerLink> link;
+    // frame id -> each layer's camera plane: its codec and decoded texels
+    std::map<uint64_t, std::vector<std::pair<protocol::Codec, std::vector<uint8_t>>>> cameras;
+    std::map<uint64_t, std::vector<size_t>> colour_bytes;  // frame id -> each layer's
+    std::string refused;
+  };
+  std::vector<Client> clients(2);
+  clients[0].max_minor = 10;
+  clients[1].max_minor = 11;
+  for (Client& c : clients) {
+    protocol::Hello hello;
+    hello.role = protocol::Role::kClient;
+    hello.id = c.max_minor;
+    hello.max_minor = c.max_minor;
+    hello.capabilities = protocol::kCapabilityLayers;
+    c.link = std::make_unique<protocol::ServerLink>(*parsed, hello, protocol::LinkOptions{});
+  }
+  auto shared = [&] {
+    size_t n = 0;
+    for (const auto& [frame_id, planes] : clients[1].cameras)
+      n += clients[0].cameras.count(frame_id);
+    return n;
+  };
+  std::vector<protocol::Frame> received;
+  for (int round = 0; round < 1500 && shared() < 3; ++round) {
+    for (Client& c : clients) {
+      received.clear();
+      c.link->poll(10, received);
+      for (const auto& frame : received) {
+        protocol::TextureBundle bundle;
+        if (frame.header.type != static_cast<uint16_t>(protocol::MessageType::kTextureBundle) ||
+            !protocol::decodeFrame(frame, bundle).isOk() || !bundle.layers)
+          continue;
+        auto& layers = c.cameras[bundle.frame_id];
+        for (const auto& planes : bundle.layers->layers) {
+          for (const auto& plane : planes) {
+            if (plane.kind == protocol::PlaneKind::kColor) {
+              c.colour_bytes[bundle.frame_id].push_back(plane.data.size());
+              continue;
+            }
+            auto decoded = holofuse::decodePlane(plane);
+            if (!decoded.isOk()) c.refused = decoded.status().toString();
+            layers.emplace_back(plane.codec,
+                                decoded.isOk() ? decoded->pixels : std::vector<uint8_t>{});
+          }
+        }
+      }
+    }
+  }
+  for (pid_t pod : pods) {
+    kill(pod, SIGTERM);
+    waitExit(pod, 10);
+  }
+  kill(server, SIGTERM);
+  EXPECT_EQ(waitExit(server, 10), 0);
+  ASSERT_GE(shared(), 3u) << readFile(out / "server.log");
+  for (const Client& c : clients) {
+    EXPECT_EQ(c.refused, "") << "client of 1." << int(c.max_minor);
+    const protocol::Codec expected =
+        c.max_minor >= 11 ? protocol::Codec::kZstd : protocol::Codec::kLz4;
+    for (const auto& [frame_id, layers] : c.cameras) {
+      EXPECT_FALSE(layers.empty()) << "frame " << frame_id;
+      for (const auto& [codec, texels] : layers)
+        EXPECT_EQ(codec, expected) << "client of 1." << int(c.max_minor) << " frame " << frame_id;
+    }
+  }
+  size_t texels_compared = 0;
+  for (const auto& [frame_id, newer] : clients[1].cameras) {
+    const auto older = clients[0].cameras.find(frame_id);
+    if (older == clients[0].cameras.end()) continue;
+    ASSERT_EQ(older->second.size(), newer.size()) << "frame " << frame_id;
+    for (size_t l = 0; l < newer.size(); ++l) {
+      EXPECT_EQ(older->second[l].second, newer[l].second) << "frame " << frame_id << " layer " << l;
+      texels_compared += newer[l].second.size();
+    }
+    EXPECT_EQ(clients[0].colour_bytes[frame_id], clients[1].colour_bytes[frame_id])
+        << "frame " << frame_id;
+  }
+  EXPECT_GT(texels_compared, 0u);
 }
 
 // The live report measures each pod's mask against the hull the client

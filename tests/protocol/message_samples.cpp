@@ -138,6 +138,18 @@ TextureBundle sampleLayerVideoBundle() {
   return m;
 }
 
+TextureBundle sampleZstdCameraPlanesBundle() {
+  TextureBundle m = sampleLayerVideoBundle();
+  // Zstandard's magic number and a few bytes of frame: the wire carries
+  // them as they are.
+  static const std::vector<uint8_t> frame = {0x28, 0xb5, 0x2f, 0xfd, 0x20, 0x0c, 0x61, 0x00};
+  for (auto& planes : m.layers->layers) {
+    planes[1].codec = Codec::kZstd;
+    planes[1].data = frame;
+  }
+  return m;
+}
+
 Stats sampleStats() {
   Stats m;
   m.frame_id = 1000;
@@ -181,6 +193,9 @@ std::vector<Sample> allSamples(uint8_t minor) {
   if (minor >= 6)  // the layers' video with 1.6
     samples.push_back(
         {"texture_bundle_layer_video", encodeFrame(sampleLayerVideoBundle(), 13, 0, minor)});
+  if (minor >= 11)  // camera planes in Zstandard with 1.11
+    samples.push_back({"texture_bundle_zstd_camera_planes",
+                       encodeFrame(sampleZstdCameraPlanesBundle(), 18, 0, minor)});
   if (minor >= 8) {  // clock probes came with 1.8
     ClockProbe request{ProbeStep::kRequest, 68'131'090'000'000, 0, 0};
     ClockProbe reply{ProbeStep::kReply, 68'131'090'000'000, 73'131'090'150'000, 73'131'090'190'000};

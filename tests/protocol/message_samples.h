@@ -27,6 +27,7 @@ TextureBundle sampleTextureBundle(uint8_t minor = kVersionMinor);
 TextureBundle sampleLayeredBundle();  // since 1.5
 // Since 1.6: the layers' colour as frames of H.264 streams.
 TextureBundle sampleLayerVideoBundle();
+TextureBundle sampleZstdCameraPlanesBundle();  // since 1.11
 Stats sampleStats();
 
 }  // namespace holofuse::protocol::testing

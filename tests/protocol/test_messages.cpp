@@ -165,6 +165,13 @@ TEST(Messages, EveryTypeRoundTrips) {
     const Status status = decodeFrame(decodeOne(encodeFrame(in, 1, 0, 5)), old);
     EXPECT_EQ(status.code(), StatusCode::kMalformed);
     EXPECT_NE(status.toString().find("unknown codec 3"), std::string::npos) << status.toString();
+    // Since 1.11 a camera plane may be Zstandard; a 1.10 reader refuses it.
+    const TextureBundle zstd = testing::sampleZstdCameraPlanesBundle();
+    ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(zstd, 1)), m).isOk());
+    EXPECT_EQ(m.layers->layers[1][1].codec, Codec::kZstd);
+    const Status before = decodeFrame(decodeOne(encodeFrame(zstd, 1, 0, 10)), old);
+    EXPECT_EQ(before.code(), StatusCode::kMalformed);
+    EXPECT_NE(before.toString().find("unknown codec 6"), std::string::npos) << before.toString();
     // Images never carry video, whatever the minor.
     TextureBundle images = testing::sampleTextureBundle();
     images.images[0].planes[0].codec = Codec::kH264;

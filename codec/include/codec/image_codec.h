@@ -1,6 +1,7 @@
 // Image planes to and from their wire form (protocol Plane): raw, LZ4, or
 // LZ4 over planar channels with a horizontal byte delta (PLATFORM.md: the
-// pre-filter raises LZ4's ratio on camera images).
+// pre-filter raises LZ4's ratio on camera images); Zstandard for texture
+// layers' camera planes.
 #pragma once
 
 #include <optional>
@@ -18,6 +19,12 @@ namespace holofuse {
 // high-compression encoder, slower and smaller. Both write the same LZ4
 // block format, so decoders and the wire's codec ids do not change.
 inline constexpr int kMaxLz4HcLevel = 12;
+
+// Zstandard's level for a plane of codec kZstd. On eval's clean scene a
+// layer's camera plane (528x528, runs of one camera index): 14.1 KB in
+// 2 ms, where LZ4 HC 6 took 23.6 KB in 4 ms; level 15 saves 12% more
+// for 22 ms.
+inline constexpr int kPlaneZstdLevel = 9;
 
 // Encodes image as a plane of the given kind. The plane's data points into
 // storage, which must outlive it. acceleration is LZ4's fast mode's (1 =

@@ -93,6 +93,9 @@ struct FusedOutput {
   // For a client of 1.6 that asked for video: the same layers with their
   // colour as video frames (null when not wanted or refused).
   protocol::SharedFrame texture_bundle_layer_video;
+  // The two for a client of 1.5 to 1.10: camera planes LZ4, not Zstandard
+  // (null unless such a client asked).
+  protocol::SharedFrame texture_bundle_layers_v1_10, texture_bundle_layer_video_v1_10;
   std::string layers_note;
   LayerStats layer_stats;
   size_t triangles = 0;
@@ -141,6 +144,7 @@ std::vector<Image8> colorsInFrame(const FrameGroup& group);
 struct LayerRequest {
   LayerStage* stage = nullptr;
   bool lz4 = false, video = false, video_key_frame = false;
+  bool lz4_camera_planes = false;  // a client before 1.11 takes them
   bool wanted() const { return stage != nullptr && (lz4 || video); }
 };
 
@@ -230,11 +234,13 @@ class FusionWorker {
   // Those and the fused groups whose output is not yet taken.
   size_t jobsNotTaken();
   // Whether a connected client asked for texture layers with LZ4 colour
-  // (lz4) or as video: the next groups build them (the server sets it as
-  // clients come and go).
-  void setLayersWanted(bool lz4, bool video) {
+  // (lz4) or as video, and whether one of them is before 1.11 (LZ4 camera
+  // planes): the next groups build them (the server sets it as clients
+  // come and go).
+  void setLayersWanted(bool lz4, bool video, bool lz4_camera_planes = false) {
     layers_lz4_ = lz4;
     layers_video_ = video;
+    layers_lz4_camera_planes_ = lz4_camera_planes;
   }
   // A client joined the layers' video or missed one of its frames: the next
   // layers start key frames.
@@ -269,6 +275,7 @@ class FusionWorker {
   bool lossless_;
   std::deque<GroupJob> waiting_;
   std::atomic<bool> layers_lz4_{false}, layers_video_{false}, video_key_frame_{false};
+  std::atomic<bool> layers_lz4_camera_planes_{false};
   LayerStage layer_stage_;             // built in order, by one thread at a time
   size_t busy_ = 0;                    // groups being encoded
   uint64_t next_turn_ = 0;             // the next group taken gets this place in the output order

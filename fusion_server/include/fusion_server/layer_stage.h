@@ -68,7 +68,7 @@ class LayerStage {
 
   // The built layers into bundle.layers, the encoded bytes in storage:
   // colour planes in image_codec (lz4_acceleration, lz4_hc_level as the
-  // images'), the camera planes LZ4.
+  // images'), the camera planes Zstandard (protocol 1.11).
   void encodeLz4(protocol::Codec image_codec, int lz4_acceleration, int lz4_hc_level,
                  protocol::TextureBundle& bundle, std::deque<std::vector<uint8_t>>& storage) const;
   // The same with each layer's colour as the next frame of that layer's
@@ -76,9 +76,15 @@ class LayerStage {
   // key_frame (a receiver joined or missed a frame).
   Status encodeVideo(bool key_frame, protocol::TextureBundle& bundle,
                      std::deque<std::vector<uint8_t>>& storage, LayerStats* stats = nullptr);
+  // A bundle of encodeLz4 or encodeVideo as a client before 1.11 decodes
+  // it: the same colour planes, the camera planes LZ4.
+  protocol::TextureBundle withLz4CameraPlanes(const protocol::TextureBundle& bundle,
+                                              std::deque<std::vector<uint8_t>>& storage) const;
 
  private:
   protocol::BundleLayers layoutOnTheWire(std::deque<std::vector<uint8_t>>& storage) const;
+  protocol::Plane cameraPlane(size_t layer, protocol::Codec codec,
+                              std::deque<std::vector<uint8_t>>& storage) const;
   std::optional<TextureAtlas> atlas_;
   glm::u64vec3 lattice_{0};
   LayerSettings settings_;  // of the atlas and the video streams

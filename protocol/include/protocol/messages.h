@@ -82,8 +82,10 @@ double stampedMs(const std::vector<StageStamp>& stamps, Stage stage);
 enum class PlaneKind : uint8_t { kColor = 1, kMask = 2, kFeather = 3, kDepth = 4, kCamera = 5 };
 // kH264, kHevc, kAv1 (since 1.6): a texture layer's colour as one frame of
 // that layer's video stream (codec/layer_video.h), only to a client that
-// asked for it (kCapabilityLayerVideo).
-enum class Codec : uint8_t { kRaw, kLz4, kLz4PlanarDelta, kH264, kHevc, kAv1 };
+// asked for it (kCapabilityLayerVideo). kZstd (since 1.11): one Zstandard
+// frame (RFC 8878) stating its content size; a texture layer's camera
+// plane to a client of 1.11.
+enum class Codec : uint8_t { kRaw, kLz4, kLz4PlanarDelta, kH264, kHevc, kAv1, kZstd };
 enum class PixelFormat : uint8_t { kRgb8 = 1, kGray8 = 2, kR16 = 3 };
 uint32_t bytesPerPixel(PixelFormat format);
 
