@@ -80,7 +80,8 @@ struct LayerVideoEncoder::Codec {
   uint32_t width = 0, height = 0;
 };
 
-LayerVideoEncoder::LayerVideoEncoder(const LayerVideoOptions& options) : options_(options) {
+LayerVideoEncoder::LayerVideoEncoder(const LayerVideoOptions& options)
+    : options_(options), next_kbps_(options.kbps) {
   quietLibraries();
 }
 LayerVideoEncoder::~LayerVideoEncoder() = default;
@@ -98,19 +99,32 @@ Status LayerVideoEncoder::start(uint32_t width, uint32_t height) {
   c->width = static_cast<int>(roundUp16(width));
   c->height = static_cast<int>(roundUp16(height));
   c->pix_fmt = options_.full_chroma ? AV_PIX_FMT_YUV444P : AV_PIX_FMT_YUV420P;
-  c->time_base = {1, 30};
-  c->framerate = {30, 1};
+  c->time_base = {1, LayerVideoOptions::kFrameRate};
+  c->framerate = {LayerVideoOptions::kFrameRate, 1};
   c->gop_size = std::max(options_.key_interval, 1);
   c->max_b_frames = 0;  // a frame out per frame in: B-frames would wait for the next
   c->thread_count = 0;
   const std::string crf = std::to_string(options_.crf);
+  const bool by_rate = options_.kbps > 0;
+  if (by_rate) {
+    // The maximum rate is the target: a frame over its share drains the
+    // buffer, and the coder spends less on the frames after it.
+    c->bit_rate = int64_t{options_.kbps} * 1000;
+    c->rc_max_rate = c->bit_rate;
+    c->rc_buffer_size = static_cast<int>(c->bit_rate * LayerVideoOptions::kBufferFrames /
+                                         LayerVideoOptions::kFrameRate);
+  }
   switch (options_.codec) {
     case protocol::Codec::kH264:
     case protocol::Codec::kHevc:
       // x264 and x265 take the same names for these.
       av_opt_set(c->priv_data, "preset", "veryfast", 0);
       av_opt_set(c->priv_data, "tune", "zerolatency", 0);
-      av_opt_set(c->priv_data, "crf", crf.c_str(), 0);
+      // x265's ABR without look-ahead missed its target by 3x either way
+      // (a noisy moving picture at 600 and 2400 kbps): HEVC keeps its
+      // constant quality under the target as a ceiling (capped CRF).
+      if (!by_rate || options_.codec == protocol::Codec::kHevc)
+        av_opt_set(c->priv_data, "crf", crf.c_str(), 0);
       av_opt_set(c->priv_data, "forced-idr", "1", 0);
       if (options_.codec == protocol::Codec::kHevc) {
         av_opt_set(c->priv_data, "x265-params", "log-level=error", 0);
@@ -126,8 +140,10 @@ Status LayerVideoEncoder::start(uint32_t width, uint32_t height) {
       av_opt_set(c->priv_data, "usage", "realtime", 0);
       av_opt_set(c->priv_data, "cpu-used", "8", 0);
       av_opt_set(c->priv_data, "lag-in-frames", "0", 0);
-      av_opt_set(c->priv_data, "crf", crf.c_str(), 0);
-      c->bit_rate = 0;  // constant quality
+      if (!by_rate) {
+        av_opt_set(c->priv_data, "crf", crf.c_str(), 0);
+        c->bit_rate = 0;  // constant quality
+      }
       break;
   }
   if (const int error = avcodec_open2(c, encoder, nullptr); error < 0)
@@ -154,13 +170,17 @@ StatusOr<protocol::Plane> LayerVideoEncoder::encode(const Image8& rgb, bool key_
                                                     std::vector<uint8_t>& storage) {
   if (rgb.channels != 3 || rgb.width == 0 || rgb.height == 0)
     return Status(StatusCode::kMalformed, "layer video: the frame is not an RGB image");
+  key_frame = key_frame || (codec_ && since_key_ + 1 >= codec_->context->gop_size);
+  if (next_kbps_ != options_.kbps && (key_frame || !codec_)) {
+    options_.kbps = next_kbps_;
+    codec_.reset();
+  }
   if (!codec_ || codec_->width != rgb.width || codec_->height != rgb.height) {
     HOLOFUSE_RETURN_IF_ERROR(start(rgb.width, rgb.height));
     key_frame = true;
   }
   Codec& codec = *codec_;
   AVCodecContext* c = codec.context.get();
-  key_frame = key_frame || since_key_ + 1 >= c->gop_size;
   const size_t row = size_t{3} * rgb.width, coded_row = size_t{3} * c->width;
   for (uint32_t y = 0; y < rgb.height; ++y)
     std::memcpy(codec.padded.data() + y * coded_row, rgb.pixels.data() + y * row, row);

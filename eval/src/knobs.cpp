@@ -75,6 +75,7 @@ std::vector<Knob> makeKnobs() {
                                                        {"atlas-size", "--atlas-size"},
                                                        {"layer-video", "--layer-video"},
                                                        {"layer-video-crf", "--layer-video-crf"},
+                                                       {"layer-video-kbps", "--layer-video-kbps"},
                                                        {"vertex-precision", "--vertex-precision"}};
   std::vector<Knob> knobs;
   for (const auto& [name, flag] : named) {

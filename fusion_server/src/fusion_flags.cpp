@@ -88,6 +88,11 @@ const std::vector<Setting<FusionSettings>>& fusionFlags() {
                          "the layers' video quality: lower is better and larger (H.264 and HEVC "
                          "0-51, AV1 0-63)",
                          0, 63, [](S& s) -> int& { return s.layers.video.crf; }),
+        numberSetting<S>("--layer-video-kbps",
+                         "the layers' video by a target bitrate instead of --layer-video-crf: "
+                         "kilobits a second for all layers together at 30 frames a second, "
+                         "split by the texels each holds (0: constant quality)",
+                         0, 1000000, [](S& s) -> int& { return s.layers.video.kbps; }),
         numberSetting<S>("--layer-video-key-interval",
                          "frames between the layers' video key frames at most", 1, 600,
                          [](S& s) -> int& { return s.layers.video.key_interval; }),

@@ -1,6 +1,7 @@
 #include "fusion_server/layer_stage.h"
 
 #include <algorithm>
+#include <numeric>
 
 #include "codec/image_codec.h"
 #include "fusion_server/fusion_worker.h"
@@ -152,6 +153,26 @@ Status LayerStage::encodeVideo(bool key_frame, protocol::TextureBundle& bundle,
   protocol::BundleLayers out = layoutOnTheWire(storage);
   while (streams_.size() < colours_.size())
     streams_.push_back(std::make_unique<LayerVideoEncoder>(settings_.video));
+  if (settings_.video.kbps > 0) {
+    // The layers' target, split by the texels each layer holds (a deeper
+    // layer holds a point only where its camera adds: most of it is fill,
+    // which predicts for nearly nothing), each at least a twentieth. A
+    // stream takes its new share at its next key frame.
+    std::vector<uint64_t> held(cameras_.size(), 0);
+    for (size_t l = 0; l < cameras_.size(); ++l)
+      held[l] = static_cast<uint64_t>(
+          std::count_if(cameras_[l].pixels.begin(), cameras_[l].pixels.end(),
+                        [](uint8_t camera) { return camera != kNoLayerCamera; }));
+    const uint64_t total = std::accumulate(held.begin(), held.end(), uint64_t{0});
+    double shares = 0;
+    for (uint64_t& h : held) {
+      h = std::max<uint64_t>(h, total / 20 + 1);
+      shares += static_cast<double>(h);
+    }
+    for (size_t l = 0; l < cameras_.size(); ++l)
+      streams_[l]->setKbps(std::max(
+          1, static_cast<int>(settings_.video.kbps * static_cast<double>(held[l]) / shares + 0.5)));
+  }
   bool key = false;
   for (size_t l = 0; l < colours_.size(); ++l) {
     std::vector<protocol::Plane> planes;

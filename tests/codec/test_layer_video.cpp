@@ -77,6 +77,71 @@ TEST_P(LayerVideo, FramesComeBackCloseAndStillPicturesCostLessAfterTheKeyFrame) 
   EXPECT_LT(bytes[0] * 8, size_t{kWidth} * kHeight * 3);
 }
 
+// By a target bitrate: a noisy moving picture's frames average near the
+// target a frame at the streams' 30 frames a second, a lower target costs fewer
+// bytes for a worse picture, and a new target is taken at a key frame.
+TEST_P(LayerVideo, ATargetBitrateHoldsTheStreamNearItsBytesAFrame) {
+  constexpr uint32_t kWidth = 256, kHeight = 160;
+  constexpr int kFrames = 40;
+  struct Run {
+    double bytes_a_frame = 0, psnr = 0;
+  };
+  // Sensor noise fresh every frame: no target is more than the picture
+  // needs, so the rate control, not the picture, sets the bytes.
+  auto noisy = [&](int frame) {
+    Image8 image = patches(kWidth, kHeight, 3 * frame);
+    uint32_t state = 2463534242u + static_cast<uint32_t>(frame);
+    for (uint8_t& value : image.pixels) {
+      state ^= state << 13, state ^= state >> 17, state ^= state << 5;  // xorshift32
+      value = static_cast<uint8_t>(std::min(255u, value + state % 12));
+    }
+    return image;
+  };
+  auto run = [&](int kbps) {
+    LayerVideoOptions options;
+    options.codec = GetParam();
+    options.kbps = kbps;
+    LayerVideoEncoder encoder(options);
+    LayerVideoDecoder decoder;
+    Run result;
+    for (int frame = 0; frame < kFrames; ++frame) {
+      const Image8 source = noisy(frame);
+      std::vector<uint8_t> storage;
+      auto plane = encoder.encode(source, false, storage);
+      EXPECT_TRUE(plane.isOk()) << plane.status().toString();
+      if (!plane.isOk()) return result;
+      auto decoded = decoder.decode(*plane);
+      EXPECT_TRUE(decoded.isOk()) << decoded.status().toString();
+      if (!decoded.isOk()) return result;
+      result.bytes_a_frame += static_cast<double>(plane->data.size()) / kFrames;
+      result.psnr += psnr(source, *decoded) / kFrames;
+    }
+    return result;
+  };
+  const Run high = run(2400), low = run(600);
+  const double high_target = 2400 * 1000.0 / 8 / LayerVideoOptions::kFrameRate;  // 10 000 B
+  EXPECT_GT(high.bytes_a_frame, 0.6 * high_target);
+  EXPECT_LT(high.bytes_a_frame, 1.3 * high_target);
+  EXPECT_LT(low.bytes_a_frame, 1.3 * high_target / 4);
+  EXPECT_LT(low.bytes_a_frame, 0.5 * high.bytes_a_frame);
+  EXPECT_LT(low.psnr, high.psnr);
+  // A new target waits for the key frame, and the stream goes on.
+  LayerVideoOptions options;
+  options.codec = GetParam();
+  options.kbps = 2400;
+  LayerVideoEncoder encoder(options);
+  LayerVideoDecoder decoder;
+  std::vector<uint8_t> storage;
+  for (int frame = 0; frame < 4; ++frame) {
+    if (frame == 2) encoder.setKbps(600);
+    auto plane = encoder.encode(patches(kWidth, kHeight, frame), frame == 3, storage);
+    ASSERT_TRUE(plane.isOk()) << plane.status().toString();
+    ASSERT_TRUE(decoder.decode(*plane).isOk()) << "frame " << frame;
+    EXPECT_EQ(encoder.kbps(), frame < 3 ? 2400 : 600) << "frame " << frame;
+  }
+  EXPECT_EQ(encoder.keyFrames(), 2u);
+}
+
 TEST_P(LayerVideo, AReceiverThatMissedAFrameWaitsForTheNextKeyFrame) {
   LayerVideoOptions options;
   options.codec = GetParam();

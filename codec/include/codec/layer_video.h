@@ -26,11 +26,19 @@
 namespace holofuse {
 
 struct LayerVideoOptions {
+  static constexpr int kFrameRate = 30;
+  static constexpr int kBufferFrames = 4;
   protocol::Codec codec = protocol::Codec::kH264;  // kH264, kHevc or kAv1
   // Constant quality: lower is better and larger (0..51; AV1 0..63). 12 in
   // 4:4:4 keeps eval's clean scene 0.05 dB from LZ4 layers at 39% of their
   // bytes (docs/atlas.md).
   int crf = 12;
+  // Rate control by a target bitrate instead, where above 0: kilobits a
+  // second at the streams' clock of 30 frames a second (kFrameRate), with
+  // a buffer of kBufferFrames frames' worth, so that no frame (a key frame
+  // included) takes longer than that to send at the target rate. HEVC
+  // takes it as a ceiling over crf (x265's own ABR misses, see start()).
+  int kbps = 0;
   int key_interval = 60;    // frames between key frames at most
   bool full_chroma = true;  // 4:4:4: 4:2:0 bleeds colour across chart borders
   bool operator==(const LayerVideoOptions&) const = default;
@@ -66,6 +74,11 @@ class LayerVideoEncoder {
   StatusOr<protocol::Plane> encode(const Image8& rgb, bool key_frame,
                                    std::vector<uint8_t>& storage);
   uint64_t keyFrames() const { return key_frames_; }
+  // A new target bitrate (LayerVideoOptions::kbps), taken at the next key
+  // frame: the stream starts again there, which a receiver cannot tell
+  // from any other key frame.
+  void setKbps(int kbps) { next_kbps_ = kbps; }
+  int kbps() const { return options_.kbps; }
 
  private:
   struct Codec;
@@ -73,6 +86,7 @@ class LayerVideoEncoder {
   LayerVideoOptions options_;
   std::unique_ptr<Codec> codec_;
   uint32_t sequence_ = 0;
+  int next_kbps_ = 0;
   int since_key_ = 0;
   uint64_t key_frames_ = 0;
 };
