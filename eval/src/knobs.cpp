@@ -72,6 +72,7 @@ std::vector<Knob> makeKnobs() {
                                                        {"chart-cells", "--chart-cells"},
                                                        {"texels-per-voxel", "--texels-per-voxel"},
                                                        {"layer-min-share", "--layer-min-share"},
+                                                       {"layer-keep-share", "--layer-keep-share"},
                                                        {"atlas-size", "--atlas-size"},
                                                        {"layer-video", "--layer-video"},
                                                        {"layer-video-crf", "--layer-video-crf"},

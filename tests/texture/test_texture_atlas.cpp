@@ -460,6 +460,7 @@ TEST_P(TextureLayers, EachLayerHoldsTheNextMostDirectCameraThatSeesThePoint) {
   LayerOptions options;
   options.layers = 6;           // more than the 4 cameras
   options.min_score_share = 0;  // the paper's L best
+  options.keep_left_share = 1;  // by rank alone
   auto built = buildTextureLayers(mesh, atlas.texels(), scene.views(), options);
   ASSERT_TRUE(built.isOk()) << built.status().toString();
   ASSERT_EQ(built->layers.size(), 6u);
@@ -555,6 +556,57 @@ TEST_P(TextureLayers, EachLayerHoldsTheNextMostDirectCameraThatSeesThePoint) {
   }
   EXPECT_GT(dropped, 0u) << "oblique cameras leave deeper layers";
   EXPECT_GT(kept, 0u) << "cameras nearly as square as the best stay";
+}
+
+// With a keep share, a layer takes the camera of the texel to its left
+// where that camera also sees the point nearly as well: fewer changes of
+// camera along the rows, each change of the ranking kept only from the
+// left neighbour and only to a camera the ranking had for that point, the
+// colours still the paint's.
+TEST_P(TextureLayers, ALayerKeepsTheCameraBeforeItWhereItSeesThePointNearlyAsWell) {
+  const PaintedSphere scene(4);
+  LaidOut laid(scene, GetParam() ? chartOptions() : latticeOptions());
+  ASSERT_TRUE(laid.cells.has_value());
+  const uint32_t texels = laid.atlas.texels();
+  LayerOptions options;
+  options.layers = 4;
+  options.min_score_share = 0;
+  options.keep_left_share = 1;
+  auto ranked = buildTextureLayers(laid.mesh, texels, scene.views(), options);
+  options.keep_left_share = 0.5;
+  auto kept = buildTextureLayers(laid.mesh, texels, scene.views(), options);
+  ASSERT_TRUE(ranked.isOk() && kept.isOk());
+  auto changes = [&](const Image8& layer) {
+    size_t n = 0;
+    for (uint32_t y = 0; y < texels; ++y)
+      for (uint32_t x = 1; x < texels; ++x) {
+        const uint8_t a = layer.at(x - 1, y)[3], b = layer.at(x, y)[3];
+        n += a != kNoLayerCamera && b != kNoLayerCamera && a != b;
+      }
+    return n;
+  };
+  EXPECT_LT(changes(kept->layers[0]) * 4, changes(ranked->layers[0]) * 3)
+      << changes(kept->layers[0]) << " against " << changes(ranked->layers[0]);
+  size_t differ = 0;
+  for (uint32_t y = 0; y < texels; ++y) {
+    for (uint32_t x = 0; x < texels; ++x) {
+      const uint8_t want = ranked->layers[0].at(x, y)[3], got = kept->layers[0].at(x, y)[3];
+      ASSERT_EQ(got == kNoLayerCamera, want == kNoLayerCamera) << x << "," << y;
+      if (got == want) continue;
+      ++differ;
+      ASSERT_GT(x, 0u);
+      EXPECT_EQ(got, kept->layers[0].at(x - 1, y)[3]) << "kept from the left, " << x << "," << y;
+      bool sees = false;
+      for (int l = 1; l < 4; ++l) sees = sees || ranked->layers[l].at(x, y)[3] == got;
+      EXPECT_TRUE(sees) << "a camera that sees the point, " << x << "," << y;
+      // The paint is the same from every camera: the colour differs by
+      // little more than the sampling.
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(kept->layers[0].at(x, y)[c], ranked->layers[0].at(x, y)[c], 40)
+            << x << "," << y;
+    }
+  }
+  EXPECT_GT(differ, 0u);
 }
 
 INSTANTIATE_TEST_SUITE_P(Layouts, TextureLayers, ::testing::Values(false, true),

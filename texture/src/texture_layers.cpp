@@ -240,8 +240,20 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
                         [](const Ranked& a, const Ranked& c) {
                           return a.score > c.score || (a.score == c.score && a.view < c.view);
                         });
+      const double best = ranked[0].score;
+      // The row is filled left to right, so the left texel is final.
+      for (size_t l = 0; l < keep && options.keep_left_share < 1.0 && x > 0; ++l) {
+        const uint8_t left = out.layers[l].at(x - 1, y)[3];
+        if (left == kNoLayerCamera || left == ranked[l].view) continue;
+        for (size_t k = l + 1; k < ranked.size(); ++k) {
+          if (ranked[k].view != left) continue;
+          if (ranked[k].score >= options.keep_left_share * ranked[l].score)
+            std::swap(ranked[l], ranked[k]);
+          break;
+        }
+      }
       for (size_t l = 0; l < keep; ++l) {
-        if (l > 0 && ranked[l].score < options.min_score_share * ranked[0].score) break;
+        if (l > 0 && ranked[l].score < options.min_score_share * best) break;
         const LayerView& v = views[ranked[l].view];
         const auto pixel = v.camera->project(point);
         const glm::dvec3 colour = sampleColor(*v.color, v.mask, pixel->x, pixel->y);
