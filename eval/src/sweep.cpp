@@ -149,6 +149,10 @@ bool dominates(const TradePoint& a, const TradePoint& b) {
   // noise can neither make a point win nor let a noisily slower one win.
   if (a.psnr_db < b.psnr_db) return false;
   bool better = a.psnr_db > b.psnr_db + kPsnrTieDb;
+  if (a.ssim >= 0 && b.ssim >= 0) {
+    if (a.ssim < b.ssim) return false;
+    better = better || a.ssim > b.ssim + kSsimTie;
+  }
   for (size_t k = 0; k < a.costs.size() && k < b.costs.size(); ++k) {
     if (a.costs[k].p50 > b.costs[k].p50) return false;
     better = better || compareCost(a.costs[k], b.costs[k]) < 0;

@@ -51,13 +51,11 @@ std::string sweepIntro(const SweepOptions& options, const std::string& mode) {
          "codecs (" +
          std::string(kCodecsMeaning) +
          ") and the client's render per new mesh. Front: no "
-         "other value of the knob is at least as good in PSNR, client ms, pipeline ms and bytes "
-         "per frame on "
-         "both links at once and better in one beyond noise (points are measured one after "
-         "another): "
-         "times by more than 10% and more than either point's p50-to-p95 spread, PSNR by more "
-         "than "
-         "0.01 dB, bytes by more than 0.5%. Flicker and Chamfer are shown, not judged. Live "
+         "other value of the knob is at least as good in PSNR, SSIM, client ms, pipeline ms and "
+         "bytes per frame on both links at once and better in one beyond noise (points are "
+         "measured one after another): times by more than 10% and more than either point's "
+         "p50-to-p95 spread, PSNR by more than 0.01 dB, SSIM by more than 0.001, bytes by more "
+         "than 0.5%. Flicker and Chamfer are shown, not judged. Live "
          "end-to-end ms "
          "(with --live-frames): the live loop run with the point's settings, capture to written "
          "frame, "
@@ -119,7 +117,7 @@ struct KnobTrades {
       by_pipeline.push_back({m.psnr_db, {pipeline}});
       by_bytes.push_back({m.psnr_db, {bytes}});
       by_pod_bytes.push_back({m.psnr_db, {pod_bytes}});
-      by_all.push_back({m.psnr_db, {client, pipeline, bytes, pod_bytes}});
+      by_all.push_back({m.psnr_db, {client, pipeline, bytes, pod_bytes}, m.ssim});
       if (all_live) {
         const Cost end_to_end = timeCost(p->live->end_to_end_ms_p50, p->live->end_to_end_ms_p95);
         by_live.push_back({m.psnr_db, {end_to_end}});

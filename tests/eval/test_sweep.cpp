@@ -69,6 +69,15 @@ TEST(Sweep, ParetoFrontKeepsWhatNothingBeatsBeyondNoise) {
       << "more bytes";
   EXPECT_FALSE(dominates(TradePoint{19.6, {timeCost(30.5, 31), bytesCost(1e6)}}, base))
       << "slower, if within noise";
+  // SSIM is judged beside PSNR where both points have it.
+  const TradePoint sharp{19.5, {timeCost(30, 31), bytesCost(1e6)}, 0.69};
+  EXPECT_TRUE(dominates(TradePoint{19.5, {timeCost(30, 31), bytesCost(1e6)}, 0.70}, sharp));
+  EXPECT_FALSE(dominates(TradePoint{19.5, {timeCost(30, 31), bytesCost(1e6)}, 0.6905}, sharp))
+      << "SSIM within its tie";
+  EXPECT_FALSE(dominates(TradePoint{19.6, {timeCost(30, 31), bytesCost(0.9e6)}, 0.68}, sharp))
+      << "a better PSNR and fewer bytes for a blurrier picture";
+  EXPECT_TRUE(dominates(TradePoint{19.6, {timeCost(30, 31), bytesCost(0.9e6)}}, sharp))
+      << "without SSIM on both, PSNR and costs decide";
   // Three points each cheapest in one cost, the others within 15%: none
   // beats another, so all stay (a rule that forgave small losses would
   // let each beat the next around a circle and leave no front).

@@ -97,8 +97,9 @@ double pipelineMs(const SceneResult& result, const std::string& mode, bool p95 =
 // What the sweep counts as a gain, since its points are measured one after
 // another on a machine whose speed drifts: times must differ by more than
 // 10% and by more than either point's p50-to-p95 spread; PSNR by more than
-// 0.01 dB; bytes by more than 0.5%.
+// 0.01 dB; SSIM by more than 0.001; bytes by more than 0.5%.
 inline constexpr double kTimeTieShare = 0.10, kPsnrTieDb = 0.01, kBytesTieShare = 0.005;
+inline constexpr double kSsimTie = 0.001;
 
 // One cost of a point: its median and 95th percentile (equal for exact
 // costs such as bytes), and the share under which two values tie.
@@ -112,6 +113,9 @@ inline Cost bytesCost(double bytes) { return {bytes, bytes, kBytesTieShare}; }
 struct TradePoint {
   double psnr_db = 0;
   std::vector<Cost> costs;  // the same costs, in the same order, for every point compared
+  // The other quality, judged beside PSNR where both points have it: a
+  // sharper picture at the same PSNR is a gain (-1: not measured).
+  double ssim = -1;
 };
 
 // a dominates b: no worse than b in quality and in every cost, as
