@@ -1,8 +1,9 @@
 // The mesh codecs on the same meshes: Draco (the default, 11-bit
 // positions) against half floats through LZ4 (the open Holoportation
 // stack's), each mesh the hull the server carves from the demo's rig
-// (4 pods at 320x240) at 20 and 10 mm, with vertex keys and without
-// normals (the receiver recomputes them), as the server sends them: encode
+// (4 pods at 320x240) at 20 and 10 mm, with vertex keys (Draco's in half
+// steps on the hull's lattice) and without normals (the receiver
+// recomputes them), as the server sends them: encode
 // and decode ms (medians) and bytes, and the ratios. Ratios are measured in
 // one run; the machine is noisy.
 //   bench_mesh_codec [frames]
@@ -65,6 +66,12 @@ int main(int argc, char** argv) {
               "decode ms", "KB", "ms / Draco");
   for (double voxel : {0.02, 0.01}) {
     std::vector<Mesh> meshes;
+    hull::HullOptions options;
+    options.voxel_size = voxel;
+    // Draco's keys in half steps on the hull's lattice, as the server sends them.
+    DracoOptions spelling;
+    const glm::u64vec3 lattice = hull::keyLattice(options);
+    spelling.key_lattice = {lattice.x, lattice.y};
     for (int f = 0; f < frames; ++f) {
       std::vector<hull::HullView> views;
       for (size_t i = 0; i < cameras.size(); ++i) {
@@ -72,15 +79,13 @@ int main(int argc, char** argv) {
             renderers[i], plates[i], 30 + static_cast<uint64_t>(f), static_cast<uint16_t>(i));
         views.push_back({cameras[i], pod.mask, pod.feather});
       }
-      hull::HullOptions options;
-      options.voxel_size = voxel;
       meshes.push_back(hull::carveVisualHull(views, options));
     }
     std::vector<double> vertices;
     for (const Mesh& m : meshes) vertices.push_back(static_cast<double>(m.vertexCount()));
     CodecCost draco, fp16;
     const bool ok = measure(
-                        meshes, [](const Mesh& m) { return encodeDraco(m); },
+                        meshes, [&](const Mesh& m) { return encodeDraco(m, spelling); },
                         [](const uint8_t* d, size_t n) { return decodeDraco(d, n); }, draco) &&
                     measure(
                         meshes, [](const Mesh& m) { return encodeFp16Lz4(m, false); },

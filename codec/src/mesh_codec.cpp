@@ -3,11 +3,15 @@
 #include <draco/compression/decode.h>
 #include <draco/compression/encode.h>
 #include <draco/mesh/mesh.h>
+#include <draco/metadata/geometry_metadata.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <numeric>
+#include <optional>
 #include <span>
 #include <string>
 
@@ -113,6 +117,45 @@ StatusOr<DracoCounts> readDracoCounts(const uint8_t* data, size_t size) {
   return counts;
 }
 
+namespace {
+
+constexpr char kKeyLatticeEntry[] = "holofuse_key_lattice";
+constexpr uint64_t kMaxKeyLatticeSide = uint64_t{1} << 21;
+
+// A key on a lattice of sides x, y (and any z) as its edge's middle in
+// half steps: the edge's start doubled, plus one along its axis.
+std::array<uint32_t, 3> keyAsHalfSteps(uint64_t key, const std::array<uint64_t, 2>& lattice) {
+  const uint64_t axis = key % 3, point = key / 3;
+  const uint64_t at[3] = {point % lattice[0], (point / lattice[0]) % lattice[1],
+                          point / (lattice[0] * lattice[1])};
+  std::array<uint32_t, 3> half{};
+  for (int k = 0; k < 3; ++k) half[k] = static_cast<uint32_t>(2 * at[k] + (axis == uint64_t(k)));
+  return half;
+}
+
+// The inverse, for untrusted values: nullopt unless exactly one is odd and
+// the edge lies on the lattice.
+std::optional<uint64_t> keyOfHalfSteps(const uint32_t half[3],
+                                       const std::array<uint64_t, 2>& lattice) {
+  int axis = -1;
+  for (int k = 0; k < 3; ++k) {
+    if (half[k] % 2 == 0) continue;
+    if (axis >= 0) return std::nullopt;
+    axis = k;
+  }
+  const uint64_t x = half[0] / 2, y = half[1] / 2, z = half[2] / 2;
+  if (axis < 0 || x >= lattice[0] || y >= lattice[1] || z >= kMaxKeyLatticeSide)
+    return std::nullopt;
+  return ((z * lattice[1] + y) * lattice[0] + x) * 3 + static_cast<uint64_t>(axis);
+}
+
+bool onLattice(const std::array<uint64_t, 2>& lattice) {
+  return lattice[0] > 0 && lattice[1] > 0 && lattice[0] <= kMaxKeyLatticeSide &&
+         lattice[1] <= kMaxKeyLatticeSide;
+}
+
+}  // namespace
+
 StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions& options) {
   const size_t n = mesh.positions.size();
   const bool atlas = !mesh.corner_uvs.empty();
@@ -131,7 +174,25 @@ StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions&
     addVertexAttribute(dm, draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32,
                        sizeof(glm::vec3), n, mesh.normals.data(), corners);
   }
-  if (mesh.vertex_keys.size() == n) {
+  const bool half_steps =
+      mesh.vertex_keys.size() == n && onLattice(options.key_lattice) &&
+      std::all_of(mesh.vertex_keys.begin(), mesh.vertex_keys.end(), [&](uint64_t key) {
+        const auto half = keyAsHalfSteps(key, options.key_lattice);
+        return half[2] / 2 < kMaxKeyLatticeSide;
+      });
+  if (half_steps) {
+    std::vector<uint32_t> halves(3 * n);
+    for (size_t i = 0; i < n; ++i) {
+      const auto half = keyAsHalfSteps(mesh.vertex_keys[i], options.key_lattice);
+      std::copy(half.begin(), half.end(), halves.begin() + 3 * i);
+    }
+    addVertexAttribute(dm, draco::GeometryAttribute::GENERIC, 3, draco::DT_UINT32,
+                       3 * sizeof(uint32_t), n, halves.data(), corners);
+    auto metadata = std::make_unique<draco::GeometryMetadata>();
+    metadata->AddEntryIntArray(kKeyLatticeEntry, {static_cast<int32_t>(options.key_lattice[0]),
+                                                  static_cast<int32_t>(options.key_lattice[1])});
+    dm.AddMetadata(std::move(metadata));
+  } else if (mesh.vertex_keys.size() == n) {
     // Two 32-bit halves, low first: Draco has no 64-bit integer attribute.
     std::vector<uint32_t> halves(2 * n);
     for (size_t i = 0; i < n; ++i) {
@@ -203,8 +264,22 @@ StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& 
   const draco::PointAttribute* uvs = dm->GetNamedAttribute(draco::GeometryAttribute::TEX_COORD);
   const bool atlas = uvs != nullptr && uvs->num_components() == 2;
   const draco::PointAttribute* keys = dm->GetNamedAttribute(draco::GeometryAttribute::GENERIC);
-  const bool keyed =
-      keys != nullptr && keys->num_components() == 2 && keys->data_type() == draco::DT_UINT32;
+  // Since 1.11 a key may come as three half steps on the lattice the
+  // metadata names (DracoOptions::key_lattice).
+  std::array<uint64_t, 2> key_lattice{0, 0};
+  std::vector<int32_t> sides;
+  if (dm->GetMetadata() != nullptr &&
+      dm->GetMetadata()->GetEntryIntArray(kKeyLatticeEntry, &sides)) {
+    if (sides.size() != 2 || sides[0] <= 0 || sides[1] <= 0 ||
+        !onLattice({uint64_t(sides[0]), uint64_t(sides[1])}))
+      return Status(StatusCode::kMalformed, "draco mesh: its key lattice is not two sides in 1.." +
+                                                std::to_string(kMaxKeyLatticeSide));
+    key_lattice = {uint64_t(sides[0]), uint64_t(sides[1])};
+  }
+  const bool half_steps = keys != nullptr && key_lattice[0] > 0 && keys->num_components() == 3 &&
+                          keys->data_type() == draco::DT_UINT32;
+  const bool keyed = half_steps || (keys != nullptr && keys->num_components() == 2 &&
+                                    keys->data_type() == draco::DT_UINT32);
   const bool has_normals = normals != nullptr && normals->num_components() == 3;
   // With an atlas the points are triangle corners: a vertex is the corners
   // that agree on every attribute but the texture coordinates (values made
@@ -275,9 +350,24 @@ StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& 
   if (keyed) {
     mesh.vertex_keys.resize(n);
     for (uint32_t p = 0; p < dm->num_points(); ++p) {
-      uint32_t halves[2] = {0, 0};
-      keys->ConvertValue<uint32_t, 2>(keys->mapped_index(draco::PointIndex(p)), halves);
-      mesh.vertex_keys[vertexOf(draco::PointIndex(p))] = (uint64_t{halves[1]} << 32) | halves[0];
+      const draco::AttributeValueIndex value = keys->mapped_index(draco::PointIndex(p));
+      uint64_t& key = mesh.vertex_keys[vertexOf(draco::PointIndex(p))];
+      if (half_steps) {
+        uint32_t half[3] = {0, 0, 0};
+        keys->ConvertValue<uint32_t, 3>(value, half);
+        const std::optional<uint64_t> on = keyOfHalfSteps(half, key_lattice);
+        if (!on)
+          return Status(StatusCode::kMalformed,
+                        "draco mesh: vertex " + std::to_string(vertexOf(draco::PointIndex(p))) +
+                            "'s key (" + std::to_string(half[0]) + ", " + std::to_string(half[1]) +
+                            ", " + std::to_string(half[2]) +
+                            ") is not the middle of an edge of its lattice");
+        key = *on;
+      } else {
+        uint32_t halves[2] = {0, 0};
+        keys->ConvertValue<uint32_t, 2>(value, halves);
+        key = (uint64_t{halves[1]} << 32) | halves[0];
+      }
     }
   }
   if (has_normals) {

@@ -248,6 +248,7 @@ void FramePipeline::submitGroup(FrameGroup group, const std::vector<Peer>& peers
   for (const Peer& p : peers) {
     if (!p.isClient()) continue;
     job.draco_for_older = job.draco_for_older || !p.caps.any_mesh_codec;
+    job.key_halves_for_older = job.key_halves_for_older || !p.caps.key_half_steps;
     if (!p.wants_layers) continue;
     (p.wants_layer_video ? video : lz4) = true;
     lz4_camera_planes = lz4_camera_planes || !p.caps.zstd_planes;
@@ -280,10 +281,12 @@ void FramePipeline::fanOut(std::vector<Peer>& peers) {
       recorder_->recordFused(out.frame_id, *out.mesh_frame, *out.texture_bundle, *out.stats);
     for (auto& peer : peers) {
       if (!peer.isClient()) continue;
-      // A client before 1.7 decodes Draco meshes only: none was made for
-      // a frame fused before it joined, and it gets none of that frame.
-      const protocol::SharedFrame& mesh =
-          peer.caps.any_mesh_codec ? out.mesh_frame : out.mesh_frame_draco;
+      // A client before 1.7 decodes Draco meshes only, and one before 1.11
+      // Draco's keys as halves only: none was made for a frame fused
+      // before it joined, and it gets none of that frame.
+      const protocol::SharedFrame& mesh = peer.caps.key_half_steps   ? out.mesh_frame
+                                          : peer.caps.any_mesh_codec ? out.mesh_frame_v1_10
+                                                                     : out.mesh_frame_draco;
       if (!mesh) continue;
       // A client that asked for none more does not get this frame (another
       // client asked); its layers' video, if any, is out of step from here.

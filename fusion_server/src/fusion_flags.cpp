@@ -39,7 +39,7 @@ const std::vector<Setting<FusionSettings>>& fusionFlags() {
         choiceSetting<S>(
             "--mesh-codec",
             "meshes to clients of protocol 1.7: draco, or fp16-lz4 (half floats through LZ4, "
-            "the open Holoportation stack's: a third of Draco's time for six times its bytes); "
+            "the open Holoportation stack's: a third of Draco's time for ten times its bytes); "
             "older clients get draco",
             meshCodecNames(),
             [](S& s, const std::string& name) {

@@ -299,9 +299,15 @@ EncodedGroup encodeFused(const GroupJob& job, const FusionSettings& settings, co
   if (refine_end_ns != 0)
     stamps.push_back(
         {static_cast<uint16_t>(Stage::kRefine), kSourceServer, hull_end_ns, refine_end_ns});
-  encoded.mesh = encodeMesh(settings.mesh_codec, mesh, settings.draco);
-  // Clients before 1.7 decode Draco only.
-  encoded.draco_apart = settings.mesh_codec != protocol::MeshCodec::kDraco && job.draco_for_older;
+  // The keys in half steps on the hull's lattice for clients of 1.11.
+  DracoOptions draco = settings.draco;
+  const glm::u64vec3 lattice = hull::keyLattice(settings.hull);
+  draco.key_lattice = {lattice.x, lattice.y};
+  encoded.mesh = encodeMesh(settings.mesh_codec, mesh, draco);
+  // Clients before 1.7 decode Draco only, and before 1.11 its keys as halves.
+  encoded.draco_apart =
+      job.draco_for_older ||
+      (settings.mesh_codec == protocol::MeshCodec::kDraco && job.key_halves_for_older);
   if (encoded.draco_apart) encoded.draco = encodeDraco(mesh, settings.draco);
   const uint64_t t2 = monotonicNs();
   stamps.push_back({static_cast<uint16_t>(Stage::kMeshEncode), kSourceServer, mesh_ready_ns, t2});
@@ -390,12 +396,10 @@ FusedOutput finishFused(const GroupJob& job, const FusionSettings& settings, Enc
     return share(protocol::encodeOutgoing(spelt, mesh_sequence, kept));
   };
   out.mesh_frame = frameOf(encoded.mesh, settings.mesh_codec);
-  if (!encoded.draco_apart) {
-    out.mesh_frame_draco =
-        settings.mesh_codec == protocol::MeshCodec::kDraco ? out.mesh_frame : nullptr;
-  } else {
+  if (encoded.draco_apart)
     out.mesh_frame_draco = frameOf(encoded.draco, protocol::MeshCodec::kDraco);
-  }
+  out.mesh_frame_v1_10 =
+      settings.mesh_codec == protocol::MeshCodec::kDraco ? out.mesh_frame_draco : out.mesh_frame;
   // One sequence number for both: it is one frame, spelt per minor.
   const uint64_t stats_sequence = protocol::nextSequence();
   stats.pod_arrivals = job.pod_arrivals;

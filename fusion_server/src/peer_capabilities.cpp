@@ -22,6 +22,7 @@ PeerCapabilities capabilitiesOf(uint8_t minor, protocol::Role role, uint64_t hel
   c.asks_for_frames = minor >= 9 && asked(protocol::kCapabilityAsksForFrames);
   c.changes_layers = client && minor >= 10;
   c.zstd_planes = minor >= 11;
+  c.key_half_steps = minor >= 11;
   return c;
 }
 

@@ -1,5 +1,8 @@
 // The image and mesh codecs: exact or within quantisation, and refusing
 // corrupt or forged bytes by name.
+#include <draco/compression/encode.h>
+#include <draco/mesh/triangle_soup_mesh_builder.h>
+#include <draco/metadata/geometry_metadata.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -7,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <set>
 
 #include "codec/image_codec.h"
@@ -165,6 +169,83 @@ TEST(MeshCodec, NormalsAreLeftToTheReceiverUnlessAsked) {
   for (size_t v = 0; v < mesh.vertexCount(); ++v) by_key[mesh.vertex_keys[v]] = v;
   for (size_t v = 0; v < back->vertexCount(); ++v)
     EXPECT_GT(glm::dot(back->normals[v], mesh.normals[by_key.at(back->vertex_keys[v])]), 0.999f);
+}
+
+// Since 1.11 Draco carries a hull's vertex keys as their edges' middles in
+// half steps on the key lattice: the same keys come back for fewer bytes,
+// and a lattice or a key that lies is refused by name.
+TEST(MeshCodec, DracoKeysInHalfStepsComeBackTheSameForFewerBytes) {
+  const auto grid = sampleGrid({-0.5, -0.5, -0.5}, 0.05, 21, 21, 21,
+                               [](const glm::dvec3& p) { return 0.4 - glm::length(p); });
+  // Keys on its grid of 21 points a side, moved as the hull moves them to
+  // the capture volume's lattice (103 a side at 20 mm over 2 m).
+  Mesh mesh = marchingCubes(grid);
+  ASSERT_EQ(mesh.vertex_keys.size(), mesh.vertexCount());
+  for (uint64_t& key : mesh.vertex_keys) {
+    const uint64_t axis = key % 3, point = key / 3;
+    const uint64_t x = point % 21 + 40, y = point / 21 % 21 + 30, z = point / 441 + 41;
+    key = ((z * 103 + y) * 103 + x) * 3 + axis;
+  }
+  DracoOptions halves, steps;
+  steps.key_lattice = {103, 103};
+  auto as_halves = encodeDraco(mesh, halves);
+  auto as_steps = encodeDraco(mesh, steps);
+  ASSERT_TRUE(as_halves.isOk() && as_steps.isOk());
+  EXPECT_LT(as_steps->size() * 10, as_halves->size() * 9) << "a tenth fewer bytes at least";
+  auto keysOf = [](const std::vector<uint8_t>& bytes) {
+    auto back = decodeDraco(bytes.data(), bytes.size());
+    EXPECT_TRUE(back.isOk()) << back.status().toString();
+    std::map<uint64_t, glm::vec3> keys;
+    if (back.isOk()) {
+      EXPECT_EQ(back->vertex_keys.size(), back->vertexCount());
+      for (size_t v = 0; v < back->vertexCount(); ++v)
+        keys[back->vertex_keys[v]] = back->positions[v];
+    }
+    return keys;
+  };
+  const auto from_halves = keysOf(*as_halves), from_steps = keysOf(*as_steps);
+  ASSERT_EQ(from_steps.size(), mesh.vertexCount());
+  EXPECT_EQ(from_steps, from_halves) << "the same keys at the same positions";
+  for (uint64_t key : mesh.vertex_keys) EXPECT_EQ(from_steps.count(key), 1u) << key;
+  // A lattice too small for the keys is not used: they go out as halves.
+  DracoOptions small;
+  small.key_lattice = {103, 0};
+  auto fallback = encodeDraco(mesh, small);
+  ASSERT_TRUE(fallback.isOk());
+  EXPECT_EQ(keysOf(*fallback), from_halves);
+  // What no encoder of ours writes: a key naming no edge (two odd half
+  // steps, or none), one past its lattice's side, a lattice without sides.
+  auto lying = [](std::array<uint32_t, 3> key, std::vector<int32_t> lattice) {
+    draco::TriangleSoupMeshBuilder builder;
+    builder.Start(1);
+    const int position =
+        builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+    const int keys = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 3, draco::DT_UINT32);
+    const float corners[3][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    builder.SetAttributeValuesForFace(position, draco::FaceIndex(0), corners[0], corners[1],
+                                      corners[2]);
+    const uint32_t good[3] = {2, 1, 0}, other[3] = {1, 2, 0};
+    builder.SetAttributeValuesForFace(keys, draco::FaceIndex(0), key.data(), good, other);
+    std::unique_ptr<draco::Mesh> built = builder.Finalize();
+    auto metadata = std::make_unique<draco::GeometryMetadata>();
+    metadata->AddEntryIntArray("holofuse_key_lattice", lattice);
+    built->AddMetadata(std::move(metadata));
+    draco::Encoder encoder;
+    encoder.SetSpeedOptions(10, 10);
+    draco::EncoderBuffer buffer;
+    EXPECT_TRUE(encoder.EncodeMeshToBuffer(*built, &buffer).ok());
+    auto back = decodeDraco(reinterpret_cast<const uint8_t*>(buffer.data()), buffer.size());
+    return back.isOk() ? std::string("accepted") : back.status().message();
+  };
+  EXPECT_EQ(lying({0, 1, 2}, {4, 4}), "accepted");
+  EXPECT_NE(lying({1, 1, 0}, {4, 4}).find("vertex 0's key (1, 1, 0) is not the middle of an edge"),
+            std::string::npos)
+      << lying({1, 1, 0}, {4, 4});
+  EXPECT_NE(lying({2, 2, 2}, {4, 4}).find("(2, 2, 2) is not the middle"), std::string::npos);
+  EXPECT_NE(lying({9, 0, 0}, {4, 4}).find("(9, 0, 0) is not the middle"), std::string::npos)
+      << "x of 4 on a side of 4";
+  EXPECT_NE(lying({1, 0, 0}, {0, 4}).find("its key lattice is not two sides"), std::string::npos);
+  EXPECT_NE(lying({1, 0, 0}, {4}).find("its key lattice is not two sides"), std::string::npos);
 }
 
 // The Holoportation coding (half floats through LZ4) on a keyed marching

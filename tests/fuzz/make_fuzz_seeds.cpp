@@ -5,6 +5,7 @@
 // The committed corpus is this program's output, beside the inputs fuzzing
 // found faults with (named regression-*), which it leaves in place:
 //   build/bin/make_fuzz_seeds tests/fuzz/corpus
+#include <array>
 #include <cmath>
 #include <deque>
 #include <filesystem>
@@ -120,9 +121,10 @@ Mesh sphere() {
   return marchingCubes(grid);
 }
 
-Bytes dracoOf(const Mesh& mesh, int speed) {
+Bytes dracoOf(const Mesh& mesh, int speed, std::array<uint64_t, 2> key_lattice = {0, 0}) {
   DracoOptions options;
   options.speed = speed;
+  options.key_lattice = key_lattice;
   auto bytes = encodeDraco(mesh, options);
   if (!bytes.isOk()) {
     std::cerr << "make_fuzz_seeds: " << bytes.status().toString() << "\n";
@@ -219,8 +221,10 @@ void protocolSeeds(Corpus& corpus) {
     corpus["client_texture_bundle"].push_back(
         {name, withMinor(kVersionMinor, encodeFrame(bundleOf(codec, bundle_storage), 7))});
   }
+  // The sphere's grid is 11 points a side; since 1.11 its keys in half steps.
   corpus["draco_mesh"] = {{"edgebreaker", dracoOf(sphere(), 7)},
-                          {"sequential", dracoOf(sphere(), 10)}};
+                          {"sequential", dracoOf(sphere(), 10)},
+                          {"key_half_steps", dracoOf(sphere(), 7, {11, 11})}};
   // Keyed with normals as the server sends it, then with an atlas's corner
   // coordinates and without normals.
   Mesh atlas = sphere();

@@ -240,11 +240,13 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   }
 }
 
-// Protocol 1.11 codes the layers' camera planes in Zstandard. Two layered
-// clients of one server, of 1.10 and 1.11: each gets its spelling of the
-// same frames (LZ4 and Zstandard camera planes, the same colour planes),
-// and the camera indices decode the same in both.
-TEST(Loop, LayeredClientsBefore111GetLz4CameraPlanesAndLaterOnesZstandard) {
+// Protocol 1.11 codes the layers' camera planes in Zstandard and Draco's
+// vertex keys in half steps. Two layered clients of one server, of 1.10
+// and 1.11: each gets its spelling of the same frames (LZ4 and Zstandard
+// camera planes, the same colour planes; keys as halves and in half steps,
+// fewer bytes), and both decode the same camera indices and the same keyed
+// vertices.
+TEST(Loop, ClientsBefore111GetLz4CameraPlanesAndKeyHalvesOfTheSameFrames) {
   namespace protocol = holofuse::protocol;
   const fs::path out = freshDir("camera_planes");
   pid_t server = 0;
@@ -263,6 +265,8 @@ TEST(Loop, LayeredClientsBefore111GetLz4CameraPlanesAndLaterOnesZstandard) {
     // frame id -> each layer's camera plane: its codec and decoded texels
     std::map<uint64_t, std::vector<std::pair<protocol::Codec, std::vector<uint8_t>>>> cameras;
     std::map<uint64_t, std::vector<size_t>> colour_bytes;  // frame id -> each layer's
+    // frame id -> the mesh's bytes and its vertices by key
+    std::map<uint64_t, std::pair<size_t, std::map<uint64_t, glm::vec3>>> meshes;
     std::string refused;
   };
   std::vector<Client> clients(2);
@@ -288,6 +292,21 @@ TEST(Loop, LayeredClientsBefore111GetLz4CameraPlanesAndLaterOnesZstandard) {
       received.clear();
       c.link->poll(10, received);
       for (const auto& frame : received) {
+        protocol::MeshFrame mesh;
+        if (frame.header.type == static_cast<uint16_t>(protocol::MessageType::kMeshFrame) &&
+            protocol::decodeFrame(frame, mesh).isOk()) {
+          auto decoded = holofuse::decodeMesh(mesh.codec, mesh.mesh.data(), mesh.mesh.size());
+          if (!decoded.isOk()) {
+            c.refused = decoded.status().toString();
+            continue;
+          }
+          auto& [bytes, vertices] = c.meshes[mesh.frame_id];
+          bytes = mesh.mesh.size();
+          EXPECT_EQ(decoded->vertex_keys.size(), decoded->vertexCount()) << "keyed";
+          for (size_t v = 0; v < decoded->vertex_keys.size(); ++v)
+            vertices[decoded->vertex_keys[v]] = decoded->positions[v];
+          continue;
+        }
         protocol::TextureBundle bundle;
         if (frame.header.type != static_cast<uint16_t>(protocol::MessageType::kTextureBundle) ||
             !protocol::decodeFrame(frame, bundle).isOk() || !bundle.layers)
@@ -338,6 +357,16 @@ TEST(Loop, LayeredClientsBefore111GetLz4CameraPlanesAndLaterOnesZstandard) {
         << "frame " << frame_id;
   }
   EXPECT_GT(texels_compared, 0u);
+  size_t meshes_compared = 0;
+  for (const auto& [frame_id, newer] : clients[1].meshes) {
+    const auto older = clients[0].meshes.find(frame_id);
+    if (older == clients[0].meshes.end()) continue;
+    ++meshes_compared;
+    EXPECT_LT(newer.first, older->second.first) << "frame " << frame_id << ": keys in half steps";
+    EXPECT_FALSE(newer.second.empty());
+    EXPECT_EQ(newer.second, older->second.second) << "frame " << frame_id;
+  }
+  EXPECT_GT(meshes_compared, 0u);
 }
 
 // The live report measures each pod's mask against the hull the client

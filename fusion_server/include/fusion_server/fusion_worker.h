@@ -67,10 +67,12 @@ const std::vector<Setting<FusionSettings>>& fusionFlags();
 
 struct FusedOutput {
   uint64_t frame_id = 0;
-  // mesh_frame in FusionSettings::mesh_codec; mesh_frame_draco the same
-  // mesh in Draco for a client before 1.7 (mesh_frame itself when that is
-  // Draco; null when the job did not ask for it).
-  protocol::SharedFrame mesh_frame, mesh_frame_draco, texture_bundle, stats;
+  // mesh_frame in FusionSettings::mesh_codec (Draco's vertex keys in half
+  // steps, protocol 1.11); mesh_frame_draco the same mesh in Draco with
+  // its keys as two halves, for a client before 1.7 and, where mesh_frame
+  // is Draco, before 1.11 (null when the job did not ask for it);
+  // mesh_frame_v1_10 the one for a client of 1.7 to 1.10.
+  protocol::SharedFrame mesh_frame, mesh_frame_draco, mesh_frame_v1_10, texture_bundle, stats;
   // The same images without the pods' feather maps, under a 1.1 header,
   // for a peer that agreed on 1.1 or 1.0.
   protocol::SharedFrame texture_bundle_v1_1;
@@ -109,9 +111,11 @@ struct GroupJob {
   uint64_t dropped_groups = 0;
   std::vector<protocol::PodArrivals>
       pod_arrivals;  // every pod's so far, when the group was dispatched
-  // A client before 1.7 is connected: the mesh in Draco too, when the
-  // server's codec is another.
+  // A client before 1.7 is connected: the mesh in Draco with its keys as
+  // two halves too. One before 1.11: the same where the server's codec is
+  // Draco.
   bool draco_for_older = false;
+  bool key_halves_for_older = false;
 };
 
 // A pod's frame as the fusion takes it: its planes decoded (the whole image
@@ -183,7 +187,7 @@ FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
 struct EncodedGroup {
   StatusOr<std::vector<uint8_t>> mesh = std::vector<uint8_t>{};
   StatusOr<std::vector<uint8_t>> draco = std::vector<uint8_t>{};
-  bool draco_apart = false;  // draco holds the mesh for clients before 1.7
+  bool draco_apart = false;  // draco holds the mesh for clients before 1.7 (or 1.11)
   protocol::TextureBundle bundle, bundle_v1_1;
   // The compressed images and the Draco bytes are borrowed by the frames
   // (fanned out to every client without a copy) and live as long as they do.

@@ -26,6 +26,7 @@ struct PeerCapabilities {
   bool asks_for_frames = false;  // 1.9: a client that paces with FrameRequest
   bool changes_layers = false;   // 1.10: a client whose FrameRequests say which layers it takes
   bool zstd_planes = false;      // 1.11: decodes layers' camera planes in Zstandard
+  bool key_half_steps = false;   // 1.11: decodes Draco's vertex keys in half steps
 };
 
 // hello_capabilities: the Hello's kCapability* bits, which count only for a
