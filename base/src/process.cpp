@@ -19,6 +19,7 @@
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <sstream>
 #include <thread>
 
 namespace holofuse {
@@ -31,6 +32,23 @@ void closeAll(std::initializer_list<int> fds) {
 }
 
 }  // namespace
+
+std::string findProgram(const std::string& name, const std::vector<std::string>& also_in) {
+  std::vector<std::string> folders;
+  const char* path = std::getenv("PATH");
+  std::stringstream listed(path != nullptr ? path : "/usr/bin:/bin");
+  for (std::string folder; std::getline(listed, folder, ':');)
+    if (!folder.empty()) folders.push_back(folder);
+  folders.insert(folders.end(), also_in.begin(), also_in.end());
+  for (const std::string& folder : folders) {
+    const std::filesystem::path candidate = std::filesystem::path(folder) / name;
+    std::error_code error;
+    if (std::filesystem::is_regular_file(candidate, error) &&
+        ::access(candidate.c_str(), X_OK) == 0)
+      return candidate.string();
+  }
+  return "";
+}
 
 StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args, const SpawnOptions& options,
                              ChildPipes* pipes) {

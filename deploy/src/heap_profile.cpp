@@ -32,16 +32,12 @@ std::string trimmed(const std::string& line) {
   return first == std::string::npos ? std::string() : line.substr(first);
 }
 
-// The first program in PATH called name, resolved: "" when none.
+// findProgram's path, resolved, since heaptrack's own files lie beside
+// where its launcher really is: empty when none.
 fs::path inPath(const std::string& name) {
-  const char* path = std::getenv("PATH");
-  std::stringstream dirs(path != nullptr ? path : "/usr/bin:/bin");
-  for (std::string dir; std::getline(dirs, dir, ':');) {
-    std::error_code error;
-    const fs::path candidate = fs::path(dir) / name;
-    if (fs::is_regular_file(candidate, error)) return fs::canonical(candidate, error);
-  }
-  return {};
+  const std::string found = findProgram(name);
+  std::error_code error;
+  return found.empty() ? fs::path() : fs::canonical(found, error);
 }
 
 }  // namespace

@@ -41,11 +41,7 @@ std::vector<pid_t> pidsIn(const std::string& ns) {
 
 }  // namespace
 
-std::string ipCommand() {
-  for (const char* path : {"/usr/sbin/ip", "/sbin/ip", "/usr/bin/ip", "/bin/ip"})
-    if (::access(path, X_OK) == 0) return path;
-  return "";
-}
+std::string ipCommand() { return findProgram("ip", {"/usr/sbin", "/sbin"}); }
 
 std::string tearDownNamespaces(const std::vector<std::string>& namespaces, int grace_ms) {
   std::string failed;

@@ -38,6 +38,35 @@ std::string contents(const fs::path& path) {
   return text.str();
 }
 
+// findProgram: PATH's folders first, then the ones given; only an
+// executable file counts; "" when there is none.
+TEST(Process, FindProgramSearchesPathThenTheFoldersGiven) {
+  const fs::path dir = fs::temp_directory_path() / ("find_program_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "first");
+  fs::create_directories(dir / "second");
+  auto write = [](const fs::path& file, fs::perms perms) {
+    std::ofstream(file) << "#!/bin/sh\n";
+    fs::permissions(file, perms);
+  };
+  write(dir / "first" / "tool", fs::perms::owner_read | fs::perms::owner_exec);
+  write(dir / "second" / "tool", fs::perms::owner_read | fs::perms::owner_exec);
+  write(dir / "first" / "plain", fs::perms::owner_read);  // not executable
+  write(dir / "second" / "extra", fs::perms::owner_read | fs::perms::owner_exec);
+  const char* was = std::getenv("PATH");
+  const std::string saved = was != nullptr ? was : "";
+  ::setenv("PATH", ((dir / "first").string() + ":" + (dir / "second").string()).c_str(), 1);
+  EXPECT_EQ(findProgram("tool"), (dir / "first" / "tool").string());
+  EXPECT_EQ(findProgram("plain"), "");
+  EXPECT_EQ(findProgram("extra"), (dir / "second" / "extra").string());
+  ::setenv("PATH", (dir / "first").string().c_str(), 1);
+  EXPECT_EQ(findProgram("extra"), "");
+  EXPECT_EQ(findProgram("extra", {(dir / "second").string()}), (dir / "second" / "extra").string());
+  EXPECT_EQ(findProgram("no_such_program_anywhere", {(dir / "second").string()}), "");
+  ::setenv("PATH", saved.c_str(), 1);
+  fs::remove_all(dir);
+}
+
 TEST(Process, OutputGoesToTheLogAndTheExitCodeComesBack) {
   const fs::path log = logIn("both.log");
   SpawnOptions options;

@@ -50,6 +50,11 @@ struct ChildPipes {
 StatusOr<pid_t> spawnProcess(const std::vector<std::string>& args, const SpawnOptions& options = {},
                              ChildPipes* pipes = nullptr);
 
+// The first executable file called name in PATH's folders, then in
+// also_in (folders a user's PATH may lack, such as /usr/sbin): its path,
+// or "" when there is none. spawnProcess does not search PATH.
+std::string findProgram(const std::string& name, const std::vector<std::string>& also_in = {});
+
 // How a waited-for process ended: its exit code, or 128 + the signal that
 // killed it (as a shell reports it).
 int exitCodeOf(int wait_status);

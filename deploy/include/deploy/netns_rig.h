@@ -41,8 +41,8 @@ struct RigPlan {
   }
 };
 
-// iproute2's ip, where Debian puts it (the spawner does not search PATH);
-// empty when there is none.
+// iproute2's ip (findProgram: PATH, then where Debian puts it, which a
+// user's PATH may lack); empty when there is none.
 std::string ipCommand();
 
 class NetnsRig {
