@@ -41,6 +41,7 @@ Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
                          const LayerSettings& settings, LayerStats* stats) {
   colours_.clear();
   cameras_.clear();
+  camera_planes_.clear();
   if (camera_ids.size() != views.size())
     return Status(StatusCode::kMalformed, "texture layers: " + std::to_string(camera_ids.size()) +
                                               " camera ids for " + std::to_string(views.size()) +
@@ -114,9 +115,13 @@ protocol::BundleLayers LayerStage::layoutOnTheWire(
 
 protocol::Plane LayerStage::cameraPlane(size_t layer, protocol::Codec codec,
                                         std::deque<std::vector<uint8_t>>& storage) const {
-  storage.emplace_back();
-  return encodePlane(cameras_[layer], protocol::PlaneKind::kCamera, codec, storage.back(), 1,
-                     kCameraPlaneHcLevel);
+  const auto [at, coded] = camera_planes_.try_emplace({codec, layer});
+  if (coded) {
+    storage.emplace_back();
+    at->second = encodePlane(cameras_[layer], protocol::PlaneKind::kCamera, codec, storage.back(),
+                             1, kCameraPlaneHcLevel);
+  }
+  return at->second;
 }
 
 protocol::TextureBundle LayerStage::withLz4CameraPlanes(

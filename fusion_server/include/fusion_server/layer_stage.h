@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -77,7 +78,9 @@ class LayerStage {
 
   // The built layers into bundle.layers, the encoded bytes in storage:
   // colour planes in image_codec (lz4_acceleration, lz4_hc_level as the
-  // images'), the camera planes Zstandard (protocol 1.11).
+  // images'), the camera planes Zstandard (protocol 1.11). The camera
+  // planes are coded once a build and shared by the bundles after it, so
+  // every encode between two builds takes the same storage.
   void encodeLz4(protocol::Codec image_codec, int lz4_acceleration, int lz4_hc_level,
                  protocol::TextureBundle& bundle, std::deque<std::vector<uint8_t>>& storage) const;
   // The same with each layer's colour as the next frame of that layer's
@@ -92,6 +95,8 @@ class LayerStage {
 
  private:
   protocol::BundleLayers layoutOnTheWire(std::deque<std::vector<uint8_t>>& storage) const;
+  // Layer l's camera plane in codec, coded once a build whichever bundles
+  // (LZ4 or video colour, either minor's spelling) carry it.
   protocol::Plane cameraPlane(size_t layer, protocol::Codec codec,
                               std::deque<std::vector<uint8_t>>& storage) const;
   std::optional<TextureAtlas> atlas_;
@@ -100,6 +105,9 @@ class LayerStage {
   std::vector<uint32_t> camera_ids_;
   // The last build's layers, colour and camera apart (RGB, GRAY8).
   std::vector<Image8> colours_, cameras_;
+  // cameraPlane's, by codec and layer; their bytes lie in the storage of
+  // the frame that coded them.
+  mutable std::map<std::pair<protocol::Codec, size_t>, protocol::Plane> camera_planes_;
   std::vector<std::unique_ptr<LayerVideoEncoder>> streams_;  // one per layer index
 };
 
