@@ -69,10 +69,11 @@ const std::vector<Setting<FusionSettings>>& fusionFlags() {
                          "best everywhere)",
                          0.0, 1.0, [](S& s) -> double& { return s.layers.min_score_share; }),
         numberSetting<S>("--layer-keep-share",
-                         "a texture layer keeps the camera of the texel before it where that "
-                         "camera sees the point at least this share as squarely as the one "
-                         "ranked for the layer (fewer seams inside a chart; 1: the ranking alone)",
-                         0.0, 1.0, [](S& s) -> double& { return s.layers.keep_left_share; }),
+                         "a texture layer keeps the camera of the texel to its left or above it "
+                         "where that camera sees the point at least this share as squarely as "
+                         "the one ranked for the layer (fewer seams inside a chart; 1: the "
+                         "ranking alone)",
+                         0.0, 1.0, [](S& s) -> double& { return s.layers.keep_share; }),
         choiceSetting<S>(
             "--layer-video",
             "the layers' colour as video for the clients that decode it (protocol 1.6): "

@@ -72,7 +72,7 @@ Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
   LayerOptions options;
   options.layers = settings.layers;
   options.min_score_share = settings.min_score_share;
-  options.keep_left_share = settings.keep_left_share;
+  options.keep_share = settings.keep_share;
   HOLOFUSE_ASSIGN_OR_RETURN(const TextureLayers built,
                             buildTextureLayers(laid, atlas_->layout().texels, views, options));
   // RGB as the server sends colour; the camera byte as a plane of its own

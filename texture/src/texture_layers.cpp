@@ -15,9 +15,19 @@ namespace holofuse {
 
 namespace {
 
-struct Ranked {
+// A camera that sees a texel's point: its score (Volino and Hilton eq. 2's
+// cosine times the feather weight) and the point's position in its image.
+struct Candidate {
   double score = 0.0;
+  double x = 0.0, y = 0.0;
   uint8_t view = kNoLayerCamera;
+};
+
+// A row of the atlas: each texel's cameras, best first; texel x's are
+// candidates[begin[x]] .. candidates[begin[x + 1] - 1].
+struct RankedRow {
+  std::vector<uint32_t> begin;
+  std::vector<Candidate> candidates;
 };
 
 // The colour at pixel position (x, y), pixel centres at .5, by Catmull-Rom
@@ -164,6 +174,86 @@ Status checkInputs(const Mesh& mesh, uint32_t texels, const std::vector<LayerVie
   return Status();
 }
 
+// Appends the cameras that see the point `source` holds, best first (ties
+// to the lower view): in front and inside the image, within `tolerance` of
+// its depth map (Volino and Hilton eq. 1), inside its mask, facing it
+// (eq. 2 as a cosine), weighted by the feather.
+void rankCameras(const Mesh& mesh, const TexelSource& source, const std::vector<LayerView>& views,
+                 const std::vector<DepthMap>& depths, double tolerance, const LayerOptions& options,
+                 std::vector<Candidate>& out) {
+  const glm::dvec3& b = source.barycentric;
+  const uint32_t* corner = &mesh.indices[3 * size_t(source.triangle)];
+  glm::dvec3 point(0.0), normal(0.0);
+  for (int k = 0; k < 3; ++k) {
+    point += b[k] * glm::dvec3(mesh.positions[corner[k]]);
+    normal += b[k] * glm::dvec3(mesh.normals[corner[k]]);
+  }
+  const double length = glm::length(normal);
+  if (!(length > 0)) return;
+  normal /= length;
+  const size_t first = out.size();
+  for (size_t j = 0; j < views.size(); ++j) {
+    const LayerView& v = views[j];
+    const auto pixel = v.camera->project(point);
+    if (!pixel || !(pixel->x >= 0 && pixel->y >= 0 && pixel->x < v.camera->width &&
+                    pixel->y < v.camera->height))
+      continue;
+    const uint32_t px = static_cast<uint32_t>(pixel->x), py = static_cast<uint32_t>(pixel->y);
+    if (!(std::abs(depths[j].at(px, py) - pixel->z) <= tolerance)) continue;
+    if (v.mask != nullptr && v.mask->at(px, py)[0] < 128) continue;
+    const double facing = glm::dot(normal, glm::normalize(v.camera->center() - point));
+    if (!(facing > 0)) continue;
+    double feather = 1.0;
+    if (v.feather != nullptr && options.feather_ramp_px > 0)
+      feather = std::min(1.0, v.feather->at(px, py)[0] / options.feather_ramp_px);
+    if (!(feather > 0)) continue;
+    out.push_back({facing * feather, pixel->x, pixel->y, static_cast<uint8_t>(j)});
+  }
+  std::sort(out.begin() + first, out.end(), [](const Candidate& a, const Candidate& c) {
+    return a.score > c.score || (a.score == c.score && a.view < c.view);
+  });
+}
+
+// The camera of each layer at each texel, in alpha: layer l takes the l-th
+// ranked camera, or the camera of its left or upper neighbour in that
+// layer where that one sees the point at least options.keep_share as
+// squarely (a greedy stand-in for a seam term, Lempitsky and Ivanov 2007:
+// fewer camera changes inside a chart, across rows as along them). A
+// layer after the first holds a point only where its camera scores at
+// least options.min_score_share of the best. Rows in order, each left to
+// right, so both neighbours are final: the same bytes on any machine.
+void chooseLayerCameras(std::vector<RankedRow>& rows, size_t layer_count,
+                        const LayerOptions& options, std::vector<Image8>& layers) {
+  const uint32_t texels = static_cast<uint32_t>(rows.size());
+  for (uint32_t y = 0; y < texels; ++y) {
+    RankedRow& row = rows[y];
+    for (uint32_t x = 0; x < texels; ++x) {
+      Candidate* ranked = row.candidates.data() + row.begin[x];
+      const size_t count = row.begin[x + 1] - row.begin[x];
+      if (count == 0) continue;
+      const size_t keep = std::min(count, layer_count);
+      const double best = ranked[0].score;
+      for (size_t l = 0; l < keep; ++l) {
+        const uint8_t left = x > 0 ? layers[l].at(x - 1, y)[3] : kNoLayerCamera;
+        const uint8_t up = y > 0 ? layers[l].at(x, y - 1)[3] : kNoLayerCamera;
+        for (const uint8_t neighbour : {left, up}) {
+          if (options.keep_share >= 1.0 || ranked[l].view == left || ranked[l].view == up) break;
+          if (neighbour == kNoLayerCamera) continue;
+          const Candidate* kept =
+              std::find_if(ranked + l + 1, ranked + count,
+                           [&](const Candidate& c) { return c.view == neighbour; });
+          if (kept != ranked + count && kept->score >= options.keep_share * ranked[l].score) {
+            std::swap(ranked[l], ranked[kept - ranked]);
+            break;
+          }
+        }
+        if (l > 0 && ranked[l].score < options.min_score_share * best) break;
+        layers[l].at(x, y)[3] = ranked[l].view;
+      }
+    }
+  }
+}
+
 }  // namespace
 
 StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
@@ -194,77 +284,42 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
                     [&](size_t j) { depths[j] = rasterizeDepth(mesh, *views[j].camera); });
 
   const std::vector<TexelSource> sources = texelSources(mesh, texels, out.texels_contested);
+  // Three passes: every texel's cameras ranked (rows side by side), the
+  // cameras each layer takes (in order, since a texel may keep its left or
+  // upper neighbour's), then the colours (rows side by side).
+  std::vector<RankedRow> rows(texels);
   std::atomic<uint64_t> covered{0}, seen{0};
   tbb::parallel_for(uint32_t{0}, texels, [&](uint32_t y) {
-    std::vector<Ranked> ranked;
-    ranked.reserve(views.size());
+    RankedRow& row = rows[y];
+    row.begin.assign(size_t{texels} + 1, 0);
     uint64_t row_covered = 0, row_seen = 0;
     for (uint32_t x = 0; x < texels; ++x) {
+      row.begin[x] = static_cast<uint32_t>(row.candidates.size());
       const TexelSource& source = sources[size_t{y} * texels + x];
       if (source.triangle < 0) continue;
       ++row_covered;
-      const glm::dvec3& b = source.barycentric;
-      const uint32_t* corner = &mesh.indices[3 * size_t(source.triangle)];
-      glm::dvec3 point(0.0), normal(0.0);
-      for (int k = 0; k < 3; ++k) {
-        point += b[k] * glm::dvec3(mesh.positions[corner[k]]);
-        normal += b[k] * glm::dvec3(mesh.normals[corner[k]]);
-      }
-      const double length = glm::length(normal);
-      if (!(length > 0)) continue;
-      normal /= length;
-      ranked.clear();
-      for (size_t j = 0; j < views.size(); ++j) {
-        const LayerView& v = views[j];
-        const auto pixel = v.camera->project(point);
-        if (!pixel || !(pixel->x >= 0 && pixel->y >= 0 && pixel->x < v.camera->width &&
-                        pixel->y < v.camera->height))
-          continue;
-        const uint32_t px = static_cast<uint32_t>(pixel->x), py = static_cast<uint32_t>(pixel->y);
-        // Volino and Hilton eq. 1: the depth map sees this point.
-        if (!(std::abs(depths[j].at(px, py) - pixel->z) <= tolerance)) continue;
-        if (v.mask != nullptr && v.mask->at(px, py)[0] < 128) continue;
-        // Eq. 2 as a cosine: the point faces the camera.
-        const double facing = glm::dot(normal, glm::normalize(v.camera->center() - point));
-        if (!(facing > 0)) continue;
-        double feather = 1.0;
-        if (v.feather != nullptr && options.feather_ramp_px > 0)
-          feather = std::min(1.0, v.feather->at(px, py)[0] / options.feather_ramp_px);
-        if (!(feather > 0)) continue;
-        ranked.push_back({facing * feather, static_cast<uint8_t>(j)});
-      }
-      if (ranked.empty()) continue;
-      ++row_seen;
-      const size_t keep = std::min<size_t>(ranked.size(), layer_count);
-      std::partial_sort(ranked.begin(), ranked.begin() + keep, ranked.end(),
-                        [](const Ranked& a, const Ranked& c) {
-                          return a.score > c.score || (a.score == c.score && a.view < c.view);
-                        });
-      const double best = ranked[0].score;
-      // The row is filled left to right, so the left texel is final.
-      for (size_t l = 0; l < keep && options.keep_left_share < 1.0 && x > 0; ++l) {
-        const uint8_t left = out.layers[l].at(x - 1, y)[3];
-        if (left == kNoLayerCamera || left == ranked[l].view) continue;
-        for (size_t k = l + 1; k < ranked.size(); ++k) {
-          if (ranked[k].view != left) continue;
-          if (ranked[k].score >= options.keep_left_share * ranked[l].score)
-            std::swap(ranked[l], ranked[k]);
-          break;
-        }
-      }
-      for (size_t l = 0; l < keep; ++l) {
-        if (l > 0 && ranked[l].score < options.min_score_share * best) break;
-        const LayerView& v = views[ranked[l].view];
-        const auto pixel = v.camera->project(point);
-        const glm::dvec3 colour = sampleColor(*v.color, v.mask, pixel->x, pixel->y);
-        uint8_t* texel = out.layers[l].at(x, y);
-        for (int c = 0; c < 3; ++c)
-          texel[c] = static_cast<uint8_t>(std::clamp(std::lround(colour[c]), 0L, 255L));
-        texel[3] = ranked[l].view;
-      }
+      const size_t before = row.candidates.size();
+      rankCameras(mesh, source, views, depths, tolerance, options, row.candidates);
+      if (row.candidates.size() > before) ++row_seen;
     }
+    row.begin[texels] = static_cast<uint32_t>(row.candidates.size());
     covered += row_covered;
     seen += row_seen;
+  });
+  chooseLayerCameras(rows, layer_count, options, out.layers);
+  tbb::parallel_for(uint32_t{0}, texels, [&](uint32_t y) {
+    const RankedRow& row = rows[y];
+    for (uint32_t x = 0; x < texels; ++x) {
+      for (size_t l = 0; l < out.layers.size(); ++l) {
+        uint8_t* texel = out.layers[l].at(x, y);
+        if (texel[3] == kNoLayerCamera) break;
+        const Candidate& c = row.candidates[row.begin[x] + l];
+        const LayerView& v = views[c.view];
+        const glm::dvec3 colour = sampleColor(*v.color, v.mask, c.x, c.y);
+        for (int k = 0; k < 3; ++k)
+          texel[k] = static_cast<uint8_t>(std::clamp(std::lround(colour[k]), 0L, 255L));
+      }
+    }
   });
   out.texels_covered = covered;
   out.texels_seen = seen;

@@ -40,7 +40,7 @@ struct LayerSettings {
   uint32_t chart_cells = 4;
   double texels_per_cell = 4.0;  // see layers
   double min_score_share = 0.5;  // LayerOptions::min_score_share
-  double keep_left_share = 0.5;  // LayerOptions::keep_left_share
+  double keep_share = 0.5;       // LayerOptions::keep_share
   // The layers' colour as video, for the clients that decode it (protocol
   // 1.6); video.codec kLz4 (or any image codec, the default): never as
   // video, LZ4 as the images.
@@ -50,7 +50,7 @@ struct LayerSettings {
     return layers == other.layers && atlas_texels == other.atlas_texels &&
            atlas_max_texels == other.atlas_max_texels && chart_cells == other.chart_cells &&
            texels_per_cell == other.texels_per_cell && min_score_share == other.min_score_share &&
-           keep_left_share == other.keep_left_share;
+           keep_share == other.keep_share;
   }
 };
 
