@@ -1,6 +1,7 @@
 // The per-frame texture atlas (Dong and Hollerer 2017, Algorithms 1 and 2)
 // and the texture coordinates Draco carries with the mesh.
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <array>
@@ -620,6 +621,31 @@ TEST_P(TextureLayers, ALayerKeepsItsNeighboursCameraWhereItSeesThePointNearlyAsW
     }
   }
   EXPECT_GT(differ, 0u);
+}
+
+// The texels' sources, their cameras and colours are the same bytes on one
+// thread and on several: the bands of rows meet each triangle in mesh
+// order, and the cameras are chosen row after row.
+TEST_P(TextureLayers, OneThreadAndSeveralBuildTheSameBytes) {
+  const PaintedSphere scene(4);
+  LaidOut laid(scene, GetParam() ? chartOptions() : latticeOptions());
+  ASSERT_TRUE(laid.cells.has_value());
+  LayerOptions options;
+  options.layers = 3;
+  auto buildOn = [&](int threads) {
+    tbb::task_arena arena(threads);
+    return arena.execute(
+        [&] { return buildTextureLayers(laid.mesh, laid.atlas.texels(), scene.views(), options); });
+  };
+  const auto one = buildOn(1), several = buildOn(4);
+  ASSERT_TRUE(one.isOk() && several.isOk());
+  EXPECT_GT(one->texels_seen, 0u);
+  EXPECT_EQ(one->texels_covered, several->texels_covered);
+  EXPECT_EQ(one->texels_seen, several->texels_seen);
+  EXPECT_EQ(one->texels_contested, several->texels_contested);
+  ASSERT_EQ(one->layers.size(), several->layers.size());
+  for (size_t l = 0; l < one->layers.size(); ++l)
+    EXPECT_TRUE(one->layers[l].pixels == several->layers[l].pixels) << "layer " << l;
 }
 
 INSTANTIATE_TEST_SUITE_P(Layouts, TextureLayers, ::testing::Values(false, true),

@@ -120,30 +120,62 @@ struct TexelSource {
 };
 std::vector<TexelSource> texelSources(const Mesh& mesh, uint32_t texels, uint64_t& contested) {
   constexpr double kReach = 1.41421356237;
-  std::vector<TexelSource> sources(size_t{texels} * texels);
-  for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+  // Each triangle's corners in texels and the texels within reach of its
+  // footprint, [x0, x1] x [y0, y1] (empty where x1 < x0).
+  struct Footprint {
     std::array<glm::dvec2, 3> corners;
+    int x0, y0, x1, y1;
+  };
+  const size_t triangles = mesh.triangleCount();
+  std::vector<Footprint> footprints(triangles);
+  tbb::parallel_for(size_t{0}, triangles, [&](size_t t) {
+    Footprint& f = footprints[t];
     glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
     for (int k = 0; k < 3; ++k) {
-      corners[k] = glm::dvec2(mesh.corner_uvs[3 * t + k]) * double(texels);
-      lo = glm::min(lo, corners[k]);
-      hi = glm::max(hi, corners[k]);
+      f.corners[k] = glm::dvec2(mesh.corner_uvs[3 * t + k]) * double(texels);
+      lo = glm::min(lo, f.corners[k]);
+      hi = glm::max(hi, f.corners[k]);
     }
-    const int x0 = std::max(0, static_cast<int>(std::floor(lo.x - kReach)));
-    const int y0 = std::max(0, static_cast<int>(std::floor(lo.y - kReach)));
-    const int x1 = std::min<int>(texels - 1, static_cast<int>(std::ceil(hi.x + kReach)));
-    const int y1 = std::min<int>(texels - 1, static_cast<int>(std::ceil(hi.y + kReach)));
-    for (int y = y0; y <= y1; ++y) {
-      for (int x = x0; x <= x1; ++x) {
-        glm::dvec3 b;
-        const double distance = nearestOnTriangle(glm::dvec2(x + 0.5, y + 0.5), corners, b);
-        TexelSource& source = sources[size_t(y) * texels + x];
-        if (distance == 0 && source.distance == 0) ++contested;  // two footprints overlap
-        if (distance > kReach || distance >= source.distance) continue;
-        source = {static_cast<int32_t>(t), distance, b};
+    f.x0 = std::max(0, static_cast<int>(std::floor(lo.x - kReach)));
+    f.y0 = std::max(0, static_cast<int>(std::floor(lo.y - kReach)));
+    f.x1 = std::min<int>(texels - 1, static_cast<int>(std::ceil(hi.x + kReach)));
+    f.y1 = std::min<int>(texels - 1, static_cast<int>(std::ceil(hi.y + kReach)));
+  });
+  // Bands of rows side by side, each visiting the triangles that reach it
+  // in mesh order: every texel sees the triangles in the order one visit
+  // of the whole mesh would, so the sources and the count of contested
+  // texels are that visit's on any number of threads.
+  constexpr uint32_t kBandRows = 16;
+  const uint32_t bands = (texels + kBandRows - 1) / kBandRows;
+  std::vector<std::vector<uint32_t>> band_triangles(bands);
+  for (size_t t = 0; t < triangles; ++t) {
+    const Footprint& f = footprints[t];
+    if (f.x1 < f.x0 || f.y1 < f.y0) continue;
+    for (uint32_t band = f.y0 / kBandRows; band <= f.y1 / kBandRows; ++band)
+      band_triangles[band].push_back(static_cast<uint32_t>(t));
+  }
+  std::vector<TexelSource> sources(size_t{texels} * texels);
+  std::atomic<uint64_t> overlaps{0};
+  tbb::parallel_for(uint32_t{0}, bands, [&](uint32_t band) {
+    const int band_y0 = static_cast<int>(band * kBandRows);
+    const int band_y1 = std::min<int>(texels - 1, band_y0 + kBandRows - 1);
+    uint64_t band_overlaps = 0;
+    for (const uint32_t t : band_triangles[band]) {
+      const Footprint& f = footprints[t];
+      for (int y = std::max(f.y0, band_y0); y <= std::min(f.y1, band_y1); ++y) {
+        for (int x = f.x0; x <= f.x1; ++x) {
+          glm::dvec3 b;
+          const double distance = nearestOnTriangle(glm::dvec2(x + 0.5, y + 0.5), f.corners, b);
+          TexelSource& source = sources[size_t(y) * texels + x];
+          if (distance == 0 && source.distance == 0) ++band_overlaps;  // two footprints overlap
+          if (distance > kReach || distance >= source.distance) continue;
+          source = {static_cast<int32_t>(t), distance, b};
+        }
       }
     }
-  }
+    overlaps += band_overlaps;
+  });
+  contested += overlaps;
   return sources;
 }
 
