@@ -623,9 +623,10 @@ TEST_P(TextureLayers, ALayerKeepsItsNeighboursCameraWhereItSeesThePointNearlyAsW
   EXPECT_GT(differ, 0u);
 }
 
-// The texels' sources, their cameras and colours are the same bytes on one
-// thread and on several: the bands of rows meet each triangle in mesh
-// order, and the cameras are chosen row after row.
+// The texels' sources, their cameras and colours, and the fill of the
+// texels no camera covers, are the same bytes on one thread and on
+// several: the bands of rows meet each triangle in mesh order, the cameras
+// are chosen row after row, and the fill reads each level in fixed order.
 TEST_P(TextureLayers, OneThreadAndSeveralBuildTheSameBytes) {
   const PaintedSphere scene(4);
   LaidOut laid(scene, GetParam() ? chartOptions() : latticeOptions());
@@ -637,15 +638,34 @@ TEST_P(TextureLayers, OneThreadAndSeveralBuildTheSameBytes) {
     return arena.execute(
         [&] { return buildTextureLayers(laid.mesh, laid.atlas.texels(), scene.views(), options); });
   };
-  const auto one = buildOn(1), several = buildOn(4);
+  const int cores = std::max(2, tbb::this_task_arena::max_concurrency());
+  const auto one = buildOn(1), several = buildOn(cores);
   ASSERT_TRUE(one.isOk() && several.isOk());
   EXPECT_GT(one->texels_seen, 0u);
   EXPECT_EQ(one->texels_covered, several->texels_covered);
   EXPECT_EQ(one->texels_seen, several->texels_seen);
   EXPECT_EQ(one->texels_contested, several->texels_contested);
   ASSERT_EQ(one->layers.size(), several->layers.size());
-  for (size_t l = 0; l < one->layers.size(); ++l)
+  // And the video's fill of the texels no camera covers.
+  auto filledOn = [](int threads, const Image8& layer) {
+    Image8 colour(layer.width, layer.height, 3), camera(layer.width, layer.height, 1);
+    for (size_t i = 0; i < size_t{layer.width} * layer.height; ++i) {
+      for (int c = 0; c < 3; ++c) colour.pixels[3 * i + c] = layer.pixels[4 * i + c];
+      camera.pixels[i] = layer.pixels[4 * i + 3];
+    }
+    tbb::task_arena(threads).execute([&] { fillUncoveredTexels(colour, camera); });
+    return colour;
+  };
+  for (size_t l = 0; l < one->layers.size(); ++l) {
     EXPECT_TRUE(one->layers[l].pixels == several->layers[l].pixels) << "layer " << l;
+    const Image8 filled = filledOn(1, one->layers[l]);
+    EXPECT_TRUE(filled.pixels == filledOn(cores, one->layers[l]).pixels) << "filled layer " << l;
+    if (l > 0) continue;
+    size_t changed = 0;  // the fill wrote the holes
+    for (size_t i = 0; i < filled.pixels.size(); ++i)
+      changed += filled.pixels[i] != one->layers[l].pixels[i / 3 * 4 + i % 3];
+    EXPECT_GT(changed, 0u);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Layouts, TextureLayers, ::testing::Values(false, true),

@@ -360,6 +360,8 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
 
 void fillUncoveredTexels(Image8& colour, const Image8& camera) {
   // Level 0 is the layer itself: RGB sums and the weight (1 where covered).
+  // Every pass below runs rows side by side; a texel reads only the level
+  // above or below it, in a fixed order: the same bytes on any thread count.
   struct Level {
     uint32_t width, height;
     std::vector<glm::vec4> texels;  // rgb * weight, weight
@@ -367,22 +369,28 @@ void fillUncoveredTexels(Image8& colour, const Image8& camera) {
   std::vector<Level> levels;
   Level base{colour.width, colour.height, {}};
   base.texels.resize(size_t{colour.width} * colour.height);
-  for (size_t i = 0; i < base.texels.size(); ++i) {
-    if (camera.pixels[i] == kNoLayerCamera) continue;
-    const uint8_t* c = &colour.pixels[3 * i];
-    base.texels[i] = glm::vec4(c[0], c[1], c[2], 1.0f);
-  }
+  tbb::parallel_for(uint32_t{0}, colour.height, [&](uint32_t y) {
+    for (size_t i = size_t{y} * colour.width, end = i + colour.width; i < end; ++i) {
+      if (camera.pixels[i] == kNoLayerCamera) continue;
+      const uint8_t* c = &colour.pixels[3 * i];
+      base.texels[i] = glm::vec4(c[0], c[1], c[2], 1.0f);
+    }
+  });
   levels.push_back(std::move(base));
-  // Push: each level's texel the sum of the four below it.
+  // Push: each level's texel the sum of the (up to) four below it.
   while (levels.back().width > 1 || levels.back().height > 1) {
     const Level& fine = levels.back();
     Level coarse{(fine.width + 1) / 2, (fine.height + 1) / 2, {}};
     coarse.texels.resize(size_t{coarse.width} * coarse.height);
-    for (uint32_t y = 0; y < fine.height; ++y) {
-      for (uint32_t x = 0; x < fine.width; ++x)
-        coarse.texels[size_t{y / 2} * coarse.width + x / 2] +=
-            fine.texels[size_t{y} * fine.width + x];
-    }
+    tbb::parallel_for(uint32_t{0}, coarse.height, [&](uint32_t y) {
+      for (uint32_t x = 0; x < coarse.width; ++x) {
+        glm::vec4 sum(0.0f);
+        for (uint32_t fy = 2 * y; fy < std::min(2 * y + 2, fine.height); ++fy)
+          for (uint32_t fx = 2 * x; fx < std::min(2 * x + 2, fine.width); ++fx)
+            sum += fine.texels[size_t{fy} * fine.width + fx];
+        coarse.texels[size_t{y} * coarse.width + x] = sum;
+      }
+    });
     levels.push_back(std::move(coarse));
   }
   // Pull: an empty texel takes its parent's mean, which has been filled.
@@ -392,7 +400,7 @@ void fillUncoveredTexels(Image8& colour, const Image8& camera) {
   for (size_t l = levels.size() - 1; l-- > 0;) {
     Level& fine = levels[l];
     const Level& coarse = levels[l + 1];
-    for (uint32_t y = 0; y < fine.height; ++y) {
+    tbb::parallel_for(uint32_t{0}, fine.height, [&](uint32_t y) {
       for (uint32_t x = 0; x < fine.width; ++x) {
         glm::vec4& t = fine.texels[size_t{y} * fine.width + x];
         const glm::vec4& parent = coarse.texels[size_t{y / 2} * coarse.width + x / 2];
@@ -402,15 +410,17 @@ void fillUncoveredTexels(Image8& colour, const Image8& camera) {
           t = parent;
         }
       }
-    }
+    });
   }
   const Level& filled = levels.front();
-  for (size_t i = 0; i < filled.texels.size(); ++i) {
-    if (camera.pixels[i] != kNoLayerCamera || !(filled.texels[i].w > 0)) continue;
-    for (int c = 0; c < 3; ++c)
-      colour.pixels[3 * i + c] =
-          static_cast<uint8_t>(std::clamp(std::lround(filled.texels[i][c]), 0L, 255L));
-  }
+  tbb::parallel_for(uint32_t{0}, colour.height, [&](uint32_t y) {
+    for (size_t i = size_t{y} * colour.width, end = i + colour.width; i < end; ++i) {
+      if (camera.pixels[i] != kNoLayerCamera || !(filled.texels[i].w > 0)) continue;
+      for (int c = 0; c < 3; ++c)
+        colour.pixels[3 * i + c] =
+            static_cast<uint8_t>(std::clamp(std::lround(filled.texels[i][c]), 0L, 255L));
+    }
+  });
 }
 
 Status checkLayeredViews(const LayeredViews& views) {
