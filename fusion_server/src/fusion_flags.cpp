@@ -94,6 +94,11 @@ const std::vector<Setting<FusionSettings>>& fusionFlags() {
                          "the layers' video quality: lower is better and larger (H.264 and HEVC "
                          "0-51, AV1 0-63)",
                          0, 63, [](S& s) -> int& { return s.layers.video.crf; }),
+        numberSetting<S>("--layer-video-crf-step",
+                         "added to --layer-video-crf for each texture layer after the first: "
+                         "deeper layers, which the blend weighs less, at lower quality (0: "
+                         "every layer alike)",
+                         0, 63, [](S& s) -> int& { return s.layers.video_crf_step; }),
         numberSetting<S>("--layer-video-kbps",
                          "the layers' video by a target bitrate instead of --layer-video-crf: "
                          "kilobits a second for all layers together at 30 frames a second, "

@@ -61,7 +61,8 @@ Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
     lattice_ = lattice;
   }
   // Streams of other settings start again (at a key frame).
-  if (!(settings.video == settings_.video)) streams_.clear();
+  if (!(settings.video == settings_.video) || settings.video_crf_step != settings_.video_crf_step)
+    streams_.clear();
   settings_ = settings;
   Mesh laid = mesh;
   AtlasStats atlas_stats;
@@ -157,8 +158,13 @@ Status LayerStage::encodeVideo(bool key_frame, protocol::TextureBundle& bundle,
   if (!isVideoCodec(settings_.video.codec))
     return Status(StatusCode::kMalformed, "texture layers: video is off (--layer-video off)");
   protocol::BundleLayers out = layoutOnTheWire(storage);
-  while (streams_.size() < colours_.size())
-    streams_.push_back(std::make_unique<LayerVideoEncoder>(settings_.video));
+  while (streams_.size() < colours_.size()) {
+    LayerVideoOptions stream = settings_.video;
+    const int worst = stream.codec == protocol::Codec::kAv1 ? 63 : 51;
+    stream.crf =
+        std::min(stream.crf + static_cast<int>(streams_.size()) * settings_.video_crf_step, worst);
+    streams_.push_back(std::make_unique<LayerVideoEncoder>(stream));
+  }
   if (settings_.video.kbps > 0) {
     // The layers' target, split by the texels each layer holds (a deeper
     // layer holds a point only where its camera adds: most of it is fill,

@@ -405,6 +405,24 @@ TEST(LeaveOneOut, LayersAsVideoCostFewerBytesThanLz4LayersForNearlyTheirPicture)
                  std::to_string(video.client_bytes_per_frame / lz4.client_bytes_per_frame));
 }
 
+// --layer-video-crf-step: each layer after the first at a higher CRF.
+// The deeper layer's stream shrinks, the first layer's stays as it was,
+// so the whole link shrinks for nearly the same picture.
+TEST(LeaveOneOut, DeeperLayersAtAHigherCrfCostFewerBytesForNearlyThePicture) {
+  EvalOptions options = tiny();
+  options.scenes = {"clean"};
+  options.frames = 3;
+  options.modes = {render::BlendMode::kLayered};
+  options.loop.fusion.layers.video.codec = protocol::Codec::kH264;
+  options.loop.fusion.layers.video_crf_step = 0;
+  const ModeResult alike = runLeaveOneOut(options).value().at(0).modes.at("layered");
+  options.loop.fusion.layers.video_crf_step = 12;
+  const ModeResult stepped = runLeaveOneOut(options).value().at(0).modes.at("layered");
+  EXPECT_LT(stepped.client_bytes_per_frame, 0.95 * alike.client_bytes_per_frame);
+  EXPECT_NEAR(stepped.psnr_db, alike.psnr_db, 0.3);
+  EXPECT_NEAR(stepped.ssim, alike.ssim, 0.02);
+}
+
 TEST(LeaveOneOut, AViewpointJumpComparesOnlyTheFramesAtTheHeldOutPose) {
   EvalOptions options = tiny();
   options.scenes = {"viewpoint-jump"};
