@@ -309,8 +309,9 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
 
   const double tolerance =
       options.depth_tolerance > 0 ? options.depth_tolerance : std::max(meanEdgeLength(mesh), 1e-6);
-  // Views side by side, then rows of texels side by side: each texel is
-  // its own, so the layers are the same bytes on any number of threads.
+  // Views side by side, then rows of texels side by side wherever a texel
+  // is its own; the one pass that reads neighbours (the cameras' choice)
+  // runs in order. The layers are the same bytes on any number of threads.
   std::vector<DepthMap> depths(views.size());
   tbb::parallel_for(size_t{0}, views.size(),
                     [&](size_t j) { depths[j] = rasterizeDepth(mesh, *views[j].camera); });
