@@ -15,6 +15,7 @@
 #include "bench_timing.h"
 #include "capture_node/pod.h"
 #include "codec/mesh_codec.h"
+#include "fusion_server/fusion_worker.h"
 #include "hull/visual_hull.h"
 #include "scene/synthetic_scene.h"
 
@@ -69,9 +70,7 @@ int main(int argc, char** argv) {
     hull::HullOptions options;
     options.voxel_size = voxel;
     // Draco's keys in half steps on the hull's lattice, as the server sends them.
-    DracoOptions spelling;
-    const glm::u64vec3 lattice = hull::keyLattice(options);
-    spelling.key_lattice = {lattice.x, lattice.y};
+    const DracoOptions spelling = fusion::dracoOnHullLattice({}, options);
     for (int f = 0; f < frames; ++f) {
       std::vector<hull::HullView> views;
       for (size_t i = 0; i < cameras.size(); ++i) {

@@ -59,10 +59,9 @@ StatusOr<std::map<int, Mesh>> meshesForHeldOut(const EvalOptions& options,
     fusion::refineFused(without, others, other_colors, refine, hull_options.voxel_size);
     const Mesh& mesh = without.mesh();
     const protocol::MeshCodec codec = options.loop.fusion.mesh_codec;
-    DracoOptions draco = options.loop.fusion.draco;  // as the server spells it (encodeFused)
-    const glm::u64vec3 lattice = hull::keyLattice(hull_options);
-    draco.key_lattice = {lattice.x, lattice.y};
-    auto bytes = encodeMesh(codec, mesh, draco);
+    // As the server spells it (encodeFused).
+    auto bytes = encodeMesh(codec, mesh,
+                            fusion::dracoOnHullLattice(options.loop.fusion.draco, hull_options));
     auto decoded = bytes.isOk() ? decodeMesh(codec, bytes->data(), bytes->size()) : bytes.status();
     if (!decoded.isOk()) {
       return within(

@@ -279,6 +279,12 @@ protocol::Stats statsOf(const GroupJob& job, const FusionSettings& settings, uin
 
 }  // namespace
 
+DracoOptions dracoOnHullLattice(DracoOptions draco, const hull::HullOptions& hull) {
+  const glm::u64vec3 lattice = hull::keyLattice(hull);
+  draco.key_lattice = {lattice.x, lattice.y};
+  return draco;
+}
+
 EncodedGroup encodeFused(const GroupJob& job, const FusionSettings& settings, const Mesh& mesh,
                          uint64_t hull_start_ns, uint64_t hull_end_ns, uint64_t refine_end_ns) {
   const FrameGroup& group = job.group;
@@ -299,11 +305,8 @@ EncodedGroup encodeFused(const GroupJob& job, const FusionSettings& settings, co
   if (refine_end_ns != 0)
     stamps.push_back(
         {static_cast<uint16_t>(Stage::kRefine), kSourceServer, hull_end_ns, refine_end_ns});
-  // The keys in half steps on the hull's lattice for clients of 1.11.
-  DracoOptions draco = settings.draco;
-  const glm::u64vec3 lattice = hull::keyLattice(settings.hull);
-  draco.key_lattice = {lattice.x, lattice.y};
-  encoded.mesh = encodeMesh(settings.mesh_codec, mesh, draco);
+  encoded.mesh =
+      encodeMesh(settings.mesh_codec, mesh, dracoOnHullLattice(settings.draco, settings.hull));
   // Clients before 1.7 decode Draco only, and before 1.11 its keys as halves.
   encoded.draco_apart =
       job.draco_for_older ||

@@ -175,6 +175,10 @@ bool refines(const PhotoRefineOptions& refine);
 void refineFused(FusedMesh& fused, const std::vector<hull::HullView>& views,
                  const std::vector<Image8>& colors, const PhotoRefineOptions& refine,
                  double voxel_size);
+// draco with the vertex keys in half steps on the lattice of hull's
+// volume, as the server sends a hull's mesh to clients of 1.11
+// (DracoOptions::key_lattice).
+DracoOptions dracoOnHullLattice(DracoOptions draco, const hull::HullOptions& hull);
 
 // The whole fusion of one group, callable without the thread (tests).
 FusedOutput fuseGroup(const GroupJob& job, const FusionSettings& settings,
