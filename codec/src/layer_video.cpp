@@ -104,7 +104,10 @@ Status LayerVideoEncoder::start(uint32_t width, uint32_t height) {
   c->gop_size = std::max(options_.key_interval, 1);
   c->max_b_frames = 0;  // a frame out per frame in: B-frames would wait for the next
   c->thread_count = 0;
-  const std::string crf = std::to_string(options_.crf);
+  // A CRF past the codec's worst is its worst: x264 caps it itself, x265
+  // and libaom code such a value at some other quality.
+  const int worst = options_.codec == protocol::Codec::kAv1 ? 63 : 51;
+  const std::string crf = std::to_string(std::clamp(options_.crf, 0, worst));
   const bool by_rate = options_.kbps > 0;
   if (by_rate) {
     // The maximum rate is the target: a frame over its share drains the

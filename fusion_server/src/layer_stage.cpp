@@ -159,10 +159,8 @@ Status LayerStage::encodeVideo(bool key_frame, protocol::TextureBundle& bundle,
     return Status(StatusCode::kMalformed, "texture layers: video is off (--layer-video off)");
   protocol::BundleLayers out = layoutOnTheWire(storage);
   while (streams_.size() < colours_.size()) {
-    LayerVideoOptions stream = settings_.video;
-    const int worst = stream.codec == protocol::Codec::kAv1 ? 63 : 51;
-    stream.crf =
-        std::min(stream.crf + static_cast<int>(streams_.size()) * settings_.video_crf_step, worst);
+    LayerVideoOptions stream = settings_.video;  // the encoder caps the CRF at its codec's worst
+    stream.crf += static_cast<int>(streams_.size()) * settings_.video_crf_step;
     streams_.push_back(std::make_unique<LayerVideoEncoder>(stream));
   }
   if (settings_.video.kbps > 0) {

@@ -310,6 +310,28 @@ TEST_P(LayerVideo, RecordedLayersAreVideoFilesFfprobeReads) {
   if (!HasFailure()) std::filesystem::remove_all(dir);
 }
 
+// A CRF past the codec's worst (a deeper layer's, --layer-video-crf-step)
+// codes at the worst: the same bytes as the worst itself, fewer than a
+// middling quality.
+TEST_P(LayerVideo, ACrfPastTheWorstCodesAtTheWorst) {
+  const int worst = GetParam() == protocol::Codec::kAv1 ? 63 : 51;
+  auto keyFrameBytes = [&](int crf) {
+    LayerVideoOptions options;
+    options.codec = GetParam();
+    options.crf = crf;
+    LayerVideoEncoder encoder(options);
+    std::vector<uint8_t> storage;
+    auto plane = encoder.encode(patches(128, 96, 0), false, storage);
+    EXPECT_TRUE(plane.isOk()) << plane.status().toString();
+    return plane.isOk() ? std::vector<uint8_t>(plane->data.begin(), plane->data.end())
+                        : std::vector<uint8_t>{};
+  };
+  const std::vector<uint8_t> at_worst = keyFrameBytes(worst);
+  ASSERT_FALSE(at_worst.empty());
+  EXPECT_EQ(keyFrameBytes(worst + 9), at_worst);
+  EXPECT_LT(at_worst.size(), keyFrameBytes(worst / 2).size());
+}
+
 INSTANTIATE_TEST_SUITE_P(Codecs, LayerVideo,
                          ::testing::Values(protocol::Codec::kH264, protocol::Codec::kHevc,
                                            protocol::Codec::kAv1),

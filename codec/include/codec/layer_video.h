@@ -29,7 +29,8 @@ struct LayerVideoOptions {
   static constexpr int kFrameRate = 30;
   static constexpr int kBufferFrames = 4;
   protocol::Codec codec = protocol::Codec::kH264;  // kH264, kHevc or kAv1
-  // Constant quality: lower is better and larger (0..51; AV1 0..63). 12 in
+  // Constant quality: lower is better and larger (0..51; AV1 0..63; a
+  // larger value is the codec's worst). 12 in
   // 4:4:4 keeps eval's clean scene 0.05 dB from LZ4 layers at 39% of their
   // bytes (docs/atlas.md).
   int crf = 12;
