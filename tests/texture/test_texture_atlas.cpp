@@ -356,16 +356,12 @@ TEST(TextureAtlas, ChartsHoldStillWhereTheSurfaceStaysInThem) {
     // A fifth of a voxel a frame, and breathing.
     Mesh mesh = sphereOnLattice(glm::dvec3(0.01 * f, 0.003 * f, 0.0), 0.7 + 0.004 * f);
     AtlasStats stats;
-    ASSERT_TRUE(atlas.layOut(mesh, &stats).isOk());
+    const auto cells = atlas.layOut(mesh, &stats);
+    ASSERT_TRUE(cells.isOk());
     std::map<std::pair<uint64_t, uint64_t>, glm::vec2> now;
     size_t same = 0, compared = 0;
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
-      const glm::dvec3 a(mesh.positions[mesh.indices[3 * t]]),
-          b(mesh.positions[mesh.indices[3 * t + 1]]), c(mesh.positions[mesh.indices[3 * t + 2]]);
-      const glm::dvec3 normal = glm::abs(glm::cross(b - a, c - a));
-      const uint64_t axis = normal.x >= normal.y && normal.x >= normal.z ? 0
-                            : normal.y >= normal.z                       ? 1
-                                                                         : 2;
+      const uint64_t axis = (*cells)[t].chart_axis / 2;
       std::array<uint64_t, 3> keys{};
       for (int k = 0; k < 3; ++k) keys[k] = mesh.vertex_keys[mesh.indices[3 * t + k]];
       const uint64_t triangle = keys[0] ^ (keys[1] * 0x9e3779b97f4a7c15ull) ^ (keys[2] << 17);
@@ -391,6 +387,63 @@ TEST(TextureAtlas, ChartsHoldStillWhereTheSurfaceStaysInThem) {
     last = std::move(now);
   }
   EXPECT_LT(moved, 0.2);
+}
+
+// A chart faces the way the surface around its triangles faces (their
+// cell and its face neighbours), not each triangle's own tilt, so a patch
+// of faceted surface stays in one chart from frame to frame; and the
+// choice is the same in whatever order the triangles arrive (a receiver's
+// decoder may reorder them).
+TEST(TextureAtlas, AChartFacesTheSurfaceAroundItsTrianglesInAnyOrder) {
+  Mesh mesh = sphereOnLattice(glm::dvec3(0.013, -0.02, 0.007), 0.7);
+  const auto cells = TextureAtlas(chartOptions()).layOut(mesh);
+  ASSERT_TRUE(cells.isOk()) << cells.status().toString();
+  const auto corner_keys = [](const Mesh& m, size_t t) {
+    std::array<uint64_t, 3> keys{};
+    for (int k = 0; k < 3; ++k) keys[k] = m.vertex_keys[m.indices[3 * t + k]];
+    std::sort(keys.begin(), keys.end());
+    return keys;
+  };
+  std::map<uint64_t, uint8_t> axis_of_cell;
+  std::map<std::array<uint64_t, 3>, uint8_t> axis_of_triangle;
+  size_t own_axis_differs = 0;
+  for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+    const uint8_t code = (*cells)[t].chart_axis;
+    // The cell: the lowest lattice point of the triangle's edges, per axis.
+    glm::u64vec3 corner(UINT64_MAX);
+    for (const uint64_t key : corner_keys(mesh, t)) {
+      const uint64_t point = key / 3;
+      corner = glm::min(
+          corner, glm::u64vec3(point % kGrid, (point / kGrid) % kGrid, point / (kGrid * kGrid)));
+    }
+    const uint64_t cell = (corner.z * kGrid + corner.y) * kGrid + corner.x;
+    EXPECT_EQ(axis_of_cell.try_emplace(cell, code).first->second, code)
+        << "triangle " << t << ": its cell's triangles share one chart";
+    axis_of_triangle[corner_keys(mesh, t)] = code;
+    const glm::dvec3 a(mesh.positions[mesh.indices[3 * t]]),
+        b(mesh.positions[mesh.indices[3 * t + 1]]), c(mesh.positions[mesh.indices[3 * t + 2]]);
+    const glm::dvec3 own = glm::cross(b - a, c - a);
+    const int axis = code / 2;
+    EXPECT_GT((code % 2 ? -1.0 : 1.0) * own[axis], 0.0)
+        << "triangle " << t << " faces away from its chart";
+    const glm::dvec3 size = glm::abs(own);
+    own_axis_differs += size[axis] < std::max({size.x, size.y, size.z});
+  }
+  EXPECT_GT(own_axis_differs, 0u) << "some triangles tilt past 45 degrees from their surface";
+
+  // The same mesh, triangles in reverse order, each starting at its second corner.
+  Mesh reordered = mesh;
+  const size_t n = mesh.triangleCount();
+  for (size_t t = 0; t < n; ++t) {
+    for (int k = 0; k < 3; ++k)
+      reordered.indices[3 * t + k] = mesh.indices[3 * (n - 1 - t) + (k + 1) % 3];
+  }
+  const auto again = TextureAtlas(chartOptions()).layOut(reordered);
+  ASSERT_TRUE(again.isOk());
+  for (size_t t = 0; t < n; ++t) {
+    EXPECT_EQ((*again)[t].chart_axis, axis_of_triangle.at(corner_keys(reordered, t)))
+        << "triangle " << t << " of the reordered mesh";
+  }
 }
 
 // A sphere painted by the direction from its centre, seen by a ring of

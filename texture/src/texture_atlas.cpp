@@ -74,10 +74,19 @@ bool keyByLatticeCell(const Mesh& mesh, const glm::u64vec3& lattice, SquareAssig
 }
 
 // Charts: a triangle's square is its lattice cell's block of n^3 cells and
-// the dominant axis of its face normal (signed), so a block's surface
-// facing one way shares one square, projected orthographically along that
-// axis. Both sides of the wire compute the normal from the same decoded
-// positions, so they agree on every triangle's axis.
+// the dominant axis (signed) of the surface's normal around it, so a
+// block's surface facing one way shares one square, projected
+// orthographically along that axis. The normal is the area-weighted sum
+// over the triangle's cell and the cell's six face neighbours, not the
+// triangle's own: a hull's facets tilt from frame to frame, and a patch
+// whose triangles each took their own axis changed chart wherever one
+// crossed 45 degrees, a new square the video could not predict (eval,
+// h264 layers, 4 cells a chart: clean 157.8 -> 134.5 KB a frame, SSIM
+// 0.6948 -> 0.6946; many-cameras 143.2 -> 127.1 KB, SSIM 0.8099 ->
+// 0.8106; charts moved a frame 21% -> 18% and 19% -> 15%). The sums are
+// integers, so they do not depend on the order of the triangles, and both
+// sides of the wire compute them from the same decoded positions: they
+// agree on every triangle's axis.
 bool keyByChart(const Mesh& mesh, const glm::u64vec3& lattice, uint32_t chart_cells,
                 SquareAssignment& out, std::vector<uint8_t>& axis_of_triangle) {
   if (!keyByLatticeCell(mesh, lattice, out)) return false;
@@ -85,20 +94,48 @@ bool keyByChart(const Mesh& mesh, const glm::u64vec3& lattice, uint32_t chart_ce
   const glm::u64vec3 blocks((lattice.x + n - 1) / n, (lattice.y + n - 1) / n,
                             (lattice.z + n - 1) / n);
   const size_t triangles = mesh.triangleCount();
+  // Twice a triangle's area vector in units of 2^-32 square metres: a
+  // millimetre-sized triangle still counts. Each component is capped at
+  // 2^48 units (a triangle of 65,000 square metres), so no sum of a cell
+  // and its neighbours' can overflow, whatever positions arrive.
+  constexpr double kAreaUnits = 4294967296.0, kMostUnits = 281474976710656.0;
+  std::unordered_map<uint64_t, glm::i64vec3> cell_normals;
+  cell_normals.reserve(triangles);
+  for (size_t t = 0; t < triangles; ++t) {
+    const glm::dvec3 a(mesh.positions[mesh.indices[3 * t]]),
+        b(mesh.positions[mesh.indices[3 * t + 1]]), c(mesh.positions[mesh.indices[3 * t + 2]]);
+    const glm::dvec3 normal = glm::cross(b - a, c - a) * kAreaUnits;
+    glm::i64vec3 units(0);
+    for (int k = 0; k < 3; ++k) {  // NaN (a corrupt position) counts as nothing
+      if (!std::isnan(normal[k]))
+        units[k] = std::llround(std::clamp(normal[k], -kMostUnits, kMostUnits));
+    }
+    cell_normals[out.key_of_triangle[t] >> 16] += units;
+  }
   axis_of_triangle.assign(triangles, 0);
   for (size_t t = 0; t < triangles; ++t) {
     const uint64_t cell = out.key_of_triangle[t] >> 16;
     const glm::u64vec3 at(cell % lattice.x, (cell / lattice.x) % lattice.y,
                           cell / (lattice.x * lattice.y));
     const glm::u64vec3 block(at.x / n, at.y / n, at.z / n);
-    const glm::dvec3 a(mesh.positions[mesh.indices[3 * t]]),
-        b(mesh.positions[mesh.indices[3 * t + 1]]), c(mesh.positions[mesh.indices[3 * t + 2]]);
-    const glm::dvec3 n = glm::cross(b - a, c - a);
+    glm::i64vec3 normal = cell_normals.at(cell);
+    uint64_t stride = 1;
+    for (int k = 0; k < 3; ++k) {
+      if (at[k] > 0) {
+        const auto below = cell_normals.find(cell - stride);
+        if (below != cell_normals.end()) normal += below->second;
+      }
+      if (at[k] + 1 < lattice[k]) {
+        const auto above = cell_normals.find(cell + stride);
+        if (above != cell_normals.end()) normal += above->second;
+      }
+      stride *= lattice[k];
+    }
     int axis = 0;
     for (int k = 1; k < 3; ++k) {
-      if (std::abs(n[k]) > std::abs(n[axis])) axis = k;
+      if (std::abs(normal[k]) > std::abs(normal[axis])) axis = k;
     }
-    const uint8_t code = static_cast<uint8_t>(2 * axis + (n[axis] < 0 ? 1 : 0));
+    const uint8_t code = static_cast<uint8_t>(2 * axis + (normal[axis] < 0 ? 1 : 0));
     axis_of_triangle[t] = code;
     out.key_of_triangle[t] = (((block.z * blocks.y + block.y) * blocks.x + block.x) << 3) | code;
     out.odd[t] = false;
@@ -393,9 +430,11 @@ StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* st
       placeTriangles(mesh, assignment, side, square_texels, texels, slot_of);
   const double texel_metres = charts ? options_.cell_size / options_.texels_per_cell : 0.0;
   std::unordered_map<uint64_t, glm::dvec2> anchors;
-  if (charts)
+  if (charts) {
     placeCharts(mesh, assignment, axes, options_.lattice, options_.chart_cells, side, square_texels,
                 texels, texel_metres, slot_of, &anchors);
+    for (size_t t = 0; t < cells.size(); ++t) cells[t].chart_axis = axes[t];
+  }
   // A square moved: new to the atlas, in another slot, or (charts) its
   // surface half a texel or more away from where it was.
   uint32_t moved = static_cast<uint32_t>(squares) - kept;
@@ -474,9 +513,11 @@ StatusOr<std::vector<AtlasCell>> applyAtlasLayout(Mesh& mesh, const AtlasLayout&
   };
   auto cells = placeTriangles(mesh, assignment, layout.squares_per_side, layout.square_texels,
                               layout.texels, slot_of);
-  if (charts)
+  if (charts) {
     placeCharts(mesh, assignment, axes, layout.lattice, layout.chart_cells, layout.squares_per_side,
                 layout.square_texels, layout.texels, layout.texel_metres, slot_of);
+    for (size_t t = 0; t < cells.size(); ++t) cells[t].chart_axis = axes[t];
+  }
   return cells;
 }
 

@@ -88,6 +88,9 @@ struct AtlasLayout {
 struct AtlasCell {
   uint32_t x = 0, y = 0;  // texels
   bool odd = false;
+  // Charts: the axis the triangle is projected along, 2 * axis (x 0, y 1,
+  // z 2) plus 1 where the surface faces down it; 0 without charts.
+  uint8_t chart_axis = 0;
 };
 
 class TextureAtlas {
