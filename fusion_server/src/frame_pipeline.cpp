@@ -243,7 +243,7 @@ void FramePipeline::submitGroup(FrameGroup group, const std::vector<Peer>& peers
   // Layers are built only while a client that asked for them is here,
   // coded as each such client decodes them; the mesh in Draco too while
   // a client before 1.7 is.
-  bool lz4 = false, video = false, lz4_camera_planes = false;
+  bool lz4 = false, video = false, lz4_camera_planes = false, own_normal_charts = false;
   GroupJob job;
   for (const Peer& p : peers) {
     if (!p.isClient()) continue;
@@ -252,9 +252,10 @@ void FramePipeline::submitGroup(FrameGroup group, const std::vector<Peer>& peers
     if (!p.wants_layers) continue;
     (p.wants_layer_video ? video : lz4) = true;
     lz4_camera_planes = lz4_camera_planes || !p.caps.zstd_planes;
+    own_normal_charts = own_normal_charts || !p.caps.surface_facing_charts;
     if (p.wants_layer_video && !p.layer_video_in_step) worker_->requestLayerVideoKeyFrame();
   }
-  worker_->setLayersWanted(lz4, video, lz4_camera_planes);
+  worker_->setLayersWanted(lz4, video, lz4_camera_planes, own_normal_charts);
   job.group = std::move(group);
   job.late_frames = sync_.lateFrames();
   job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();

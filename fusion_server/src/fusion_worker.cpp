@@ -508,6 +508,7 @@ std::optional<FusionWorker::Taken> FusionWorker::take() {
   // clients want.
   taken.settings = settings_;
   if (voxel_) taken.settings.hull.voxel_size = voxel_->voxel();
+  taken.settings.layers.charts_face_surface_around = !layers_own_normal_charts_;
   taken.layers = {&layer_stage_, layers_lz4_, layers_video_, false, layers_lz4_camera_planes_};
   if (taken.layers.video) taken.layers.video_key_frame = video_key_frame_.exchange(false);
   return taken;

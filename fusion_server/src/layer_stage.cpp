@@ -57,6 +57,7 @@ Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
     options.chart_cells = settings.chart_cells;
     options.texels_per_cell = settings.texels_per_cell;
     options.cell_size = hull.voxel_size;
+    options.charts_face_surface_around = settings.charts_face_surface_around;
     atlas_.emplace(options);
     lattice_ = lattice;
   }
@@ -107,6 +108,7 @@ protocol::BundleLayers LayerStage::layoutOnTheWire(
     out.lattice[axis] = static_cast<uint32_t>(layout.lattice[axis]);
   out.chart_cells = static_cast<uint8_t>(layout.chart_cells);
   out.texel_metres = layout.texel_metres;
+  out.charts_face_surface_around = layout.charts_face_surface_around;
   out.square_count = static_cast<uint32_t>(layout.slots.size());
   storage.push_back(encodeAtlasSlots(layout.slots));
   out.slots = storage.back();

@@ -359,6 +359,7 @@ void writePayload(WireWriter& w, const TextureBundle& m, uint8_t minor) {
   w.u32(layers->square_texels);
   for (const uint32_t side : layers->lattice) w.u32(side);
   w.u8(layers->chart_cells);
+  if (minor >= 12) w.u8(layers->charts_face_surface_around ? 1 : 0);
   w.f64(layers->texel_metres);
   w.u32(layers->square_count);
   w.bytes32(layers->slots);
@@ -399,6 +400,14 @@ Status readPayload(std::span<const uint8_t> payload, TextureBundle& m, size_t ba
   layers.square_texels = r.u32("texture_bundle.square_texels");
   for (uint32_t& side : layers.lattice) side = r.u32("texture_bundle.lattice");
   layers.chart_cells = r.u8("texture_bundle.chart_cells");
+  layers.charts_face_surface_around = false;
+  if (minor >= 12) {
+    const uint8_t facing = r.u8("texture_bundle.chart_facing");
+    if (facing > 1)
+      r.failValue("texture_bundle.chart_facing", StatusCode::kMalformed,
+                  std::to_string(facing) + " is neither 0 (own normal) nor 1 (surface around)");
+    layers.charts_face_surface_around = facing == 1;
+  }
   layers.texel_metres = r.f64("texture_bundle.texel_metres");
   layers.square_count = r.u32("texture_bundle.square_count");
   layers.slots = r.bytes32("texture_bundle.slots", kMaxPlaneBytes);

@@ -201,6 +201,7 @@ StatusOr<DecodedLayers> layersOfBundle(const protocol::BundleLayers& layers,
   out.layout.lattice = glm::u64vec3(layers.lattice[0], layers.lattice[1], layers.lattice[2]);
   out.layout.chart_cells = layers.chart_cells;
   out.layout.texel_metres = layers.texel_metres;
+  out.layout.charts_face_surface_around = layers.charts_face_surface_around;
   // The server's atlas grows to 4096 at most (fusion flags): past that a
   // bundle would make the client hold gigabytes of layers.
   if (layers.texels < kMinAtlasTexels || layers.texels > kMaxLayerAtlasTexels)

@@ -108,9 +108,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     // frame id -> the mesh's codec and its vertices once decoded
     std::map<uint64_t, std::pair<holofuse::protocol::MeshCodec, size_t>> meshes;
   };
-  static_assert(holofuse::protocol::kVersionMinor == 11, "a client of each minor");
-  std::vector<Client> clients(12);
-  for (uint8_t minor = 0; minor < 12; ++minor) clients[minor].max_minor = minor;
+  static_assert(holofuse::protocol::kVersionMinor == 12, "a client of each minor");
+  std::vector<Client> clients(13);
+  for (uint8_t minor = 0; minor < 13; ++minor) clients[minor].max_minor = minor;
   for (Client& c : clients) {
     holofuse::protocol::Hello hello;
     hello.role = holofuse::protocol::Role::kClient;
@@ -267,11 +267,16 @@ TEST(Loop, ClientsBefore111GetLz4CameraPlanesAndKeyHalvesOfTheSameFrames) {
     std::map<uint64_t, std::vector<size_t>> colour_bytes;  // frame id -> each layer's
     // frame id -> the mesh's bytes and its vertices by key
     std::map<uint64_t, std::pair<size_t, std::map<uint64_t, glm::vec3>>> meshes;
+    std::map<uint64_t, bool> charts_face_surface_around;  // frame id -> as its bundle says
     std::string refused;
   };
-  std::vector<Client> clients(2);
+  // A client of the current minor beside them: while they are connected,
+  // every client's charts face their triangles' own normals, the one way a
+  // client before 1.12 lays them out, and its bundles say so.
+  std::vector<Client> clients(3);
   clients[0].max_minor = 10;
   clients[1].max_minor = 11;
+  clients[2].max_minor = protocol::kVersionMinor;
   for (Client& c : clients) {
     protocol::Hello hello;
     hello.role = protocol::Role::kClient;
@@ -283,7 +288,7 @@ TEST(Loop, ClientsBefore111GetLz4CameraPlanesAndKeyHalvesOfTheSameFrames) {
   auto shared = [&] {
     size_t n = 0;
     for (const auto& [frame_id, planes] : clients[1].cameras)
-      n += clients[0].cameras.count(frame_id);
+      n += clients[0].cameras.count(frame_id) * clients[2].cameras.count(frame_id);
     return n;
   };
   std::vector<protocol::Frame> received;
@@ -311,6 +316,7 @@ TEST(Loop, ClientsBefore111GetLz4CameraPlanesAndKeyHalvesOfTheSameFrames) {
         if (frame.header.type != static_cast<uint16_t>(protocol::MessageType::kTextureBundle) ||
             !protocol::decodeFrame(frame, bundle).isOk() || !bundle.layers)
           continue;
+        c.charts_face_surface_around[bundle.frame_id] = bundle.layers->charts_face_surface_around;
         auto& layers = c.cameras[bundle.frame_id];
         for (const auto& planes : bundle.layers->layers) {
           for (const auto& plane : planes) {
@@ -357,6 +363,15 @@ TEST(Loop, ClientsBefore111GetLz4CameraPlanesAndKeyHalvesOfTheSameFrames) {
         << "frame " << frame_id;
   }
   EXPECT_GT(texels_compared, 0u);
+  size_t current_compared = 0;
+  for (const auto& [frame_id, current] : clients[2].cameras) {
+    EXPECT_FALSE(clients[2].charts_face_surface_around.at(frame_id)) << "frame " << frame_id;
+    const auto older = clients[1].cameras.find(frame_id);
+    if (older == clients[1].cameras.end()) continue;
+    ++current_compared;
+    EXPECT_EQ(older->second, current) << "frame " << frame_id << ": the same layers";
+  }
+  EXPECT_GT(current_compared, 0u);
   size_t meshes_compared = 0;
   for (const auto& [frame_id, newer] : clients[1].meshes) {
     const auto older = clients[0].meshes.find(frame_id);

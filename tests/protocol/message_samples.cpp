@@ -196,6 +196,11 @@ std::vector<Sample> allSamples(uint8_t minor) {
   if (minor >= 11)  // camera planes in Zstandard with 1.11
     samples.push_back({"texture_bundle_zstd_camera_planes",
                        encodeFrame(sampleZstdCameraPlanesBundle(), 18, 0, minor)});
+  if (minor >= 12) {  // charts that say which way they face with 1.12
+    TextureBundle own_normals = sampleLayeredBundle();
+    own_normals.layers->charts_face_surface_around = false;
+    samples.push_back({"texture_bundle_own_normal_charts", encodeFrame(own_normals, 19, 0, minor)});
+  }
   if (minor >= 8) {  // clock probes came with 1.8
     ClockProbe request{ProbeStep::kRequest, 68'131'090'000'000, 0, 0};
     ClockProbe reply{ProbeStep::kReply, 68'131'090'000'000, 73'131'090'150'000, 73'131'090'190'000};

@@ -153,6 +153,32 @@ TEST(Messages, EveryTypeRoundTrips) {
         << status.toString();
   }
   {
+    // Since 1.12 the layers say which way their charts face; before, every
+    // chart faced its triangles' own normals, and a 1.11 reading says so.
+    TextureBundle in = testing::sampleLayeredBundle();
+    for (const bool around : {true, false}) {
+      in.layers->charts_face_surface_around = around;
+      TextureBundle m;
+      ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(in, 1)), m).isOk());
+      EXPECT_EQ(m.layers->charts_face_surface_around, around);
+      EXPECT_EQ(m.layers->texel_metres, in.layers->texel_metres) << "the fields after it in place";
+      ASSERT_TRUE(decodeFrame(decodeOne(encodeFrame(in, 1, 0, 11)), m).isOk());
+      EXPECT_FALSE(m.layers->charts_face_surface_around);
+      EXPECT_EQ(m.layers->texel_metres, in.layers->texel_metres);
+    }
+    // Another value is refused by name: frame id, stamps, image count,
+    // layer count, texels, squares per side, square texels, lattice, chart cells.
+    Frame frame = decodeOne(encodeFrame(in, 1));
+    const size_t at = 8 + 2 + 20 * in.stamps.size() + 1 + 1 + 4 + 4 + 4 + 12 + 1;
+    ASSERT_EQ(frame.bytes[kHeaderSize + at], 0);
+    frame.bytes[kHeaderSize + at] = 2;
+    TextureBundle probe;
+    const Status status = decodeFrame(frame, probe);
+    EXPECT_EQ(status.code(), StatusCode::kMalformed);
+    EXPECT_NE(status.toString().find("texture_bundle.chart_facing"), std::string::npos)
+        << status.toString();
+  }
+  {
     // Since 1.6: a layer's colour may be a video frame; a 1.5 reader has no
     // such codec and refuses the plane by name.
     TextureBundle m;

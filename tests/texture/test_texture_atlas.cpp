@@ -647,8 +647,9 @@ TEST_P(TextureLayers, ALayerKeepsItsNeighboursCameraWhereItSeesThePointNearlyAsW
   size_t kept_changes = 0, ranked_changes = 0;
   for (const auto& [dx, dy] : {std::pair<uint32_t, uint32_t>{1, 0}, {0, 1}}) {
     const size_t k = changes(kept->layers[0], dx, dy), r = changes(ranked->layers[0], dx, dy);
-    if (charts)
+    if (charts) {
       EXPECT_LT(k * 4, r * 3) << k << " against " << r << (dx ? " along rows" : " down columns");
+    }
     kept_changes += k;
     ranked_changes += r;
   }

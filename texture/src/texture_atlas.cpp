@@ -74,7 +74,8 @@ bool keyByLatticeCell(const Mesh& mesh, const glm::u64vec3& lattice, SquareAssig
 }
 
 // Charts: a triangle's square is its lattice cell's block of n^3 cells and
-// the dominant axis (signed) of the surface's normal around it, so a
+// the dominant axis (signed) of the surface's normal around it (or, for a
+// receiver before protocol 1.12, of its own normal), so a
 // block's surface facing one way shares one square, projected
 // orthographically along that axis. The normal is the area-weighted sum
 // over the triangle's cell and the cell's six face neighbours, not the
@@ -88,7 +89,8 @@ bool keyByLatticeCell(const Mesh& mesh, const glm::u64vec3& lattice, SquareAssig
 // sides of the wire compute them from the same decoded positions: they
 // agree on every triangle's axis.
 bool keyByChart(const Mesh& mesh, const glm::u64vec3& lattice, uint32_t chart_cells,
-                SquareAssignment& out, std::vector<uint8_t>& axis_of_triangle) {
+                bool face_surface_around, SquareAssignment& out,
+                std::vector<uint8_t>& axis_of_triangle) {
   if (!keyByLatticeCell(mesh, lattice, out)) return false;
   const uint64_t n = chart_cells;
   const glm::u64vec3 blocks((lattice.x + n - 1) / n, (lattice.y + n - 1) / n,
@@ -96,15 +98,19 @@ bool keyByChart(const Mesh& mesh, const glm::u64vec3& lattice, uint32_t chart_ce
   const size_t triangles = mesh.triangleCount();
   // Twice a triangle's area vector in units of 2^-32 square metres: a
   // millimetre-sized triangle still counts. Each component is capped at
-  // 2^48 units (a triangle of 65,000 square metres), so no sum of a cell
-  // and its neighbours' can overflow, whatever positions arrive.
-  constexpr double kAreaUnits = 4294967296.0, kMostUnits = 281474976710656.0;
-  std::unordered_map<uint64_t, glm::i64vec3> cell_normals;
-  cell_normals.reserve(triangles);
-  for (size_t t = 0; t < triangles; ++t) {
+  // 2^42 units (a triangle of 512 square metres), so seven cells of the
+  // most triangles keyByLatticeCell admits (2^17) cannot overflow, whatever
+  // positions arrive.
+  constexpr double kAreaUnits = 4294967296.0, kMostUnits = 4398046511104.0;
+  const auto own_normal = [&](size_t t) {
     const glm::dvec3 a(mesh.positions[mesh.indices[3 * t]]),
         b(mesh.positions[mesh.indices[3 * t + 1]]), c(mesh.positions[mesh.indices[3 * t + 2]]);
-    const glm::dvec3 normal = glm::cross(b - a, c - a) * kAreaUnits;
+    return glm::cross(b - a, c - a);
+  };
+  std::unordered_map<uint64_t, glm::i64vec3> cell_normals;
+  if (face_surface_around) cell_normals.reserve(triangles);
+  for (size_t t = 0; t < triangles && face_surface_around; ++t) {
+    const glm::dvec3 normal = own_normal(t) * kAreaUnits;
     glm::i64vec3 units(0);
     for (int k = 0; k < 3; ++k) {  // NaN (a corrupt position) counts as nothing
       if (!std::isnan(normal[k]))
@@ -118,18 +124,22 @@ bool keyByChart(const Mesh& mesh, const glm::u64vec3& lattice, uint32_t chart_ce
     const glm::u64vec3 at(cell % lattice.x, (cell / lattice.x) % lattice.y,
                           cell / (lattice.x * lattice.y));
     const glm::u64vec3 block(at.x / n, at.y / n, at.z / n);
-    glm::i64vec3 normal = cell_normals.at(cell);
-    uint64_t stride = 1;
-    for (int k = 0; k < 3; ++k) {
-      if (at[k] > 0) {
-        const auto below = cell_normals.find(cell - stride);
-        if (below != cell_normals.end()) normal += below->second;
+    glm::dvec3 normal = own_normal(t);
+    if (face_surface_around) {
+      glm::i64vec3 around = cell_normals.at(cell);
+      uint64_t stride = 1;
+      for (int k = 0; k < 3; ++k) {
+        if (at[k] > 0) {
+          const auto below = cell_normals.find(cell - stride);
+          if (below != cell_normals.end()) around += below->second;
+        }
+        if (at[k] + 1 < lattice[k]) {
+          const auto above = cell_normals.find(cell + stride);
+          if (above != cell_normals.end()) around += above->second;
+        }
+        stride *= lattice[k];
       }
-      if (at[k] + 1 < lattice[k]) {
-        const auto above = cell_normals.find(cell + stride);
-        if (above != cell_normals.end()) normal += above->second;
-      }
-      stride *= lattice[k];
+      normal = glm::dvec3(around);
     }
     int axis = 0;
     for (int k = 1; k < 3; ++k) {
@@ -332,7 +342,8 @@ StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* st
   if (charts) {
     if (!(options_.cell_size > 0) || !(options_.texels_per_cell > 0))
       return Status(StatusCode::kMalformed, "texture atlas: charts need the lattice's cell size");
-    if (!keyByChart(mesh, options_.lattice, options_.chart_cells, assignment, axes))
+    if (!keyByChart(mesh, options_.lattice, options_.chart_cells,
+                    options_.charts_face_surface_around, assignment, axes))
       return Status(StatusCode::kMalformed,
                     "texture atlas: charts need the mesh's vertex keys on the hull's lattice");
   } else {
@@ -454,6 +465,7 @@ StatusOr<std::vector<AtlasCell>> TextureAtlas::layOut(Mesh& mesh, AtlasStats* st
   if (charts) {
     layout_.chart_cells = options_.chart_cells;
     layout_.texel_metres = texel_metres;
+    layout_.charts_face_surface_around = options_.charts_face_surface_around;
   }
   if (assignment.keyed) {
     layout_.lattice = options_.lattice;
@@ -492,7 +504,8 @@ StatusOr<std::vector<AtlasCell>> applyAtlasLayout(Mesh& mesh, const AtlasLayout&
                   std::to_string(layout.texels));
   SquareAssignment assignment;
   std::vector<uint8_t> axes;
-  if (!(charts ? keyByChart(mesh, layout.lattice, layout.chart_cells, assignment, axes)
+  if (!(charts ? keyByChart(mesh, layout.lattice, layout.chart_cells,
+                            layout.charts_face_surface_around, assignment, axes)
                : keyByLatticeCell(mesh, layout.lattice, assignment)))
     return refuse("the mesh's vertex keys are not on the layout's lattice");
   std::vector<uint64_t> keys = assignment.key_of_triangle;

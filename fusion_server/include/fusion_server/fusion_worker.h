@@ -242,13 +242,16 @@ class FusionWorker {
   // Those and the fused groups whose output is not yet taken.
   size_t jobsNotTaken();
   // Whether a connected client asked for texture layers with LZ4 colour
-  // (lz4) or as video, and whether one of them is before 1.11 (LZ4 camera
-  // planes): the next groups build them (the server sets it as clients
-  // come and go).
-  void setLayersWanted(bool lz4, bool video, bool lz4_camera_planes = false) {
+  // (lz4) or as video, whether one of them is before 1.11 (LZ4 camera
+  // planes), and whether one is before 1.12 (charts by their triangles' own
+  // normals, for every client): the next groups build them (the server
+  // sets it as clients come and go).
+  void setLayersWanted(bool lz4, bool video, bool lz4_camera_planes = false,
+                       bool own_normal_charts = false) {
     layers_lz4_ = lz4;
     layers_video_ = video;
     layers_lz4_camera_planes_ = lz4_camera_planes;
+    layers_own_normal_charts_ = own_normal_charts;
   }
   // A client joined the layers' video or missed one of its frames: the next
   // layers start key frames.
@@ -283,7 +286,7 @@ class FusionWorker {
   bool lossless_;
   std::deque<GroupJob> waiting_;
   std::atomic<bool> layers_lz4_{false}, layers_video_{false}, video_key_frame_{false};
-  std::atomic<bool> layers_lz4_camera_planes_{false};
+  std::atomic<bool> layers_lz4_camera_planes_{false}, layers_own_normal_charts_{false};
   LayerStage layer_stage_;             // built in order, by one thread at a time
   size_t busy_ = 0;                    // groups being encoded
   uint64_t next_turn_ = 0;             // the next group taken gets this place in the output order

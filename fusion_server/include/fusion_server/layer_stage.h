@@ -52,12 +52,16 @@ struct LayerSettings {
   // 0.6945 and 141.8, 0.8103; 10 then 18 160.8, 0.6950 and 145.4, 0.8093.
   LayerVideoOptions video{.codec = protocol::Codec::kLz4, .crf = 11};
   int video_crf_step = 6;
+  // AtlasOptions::charts_face_surface_around: not a setting of its own,
+  // but false while a layered client before protocol 1.12 is connected.
+  bool charts_face_surface_around = true;
   bool operator==(const LayerSettings&) const = default;
   bool sameAtlas(const LayerSettings& other) const {
     return layers == other.layers && atlas_texels == other.atlas_texels &&
            atlas_max_texels == other.atlas_max_texels && chart_cells == other.chart_cells &&
            texels_per_cell == other.texels_per_cell && min_score_share == other.min_score_share &&
-           keep_share == other.keep_share;
+           keep_share == other.keep_share &&
+           charts_face_surface_around == other.charts_face_surface_around;
   }
 };
 

@@ -27,6 +27,7 @@ struct PeerCapabilities {
   bool changes_layers = false;   // 1.10: a client whose FrameRequests say which layers it takes
   bool zstd_planes = false;      // 1.11: decodes layers' camera planes in Zstandard
   bool key_half_steps = false;   // 1.11: decodes Draco's vertex keys in half steps
+  bool surface_facing_charts = false;  // 1.12: lays charts out by the normal around a triangle
 };
 
 // hello_capabilities: the Hello's kCapability* bits, which count only for a

@@ -197,6 +197,10 @@ struct BundleLayers {
   // 0: a square per pair of triangles; n: charts of n^3 lattice cells per
   // dominant axis, texel_metres of surface a texel.
   uint8_t chart_cells = 0;
+  // Since 1.12: a triangle's chart faces the dominant axis of the normal
+  // summed over its lattice cell and the cell's face neighbours (true), or
+  // of its own normal (false; always so before 1.12).
+  bool charts_face_surface_around = true;
   double texel_metres = 0;
   uint32_t square_count = 0;
   std::span<const uint8_t> slots;          // encodeAtlasSlots

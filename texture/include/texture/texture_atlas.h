@@ -49,6 +49,10 @@ struct AtlasOptions {
   uint32_t chart_cells = 0;
   double texels_per_cell = 3.0;
   double cell_size = 0.0;
+  // A triangle's chart faces the dominant axis of the normal summed over
+  // its lattice cell and the cell's six face neighbours; false: of its own
+  // normal (protocol 1.5 to 1.11 receivers lay charts out so).
+  bool charts_face_surface_around = true;
 };
 
 // Texels between a chart's projected triangles and its square's edge: two
@@ -78,8 +82,9 @@ struct AtlasLayout {
   uint32_t texels = 0, squares_per_side = 0, square_texels = 0;
   glm::u64vec3 lattice{0};
   std::vector<uint32_t> slots;
-  uint32_t chart_cells = 0;  // AtlasOptions::chart_cells
-  double texel_metres = 0;   // charts: metres of surface a texel spans
+  uint32_t chart_cells = 0;                // AtlasOptions::chart_cells
+  double texel_metres = 0;                 // charts: metres of surface a texel spans
+  bool charts_face_surface_around = true;  // AtlasOptions::charts_face_surface_around
   bool keyed() const { return lattice.x > 0 && lattice.y > 0 && lattice.z > 0; }
 };
 
