@@ -243,19 +243,19 @@ void FramePipeline::submitGroup(FrameGroup group, const std::vector<Peer>& peers
   // Layers are built only while a client that asked for them is here,
   // coded as each such client decodes them; the mesh in Draco too while
   // a client before 1.7 is.
-  bool lz4 = false, video = false, lz4_camera_planes = false, own_normal_charts = false;
+  FusionWorker::LayersWanted wanted;
   GroupJob job;
   for (const Peer& p : peers) {
     if (!p.isClient()) continue;
     job.draco_for_older = job.draco_for_older || !p.caps.any_mesh_codec;
     job.key_halves_for_older = job.key_halves_for_older || !p.caps.key_half_steps;
     if (!p.wants_layers) continue;
-    (p.wants_layer_video ? video : lz4) = true;
-    lz4_camera_planes = lz4_camera_planes || !p.caps.zstd_planes;
-    own_normal_charts = own_normal_charts || !p.caps.surface_facing_charts;
+    (p.wants_layer_video ? wanted.video : wanted.lz4) = true;
+    wanted.lz4_camera_planes = wanted.lz4_camera_planes || !p.caps.zstd_planes;
+    wanted.own_normal_charts = wanted.own_normal_charts || !p.caps.surface_facing_charts;
     if (p.wants_layer_video && !p.layer_video_in_step) worker_->requestLayerVideoKeyFrame();
   }
-  worker_->setLayersWanted(lz4, video, lz4_camera_planes, own_normal_charts);
+  worker_->setLayersWanted(wanted);
   job.group = std::move(group);
   job.late_frames = sync_.lateFrames();
   job.dropped_groups = sync_.overflowedGroups() + worker_->replacedJobs();

@@ -75,9 +75,9 @@ bool keyByLatticeCell(const Mesh& mesh, const glm::u64vec3& lattice, SquareAssig
 
 // Charts: a triangle's square is its lattice cell's block of n^3 cells and
 // the dominant axis (signed) of the surface's normal around it (or, for a
-// receiver before protocol 1.12, of its own normal), so a
-// block's surface facing one way shares one square, projected
-// orthographically along that axis. The normal is the area-weighted sum
+// receiver before protocol 1.12, of its own normal), so a block's surface
+// facing one way shares one square, projected orthographically along that
+// axis. The normal is the area-weighted sum
 // over the triangle's cell and the cell's six face neighbours, not the
 // triangle's own: a hull's facets tilt from frame to frame, and a patch
 // whose triangles each took their own axis changed chart wherever one
@@ -124,8 +124,10 @@ bool keyByChart(const Mesh& mesh, const glm::u64vec3& lattice, uint32_t chart_ce
     const glm::u64vec3 at(cell % lattice.x, (cell / lattice.x) % lattice.y,
                           cell / (lattice.x * lattice.y));
     const glm::u64vec3 block(at.x / n, at.y / n, at.z / n);
-    glm::dvec3 normal = own_normal(t);
-    if (face_surface_around) {
+    glm::dvec3 normal;
+    if (!face_surface_around) {
+      normal = own_normal(t);
+    } else {
       glm::i64vec3 around = cell_normals.at(cell);
       uint64_t stride = 1;
       for (int k = 0; k < 3; ++k) {

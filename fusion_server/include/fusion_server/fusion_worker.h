@@ -241,17 +241,19 @@ class FusionWorker {
   size_t queuedJobs();
   // Those and the fused groups whose output is not yet taken.
   size_t jobsNotTaken();
-  // Whether a connected client asked for texture layers with LZ4 colour
-  // (lz4) or as video, whether one of them is before 1.11 (LZ4 camera
-  // planes), and whether one is before 1.12 (charts by their triangles' own
-  // normals, for every client): the next groups build them (the server
-  // sets it as clients come and go).
-  void setLayersWanted(bool lz4, bool video, bool lz4_camera_planes = false,
-                       bool own_normal_charts = false) {
-    layers_lz4_ = lz4;
-    layers_video_ = video;
-    layers_lz4_camera_planes_ = lz4_camera_planes;
-    layers_own_normal_charts_ = own_normal_charts;
+  // What the connected clients asked for: texture layers with LZ4 colour
+  // (lz4) or as video, and what the older of them decode: the next groups
+  // build them so (the server sets it as clients come and go).
+  struct LayersWanted {
+    bool lz4 = false, video = false;
+    bool lz4_camera_planes = false;  // a client before 1.11
+    bool own_normal_charts = false;  // a client before 1.12: every client's charts so
+  };
+  void setLayersWanted(const LayersWanted& wanted) {
+    layers_lz4_ = wanted.lz4;
+    layers_video_ = wanted.video;
+    layers_lz4_camera_planes_ = wanted.lz4_camera_planes;
+    layers_own_normal_charts_ = wanted.own_normal_charts;
   }
   // A client joined the layers' video or missed one of its frames: the next
   // layers start key frames.
