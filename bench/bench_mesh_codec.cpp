@@ -1,9 +1,9 @@
-// The mesh codecs on the same meshes: Draco (the default, 11-bit
-// positions) against half floats through LZ4 (the open Holoportation
-// stack's), each mesh the hull the server carves from the demo's rig
-// (4 pods at 320x240) at 20 and 10 mm, with vertex keys (Draco's in half
-// steps on the hull's lattice) and without normals (the receiver
-// recomputes them), as the server sends them: encode
+// The mesh codecs on the same meshes: Draco (the default) against half
+// floats through LZ4 (the open Holoportation stack's), each mesh the hull
+// the server carves from the demo's rig (4 pods at 320x240) at 20 and
+// 10 mm, with vertex keys (Draco's in half steps on the hull's lattice,
+// the positions as places along the keys' edges) and without normals (the
+// receiver recomputes them), as the server sends them: encode
 // and decode ms (medians) and bytes, and the ratios. Ratios are measured in
 // one run; the machine is noisy.
 //   bench_mesh_codec [frames]
@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
     std::vector<Mesh> meshes;
     hull::HullOptions options;
     options.voxel_size = voxel;
-    // Draco's keys in half steps on the hull's lattice, as the server sends them.
+    // Draco's keys and places on the hull's lattice, as the server sends them.
     const DracoOptions spelling = fusion::dracoOnHullLattice({}, options);
     for (int f = 0; f < frames; ++f) {
       std::vector<hull::HullView> views;

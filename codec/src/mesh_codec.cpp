@@ -154,6 +154,44 @@ bool onLattice(const std::array<uint64_t, 2>& lattice) {
          lattice[1] <= kMaxKeyLatticeSide;
 }
 
+// DracoOptions::edge_bits: the lattice's first point, its spacing and the
+// bits of a place along an edge, as five doubles.
+constexpr char kEdgePlacesEntry[] = "holofuse_edge_places";
+constexpr int kMaxEdgeBits = 16;
+
+int edgeAxis(const std::array<uint32_t, 3>& half) { return half[0] % 2 ? 0 : half[1] % 2 ? 1 : 2; }
+
+// Each vertex's place along the edge its key names, in edge_bits bits (the
+// step it falls in); nullopt where the options name no edge lattice or a
+// vertex lies off its edge.
+std::optional<std::vector<uint16_t>> placesOnEdges(const Mesh& mesh,
+                                                   const std::vector<uint32_t>& halves,
+                                                   const DracoOptions& options) {
+  const int bits = options.edge_bits;
+  const double s = options.edge_spacing;
+  if (bits < 1 || bits > kMaxEdgeBits || !(s > 0) || !std::isfinite(s)) return std::nullopt;
+  const double steps = static_cast<double>(1u << bits);
+  // A float32 coordinate of a few metres rounds by micrometres; a vertex
+  // further than this from its edge was moved off it (a refined mesh).
+  const double slack = 1e-3 * s;
+  std::vector<uint16_t> places(mesh.positions.size());
+  for (size_t i = 0; i < places.size(); ++i) {
+    const std::array<uint32_t, 3> half = {halves[3 * i], halves[3 * i + 1], halves[3 * i + 2]};
+    const int axis = edgeAxis(half);
+    for (int k = 0; k < 3; ++k) {
+      const double off = static_cast<double>(mesh.positions[i][k]) -
+                         (options.edge_origin[k] + s * static_cast<double>(half[k] / 2));
+      if (k != axis) {
+        if (!(std::abs(off) <= slack)) return std::nullopt;
+        continue;
+      }
+      if (!(off >= -slack && off <= s + slack)) return std::nullopt;
+      places[i] = static_cast<uint16_t>(std::clamp(std::floor(off / s * steps), 0.0, steps - 1));
+    }
+  }
+  return places;
+}
+
 }  // namespace
 
 StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions& options) {
@@ -168,40 +206,60 @@ StatusOr<std::vector<uint8_t>> encodeDraco(const Mesh& mesh, const DracoOptions&
   draco::Mesh dm;
   dm.set_num_points(static_cast<uint32_t>(atlas ? mesh.indices.size() : n));
   const std::vector<uint32_t>* corners = atlas ? &mesh.indices : nullptr;
-  addVertexAttribute(dm, draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32,
-                     sizeof(glm::vec3), n, mesh.positions.data(), corners);
-  if (options.normals && mesh.normals.size() == n) {
-    addVertexAttribute(dm, draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32,
-                       sizeof(glm::vec3), n, mesh.normals.data(), corners);
-  }
   const bool half_steps =
       mesh.vertex_keys.size() == n && onLattice(options.key_lattice) &&
       std::all_of(mesh.vertex_keys.begin(), mesh.vertex_keys.end(), [&](uint64_t key) {
         const auto half = keyAsHalfSteps(key, options.key_lattice);
         return half[2] / 2 < kMaxKeyLatticeSide;
       });
+  std::vector<uint32_t> halves;
   if (half_steps) {
-    std::vector<uint32_t> halves(3 * n);
+    halves.resize(3 * n);
     for (size_t i = 0; i < n; ++i) {
       const auto half = keyAsHalfSteps(mesh.vertex_keys[i], options.key_lattice);
       std::copy(half.begin(), half.end(), halves.begin() + 3 * i);
     }
-    addVertexAttribute(dm, draco::GeometryAttribute::GENERIC, 3, draco::DT_UINT32,
-                       3 * sizeof(uint32_t), n, halves.data(), corners);
-    auto metadata = std::make_unique<draco::GeometryMetadata>();
+  }
+  const std::optional<std::vector<uint16_t>> places =
+      half_steps ? placesOnEdges(mesh, halves, options) : std::nullopt;
+  auto metadata = std::make_unique<draco::GeometryMetadata>();
+  if (half_steps) {
     metadata->AddEntryIntArray(kKeyLatticeEntry, {static_cast<int32_t>(options.key_lattice[0]),
                                                   static_cast<int32_t>(options.key_lattice[1])});
-    dm.AddMetadata(std::move(metadata));
-  } else if (mesh.vertex_keys.size() == n) {
+  }
+  if (places) {
+    // The key is the position: its half steps take the POSITION attribute
+    // (Draco predicts them from the neighbours), the place along the edge
+    // a one-component attribute of its own.
+    addVertexAttribute(dm, draco::GeometryAttribute::POSITION, 3, draco::DT_UINT32,
+                       3 * sizeof(uint32_t), n, halves.data(), corners);
+    addVertexAttribute(dm, draco::GeometryAttribute::GENERIC, 1, draco::DT_UINT16, sizeof(uint16_t),
+                       n, places->data(), corners);
+    metadata->AddEntryDoubleArray(
+        kEdgePlacesEntry, {options.edge_origin[0], options.edge_origin[1], options.edge_origin[2],
+                           options.edge_spacing, static_cast<double>(options.edge_bits)});
+  } else {
+    addVertexAttribute(dm, draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32,
+                       sizeof(glm::vec3), n, mesh.positions.data(), corners);
+  }
+  if (options.normals && mesh.normals.size() == n) {
+    addVertexAttribute(dm, draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32,
+                       sizeof(glm::vec3), n, mesh.normals.data(), corners);
+  }
+  if (half_steps && !places) {
+    addVertexAttribute(dm, draco::GeometryAttribute::GENERIC, 3, draco::DT_UINT32,
+                       3 * sizeof(uint32_t), n, halves.data(), corners);
+  } else if (!half_steps && mesh.vertex_keys.size() == n) {
     // Two 32-bit halves, low first: Draco has no 64-bit integer attribute.
-    std::vector<uint32_t> halves(2 * n);
+    std::vector<uint32_t> key_halves(2 * n);
     for (size_t i = 0; i < n; ++i) {
-      halves[2 * i] = static_cast<uint32_t>(mesh.vertex_keys[i]);
-      halves[2 * i + 1] = static_cast<uint32_t>(mesh.vertex_keys[i] >> 32);
+      key_halves[2 * i] = static_cast<uint32_t>(mesh.vertex_keys[i]);
+      key_halves[2 * i + 1] = static_cast<uint32_t>(mesh.vertex_keys[i] >> 32);
     }
     addVertexAttribute(dm, draco::GeometryAttribute::GENERIC, 2, draco::DT_UINT32,
-                       2 * sizeof(uint32_t), n, halves.data(), corners);
+                       2 * sizeof(uint32_t), n, key_halves.data(), corners);
   }
+  if (half_steps) dm.AddMetadata(std::move(metadata));
   if (atlas) {
     addVertexAttribute(dm, draco::GeometryAttribute::TEX_COORD, 2, draco::DT_FLOAT32,
                        sizeof(glm::vec2), mesh.corner_uvs.size(), mesh.corner_uvs.data(), nullptr);
@@ -263,7 +321,6 @@ StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& 
   const draco::PointAttribute* normals = dm->GetNamedAttribute(draco::GeometryAttribute::NORMAL);
   const draco::PointAttribute* uvs = dm->GetNamedAttribute(draco::GeometryAttribute::TEX_COORD);
   const bool atlas = uvs != nullptr && uvs->num_components() == 2;
-  const draco::PointAttribute* keys = dm->GetNamedAttribute(draco::GeometryAttribute::GENERIC);
   // Since 1.11 a key may come as three half steps on the lattice the
   // metadata names (DracoOptions::key_lattice).
   std::array<uint64_t, 2> key_lattice{0, 0};
@@ -276,6 +333,31 @@ StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& 
                                                 std::to_string(kMaxKeyLatticeSide));
     key_lattice = {uint64_t(sides[0]), uint64_t(sides[1])};
   }
+  // Since 1.13 a position may be its key and a place along the key's edge
+  // (DracoOptions::edge_bits): the keys are then the POSITION attribute.
+  std::vector<double> edge;
+  const bool edge_places = dm->GetMetadata() != nullptr &&
+                           dm->GetMetadata()->GetEntryDoubleArray(kEdgePlacesEntry, &edge);
+  const draco::PointAttribute* places = nullptr;
+  if (edge_places) {
+    places = dm->GetNamedAttribute(draco::GeometryAttribute::GENERIC);
+    const bool lattice_ok =
+        edge.size() == 5 &&
+        std::all_of(edge.begin(), edge.end(),
+                    [](double v) { return std::isfinite(v) && std::abs(v) < 1e6; }) &&
+        edge[3] > 0 && edge[4] >= 1 && edge[4] <= kMaxEdgeBits && edge[4] == std::floor(edge[4]);
+    if (!lattice_ok)
+      return Status(StatusCode::kMalformed,
+                    "draco mesh: its edge lattice is not an origin, a spacing above 0 and 1.." +
+                        std::to_string(kMaxEdgeBits) + " bits");
+    if (key_lattice[0] == 0 || positions->data_type() != draco::DT_UINT32 || places == nullptr ||
+        places->num_components() != 1 || places->data_type() != draco::DT_UINT16)
+      return Status(StatusCode::kMalformed,
+                    "draco mesh: positions on edges without keys in half steps on a lattice and "
+                    "a 16-bit place along each edge");
+  }
+  const draco::PointAttribute* keys =
+      edge_places ? positions : dm->GetNamedAttribute(draco::GeometryAttribute::GENERIC);
   const bool half_steps = keys != nullptr && key_lattice[0] > 0 && keys->num_components() == 3 &&
                           keys->data_type() == draco::DT_UINT32;
   const bool keyed = half_steps || (keys != nullptr && keys->num_components() == 2 &&
@@ -294,7 +376,9 @@ StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& 
       const std::array<uint32_t, 3> identity = {
           positions->mapped_index(point).value(),
           has_normals ? normals->mapped_index(point).value() : 0u,
-          keyed ? keys->mapped_index(point).value() : 0u};
+          edge_places ? places->mapped_index(point).value()
+          : keyed     ? keys->mapped_index(point).value()
+                      : 0u};
       vertex_of_point[p] =
           vertex_of.emplace(identity, static_cast<uint32_t>(vertex_of.size())).first->second;
     }
@@ -313,7 +397,7 @@ StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& 
   std::vector<bool> seen(n, false);
   for (uint32_t p = 0; p < dm->num_points(); ++p) {
     const uint32_t v = vertexOf(draco::PointIndex(p));
-    if (seen[v]) continue;
+    if (seen[v] || edge_places) continue;  // edge places: from the keys, below
     seen[v] = true;
     float value[3] = {0, 0, 0};
     positions->ConvertValue<float, 3>(positions->mapped_index(draco::PointIndex(p)), value);
@@ -367,6 +451,30 @@ StatusOr<Mesh> decodeDraco(const uint8_t* data, size_t size, const DracoLimits& 
         uint32_t halves[2] = {0, 0};
         keys->ConvertValue<uint32_t, 2>(value, halves);
         key = (uint64_t{halves[1]} << 32) | halves[0];
+      }
+    }
+  }
+  if (edge_places) {
+    const uint32_t steps = 1u << static_cast<int>(edge[4]);
+    for (uint32_t p = 0; p < dm->num_points(); ++p) {
+      const uint32_t v = vertexOf(draco::PointIndex(p));
+      std::array<uint32_t, 3> half{};
+      positions->ConvertValue<uint32_t, 3>(positions->mapped_index(draco::PointIndex(p)),
+                                           half.data());
+      uint16_t place = 0;
+      places->ConvertValue<uint16_t, 1>(places->mapped_index(draco::PointIndex(p)), &place);
+      if (place >= steps)
+        return Status(StatusCode::kMalformed, "draco mesh: vertex " + std::to_string(v) +
+                                                  "'s place along its edge (" +
+                                                  std::to_string(place) + ") is past its " +
+                                                  std::to_string(steps) + " steps");
+      // The middle of its step: never an end of the edge, so no triangle
+      // collapses.
+      const int axis = edgeAxis(half);
+      for (int k = 0; k < 3; ++k) {
+        const double along = k == axis ? (place + 0.5) / steps : 0.0;
+        mesh.positions[v][k] =
+            static_cast<float>(edge[k] + edge[3] * (static_cast<double>(half[k] / 2) + along));
       }
     }
   }

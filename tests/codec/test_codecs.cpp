@@ -171,6 +171,16 @@ TEST(MeshCodec, NormalsAreLeftToTheReceiverUnlessAsked) {
     EXPECT_GT(glm::dot(back->normals[v], mesh.normals[by_key.at(back->vertex_keys[v])]), 0.999f);
 }
 
+// A mesh built by hand, with its metadata, through Draco and our decoder.
+StatusOr<Mesh> throughDraco(draco::Mesh& built, std::unique_ptr<draco::GeometryMetadata> metadata) {
+  built.AddMetadata(std::move(metadata));
+  draco::Encoder encoder;
+  encoder.SetSpeedOptions(10, 10);
+  draco::EncoderBuffer buffer;
+  EXPECT_TRUE(encoder.EncodeMeshToBuffer(built, &buffer).ok());
+  return decodeDraco(reinterpret_cast<const uint8_t*>(buffer.data()), buffer.size());
+}
+
 // Since 1.11 Draco carries a hull's vertex keys as their edges' middles in
 // half steps on the key lattice: the same keys come back for fewer bytes,
 // and a lattice or a key that lies is refused by name.
@@ -229,12 +239,7 @@ TEST(MeshCodec, DracoKeysInHalfStepsComeBackTheSameForFewerBytes) {
     std::unique_ptr<draco::Mesh> built = builder.Finalize();
     auto metadata = std::make_unique<draco::GeometryMetadata>();
     metadata->AddEntryIntArray("holofuse_key_lattice", lattice);
-    built->AddMetadata(std::move(metadata));
-    draco::Encoder encoder;
-    encoder.SetSpeedOptions(10, 10);
-    draco::EncoderBuffer buffer;
-    EXPECT_TRUE(encoder.EncodeMeshToBuffer(*built, &buffer).ok());
-    auto back = decodeDraco(reinterpret_cast<const uint8_t*>(buffer.data()), buffer.size());
+    auto back = throughDraco(*built, std::move(metadata));
     return back.isOk() ? std::string("accepted") : back.status().message();
   };
   EXPECT_EQ(lying({0, 1, 2}, {4, 4}), "accepted");
@@ -246,6 +251,101 @@ TEST(MeshCodec, DracoKeysInHalfStepsComeBackTheSameForFewerBytes) {
       << "x of 4 on a side of 4";
   EXPECT_NE(lying({1, 0, 0}, {0, 4}).find("its key lattice is not two sides"), std::string::npos);
   EXPECT_NE(lying({1, 0, 0}, {4}).find("its key lattice is not two sides"), std::string::npos);
+}
+
+// Since 1.13 a hull's vertex goes out as its key and its place along the
+// key's edge: off-axis coordinates exact, the place within half a step of
+// 2^-edge_bits of the spacing, and fewer bytes than 11-bit coordinates. A
+// vertex off its edge (a refined mesh) sends coordinates; a lattice, a
+// place or attributes that lie are refused by name.
+TEST(MeshCodec, AHullsVerticesGoAsPlacesAlongTheirKeysEdges) {
+  constexpr double kSpacing = 0.05;
+  const auto grid = sampleGrid({-0.5, -0.5, -0.5}, kSpacing, 21, 21, 21,
+                               [](const glm::dvec3& p) { return 0.4 - glm::length(p); });
+  Mesh mesh = marchingCubes(grid);
+  // Point (40, 30, 41) of a lattice of 103 a side is the grid's first.
+  const std::array<double, 3> origin = {-0.5 - 40 * kSpacing, -0.5 - 30 * kSpacing,
+                                        -0.5 - 41 * kSpacing};
+  for (uint64_t& key : mesh.vertex_keys) {
+    const uint64_t axis = key % 3, point = key / 3;
+    const uint64_t x = point % 21 + 40, y = point / 21 % 21 + 30, z = point / 441 + 41;
+    key = ((z * 103 + y) * 103 + x) * 3 + axis;
+  }
+  DracoOptions coordinates, places;
+  coordinates.key_lattice = places.key_lattice = {103, 103};
+  places.edge_origin = origin;
+  places.edge_spacing = kSpacing;
+  places.edge_bits = 6;
+  auto as_coordinates = encodeDraco(mesh, coordinates);
+  auto as_places = encodeDraco(mesh, places);
+  ASSERT_TRUE(as_coordinates.isOk() && as_places.isOk());
+  EXPECT_LT(as_places->size() * 4, as_coordinates->size() * 3)
+      << "a quarter fewer bytes at least: " << as_places->size() << " against "
+      << as_coordinates->size();
+  auto back = decodeDraco(as_places->data(), as_places->size());
+  ASSERT_TRUE(back.isOk()) << back.status().toString();
+  ASSERT_EQ(back->vertexCount(), mesh.vertexCount());
+  ASSERT_EQ(back->triangleCount(), mesh.triangleCount());
+  std::map<uint64_t, size_t> by_key;
+  for (size_t v = 0; v < mesh.vertexCount(); ++v) by_key[mesh.vertex_keys[v]] = v;
+  const double half_step = kSpacing / 128;
+  for (size_t v = 0; v < back->vertexCount(); ++v) {
+    const uint64_t key = back->vertex_keys[v];
+    ASSERT_EQ(by_key.count(key), 1u) << key;
+    const glm::vec3 was = mesh.positions[by_key[key]], is = back->positions[v];
+    for (int k = 0; k < 3; ++k) {
+      const double bound = int(key % 3) == k ? half_step + 1e-6 : 1e-6;
+      EXPECT_LE(std::abs(double(is[k]) - double(was[k])), bound) << "vertex " << v << " axis " << k;
+    }
+  }
+  ASSERT_EQ(back->normals.size(), back->vertexCount()) << "normals recomputed";
+  // One vertex a millimetre off its edge: the whole mesh goes as coordinates.
+  Mesh refined = mesh;
+  refined.positions[7] += glm::vec3(0.001f, 0.001f, 0.001f);
+  auto moved = encodeDraco(refined, places), moved_coordinates = encodeDraco(refined, coordinates);
+  ASSERT_TRUE(moved.isOk() && moved_coordinates.isOk());
+  EXPECT_EQ(*moved, *moved_coordinates);
+  // What no encoder of ours writes.
+  auto lying = [](std::vector<double> edge, uint16_t place, bool lattice = true,
+                  draco::DataType place_type = draco::DT_UINT16) {
+    draco::TriangleSoupMeshBuilder builder;
+    builder.Start(1);
+    const int keys = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_UINT32);
+    const int places = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 1, place_type);
+    const uint32_t a[3] = {1, 0, 0}, b[3] = {2, 1, 0}, c[3] = {0, 0, 1};
+    builder.SetAttributeValuesForFace(keys, draco::FaceIndex(0), a, b, c);
+    const uint16_t along[3] = {place, 0, 1};
+    builder.SetAttributeValuesForFace(places, draco::FaceIndex(0), &along[0], &along[1], &along[2]);
+    std::unique_ptr<draco::Mesh> built = builder.Finalize();
+    auto metadata = std::make_unique<draco::GeometryMetadata>();
+    if (lattice) metadata->AddEntryIntArray("holofuse_key_lattice", {4, 4});
+    metadata->AddEntryDoubleArray("holofuse_edge_places", edge);
+    auto back = throughDraco(*built, std::move(metadata));
+    if (!back.isOk()) return back.status().message();
+    // Vertex (1, 0, 0) in half steps, place 3 of 2^2: x at 0.1 * 7/8.
+    for (size_t v = 0; v < back->vertexCount(); ++v)
+      if (back->vertex_keys[v] == 0) return "x " + std::to_string(back->positions[v].x);
+    return std::string("no vertex of key 0");
+  };
+  EXPECT_EQ(lying({0, 0, 0, 0.1, 2}, 3), "x " + std::to_string(0.1f * 7 / 8));
+  EXPECT_NE(lying({0, 0, 0, 0.1, 2}, 4).find("'s place along its edge (4) is past its 4 steps"),
+            std::string::npos)
+      << lying({0, 0, 0, 0.1, 2}, 4);
+  for (const auto& edge : std::vector<std::vector<double>>{{0, 0, 0, 0.1, 0},
+                                                           {0, 0, 0, 0.1, 17},
+                                                           {0, 0, 0, 0.1, 2.5},
+                                                           {0, 0, 0, 0, 2},
+                                                           {0, 0, 0, 0.1},
+                                                           {0, std::nan(""), 0, 0.1, 2},
+                                                           {0, 0, 1e300, 0.1, 2}}) {
+    EXPECT_NE(lying(edge, 0).find("its edge lattice is not an origin"), std::string::npos)
+        << lying(edge, 0);
+  }
+  EXPECT_NE(lying({0, 0, 0, 0.1, 2}, 0, false).find("positions on edges without keys"),
+            std::string::npos);
+  EXPECT_NE(lying({0, 0, 0, 0.1, 2}, 0, true, draco::DT_UINT8)
+                .find("positions on edges without keys in half steps on a lattice and a 16-bit"),
+            std::string::npos);
 }
 
 // The Holoportation coding (half floats through LZ4) on a keyed marching
