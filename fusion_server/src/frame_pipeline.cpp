@@ -249,6 +249,7 @@ void FramePipeline::submitGroup(FrameGroup group, const std::vector<Peer>& peers
     if (!p.isClient()) continue;
     job.draco_for_older = job.draco_for_older || !p.caps.any_mesh_codec;
     job.key_halves_for_older = job.key_halves_for_older || !p.caps.key_half_steps;
+    job.coordinates_for_older = job.coordinates_for_older || !p.caps.edge_places;
     if (!p.wants_layers) continue;
     (p.wants_layer_video ? wanted.video : wanted.lz4) = true;
     wanted.lz4_camera_planes = wanted.lz4_camera_planes || !p.caps.zstd_planes;

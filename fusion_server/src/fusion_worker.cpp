@@ -282,6 +282,8 @@ protocol::Stats statsOf(const GroupJob& job, const FusionSettings& settings, uin
 DracoOptions dracoOnHullLattice(DracoOptions draco, const hull::HullOptions& hull) {
   const glm::u64vec3 lattice = hull::keyLattice(hull);
   draco.key_lattice = {lattice.x, lattice.y};
+  draco.edge_origin = {hull.volume_min.x, hull.volume_min.y, hull.volume_min.z};
+  draco.edge_spacing = hull.voxel_size;
   return draco;
 }
 
@@ -305,8 +307,9 @@ EncodedGroup encodeFused(const GroupJob& job, const FusionSettings& settings, co
   if (refine_end_ns != 0)
     stamps.push_back(
         {static_cast<uint16_t>(Stage::kRefine), kSourceServer, hull_end_ns, refine_end_ns});
-  encoded.mesh =
-      encodeMesh(settings.mesh_codec, mesh, dracoOnHullLattice(settings.draco, settings.hull));
+  DracoOptions draco = dracoOnHullLattice(settings.draco, settings.hull);
+  if (job.coordinates_for_older) draco.edge_spacing = 0;
+  encoded.mesh = encodeMesh(settings.mesh_codec, mesh, draco);
   // Clients before 1.7 decode Draco only, and before 1.11 its keys as halves.
   encoded.draco_apart =
       job.draco_for_older ||

@@ -24,6 +24,7 @@ PeerCapabilities capabilitiesOf(uint8_t minor, protocol::Role role, uint64_t hel
   c.zstd_planes = minor >= 11;
   c.key_half_steps = minor >= 11;
   c.surface_facing_charts = minor >= 12;
+  c.edge_places = minor >= 13;
   return c;
 }
 

@@ -411,6 +411,77 @@ std::vector<uint8_t> imageBytes(const protocol::SharedFrame& frame) {
   });
 }
 
+// One group of four synthetic pods at 160x120, frame frame_id.
+GroupJob syntheticJob(uint64_t frame_id) {
+  const scene::SyntheticScene scene;
+  const auto views = syntheticViews(4, frame_id, 160, 120);
+  GroupJob job;
+  job.group.frame_id = frame_id;
+  for (size_t i = 0; i < views.size(); ++i) {
+    PodImages pod;
+    pod.camera_id = static_cast<uint32_t>(i);
+    pod.color = scene.render(views[i].camera, frame_id).color;
+    pod.mask = views[i].mask;
+    pod.feather = views[i].feather;
+    pod.camera = views[i].camera;
+    job.group.pods[pod.camera_id] = pod;
+  }
+  return job;
+}
+
+// A hull goes to clients of 1.13 as its keys and places along their
+// edges: every vertex on its key's edge, in fewer bytes. While a client
+// before 1.13 is connected every client gets the coordinates, the same
+// vertices within their quantisation.
+TEST(FusionWorker, AHullGoesAsPlacesAlongItsKeysEdgesUnlessAnOlderClientIsHere) {
+  const GroupJob job = syntheticJob(3);
+  FusionSettings settings;
+  settings.pods_expected = 4;
+  auto meshOf = [&](bool older_client) {
+    GroupJob taken = job;
+    taken.coordinates_for_older = older_client;
+    const FusedOutput out = fuseGroup(taken, settings);
+    std::vector<uint8_t> bytes = meshBytes(out.mesh_frame);
+    auto mesh = decodeDraco(bytes.data(), bytes.size());
+    EXPECT_TRUE(mesh.isOk()) << mesh.status().toString();
+    return std::make_pair(bytes.size(), mesh.isOk() ? *mesh : Mesh{});
+  };
+  const auto [place_bytes, on_edges] = meshOf(false);
+  const auto [coordinate_bytes, coordinates] = meshOf(true);
+  ASSERT_GT(on_edges.vertexCount(), 100u);
+  EXPECT_LT(place_bytes * 4, coordinate_bytes * 3)
+      << place_bytes << " against " << coordinate_bytes << " bytes";
+  const glm::u64vec3 lattice = hull::keyLattice(settings.hull);
+  const double s = settings.hull.voxel_size;
+  // How far a vertex is off its key's edge, the largest coordinate.
+  auto offEdge = [&](uint64_t key, const glm::vec3& p) {
+    const uint64_t axis = key % 3, point = key / 3;
+    const uint64_t at[3] = {point % lattice.x, point / lattice.x % lattice.y,
+                            point / (lattice.x * lattice.y)};
+    double off = 0;
+    for (uint64_t k = 0; k < 3; ++k) {
+      const double d = double(p[k]) - (settings.hull.volume_min[k] + s * double(at[k]));
+      off = std::max(off, k == axis ? std::max(-d, d - s) : std::abs(d));
+    }
+    return off;
+  };
+  std::map<uint64_t, glm::vec3> by_key;
+  double worst_coordinate = 0;
+  for (size_t v = 0; v < coordinates.vertexCount(); ++v) {
+    by_key[coordinates.vertex_keys[v]] = coordinates.positions[v];
+    worst_coordinate =
+        std::max(worst_coordinate, offEdge(coordinates.vertex_keys[v], coordinates.positions[v]));
+  }
+  EXPECT_GT(worst_coordinate, 1e-5) << "coordinates are quantised off the lattice";
+  ASSERT_EQ(by_key.size(), on_edges.vertexCount());
+  for (size_t v = 0; v < on_edges.vertexCount(); ++v) {
+    const uint64_t key = on_edges.vertex_keys[v];
+    EXPECT_LE(offEdge(key, on_edges.positions[v]), 1e-5) << "vertex " << v;
+    ASSERT_EQ(by_key.count(key), 1u) << key;
+    EXPECT_LT(glm::length(by_key[key] - on_edges.positions[v]), 2e-3f) << "vertex " << v;
+  }
+}
+
 // The settings syntheticJobs() fuse with: four pods, 30 mm voxels.
 FusionSettings syntheticSettings(int threads) {
   FusionSettings settings;
@@ -422,23 +493,8 @@ FusionSettings syntheticSettings(int threads) {
 
 // Six groups of four synthetic pods at 160x120.
 std::vector<GroupJob> syntheticJobs() {
-  const scene::SyntheticScene scene;
   std::vector<GroupJob> jobs;
-  for (uint64_t frame = 0; frame < 6; ++frame) {
-    const auto views = syntheticViews(4, 10 + 3 * frame, 160, 120);
-    GroupJob job;
-    job.group.frame_id = 10 + 3 * frame;
-    for (size_t i = 0; i < views.size(); ++i) {
-      PodImages pod;
-      pod.camera_id = static_cast<uint32_t>(i);
-      pod.color = scene.render(views[i].camera, job.group.frame_id).color;
-      pod.mask = views[i].mask;
-      pod.feather = views[i].feather;
-      pod.camera = views[i].camera;
-      job.group.pods[pod.camera_id] = pod;
-    }
-    jobs.push_back(std::move(job));
-  }
+  for (uint64_t frame = 0; frame < 6; ++frame) jobs.push_back(syntheticJob(10 + 3 * frame));
   return jobs;
 }
 
@@ -526,18 +582,7 @@ TEST(FusionWorker, OnTheDeviceAnyThreadCountFusesTheSameBytes) {
 // Under an error target the worker carves each group once, at a voxel that
 // follows the measured silhouette error: finer after each miss.
 TEST(FusionWorker, AnErrorTargetRefinesTheVoxelUntilTheSilhouettesAgree) {
-  const auto views = syntheticViews(4, 3, 160, 120);
-  GroupJob job;
-  job.group.frame_id = 3;
-  for (size_t i = 0; i < views.size(); ++i) {
-    PodImages pod;
-    pod.camera_id = static_cast<uint32_t>(i);
-    pod.color = Image8(160, 120, 3, 0);
-    pod.mask = views[i].mask;
-    pod.feather = views[i].feather;
-    pod.camera = views[i].camera;
-    job.group.pods[pod.camera_id] = pod;
-  }
+  GroupJob job = syntheticJob(3);
   FusionSettings settings;
   settings.pods_expected = 4;
   settings.hull.voxel_size = 0.05;

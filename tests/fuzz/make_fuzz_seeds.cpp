@@ -121,10 +121,15 @@ Mesh sphere() {
   return marchingCubes(grid);
 }
 
-Bytes dracoOf(const Mesh& mesh, int speed, std::array<uint64_t, 2> key_lattice = {0, 0}) {
+// edge_spacing above 0: the positions as places along the keys' edges on
+// the sphere's grid (protocol 1.13).
+Bytes dracoOf(const Mesh& mesh, int speed, std::array<uint64_t, 2> key_lattice = {0, 0},
+              double edge_spacing = 0) {
   DracoOptions options;
   options.speed = speed;
   options.key_lattice = key_lattice;
+  options.edge_origin = {-0.5, -0.5, -0.5};
+  options.edge_spacing = edge_spacing;
   auto bytes = encodeDraco(mesh, options);
   if (!bytes.isOk()) {
     std::cerr << "make_fuzz_seeds: " << bytes.status().toString() << "\n";
@@ -221,10 +226,12 @@ void protocolSeeds(Corpus& corpus) {
     corpus["client_texture_bundle"].push_back(
         {name, withMinor(kVersionMinor, encodeFrame(bundleOf(codec, bundle_storage), 7))});
   }
-  // The sphere's grid is 11 points a side; since 1.11 its keys in half steps.
+  // The sphere's grid is 11 points a side; since 1.11 its keys in half
+  // steps, since 1.13 its positions as places along their edges.
   corpus["draco_mesh"] = {{"edgebreaker", dracoOf(sphere(), 7)},
                           {"sequential", dracoOf(sphere(), 10)},
-                          {"key_half_steps", dracoOf(sphere(), 7, {11, 11})}};
+                          {"key_half_steps", dracoOf(sphere(), 7, {11, 11})},
+                          {"edge_places", dracoOf(sphere(), 7, {11, 11}, 0.1)}};
   // Keyed with normals as the server sends it, then with an atlas's corner
   // coordinates and without normals.
   Mesh atlas = sphere();

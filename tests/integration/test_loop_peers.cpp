@@ -108,9 +108,9 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
     // frame id -> the mesh's codec and its vertices once decoded
     std::map<uint64_t, std::pair<holofuse::protocol::MeshCodec, size_t>> meshes;
   };
-  static_assert(holofuse::protocol::kVersionMinor == 12, "a client of each minor");
-  std::vector<Client> clients(13);
-  for (uint8_t minor = 0; minor < 13; ++minor) clients[minor].max_minor = minor;
+  static_assert(holofuse::protocol::kVersionMinor == 13, "a client of each minor");
+  std::vector<Client> clients(14);
+  for (uint8_t minor = 0; minor < 14; ++minor) clients[minor].max_minor = minor;
   for (Client& c : clients) {
     holofuse::protocol::Hello hello;
     hello.role = holofuse::protocol::Role::kClient;
@@ -233,9 +233,10 @@ TEST(Loop, EachClientGetsStatsAndImagesInTheMinorItAgreedOn) {
   EXPECT_GT(shared, 0u) << "no frame reached both a Draco and a fp16-lz4 client";
   const std::string log = readFile(out / "server.log");
   EXPECT_NE(log.find("meshes fp16-lz4"), std::string::npos) << log;
-  for (const char* version : {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3",
-                              "protocol 1.4", "protocol 1.5", "protocol 1.6", "protocol 1.7",
-                              "protocol 1.8", "protocol 1.9", "protocol 1.10", "protocol 1.11"}) {
+  for (const char* version :
+       {"protocol 1.0", "protocol 1.1", "protocol 1.2", "protocol 1.3", "protocol 1.4",
+        "protocol 1.5", "protocol 1.6", "protocol 1.7", "protocol 1.8", "protocol 1.9",
+        "protocol 1.10", "protocol 1.11", "protocol 1.12", "protocol 1.13"}) {
     EXPECT_NE(log.find(version), std::string::npos) << version << "\n" << log;
   }
 }
@@ -272,7 +273,8 @@ TEST(Loop, ClientsBefore111GetLz4CameraPlanesAndKeyHalvesOfTheSameFrames) {
   };
   // A client of the current minor beside them: while they are connected,
   // every client's charts face their triangles' own normals, the one way a
-  // client before 1.12 lays them out, and its bundles say so.
+  // client before 1.12 lays them out, and its bundles say so; and every
+  // client's mesh comes as coordinates, as before 1.13.
   std::vector<Client> clients(3);
   clients[0].max_minor = 10;
   clients[1].max_minor = 11;
@@ -380,6 +382,12 @@ TEST(Loop, ClientsBefore111GetLz4CameraPlanesAndKeyHalvesOfTheSameFrames) {
     EXPECT_LT(newer.first, older->second.first) << "frame " << frame_id << ": keys in half steps";
     EXPECT_FALSE(newer.second.empty());
     EXPECT_EQ(newer.second, older->second.second) << "frame " << frame_id;
+    // Nor its vertices' places along their edges (1.13): the current
+    // client gets the 1.11 client's mesh, on which the layers were built.
+    const auto current = clients[2].meshes.find(frame_id);
+    if (current == clients[2].meshes.end()) continue;
+    EXPECT_EQ(current->second.first, newer.first) << "frame " << frame_id;
+    EXPECT_EQ(current->second.second, newer.second) << "frame " << frame_id;
   }
   EXPECT_GT(meshes_compared, 0u);
 }

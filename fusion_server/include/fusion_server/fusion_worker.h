@@ -113,9 +113,12 @@ struct GroupJob {
       pod_arrivals;  // every pod's so far, when the group was dispatched
   // A client before 1.7 is connected: the mesh in Draco with its keys as
   // two halves too. One before 1.11: the same where the server's codec is
-  // Draco.
+  // Draco. One before 1.13: the mesh as coordinates for every client (one
+  // mesh for all, so that each layered client lays its charts out on the
+  // mesh the layers were built on).
   bool draco_for_older = false;
   bool key_halves_for_older = false;
+  bool coordinates_for_older = false;
 };
 
 // A pod's frame as the fusion takes it: its planes decoded (the whole image
@@ -176,8 +179,9 @@ void refineFused(FusedMesh& fused, const std::vector<hull::HullView>& views,
                  const std::vector<Image8>& colors, const PhotoRefineOptions& refine,
                  double voxel_size);
 // draco with the vertex keys in half steps on the lattice of hull's
-// volume, as the server sends a hull's mesh to clients of 1.11
-// (DracoOptions::key_lattice).
+// volume (DracoOptions::key_lattice, protocol 1.11) and the positions as
+// places along the keys' edges (DracoOptions::edge_bits, 1.13), as the
+// server sends a hull's mesh to clients of 1.13.
 DracoOptions dracoOnHullLattice(DracoOptions draco, const hull::HullOptions& hull);
 
 // The whole fusion of one group, callable without the thread (tests).

@@ -28,6 +28,7 @@ struct PeerCapabilities {
   bool zstd_planes = false;      // 1.11: decodes layers' camera planes in Zstandard
   bool key_half_steps = false;   // 1.11: decodes Draco's vertex keys in half steps
   bool surface_facing_charts = false;  // 1.12: lays charts out by the normal around a triangle
+  bool edge_places = false;  // 1.13: decodes Draco positions as places along the keys' edges
 };
 
 // hello_capabilities: the Hello's kCapability* bits, which count only for a

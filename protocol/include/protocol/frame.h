@@ -19,9 +19,10 @@ constexpr uint8_t kVersionMajor = 1;
 // 1.1: Stats carries each pod's arrivals; 1.2: a TextureBundle's images
 // carry each pod's feather map; 1.3: up to 128 cameras (bundles and Stats'
 // arrivals, which 1.2 capped at 64; Stats counts the cameras present); the
-// later minors, to 1.12 (a texture bundle says which way its charts face):
+// later minors, to 1.13 (a Draco mesh may place its vertices along its keys'
+// edges):
 // SPEC.md section 3.
-constexpr uint8_t kVersionMinor = 12;
+constexpr uint8_t kVersionMinor = 13;
 constexpr size_t kHeaderSize = 28;
 constexpr uint16_t kFlagDroppable = 0x0001;
 constexpr uint16_t kKnownFlags = kFlagDroppable;
