@@ -88,6 +88,7 @@ Status LayerStage::build(const Mesh& mesh, const std::vector<LayerView>& views,
     colours_.push_back(std::move(colour));
     cameras_.push_back(std::move(camera));
   }
+  covered_ = built.covered;
   camera_ids_ = camera_ids;
   if (stats != nullptr) {
     stats->atlas = atlas_stats;
@@ -120,9 +121,11 @@ protocol::Plane LayerStage::cameraPlane(size_t layer, protocol::Codec codec,
                                         std::deque<std::vector<uint8_t>>& storage) const {
   const auto [at, coded] = camera_planes_.try_emplace({codec, layer});
   if (coded) {
+    Image8 continued = cameras_[layer];
+    continueCamerasAcrossGutters(continued, covered_);
     storage.emplace_back();
-    at->second = encodePlane(cameras_[layer], protocol::PlaneKind::kCamera, codec, storage.back(),
-                             1, kCameraPlaneHcLevel);
+    at->second = encodePlane(continued, protocol::PlaneKind::kCamera, codec, storage.back(), 1,
+                             kCameraPlaneHcLevel);
   }
   return at->second;
 }

@@ -10,6 +10,7 @@
 #include <set>
 #include <tuple>
 
+#include "codec/image_codec.h"
 #include "codec/mesh_codec.h"
 #include "geometry/camera.h"
 #include "geometry/marching_cubes.h"
@@ -719,6 +720,74 @@ TEST_P(TextureLayers, OneThreadAndSeveralBuildTheSameBytes) {
     for (size_t i = 0; i < filled.pixels.size(); ++i)
       changed += filled.pixels[i] != one->layers[l].pixels[i / 3 * 4 + i % 3];
     EXPECT_GT(changed, 0u);
+  }
+}
+
+// A renderer reads a layer at its nearest texel and the four taps of a
+// bilinear sample: for any point of any triangle every one that weighs
+// anything is covered.
+// The texels no triangle reaches may so take any camera byte: continued
+// from above, they leave every covered texel as it was and code in fewer
+// bytes.
+TEST_P(TextureLayers, EveryTapOfTheSurfaceIsCoveredAndOnlyGuttersTakeTheCameraAbove) {
+  const PaintedSphere scene(4);
+  LaidOut laid(scene, GetParam() ? chartOptions() : latticeOptions());
+  ASSERT_TRUE(laid.cells.has_value());
+  LayerOptions options;
+  options.layers = 2;
+  auto built = buildTextureLayers(laid.mesh, laid.atlas.texels(), scene.views(), options);
+  ASSERT_TRUE(built.isOk()) << built.status().toString();
+  const int texels = static_cast<int>(built->texels);
+  ASSERT_EQ(built->covered.size(), size_t(texels) * texels);
+  EXPECT_EQ(static_cast<uint64_t>(std::count(built->covered.begin(), built->covered.end(), 1)),
+            built->texels_covered);
+  auto covered = [&](int x, int y) {
+    x = std::clamp(x, 0, texels - 1);
+    y = std::clamp(y, 0, texels - 1);
+    return built->covered[size_t(y) * texels + x] != 0;
+  };
+  const Mesh& mesh = laid.mesh;
+  size_t taps = 0;
+  for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+    for (int i = 0; i <= 4; ++i) {
+      for (int j = 0; i + j <= 4; ++j) {
+        const float a = i / 4.0f, b = j / 4.0f;
+        const glm::vec2 uv = (1 - a - b) * mesh.corner_uvs[3 * t] + a * mesh.corner_uvs[3 * t + 1] +
+                             b * mesh.corner_uvs[3 * t + 2];
+        const glm::vec2 at = uv * float(texels) - 0.5f;
+        const glm::ivec2 base(std::floor(at.x), std::floor(at.y));
+        ASSERT_TRUE(covered(int(std::floor(uv.x * texels)), int(std::floor(uv.y * texels))))
+            << "triangle " << t;
+        for (int k = 0; k < 4; ++k) {
+          // A tap of weight 0 (the sample on a texel's centre) adds nothing.
+          const glm::vec2 f = at - glm::vec2(base);
+          if ((k & 1 ? f.x : 1 - f.x) * (k >> 1 ? f.y : 1 - f.y) == 0) continue;
+          ASSERT_TRUE(covered(base.x + (k & 1), base.y + (k >> 1))) << "triangle " << t;
+          ++taps;
+        }
+      }
+    }
+  }
+  EXPECT_GT(taps, 1000u);
+  for (const Image8& layer : built->layers) {
+    Image8 camera(layer.width, layer.height, 1);
+    for (size_t i = 0; i < camera.pixels.size(); ++i) camera.pixels[i] = layer.pixels[4 * i + 3];
+    Image8 continued = camera;
+    continueCamerasAcrossGutters(continued, built->covered);
+    size_t gutters = 0;
+    for (size_t i = 0; i < camera.pixels.size(); ++i) {
+      if (built->covered[i]) {
+        ASSERT_EQ(continued.pixels[i], camera.pixels[i]) << "covered texel " << i;
+      } else if (i >= camera.width) {
+        ASSERT_EQ(continued.pixels[i], continued.pixels[i - camera.width]) << "gutter texel " << i;
+        ++gutters;
+      }
+    }
+    EXPECT_GT(gutters, 0u);
+    std::vector<uint8_t> before, after;
+    encodePlane(camera, protocol::PlaneKind::kCamera, protocol::Codec::kZstd, before);
+    encodePlane(continued, protocol::PlaneKind::kCamera, protocol::Codec::kZstd, after);
+    EXPECT_LT(after.size(), before.size());
   }
 }
 

@@ -354,6 +354,8 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
       }
     }
   });
+  out.covered.resize(sources.size());
+  for (size_t i = 0; i < sources.size(); ++i) out.covered[i] = sources[i].triangle >= 0;
   out.texels_covered = covered;
   out.texels_seen = seen;
   return out;
@@ -469,6 +471,18 @@ Status checkLayerCoordinates(const Mesh& mesh) {
       return refuse("a texture coordinate outside [0,1]");
   }
   return Status();
+}
+
+void continueCamerasAcrossGutters(Image8& camera, const std::vector<uint8_t>& covered) {
+  const size_t width = camera.width;
+  if (covered.size() != camera.pixels.size() || width == 0) return;
+  for (size_t i = 0; i < covered.size(); ++i) {
+    if (covered[i]) continue;
+    if (i >= width)
+      camera.pixels[i] = camera.pixels[i - width];
+    else if (i > 0)
+      camera.pixels[i] = camera.pixels[i - 1];
+  }
 }
 
 }  // namespace holofuse

@@ -124,6 +124,7 @@ class LayerStage {
   std::vector<uint32_t> camera_ids_;
   // The last build's layers, colour and camera apart (RGB, GRAY8).
   std::vector<Image8> colours_, cameras_;
+  std::vector<uint8_t> covered_;  // TextureLayers::covered
   // cameraPlane's, by codec and layer; their bytes lie in the storage of
   // the frame that coded them.
   mutable std::map<std::pair<protocol::Codec, size_t>, protocol::Plane> camera_planes_;

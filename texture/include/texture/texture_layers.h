@@ -63,6 +63,9 @@ struct TextureLayers {
   // L RGBA images, texels x texels: RGB the colour, A the index in the
   // views of the camera it came from (kNoLayerCamera: none).
   std::vector<Image8> layers;
+  // texels x texels: 1 where a triangle's footprint reaches the texel
+  // (within a bilinear sample's reach); a renderer's taps read only these.
+  std::vector<uint8_t> covered;
   uint64_t texels_covered = 0;  // texels of the mesh's triangles
   uint64_t texels_seen = 0;     // of those, seen by at least one camera
   // Texels inside two triangles' footprints (a layout that folds the
@@ -108,5 +111,15 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
 // never reads the filled texels (it takes a layer's taps of its own camera
 // only). colour: RGB; camera: one channel, the same size.
 void fillUncoveredTexels(Image8& colour, const Image8& camera);
+
+// The camera bytes of the texels no triangle reaches (covered 0: a
+// renderer never taps them) taken from the texel above (in the first row,
+// to the left), so that the plane's coder finds a gutter's rows in the
+// rows before and meets an edge only where the camera changes on the
+// surface. Eval, h264 layers, camera planes KB a frame: clean 20.3 ->
+// 16.8, many-cameras 18.8 -> 14.5 (from the left: 18.6 and 15.7), the
+// pictures the same bit for bit. camera: one channel; covered: as
+// TextureLayers::covered.
+void continueCamerasAcrossGutters(Image8& camera, const std::vector<uint8_t>& covered);
 
 }  // namespace holofuse
