@@ -230,13 +230,20 @@ TEST(Rig, TheDemoRunsAcrossANamespacePerHostAndItsLinksShowTheirDelay) {
   const auto report = nlohmann::json::parse(readFile(out / "report.json"));
   EXPECT_EQ(report["frames_rendered"].get<int>(), 8);
   const auto& links = report["latency_ms"]["links"];
-  for (const char* link : {"pod_0_to_server", "pod_1_to_server", "server_to_client"}) {
+  const auto& hosts = report["clocks"]["hosts"];
+  for (const auto& [link, host] : {std::pair<const char*, const char*>{"pod_0_to_server", "pod_0"},
+                                   {"pod_1_to_server", "pod_1"},
+                                   {"server_to_client", "client"}}) {
     ASSERT_TRUE(links.contains(link)) << links.dump();
-    // The relay holds every byte at least the delay less the jitter, and
-    // the clock estimate that puts the pod's send on the server's clock is
-    // off by at most half the difference of the two ways' jitter (another
-    // jitter at worst); loopback and the bridge add a fraction of a ms.
-    EXPECT_GE(links[link]["p50"].get<double>(), 16.0) << link << ": " << links.dump();
+    ASSERT_TRUE(hosts.contains(host)) << report["clocks"].dump();
+    // The relay holds every byte at least the delay less the jitter (18
+    // ms); the clock estimate that puts the two ends on one clock is off by
+    // at most its stated uncertainty, which a loaded machine widens (a
+    // client under Vulkan validation answers probes late); loopback and
+    // the bridge add a fraction of a ms.
+    const double uncertainty = hosts[host]["uncertainty_ms"].get<double>();
+    EXPECT_GE(links[link]["p50"].get<double>(), 16.0 - uncertainty)
+        << link << ": " << links.dump() << " " << report["clocks"].dump();
     EXPECT_GT(links[link]["samples"].get<int>(), 0) << link;
   }
   const std::string said = readFile(out / "launcher.log");
