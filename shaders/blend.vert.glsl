@@ -21,6 +21,9 @@ layout(location = 0) out vec3 out_position;
 layout(location = 1) out vec3 out_normal;
 layout(location = 2) flat out uint out_triangle;
 layout(location = 3) out vec3 out_barycentric;
+// The depth pre-pass and the blend draw with this stage in two pipelines:
+// the blend's equal-depth test needs the same depth bits from both.
+invariant gl_Position;
 
 void main() {
   uint corner = uint(gl_VertexIndex);

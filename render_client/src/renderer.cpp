@@ -252,12 +252,17 @@ void Renderer::beginRender(const Camera& user_camera, const BlendSettings& setti
     begin.pClearValues = clears.data();
     vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
     if (have_views || layered) {
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_pipeline);
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_layout_, 0, 1,
                               &descriptor_set_, 0, nullptr);
       setViewport(cmd, width_, height_);
       const glm::mat4 m = clipFor(scaledTo(user_camera, width_, height_));
       vkCmdPushConstants(cmd, blend_layout_, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(m), &m);
+      // The nearest depth first, then the blend where it is met: each
+      // pixel is blended once (the vertex stage's gl_Position is
+      // invariant, so both draws rasterise the same depths).
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, depth_prepass_);
+      drawMesh(cmd);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blend_pipeline);
       drawMesh(cmd);
     }
     vkCmdEndRenderPass(cmd);

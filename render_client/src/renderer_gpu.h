@@ -78,7 +78,9 @@ VkFramebuffer createFramebuffer(VkDevice device, VkRenderPass pass, VkImageView 
                                 VkImageView depth, uint32_t w, uint32_t h);
 
 // fragment_mode and overlay: the fragment stage's constants 0 and 1
-// (blend.frag.glsl's kBlendMode and kOverlay).
+// (blend.frag.glsl's kBlendMode and kOverlay). fs null: the depth
+// pre-pass (nearest depth, no colour); else the blend, which shades only
+// where its depth equals the pre-pass's.
 VkPipeline createPipeline(VulkanContext& ctx, VkRenderPass pass, VkPipelineLayout layout,
                           const uint32_t* vs, size_t vs_bytes, const uint32_t* fs, size_t fs_bytes,
                           int32_t fragment_mode, int32_t overlay = 0);

@@ -277,6 +277,7 @@ class Renderer {
   // Per mode and overlay, made when first used (blend.frag.glsl's
   // kBlendMode and kOverlay).
   std::array<VkPipeline, kOverlayCount * kBlendModeCount> blend_pipelines_{};
+  VkPipeline depth_prepass_ = VK_NULL_HANDLE;  // the view's nearest depth, before the blend
   VkDescriptorSetLayout set_layout_ = VK_NULL_HANDLE;
   VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
   VkDescriptorSet descriptor_set_ = VK_NULL_HANDLE;
