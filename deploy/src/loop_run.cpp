@@ -463,6 +463,22 @@ int superviseSoak(const LoopPlan& plan, LoopProcesses& processes, const std::str
     std::error_code error;
     std::filesystem::create_directories(std::filesystem::path(plan.out) / "churn", error);
   }
+  // Sampling starts once every process has reached its main and written
+  // its heap: on a loaded machine a client can still be in the loader
+  // (Vulkan and LLVM) at the first sample, present but not running yet.
+  const auto launched = std::chrono::steady_clock::now();
+  auto allRunning = [&] {
+    for (pid_t pid : pids) {
+      if (holofuse::pollProcess(pid).has_value()) continue;  // ended: sampled as gone
+      const auto usage = holofuse::processUsage(pid);
+      if (usage && !usage->heap_kb) return false;
+    }
+    return true;
+  };
+  while (!g_interrupted && !allRunning() &&
+         std::chrono::steady_clock::now() - launched < std::chrono::minutes(1)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
   Watch watch;
   bool profile_marked = false;
   const auto start = std::chrono::steady_clock::now();
