@@ -207,11 +207,12 @@ Status checkInputs(const Mesh& mesh, uint32_t texels, const std::vector<LayerVie
 }
 
 // Appends the cameras that see the point `source` holds, best first (ties
-// to the lower view): in front and inside the image, within `tolerance` of
-// its depth map (Volino and Hilton eq. 1), inside its mask, facing it
-// (eq. 2 as a cosine), weighted by the feather.
+// to the lower view): in front and inside the image, not hidden behind its
+// depth map (Volino and Hilton eq. 1, with the renderer's one-sided
+// tolerance: LayerOptions), inside its mask, facing it (eq. 2 as a
+// cosine), weighted by the feather.
 void rankCameras(const Mesh& mesh, const TexelSource& source, const std::vector<LayerView>& views,
-                 const std::vector<DepthMap>& depths, double tolerance, const LayerOptions& options,
+                 const std::vector<DepthMap>& depths, double slack, const LayerOptions& options,
                  std::vector<Candidate>& out) {
   const glm::dvec3& b = source.barycentric;
   const uint32_t* corner = &mesh.indices[3 * size_t(source.triangle)];
@@ -231,7 +232,13 @@ void rankCameras(const Mesh& mesh, const TexelSource& source, const std::vector<
                     pixel->y < v.camera->height))
       continue;
     const uint32_t px = static_cast<uint32_t>(pixel->x), py = static_cast<uint32_t>(pixel->y);
-    if (!(std::abs(depths[j].at(px, py) - pixel->z) <= tolerance)) continue;
+    // Two-sided (within a mean edge either way), the test also refused
+    // points a little in front of the map where the surface slopes away
+    // from the camera between pixel centres, and its tolerance was under
+    // the renderer's. Eval, 8 frames, H.264 layers: clean's PSNR went from
+    // 0.35 dB under normal's to 0.07 under, its SSIM to 0.003 above.
+    const double stored = depths[j].at(px, py);
+    if (pixel->z > stored * (1.0 + options.relative_depth_tolerance) + slack) continue;
     if (v.mask != nullptr && v.mask->at(px, py)[0] < 128) continue;
     const double facing = glm::dot(normal, glm::normalize(v.camera->center() - point));
     if (!(facing > 0)) continue;
@@ -307,8 +314,8 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
   }
   if (mesh.triangleCount() == 0) return out;
 
-  const double tolerance =
-      options.depth_tolerance > 0 ? options.depth_tolerance : std::max(meanEdgeLength(mesh), 1e-6);
+  const double slack =
+      options.depth_slack > 0 ? options.depth_slack : std::max(meanEdgeLength(mesh), 1e-6);
   // Views side by side, then rows of texels side by side wherever a texel
   // is its own; the one pass that reads neighbours (the cameras' choice)
   // runs in order. The layers are the same bytes on any number of threads.
@@ -332,7 +339,7 @@ StatusOr<TextureLayers> buildTextureLayers(const Mesh& mesh, uint32_t texels,
       if (source.triangle < 0) continue;
       ++row_covered;
       const size_t before = row.candidates.size();
-      rankCameras(mesh, source, views, depths, tolerance, options, row.candidates);
+      rankCameras(mesh, source, views, depths, slack, options, row.candidates);
       if (row.candidates.size() > before) ++row_seen;
     }
     row.begin[texels] = static_cast<uint32_t>(row.candidates.size());

@@ -47,10 +47,13 @@ struct LayerOptions {
   // +0.09 dB; left or above against left only: clean 172.9 -> 169.9 KB,
   // many-cameras 164.8 -> 157.0 KB, SSIM +0.0005). 1: the ranking alone.
   double keep_share = 0.5;
-  // A point is seen when its depth is within this of the camera's depth
-  // map (Volino and Hilton eq. 1); 0: the mesh's mean edge length, about
-  // a voxel of the hull.
-  double depth_tolerance = 0.0;
+  // A point is seen unless it lies behind the camera's depth map by more
+  // than relative_depth_tolerance of that depth plus depth_slack (0: the
+  // mesh's mean edge length): the renderer's own per-fragment test
+  // (Renderer::fragmentDepthSlack), so that a layer holds a camera where
+  // the other modes' blend would take it.
+  double relative_depth_tolerance = 0.015;
+  double depth_slack = 0.0;
   // Pixels this close to the silhouette's border rank lower, linearly to
   // zero at the border (the feather weight of Li et al. 2004): a border
   // pixel mixes subject and background.
