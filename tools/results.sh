@@ -38,11 +38,11 @@ want cameras && { stamp "What the camera count costs: 8 to 128 cameras" "build/b
   echo '```'; "$build_dir/bin/bench_cameras" 3; echo '```'; } >"$results/cameras.md"
 if want layers; then
   layer_sweep=(--scene clean --modes normal,layered --frames 4 --held-out 4 --set layer-video=h264
-    --knob layers=1,2,3 --knob chart-cells=4,7,10 --knob texels-per-voxel=3,4,5
+    --knob layers=1,2,3,4 --knob chart-cells=4,7,10 --knob texels-per-voxel=3,4,5
     --knob layer-video=off,h264,hevc,av1
-    --knob layer-video-crf=6,11,16,20 --knob layer-video-crf-step=0,6,12
+    --knob layer-video-crf=6,11,14,16,20 --knob layer-video-crf-step=0,6,12
     --knob layer-video-kbps=0,12000,24000
-    --knob layer-keep-share=0.5,1 --knob layer-min-share=0,0.5)
+    --knob layer-keep-share=0.5,1 --knob layer-min-share=0,0.25,0.5)
   "$build_dir/bin/holofuse_sweep" --out "$out/layers" "${layer_sweep[@]}"
   { stamp "Texture layers: bytes against quality" "./holofuse sweep ${layer_sweep[*]}"
     sed '1{/^# /d}' "$out/layers/sweep.md"; } >"$results/layers.md"
